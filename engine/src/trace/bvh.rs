@@ -1,0 +1,505 @@
+//! Triangle BVHs on obvhs with f64 intersection.
+//!
+//! obvhs builds a compressed-wide BVH (CwBvh) over slightly padded f32 triangle bounds and
+//! traverses it with an f32 ray; every candidate triangle is then intersected in f64
+//! (Möller–Trumbore with a tiny barycentric tolerance so shared edges never leak), so hit
+//! distances, positions and normals carry f64 accuracy. Triangles are stored in BVH order (the
+//! traversal callback's id indexes them directly). Triangle tests are counted inside the
+//! traversal callback, since obvhs has no counters of its own.
+
+use std::time::Duration;
+
+use glam::{DVec2, DVec3, Vec2, Vec3, Vec3A};
+use obvhs::{
+    Boundable, BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, cwbvh::builder::build_cwbvh,
+    ray::RayHit,
+};
+
+use super::Ray;
+
+/// Relative barycentric slack of the triangle test: a hit exactly on a shared edge belongs to both
+/// triangles, so no ray slips between them.
+const BARYCENTRIC_SLACK: f64 = 1e-10;
+
+/// One triangle handed to [`MeshBvh::build`], in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SourceTriangle {
+    /// Vertex positions in metres.
+    pub positions: [Vec3; 3],
+    /// Vertex normals (need not be unit; zero vectors fall back to the face normal).
+    pub normals: [Vec3; 3],
+    /// Vertex texture coordinates (zeros when the mesh has none).
+    pub uvs: [Vec2; 3],
+    /// Index of the scene object the triangle belongs to.
+    pub object: u32,
+}
+
+/// A triangle in BVH order with its f64 edges, precomputed for intersection and shading.
+#[derive(Clone, Copy, Debug)]
+struct BvhTriangle {
+    v0: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+    /// Unit face normal, flipped to agree with the vertex normals.
+    geometric_normal: DVec3,
+    normals: [DVec3; 3],
+    uvs: [DVec2; 3],
+    object: u32,
+}
+
+/// Padded f32 bounds of one triangle, the primitive obvhs builds over.
+struct PaddedBounds(Aabb);
+
+impl Boundable for PaddedBounds {
+    fn aabb(&self) -> Aabb {
+        self.0
+    }
+}
+
+/// A ray–surface intersection with everything shading and path propagation need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    /// Distance along the (unit-direction) ray in metres, > 0.
+    pub distance: f64,
+    /// Hit position in world space, on the triangle's plane.
+    pub position: DVec3,
+    /// Unit face normal, oriented to agree with the mesh's vertex normals ("outside").
+    pub geometric_normal: DVec3,
+    /// Unit interpolated vertex normal, on the same side as `geometric_normal`.
+    pub shading_normal: DVec3,
+    /// Interpolated texture coordinate.
+    pub uv: DVec2,
+    /// Scene object index.
+    pub object: usize,
+    /// Triangle index inside the BVH that was hit (to exclude it from the next ray's query).
+    pub primitive: u32,
+}
+
+impl SurfaceHit {
+    /// True when the ray arrives from the side the normals point to (`direction · n < 0`).
+    pub fn is_front_facing(&self, direction: DVec3) -> bool {
+        direction.dot(self.geometric_normal) < 0.0
+    }
+}
+
+/// A triangle BVH over some of a scene's objects (one lens object, or the environment).
+pub struct MeshBvh {
+    bvh: Option<CwBvh>,
+    triangles: Vec<BvhTriangle>,
+}
+
+impl std::fmt::Debug for MeshBvh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MeshBvh")
+            .field("triangles", &self.triangles.len())
+            .finish()
+    }
+}
+
+impl MeshBvh {
+    /// Builds a BVH over `triangles`. Degenerate (zero-area) and non-finite triangles are skipped:
+    /// no ray can hit them meaningfully.
+    pub fn build(triangles: &[SourceTriangle]) -> MeshBvh {
+        let prepared: Vec<BvhTriangle> = triangles.iter().filter_map(prepare_triangle).collect();
+        if prepared.is_empty() {
+            return MeshBvh {
+                bvh: None,
+                triangles: prepared,
+            };
+        }
+        let bounds: Vec<PaddedBounds> = prepared.iter().map(padded_bounds).collect();
+        let bvh = build_cwbvh(
+            &bounds,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let ordered = bvh
+            .primitive_indices
+            .iter()
+            .map(|&index| prepared[index as usize])
+            .collect();
+        MeshBvh {
+            bvh: Some(bvh),
+            triangles: ordered,
+        }
+    }
+
+    /// Number of (non-degenerate) triangles in the BVH.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// True when the BVH holds no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.triangles.is_empty()
+    }
+
+    /// Closest hit with distance in `(min_distance, max_distance)`, skipping triangle `exclude`
+    /// (the one the ray starts on). Adds the triangle tests done to `triangle_tests`.
+    pub fn closest_hit(
+        &self,
+        ray: &Ray,
+        min_distance: f64,
+        max_distance: f64,
+        exclude: Option<u32>,
+        triangle_tests: &mut u64,
+    ) -> Option<SurfaceHit> {
+        let bvh = self.bvh.as_ref()?;
+        let mut best: Option<(u32, f64, f64, f64)> = None;
+        let mut best_distance = max_distance;
+        let mut tests = 0u64;
+        let mut obvhs_hit = RayHit::none();
+        bvh.ray_traverse(f32_ray(ray, max_distance), &mut obvhs_hit, |_, id| {
+            tests += 1;
+            if exclude == Some(id as u32) {
+                return f32::INFINITY;
+            }
+            match self.triangles[id].intersect(ray, min_distance, best_distance) {
+                Some((t, u, v)) => {
+                    best = Some((id as u32, t, u, v));
+                    best_distance = t;
+                    round_up(t)
+                }
+                None => f32::INFINITY,
+            }
+        });
+        *triangle_tests += tests;
+        best.map(|(id, t, u, v)| self.surface_hit(id, t, u, v))
+    }
+
+    /// True when some triangle (other than `exclude`) lies within `(min_distance, max_distance)`
+    /// along the ray: an occlusion query that stops at the first such triangle.
+    pub fn occluded(
+        &self,
+        ray: &Ray,
+        min_distance: f64,
+        max_distance: f64,
+        exclude: Option<u32>,
+        triangle_tests: &mut u64,
+    ) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
+        let mut tests = 0u64;
+        let missed = bvh.ray_traverse_miss(f32_ray(ray, max_distance), |_, id| {
+            tests += 1;
+            if exclude == Some(id as u32) {
+                return f32::INFINITY;
+            }
+            match self.triangles[id].intersect(ray, min_distance, max_distance) {
+                Some(_) => 0.0,
+                None => f32::INFINITY,
+            }
+        });
+        *triangle_tests += tests;
+        !missed
+    }
+
+    /// Every hit with distance in `(min_distance, max_distance)`, sorted by distance (ties by
+    /// triangle), skipping triangle `exclude`.
+    pub fn all_hits(
+        &self,
+        ray: &Ray,
+        min_distance: f64,
+        max_distance: f64,
+        exclude: Option<u32>,
+        triangle_tests: &mut u64,
+    ) -> Vec<SurfaceHit> {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return Vec::new();
+        };
+        let mut found: Vec<(u32, f64, f64, f64)> = Vec::new();
+        let mut tests = 0u64;
+        bvh.ray_traverse_anyhit(f32_ray(ray, max_distance), |_, id| {
+            tests += 1;
+            if exclude == Some(id as u32) {
+                return;
+            }
+            if let Some((t, u, v)) = self.triangles[id].intersect(ray, min_distance, max_distance)
+            {
+                found.push((id as u32, t, u, v));
+            }
+        });
+        *triangle_tests += tests;
+        found.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+        found
+            .into_iter()
+            .map(|(id, t, u, v)| self.surface_hit(id, t, u, v))
+            .collect()
+    }
+
+    fn surface_hit(&self, id: u32, t: f64, u: f64, v: f64) -> SurfaceHit {
+        let triangle = &self.triangles[id as usize];
+        let w = 1.0 - u - v;
+        let position = triangle.v0 + u * triangle.e1 + v * triangle.e2;
+        let interpolated =
+            w * triangle.normals[0] + u * triangle.normals[1] + v * triangle.normals[2];
+        let geometric_normal = triangle.geometric_normal;
+        let shading_normal = if interpolated.length_squared() > 1e-24 {
+            let n = interpolated.normalize();
+            // A shading normal on the wrong side of the face would flip inside and outside.
+            if n.dot(geometric_normal) > 0.0 {
+                n
+            } else {
+                geometric_normal
+            }
+        } else {
+            geometric_normal
+        };
+        let uv = w * triangle.uvs[0] + u * triangle.uvs[1] + v * triangle.uvs[2];
+        SurfaceHit {
+            distance: t,
+            position,
+            geometric_normal,
+            shading_normal,
+            uv,
+            object: triangle.object as usize,
+            primitive: id,
+        }
+    }
+}
+
+impl BvhTriangle {
+    /// Möller–Trumbore in f64: `(t, u, v)` with `t` in `(min_distance, max_distance)`.
+    #[inline]
+    fn intersect(&self, ray: &Ray, min_distance: f64, max_distance: f64) -> Option<(f64, f64, f64)> {
+        let p = ray.direction.cross(self.e2);
+        let determinant = self.e1.dot(p);
+        if determinant.abs() < 1e-300 {
+            return None;
+        }
+        let inverse = 1.0 / determinant;
+        let s = ray.origin - self.v0;
+        let u = s.dot(p) * inverse;
+        if !(-BARYCENTRIC_SLACK..=1.0 + BARYCENTRIC_SLACK).contains(&u) {
+            return None;
+        }
+        let q = s.cross(self.e1);
+        let v = ray.direction.dot(q) * inverse;
+        if v < -BARYCENTRIC_SLACK || u + v > 1.0 + BARYCENTRIC_SLACK {
+            return None;
+        }
+        let t = self.e2.dot(q) * inverse;
+        (t > min_distance && t < max_distance).then_some((t, u, v))
+    }
+}
+
+fn prepare_triangle(source: &SourceTriangle) -> Option<BvhTriangle> {
+    let [p0, p1, p2] = source.positions.map(|p| p.as_dvec3());
+    if !(p0.is_finite() && p1.is_finite() && p2.is_finite()) {
+        return None;
+    }
+    let e1 = p1 - p0;
+    let e2 = p2 - p0;
+    let face = e1.cross(e2);
+    let scale = e1.length_squared().max(e2.length_squared());
+    if face.length_squared() <= 1e-24 * scale * scale || scale == 0.0 {
+        return None;
+    }
+    let mut geometric_normal = face.normalize();
+    let normals = source.normals.map(|n| {
+        let n = n.as_dvec3();
+        if n.is_finite() { n } else { DVec3::ZERO }
+    });
+    let normal_sum = normals[0] + normals[1] + normals[2];
+    if normal_sum.dot(geometric_normal) < 0.0 {
+        geometric_normal = -geometric_normal;
+    }
+    let normals = normals.map(|n| {
+        if n.length_squared() > 1e-24 {
+            n.normalize()
+        } else {
+            geometric_normal
+        }
+    });
+    let uvs = source.uvs.map(|uv| {
+        let uv = uv.as_dvec2();
+        if uv.is_finite() { uv } else { DVec2::ZERO }
+    });
+    Some(BvhTriangle {
+        v0: p0,
+        e1,
+        e2,
+        geometric_normal,
+        normals,
+        uvs,
+        object: source.object,
+    })
+}
+
+/// f32 bounds grown by a relative margin, so the f32 traversal never culls a triangle the f64
+/// test would hit (the f32 ray origin is rounded).
+fn padded_bounds(triangle: &BvhTriangle) -> PaddedBounds {
+    let vertices = [
+        triangle.v0,
+        triangle.v0 + triangle.e1,
+        triangle.v0 + triangle.e2,
+    ];
+    let min = vertices[0].min(vertices[1]).min(vertices[2]);
+    let max = vertices[0].max(vertices[1]).max(vertices[2]);
+    let magnitude = min.abs().max(max.abs()).max_element().max(1.0);
+    let pad = DVec3::splat(magnitude * 1e-5);
+    PaddedBounds(Aabb::new(
+        Vec3A::from((min - pad).as_vec3()),
+        Vec3A::from((max + pad).as_vec3()),
+    ))
+}
+
+/// The f32 obvhs ray for traversal only; exact distances come from the f64 triangle test.
+fn f32_ray(ray: &Ray, max_distance: f64) -> obvhs::ray::Ray {
+    let max = if max_distance.is_finite() {
+        round_up(max_distance * (1.0 + 1e-6) + 1e-6)
+    } else {
+        f32::INFINITY
+    };
+    obvhs::ray::Ray::new(
+        Vec3A::from(ray.origin.as_vec3()),
+        Vec3A::from(ray.direction.as_vec3()),
+        0.0,
+        max,
+    )
+}
+
+/// The smallest f32 not below `t` (t ≥ 0), so pruning with it stays conservative.
+fn round_up(t: f64) -> f32 {
+    let rounded = t as f32;
+    if f64::from(rounded) >= t || !rounded.is_finite() {
+        rounded
+    } else {
+        f32::from_bits(rounded.to_bits() + 1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64;
+
+    fn random_triangles(rng: &mut Pcg64, count: usize) -> Vec<SourceTriangle> {
+        (0..count)
+            .map(|i| {
+                let centre = Vec3::new(
+                    rng.gen_range(-5.0..5.0),
+                    rng.gen_range(-5.0..5.0),
+                    rng.gen_range(-5.0..5.0),
+                );
+                let mut corner = || {
+                    centre
+                        + Vec3::new(
+                            rng.gen_range(-0.5..0.5),
+                            rng.gen_range(-0.5..0.5),
+                            rng.gen_range(-0.5..0.5),
+                        )
+                };
+                SourceTriangle {
+                    positions: [corner(), corner(), corner()],
+                    normals: [Vec3::ZERO; 3],
+                    uvs: [Vec2::ZERO; 3],
+                    object: i as u32,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn closest_hit_matches_brute_force() {
+        let mut rng = Pcg64::seed_from_u64(7);
+        let triangles = random_triangles(&mut rng, 400);
+        let bvh = MeshBvh::build(&triangles);
+        let prepared: Vec<BvhTriangle> = triangles.iter().filter_map(prepare_triangle).collect();
+        assert_eq!(bvh.triangle_count(), prepared.len());
+        let mut tests = 0;
+        let mut hits = 0;
+        for _ in 0..500 {
+            let origin = DVec3::new(
+                rng.gen_range(-8.0..8.0),
+                rng.gen_range(-8.0..8.0),
+                rng.gen_range(-8.0..8.0),
+            );
+            let target = DVec3::new(
+                rng.gen_range(-4.0..4.0),
+                rng.gen_range(-4.0..4.0),
+                rng.gen_range(-4.0..4.0),
+            );
+            let ray = Ray::new(origin, target - origin);
+            let brute = prepared
+                .iter()
+                .filter_map(|t| t.intersect(&ray, 0.0, f64::INFINITY).map(|h| (h.0, t.object)))
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let found = bvh.closest_hit(&ray, 0.0, f64::INFINITY, None, &mut tests);
+            match (brute, found) {
+                (None, None) => {}
+                (Some((t, object)), Some(hit)) => {
+                    hits += 1;
+                    assert_eq!(t, hit.distance);
+                    assert_eq!(object as usize, hit.object);
+                    assert!((hit.position - ray.at(t)).length() < 1e-12);
+                }
+                other => panic!("brute force and BVH disagree: {other:?}"),
+            }
+            let all = bvh.all_hits(&ray, 0.0, f64::INFINITY, None, &mut tests);
+            let brute_count = prepared
+                .iter()
+                .filter(|t| t.intersect(&ray, 0.0, f64::INFINITY).is_some())
+                .count();
+            assert_eq!(all.len(), brute_count);
+            assert!(all.windows(2).all(|w| w[0].distance <= w[1].distance));
+            assert_eq!(
+                bvh.occluded(&ray, 0.0, f64::INFINITY, None, &mut tests),
+                brute.is_some()
+            );
+        }
+        assert!(hits > 50, "too few hits to mean anything: {hits}");
+        assert!(tests > 0);
+    }
+
+    #[test]
+    fn empty_and_degenerate_meshes_never_hit() {
+        let degenerate = SourceTriangle {
+            positions: [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+            normals: [Vec3::Z; 3],
+            uvs: [Vec2::ZERO; 3],
+            object: 0,
+        };
+        let nan = SourceTriangle {
+            positions: [Vec3::NAN, Vec3::X, Vec3::Y],
+            ..degenerate
+        };
+        let bvh = MeshBvh::build(&[degenerate, nan]);
+        assert!(bvh.is_empty());
+        let ray = Ray::new(DVec3::new(0.5, 0.0, 1.0), DVec3::NEG_Z);
+        let mut tests = 0;
+        assert!(bvh.closest_hit(&ray, 0.0, f64::INFINITY, None, &mut tests).is_none());
+        assert!(!bvh.occluded(&ray, 0.0, f64::INFINITY, None, &mut tests));
+    }
+
+    #[test]
+    fn single_triangle_hit_has_interpolated_attributes_and_excludes_itself() {
+        let triangle = SourceTriangle {
+            positions: [Vec3::ZERO, Vec3::X, Vec3::Y],
+            // Vertex normals point down: the face normal is flipped to agree.
+            normals: [Vec3::NEG_Z; 3],
+            uvs: [Vec2::ZERO, Vec2::X, Vec2::Y],
+            object: 3,
+        };
+        let bvh = MeshBvh::build(&[triangle]);
+        let ray = Ray::new(DVec3::new(0.25, 0.5, 2.0), DVec3::NEG_Z);
+        let mut tests = 0;
+        let hit = bvh
+            .closest_hit(&ray, 0.0, f64::INFINITY, None, &mut tests)
+            .expect("hit");
+        assert_eq!(hit.distance, 2.0);
+        assert_eq!(hit.geometric_normal, DVec3::NEG_Z);
+        assert_eq!(hit.shading_normal, DVec3::NEG_Z);
+        assert!((hit.uv - DVec2::new(0.25, 0.5)).length() < 1e-15);
+        assert_eq!(hit.object, 3);
+        assert!(!hit.is_front_facing(ray.direction));
+        assert!(
+            bvh.closest_hit(&ray, 0.0, f64::INFINITY, Some(hit.primitive), &mut tests)
+                .is_none()
+        );
+        assert!(bvh.closest_hit(&ray, 0.0, 1.5, None, &mut tests).is_none());
+        assert_eq!(tests, 3);
+    }
+}

@@ -1,0 +1,415 @@
+//! Ray-path models through a lens object: the paper's two-term greedy paths and the full ray tree.
+//!
+//! At the first hit on a lens object the paper (§3) starts two paths, one with an initial
+//! reflection and one with an initial refraction, and propagates each by following the child with
+//! the larger Fresnel coefficient until it leaves the lens object. `F` multiplies the Fresnel
+//! coefficients along a path and `G` the transparency attenuation `absorption^distance` of the glass
+//! traversed. A mirror generates only the reflection term. [`trace_greedy_paths`] does this against
+//! any [`LensGeometry`] (a BVH, or an analytic sphere in tests).
+//!
+//! The full ray tree ([`RayTree`]) instead follows both children at every interface through the
+//! whole scene, down to a maximum depth or a contribution cutoff: the ground truth the greedy
+//! model approximates.
+
+use glam::DVec3;
+
+use super::Ray;
+use super::bvh::SurfaceHit;
+use super::fresnel;
+use super::stats::TraceCounters;
+
+/// The two terms of the paper's shading model `T·F_T·G_T + R·F_R·G_R`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Term {
+    /// The path that starts with a refraction at the first lens hit (`T·F_T·G_T`).
+    Refraction,
+    /// The path that starts with a reflection at the first lens hit (`R·F_R·G_R`).
+    Reflection,
+}
+
+/// Optical behaviour of a lens surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Interface {
+    /// A smooth dielectric surrounded by air.
+    Dielectric {
+        /// Index of refraction of the inside (> 0).
+        ior: f64,
+        /// Per-channel transmittance of one metre of the medium, each in [0, 1].
+        absorption: DVec3,
+    },
+    /// A mirror: reflection only, weighted per channel by Schlick's Fresnel.
+    Mirror {
+        /// Reflectance at normal incidence per channel, each in [0, 1].
+        reflectance: DVec3,
+    },
+}
+
+/// What a path-model query needs from a lens object.
+pub trait LensGeometry {
+    /// Closest hit of `ray` on this lens object at a distance > 0, skipping primitive `exclude`
+    /// (the one the ray starts on). Adds triangle tests to `counters` (not the ray: the caller
+    /// counts rays).
+    fn closest_hit(
+        &self,
+        ray: &Ray,
+        exclude: Option<u32>,
+        counters: &mut TraceCounters,
+    ) -> Option<SurfaceHit>;
+
+    /// The interface of scene object `object` (an object of this lens).
+    fn interface(&self, object: usize) -> Interface;
+}
+
+/// Limits of the greedy path propagation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GreedyOptions {
+    /// Most interfaces one path may meet, the first hit included (≥ 1). A path that reaches the
+    /// cap is truncated: its weight becomes 0.
+    pub max_interfaces: u32,
+}
+
+impl Default for GreedyOptions {
+    fn default() -> Self {
+        GreedyOptions {
+            max_interfaces: 16,
+        }
+    }
+}
+
+/// One greedy ray path from the first lens hit to where it leaves the lens object.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GreedyRayPath {
+    /// Which term the path belongs to.
+    pub term: Term,
+    /// `F`: product of the Fresnel coefficients along the path, per channel, in [0, 1].
+    pub fresnel: DVec3,
+    /// `G`: product of `absorption^distance` over the glass traversed, per channel, in [0, 1].
+    pub attenuation: DVec3,
+    /// The ray leaving the lens object (origin on its last interface, unit direction).
+    pub outgoing_ray: Ray,
+    /// Number of interfaces met, the first hit included.
+    pub interfaces: u32,
+    /// Distance travelled inside glass in metres.
+    pub glass_distance: f64,
+    /// True when the path hit the interface cap before leaving (its weight is then 0).
+    pub truncated: bool,
+}
+
+impl GreedyRayPath {
+    /// `F·G` per channel: the factor the radiance along the outgoing ray is multiplied by.
+    pub fn weight(&self) -> DVec3 {
+        if self.truncated {
+            DVec3::ZERO
+        } else {
+            self.fresnel * self.attenuation
+        }
+    }
+}
+
+/// The two paths started at a first lens hit. A mirror (or total internal reflection at the
+/// first hit) has no refraction path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoTermPaths {
+    /// The path starting with a refraction, if light is transmitted at the first hit.
+    pub refraction: Option<GreedyRayPath>,
+    /// The path starting with a reflection.
+    pub reflection: GreedyRayPath,
+}
+
+impl TwoTermPaths {
+    /// The path of `term`, if present.
+    pub fn get(&self, term: Term) -> Option<&GreedyRayPath> {
+        match term {
+            Term::Refraction => self.refraction.as_ref(),
+            Term::Reflection => Some(&self.reflection),
+        }
+    }
+}
+
+/// The children a ray spawns at one interface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scattering {
+    /// Reflected ray (origin offset to the incident side) and its Fresnel coefficient.
+    pub reflection: (Ray, DVec3),
+    /// Refracted ray (origin offset to the far side) and its Fresnel coefficient; `None` for a
+    /// mirror or under total internal reflection.
+    pub refraction: Option<(Ray, f64)>,
+}
+
+impl Scattering {
+    /// The greedy child: the one with the larger Fresnel coefficient (refraction on a tie).
+    pub fn greedy_child(&self) -> (Ray, DVec3) {
+        match self.refraction {
+            Some((ray, transmittance)) if transmittance >= self.reflection.1.max_element() => {
+                (ray, DVec3::splat(transmittance))
+            }
+            _ => self.reflection,
+        }
+    }
+}
+
+/// Splits a ray arriving along `direction` at `hit` into its reflected and refracted children.
+///
+/// Which side is inside comes from the face normal (`direction · n > 0` means the ray leaves the
+/// medium). The interpolated normal drives Fresnel and the directions; where it would send a child
+/// to the wrong side of the face, the face normal is used instead.
+pub fn scatter(interface: Interface, direction: DVec3, hit: &SurfaceHit) -> Scattering {
+    let entering = hit.is_front_facing(direction);
+    let face = if entering {
+        hit.geometric_normal
+    } else {
+        -hit.geometric_normal
+    };
+    let shading = if entering {
+        hit.shading_normal
+    } else {
+        -hit.shading_normal
+    };
+    let scattering = scatter_about(interface, direction, hit, face, shading, entering);
+    let reflection_ok = scattering.reflection.0.direction.dot(face) > 0.0;
+    let refraction_ok = scattering
+        .refraction
+        .is_none_or(|(ray, _)| ray.direction.dot(face) < 0.0);
+    if reflection_ok && refraction_ok {
+        scattering
+    } else {
+        scatter_about(interface, direction, hit, face, face, entering)
+    }
+}
+
+fn scatter_about(
+    interface: Interface,
+    direction: DVec3,
+    hit: &SurfaceHit,
+    face: DVec3,
+    normal: DVec3,
+    entering: bool,
+) -> Scattering {
+    let cos_incident = -direction.dot(normal);
+    let reflected = Ray::new(
+        offset_origin(hit.position, face),
+        fresnel::reflect(direction, normal),
+    );
+    match interface {
+        Interface::Mirror { reflectance } => Scattering {
+            reflection: (reflected, fresnel::schlick(reflectance, cos_incident)),
+            refraction: None,
+        },
+        Interface::Dielectric { ior, .. } => {
+            let (eta_incident, eta_transmitted) = if entering { (1.0, ior) } else { (ior, 1.0) };
+            let split = fresnel::dielectric(cos_incident, eta_incident, eta_transmitted);
+            let refraction = (!split.total_internal_reflection).then(|| {
+                let refracted = fresnel::refract(
+                    direction,
+                    normal,
+                    eta_incident / eta_transmitted,
+                    split.cos_transmitted,
+                );
+                (
+                    Ray::new(offset_origin(hit.position, -face), refracted),
+                    split.transmittance,
+                )
+            });
+            Scattering {
+                reflection: (reflected, DVec3::splat(split.reflectance)),
+                refraction,
+            }
+        }
+    }
+}
+
+/// Moves a new ray's origin a hair off the surface towards `side`, so it cannot re-hit the
+/// surface it starts on through rounding (f64: 1e-9 of the coordinate magnitude, at least 1 nm).
+pub fn offset_origin(position: DVec3, side: DVec3) -> DVec3 {
+    let magnitude = position.abs().max_element().max(1.0);
+    position + side * (1e-9 * magnitude)
+}
+
+/// Traces the two greedy paths started by `incoming` at its first hit `first_hit` on `lens`.
+///
+/// Counts one secondary ray per path segment traced against the lens object.
+pub fn trace_greedy_paths(
+    lens: &impl LensGeometry,
+    incoming: &Ray,
+    first_hit: &SurfaceHit,
+    options: GreedyOptions,
+    counters: &mut TraceCounters,
+) -> TwoTermPaths {
+    let interface = lens.interface(first_hit.object);
+    let scattering = scatter(interface, incoming.direction, first_hit);
+    let start = |term, (ray, fresnel): (Ray, DVec3)| {
+        let mut path = GreedyRayPath {
+            term,
+            fresnel,
+            attenuation: DVec3::ONE,
+            outgoing_ray: ray,
+            interfaces: 1,
+            glass_distance: 0.0,
+            truncated: false,
+        };
+        propagate_greedy(lens, &mut path, first_hit.primitive, options, counters);
+        path
+    };
+    let reflection = start(Term::Reflection, scattering.reflection);
+    let refraction = scattering
+        .refraction
+        .map(|(ray, transmittance)| start(Term::Refraction, (ray, DVec3::splat(transmittance))));
+    TwoTermPaths {
+        refraction,
+        reflection,
+    }
+}
+
+/// Follows the greedy child from `path.outgoing_ray` until the ray misses the lens object.
+fn propagate_greedy(
+    lens: &impl LensGeometry,
+    path: &mut GreedyRayPath,
+    mut exclude: u32,
+    options: GreedyOptions,
+    counters: &mut TraceCounters,
+) {
+    loop {
+        counters.secondary_rays += 1;
+        let Some(hit) = lens.closest_hit(&path.outgoing_ray, Some(exclude), counters) else {
+            return;
+        };
+        let interface = lens.interface(hit.object);
+        if !hit.is_front_facing(path.outgoing_ray.direction) {
+            // Leaving the medium: the segment just travelled was inside it.
+            if let Interface::Dielectric { absorption, .. } = interface {
+                path.attenuation *= transmittance(absorption, hit.distance);
+                path.glass_distance += hit.distance;
+            }
+        }
+        if path.interfaces >= options.max_interfaces.max(1) {
+            path.truncated = true;
+            return;
+        }
+        path.interfaces += 1;
+        let (ray, coefficient) =
+            scatter(interface, path.outgoing_ray.direction, &hit).greedy_child();
+        path.fresnel *= coefficient;
+        path.outgoing_ray = ray;
+        exclude = hit.primitive;
+    }
+}
+
+/// `absorption^distance` per channel (each channel's transmittance per metre, raised to the
+/// distance in metres).
+pub fn transmittance(absorption: DVec3, distance: f64) -> DVec3 {
+    DVec3::new(
+        absorption.x.max(0.0).powf(distance),
+        absorption.y.max(0.0).powf(distance),
+        absorption.z.max(0.0).powf(distance),
+    )
+}
+
+/// Limits of the full ray tree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayTreeOptions {
+    /// Most interfaces along any branch (≥ 1).
+    pub max_depth: u32,
+    /// A child whose accumulated weight (largest channel of F·G) falls below this is not traced.
+    pub cutoff: f64,
+}
+
+impl Default for RayTreeOptions {
+    fn default() -> Self {
+        RayTreeOptions {
+            max_depth: 12,
+            cutoff: 1e-3,
+        }
+    }
+}
+
+/// What the full ray tree needs from the scene: closest hits against everything, and the shading
+/// of what is not a lens surface.
+pub trait RayTree {
+    /// Opaque id of a surface, to skip the one a ray starts on.
+    type SurfaceId: Copy;
+
+    /// Closest hit of `ray` over the whole scene, skipping `exclude`; the interface is `None` for a
+    /// non-lens (environment) surface. Counts the ray as a secondary ray.
+    fn closest_hit(
+        &self,
+        ray: &Ray,
+        exclude: Option<Self::SurfaceId>,
+        counters: &mut TraceCounters,
+    ) -> Option<(SurfaceHit, Self::SurfaceId, Option<Interface>)>;
+
+    /// Radiance leaving an environment surface at `hit` back along `ray`.
+    fn shade_environment(&self, ray: &Ray, hit: &SurfaceHit, counters: &mut TraceCounters)
+    -> DVec3;
+
+    /// Radiance of the environment at infinity along `direction`.
+    fn background(&self, direction: DVec3) -> DVec3;
+
+    /// Radiance arriving back along `ray` through the full ray tree, where `weight` is the
+    /// accumulated F·G of the branch so far (for the cutoff) and `depth` the interfaces met.
+    fn trace_tree(
+        &self,
+        ray: &Ray,
+        exclude: Option<Self::SurfaceId>,
+        weight: DVec3,
+        depth: u32,
+        options: RayTreeOptions,
+        counters: &mut TraceCounters,
+    ) -> DVec3 {
+        let Some((hit, id, interface)) = self.closest_hit(ray, exclude, counters) else {
+            return self.background(ray.direction);
+        };
+        let Some(interface) = interface else {
+            return self.shade_environment(ray, &hit, counters);
+        };
+        self.tree_interface(ray, &hit, id, interface, weight, depth, options, counters)
+            .0
+            .iter()
+            .sum()
+    }
+
+    /// Both children at a lens interface `hit` (with id `id`) reached along `ray`: returns the
+    /// radiance through the refracted child (already multiplied by its F·G) and through the
+    /// reflected child, as `[refraction, reflection]`, plus the count of children traced.
+    #[allow(clippy::too_many_arguments)]
+    fn tree_interface(
+        &self,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        id: Self::SurfaceId,
+        interface: Interface,
+        weight: DVec3,
+        depth: u32,
+        options: RayTreeOptions,
+        counters: &mut TraceCounters,
+    ) -> ([DVec3; 2], u32) {
+        let mut result = [DVec3::ZERO; 2];
+        let mut children = 0;
+        if depth + 1 > options.max_depth.max(1) {
+            return (result, children);
+        }
+        let scattering = scatter(interface, ray.direction, hit);
+        let attenuation = match interface {
+            Interface::Dielectric { absorption, .. } if !hit.is_front_facing(ray.direction) => {
+                transmittance(absorption, hit.distance)
+            }
+            _ => DVec3::ONE,
+        };
+        let branch_weight = weight * attenuation;
+        let mut follow = |slot: usize, child: &Ray, coefficient: DVec3| {
+            let child_weight = branch_weight * coefficient;
+            if child_weight.max_element() >= options.cutoff {
+                children += 1;
+                let radiance =
+                    self.trace_tree(child, Some(id), child_weight, depth + 1, options, counters);
+                result[slot] = attenuation * coefficient * radiance;
+            }
+        };
+        if let Some((child, coefficient)) = scattering.refraction {
+            follow(0, &child, DVec3::splat(coefficient));
+        }
+        let (child, coefficient) = scattering.reflection;
+        follow(1, &child, coefficient);
+        (result, children)
+    }
+}

@@ -1,0 +1,188 @@
+// The lens compositor, both variants (hybrid-rendering paper §5, "Multipass Rendering with
+// Layered EM Indexing").
+//
+// Per-vertex lens data lives in one storage buffer of vec4s, indexed by the vertex index of an
+// indexed draw: positions, then F·G per term, then cube-map directions per (term, layer). The
+// layered EM of a viewpoint sample is one cube-map array, layer l = cube l.
+//
+// Multipass: the prime writes (0,0,0,0) to the lens pixels; each layer pass emits
+// (texel.rgb·FG·w, texel.α) under the fixed-function blend src·(1−dstα) + dst (front-to-back
+// "over"); the alpha clear reuses fs_zero with a colour write mask of A only.
+// Single pass: one draw samples the four (viewpoint, term) textures per layer and does the same
+// arithmetic in registers, in the same order, so it matches the multipass frame.
+//
+// Every lens vertex shader computes the clip position the same way and marks it invariant, so the
+// depth test LESS_OR_EQUAL after the prime passes exactly the primed fragments.
+
+struct LensConstants {
+    view_proj: mat4x4<f32>,
+    // Weight of viewpoint sample a (multipass: this pass's weight) and b (single pass only).
+    weight_a: f32,
+    weight_b: f32,
+    // Multipass: unused. Single pass: number of layers n (≤ 6).
+    layer_count: u32,
+    // Single pass: bit 0 = refraction term present, bit 1 = reflection term present.
+    term_mask: u32,
+    // Offsets in vec4 units into lens_data.
+    position_offset: u32,
+    // Multipass: this pass's F·G. Single pass: refraction F·G.
+    fg_offset_t: u32,
+    // Single pass: reflection F·G.
+    fg_offset_r: u32,
+    // Multipass: this pass's (term, layer) directions. Single pass: refraction layer 0.
+    direction_offset_t: u32,
+    // Single pass: reflection layer 0.
+    direction_offset_r: u32,
+    // Vertices in the mesh: the stride between consecutive layers' directions.
+    vertex_count: u32,
+    // Multipass: which cube of the array this pass samples.
+    layer: u32,
+}
+
+var<immediate> constants: LensConstants;
+
+@group(0) @binding(0) var<storage, read> lens_data: array<vec4<f32>>;
+@group(0) @binding(1) var layers_a: texture_cube_array<f32>;
+@group(0) @binding(2) var layers_b: texture_cube_array<f32>;
+@group(0) @binding(3) var layer_sampler: sampler;
+
+fn clip_position(vertex: u32) -> vec4<f32> {
+    let position = lens_data[constants.position_offset + vertex].xyz;
+    return constants.view_proj * vec4<f32>(position, 1.0);
+}
+
+@vertex
+fn vs_position(@builtin(vertex_index) vertex: u32) -> @builtin(position) @invariant vec4<f32> {
+    return clip_position(vertex);
+}
+
+@fragment
+fn fs_zero() -> @location(0) vec4<f32> {
+    return vec4<f32>(0.0);
+}
+
+struct LayerVertex {
+    @builtin(position) @invariant clip: vec4<f32>,
+    @location(0) fg: vec3<f32>,
+    @location(1) direction: vec3<f32>,
+}
+
+@vertex
+fn vs_layer(@builtin(vertex_index) vertex: u32) -> LayerVertex {
+    var out: LayerVertex;
+    out.clip = clip_position(vertex);
+    out.fg = lens_data[constants.fg_offset_t + vertex].xyz;
+    out.direction = lens_data[constants.direction_offset_t + vertex].xyz;
+    return out;
+}
+
+@fragment
+fn fs_layer(in: LayerVertex) -> @location(0) vec4<f32> {
+    let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer);
+    return vec4<f32>(texel.rgb * in.fg * constants.weight_a, texel.a);
+}
+
+struct SinglePassVertex {
+    @builtin(position) @invariant clip: vec4<f32>,
+    @location(0) fg_t: vec3<f32>,
+    @location(1) fg_r: vec3<f32>,
+    @location(2) t0: vec3<f32>,
+    @location(3) t1: vec3<f32>,
+    @location(4) t2: vec3<f32>,
+    @location(5) t3: vec3<f32>,
+    @location(6) t4: vec3<f32>,
+    @location(7) t5: vec3<f32>,
+    @location(8) r0: vec3<f32>,
+    @location(9) r1: vec3<f32>,
+    @location(10) r2: vec3<f32>,
+    @location(11) r3: vec3<f32>,
+    @location(12) r4: vec3<f32>,
+    @location(13) r5: vec3<f32>,
+}
+
+fn direction(base: u32, layer: u32, vertex: u32) -> vec3<f32> {
+    if layer < constants.layer_count {
+        return lens_data[base + layer * constants.vertex_count + vertex].xyz;
+    }
+    return vec3<f32>(0.0, 0.0, 1.0);
+}
+
+@vertex
+fn vs_single_pass(@builtin(vertex_index) vertex: u32) -> SinglePassVertex {
+    var out: SinglePassVertex;
+    out.clip = clip_position(vertex);
+    let has_t = (constants.term_mask & 1u) != 0u;
+    let has_r = (constants.term_mask & 2u) != 0u;
+    out.fg_t = vec3<f32>(0.0);
+    out.fg_r = vec3<f32>(0.0);
+    let t = constants.direction_offset_t;
+    let r = constants.direction_offset_r;
+    out.t0 = vec3<f32>(0.0, 0.0, 1.0);
+    out.t1 = out.t0; out.t2 = out.t0; out.t3 = out.t0; out.t4 = out.t0; out.t5 = out.t0;
+    out.r0 = out.t0; out.r1 = out.t0; out.r2 = out.t0; out.r3 = out.t0; out.r4 = out.t0; out.r5 = out.t0;
+    if has_t {
+        out.fg_t = lens_data[constants.fg_offset_t + vertex].xyz;
+        out.t0 = direction(t, 0u, vertex);
+        out.t1 = direction(t, 1u, vertex);
+        out.t2 = direction(t, 2u, vertex);
+        out.t3 = direction(t, 3u, vertex);
+        out.t4 = direction(t, 4u, vertex);
+        out.t5 = direction(t, 5u, vertex);
+    }
+    if has_r {
+        out.fg_r = lens_data[constants.fg_offset_r + vertex].xyz;
+        out.r0 = direction(r, 0u, vertex);
+        out.r1 = direction(r, 1u, vertex);
+        out.r2 = direction(r, 2u, vertex);
+        out.r3 = direction(r, 3u, vertex);
+        out.r4 = direction(r, 4u, vertex);
+        out.r5 = direction(r, 5u, vertex);
+    }
+    return out;
+}
+
+// One (viewpoint, term) group composited front to back onto the running colour, exactly as the
+// blend unit does it: rgb += (1 − α)·texel.rgb·FG·w, α += (1 − α)·texel.α, starting from α = 0
+// (the alpha clear). Returns (rgb, α) of the running sum.
+fn composite_group(
+    running: vec3<f32>,
+    layers: texture_cube_array<f32>,
+    directions: array<vec3<f32>, 6>,
+    fg: vec3<f32>,
+    weight: f32,
+) -> vec4<f32> {
+    var rgb = running;
+    var alpha = 0.0;
+    for (var layer = 0u; layer < constants.layer_count; layer++) {
+        let texel = textureSample(layers, layer_sampler, directions[layer], layer);
+        rgb = (texel.rgb * fg * weight) * (1.0 - alpha) + rgb;
+        alpha = texel.a * (1.0 - alpha) + alpha;
+    }
+    return vec4<f32>(rgb, alpha);
+}
+
+@fragment
+fn fs_single_pass(in: SinglePassVertex) -> @location(0) vec4<f32> {
+    let has_t = (constants.term_mask & 1u) != 0u;
+    let has_r = (constants.term_mask & 2u) != 0u;
+    let t = array<vec3<f32>, 6>(in.t0, in.t1, in.t2, in.t3, in.t4, in.t5);
+    let r = array<vec3<f32>, 6>(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
+    var result = vec4<f32>(0.0);
+    if constants.weight_a > 0.0 {
+        if has_t {
+            result = composite_group(result.rgb, layers_a, t, in.fg_t, constants.weight_a);
+        }
+        if has_r {
+            result = composite_group(result.rgb, layers_a, r, in.fg_r, constants.weight_a);
+        }
+    }
+    if constants.weight_b > 0.0 {
+        if has_t {
+            result = composite_group(result.rgb, layers_b, t, in.fg_t, constants.weight_b);
+        }
+        if has_r {
+            result = composite_group(result.rgb, layers_b, r, in.fg_r, constants.weight_b);
+        }
+    }
+    return result;
+}

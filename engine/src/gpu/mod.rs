@@ -1,1 +1,66 @@
-//! gpu
+//! The Vulkan backend on ash: instance and device selection, memory through gpu-allocator,
+//! buffers, 2D images and cube-map arrays with full mip chains, uploads and readback, pipelines,
+//! debug-utils labels and the validation messenger. Nothing above this room calls ash directly
+//! except `render/`, which records command buffers.
+
+pub(crate) mod context;
+mod pipeline;
+pub(crate) mod resources;
+
+pub use ash::vk;
+pub use context::{DeviceChoice, Gpu, GpuOptions, ValidationReport};
+pub use pipeline::{GraphicsPipelineDesc, VertexInput};
+pub use resources::{Buffer, BufferUsage, Image, ImageDesc, format_bytes};
+
+/// Errors from the Vulkan backend.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No Vulkan loader or no driver (ICD): the one line the command line prints, exit code 2.
+    #[error(
+        "no Vulkan driver found ({0}): install the Debian package `mesa-vulkan-drivers` (lavapipe, a CPU Vulkan driver) or your GPU's Vulkan driver"
+    )]
+    NoDriver(String),
+    /// Drivers exist but none offers what lensmap needs, or `LENSMAP_DEVICE` matched nothing.
+    #[error("no suitable Vulkan device: {0}")]
+    NoSuitableDevice(String),
+    /// `LENSMAP_VALIDATION=1` (or the tests) asked for the Khronos validation layer, which is absent.
+    #[error(
+        "the Khronos validation layer is not installed: install the Debian package `vulkan-validationlayers`, or unset LENSMAP_VALIDATION"
+    )]
+    ValidationLayerMissing,
+    /// A Vulkan call failed.
+    #[error("Vulkan call {call} failed: {result}")]
+    Vulkan {
+        /// The entry point, for the message.
+        call: &'static str,
+        /// What it returned.
+        result: vk::Result,
+    },
+    /// gpu-allocator could not allocate.
+    #[error("GPU memory allocation for {what} failed: {source}")]
+    Allocation {
+        /// The resource's debug name.
+        what: String,
+        /// The allocator's error.
+        source: gpu_allocator::AllocationError,
+    },
+    /// Data handed to an upload does not fit the resource.
+    #[error("upload to {what}: {problem}")]
+    BadUpload {
+        /// The resource's debug name.
+        what: String,
+        /// What does not fit.
+        problem: String,
+    },
+}
+
+/// Attaches the failing entry point's name to a `vk::Result`.
+pub(crate) trait VkContext<T> {
+    fn vk(self, call: &'static str) -> Result<T, GpuError>;
+}
+
+impl<T> VkContext<T> for Result<T, vk::Result> {
+    fn vk(self, call: &'static str) -> Result<T, GpuError> {
+        self.map_err(|result| GpuError::Vulkan { call, result })
+    }
+}

@@ -1,1 +1,335 @@
-//! (module under construction by its issue)
+//! SCHEMA_DOC_PLACEHOLDER
+
+mod camera;
+mod environment;
+mod error;
+mod file;
+mod image_file;
+mod load;
+mod material;
+mod mesh;
+mod obj;
+pub mod shapes;
+pub mod teapot;
+
+use std::path::{Path, PathBuf};
+
+pub use camera::{Camera, ViewSpace};
+pub use environment::{
+    Environment, LatLongMap, PointLight, direction_to_lat_long, lat_long_to_direction,
+};
+pub use error::SceneError;
+pub use material::{ImageTexture, Material, Texture};
+pub use mesh::{MeshProblem, TriangleMesh};
+
+/// The names of the built-in scenes, in the order `lensmap` lists them.
+pub const BUILTIN_SCENES: [&str; 3] = ["teapot-room", "glass-sphere", "mirror-teapot"];
+
+/// The built-in scene files' text, embedded at compile time.
+const BUILTIN_SOURCES: [(&str, &str); 3] = [
+    (
+        "teapot-room",
+        include_str!("../../../tools/scenes/teapot-room.toml"),
+    ),
+    (
+        "glass-sphere",
+        include_str!("../../../tools/scenes/glass-sphere.toml"),
+    ),
+    (
+        "mirror-teapot",
+        include_str!("../../../tools/scenes/mirror-teapot.toml"),
+    ),
+];
+
+/// A loaded scene: world-space meshes, materials, lights, the environment at infinity, the lens
+/// objects, the camera and the view space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The scene's name (the file's `name`, else the file stem).
+    pub name: String,
+    /// Every object, in file order.
+    pub objects: Vec<SceneObject>,
+    /// Every material, in file order; objects refer to them by index.
+    pub materials: Vec<Material>,
+    /// Point lights.
+    pub lights: Vec<PointLight>,
+    /// Radiance from infinitely far away.
+    pub environment: Environment,
+    /// The lens objects (glass or mirror objects traced per vertex at run time), in file order,
+    /// followed by one lens per glass or mirror object that no `[[lenses]]` entry names.
+    pub lenses: Vec<LensObject>,
+    /// The default camera.
+    pub camera: Camera,
+    /// The viewpoint samples for baking.
+    pub view_space: ViewSpace,
+}
+
+/// One object: a world-space mesh and its material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneObject {
+    /// Unique name.
+    pub name: String,
+    /// The mesh in world space (metres).
+    pub mesh: TriangleMesh,
+    /// Index into [`Scene::materials`].
+    pub material: usize,
+}
+
+/// A lens object: the glass or mirror objects that are ray traced together as one local system.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensObject {
+    /// Unique name.
+    pub name: String,
+    /// Indices into [`Scene::objects`]; each object is in at most one lens, and all are glass or
+    /// mirror.
+    pub objects: Vec<usize>,
+}
+
+impl Scene {
+    /// Loads a scene file. Relative asset paths start at the file's folder.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::Read {
+            file: path.to_path_buf(),
+            problem: format!("cannot read the scene file ({e})"),
+            fix: format!(
+                "check the path, or name a built-in scene: {}",
+                BUILTIN_SCENES.join(", ")
+            ),
+        })?;
+        Scene::from_toml_str(&text, path)
+    }
+
+    /// Parses a scene from TOML text. `origin` is the path of the file it came from: messages
+    /// name it and relative asset paths start at its folder.
+    pub fn from_toml_str(text: &str, origin: &Path) -> Result<Scene, SceneError> {
+        load::scene_from_toml(text, origin)
+    }
+
+    /// A built-in scene by name (see [`BUILTIN_SCENES`]), or `None` for an unknown name.
+    pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
+        let (name, text) = BUILTIN_SOURCES.iter().find(|(n, _)| *n == name)?;
+        let origin = PathBuf::from(format!("tools/scenes/{name}.toml"));
+        Some(Scene::from_toml_str(text, &origin))
+    }
+
+    /// A built-in scene if `name_or_path` names one, else the scene file at that path.
+    pub fn load_named(name_or_path: &str) -> Result<Scene, SceneError> {
+        if let Some(scene) = Scene::builtin(name_or_path) {
+            return scene;
+        }
+        let path = Path::new(name_or_path);
+        if !path.exists() {
+            return Err(SceneError::Read {
+                file: path.to_path_buf(),
+                problem: "not a built-in scene and no such file".to_owned(),
+                fix: format!(
+                    "name a built-in scene ({}) or the path of a scene .toml file",
+                    BUILTIN_SCENES.join(", ")
+                ),
+            });
+        }
+        Scene::load(path)
+    }
+
+    /// The camera moved to viewpoint sample `i` of the view space (looking at the camera's
+    /// `look_at`), or `None` when there is no such sample.
+    pub fn camera_at_view(&self, i: usize) -> Option<Camera> {
+        let position = *self.view_space.samples().get(i)?;
+        Some(self.camera.with_position(position))
+    }
+
+    /// The material of object `object`.
+    pub fn material_of(&self, object: usize) -> &Material {
+        &self.materials[self.objects[object].material]
+    }
+
+    /// The lens (index into [`Scene::lenses`]) that object `object` belongs to, if any.
+    pub fn lens_of_object(&self, object: usize) -> Option<usize> {
+        self.lenses
+            .iter()
+            .position(|lens| lens.objects.contains(&object))
+    }
+
+    /// Total triangle count over all objects.
+    pub fn triangle_count(&self) -> usize {
+        self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn load(name: &str) -> Scene {
+        match Scene::builtin(name) {
+            Some(Ok(scene)) => scene,
+            Some(Err(e)) => panic!("{e}"),
+            None => panic!("{name} is not built in"),
+        }
+    }
+
+    #[test]
+    fn every_builtin_scene_loads() {
+        for name in BUILTIN_SCENES {
+            let scene = load(name);
+            assert_eq!(scene.name, name);
+            assert!(!scene.lenses.is_empty());
+            assert!(!scene.lights.is_empty());
+            for object in &scene.objects {
+                assert_eq!(object.mesh.check(), Ok(()), "{name}/{}", object.name);
+                assert!(object.material < scene.materials.len());
+            }
+            for lens in &scene.lenses {
+                for &o in &lens.objects {
+                    assert!(scene.material_of(o).is_lens());
+                }
+            }
+            // Sample 0 of every built-in view space is the default camera position.
+            let first = scene.camera_at_view(0).map(|c| c.position);
+            assert!(first.is_some_and(|p| p.distance(scene.camera.position) < 1e-3));
+            assert!(scene.camera_at_view(scene.view_space.len()).is_none());
+        }
+        assert!(Scene::builtin("no-such-scene").is_none());
+    }
+
+    #[test]
+    fn teapot_room_is_the_papers_scene() {
+        let scene = load("teapot-room");
+        let names: Vec<&str> = scene.lenses.iter().map(|l| l.name.as_str()).collect();
+        assert_eq!(names, ["teapot", "cup"]);
+        assert_eq!(scene.lenses[1].objects.len(), 2);
+        // 45 viewpoints 8° apart, all at the same distance from the circle's axis.
+        let samples = scene.view_space.samples();
+        assert_eq!(samples.len(), 45);
+        let chord = 2.0 * 2.6 * 4f32.to_radians().sin();
+        for pair in samples.windows(2) {
+            assert!((pair[0].distance(pair[1]) - chord).abs() < 1e-4);
+        }
+        let columns = scene
+            .objects
+            .iter()
+            .filter(|o| o.name.starts_with("column"))
+            .count();
+        assert_eq!(columns, 8);
+        let camera = scene.camera;
+        assert_eq!(
+            (camera.width, camera.height, camera.supersampling),
+            (640, 480, 3)
+        );
+        let teapot = &scene.objects[scene.lenses[0].objects[0]].mesh;
+        assert!((2000..8000).contains(&teapot.triangle_count()));
+        // The teapot (scale 0.25) stands on the floor at the origin.
+        let (lo, hi) = teapot.bounds().unwrap_or_default();
+        assert!(
+            lo.y.abs() < 1e-5 && (hi.y - 0.7875).abs() < 1e-4,
+            "{lo} {hi}"
+        );
+        // The camera frames the teapot: its centre projects inside the image.
+        let centre = camera.view_proj(0.1, 100.0).project_point3((lo + hi) * 0.5);
+        assert!(centre.x.abs() < 0.5 && centre.y.abs() < 0.5, "{centre}");
+    }
+
+    #[test]
+    fn glass_sphere_and_mirror_teapot_have_their_lenses() {
+        let sphere = load("glass-sphere");
+        assert!(matches!(
+            sphere.material_of(sphere.lenses[0].objects[0]),
+            Material::Glass { ior, .. } if (*ior - 1.5).abs() < 1e-6
+        ));
+        let mesh = &sphere.objects[sphere.lenses[0].objects[0]].mesh;
+        for p in &mesh.positions {
+            assert!((p.distance(Vec3::new(0.0, 1.2, 0.0)) - 1.0).abs() < 1e-5);
+        }
+        let mirror = load("mirror-teapot");
+        assert_eq!(mirror.lenses.len(), 2);
+        assert_eq!(mirror.view_space.len(), 100);
+        assert!(
+            mirror
+                .lenses
+                .iter()
+                .all(|l| matches!(mirror.material_of(l.objects[0]), Material::Mirror { .. }))
+        );
+    }
+
+    #[test]
+    fn minimal_scene_with_defaults() {
+        let text = r#"
+            [camera]
+            position = [0, 1, 5]
+            look_at = [0, 1, 0]
+            vfov_degrees = 45
+            width = 64
+            height = 48
+
+            [[materials]]
+            name = "glass"
+            glass = { ior = 1.33 }
+
+            [[objects]]
+            name = "drop"
+            material = "glass"
+            sphere = { radius = 0.5 }
+            transform = { translate = [0, 1, 0], scale = [1, 2, 1] }
+        "#;
+        let scene = match Scene::from_toml_str(text, Path::new("dir/minimal.toml")) {
+            Ok(scene) => scene,
+            Err(e) => panic!("{e}"),
+        };
+        assert_eq!(scene.name, "minimal");
+        assert_eq!(scene.camera.up, Vec3::Y);
+        assert_eq!(scene.camera.supersampling, 1);
+        assert_eq!(scene.environment, Environment::Constant(Vec3::ZERO));
+        assert_eq!(
+            scene.view_space,
+            ViewSpace::List(vec![Vec3::new(0.0, 1.0, 5.0)])
+        );
+        // An unlisted glass object becomes a lens of its own.
+        assert_eq!(
+            scene.lenses,
+            vec![LensObject {
+                name: "drop".into(),
+                objects: vec![0]
+            }]
+        );
+        assert_eq!(scene.lens_of_object(0), Some(0));
+        let (lo, hi) = scene.objects[0].mesh.bounds().unwrap_or_default();
+        assert!((lo.y - 0.0).abs() < 1e-5 && (hi.y - 2.0).abs() < 1e-5);
+        assert!(
+            matches!(scene.materials[0], Material::Glass { absorption, .. } if absorption == Vec3::ONE)
+        );
+    }
+
+    #[test]
+    fn rotations_apply_x_then_y_then_z() {
+        // A 1×1 plane (normal +y) turned 90° about x faces +z; then 90° about y faces +x.
+        let text = r#"
+            [camera]
+            position = [0, 1, 5]
+            look_at = [0, 1, 0]
+            vfov_degrees = 45
+            width = 64
+            height = 48
+            [[materials]]
+            name = "grey"
+            diffuse = { colour = [0.5, 0.5, 0.5] }
+            [[objects]]
+            name = "a"
+            material = "grey"
+            plane = { size = [1, 1] }
+            transform = { rotate_degrees = [90, 0, 0] }
+            [[objects]]
+            name = "b"
+            material = "grey"
+            plane = { size = [1, 1] }
+            transform = { rotate_degrees = [90, 90, 0] }
+        "#;
+        let scene = match Scene::from_toml_str(text, Path::new("rot.toml")) {
+            Ok(scene) => scene,
+            Err(e) => panic!("{e}"),
+        };
+        assert!(scene.objects[0].mesh.normals[0].distance(Vec3::Z) < 1e-6);
+        assert!(scene.objects[1].mesh.normals[0].distance(Vec3::X) < 1e-6);
+        assert!(scene.lenses.is_empty());
+    }
+}

@@ -113,8 +113,14 @@ mod tests {
             let expected = ((n - 1.0) / (n + 1.0)).powi(2);
             let from_outside = dielectric(1.0, 1.0, n);
             let from_inside = dielectric(1.0, n, 1.0);
-            assert!((from_outside.reflectance - expected).abs() < 1e-15, "n = {n}");
-            assert!((from_inside.reflectance - expected).abs() < 1e-15, "n = {n}");
+            assert!(
+                (from_outside.reflectance - expected).abs() < 1e-15,
+                "n = {n}"
+            );
+            assert!(
+                (from_inside.reflectance - expected).abs() < 1e-15,
+                "n = {n}"
+            );
         }
     }
 
@@ -180,7 +186,11 @@ mod tests {
             assert_eq!(grazing_in.reflectance, 1.0);
             // Exactly critical: sin θt = 1, cos θt = 0.
             let cos_critical = (1.0 - 1.0 / (n * n)).sqrt();
-            for cos_i in [cos_critical, cos_critical * (1.0 + 1e-16), cos_critical * (1.0 - 1e-16)] {
+            for cos_i in [
+                cos_critical,
+                cos_critical * (1.0 + 1e-16),
+                cos_critical * (1.0 - 1e-16),
+            ] {
                 let f = dielectric(cos_i, n, 1.0);
                 assert!(f.reflectance.is_finite() && f.cos_transmitted.is_finite());
                 assert!(f.reflectance > 0.999, "R = {}", f.reflectance);

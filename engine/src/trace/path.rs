@@ -71,9 +71,7 @@ pub struct GreedyOptions {
 
 impl Default for GreedyOptions {
     fn default() -> Self {
-        GreedyOptions {
-            max_interfaces: 16,
-        }
+        GreedyOptions { max_interfaces: 16 }
     }
 }
 
@@ -238,7 +236,7 @@ pub fn trace_greedy_paths(
 ) -> TwoTermPaths {
     let interface = lens.interface(first_hit.object);
     let scattering = scatter(interface, incoming.direction, first_hit);
-    let start = |term, (ray, fresnel): (Ray, DVec3)| {
+    let mut start = |term, (ray, fresnel): (Ray, DVec3)| {
         let mut path = GreedyRayPath {
             term,
             fresnel,
@@ -331,7 +329,7 @@ pub trait RayTree {
 
     /// Closest hit of `ray` over the whole scene, skipping `exclude`; the interface is `None` for a
     /// non-lens (environment) surface. Counts the ray as a secondary ray.
-    fn closest_hit(
+    fn trace_closest(
         &self,
         ray: &Ray,
         exclude: Option<Self::SurfaceId>,
@@ -356,7 +354,7 @@ pub trait RayTree {
         options: RayTreeOptions,
         counters: &mut TraceCounters,
     ) -> DVec3 {
-        let Some((hit, id, interface)) = self.closest_hit(ray, exclude, counters) else {
+        let Some((hit, id, interface)) = self.trace_closest(ray, exclude, counters) else {
             return self.background(ray.direction);
         };
         let Some(interface) = interface else {

@@ -1,0 +1,518 @@
+//! Instance, device and queue; the allocator; one-shot command submission; the validation layer
+//! and a messenger that counts every warning and error it reports.
+
+use std::{
+    ffi::{CStr, CString, c_void},
+    mem::ManuallyDrop,
+    sync::{Arc, Mutex},
+};
+
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+use super::{GpuError, VkContext};
+
+/// How to choose among the system's Vulkan devices.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum DeviceChoice {
+    /// Discrete GPU, then integrated, then virtual, then CPU (lavapipe).
+    #[default]
+    Best,
+    /// The first device whose name contains this substring (case-insensitive).
+    NameContains(String),
+}
+
+/// Options for [`Gpu::new`].
+#[derive(Clone, Debug, Default)]
+pub struct GpuOptions {
+    /// Which device to use.
+    pub device: DeviceChoice,
+    /// Enable the Khronos validation layer (with synchronization validation) and count its messages.
+    pub validation: bool,
+}
+
+impl GpuOptions {
+    /// Options from the environment: `LENSMAP_DEVICE=<name substring>` and `LENSMAP_VALIDATION=1`.
+    pub fn from_env() -> Self {
+        let device = match std::env::var("LENSMAP_DEVICE") {
+            Ok(name) if !name.is_empty() => DeviceChoice::NameContains(name),
+            _ => DeviceChoice::Best,
+        };
+        let validation = std::env::var("LENSMAP_VALIDATION").is_ok_and(|v| v == "1");
+        GpuOptions { device, validation }
+    }
+}
+
+/// Validation messages seen so far (warnings and errors of every type).
+#[derive(Clone, Debug, Default)]
+pub struct ValidationReport {
+    /// Whether the validation layer is on at all.
+    pub enabled: bool,
+    /// The messages, in order.
+    pub messages: Vec<String>,
+}
+
+/// Everything that must outlive every resource: resources hold an `Arc` of it, so the device and
+/// instance are destroyed only after the last buffer and image.
+pub(crate) struct Shared {
+    pub(crate) entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    pub(crate) device: ash::Device,
+    pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    debug_instance: Option<ash::ext::debug_utils::Instance>,
+    pub(crate) debug_device: Option<ash::ext::debug_utils::Device>,
+    messenger: vk::DebugUtilsMessengerEXT,
+    messages: Box<Mutex<Vec<String>>>,
+}
+
+impl Drop for Shared {
+    fn drop(&mut self) {
+        // SAFETY: every resource holding an Arc<Shared> is gone; the allocator frees its blocks
+        // before the device goes, and the messenger is destroyed before the instance.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some(debug) = &self.debug_instance {
+                debug.destroy_debug_utils_messenger(self.messenger, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+/// A Vulkan device with one graphics queue, ready to render headless.
+pub struct Gpu {
+    pub(crate) shared: Arc<Shared>,
+    pub(crate) queue: vk::Queue,
+    pub(crate) command_pool: vk::CommandPool,
+    pub(crate) properties: vk::PhysicalDeviceProperties,
+    name: String,
+}
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+unsafe extern "system" fn count_message(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: the layer passes valid callback data for the duration of the call; `user` is the
+    // Box<Mutex<Vec<String>>> owned by Shared, which outlives the messenger.
+    let text = unsafe {
+        let data = &*data;
+        if data.p_message.is_null() {
+            String::from("(no message)")
+        } else {
+            CStr::from_ptr(data.p_message)
+                .to_string_lossy()
+                .into_owned()
+        }
+    };
+    let line = format!("validation {severity:?}: {text}");
+    eprintln!("{line}");
+    // SAFETY: see above.
+    let messages = unsafe { &*(user as *const Mutex<Vec<String>>) };
+    if let Ok(mut messages) = messages.lock() {
+        messages.push(line);
+    }
+    vk::FALSE
+}
+
+impl Gpu {
+    /// Loads Vulkan at run time, creates an instance (with validation if asked) and the chosen
+    /// device. Fails with [`GpuError::NoDriver`] when there is no loader or no driver.
+    pub fn new(options: &GpuOptions) -> Result<Gpu, GpuError> {
+        // SAFETY: loading the system's libvulkan; its initialisation has no preconditions.
+        let entry = unsafe { ash::Entry::load() }
+            .map_err(|e| GpuError::NoDriver(format!("cannot load libvulkan: {e}")))?;
+
+        let mut layers: Vec<*const i8> = Vec::new();
+        let mut extensions: Vec<*const i8> = Vec::new();
+        // SAFETY: plain queries on a loaded entry.
+        let available_layers = unsafe { entry.enumerate_instance_layer_properties() }
+            .vk("vkEnumerateInstanceLayerProperties")?;
+        let available_extensions = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .vk("vkEnumerateInstanceExtensionProperties")?;
+        let has_extension = |name: &CStr| {
+            available_extensions
+                .iter()
+                .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
+        };
+        if options.validation {
+            let present = available_layers
+                .iter()
+                .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
+            if !present {
+                return Err(GpuError::ValidationLayerMissing);
+            }
+            layers.push(VALIDATION_LAYER.as_ptr());
+        }
+        // debug_utils gives pass labels (always, when available) and the messenger.
+        let debug_utils = options.validation || has_extension(ash::ext::debug_utils::NAME);
+        if debug_utils {
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+
+        let app_name = CString::from(c"lensmap");
+        let app = vk::ApplicationInfo::default()
+            .application_name(&app_name)
+            .engine_name(&app_name)
+            .api_version(vk::API_VERSION_1_3);
+        let enabled_validation = [
+            vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION,
+            vk::ValidationFeatureEnableEXT::BEST_PRACTICES,
+        ];
+        let mut validation_features = vk::ValidationFeaturesEXT::default()
+            .enabled_validation_features(&enabled_validation[..1]);
+        let mut create_info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        if options.validation {
+            create_info = create_info.push_next(&mut validation_features);
+        }
+        // SAFETY: create_info and everything it points to live until the call returns.
+        let instance = match unsafe { entry.create_instance(&create_info, None) } {
+            Ok(instance) => instance,
+            Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
+                return Err(GpuError::NoDriver(
+                    "vkCreateInstance: no driver supports Vulkan 1.3".into(),
+                ));
+            }
+            Err(vk::Result::ERROR_LAYER_NOT_PRESENT) => {
+                return Err(GpuError::ValidationLayerMissing);
+            }
+            Err(result) => {
+                return Err(GpuError::Vulkan {
+                    call: "vkCreateInstance",
+                    result,
+                });
+            }
+        };
+
+        let messages: Box<Mutex<Vec<String>>> = Box::default();
+        let (debug_instance, messenger) = if debug_utils {
+            let debug = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let messenger = if options.validation {
+                let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                    .message_severity(
+                        vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                            | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                    )
+                    .message_type(
+                        vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                            | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                            | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                    )
+                    .pfn_user_callback(Some(count_message))
+                    .user_data(&*messages as *const Mutex<Vec<String>> as *mut c_void);
+                // SAFETY: the callback's user data (the boxed Mutex) outlives the messenger: both
+                // live in Shared, which destroys the messenger first.
+                unsafe { debug.create_debug_utils_messenger(&info, None) }
+                    .vk("vkCreateDebugUtilsMessengerEXT")?
+            } else {
+                vk::DebugUtilsMessengerEXT::null()
+            };
+            (Some(debug), messenger)
+        } else {
+            (None, vk::DebugUtilsMessengerEXT::null())
+        };
+        let destroy_instance = |instance: &ash::Instance| {
+            // SAFETY: nothing created from the instance is alive on this error path but the messenger.
+            unsafe {
+                if let Some(debug) = &debug_instance {
+                    debug.destroy_debug_utils_messenger(messenger, None);
+                }
+                instance.destroy_instance(None);
+            }
+        };
+
+        let chosen = match choose_device(&instance, &options.device) {
+            Ok(chosen) => chosen,
+            Err(e) => {
+                destroy_instance(&instance);
+                return Err(e);
+            }
+        };
+        let (physical_device, queue_family, properties) = chosen;
+
+        let priorities = [1.0f32];
+        let queues = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let features = vk::PhysicalDeviceFeatures::default().image_cube_array(true);
+        let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            .synchronization2(true);
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queues)
+            .enabled_features(&features)
+            .push_next(&mut features13);
+        // SAFETY: physical_device comes from this instance; the create info lives until return.
+        let device = match unsafe { instance.create_device(physical_device, &device_info, None) } {
+            Ok(device) => device,
+            Err(result) => {
+                destroy_instance(&instance);
+                return Err(GpuError::Vulkan {
+                    call: "vkCreateDevice",
+                    result,
+                });
+            }
+        };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        });
+        let allocator = match allocator {
+            Ok(allocator) => allocator,
+            Err(source) => {
+                // SAFETY: the device has no children yet.
+                unsafe { device.destroy_device(None) };
+                destroy_instance(&instance);
+                return Err(GpuError::Allocation {
+                    what: "the allocator".into(),
+                    source,
+                });
+            }
+        };
+        let debug_device = debug_instance
+            .as_ref()
+            .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        let shared = Arc::new(Shared {
+            entry,
+            instance,
+            device,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            debug_instance,
+            debug_device,
+            messenger,
+            messages,
+        });
+        // SAFETY: valid device and queue family; the pool is destroyed in Gpu::drop.
+        let queue = unsafe { shared.device.get_device_queue(queue_family, 0) };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let command_pool = unsafe { shared.device.create_command_pool(&pool_info, None) }
+            .vk("vkCreateCommandPool")?;
+        let name = properties
+            .device_name_as_c_str()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|_| String::from("(unnamed device)"));
+        let _ = &shared.entry;
+        Ok(Gpu {
+            shared,
+            queue,
+            command_pool,
+            properties,
+            name,
+        })
+    }
+
+    /// The device's name as the driver reports it (`llvmpipe (LLVM 15.0.6, 256 bits)` on lavapipe).
+    pub fn device_name(&self) -> &str {
+        &self.name
+    }
+
+    /// The physical device's properties.
+    pub fn properties(&self) -> &vk::PhysicalDeviceProperties {
+        &self.properties
+    }
+
+    /// The logical device, for `render/`.
+    pub fn device(&self) -> &ash::Device {
+        &self.shared.device
+    }
+
+    /// The validation messages counted so far.
+    pub fn validation_report(&self) -> ValidationReport {
+        ValidationReport {
+            enabled: self.shared.messenger != vk::DebugUtilsMessengerEXT::null(),
+            messages: self
+                .shared
+                .messages
+                .lock()
+                .map(|m| m.clone())
+                .unwrap_or_default(),
+        }
+    }
+
+    /// Opens a debug-utils label region on `command_buffer` (no-op without debug utils).
+    pub fn begin_label(&self, command_buffer: vk::CommandBuffer, name: &str) {
+        if let Some(debug) = &self.shared.debug_device {
+            let name = CString::new(name.replace('\0', " ")).unwrap_or_default();
+            let label = vk::DebugUtilsLabelEXT::default().label_name(&name);
+            // SAFETY: the command buffer is recording; the label lives until return.
+            unsafe { debug.cmd_begin_debug_utils_label(command_buffer, &label) };
+        }
+    }
+
+    /// Closes the label region opened by [`Gpu::begin_label`].
+    pub fn end_label(&self, command_buffer: vk::CommandBuffer) {
+        if let Some(debug) = &self.shared.debug_device {
+            // SAFETY: matches a begin_label on the same recording command buffer.
+            unsafe { debug.cmd_end_debug_utils_label(command_buffer) };
+        }
+    }
+
+    /// Allocates a primary command buffer from the device's pool; free with
+    /// [`Gpu::free_command_buffer`].
+    pub fn allocate_command_buffer(&self) -> Result<vk::CommandBuffer, GpuError> {
+        let info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(self.command_pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: the pool belongs to this device.
+        let buffers = unsafe { self.shared.device.allocate_command_buffers(&info) }
+            .vk("vkAllocateCommandBuffers")?;
+        Ok(buffers[0])
+    }
+
+    /// Returns a command buffer to the pool. It must not be executing.
+    pub fn free_command_buffer(&self, command_buffer: vk::CommandBuffer) {
+        // SAFETY: the caller has waited for the buffer's submission.
+        unsafe {
+            self.shared
+                .device
+                .free_command_buffers(self.command_pool, &[command_buffer])
+        };
+    }
+
+    /// Records `record` into a fresh command buffer, submits it and waits for it to finish.
+    pub fn submit_and_wait(
+        &self,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
+    ) -> Result<(), GpuError> {
+        let command_buffer = self.allocate_command_buffer()?;
+        let result = self.record_submit_wait(command_buffer, record);
+        self.free_command_buffer(command_buffer);
+        result
+    }
+
+    /// Records into an existing command buffer (reset first), submits and waits.
+    pub fn record_submit_wait(
+        &self,
+        command_buffer: vk::CommandBuffer,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
+    ) -> Result<(), GpuError> {
+        let device = &self.shared.device;
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: the command buffer is not in use (callers wait for every submission).
+        unsafe {
+            device
+                .reset_command_buffer(command_buffer, vk::CommandBufferResetFlags::empty())
+                .vk("vkResetCommandBuffer")?;
+            device
+                .begin_command_buffer(command_buffer, &begin)
+                .vk("vkBeginCommandBuffer")?;
+        }
+        record(command_buffer)?;
+        // SAFETY: as above; the fence is waited on and destroyed before return.
+        unsafe {
+            device
+                .end_command_buffer(command_buffer)
+                .vk("vkEndCommandBuffer")?;
+            let fence = device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+                .vk("vkCreateFence")?;
+            let buffers = [command_buffer];
+            let submit = vk::SubmitInfo::default().command_buffers(&buffers);
+            let submitted = device
+                .queue_submit(self.queue, &[submit], fence)
+                .vk("vkQueueSubmit")
+                .and_then(|()| {
+                    device
+                        .wait_for_fences(&[fence], true, u64::MAX)
+                        .vk("vkWaitForFences")
+                });
+            device.destroy_fence(fence, None);
+            submitted
+        }
+    }
+}
+
+impl Drop for Gpu {
+    fn drop(&mut self) {
+        // SAFETY: all submissions were waited for; the pool's buffers die with it.
+        unsafe {
+            let _ = self.shared.device.device_wait_idle();
+            self.shared
+                .device
+                .destroy_command_pool(self.command_pool, None);
+        }
+    }
+}
+
+/// Picks a device with Vulkan 1.3, a graphics queue and cube-map arrays.
+fn choose_device(
+    instance: &ash::Instance,
+    choice: &DeviceChoice,
+) -> Result<(vk::PhysicalDevice, u32, vk::PhysicalDeviceProperties), GpuError> {
+    // SAFETY: plain queries on a live instance.
+    let devices =
+        unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    if devices.is_empty() {
+        return Err(GpuError::NoDriver(
+            "the Vulkan loader found no physical device".into(),
+        ));
+    }
+    let mut candidates = Vec::new();
+    let mut rejected = Vec::new();
+    for device in devices {
+        // SAFETY: `device` comes from this instance.
+        let properties = unsafe { instance.get_physical_device_properties(device) };
+        let features = unsafe { instance.get_physical_device_features(device) };
+        let families = unsafe { instance.get_physical_device_queue_family_properties(device) };
+        let name = properties
+            .device_name_as_c_str()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let graphics = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS));
+        let too_old = properties.api_version < vk::API_VERSION_1_3;
+        match graphics {
+            Some(family) if !too_old && features.image_cube_array == vk::TRUE => {
+                candidates.push((device, family as u32, properties, name));
+            }
+            _ => rejected.push(name),
+        }
+    }
+    let rank = |t: vk::PhysicalDeviceType| match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    };
+    let picked = match choice {
+        DeviceChoice::Best => candidates
+            .into_iter()
+            .min_by_key(|(_, _, p, _)| rank(p.device_type)),
+        DeviceChoice::NameContains(part) => {
+            let part = part.to_lowercase();
+            let names: Vec<String> = candidates.iter().map(|c| c.3.clone()).collect();
+            let found = candidates
+                .into_iter()
+                .find(|(_, _, _, name)| name.to_lowercase().contains(&part));
+            if found.is_none() {
+                return Err(GpuError::NoSuitableDevice(format!(
+                    "LENSMAP_DEVICE={part:?} matches none of {names:?}"
+                )));
+            }
+            found
+        }
+    };
+    picked.map(|(d, f, p, _)| (d, f, p)).ok_or_else(|| {
+        GpuError::NoSuitableDevice(format!(
+            "none offers Vulkan 1.3, a graphics queue and cube-map arrays (found {rejected:?})"
+        ))
+    })
+}

@@ -1,0 +1,540 @@
+//! Compiling a declared graph into a plan: validation, culling, render-pass instances and
+//! barriers, and the plan's table.
+
+use std::{collections::HashSet, fmt};
+
+use super::{
+    Access, BufferInfo, DepthAttachment, Graph, GraphError, ImageId, ImageInfo, Layout, LoadOp,
+    Pass, PassKind, StoreOp,
+};
+
+/// Why a declared pass is not in the plan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CullReason {
+    /// A draw pass with no draws and nothing to clear.
+    EmptyDrawList,
+    /// Nothing after it reads what it writes, and it has no side effect.
+    OutputUnused,
+}
+
+impl fmt::Display for CullReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            CullReason::EmptyDrawList => "no draws",
+            CullReason::OutputUnused => "output unused",
+        })
+    }
+}
+
+/// A layout transition and/or memory dependency on one image before a step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Barrier {
+    /// The image.
+    pub image: ImageId,
+    /// Layout before (Undefined discards the contents).
+    pub old_layout: Layout,
+    /// Layout after.
+    pub new_layout: Layout,
+    /// The access that must finish first.
+    pub src: Access,
+    /// The access that waits.
+    pub dst: Access,
+}
+
+/// A run of consecutive draw passes with the same attachments, recorded inside one
+/// `vkCmdBeginRendering`/`vkCmdEndRendering`: blending within it is ordered by the rasterization
+/// order guarantee, so it needs no barriers between its passes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderingInstance {
+    /// Colour attachment, its load op (from the first pass) and store op (Store if any pass stores).
+    pub colour: (ImageId, LoadOp, StoreOp),
+    /// Depth attachment likewise.
+    pub depth: Option<(ImageId, LoadOp, StoreOp)>,
+}
+
+/// One live pass of the plan, in execution order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step<D> {
+    /// The pass.
+    pub pass: Pass<D>,
+    /// Barriers recorded before it (only on the first step of a rendering instance, or a readback).
+    pub barriers: Vec<Barrier>,
+    /// `Some` on the first step of a rendering instance: begin rendering before this step.
+    pub begin: Option<RenderingInstance>,
+    /// End rendering after this step.
+    pub end: bool,
+}
+
+/// A compiled graph: what `render/` records, and what `lensmap passes` prints.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan<D> {
+    /// The images, indexed by [`ImageId`].
+    pub images: Vec<ImageInfo>,
+    /// The buffers, indexed by `BufferId`.
+    pub buffers: Vec<BufferInfo>,
+    /// Live passes in order.
+    pub steps: Vec<Step<D>>,
+    /// Passes dropped, with why.
+    pub culled: Vec<(String, CullReason)>,
+}
+
+impl<D> Plan<D> {
+    /// Live passes of a category.
+    pub fn count(&self, category: &str) -> usize {
+        self.steps
+            .iter()
+            .filter(|s| s.pass.category == category)
+            .count()
+    }
+
+    /// Total draws of the live passes of a category.
+    pub fn draws(&self, category: &str) -> usize {
+        self.steps
+            .iter()
+            .filter(|s| s.pass.category == category)
+            .map(|s| s.pass.draw_count())
+            .sum()
+    }
+
+    /// Number of `vkCmdBeginRendering` instances.
+    pub fn rendering_instances(&self) -> usize {
+        self.steps.iter().filter(|s| s.begin.is_some()).count()
+    }
+
+    /// Number of barriers.
+    pub fn barrier_count(&self) -> usize {
+        self.steps.iter().map(|s| s.barriers.len()).sum()
+    }
+}
+
+/// Images a pass reads (their earlier contents matter to it) and writes.
+fn reads_and_writes<D>(pass: &Pass<D>) -> (Vec<ImageId>, Vec<ImageId>) {
+    match &pass.kind {
+        PassKind::Draw {
+            colour,
+            depth,
+            sampled,
+            ..
+        } => {
+            let mut reads = sampled.clone();
+            let mut writes = vec![colour.image];
+            if colour.load == LoadOp::Load {
+                reads.push(colour.image);
+            }
+            if let Some(d) = depth {
+                if d.load == LoadOp::Load {
+                    reads.push(d.image);
+                }
+                if d.write || d.load != LoadOp::Load {
+                    writes.push(d.image);
+                }
+            }
+            (reads, writes)
+        }
+        PassKind::Readback { image, .. } => (vec![*image], Vec::new()),
+    }
+}
+
+/// Whether the pass fully redefines `image` (so earlier writers are not needed by it).
+fn redefines<D>(pass: &Pass<D>, image: ImageId) -> bool {
+    match &pass.kind {
+        PassKind::Draw { colour, depth, .. } => {
+            (colour.image == image && colour.load != LoadOp::Load)
+                || depth.is_some_and(|d| d.image == image && d.load != LoadOp::Load)
+        }
+        PassKind::Readback { .. } => false,
+    }
+}
+
+impl<D: Clone> Graph<D> {
+    /// Validates the declaration and compiles it into a plan.
+    pub fn compile(&self) -> Result<Plan<D>, GraphError> {
+        self.validate()?;
+
+        // 1. Empty draw lists go first: a pass with no draws changes nothing unless it clears.
+        let mut culled: Vec<Option<CullReason>> = self
+            .passes
+            .iter()
+            .map(|p| match &p.kind {
+                PassKind::Draw {
+                    draws,
+                    colour,
+                    depth,
+                    ..
+                } if draws.is_empty()
+                    && colour.load == LoadOp::Load
+                    && depth.is_none_or(|d| d.load == LoadOp::Load) =>
+                {
+                    Some(CullReason::EmptyDrawList)
+                }
+                _ => None,
+            })
+            .collect();
+
+        // 2. Reachability, walking back from the side effects: `needed` holds the images whose
+        //    current contents a later live pass reads.
+        let mut needed: HashSet<ImageId> = HashSet::new();
+        for (index, pass) in self.passes.iter().enumerate().rev() {
+            if culled[index].is_some() {
+                continue;
+            }
+            let (reads, writes) = reads_and_writes(pass);
+            let live = pass.side_effect
+                || matches!(pass.kind, PassKind::Readback { .. })
+                || writes.iter().any(|w| needed.contains(w));
+            if !live {
+                culled[index] = Some(CullReason::OutputUnused);
+                continue;
+            }
+            for w in &writes {
+                if redefines(pass, *w) {
+                    needed.remove(w);
+                }
+            }
+            needed.extend(reads);
+        }
+
+        // 3. Read-before-write over the live passes.
+        let mut defined: HashSet<ImageId> = self
+            .images
+            .iter()
+            .enumerate()
+            .filter(|(_, i)| i.imported)
+            .map(|(n, _)| ImageId(n as u32))
+            .collect();
+        for (pass, _) in self.passes.iter().zip(&culled).filter(|(_, c)| c.is_none()) {
+            let (reads, writes) = reads_and_writes(pass);
+            if let Some(r) = reads.iter().find(|r| !defined.contains(r)) {
+                return Err(GraphError::ReadBeforeWrite {
+                    pass: pass.name.clone(),
+                    image: self.images[r.0 as usize].name.clone(),
+                });
+            }
+            defined.extend(writes);
+        }
+
+        // 4. Rendering instances and barriers.
+        let live: Vec<&Pass<D>> = self
+            .passes
+            .iter()
+            .zip(&culled)
+            .filter(|(_, c)| c.is_none())
+            .map(|(p, _)| p)
+            .collect();
+        let mut state: Vec<(Layout, Access, bool)> = self
+            .images
+            .iter()
+            .map(|i| {
+                if i.imported {
+                    (Layout::ShaderRead, Access::None, false)
+                } else {
+                    (Layout::Undefined, Access::None, false)
+                }
+            })
+            .collect();
+        let mut steps: Vec<Step<D>> = Vec::with_capacity(live.len());
+        let mut index = 0;
+        while index < live.len() {
+            let pass = live[index];
+            match &pass.kind {
+                PassKind::Readback { image, .. } => {
+                    let mut barriers = Vec::new();
+                    transition(
+                        &mut state,
+                        &mut barriers,
+                        *image,
+                        Layout::TransferSrc,
+                        Access::TransferRead,
+                        false,
+                        false,
+                    );
+                    steps.push(Step {
+                        pass: pass.clone(),
+                        barriers,
+                        begin: None,
+                        end: false,
+                    });
+                    index += 1;
+                }
+                PassKind::Draw { colour, depth, .. } => {
+                    // Extend the instance while the next pass uses the same attachments and loads them.
+                    let mut last = index;
+                    while let Some(next) = live.get(last + 1) {
+                        match &next.kind {
+                            PassKind::Draw {
+                                colour: c,
+                                depth: d,
+                                ..
+                            } if c.image == colour.image
+                                && c.load == LoadOp::Load
+                                && d.map(|d| d.image) == depth.map(|d| d.image)
+                                && d.is_none_or(|d| d.load == LoadOp::Load) =>
+                            {
+                                last += 1
+                            }
+                            _ => break,
+                        }
+                    }
+                    let group = &live[index..=last];
+                    let store = |f: &dyn Fn(&Pass<D>) -> Option<StoreOp>| {
+                        if group.iter().any(|p| f(p) == Some(StoreOp::Store)) {
+                            StoreOp::Store
+                        } else {
+                            StoreOp::DontCare
+                        }
+                    };
+                    let colour_store = store(&|p| match &p.kind {
+                        PassKind::Draw { colour, .. } => Some(colour.store),
+                        _ => None,
+                    });
+                    let depth_store = store(&|p| match &p.kind {
+                        PassKind::Draw { depth, .. } => depth.map(|d: DepthAttachment| d.store),
+                        _ => None,
+                    });
+                    let instance = RenderingInstance {
+                        colour: (colour.image, colour.load, colour_store),
+                        depth: depth.map(|d| (d.image, d.load, depth_store)),
+                    };
+                    let mut barriers = Vec::new();
+                    transition(
+                        &mut state,
+                        &mut barriers,
+                        colour.image,
+                        Layout::ColourAttachment,
+                        Access::ColourAttachment,
+                        true,
+                        colour.load != LoadOp::Load,
+                    );
+                    if let Some(d) = depth {
+                        let writes = group.iter().any(|p| match &p.kind {
+                            PassKind::Draw { depth, .. } => depth.is_some_and(|d| d.write),
+                            _ => false,
+                        }) || d.load != LoadOp::Load;
+                        transition(
+                            &mut state,
+                            &mut barriers,
+                            d.image,
+                            Layout::DepthAttachment,
+                            Access::DepthAttachment,
+                            writes,
+                            d.load != LoadOp::Load,
+                        );
+                    }
+                    let mut sampled_all: Vec<ImageId> = group
+                        .iter()
+                        .flat_map(|p| match &p.kind {
+                            PassKind::Draw { sampled, .. } => sampled.clone(),
+                            _ => Vec::new(),
+                        })
+                        .collect();
+                    sampled_all.sort();
+                    sampled_all.dedup();
+                    for s in sampled_all {
+                        transition(
+                            &mut state,
+                            &mut barriers,
+                            s,
+                            Layout::ShaderRead,
+                            Access::FragmentSample,
+                            false,
+                            false,
+                        );
+                    }
+                    for (offset, p) in group.iter().enumerate() {
+                        steps.push(Step {
+                            pass: (*p).clone(),
+                            barriers: if offset == 0 {
+                                std::mem::take(&mut barriers)
+                            } else {
+                                Vec::new()
+                            },
+                            begin: (offset == 0).then_some(instance),
+                            end: index + offset == last,
+                        });
+                    }
+                    index = last + 1;
+                }
+            }
+        }
+
+        Ok(Plan {
+            images: self.images.clone(),
+            buffers: self.buffers.clone(),
+            steps,
+            culled: self
+                .passes
+                .iter()
+                .zip(culled)
+                .filter_map(|(p, c)| c.map(|c| (p.name.clone(), c)))
+                .collect(),
+        })
+    }
+
+    fn validate(&self) -> Result<(), GraphError> {
+        let mut names = HashSet::new();
+        for pass in &self.passes {
+            if !names.insert(pass.name.as_str()) {
+                return Err(GraphError::DuplicatePass(pass.name.clone()));
+            }
+            let image = |id: ImageId| {
+                self.images
+                    .get(id.0 as usize)
+                    .ok_or_else(|| GraphError::UnknownResource {
+                        pass: pass.name.clone(),
+                        kind: "image",
+                        index: id.0,
+                    })
+            };
+            match &pass.kind {
+                PassKind::Draw {
+                    colour,
+                    depth,
+                    sampled,
+                    storage,
+                    ..
+                } => {
+                    let c = image(colour.image)?;
+                    if c.format.is_depth() {
+                        return Err(GraphError::BadAttachment {
+                            pass: pass.name.clone(),
+                            image: c.name.clone(),
+                            role: "colour",
+                            format: c.format,
+                        });
+                    }
+                    if let Some(d) = depth {
+                        let info = image(d.image)?;
+                        if !info.format.is_depth() {
+                            return Err(GraphError::BadAttachment {
+                                pass: pass.name.clone(),
+                                image: info.name.clone(),
+                                role: "depth",
+                                format: info.format,
+                            });
+                        }
+                    }
+                    for s in sampled {
+                        image(*s)?;
+                    }
+                    if let Some(b) = storage.iter().find(|b| b.0 as usize >= self.buffers.len()) {
+                        return Err(GraphError::UnknownResource {
+                            pass: pass.name.clone(),
+                            kind: "buffer",
+                            index: b.0,
+                        });
+                    }
+                }
+                PassKind::Readback { image: i, buffer } => {
+                    image(*i)?;
+                    if buffer.0 as usize >= self.buffers.len() {
+                        return Err(GraphError::UnknownResource {
+                            pass: pass.name.clone(),
+                            kind: "buffer",
+                            index: buffer.0,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Records the barrier (if any) that moves `image` to `layout` for `access`.
+fn transition(
+    state: &mut [(Layout, Access, bool)],
+    barriers: &mut Vec<Barrier>,
+    image: ImageId,
+    layout: Layout,
+    access: Access,
+    writes: bool,
+    discard: bool,
+) {
+    let (old_layout, old_access, old_wrote) = state[image.0 as usize];
+    let hazard = old_access != Access::None && (old_wrote || writes);
+    if old_layout != layout || hazard {
+        barriers.push(Barrier {
+            image,
+            old_layout: if discard {
+                Layout::Undefined
+            } else {
+                old_layout
+            },
+            new_layout: layout,
+            src: old_access,
+            dst: access,
+        });
+    }
+    state[image.0 as usize] = (layout, access, writes);
+}
+
+impl<D> fmt::Display for Plan<D> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{:>3}  {:<28} {:>5}  {:<17} {:<4}  {:<10} {:<14} barriers",
+            "#", "pass", "draws", "blend", "mask", "depth", "rendering"
+        )?;
+        for (n, step) in self.steps.iter().enumerate() {
+            let (blend, mask, depth) = match &step.pass.kind {
+                PassKind::Draw { colour, depth, .. } => (
+                    colour.blend.to_string(),
+                    colour.write_mask.to_string(),
+                    match depth {
+                        Some(d) => format!(
+                            "{}{}",
+                            match d.test {
+                                Some(super::CompareOp::Less) => "<",
+                                Some(super::CompareOp::LessOrEqual) => "<=",
+                                None => "-",
+                            },
+                            if d.write { " write" } else { "" }
+                        ),
+                        None => "none".into(),
+                    },
+                ),
+                PassKind::Readback { .. } => ("copy".into(), "-".into(), "-".into()),
+            };
+            let rendering = match (&step.begin, step.end) {
+                (Some(instance), true) => format!("begin {}+end", load_name(instance.colour.1)),
+                (Some(instance), false) => format!("begin {}", load_name(instance.colour.1)),
+                (None, true) => "end".into(),
+                (None, false) => "".into(),
+            };
+            let barriers: Vec<String> = step
+                .barriers
+                .iter()
+                .map(|b| {
+                    format!(
+                        "{}: {}->{}",
+                        self.images[b.image.0 as usize].name, b.old_layout, b.new_layout
+                    )
+                })
+                .collect();
+            writeln!(
+                f,
+                "{:>3}  {:<28} {:>5}  {:<17} {:<4}  {:<10} {:<14} {}",
+                n,
+                step.pass.name,
+                step.pass.draw_count(),
+                blend,
+                mask,
+                depth,
+                rendering,
+                barriers.join(", ")
+            )?;
+        }
+        for (name, reason) in &self.culled {
+            writeln!(f, "  -  {name:<28} culled: {reason}")?;
+        }
+        Ok(())
+    }
+}
+
+fn load_name(load: LoadOp) -> &'static str {
+    match load {
+        LoadOp::Load => "load",
+        LoadOp::Clear(_) => "clear",
+        LoadOp::DontCare => "dontcare",
+    }
+}

@@ -1,0 +1,261 @@
+//! Plans checked without a GPU.
+
+use super::*;
+
+fn draw(
+    name: &str,
+    colour: ImageId,
+    load: LoadOp,
+    depth: Option<(ImageId, LoadOp, bool)>,
+    draws: usize,
+) -> Pass<u32> {
+    Pass {
+        name: name.into(),
+        category: "test",
+        side_effect: false,
+        kind: PassKind::Draw {
+            program: "p",
+            colour: ColourAttachment {
+                image: colour,
+                load,
+                store: StoreOp::Store,
+                blend: Blend::FrontToBackOver,
+                write_mask: ColourMask::RGBA,
+            },
+            depth: depth.map(|(image, load, write)| DepthAttachment {
+                image,
+                load,
+                store: StoreOp::Store,
+                test: Some(CompareOp::Less),
+                write,
+            }),
+            cull: Cull::Back,
+            sampled: Vec::new(),
+            storage: Vec::new(),
+            draws: (0..draws as u32).collect(),
+        },
+    }
+}
+
+fn frame() -> (Graph<u32>, ImageId, ImageId, BufferId) {
+    let mut g = Graph::new();
+    let colour = g.image("colour", Format::Rgba32Float, 8, 8);
+    let depth = g.image("depth", Format::Depth32Float, 8, 8);
+    let readback = g.buffer("readback", 8 * 8 * 16);
+    (g, colour, depth, readback)
+}
+
+fn readback(colour: ImageId, buffer: BufferId) -> Pass<u32> {
+    Pass {
+        name: "readback".into(),
+        category: "readback",
+        side_effect: true,
+        kind: PassKind::Readback {
+            image: colour,
+            buffer,
+        },
+    }
+}
+
+#[test]
+fn consecutive_loading_passes_share_one_rendering_instance() {
+    let (mut g, colour, depth, buffer) = frame();
+    g.add_pass(draw(
+        "env",
+        colour,
+        LoadOp::Clear([0.0; 4]),
+        Some((depth, LoadOp::Clear([1.0; 4]), true)),
+        2,
+    ));
+    g.add_pass(draw(
+        "layer0",
+        colour,
+        LoadOp::Load,
+        Some((depth, LoadOp::Load, false)),
+        1,
+    ));
+    g.add_pass(draw(
+        "layer1",
+        colour,
+        LoadOp::Load,
+        Some((depth, LoadOp::Load, false)),
+        1,
+    ));
+    g.add_pass(readback(colour, buffer));
+    let plan = g.compile().unwrap();
+    assert_eq!(plan.steps.len(), 4);
+    assert_eq!(plan.rendering_instances(), 1);
+    assert!(plan.steps[0].begin.is_some() && plan.steps[2].end);
+    // Two transitions out of UNDEFINED up front, one to TRANSFER_SRC for the copy, none between
+    // the blending passes (rasterization order covers them).
+    let barriers: Vec<_> = plan.steps.iter().map(|s| s.barriers.len()).collect();
+    assert_eq!(barriers, vec![2, 0, 0, 1]);
+    let copy = plan.steps[3].barriers[0];
+    assert_eq!(
+        (copy.old_layout, copy.new_layout),
+        (Layout::ColourAttachment, Layout::TransferSrc)
+    );
+    assert_eq!(
+        (copy.src, copy.dst),
+        (Access::ColourAttachment, Access::TransferRead)
+    );
+}
+
+#[test]
+fn a_changed_attachment_set_starts_a_new_instance_with_a_barrier() {
+    let (mut g, colour, depth, buffer) = frame();
+    g.add_pass(draw(
+        "env",
+        colour,
+        LoadOp::Clear([0.0; 4]),
+        Some((depth, LoadOp::Clear([1.0; 4]), true)),
+        1,
+    ));
+    g.add_pass(draw("no-depth", colour, LoadOp::Load, None, 1));
+    g.add_pass(readback(colour, buffer));
+    let plan = g.compile().unwrap();
+    assert_eq!(plan.rendering_instances(), 2);
+    let second = &plan.steps[1].barriers;
+    assert_eq!(second.len(), 1, "{plan}");
+    assert_eq!(second[0].old_layout, Layout::ColourAttachment);
+    assert_eq!(
+        (second[0].src, second[0].dst),
+        (Access::ColourAttachment, Access::ColourAttachment)
+    );
+}
+
+#[test]
+fn unused_outputs_and_empty_draw_lists_are_culled() {
+    let (mut g, colour, depth, buffer) = frame();
+    let scratch = g.image("scratch", Format::Rgba8Unorm, 8, 8);
+    g.add_pass(draw(
+        "env",
+        colour,
+        LoadOp::Clear([0.0; 4]),
+        Some((depth, LoadOp::Clear([1.0; 4]), true)),
+        1,
+    ));
+    g.add_pass(draw("unread", scratch, LoadOp::Clear([0.0; 4]), None, 1));
+    g.add_pass(draw(
+        "empty",
+        colour,
+        LoadOp::Load,
+        Some((depth, LoadOp::Load, false)),
+        0,
+    ));
+    g.add_pass(draw(
+        "layer",
+        colour,
+        LoadOp::Load,
+        Some((depth, LoadOp::Load, false)),
+        1,
+    ));
+    g.add_pass(readback(colour, buffer));
+    let plan = g.compile().unwrap();
+    let names: Vec<_> = plan.steps.iter().map(|s| s.pass.name.as_str()).collect();
+    assert_eq!(names, ["env", "layer", "readback"]);
+    assert_eq!(
+        plan.culled,
+        vec![
+            ("unread".to_string(), CullReason::OutputUnused),
+            ("empty".to_string(), CullReason::EmptyDrawList)
+        ]
+    );
+    // A pass whose clear is overwritten by a later clear is dead too.
+    let (mut g, colour, _, buffer) = frame();
+    g.add_pass(draw(
+        "first-clear",
+        colour,
+        LoadOp::Clear([0.0; 4]),
+        None,
+        1,
+    ));
+    g.add_pass(draw(
+        "second-clear",
+        colour,
+        LoadOp::Clear([0.0; 4]),
+        None,
+        1,
+    ));
+    g.add_pass(readback(colour, buffer));
+    let plan = g.compile().unwrap();
+    assert_eq!(
+        plan.culled,
+        vec![("first-clear".to_string(), CullReason::OutputUnused)]
+    );
+}
+
+#[test]
+fn a_clearing_pass_with_no_draws_is_kept() {
+    let (mut g, colour, _, buffer) = frame();
+    g.add_pass(draw("clear", colour, LoadOp::Clear([0.0; 4]), None, 0));
+    g.add_pass(readback(colour, buffer));
+    assert_eq!(g.compile().unwrap().steps.len(), 2);
+}
+
+#[test]
+fn declaration_errors_are_values() {
+    let (mut g, colour, depth, buffer) = frame();
+    g.add_pass(draw("a", colour, LoadOp::Load, None, 1));
+    g.add_pass(readback(colour, buffer));
+    assert_eq!(
+        g.compile(),
+        Err(GraphError::ReadBeforeWrite {
+            pass: "a".into(),
+            image: "colour".into()
+        })
+    );
+
+    let (mut g, colour, _, _) = frame();
+    g.add_pass(draw("a", colour, LoadOp::Clear([0.0; 4]), None, 1));
+    g.add_pass(draw("a", colour, LoadOp::Load, None, 1));
+    assert_eq!(g.compile(), Err(GraphError::DuplicatePass("a".into())));
+
+    let (mut g, colour, depth2, _) = frame();
+    g.add_pass(draw(
+        "swapped",
+        depth2,
+        LoadOp::Clear([0.0; 4]),
+        Some((colour, LoadOp::Clear([1.0; 4]), true)),
+        1,
+    ));
+    assert!(matches!(
+        g.compile(),
+        Err(GraphError::BadAttachment { role: "colour", .. })
+    ));
+    let _ = depth;
+
+    let (mut g, colour, _, _) = frame();
+    g.add_pass(draw(
+        "unknown",
+        ImageId(99),
+        LoadOp::Clear([0.0; 4]),
+        None,
+        1,
+    ));
+    let _ = colour;
+    assert!(matches!(
+        g.compile(),
+        Err(GraphError::UnknownResource { kind: "image", .. })
+    ));
+}
+
+#[test]
+fn imported_images_are_readable_and_need_no_barrier() {
+    let (mut g, colour, _, buffer) = frame();
+    let texture = g.import_image("em", Format::Rgba32Float, 4, 4);
+    let mut pass = draw("sample", colour, LoadOp::Clear([0.0; 4]), None, 1);
+    if let PassKind::Draw { sampled, .. } = &mut pass.kind {
+        sampled.push(texture);
+    }
+    g.add_pass(pass);
+    g.add_pass(readback(colour, buffer));
+    let plan = g.compile().unwrap();
+    assert_eq!(
+        plan.steps[0].barriers.len(),
+        1,
+        "only the colour target's transition:\n{plan}"
+    );
+    let table = plan.to_string();
+    assert!(table.contains("colour: undefined->colour"), "{table}");
+}

@@ -1,0 +1,394 @@
+//! What a graph is declared with: resource handles and descriptions, attachments with load and
+//! store ops, fixed-function state, and passes.
+
+use std::fmt;
+
+/// Handle of an image declared in a graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ImageId(pub u32);
+
+/// Handle of a buffer declared in a graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct BufferId(pub u32);
+
+/// Image formats the graph knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// 8-bit unsigned normalized RGBA (fixed-point blending).
+    Rgba8Unorm,
+    /// 16-bit float RGBA.
+    Rgba16Float,
+    /// 32-bit float RGBA (exact against the f64 model).
+    Rgba32Float,
+    /// 32-bit float depth.
+    Depth32Float,
+}
+
+impl Format {
+    /// Whether this is a depth format.
+    pub fn is_depth(self) -> bool {
+        self == Format::Depth32Float
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Format::Rgba8Unorm => "rgba8",
+            Format::Rgba16Float => "rgba16f",
+            Format::Rgba32Float => "rgba32f",
+            Format::Depth32Float => "d32f",
+        })
+    }
+}
+
+/// An image's description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageInfo {
+    /// Debug name.
+    pub name: String,
+    /// Format.
+    pub format: Format,
+    /// Width × height of level 0.
+    pub extent: (u32, u32),
+    /// Imported images exist before the frame (uploaded textures) in [`Layout::ShaderRead`].
+    pub imported: bool,
+}
+
+/// A buffer's description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BufferInfo {
+    /// Debug name.
+    pub name: String,
+    /// Size in bytes.
+    pub size: u64,
+}
+
+/// Image layouts, in the graph's words (render maps them to Vulkan's).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Layout {
+    /// Contents undefined.
+    Undefined,
+    /// Colour attachment.
+    ColourAttachment,
+    /// Depth attachment.
+    DepthAttachment,
+    /// Sampled in shaders.
+    ShaderRead,
+    /// Source of a copy.
+    TransferSrc,
+}
+
+impl fmt::Display for Layout {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Layout::Undefined => "undefined",
+            Layout::ColourAttachment => "colour",
+            Layout::DepthAttachment => "depth",
+            Layout::ShaderRead => "shader-read",
+            Layout::TransferSrc => "transfer-src",
+        })
+    }
+}
+
+/// How an access uses a resource (stage and access together), for barriers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Access {
+    /// Nothing yet.
+    None,
+    /// Colour attachment read (blend/load) and write.
+    ColourAttachment,
+    /// Depth test and/or write.
+    DepthAttachment,
+    /// Sampled by the fragment shader.
+    FragmentSample,
+    /// Read by the vertex shader (storage buffer).
+    VertexStorageRead,
+    /// Copy source.
+    TransferRead,
+    /// Copy destination.
+    TransferWrite,
+}
+
+/// What happens to an attachment when a pass begins.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LoadOp {
+    /// Keep the contents (blending onto them).
+    Load,
+    /// Clear to a colour (or depth in `[0]`).
+    Clear([f32; 4]),
+    /// Contents undefined.
+    DontCare,
+}
+
+/// What happens to an attachment when a pass ends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StoreOp {
+    /// Keep the results.
+    Store,
+    /// Discard them.
+    DontCare,
+}
+
+/// Colour blending of one attachment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Blend {
+    /// No blending: the fragment replaces the pixel.
+    Replace,
+    /// Front-to-back "over" on colour and alpha: `src·(1 − dstα) + dst·1`.
+    FrontToBackOver,
+}
+
+impl fmt::Display for Blend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Blend::Replace => "replace",
+            Blend::FrontToBackOver => "src*(1-dstA)+dst",
+        })
+    }
+}
+
+/// Which colour channels a pass writes (bit 0 R … bit 3 A).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ColourMask(pub u8);
+
+impl ColourMask {
+    /// All four channels.
+    pub const RGBA: ColourMask = ColourMask(0b1111);
+    /// Alpha only: with an output of 0 this is the paper's alpha clear (rgb×1, α×0).
+    pub const A: ColourMask = ColourMask(0b1000);
+}
+
+impl fmt::Display for ColourMask {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (bit, c) in ['R', 'G', 'B', 'A'].iter().enumerate() {
+            if self.0 & (1 << bit) != 0 {
+                write!(f, "{c}")?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Depth comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CompareOp {
+    /// Pass when nearer.
+    Less,
+    /// Pass when nearer or equal (the passes after a lens prime).
+    LessOrEqual,
+}
+
+/// Face culling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Cull {
+    /// Draw both faces.
+    None,
+    /// Drop back faces (counter-clockwise is front).
+    Back,
+}
+
+/// A colour attachment of a draw pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColourAttachment {
+    /// The image.
+    pub image: ImageId,
+    /// Load op.
+    pub load: LoadOp,
+    /// Store op.
+    pub store: StoreOp,
+    /// Blending.
+    pub blend: Blend,
+    /// Channels written.
+    pub write_mask: ColourMask,
+}
+
+/// The depth attachment of a draw pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthAttachment {
+    /// The image.
+    pub image: ImageId,
+    /// Load op (`Clear([d, ..])` clears to depth d).
+    pub load: LoadOp,
+    /// Store op.
+    pub store: StoreOp,
+    /// Depth test, if any.
+    pub test: Option<CompareOp>,
+    /// Whether depth is written.
+    pub write: bool,
+}
+
+/// The pipeline a draw pass needs, derived from its declaration: two passes with equal keys share
+/// one pipeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct PipelineKey {
+    /// Shader program name (render maps it to entry points).
+    pub program: &'static str,
+    /// Colour format.
+    pub colour_format: Format,
+    /// Depth format, if a depth attachment is bound.
+    pub depth_format: Option<Format>,
+    /// Blending.
+    pub blend: Blend,
+    /// Write mask.
+    pub write_mask: ColourMask,
+    /// Depth test.
+    pub depth_test: Option<CompareOp>,
+    /// Depth write.
+    pub depth_write: bool,
+    /// Culling.
+    pub cull: Cull,
+}
+
+/// What a pass does.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PassKind<D> {
+    /// Rasterize `draws` with `program` into the attachments.
+    Draw {
+        /// Shader program name.
+        program: &'static str,
+        /// Colour attachment.
+        colour: ColourAttachment,
+        /// Depth attachment.
+        depth: Option<DepthAttachment>,
+        /// Face culling.
+        cull: Cull,
+        /// Images sampled by the fragment shader.
+        sampled: Vec<ImageId>,
+        /// Buffers read by the vertex shader.
+        storage: Vec<BufferId>,
+        /// The draws, as payloads `render/` understands.
+        draws: Vec<D>,
+    },
+    /// Copy an image into a host-readable buffer (a side effect: it keeps what it reads alive).
+    Readback {
+        /// Source image.
+        image: ImageId,
+        /// Destination buffer.
+        buffer: BufferId,
+    },
+}
+
+/// A declared pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pass<D> {
+    /// Unique name (debug label).
+    pub name: String,
+    /// A category for counting (`prime`, `layer`, `alpha-clear`, …).
+    pub category: &'static str,
+    /// Kept even if nothing reads its outputs.
+    pub side_effect: bool,
+    /// What it does.
+    pub kind: PassKind<D>,
+}
+
+impl<D> Pass<D> {
+    /// The pipeline this pass needs (draw passes only).
+    pub fn pipeline_key(&self, images: &[ImageInfo]) -> Option<PipelineKey> {
+        match &self.kind {
+            PassKind::Draw {
+                program,
+                colour,
+                depth,
+                cull,
+                ..
+            } => Some(PipelineKey {
+                program,
+                colour_format: images.get(colour.image.0 as usize)?.format,
+                depth_format: match depth {
+                    Some(d) => Some(images.get(d.image.0 as usize)?.format),
+                    None => None,
+                },
+                blend: colour.blend,
+                write_mask: colour.write_mask,
+                depth_test: depth.and_then(|d| d.test),
+                depth_write: depth.is_some_and(|d| d.write),
+                cull: *cull,
+            }),
+            PassKind::Readback { .. } => None,
+        }
+    }
+
+    /// Number of draws (0 for a readback).
+    pub fn draw_count(&self) -> usize {
+        match &self.kind {
+            PassKind::Draw { draws, .. } => draws.len(),
+            PassKind::Readback { .. } => 0,
+        }
+    }
+}
+
+/// A graph being declared. Passes run in declaration order.
+#[derive(Clone, Debug)]
+pub struct Graph<D> {
+    pub(crate) images: Vec<ImageInfo>,
+    pub(crate) buffers: Vec<BufferInfo>,
+    pub(crate) passes: Vec<Pass<D>>,
+}
+
+impl<D> Default for Graph<D> {
+    fn default() -> Self {
+        Graph {
+            images: Vec::new(),
+            buffers: Vec::new(),
+            passes: Vec::new(),
+        }
+    }
+}
+
+impl<D> Graph<D> {
+    /// An empty graph.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Declares an image the frame creates (transient or an output).
+    pub fn image(&mut self, name: &str, format: Format, width: u32, height: u32) -> ImageId {
+        self.push_image(name, format, (width, height), false)
+    }
+
+    /// Declares an image that exists before the frame, already in [`Layout::ShaderRead`].
+    pub fn import_image(&mut self, name: &str, format: Format, width: u32, height: u32) -> ImageId {
+        self.push_image(name, format, (width, height), true)
+    }
+
+    fn push_image(
+        &mut self,
+        name: &str,
+        format: Format,
+        extent: (u32, u32),
+        imported: bool,
+    ) -> ImageId {
+        self.images.push(ImageInfo {
+            name: name.into(),
+            format,
+            extent,
+            imported,
+        });
+        ImageId(self.images.len() as u32 - 1)
+    }
+
+    /// Declares a buffer (vertex data, storage or readback).
+    pub fn buffer(&mut self, name: &str, size: u64) -> BufferId {
+        self.buffers.push(BufferInfo {
+            name: name.into(),
+            size,
+        });
+        BufferId(self.buffers.len() as u32 - 1)
+    }
+
+    /// Adds a pass after the others.
+    pub fn add_pass(&mut self, pass: Pass<D>) {
+        self.passes.push(pass);
+    }
+
+    /// The declared passes.
+    pub fn passes(&self) -> &[Pass<D>] {
+        &self.passes
+    }
+
+    /// The declared images.
+    pub fn images(&self) -> &[ImageInfo] {
+        &self.images
+    }
+}

@@ -1,0 +1,787 @@
+//! Cube-map sampling in f64, step by step as the Vulkan specification describes it (chapter
+//! "Image Operations": "Cube Map Face Selection and Transformations", "Cube Map Derivative
+//! Transformation", "Scale Factor Operation, LOD Operation and Image Level(s) Selection",
+//! "Texel Filtering", "Cube Map Edge Handling"), for the sampler state the compositor uses:
+//! linear min/mag filter, `VK_SAMPLER_MIPMAP_MODE_LINEAR`, seamless cube filtering, minLod 0,
+//! maxLod = levels − 1, no bias, no anisotropy.
+//!
+//! This is the reference the CPU frame model ([`super::model`]) samples through; it never rounds
+//! to f32, so differences against a GPU measure the GPU's arithmetic, not this code's.
+//!
+//! Where the specification leaves a choice to the implementation, this module takes the choice
+//! the specification recommends (and that Mesa's llvmpipe/lavapipe makes), and says so:
+//! - face-selection ties: z wins over y and x, y wins over x;
+//! - a bilinear footprint that falls off a face in both i and j (a cube corner) replaces the
+//!   missing texel by the average of the three texels that exist. [`CubeSample::corner`] reports
+//!   it so that comparisons can leave such samples out.
+
+use glam::DVec3;
+
+use super::frame_input::CubeMap;
+
+/// One face of a cube map, numbered as Vulkan numbers cube-map layers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum CubeFace {
+    /// Layer 0, major axis +x.
+    PositiveX = 0,
+    /// Layer 1, major axis −x.
+    NegativeX = 1,
+    /// Layer 2, major axis +y.
+    PositiveY = 2,
+    /// Layer 3, major axis −y.
+    NegativeY = 3,
+    /// Layer 4, major axis +z.
+    PositiveZ = 4,
+    /// Layer 5, major axis −z.
+    NegativeZ = 5,
+}
+
+impl CubeFace {
+    /// All faces in layer order.
+    pub const ALL: [CubeFace; 6] = [
+        CubeFace::PositiveX,
+        CubeFace::NegativeX,
+        CubeFace::PositiveY,
+        CubeFace::NegativeY,
+        CubeFace::PositiveZ,
+        CubeFace::NegativeZ,
+    ];
+
+    /// The face's layer number (0..6), the index into [`CubeMap::levels`]`[level]`.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The spec's face table as three unit vectors `(s_axis, t_axis, normal)` such that for a
+    /// direction r on this face `sc = s_axis·r`, `tc = t_axis·r` and `|rc| = normal·r`.
+    ///
+    /// Writing the table as a linear map makes the derivative table fall out of it: the spec's
+    /// `∂rc/∂x` for a negative face is `−∂r/∂x`, i.e. the derivative of `|rc| = normal·r`.
+    pub fn axes(self) -> (DVec3, DVec3, DVec3) {
+        match self {
+            // sc = −rz, tc = −ry, rc = rx
+            CubeFace::PositiveX => (DVec3::NEG_Z, DVec3::NEG_Y, DVec3::X),
+            // sc = +rz, tc = −ry, rc = rx
+            CubeFace::NegativeX => (DVec3::Z, DVec3::NEG_Y, DVec3::NEG_X),
+            // sc = +rx, tc = +rz, rc = ry
+            CubeFace::PositiveY => (DVec3::X, DVec3::Z, DVec3::Y),
+            // sc = +rx, tc = −rz, rc = ry
+            CubeFace::NegativeY => (DVec3::X, DVec3::NEG_Z, DVec3::NEG_Y),
+            // sc = +rx, tc = −ry, rc = rz
+            CubeFace::PositiveZ => (DVec3::X, DVec3::NEG_Y, DVec3::Z),
+            // sc = −rx, tc = −ry, rc = rz
+            CubeFace::NegativeZ => (DVec3::NEG_X, DVec3::NEG_Y, DVec3::NEG_Z),
+        }
+    }
+
+    /// The direction through the point `(sc, tc)` of this face's plane at unit distance, i.e.
+    /// the inverse of the face table: `face_coordinates_on(self, direction(sc, tc))` gives back
+    /// `sc, tc` for `sc, tc ∈ [−1, 1]`.
+    pub fn direction(self, sc: f64, tc: f64) -> DVec3 {
+        let (s_axis, t_axis, normal) = self.axes();
+        normal + sc * s_axis + tc * t_axis
+    }
+}
+
+/// A direction expressed on one cube face: the spec's `sc, tc, |rc|` and the face coordinates
+/// `s = ½(sc/|rc| + 1)`, `t = ½(tc/|rc| + 1)` in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceCoordinates {
+    /// The face.
+    pub face: CubeFace,
+    /// The spec's `sc` (not divided by the major axis).
+    pub sc: f64,
+    /// The spec's `tc` (not divided by the major axis).
+    pub tc: f64,
+    /// `|rc|`, the magnitude of the major-axis component (> 0 for a non-zero direction).
+    pub major: f64,
+    /// Face coordinate s in [0, 1] (left to right along the face's rows).
+    pub s: f64,
+    /// Face coordinate t in [0, 1] (row 0 at t = 0).
+    pub t: f64,
+}
+
+/// The face Vulkan selects for `direction`: the largest-magnitude component, ties resolved as
+/// the spec recommends (z over y and x, then y over x), the sign taken from the sign bit (so −0
+/// selects the negative face, as llvmpipe does; it only matters for the zero vector).
+pub fn major_face(direction: DVec3) -> CubeFace {
+    let a = direction.abs();
+    if a.z >= a.x && a.z >= a.y {
+        if direction.z.is_sign_negative() {
+            CubeFace::NegativeZ
+        } else {
+            CubeFace::PositiveZ
+        }
+    } else if a.y >= a.x {
+        if direction.y.is_sign_negative() {
+            CubeFace::NegativeY
+        } else {
+            CubeFace::PositiveY
+        }
+    } else if direction.x.is_sign_negative() {
+        CubeFace::NegativeX
+    } else {
+        CubeFace::PositiveX
+    }
+}
+
+/// `direction` on the face Vulkan selects for it ([`major_face`]).
+pub fn select_face(direction: DVec3) -> FaceCoordinates {
+    face_coordinates_on(major_face(direction), direction)
+}
+
+/// `direction` expressed on a given `face` (its plane extended beyond the face's square, so s
+/// and t leave [0, 1] for directions the face does not own). Used for the selected face, and for
+/// the competing face where selection is a tie.
+pub fn face_coordinates_on(face: CubeFace, direction: DVec3) -> FaceCoordinates {
+    let (s_axis, t_axis, normal) = face.axes();
+    let sc = s_axis.dot(direction);
+    let tc = t_axis.dot(direction);
+    let major = normal.dot(direction);
+    FaceCoordinates {
+        face,
+        sc,
+        tc,
+        major,
+        s: 0.5 * (sc / major + 1.0),
+        t: 0.5 * (tc / major + 1.0),
+    }
+}
+
+/// The spec's cube-map derivative transformation: the screen-space derivative `(∂s, ∂t)` of the
+/// face coordinates of `coordinates`, given the derivative `d_direction` of the direction.
+///
+/// With `m = |rc| = normal·r` (so `∂m = normal·∂r`, which is the spec's derivative table),
+/// `s = ½(sc/m + 1)` and the quotient rule give
+/// `∂s = ½ (∂sc·m − sc·∂m) / m²` and `∂t = ½ (∂tc·m − tc·∂m) / m²`.
+pub fn face_derivatives(coordinates: &FaceCoordinates, d_direction: DVec3) -> (f64, f64) {
+    let (s_axis, t_axis, normal) = coordinates.face.axes();
+    let d_sc = s_axis.dot(d_direction);
+    let d_tc = t_axis.dot(d_direction);
+    let d_major = normal.dot(d_direction);
+    let m = coordinates.major;
+    let m2 = m * m;
+    (
+        0.5 * (d_sc * m - coordinates.sc * d_major) / m2,
+        0.5 * (d_tc * m - coordinates.tc * d_major) / m2,
+    )
+}
+
+/// The LOD λ for `direction` forced onto `face`, clamped to `[0, levels − 1]` (see [`cube_lod`]).
+pub fn cube_lod_on_face(
+    face: CubeFace,
+    cube_size: u32,
+    levels: u32,
+    direction: DVec3,
+    ddx: DVec3,
+    ddy: DVec3,
+) -> f64 {
+    let coordinates = face_coordinates_on(face, direction);
+    let (ds_dx, dt_dx) = face_derivatives(&coordinates, ddx);
+    let (ds_dy, dt_dy) = face_derivatives(&coordinates, ddy);
+    let size = f64::from(cube_size);
+    // Scale factor operation: m_ux = |∂s/∂x|·w_base …; isotropic ρ = max(ρx, ρy) with the exact
+    // ρx = sqrt(m_ux² + m_vx²) (the spec allows approximations; lavapipe computes this one
+    // unless GALLIVM_PERF=rho_approx).
+    let rho_x = size * ds_dx.hypot(dt_dx);
+    let rho_y = size * ds_dy.hypot(dt_dy);
+    let lambda = rho_x.max(rho_y).log2();
+    // λ = clamp(λ_base, minLod = 0, maxLod = q); ρ = 0 (log2 = −∞) and NaN give level 0.
+    let max_lod = f64::from(levels.max(1) - 1);
+    if lambda > 0.0 {
+        lambda.min(max_lod)
+    } else {
+        0.0
+    }
+}
+
+/// The implicit LOD λ of a cube-map sample at `direction` whose screen-space derivatives are
+/// `ddx = ∂r/∂x` and `ddy = ∂r/∂y`, for a cube of level-0 face size `cube_size` and `levels`
+/// mip levels; clamped to `[0, levels − 1]` (sampler minLod 0, maxLod levels − 1, no bias).
+///
+/// `λ = log2 max(ρx, ρy)`, `ρx = cube_size·sqrt((∂s/∂x)² + (∂t/∂x)²)`, with `∂s/∂x` from the
+/// cube-map derivative transformation ([`face_derivatives`]) on the face `direction` selects.
+pub fn cube_lod(cube_size: u32, levels: u32, direction: DVec3, ddx: DVec3, ddy: DVec3) -> f64 {
+    cube_lod_on_face(
+        major_face(direction),
+        cube_size,
+        levels,
+        direction,
+        ddx,
+        ddy,
+    )
+}
+
+/// Where a texel `(i, j)` of a `size × size` level of `face` is read from, following the spec's
+/// cube-map edge handling: inside the face, itself; beyond exactly one edge, the adjacent texel
+/// of the neighbouring face; beyond both (a corner), `None`.
+///
+/// Rather than transcribing the spec's 24-entry table, the neighbour is found geometrically,
+/// which is what the table encodes: the texel centre's face coordinate beyond the edge is folded
+/// over the edge onto the neighbouring face (the same distance past the edge becomes the same
+/// distance into the neighbour), and the folded point is looked up by face selection. All the
+/// numbers involved are dyadic, so the lookup is exact. A unit test checks the result against
+/// llvmpipe's table.
+pub fn texel_source(face: CubeFace, size: u32, i: i64, j: i64) -> Option<(CubeFace, u32, u32)> {
+    let n = i64::from(size);
+    let i_out = !(0..n).contains(&i);
+    let j_out = !(0..n).contains(&j);
+    match (i_out, j_out) {
+        // The indices are in 0..size here, so they fit in u32.
+        (false, false) => Some((face, i as u32, j as u32)),
+        (true, true) => None,
+        _ => {
+            let nf = size as f64;
+            let sc = 2.0 * (i as f64 + 0.5) / nf - 1.0;
+            let tc = 2.0 * (j as f64 + 0.5) / nf - 1.0;
+            let beyond = (sc.abs().max(tc.abs()) - 1.0).max(0.0);
+            let (_, _, normal) = face.axes();
+            let folded = face.direction(sc.clamp(-1.0, 1.0), tc.clamp(-1.0, 1.0)) - beyond * normal;
+            let there = select_face(folded);
+            let to_index = |coordinate: f64| -> u32 {
+                ((coordinate * nf).floor() as i64).clamp(0, n - 1) as u32
+            };
+            Some((there.face, to_index(there.s), to_index(there.t)))
+        }
+    }
+}
+
+/// One texel of a cube map as f64.
+fn texel(cube: &CubeMap, level: usize, face: CubeFace, i: u32, j: u32) -> [f64; 4] {
+    let size = cube.level_size(level) as usize;
+    let t = cube.levels[level][face.index()][j as usize * size + i as usize];
+    [
+        f64::from(t[0]),
+        f64::from(t[1]),
+        f64::from(t[2]),
+        f64::from(t[3]),
+    ]
+}
+
+/// A filtered cube-map value and whether its footprint used an implementation-defined corner
+/// texel with a non-zero weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CubeSample {
+    /// Premultiplied RGBA.
+    pub rgba: [f64; 4],
+    /// A cube-corner texel (see [`texel_source`]) entered the filter with a non-zero weight and
+    /// the three texels it is made from differ, so the value depends on the implementation's
+    /// corner rule (here: the average of the three).
+    pub corner: bool,
+}
+
+/// Bilinear filtering within one mip level at the face coordinates of `coordinates`, with
+/// seamless edge handling (spec "Texel Linear Filtering": `i0 = ⌊u − ½⌋`, `α = frac(u − ½)`,
+/// `u = s·size_level`, likewise j and β).
+pub fn sample_level_bilinear(
+    cube: &CubeMap,
+    level: usize,
+    coordinates: &FaceCoordinates,
+) -> CubeSample {
+    let size = cube.level_size(level);
+    let n = f64::from(size);
+    let u = coordinates.s * n - 0.5;
+    let v = coordinates.t * n - 0.5;
+    let (i0, j0) = (u.floor(), v.floor());
+    let (alpha, beta) = (u - i0, v - j0);
+    let (i0, j0) = (i0 as i64, j0 as i64);
+    // Footprint order: (i0,j0), (i1,j0), (i0,j1), (i1,j1).
+    let offsets = [(0, 0), (1, 0), (0, 1), (1, 1)];
+    let weights = [
+        (1.0 - alpha) * (1.0 - beta),
+        alpha * (1.0 - beta),
+        (1.0 - alpha) * beta,
+        alpha * beta,
+    ];
+    let mut values: [Option<[f64; 4]>; 4] = [None; 4];
+    for (value, (di, dj)) in values.iter_mut().zip(offsets) {
+        *value = texel_source(coordinates.face, size, i0 + di, j0 + dj)
+            .map(|(face, i, j)| texel(cube, level, face, i, j));
+    }
+    let mut corner = false;
+    let mut rgba = [0.0; 4];
+    for k in 0..4 {
+        let value = match values[k] {
+            Some(value) => value,
+            None => {
+                // The corner texel: the spec's recommended average of the three others (at most
+                // one footprint texel can be a corner, so the others all exist). The spec binds
+                // every implementation only where the three are equal: the result must then be
+                // that value, so only unequal texels make the sample implementation-defined.
+                let others: Vec<[f64; 4]> = values.iter().flatten().copied().collect();
+                corner |= weights[k] > 0.0 && others.iter().any(|other| *other != others[0]);
+                let mut sum = [0.0; 4];
+                for other in &others {
+                    for c in 0..4 {
+                        sum[c] += other[c] / 3.0;
+                    }
+                }
+                sum
+            }
+        };
+        for c in 0..4 {
+            rgba[c] += weights[k] * value[c];
+        }
+    }
+    CubeSample { rgba, corner }
+}
+
+/// Trilinear sample of `cube` at `direction` with LOD `lambda` (clamped to `[0, levels − 1]`),
+/// reporting corner use (see [`CubeSample`]).
+///
+/// Mipmap selection as the spec's LINEAR mode: `d = clamp(λ, 0, q)`, levels `⌊d⌋` and
+/// `min(⌊d⌋ + 1, q)` blended by `δ = frac(d)`.
+pub fn sample_cube(cube: &CubeMap, direction: DVec3, lambda: f64) -> CubeSample {
+    let coordinates = select_face(direction);
+    let q = cube.levels.len().saturating_sub(1);
+    let d = if lambda > 0.0 {
+        lambda.min(q as f64)
+    } else {
+        0.0
+    };
+    let hi = (d.floor() as usize).min(q);
+    let lo = (hi + 1).min(q);
+    let delta = d - hi as f64;
+    let first = sample_level_bilinear(cube, hi, &coordinates);
+    if lo == hi || delta == 0.0 {
+        return first;
+    }
+    let second = sample_level_bilinear(cube, lo, &coordinates);
+    let mut rgba = [0.0; 4];
+    for (c, value) in rgba.iter_mut().enumerate() {
+        *value = (1.0 - delta) * first.rgba[c] + delta * second.rgba[c];
+    }
+    CubeSample {
+        rgba,
+        corner: first.corner || second.corner,
+    }
+}
+
+/// Trilinear, seamless sample of `cube` at `direction` (need not be normalized) with LOD
+/// `lambda`; premultiplied RGBA. See [`sample_cube`].
+pub fn sample_cube_trilinear(cube: &CubeMap, direction: DVec3, lambda: f64) -> [f64; 4] {
+    sample_cube(cube, direction, lambda).rgba
+}
+
+/// The faces whose major-axis magnitude is within `relative_tolerance` of the largest one: more
+/// than one means face selection for `direction` is (nearly) a tie, and a GPU computing in f32
+/// may pick another face than the exact selection.
+pub fn competing_faces(direction: DVec3, relative_tolerance: f64) -> Vec<CubeFace> {
+    let a = direction.abs();
+    let largest = a.max_element();
+    let threshold = largest * (1.0 - relative_tolerance);
+    let mut faces = Vec::with_capacity(3);
+    let per_axis = [
+        (a.x, direction.x, CubeFace::PositiveX, CubeFace::NegativeX),
+        (a.y, direction.y, CubeFace::PositiveY, CubeFace::NegativeY),
+        (a.z, direction.z, CubeFace::PositiveZ, CubeFace::NegativeZ),
+    ];
+    for (magnitude, component, positive, negative) in per_axis {
+        if magnitude >= threshold && magnitude > 0.0 {
+            faces.push(if component.is_sign_negative() {
+                negative
+            } else {
+                positive
+            });
+        }
+    }
+    faces
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64;
+
+    fn random_cube(rng: &mut Pcg64, size: u32) -> CubeMap {
+        let levels = (0..CubeMap::full_chain_levels(size))
+            .map(|l| {
+                let n = ((size >> l).max(1) as usize).pow(2);
+                std::array::from_fn(|_| {
+                    (0..n)
+                        .map(|_| std::array::from_fn(|_| rng.gen_range(0.0f32..1.0)))
+                        .collect()
+                })
+            })
+            .collect();
+        CubeMap { size, levels }
+    }
+
+    fn close(a: [f64; 4], b: [f64; 4], tolerance: f64) -> bool {
+        a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tolerance)
+    }
+
+    #[test]
+    fn uniform_cube_samples_to_its_texel_everywhere_at_every_lod() {
+        let mut rng = Pcg64::seed_from_u64(1);
+        let texel = [0.25f32, 0.5, 0.125, 0.75];
+        let expected = texel.map(f64::from);
+        for size in [1, 2, 8, 32] {
+            let cube = CubeMap::uniform(size, texel);
+            for _ in 0..500 {
+                let direction = DVec3::new(
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                );
+                let lambda = rng.gen_range(-1.0..7.0);
+                let sample = sample_cube(&cube, direction, lambda);
+                assert!(
+                    close(sample.rgba, expected, 1e-12),
+                    "{sample:?} at {direction}"
+                );
+            }
+            // Cube corners and edges too: the corner rule keeps a uniform value uniform.
+            for direction in [
+                DVec3::ONE,
+                DVec3::new(1.0, -1.0, 0.3),
+                DVec3::new(-1.0, 0.0, 1.0),
+            ] {
+                let sample = sample_cube_trilinear(&cube, direction, 0.0);
+                assert!(close(sample, expected, 1e-12));
+            }
+        }
+    }
+
+    #[test]
+    fn face_selection_for_the_axes_and_ties() {
+        let cases = [
+            (DVec3::X, CubeFace::PositiveX),
+            (DVec3::NEG_X, CubeFace::NegativeX),
+            (DVec3::Y, CubeFace::PositiveY),
+            (DVec3::NEG_Y, CubeFace::NegativeY),
+            (DVec3::Z, CubeFace::PositiveZ),
+            (DVec3::NEG_Z, CubeFace::NegativeZ),
+            // Ties: z wins over y and x, y wins over x.
+            (DVec3::new(1.0, 1.0, 1.0), CubeFace::PositiveZ),
+            (DVec3::new(1.0, 0.5, -1.0), CubeFace::NegativeZ),
+            (DVec3::new(-1.0, 1.0, 0.0), CubeFace::PositiveY),
+            (DVec3::new(2.0, -2.0, 1.0), CubeFace::NegativeY),
+        ];
+        for (direction, face) in cases {
+            assert_eq!(major_face(direction), face, "{direction}");
+            let coordinates = select_face(direction);
+            if direction.abs().max_element() == direction.abs().min_element() {
+                continue;
+            }
+            if direction.length_squared() == 1.0 {
+                // An axis hits its face's centre.
+                assert_eq!((coordinates.s, coordinates.t), (0.5, 0.5));
+            }
+        }
+    }
+
+    #[test]
+    fn face_coordinates_follow_the_spec_table() {
+        // Each direction has |major| = 2, sc and tc worked out by hand from the spec's table
+        // (sc, tc) = (−rz, −ry) for +X, (+rz, −ry) −X, (+rx, +rz) +Y, (+rx, −rz) −Y,
+        // (+rx, −ry) +Z, (−rx, −ry) −Z; then s = ½(sc/2 + 1), t = ½(tc/2 + 1).
+        let cases = [
+            // +X: sc = −(−1) = 1, tc = −0.5 → s = 0.75, t = 0.375
+            (DVec3::new(2.0, 0.5, -1.0), CubeFace::PositiveX, 0.75, 0.375),
+            // −X: sc = −1, tc = −0.5 → s = 0.25, t = 0.375
+            (
+                DVec3::new(-2.0, 0.5, -1.0),
+                CubeFace::NegativeX,
+                0.25,
+                0.375,
+            ),
+            // +Y: sc = 1, tc = −1 → s = 0.75, t = 0.25
+            (DVec3::new(1.0, 2.0, -1.0), CubeFace::PositiveY, 0.75, 0.25),
+            // −Y: sc = 1, tc = 1 → s = 0.75, t = 0.75
+            (DVec3::new(1.0, -2.0, -1.0), CubeFace::NegativeY, 0.75, 0.75),
+            // +Z: sc = 1, tc = −0.5 → s = 0.75, t = 0.375
+            (DVec3::new(1.0, 0.5, 2.0), CubeFace::PositiveZ, 0.75, 0.375),
+            // −Z: sc = −1, tc = −0.5 → s = 0.25, t = 0.375
+            (DVec3::new(1.0, 0.5, -2.0), CubeFace::NegativeZ, 0.25, 0.375),
+        ];
+        for (direction, face, s, t) in cases {
+            let coordinates = select_face(direction);
+            assert_eq!(coordinates.face, face);
+            assert_eq!((coordinates.s, coordinates.t), (s, t), "{face:?}");
+            // And the inverse map returns the direction (scaled to |major| = 1).
+            let back = face.direction(2.0 * s - 1.0, 2.0 * t - 1.0);
+            assert!((back * 2.0 - direction).length() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn edge_texels_come_from_the_neighbour_llvmpipe_names() {
+        // llvmpipe's lp_build_cube_new_coords: next face when falling off each edge, per face
+        // 0..6: x < 0 → 451110, x ≥ size → 540001, y < 0 → 225422, y ≥ size → 334533.
+        let next = [
+            [4, 5, 2, 3],
+            [5, 4, 2, 3],
+            [1, 0, 5, 4],
+            [1, 0, 4, 5],
+            [1, 0, 2, 3],
+            [0, 1, 2, 3],
+        ];
+        let size = 8u32;
+        let max = i64::from(size) - 1;
+        for face in CubeFace::ALL {
+            let row = next[face.index()];
+            for k in 0..=max {
+                let off = [(-1, k), (max + 1, k), (k, -1), (k, max + 1)];
+                for (edge, (i, j)) in off.into_iter().enumerate() {
+                    let (there, ti, tj) = texel_source(face, size, i, j).unwrap();
+                    assert_eq!(there.index(), row[edge], "{face:?} edge {edge}");
+                    // The neighbour texel lies on its face's border, and its centre is the
+                    // closest one to the point just past our edge.
+                    let border = ti == 0 || tj == 0 || ti as i64 == max || tj as i64 == max;
+                    assert!(border);
+                }
+            }
+        }
+        // Spot checks of the coordinates against llvmpipe's "new xcoords / ycoords" table.
+        // +X, x < 0 → +Z at (max, t).
+        assert_eq!(
+            texel_source(CubeFace::PositiveX, 8, -1, 3),
+            Some((CubeFace::PositiveZ, 7, 3))
+        );
+        // +Y, x < 0 → −X at (t, 0).
+        assert_eq!(
+            texel_source(CubeFace::PositiveY, 8, -1, 3),
+            Some((CubeFace::NegativeX, 3, 0))
+        );
+        // +Y, y < 0 → −Z at (max − s, 0).
+        assert_eq!(
+            texel_source(CubeFace::PositiveY, 8, 2, -1),
+            Some((CubeFace::NegativeZ, 5, 0))
+        );
+        // −Y, y ≥ size → −Z at (max − s, max).
+        assert_eq!(
+            texel_source(CubeFace::NegativeY, 8, 2, 8),
+            Some((CubeFace::NegativeZ, 5, 7))
+        );
+        // +Z, y ≥ size → −Y at (s, 0).
+        assert_eq!(
+            texel_source(CubeFace::PositiveZ, 8, 2, 8),
+            Some((CubeFace::NegativeY, 2, 0))
+        );
+        // −X, x ≥ size → +Z at (0, t).
+        assert_eq!(
+            texel_source(CubeFace::NegativeX, 8, 8, 6),
+            Some((CubeFace::PositiveZ, 0, 6))
+        );
+        // Corners have no source.
+        assert_eq!(texel_source(CubeFace::PositiveZ, 8, -1, 8), None);
+    }
+
+    #[test]
+    fn linear_ramp_samples_bilinearly_exact_inside_a_face() {
+        let size = 16u32;
+        let mut cube = CubeMap::uniform(size, [0.0; 4]);
+        let n = size as usize;
+        let ramp = |i: f64, j: f64| [0.1 + 0.01 * i, 0.2 + 0.02 * j, 0.01 * i + 0.03 * j, 0.5];
+        for face in CubeFace::ALL {
+            for j in 0..n {
+                for i in 0..n {
+                    cube.levels[0][face.index()][j * n + i] =
+                        ramp(i as f64, j as f64).map(|v| v as f32);
+                }
+            }
+        }
+        let mut rng = Pcg64::seed_from_u64(2);
+        for face in CubeFace::ALL {
+            for _ in 0..200 {
+                // Interior: u − ½ within [0, size − 1] keeps the footprint on the face.
+                let u = rng.gen_range(0.5..(size as f64 - 0.5));
+                let v = rng.gen_range(0.5..(size as f64 - 0.5));
+                let (s, t) = (u / size as f64, v / size as f64);
+                let direction = face.direction(2.0 * s - 1.0, 2.0 * t - 1.0) * 3.0;
+                let sample = sample_cube(&cube, direction, 0.0);
+                // The f32 texels are the ramp to within f32 rounding.
+                let expected = ramp(u - 0.5, v - 0.5);
+                assert!(
+                    close(sample.rgba, expected, 1e-6),
+                    "{face:?} {sample:?} {expected:?}"
+                );
+                assert!(!sample.corner);
+            }
+        }
+    }
+
+    #[test]
+    fn trilinear_at_half_lod_averages_two_levels() {
+        let mut rng = Pcg64::seed_from_u64(3);
+        let cube = random_cube(&mut rng, 16);
+        for _ in 0..100 {
+            let face = CubeFace::ALL[rng.gen_range(0..6)];
+            let direction =
+                face.direction(rng.gen_range(-0.9..0.9), rng.gen_range(-0.9..0.9)) * 1.7;
+            let coordinates = select_face(direction);
+            let level0 = sample_level_bilinear(&cube, 0, &coordinates).rgba;
+            let level1 = sample_level_bilinear(&cube, 1, &coordinates).rgba;
+            let expected: [f64; 4] = std::array::from_fn(|c| 0.5 * (level0[c] + level1[c]));
+            let got = sample_cube_trilinear(&cube, direction, 0.5);
+            assert!(close(got, expected, 1e-14));
+            // Beyond the last level the sample is the last level's (1×1) value.
+            let last = sample_cube_trilinear(&cube, direction, 99.0);
+            let q = cube.levels.len() - 1;
+            assert!(close(
+                last,
+                sample_level_bilinear(&cube, q, &coordinates).rgba,
+                0.0
+            ));
+        }
+        // Independent bilinear check of level 1 at an interior point of +Z.
+        let n1 = 8usize;
+        let (u, v) = (3.25f64, 5.75f64); // level-1 texel coordinates
+        let direction = CubeFace::PositiveZ.direction(2.0 * u / 8.0 - 1.0, 2.0 * v / 8.0 - 1.0);
+        let texels = &cube.levels[1][CubeFace::PositiveZ.index()];
+        let at = |i: usize, j: usize| texels[j * n1 + i].map(f64::from);
+        let (a, b) = (u - 0.5 - 2.0, v - 0.5 - 5.0);
+        let expected: [f64; 4] = std::array::from_fn(|c| {
+            (1.0 - a) * (1.0 - b) * at(2, 5)[c]
+                + a * (1.0 - b) * at(3, 5)[c]
+                + (1.0 - a) * b * at(2, 6)[c]
+                + a * b * at(3, 6)[c]
+        });
+        let got = sample_level_bilinear(&cube, 1, &select_face(direction)).rgba;
+        assert!(close(got, expected, 1e-14));
+    }
+
+    #[test]
+    fn sampling_exactly_on_a_face_edge_reads_both_faces_border_texels() {
+        let mut rng = Pcg64::seed_from_u64(4);
+        let size = 8u32;
+        let n = size as usize;
+        let mut cube = random_cube(&mut rng, size);
+        let border = [0.3f32, 0.6, 0.9, 0.8];
+        // The +X column s = 0 and the +Z column s = 1 meet along the edge x = z > 0.
+        for j in 0..n {
+            cube.levels[0][CubeFace::PositiveX.index()][j * n] = border;
+            cube.levels[0][CubeFace::PositiveZ.index()][j * n + n - 1] = border;
+        }
+        let expected = border.map(f64::from);
+        for y in [-0.5, -0.1, 0.0, 0.3, 0.6] {
+            // On the edge: a tie, +Z selected, s = 1; the footprint's other half is +X's border.
+            let on_edge = DVec3::new(1.0, y, 1.0);
+            assert_eq!(major_face(on_edge), CubeFace::PositiveZ);
+            let sample = sample_cube(&cube, on_edge, 0.0);
+            assert!(close(sample.rgba, expected, 1e-7), "{y}: {sample:?}");
+            // And the filter is continuous across the edge: just inside either face gives
+            // (nearly) the same value.
+            for z in [1.0 - 1e-9, 1.0 + 1e-9] {
+                let near = sample_cube_trilinear(&cube, DVec3::new(1.0, y, z), 0.0);
+                assert!(close(near, expected, 1e-7));
+            }
+        }
+    }
+
+    #[test]
+    fn corner_footprints_are_reported_and_average_the_three_texels() {
+        let size = 4u32;
+        let mut cube = CubeMap::uniform(size, [0.0; 4]);
+        let n = size as usize;
+        // The corner x = y = z > 0: +X texel (s=0,t=0), +Y texel (s=1,t=1), +Z texel (s=1,t=0).
+        cube.levels[0][CubeFace::PositiveX.index()][0] = [0.3, 0.0, 0.0, 0.3];
+        cube.levels[0][CubeFace::PositiveY.index()][(n - 1) * n + n - 1] = [0.0, 0.6, 0.0, 0.6];
+        cube.levels[0][CubeFace::PositiveZ.index()][n - 1] = [0.0, 0.0, 0.9, 0.9];
+        let sample = sample_cube(&cube, DVec3::ONE, 0.0);
+        assert!(sample.corner);
+        // Exactly at the corner each of the four footprint texels weighs ¼; the corner texel is
+        // the average of the three, so the result is their average.
+        assert!(close(sample.rgba, [0.1, 0.2, 0.3, 0.6], 1e-7), "{sample:?}");
+        // Away from corners no corner is reported, nor where the three texels agree (the spec
+        // then fixes the result).
+        assert!(!sample_cube(&cube, DVec3::new(0.1, 0.2, 1.0), 0.0).corner);
+        assert!(!sample_cube(&CubeMap::uniform(4, [0.5; 4]), DVec3::ONE, 0.0).corner);
+    }
+
+    #[test]
+    fn lod_from_known_derivatives_on_positive_z() {
+        let size = 64u32;
+        let levels = CubeMap::full_chain_levels(size);
+        for k in 0..6 {
+            // At the face centre s = ½(rx/rz + 1) so ∂s/∂x = ½ ∂rx/∂x: ∂rx = 2·2^k/size gives
+            // ∂s/∂x = 2^k/size, ρ = 2^k, λ = k.
+            let d = 2.0 * 2f64.powi(k) / f64::from(size);
+            let lambda = cube_lod(size, levels, DVec3::Z, DVec3::new(d, 0.0, 0.0), DVec3::ZERO);
+            assert!((lambda - f64::from(k)).abs() < 1e-12, "{k}: {lambda}");
+            // The same along screen y through tc = −ry with |rc| = 4 (∂t = ½·∂tc/4), and the
+            // larger of the two screen axes winning (ρ = max(ρx, ρy)).
+            let lambda = cube_lod(
+                size,
+                levels,
+                DVec3::Z * 4.0,
+                DVec3::new(0.5 * d, 0.0, 0.0),
+                DVec3::new(0.0, -4.0 * d, 0.0),
+            );
+            assert!((lambda - f64::from(k)).abs() < 1e-12, "{k}: {lambda}");
+        }
+        // Off centre the major axis' derivative enters: r = (0.5, 0, 1), ∂r = (0, 0, δ) gives
+        // ∂s = ½(0·1 − 0.5·δ)/1 = −δ/4.
+        let delta = 0.25;
+        let lambda = cube_lod(
+            size,
+            levels,
+            DVec3::new(0.5, 0.0, 1.0),
+            DVec3::new(0.0, 0.0, delta),
+            DVec3::ZERO,
+        );
+        assert!((lambda - (f64::from(size) * delta / 4.0).log2()).abs() < 1e-12);
+        // Clamping: magnification gives 0, huge footprints the last level.
+        assert_eq!(
+            cube_lod(size, levels, DVec3::Z, DVec3::X * 1e-6, DVec3::ZERO),
+            0.0
+        );
+        assert_eq!(
+            cube_lod(size, levels, DVec3::Z, DVec3::X * 1e6, DVec3::ZERO),
+            6.0
+        );
+        assert_eq!(
+            cube_lod(size, levels, DVec3::Z, DVec3::ZERO, DVec3::ZERO),
+            0.0
+        );
+    }
+
+    #[test]
+    fn face_derivatives_match_finite_differences_on_every_face() {
+        let mut rng = Pcg64::seed_from_u64(5);
+        for _ in 0..2000 {
+            let direction = DVec3::new(
+                rng.gen_range(-2.0..2.0),
+                rng.gen_range(-2.0..2.0),
+                rng.gen_range(-2.0..2.0),
+            );
+            let d = DVec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            );
+            let coordinates = select_face(direction);
+            if coordinates.major < 0.2 {
+                continue;
+            }
+            let h = 1e-6;
+            let plus = face_coordinates_on(coordinates.face, direction + h * d);
+            let minus = face_coordinates_on(coordinates.face, direction - h * d);
+            let (ds, dt) = face_derivatives(&coordinates, d);
+            let fd_s = (plus.s - minus.s) / (2.0 * h);
+            let fd_t = (plus.t - minus.t) / (2.0 * h);
+            assert!(
+                (ds - fd_s).abs() < 1e-6 * (1.0 + ds.abs()),
+                "{coordinates:?}"
+            );
+            assert!(
+                (dt - fd_t).abs() < 1e-6 * (1.0 + dt.abs()),
+                "{coordinates:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn competing_faces_detects_near_ties() {
+        assert_eq!(
+            competing_faces(DVec3::new(0.1, 0.2, 1.0), 1e-4),
+            vec![CubeFace::PositiveZ]
+        );
+        assert_eq!(
+            competing_faces(DVec3::new(-1.0, 0.2, 1.0 - 1e-6), 1e-4),
+            vec![CubeFace::NegativeX, CubeFace::PositiveZ]
+        );
+    }
+}

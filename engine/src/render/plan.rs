@@ -1,0 +1,423 @@
+//! The compositor frame as a pass graph: the environment, then per lens object either the paper's
+//! multipass scheme (prime, n layer passes per (viewpoint, term) group, alpha clears between
+//! groups) or the single-pass variant; then the readback. Built from the frame's shape alone, so
+//! `lensmap passes` prints plans without any data or GPU.
+
+use crate::graph::{
+    Blend, ColourAttachment, ColourMask, CompareOp, Cull, DepthAttachment, Format, Graph, ImageId,
+    LoadOp, Pass, PassKind, StoreOp,
+};
+
+use super::{FrameInput, Term};
+
+/// How lens objects are composited.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Variant {
+    /// The paper's scheme: one pass per (viewpoint, term, layer), alpha clears between groups.
+    Multipass,
+    /// One draw per lens object sampling the four (viewpoint, term) textures per layer at once.
+    SinglePass,
+}
+
+impl Variant {
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Multipass => "multipass",
+            Variant::SinglePass => "single-pass",
+        }
+    }
+}
+
+/// Framebuffer colour format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TargetFormat {
+    /// 8-bit unorm (fixed-point blending, like the paper's hardware).
+    Rgba8,
+    /// 16-bit float.
+    Rgba16f,
+    /// 32-bit float (the exact reference for the f64 model).
+    Rgba32f,
+}
+
+impl TargetFormat {
+    /// The graph's format.
+    pub fn graph_format(self) -> Format {
+        match self {
+            TargetFormat::Rgba8 => Format::Rgba8Unorm,
+            TargetFormat::Rgba16f => Format::Rgba16Float,
+            TargetFormat::Rgba32f => Format::Rgba32Float,
+        }
+    }
+
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            TargetFormat::Rgba8 => "rgba8",
+            TargetFormat::Rgba16f => "rgba16f",
+            TargetFormat::Rgba32f => "rgba32f",
+        }
+    }
+
+    /// All formats, narrowest first.
+    pub const ALL: [TargetFormat; 3] = [TargetFormat::Rgba8, TargetFormat::Rgba16f, TargetFormat::Rgba32f];
+}
+
+/// What the plan of one lens object depends on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LensShape {
+    /// Debug name.
+    pub name: String,
+    /// Number of triangles (0 → no passes).
+    pub triangles: usize,
+    /// The terms present, in group order (refraction before reflection).
+    pub terms: Vec<Term>,
+    /// `empty[viewpoint][layer]`: the layer's cube map is all zeros, so its pass changes nothing.
+    pub empty: Vec<Vec<bool>>,
+}
+
+impl LensShape {
+    /// Layers n.
+    pub fn layer_count(&self) -> usize {
+        self.empty.first().map_or(0, Vec::len)
+    }
+}
+
+/// What a frame's plan depends on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameShape {
+    /// Framebuffer size.
+    pub width: u32,
+    /// Framebuffer size.
+    pub height: u32,
+    /// Number of environment meshes (one draw each).
+    pub environment_meshes: usize,
+    /// Lens objects.
+    pub lenses: Vec<LensShape>,
+    /// Viewpoint weights.
+    pub viewpoint_weights: Vec<f32>,
+}
+
+impl FrameShape {
+    /// The shape of a frame's data.
+    pub fn of(frame: &FrameInput) -> FrameShape {
+        FrameShape {
+            width: frame.width,
+            height: frame.height,
+            environment_meshes: frame.environment.iter().filter(|m| !m.triangles.is_empty()).count(),
+            lenses: frame
+                .lenses
+                .iter()
+                .map(|lens| {
+                    let mut terms: Vec<Term> = lens.terms.iter().map(|t| t.term).collect();
+                    terms.sort();
+                    LensShape {
+                        name: lens.name.clone(),
+                        triangles: lens.triangles.len(),
+                        terms,
+                        empty: lens
+                            .layers
+                            .iter()
+                            .map(|layers| {
+                                layers
+                                    .iter()
+                                    .map(|cube| cube.levels.iter().flatten().flatten().all(|t| *t == [0.0; 4]))
+                                    .collect()
+                            })
+                            .collect(),
+                    }
+                })
+                .collect(),
+            viewpoint_weights: frame.viewpoint_weights.clone(),
+        }
+    }
+
+    /// A synthetic shape for experiments (`lensmap passes`): `lenses` objects with `layers` layers,
+    /// `viewpoints` samples of equal weight and the given terms.
+    pub fn synthetic(width: u32, height: u32, layers: usize, viewpoints: usize, terms: &[Term]) -> FrameShape {
+        let viewpoints = viewpoints.max(1);
+        FrameShape {
+            width,
+            height,
+            environment_meshes: 1,
+            lenses: vec![LensShape {
+                name: "lens".into(),
+                triangles: 1,
+                terms: terms.to_vec(),
+                empty: vec![vec![false; layers]; viewpoints],
+            }],
+            viewpoint_weights: vec![1.0 / viewpoints as f32; viewpoints],
+        }
+    }
+}
+
+/// One draw of a frame, as `render/` records it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Draw {
+    /// Environment mesh `mesh`.
+    Environment {
+        /// Index into `FrameInput::environment`.
+        mesh: usize,
+    },
+    /// The lens object's triangles with the zero shader (prime and alpha clear).
+    LensZero {
+        /// Lens index.
+        lens: usize,
+    },
+    /// One layer of one (viewpoint, term) group.
+    Layer {
+        /// Lens index.
+        lens: usize,
+        /// Viewpoint sample index.
+        viewpoint: usize,
+        /// The term.
+        term: Term,
+        /// Layer index, 0 = nearest.
+        layer: usize,
+    },
+    /// The single-pass draw of a lens object.
+    SinglePass {
+        /// Lens index.
+        lens: usize,
+    },
+}
+
+/// Images and buffers of a frame graph.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameResources {
+    /// The colour target.
+    pub colour: ImageId,
+    /// The depth target.
+    pub depth: ImageId,
+    /// `layers[lens][viewpoint]`: the imported cube-map array.
+    pub layers: Vec<Vec<ImageId>>,
+}
+
+/// Shader program names (render maps them to entry points).
+pub(crate) mod program {
+    pub const ENVIRONMENT: &str = "environment";
+    pub const LENS_ZERO: &str = "lens-zero";
+    pub const LENS_LAYER: &str = "lens-layer";
+    pub const LENS_SINGLE_PASS: &str = "lens-single-pass";
+}
+
+/// Declares the frame's passes.
+pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -> (Graph<Draw>, FrameResources) {
+    let mut graph = Graph::new();
+    let colour = graph.image("colour", format.graph_format(), shape.width, shape.height);
+    let depth = graph.image("depth", Format::Depth32Float, shape.width, shape.height);
+    let readback = graph.buffer(
+        "readback",
+        u64::from(shape.width) * u64::from(shape.height) * 16,
+    );
+    let layers: Vec<Vec<ImageId>> = shape
+        .lenses
+        .iter()
+        .enumerate()
+        .map(|(i, lens)| {
+            (0..lens.empty.len())
+                .map(|v| graph.import_image(&format!("lens{i}/em{v}"), Format::Rgba32Float, 1, 1))
+                .collect()
+        })
+        .collect();
+
+    let attach = |load: LoadOp, blend: Blend, write_mask: ColourMask| ColourAttachment {
+        image: colour,
+        load,
+        store: StoreOp::Store,
+        blend,
+        write_mask,
+    };
+    let depth_attach = |load: LoadOp, test: CompareOp, write: bool| DepthAttachment {
+        image: depth,
+        load,
+        store: StoreOp::DontCare,
+        test: Some(test),
+        write,
+    };
+    let draw_pass = |name: String,
+                     category: &'static str,
+                     program: &'static str,
+                     colour: ColourAttachment,
+                     depth: DepthAttachment,
+                     cull: Cull,
+                     sampled: Vec<ImageId>,
+                     draws: Vec<Draw>| Pass {
+        name,
+        category,
+        side_effect: false,
+        kind: PassKind::Draw {
+            program,
+            colour,
+            depth: Some(depth),
+            cull,
+            sampled,
+            storage: Vec::new(),
+            draws,
+        },
+    };
+
+    graph.add_pass(draw_pass(
+        "environment".into(),
+        "environment",
+        program::ENVIRONMENT,
+        attach(LoadOp::Clear([0.0; 4]), Blend::Replace, ColourMask::RGBA),
+        depth_attach(LoadOp::Clear([1.0; 4]), CompareOp::Less, true),
+        Cull::None,
+        Vec::new(),
+        (0..shape.environment_meshes).map(|mesh| Draw::Environment { mesh }).collect(),
+    ));
+
+    for (lens_index, lens) in shape.lenses.iter().enumerate() {
+        let active: Vec<usize> = shape
+            .viewpoint_weights
+            .iter()
+            .enumerate()
+            .filter(|(v, w)| **w > 0.0 && *v < lens.empty.len())
+            .map(|(v, _)| v)
+            .collect();
+        let n = lens.layer_count();
+        if lens.triangles == 0 || n == 0 || lens.terms.is_empty() || active.is_empty() {
+            continue;
+        }
+        let name = &lens.name;
+        match variant {
+            Variant::SinglePass => graph.add_pass(draw_pass(
+                format!("{name}/single-pass"),
+                "single-pass",
+                program::LENS_SINGLE_PASS,
+                attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
+                depth_attach(LoadOp::Load, CompareOp::Less, true),
+                Cull::Back,
+                layers[lens_index].clone(),
+                vec![Draw::SinglePass { lens: lens_index }],
+            )),
+            Variant::Multipass => {
+                graph.add_pass(draw_pass(
+                    format!("{name}/prime"),
+                    "prime",
+                    program::LENS_ZERO,
+                    attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
+                    depth_attach(LoadOp::Load, CompareOp::Less, true),
+                    Cull::Back,
+                    Vec::new(),
+                    vec![Draw::LensZero { lens: lens_index }],
+                ));
+                let mut first_group = true;
+                for &viewpoint in &active {
+                    for &term in &lens.terms {
+                        let group = format!("{name}/v{viewpoint}/{}", term.name());
+                        if !first_group {
+                            graph.add_pass(draw_pass(
+                                format!("{group}/alpha-clear"),
+                                "alpha-clear",
+                                program::LENS_ZERO,
+                                attach(LoadOp::Load, Blend::Replace, ColourMask::A),
+                                depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
+                                Cull::Back,
+                                Vec::new(),
+                                vec![Draw::LensZero { lens: lens_index }],
+                            ));
+                        }
+                        first_group = false;
+                        for layer in 0..n {
+                            // An all-zero layer composites as the identity: declare the pass with
+                            // no draws and the graph culls it.
+                            let draws = if lens.empty[viewpoint][layer] {
+                                Vec::new()
+                            } else {
+                                vec![Draw::Layer {
+                                    lens: lens_index,
+                                    viewpoint,
+                                    term,
+                                    layer,
+                                }]
+                            };
+                            graph.add_pass(draw_pass(
+                                format!("{group}/layer{layer}"),
+                                "layer",
+                                program::LENS_LAYER,
+                                attach(LoadOp::Load, Blend::FrontToBackOver, ColourMask::RGBA),
+                                depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
+                                Cull::Back,
+                                vec![layers[lens_index][viewpoint]],
+                                draws,
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    graph.add_pass(Pass {
+        name: "readback".into(),
+        category: "readback",
+        side_effect: true,
+        kind: PassKind::Readback {
+            image: colour,
+            buffer: readback,
+        },
+    });
+    (graph, FrameResources { colour, depth, layers })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(layers: usize, viewpoints: usize, terms: &[Term], variant: Variant) -> crate::graph::Plan<Draw> {
+        let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
+        frame_graph(&shape, variant, TargetFormat::Rgba32f).0.compile().unwrap()
+    }
+
+    const BOTH: [Term; 2] = [Term::Refraction, Term::Reflection];
+
+    #[test]
+    fn two_viewpoints_two_terms_is_the_papers_4n_passes_and_three_alpha_clears() {
+        for n in 1..=4 {
+            let p = plan(n, 2, &BOTH, Variant::Multipass);
+            assert_eq!((p.count("prime"), p.count("layer"), p.count("alpha-clear")), (1, 4 * n, 3), "{p}");
+            // One rendering instance holds the environment and every lens pass: no barriers
+            // between blending passes.
+            assert_eq!(p.rendering_instances(), 1, "{p}");
+        }
+    }
+
+    #[test]
+    fn one_viewpoint_is_2n_passes_and_one_clear() {
+        for n in 1..=4 {
+            let p = plan(n, 1, &BOTH, Variant::Multipass);
+            assert_eq!((p.count("prime"), p.count("layer"), p.count("alpha-clear")), (1, 2 * n, 1));
+        }
+    }
+
+    #[test]
+    fn a_mirror_at_a_sample_is_n_passes_and_no_clear() {
+        for n in 1..=4 {
+            let p = plan(n, 1, &[Term::Reflection], Variant::Multipass);
+            assert_eq!((p.count("prime"), p.count("layer"), p.count("alpha-clear")), (1, n, 0));
+        }
+    }
+
+    #[test]
+    fn single_pass_is_one_lens_draw() {
+        for viewpoints in 1..=2 {
+            let p = plan(3, viewpoints, &BOTH, Variant::SinglePass);
+            assert_eq!(p.count("single-pass"), 1);
+            assert_eq!(p.draws("single-pass"), 1);
+            assert_eq!(p.count("layer") + p.count("alpha-clear") + p.count("prime"), 0);
+        }
+    }
+
+    #[test]
+    fn a_zero_weight_viewpoint_and_empty_layers_are_skipped() {
+        let mut shape = FrameShape::synthetic(64, 64, 3, 2, &BOTH);
+        shape.viewpoint_weights = vec![1.0, 0.0];
+        shape.lenses[0].empty[0][1] = true;
+        let p = frame_graph(&shape, Variant::Multipass, TargetFormat::Rgba8).0.compile().unwrap();
+        // One viewpoint × two terms × (3 − 1 empty) layers, one clear between the two groups.
+        assert_eq!((p.count("layer"), p.count("alpha-clear")), (4, 1), "{p}");
+        assert_eq!(p.culled.len(), 2, "{p}");
+    }
+}

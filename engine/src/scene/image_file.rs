@@ -1,0 +1,132 @@
+//! Reading image assets (PNG, EXR, anything the `image` crate decodes) into linear RGB f32,
+//! rejecting NaN, infinite and negative texels.
+
+use std::path::Path;
+
+use glam::Vec3;
+use image::DynamicImage;
+
+/// A decoded image in linear RGB, row-major, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct LinearImage {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<Vec3>,
+}
+
+/// Why an image could not be used, one line.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum ImageProblem {
+    /// The file cannot be opened or decoded.
+    Unreadable(String),
+    /// The image has no pixels.
+    Empty,
+    /// Texels that are NaN, infinite or negative.
+    BadTexels {
+        count: usize,
+        x: u32,
+        y: u32,
+        value: Vec3,
+    },
+}
+
+impl std::fmt::Display for ImageProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ImageProblem::Unreadable(why) => write!(f, "cannot read the image ({why})"),
+            ImageProblem::Empty => write!(f, "the image has no pixels"),
+            ImageProblem::BadTexels { count, x, y, value } => write!(
+                f,
+                "{count} texel(s) are NaN, infinite or negative, the first at pixel ({x}, {y}) = \
+                 ({}, {}, {})",
+                value.x, value.y, value.z
+            ),
+        }
+    }
+}
+
+/// The sRGB transfer function inverted: an encoded value in [0, 1] to linear.
+pub(crate) fn srgb_to_linear(encoded: f32) -> f32 {
+    if encoded <= 0.04045 {
+        encoded / 12.92
+    } else {
+        ((encoded + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Loads an image as linear RGB. Floating-point images (EXR, HDR) are taken as linear; 8- and
+/// 16-bit images (PNG) as sRGB-encoded and linearized. Alpha is ignored.
+pub(crate) fn load_linear_rgb(path: &Path) -> Result<LinearImage, ImageProblem> {
+    let image = image::ImageReader::open(path)
+        .map_err(|e| ImageProblem::Unreadable(e.to_string()))?
+        .with_guessed_format()
+        .map_err(|e| ImageProblem::Unreadable(e.to_string()))?
+        .decode()
+        .map_err(|e| ImageProblem::Unreadable(e.to_string()))?;
+    let is_float = matches!(
+        image,
+        DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_)
+    );
+    let rgb = image.into_rgb32f();
+    let (width, height) = rgb.dimensions();
+    if width == 0 || height == 0 {
+        return Err(ImageProblem::Empty);
+    }
+    let texels: Vec<Vec3> = rgb
+        .pixels()
+        .map(|p| {
+            let v = Vec3::from_array(p.0);
+            if is_float { v } else { v.map(srgb_to_linear) }
+        })
+        .collect();
+    check_texels(width, &texels)?;
+    Ok(LinearImage {
+        width,
+        height,
+        texels,
+    })
+}
+
+/// Rejects NaN, infinite or negative texels, naming how many and the first.
+pub(crate) fn check_texels(width: u32, texels: &[Vec3]) -> Result<(), ImageProblem> {
+    let is_bad = |v: &Vec3| !v.is_finite() || v.min_element() < 0.0;
+    let count = texels.iter().filter(|v| is_bad(v)).count();
+    match texels.iter().position(is_bad) {
+        Some(first) => Err(ImageProblem::BadTexels {
+            count,
+            x: (first % width.max(1) as usize) as u32,
+            y: (first / width.max(1) as usize) as u32,
+            value: texels[first],
+        }),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_round_trip_points() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+        // sRGB 0.5 ≈ 0.2140 linear (IEC 61966-2-1).
+        assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-5);
+    }
+
+    #[test]
+    fn bad_texels_are_named() {
+        let texels = [
+            Vec3::ONE,
+            Vec3::new(0.0, f32::NAN, 0.0),
+            Vec3::ONE,
+            -Vec3::ONE,
+        ];
+        match check_texels(2, &texels) {
+            Err(ImageProblem::BadTexels { count, x, y, .. }) => {
+                assert_eq!((count, x, y), (2, 1, 0));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}

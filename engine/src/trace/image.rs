@@ -1,0 +1,304 @@
+//! Reference images: the film, the supersampled render loop and the EXR/PNG output.
+//!
+//! Every pixel is the box-filtered mean of a fixed k×k stratified grid of supersamples (subsample
+//! `(i, j)` of pixel `(x, y)` sits at `(x + (i + ½)/k, y + (j + ½)/k)`), summed in a fixed order
+//! in f64. Rows are rendered in parallel on the current rayon pool; each pixel depends on nothing
+//! but its own samples, so the output is bit-identical whatever the thread count.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::shade::TraceOptions;
+use super::stats::{RenderStats, TraceCounters};
+use super::world::TraceScene;
+use super::{Ray, TraceError};
+use crate::scene::Camera;
+
+/// A rendered reference image with its two term images and lens mask (linear radiance,
+/// row-major, top row first).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceImage {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Final radiance per pixel (`T·F_T·G_T + R·F_R·G_R` on lens objects, the environment
+    /// elsewhere), linear, ≥ 0, finite.
+    pub radiance: Vec<Vec3>,
+    /// The refraction term `T·F_T·G_T` per pixel (0 where no lens object is seen).
+    pub refraction: Vec<Vec3>,
+    /// The reflection term `R·F_R·G_R` per pixel (0 where no lens object is seen).
+    pub reflection: Vec<Vec3>,
+    /// Fraction of each pixel's supersamples whose camera ray hits a lens object first, in [0, 1].
+    pub lens_mask: Vec<f32>,
+    /// Work and time of the render.
+    pub stats: RenderStats,
+}
+
+/// The per-pixel sums of one image row.
+struct Row {
+    radiance: Vec<Vec3>,
+    refraction: Vec<Vec3>,
+    reflection: Vec<Vec3>,
+    lens_mask: Vec<f32>,
+    counters: TraceCounters,
+}
+
+/// Checks that `camera` can generate rays: a non-empty image, k ≥ 1, a finite position distinct
+/// from the look-at point, an up vector not parallel to the view direction, a field of view in
+/// (0, π).
+pub fn validate_camera(camera: &Camera) -> Result<(), TraceError> {
+    let forward = camera.look_at - camera.position;
+    let problem = if camera.width == 0 || camera.height == 0 {
+        Some(format!(
+            "the image is empty ({}×{})",
+            camera.width, camera.height
+        ))
+    } else if camera.supersampling == 0 {
+        Some("supersampling is 0 (use 1 or more)".to_owned())
+    } else if !(camera.position.is_finite() && camera.look_at.is_finite() && camera.up.is_finite())
+    {
+        Some("the position, look-at or up vector is not finite".to_owned())
+    } else if forward.length_squared() <= 1e-12 {
+        Some("the look-at point equals the camera position".to_owned())
+    } else if forward.normalize().cross(camera.up).length_squared() <= 1e-12 {
+        Some("the up vector is parallel to the view direction".to_owned())
+    } else if !(camera.vfov_radians > 0.0 && camera.vfov_radians < std::f32::consts::PI) {
+        Some(format!(
+            "the vertical field of view {} rad is outside (0, π)",
+            camera.vfov_radians
+        ))
+    } else {
+        None
+    };
+    match problem {
+        Some(problem) => Err(TraceError::InvalidCamera(problem)),
+        None => Ok(()),
+    }
+}
+
+/// The world-space ray through image position `(x, y)` (pixels, (0, 0) the top-left corner).
+pub fn camera_ray(camera: &Camera, x: f64, y: f64) -> Ray {
+    let (origin, direction) = camera.primary_ray(x as f32, y as f32);
+    Ray::new(origin.as_dvec3(), direction.as_dvec3())
+}
+
+/// Image position of supersample `(i, j)` of pixel `(x, y)` with `k`×`k` supersampling.
+pub fn subsample_position(x: u32, y: u32, i: u32, j: u32, k: u32) -> (f64, f64) {
+    let k = f64::from(k.max(1));
+    (
+        f64::from(x) + (f64::from(i) + 0.5) / k,
+        f64::from(y) + (f64::from(j) + 0.5) / k,
+    )
+}
+
+/// Renders the reference image of `scene` seen by `camera` (its size and supersampling), on the
+/// current rayon pool. `progress` is called with the number of rows finished so far (from any
+/// thread, in no particular order).
+pub fn render_reference(
+    scene: &TraceScene,
+    camera: &Camera,
+    options: &TraceOptions,
+    progress: &(dyn Fn(u32) + Sync),
+) -> Result<ReferenceImage, TraceError> {
+    validate_camera(camera)?;
+    let start = Instant::now();
+    let finished = AtomicU32::new(0);
+    let rows: Vec<Row> = (0..camera.height)
+        .into_par_iter()
+        .map(|y| {
+            let row = render_row(scene, camera, options, y);
+            progress(finished.fetch_add(1, Ordering::Relaxed) + 1);
+            row
+        })
+        .collect();
+    let seconds = start.elapsed().as_secs_f64();
+
+    let pixels = camera.width as usize * camera.height as usize;
+    let mut image = ReferenceImage {
+        width: camera.width,
+        height: camera.height,
+        radiance: Vec::with_capacity(pixels),
+        refraction: Vec::with_capacity(pixels),
+        reflection: Vec::with_capacity(pixels),
+        lens_mask: Vec::with_capacity(pixels),
+        stats: RenderStats {
+            width: camera.width,
+            height: camera.height,
+            supersampling: camera.supersampling,
+            counters: TraceCounters::default(),
+            seconds,
+        },
+    };
+    for row in rows {
+        image.radiance.extend(row.radiance);
+        image.refraction.extend(row.refraction);
+        image.reflection.extend(row.reflection);
+        image.lens_mask.extend(row.lens_mask);
+        image.stats.counters += row.counters;
+    }
+    Ok(image)
+}
+
+fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u32) -> Row {
+    let k = camera.supersampling.max(1);
+    let width = camera.width as usize;
+    let scale = 1.0 / f64::from(k * k);
+    let mut row = Row {
+        radiance: Vec::with_capacity(width),
+        refraction: Vec::with_capacity(width),
+        reflection: Vec::with_capacity(width),
+        lens_mask: Vec::with_capacity(width),
+        counters: TraceCounters::default(),
+    };
+    for x in 0..camera.width {
+        let mut sums = [DVec3::ZERO; 3];
+        let mut lens_hits = 0u32;
+        for j in 0..k {
+            for i in 0..k {
+                let (sx, sy) = subsample_position(x, y, i, j, k);
+                let ray = camera_ray(camera, sx, sy);
+                let sample = scene.trace_camera_ray(&ray, options, &mut row.counters);
+                sums[0] += sample.radiance;
+                sums[1] += sample.refraction;
+                sums[2] += sample.reflection;
+                lens_hits += u32::from(sample.lens.is_some());
+            }
+        }
+        row.radiance.push((sums[0] * scale).as_vec3());
+        row.refraction.push((sums[1] * scale).as_vec3());
+        row.reflection.push((sums[2] * scale).as_vec3());
+        row.lens_mask.push((f64::from(lens_hits) * scale) as f32);
+    }
+    row
+}
+
+/// The files [`ReferenceImage::write`] produces.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct WrittenFiles {
+    /// Every file written, EXR and PNG, in a fixed order.
+    pub paths: Vec<PathBuf>,
+}
+
+impl ReferenceImage {
+    /// Writes `reference`, `refraction` (T·F_T·G_T), `reflection` (R·F_R·G_R) and `lens_mask`,
+    /// each as linear EXR and sRGB PNG, into `directory` (created if missing).
+    pub fn write(&self, directory: &Path) -> Result<WrittenFiles, TraceError> {
+        std::fs::create_dir_all(directory).map_err(|source| TraceError::Io {
+            path: directory.to_path_buf(),
+            source,
+        })?;
+        let mask: Vec<Vec3> = self.lens_mask.iter().map(|&m| Vec3::splat(m)).collect();
+        let mut paths = Vec::new();
+        for (name, pixels) in [
+            ("reference", &self.radiance),
+            ("refraction", &self.refraction),
+            ("reflection", &self.reflection),
+            ("lens_mask", &mask),
+        ] {
+            let exr = directory.join(format!("{name}.exr"));
+            write_exr(&exr, self.width, self.height, pixels)?;
+            paths.push(exr);
+            let png = directory.join(format!("{name}.png"));
+            write_png(&png, self.width, self.height, pixels)?;
+            paths.push(png);
+        }
+        Ok(WrittenFiles { paths })
+    }
+
+    /// The final image as sRGB-encoded 8-bit RGB (clamped to [0, 1] before encoding).
+    pub fn to_srgb8(&self) -> Vec<u8> {
+        srgb8(&self.radiance)
+    }
+}
+
+/// Writes linear RGB pixels as a 32-bit float EXR.
+pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), TraceError> {
+    let data: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
+    let image = image::Rgb32FImage::from_raw(width, height, data).ok_or_else(|| {
+        TraceError::InvalidImage(format!(
+            "{} pixels do not fill {width}×{height}",
+            pixels.len()
+        ))
+    })?;
+    image
+        .save_with_format(path, image::ImageFormat::OpenExr)
+        .map_err(|source| TraceError::Image {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// Writes linear RGB pixels as an 8-bit sRGB PNG (clamped to [0, 1]).
+pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), TraceError> {
+    let image = image::RgbImage::from_raw(width, height, srgb8(pixels)).ok_or_else(|| {
+        TraceError::InvalidImage(format!(
+            "{} pixels do not fill {width}×{height}",
+            pixels.len()
+        ))
+    })?;
+    image
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|source| TraceError::Image {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// sRGB encoding of linear values (clamped to [0, 1]) to 8 bits, three bytes per pixel.
+pub fn srgb8(pixels: &[Vec3]) -> Vec<u8> {
+    pixels
+        .iter()
+        .flat_map(|p| p.to_array())
+        .map(|c| (srgb_encode(c) * 255.0 + 0.5) as u8)
+        .collect()
+}
+
+/// The sRGB transfer function of one linear channel, clamped to [0, 1] (NaN → 0).
+pub fn srgb_encode(linear: f32) -> f32 {
+    let c = if linear.is_nan() {
+        0.0
+    } else {
+        linear.clamp(0.0, 1.0)
+    };
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_transfer_endpoints_and_knee() {
+        assert_eq!(srgb_encode(0.0), 0.0);
+        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-6);
+        assert_eq!(srgb_encode(f32::NAN), 0.0);
+        assert_eq!(srgb_encode(7.0), srgb_encode(1.0));
+        let knee = 0.003_130_8;
+        assert!((srgb_encode(knee) - 1.055 * knee.powf(1.0 / 2.4) + 0.055).abs() < 1e-5);
+        assert_eq!(srgb8(&[Vec3::new(0.0, 0.5, 1.0)]), vec![0, 188, 255]);
+    }
+
+    #[test]
+    fn subsamples_are_stratified_inside_the_pixel() {
+        let k = 3;
+        let mut positions = Vec::new();
+        for j in 0..k {
+            for i in 0..k {
+                positions.push(subsample_position(10, 4, i, j, k));
+            }
+        }
+        assert_eq!(positions[0], (10.0 + 1.0 / 6.0, 4.0 + 1.0 / 6.0));
+        assert_eq!(positions[8], (10.0 + 5.0 / 6.0, 4.0 + 5.0 / 6.0));
+        let mean_x = positions.iter().map(|p| p.0).sum::<f64>() / 9.0;
+        assert!((mean_x - 10.5).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,294 @@
+//! Intersection records for the baker (paper §4.1, Figure 4).
+//!
+//! For every supersample of a viewpoint's image and every lens object the camera ray meets, the
+//! greedy paths of both terms are traced to where they leave the lens object. A record keeps the
+//! image position, the term, `F·G`, the outgoing ray and **every** front-facing hit of that ray on
+//! the rest of the world, nearest first, not just the first (ray continuation, Figure 4c), each
+//! with the radiance leaving that surface towards the lens.
+//!
+//! Incoming rays continue through whatever is in front (Figure 4b): each lens object is
+//! intersected with the camera ray on its own, so a lens object occluded by another (or by
+//! environment geometry) still gets records, marked `visible = false`.
+
+use std::ops::Range;
+
+use glam::{DVec3, Vec2};
+use rayon::prelude::*;
+
+use super::image::{camera_ray, subsample_position, validate_camera};
+use super::path::{GreedyRayPath, Term};
+use super::shade::TraceOptions;
+use super::stats::TraceCounters;
+use super::world::{Part, TraceScene};
+use super::{Ray, TraceError};
+use crate::scene::Camera;
+
+/// One front-facing surface along an outgoing ray.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct EnvironmentHit {
+    /// Scene object index of the surface.
+    pub object: usize,
+    /// Lens object index when the surface belongs to another lens object, `None` for the
+    /// environment.
+    pub lens: Option<usize>,
+    /// Distance from the outgoing ray's origin in metres (> 0).
+    pub distance: f64,
+    /// Radiance leaving the surface back along the outgoing ray (diffuse shading, or the
+    /// two-term value of the other lens object), linear, ≥ 0.
+    pub radiance: DVec3,
+}
+
+/// One incoming supersample ray's term through one lens object.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct IntersectionRecord {
+    /// Image position of the supersample in pixels ((0, 0) the top-left corner of the image).
+    pub image_position: Vec2,
+    /// The term the path belongs to.
+    pub term: Term,
+    /// `F` along the path, per channel.
+    pub fresnel: DVec3,
+    /// `G` along the path, per channel.
+    pub attenuation: DVec3,
+    /// The ray where the path leaves the lens object.
+    pub outgoing_ray: Ray,
+    /// Range of this record's hits in [`LensRecords::hits`], nearest first.
+    pub hits: Range<usize>,
+    /// Radiance of the environment at infinity along the outgoing ray (what it sees past every
+    /// hit).
+    pub background: DVec3,
+    /// True when this lens object is the first thing the camera ray hits.
+    pub visible: bool,
+    /// True when the path hit the interface cap (its `F·G` counts as 0).
+    pub truncated: bool,
+}
+
+impl IntersectionRecord {
+    /// `F·G` per channel (0 for a truncated path).
+    pub fn weight(&self) -> DVec3 {
+        if self.truncated {
+            DVec3::ZERO
+        } else {
+            self.fresnel * self.attenuation
+        }
+    }
+}
+
+/// All records of one lens object, in image order (rows, then pixels, then supersamples, then
+/// refraction before reflection).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LensRecords {
+    /// Lens object index in [`TraceScene::lenses`].
+    pub lens: usize,
+    /// Lens object name.
+    pub name: String,
+    /// The records.
+    pub records: Vec<IntersectionRecord>,
+    /// Hits of all records, referenced by [`IntersectionRecord::hits`].
+    pub hits: Vec<EnvironmentHit>,
+}
+
+impl LensRecords {
+    /// The hits of `record` (a record of this set), nearest first.
+    pub fn hits_of(&self, record: &IntersectionRecord) -> &[EnvironmentHit] {
+        self.hits.get(record.hits.clone()).unwrap_or(&[])
+    }
+}
+
+/// Records of one viewpoint: one set per lens object, and the work done.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RecordSet {
+    /// One entry per lens object of the scene, in [`TraceScene::lenses`] order.
+    pub lenses: Vec<LensRecords>,
+    /// Work counters.
+    pub counters: TraceCounters,
+}
+
+/// Compiles the intersection records of `scene` seen by `camera` (its size and k×k
+/// supersampling), with the greedy path limits of `options`, on the current rayon pool.
+/// Deterministic whatever the thread count.
+pub fn compile_records(
+    scene: &TraceScene,
+    camera: &Camera,
+    options: &TraceOptions,
+) -> Result<RecordSet, TraceError> {
+    validate_camera(camera)?;
+    let rows: Vec<(Vec<LensRecords>, TraceCounters)> = (0..camera.height)
+        .into_par_iter()
+        .map(|y| record_row(scene, camera, options, y))
+        .collect();
+    let mut set = RecordSet {
+        lenses: scene
+            .lenses
+            .iter()
+            .enumerate()
+            .map(|(lens, l)| LensRecords {
+                lens,
+                name: l.name.clone(),
+                ..LensRecords::default()
+            })
+            .collect(),
+        counters: TraceCounters::default(),
+    };
+    for (row, counters) in rows {
+        set.counters += counters;
+        for (target, part) in set.lenses.iter_mut().zip(row) {
+            let offset = target.hits.len();
+            target.hits.extend(part.hits);
+            target
+                .records
+                .extend(part.records.into_iter().map(|mut record| {
+                    record.hits = record.hits.start + offset..record.hits.end + offset;
+                    record
+                }));
+        }
+    }
+    Ok(set)
+}
+
+fn record_row(
+    scene: &TraceScene,
+    camera: &Camera,
+    options: &TraceOptions,
+    y: u32,
+) -> (Vec<LensRecords>, TraceCounters) {
+    let mut counters = TraceCounters::default();
+    let mut lenses: Vec<LensRecords> = (0..scene.lenses.len())
+        .map(|lens| LensRecords {
+            lens,
+            ..LensRecords::default()
+        })
+        .collect();
+    let k = camera.supersampling.max(1);
+    for x in 0..camera.width {
+        for j in 0..k {
+            for i in 0..k {
+                let (sx, sy) = subsample_position(x, y, i, j, k);
+                let ray = camera_ray(camera, sx, sy);
+                counters.primary_rays += 1;
+                let first = scene.closest_hit(&ray, None, None, &mut counters);
+                for (lens, out) in lenses.iter_mut().enumerate() {
+                    // Continuation: the camera ray against this lens object alone.
+                    let hit = if let Some(first) = first.filter(|f| f.part == Part::Lens(lens)) {
+                        Some(first.hit)
+                    } else {
+                        counters.secondary_rays += 1;
+                        scene.lenses[lens].bvh.closest_hit(
+                            &ray,
+                            0.0,
+                            f64::INFINITY,
+                            None,
+                            &mut counters.triangle_tests,
+                        )
+                    };
+                    let Some(hit) = hit else {
+                        continue;
+                    };
+                    let visible = first.is_some_and(|f| f.part == Part::Lens(lens));
+                    let paths = scene.greedy_paths(lens, &ray, &hit, options.greedy, &mut counters);
+                    for term in [Term::Refraction, Term::Reflection] {
+                        if let Some(path) = paths.get(term) {
+                            let position = Vec2::new(sx as f32, sy as f32);
+                            push_record(
+                                scene,
+                                options,
+                                lens,
+                                path,
+                                position,
+                                visible,
+                                out,
+                                &mut counters,
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (lenses, counters)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn push_record(
+    scene: &TraceScene,
+    options: &TraceOptions,
+    lens: usize,
+    path: &GreedyRayPath,
+    image_position: Vec2,
+    visible: bool,
+    out: &mut LensRecords,
+    counters: &mut TraceCounters,
+) {
+    let start = out.hits.len();
+    let ray = path.outgoing_ray;
+    for hit in outgoing_hits(scene, &ray, lens, counters) {
+        let radiance = match hit.1 {
+            Part::Environment => scene.shade_diffuse(&ray, &hit.0, counters),
+            Part::Lens(other) => {
+                let [t, r] = scene.greedy_terms(other, &ray, &hit.0, 2, options, counters);
+                t + r
+            }
+        };
+        out.hits.push(EnvironmentHit {
+            object: hit.0.object,
+            lens: match hit.1 {
+                Part::Lens(other) => Some(other),
+                Part::Environment => None,
+            },
+            distance: hit.0.distance,
+            radiance,
+        });
+    }
+    out.records.push(IntersectionRecord {
+        image_position,
+        term: path.term,
+        fresnel: path.fresnel,
+        attenuation: path.attenuation,
+        outgoing_ray: ray,
+        hits: start..out.hits.len(),
+        background: scene.background_radiance(ray.direction),
+        visible,
+        truncated: path.truncated,
+    });
+}
+
+/// Every front-facing hit of `ray` on the environment and on lens objects other than `from`,
+/// nearest first; coincident hits on one object (a shared edge) are kept once.
+fn outgoing_hits(
+    scene: &TraceScene,
+    ray: &Ray,
+    from: usize,
+    counters: &mut TraceCounters,
+) -> Vec<(super::bvh::SurfaceHit, Part)> {
+    counters.secondary_rays += 1;
+    let parts = std::iter::once(Part::Environment).chain(
+        (0..scene.lenses.len())
+            .filter(|&i| i != from)
+            .map(Part::Lens),
+    );
+    let mut hits = Vec::new();
+    for part in parts {
+        for hit in scene.bvh(part).all_hits(
+            ray,
+            0.0,
+            f64::INFINITY,
+            None,
+            &mut counters.triangle_tests,
+        ) {
+            if hit.is_front_facing(ray.direction) {
+                hits.push((hit, part));
+            }
+        }
+    }
+    hits.sort_by(|a, b| {
+        a.0.distance
+            .total_cmp(&b.0.distance)
+            .then(a.0.object.cmp(&b.0.object))
+            .then(a.0.primitive.cmp(&b.0.primitive))
+    });
+    let tolerance = |d: f64| 1e-9 * d.abs().max(1.0);
+    hits.dedup_by(|later, earlier| {
+        later.0.object == earlier.0.object
+            && (later.0.distance - earlier.0.distance).abs() <= tolerance(earlier.0.distance)
+    });
+    hits
+}

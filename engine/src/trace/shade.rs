@@ -1,0 +1,290 @@
+//! Shading: the diffuse environment under point lights, the environment at infinity, and the
+//! radiance of a camera ray under either ray-path model.
+//!
+//! Environment surfaces are Lambertian: `L = albedo/π · Σ I·cos θ / d²` over the point lights
+//! (intensity `I` in W/sr), two-sided (the normal is turned towards the viewer), with no ambient
+//! term. Shadow rays test the **environment geometry only**: lens objects cast no shadows. The paper
+//! shades the environment independently of the lens objects (its environment maps are images of
+//! the environment alone, and the hybrid renderer draws the environment without the lens), so a
+//! lens shadow would be a feature the hybrid image can never show.
+//!
+//! Along an outgoing ray that meets another lens object, that object is evaluated with the same
+//! two-term model, up to [`TraceOptions::max_lens_depth`] nested lens objects; deeper, the ray sees
+//! the environment alone.
+
+use glam::DVec3;
+
+use super::Ray;
+use super::bvh::SurfaceHit;
+use super::path::{self, GreedyOptions, Interface, RayTree, RayTreeOptions, Term, TwoTermPaths};
+use super::stats::TraceCounters;
+use super::world::{Part, SurfaceId, TraceScene, WorldHit, sanitize};
+
+/// Which ray-path model evaluates lens objects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PathModel {
+    /// The paper's two-term greedy ray paths.
+    Greedy,
+    /// The full binary ray tree.
+    Full,
+}
+
+/// Options of a reference render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceOptions {
+    /// The ray-path model.
+    pub model: PathModel,
+    /// Limits of the greedy paths.
+    pub greedy: GreedyOptions,
+    /// Limits of the full ray tree.
+    pub tree: RayTreeOptions,
+    /// Greedy model: most lens objects evaluated along one camera ray (≥ 1); an outgoing ray
+    /// beyond it sees the environment alone.
+    pub max_lens_depth: u32,
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        TraceOptions {
+            model: PathModel::Greedy,
+            greedy: GreedyOptions::default(),
+            tree: RayTreeOptions::default(),
+            max_lens_depth: 3,
+        }
+    }
+}
+
+/// Radiance along one camera ray, split by term.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSample {
+    /// Total radiance (the two terms on a lens object, the environment elsewhere).
+    pub radiance: DVec3,
+    /// `T·F_T·G_T` (0 off the lens objects).
+    pub refraction: DVec3,
+    /// `R·F_R·G_R` (0 off the lens objects).
+    pub reflection: DVec3,
+    /// The lens object hit first, if any.
+    pub lens: Option<usize>,
+}
+
+impl TraceScene {
+    /// Lambertian radiance leaving environment surface `hit` towards the origin of `ray`, with
+    /// shadow rays against the environment geometry.
+    pub fn shade_diffuse(
+        &self,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        counters: &mut TraceCounters,
+    ) -> DVec3 {
+        let albedo = sanitize(self.material(hit.object).albedo(hit.uv.as_vec2()).as_dvec3());
+        if albedo == DVec3::ZERO {
+            return DVec3::ZERO;
+        }
+        let toward_viewer = if hit.is_front_facing(ray.direction) {
+            1.0
+        } else {
+            -1.0
+        };
+        let face = hit.geometric_normal * toward_viewer;
+        let normal = hit.shading_normal * toward_viewer;
+        let origin = path::offset_origin(hit.position, face);
+        let exclude = Some(hit.primitive);
+        let mut irradiance = DVec3::ZERO;
+        for light in &self.lights {
+            let to_light = light.position.as_dvec3() - hit.position;
+            let distance_squared = to_light.length_squared();
+            if distance_squared <= 0.0 || !distance_squared.is_finite() {
+                continue;
+            }
+            let distance = distance_squared.sqrt();
+            let direction = to_light / distance;
+            let cosine = normal.dot(direction);
+            if cosine <= 0.0 || face.dot(direction) <= 0.0 {
+                continue;
+            }
+            counters.shadow_rays += 1;
+            let shadow = Ray {
+                origin,
+                direction,
+            };
+            if self.environment.occluded(
+                &shadow,
+                0.0,
+                distance,
+                exclude,
+                &mut counters.triangle_tests,
+            ) {
+                continue;
+            }
+            irradiance += sanitize(light.intensity.as_dvec3()) * (cosine / distance_squared);
+        }
+        sanitize(albedo * irradiance * std::f64::consts::FRAC_1_PI)
+    }
+
+    /// Radiance of one camera ray (counted as a primary ray) under `options`.
+    pub fn trace_camera_ray(
+        &self,
+        ray: &Ray,
+        options: &TraceOptions,
+        counters: &mut TraceCounters,
+    ) -> CameraSample {
+        counters.primary_rays += 1;
+        let Some(world_hit) = self.closest_hit(ray, None, None, counters) else {
+            let radiance = self.background_radiance(ray.direction);
+            return CameraSample {
+                radiance,
+                refraction: DVec3::ZERO,
+                reflection: DVec3::ZERO,
+                lens: None,
+            };
+        };
+        let Part::Lens(lens) = world_hit.part else {
+            return CameraSample {
+                radiance: self.shade_diffuse(ray, &world_hit.hit, counters),
+                refraction: DVec3::ZERO,
+                reflection: DVec3::ZERO,
+                lens: None,
+            };
+        };
+        let [refraction, reflection] = match options.model {
+            PathModel::Greedy => self.greedy_terms(lens, ray, &world_hit.hit, 1, options, counters),
+            PathModel::Full => self.full_tree_terms(ray, &world_hit, options.tree, counters),
+        };
+        CameraSample {
+            radiance: refraction + reflection,
+            refraction,
+            reflection,
+            lens: Some(lens),
+        }
+    }
+
+    /// The two greedy paths of lens object `lens` hit by `ray` at `hit`.
+    pub fn greedy_paths(
+        &self,
+        lens: usize,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        options: GreedyOptions,
+        counters: &mut TraceCounters,
+    ) -> TwoTermPaths {
+        path::trace_greedy_paths(&self.lens(lens), ray, hit, options, counters)
+    }
+
+    /// `[T·F_T·G_T, R·F_R·G_R]` of lens object `lens` hit by `ray` at `hit`, the lens being the
+    /// `depth`-th lens object along the camera ray (1 for the first).
+    pub fn greedy_terms(
+        &self,
+        lens: usize,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        depth: u32,
+        options: &TraceOptions,
+        counters: &mut TraceCounters,
+    ) -> [DVec3; 2] {
+        let paths = self.greedy_paths(lens, ray, hit, options.greedy, counters);
+        let mut terms = [DVec3::ZERO; 2];
+        for (slot, term) in [Term::Refraction, Term::Reflection].into_iter().enumerate() {
+            let Some(path) = paths.get(term) else {
+                continue;
+            };
+            let weight = path.weight();
+            if weight == DVec3::ZERO {
+                continue;
+            }
+            let radiance = self.outgoing_radiance(&path.outgoing_ray, lens, depth, options, counters);
+            terms[slot] = sanitize(weight * radiance);
+        }
+        terms
+    }
+
+    /// Radiance arriving back along an outgoing ray that has left lens object `from` (the
+    /// `depth`-th lens object along the camera ray): the environment, the environment at infinity,
+    /// or another lens object evaluated with the greedy model.
+    pub fn outgoing_radiance(
+        &self,
+        ray: &Ray,
+        from: usize,
+        depth: u32,
+        options: &TraceOptions,
+        counters: &mut TraceCounters,
+    ) -> DVec3 {
+        counters.secondary_rays += 1;
+        let nested = depth < options.max_lens_depth.max(1);
+        let hit = if nested {
+            self.closest_hit(ray, None, Some(from), counters)
+        } else {
+            self.closest_environment_hit(ray, None, counters)
+        };
+        match hit {
+            None => self.background_radiance(ray.direction),
+            Some(WorldHit {
+                hit,
+                part: Part::Environment,
+            }) => self.shade_diffuse(ray, &hit, counters),
+            Some(WorldHit {
+                hit,
+                part: Part::Lens(lens),
+            }) => {
+                let [t, r] = self.greedy_terms(lens, ray, &hit, depth + 1, options, counters);
+                t + r
+            }
+        }
+    }
+
+    /// `[refraction subtree, reflection subtree]` of the full ray tree at the first lens hit.
+    fn full_tree_terms(
+        &self,
+        ray: &Ray,
+        world_hit: &WorldHit,
+        options: RayTreeOptions,
+        counters: &mut TraceCounters,
+    ) -> [DVec3; 2] {
+        let Some(interface) = self.interface(world_hit.hit.object) else {
+            return [DVec3::ZERO; 2];
+        };
+        let (terms, _) = self.tree_interface(
+            ray,
+            &world_hit.hit,
+            world_hit.surface(),
+            interface,
+            DVec3::ONE,
+            0,
+            options,
+            counters,
+        );
+        terms.map(sanitize)
+    }
+}
+
+impl RayTree for TraceScene {
+    type SurfaceId = SurfaceId;
+
+    fn trace_closest(
+        &self,
+        ray: &Ray,
+        exclude: Option<SurfaceId>,
+        counters: &mut TraceCounters,
+    ) -> Option<(SurfaceHit, SurfaceId, Option<Interface>)> {
+        counters.secondary_rays += 1;
+        let world_hit = self.closest_hit(ray, exclude, None, counters)?;
+        let interface = match world_hit.part {
+            Part::Environment => None,
+            Part::Lens(_) => self.interface(world_hit.hit.object),
+        };
+        Some((world_hit.hit, world_hit.surface(), interface))
+    }
+
+    fn shade_environment(
+        &self,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        counters: &mut TraceCounters,
+    ) -> DVec3 {
+        self.shade_diffuse(ray, hit, counters)
+    }
+
+    fn background(&self, direction: DVec3) -> DVec3 {
+        self.background_radiance(direction)
+    }
+}

@@ -1,0 +1,243 @@
+//! `lensmap bench trace`: speed of the reference ray tracer on teapot-room (both ray-path models,
+//! 1 and 2 threads, median of repeated runs), and the full ray tree against the greedy two-term
+//! model on glass-sphere and teapot-room (image RMSE and PSNR, ray-count ratio).
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use glam::Vec3;
+use lensmap::scene::{Camera, Scene};
+use lensmap::trace::{
+    self, PathModel, ReferenceImage, TraceCounters, TraceOptions, TraceScene, image::srgb_encode,
+};
+
+/// Arguments of `lensmap bench trace`.
+#[derive(clap::Args, Debug, Clone)]
+#[command(after_help = "Example:\n  lensmap bench trace --width 320 --height 240 --supersampling 2 --json trace.json")]
+pub struct BenchTraceArgs {
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 480)]
+    pub height: u32,
+    /// Supersamples per pixel along each axis (k for k×k).
+    #[arg(long, value_name = "K", default_value_t = 3)]
+    pub supersampling: u32,
+    /// Timed renders per configuration; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub runs: u32,
+    /// Also write the results as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+/// One timed configuration.
+#[derive(serde::Serialize, Debug, Clone)]
+struct SpeedRow {
+    scene: String,
+    tree: PathModel,
+    threads: usize,
+    median_seconds: f64,
+    seconds: Vec<f64>,
+    mrays_per_second: f64,
+    rays_per_pixel: f64,
+    triangle_tests_per_ray: f64,
+    counters: TraceCounters,
+}
+
+/// Full ray tree against greedy paths on one scene.
+#[derive(serde::Serialize, Debug, Clone)]
+struct ComparisonRow {
+    scene: String,
+    /// RMSE of the sRGB-encoded final images (values in [0, 1]), over all pixels and channels.
+    rmse_srgb: f64,
+    /// PSNR in dB for that RMSE with peak 1.
+    psnr_db: f64,
+    /// RMSE of linear radiance over pixels that see a lens object.
+    rmse_linear_lens_pixels: f64,
+    /// Rays along light paths (primary + secondary), full tree / greedy.
+    path_ray_ratio: f64,
+    /// All rays including shadow rays, full tree / greedy.
+    all_ray_ratio: f64,
+    /// Secondary rays only (those spent on the lens objects and beyond), full tree / greedy.
+    secondary_ray_ratio: f64,
+}
+
+#[derive(serde::Serialize)]
+struct BenchReport {
+    width: u32,
+    height: u32,
+    supersampling: u32,
+    runs: u32,
+    cpu_threads_available: usize,
+    speed: Vec<SpeedRow>,
+    full_vs_greedy: Vec<ComparisonRow>,
+}
+
+/// Runs `lensmap bench trace`.
+pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
+    let runs = args.runs.max(1);
+    let mut speed = Vec::new();
+    let mut comparisons = Vec::new();
+    println!(
+        "reference ray tracer, {}×{} with {k}×{k} supersampling, median of {runs} runs \
+         ({} CPU threads available)",
+        args.width,
+        args.height,
+        std::thread::available_parallelism().map_or(1, |n| n.get()),
+        k = args.supersampling,
+    );
+    println!(
+        "{:<14} {:<7} {:>7} {:>9} {:>9} {:>11} {:>11}",
+        "scene", "tree", "threads", "median s", "Mrays/s", "rays/pixel", "tests/ray"
+    );
+
+    for scene_name in ["teapot-room", "glass-sphere"] {
+        let scene = Scene::load_named(scene_name)?;
+        let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;
+        let camera = Camera {
+            width: args.width,
+            height: args.height,
+            supersampling: args.supersampling,
+            ..scene.camera
+        };
+        // Speed on teapot-room; glass-sphere only joins the full-vs-greedy comparison.
+        let thread_counts: &[usize] = if scene_name == "teapot-room" { &[1, 2] } else { &[2] };
+        let timed_runs = if scene_name == "teapot-room" { runs } else { 1 };
+        let mut images: Vec<(PathModel, ReferenceImage)> = Vec::new();
+        for model in [PathModel::Greedy, PathModel::Full] {
+            let options = TraceOptions {
+                model,
+                ..TraceOptions::default()
+            };
+            for &threads in thread_counts {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .context("creating the rayon thread pool")?;
+                let mut seconds = Vec::new();
+                let mut last = None;
+                for _ in 0..timed_runs {
+                    let image = pool
+                        .install(|| trace::render_reference(&world, &camera, &options, &|_| {}))?;
+                    seconds.push(image.stats.seconds);
+                    last = Some(image);
+                }
+                let Some(image) = last else { continue };
+                let median = median(&mut seconds.clone());
+                let counters = image.stats.counters;
+                let row = SpeedRow {
+                    scene: scene_name.to_owned(),
+                    tree: model,
+                    threads,
+                    median_seconds: median,
+                    seconds,
+                    mrays_per_second: counters.all_rays() as f64 / median.max(1e-12) / 1e6,
+                    rays_per_pixel: image.stats.rays_per_pixel(),
+                    triangle_tests_per_ray: counters.triangle_tests_per_ray(),
+                    counters,
+                };
+                println!(
+                    "{:<14} {:<7} {:>7} {:>9.3} {:>9.2} {:>11.1} {:>11.1}",
+                    row.scene,
+                    format!("{model:?}").to_lowercase(),
+                    threads,
+                    row.median_seconds,
+                    row.mrays_per_second,
+                    row.rays_per_pixel,
+                    row.triangle_tests_per_ray
+                );
+                speed.push(row);
+                if threads == *thread_counts.last().unwrap_or(&threads) {
+                    images.push((model, image));
+                }
+            }
+        }
+        if let [(PathModel::Greedy, greedy), (PathModel::Full, full)] = images.as_slice() {
+            comparisons.push(compare(scene_name, greedy, full));
+        }
+    }
+
+    println!();
+    println!("full ray tree vs greedy two-term paths (same image size and sampling):");
+    println!(
+        "{:<14} {:>10} {:>9} {:>14} {:>15} {:>14} {:>14}",
+        "scene", "RMSE sRGB", "PSNR dB", "RMSE lens lin", "path-ray ratio", "all-ray ratio", "2nd-ray ratio"
+    );
+    for c in &comparisons {
+        println!(
+            "{:<14} {:>10.4} {:>9.2} {:>14.4} {:>15.2} {:>14.2} {:>14.2}",
+            c.scene,
+            c.rmse_srgb,
+            c.psnr_db,
+            c.rmse_linear_lens_pixels,
+            c.path_ray_ratio,
+            c.all_ray_ratio,
+            c.secondary_ray_ratio
+        );
+    }
+    println!("(the paper reports about 5× more ray queries for the full tree)");
+
+    if let Some(path) = &args.json {
+        let report = BenchReport {
+            width: args.width,
+            height: args.height,
+            supersampling: args.supersampling,
+            runs,
+            cpu_threads_available: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            speed,
+            full_vs_greedy: comparisons,
+        };
+        let json = serde_json::to_string_pretty(&report)?;
+        std::fs::write(path, format!("{json}\n"))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    match values.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => values[n / 2],
+        n => 0.5 * (values[n / 2 - 1] + values[n / 2]),
+    }
+}
+
+fn compare(scene: &str, greedy: &ReferenceImage, full: &ReferenceImage) -> ComparisonRow {
+    let srgb = |p: Vec3| Vec3::new(srgb_encode(p.x), srgb_encode(p.y), srgb_encode(p.z));
+    let mut squared = 0.0f64;
+    let mut lens_squared = 0.0f64;
+    let mut lens_count = 0usize;
+    for ((g, f), (mg, mf)) in greedy
+        .radiance
+        .iter()
+        .zip(&full.radiance)
+        .zip(greedy.lens_mask.iter().zip(&full.lens_mask))
+    {
+        let d = (srgb(*g) - srgb(*f)).as_dvec3();
+        squared += d.length_squared();
+        if *mg > 0.0 || *mf > 0.0 {
+            lens_squared += (*g - *f).as_dvec3().length_squared();
+            lens_count += 3;
+        }
+    }
+    let values = (greedy.radiance.len() * 3).max(1) as f64;
+    let rmse = (squared / values).sqrt();
+    let ratio = |a: u64, b: u64| if b == 0 { 0.0 } else { a as f64 / b as f64 };
+    let (g, f) = (greedy.stats.counters, full.stats.counters);
+    ComparisonRow {
+        scene: scene.to_owned(),
+        rmse_srgb: rmse,
+        psnr_db: if rmse > 0.0 {
+            -20.0 * rmse.log10()
+        } else {
+            f64::INFINITY
+        },
+        rmse_linear_lens_pixels: (lens_squared / lens_count.max(1) as f64).sqrt(),
+        path_ray_ratio: ratio(f.path_rays(), g.path_rays()),
+        all_ray_ratio: ratio(f.all_rays(), g.all_rays()),
+        secondary_ray_ratio: ratio(f.secondary_rays, g.secondary_rays),
+    }
+}

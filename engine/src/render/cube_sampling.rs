@@ -167,7 +167,44 @@ pub fn face_derivatives(coordinates: &FaceCoordinates, d_direction: DVec3) -> (f
     )
 }
 
-/// The LOD λ for `direction` forced onto `face`, clamped to `[0, levels − 1]` (see [`cube_lod`]).
+/// How `λ_base = log2 ρ` is evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LodLog2 {
+    /// The exact logarithm, as the spec writes it.
+    #[default]
+    Exact,
+    /// Mesa llvmpipe/lavapipe's default: it skips the square root and takes
+    /// `λ = ½·fast_log2(ρ²)` with the piecewise-linear `fast_log2(2^e·m) = e + m − 1`
+    /// (m ∈ [1, 2)), exact at powers of two and up to ≈0.043 low in between (measured against
+    /// lavapipe, Mesa 22.3: it reproduces its LODs to f32 precision).
+    PiecewiseLinearOfSquare,
+}
+
+impl LodLog2 {
+    /// `log2 ρ` evaluated this way from `ρ²`.
+    pub fn log2_from_square(self, rho_squared: f64) -> f64 {
+        match self {
+            LodLog2::Exact => 0.5 * rho_squared.log2(),
+            LodLog2::PiecewiseLinearOfSquare => {
+                if !(rho_squared >= f64::MIN_POSITIVE) || !rho_squared.is_finite() {
+                    // 0, subnormal or NaN: level 0 either way after clamping; ∞ stays ∞.
+                    return if rho_squared == f64::INFINITY {
+                        f64::INFINITY
+                    } else {
+                        f64::NEG_INFINITY
+                    };
+                }
+                // Exponent and mantissa straight from the bits, so powers of two are exact.
+                let exponent = ((rho_squared.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+                let mantissa = rho_squared / 2f64.powi(exponent as i32);
+                0.5 * (exponent as f64 + mantissa - 1.0)
+            }
+        }
+    }
+}
+
+/// The LOD λ for `direction` forced onto `face`, clamped to `[0, levels − 1]` (see [`cube_lod`]),
+/// with `log2` evaluated as `log2` says.
 pub fn cube_lod_on_face(
     face: CubeFace,
     cube_size: u32,
@@ -175,6 +212,7 @@ pub fn cube_lod_on_face(
     direction: DVec3,
     ddx: DVec3,
     ddy: DVec3,
+    log2: LodLog2,
 ) -> f64 {
     let coordinates = face_coordinates_on(face, direction);
     let (ds_dx, dt_dx) = face_derivatives(&coordinates, ddx);
@@ -182,10 +220,10 @@ pub fn cube_lod_on_face(
     let size = f64::from(cube_size);
     // Scale factor operation: m_ux = |∂s/∂x|·w_base …; isotropic ρ = max(ρx, ρy) with the exact
     // ρx = sqrt(m_ux² + m_vx²) (the spec allows approximations; lavapipe computes this one
-    // unless GALLIVM_PERF=rho_approx).
-    let rho_x = size * ds_dx.hypot(dt_dx);
-    let rho_y = size * ds_dy.hypot(dt_dy);
-    let lambda = rho_x.max(rho_y).log2();
+    // unless GALLIVM_PERF=rho_approx), kept squared until the logarithm.
+    let rho_x2 = size * size * (ds_dx * ds_dx + dt_dx * dt_dx);
+    let rho_y2 = size * size * (ds_dy * ds_dy + dt_dy * dt_dy);
+    let lambda = log2.log2_from_square(rho_x2.max(rho_y2));
     // λ = clamp(λ_base, minLod = 0, maxLod = q); ρ = 0 (log2 = −∞) and NaN give level 0.
     let max_lod = f64::from(levels.max(1) - 1);
     if lambda > 0.0 {
@@ -201,7 +239,20 @@ pub fn cube_lod_on_face(
 ///
 /// `λ = log2 max(ρx, ρy)`, `ρx = cube_size·sqrt((∂s/∂x)² + (∂t/∂x)²)`, with `∂s/∂x` from the
 /// cube-map derivative transformation ([`face_derivatives`]) on the face `direction` selects.
+/// The exact logarithm; [`cube_lod_with`] takes lavapipe's approximation.
 pub fn cube_lod(cube_size: u32, levels: u32, direction: DVec3, ddx: DVec3, ddy: DVec3) -> f64 {
+    cube_lod_with(cube_size, levels, direction, ddx, ddy, LodLog2::Exact)
+}
+
+/// [`cube_lod`] with the logarithm evaluated as `log2` says.
+pub fn cube_lod_with(
+    cube_size: u32,
+    levels: u32,
+    direction: DVec3,
+    ddx: DVec3,
+    ddy: DVec3,
+    log2: LodLog2,
+) -> f64 {
     cube_lod_on_face(
         major_face(direction),
         cube_size,
@@ -209,6 +260,7 @@ pub fn cube_lod(cube_size: u32, levels: u32, direction: DVec3, ddx: DVec3, ddy: 
         direction,
         ddx,
         ddy,
+        log2,
     )
 }
 
@@ -736,6 +788,22 @@ mod tests {
             cube_lod(size, levels, DVec3::Z, DVec3::ZERO, DVec3::ZERO),
             0.0
         );
+    }
+
+    #[test]
+    fn piecewise_linear_log2_is_exact_at_powers_of_two_and_low_between() {
+        let approximate = LodLog2::PiecewiseLinearOfSquare;
+        for k in -3..8 {
+            let rho = 2f64.powi(k);
+            assert_eq!(approximate.log2_from_square(rho * rho), f64::from(k));
+        }
+        // ρ² = 1.5590 (ρ = 2^0.32035): ½(0 + 1.5590 − 1) = 0.2795, as lavapipe gave.
+        let rho = 2f64.powf(0.32035);
+        assert!((approximate.log2_from_square(rho * rho) - 0.27950).abs() < 1e-4);
+        for x in [1.1, 1.5, 1.9, 3.0, 100.0] {
+            let error = LodLog2::Exact.log2_from_square(x) - approximate.log2_from_square(x);
+            assert!((0.0..0.044).contains(&error), "{x}: {error}");
+        }
     }
 
     #[test]

@@ -129,3 +129,45 @@ pub struct FrameInput {
     /// that viewpoint's passes.
     pub viewpoint_weights: Vec<f32>,
 }
+
+impl CubeMap {
+    /// A cube map from its level-0 faces, with the rest of the chain made by 2×2 box filtering.
+    /// Averaging premultiplied texels is exact (filtering commutes with premultiplication).
+    pub fn from_level0(size: u32, faces: [Vec<[f32; 4]>; 6]) -> Self {
+        let mut levels = vec![faces];
+        let mut edge = size as usize;
+        while edge > 1 {
+            let half = edge / 2;
+            let previous = &levels[levels.len() - 1];
+            let next: [Vec<[f32; 4]>; 6] = std::array::from_fn(|face| {
+                let src = &previous[face];
+                (0..half * half)
+                    .map(|i| {
+                        let (x, y) = (2 * (i % half), 2 * (i / half));
+                        let texels = [src[y * edge + x], src[y * edge + x + 1], src[(y + 1) * edge + x], src[(y + 1) * edge + x + 1]];
+                        std::array::from_fn(|c| 0.25 * texels.iter().map(|t| t[c]).sum::<f32>())
+                    })
+                    .collect()
+            });
+            levels.push(next);
+            edge = half;
+        }
+        CubeMap { size, levels }
+    }
+
+    /// A cube map whose level-0 texel is `f(direction through the texel centre)`, mips box-filtered.
+    pub fn from_fn(size: u32, f: impl Fn(glam::DVec3) -> [f32; 4]) -> Self {
+        let edge = size as usize;
+        let faces = std::array::from_fn(|face| {
+            let face = super::cube_sampling::CubeFace::ALL[face];
+            (0..edge * edge)
+                .map(|i| {
+                    let s = ((i % edge) as f64 + 0.5) / edge as f64;
+                    let t = ((i / edge) as f64 + 0.5) / edge as f64;
+                    f(face.direction(2.0 * s - 1.0, 2.0 * t - 1.0))
+                })
+                .collect()
+        });
+        CubeMap::from_level0(size, faces)
+    }
+}

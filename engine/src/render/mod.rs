@@ -6,6 +6,7 @@ pub mod frame;
 mod frame_input;
 pub mod model;
 pub mod plan;
+pub mod synthetic;
 
 pub use frame::{FrameTimings, RenderedImage, Renderer, UploadedFrame};
 pub use frame_input::*;

@@ -211,7 +211,7 @@ impl Loader<'_> {
             return Err(self.error(
                 "camera.supersampling",
                 "k = 0 gives no samples per pixel",
-                "give k ≥ 1 (k×k samples per pixel; 1 = none)",
+                "give k ≥ 1 (k×k samples per pixel, 1 = none)",
             ));
         }
         let camera = Camera {
@@ -589,7 +589,7 @@ impl Loader<'_> {
                 &path_field,
                 format!("cannot read {} ({e})", resolved.display()),
                 format!(
-                    "check the path; relative paths start at the scene file's folder ({})",
+                    "check the path (relative paths start at the scene file's folder, {})",
                     display_dir(&self.base)
                 ),
             ));
@@ -713,7 +713,7 @@ impl Loader<'_> {
                     ));
                 };
                 if !materials[objects[object].material].is_lens() {
-                    return Err(self.error(member_field, format!("object \"{name}\" is diffuse; a lens is made of glass or mirror objects"), "give the object a glass or mirror material, or leave it out of the lens"));
+                    return Err(self.error(member_field, format!("object \"{name}\" is diffuse, but a lens is made of glass or mirror objects"), "give the object a glass or mirror material, or leave it out of the lens"));
                 }
                 if let Some(other) = owner[object] {
                     return Err(self.error(

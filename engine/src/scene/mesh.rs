@@ -134,7 +134,9 @@ impl TriangleMesh {
             .max((c - b).length_squared())
             .max((a - c).length_squared());
         let cross = (b - a).cross(c - a).length();
-        !(cross > DEGENERATE_RELATIVE_AREA * longest)
+        // Written so that a NaN area also counts as degenerate.
+        cross.partial_cmp(&(DEGENERATE_RELATIVE_AREA * longest))
+            != Some(std::cmp::Ordering::Greater)
     }
 
     /// Checks the mesh: finite positions and attributes, indices in range, no zero-area triangles.
@@ -311,22 +313,14 @@ impl TriangleMesh {
         let mut normal_sums: Vec<Vec3> = Vec::new();
         for (i, &p) in self.positions.iter().enumerate() {
             let (kx, ky, kz) = key(p);
-            let mut found = None;
-            'search: for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        if let Some(candidates) = grid.get(&(kx + dx, ky + dy, kz + dz)) {
-                            if let Some(&j) = candidates
-                                .iter()
-                                .find(|&&j| positions[j as usize].distance(p) <= tolerance)
-                            {
-                                found = Some(j);
-                                break 'search;
-                            }
-                        }
-                    }
-                }
-            }
+            let found = (-1..=1)
+                .flat_map(|dx| {
+                    (-1..=1).flat_map(move |dy| (-1..=1).map(move |dz| (kx + dx, ky + dy, kz + dz)))
+                })
+                .filter_map(|cell| grid.get(&cell))
+                .flatten()
+                .copied()
+                .find(|&j| positions[j as usize].distance(p) <= tolerance);
             let j = found.unwrap_or_else(|| {
                 let j = positions.len() as u32;
                 positions.push(p);
@@ -335,10 +329,8 @@ impl TriangleMesh {
                 j
             });
             remap[i] = j;
-            if let Some(n) = self.normals.get(i) {
-                if n.is_finite() {
-                    normal_sums[j as usize] += *n;
-                }
+            if let Some(n) = self.normals.get(i).filter(|n| n.is_finite()) {
+                normal_sums[j as usize] += *n;
             }
         }
         self.positions = positions;

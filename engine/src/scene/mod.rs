@@ -1,4 +1,187 @@
-//! SCHEMA_DOC_PLACEHOLDER
+//! The scene model: scene files (TOML), meshes (OBJ through tobj, built-in shapes, the Newell
+//! teapot), materials, lights, the environment at infinity, lens objects, the camera and the view
+//! space. [`Scene::load`] parses and checks a file and builds every mesh in world space; anything
+//! wrong is one [`SceneError`] line naming the file, the field and a fix.
+//!
+//! The schema below is also in `tools/scenes/README.md`.
+//!
+//! # Scene file schema
+//!
+//! A lensmap scene is one TOML file. Every table rejects unknown fields, so a misspelt key is an
+//! error, not a silent default. Units are **metres** and **degrees** (the field name says which),
+//! colours are **linear rgb**, the world is **right-handed with y up**. Relative paths (OBJ, EXR,
+//! PNG) start at the scene file's folder.
+//!
+//! The built-in scenes (`lensmap … --scene teapot-room`, or a path to your own file):
+//!
+//! | name | what | lens objects | view space |
+//! |---|---|---|---|
+//! | `teapot-room` | Hakura & Snyder 2001 §6: a glass teapot, a mirror cup, a ring of eight columns, distant walls, a checker floor | `teapot`, `cup` (body + handle) | circle, 45 samples 8° apart |
+//! | `glass-sphere` | a clear glass sphere (r = 1 m, IOR 1.5) 0.2 m over a checkerboard of 1 m squares in a room | `sphere` | circle, 45 samples 8° apart |
+//! | `mirror-teapot` | the PEM paper's reflective teapot on a table in a room, lid and body as separate lens objects | `teapot-body`, `teapot-lid` | partial circle, 100 samples 1° apart |
+//!
+//! ## Top level
+//!
+//! | field | type | default | meaning |
+//! |---|---|---|---|
+//! | `name` | string | file stem | the scene's name |
+//! | `[camera]` | table | required | the default camera |
+//! | `[environment]` | table | constant black | radiance at infinity |
+//! | `[[lights]]` | array of tables | none | point lights |
+//! | `[[materials]]` | array of tables | none | named materials |
+//! | `[[objects]]` | array of tables | none | meshes with a material and a transform |
+//! | `[[lenses]]` | array of tables | see below | which objects form each lens object |
+//! | `[view_space]` | table | the camera position alone | viewpoint samples for baking |
+//!
+//! ## `[camera]`
+//!
+//! | field | type | default | meaning |
+//! |---|---|---|---|
+//! | `position` | [x, y, z] | required | eye position |
+//! | `look_at` | [x, y, z] | required | point looked at; must differ from `position` |
+//! | `up` | [x, y, z] | [0, 1, 0] | up direction; must not be parallel to `look_at − position` |
+//! | `vfov_degrees` | number | required | vertical field of view, in (0, 180) |
+//! | `width`, `height` | integer | required | image size in pixels, ≥ 1 |
+//! | `supersampling` | integer | 1 | k: k×k samples per pixel, box filtered, ≥ 1 |
+//!
+//! Primary rays: pixel (x, y) in pixel units, (0, 0) the top-left corner of the image, pixel centres
+//! at +0.5; the top row of the image is the camera's up side. The GPU view-projection matrix maps
+//! to Vulkan clip space (y down, depth 0..1) consistently with the primary rays.
+//!
+//! ## `[environment]`
+//!
+//! Exactly one of:
+//!
+//! - `constant = [r, g, b]`: the same radiance (≥ 0) in every direction;
+//! - `latlong = { path = "sky.exr", scale = 1.0 }`: an equirectangular HDR image (EXR, or anything
+//!   the `image` crate reads; 8/16-bit files are taken as sRGB) times `scale` (≥ 0). NaN, infinite
+//!   or negative texels are rejected.
+//!
+//! The lat-long mapping of a unit direction d = (x, y, z):
+//!
+//! ```text
+//! u = ½ + atan2(x, −z) / 2π      ∈ [0, 1)   (−z at u = ½, +x at u = ¾, +z at the seam u = 0 ≡ 1)
+//! v = acos(y) / π                ∈ [0, 1]   (+y, the zenith, at v = 0: the top row)
+//! d = (sin πv · sin φ, cos πv, −sin πv · cos φ)   with φ = 2π(u − ½)
+//! ```
+//!
+//! Pixel (i, j) of a W×H map (row j = 0 at the top) has its centre at ((i + ½)/W, (j + ½)/H);
+//! sampling is bilinear, wrapping in u and clamping in v.
+//!
+//! ## `[[lights]]`
+//!
+//! | field | type | meaning |
+//! |---|---|---|
+//! | `position` | [x, y, z] | position in metres |
+//! | `intensity` | [r, g, b] | radiant intensity (W/sr, ≥ 0): irradiance at distance d facing the light is intensity / d² |
+//!
+//! ## `[[materials]]`
+//!
+//! Each has a unique `name` and exactly one of `glass`, `mirror`, `diffuse`:
+//!
+//! ```toml
+//! [[materials]]
+//! name = "teapot-glass"
+//! glass = { ior = 1.5, absorption = [0.82, 0.9, 0.95] }
+//!
+//! [[materials]]
+//! name = "silver"
+//! mirror = { reflectance = [0.95, 0.95, 0.95] }
+//!
+//! [[materials]]
+//! name = "floor"
+//! diffuse = { checker = { a = [0.8, 0.8, 0.8], b = [0.1, 0.1, 0.1], scale = 20 } }
+//!
+//! [[materials]]
+//! name = "wood"
+//! diffuse = { colour = [1, 1, 1], image = "wood.png" }
+//! ```
+//!
+//! | kind | field | default | meaning |
+//! |---|---|---|---|
+//! | `glass` | `ior` | required | index of refraction relative to air, > 0 |
+//! | | `absorption` | [1, 1, 1] | transmittance per metre per channel in (0, 1]: light travelling d metres inside is multiplied by G = absorption^d |
+//! | `mirror` | `reflectance` | required | reflectance at normal incidence R₀ per channel in [0, 1]; the tracer applies Schlick's approximation F = R₀ + (1 − R₀)(1 − cos θ)⁵ |
+//! | `diffuse` | `colour` | [1, 1, 1] with a texture, else required | Lambertian albedo in [0, 1] |
+//! | | `checker` | none | `{ a, b, scale }`: a procedural checkerboard, `scale` squares per uv unit; the square with floor(u·scale) + floor(v·scale) even is `a`, odd is `b` |
+//! | | `image` | none | a PNG (sRGB) or EXR (linear) texture, bilinear, repeating; v = 0 is the bottom row (as in OBJ) |
+//!
+//! The albedo is `colour × texture(uv)`. Glass and mirror materials make **lens objects**.
+//!
+//! ## `[[objects]]`
+//!
+//! Each has a unique `name`, a `material` (a material's name), an optional `transform`, optional
+//! `inside_out = true` (reverse the triangles and normals: a room seen from inside), and exactly one
+//! mesh:
+//!
+//! | mesh | fields (defaults) | local shape |
+//! |---|---|---|
+//! | `obj` | `path`, `smooth_normals` (false), `drop_degenerate` (false) | a Wavefront OBJ, triangulated, all groups merged; normals from the file unless missing or `smooth_normals`, then angle-weighted smooth |
+//! | `plane` | `size = [sx, sz]`, `subdivisions` (1) | a rectangle in the xz plane centred on the origin, normal +y; uv = (x/sx + ½, ½ − z/sz) |
+//! | `box` | `size = [sx, sy, sz]` | an axis-aligned box centred on the origin, flat faces, uv [0, 1]² per face |
+//! | `sphere` | `radius`, `segments` (64), `rings` (32) | a UV sphere centred on the origin; uv = (φ/2π, 1 − θ/π) |
+//! | `cylinder` | `radius`, `height`, `segments` (64), `caps` (true) | about the y axis, y ∈ [−height/2, height/2], flat caps |
+//! | `torus` | `major_radius`, `minor_radius`, `major_segments` (64), `minor_segments` (32) | about the y axis in the xz plane; minor < major |
+//! | `teapot` | `tessellation` (8), `parts` (all) | the Newell teapot from its 32 Bézier patches, y up, base at y = 0: x ∈ [−3, 3.43], y ∈ [0, 3.15], z ∈ [−2, 2]; each patch split into tessellation² quads (8 → about 4k triangles, at most 64); `parts` from `rim`, `body`, `handle`, `spout`, `lid`, `bottom` |
+//!
+//! `transform = { translate = [x, y, z], rotate_degrees = [rx, ry, rz], scale = s or [sx, sy, sz] }`
+//! (defaults: none, none, 1) is M = T · Rz · Ry · Rx · S: scale, then rotate about x, then y, then
+//! z (right-handed: counter-clockwise seen from the positive end of the axis), then translate. Positions are
+//! transformed by M and normals by its inverse transpose, at load time, so every mesh is in world
+//! space. A mirroring scale keeps the winding outward. Triangles are counter-clockwise seen from the
+//! front (outward) side.
+//!
+//! Checks: positions, normals and uvs must be finite (an OBJ with NaN or infinite values is an
+//! error); an OBJ with zero-area triangles is an error naming how many and the first, unless
+//! `drop_degenerate = true` drops them; shape sizes must be > 0 and counts within range.
+//!
+//! ## `[[lenses]]`
+//!
+//! ```toml
+//! [[lenses]]
+//! name = "cup"
+//! objects = ["cup-body", "cup-handle"]
+//! ```
+//!
+//! A lens object is ray traced as one local system at run time and gets its own layered
+//! environment maps. Every object named must exist, be glass or mirror, and belong to one lens
+//! only. A glass or mirror object that no lens names becomes a lens of its own, named after it.
+//!
+//! ## `[view_space]`
+//!
+//! Exactly one of:
+//!
+//! ```toml
+//! [view_space.circle]
+//! centre = [0, 0.3, 0]     # a point on the circle's vertical axis
+//! radius = 2.6             # metres, > 0
+//! height = 1.0             # metres above centre.y (default 0)
+//! start_degrees = 0        # angle of sample 0 (default 0)
+//! step_degrees = 8         # angle between samples
+//! count = 45               # ≥ 1
+//! ```
+//!
+//! Sample i is at angle a = start + i·step about +y, measured from +z towards +x:
+//! position = centre + (radius·sin a, height, radius·cos a).
+//!
+//! ```toml
+//! [view_space]
+//! list = [[0, 1, 5], [1, 1, 5]]
+//! ```
+//!
+//! Each sample is a camera at that position with the `[camera]`'s look-at point, up, field of view
+//! and resolution; a sample may not sit on the look-at point.
+//!
+//! ## Errors
+//!
+//! A bad scene fails with one line, `<file>: <field>: <what is wrong>; <fix>` (TOML syntax and
+//! schema errors add `:line:column` after the file), for example:
+//!
+//! ```text
+//! scenes/room.toml:14:1: objects[1].spheer: unknown field `spheer`, expected one of `name`, …; remove the field or correct its spelling (the schema is in tools/scenes/README.md)
+//! scenes/room.toml: materials[0].glass.ior: index of refraction 0 is not > 0; give the glass's index of refraction, e.g. 1.5
+//! scenes/room.toml: objects[2].obj.path: scenes/bunny.obj: 3 degenerate (zero-area) triangle(s), the first is triangle 17 (0-based); remove those triangles from the OBJ, or set drop_degenerate = true to have them dropped
+//! ```
 
 mod camera;
 mod environment;

@@ -27,7 +27,7 @@ pub(crate) enum Winding {
     Parametric,
 }
 
-/// Tessellates a parametric surface `(s, t) ∈ [0,1]²` on a `columns × rows` grid of quads.
+/// Tessellates a parametric surface `(s, t) ∈ [0, 1]²` on a `columns × rows` grid of quads.
 /// Each quad gives two triangles; a triangle that collapses (at a pole) is skipped, and each is
 /// wound as `winding` says.
 pub(crate) fn parametric_grid(
@@ -99,7 +99,7 @@ pub fn plane(size: Vec2, subdivisions: u32) -> TriangleMesh {
 }
 
 /// An axis-aligned box of edge lengths `size`, centred on the origin: six faces of two
-/// triangles, flat normals, uv ∈ [0,1]² on each face.
+/// triangles, flat normals, uv ∈ [0, 1]² on each face.
 pub fn cuboid(size: Vec3) -> TriangleMesh {
     let half = size * 0.5;
     let mut mesh = TriangleMesh::default();
@@ -148,7 +148,7 @@ pub fn sphere(radius: f32, segments: u32, rings: u32) -> TriangleMesh {
 
 /// A cylinder of `radius` about the y axis, y ∈ [−height/2, height/2], `segments` around (≥ 3);
 /// smooth side normals, and flat caps with their own vertices when `caps` is true (closed).
-/// Side uv = (φ / 2π, y / height + ½); cap uv = the xz position mapped to [0,1]².
+/// Side uv = (φ / 2π, y / height + ½); cap uv = the xz position mapped to [0, 1]².
 pub fn cylinder(radius: f32, height: f32, segments: u32, caps: bool) -> TriangleMesh {
     let segments = segments.max(3);
     let mut mesh = parametric_grid(segments, 1, Winding::MatchNormals, |s, t| {

@@ -1,1 +1,27 @@
-//! Shared helpers for the end-to-end tests.
+//! Shared helpers for the end-to-end tests: a GPU with the Khronos validation layer on, and the
+//! check that it reported nothing.
+
+use lensmap::gpu::{Gpu, GpuOptions};
+
+/// A GPU for tests, with validation on. The validation layer is required (CI installs
+/// `vulkan-validationlayers`); set `LENSMAP_TEST_NO_VALIDATION=1` to run without it locally.
+pub fn gpu() -> Gpu {
+    let mut options = GpuOptions::from_env();
+    options.validation = std::env::var("LENSMAP_TEST_NO_VALIDATION").is_err_and(|_| true)
+        || std::env::var("LENSMAP_TEST_NO_VALIDATION").is_ok_and(|v| v != "1");
+    match Gpu::new(&options) {
+        Ok(gpu) => gpu,
+        Err(e) => panic!("no GPU for tests: {e}"),
+    }
+}
+
+/// Fails the test if the validation layer reported anything.
+pub fn assert_clean(gpu: &Gpu) {
+    let report = gpu.validation_report();
+    assert!(
+        report.messages.is_empty(),
+        "{} validation message(s):\n{}",
+        report.messages.len(),
+        report.messages.join("\n")
+    );
+}

@@ -118,6 +118,16 @@ pub enum LodMode {
     PerQuadTopLeft,
 }
 
+/// How the implicit LOD's screen-space derivatives are taken over a 2×2 quad.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum DerivativeMode {
+    /// One pair per quad: ∂/∂x = top-right − top-left, ∂/∂y = bottom-left − top-left.
+    #[default]
+    Coarse,
+    /// Per pixel: ∂/∂x along the pixel's own row, ∂/∂y along its own column.
+    Fine,
+}
+
 /// Where the alpha clear between groups applies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum AlphaClearScope {
@@ -148,6 +158,8 @@ pub struct ModelOptions {
     pub lod_mode: LodMode,
     /// How λ = log2 ρ is evaluated.
     pub lod_log2: LodLog2,
+    /// How the quad derivatives are taken.
+    pub derivatives: DerivativeMode,
     /// Where alpha clears apply.
     pub alpha_clear: AlphaClearScope,
     /// Flag lens pixels whose quad straddles triangles ([`Exclusion::QuadStraddle`]).
@@ -163,6 +175,7 @@ impl Default for ModelOptions {
             lod_tie_tolerance: 1e-6,
             lod_mode: LodMode::PerPixel,
             lod_log2: LodLog2::Exact,
+            derivatives: DerivativeMode::Coarse,
             alpha_clear: AlphaClearScope::LensCoverage,
             flag_quad_straddle: false,
         }
@@ -176,6 +189,7 @@ impl ModelOptions {
     pub fn lavapipe() -> Self {
         ModelOptions {
             lod_log2: LodLog2::PiecewiseLinearOfSquare,
+            derivatives: DerivativeMode::Fine,
             ..ModelOptions::default()
         }
     }
@@ -798,6 +812,7 @@ impl<'a> FrameSetup<'a> {
             top_left,
             top_left + DVec2::new(1.0, 0.0),
             top_left + DVec2::new(0.0, 1.0),
+            top_left + DVec2::new(1.0, 1.0),
         ];
         let weights: Vec<Option<[f64; 3]>> = points
             .iter()
@@ -823,9 +838,17 @@ impl<'a> FrameSetup<'a> {
                     .iter()
                     .map(|layer| {
                         let value = |v: usize| layer[v].as_dvec3();
-                        let quad_top_left = at(1, &value);
-                        let ddx = at(2, &value) - quad_top_left;
-                        let ddy = at(3, &value) - quad_top_left;
+                        // The quad's pixels: top-left, top-right, bottom-left, bottom-right.
+                        let quad = [at(1, &value), at(2, &value), at(3, &value), at(4, &value)];
+                        let quad_top_left = quad[0];
+                        let (column, row) = (x & 1, y & 1);
+                        let (ddx, ddy) = match self.options.derivatives {
+                            DerivativeMode::Coarse => (quad[1] - quad[0], quad[2] - quad[0]),
+                            DerivativeMode::Fine => (
+                                quad[2 * row + 1] - quad[2 * row],
+                                quad[2 + column] - quad[column],
+                            ),
+                        };
                         let direction = at(0, &value);
                         let lod_direction = match self.options.lod_mode {
                             LodMode::PerPixel => direction,
@@ -1569,7 +1592,7 @@ mod tests {
             .render(&gpu, &mut uploaded, Variant::Multipass, TargetFormat::Rgba32f)
             .unwrap();
         let a = render_model_with(&frame, &ModelOptions::lavapipe());
-        let b = render_model_with(&frame, &ModelOptions::default());
+        let b = render_model_with(&frame, &ModelOptions { derivatives: DerivativeMode::Fine, ..ModelOptions::lavapipe() });
         let straddle = render_model_with(&frame, &ModelOptions { flag_quad_straddle: true, ..ModelOptions::default() });
         let mut table = [[0usize; 2]; 2];
         for i in 0..a.rgba.len() {

@@ -12,6 +12,8 @@ pub struct Shader {
     pub file: &'static str,
     /// Entry point name, also the SPIR-V entry point.
     pub entry: &'static str,
+    /// Override values baked in (`LAYER_COUNT=3,TERM_MASK=3,VIEWPOINTS=2`), empty if none.
+    pub specialization: &'static str,
     /// SPIR-V bytes (little-endian words).
     pub spirv: &'static [u8],
 }
@@ -28,17 +30,25 @@ impl Shader {
 
 /// The compiled entry point `entry` of `file`, or `None` if there is no such shader.
 pub fn shader(file: &str, entry: &str) -> Option<Shader> {
-    MODULES
-        .iter()
-        .find(|(f, e, _)| *f == file && *e == entry)
-        .map(|&(file, entry, spirv)| Shader { file, entry, spirv })
+    specialized(file, entry, "")
+}
+
+/// The entry point `entry` of `file` compiled with the override values `specialization`
+/// (`LAYER_COUNT=3,TERM_MASK=3,VIEWPOINTS=2`; entry points named `*_specialized` only).
+pub fn specialized(file: &str, entry: &str, specialization: &str) -> Option<Shader> {
+    all().find(|s| s.file == file && s.entry == entry && s.specialization == specialization)
 }
 
 /// Every compiled entry point.
 pub fn all() -> impl Iterator<Item = Shader> {
     MODULES
         .iter()
-        .map(|&(file, entry, spirv)| Shader { file, entry, spirv })
+        .map(|&(file, entry, specialization, spirv)| Shader {
+            file,
+            entry,
+            specialization,
+            spirv,
+        })
 }
 
 #[cfg(test)]
@@ -54,9 +64,19 @@ mod tests {
             ("lens", "vs_layer"),
             ("lens", "fs_layer"),
             ("lens", "vs_single_pass"),
-            ("lens", "fs_single_pass"),
         ] {
-            assert!(names.contains(&expected), "missing {expected:?} in {names:?}");
+            assert!(
+                names.contains(&expected),
+                "missing {expected:?} in {names:?}"
+            );
+        }
+        for layers in 1..=6 {
+            for terms in 1..=3 {
+                for viewpoints in 1..=2 {
+                    let key = format!("LAYER_COUNT={layers},TERM_MASK={terms},VIEWPOINTS={viewpoints}");
+                    assert!(super::specialized("lens", "fs_single_pass_specialized", &key).is_some(), "{key}");
+                }
+            }
         }
         for shader in super::all() {
             let words = shader.words();

@@ -141,47 +141,64 @@ fn vs_single_pass(@builtin(vertex_index) vertex: u32) -> SinglePassVertex {
     return out;
 }
 
-// One (viewpoint, term) group composited front to back onto the running colour, exactly as the
-// blend unit does it: rgb += (1 − α)·texel.rgb·FG·w, α += (1 − α)·texel.α, starting from α = 0
-// (the alpha clear). Returns (rgb, α) of the running sum.
-fn composite_group(
-    running: vec3<f32>,
+// One layer of a (viewpoint, term) group composited front to back onto the running (rgb, α),
+// exactly as the blend unit does it: rgb += (1 − α)·texel.rgb·FG·w, α += (1 − α)·texel.α.
+fn over_layer(
+    running: vec4<f32>,
     layers: texture_cube_array<f32>,
-    directions: array<vec3<f32>, 6>,
+    direction: vec3<f32>,
+    layer: u32,
     fg: vec3<f32>,
     weight: f32,
 ) -> vec4<f32> {
-    var rgb = running;
-    var alpha = 0.0;
-    for (var layer = 0u; layer < constants.layer_count; layer++) {
-        let texel = textureSample(layers, layer_sampler, directions[layer], layer);
-        rgb = (texel.rgb * fg * weight) * (1.0 - alpha) + rgb;
-        alpha = texel.a * (1.0 - alpha) + alpha;
-    }
+    let texel = textureSample(layers, layer_sampler, direction, layer);
+    let rgb = (texel.rgb * fg * weight) * (1.0 - running.a) + running.rgb;
+    let alpha = texel.a * (1.0 - running.a) + running.a;
     return vec4<f32>(rgb, alpha);
 }
 
+// Specialization (see shaders/build.rs): the layer count n, which terms exist (bit 0 refraction,
+// bit 1 reflection) and how many viewpoint samples are blended. With them constant the driver
+// drops the code a frame does not need.
+override LAYER_COUNT: u32 = 1u;
+override TERM_MASK: u32 = 3u;
+override VIEWPOINTS: u32 = 2u;
+
+// One (viewpoint, term) group: α starts at 0 (the alpha clear), rgb carries the running sum.
+fn composite_group(
+    running: vec3<f32>,
+    layers: texture_cube_array<f32>,
+    d0: vec3<f32>, d1: vec3<f32>, d2: vec3<f32>, d3: vec3<f32>, d4: vec3<f32>, d5: vec3<f32>,
+    fg: vec3<f32>,
+    weight: f32,
+) -> vec4<f32> {
+    var result = over_layer(vec4<f32>(running, 0.0), layers, d0, 0u, fg, weight);
+    if LAYER_COUNT > 1u { result = over_layer(result, layers, d1, 1u, fg, weight); }
+    if LAYER_COUNT > 2u { result = over_layer(result, layers, d2, 2u, fg, weight); }
+    if LAYER_COUNT > 3u { result = over_layer(result, layers, d3, 3u, fg, weight); }
+    if LAYER_COUNT > 4u { result = over_layer(result, layers, d4, 4u, fg, weight); }
+    if LAYER_COUNT > 5u { result = over_layer(result, layers, d5, 5u, fg, weight); }
+    return result;
+}
+
+// The single-pass variant: groups in the multipass order (viewpoint a then b; refraction then
+// reflection), so the arithmetic matches the multipass frame. With one viewpoint, `layers_a` and
+// `weight_a` are that viewpoint's.
 @fragment
-fn fs_single_pass(in: SinglePassVertex) -> @location(0) vec4<f32> {
-    let has_t = (constants.term_mask & 1u) != 0u;
-    let has_r = (constants.term_mask & 2u) != 0u;
-    let t = array<vec3<f32>, 6>(in.t0, in.t1, in.t2, in.t3, in.t4, in.t5);
-    let r = array<vec3<f32>, 6>(in.r0, in.r1, in.r2, in.r3, in.r4, in.r5);
+fn fs_single_pass_specialized(in: SinglePassVertex) -> @location(0) vec4<f32> {
     var result = vec4<f32>(0.0);
-    if constants.weight_a > 0.0 {
-        if has_t {
-            result = composite_group(result.rgb, layers_a, t, in.fg_t, constants.weight_a);
-        }
-        if has_r {
-            result = composite_group(result.rgb, layers_a, r, in.fg_r, constants.weight_a);
-        }
+    if (TERM_MASK & 1u) != 0u {
+        result = composite_group(result.rgb, layers_a, in.t0, in.t1, in.t2, in.t3, in.t4, in.t5, in.fg_t, constants.weight_a);
     }
-    if constants.weight_b > 0.0 {
-        if has_t {
-            result = composite_group(result.rgb, layers_b, t, in.fg_t, constants.weight_b);
+    if (TERM_MASK & 2u) != 0u {
+        result = composite_group(result.rgb, layers_a, in.r0, in.r1, in.r2, in.r3, in.r4, in.r5, in.fg_r, constants.weight_a);
+    }
+    if VIEWPOINTS > 1u {
+        if (TERM_MASK & 1u) != 0u {
+            result = composite_group(result.rgb, layers_b, in.t0, in.t1, in.t2, in.t3, in.t4, in.t5, in.fg_t, constants.weight_b);
         }
-        if has_r {
-            result = composite_group(result.rgb, layers_b, r, in.fg_r, constants.weight_b);
+        if (TERM_MASK & 2u) != 0u {
+            result = composite_group(result.rgb, layers_b, in.r0, in.r1, in.r2, in.r3, in.r4, in.r5, in.fg_r, constants.weight_b);
         }
     }
     return result;

@@ -25,7 +25,12 @@ fn random_cube(rng: &mut Pcg64, size: u32) -> CubeMap {
                 (0..n)
                     .map(|_| {
                         let a: f32 = rng.gen_range(0.0..=1.0);
-                        [rng.gen_range(0.0..=a), rng.gen_range(0.0..=a), rng.gen_range(0.0..=a), a]
+                        [
+                            rng.gen_range(0.0..=a),
+                            rng.gen_range(0.0..=a),
+                            rng.gen_range(0.0..=a),
+                            a,
+                        ]
                     })
                     .collect()
             })
@@ -44,14 +49,23 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
         for i in 0..=grid {
             let u = i as f32 / grid as f32 - 0.5;
             let v = j as f32 / grid as f32 - 0.5;
-            positions.push(Vec3::new(1.6 * u, 1.6 * v, 0.15 * (3.0 * u).sin() + 0.25 * v));
+            positions.push(Vec3::new(
+                1.6 * u,
+                1.6 * v,
+                0.15 * (3.0 * u).sin() + 0.25 * v,
+            ));
         }
     }
     let mut triangles = Vec::new();
     let row = grid + 1;
     for j in 0..grid {
         for i in 0..grid {
-            let (a, b, c, d) = (j * row + i, j * row + i + 1, (j + 1) * row + i + 1, (j + 1) * row + i);
+            let (a, b, c, d) = (
+                j * row + i,
+                j * row + i + 1,
+                (j + 1) * row + i + 1,
+                (j + 1) * row + i,
+            );
             triangles.push([a, b, c]);
             triangles.push([a, c, d]);
         }
@@ -59,24 +73,47 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
     let terms = terms
         .iter()
         .map(|&term| {
-            let fg = positions.iter().map(|_| Vec3::new(rng.r#gen(), rng.r#gen(), rng.r#gen())).collect();
+            let fg = positions
+                .iter()
+                .map(|_| Vec3::new(rng.r#gen(), rng.r#gen(), rng.r#gen()))
+                .collect();
             let directions = (0..layers)
                 .map(|_| {
                     // A random linear field of directions plus a little per-vertex noise: smooth
                     // enough that the implicit LOD spans several mip levels across the lens.
-                    let base = Vec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
-                    let gx = Vec3::new(rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0));
-                    let gy = Vec3::new(rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0), rng.gen_range(-2.0..2.0));
+                    let base = Vec3::new(
+                        rng.gen_range(-1.0..1.0),
+                        rng.gen_range(-1.0..1.0),
+                        rng.gen_range(-1.0..1.0),
+                    );
+                    let gx = Vec3::new(
+                        rng.gen_range(-2.0..2.0),
+                        rng.gen_range(-2.0..2.0),
+                        rng.gen_range(-2.0..2.0),
+                    );
+                    let gy = Vec3::new(
+                        rng.gen_range(-2.0..2.0),
+                        rng.gen_range(-2.0..2.0),
+                        rng.gen_range(-2.0..2.0),
+                    );
                     positions
                         .iter()
                         .map(|p| {
-                            let noise = Vec3::new(rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05), rng.gen_range(-0.05..0.05));
+                            let noise = Vec3::new(
+                                rng.gen_range(-0.05..0.05),
+                                rng.gen_range(-0.05..0.05),
+                                rng.gen_range(-0.05..0.05),
+                            );
                             base + gx * p.x + gy * p.y + noise
                         })
                         .collect()
                 })
                 .collect();
-            TermVertices { term, fg, directions }
+            TermVertices {
+                term,
+                fg,
+                directions,
+            }
         })
         .collect();
     let cube_size = 16;
@@ -86,21 +123,38 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
         let w: f32 = rng.gen_range(0.05..0.95);
         vec![w, 1.0 - w]
     };
-    let layer_maps = (0..viewpoints).map(|_| (0..layers).map(|_| random_cube(rng, cube_size)).collect()).collect();
+    let layer_maps = (0..viewpoints)
+        .map(|_| (0..layers).map(|_| random_cube(rng, cube_size)).collect())
+        .collect();
     let eye = Vec3::new(0.3, 0.2, 2.6);
     let view = glam::camera::rh::view::look_at_mat4(eye, Vec3::ZERO, Vec3::Y);
-    let projection = glam::camera::rh::proj::vulkan::perspective(45f32.to_radians(), 1.0, 0.1, 20.0);
+    let projection =
+        glam::camera::rh::proj::vulkan::perspective(45f32.to_radians(), 1.0, 0.1, 20.0);
     let view_proj: Mat4 = projection * view;
     FrameInput {
         width: SIZE,
         height: SIZE,
         view_proj,
         environment: vec![EnvironmentMesh {
-            positions: vec![Vec3::new(-6.0, -6.0, -3.0), Vec3::new(6.0, -6.0, -3.0), Vec3::new(0.0, 6.0, -3.0)],
-            colours: vec![Vec3::new(0.9, 0.1, 0.1), Vec3::new(0.1, 0.9, 0.1), Vec3::new(0.1, 0.1, 0.9)],
+            positions: vec![
+                Vec3::new(-6.0, -6.0, -3.0),
+                Vec3::new(6.0, -6.0, -3.0),
+                Vec3::new(0.0, 6.0, -3.0),
+            ],
+            colours: vec![
+                Vec3::new(0.9, 0.1, 0.1),
+                Vec3::new(0.1, 0.9, 0.1),
+                Vec3::new(0.1, 0.1, 0.9),
+            ],
             triangles: vec![[0, 1, 2]],
         }],
-        lenses: vec![LensObject { name: "sheet".into(), positions, triangles, terms, layers: layer_maps }],
+        lenses: vec![LensObject {
+            name: "sheet".into(),
+            positions,
+            triangles,
+            terms,
+            layers: layer_maps,
+        }],
         viewpoint_weights: weights,
     }
 }
@@ -117,8 +171,22 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
             for terms in [&both[..], &[Term::Reflection][..]] {
                 let frame = random_frame(&mut rng, layers, viewpoints, terms);
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
-                let (multipass, _) = renderer.render(&gpu, &mut uploaded, Variant::Multipass, TargetFormat::Rgba32f).unwrap();
-                let (single, _) = renderer.render(&gpu, &mut uploaded, Variant::SinglePass, TargetFormat::Rgba32f).unwrap();
+                let (multipass, _) = renderer
+                    .render(
+                        &gpu,
+                        &mut uploaded,
+                        Variant::Multipass,
+                        TargetFormat::Rgba32f,
+                    )
+                    .unwrap();
+                let (single, _) = renderer
+                    .render(
+                        &gpu,
+                        &mut uploaded,
+                        Variant::SinglePass,
+                        TargetFormat::Rgba32f,
+                    )
+                    .unwrap();
 
                 let model = render_model_with(&frame, &ModelOptions::lavapipe());
                 let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
@@ -127,13 +195,18 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
                 // Pixels the model marks ill-defined (coverage ties on triangle edges, cube
                 // corners the spec leaves to the implementation, LOD face ties) are left out and
                 // counted; the test requires most lens pixels to be compared.
-                assert!(lens_pixels > 1500, "{case}: the lens covers only {lens_pixels} pixels");
+                assert!(
+                    lens_pixels > 1500,
+                    "{case}: the lens covers only {lens_pixels} pixels"
+                );
                 assert!(
                     compared * 10 >= lens_pixels * 8,
                     "{case}: only {compared} of {lens_pixels} lens pixels comparable; excluded: {:?}",
                     model.exclusion_counts()
                 );
-                for (i, (gpu_pixel, model_pixel)) in multipass.pixels.iter().zip(&model.rgba).enumerate() {
+                for (i, (gpu_pixel, model_pixel)) in
+                    multipass.pixels.iter().zip(&model.rgba).enumerate()
+                {
                     if model.exclusion[i].is_some() {
                         continue;
                     }
@@ -159,7 +232,10 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
                         );
                     }
                 }
-                println!("{case}: {compared}/{lens_pixels} lens pixels compared, excluded {:?}", model.exclusion_counts());
+                println!(
+                    "{case}: {compared}/{lens_pixels} lens pixels compared, excluded {:?}",
+                    model.exclusion_counts()
+                );
             }
         }
     }
@@ -182,10 +258,18 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
         let mut b = renderer.upload(&gpu, &single).unwrap();
         let plan = Renderer::plan(&a, variant, TargetFormat::Rgba32f);
         if variant == Variant::Multipass {
-            assert_eq!((plan.count("layer"), plan.count("alpha-clear")), (4, 1), "{plan}");
+            assert_eq!(
+                (plan.count("layer"), plan.count("alpha-clear")),
+                (4, 1),
+                "{plan}"
+            );
         }
-        let (x, _) = renderer.render(&gpu, &mut a, variant, TargetFormat::Rgba32f).unwrap();
-        let (y, _) = renderer.render(&gpu, &mut b, variant, TargetFormat::Rgba32f).unwrap();
+        let (x, _) = renderer
+            .render(&gpu, &mut a, variant, TargetFormat::Rgba32f)
+            .unwrap();
+        let (y, _) = renderer
+            .render(&gpu, &mut b, variant, TargetFormat::Rgba32f)
+            .unwrap();
         assert_eq!(x, y, "{variant:?}");
     }
     assert_clean(&gpu);
@@ -198,11 +282,22 @@ fn bad_frame_input_is_an_error_not_a_panic() {
     let mut rng = Pcg64::seed_from_u64(3);
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
     frame.lenses[0].terms[0].fg[0] = Vec3::NAN;
-    let message = renderer.upload(&gpu, &frame).err().expect("NaN F·G is rejected").to_string();
-    assert!(message.contains("fg") && message.contains("finite"), "{message}");
+    let message = renderer
+        .upload(&gpu, &frame)
+        .err()
+        .expect("NaN F·G is rejected")
+        .to_string();
+    assert!(
+        message.contains("fg") && message.contains("finite"),
+        "{message}"
+    );
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
     frame.lenses[0].layers[0][0].levels.pop();
-    let message = renderer.upload(&gpu, &frame).err().expect("a short mip chain is rejected").to_string();
+    let message = renderer
+        .upload(&gpu, &frame)
+        .err()
+        .expect("a short mip chain is rejected")
+        .to_string();
     assert!(message.contains("mip levels"), "{message}");
     assert_clean(&gpu);
 }

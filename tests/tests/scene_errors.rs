@@ -1,12 +1,14 @@
 //! Bad scene input: every case must fail with one line naming the file, the field and a fix, and
 //! never panic. Bad assets (OBJ, EXR, PNG) are written into a fresh temporary folder per test.
 
-use std::path::{Path, PathBuf};
+/// Named `scene_errors` so that `cargo test -p lensmap-tests scene` selects these tests.
+mod scene_errors {
+    use std::path::{Path, PathBuf};
 
-use lensmap::scene::{Scene, SceneError};
+    use lensmap::scene::{Scene, SceneError};
 
-/// A valid scene; each test breaks one thing in it.
-const BASE: &str = r#"
+    /// A valid scene; each test breaks one thing in it.
+    const BASE: &str = r#"
 name = "broken"
 
 [camera]
@@ -54,539 +56,561 @@ name = "lens"
 objects = ["ball"]
 "#;
 
-/// A fresh, empty folder for one test.
-fn temp_folder(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "lensmap-scene-errors-{}-{test}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create a temporary folder");
-    dir
-}
-
-/// Writes `text` as `scene.toml` into the test's folder and loads it, expecting an error.
-fn load_error(dir: &Path, text: &str) -> (PathBuf, SceneError) {
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, text).expect("write the scene");
-    match Scene::load(&path) {
-        Ok(_) => panic!("the scene loaded, but it should not have:\n{text}"),
-        Err(e) => (path, e),
+    /// A fresh, empty folder for one test.
+    fn temp_folder(test: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!(
+            "lensmap-scene-errors-{}-{test}",
+            std::process::id()
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("create a temporary folder");
+        dir
     }
-}
 
-/// `BASE` with `from` replaced by `to` (which must occur).
-fn edit(from: &str, to: &str) -> String {
-    assert!(BASE.contains(from), "BASE lacks {from:?}");
-    BASE.replacen(from, to, 1)
-}
-
-/// The message is one line, starts with the file, names the field, says what is wrong (`what`)
-/// and offers a fix (`fix`), separated by "; ".
-fn assert_message(error: &SceneError, file: &Path, field: &str, what: &str, fix: &str) {
-    let message = error.to_string();
-    assert!(!message.contains('\n'), "not one line: {message}");
-    assert!(
-        message.starts_with(&file.display().to_string()),
-        "does not start with the file {}: {message}",
-        file.display()
-    );
-    assert!(
-        message.contains(&format!(": {field}")),
-        "does not name {field}: {message}"
-    );
-    assert_eq!(error.field(), field, "{message}");
-    assert!(message.contains(what), "does not say {what:?}: {message}");
-    assert!(
-        error.fix().contains(fix),
-        "fix does not say {fix:?}: {message}"
-    );
-    assert!(
-        message.ends_with(&format!("; {}", error.fix())),
-        "{message}"
-    );
-}
-
-/// A valid scene that loads; guards against the tests failing for the wrong reason.
-#[test]
-fn the_base_scene_loads() {
-    let dir = temp_folder("base");
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, BASE).expect("write the scene");
-    match Scene::load(&path) {
-        Ok(scene) => assert_eq!(scene.view_space.len(), 4),
-        Err(e) => panic!("{e}"),
-    }
-}
-
-#[test]
-fn malformed_toml_names_line_and_column() {
-    let dir = temp_folder("malformed");
-    let (file, error) = load_error(&dir, &edit("width = 32", "width = = 32"));
-    assert!(
-        matches!(error, SceneError::Toml { line: 8, .. }),
-        "{error:?}"
-    );
-    let message = error.to_string();
-    assert!(
-        message.starts_with(&format!("{}:8:", file.display())),
-        "{message}"
-    );
-    assert!(message.contains("camera.width"), "{message}");
-    assert!(message.contains("correct the TOML"), "{message}");
-}
-
-#[test]
-fn unknown_field_is_named() {
-    let dir = temp_folder("unknown");
-    let (file, error) = load_error(
-        &dir,
-        &edit("sphere = { radius = 1,", "spheer = { radius = 1,"),
-    );
-    let message = error.to_string();
-    assert!(
-        message.starts_with(&format!("{}:", file.display())),
-        "{message}"
-    );
-    assert_eq!(error.field(), "objects[0].spheer", "{message}");
-    assert!(message.contains("unknown field `spheer`"), "{message}");
-    assert!(
-        error
-            .fix()
-            .contains("remove the field or correct its spelling"),
-        "{message}"
-    );
-
-    let (_, error) = load_error(
-        &dir,
-        &edit("vfov_degrees = 45", "vfov_degrees = 45\nfov = 3"),
-    );
-    assert_eq!(error.field(), "camera.fov", "{error}");
-}
-
-#[test]
-fn wrong_type_and_missing_field() {
-    let dir = temp_folder("types");
-    let (_, error) = load_error(&dir, &edit("width = 32", "width = \"wide\""));
-    assert_eq!(error.field(), "camera.width", "{error}");
-    assert!(error.to_string().contains("invalid type"), "{error}");
-    let (_, error) = load_error(&dir, &edit("vfov_degrees = 45\n", ""));
-    assert!(
-        error.to_string().contains("missing field `vfov_degrees`"),
-        "{error}"
-    );
-    assert!(error.fix().contains("add the field"), "{error}");
-}
-
-#[test]
-fn missing_obj_names_the_resolved_path() {
-    let dir = temp_folder("missing-obj");
-    let (file, error) = load_error(
-        &dir,
-        &edit(
-            "plane = { size = [4, 4] }",
-            "obj = { path = \"meshes/floor.obj\" }",
-        ),
-    );
-    assert_message(
-        &error,
-        &file,
-        "objects[1].obj.path",
-        "cannot read",
-        "check the path",
-    );
-    assert!(
-        error
-            .to_string()
-            .contains(&dir.join("meshes/floor.obj").display().to_string())
-    );
-}
-
-#[test]
-fn obj_with_nan_vertex() {
-    let dir = temp_folder("nan-obj");
-    std::fs::write(
-        dir.join("bad.obj"),
-        "v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n",
-    )
-    .expect("write the OBJ");
-    let (file, error) = load_error(
-        &dir,
-        &edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
-    );
-    assert_message(
-        &error,
-        &file,
-        "objects[1].obj.path",
-        "NaN or infinite",
-        "finite numbers",
-    );
-    assert!(error.to_string().contains("vertex 2"), "{error}");
-}
-
-#[test]
-fn obj_with_infinite_vertex() {
-    let dir = temp_folder("inf-obj");
-    std::fs::write(
-        dir.join("bad.obj"),
-        "v 0 0 0\nv inf 0 0\nv 0 1 0\nf 1 2 3\n",
-    )
-    .expect("write the OBJ");
-    let (file, error) = load_error(
-        &dir,
-        &edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
-    );
-    assert_message(
-        &error,
-        &file,
-        "objects[1].obj.path",
-        "NaN or infinite",
-        "finite numbers",
-    );
-}
-
-#[test]
-fn obj_with_degenerate_triangles_is_rejected_or_dropped_on_request() {
-    let dir = temp_folder("degenerate-obj");
-    // Triangle 1 repeats a vertex, triangle 2 is collinear; triangles 0 and 3 are fine.
-    let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 2\nf 1 2 5\nf 1 3 4\n";
-    std::fs::write(dir.join("flat.obj"), obj).expect("write the OBJ");
-    let (file, error) = load_error(
-        &dir,
-        &edit("plane = { size = [4, 4] }", "obj = { path = \"flat.obj\" }"),
-    );
-    assert_message(
-        &error,
-        &file,
-        "objects[1].obj.path",
-        "2 degenerate (zero-area) triangle(s), the first is triangle 1",
-        "drop_degenerate = true",
-    );
-
-    let fixed = edit(
-        "plane = { size = [4, 4] }",
-        "obj = { path = \"flat.obj\", drop_degenerate = true }",
-    );
-    let path = dir.join("fixed.toml");
-    std::fs::write(&path, fixed).expect("write the scene");
-    match Scene::load(&path) {
-        Ok(scene) => {
-            let mesh = &scene.objects[1].mesh;
-            assert_eq!(mesh.triangle_count(), 2);
-            // No normals in the file: generated, unit, facing +z like the triangles.
-            for &i in mesh.triangles.iter().flatten() {
-                assert!((mesh.normals[i as usize].z - 1.0).abs() < 1e-6);
-            }
+    /// Writes `text` as `scene.toml` into the test's folder and loads it, expecting an error.
+    fn load_error(dir: &Path, text: &str) -> (PathBuf, SceneError) {
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, text).expect("write the scene");
+        match Scene::load(&path) {
+            Ok(_) => panic!("the scene loaded, but it should not have:\n{text}"),
+            Err(e) => (path, e),
         }
-        Err(e) => panic!("{e}"),
     }
-}
 
-/// Writes a 4×2 RGB float EXR whose texel (1, 0) is `bad`.
-fn write_exr(path: &Path, bad: f32) {
-    let mut pixels = vec![0.5f32; 4 * 2 * 3];
-    pixels[3] = bad;
-    let image = image::Rgb32FImage::from_raw(4, 2, pixels).expect("image buffer");
-    image.save(path).expect("write the EXR");
-}
-
-#[test]
-fn environment_exr_with_nan() {
-    let dir = temp_folder("nan-exr");
-    write_exr(&dir.join("sky.exr"), f32::NAN);
-    let (file, error) = load_error(
-        &dir,
-        &edit(
-            "constant = [0.1, 0.1, 0.1]",
-            "latlong = { path = \"sky.exr\" }",
-        ),
-    );
-    assert_message(
-        &error,
-        &file,
-        "environment.latlong.path",
-        "NaN, infinite or negative",
-        "finite, non-negative radiance",
-    );
-    assert!(error.to_string().contains("pixel (1, 0)"), "{error}");
-}
-
-#[test]
-fn texture_exr_with_infinity_and_a_good_one() {
-    let dir = temp_folder("inf-texture");
-    write_exr(&dir.join("wood.exr"), f32::INFINITY);
-    let (file, error) = load_error(
-        &dir,
-        &edit(
-            "diffuse = { colour = [0.5, 0.5, 0.5] }",
-            "diffuse = { image = \"wood.exr\" }",
-        ),
-    );
-    assert_message(
-        &error,
-        &file,
-        "materials[1].diffuse.image",
-        "NaN, infinite or negative",
-        "non-negative texels",
-    );
-
-    write_exr(&dir.join("good.exr"), 0.25);
-    let path = dir.join("good.toml");
-    std::fs::write(
-        &path,
-        edit(
-            "diffuse = { colour = [0.5, 0.5, 0.5] }",
-            "diffuse = { image = \"good.exr\" }",
-        ),
-    )
-    .expect("write the scene");
-    match Scene::load(&path) {
-        Ok(scene) => match &scene.materials[1] {
-            lensmap::scene::Material::Diffuse {
-                texture: Some(lensmap::scene::Texture::Image(t)),
-                ..
-            } => {
-                assert_eq!((t.width, t.height), (4, 2));
-                assert_eq!(t.texels[1].x, 0.25);
-            }
-            other => panic!("{other:?}"),
-        },
-        Err(e) => panic!("{e}"),
+    /// `BASE` with `from` replaced by `to` (which must occur).
+    fn edit(from: &str, to: &str) -> String {
+        assert!(BASE.contains(from), "BASE lacks {from:?}");
+        BASE.replacen(from, to, 1)
     }
-}
 
-#[test]
-fn unreadable_image_is_named() {
-    let dir = temp_folder("bad-png");
-    std::fs::write(dir.join("wood.png"), b"not a png").expect("write junk");
-    let (file, error) = load_error(
-        &dir,
-        &edit(
-            "diffuse = { colour = [0.5, 0.5, 0.5] }",
-            "diffuse = { image = \"wood.png\" }",
-        ),
-    );
-    assert_message(
-        &error,
-        &file,
-        "materials[1].diffuse.image",
-        "cannot read the image",
-        "readable PNG or EXR",
-    );
-}
-
-#[test]
-fn ior_must_be_positive() {
-    let dir = temp_folder("ior");
-    for bad in ["0", "-1.5", "nan"] {
-        let (file, error) = load_error(&dir, &edit("ior = 1.5", &format!("ior = {bad}")));
-        assert_message(
-            &error,
-            &file,
-            "materials[0].glass.ior",
-            "is not > 0",
-            "index of refraction, e.g. 1.5",
+    /// The message is one line, starts with the file, names the field, says what is wrong (`what`)
+    /// and offers a fix (`fix`), separated by "; ".
+    fn assert_message(error: &SceneError, file: &Path, field: &str, what: &str, fix: &str) {
+        let message = error.to_string();
+        assert!(!message.contains('\n'), "not one line: {message}");
+        assert!(
+            message.starts_with(&file.display().to_string()),
+            "does not start with the file {}: {message}",
+            file.display()
+        );
+        assert!(
+            message.contains(&format!(": {field}")),
+            "does not name {field}: {message}"
+        );
+        assert_eq!(error.field(), field, "{message}");
+        assert!(message.contains(what), "does not say {what:?}: {message}");
+        assert!(
+            error.fix().contains(fix),
+            "fix does not say {fix:?}: {message}"
+        );
+        assert!(
+            message.ends_with(&format!("; {}", error.fix())),
+            "{message}"
         );
     }
-}
 
-#[test]
-fn absorption_must_be_in_zero_one() {
-    let dir = temp_folder("absorption");
-    for bad in ["[0.0, 0.9, 0.9]", "[0.9, 1.5, 0.9]", "[0.9, 0.9, -0.1]"] {
+    /// A valid scene that loads; guards against the tests failing for the wrong reason.
+    #[test]
+    fn the_base_scene_loads() {
+        let dir = temp_folder("base");
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, BASE).expect("write the scene");
+        match Scene::load(&path) {
+            Ok(scene) => assert_eq!(scene.view_space.len(), 4),
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn malformed_toml_names_line_and_column() {
+        let dir = temp_folder("malformed");
+        let (file, error) = load_error(&dir, &edit("width = 32", "width = = 32"));
+        assert!(
+            matches!(error, SceneError::Toml { line: 8, .. }),
+            "{error:?}"
+        );
+        let message = error.to_string();
+        assert!(
+            message.starts_with(&format!("{}:8:", file.display())),
+            "{message}"
+        );
+        assert!(message.contains("camera.width"), "{message}");
+        assert!(message.contains("correct the TOML"), "{message}");
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let dir = temp_folder("unknown");
+        let (file, error) = load_error(
+            &dir,
+            &edit("sphere = { radius = 1,", "spheer = { radius = 1,"),
+        );
+        let message = error.to_string();
+        assert!(
+            message.starts_with(&format!("{}:", file.display())),
+            "{message}"
+        );
+        assert_eq!(error.field(), "objects[0].spheer", "{message}");
+        assert!(message.contains("unknown field `spheer`"), "{message}");
+        assert!(
+            error
+                .fix()
+                .contains("remove the field or correct its spelling"),
+            "{message}"
+        );
+
+        let (_, error) = load_error(
+            &dir,
+            &edit("vfov_degrees = 45", "vfov_degrees = 45\nfov = 3"),
+        );
+        assert_eq!(error.field(), "camera.fov", "{error}");
+    }
+
+    #[test]
+    fn wrong_type_and_missing_field() {
+        let dir = temp_folder("types");
+        let (_, error) = load_error(&dir, &edit("width = 32", "width = \"wide\""));
+        assert_eq!(error.field(), "camera.width", "{error}");
+        assert!(error.to_string().contains("invalid type"), "{error}");
+        let (_, error) = load_error(&dir, &edit("vfov_degrees = 45\n", ""));
+        assert!(
+            error.to_string().contains("missing field `vfov_degrees`"),
+            "{error}"
+        );
+        assert!(error.fix().contains("add the field"), "{error}");
+        // Inside inline tables the path goes down to the offending key.
+        let (_, error) = load_error(
+            &dir,
+            &edit(
+                "plane = { size = [4, 4] }",
+                "plane = { size = [4, 4] }\ntransform = { scale = \"big\" }",
+            ),
+        );
+        assert_eq!(error.field(), "objects[1].transform.scale", "{error}");
+        assert!(
+            error
+                .to_string()
+                .contains("expected a number or an array of three numbers"),
+            "{error}"
+        );
+        let (_, error) = load_error(
+            &dir,
+            &edit("segments = 16,", "segments = 16, segmentz = 3,"),
+        );
+        assert_eq!(error.field(), "objects[0].sphere.segmentz", "{error}");
+    }
+
+    #[test]
+    fn missing_obj_names_the_resolved_path() {
+        let dir = temp_folder("missing-obj");
         let (file, error) = load_error(
             &dir,
             &edit(
-                "absorption = [0.9, 0.9, 0.9]",
-                &format!("absorption = {bad}"),
+                "plane = { size = [4, 4] }",
+                "obj = { path = \"meshes/floor.obj\" }",
             ),
         );
         assert_message(
             &error,
             &file,
-            "materials[0].glass.absorption",
-            "outside (0, 1]",
-            "(0, 1] (1 = clear glass)",
+            "objects[1].obj.path",
+            "cannot read",
+            "check the path",
+        );
+        assert!(
+            error
+                .to_string()
+                .contains(&dir.join("meshes/floor.obj").display().to_string())
         );
     }
-}
 
-#[test]
-fn camera_look_at_equal_to_position() {
-    let dir = temp_folder("look-at");
-    let (file, error) = load_error(&dir, &edit("look_at = [0, 1, 0]", "look_at = [0, 1, 5]"));
-    assert_message(
-        &error,
-        &file,
-        "camera.look_at",
-        "equals look_at",
-        "so that they differ",
-    );
-}
+    #[test]
+    fn obj_with_nan_vertex() {
+        let dir = temp_folder("nan-obj");
+        std::fs::write(
+            dir.join("bad.obj"),
+            "v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 1 0\nf 1 2 3\nf 1 3 4\n",
+        )
+        .expect("write the OBJ");
+        let (file, error) = load_error(
+            &dir,
+            &edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
+        );
+        assert_message(
+            &error,
+            &file,
+            "objects[1].obj.path",
+            "NaN or infinite",
+            "finite numbers",
+        );
+        assert!(error.to_string().contains("vertex 2"), "{error}");
+    }
 
-#[test]
-fn camera_up_parallel_to_the_view() {
-    let dir = temp_folder("up");
-    let (file, error) = load_error(
-        &dir,
-        &edit("vfov_degrees = 45", "vfov_degrees = 45\nup = [0, 0, -2]"),
-    );
-    assert_message(
-        &error,
-        &file,
-        "camera.up",
-        "parallel to the view direction",
-        "not along look_at − position",
-    );
-}
+    #[test]
+    fn obj_with_infinite_vertex() {
+        let dir = temp_folder("inf-obj");
+        std::fs::write(
+            dir.join("bad.obj"),
+            "v 0 0 0\nv inf 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .expect("write the OBJ");
+        let (file, error) = load_error(
+            &dir,
+            &edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
+        );
+        assert_message(
+            &error,
+            &file,
+            "objects[1].obj.path",
+            "NaN or infinite",
+            "finite numbers",
+        );
+    }
 
-#[test]
-fn zero_resolution_and_supersampling() {
-    let dir = temp_folder("resolution");
-    let (file, error) = load_error(&dir, &edit("height = 24", "height = 0"));
-    assert_message(
-        &error,
-        &file,
-        "camera.height",
-        "resolution is zero",
-        "at least 1 pixel",
-    );
-    let (file, error) = load_error(&dir, &edit("supersampling = 2", "supersampling = 0"));
-    assert_message(&error, &file, "camera.supersampling", "k = 0", "k ≥ 1");
-}
+    #[test]
+    fn obj_with_degenerate_triangles_is_rejected_or_dropped_on_request() {
+        let dir = temp_folder("degenerate-obj");
+        // Triangle 1 repeats a vertex, triangle 2 is collinear; triangles 0 and 3 are fine.
+        let obj =
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 2\nf 1 2 5\nf 1 3 4\n";
+        std::fs::write(dir.join("flat.obj"), obj).expect("write the OBJ");
+        let (file, error) = load_error(
+            &dir,
+            &edit("plane = { size = [4, 4] }", "obj = { path = \"flat.obj\" }"),
+        );
+        assert_message(
+            &error,
+            &file,
+            "objects[1].obj.path",
+            "2 degenerate (zero-area) triangle(s), the first is triangle 1",
+            "drop_degenerate = true",
+        );
 
-#[test]
-fn lens_naming_a_missing_object() {
-    let dir = temp_folder("lens-missing");
-    let (file, error) = load_error(&dir, &edit("objects = [\"ball\"]", "objects = [\"bal\"]"));
-    assert_message(
-        &error,
-        &file,
-        "lenses[0].objects[0]",
-        "no object is named \"bal\"",
-        "ball, floor",
-    );
-}
-
-#[test]
-fn lens_made_of_a_diffuse_object() {
-    let dir = temp_folder("lens-diffuse");
-    let (file, error) = load_error(
-        &dir,
-        &edit("objects = [\"ball\"]", "objects = [\"ball\", \"floor\"]"),
-    );
-    assert_message(
-        &error,
-        &file,
-        "lenses[0].objects[1]",
-        "\"floor\" is diffuse",
-        "glass or mirror material",
-    );
-}
-
-#[test]
-fn view_space_with_no_samples() {
-    let dir = temp_folder("view-count");
-    let (file, error) = load_error(&dir, &edit("count = 4", "count = 0"));
-    assert_message(
-        &error,
-        &file,
-        "view_space.circle.count",
-        "0 viewpoint samples",
-        "count ≥ 1",
-    );
-}
-
-#[test]
-fn view_sample_at_the_look_at_point() {
-    let dir = temp_folder("view-list");
-    let text = edit(
-        "[view_space.circle]\ncentre = [0, 1, 0]\nradius = 5\nheight = 0.5\nstep_degrees = 8\ncount = 4",
-        "[view_space]\nlist = [[0, 1, 5], [0, 1, 0]]",
-    );
-    let (file, error) = load_error(&dir, &text);
-    assert_message(
-        &error,
-        &file,
-        "view_space sample 1",
-        "equals look_at",
-        "so that they differ",
-    );
-}
-
-#[test]
-fn material_and_mesh_references() {
-    let dir = temp_folder("references");
-    let (file, error) = load_error(&dir, &edit("material = \"grey\"", "material = \"gray\""));
-    assert_message(
-        &error,
-        &file,
-        "objects[1].material",
-        "no material is named \"gray\"",
-        "glass, grey",
-    );
-    let (file, error) = load_error(
-        &dir,
-        &edit(
+        let fixed = edit(
             "plane = { size = [4, 4] }",
-            "plane = { size = [4, 4] }\nbox = { size = [1, 1, 1] }",
-        ),
-    );
-    assert_message(
-        &error,
-        &file,
-        "objects[1]",
-        "exactly one mesh",
-        "keep one of obj, plane, box",
-    );
-    let (file, error) = load_error(&dir, &edit("radius = 1,", "radius = -1,"));
-    assert_message(
-        &error,
-        &file,
-        "objects[0].sphere.radius",
-        "not a positive number",
-        "> 0 (metres)",
-    );
-    let (file, error) = load_error(
-        &dir,
-        &edit(
-            "plane = { size = [4, 4] }",
-            "plane = { size = [4, 4] }\ntransform = { scale = [1, 0, 1] }",
-        ),
-    );
-    assert_message(
-        &error,
-        &file,
-        "objects[1].transform.scale",
-        "zero or non-finite",
-        "non-zero finite",
-    );
-}
+            "obj = { path = \"flat.obj\", drop_degenerate = true }",
+        );
+        let path = dir.join("fixed.toml");
+        std::fs::write(&path, fixed).expect("write the scene");
+        match Scene::load(&path) {
+            Ok(scene) => {
+                let mesh = &scene.objects[1].mesh;
+                assert_eq!(mesh.triangle_count(), 2);
+                // No normals in the file: generated, unit, facing +z like the triangles.
+                for &i in mesh.triangles.iter().flatten() {
+                    assert!((mesh.normals[i as usize].z - 1.0).abs() < 1e-6);
+                }
+            }
+            Err(e) => panic!("{e}"),
+        }
+    }
 
-#[test]
-fn scene_file_that_does_not_exist() {
-    let dir = temp_folder("no-file");
-    let path = dir.join("nothing.toml");
-    let error = match Scene::load(&path) {
-        Ok(_) => panic!("loaded a missing file"),
-        Err(e) => e,
-    };
-    assert_message(
-        &error,
-        &path,
-        "file",
-        "cannot read the scene file",
-        "teapot-room",
-    );
-    let error = match Scene::load_named("teapot-rom") {
-        Ok(_) => panic!("loaded a misspelt name"),
-        Err(e) => e,
-    };
-    assert_message(
-        &error,
-        Path::new("teapot-rom"),
-        "file",
-        "not a built-in scene",
-        "teapot-room, glass-sphere, mirror-teapot",
-    );
+    /// Writes a 4×2 RGB float EXR whose texel (1, 0) is `bad`.
+    fn write_exr(path: &Path, bad: f32) {
+        let mut pixels = vec![0.5f32; 4 * 2 * 3];
+        pixels[3] = bad;
+        let image = image::Rgb32FImage::from_raw(4, 2, pixels).expect("image buffer");
+        image.save(path).expect("write the EXR");
+    }
+
+    #[test]
+    fn environment_exr_with_nan() {
+        let dir = temp_folder("nan-exr");
+        write_exr(&dir.join("sky.exr"), f32::NAN);
+        let (file, error) = load_error(
+            &dir,
+            &edit(
+                "constant = [0.1, 0.1, 0.1]",
+                "latlong = { path = \"sky.exr\" }",
+            ),
+        );
+        assert_message(
+            &error,
+            &file,
+            "environment.latlong.path",
+            "NaN, infinite or negative",
+            "finite, non-negative radiance",
+        );
+        assert!(error.to_string().contains("pixel (1, 0)"), "{error}");
+    }
+
+    #[test]
+    fn texture_exr_with_infinity_and_a_good_one() {
+        let dir = temp_folder("inf-texture");
+        write_exr(&dir.join("wood.exr"), f32::INFINITY);
+        let (file, error) = load_error(
+            &dir,
+            &edit(
+                "diffuse = { colour = [0.5, 0.5, 0.5] }",
+                "diffuse = { image = \"wood.exr\" }",
+            ),
+        );
+        assert_message(
+            &error,
+            &file,
+            "materials[1].diffuse.image",
+            "NaN, infinite or negative",
+            "non-negative texels",
+        );
+
+        write_exr(&dir.join("good.exr"), 0.25);
+        let path = dir.join("good.toml");
+        std::fs::write(
+            &path,
+            edit(
+                "diffuse = { colour = [0.5, 0.5, 0.5] }",
+                "diffuse = { image = \"good.exr\" }",
+            ),
+        )
+        .expect("write the scene");
+        match Scene::load(&path) {
+            Ok(scene) => match &scene.materials[1] {
+                lensmap::scene::Material::Diffuse {
+                    texture: Some(lensmap::scene::Texture::Image(t)),
+                    ..
+                } => {
+                    assert_eq!((t.width, t.height), (4, 2));
+                    assert_eq!(t.texels[1].x, 0.25);
+                }
+                other => panic!("{other:?}"),
+            },
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    #[test]
+    fn unreadable_image_is_named() {
+        let dir = temp_folder("bad-png");
+        std::fs::write(dir.join("wood.png"), b"not a png").expect("write junk");
+        let (file, error) = load_error(
+            &dir,
+            &edit(
+                "diffuse = { colour = [0.5, 0.5, 0.5] }",
+                "diffuse = { image = \"wood.png\" }",
+            ),
+        );
+        assert_message(
+            &error,
+            &file,
+            "materials[1].diffuse.image",
+            "cannot read the image",
+            "readable PNG or EXR",
+        );
+    }
+
+    #[test]
+    fn ior_must_be_positive() {
+        let dir = temp_folder("ior");
+        for bad in ["0", "-1.5", "nan"] {
+            let (file, error) = load_error(&dir, &edit("ior = 1.5", &format!("ior = {bad}")));
+            assert_message(
+                &error,
+                &file,
+                "materials[0].glass.ior",
+                "is not > 0",
+                "index of refraction, e.g. 1.5",
+            );
+        }
+    }
+
+    #[test]
+    fn absorption_must_be_in_zero_one() {
+        let dir = temp_folder("absorption");
+        for bad in ["[0.0, 0.9, 0.9]", "[0.9, 1.5, 0.9]", "[0.9, 0.9, -0.1]"] {
+            let (file, error) = load_error(
+                &dir,
+                &edit(
+                    "absorption = [0.9, 0.9, 0.9]",
+                    &format!("absorption = {bad}"),
+                ),
+            );
+            assert_message(
+                &error,
+                &file,
+                "materials[0].glass.absorption",
+                "outside (0, 1]",
+                "(0, 1] (1 = clear glass)",
+            );
+        }
+    }
+
+    #[test]
+    fn camera_look_at_equal_to_position() {
+        let dir = temp_folder("look-at");
+        let (file, error) = load_error(&dir, &edit("look_at = [0, 1, 0]", "look_at = [0, 1, 5]"));
+        assert_message(
+            &error,
+            &file,
+            "camera.look_at",
+            "equals look_at",
+            "so that they differ",
+        );
+    }
+
+    #[test]
+    fn camera_up_parallel_to_the_view() {
+        let dir = temp_folder("up");
+        let (file, error) = load_error(
+            &dir,
+            &edit("vfov_degrees = 45", "vfov_degrees = 45\nup = [0, 0, -2]"),
+        );
+        assert_message(
+            &error,
+            &file,
+            "camera.up",
+            "parallel to the view direction",
+            "not along look_at − position",
+        );
+    }
+
+    #[test]
+    fn zero_resolution_and_supersampling() {
+        let dir = temp_folder("resolution");
+        let (file, error) = load_error(&dir, &edit("height = 24", "height = 0"));
+        assert_message(
+            &error,
+            &file,
+            "camera.height",
+            "resolution is zero",
+            "at least 1 pixel",
+        );
+        let (file, error) = load_error(&dir, &edit("supersampling = 2", "supersampling = 0"));
+        assert_message(&error, &file, "camera.supersampling", "k = 0", "k ≥ 1");
+    }
+
+    #[test]
+    fn lens_naming_a_missing_object() {
+        let dir = temp_folder("lens-missing");
+        let (file, error) = load_error(&dir, &edit("objects = [\"ball\"]", "objects = [\"bal\"]"));
+        assert_message(
+            &error,
+            &file,
+            "lenses[0].objects[0]",
+            "no object is named \"bal\"",
+            "ball, floor",
+        );
+    }
+
+    #[test]
+    fn lens_made_of_a_diffuse_object() {
+        let dir = temp_folder("lens-diffuse");
+        let (file, error) = load_error(
+            &dir,
+            &edit("objects = [\"ball\"]", "objects = [\"ball\", \"floor\"]"),
+        );
+        assert_message(
+            &error,
+            &file,
+            "lenses[0].objects[1]",
+            "\"floor\" is diffuse",
+            "glass or mirror material",
+        );
+    }
+
+    #[test]
+    fn view_space_with_no_samples() {
+        let dir = temp_folder("view-count");
+        let (file, error) = load_error(&dir, &edit("count = 4", "count = 0"));
+        assert_message(
+            &error,
+            &file,
+            "view_space.circle.count",
+            "0 viewpoint samples",
+            "count ≥ 1",
+        );
+    }
+
+    #[test]
+    fn view_sample_at_the_look_at_point() {
+        let dir = temp_folder("view-list");
+        let text = edit(
+            "[view_space.circle]\ncentre = [0, 1, 0]\nradius = 5\nheight = 0.5\nstep_degrees = 8\ncount = 4",
+            "[view_space]\nlist = [[0, 1, 5], [0, 1, 0]]",
+        );
+        let (file, error) = load_error(&dir, &text);
+        assert_message(
+            &error,
+            &file,
+            "view_space sample 1",
+            "equals look_at",
+            "so that they differ",
+        );
+    }
+
+    #[test]
+    fn material_and_mesh_references() {
+        let dir = temp_folder("references");
+        let (file, error) = load_error(&dir, &edit("material = \"grey\"", "material = \"gray\""));
+        assert_message(
+            &error,
+            &file,
+            "objects[1].material",
+            "no material is named \"gray\"",
+            "glass, grey",
+        );
+        let (file, error) = load_error(
+            &dir,
+            &edit(
+                "plane = { size = [4, 4] }",
+                "plane = { size = [4, 4] }\nbox = { size = [1, 1, 1] }",
+            ),
+        );
+        assert_message(
+            &error,
+            &file,
+            "objects[1]",
+            "exactly one mesh",
+            "keep one of obj, plane, box",
+        );
+        let (file, error) = load_error(&dir, &edit("radius = 1,", "radius = -1,"));
+        assert_message(
+            &error,
+            &file,
+            "objects[0].sphere.radius",
+            "not a positive number",
+            "> 0 (metres)",
+        );
+        let (file, error) = load_error(
+            &dir,
+            &edit(
+                "plane = { size = [4, 4] }",
+                "plane = { size = [4, 4] }\ntransform = { scale = [1, 0, 1] }",
+            ),
+        );
+        assert_message(
+            &error,
+            &file,
+            "objects[1].transform.scale",
+            "zero or non-finite",
+            "non-zero finite",
+        );
+    }
+
+    #[test]
+    fn scene_file_that_does_not_exist() {
+        let dir = temp_folder("no-file");
+        let path = dir.join("nothing.toml");
+        let error = match Scene::load(&path) {
+            Ok(_) => panic!("loaded a missing file"),
+            Err(e) => e,
+        };
+        assert_message(
+            &error,
+            &path,
+            "file",
+            "cannot read the scene file",
+            "teapot-room",
+        );
+        let error = match Scene::load_named("teapot-rom") {
+            Ok(_) => panic!("loaded a misspelt name"),
+            Err(e) => e,
+        };
+        assert_message(
+            &error,
+            Path::new("teapot-rom"),
+            "file",
+            "not a built-in scene",
+            "teapot-room, glass-sphere, mirror-teapot",
+        );
+    }
 }

@@ -58,14 +58,25 @@ fn error(a: &RenderedImage, reference: &RenderedImage, mask: &[bool]) -> (f64, f
 pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
     let gpu = Gpu::new(&GpuOptions::from_env())?;
     let mut renderer = Renderer::new(&gpu)?;
-    println!("device: {}  ({}×{}, {} timed frames per row, median)", gpu.device_name(), args.width, args.height, args.frames);
+    println!(
+        "device: {}  ({}×{}, {} timed frames per row, median)",
+        gpu.device_name(),
+        args.width,
+        args.height,
+        args.frames
+    );
     println!(
         "{:>2}  {:<12} {:<8} {:>11} {:>11} {:>8}  {:>12} {:>12}",
         "n", "variant", "format", "frame ms", "execute ms", "passes", "RMS vs f32", "max vs f32"
     );
     let mut rows = Vec::new();
     for layers in 1..=args.max_layers.max(1) {
-        let frame = sphere_frame(&SyntheticOptions { width: args.width, height: args.height, layers, ..SyntheticOptions::default() });
+        let frame = sphere_frame(&SyntheticOptions {
+            width: args.width,
+            height: args.height,
+            layers,
+            ..SyntheticOptions::default()
+        });
         let mut uploaded = renderer.upload(&gpu, &frame)?;
         let mut by_variant = Vec::new();
         for variant in [Variant::Multipass, Variant::SinglePass] {
@@ -81,9 +92,19 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
                     frame_ms.push(t.record_ms + t.execute_ms);
                     execute_ms.push(t.execute_ms);
                 }
-                results.push((format, image, median(&mut frame_ms), median(&mut execute_ms), passes));
+                results.push((
+                    format,
+                    image,
+                    median(&mut frame_ms),
+                    median(&mut execute_ms),
+                    passes,
+                ));
             }
-            let reference = results.iter().find(|r| r.0 == TargetFormat::Rgba32f).map(|r| r.1.clone()).context("rgba32f result")?;
+            let reference = results
+                .iter()
+                .find(|r| r.0 == TargetFormat::Rgba32f)
+                .map(|r| r.1.clone())
+                .context("rgba32f result")?;
             // Lens pixels: where the frame differs from the environment alone is hard to know
             // here, so compare every pixel the lens could touch: all pixels with α < 1 after the
             // environment (the lens leaves the last group's α, the environment writes α = 1).
@@ -92,7 +113,14 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
                 let (rms, max) = error(image, &reference, &mask);
                 println!(
                     "{:>2}  {:<12} {:<8} {:>11.2} {:>11.2} {:>8}  {:>12.3e} {:>12.3e}",
-                    layers, variant.name(), format.name(), frame_ms, execute_ms, passes, rms, max
+                    layers,
+                    variant.name(),
+                    format.name(),
+                    frame_ms,
+                    execute_ms,
+                    passes,
+                    rms,
+                    max
                 );
                 rows.push(json!({
                     "layers": layers, "variant": variant.name(), "format": format.name(),
@@ -103,7 +131,9 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             by_variant.push(reference);
         }
         let difference = max_difference(&by_variant[0], &by_variant[1]);
-        println!("    n = {layers}: single-pass vs multipass in rgba32f, max |difference| {difference:.3e}");
+        println!(
+            "    n = {layers}: single-pass vs multipass in rgba32f, max |difference| {difference:.3e}"
+        );
         rows.push(json!({"layers": layers, "single_pass_vs_multipass_rgba32f_max": difference}));
     }
     let out = json!({
@@ -111,9 +141,11 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         "frames": args.frames, "rows": rows,
     });
     if let Some(parent) = args.json.parent() {
-        std::fs::create_dir_all(parent).with_context(|| format!("creating {}", parent.display()))?;
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
     }
-    std::fs::write(&args.json, serde_json::to_string_pretty(&out)?).with_context(|| args.json.display().to_string())?;
+    std::fs::write(&args.json, serde_json::to_string_pretty(&out)?)
+        .with_context(|| args.json.display().to_string())?;
     println!("wrote {}", args.json.display());
     Ok(())
 }

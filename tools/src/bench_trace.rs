@@ -13,7 +13,9 @@ use lensmap::trace::{
 
 /// Arguments of `lensmap bench trace`.
 #[derive(clap::Args, Debug, Clone)]
-#[command(after_help = "Example:\n  lensmap bench trace --width 320 --height 240 --supersampling 2 --json trace.json")]
+#[command(
+    after_help = "Example:\n  lensmap bench trace --width 320 --height 240 --supersampling 2 --json trace.json"
+)]
 pub struct BenchTraceArgs {
     /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
@@ -103,7 +105,11 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
             ..scene.camera
         };
         // Speed on teapot-room; glass-sphere only joins the full-vs-greedy comparison.
-        let thread_counts: &[usize] = if scene_name == "teapot-room" { &[1, 2] } else { &[2] };
+        let thread_counts: &[usize] = if scene_name == "teapot-room" {
+            &[1, 2]
+        } else {
+            &[2]
+        };
         let timed_runs = if scene_name == "teapot-room" { runs } else { 1 };
         let mut images: Vec<(PathModel, ReferenceImage)> = Vec::new();
         for model in [PathModel::Greedy, PathModel::Full] {
@@ -163,7 +169,13 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
     println!("full ray tree vs greedy two-term paths (same image size and sampling):");
     println!(
         "{:<14} {:>10} {:>9} {:>14} {:>15} {:>14} {:>14}",
-        "scene", "RMSE sRGB", "PSNR dB", "RMSE lens lin", "path-ray ratio", "all-ray ratio", "2nd-ray ratio"
+        "scene",
+        "RMSE sRGB",
+        "PSNR dB",
+        "RMSE lens lin",
+        "path-ray ratio",
+        "all-ray ratio",
+        "2nd-ray ratio"
     );
     for c in &comparisons {
         println!(

@@ -9,7 +9,8 @@ use glam::Vec3;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     render::{
-        FrameShape, RenderedImage, Renderer, TargetFormat, Term, Variant, plan::frame_graph,
+        FrameShape, RenderedImage, Renderer, TargetFormat, Term, Variant,
+        plan::frame_graph,
         synthetic::{SyntheticOptions, sphere_frame},
     },
 };
@@ -83,8 +84,14 @@ pub struct PassesArgs {
 
 /// Prints the plan of one lens object's frame.
 pub fn passes(args: PassesArgs) -> anyhow::Result<()> {
-    let terms: &[Term] = if args.terms == 2 { &[Term::Refraction, Term::Reflection] } else { &[Term::Reflection] };
-    if matches!(args.variant, VariantArg::SinglePass) && args.layers > lensmap::render::MAX_LAYERS_SINGLE_PASS {
+    let terms: &[Term] = if args.terms == 2 {
+        &[Term::Refraction, Term::Reflection]
+    } else {
+        &[Term::Reflection]
+    };
+    if matches!(args.variant, VariantArg::SinglePass)
+        && args.layers > lensmap::render::MAX_LAYERS_SINGLE_PASS
+    {
         return Err(BadUsage(format!(
             "--layers {}: the single-pass variant supports at most {} layers; use --variant multipass",
             args.layers,
@@ -169,16 +176,26 @@ pub fn median(values: &mut [f64]) -> f64 {
     }
     values.sort_by(f64::total_cmp);
     let mid = values.len() / 2;
-    if values.len() % 2 == 1 { values[mid] } else { 0.5 * (values[mid - 1] + values[mid]) }
+    if values.len() % 2 == 1 {
+        values[mid]
+    } else {
+        0.5 * (values[mid - 1] + values[mid])
+    }
 }
 
 /// Writes a rendered frame as `<stem>.png` (sRGB) and `<stem>.exr` (linear).
 pub fn write_frame(image: &RenderedImage, out: &std::path::Path, stem: &str) -> anyhow::Result<()> {
-    let rgb: Vec<Vec3> = image.pixels.iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+    let rgb: Vec<Vec3> = image
+        .pixels
+        .iter()
+        .map(|p| Vec3::new(p[0], p[1], p[2]))
+        .collect();
     let png = out.join(format!("{stem}.png"));
     let exr = out.join(format!("{stem}.exr"));
-    lensmap::trace::image::write_png(&png, image.width, image.height, &rgb).with_context(|| png.display().to_string())?;
-    lensmap::trace::image::write_exr(&exr, image.width, image.height, &rgb).with_context(|| exr.display().to_string())?;
+    lensmap::trace::image::write_png(&png, image.width, image.height, &rgb)
+        .with_context(|| png.display().to_string())?;
+    lensmap::trace::image::write_exr(&exr, image.width, image.height, &rgb)
+        .with_context(|| exr.display().to_string())?;
     Ok(())
 }
 
@@ -193,7 +210,11 @@ pub fn max_difference(a: &RenderedImage, b: &RenderedImage) -> f64 {
 
 /// Renders the synthetic scene with both variants, writes PNG and EXR, prints counts and times.
 pub fn demo(args: DemoArgs) -> anyhow::Result<()> {
-    if args.width == 0 || args.height == 0 || args.layers == 0 || args.layers > lensmap::render::MAX_LAYERS_SINGLE_PASS {
+    if args.width == 0
+        || args.height == 0
+        || args.layers == 0
+        || args.layers > lensmap::render::MAX_LAYERS_SINGLE_PASS
+    {
         return Err(BadUsage(format!(
             "--width/--height must be ≥ 1 and --layers within 1..={} (got {}×{}, {} layers)",
             lensmap::render::MAX_LAYERS_SINGLE_PASS,
@@ -214,7 +235,8 @@ pub fn demo(args: DemoArgs) -> anyhow::Result<()> {
     });
     let mut renderer = Renderer::new(&gpu)?;
     let mut uploaded = renderer.upload(&gpu, &frame)?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
     let format = TargetFormat::Rgba32f;
     let mut images = Vec::new();
     for variant in [Variant::Multipass, Variant::SinglePass] {

@@ -56,7 +56,10 @@ fn is_bad_input(error: &anyhow::Error) -> bool {
     error.chain().any(|cause| {
         cause.is::<lensmap::scene::SceneError>()
             || cause.is::<compositor::BadUsage>()
-            || matches!(cause.downcast_ref::<lensmap::render::RenderError>(), Some(lensmap::render::RenderError::BadInput(_)))
+            || matches!(
+                cause.downcast_ref::<lensmap::render::RenderError>(),
+                Some(lensmap::render::RenderError::BadInput(_))
+            )
             || matches!(
                 cause.downcast_ref::<lensmap::gpu::GpuError>(),
                 Some(
@@ -67,7 +70,9 @@ fn is_bad_input(error: &anyhow::Error) -> bool {
             )
             || matches!(
                 cause.downcast_ref::<lensmap::render::RenderError>(),
-                Some(lensmap::render::RenderError::Gpu(lensmap::gpu::GpuError::NoDriver(_)))
+                Some(lensmap::render::RenderError::Gpu(
+                    lensmap::gpu::GpuError::NoDriver(_)
+                ))
             )
     })
 }
@@ -87,7 +92,11 @@ fn main() -> ExitCode {
             // One line: the outermost context and its causes, joined.
             let line: Vec<String> = error.chain().map(|c| c.to_string()).collect();
             eprintln!("error: {}", line.join(": "));
-            if is_bad_input(&error) { ExitCode::from(2) } else { ExitCode::from(1) }
+            if is_bad_input(&error) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::from(1)
+            }
         }
     }
 }

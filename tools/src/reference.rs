@@ -15,7 +15,9 @@ use lensmap::trace::{
 
 /// Arguments of `lensmap reference`.
 #[derive(clap::Args, Debug, Clone)]
-#[command(after_help = "Example:\n  lensmap reference --scene teapot-room --view 3 --tree greedy --out out/ref")]
+#[command(
+    after_help = "Example:\n  lensmap reference --scene teapot-room --view 3 --tree greedy --out out/ref"
+)]
 pub struct ReferenceArgs {
     /// Built-in scene name (teapot-room, glass-sphere, mirror-teapot) or path to a scene .toml.
     #[arg(long)]
@@ -73,7 +75,9 @@ impl From<Tree> for PathModel {
 pub fn parse_vec3(text: &str) -> Result<Vec3, String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != 3 {
-        return Err(format!("expected three comma-separated numbers x,y,z, got '{text}'"));
+        return Err(format!(
+            "expected three comma-separated numbers x,y,z, got '{text}'"
+        ));
     }
     let mut values = [0.0f32; 3];
     for (value, part) in values.iter_mut().zip(&parts) {
@@ -172,19 +176,22 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
 fn choose_camera(scene: &Scene, args: &ReferenceArgs) -> Result<Camera, SceneError> {
     let file = PathBuf::from(&args.scene);
     let mut camera = match (args.view, args.camera_position) {
-        (Some(view), _) => scene.camera_at_view(view).ok_or_else(|| SceneError::Invalid {
-            file: file.clone(),
-            field: "--view".to_owned(),
-            problem: format!(
-                "view {view} does not exist: the view space has {} viewpoint samples",
-                scene.view_space.len()
-            ),
-            fix: if scene.view_space.is_empty() {
-                "the scene has no view space; use --camera-position or the scene camera".to_owned()
-            } else {
-                format!("give --view between 0 and {}", scene.view_space.len() - 1)
-            },
-        })?,
+        (Some(view), _) => scene
+            .camera_at_view(view)
+            .ok_or_else(|| SceneError::Invalid {
+                file: file.clone(),
+                field: "--view".to_owned(),
+                problem: format!(
+                    "view {view} does not exist: the view space has {} viewpoint samples",
+                    scene.view_space.len()
+                ),
+                fix: if scene.view_space.is_empty() {
+                    "the scene has no view space; use --camera-position or the scene camera"
+                        .to_owned()
+                } else {
+                    format!("give --view between 0 and {}", scene.view_space.len() - 1)
+                },
+            })?,
         (None, Some(position)) => scene.camera.with_position(position),
         (None, None) => scene.camera,
     };
@@ -218,9 +225,9 @@ pub fn progress_bar(rows: u64) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(rows);
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})")
-    {
+    if let Ok(style) = ProgressStyle::with_template(
+        "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})",
+    ) {
         bar.set_style(style);
     }
     bar.set_message("ray tracing");

@@ -15,6 +15,7 @@ fn draw(
         side_effect: false,
         kind: PassKind::Draw {
             program: "p",
+            specialization: [0; 3],
             colour: ColourAttachment {
                 image: colour,
                 load,

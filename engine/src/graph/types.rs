@@ -224,6 +224,8 @@ pub struct DepthAttachment {
 pub struct PipelineKey {
     /// Shader program name (render maps it to entry points).
     pub program: &'static str,
+    /// The program's specialization constants (render decides their meaning; zeros if none).
+    pub specialization: [u32; 3],
     /// Colour format.
     pub colour_format: Format,
     /// Depth format, if a depth attachment is bound.
@@ -247,6 +249,8 @@ pub enum PassKind<D> {
     Draw {
         /// Shader program name.
         program: &'static str,
+        /// Specialization constants of the program (zeros if none).
+        specialization: [u32; 3],
         /// Colour attachment.
         colour: ColourAttachment,
         /// Depth attachment.
@@ -288,12 +292,14 @@ impl<D> Pass<D> {
         match &self.kind {
             PassKind::Draw {
                 program,
+                specialization,
                 colour,
                 depth,
                 cull,
                 ..
             } => Some(PipelineKey {
                 program,
+                specialization: *specialization,
                 colour_format: images.get(colour.image.0 as usize)?.format,
                 depth_format: match depth {
                     Some(d) => Some(images.get(d.image.0 as usize)?.format),

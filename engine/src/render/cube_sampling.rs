@@ -186,13 +186,12 @@ impl LodLog2 {
         match self {
             LodLog2::Exact => 0.5 * rho_squared.log2(),
             LodLog2::PiecewiseLinearOfSquare => {
-                if !(rho_squared >= f64::MIN_POSITIVE) || !rho_squared.is_finite() {
-                    // 0, subnormal or NaN: level 0 either way after clamping; ∞ stays ∞.
-                    return if rho_squared == f64::INFINITY {
-                        f64::INFINITY
-                    } else {
-                        f64::NEG_INFINITY
-                    };
+                if rho_squared == f64::INFINITY {
+                    return f64::INFINITY;
+                }
+                if rho_squared.is_nan() || rho_squared < f64::MIN_POSITIVE {
+                    // 0, subnormal or NaN: level 0 after clamping.
+                    return f64::NEG_INFINITY;
                 }
                 // Exponent and mantissa straight from the bits, so powers of two are exact.
                 let exponent = ((rho_squared.to_bits() >> 52) & 0x7ff) as i64 - 1023;

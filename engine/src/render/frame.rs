@@ -12,7 +12,10 @@ use crate::{
         Buffer, BufferUsage, Gpu, GpuError, GraphicsPipelineDesc, Image, ImageDesc, VertexInput,
         context::Shared,
     },
-    graph::{self, Access, Blend, CompareOp, Cull, Format, Layout, LoadOp, PassKind, PipelineKey, Plan, StoreOp},
+    graph::{
+        self, Access, Blend, CompareOp, Cull, Format, Layout, LoadOp, PassKind, PipelineKey, Plan,
+        StoreOp,
+    },
 };
 
 use super::{
@@ -107,7 +110,9 @@ impl Drop for UploadedFrame {
         // SAFETY: every submission using these sets was waited for.
         unsafe {
             let _ = self.shared.device.device_wait_idle();
-            self.shared.device.destroy_descriptor_pool(self.descriptor_pool, None);
+            self.shared
+                .device
+                .destroy_descriptor_pool(self.descriptor_pool, None);
         }
     }
 }
@@ -169,19 +174,36 @@ fn vk_layout(layout: Layout) -> vk::ImageLayout {
 fn vk_access(access: Access) -> (vk::PipelineStageFlags2, vk::AccessFlags2) {
     match access {
         // Whatever ran before on the queue (earlier frames included) finishes first.
-        Access::None => (vk::PipelineStageFlags2::ALL_COMMANDS, vk::AccessFlags2::NONE),
+        Access::None => (
+            vk::PipelineStageFlags2::ALL_COMMANDS,
+            vk::AccessFlags2::NONE,
+        ),
         Access::ColourAttachment => (
             vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
             vk::AccessFlags2::COLOR_ATTACHMENT_READ | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
         ),
         Access::DepthAttachment => (
-            vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+            vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
         ),
-        Access::FragmentSample => (vk::PipelineStageFlags2::FRAGMENT_SHADER, vk::AccessFlags2::SHADER_SAMPLED_READ),
-        Access::VertexStorageRead => (vk::PipelineStageFlags2::VERTEX_SHADER, vk::AccessFlags2::SHADER_STORAGE_READ),
-        Access::TransferRead => (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_READ),
-        Access::TransferWrite => (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::TRANSFER_WRITE),
+        Access::FragmentSample => (
+            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+            vk::AccessFlags2::SHADER_SAMPLED_READ,
+        ),
+        Access::VertexStorageRead => (
+            vk::PipelineStageFlags2::VERTEX_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ,
+        ),
+        Access::TransferRead => (
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_READ,
+        ),
+        Access::TransferWrite => (
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        ),
     }
 }
 
@@ -210,7 +232,11 @@ fn blend_state(blend: Blend, mask: graph::ColourMask) -> vk::PipelineColorBlendA
 }
 
 fn vec4_bytes(values: impl IntoIterator<Item = [f32; 4]>) -> Vec<u8> {
-    values.into_iter().flat_map(|v| v.map(f32::to_le_bytes)).flatten().collect()
+    values
+        .into_iter()
+        .flat_map(|v| v.map(f32::to_le_bytes))
+        .flatten()
+        .collect()
 }
 
 impl Renderer {
@@ -253,7 +279,10 @@ impl Renderer {
         // (null handles are ignored by vkDestroy*).
         unsafe {
             renderer.lens_set_layout = device
-                .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None)
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
                 .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
             let lens_push = [vk::PushConstantRange {
                 stage_flags: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
@@ -276,7 +305,8 @@ impl Renderer {
             }];
             renderer.environment_layout = device
                 .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&environment_push),
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .push_constant_ranges(&environment_push),
                     None,
                 )
                 .map_err(vk_err("vkCreatePipelineLayout"))?;
@@ -290,7 +320,9 @@ impl Renderer {
                 .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
                 .min_lod(0.0)
                 .max_lod(vk::LOD_CLAMP_NONE);
-            renderer.sampler = device.create_sampler(&sampler, None).map_err(vk_err("vkCreateSampler"))?;
+            renderer.sampler = device
+                .create_sampler(&sampler, None)
+                .map_err(vk_err("vkCreateSampler"))?;
         }
         Ok(renderer)
     }
@@ -303,33 +335,82 @@ impl Renderer {
             .iter()
             .filter(|m| !m.triangles.is_empty())
             .map(|mesh| {
-                let positions: Vec<u8> = mesh.positions.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
-                let colours: Vec<u8> = mesh.colours.iter().flat_map(|c| c.to_array()).flat_map(f32::to_le_bytes).collect();
-                let indices: Vec<u8> = mesh.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
+                let positions: Vec<u8> = mesh
+                    .positions
+                    .iter()
+                    .flat_map(|p| p.to_array())
+                    .flat_map(f32::to_le_bytes)
+                    .collect();
+                let colours: Vec<u8> = mesh
+                    .colours
+                    .iter()
+                    .flat_map(|c| c.to_array())
+                    .flat_map(f32::to_le_bytes)
+                    .collect();
+                let indices: Vec<u8> = mesh
+                    .triangles
+                    .iter()
+                    .flatten()
+                    .flat_map(|i| i.to_le_bytes())
+                    .collect();
                 Ok(GpuMesh {
-                    positions: Buffer::with_data(gpu, "environment positions", &positions, BufferUsage::Vertex)?,
-                    colours: Buffer::with_data(gpu, "environment colours", &colours, BufferUsage::Vertex)?,
-                    indices: Buffer::with_data(gpu, "environment indices", &indices, BufferUsage::Index)?,
+                    positions: Buffer::with_data(
+                        gpu,
+                        "environment positions",
+                        &positions,
+                        BufferUsage::Vertex,
+                    )?,
+                    colours: Buffer::with_data(
+                        gpu,
+                        "environment colours",
+                        &colours,
+                        BufferUsage::Vertex,
+                    )?,
+                    indices: Buffer::with_data(
+                        gpu,
+                        "environment indices",
+                        &indices,
+                        BufferUsage::Index,
+                    )?,
                     index_count: (mesh.triangles.len() * 3) as u32,
                 })
             })
             .collect::<Result<Vec<_>, GpuError>>()?;
 
-        let set_count = frame.lenses.iter().map(|l| l.layers.len()).sum::<usize>().max(1) as u32;
+        let set_count = frame
+            .lenses
+            .iter()
+            .map(|l| l.layers.len())
+            .sum::<usize>()
+            .max(1) as u32;
         let pool_sizes = [
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: set_count },
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::SAMPLED_IMAGE, descriptor_count: 2 * set_count },
-            vk::DescriptorPoolSize { ty: vk::DescriptorType::SAMPLER, descriptor_count: set_count },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: set_count,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: 2 * set_count,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLER,
+                descriptor_count: set_count,
+            },
         ];
         let device = gpu.device();
         // SAFETY: valid create info; destroyed by UploadedFrame::drop.
         let descriptor_pool = unsafe {
             device.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default().max_sets(set_count).pool_sizes(&pool_sizes),
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(set_count)
+                    .pool_sizes(&pool_sizes),
                 None,
             )
         }
-        .map_err(|result| GpuError::Vulkan { call: "vkCreateDescriptorPool", result })?;
+        .map_err(|result| GpuError::Vulkan {
+            call: "vkCreateDescriptorPool",
+            result,
+        })?;
         let mut uploaded = UploadedFrame {
             shape: FrameShape::of(frame),
             view_proj: frame.view_proj.to_cols_array(),
@@ -354,7 +435,11 @@ impl Renderer {
         lens: &super::LensObject,
     ) -> Result<GpuLens, GpuError> {
         let vertex_count = lens.positions.len() as u32;
-        let mut data: Vec<[f32; 4]> = lens.positions.iter().map(|p| p.extend(1.0).to_array()).collect();
+        let mut data: Vec<[f32; 4]> = lens
+            .positions
+            .iter()
+            .map(|p| p.extend(1.0).to_array())
+            .collect();
         let mut fg_offset = HashMap::new();
         let mut direction_offset = HashMap::new();
         for term in &lens.terms {
@@ -367,8 +452,18 @@ impl Renderer {
         }
         let name = format!("lens{index} data");
         let data = Buffer::with_data(gpu, &name, &vec4_bytes(data), BufferUsage::Storage)?;
-        let indices: Vec<u8> = lens.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
-        let indices = Buffer::with_data(gpu, &format!("lens{index} indices"), &indices, BufferUsage::Index)?;
+        let indices: Vec<u8> = lens
+            .triangles
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        let indices = Buffer::with_data(
+            gpu,
+            &format!("lens{index} indices"),
+            &indices,
+            BufferUsage::Index,
+        )?;
 
         let mut layers = Vec::new();
         for (viewpoint, cubes) in lens.layers.iter().enumerate() {
@@ -383,7 +478,11 @@ impl Renderer {
                 ),
             )?;
             for level in 0..image.desc.mip_levels as usize {
-                let bytes = vec4_bytes(cubes.iter().flat_map(|cube| cube.levels[level].iter().flatten().copied()));
+                let bytes = vec4_bytes(
+                    cubes
+                        .iter()
+                        .flat_map(|cube| cube.levels[level].iter().flatten().copied()),
+                );
                 image.upload(gpu, level as u32, 0, 6 * cubes.len() as u32, &bytes)?;
             }
             layers.push(image);
@@ -393,24 +492,61 @@ impl Renderer {
         let device = gpu.device();
         // SAFETY: the pool was sized for one set per (lens, viewpoint).
         let sets = unsafe {
-            device.allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts))
+            device.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(pool)
+                    .set_layouts(&layouts),
+            )
         }
-        .map_err(|result| GpuError::Vulkan { call: "vkAllocateDescriptorSets", result })?;
+        .map_err(|result| GpuError::Vulkan {
+            call: "vkAllocateDescriptorSets",
+            result,
+        })?;
         for (viewpoint, set) in sets.iter().enumerate() {
-            let other = if layers.len() > 1 { 1 - viewpoint.min(1) } else { viewpoint };
-            let buffer_info = [vk::DescriptorBufferInfo { buffer: data.handle, offset: 0, range: vk::WHOLE_SIZE }];
+            let other = if layers.len() > 1 {
+                1 - viewpoint.min(1)
+            } else {
+                viewpoint
+            };
+            let buffer_info = [vk::DescriptorBufferInfo {
+                buffer: data.handle,
+                offset: 0,
+                range: vk::WHOLE_SIZE,
+            }];
             let image_a = [vk::DescriptorImageInfo {
                 sampler: vk::Sampler::null(),
                 image_view: layers[viewpoint].view,
                 image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
             }];
-            let image_b = [vk::DescriptorImageInfo { image_view: layers[other].view, ..image_a[0] }];
-            let sampler = [vk::DescriptorImageInfo { sampler: self.sampler, ..Default::default() }];
+            let image_b = [vk::DescriptorImageInfo {
+                image_view: layers[other].view,
+                ..image_a[0]
+            }];
+            let sampler = [vk::DescriptorImageInfo {
+                sampler: self.sampler,
+                ..Default::default()
+            }];
             let writes = [
-                vk::WriteDescriptorSet::default().dst_set(*set).dst_binding(0).descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_info),
-                vk::WriteDescriptorSet::default().dst_set(*set).dst_binding(1).descriptor_type(vk::DescriptorType::SAMPLED_IMAGE).image_info(&image_a),
-                vk::WriteDescriptorSet::default().dst_set(*set).dst_binding(2).descriptor_type(vk::DescriptorType::SAMPLED_IMAGE).image_info(&image_b),
-                vk::WriteDescriptorSet::default().dst_set(*set).dst_binding(3).descriptor_type(vk::DescriptorType::SAMPLER).image_info(&sampler),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(0)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&buffer_info),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(1)
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(&image_a),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(2)
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(&image_b),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(3)
+                    .descriptor_type(vk::DescriptorType::SAMPLER)
+                    .image_info(&sampler),
             ];
             // SAFETY: the set is not in use; the infos live until return.
             unsafe { device.update_descriptor_sets(&writes, &[]) };
@@ -445,14 +581,31 @@ impl Renderer {
                 VertexInput::PositionColour,
                 self.environment_layout,
             ),
-            program::LENS_LAYER => (shader("lens", "vs_layer")?, shader("lens", "fs_layer")?, VertexInput::None, self.lens_layout),
-            program::LENS_SINGLE_PASS => (
-                shader("lens", "vs_single_pass")?,
-                shader("lens", "fs_single_pass")?,
+            program::LENS_LAYER => (
+                shader("lens", "vs_layer")?,
+                shader("lens", "fs_layer")?,
                 VertexInput::None,
                 self.lens_layout,
             ),
-            _ => (shader("lens", "vs_position")?, shader("lens", "fs_zero")?, VertexInput::None, self.lens_layout),
+            program::LENS_SINGLE_PASS => (
+                shader("lens", "vs_single_pass")?,
+                {
+                    let [layers, terms, viewpoints] = key.specialization;
+                    let wanted = format!("LAYER_COUNT={layers},TERM_MASK={terms},VIEWPOINTS={viewpoints}");
+                    lensmap_shaders::specialized("lens", "fs_single_pass_specialized", &wanted).ok_or(GpuError::Vulkan {
+                        call: "specialized shader lookup",
+                        result: vk::Result::ERROR_INITIALIZATION_FAILED,
+                    })?
+                },
+                VertexInput::None,
+                self.lens_layout,
+            ),
+            _ => (
+                shader("lens", "vs_position")?,
+                shader("lens", "fs_zero")?,
+                VertexInput::None,
+                self.lens_layout,
+            ),
         };
         let pipeline = gpu.create_graphics_pipeline(&GraphicsPipelineDesc {
             vertex,
@@ -491,19 +644,24 @@ impl Renderer {
         let start = Instant::now();
         let plan = Self::plan(frame, variant, format);
         let (width, height) = (frame.shape.width, frame.shape.height);
-        if !frame.targets.contains_key(&format) {
+        if let std::collections::hash_map::Entry::Vacant(slot) = frame.targets.entry(format) {
             let colour_format = vk_format(format.graph_format());
             let targets = Targets {
-                colour: Image::new(gpu, ImageDesc::colour_target("colour", colour_format, width, height))?,
+                colour: Image::new(
+                    gpu,
+                    ImageDesc::colour_target("colour", colour_format, width, height),
+                )?,
                 depth: Image::new(gpu, ImageDesc::depth_target("depth", width, height))?,
                 readback: Buffer::new(
                     gpu,
                     "readback",
-                    u64::from(width) * u64::from(height) * u64::from(crate::gpu::format_bytes(colour_format)),
+                    u64::from(width)
+                        * u64::from(height)
+                        * u64::from(crate::gpu::format_bytes(colour_format)),
                     BufferUsage::Readback,
                 )?,
             };
-            frame.targets.insert(format, targets);
+            slot.insert(targets);
         }
         let mut pipelines = HashMap::new();
         for step in &plan.steps {
@@ -526,8 +684,16 @@ impl Renderer {
         let pixels = decode(targets.readback.read(), format, (width * height) as usize);
         let readback_ms = decode_start.elapsed().as_secs_f64() * 1e3;
         Ok((
-            RenderedImage { width, height, pixels },
-            FrameTimings { record_ms, execute_ms, readback_ms },
+            RenderedImage {
+                width,
+                height,
+                pixels,
+            },
+            FrameTimings {
+                record_ms,
+                execute_ms,
+                readback_ms,
+            },
         ))
     }
 
@@ -556,15 +722,29 @@ impl Renderer {
                 for (li, lens) in frame.lenses.iter().enumerate() {
                     for (vi, image) in lens.layers.iter().enumerate() {
                         if info.name == format!("lens{li}/em{vi}") {
-                            found = (image.handle, vk::ImageAspectFlags::COLOR, image.desc.array_layers);
+                            found = (
+                                image.handle,
+                                vk::ImageAspectFlags::COLOR,
+                                image.desc.array_layers,
+                            );
                         }
                     }
                 }
                 found
             }
         };
-        let viewport = vk::Viewport { x: 0.0, y: 0.0, width: width as f32, height: height as f32, min_depth: 0.0, max_depth: 1.0 };
-        let scissor = vk::Rect2D { offset: vk::Offset2D::default(), extent: vk::Extent2D { width, height } };
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: width as f32,
+            height: height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let scissor = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: vk::Extent2D { width, height },
+        };
 
         for step in &plan.steps {
             if !step.barriers.is_empty() {
@@ -593,7 +773,12 @@ impl Renderer {
                     })
                     .collect();
                 // SAFETY: recording; the barriers describe images alive for the submission.
-                unsafe { device.cmd_pipeline_barrier2(cb, &vk::DependencyInfo::default().image_memory_barriers(&barriers)) };
+                unsafe {
+                    device.cmd_pipeline_barrier2(
+                        cb,
+                        &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+                    )
+                };
             }
             if let Some(instance) = &step.begin {
                 let clear = |load: LoadOp| match load {
@@ -611,7 +796,11 @@ impl Renderer {
                     .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
                     .load_op(colour_load)
                     .store_op(store(instance.colour.2))
-                    .clear_value(vk::ClearValue { color: vk::ClearColorValue { float32: colour_clear } })];
+                    .clear_value(vk::ClearValue {
+                        color: vk::ClearColorValue {
+                            float32: colour_clear,
+                        },
+                    })];
                 let depth = instance.depth.map(|(_, load, s)| {
                     let (depth_load, depth_clear) = clear(load);
                     vk::RenderingAttachmentInfo::default()
@@ -620,7 +809,10 @@ impl Renderer {
                         .load_op(depth_load)
                         .store_op(store(s))
                         .clear_value(vk::ClearValue {
-                            depth_stencil: vk::ClearDepthStencilValue { depth: depth_clear[0], stencil: 0 },
+                            depth_stencil: vk::ClearDepthStencilValue {
+                                depth: depth_clear[0],
+                                stencil: 0,
+                            },
                         })
                 });
                 let mut rendering = vk::RenderingInfo::default()
@@ -642,7 +834,9 @@ impl Renderer {
                 PassKind::Draw { draws, .. } => {
                     let pipeline = pipelines[&step.pass.name];
                     // SAFETY: recording inside a rendering instance with a compatible pipeline.
-                    unsafe { device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::GRAPHICS, pipeline) };
+                    unsafe {
+                        device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::GRAPHICS, pipeline)
+                    };
                     for draw in draws {
                         self.record_draw(device, cb, frame, *draw);
                     }
@@ -655,7 +849,11 @@ impl Renderer {
                             base_array_layer: 0,
                             layer_count: 1,
                         })
-                        .image_extent(vk::Extent3D { width, height, depth: 1 });
+                        .image_extent(vk::Extent3D {
+                            width,
+                            height,
+                            depth: 1,
+                        });
                     let to_host = [vk::MemoryBarrier2::default()
                         .src_stage_mask(vk::PipelineStageFlags2::COPY)
                         .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
@@ -670,7 +868,10 @@ impl Renderer {
                             targets.readback.handle,
                             &[region],
                         );
-                        device.cmd_pipeline_barrier2(cb, &vk::DependencyInfo::default().memory_barriers(&to_host));
+                        device.cmd_pipeline_barrier2(
+                            cb,
+                            &vk::DependencyInfo::default().memory_barriers(&to_host),
+                        );
                     }
                 }
             }
@@ -683,7 +884,13 @@ impl Renderer {
         Ok(())
     }
 
-    fn record_draw(&self, device: &ash::Device, cb: vk::CommandBuffer, frame: &UploadedFrame, draw: Draw) {
+    fn record_draw(
+        &self,
+        device: &ash::Device,
+        cb: vk::CommandBuffer,
+        frame: &UploadedFrame,
+        draw: Draw,
+    ) {
         let lens_constants = |lens: &GpuLens| LensConstants {
             view_proj: frame.view_proj,
             weight_a: 0.0,
@@ -694,8 +901,16 @@ impl Renderer {
             position_offset: 0,
             fg_offset_t: lens.fg_offset.get(&Term::Refraction).copied().unwrap_or(0),
             fg_offset_r: lens.fg_offset.get(&Term::Reflection).copied().unwrap_or(0),
-            direction_offset_t: lens.direction_offset.get(&Term::Refraction).copied().unwrap_or(0),
-            direction_offset_r: lens.direction_offset.get(&Term::Reflection).copied().unwrap_or(0),
+            direction_offset_t: lens
+                .direction_offset
+                .get(&Term::Refraction)
+                .copied()
+                .unwrap_or(0),
+            direction_offset_r: lens
+                .direction_offset
+                .get(&Term::Reflection)
+                .copied()
+                .unwrap_or(0),
             vertex_count: lens.vertex_count,
             layer: 0,
             _pad: 0,
@@ -707,8 +922,19 @@ impl Renderer {
             match draw {
                 Draw::Environment { mesh } => {
                     let mesh = &frame.environment[mesh];
-                    device.cmd_push_constants(cb, self.environment_layout, vk::ShaderStageFlags::VERTEX, 0, bytemuck::bytes_of(&frame.view_proj));
-                    device.cmd_bind_vertex_buffers(cb, 0, &[mesh.positions.handle, mesh.colours.handle], &[0, 0]);
+                    device.cmd_push_constants(
+                        cb,
+                        self.environment_layout,
+                        vk::ShaderStageFlags::VERTEX,
+                        0,
+                        bytemuck::bytes_of(&frame.view_proj),
+                    );
+                    device.cmd_bind_vertex_buffers(
+                        cb,
+                        0,
+                        &[mesh.positions.handle, mesh.colours.handle],
+                        &[0, 0],
+                    );
                     device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
                     device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);
                 }
@@ -716,21 +942,37 @@ impl Renderer {
                     let gpu_lens = &frame.lenses[lens];
                     let mut constants = lens_constants(gpu_lens);
                     let set = match draw {
-                        Draw::Layer { viewpoint, term, layer, .. } => {
+                        Draw::Layer {
+                            viewpoint,
+                            term,
+                            layer,
+                            ..
+                        } => {
                             constants.weight_a = weight(viewpoint);
                             constants.fg_offset_t = gpu_lens.fg_offset[&term];
-                            constants.direction_offset_t =
-                                gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
+                            constants.direction_offset_t = gpu_lens.direction_offset[&term]
+                                + layer as u32 * gpu_lens.vertex_count;
                             constants.layer = layer as u32;
                             gpu_lens.sets[viewpoint]
                         }
                         _ => {
                             constants.weight_a = weight(0);
-                            constants.weight_b = if gpu_lens.layers.len() > 1 { weight(1) } else { 0.0 };
+                            constants.weight_b = if gpu_lens.layers.len() > 1 {
+                                weight(1)
+                            } else {
+                                0.0
+                            };
                             gpu_lens.sets[0]
                         }
                     };
-                    device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::GRAPHICS, self.lens_layout, 0, &[set], &[]);
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        self.lens_layout,
+                        0,
+                        &[set],
+                        &[],
+                    );
                     device.cmd_push_constants(
                         cb,
                         self.lens_layout,
@@ -738,7 +980,12 @@ impl Renderer {
                         0,
                         bytemuck::bytes_of(&constants),
                     );
-                    device.cmd_bind_index_buffer(cb, gpu_lens.indices.handle, 0, vk::IndexType::UINT32);
+                    device.cmd_bind_index_buffer(
+                        cb,
+                        gpu_lens.indices.handle,
+                        0,
+                        vk::IndexType::UINT32,
+                    );
                     device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
                 }
             }
@@ -757,12 +1004,18 @@ fn decode(bytes: &[u8], format: TargetFormat, pixels: usize) -> Vec<[f32; 4]> {
         TargetFormat::Rgba16f => bytes
             .chunks_exact(8)
             .take(pixels)
-            .map(|c| [0, 1, 2, 3].map(|i| half::f16::from_le_bytes([c[2 * i], c[2 * i + 1]]).to_f32()))
+            .map(|c| {
+                [0, 1, 2, 3].map(|i| half::f16::from_le_bytes([c[2 * i], c[2 * i + 1]]).to_f32())
+            })
             .collect(),
         TargetFormat::Rgba32f => bytes
             .chunks_exact(16)
             .take(pixels)
-            .map(|c| [0, 1, 2, 3].map(|i| f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])))
+            .map(|c| {
+                [0, 1, 2, 3].map(|i| {
+                    f32::from_le_bytes([c[4 * i], c[4 * i + 1], c[4 * i + 2], c[4 * i + 3]])
+                })
+            })
             .collect(),
     }
 }

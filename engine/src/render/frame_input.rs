@@ -144,7 +144,12 @@ impl CubeMap {
                 (0..half * half)
                     .map(|i| {
                         let (x, y) = (2 * (i % half), 2 * (i / half));
-                        let texels = [src[y * edge + x], src[y * edge + x + 1], src[(y + 1) * edge + x], src[(y + 1) * edge + x + 1]];
+                        let texels = [
+                            src[y * edge + x],
+                            src[y * edge + x + 1],
+                            src[(y + 1) * edge + x],
+                            src[(y + 1) * edge + x + 1],
+                        ];
                         std::array::from_fn(|c| 0.25 * texels.iter().map(|t| t[c]).sum::<f32>())
                     })
                     .collect()

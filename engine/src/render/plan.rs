@@ -60,7 +60,11 @@ impl TargetFormat {
     }
 
     /// All formats, narrowest first.
-    pub const ALL: [TargetFormat; 3] = [TargetFormat::Rgba8, TargetFormat::Rgba16f, TargetFormat::Rgba32f];
+    pub const ALL: [TargetFormat; 3] = [
+        TargetFormat::Rgba8,
+        TargetFormat::Rgba16f,
+        TargetFormat::Rgba32f,
+    ];
 }
 
 /// What the plan of one lens object depends on.
@@ -104,7 +108,11 @@ impl FrameShape {
         FrameShape {
             width: frame.width,
             height: frame.height,
-            environment_meshes: frame.environment.iter().filter(|m| !m.triangles.is_empty()).count(),
+            environment_meshes: frame
+                .environment
+                .iter()
+                .filter(|m| !m.triangles.is_empty())
+                .count(),
             lenses: frame
                 .lenses
                 .iter()
@@ -121,7 +129,13 @@ impl FrameShape {
                             .map(|layers| {
                                 layers
                                     .iter()
-                                    .map(|cube| cube.levels.iter().flatten().flatten().all(|t| *t == [0.0; 4]))
+                                    .map(|cube| {
+                                        cube.levels
+                                            .iter()
+                                            .flatten()
+                                            .flatten()
+                                            .all(|t| *t == [0.0; 4])
+                                    })
                                     .collect()
                             })
                             .collect(),
@@ -134,7 +148,13 @@ impl FrameShape {
 
     /// A synthetic shape for experiments (`lensmap passes`): `lenses` objects with `layers` layers,
     /// `viewpoints` samples of equal weight and the given terms.
-    pub fn synthetic(width: u32, height: u32, layers: usize, viewpoints: usize, terms: &[Term]) -> FrameShape {
+    pub fn synthetic(
+        width: u32,
+        height: u32,
+        layers: usize,
+        viewpoints: usize,
+        terms: &[Term],
+    ) -> FrameShape {
         let viewpoints = viewpoints.max(1);
         FrameShape {
             width,
@@ -202,7 +222,11 @@ pub(crate) mod program {
 }
 
 /// Declares the frame's passes.
-pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -> (Graph<Draw>, FrameResources) {
+pub fn frame_graph(
+    shape: &FrameShape,
+    variant: Variant,
+    format: TargetFormat,
+) -> (Graph<Draw>, FrameResources) {
     let mut graph = Graph::new();
     let colour = graph.image("colour", format.graph_format(), shape.width, shape.height);
     let depth = graph.image("depth", Format::Depth32Float, shape.width, shape.height);
@@ -237,7 +261,7 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
     };
     let draw_pass = |name: String,
                      category: &'static str,
-                     program: &'static str,
+                     (program, specialization): (&'static str, [u32; 3]),
                      colour: ColourAttachment,
                      depth: DepthAttachment,
                      cull: Cull,
@@ -248,6 +272,7 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
         side_effect: false,
         kind: PassKind::Draw {
             program,
+            specialization,
             colour,
             depth: Some(depth),
             cull,
@@ -260,12 +285,14 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
     graph.add_pass(draw_pass(
         "environment".into(),
         "environment",
-        program::ENVIRONMENT,
+        (program::ENVIRONMENT, [0; 3]),
         attach(LoadOp::Clear([0.0; 4]), Blend::Replace, ColourMask::RGBA),
         depth_attach(LoadOp::Clear([1.0; 4]), CompareOp::Less, true),
         Cull::None,
         Vec::new(),
-        (0..shape.environment_meshes).map(|mesh| Draw::Environment { mesh }).collect(),
+        (0..shape.environment_meshes)
+            .map(|mesh| Draw::Environment { mesh })
+            .collect(),
     ));
 
     for (lens_index, lens) in shape.lenses.iter().enumerate() {
@@ -285,7 +312,17 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
             Variant::SinglePass => graph.add_pass(draw_pass(
                 format!("{name}/single-pass"),
                 "single-pass",
-                program::LENS_SINGLE_PASS,
+                (
+                    program::LENS_SINGLE_PASS,
+                    [
+                        n as u32,
+                        lens.terms.iter().map(|t| match t {
+                            Term::Refraction => 1,
+                            Term::Reflection => 2,
+                        }).sum(),
+                        active.len() as u32,
+                    ],
+                ),
                 attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
                 depth_attach(LoadOp::Load, CompareOp::Less, true),
                 Cull::Back,
@@ -296,7 +333,7 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
                 graph.add_pass(draw_pass(
                     format!("{name}/prime"),
                     "prime",
-                    program::LENS_ZERO,
+                    (program::LENS_ZERO, [0; 3]),
                     attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
                     depth_attach(LoadOp::Load, CompareOp::Less, true),
                     Cull::Back,
@@ -311,7 +348,7 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
                             graph.add_pass(draw_pass(
                                 format!("{group}/alpha-clear"),
                                 "alpha-clear",
-                                program::LENS_ZERO,
+                                (program::LENS_ZERO, [0; 3]),
                                 attach(LoadOp::Load, Blend::Replace, ColourMask::A),
                                 depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
                                 Cull::Back,
@@ -336,7 +373,7 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
                             graph.add_pass(draw_pass(
                                 format!("{group}/layer{layer}"),
                                 "layer",
-                                program::LENS_LAYER,
+                                (program::LENS_LAYER, [0; 3]),
                                 attach(LoadOp::Load, Blend::FrontToBackOver, ColourMask::RGBA),
                                 depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
                                 Cull::Back,
@@ -359,16 +396,31 @@ pub fn frame_graph(shape: &FrameShape, variant: Variant, format: TargetFormat) -
             buffer: readback,
         },
     });
-    (graph, FrameResources { colour, depth, layers })
+    (
+        graph,
+        FrameResources {
+            colour,
+            depth,
+            layers,
+        },
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn plan(layers: usize, viewpoints: usize, terms: &[Term], variant: Variant) -> crate::graph::Plan<Draw> {
+    fn plan(
+        layers: usize,
+        viewpoints: usize,
+        terms: &[Term],
+        variant: Variant,
+    ) -> crate::graph::Plan<Draw> {
         let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
-        frame_graph(&shape, variant, TargetFormat::Rgba32f).0.compile().unwrap()
+        frame_graph(&shape, variant, TargetFormat::Rgba32f)
+            .0
+            .compile()
+            .unwrap()
     }
 
     const BOTH: [Term; 2] = [Term::Refraction, Term::Reflection];
@@ -377,7 +429,11 @@ mod tests {
     fn two_viewpoints_two_terms_is_the_papers_4n_passes_and_three_alpha_clears() {
         for n in 1..=4 {
             let p = plan(n, 2, &BOTH, Variant::Multipass);
-            assert_eq!((p.count("prime"), p.count("layer"), p.count("alpha-clear")), (1, 4 * n, 3), "{p}");
+            assert_eq!(
+                (p.count("prime"), p.count("layer"), p.count("alpha-clear")),
+                (1, 4 * n, 3),
+                "{p}"
+            );
             // One rendering instance holds the environment and every lens pass: no barriers
             // between blending passes.
             assert_eq!(p.rendering_instances(), 1, "{p}");
@@ -388,7 +444,10 @@ mod tests {
     fn one_viewpoint_is_2n_passes_and_one_clear() {
         for n in 1..=4 {
             let p = plan(n, 1, &BOTH, Variant::Multipass);
-            assert_eq!((p.count("prime"), p.count("layer"), p.count("alpha-clear")), (1, 2 * n, 1));
+            assert_eq!(
+                (p.count("prime"), p.count("layer"), p.count("alpha-clear")),
+                (1, 2 * n, 1)
+            );
         }
     }
 
@@ -396,7 +455,10 @@ mod tests {
     fn a_mirror_at_a_sample_is_n_passes_and_no_clear() {
         for n in 1..=4 {
             let p = plan(n, 1, &[Term::Reflection], Variant::Multipass);
-            assert_eq!((p.count("prime"), p.count("layer"), p.count("alpha-clear")), (1, n, 0));
+            assert_eq!(
+                (p.count("prime"), p.count("layer"), p.count("alpha-clear")),
+                (1, n, 0)
+            );
         }
     }
 
@@ -406,7 +468,10 @@ mod tests {
             let p = plan(3, viewpoints, &BOTH, Variant::SinglePass);
             assert_eq!(p.count("single-pass"), 1);
             assert_eq!(p.draws("single-pass"), 1);
-            assert_eq!(p.count("layer") + p.count("alpha-clear") + p.count("prime"), 0);
+            assert_eq!(
+                p.count("layer") + p.count("alpha-clear") + p.count("prime"),
+                0
+            );
         }
     }
 
@@ -415,7 +480,10 @@ mod tests {
         let mut shape = FrameShape::synthetic(64, 64, 3, 2, &BOTH);
         shape.viewpoint_weights = vec![1.0, 0.0];
         shape.lenses[0].empty[0][1] = true;
-        let p = frame_graph(&shape, Variant::Multipass, TargetFormat::Rgba8).0.compile().unwrap();
+        let p = frame_graph(&shape, Variant::Multipass, TargetFormat::Rgba8)
+            .0
+            .compile()
+            .unwrap();
         // One viewpoint × two terms × (3 − 1 empty) layers, one clear between the two groups.
         assert_eq!((p.count("layer"), p.count("alpha-clear")), (4, 1), "{p}");
         assert_eq!(p.culled.len(), 2, "{p}");

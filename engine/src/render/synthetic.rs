@@ -82,8 +82,16 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
     let (positions, triangles) = uv_sphere(1.0, options.stacks.max(3), 2 * options.stacks.max(3));
     let absorption = DVec3::new(0.82, 0.93, 0.97);
 
-    let mut refraction = TermVertices { term: Term::Refraction, fg: Vec::new(), directions: vec![Vec::new(); options.layers] };
-    let mut reflection = TermVertices { term: Term::Reflection, fg: Vec::new(), directions: vec![Vec::new(); options.layers] };
+    let mut refraction = TermVertices {
+        term: Term::Refraction,
+        fg: Vec::new(),
+        directions: vec![Vec::new(); options.layers],
+    };
+    let mut reflection = TermVertices {
+        term: Term::Reflection,
+        fg: Vec::new(),
+        directions: vec![Vec::new(); options.layers],
+    };
     for p in &positions {
         let p = p.as_dvec3();
         let normal = p.normalize();
@@ -99,7 +107,11 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
             let out = dielectric(inside.dot(exit_normal), options.ior, 1.0);
             // A sphere is symmetric: the exit angle equals the entry angle, so no TIR at the exit.
             let outgoing = refract(inside, -exit_normal, options.ior, out.cos_transmitted);
-            let g = DVec3::new(absorption.x.powf(chord), absorption.y.powf(chord), absorption.z.powf(chord));
+            let g = DVec3::new(
+                absorption.x.powf(chord),
+                absorption.y.powf(chord),
+                absorption.z.powf(chord),
+            );
             (g * entry.transmittance * out.transmittance, exit, outgoing)
         } else {
             (DVec3::ZERO, p, reflected)
@@ -108,8 +120,11 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
         reflection.fg.push(Vec3::splat(entry.reflectance as f32));
         for layer in 0..options.layers {
             let radius = shell_radius(layer);
-            refraction.directions[layer].push((exit_point + exit_distance(exit_point, exit_dir, radius) * exit_dir).as_vec3());
-            reflection.directions[layer].push((p + exit_distance(p, reflected, radius) * reflected).as_vec3());
+            refraction.directions[layer].push(
+                (exit_point + exit_distance(exit_point, exit_dir, radius) * exit_dir).as_vec3(),
+            );
+            reflection.directions[layer]
+                .push((p + exit_distance(p, reflected, radius) * reflected).as_vec3());
         }
     }
     let terms = options
@@ -121,9 +136,17 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
         })
         .collect();
     let viewpoints = options.viewpoints.clamp(1, 2);
-    let weights = if viewpoints == 1 { vec![1.0] } else { vec![0.6, 0.4] };
+    let weights = if viewpoints == 1 {
+        vec![1.0]
+    } else {
+        vec![0.6, 0.4]
+    };
     let layers = (0..viewpoints)
-        .map(|v| (0..options.layers).map(|l| layer_map(options.cube_size, l, options.layers, v)).collect())
+        .map(|v| {
+            (0..options.layers)
+                .map(|l| layer_map(options.cube_size, l, options.layers, v))
+                .collect()
+        })
         .collect();
 
     FrameInput {
@@ -131,7 +154,13 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
         height: options.height,
         view_proj: camera.view_proj(0.1, 100.0),
         environment: room(),
-        lenses: vec![LensObject { name: "sphere".into(), positions, triangles, terms, layers }],
+        lenses: vec![LensObject {
+            name: "sphere".into(),
+            positions,
+            triangles,
+            terms,
+            layers,
+        }],
         viewpoint_weights: weights,
     }
 }
@@ -146,12 +175,22 @@ fn layer_map(size: u32, layer: usize, count: usize, viewpoint: usize) -> CubeMap
         let azimuth = d.z.atan2(d.x) + turn;
         let elevation = d.y.asin();
         if layer + 1 == count {
-            let sky = [0.35 + 0.3 * elevation.max(0.0), 0.55 + 0.25 * elevation.max(0.0), 0.9];
-            let ground_checker = ((azimuth * 8.0 / PI).floor() as i64 + (elevation * 10.0).floor() as i64).rem_euclid(2);
-            let ground = if ground_checker == 0 { [0.55, 0.5, 0.42] } else { [0.25, 0.22, 0.2] };
+            let sky = [
+                0.35 + 0.3 * elevation.max(0.0),
+                0.55 + 0.25 * elevation.max(0.0),
+                0.9,
+            ];
+            let ground_checker = ((azimuth * 8.0 / PI).floor() as i64
+                + (elevation * 10.0).floor() as i64)
+                .rem_euclid(2);
+            let ground = if ground_checker == 0 {
+                [0.55, 0.5, 0.42]
+            } else {
+                [0.25, 0.22, 0.2]
+            };
             let c = if elevation > 0.0 { sky } else { ground };
             [c[0] as f32, c[1] as f32, c[2] as f32, 1.0]
-        } else if layer % 2 == 0 {
+        } else if layer.is_multiple_of(2) {
             // Columns: opaque vertical bars at regular azimuths.
             let bars = 6.0 + 4.0 * layer as f64;
             let phase = (azimuth * bars / (2.0 * PI)).rem_euclid(1.0);
@@ -164,7 +203,12 @@ fn layer_map(size: u32, layer: usize, count: usize, viewpoint: usize) -> CubeMap
         } else {
             // A half-transparent band around the horizon (premultiplied).
             let alpha = (1.0 - (elevation / 0.25).powi(2)).max(0.0) * 0.6;
-            [(0.9 * alpha) as f32, (0.75 * alpha) as f32, (0.2 * alpha) as f32, alpha as f32]
+            [
+                (0.9 * alpha) as f32,
+                (0.75 * alpha) as f32,
+                (0.2 * alpha) as f32,
+                alpha as f32,
+            ]
         }
     })
 }
@@ -176,14 +220,26 @@ pub fn uv_sphere(radius: f32, stacks: u32, slices: u32) -> (Vec<Vec3>, Vec<[u32;
         let polar = std::f32::consts::PI * i as f32 / stacks as f32;
         for j in 0..=slices {
             let azimuth = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
-            positions.push(radius * Vec3::new(polar.sin() * azimuth.cos(), polar.cos(), -polar.sin() * azimuth.sin()));
+            positions.push(
+                radius
+                    * Vec3::new(
+                        polar.sin() * azimuth.cos(),
+                        polar.cos(),
+                        -polar.sin() * azimuth.sin(),
+                    ),
+            );
         }
     }
     let row = slices + 1;
     let mut triangles = Vec::new();
     for i in 0..stacks {
         for j in 0..slices {
-            let (a, b, c, d) = (i * row + j, (i + 1) * row + j, (i + 1) * row + j + 1, i * row + j + 1);
+            let (a, b, c, d) = (
+                i * row + j,
+                (i + 1) * row + j,
+                (i + 1) * row + j + 1,
+                i * row + j + 1,
+            );
             if i != 0 {
                 triangles.push([a, b, d]);
             }
@@ -197,7 +253,11 @@ pub fn uv_sphere(radius: f32, stacks: u32, slices: u32) -> (Vec<Vec3>, Vec<[u32;
 
 /// A floor checkerboard and a back wall, as flat-coloured quads.
 fn room() -> Vec<EnvironmentMesh> {
-    let mut mesh = EnvironmentMesh { positions: Vec::new(), colours: Vec::new(), triangles: Vec::new() };
+    let mut mesh = EnvironmentMesh {
+        positions: Vec::new(),
+        colours: Vec::new(),
+        triangles: Vec::new(),
+    };
     let mut quad = |corners: [Vec3; 4], colour: Vec3| {
         let base = mesh.positions.len() as u32;
         mesh.positions.extend(corners);
@@ -211,13 +271,33 @@ fn room() -> Vec<EnvironmentMesh> {
         for j in 0..cells {
             let x = (i as f32 - cells as f32 / 2.0) * cell;
             let z = (j as f32 - cells as f32 / 2.0) * cell;
-            let colour = if (i + j) % 2 == 0 { Vec3::new(0.8, 0.78, 0.7) } else { Vec3::new(0.2, 0.25, 0.35) };
+            let colour = if (i + j) % 2 == 0 {
+                Vec3::new(0.8, 0.78, 0.7)
+            } else {
+                Vec3::new(0.2, 0.25, 0.35)
+            };
             let y = -1.0;
-            quad([Vec3::new(x, y, z), Vec3::new(x, y, z + cell), Vec3::new(x + cell, y, z + cell), Vec3::new(x + cell, y, z)], colour);
+            quad(
+                [
+                    Vec3::new(x, y, z),
+                    Vec3::new(x, y, z + cell),
+                    Vec3::new(x + cell, y, z + cell),
+                    Vec3::new(x + cell, y, z),
+                ],
+                colour,
+            );
         }
     }
     let wall = Vec3::new(0.45, 0.3, 0.3);
-    quad([Vec3::new(-6.0, -1.0, -6.0), Vec3::new(6.0, -1.0, -6.0), Vec3::new(6.0, 5.0, -6.0), Vec3::new(-6.0, 5.0, -6.0)], wall);
+    quad(
+        [
+            Vec3::new(-6.0, -1.0, -6.0),
+            Vec3::new(6.0, -1.0, -6.0),
+            Vec3::new(6.0, 5.0, -6.0),
+            Vec3::new(-6.0, 5.0, -6.0),
+        ],
+        wall,
+    );
     vec![mesh]
 }
 

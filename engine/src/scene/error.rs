@@ -95,10 +95,14 @@ impl SceneError {
 
     /// Converts a TOML parse or schema error into a one-line error with line, column and field.
     pub(crate) fn from_toml(file: &Path, text: &str, error: &toml::de::Error) -> Self {
-        let offset = error.span().map_or(0, |span| span.start.min(text.len()));
-        let (line, column) = line_column(text, offset);
+        let span = error.span().unwrap_or(0..0);
+        let (line, column) = line_column(text, span.start.min(text.len()));
         let problem = one_line(error.message());
-        let field = field_at(text, offset).unwrap_or_else(|| "document".to_owned());
+        let field = match error.span() {
+            Some(span) => field_at(text, span, ErrorKind::of(&problem)),
+            None => None,
+        }
+        .unwrap_or_else(|| "document".to_owned());
         let fix = if problem.starts_with("unknown field") {
             "remove the field or correct its spelling (the schema is in tools/scenes/README.md)"
         } else if problem.starts_with("missing field") {
@@ -137,9 +141,43 @@ fn line_column(text: &str, offset: usize) -> (usize, usize) {
     (line, column)
 }
 
+/// What kind of TOML error a message describes, which decides how much of the field path the
+/// error position names.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum ErrorKind {
+    /// The key at the error position is itself the problem (`unknown field`).
+    UnknownKey,
+    /// The value at the error position is wrong (type, length, missing field of an inline table).
+    Value,
+    /// A syntax error: the keys open up to the error position, nothing more.
+    Syntax,
+}
+
+impl ErrorKind {
+    fn of(message: &str) -> Self {
+        if message.starts_with("unknown field") {
+            ErrorKind::UnknownKey
+        } else if [
+            "missing field",
+            "invalid type",
+            "invalid value",
+            "invalid length",
+        ]
+        .iter()
+        .any(|p| message.starts_with(p))
+        {
+            ErrorKind::Value
+        } else {
+            ErrorKind::Syntax
+        }
+    }
+}
+
 /// Best-effort dotted field path at a byte offset: the last table header before it (with an index
-/// for arrays of tables, counted from the headers seen so far) and the key on the offending line.
-fn field_at(text: &str, offset: usize) -> Option<String> {
+/// for arrays of tables, counted from the headers seen so far), the keys leading to the offset on
+/// its line (through inline tables), and for an unknown key the key itself.
+fn field_at(text: &str, span: std::ops::Range<usize>, kind: ErrorKind) -> Option<String> {
+    let offset = span.start.min(text.len());
     let before = text.get(..offset).unwrap_or(text);
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
     let line_end = text[line_start..]
@@ -182,15 +220,59 @@ fn field_at(text: &str, offset: usize) -> Option<String> {
         scan(current);
         return header;
     }
-    let key = current
-        .split_once('=')
-        .map(|(key, _)| key.trim().trim_matches('"').to_owned())
-        .filter(|key| !key.is_empty() && !key.starts_with('#'));
-    match (header, key) {
-        (Some(header), Some(key)) => Some(format!("{header}.{key}")),
-        (Some(header), None) => Some(header),
-        (None, key) => key,
+    let mut path: Vec<String> = header.into_iter().collect();
+    path.extend(keys_before(&text[line_start..offset]));
+    if kind == ErrorKind::UnknownKey {
+        let key = text.get(span).unwrap_or("").trim().trim_matches('"');
+        if !key.is_empty() {
+            path.push(key.to_owned());
+        }
     }
+    (!path.is_empty()).then(|| path.join("."))
+}
+
+/// The keys still open at the end of `prefix` (the start of a line up to an error position):
+/// `transform = { scale = ` gives `transform`, `scale`; keys of finished values are dropped.
+fn keys_before(prefix: &str) -> Vec<String> {
+    let mut open: Vec<(usize, String)> = Vec::new();
+    let mut depth = 0usize;
+    let mut token = String::new();
+    let mut quote: Option<char> = None;
+    for c in prefix.chars() {
+        if let Some(q) = quote {
+            if c == q {
+                quote = None;
+            } else {
+                token.push(c);
+            }
+            continue;
+        }
+        match c {
+            '"' | '\'' => quote = Some(c),
+            '=' => {
+                open.retain(|(d, _)| *d < depth);
+                open.push((depth, token.trim().to_owned()));
+                token.clear();
+            }
+            '{' | '[' => {
+                depth += 1;
+                token.clear();
+            }
+            '}' | ']' => {
+                depth = depth.saturating_sub(1);
+                token.clear();
+            }
+            ',' => {
+                open.retain(|(d, _)| *d < depth);
+                token.clear();
+            }
+            _ => token.push(c),
+        }
+    }
+    open.into_iter()
+        .map(|(_, key)| key)
+        .filter(|key| !key.is_empty())
+        .collect()
 }
 
 #[cfg(test)]
@@ -202,10 +284,37 @@ mod tests {
         let text =
             "name = \"x\"\n[camera]\nfov = 3\n[[objects]]\nname = \"a\"\n[[objects]]\nspheer = 1\n";
         let offset = text.find("spheer").unwrap_or(0);
-        assert_eq!(field_at(text, offset).as_deref(), Some("objects[1].spheer"));
+        let span = offset..offset + 6;
+        assert_eq!(
+            field_at(text, span, ErrorKind::UnknownKey).as_deref(),
+            Some("objects[1].spheer")
+        );
+        let offset = text.find('3').unwrap_or(0);
+        assert_eq!(
+            field_at(text, offset..offset + 1, ErrorKind::Value).as_deref(),
+            Some("camera.fov")
+        );
+        assert_eq!(line_column(text, offset), (3, 7));
+        // A syntax error at the start of a line names the table only.
         let offset = text.find("fov").unwrap_or(0);
-        assert_eq!(field_at(text, offset).as_deref(), Some("camera.fov"));
-        assert_eq!(line_column(text, offset), (3, 1));
+        assert_eq!(
+            field_at(text, offset..offset + 1, ErrorKind::Syntax).as_deref(),
+            Some("camera")
+        );
+    }
+
+    #[test]
+    fn keys_follow_inline_tables() {
+        assert_eq!(
+            keys_before("transform = { scale = "),
+            ["transform", "scale"]
+        );
+        assert_eq!(keys_before("sphere = { radius = 1, "), ["sphere"]);
+        assert_eq!(
+            keys_before("diffuse = { checker = { a = [1, 2, 3], scale = "),
+            ["diffuse", "checker", "scale"]
+        );
+        assert_eq!(keys_before("a = { b = \"x=y\", c = "), ["a", "c"]);
     }
 
     #[test]

@@ -224,11 +224,56 @@ pub(crate) struct TransformSpec {
 }
 
 /// `scale = 2.0` or `scale = [1.0, 2.0, 1.0]`.
-#[derive(Debug, Deserialize)]
-#[serde(untagged, expecting = "a number or an array of three numbers")]
+#[derive(Debug)]
 pub(crate) enum ScaleSpec {
     Uniform(f32),
     PerAxis([f32; 3]),
+}
+
+impl<'de> Deserialize<'de> for ScaleSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        /// Accepts a number or a sequence of exactly three numbers, with serde's usual messages
+        /// ("invalid type: …, expected a number or an array of three numbers").
+        struct ScaleVisitor;
+
+        impl<'de> serde::de::Visitor<'de> for ScaleVisitor {
+            type Value = ScaleSpec;
+
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a number or an array of three numbers")
+            }
+
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<ScaleSpec, E> {
+                Ok(ScaleSpec::Uniform(v as f32))
+            }
+
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<ScaleSpec, E> {
+                Ok(ScaleSpec::Uniform(v as f32))
+            }
+
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<ScaleSpec, E> {
+                Ok(ScaleSpec::Uniform(v as f32))
+            }
+
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<ScaleSpec, A::Error> {
+                let mut factors = [0f32; 3];
+                for (i, factor) in factors.iter_mut().enumerate() {
+                    *factor = seq
+                        .next_element()?
+                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                if seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                    return Err(serde::de::Error::invalid_length(4, &self));
+                }
+                Ok(ScaleSpec::PerAxis(factors))
+            }
+        }
+
+        deserializer.deserialize_any(ScaleVisitor)
+    }
 }
 
 impl Default for ScaleSpec {

@@ -33,7 +33,9 @@ use glam::DVec3;
 
 pub use self::image::{ReferenceImage, render_reference};
 pub use self::path::{GreedyOptions, GreedyRayPath, Interface, RayTreeOptions, Term};
-pub use self::records::{EnvironmentHit, IntersectionRecord, LensRecords, RecordSet, compile_records};
+pub use self::records::{
+    EnvironmentHit, IntersectionRecord, LensRecords, RecordSet, compile_records,
+};
 pub use self::shade::{CameraSample, PathModel, TraceOptions};
 pub use self::stats::{RenderStats, TraceCounters};
 pub use self::world::TraceScene;

@@ -267,13 +267,11 @@ fn outgoing_hits(
     );
     let mut hits = Vec::new();
     for part in parts {
-        for hit in scene.bvh(part).all_hits(
-            ray,
-            0.0,
-            f64::INFINITY,
-            None,
-            &mut counters.triangle_tests,
-        ) {
+        for hit in
+            scene
+                .bvh(part)
+                .all_hits(ray, 0.0, f64::INFINITY, None, &mut counters.triangle_tests)
+        {
             if hit.is_front_facing(ray.direction) {
                 hits.push((hit, part));
             }

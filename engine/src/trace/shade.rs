@@ -77,7 +77,11 @@ impl TraceScene {
         hit: &SurfaceHit,
         counters: &mut TraceCounters,
     ) -> DVec3 {
-        let albedo = sanitize(self.material(hit.object).albedo(hit.uv.as_vec2()).as_dvec3());
+        let albedo = sanitize(
+            self.material(hit.object)
+                .albedo(hit.uv.as_vec2())
+                .as_dvec3(),
+        );
         if albedo == DVec3::ZERO {
             return DVec3::ZERO;
         }
@@ -104,10 +108,7 @@ impl TraceScene {
                 continue;
             }
             counters.shadow_rays += 1;
-            let shadow = Ray {
-                origin,
-                direction,
-            };
+            let shadow = Ray { origin, direction };
             if self.environment.occluded(
                 &shadow,
                 0.0,
@@ -192,7 +193,8 @@ impl TraceScene {
             if weight == DVec3::ZERO {
                 continue;
             }
-            let radiance = self.outgoing_radiance(&path.outgoing_ray, lens, depth, options, counters);
+            let radiance =
+                self.outgoing_radiance(&path.outgoing_ray, lens, depth, options, counters);
             terms[slot] = sanitize(weight * radiance);
         }
         terms

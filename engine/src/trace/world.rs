@@ -291,9 +291,11 @@ fn push_triangles(out: &mut Vec<SourceTriangle>, mesh: &TriangleMesh, object: us
         Some((position, normal, uv))
     };
     for triangle in &mesh.triangles {
-        let (Some(a), Some(b), Some(c)) =
-            (vertex(triangle[0]), vertex(triangle[1]), vertex(triangle[2]))
-        else {
+        let (Some(a), Some(b), Some(c)) = (
+            vertex(triangle[0]),
+            vertex(triangle[1]),
+            vertex(triangle[2]),
+        ) else {
             continue;
         };
         out.push(SourceTriangle {

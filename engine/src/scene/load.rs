@@ -825,3 +825,97 @@ fn display_dir(dir: &Path) -> String {
         dir.display().to_string()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Environment, Material, Scene, Texture};
+    use glam::{Vec2, Vec3};
+    use std::path::PathBuf;
+
+    fn temp_folder(test: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("lensmap-scene-load-{}-{test}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("create a temporary folder");
+        dir
+    }
+
+    const CAMERA: &str = "[camera]\nposition = [0, 1, 5]\nlook_at = [0, 1, 0]\nvfov_degrees = 45\nwidth = 8\nheight = 8\n";
+
+    fn load(dir: &std::path::Path, text: &str) -> Scene {
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, text).expect("write the scene");
+        Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn obj_keeps_file_normals_and_uvs_and_is_transformed() {
+        let dir = temp_folder("obj");
+        std::fs::create_dir_all(dir.join("meshes")).expect("mkdir");
+        // A unit quad in the xy plane facing +z, with a deliberately tilted file normal that must
+        // survive (normals come from the file when present).
+        let obj = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+                   vn 0 0 1\nvn 0 0.6 0.8\nf 1/1/1 2/2/1 3/3/2 4/4/1\n";
+        std::fs::write(dir.join("meshes/quad.obj"), obj).expect("write the OBJ");
+        let text = format!(
+            "{CAMERA}[[materials]]\nname = \"m\"\ndiffuse = {{ colour = [0.5, 0.5, 0.5] }}\n\
+             [[objects]]\nname = \"quad\"\nmaterial = \"m\"\nobj = {{ path = \"meshes/quad.obj\" }}\n\
+             transform = {{ translate = [0, 0, -2], rotate_degrees = [0, 90, 0], scale = 2 }}\n"
+        );
+        let scene = load(&dir, &text);
+        let mesh = &scene.objects[0].mesh;
+        assert_eq!(mesh.triangle_count(), 2);
+        assert_eq!(mesh.uvs.len(), mesh.positions.len());
+        // Scaled by 2, turned 90° about y (+z → +x), moved to z = −2.
+        let (lo, hi) = mesh.bounds().unwrap_or_default();
+        assert!(lo.abs_diff_eq(Vec3::new(0.0, 0.0, -4.0), 1e-5), "{lo}");
+        assert!(hi.abs_diff_eq(Vec3::new(0.0, 2.0, -2.0), 1e-5), "{hi}");
+        assert!(mesh.normals.iter().any(|n| n.abs_diff_eq(Vec3::X, 1e-5)));
+        assert!(
+            mesh.normals
+                .iter()
+                .any(|n| n.abs_diff_eq(Vec3::new(0.8, 0.6, 0.0), 1e-5))
+        );
+    }
+
+    #[test]
+    fn png_textures_are_linearized_and_exr_environments_are_sampled() {
+        let dir = temp_folder("images");
+        // 2×1 sRGB PNG: 128 → 0.2158 linear, 255 → 1.
+        let png = image::RgbImage::from_raw(2, 1, vec![128, 128, 128, 255, 255, 255]).expect("png");
+        png.save(dir.join("t.png")).expect("write the PNG");
+        // 4×2 lat-long EXR with distinct texels.
+        let texels: Vec<f32> = (0..8).flat_map(|i| [i as f32, 0.5, 0.25]).collect();
+        let exr = image::Rgb32FImage::from_raw(4, 2, texels).expect("exr");
+        exr.save(dir.join("sky.exr")).expect("write the EXR");
+        let text = format!(
+            "{CAMERA}[environment]\nlatlong = {{ path = \"sky.exr\", scale = 2 }}\n\
+             [[materials]]\nname = \"m\"\ndiffuse = {{ image = \"t.png\" }}\n"
+        );
+        let scene = load(&dir, &text);
+        let Material::Diffuse {
+            colour,
+            texture: Some(Texture::Image(texture)),
+        } = &scene.materials[0]
+        else {
+            panic!("{:?}", scene.materials[0]);
+        };
+        assert_eq!(*colour, Vec3::ONE);
+        assert!(
+            (texture.texels[0].x - 0.215_861).abs() < 1e-4,
+            "{}",
+            texture.texels[0]
+        );
+        assert!((texture.texels[1].x - 1.0).abs() < 1e-6);
+        let Environment::LatLong(map) = &scene.environment else {
+            panic!("{:?}", scene.environment);
+        };
+        // Texel (2, 1) at its centre, times the scale 2.
+        let direction = super::super::lat_long_to_direction(Vec2::new(2.5 / 4.0, 1.5 / 2.0));
+        let radiance = map.radiance(direction);
+        assert!(
+            radiance.abs_diff_eq(Vec3::new(12.0, 1.0, 0.5), 1e-4),
+            "{radiance}"
+        );
+    }
+}

@@ -275,6 +275,76 @@ pub fn srgb_encode(linear: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Scene;
+    use crate::trace::{PathModel, compile_records};
+
+    fn in_pool<T: Send>(threads: usize, work: impl FnOnce() -> T + Send) -> T {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool")
+            .install(work)
+    }
+
+    #[test]
+    fn output_is_bit_identical_whatever_the_thread_count() {
+        let scene = Scene::load_named("teapot-room").expect("built-in scene");
+        let world = TraceScene::new(&scene).expect("traceable");
+        let camera = Camera {
+            width: 40,
+            height: 30,
+            supersampling: 2,
+            ..scene.camera
+        };
+        for model in [PathModel::Greedy, PathModel::Full] {
+            let options = TraceOptions {
+                model,
+                ..TraceOptions::default()
+            };
+            let render = || render_reference(&world, &camera, &options, &|_| {}).unwrap();
+            let mut one = in_pool(1, render);
+            let mut two = in_pool(2, render);
+            one.stats.seconds = 0.0;
+            two.stats.seconds = 0.0;
+            let bits = |v: &[Vec3]| v.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+            assert_eq!(bits(&one.radiance), bits(&two.radiance), "{model:?}");
+            assert_eq!(bits(&one.refraction), bits(&two.refraction));
+            assert_eq!(bits(&one.reflection), bits(&two.reflection));
+            assert_eq!(one, two);
+        }
+        let records = |threads| {
+            in_pool(threads, || {
+                compile_records(&world, &camera, &TraceOptions::default()).unwrap()
+            })
+        };
+        let (one, two) = (records(1), records(2));
+        assert!(one.lenses.iter().any(|l| !l.records.is_empty()));
+        assert_eq!(one, two);
+    }
+
+    #[test]
+    fn exr_keeps_linear_values_and_png_is_srgb() {
+        let pixels = vec![
+            Vec3::new(0.0, 0.25, 3.5),
+            Vec3::new(1e-4, 0.5, 1.0),
+            Vec3::new(0.2, 0.7, 12.0),
+            Vec3::new(0.9, 0.01, 0.3),
+        ];
+        let directory = std::env::temp_dir().join(format!("lensmap-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&directory).unwrap();
+        let exr = directory.join("t.exr");
+        let png = directory.join("t.png");
+        write_exr(&exr, 2, 2, &pixels).unwrap();
+        write_png(&png, 2, 2, &pixels).unwrap();
+        let back = image::open(&exr).unwrap().to_rgb32f();
+        let values: Vec<f32> = back.into_raw();
+        let expected: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
+        assert_eq!(values, expected);
+        let back = image::open(&png).unwrap().to_rgb8().into_raw();
+        assert_eq!(back, srgb8(&pixels));
+        assert!(write_exr(&exr, 3, 2, &pixels).is_err());
+        std::fs::remove_dir_all(&directory).ok();
+    }
 
     #[test]
     fn srgb_transfer_endpoints_and_knee() {

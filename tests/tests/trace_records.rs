@@ -1,0 +1,220 @@
+//! Intersection records (paper §4.1): every front-facing hit along an outgoing ray (ray
+//! continuation, Figure 4c) and records for a lens object hidden behind another (Figure 4b),
+//! checked against the scene's analytic geometry.
+
+use glam::{DVec3, Vec2, Vec3};
+use lensmap::scene::{
+    Camera, Environment, LensObject, Material, PointLight, Scene, SceneObject, TriangleMesh,
+    ViewSpace,
+};
+use lensmap::trace::{Term, TraceOptions, TraceScene, compile_records};
+
+/// An axis-aligned rectangle at depth `z` facing `facing` (+1: +z, −1: −z), x ∈ [x0, x1],
+/// y ∈ [y0, y1].
+fn wall(z: f32, x: [f32; 2], y: [f32; 2], facing: f32) -> TriangleMesh {
+    let corners = [
+        Vec3::new(x[0], y[0], z),
+        Vec3::new(x[1], y[0], z),
+        Vec3::new(x[1], y[1], z),
+        Vec3::new(x[0], y[1], z),
+    ];
+    let triangles = if facing > 0.0 {
+        vec![[0, 1, 2], [0, 2, 3]]
+    } else {
+        vec![[0, 2, 1], [0, 3, 2]]
+    };
+    TriangleMesh {
+        positions: corners.to_vec(),
+        normals: vec![Vec3::new(0.0, 0.0, facing); 4],
+        uvs: vec![Vec2::ZERO; 4],
+        triangles,
+    }
+}
+
+fn floor(y: f32, half: f32) -> TriangleMesh {
+    TriangleMesh {
+        positions: vec![
+            Vec3::new(-half, y, half),
+            Vec3::new(half, y, half),
+            Vec3::new(half, y, -half),
+            Vec3::new(-half, y, -half),
+        ],
+        normals: vec![Vec3::Y; 4],
+        uvs: vec![Vec2::ZERO; 4],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    }
+}
+
+fn object(name: &str, mesh: TriangleMesh, material: usize) -> SceneObject {
+    SceneObject {
+        name: name.to_owned(),
+        mesh,
+        material,
+    }
+}
+
+fn scene(objects: Vec<SceneObject>, lenses: Vec<LensObject>, camera: Camera) -> Scene {
+    Scene {
+        name: "records".to_owned(),
+        objects,
+        materials: vec![
+            Material::Mirror {
+                reflectance: Vec3::ONE,
+            },
+            Material::Diffuse {
+                colour: Vec3::splat(0.5),
+                texture: None,
+            },
+        ],
+        lights: vec![PointLight {
+            position: Vec3::new(0.0, 5.0, 5.0),
+            intensity: Vec3::splat(40.0),
+        }],
+        environment: Environment::Constant(Vec3::new(0.1, 0.2, 0.3)),
+        lenses,
+        camera,
+        view_space: ViewSpace::List(Vec::new()),
+    }
+}
+
+#[test]
+fn outgoing_rays_record_every_front_facing_hit_nearest_first() {
+    // A mirror floor reflects camera rays up and towards −z, through a near wall (z = −3, facing
+    // the mirror's reflections), a wall facing away (z = −5, back-facing: not recorded) and a
+    // far wall (z = −8). Each reflected ray crossing x, y inside all three must record the near
+    // and the far wall at their analytic distances.
+    let objects = vec![
+        object("mirror", floor(0.0, 30.0), 0),
+        object("near", wall(-3.0, [-1.0, 1.0], [0.0, 20.0], 1.0), 1),
+        object("backwards", wall(-5.0, [-20.0, 20.0], [0.0, 20.0], -1.0), 1),
+        object("far", wall(-8.0, [-20.0, 20.0], [0.0, 20.0], 1.0), 1),
+    ];
+    let lenses = vec![LensObject {
+        name: "mirror".to_owned(),
+        objects: vec![0],
+    }];
+    let camera = Camera {
+        position: Vec3::new(0.0, 2.0, 6.0),
+        look_at: Vec3::new(0.0, 0.0, 0.0),
+        up: Vec3::Y,
+        vfov_radians: 50f32.to_radians(),
+        width: 24,
+        height: 18,
+        supersampling: 2,
+    };
+    let scene = scene(objects, lenses, camera);
+    let world = TraceScene::new(&scene).unwrap();
+    let set = compile_records(&world, &camera, &TraceOptions::default()).unwrap();
+    assert_eq!(set.lenses.len(), 1);
+    let records = &set.lenses[0];
+    assert_eq!(records.name, "mirror");
+    assert!(!records.records.is_empty());
+    let mut through_near_wall = 0;
+    for record in &records.records {
+        assert_eq!(record.term, Term::Reflection, "a mirror has only the reflection term");
+        let ray = record.outgoing_ray;
+        // Visible unless a wall stands between the camera and the mirror point.
+        let eye = camera.position.as_dvec3();
+        let blocked_at = |z: f64, half_width: f64| {
+            let s = (z - eye.z) / (ray.origin.z - eye.z);
+            let x = eye.x + s * (ray.origin.x - eye.x);
+            ray.origin.z < z && x.abs() < half_width
+        };
+        let expected_visible = !(blocked_at(-3.0, 1.0) || blocked_at(-5.0, 20.0));
+        if !(blocked_at(-3.0, 1.001) ^ blocked_at(-3.0, 0.999)) {
+            assert_eq!(record.visible, expected_visible, "{:?}", record.image_position);
+        }
+        assert!(ray.origin.y.abs() < 1e-6, "outgoing rays leave the mirror floor");
+        let hits = records.hits_of(record);
+        assert!(hits.windows(2).all(|w| w[0].distance <= w[1].distance));
+        let names: Vec<&str> = hits
+            .iter()
+            .map(|h| scene.objects[h.object].name.as_str())
+            .collect();
+        assert!(!names.contains(&"backwards"), "back-facing hits are skipped: {names:?}");
+        assert!(!names.contains(&"mirror"));
+        // Analytic crossings of the planes z = −3 and z = −8.
+        let crossing = |z: f64| {
+            let t = (z - ray.origin.z) / ray.direction.z;
+            (t, ray.at(t))
+        };
+        let (t_far, p_far) = crossing(-8.0);
+        if ray.direction.z < 0.0 && p_far.x.abs() < 20.0 && p_far.y < 20.0 {
+            let far = hits.last().expect("the far wall is hit");
+            assert_eq!(names.last(), Some(&"far"));
+            assert!((far.distance - t_far).abs() < 1e-9);
+            assert!(far.radiance.min_element() >= 0.0 && far.radiance.is_finite());
+        }
+        let (t_near, p_near) = crossing(-3.0);
+        if ray.direction.z < 0.0 && p_near.x.abs() < 0.99 && p_near.y < 19.9 {
+            through_near_wall += 1;
+            assert_eq!(names, ["near", "far"]);
+            assert!((hits[0].distance - t_near).abs() < 1e-9);
+        }
+        assert_eq!(record.weight(), DVec3::ONE, "reflectance 1: F·G = 1");
+        assert_eq!(record.background, DVec3::new(0.1, 0.2, 0.3).as_vec3().as_dvec3());
+    }
+    assert!(through_near_wall > 10, "{through_near_wall} records cross the near wall");
+    // Records are in image order.
+    let positions: Vec<(f32, f32)> = records
+        .records
+        .iter()
+        .map(|r| (r.image_position.y, r.image_position.x))
+        .collect();
+    assert!(positions.windows(2).all(|w| w[0].0 <= w[1].0));
+}
+
+#[test]
+fn incoming_rays_continue_through_a_lens_object_to_one_it_occludes() {
+    // Two mirrors facing the camera: a small one in front hides the middle of a large one.
+    // Every supersample that hits the small mirror also yields a record for the large mirror,
+    // marked not visible, at the large mirror's analytic depth.
+    let objects = vec![
+        object("front", wall(1.0, [-0.5, 0.5], [-0.5, 0.5], 1.0), 0),
+        object("back", wall(-1.0, [-3.0, 3.0], [-3.0, 3.0], 1.0), 0),
+        object("room", wall(-10.0, [-50.0, 50.0], [-50.0, 50.0], 1.0), 1),
+    ];
+    let lenses = vec![
+        LensObject {
+            name: "front".to_owned(),
+            objects: vec![0],
+        },
+        LensObject {
+            name: "back".to_owned(),
+            objects: vec![1],
+        },
+    ];
+    let camera = Camera {
+        position: Vec3::new(0.0, 0.0, 6.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_radians: 40f32.to_radians(),
+        width: 20,
+        height: 20,
+        supersampling: 1,
+    };
+    let scene = scene(objects, lenses, camera);
+    let world = TraceScene::new(&scene).unwrap();
+    let set = compile_records(&world, &camera, &TraceOptions::default()).unwrap();
+    let front = &set.lenses[0];
+    let back = &set.lenses[1];
+    assert!(!front.records.is_empty());
+    assert!(front.records.iter().all(|r| r.visible));
+    let hidden: Vec<_> = back.records.iter().filter(|r| !r.visible).collect();
+    assert_eq!(
+        hidden.len(),
+        front.records.len(),
+        "each record of the front mirror has a hidden twin on the back mirror"
+    );
+    for (occluder, occluded) in front.records.iter().zip(&hidden) {
+        assert_eq!(occluder.image_position, occluded.image_position);
+        assert!((occluded.outgoing_ray.origin.z + 1.0).abs() < 1e-6);
+        assert!((occluder.outgoing_ray.origin.z - 1.0).abs() < 1e-6);
+    }
+    assert!(back.records.iter().any(|r| r.visible));
+    // The front mirror's reflected rays go back to +z: nothing there but the environment.
+    assert!(front.records.iter().all(|r| front.hits_of(r).is_empty()));
+    // The back mirror's reflections meet the front mirror from behind (back-facing: skipped) or
+    // nothing; a visible record whose ray goes through the front mirror's square records nothing.
+    assert!(set.counters.primary_rays == 400);
+}

@@ -7,8 +7,7 @@ use lensmap::gpu::{Gpu, GpuOptions};
 /// `vulkan-validationlayers`); set `LENSMAP_TEST_NO_VALIDATION=1` to run without it locally.
 pub fn gpu() -> Gpu {
     let mut options = GpuOptions::from_env();
-    options.validation = std::env::var("LENSMAP_TEST_NO_VALIDATION").is_err_and(|_| true)
-        || std::env::var("LENSMAP_TEST_NO_VALIDATION").is_ok_and(|v| v != "1");
+    options.validation = std::env::var("LENSMAP_TEST_NO_VALIDATION").map_or(true, |v| v != "1");
     match Gpu::new(&options) {
         Ok(gpu) => gpu,
         Err(e) => panic!("no GPU for tests: {e}"),

@@ -8,6 +8,8 @@
 
 pub mod gpu;
 pub mod graph;
+pub mod hybrid;
+pub mod layers;
 pub mod render;
 pub mod scene;
 pub mod trace;

@@ -155,7 +155,10 @@ fn greedy_refraction_through_an_analytic_sphere_matches_the_closed_form() {
 
         let refraction = paths.refraction.expect("light is transmitted");
         assert_eq!(refraction.term, Term::Refraction);
-        assert_eq!(refraction.interfaces, 2, "b = {b}: one chord, two interfaces");
+        assert_eq!(
+            refraction.interfaces, 2,
+            "b = {b}: one chord, two interfaces"
+        );
         assert!(!refraction.truncated);
         let angle = refraction
             .outgoing_ray
@@ -164,7 +167,10 @@ fn greedy_refraction_through_an_analytic_sphere_matches_the_closed_form() {
         worst_angle = worst_angle.max(angle);
         assert!(angle < 1e-6, "b = {b}: exit direction off by {angle} rad");
         let exit_error = refraction.outgoing_ray.origin.distance(expected.exit_point);
-        assert!(exit_error < 1e-8, "b = {b}: exit point off by {exit_error} m");
+        assert!(
+            exit_error < 1e-8,
+            "b = {b}: exit point off by {exit_error} m"
+        );
         // New rays start 1e-9 m (relative) off the surface, so distances agree to ~1e-9.
         assert!(
             (refraction.glass_distance - expected.chord).abs() < 1e-8,
@@ -222,9 +228,7 @@ fn near_grazing_the_greedy_path_follows_the_stronger_internal_reflection() {
         &sphere,
         &incoming,
         &first,
-        GreedyOptions {
-            max_interfaces: 64,
-        },
+        GreedyOptions { max_interfaces: 64 },
         &mut counters,
     );
     let refraction = paths.refraction.unwrap();
@@ -233,7 +237,10 @@ fn near_grazing_the_greedy_path_follows_the_stronger_internal_reflection() {
     assert!(split.reflectance > 0.5);
     // Inside, every interface meets the same angle, so the greedy path reflects for ever: it
     // ends at the interface cap, with T once and R at each of the 63 inner interfaces.
-    assert!(refraction.truncated && refraction.interfaces == 64, "{refraction:?}");
+    assert!(
+        refraction.truncated && refraction.interfaces == 64,
+        "{refraction:?}"
+    );
     let expected = split.transmittance * split.reflectance.powi(63);
     // Each new ray starts 1e-9 m inside the surface; over 63 near-grazing bounces the impact
     // parameter drifts by ~6e-8 m and R (steep near grazing) with it: 1e-3 relative covers it.
@@ -340,8 +347,8 @@ fn analytic_mirror_radiance(ray: &Ray, reflectance: Vec3) -> Option<(DVec3, bool
     let p = ray.at(t);
     let reflected = DVec3::new(ray.direction.x, -ray.direction.y, ray.direction.z);
     let cos_i = -ray.direction.y;
-    let fresnel = reflectance.as_dvec3()
-        + (DVec3::ONE - reflectance.as_dvec3()) * (1.0 - cos_i).powi(5);
+    let fresnel =
+        reflectance.as_dvec3() + (DVec3::ONE - reflectance.as_dvec3()) * (1.0 - cos_i).powi(5);
     if reflected.z >= 0.0 {
         return None;
     }
@@ -402,7 +409,11 @@ fn a_mirror_plane_reflects_the_checkerboard_as_the_closed_form_says() {
                     "{model:?} pixel ({x}, {y}): {} vs analytic {expected}",
                     sample.radiance
                 );
-                assert_eq!(sample.refraction, DVec3::ZERO, "a mirror has no refraction term");
+                assert_eq!(
+                    sample.refraction,
+                    DVec3::ZERO,
+                    "a mirror has no refraction term"
+                );
                 compared += 1;
                 if light {
                     light_squares += 1;
@@ -457,7 +468,13 @@ fn mesh_sphere_in_a_scene_approaches_the_closed_form() {
         let first = world
             .closest_hit(&incoming, None, None, &mut counters)
             .expect("hit");
-        let paths = world.greedy_paths(0, &incoming, &first.hit, GreedyOptions::default(), &mut counters);
+        let paths = world.greedy_paths(
+            0,
+            &incoming,
+            &first.hit,
+            GreedyOptions::default(),
+            &mut counters,
+        );
         let expected = sphere_closed_form(b, f64::from(radius), 1.5);
         let e = expected.exit_direction;
         let expected_direction = DVec3::new(e.x * c, e.x * s, e.z);

@@ -111,7 +111,11 @@ fn outgoing_rays_record_every_front_facing_hit_nearest_first() {
     assert!(!records.records.is_empty());
     let mut through_near_wall = 0;
     for record in &records.records {
-        assert_eq!(record.term, Term::Reflection, "a mirror has only the reflection term");
+        assert_eq!(
+            record.term,
+            Term::Reflection,
+            "a mirror has only the reflection term"
+        );
         let ray = record.outgoing_ray;
         // Visible unless a wall stands between the camera and the mirror point.
         let eye = camera.position.as_dvec3();
@@ -122,16 +126,26 @@ fn outgoing_rays_record_every_front_facing_hit_nearest_first() {
         };
         let expected_visible = !(blocked_at(-3.0, 1.0) || blocked_at(-5.0, 20.0));
         if !(blocked_at(-3.0, 1.001) ^ blocked_at(-3.0, 0.999)) {
-            assert_eq!(record.visible, expected_visible, "{:?}", record.image_position);
+            assert_eq!(
+                record.visible, expected_visible,
+                "{:?}",
+                record.image_position
+            );
         }
-        assert!(ray.origin.y.abs() < 1e-6, "outgoing rays leave the mirror floor");
+        assert!(
+            ray.origin.y.abs() < 1e-6,
+            "outgoing rays leave the mirror floor"
+        );
         let hits = records.hits_of(record);
         assert!(hits.windows(2).all(|w| w[0].distance <= w[1].distance));
         let names: Vec<&str> = hits
             .iter()
             .map(|h| scene.objects[h.object].name.as_str())
             .collect();
-        assert!(!names.contains(&"backwards"), "back-facing hits are skipped: {names:?}");
+        assert!(
+            !names.contains(&"backwards"),
+            "back-facing hits are skipped: {names:?}"
+        );
         assert!(!names.contains(&"mirror"));
         // Analytic crossings of the planes z = −3 and z = −8.
         let crossing = |z: f64| {
@@ -152,9 +166,15 @@ fn outgoing_rays_record_every_front_facing_hit_nearest_first() {
             assert!((hits[0].distance - t_near).abs() < 1e-9);
         }
         assert_eq!(record.weight(), DVec3::ONE, "reflectance 1: F·G = 1");
-        assert_eq!(record.background, DVec3::new(0.1, 0.2, 0.3).as_vec3().as_dvec3());
+        assert_eq!(
+            record.background,
+            DVec3::new(0.1, 0.2, 0.3).as_vec3().as_dvec3()
+        );
     }
-    assert!(through_near_wall > 10, "{through_near_wall} records cross the near wall");
+    assert!(
+        through_near_wall > 10,
+        "{through_near_wall} records cross the near wall"
+    );
     // Records are in image order: pixel rows, then pixels (then supersamples inside a pixel).
     let pixels: Vec<(f32, f32)> = records
         .records

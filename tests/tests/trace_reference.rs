@@ -30,7 +30,9 @@ fn builtin_scenes_render_without_nan_in_both_models() {
             assert_eq!(image.radiance.len(), pixels);
             for buffer in [&image.radiance, &image.refraction, &image.reflection] {
                 assert!(
-                    buffer.iter().all(|p| p.is_finite() && p.min_element() >= 0.0),
+                    buffer
+                        .iter()
+                        .all(|p| p.is_finite() && p.min_element() >= 0.0),
                     "{name} {model:?}: NaN, Inf or negative radiance"
                 );
             }
@@ -44,7 +46,10 @@ fn builtin_scenes_render_without_nan_in_both_models() {
             for i in 0..pixels {
                 if image.lens_mask[i] == 1.0 {
                     let sum = image.refraction[i] + image.reflection[i];
-                    assert!((image.radiance[i] - sum).abs().max_element() <= 1e-5 * (1.0 + sum.max_element()));
+                    assert!(
+                        (image.radiance[i] - sum).abs().max_element()
+                            <= 1e-5 * (1.0 + sum.max_element())
+                    );
                 }
                 if image.lens_mask[i] == 0.0 {
                     assert_eq!(image.refraction[i], Vec3::ZERO);
@@ -52,7 +57,10 @@ fn builtin_scenes_render_without_nan_in_both_models() {
                 }
             }
             let mean = image.radiance.iter().sum::<Vec3>() / pixels as f32;
-            assert!(mean.max_element() > 0.01, "{name} {model:?} is black: {mean}");
+            assert!(
+                mean.max_element() > 0.01,
+                "{name} {model:?} is black: {mean}"
+            );
             let counters = image.stats.counters;
             assert_eq!(counters.primary_rays, pixels as u64 * 4);
             assert!(counters.secondary_rays > 0 && counters.triangle_tests > counters.all_rays());
@@ -79,18 +87,30 @@ fn the_full_tree_costs_more_rays_than_the_greedy_paths_and_stays_close() {
     };
     let greedy = render(PathModel::Greedy);
     let full = render(PathModel::Full);
-    assert!(full.stats.counters.secondary_rays > 2 * greedy.stats.counters.secondary_rays);
+    let (g, f) = (greedy.stats.counters, full.stats.counters);
+    assert!(
+        f.secondary_rays * 10 > g.secondary_rays * 13,
+        "{f:?} vs {g:?}"
+    );
     // Same camera rays, same environment: identical off the sphere.
     for i in 0..greedy.radiance.len() {
         if greedy.lens_mask[i] == 0.0 {
             assert_eq!(greedy.radiance[i], full.radiance[i]);
         }
     }
-    // On a clear sphere the full tree adds the weaker branches the greedy paths drop: brighter or
-    // equal on average, and not far off.
+    // Each greedy path is one branch of the full tree (the sphere floats free, so leaving the lens
+    // object and leaving into the world are the same): the tree adds the branches the greedy
+    // paths drop, pixel by pixel, and stays within a few percent on average.
+    for i in 0..greedy.radiance.len() {
+        let (g, f) = (greedy.radiance[i], full.radiance[i]);
+        assert!(
+            (f - g * (1.0 - 1e-5)).min_element() >= -1e-6,
+            "pixel {i}: full {f} below greedy {g}"
+        );
+    }
     let mean = |v: &[Vec3]| v.iter().map(|p| p.element_sum()).sum::<f32>() / v.len() as f32;
     let (g, f) = (mean(&greedy.radiance), mean(&full.radiance));
-    assert!(f >= g * 0.999 && f <= g * 1.2, "greedy {g}, full {f}");
+    assert!(f >= g && f <= g * 1.1, "greedy {g}, full {f}");
 }
 
 #[test]

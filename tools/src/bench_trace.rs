@@ -8,8 +8,17 @@ use anyhow::Context;
 use glam::Vec3;
 use lensmap::scene::{Camera, Scene};
 use lensmap::trace::{
-    self, PathModel, ReferenceImage, TraceCounters, TraceOptions, TraceScene, image::srgb_encode,
+    self, PathModel, RayTreeOptions, ReferenceImage, TraceCounters, TraceOptions, TraceScene,
+    image::srgb_encode,
 };
+
+/// Prints a line on stdout; a closed stdout (`lensmap … | head`) ends the output, not the work.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
 
 /// Arguments of `lensmap bench trace`.
 #[derive(clap::Args, Debug, Clone)]
@@ -52,6 +61,8 @@ struct SpeedRow {
 #[derive(serde::Serialize, Debug, Clone)]
 struct ComparisonRow {
     scene: String,
+    /// The full tree's limits.
+    full_tree: String,
     /// RMSE of the sRGB-encoded final images (values in [0, 1]), over all pixels and channels.
     rmse_srgb: f64,
     /// PSNR in dB for that RMSE with peak 1.
@@ -82,7 +93,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
     let runs = args.runs.max(1);
     let mut speed = Vec::new();
     let mut comparisons = Vec::new();
-    println!(
+    say!(
         "reference ray tracer, {}×{} with {k}×{k} supersampling, median of {runs} runs \
          ({} CPU threads available)",
         args.width,
@@ -90,9 +101,15 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
         std::thread::available_parallelism().map_or(1, |n| n.get()),
         k = args.supersampling,
     );
-    println!(
+    say!(
         "{:<14} {:<7} {:>7} {:>9} {:>9} {:>11} {:>11}",
-        "scene", "tree", "threads", "median s", "Mrays/s", "rays/pixel", "tests/ray"
+        "scene",
+        "tree",
+        "threads",
+        "median s",
+        "Mrays/s",
+        "rays/pixel",
+        "tests/ray"
     );
 
     for scene_name in ["teapot-room", "glass-sphere"] {
@@ -144,7 +161,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
                     triangle_tests_per_ray: counters.triangle_tests_per_ray(),
                     counters,
                 };
-                println!(
+                say!(
                     "{:<14} {:<7} {:>7} {:>9.3} {:>9.2} {:>11.1} {:>11.1}",
                     row.scene,
                     format!("{model:?}").to_lowercase(),
@@ -161,15 +178,35 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
             }
         }
         if let [(PathModel::Greedy, greedy), (PathModel::Full, full)] = images.as_slice() {
-            comparisons.push(compare(scene_name, greedy, full));
+            let defaults = RayTreeOptions::default();
+            let label = format!("depth {}, cutoff {}", defaults.max_depth, defaults.cutoff);
+            comparisons.push(compare(scene_name, &label, greedy, full));
+            // The tree without a contribution cutoff, to depth 6: closer to a complete binary
+            // tree, the shape whose cost the paper compares against.
+            let uncut = TraceOptions {
+                model: PathModel::Full,
+                tree: RayTreeOptions {
+                    max_depth: 6,
+                    cutoff: 0.0,
+                },
+                ..TraceOptions::default()
+            };
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(2)
+                .build()
+                .context("creating the rayon thread pool")?;
+            let image =
+                pool.install(|| trace::render_reference(&world, &camera, &uncut, &|_| {}))?;
+            comparisons.push(compare(scene_name, "depth 6, no cutoff", greedy, &image));
         }
     }
 
-    println!();
-    println!("full ray tree vs greedy two-term paths (same image size and sampling):");
-    println!(
-        "{:<14} {:>10} {:>9} {:>14} {:>15} {:>14} {:>14}",
+    say!();
+    say!("full ray tree vs greedy two-term paths (same image size and sampling):");
+    say!(
+        "{:<14} {:<20} {:>10} {:>9} {:>14} {:>15} {:>14} {:>14}",
         "scene",
+        "full tree",
         "RMSE sRGB",
         "PSNR dB",
         "RMSE lens lin",
@@ -178,9 +215,10 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
         "2nd-ray ratio"
     );
     for c in &comparisons {
-        println!(
-            "{:<14} {:>10.4} {:>9.2} {:>14.4} {:>15.2} {:>14.2} {:>14.2}",
+        say!(
+            "{:<14} {:<20} {:>10.4} {:>9.2} {:>14.4} {:>15.2} {:>14.2} {:>14.2}",
             c.scene,
+            c.full_tree,
             c.rmse_srgb,
             c.psnr_db,
             c.rmse_linear_lens_pixels,
@@ -189,7 +227,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
             c.secondary_ray_ratio
         );
     }
-    println!("(the paper reports about 5× more ray queries for the full tree)");
+    say!("(the paper reports about 5× more ray queries for the full tree)");
 
     if let Some(path) = &args.json {
         let report = BenchReport {
@@ -217,7 +255,12 @@ fn median(values: &mut [f64]) -> f64 {
     }
 }
 
-fn compare(scene: &str, greedy: &ReferenceImage, full: &ReferenceImage) -> ComparisonRow {
+fn compare(
+    scene: &str,
+    full_tree: &str,
+    greedy: &ReferenceImage,
+    full: &ReferenceImage,
+) -> ComparisonRow {
     let srgb = |p: Vec3| Vec3::new(srgb_encode(p.x), srgb_encode(p.y), srgb_encode(p.z));
     let mut squared = 0.0f64;
     let mut lens_squared = 0.0f64;
@@ -241,6 +284,7 @@ fn compare(scene: &str, greedy: &ReferenceImage, full: &ReferenceImage) -> Compa
     let (g, f) = (greedy.stats.counters, full.stats.counters);
     ComparisonRow {
         scene: scene.to_owned(),
+        full_tree: full_tree.to_owned(),
         rmse_srgb: rmse,
         psnr_db: if rmse > 0.0 {
             -20.0 * rmse.log10()

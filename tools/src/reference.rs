@@ -13,6 +13,14 @@ use lensmap::trace::{
     self, PathModel, ReferenceImage, RenderStats, TraceOptions, TraceScene, image::validate_camera,
 };
 
+/// Prints a line on stdout; a closed stdout (`lensmap … | head`) ends the output, not the work.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 /// Arguments of `lensmap reference`.
 #[derive(clap::Args, Debug, Clone)]
 #[command(
@@ -165,7 +173,7 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", stats_path.display()))?;
 
     if args.json {
-        println!("{json}");
+        say!("{json}");
     } else {
         print_summary(&scene.name, &args.out, options.model, &image.stats, &image);
     }
@@ -245,14 +253,14 @@ fn print_summary(
     stats: &RenderStats,
     image: &ReferenceImage,
 ) {
-    println!(
+    say!(
         "{scene}: {}×{} with {k}×{k} supersampling, {model:?} paths, {:.2} s",
         stats.width,
         stats.height,
         stats.seconds,
         k = stats.supersampling,
     );
-    println!(
+    say!(
         "  rays: {} primary, {} secondary, {} shadow, {} in all ({:.1} per pixel, {:.2} Mrays/s)",
         stats.counters.primary_rays,
         stats.counters.secondary_rays,
@@ -261,13 +269,13 @@ fn print_summary(
         stats.rays_per_pixel(),
         stats.mrays_per_second(),
     );
-    println!(
+    say!(
         "  triangle tests: {} ({:.1} per ray); lens objects cover {:.0} pixels",
         stats.counters.triangle_tests,
         stats.counters.triangle_tests_per_ray(),
         lens_coverage(image),
     );
-    println!(
+    say!(
         "  wrote {}/{{reference,refraction,reflection,lens_mask}}.{{exr,png}} and stats.json",
         out.display()
     );

@@ -306,7 +306,11 @@ mod tests {
             let mut two = in_pool(2, render);
             one.stats.seconds = 0.0;
             two.stats.seconds = 0.0;
-            let bits = |v: &[Vec3]| v.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+            let bits = |v: &[Vec3]| {
+                v.iter()
+                    .flat_map(|p| p.to_array().map(f32::to_bits))
+                    .collect::<Vec<_>>()
+            };
             assert_eq!(bits(&one.radiance), bits(&two.radiance), "{model:?}");
             assert_eq!(bits(&one.refraction), bits(&two.refraction));
             assert_eq!(bits(&one.reflection), bits(&two.reflection));

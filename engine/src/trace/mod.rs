@@ -77,7 +77,7 @@ pub enum TraceError {
     #[error("invalid image: {0}")]
     InvalidImage(String),
     /// A file or directory could not be written.
-    #[error("{}: {source}", path.display())]
+    #[error("cannot write {}", path.display())]
     Io {
         /// The path concerned.
         path: PathBuf,
@@ -85,7 +85,7 @@ pub enum TraceError {
         source: std::io::Error,
     },
     /// An image could not be encoded or written.
-    #[error("{}: {source}", path.display())]
+    #[error("cannot write the image {}", path.display())]
     Image {
         /// The path concerned.
         path: PathBuf,

@@ -1,0 +1,6 @@
+//! The hybrid runtime (hybrid-rendering paper §5): per frame, on the CPU, the lens object's
+//! vertices are ray traced from the real camera, the mesh is adaptively tessellated where ray
+//! paths differ, texture coordinates into the layered environment maps are generated, and the
+//! two nearest viewpoint samples are chosen and weighted.
+
+pub mod tessellate;

@@ -1,0 +1,1006 @@
+//! The bake directory: what the baker writes and the runtime reads, the layered environment maps
+//! of every lens object at every viewpoint sample of the view space.
+//!
+//! ```text
+//! DIR/
+//!   manifest.json                       the Manifest (format_version 1), pretty-printed JSON
+//!   lens0-teapot.v000.layer0.exr        one cube map per (lens object, viewpoint sample, layer)
+//!   lens0-teapot.v000.layer1.exr
+//!   …
+//! ```
+//!
+//! **Cube-map files.** Each EXR is a multi-part OpenEXR file holding one part per (mip level,
+//! face): `6·(log2(size) + 1)` parts named `level{l}/{face}` (`face` one of `+X -X +Y -Y +Z -Z`,
+//! Vulkan's layer order), written level by level and face by face in that order. Part
+//! `level{l}/{face}` is `(size >> l)²` pixels with four 32-bit float channels `R G B A` holding
+//! the *premultiplied* texel `(α·r, α·g, α·b, α)` (OpenEXR's own convention); pixel row 0 is the
+//! face's row 0 (`t = 0`), column 0 is `s = 0`, exactly the layout of [`CubeMap`]. Every level is
+//! stored, not regenerated on reading: the baker solves all levels together. Compression is
+//! lossless ZIP in increasing line order, so files round-trip bit-exactly and the same bake gives
+//! the same bytes.
+//!
+//! **Atomic writes.** [`Bake::write`] writes everything into a sibling staging directory
+//! `.NAME.writing-PID`, fsyncs every file and the directory, then swaps it in: the old bake is
+//! renamed to `.NAME.previous`, the staging directory to `NAME`, and the old one is removed. An
+//! interruption before the swap leaves the old bake untouched at `NAME`; one during the swap
+//! leaves it at `.NAME.previous`, which the next write restores before it starts (and which
+//! [`Bake::read`] names in its error). One writer per directory at a time.
+//!
+//! **Validation.** [`Bake::read`] checks everything and fails on the first problem with one line
+//! naming the file, the field (or EXR part and texel) and the fix. [`Bake::write`] applies the
+//! same checks before anything is written, so it never produces a bake that cannot be read.
+
+use std::collections::HashSet;
+use std::fs::{self, File};
+use std::io::{BufReader, Cursor, Write};
+use std::path::{Component, Path, PathBuf};
+
+use glam::{DVec3, Vec3};
+use serde::{Deserialize, Serialize};
+
+use super::shell::LayerShell;
+use crate::render::CubeMap;
+
+/// The manifest format this code writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// File name of the manifest inside a bake directory.
+pub const MANIFEST_FILE_NAME: &str = "manifest.json";
+
+/// How far outside [0, 1] a texel's α may be (rounding in the solver) before reading rejects it.
+pub const ALPHA_TOLERANCE: f32 = 1e-4;
+
+/// Face names in Vulkan layer order, as used in EXR part names.
+pub const FACE_NAMES: [&str; 6] = ["+X", "-X", "+Y", "-Y", "+Z", "-Z"];
+
+/// The lossless, deterministic encoding of every part.
+const ENCODING: exr::prelude::Encoding = exr::prelude::Encoding::SMALL_LOSSLESS;
+
+/// `manifest.json`: everything about a bake except the texels.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// Always [`FORMAT_VERSION`] for this code.
+    pub format_version: u32,
+    /// Name of the scene the bake was made from.
+    pub scene: String,
+    /// What wrote the bake (program and version), for people reading the file.
+    pub created_by: String,
+    /// Edge length in texels of every cube map's level-0 faces: a power of two ≥ 1.
+    pub cube_map_size: u32,
+    /// Viewpoint sample positions in world space, metres (the eye positions the maps were inferred
+    /// for); at least one.
+    pub viewpoints: Vec<Vec3>,
+    /// The lens objects, at least one, with unique non-empty names.
+    pub lenses: Vec<ManifestLens>,
+}
+
+/// One lens object in the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ManifestLens {
+    /// The lens object's name in the scene.
+    pub name: String,
+    /// The EM origin in world space, metres: cube-map directions are shell hit − this point.
+    pub em_origin: DVec3,
+    /// The layers, nearest shell first; at least one.
+    pub layers: Vec<ManifestLayer>,
+}
+
+/// One layer of a lens object's layered EM in the manifest.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ManifestLayer {
+    /// The layer's shell (the same for every viewpoint sample).
+    pub shell: LayerShell,
+    /// Per viewpoint sample, the cube-map file relative to the bake directory (plain relative
+    /// path, no `..`); as many as there are viewpoints.
+    pub maps: Vec<String>,
+}
+
+/// A bake in memory: the layered EMs of every lens object at every viewpoint sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bake {
+    /// Name of the scene the bake was made from.
+    pub scene: String,
+    /// What wrote the bake (see [`default_created_by`]).
+    pub created_by: String,
+    /// Viewpoint sample positions in world space, metres.
+    pub viewpoints: Vec<Vec3>,
+    /// The lens objects.
+    pub lenses: Vec<BakedLens>,
+}
+
+/// One lens object's layered EMs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakedLens {
+    /// The lens object's name in the scene (unique within the bake).
+    pub name: String,
+    /// The EM origin in world space, metres.
+    pub em_origin: DVec3,
+    /// The layer shells, nearest first.
+    pub shells: Vec<LayerShell>,
+    /// `maps[viewpoint][layer]`: premultiplied RGBA cube maps with full mip chains, all of the
+    /// bake's one size.
+    pub maps: Vec<Vec<CubeMap>>,
+}
+
+/// Why a bake cannot be read or written. Every message is one line naming the file, the field
+/// and the fix.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// The file system refused.
+    #[error("{}: cannot {action}: {source}", path.display())]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// What was being done ("read", "create", …).
+        action: &'static str,
+        /// The operating system's error.
+        source: std::io::Error,
+    },
+    /// The bake directory does not exist.
+    #[error("{}: no such bake directory; bake one first (`lensmap bake`) or check the path", dir.display())]
+    MissingDirectory {
+        /// The directory asked for.
+        dir: PathBuf,
+    },
+    /// A write was interrupted between its two renames: the old bake is at `previous`.
+    #[error(
+        "{}: missing, but {} holds the previous bake (a write was interrupted while swapping); rename it back, or write the bake again (which restores it first)",
+        dir.display(), previous.display()
+    )]
+    InterruptedSwap {
+        /// The directory asked for.
+        dir: PathBuf,
+        /// Where the previous bake is.
+        previous: PathBuf,
+    },
+    /// The directory has no `manifest.json`.
+    #[error("{}: not found, so this is not a bake directory; write one with `lensmap bake`", path.display())]
+    MissingManifest {
+        /// The manifest path looked for.
+        path: PathBuf,
+    },
+    /// `manifest.json` is not valid JSON or does not match the manifest's fields.
+    #[error("{}:{line}:{column}: {message}; fix the manifest or write the bake again", path.display())]
+    ManifestSyntax {
+        /// The manifest path.
+        path: PathBuf,
+        /// 1-based line of the problem.
+        line: usize,
+        /// 1-based column of the problem.
+        column: usize,
+        /// serde_json's description.
+        message: String,
+    },
+    /// The manifest's format version is not [`FORMAT_VERSION`].
+    #[error(
+        "{}: format_version is {found}, but this lensmap reads version {expected}; write the bake again with this lensmap",
+        path.display()
+    )]
+    WrongVersion {
+        /// The manifest path.
+        path: PathBuf,
+        /// What the file says (`missing` when absent).
+        found: String,
+        /// [`FORMAT_VERSION`].
+        expected: u32,
+    },
+    /// `cube_map_size` is not a power of two.
+    #[error(
+        "{}: cube_map_size is {size}, not a power of two ≥ 1; bake with a power-of-two size such as 64",
+        path.display()
+    )]
+    NonPowerOfTwo {
+        /// The manifest path (or the directory being written).
+        path: PathBuf,
+        /// The size found.
+        size: u32,
+    },
+    /// Two lists that must have the same length do not (layers per viewpoint, maps per layer).
+    #[error("{}: {field} has {found} {what} but {expected_from} has {expected}; {fix}", path.display())]
+    InconsistentCount {
+        /// The manifest path (or the directory being written).
+        path: PathBuf,
+        /// The list whose length is wrong, e.g. `lenses[0].layers[1].maps`.
+        field: String,
+        /// Its length.
+        found: usize,
+        /// What it counts ("files", "layers", …).
+        what: &'static str,
+        /// The list it must match.
+        expected_from: String,
+        /// The length it must have.
+        expected: usize,
+        /// How to fix it.
+        fix: &'static str,
+    },
+    /// Some other field of the manifest (or of the bake being written) is invalid.
+    #[error("{}: {field} {problem}; {fix}", path.display())]
+    Invalid {
+        /// The manifest path (or the directory being written).
+        path: PathBuf,
+        /// The field, e.g. `lenses[0].em_origin`.
+        field: String,
+        /// What is wrong.
+        problem: String,
+        /// How to fix it.
+        fix: &'static str,
+    },
+    /// [`Bake::write`] was pointed at a directory that is not a bake; it will not replace it.
+    #[error(
+        "{}: exists and is not a bake (no manifest.json); writing would replace it, so choose another directory or remove it",
+        dir.display()
+    )]
+    NotABake {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// A cube-map file listed in the manifest is missing.
+    #[error("{}: not found (listed in manifest.json at {field}); restore the file or write the bake again", path.display())]
+    MissingMap {
+        /// The file.
+        path: PathBuf,
+        /// Where the manifest lists it.
+        field: String,
+    },
+    /// A cube-map file is not readable OpenEXR.
+    #[error("{}: not a readable OpenEXR file ({message}); write the bake again", path.display())]
+    Exr {
+        /// The file.
+        path: PathBuf,
+        /// The exr crate's description.
+        message: String,
+    },
+    /// A part of a cube-map file is unexpected, duplicated or lacks an f32 RGBA channel.
+    #[error("{}: part '{part}' {problem}; write the bake again", path.display())]
+    BadPart {
+        /// The file.
+        path: PathBuf,
+        /// The part name.
+        part: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A cube map lacks a mip level (or a face of one).
+    #[error(
+        "{}: part '{part}' is missing (a {size}² cube map stores all {levels} mip levels of all six faces); write the bake again",
+        path.display()
+    )]
+    MissingLevel {
+        /// The file.
+        path: PathBuf,
+        /// The missing part, `level{l}/{face}`.
+        part: String,
+        /// The cube-map size.
+        size: u32,
+        /// Levels of the full chain.
+        levels: u32,
+    },
+    /// A face of some level has the wrong number of texels.
+    #[error(
+        "{}: part '{part}' is {found}, expected {expected}×{expected} texels for cube_map_size {size}; write the bake again with one size throughout",
+        path.display()
+    )]
+    WrongSize {
+        /// The file.
+        path: PathBuf,
+        /// The part, `level{l}/{face}`.
+        part: String,
+        /// What was found, e.g. `32×32` or `1000 texels`.
+        found: String,
+        /// The expected edge length.
+        expected: u32,
+        /// The bake's cube-map size.
+        size: u32,
+    },
+    /// A texel is NaN or infinite.
+    #[error(
+        "{}: part '{part}' texel ({x}, {y}) channel {channel} is {value}; environment maps must be finite, so fix the writer's output and write the bake again",
+        path.display()
+    )]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// The part, `level{l}/{face}`.
+        part: String,
+        /// Column.
+        x: usize,
+        /// Row.
+        y: usize,
+        /// `R`, `G`, `B` or `A`.
+        channel: char,
+        /// The value.
+        value: f32,
+    },
+    /// A texel's α is outside [0, 1] by more than [`ALPHA_TOLERANCE`].
+    #[error(
+        "{}: part '{part}' texel ({x}, {y}) has alpha {value}, outside [0, 1] (tolerance {ALPHA_TOLERANCE}); premultiplied texels need 0 ≤ α ≤ 1, so clamp α in the writer",
+        path.display()
+    )]
+    AlphaOutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// The part, `level{l}/{face}`.
+        part: String,
+        /// Column.
+        x: usize,
+        /// Row.
+        y: usize,
+        /// The α found.
+        value: f32,
+    },
+}
+
+/// `"lensmap <version>"`, the usual [`Bake::created_by`].
+pub fn default_created_by() -> String {
+    concat!("lensmap ", env!("CARGO_PKG_VERSION")).to_owned()
+}
+
+/// The file name [`Bake::write`] gives the cube map of a lens object (by index and name), viewpoint
+/// sample and layer: `lens{i}-{name}.v{viewpoint:03}.layer{layer}.exr`, the name reduced to
+/// ASCII letters, digits, `-` and `_`.
+pub fn map_file_name(lens_index: usize, lens_name: &str, viewpoint: usize, layer: usize) -> String {
+    let name: String = lens_name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    format!("lens{lens_index}-{name}.v{viewpoint:03}.layer{layer}.exr")
+}
+
+/// The EXR part name of a face of a mip level: `level{level}/{face}`.
+pub fn part_name(level: usize, face: usize) -> String {
+    format!("level{level}/{}", FACE_NAMES[face])
+}
+
+impl Bake {
+    /// The edge length of the bake's cube maps (that of the first map), `None` if it has none.
+    pub fn cube_map_size(&self) -> Option<u32> {
+        self.lenses
+            .iter()
+            .flat_map(|lens| lens.maps.iter().flatten())
+            .map(|cube| cube.size)
+            .next()
+    }
+
+    /// The manifest [`Bake::write`] stores, after checking that the lists' lengths agree and the
+    /// manifest is valid. `dir` is only used in error messages.
+    pub fn manifest(&self, dir: &Path) -> Result<Manifest, BakeError> {
+        for (index, lens) in self.lenses.iter().enumerate() {
+            if lens.maps.len() != self.viewpoints.len() {
+                return Err(BakeError::InconsistentCount {
+                    path: dir.to_owned(),
+                    field: format!("lenses[{index}].maps"),
+                    found: lens.maps.len(),
+                    what: "viewpoints",
+                    expected_from: "viewpoints".to_owned(),
+                    expected: self.viewpoints.len(),
+                    fix: "give every lens object one list of maps per viewpoint sample",
+                });
+            }
+            for (viewpoint, maps) in lens.maps.iter().enumerate() {
+                if maps.len() != lens.shells.len() {
+                    return Err(BakeError::InconsistentCount {
+                        path: dir.to_owned(),
+                        field: format!("lenses[{index}].maps[{viewpoint}]"),
+                        found: maps.len(),
+                        what: "layers",
+                        expected_from: format!("lenses[{index}].shells"),
+                        expected: lens.shells.len(),
+                        fix: "give every viewpoint sample one cube map per layer shell",
+                    });
+                }
+            }
+        }
+        let manifest = Manifest {
+            format_version: FORMAT_VERSION,
+            scene: self.scene.clone(),
+            created_by: self.created_by.clone(),
+            cube_map_size: self.cube_map_size().unwrap_or(0),
+            viewpoints: self.viewpoints.clone(),
+            lenses: self
+                .lenses
+                .iter()
+                .enumerate()
+                .map(|(index, lens)| ManifestLens {
+                    name: lens.name.clone(),
+                    em_origin: lens.em_origin,
+                    layers: lens
+                        .shells
+                        .iter()
+                        .enumerate()
+                        .map(|(layer, shell)| ManifestLayer {
+                            shell: *shell,
+                            maps: (0..self.viewpoints.len())
+                                .map(|viewpoint| map_file_name(index, &lens.name, viewpoint, layer))
+                                .collect(),
+                        })
+                        .collect(),
+                })
+                .collect(),
+        };
+        manifest.validate(dir)?;
+        Ok(manifest)
+    }
+
+    /// Writes the bake to `dir` atomically (see the module docs): validates everything first,
+    /// writes and fsyncs a staging directory beside `dir`, then swaps it in. An existing `dir`
+    /// must be a bake (it has a `manifest.json`) or empty; it is replaced only when the new bake is
+    /// complete on disk. Parent directories are created.
+    pub fn write(&self, dir: &Path) -> Result<(), BakeError> {
+        let manifest = self.manifest(dir)?;
+        let (parent, name) = split_directory(dir)?;
+        fs::create_dir_all(&parent).map_err(io_error(&parent, "create"))?;
+        let previous = parent.join(format!(".{name}.previous"));
+        restore_interrupted_swap(dir, &previous)?;
+        if dir.exists() && !is_bake_or_empty(dir) {
+            return Err(BakeError::NotABake {
+                dir: dir.to_owned(),
+            });
+        }
+        let staging = parent.join(format!(".{name}.writing-{}", std::process::id()));
+        if staging.exists() {
+            fs::remove_dir_all(&staging).map_err(io_error(&staging, "remove"))?;
+        }
+        fs::create_dir(&staging).map_err(io_error(&staging, "create"))?;
+        if let Err(error) = self.write_staging(&staging, dir, &manifest) {
+            // Best effort: a leftover staging directory is harmless and removed by the next write.
+            let _ = fs::remove_dir_all(&staging);
+            return Err(error);
+        }
+        swap_in(&staging, dir, &previous, &parent)
+    }
+
+    /// Writes every cube map, then the manifest, into `staging`, fsyncing each file and the
+    /// directory. Texels are checked against `final_dir`'s file names so errors name them.
+    fn write_staging(
+        &self,
+        staging: &Path,
+        final_dir: &Path,
+        manifest: &Manifest,
+    ) -> Result<(), BakeError> {
+        for (lens, listed) in self.lenses.iter().zip(&manifest.lenses) {
+            for (viewpoint, maps) in lens.maps.iter().enumerate() {
+                for (cube, layer) in maps.iter().zip(&listed.layers) {
+                    let file = &layer.maps[viewpoint];
+                    check_cube_map(cube, manifest.cube_map_size, &final_dir.join(file))?;
+                    write_cube_map_exr(cube, &staging.join(file))?;
+                }
+            }
+        }
+        let manifest_path = staging.join(MANIFEST_FILE_NAME);
+        write_synced(&manifest_path, manifest.to_json().as_bytes())?;
+        sync_directory(staging)
+    }
+
+    /// Reads and validates the bake in `dir`: the manifest, then every cube map it lists.
+    pub fn read(dir: &Path) -> Result<Bake, BakeError> {
+        let manifest = Manifest::read(dir)?;
+        let size = manifest.cube_map_size;
+        let mut lenses = Vec::with_capacity(manifest.lenses.len());
+        for (index, lens) in manifest.lenses.iter().enumerate() {
+            let mut maps = Vec::with_capacity(manifest.viewpoints.len());
+            for viewpoint in 0..manifest.viewpoints.len() {
+                let mut layers = Vec::with_capacity(lens.layers.len());
+                for (layer_index, layer) in lens.layers.iter().enumerate() {
+                    let path = dir.join(&layer.maps[viewpoint]);
+                    if !path.is_file() {
+                        return Err(BakeError::MissingMap {
+                            path,
+                            field: format!(
+                                "lenses[{index}].layers[{layer_index}].maps[{viewpoint}]"
+                            ),
+                        });
+                    }
+                    layers.push(read_cube_map_exr(&path, size)?);
+                }
+                maps.push(layers);
+            }
+            lenses.push(BakedLens {
+                name: lens.name.clone(),
+                em_origin: lens.em_origin,
+                shells: lens.layers.iter().map(|layer| layer.shell).collect(),
+                maps,
+            });
+        }
+        Ok(Bake {
+            scene: manifest.scene,
+            created_by: manifest.created_by,
+            viewpoints: manifest.viewpoints,
+            lenses,
+        })
+    }
+}
+
+impl Manifest {
+    /// Reads `dir/manifest.json`, checks its format version, parses it and validates it
+    /// ([`Manifest::validate`]); the cube-map files are not opened.
+    pub fn read(dir: &Path) -> Result<Manifest, BakeError> {
+        if !dir.is_dir() {
+            if let Ok((parent, name)) = split_directory(dir) {
+                let previous = parent.join(format!(".{name}.previous"));
+                if previous.is_dir() {
+                    return Err(BakeError::InterruptedSwap {
+                        dir: dir.to_owned(),
+                        previous,
+                    });
+                }
+            }
+            return Err(BakeError::MissingDirectory {
+                dir: dir.to_owned(),
+            });
+        }
+        let path = dir.join(MANIFEST_FILE_NAME);
+        let text = match fs::read_to_string(&path) {
+            Ok(text) => text,
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => {
+                return Err(BakeError::MissingManifest { path });
+            }
+            Err(error) => return Err(io_error(&path, "read")(error)),
+        };
+        let syntax = |error: serde_json::Error| BakeError::ManifestSyntax {
+            path: path.clone(),
+            line: error.line(),
+            column: error.column(),
+            message: error.to_string(),
+        };
+        // The version first, so a newer format is reported as such rather than as odd fields.
+        #[derive(Deserialize)]
+        struct VersionOnly {
+            format_version: Option<serde_json::Value>,
+        }
+        let version: VersionOnly = serde_json::from_str(&text).map_err(syntax)?;
+        match version.format_version {
+            Some(serde_json::Value::Number(n)) if n.as_u64() == Some(u64::from(FORMAT_VERSION)) => {
+            }
+            found => {
+                return Err(BakeError::WrongVersion {
+                    path,
+                    found: found.map_or("missing".to_owned(), |v| v.to_string()),
+                    expected: FORMAT_VERSION,
+                });
+            }
+        }
+        let manifest: Manifest = serde_json::from_str(&text).map_err(syntax)?;
+        manifest.validate(&path)?;
+        Ok(manifest)
+    }
+
+    /// The manifest as pretty-printed JSON (what `manifest.json` holds).
+    pub fn to_json(&self) -> String {
+        let mut json = serde_json::to_string_pretty(self)
+            .unwrap_or_else(|error| unreachable!("a manifest always serializes: {error}"));
+        json.push('\n');
+        json
+    }
+
+    /// Checks the version, the cube-map size, that viewpoints and lens objects exist with finite
+    /// positions and unique names, every shell ([`LayerShell::validate`]), one map file per
+    /// viewpoint per layer, and that file names stay inside the bake directory. `path` is used in
+    /// error messages.
+    pub fn validate(&self, path: &Path) -> Result<(), BakeError> {
+        let invalid = |field: String, problem: String, fix: &'static str| {
+            Err(BakeError::Invalid {
+                path: path.to_owned(),
+                field,
+                problem,
+                fix,
+            })
+        };
+        if self.format_version != FORMAT_VERSION {
+            return Err(BakeError::WrongVersion {
+                path: path.to_owned(),
+                found: self.format_version.to_string(),
+                expected: FORMAT_VERSION,
+            });
+        }
+        if self.viewpoints.is_empty() {
+            return invalid(
+                "viewpoints".into(),
+                "is empty".into(),
+                "a bake needs at least one viewpoint sample",
+            );
+        }
+        if let Some(i) = self.viewpoints.iter().position(|v| !v.is_finite()) {
+            return invalid(
+                format!("viewpoints[{i}]"),
+                format!("is {} (not finite)", self.viewpoints[i]),
+                "viewpoint positions must be finite metres",
+            );
+        }
+        if self.lenses.is_empty() {
+            return invalid(
+                "lenses".into(),
+                "is empty".into(),
+                "a bake needs at least one lens object",
+            );
+        }
+        if !self.cube_map_size.is_power_of_two() {
+            return Err(BakeError::NonPowerOfTwo {
+                path: path.to_owned(),
+                size: self.cube_map_size,
+            });
+        }
+        let mut names = HashSet::new();
+        for (index, lens) in self.lenses.iter().enumerate() {
+            if lens.name.is_empty() || !names.insert(lens.name.as_str()) {
+                return invalid(
+                    format!("lenses[{index}].name"),
+                    format!("'{}' is empty or used twice", lens.name),
+                    "give every lens object a unique name",
+                );
+            }
+            if !lens.em_origin.is_finite() {
+                return invalid(
+                    format!("lenses[{index}].em_origin"),
+                    format!("is {} (not finite)", lens.em_origin),
+                    "the EM origin must be a finite point in metres",
+                );
+            }
+            if lens.layers.is_empty() {
+                return invalid(
+                    format!("lenses[{index}].layers"),
+                    "is empty".into(),
+                    "a lens object needs at least one layer",
+                );
+            }
+            for (layer_index, layer) in lens.layers.iter().enumerate() {
+                let field = format!("lenses[{index}].layers[{layer_index}]");
+                if let Err(error) = layer.shell.validate() {
+                    return invalid(
+                        format!("{field}.shell.{}", error.field),
+                        error.problem,
+                        "fix the shell's parameters",
+                    );
+                }
+                if layer.maps.len() != self.viewpoints.len() {
+                    return Err(BakeError::InconsistentCount {
+                        path: path.to_owned(),
+                        field: format!("{field}.maps"),
+                        found: layer.maps.len(),
+                        what: "files",
+                        expected_from: "viewpoints".to_owned(),
+                        expected: self.viewpoints.len(),
+                        fix: "list one cube-map file per viewpoint sample for every layer",
+                    });
+                }
+                for (viewpoint, file) in layer.maps.iter().enumerate() {
+                    let inside = !file.is_empty()
+                        && Path::new(file)
+                            .components()
+                            .all(|c| matches!(c, Component::Normal(_)));
+                    if !inside {
+                        return invalid(
+                            format!("{field}.maps[{viewpoint}]"),
+                            format!("'{file}' is not a plain relative path"),
+                            "name files relative to the bake directory, without '..'",
+                        );
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Checks a cube map's shape (size, full chain, texel counts) and values (finite, α in [0, 1]
+/// within [`ALPHA_TOLERANCE`]); `path` names it in errors.
+pub fn check_cube_map(cube: &CubeMap, size: u32, path: &Path) -> Result<(), BakeError> {
+    let levels = CubeMap::full_chain_levels(size);
+    if cube.size != size {
+        return Err(BakeError::WrongSize {
+            path: path.to_owned(),
+            part: part_name(0, 0),
+            found: format!("{0}×{0}", cube.size),
+            expected: size,
+            size,
+        });
+    }
+    if cube.levels.len() > levels as usize {
+        return Err(BakeError::BadPart {
+            path: path.to_owned(),
+            part: part_name(levels as usize, 0),
+            problem: format!("is beyond the {levels} levels of a {size}² cube map"),
+        });
+    }
+    for level in 0..levels as usize {
+        let Some(faces) = cube.levels.get(level) else {
+            return Err(BakeError::MissingLevel {
+                path: path.to_owned(),
+                part: part_name(level, 0),
+                size,
+                levels,
+            });
+        };
+        let edge = (size >> level).max(1) as usize;
+        for (face, texels) in faces.iter().enumerate() {
+            if texels.len() != edge * edge {
+                return Err(BakeError::WrongSize {
+                    path: path.to_owned(),
+                    part: part_name(level, face),
+                    found: format!("{} texels", texels.len()),
+                    expected: edge as u32,
+                    size,
+                });
+            }
+            check_texels(texels, edge, path, &part_name(level, face))?;
+        }
+    }
+    Ok(())
+}
+
+/// Finite channels and α within [0, 1] (tolerance), in row-major order.
+fn check_texels(
+    texels: &[[f32; 4]],
+    edge: usize,
+    path: &Path,
+    part: &str,
+) -> Result<(), BakeError> {
+    for (index, texel) in texels.iter().enumerate() {
+        let (x, y) = (index % edge, index / edge);
+        if let Some(channel) = texel.iter().position(|v| !v.is_finite()) {
+            return Err(BakeError::NonFinite {
+                path: path.to_owned(),
+                part: part.to_owned(),
+                x,
+                y,
+                channel: ['R', 'G', 'B', 'A'][channel],
+                value: texel[channel],
+            });
+        }
+        let alpha = texel[3];
+        if !(-ALPHA_TOLERANCE..=1.0 + ALPHA_TOLERANCE).contains(&alpha) {
+            return Err(BakeError::AlphaOutOfRange {
+                path: path.to_owned(),
+                part: part.to_owned(),
+                x,
+                y,
+                value: alpha,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Writes `cube` as a cube-map EXR (the layout in the module docs) to `path` and fsyncs it.
+/// Writes whatever levels `cube` has without checking its values (see [`check_cube_map`]); fails
+/// only if a face's texel count does not match its level's size, or on I/O errors.
+pub fn write_cube_map_exr(cube: &CubeMap, path: &Path) -> Result<(), BakeError> {
+    use exr::prelude::*;
+    let mut parts = Vec::with_capacity(cube.levels.len() * 6);
+    for (level, faces) in cube.levels.iter().enumerate() {
+        let edge = cube.level_size(level) as usize;
+        for (face, texels) in faces.iter().enumerate() {
+            let name = part_name(level, face);
+            if texels.len() != edge * edge {
+                return Err(BakeError::WrongSize {
+                    path: path.to_owned(),
+                    part: name,
+                    found: format!("{} texels", texels.len()),
+                    expected: edge as u32,
+                    size: cube.size,
+                });
+            }
+            let channel = |index: usize, channel_name: &str| {
+                AnyChannel::new(
+                    channel_name,
+                    FlatSamples::F32(texels.iter().map(|texel| texel[index]).collect()),
+                )
+            };
+            let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+                channel(0, "R"),
+                channel(1, "G"),
+                channel(2, "B"),
+                channel(3, "A"),
+            ]));
+            parts.push(Layer::new(
+                (edge, edge),
+                LayerAttributes::named(name.as_str()),
+                ENCODING,
+                channels,
+            ));
+        }
+    }
+    let size = cube.size.max(1) as usize;
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions((size, size))),
+        parts,
+    );
+    let mut bytes = Cursor::new(Vec::new());
+    image
+        .write()
+        .to_buffered(&mut bytes)
+        .map_err(|error| BakeError::Exr {
+            path: path.to_owned(),
+            message: error.to_string(),
+        })?;
+    write_synced(path, bytes.get_ref())
+}
+
+/// Reads a cube-map EXR written by [`write_cube_map_exr`] and checks it against `size`: every
+/// part of the full chain present once with f32 `R G B A` channels of the right size, and every
+/// texel finite with α in [0, 1] (tolerance [`ALPHA_TOLERANCE`]).
+pub fn read_cube_map_exr(path: &Path, size: u32) -> Result<CubeMap, BakeError> {
+    use exr::prelude::*;
+    let file = File::open(path).map_err(io_error(path, "open"))?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_buffered(BufReader::new(file))
+        .map_err(|error| BakeError::Exr {
+            path: path.to_owned(),
+            message: error.to_string(),
+        })?;
+    let levels = CubeMap::full_chain_levels(size) as usize;
+    let mut found: Vec<[Option<Vec<[f32; 4]>>; 6]> =
+        (0..levels).map(|_| Default::default()).collect();
+    for part in &image.layer_data {
+        let name = part
+            .attributes
+            .layer_name
+            .as_ref()
+            .map_or_else(String::new, |name| name.to_string());
+        let bad = |problem: String| BakeError::BadPart {
+            path: path.to_owned(),
+            part: name.clone(),
+            problem,
+        };
+        let Some((level, face)) = parse_part_name(&name).filter(|(level, _)| *level < levels)
+        else {
+            return Err(bad(format!(
+                "is not one of level0/+X … level{}/-Z",
+                levels - 1
+            )));
+        };
+        if found[level][face].is_some() {
+            return Err(bad("appears twice".to_owned()));
+        }
+        let edge = (size >> level).max(1) as usize;
+        if part.size.0 != edge || part.size.1 != edge {
+            return Err(BakeError::WrongSize {
+                path: path.to_owned(),
+                part: name,
+                found: format!("{}×{}", part.size.0, part.size.1),
+                expected: edge as u32,
+                size,
+            });
+        }
+        let mut texels = vec![[0.0f32; 4]; edge * edge];
+        for (index, channel_name) in ["R", "G", "B", "A"].into_iter().enumerate() {
+            let channel = part
+                .channel_data
+                .list
+                .iter()
+                .find(|channel| channel.name.eq(channel_name))
+                .ok_or_else(|| bad(format!("has no channel {channel_name}")))?;
+            let FlatSamples::F32(samples) = &channel.sample_data else {
+                return Err(bad(format!("channel {channel_name} is not 32-bit float")));
+            };
+            for (texel, value) in texels.iter_mut().zip(samples) {
+                texel[index] = *value;
+            }
+        }
+        check_texels(&texels, edge, path, &name)?;
+        found[level][face] = Some(texels);
+    }
+    let mut chain = Vec::with_capacity(levels);
+    for (level, faces) in found.into_iter().enumerate() {
+        let mut complete = Vec::with_capacity(6);
+        for (face, texels) in faces.into_iter().enumerate() {
+            complete.push(texels.ok_or_else(|| BakeError::MissingLevel {
+                path: path.to_owned(),
+                part: part_name(level, face),
+                size,
+                levels: levels as u32,
+            })?);
+        }
+        let faces: [Vec<[f32; 4]>; 6] = complete
+            .try_into()
+            .unwrap_or_else(|_| unreachable!("six faces were pushed"));
+        chain.push(faces);
+    }
+    Ok(CubeMap {
+        size,
+        levels: chain,
+    })
+}
+
+/// `level{l}/{face}` → `(l, face index)`.
+fn parse_part_name(name: &str) -> Option<(usize, usize)> {
+    let (level, face) = name.strip_prefix("level")?.split_once('/')?;
+    let level = level.parse().ok()?;
+    let face = FACE_NAMES.iter().position(|f| *f == face)?;
+    Some((level, face))
+}
+
+/// The parent (`.` for a bare name) and final component of a bake directory path.
+fn split_directory(dir: &Path) -> Result<(PathBuf, String), BakeError> {
+    let name = dir
+        .file_name()
+        .and_then(|name| name.to_str())
+        .ok_or_else(|| BakeError::Invalid {
+            path: dir.to_owned(),
+            field: "the bake directory".into(),
+            problem: "has no final name (or is not UTF-8)".into(),
+            fix: "name the directory itself, e.g. out/bake",
+        })?;
+    let parent = match dir.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent.to_owned(),
+        _ => PathBuf::from("."),
+    };
+    Ok((parent, name.to_owned()))
+}
+
+/// Finishes a swap an earlier write left half done: with `dir` gone and the old bake at
+/// `previous`, puts it back; with both present (crash after the swap), drops `previous`.
+fn restore_interrupted_swap(dir: &Path, previous: &Path) -> Result<(), BakeError> {
+    if !previous.exists() {
+        return Ok(());
+    }
+    if dir.exists() {
+        fs::remove_dir_all(previous).map_err(io_error(previous, "remove"))
+    } else {
+        fs::rename(previous, dir).map_err(io_error(previous, "restore"))
+    }
+}
+
+/// Whether a directory may be replaced: it holds a manifest, or nothing at all.
+fn is_bake_or_empty(dir: &Path) -> bool {
+    dir.join(MANIFEST_FILE_NAME).is_file()
+        || fs::read_dir(dir).is_ok_and(|mut entries| entries.next().is_none())
+}
+
+/// Renames the complete `staging` directory to `dir`, moving an old bake aside to `previous`
+/// first and removing it afterwards.
+fn swap_in(staging: &Path, dir: &Path, previous: &Path, parent: &Path) -> Result<(), BakeError> {
+    let had_old = dir.exists();
+    if had_old {
+        fs::rename(dir, previous).map_err(io_error(dir, "move aside"))?;
+    }
+    if let Err(error) = fs::rename(staging, dir) {
+        if had_old {
+            let _ = fs::rename(previous, dir);
+        }
+        let _ = fs::remove_dir_all(staging);
+        return Err(io_error(dir, "rename the staging directory to")(error));
+    }
+    sync_directory(parent)?;
+    if had_old {
+        // The new bake is in place; a leftover old one is removed by the next write.
+        let _ = fs::remove_dir_all(previous);
+    }
+    Ok(())
+}
+
+/// Creates `path`, writes `bytes` and fsyncs the file.
+fn write_synced(path: &Path, bytes: &[u8]) -> Result<(), BakeError> {
+    let mut file = File::create(path).map_err(io_error(path, "create"))?;
+    file.write_all(bytes).map_err(io_error(path, "write"))?;
+    file.sync_all().map_err(io_error(path, "fsync"))
+}
+
+/// fsyncs a directory so that the names in it are durable.
+fn sync_directory(dir: &Path) -> Result<(), BakeError> {
+    File::open(dir)
+        .and_then(|directory| directory.sync_all())
+        .map_err(io_error(dir, "fsync"))
+}
+
+fn io_error(path: &Path, action: &'static str) -> impl FnOnce(std::io::Error) -> BakeError {
+    let path = path.to_owned();
+    move |source| BakeError::Io {
+        path,
+        action,
+        source,
+    }
+}

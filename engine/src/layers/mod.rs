@@ -1,0 +1,9 @@
+//! Layered environment maps as geometry and as files: the shells each layer lives on and their
+//! intersection with a lens object's outgoing rays ([`shell`], the cube-map direction of a vertex
+//! for a layer), and the bake directory the baker writes and the runtime reads ([`bake`]).
+
+pub mod bake;
+pub mod shell;
+
+pub use bake::{Bake, BakeError, BakedLens, Manifest};
+pub use shell::{LayerShell, ShellError, ShellHit};

@@ -130,7 +130,7 @@ pub fn cluster_layers(records: &[DistanceRecord], k: usize) -> Result<Layers, Cl
     }
     let mut sums = vec![(0.0, 0usize); centres.len()];
     let mut keys: Vec<_> = front.into_iter().collect();
-    keys.sort_by(|a, b| a.0.cmp(&b.0)); // fixed summation order: bit-identical results
+    keys.sort_by_key(|entry| entry.0); // fixed summation order: bit-identical results
     for ((_, cluster), distance) in keys {
         sums[cluster].0 += distance;
         sums[cluster].1 += 1;

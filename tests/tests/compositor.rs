@@ -163,7 +163,7 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
 fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(0x1e45_3a9);
+    let mut rng = Pcg64::seed_from_u64(0x01e4_53a9);
     let both = [Term::Refraction, Term::Reflection];
     let mut worst_model: f64 = 0.0;
     for layers in 1..=4 {

@@ -13,24 +13,8 @@ pub const MAX_VIEWPOINTS: usize = 2;
 /// Vulkan's guaranteed 16 locations). The multipass variant has no such limit.
 pub const MAX_LAYERS_SINGLE_PASS: usize = 6;
 
-/// One of the two terms of the paper's two-term shading model (§3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum Term {
-    /// The initial-refraction path, `T·F_T·G_T`.
-    Refraction,
-    /// The initial-reflection path, `R·F_R·G_R`.
-    Reflection,
-}
-
-impl Term {
-    /// Short name used in pass names and tables.
-    pub fn name(self) -> &'static str {
-        match self {
-            Term::Refraction => "T",
-            Term::Reflection => "R",
-        }
-    }
-}
+/// The two shading terms: the ray tracer's, so per-vertex data and reference images agree.
+pub use crate::trace::path::Term;
 
 /// A cube map of premultiplied RGBA (α·rgb, α) texels with a full mip chain.
 ///

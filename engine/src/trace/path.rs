@@ -28,6 +28,16 @@ pub enum Term {
     Reflection,
 }
 
+impl Term {
+    /// Short name used in pass names and tables (`T`, `R`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Term::Refraction => "T",
+            Term::Reflection => "R",
+        }
+    }
+}
+
 /// Optical behaviour of a lens surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Interface {

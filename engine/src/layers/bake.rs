@@ -24,7 +24,9 @@
 //! renamed to `.NAME.previous`, the staging directory to `NAME`, and the old one is removed. An
 //! interruption before the swap leaves the old bake untouched at `NAME`; one during the swap
 //! leaves it at `.NAME.previous`, which the next write restores before it starts (and which
-//! [`Bake::read`] names in its error). One writer per directory at a time.
+//! [`Bake::read`] names in its error). One writer per directory at a time; a staging directory
+//! left by a killed writer is removed by the next write from the same process id only, and is
+//! otherwise safe to delete.
 //!
 //! **Validation.** [`Bake::read`] checks everything and fails on the first problem with one line
 //! naming the file, the field (or EXR part and texel) and the fix. [`Bake::write`] applies the

@@ -3,6 +3,7 @@
 //! for a layer), and the bake directory the baker writes and the runtime reads ([`bake`]).
 
 pub mod bake;
+pub mod projected;
 pub mod shell;
 
 pub use bake::{Bake, BakeError, BakedLens, Manifest};

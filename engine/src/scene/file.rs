@@ -287,6 +287,19 @@ impl Default for ScaleSpec {
 pub(crate) struct LensSpec {
     pub name: String,
     pub objects: Vec<String>,
+    #[serde(default)]
+    pub layers: Vec<LayerSpecFile>,
+}
+
+/// One layer shell of a lens object, centred on its EM origin: exactly one key.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct LayerSpecFile {
+    pub sphere: Option<f32>,
+    pub cylinder: Option<f32>,
+    #[serde(rename = "box")]
+    pub box_half_extents: Option<[f32; 3]>,
+    pub ellipsoid: Option<[f32; 3]>,
 }
 
 #[derive(Debug, Deserialize)]

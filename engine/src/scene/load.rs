@@ -17,7 +17,7 @@ use super::image_file::load_linear_rgb;
 use super::material::{ImageTexture, Material, Texture};
 use super::mesh::{MeshProblem, TriangleMesh};
 use super::teapot::TeapotPart;
-use super::{LensObject, Scene, SceneObject, obj, shapes, teapot};
+use super::{LayerSpec, LensObject, Scene, SceneObject, obj, shapes, teapot};
 
 /// Largest teapot tessellation level accepted (64 → 262k triangles).
 const MAX_TESSELLATION: u32 = 64;
@@ -728,9 +728,29 @@ impl Loader<'_> {
                 owner[object] = Some(l);
                 members.push(object);
             }
+            let mut layers = Vec::with_capacity(spec.layers.len());
+            for (k, layer) in spec.layers.iter().enumerate() {
+                let layer_field = format!("{field}.layers[{k}]");
+                let positive = |v: f32| v.is_finite() && v > 0.0;
+                let parsed = match (layer.sphere, layer.cylinder, layer.box_half_extents, layer.ellipsoid) {
+                    (Some(r), None, None, None) if positive(r) => LayerSpec::Sphere(r),
+                    (None, Some(r), None, None) if positive(r) => LayerSpec::Cylinder(r),
+                    (None, None, Some(h), None) if h.iter().all(|v| positive(*v)) => LayerSpec::Box(Vec3::from(h)),
+                    (None, None, None, Some(r)) if r.iter().all(|v| positive(*v)) => LayerSpec::Ellipsoid(Vec3::from(r)),
+                    _ => {
+                        return Err(self.error(
+                            layer_field,
+                            "a layer needs exactly one of sphere, cylinder, box, ellipsoid with positive finite sizes",
+                            "write e.g. { sphere = 3.0 }, { cylinder = 6.0 }, { box = [8, 4, 8] } or { ellipsoid = [2, 1, 2] } (metres)",
+                        ));
+                    }
+                };
+                layers.push(parsed);
+            }
             lenses.push(LensObject {
                 name: spec.name.clone(),
                 objects: members,
+                layers,
             });
         }
         // Glass and mirror objects that no lens names become lenses of their own.
@@ -742,6 +762,7 @@ impl Loader<'_> {
                 lenses.push(LensObject {
                     name: object.name.clone(),
                     objects: vec![i],
+                    layers: Vec::new(),
                 });
             }
         }

@@ -266,6 +266,22 @@ pub struct LensObject {
     /// Indices into [`Scene::objects`]; each object is in at most one lens, and all are glass or
     /// mirror.
     pub objects: Vec<usize>,
+    /// The layered EM's shells, nearest first, centred on the lens object's centroid (its EM
+    /// origin). Empty: the runtime places one sphere itself.
+    pub layers: Vec<LayerSpec>,
+}
+
+/// A layer shell of a lens object's layered EM, centred on the EM origin (metres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LayerSpec {
+    /// A sphere of this radius.
+    Sphere(f32),
+    /// An infinite vertical (y-axis) cylinder of this radius.
+    Cylinder(f32),
+    /// An axis-aligned box with these half extents.
+    Box(glam::Vec3),
+    /// An axis-aligned ellipsoid with these radii.
+    Ellipsoid(glam::Vec3),
 }
 
 impl Scene {
@@ -472,7 +488,8 @@ mod tests {
             scene.lenses,
             vec![LensObject {
                 name: "drop".into(),
-                objects: vec![0]
+                objects: vec![0],
+                layers: Vec::new(),
             }]
         );
         assert_eq!(scene.lens_of_object(0), Some(0));

@@ -102,6 +102,10 @@ pub struct GreedyRayPath {
     pub glass_distance: f64,
     /// True when the path hit the interface cap before leaving (its weight is then 0).
     pub truncated: bool,
+    /// The greedy choice at each interface after the first: bit i set when the path reflected at
+    /// interface i + 2. With `interfaces` it is the path's "topology" (paper §4.1): two paths
+    /// differ when either differs.
+    pub reflections: u32,
 }
 
 impl GreedyRayPath {
@@ -149,10 +153,16 @@ impl Scattering {
     /// The greedy child: the one with the larger Fresnel coefficient (refraction on a tie).
     pub fn greedy_child(&self) -> (Ray, DVec3) {
         match self.refraction {
-            Some((ray, transmittance)) if transmittance >= self.reflection.1.max_element() => {
-                (ray, DVec3::splat(transmittance))
-            }
+            Some((ray, transmittance)) if !self.greedy_reflects() => (ray, DVec3::splat(transmittance)),
             _ => self.reflection,
+        }
+    }
+
+    /// Whether the greedy child is the reflection.
+    pub fn greedy_reflects(&self) -> bool {
+        match self.refraction {
+            Some((_, transmittance)) => transmittance < self.reflection.1.max_element(),
+            None => true,
         }
     }
 }
@@ -255,6 +265,7 @@ pub fn trace_greedy_paths(
             interfaces: 1,
             glass_distance: 0.0,
             truncated: false,
+            reflections: 0,
         };
         propagate_greedy(lens, &mut path, first_hit.primitive, options, counters);
         path
@@ -294,9 +305,12 @@ fn propagate_greedy(
             path.truncated = true;
             return;
         }
+        let scattering = scatter(interface, path.outgoing_ray.direction, &hit);
+        if scattering.greedy_reflects() && path.interfaces <= 32 {
+            path.reflections |= 1 << (path.interfaces - 1);
+        }
         path.interfaces += 1;
-        let (ray, coefficient) =
-            scatter(interface, path.outgoing_ray.direction, &hit).greedy_child();
+        let (ray, coefficient) = scattering.greedy_child();
         path.fresnel *= coefficient;
         path.outgoing_ray = ray;
         exclude = hit.primitive;

@@ -36,7 +36,11 @@ fn combinations() -> Vec<Vec<(&'static str, u32)>> {
 
 /// The key a specialization is looked up by: `LAYER_COUNT=3,TERM_MASK=3,VIEWPOINTS=2`.
 fn key(combination: &[(&str, u32)]) -> String {
-    combination.iter().map(|(n, v)| format!("{n}={v}")).collect::<Vec<_>>().join(",")
+    combination
+        .iter()
+        .map(|(n, v)| format!("{n}={v}"))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 fn main() {
@@ -66,7 +70,10 @@ fn main() {
                     let file = if specialization.is_empty() {
                         format!("{stem}.{entry}.spv")
                     } else {
-                        format!("{stem}.{entry}.{}.spv", specialization.replace([',', '='], "_"))
+                        format!(
+                            "{stem}.{entry}.{}.spv",
+                            specialization.replace([',', '='], "_")
+                        )
                     };
                     let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
                     fs::write(Path::new(&out_dir).join(&file), bytes).expect("OUT_DIR is writable");
@@ -133,9 +140,16 @@ fn compile(source: &str, shown: &str) -> Result<Vec<(String, String, Vec<u32>)>,
                 Some((ep.stage, &ep.name)),
                 &constants,
             )
-            .map_err(|e| format!("error: {shown}: entry point `{}`: overrides {}: {e}", ep.name, key(&combination)))?;
-            let words = naga::back::spv::write_vec(&resolved, &resolved_info, &options, Some(&pipeline))
-                .map_err(|e| format!("error: {shown}: entry point `{}`: {e}", ep.name))?;
+            .map_err(|e| {
+                format!(
+                    "error: {shown}: entry point `{}`: overrides {}: {e}",
+                    ep.name,
+                    key(&combination)
+                )
+            })?;
+            let words =
+                naga::back::spv::write_vec(&resolved, &resolved_info, &options, Some(&pipeline))
+                    .map_err(|e| format!("error: {shown}: entry point `{}`: {e}", ep.name))?;
             blobs.push((ep.name.clone(), key(&combination), words));
         }
     }

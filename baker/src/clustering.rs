@@ -41,7 +41,9 @@ pub struct Layers {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ClusteringError {
     /// No records, or k = 0.
-    #[error("layer clustering needs at least one intersection record and k ≥ 1 (got {records} records, k = {k})")]
+    #[error(
+        "layer clustering needs at least one intersection record and k ≥ 1 (got {records} records, k = {k})"
+    )]
     Empty {
         /// Number of records.
         records: usize,
@@ -49,7 +51,9 @@ pub enum ClusteringError {
         k: usize,
     },
     /// A distance is NaN, infinite or negative.
-    #[error("intersection record {index} has distance {distance}; distances must be finite and ≥ 0")]
+    #[error(
+        "intersection record {index} has distance {distance}; distances must be finite and ≥ 0"
+    )]
     BadDistance {
         /// Record index.
         index: usize,
@@ -72,20 +76,35 @@ fn nearest(centres: &[f64], distance: f64) -> usize {
 /// Clusters the records into at most `k` layers.
 pub fn cluster_layers(records: &[DistanceRecord], k: usize) -> Result<Layers, ClusteringError> {
     if records.is_empty() || k == 0 {
-        return Err(ClusteringError::Empty { records: records.len(), k });
+        return Err(ClusteringError::Empty {
+            records: records.len(),
+            k,
+        });
     }
-    if let Some((index, r)) = records.iter().enumerate().find(|(_, r)| !r.distance.is_finite() || r.distance < 0.0) {
-        return Err(ClusteringError::BadDistance { index, distance: r.distance });
+    if let Some((index, r)) = records
+        .iter()
+        .enumerate()
+        .find(|(_, r)| !r.distance.is_finite() || r.distance < 0.0)
+    {
+        return Err(ClusteringError::BadDistance {
+            index,
+            distance: r.distance,
+        });
     }
     let mut sorted: Vec<f64> = records.iter().map(|r| r.distance).collect();
     sorted.sort_by(f64::total_cmp);
-    let mut centres: Vec<f64> = (0..k).map(|i| sorted[((2 * i + 1) * sorted.len()) / (2 * k)]).collect();
+    let mut centres: Vec<f64> = (0..k)
+        .map(|i| sorted[((2 * i + 1) * sorted.len()) / (2 * k)])
+        .collect();
     centres.dedup();
 
     // LBG: assign, re-centre, until no record moves. Each pass lowers the within-cluster squared
     // error or leaves the assignment unchanged, so this terminates; the cap guards against
     // oscillation between equal-error assignments caused by rounding.
-    let mut assignment: Vec<usize> = records.iter().map(|r| nearest(&centres, r.distance)).collect();
+    let mut assignment: Vec<usize> = records
+        .iter()
+        .map(|r| nearest(&centres, r.distance))
+        .collect();
     let mut iterations = 1;
     loop {
         let mut sums = vec![(0.0, 0usize); centres.len()];
@@ -98,7 +117,10 @@ pub fn cluster_layers(records: &[DistanceRecord], k: usize) -> Result<Layers, Cl
                 *c = sum / *count as f64;
             }
         }
-        let next: Vec<usize> = records.iter().map(|r| nearest(&centres, r.distance)).collect();
+        let next: Vec<usize> = records
+            .iter()
+            .map(|r| nearest(&centres, r.distance))
+            .collect();
         if next == assignment || iterations >= 1000 {
             break;
         }
@@ -109,12 +131,15 @@ pub fn cluster_layers(records: &[DistanceRecord], k: usize) -> Result<Layers, Cl
     // Whole objects: each goes to the cluster holding most of its records (ties: the nearer).
     let mut votes: HashMap<u32, Vec<usize>> = HashMap::new();
     for (r, &a) in records.iter().zip(&assignment) {
-        votes.entry(r.object).or_insert_with(|| vec![0; centres.len()])[a] += 1;
+        votes
+            .entry(r.object)
+            .or_insert_with(|| vec![0; centres.len()])[a] += 1;
     }
     let object_cluster: HashMap<u32, usize> = votes
         .iter()
         .map(|(&object, counts)| {
-            let best = (0..counts.len()).fold(0, |best, i| if counts[i] > counts[best] { i } else { best });
+            let best = (0..counts.len())
+                .fold(0, |best, i| if counts[i] > counts[best] { i } else { best });
             (object, best)
         })
         .collect();
@@ -139,10 +164,17 @@ pub fn cluster_layers(records: &[DistanceRecord], k: usize) -> Result<Layers, Cl
     let distances: Vec<f64> = kept.iter().map(|&c| sums[c].0 / sums[c].1 as f64).collect();
     let mut order: Vec<usize> = (0..kept.len()).collect();
     order.sort_by(|&a, &b| distances[a].total_cmp(&distances[b]));
-    let renumber: HashMap<usize, usize> = order.iter().enumerate().map(|(new, &old)| (kept[old], new)).collect();
+    let renumber: HashMap<usize, usize> = order
+        .iter()
+        .enumerate()
+        .map(|(new, &old)| (kept[old], new))
+        .collect();
     Ok(Layers {
         distances: order.iter().map(|&i| distances[i]).collect(),
-        object_layer: object_cluster.into_iter().map(|(o, c)| (o, renumber[&c])).collect(),
+        object_layer: object_cluster
+            .into_iter()
+            .map(|(o, c)| (o, renumber[&c]))
+            .collect(),
         iterations,
     })
 }
@@ -152,7 +184,11 @@ mod tests {
     use super::*;
 
     fn record(distance: f64, object: u32, ray: u64) -> DistanceRecord {
-        DistanceRecord { distance, object, ray }
+        DistanceRecord {
+            distance,
+            object,
+            ray,
+        }
     }
 
     #[test]
@@ -180,21 +216,39 @@ mod tests {
         // Object 1 spans 3..9 m; most of its records are near 8, so all of it joins the far
         // layer even though its near records would be closer to the 3 m layer.
         let mut records = vec![record(3.0, 0, 0), record(3.1, 0, 1), record(2.9, 0, 2)];
-        records.extend([3.4, 8.0, 8.1, 8.2, 7.9, 8.05].iter().enumerate().map(|(i, &d)| record(d, 1, 10 + i as u64)));
+        records.extend(
+            [3.4, 8.0, 8.1, 8.2, 7.9, 8.05]
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| record(d, 1, 10 + i as u64)),
+        );
         let layers = cluster_layers(&records, 2).unwrap();
         assert_eq!(layers.object_layer[&0], 0);
         assert_eq!(layers.object_layer[&1], 1);
         // The far shell is the mean of object 1's records, the 3.4 m one included.
         let mean = (3.4 + 8.0 + 8.1 + 8.2 + 7.9 + 8.05) / 6.0;
-        assert!((layers.distances[1] - mean).abs() < 1e-12, "{:?}", layers.distances);
+        assert!(
+            (layers.distances[1] - mean).abs() < 1e-12,
+            "{:?}",
+            layers.distances
+        );
     }
 
     #[test]
     fn a_continued_ray_counts_once_per_layer_with_its_front_most_hit() {
         // Ray 7 passes through two surfaces of the same layer (4 and 6 m): only 4 counts.
-        let records = vec![record(4.0, 0, 7), record(6.0, 0, 7), record(5.0, 0, 8), record(30.0, 1, 7)];
+        let records = vec![
+            record(4.0, 0, 7),
+            record(6.0, 0, 7),
+            record(5.0, 0, 8),
+            record(30.0, 1, 7),
+        ];
         let layers = cluster_layers(&records, 2).unwrap();
-        assert!((layers.distances[0] - 4.5).abs() < 1e-12, "{:?}", layers.distances);
+        assert!(
+            (layers.distances[0] - 4.5).abs() < 1e-12,
+            "{:?}",
+            layers.distances
+        );
         assert!((layers.distances[1] - 30.0).abs() < 1e-12);
     }
 
@@ -207,8 +261,14 @@ mod tests {
 
     #[test]
     fn bad_input_is_an_error() {
-        assert!(matches!(cluster_layers(&[], 2), Err(ClusteringError::Empty { .. })));
-        assert!(matches!(cluster_layers(&[record(1.0, 0, 0)], 0), Err(ClusteringError::Empty { .. })));
+        assert!(matches!(
+            cluster_layers(&[], 2),
+            Err(ClusteringError::Empty { .. })
+        ));
+        assert!(matches!(
+            cluster_layers(&[record(1.0, 0, 0)], 0),
+            Err(ClusteringError::Empty { .. })
+        ));
         let e = cluster_layers(&[record(f64::NAN, 0, 0)], 1).unwrap_err();
         assert!(e.to_string().contains("finite"), "{e}");
     }
@@ -228,7 +288,15 @@ mod tests {
                 .collect();
             let layers = cluster_layers(&records, 2).unwrap();
             let error = |centres: &[f64]| -> f64 {
-                records.iter().map(|r| centres.iter().map(|c| (r.distance - c).powi(2)).fold(f64::INFINITY, f64::min)).sum()
+                records
+                    .iter()
+                    .map(|r| {
+                        centres
+                            .iter()
+                            .map(|c| (r.distance - c).powi(2))
+                            .fold(f64::INFINITY, f64::min)
+                    })
+                    .sum()
             };
             let mut sorted: Vec<f64> = records.iter().map(|r| r.distance).collect();
             sorted.sort_by(f64::total_cmp);
@@ -239,7 +307,11 @@ mod tests {
                     error(&[a, b])
                 })
                 .fold(f64::INFINITY, f64::min);
-            assert!(error(&layers.distances) <= best * 1.05 + 1e-9, "{} vs {best}", error(&layers.distances));
+            assert!(
+                error(&layers.distances) <= best * 1.05 + 1e-9,
+                "{} vs {best}",
+                error(&layers.distances)
+            );
         }
     }
 }

@@ -73,8 +73,12 @@ mod tests {
         for layers in 1..=6 {
             for terms in 1..=3 {
                 for viewpoints in 1..=2 {
-                    let key = format!("LAYER_COUNT={layers},TERM_MASK={terms},VIEWPOINTS={viewpoints}");
-                    assert!(super::specialized("lens", "fs_single_pass_specialized", &key).is_some(), "{key}");
+                    let key =
+                        format!("LAYER_COUNT={layers},TERM_MASK={terms},VIEWPOINTS={viewpoints}");
+                    assert!(
+                        super::specialized("lens", "fs_single_pass_specialized", &key).is_some(),
+                        "{key}"
+                    );
                 }
             }
         }

@@ -124,7 +124,11 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
         vec![w, 1.0 - w]
     };
     let layer_maps = (0..viewpoints)
-        .map(|_| (0..layers).map(|_| random_cube(rng, cube_size)).collect())
+        .map(|_| {
+            (0..layers)
+                .map(|_| std::sync::Arc::new(random_cube(rng, cube_size)))
+                .collect()
+        })
         .collect();
     let eye = Vec3::new(0.3, 0.2, 2.6);
     let view = glam::camera::rh::view::look_at_mat4(eye, Vec3::ZERO, Vec3::Y);
@@ -278,7 +282,7 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
 #[test]
 fn bad_frame_input_is_an_error_not_a_panic() {
     let gpu = gpu();
-    let renderer = Renderer::new(&gpu).unwrap();
+    let mut renderer = Renderer::new(&gpu).unwrap();
     let mut rng = Pcg64::seed_from_u64(3);
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
     frame.lenses[0].terms[0].fg[0] = Vec3::NAN;
@@ -292,7 +296,9 @@ fn bad_frame_input_is_an_error_not_a_panic() {
         "{message}"
     );
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
-    frame.lenses[0].layers[0][0].levels.pop();
+    std::sync::Arc::make_mut(&mut frame.lenses[0].layers[0][0])
+        .levels
+        .pop();
     let message = renderer
         .upload(&gpu, &frame)
         .err()

@@ -323,6 +323,7 @@ fn mirror_scene(reflectance: Vec3) -> Scene {
         lenses: vec![LensObject {
             name: "mirror".to_owned(),
             objects: vec![0],
+            layers: Vec::new(),
         }],
         camera: Camera {
             position: Vec3::new(0.0, 3.0, 8.0),
@@ -452,6 +453,7 @@ fn mesh_sphere_in_a_scene_approaches_the_closed_form() {
         lenses: vec![LensObject {
             name: "sphere".to_owned(),
             objects: vec![0],
+            layers: Vec::new(),
         }],
         camera: mirror_scene(Vec3::ONE).camera,
         view_space: ViewSpace::List(Vec::new()),

@@ -92,6 +92,7 @@ fn outgoing_rays_record_every_front_facing_hit_nearest_first() {
     let lenses = vec![LensObject {
         name: "mirror".to_owned(),
         objects: vec![0],
+        layers: Vec::new(),
     }];
     let camera = Camera {
         position: Vec3::new(0.0, 2.0, 6.0),
@@ -198,10 +199,12 @@ fn incoming_rays_continue_through_a_lens_object_to_one_it_occludes() {
         LensObject {
             name: "front".to_owned(),
             objects: vec![0],
+            layers: Vec::new(),
         },
         LensObject {
             name: "back".to_owned(),
             objects: vec![1],
+            layers: Vec::new(),
         },
     ];
     let camera = Camera {

@@ -15,7 +15,8 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::compositor::{max_difference, median};
+use crate::common::median;
+use crate::compositor::max_difference;
 
 #[derive(Args)]
 pub struct BenchPassesArgs {

@@ -5,20 +5,14 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+
+use crate::common::median;
 use glam::Vec3;
 use lensmap::scene::{Camera, Scene};
 use lensmap::trace::{
     self, PathModel, RayTreeOptions, ReferenceImage, TraceCounters, TraceOptions, TraceScene,
     image::srgb_encode,
 };
-
-/// Prints a line on stdout; a closed stdout (`lensmap … | head`) ends the output, not the work.
-macro_rules! say {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
-    }};
-}
 
 /// Arguments of `lensmap bench trace`.
 #[derive(clap::Args, Debug, Clone)]
@@ -244,15 +238,6 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
             .with_context(|| format!("writing {}", path.display()))?;
     }
     Ok(())
-}
-
-fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    match values.len() {
-        0 => 0.0,
-        n if n % 2 == 1 => values[n / 2],
-        n => 0.5 * (values[n / 2 - 1] + values[n / 2]),
-    }
 }
 
 fn compare(

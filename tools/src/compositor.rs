@@ -16,6 +16,8 @@ use lensmap::{
 };
 use serde_json::json;
 
+use crate::common::median;
+
 /// A usage error the parser cannot catch (exit code 2).
 #[derive(Debug, thiserror::Error)]
 #[error("{0}")]
@@ -167,20 +169,6 @@ pub struct DemoArgs {
     /// Timed frames per variant (median reported).
     #[arg(long, default_value_t = 5)]
     frames: usize,
-}
-
-/// Median of a sample (0 for none).
-pub fn median(values: &mut [f64]) -> f64 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    values.sort_by(f64::total_cmp);
-    let mid = values.len() / 2;
-    if values.len() % 2 == 1 {
-        values[mid]
-    } else {
-        0.5 * (values[mid - 1] + values[mid])
-    }
 }
 
 /// Writes a rendered frame as `<stem>.png` (sRGB) and `<stem>.exr` (linear).

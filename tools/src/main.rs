@@ -2,10 +2,13 @@
 //! and maps errors to exit codes (0 success, 1 failure of the work, 2 bad usage or bad input, with
 //! one line naming what and where).
 
+#[macro_use]
+mod common;
 mod bench_passes;
 mod bench_trace;
 mod compositor;
 mod reference;
+mod render;
 
 use std::process::ExitCode;
 
@@ -33,6 +36,10 @@ enum Command {
     ///
     /// Example: lensmap reference --scene glass-sphere --view 0 --tree greedy --out out/reference
     Reference(reference::ReferenceArgs),
+    /// Render a hybrid frame (vertex ray paths, adaptive tessellation, layered EMs on the GPU).
+    ///
+    /// Example: lensmap render --scene teapot-room --projected --view 2 --compare --out out/hybrid.png
+    Render(render::RenderArgs),
     /// Benchmarks (medians of repeated runs, ratios measured in the same run).
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -56,6 +63,8 @@ fn is_bad_input(error: &anyhow::Error) -> bool {
     error.chain().any(|cause| {
         cause.is::<lensmap::scene::SceneError>()
             || cause.is::<compositor::BadUsage>()
+            || cause.is::<lensmap::layers::BakeError>()
+            || cause.is::<lensmap::hybrid::HybridError>()
             || matches!(
                 cause.downcast_ref::<lensmap::render::RenderError>(),
                 Some(lensmap::render::RenderError::BadInput(_))
@@ -83,6 +92,7 @@ fn main() -> ExitCode {
         Command::Demo(args) => compositor::demo(args),
         Command::Passes(args) => compositor::passes(args),
         Command::Reference(args) => reference::run(args),
+        Command::Render(args) => render::run(args),
         Command::Bench(BenchCommand::Passes(args)) => bench_passes::run(args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(args),
     };

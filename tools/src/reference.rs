@@ -2,24 +2,13 @@
 //! term images and the lens mask, as linear EXR and sRGB PNG) with the greedy two-term model or the
 //! full ray tree.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use glam::Vec3;
-use indicatif::{ProgressBar, ProgressStyle};
-use lensmap::scene::{Camera, Scene, SceneError};
-use lensmap::trace::{
-    self, PathModel, ReferenceImage, RenderStats, TraceOptions, TraceScene, image::validate_camera,
-};
+use lensmap::scene::Scene;
+use lensmap::trace::{self, PathModel, ReferenceImage, RenderStats, TraceOptions, TraceScene};
 
-/// Prints a line on stdout; a closed stdout (`lensmap … | head`) ends the output, not the work.
-macro_rules! say {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
-    }};
-}
+use crate::common::{CameraArgs, choose_camera, progress_bar};
 
 /// Arguments of `lensmap reference`.
 #[derive(clap::Args, Debug, Clone)]
@@ -30,26 +19,9 @@ pub struct ReferenceArgs {
     /// Built-in scene name (teapot-room, glass-sphere, mirror-teapot) or path to a scene .toml.
     #[arg(long)]
     pub scene: String,
-    /// Render from viewpoint sample I of the scene's view space (0-based). Without --view or
-    /// --camera-position the scene's camera is used.
-    #[arg(long, value_name = "I", conflicts_with = "camera_position")]
-    pub view: Option<usize>,
-    /// Camera position "x,y,z" in metres (looking at the scene camera's look-at point unless
-    /// --look-at is given).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub camera_position: Option<Vec3>,
-    /// Point the camera looks at, "x,y,z" in metres.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub look_at: Option<Vec3>,
-    /// Image width in pixels (default: the scene camera's).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height in pixels (default: the scene camera's).
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Supersamples per pixel along each axis, k for k×k (default: the scene camera's).
-    #[arg(long, value_name = "K")]
-    pub supersampling: Option<u32>,
+    /// The camera.
+    #[command(flatten)]
+    pub camera: CameraArgs,
     /// Ray-path model: the paper's two-term greedy paths, or the full ray tree.
     #[arg(long, value_enum, default_value_t = Tree::Greedy)]
     pub tree: Tree,
@@ -79,26 +51,6 @@ impl From<Tree> for PathModel {
     }
 }
 
-/// Parses "x,y,z" into a vector of three finite numbers.
-pub fn parse_vec3(text: &str) -> Result<Vec3, String> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return Err(format!(
-            "expected three comma-separated numbers x,y,z, got '{text}'"
-        ));
-    }
-    let mut values = [0.0f32; 3];
-    for (value, part) in values.iter_mut().zip(&parts) {
-        *value = part
-            .parse::<f32>()
-            .map_err(|e| format!("'{part}' is not a number ({e})"))?;
-        if !value.is_finite() {
-            return Err(format!("'{part}' is not a finite number"));
-        }
-    }
-    Ok(Vec3::from_array(values))
-}
-
 /// What `--json` prints and `stats.json` holds.
 #[derive(serde::Serialize)]
 struct Report<'a> {
@@ -126,7 +78,7 @@ struct Report<'a> {
 /// Runs `lensmap reference`.
 pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     let scene = Scene::load_named(&args.scene)?;
-    let camera = choose_camera(&scene, &args)?;
+    let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;
     let options = TraceOptions {
         model: args.tree.into(),
@@ -146,7 +98,7 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
         .paths;
     let report = Report {
         scene: &scene.name,
-        view: args.view,
+        view: args.camera.view,
         tree: options.model,
         camera_position: camera.position.to_array(),
         look_at: camera.look_at.to_array(),
@@ -178,68 +130,6 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
         print_summary(&scene.name, &args.out, options.model, &image.stats, &image);
     }
     Ok(())
-}
-
-/// The camera the arguments ask for, validated; bad values are scene (input) errors.
-fn choose_camera(scene: &Scene, args: &ReferenceArgs) -> Result<Camera, SceneError> {
-    let file = PathBuf::from(&args.scene);
-    let mut camera = match (args.view, args.camera_position) {
-        (Some(view), _) => scene
-            .camera_at_view(view)
-            .ok_or_else(|| SceneError::Invalid {
-                file: file.clone(),
-                field: "--view".to_owned(),
-                problem: format!(
-                    "view {view} does not exist: the view space has {} viewpoint samples",
-                    scene.view_space.len()
-                ),
-                fix: if scene.view_space.is_empty() {
-                    "the scene has no view space; use --camera-position or the scene camera"
-                        .to_owned()
-                } else {
-                    format!("give --view between 0 and {}", scene.view_space.len() - 1)
-                },
-            })?,
-        (None, Some(position)) => scene.camera.with_position(position),
-        (None, None) => scene.camera,
-    };
-    if let Some(look_at) = args.look_at {
-        camera.look_at = look_at;
-    }
-    if let Some(width) = args.width {
-        camera.width = width;
-    }
-    if let Some(height) = args.height {
-        camera.height = height;
-    }
-    if let Some(k) = args.supersampling {
-        camera.supersampling = k;
-    }
-    validate_camera(&camera).map_err(|error| SceneError::Invalid {
-        file,
-        field: "camera (after --view/--camera-position/--look-at/--width/--height/--supersampling)"
-            .to_owned(),
-        problem: error.to_string(),
-        fix: "give a camera position distinct from the look-at point, an image of at least 1×1 \
-              and --supersampling of at least 1"
-            .to_owned(),
-    })?;
-    Ok(camera)
-}
-
-/// A row progress bar on stderr, hidden when stderr is not a terminal.
-pub fn progress_bar(rows: u64) -> ProgressBar {
-    if !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::new(rows);
-    if let Ok(style) = ProgressStyle::with_template(
-        "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})",
-    ) {
-        bar.set_style(style);
-    }
-    bar.set_message("ray tracing");
-    bar
 }
 
 fn lens_coverage(image: &ReferenceImage) -> f64 {

@@ -14,8 +14,13 @@ fn passes_counts(args: &[&str]) -> serde_json::Value {
     let mut all = vec!["passes", "--json"];
     all.extend_from_slice(args);
     let out = lensmap(&all);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("passes --json prints JSON");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("passes --json prints JSON");
     json["counts"].clone()
 }
 
@@ -24,17 +29,43 @@ fn passes_prints_the_papers_counts() {
     for n in 1..=4u64 {
         let layers = n.to_string();
         let c = passes_counts(&["--layers", &layers, "--viewpoints", "2", "--terms", "2"]);
-        assert_eq!((c["prime"].as_u64(), c["layer"].as_u64(), c["alpha_clear"].as_u64()), (Some(1), Some(4 * n), Some(3)));
+        assert_eq!(
+            (
+                c["prime"].as_u64(),
+                c["layer"].as_u64(),
+                c["alpha_clear"].as_u64()
+            ),
+            (Some(1), Some(4 * n), Some(3))
+        );
         let c = passes_counts(&["--layers", &layers, "--viewpoints", "1", "--terms", "2"]);
-        assert_eq!((c["layer"].as_u64(), c["alpha_clear"].as_u64()), (Some(2 * n), Some(1)));
+        assert_eq!(
+            (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
+            (Some(2 * n), Some(1))
+        );
         let c = passes_counts(&["--layers", &layers, "--viewpoints", "1", "--terms", "1"]);
-        assert_eq!((c["layer"].as_u64(), c["alpha_clear"].as_u64()), (Some(n), Some(0)));
-        let c = passes_counts(&["--layers", &layers, "--variant", "single-pass", "--format", "rgba16f"]);
-        assert_eq!((c["single_pass"].as_u64(), c["layer"].as_u64()), (Some(1), Some(0)));
+        assert_eq!(
+            (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
+            (Some(n), Some(0))
+        );
+        let c = passes_counts(&[
+            "--layers",
+            &layers,
+            "--variant",
+            "single-pass",
+            "--format",
+            "rgba16f",
+        ]);
+        assert_eq!(
+            (c["single_pass"].as_u64(), c["layer"].as_u64()),
+            (Some(1), Some(0))
+        );
     }
     let table = lensmap(&["passes", "--layers", "2"]);
     let text = String::from_utf8_lossy(&table.stdout);
-    assert!(text.contains("src*(1-dstA)+dst") && text.contains("alpha-clear"), "{text}");
+    assert!(
+        text.contains("src*(1-dstA)+dst") && text.contains("alpha-clear"),
+        "{text}"
+    );
     assert!(text.contains("1 prime + 8 layer + 3 alpha clear"), "{text}");
 }
 
@@ -44,13 +75,22 @@ fn bad_usage_exits_2_with_one_line() {
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-    assert!(stderr.contains("--layers") && stderr.contains("multipass"), "{stderr}");
+    assert!(
+        stderr.contains("--layers") && stderr.contains("multipass"),
+        "{stderr}"
+    );
 }
 
 #[test]
 fn no_vulkan_driver_exits_2_naming_the_package() {
     let out = Command::new(env!("CARGO_BIN_EXE_lensmap"))
-        .args(["demo", "--out", &std::env::temp_dir().join("lensmap-no-driver").to_string_lossy()])
+        .args([
+            "demo",
+            "--out",
+            &std::env::temp_dir()
+                .join("lensmap-no-driver")
+                .to_string_lossy(),
+        ])
         .env("VK_ICD_FILENAMES", "/nonexistent")
         .env("VK_DRIVER_FILES", "/nonexistent")
         .output()

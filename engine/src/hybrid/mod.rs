@@ -3,4 +3,9 @@
 //! paths differ, texture coordinates into the layered environment maps are generated, and the
 //! two nearest viewpoint samples are chosen and weighted.
 
+pub mod frame;
+pub mod paths;
 pub mod tessellate;
+pub mod viewpoints;
+
+pub use frame::{HybridError, HybridOptions, HybridScene, HybridStats, LensLayers};

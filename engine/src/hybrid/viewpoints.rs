@@ -45,7 +45,9 @@ pub fn blend(samples: &[DVec3], look_at: DVec3, camera: DVec3) -> Option<Viewpoi
                 samples: vec![(nearest, theta_b / total), (second, theta_a / total)],
             })
         }
-        _ => Some(ViewpointBlend { samples: vec![(nearest, 1.0)] }),
+        _ => Some(ViewpointBlend {
+            samples: vec![(nearest, 1.0)],
+        }),
     }
 }
 
@@ -85,8 +87,18 @@ mod tests {
     #[test]
     fn distance_from_the_centre_does_not_matter_only_direction() {
         let samples = circle(45, 8.0);
-        let near = blend(&samples, DVec3::ZERO, samples[7] * 0.5 + DVec3::new(0.1, 0.0, 0.0)).unwrap();
-        let far = blend(&samples, DVec3::ZERO, samples[7] * 2.0 + DVec3::new(0.2, 0.0, 0.0)).unwrap();
+        let near = blend(
+            &samples,
+            DVec3::ZERO,
+            samples[7] * 0.5 + DVec3::new(0.1, 0.0, 0.0),
+        )
+        .unwrap();
+        let far = blend(
+            &samples,
+            DVec3::ZERO,
+            samples[7] * 2.0 + DVec3::new(0.2, 0.0, 0.0),
+        )
+        .unwrap();
         assert_eq!(near.samples[0].0, far.samples[0].0);
     }
 
@@ -94,6 +106,9 @@ mod tests {
     fn degenerate_inputs_are_none() {
         assert!(blend(&[], DVec3::ZERO, DVec3::X).is_none());
         assert!(blend(&[DVec3::X], DVec3::ZERO, DVec3::ZERO).is_none());
-        assert_eq!(blend(&[DVec3::X], DVec3::ZERO, DVec3::Y).unwrap().samples, vec![(0, 1.0)]);
+        assert_eq!(
+            blend(&[DVec3::X], DVec3::ZERO, DVec3::Y).unwrap().samples,
+            vec![(0, 1.0)]
+        );
     }
 }

@@ -35,7 +35,10 @@ pub struct ProjectedOptions {
 
 impl Default for ProjectedOptions {
     fn default() -> Self {
-        ProjectedOptions { size: 64, supersampling: 2 }
+        ProjectedOptions {
+            size: 64,
+            supersampling: 2,
+        }
     }
 }
 
@@ -52,13 +55,22 @@ pub fn em_origin(scene: &Scene, lens: usize) -> DVec3 {
             area += triangle_area;
         }
     }
-    if area > 0.0 { weighted / area } else { DVec3::ZERO }
+    if area > 0.0 {
+        weighted / area
+    } else {
+        DVec3::ZERO
+    }
 }
 
 /// The shells of lens object `lens` from the scene's layer specs, centred on `origin`. With no
 /// specs: one sphere at the mean distance from `origin` of the environment seen through `size`²
 /// rays per face (LBG with one cluster), or 100 m when nothing is hit.
-pub fn lens_shells(trace: &TraceScene, scene: &Scene, lens: usize, origin: DVec3) -> Vec<LayerShell> {
+pub fn lens_shells(
+    trace: &TraceScene,
+    scene: &Scene,
+    lens: usize,
+    origin: DVec3,
+) -> Vec<LayerShell> {
     let specs = scene.lenses.get(lens).map_or(&[][..], |l| &l.layers);
     if specs.is_empty() {
         let directions = texel_directions(16, 1);
@@ -66,24 +78,42 @@ pub fn lens_shells(trace: &TraceScene, scene: &Scene, lens: usize, origin: DVec3
             .par_iter()
             .filter_map(|d| {
                 let mut counters = TraceCounters::default();
-                trace.closest_hit(&Ray::new(origin, *d), None, Some(lens), &mut counters).map(|h| h.hit.distance)
+                trace
+                    .closest_hit(&Ray::new(origin, *d), None, Some(lens), &mut counters)
+                    .map(|h| h.hit.distance)
             })
             .collect();
-        let radius = if distances.is_empty() { 100.0 } else { distances.iter().sum::<f64>() / distances.len() as f64 };
-        return vec![LayerShell::Sphere { centre: origin, radius }];
+        let radius = if distances.is_empty() {
+            100.0
+        } else {
+            distances.iter().sum::<f64>() / distances.len() as f64
+        };
+        return vec![LayerShell::Sphere {
+            centre: origin,
+            radius,
+        }];
     }
     specs
         .iter()
         .map(|spec| match *spec {
-            LayerSpec::Sphere(radius) => LayerShell::Sphere { centre: origin, radius: f64::from(radius) },
+            LayerSpec::Sphere(radius) => LayerShell::Sphere {
+                centre: origin,
+                radius: f64::from(radius),
+            },
             LayerSpec::Cylinder(radius) => LayerShell::Cylinder {
                 centre: origin,
                 axis: DVec3::Y,
                 radius: f64::from(radius),
                 half_height: None,
             },
-            LayerSpec::Box(half) => LayerShell::Box { centre: origin, half_extents: half.as_dvec3() },
-            LayerSpec::Ellipsoid(radii) => LayerShell::Ellipsoid { centre: origin, radii: radii.as_dvec3() },
+            LayerSpec::Box(half) => LayerShell::Box {
+                centre: origin,
+                half_extents: half.as_dvec3(),
+            },
+            LayerSpec::Ellipsoid(radii) => LayerShell::Ellipsoid {
+                centre: origin,
+                radii: radii.as_dvec3(),
+            },
         })
         .collect()
 }
@@ -107,7 +137,9 @@ fn texel_directions(size: u32, k: u32) -> Vec<DVec3> {
 
 /// Distance along the unit ray from `origin` to `shell`, ∞ when it misses.
 fn shell_distance(shell: &LayerShell, origin: DVec3, direction: DVec3) -> f64 {
-    shell.intersect(origin, direction).map_or(f64::INFINITY, |hit| hit.t)
+    shell
+        .intersect(origin, direction)
+        .map_or(f64::INFINITY, |hit| hit.t)
 }
 
 /// Radiance leaving the first surface along `ray` (skipping lens object `lens`) if it lies within
@@ -155,16 +187,34 @@ pub fn project_layers(
             let mut counters = TraceCounters::default();
             let mut sums = vec![[0.0f64; 4]; n];
             for &d in subsamples {
-                let distances: Vec<f64> = shells.iter().map(|s| shell_distance(s, origin, d)).collect();
+                let distances: Vec<f64> = shells
+                    .iter()
+                    .map(|s| shell_distance(s, origin, d))
+                    .collect();
                 for layer in 0..n {
-                    let start = if layer == 0 { 0.0 } else { 0.5 * (distances[layer - 1] + distances[layer]) };
-                    let end = if layer + 1 == n { f64::INFINITY } else { 0.5 * (distances[layer] + distances[layer + 1]) };
+                    let start = if layer == 0 {
+                        0.0
+                    } else {
+                        0.5 * (distances[layer - 1] + distances[layer])
+                    };
+                    let end = if layer + 1 == n {
+                        f64::INFINITY
+                    } else {
+                        0.5 * (distances[layer] + distances[layer + 1])
+                    };
                     if !(start < end) {
                         continue;
                     }
                     counters.secondary_rays += 1;
                     let ray = Ray::new(origin + start.min(1e12) * d, d);
-                    let radiance = match first_surface(trace, lens, &ray, end - start, &trace_options, &mut counters) {
+                    let radiance = match first_surface(
+                        trace,
+                        lens,
+                        &ray,
+                        end - start,
+                        &trace_options,
+                        &mut counters,
+                    ) {
                         Some(radiance) => Some(radiance),
                         None if layer + 1 == n => Some(trace.background_radiance(d)),
                         None => None,
@@ -178,7 +228,10 @@ pub fn project_layers(
                     }
                 }
             }
-            let texel = sums.iter().map(|s| s.map(|v| (v / per_texel as f64) as f32)).collect();
+            let texel = sums
+                .iter()
+                .map(|s| s.map(|v| (v / per_texel as f64) as f32))
+                .collect();
             (texel, counters.all_rays())
         })
         .unzip();
@@ -186,7 +239,9 @@ pub fn project_layers(
     let maps = (0..n)
         .map(|layer| {
             let faces = std::array::from_fn(|face| {
-                (0..texels_per_face).map(|i| texels[face * texels_per_face + i][layer]).collect()
+                (0..texels_per_face)
+                    .map(|i| texels[face * texels_per_face + i][layer])
+                    .collect()
             });
             CubeMap::from_level0(size, faces)
         })
@@ -247,7 +302,16 @@ layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
         assert!(origin.length() < 1e-3, "{origin}");
         let shells = lens_shells(&trace, &scene, 0, origin);
         assert_eq!(shells.len(), 2);
-        let (maps, rays) = project_layers(&trace, 0, origin, &shells, &ProjectedOptions { size: 16, supersampling: 1 });
+        let (maps, rays) = project_layers(
+            &trace,
+            0,
+            origin,
+            &shells,
+            &ProjectedOptions {
+                size: 16,
+                supersampling: 1,
+            },
+        );
         assert!(rays > 0);
         // −Z face centre: the panel (unlit, so black but opaque) in layer 0; +Z: nothing near.
         let centre = 8 * 16 + 8;
@@ -258,7 +322,10 @@ layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
         // The outer layer is opaque everywhere and shows the environment along +Z.
         assert!(maps[1].levels[0].iter().flatten().all(|t| t[3] == 1.0));
         let sky = maps[1].levels[0][4][centre];
-        assert!((sky[0] - 0.2).abs() < 1e-6 && (sky[2] - 0.6).abs() < 1e-6, "{sky:?}");
+        assert!(
+            (sky[0] - 0.2).abs() < 1e-6 && (sky[2] - 0.6).abs() < 1e-6,
+            "{sky:?}"
+        );
         // Behind the panel (−Z) the outer layer still sees the sky: the ray continues.
         let behind = maps[1].levels[0][5][centre];
         assert!((behind[1] - 0.4).abs() < 1e-6, "{behind:?}");
@@ -269,11 +336,30 @@ layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
         let (scene, trace) = scene(ROOM);
         let origin = em_origin(&scene, 0);
         let shells = lens_shells(&trace, &scene, 0, origin);
-        let (maps, _) = project_layers(&trace, 0, origin, &shells, &ProjectedOptions { size: 32, supersampling: 4 });
+        let (maps, _) = project_layers(
+            &trace,
+            0,
+            origin,
+            &shells,
+            &ProjectedOptions {
+                size: 32,
+                supersampling: 4,
+            },
+        );
         let alphas: Vec<f32> = maps[0].levels[0][5].iter().map(|t| t[3]).collect();
-        assert!(alphas.iter().any(|a| *a > 0.0 && *a < 1.0), "some texels straddle the panel's edge");
+        assert!(
+            alphas.iter().any(|a| *a > 0.0 && *a < 1.0),
+            "some texels straddle the panel's edge"
+        );
         // Premultiplied: rgb ≤ α everywhere (white panel, no light: rgb = 0).
-        assert!(maps[0].levels.iter().flatten().flatten().all(|t| t[0] <= t[3] + 1e-6));
+        assert!(
+            maps[0]
+                .levels
+                .iter()
+                .flatten()
+                .flatten()
+                .all(|t| t[0] <= t[3] + 1e-6)
+        );
     }
 
     #[test]
@@ -283,7 +369,9 @@ layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
         let shells = lens_shells(&trace, &scene, 0, DVec3::ZERO);
         match shells.as_slice() {
             // Only the panel (2 m to 2.5 m away) is hit.
-            [LayerShell::Sphere { radius, .. }] => assert!(*radius > 2.0 && *radius < 2.5, "{radius}"),
+            [LayerShell::Sphere { radius, .. }] => {
+                assert!(*radius > 2.0 && *radius < 2.5, "{radius}")
+            }
             other => panic!("{other:?}"),
         }
     }

@@ -7,6 +7,7 @@ use std::{collections::HashMap, sync::Arc, time::Instant};
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
+use super::CubeMap;
 use crate::{
     gpu::{
         Buffer, BufferUsage, Gpu, GpuError, GraphicsPipelineDesc, Image, ImageDesc, VertexInput,
@@ -32,6 +33,38 @@ pub struct RenderedImage {
     pub height: u32,
     /// Linear RGBA per pixel, exactly as stored in the target (RGBA8 as n/255).
     pub pixels: Vec<[f32; 4]>,
+}
+
+impl RenderedImage {
+    /// The image box-filtered by k×k (k ≥ 1 dividing both sides): supersampled frames to pixels.
+    pub fn box_downsample(&self, k: u32) -> RenderedImage {
+        let k = k.max(1);
+        if k == 1 || self.width % k != 0 || self.height % k != 0 {
+            return self.clone();
+        }
+        let (width, height) = (self.width / k, self.height / k);
+        let scale = 1.0 / (k * k) as f32;
+        let pixels = (0..width * height)
+            .map(|i| {
+                let (x, y) = (i % width, i / width);
+                let mut sum = [0.0f32; 4];
+                for dy in 0..k {
+                    for dx in 0..k {
+                        let p = self.pixels[((y * k + dy) * self.width + x * k + dx) as usize];
+                        for c in 0..4 {
+                            sum[c] += p[c];
+                        }
+                    }
+                }
+                sum.map(|v| v * scale)
+            })
+            .collect();
+        RenderedImage {
+            width,
+            height,
+            pixels,
+        }
+    }
 }
 
 /// Where one frame's time went, in milliseconds of wall time on the host.
@@ -75,8 +108,8 @@ struct GpuLens {
     fg_offset: HashMap<Term, u32>,
     direction_offset: HashMap<Term, u32>,
     layer_count: u32,
-    /// One cube-map array per viewpoint sample.
-    layers: Vec<Image>,
+    /// One cube-map array per viewpoint sample (shared with the renderer's cache).
+    layers: Vec<Arc<Image>>,
     /// One descriptor set per viewpoint (binding 1 = that viewpoint, binding 2 = the other).
     sets: Vec<vk::DescriptorSet>,
 }
@@ -133,6 +166,18 @@ pub struct Renderer {
     sampler: vk::Sampler,
     pipelines: HashMap<PipelineKey, vk::Pipeline>,
     command_buffer: vk::CommandBuffer,
+    /// Uploaded layered EMs, keyed by the identity of their `Arc<CubeMap>`s: a frame that hands
+    /// over the same maps as a recent one reuses their cube-map array instead of uploading again.
+    layer_cache: HashMap<Vec<usize>, CachedLayers>,
+    /// Uploads so far (for evicting cache entries no recent frame used).
+    generation: u64,
+}
+
+/// One uploaded cube-map array and the maps it holds (kept so their addresses stay unique).
+struct CachedLayers {
+    _maps: Vec<Arc<CubeMap>>,
+    image: Arc<Image>,
+    last_used: u64,
 }
 
 impl Drop for Renderer {
@@ -273,6 +318,8 @@ impl Renderer {
             sampler: vk::Sampler::null(),
             pipelines: HashMap::new(),
             command_buffer: gpu.allocate_command_buffer()?,
+            layer_cache: HashMap::new(),
+            generation: 0,
         };
         let vk_err = |call| move |result| GpuError::Vulkan { call, result };
         // SAFETY: create infos live until each call returns; Drop destroys what was created
@@ -327,9 +374,11 @@ impl Renderer {
         Ok(renderer)
     }
 
-    /// Validates and uploads a frame's data.
-    pub fn upload(&self, gpu: &Gpu, frame: &FrameInput) -> Result<UploadedFrame, RenderError> {
+    /// Validates and uploads a frame's data. Layered EMs already uploaded for one of the last two
+    /// frames (the same `Arc<CubeMap>`s) are reused.
+    pub fn upload(&mut self, gpu: &Gpu, frame: &FrameInput) -> Result<UploadedFrame, RenderError> {
         frame.validate()?;
+        self.generation += 1;
         let environment = frame
             .environment
             .iter()
@@ -424,11 +473,56 @@ impl Renderer {
             let gpu_lens = self.upload_lens(gpu, descriptor_pool, index, lens)?;
             uploaded.lenses.push(gpu_lens);
         }
+        let generation = self.generation;
+        self.layer_cache
+            .retain(|_, cached| cached.last_used + 1 >= generation);
         Ok(uploaded)
     }
 
+    /// The cube-map array holding `cubes`, from the cache or freshly uploaded.
+    fn layer_image(
+        &mut self,
+        gpu: &Gpu,
+        name: &str,
+        cubes: &[Arc<CubeMap>],
+    ) -> Result<Arc<Image>, GpuError> {
+        let key: Vec<usize> = cubes.iter().map(|c| Arc::as_ptr(c) as usize).collect();
+        if let Some(cached) = self.layer_cache.get_mut(&key) {
+            cached.last_used = self.generation;
+            return Ok(cached.image.clone());
+        }
+        let size = cubes.first().map_or(1, |c| c.size);
+        let mut image = Image::new(
+            gpu,
+            ImageDesc::cube_array(
+                name,
+                vk::Format::R32G32B32A32_SFLOAT,
+                size,
+                cubes.len() as u32,
+            ),
+        )?;
+        for level in 0..image.desc.mip_levels as usize {
+            let bytes = vec4_bytes(
+                cubes
+                    .iter()
+                    .flat_map(|cube| cube.levels[level].iter().flatten().copied()),
+            );
+            image.upload(gpu, level as u32, 0, 6 * cubes.len() as u32, &bytes)?;
+        }
+        let image = Arc::new(image);
+        self.layer_cache.insert(
+            key,
+            CachedLayers {
+                _maps: cubes.to_vec(),
+                image: image.clone(),
+                last_used: self.generation,
+            },
+        );
+        Ok(image)
+    }
+
     fn upload_lens(
-        &self,
+        &mut self,
         gpu: &Gpu,
         pool: vk::DescriptorPool,
         index: usize,
@@ -467,25 +561,7 @@ impl Renderer {
 
         let mut layers = Vec::new();
         for (viewpoint, cubes) in lens.layers.iter().enumerate() {
-            let size = cubes.first().map_or(1, |c| c.size);
-            let mut image = Image::new(
-                gpu,
-                ImageDesc::cube_array(
-                    &format!("lens{index}/em{viewpoint}"),
-                    vk::Format::R32G32B32A32_SFLOAT,
-                    size,
-                    cubes.len() as u32,
-                ),
-            )?;
-            for level in 0..image.desc.mip_levels as usize {
-                let bytes = vec4_bytes(
-                    cubes
-                        .iter()
-                        .flat_map(|cube| cube.levels[level].iter().flatten().copied()),
-                );
-                image.upload(gpu, level as u32, 0, 6 * cubes.len() as u32, &bytes)?;
-            }
-            layers.push(image);
+            layers.push(self.layer_image(gpu, &format!("lens{index}/em{viewpoint}"), cubes)?);
         }
 
         let layouts = vec![self.lens_set_layout; layers.len()];
@@ -591,11 +667,13 @@ impl Renderer {
                 shader("lens", "vs_single_pass")?,
                 {
                     let [layers, terms, viewpoints] = key.specialization;
-                    let wanted = format!("LAYER_COUNT={layers},TERM_MASK={terms},VIEWPOINTS={viewpoints}");
-                    lensmap_shaders::specialized("lens", "fs_single_pass_specialized", &wanted).ok_or(GpuError::Vulkan {
-                        call: "specialized shader lookup",
-                        result: vk::Result::ERROR_INITIALIZATION_FAILED,
-                    })?
+                    let wanted =
+                        format!("LAYER_COUNT={layers},TERM_MASK={terms},VIEWPOINTS={viewpoints}");
+                    lensmap_shaders::specialized("lens", "fs_single_pass_specialized", &wanted)
+                        .ok_or(GpuError::Vulkan {
+                            call: "specialized shader lookup",
+                            result: vk::Result::ERROR_INITIALIZATION_FAILED,
+                        })?
                 },
                 VertexInput::None,
                 self.lens_layout,

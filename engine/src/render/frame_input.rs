@@ -3,6 +3,8 @@
 //! layered environment maps. The GPU frame ([`super::Frame`]) and the CPU f64 model
 //! ([`super::model`]) both consume exactly this.
 
+use std::sync::Arc;
+
 use glam::{Mat4, Vec3};
 
 /// Maximum number of viewpoint samples blended in one frame (the paper blends the two nearest).
@@ -75,7 +77,9 @@ pub struct LensObject {
     pub terms: Vec<TermVertices>,
     /// `layers[viewpoint][layer]`: the layered EM of each viewpoint sample, nearest shell first.
     /// Every viewpoint has the same number of layers n, equal to each term's `directions.len()`.
-    pub layers: Vec<Vec<CubeMap>>,
+    /// Shared (`Arc`): frames reuse the same maps, and the renderer keeps a map uploaded for as
+    /// long as frames keep handing it the same `Arc`.
+    pub layers: Vec<Vec<Arc<CubeMap>>>,
 }
 
 impl LensObject {

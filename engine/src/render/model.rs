@@ -1089,7 +1089,10 @@ mod tests {
                 fg: vec![Vec3::new(0.5, 0.75, 1.0); 7],
                 directions,
             }],
-            layers,
+            layers: layers
+                .into_iter()
+                .map(|v| v.into_iter().map(std::sync::Arc::new).collect())
+                .collect(),
         };
         FrameInput {
             width: 8,
@@ -1461,10 +1464,10 @@ mod tests {
                                 })
                             })
                             .collect();
-                        CubeMap {
+                        std::sync::Arc::new(CubeMap {
                             size: cube_size,
                             levels,
-                        }
+                        })
                     })
                     .collect()
             })

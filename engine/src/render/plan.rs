@@ -316,10 +316,13 @@ pub fn frame_graph(
                     program::LENS_SINGLE_PASS,
                     [
                         n as u32,
-                        lens.terms.iter().map(|t| match t {
-                            Term::Refraction => 1,
-                            Term::Reflection => 2,
-                        }).sum(),
+                        lens.terms
+                            .iter()
+                            .map(|t| match t {
+                                Term::Refraction => 1,
+                                Term::Reflection => 2,
+                            })
+                            .sum(),
                         active.len() as u32,
                     ],
                 ),

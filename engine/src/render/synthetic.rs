@@ -144,7 +144,7 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
     let layers = (0..viewpoints)
         .map(|v| {
             (0..options.layers)
-                .map(|l| layer_map(options.cube_size, l, options.layers, v))
+                .map(|l| std::sync::Arc::new(layer_map(options.cube_size, l, options.layers, v)))
                 .collect()
         })
         .collect();

@@ -732,11 +732,20 @@ impl Loader<'_> {
             for (k, layer) in spec.layers.iter().enumerate() {
                 let layer_field = format!("{field}.layers[{k}]");
                 let positive = |v: f32| v.is_finite() && v > 0.0;
-                let parsed = match (layer.sphere, layer.cylinder, layer.box_half_extents, layer.ellipsoid) {
+                let parsed = match (
+                    layer.sphere,
+                    layer.cylinder,
+                    layer.box_half_extents,
+                    layer.ellipsoid,
+                ) {
                     (Some(r), None, None, None) if positive(r) => LayerSpec::Sphere(r),
                     (None, Some(r), None, None) if positive(r) => LayerSpec::Cylinder(r),
-                    (None, None, Some(h), None) if h.iter().all(|v| positive(*v)) => LayerSpec::Box(Vec3::from(h)),
-                    (None, None, None, Some(r)) if r.iter().all(|v| positive(*v)) => LayerSpec::Ellipsoid(Vec3::from(r)),
+                    (None, None, Some(h), None) if h.iter().all(|v| positive(*v)) => {
+                        LayerSpec::Box(Vec3::from(h))
+                    }
+                    (None, None, None, Some(r)) if r.iter().all(|v| positive(*v)) => {
+                        LayerSpec::Ellipsoid(Vec3::from(r))
+                    }
                     _ => {
                         return Err(self.error(
                             layer_field,

@@ -153,7 +153,9 @@ impl Scattering {
     /// The greedy child: the one with the larger Fresnel coefficient (refraction on a tie).
     pub fn greedy_child(&self) -> (Ray, DVec3) {
         match self.refraction {
-            Some((ray, transmittance)) if !self.greedy_reflects() => (ray, DVec3::splat(transmittance)),
+            Some((ray, transmittance)) if !self.greedy_reflects() => {
+                (ray, DVec3::splat(transmittance))
+            }
             _ => self.reflection,
         }
     }

@@ -1,0 +1,430 @@
+//! One hybrid frame on the CPU: trace and tessellate every lens object from the real camera,
+//! generate the layered-EM texture coordinates, pick the viewpoint samples, and assemble the
+//! [`FrameInput`] the compositor renders. Timed per stage like the paper's table.
+
+use std::{sync::Arc, time::Instant};
+
+use glam::{DVec3, Vec2, Vec3};
+
+use super::{
+    paths::{PathOracle, ScreenCamera, VertexPaths},
+    tessellate::{TessellationError, TessellationOptions, tessellate},
+    viewpoints,
+};
+use crate::{
+    layers::LayerShell,
+    render::{CubeMap, EnvironmentMesh, FrameInput, LensObject, TermVertices},
+    scene::{Camera, Scene},
+    trace::{Ray, Term, bvh::SurfaceHit, stats::TraceCounters, world::TraceScene},
+};
+
+/// A lens object's layered EMs.
+#[derive(Clone, Debug)]
+pub struct LensLayers {
+    /// EM origin (the lens object's centroid), metres.
+    pub em_origin: DVec3,
+    /// Shells, nearest first.
+    pub shells: Vec<LayerShell>,
+    /// `maps[viewpoint sample][layer]`, one entry per sample of [`HybridScene::viewpoints`];
+    /// projected EMs do not depend on the viewpoint, so they have a single entry that every
+    /// sample shares.
+    pub maps: Vec<Vec<Arc<CubeMap>>>,
+}
+
+/// Why a hybrid scene cannot be assembled.
+#[derive(Debug, thiserror::Error)]
+pub enum HybridError {
+    /// The ray tracer refused the scene.
+    #[error(transparent)]
+    Trace(#[from] crate::trace::TraceError),
+    /// A bake does not fit the scene; the message names the field and the fix.
+    #[error("{0}")]
+    BakeMismatch(String),
+}
+
+/// Everything a hybrid frame is made from that does not change with the camera.
+pub struct HybridScene {
+    /// The scene.
+    pub scene: Scene,
+    /// Its ray-tracing structures.
+    pub trace: TraceScene,
+    /// Viewpoint sample positions.
+    pub viewpoints: Vec<DVec3>,
+    /// Per lens object (TraceScene order).
+    pub lenses: Vec<LensLayers>,
+    /// The opaque environment for the GPU, with Lambert shading per vertex.
+    pub environment: Vec<EnvironmentMesh>,
+}
+
+/// Per-frame options.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HybridOptions {
+    /// Tessellation threshold t in subpixels.
+    pub t: f32,
+    /// Outgoing rays further apart than this (radians) make vertices differ (paper: 3°).
+    pub angle_radians: f64,
+}
+
+impl Default for HybridOptions {
+    fn default() -> Self {
+        HybridOptions {
+            t: 3.0,
+            angle_radians: 3f64.to_radians(),
+        }
+    }
+}
+
+/// What one frame cost, in the paper's categories.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HybridStats {
+    /// Ray tracing at vertices (visibility and both paths), ms.
+    pub trace_ms: f64,
+    /// Adaptive tessellation, excluding the ray tracing it asks for, ms.
+    pub tessellation_ms: f64,
+    /// Texture coordinate generation, ms.
+    pub texgen_ms: f64,
+    /// Rays and triangle tests of the vertex tracing.
+    pub counters: TraceCounters,
+    /// Lens triangles before and after tessellation.
+    pub triangles_in: usize,
+    /// Lens triangles after tessellation.
+    pub triangles_out: usize,
+    /// Vertices ray traced.
+    pub vertices_traced: usize,
+}
+
+impl HybridScene {
+    /// A hybrid scene with projected layered EMs (see [`crate::layers::projected`]); also returns
+    /// the rays the projection cast.
+    pub fn projected(
+        scene: Scene,
+        options: &crate::layers::projected::ProjectedOptions,
+    ) -> Result<(HybridScene, u64), HybridError> {
+        use crate::layers::projected::{em_origin, lens_shells, project_layers};
+        let trace = TraceScene::new(&scene)?;
+        let mut rays = 0;
+        let lenses = (0..trace.lenses.len())
+            .map(|lens| {
+                let origin = em_origin(&scene, lens);
+                let shells = lens_shells(&trace, &scene, lens, origin);
+                let (maps, cast) = project_layers(&trace, lens, origin, &shells, options);
+                rays += cast;
+                LensLayers {
+                    em_origin: origin,
+                    shells,
+                    maps: vec![maps.into_iter().map(Arc::new).collect()],
+                }
+            })
+            .collect();
+        let viewpoints = scene
+            .view_space
+            .samples()
+            .iter()
+            .map(|p| p.as_dvec3())
+            .collect();
+        let environment = Self::environment_meshes(&scene, &trace);
+        Ok((
+            HybridScene {
+                scene,
+                trace,
+                viewpoints,
+                lenses,
+                environment,
+            },
+            rays,
+        ))
+    }
+
+    /// A hybrid scene whose layered EMs come from a bake (matched to lens objects by name).
+    pub fn from_bake(scene: Scene, bake: crate::layers::Bake) -> Result<HybridScene, HybridError> {
+        let trace = TraceScene::new(&scene)?;
+        let mut baked: Vec<Option<crate::layers::BakedLens>> =
+            bake.lenses.into_iter().map(Some).collect();
+        let mut lenses = Vec::new();
+        for lens in &trace.lenses {
+            let Some(found) = baked
+                .iter_mut()
+                .find(|b| b.as_ref().is_some_and(|b| b.name == lens.name))
+                .and_then(Option::take)
+            else {
+                return Err(HybridError::BakeMismatch(format!(
+                    "manifest.json: lenses: no entry for lens object \"{}\" of scene \"{}\"; bake this scene again",
+                    lens.name, scene.name
+                )));
+            };
+            lenses.push(LensLayers {
+                em_origin: found.em_origin,
+                shells: found.shells,
+                maps: found
+                    .maps
+                    .into_iter()
+                    .map(|v| v.into_iter().map(Arc::new).collect())
+                    .collect(),
+            });
+        }
+        let viewpoints = bake.viewpoints.iter().map(|p| p.as_dvec3()).collect();
+        let environment = Self::environment_meshes(&scene, &trace);
+        Ok(HybridScene {
+            scene,
+            trace,
+            viewpoints,
+            lenses,
+            environment,
+        })
+    }
+
+    /// These layered EMs as a bake: projected EMs become a bake with one viewpoint sample.
+    pub fn to_bake(&self) -> crate::layers::Bake {
+        let shared = self.lenses.iter().all(|l| l.maps.len() == 1);
+        crate::layers::Bake {
+            scene: self.scene.name.clone(),
+            created_by: crate::layers::bake::default_created_by(),
+            viewpoints: if shared {
+                vec![
+                    self.viewpoints
+                        .first()
+                        .copied()
+                        .unwrap_or(DVec3::Z)
+                        .as_vec3(),
+                ]
+            } else {
+                self.viewpoints.iter().map(|p| p.as_vec3()).collect()
+            },
+            lenses: self
+                .lenses
+                .iter()
+                .zip(&self.trace.lenses)
+                .map(|(layers, lens)| crate::layers::BakedLens {
+                    name: lens.name.clone(),
+                    em_origin: layers.em_origin,
+                    shells: layers.shells.clone(),
+                    maps: layers
+                        .maps
+                        .iter()
+                        .map(|v| v.iter().map(|m| CubeMap::clone(m)).collect())
+                        .collect(),
+                })
+                .collect(),
+        }
+    }
+
+    /// Opaque environment meshes with per-vertex Lambert shading (view independent: once per scene).
+    pub fn environment_meshes(scene: &Scene, trace: &TraceScene) -> Vec<EnvironmentMesh> {
+        scene
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| trace.object_lens.get(*i).is_some_and(|l| l.is_none()))
+            .map(|(object, o)| {
+                let mesh = &o.mesh;
+                let colours = (0..mesh.positions.len())
+                    .map(|v| {
+                        let position = mesh.positions[v].as_dvec3();
+                        let normal = mesh
+                            .normals
+                            .get(v)
+                            .map_or(DVec3::Y, |n| n.as_dvec3().normalize_or(DVec3::Y));
+                        let uv = mesh.uvs.get(v).copied().unwrap_or(Vec2::ZERO).as_dvec2();
+                        // Shade as seen from just off the surface along the normal (two-sided
+                        // Lambert does not depend on the viewer).
+                        let ray = Ray::new(position + normal, -normal);
+                        let hit = SurfaceHit {
+                            distance: 1.0,
+                            position,
+                            geometric_normal: normal,
+                            shading_normal: normal,
+                            uv,
+                            object,
+                            primitive: u32::MAX,
+                        };
+                        let mut counters = TraceCounters::default();
+                        trace.shade_diffuse(&ray, &hit, &mut counters).as_vec3()
+                    })
+                    .collect();
+                EnvironmentMesh {
+                    positions: mesh.positions.clone(),
+                    colours,
+                    triangles: mesh.triangles.clone(),
+                }
+            })
+            .collect()
+    }
+
+    /// Builds the frame for `camera` (its resolution × supersampling is the framebuffer size).
+    pub fn frame(
+        &self,
+        camera: &Camera,
+        options: &HybridOptions,
+    ) -> Result<(FrameInput, HybridStats), TessellationError> {
+        let k = camera.supersampling.max(1);
+        let (width, height) = (camera.width * k, camera.height * k);
+        let view_proj = camera.view_proj(0.05, 200.0);
+        let screen = ScreenCamera {
+            eye: camera.position.as_dvec3(),
+            view_proj,
+            subpixels: Vec2::new(width as f32, height as f32),
+        };
+        let blend = viewpoints::blend(
+            &self.viewpoints,
+            camera.look_at.as_dvec3(),
+            camera.position.as_dvec3(),
+        )
+        .unwrap_or(viewpoints::ViewpointBlend {
+            samples: vec![(0, 1.0)],
+        });
+        let mut stats = HybridStats::default();
+        let mut lenses = Vec::new();
+        for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
+            let mut positions: Vec<Vec3> = Vec::new();
+            let mut triangles: Vec<[u32; 3]> = Vec::new();
+            let mut samples: Vec<Option<VertexPaths>> = Vec::new();
+            for &object in &lens.objects {
+                let mesh = &self.scene.objects[object].mesh;
+                let oracle = PathOracle::new(
+                    &self.trace,
+                    lens_index,
+                    object,
+                    screen,
+                    options.angle_radians,
+                );
+                let start = Instant::now();
+                let tessellation = tessellate(
+                    mesh,
+                    &oracle,
+                    &TessellationOptions {
+                        t: options.t,
+                        ..TessellationOptions::default()
+                    },
+                )?;
+                let elapsed = start.elapsed().as_secs_f64() * 1e3;
+                let counters = oracle.counters();
+                // The oracle's batches run inside tessellate(); their share is ray tracing.
+                let traced_ms = oracle.traced_ms();
+                stats.trace_ms += traced_ms;
+                stats.tessellation_ms += (elapsed - traced_ms).max(0.0);
+                stats.counters.primary_rays += counters.primary_rays;
+                stats.counters.secondary_rays += counters.secondary_rays;
+                stats.counters.shadow_rays += counters.shadow_rays;
+                stats.counters.triangle_tests += counters.triangle_tests;
+                stats.triangles_in += mesh.triangles.len();
+                stats.triangles_out += tessellation.mesh.triangles.len();
+                stats.vertices_traced += tessellation.stats.vertices_evaluated;
+                let base = positions.len() as u32;
+                positions.extend(&tessellation.mesh.positions);
+                triangles.extend(
+                    tessellation
+                        .mesh
+                        .triangles
+                        .iter()
+                        .map(|t| t.map(|i| i + base)),
+                );
+                samples.extend(
+                    tessellation
+                        .vertices
+                        .iter()
+                        .map(|v| v.evaluation.as_ref().map(|e| e.sample)),
+                );
+            }
+            let start = Instant::now();
+            let object = texgen(
+                &self.trace,
+                lens_index,
+                layers,
+                positions,
+                triangles,
+                &samples,
+                &blend,
+            );
+            stats.texgen_ms += start.elapsed().as_secs_f64() * 1e3;
+            lenses.push(object);
+        }
+        let frame = FrameInput {
+            width,
+            height,
+            view_proj,
+            environment: self.environment.clone(),
+            lenses,
+            viewpoint_weights: blend.samples.iter().map(|(_, w)| *w as f32).collect(),
+        };
+        Ok((frame, stats))
+    }
+}
+
+/// Texture coordinates: each vertex's outgoing ray per term against each layer shell gives the
+/// cube-map direction `hit − EM origin`; F·G per term. Vertices with no path (back-facing only,
+/// or no refraction at the first interface) get F·G = 0 and their reflection's direction.
+fn texgen(
+    trace: &TraceScene,
+    lens: usize,
+    layers: &LensLayers,
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    samples: &[Option<VertexPaths>],
+    blend: &viewpoints::ViewpointBlend,
+) -> LensObject {
+    let has = |wanted: fn(&crate::trace::Interface) -> bool| {
+        trace.lenses[lens]
+            .objects
+            .iter()
+            .any(|&o| trace.interface(o).is_some_and(|i| wanted(&i)))
+    };
+    let mut terms = Vec::new();
+    if has(|i| matches!(i, crate::trace::Interface::Dielectric { .. })) {
+        terms.push(Term::Refraction);
+    }
+    terms.push(Term::Reflection);
+    let fallback_direction =
+        |position: Vec3| (position.as_dvec3() - layers.em_origin).normalize_or(DVec3::Z);
+    let term_vertices = terms
+        .iter()
+        .map(|&term| {
+            let path = |v: usize| {
+                samples[v].and_then(|s| {
+                    s.get(term)
+                        .copied()
+                        .or(s.get(Term::Reflection).copied().map(|mut p| {
+                            p.fg = DVec3::ZERO;
+                            p
+                        }))
+                })
+            };
+            let fg = (0..positions.len())
+                .map(|v| path(v).map_or(Vec3::ZERO, |p| p.fg.as_vec3()))
+                .collect();
+            let directions = layers
+                .shells
+                .iter()
+                .map(|shell| {
+                    (0..positions.len())
+                        .map(|v| match path(v) {
+                            Some(p) => shell
+                                .texture_direction_for_ray(
+                                    layers.em_origin,
+                                    p.outgoing.origin,
+                                    p.outgoing.direction,
+                                )
+                                .as_vec3(),
+                            None => fallback_direction(positions[v]).as_vec3(),
+                        })
+                        .collect()
+                })
+                .collect();
+            TermVertices {
+                term,
+                fg,
+                directions,
+            }
+        })
+        .collect();
+    LensObject {
+        name: trace.lenses[lens].name.clone(),
+        positions,
+        triangles,
+        terms: term_vertices,
+        layers: blend
+            .samples
+            .iter()
+            .map(|(sample, _)| layers.maps[(*sample).min(layers.maps.len() - 1)].clone())
+            .collect(),
+    }
+}

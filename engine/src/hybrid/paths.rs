@@ -1,0 +1,217 @@
+//! Per-vertex ray paths from the actual camera (paper §5): for every vertex of a front-facing lens
+//! triangle, a visibility query and the two greedy paths (initial refraction, initial reflection)
+//! with their F·G, outgoing ray and topology. This is the [`VertexOracle`] the adaptive
+//! tessellation asks; it evaluates each batch of new vertices in parallel (rayon) and in order.
+
+use std::sync::Mutex;
+
+use glam::{DVec2, DVec3, Mat4, Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::tessellate::{SurfaceVertex, VertexEvaluation, VertexOracle, faces_eye};
+use crate::trace::{
+    GreedyOptions, Ray, Term,
+    bvh::SurfaceHit,
+    stats::TraceCounters,
+    world::{Part, TraceScene},
+};
+
+/// One term's greedy path at a vertex.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TermPath {
+    /// F·G per channel (0 for a path truncated at the interface cap).
+    pub fg: DVec3,
+    /// The ray leaving the lens object.
+    pub outgoing: Ray,
+    /// Interfaces met and the greedy choices: the path's topology.
+    pub topology: (u32, u32),
+}
+
+/// Both terms' paths at a vertex (`None`: no such path, e.g. no refraction for a mirror or under
+/// total internal reflection at the first interface).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VertexPaths {
+    /// `[refraction, reflection]`.
+    pub terms: [Option<TermPath>; 2],
+}
+
+impl VertexPaths {
+    /// The path of `term`.
+    pub fn get(&self, term: Term) -> Option<&TermPath> {
+        self.terms[term as usize].as_ref()
+    }
+}
+
+/// The camera as the tessellation sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct ScreenCamera {
+    /// Eye position.
+    pub eye: DVec3,
+    /// World → Vulkan clip space.
+    pub view_proj: Mat4,
+    /// Framebuffer size in subpixels (pixels × supersampling).
+    pub subpixels: Vec2,
+}
+
+/// Ray traces the vertices of one scene object of one lens object.
+pub struct PathOracle<'a> {
+    trace: &'a TraceScene,
+    lens: usize,
+    object: usize,
+    camera: ScreenCamera,
+    /// cos of the largest angle between two vertices' outgoing rays before they count as different.
+    cos_threshold: f64,
+    greedy: GreedyOptions,
+    counters: Mutex<(TraceCounters, f64)>,
+}
+
+impl<'a> PathOracle<'a> {
+    /// An oracle for scene object `object` of lens object `lens`; `angle_radians` is the paper's
+    /// 3° outgoing-direction threshold.
+    pub fn new(
+        trace: &'a TraceScene,
+        lens: usize,
+        object: usize,
+        camera: ScreenCamera,
+        angle_radians: f64,
+    ) -> Self {
+        PathOracle {
+            trace,
+            lens,
+            object,
+            camera,
+            cos_threshold: angle_radians.cos(),
+            greedy: GreedyOptions::default(),
+            counters: Mutex::new((TraceCounters::default(), 0.0)),
+        }
+    }
+
+    /// Rays and triangle tests spent so far.
+    pub fn counters(&self) -> TraceCounters {
+        self.counters.lock().map(|c| c.0).unwrap_or_default()
+    }
+
+    /// Wall time spent in vertex batches so far, ms.
+    pub fn traced_ms(&self) -> f64 {
+        self.counters.lock().map(|c| c.1).unwrap_or_default()
+    }
+
+    /// Traces one vertex: the eye ray (the visibility query, and the first hit when the vertex is
+    /// visible), then the two greedy paths from the vertex.
+    fn trace_vertex(
+        &self,
+        vertex: &SurfaceVertex,
+        counters: &mut TraceCounters,
+    ) -> (VertexPaths, bool) {
+        let position = vertex.position.as_dvec3();
+        let to_vertex = position - self.camera.eye;
+        let distance = to_vertex.length();
+        let direction = if distance > 0.0 {
+            to_vertex / distance
+        } else {
+            DVec3::NEG_Z
+        };
+        let eye_ray = Ray::new(self.camera.eye, direction);
+        counters.primary_rays += 1;
+        let first = self.trace.closest_hit(&eye_ray, None, None, counters);
+        let tolerance = 1e-4 * distance.max(1.0);
+        let visible = matches!(first, Some(h) if h.part == Part::Lens(self.lens)
+            && (h.hit.distance - distance).abs() <= tolerance);
+        let hit = match first {
+            Some(h) if visible => h.hit,
+            // Occluded (or a silhouette the eye ray slips past): start the paths at the vertex
+            // itself with its normal, turned to face the eye so the first interface is an entry.
+            _ => {
+                let mut normal = vertex.normal.as_dvec3().normalize_or(-direction);
+                let facing = direction.dot(normal);
+                if facing >= -1e-3 {
+                    normal = (normal - (facing + 1e-3) * direction).normalize_or(-direction);
+                }
+                SurfaceHit {
+                    distance,
+                    position,
+                    geometric_normal: normal,
+                    shading_normal: normal,
+                    uv: vertex.uv.map_or(DVec2::ZERO, |uv| uv.as_dvec2()),
+                    object: self.object,
+                    primitive: u32::MAX,
+                }
+            }
+        };
+        let paths = self
+            .trace
+            .greedy_paths(self.lens, &eye_ray, &hit, self.greedy, counters);
+        let term = |path: &crate::trace::GreedyRayPath| TermPath {
+            fg: path.weight(),
+            outgoing: path.outgoing_ray,
+            topology: (path.interfaces, path.reflections),
+        };
+        (
+            VertexPaths {
+                terms: [
+                    paths.refraction.as_ref().map(term),
+                    Some(term(&paths.reflection)),
+                ],
+            },
+            visible,
+        )
+    }
+}
+
+impl VertexOracle for PathOracle<'_> {
+    type Sample = VertexPaths;
+
+    fn evaluate(&self, vertex: &SurfaceVertex) -> VertexPaths {
+        self.evaluate_batch(std::slice::from_ref(vertex))[0].sample
+    }
+
+    fn evaluate_batch(&self, vertices: &[SurfaceVertex]) -> Vec<VertexEvaluation<VertexPaths>> {
+        let start = std::time::Instant::now();
+        let results: Vec<(VertexPaths, bool, TraceCounters)> = vertices
+            .par_iter()
+            .map(|vertex| {
+                let mut counters = TraceCounters::default();
+                let (sample, visible) = self.trace_vertex(vertex, &mut counters);
+                (sample, visible, counters)
+            })
+            .collect();
+        if let Ok(mut guard) = self.counters.lock() {
+            guard.1 += start.elapsed().as_secs_f64() * 1e3;
+            let total = &mut guard.0;
+            for (_, _, c) in &results {
+                total.primary_rays += c.primary_rays;
+                total.secondary_rays += c.secondary_rays;
+                total.shadow_rays += c.shadow_rays;
+                total.triangle_tests += c.triangle_tests;
+            }
+        }
+        results
+            .into_iter()
+            .map(|(sample, visible, _)| VertexEvaluation { sample, visible })
+            .collect()
+    }
+
+    fn differ(&self, a: &VertexPaths, b: &VertexPaths) -> bool {
+        a.terms.iter().zip(&b.terms).any(|pair| match pair {
+            (None, None) => false,
+            (Some(p), Some(q)) => {
+                p.topology != q.topology
+                    || p.outgoing.direction.dot(q.outgoing.direction) < self.cos_threshold
+            }
+            _ => true,
+        })
+    }
+
+    fn screen(&self, position: Vec3) -> Option<Vec2> {
+        let clip = self.camera.view_proj * position.extend(1.0);
+        if !(clip.w > 1e-6) || !clip.is_finite() {
+            return None;
+        }
+        let ndc = Vec2::new(clip.x, clip.y) / clip.w;
+        Some((ndc + Vec2::ONE) * 0.5 * self.camera.subpixels)
+    }
+
+    fn front_facing(&self, corners: [Vec3; 3]) -> bool {
+        faces_eye(corners, self.camera.eye.as_vec3())
+    }
+}

@@ -1,0 +1,143 @@
+//! What several commands share: stdout printing that survives a closed pipe, camera arguments
+//! and their validation, and progress bars.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use glam::Vec3;
+use indicatif::{ProgressBar, ProgressStyle};
+use lensmap::scene::{Camera, Scene, SceneError};
+use lensmap::trace::image::validate_camera;
+
+/// Prints a line on stdout; a closed stdout (`lensmap … | head`) ends the output, not the work.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// Which camera to render from (default: the scene's camera).
+#[derive(clap::Args, Debug, Clone)]
+pub struct CameraArgs {
+    /// Render from viewpoint sample I of the scene's view space (0-based). Without --view or
+    /// --camera-position the scene's camera is used.
+    #[arg(long, value_name = "I", conflicts_with = "camera_position")]
+    pub view: Option<usize>,
+    /// Camera position "x,y,z" in metres (looking at the scene camera's look-at point unless
+    /// --look-at is given).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub camera_position: Option<Vec3>,
+    /// Point the camera looks at, "x,y,z" in metres.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<Vec3>,
+    /// Image width in pixels (default: the scene camera's).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels (default: the scene camera's).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Supersamples per pixel along each axis, k for k×k (default: the scene camera's).
+    #[arg(long, value_name = "K")]
+    pub supersampling: Option<u32>,
+}
+
+/// Parses "x,y,z" into a vector of three finite numbers.
+pub fn parse_vec3(text: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!(
+            "expected three comma-separated numbers x,y,z, got '{text}'"
+        ));
+    }
+    let mut values = [0.0f32; 3];
+    for (value, part) in values.iter_mut().zip(&parts) {
+        *value = part
+            .parse::<f32>()
+            .map_err(|e| format!("'{part}' is not a number ({e})"))?;
+        if !value.is_finite() {
+            return Err(format!("'{part}' is not a finite number"));
+        }
+    }
+    Ok(Vec3::from_array(values))
+}
+
+/// The camera the arguments ask for, validated; bad values are scene (input) errors.
+pub fn choose_camera(
+    scene: &Scene,
+    scene_arg: &str,
+    args: &CameraArgs,
+) -> Result<Camera, SceneError> {
+    let file = PathBuf::from(scene_arg);
+    let mut camera = match (args.view, args.camera_position) {
+        (Some(view), _) => scene
+            .camera_at_view(view)
+            .ok_or_else(|| SceneError::Invalid {
+                file: file.clone(),
+                field: "--view".to_owned(),
+                problem: format!(
+                    "view {view} does not exist: the view space has {} viewpoint samples",
+                    scene.view_space.len()
+                ),
+                fix: if scene.view_space.is_empty() {
+                    "the scene has no view space; use --camera-position or the scene camera"
+                        .to_owned()
+                } else {
+                    format!("give --view between 0 and {}", scene.view_space.len() - 1)
+                },
+            })?,
+        (None, Some(position)) => scene.camera.with_position(position),
+        (None, None) => scene.camera,
+    };
+    if let Some(look_at) = args.look_at {
+        camera.look_at = look_at;
+    }
+    if let Some(width) = args.width {
+        camera.width = width;
+    }
+    if let Some(height) = args.height {
+        camera.height = height;
+    }
+    if let Some(k) = args.supersampling {
+        camera.supersampling = k;
+    }
+    validate_camera(&camera).map_err(|error| SceneError::Invalid {
+        file,
+        field: "camera (after --view/--camera-position/--look-at/--width/--height/--supersampling)"
+            .to_owned(),
+        problem: error.to_string(),
+        fix: "give a camera position distinct from the look-at point, an image of at least 1×1 \
+              and --supersampling of at least 1"
+            .to_owned(),
+    })?;
+    Ok(camera)
+}
+
+/// A row progress bar on stderr, hidden when stderr is not a terminal.
+pub fn progress_bar(rows: u64) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(rows);
+    if let Ok(style) = ProgressStyle::with_template(
+        "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})",
+    ) {
+        bar.set_style(style);
+    }
+    bar.set_message("ray tracing");
+    bar
+}
+
+/// Median of a sample (0 for none).
+pub fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    values.sort_by(f64::total_cmp);
+    let mid = values.len() / 2;
+    if values.len() % 2 == 1 {
+        values[mid]
+    } else {
+        0.5 * (values[mid - 1] + values[mid])
+    }
+}

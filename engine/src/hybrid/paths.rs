@@ -204,7 +204,7 @@ impl VertexOracle for PathOracle<'_> {
 
     fn screen(&self, position: Vec3) -> Option<Vec2> {
         let clip = self.camera.view_proj * position.extend(1.0);
-        if !(clip.w > 1e-6) || !clip.is_finite() {
+        if !clip.is_finite() || clip.w <= 1e-6 {
             return None;
         }
         let ndc = Vec2::new(clip.x, clip.y) / clip.w;

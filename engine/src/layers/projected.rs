@@ -202,7 +202,7 @@ pub fn project_layers(
                     } else {
                         0.5 * (distances[layer] + distances[layer + 1])
                     };
-                    if !(start < end) {
+                    if start.partial_cmp(&end) != Some(std::cmp::Ordering::Less) {
                         continue;
                     }
                     counters.secondary_rays += 1;

@@ -39,7 +39,7 @@ impl RenderedImage {
     /// The image box-filtered by k×k (k ≥ 1 dividing both sides): supersampled frames to pixels.
     pub fn box_downsample(&self, k: u32) -> RenderedImage {
         let k = k.max(1);
-        if k == 1 || self.width % k != 0 || self.height % k != 0 {
+        if k == 1 || !self.width.is_multiple_of(k) || !self.height.is_multiple_of(k) {
             return self.clone();
         }
         let (width, height) = (self.width / k, self.height / k);

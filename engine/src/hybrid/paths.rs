@@ -214,4 +214,20 @@ impl VertexOracle for PathOracle<'_> {
     fn front_facing(&self, corners: [Vec3; 3]) -> bool {
         faces_eye(corners, self.camera.eye.as_vec3())
     }
+
+    fn outside_view(&self, corners: [Vec3; 3]) -> bool {
+        let clip = corners.map(|p| self.camera.view_proj * p.extend(1.0));
+        // Vulkan clip volume: −w ≤ x, y ≤ w, 0 ≤ z ≤ w. Outside when every corner fails the same
+        // plane.
+        let planes: [fn(glam::Vec4) -> bool; 5] = [
+            |c| c.x < -c.w,
+            |c| c.x > c.w,
+            |c| c.y < -c.w,
+            |c| c.y > c.w,
+            |c| c.z < 0.0,
+        ];
+        planes
+            .iter()
+            .any(|outside| clip.iter().all(|c| outside(*c)))
+    }
 }

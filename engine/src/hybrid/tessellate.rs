@@ -132,6 +132,14 @@ pub trait VertexOracle {
     /// once per input triangle: the pieces of a flat triangle face the same way. For a pinhole
     /// camera at `eye` this is [`faces_eye`].
     fn front_facing(&self, corners: [Vec3; 3]) -> bool;
+
+    /// Whether the triangle with these world-space corners is certainly outside the view (all
+    /// corners beyond one frustum plane): such a triangle covers no pixel and is not split. The
+    /// default says no.
+    fn outside_view(&self, corners: [Vec3; 3]) -> bool {
+        let _ = corners;
+        false
+    }
 }
 
 /// The front-facing test for a pinhole camera at `eye`: the eye is strictly on the front side of
@@ -169,6 +177,8 @@ pub enum StopReason {
     Degenerate,
     /// All three vertices are invisible from the viewpoint.
     Occluded,
+    /// The triangle lies wholly outside the view frustum: it covers no pixel.
+    OffScreen,
     /// No pair of its vertices' samples differ.
     Similar,
     /// Its vertices differ, but every projected edge is shorter than `t` (or not projectable).
@@ -536,6 +546,12 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
         };
         if !(a.visible || b.visible || c.visible) {
             return Decision::Stop(StopReason::Occluded);
+        }
+        if self
+            .oracle
+            .outside_view(corners.map(|v| self.positions[v as usize]))
+        {
+            return Decision::Stop(StopReason::OffScreen);
         }
         let differ = |x: &VertexEvaluation<O::Sample>, y: &VertexEvaluation<O::Sample>| {
             self.oracle.differ(&x.sample, &y.sample)

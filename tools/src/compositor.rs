@@ -1,7 +1,7 @@
 //! `lensmap demo` and `lensmap passes`: the compositor on the built-in synthetic scene, and its
 //! pass plans for experiments.
 
-use std::{path::PathBuf, time::Instant};
+use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
@@ -135,10 +135,10 @@ pub fn passes(args: PassesArgs) -> anyhow::Result<()> {
             "variant": variant.name(), "format": format.name(), "counts": counts, "steps": steps,
             "culled": plan.culled.iter().map(|(n, r)| json!({"pass": n, "reason": r.to_string()})).collect::<Vec<_>>(),
         });
-        println!("{}", serde_json::to_string_pretty(&out)?);
+        say!("{}", serde_json::to_string_pretty(&out)?);
     } else {
         print!("{plan}");
-        println!(
+        say!(
             "{} lens passes: {} prime + {} layer + {} alpha clear + {} single-pass; {} rendering instance(s), {} barrier(s)",
             variant.name(),
             counts["prime"],
@@ -150,25 +150,6 @@ pub fn passes(args: PassesArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-#[derive(Args)]
-pub struct DemoArgs {
-    /// Output directory.
-    #[arg(long, default_value = "out")]
-    out: PathBuf,
-    /// Frame width.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Frame height.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
-    /// Layers per viewpoint sample.
-    #[arg(long, default_value_t = 3)]
-    layers: usize,
-    /// Timed frames per variant (median reported).
-    #[arg(long, default_value_t = 5)]
-    frames: usize,
 }
 
 /// Writes a rendered frame as `<stem>.png` (sRGB) and `<stem>.exr` (linear).
@@ -197,27 +178,28 @@ pub fn max_difference(a: &RenderedImage, b: &RenderedImage) -> f64 {
 }
 
 /// Renders the synthetic scene with both variants, writes PNG and EXR, prints counts and times.
-pub fn demo(args: DemoArgs) -> anyhow::Result<()> {
-    if args.width == 0
-        || args.height == 0
+pub fn synthetic_demo(args: &crate::demo::DemoArgs) -> anyhow::Result<()> {
+    let (width, height) = (args.width.unwrap_or(640), args.height.unwrap_or(480));
+    if width == 0
+        || height == 0
         || args.layers == 0
         || args.layers > lensmap::render::MAX_LAYERS_SINGLE_PASS
     {
         return Err(BadUsage(format!(
             "--width/--height must be ≥ 1 and --layers within 1..={} (got {}×{}, {} layers)",
             lensmap::render::MAX_LAYERS_SINGLE_PASS,
-            args.width,
-            args.height,
+            width,
+            height,
             args.layers
         ))
         .into());
     }
     let started = Instant::now();
     let gpu = Gpu::new(&GpuOptions::from_env())?;
-    println!("device: {}", gpu.device_name());
+    say!("device: {}", gpu.device_name());
     let frame = sphere_frame(&SyntheticOptions {
-        width: args.width,
-        height: args.height,
+        width,
+        height,
         layers: args.layers,
         ..SyntheticOptions::default()
     });
@@ -238,7 +220,7 @@ pub fn demo(args: DemoArgs) -> anyhow::Result<()> {
         }
         let stem = format!("demo-{}", variant.name());
         write_frame(&image, &args.out, &stem)?;
-        println!(
+        say!(
             "{:<12} {} prime + {} layer + {} alpha-clear + {} single-pass passes, median frame {:.2} ms → {}/{stem}.png, .exr",
             variant.name(),
             plan.count("prime"),
@@ -250,15 +232,15 @@ pub fn demo(args: DemoArgs) -> anyhow::Result<()> {
         );
         images.push(image);
     }
-    println!(
+    say!(
         "single-pass vs multipass ({}): max |difference| {:.3e}",
         format.name(),
         max_difference(&images[0], &images[1])
     );
     let report = gpu.validation_report();
     if report.enabled {
-        println!("validation messages: {}", report.messages.len());
+        say!("validation messages: {}", report.messages.len());
     }
-    println!("total {:.2} s", started.elapsed().as_secs_f64());
+    say!("total {:.2} s", started.elapsed().as_secs_f64());
     Ok(())
 }

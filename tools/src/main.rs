@@ -7,6 +7,7 @@ mod common;
 mod bench_passes;
 mod bench_trace;
 mod compositor;
+mod demo;
 mod reference;
 mod render;
 
@@ -24,10 +25,11 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render the built-in synthetic scene with both compositor variants into out/.
+    /// The main job: hybrid frames of teapot-room (both variants, t = 3 and 5) beside the
+    /// reference ray tracer, with the paper's table and PSNR, into out/.
     ///
-    /// Example: lensmap demo --out out
-    Demo(compositor::DemoArgs),
+    /// Example: lensmap demo --out out   (or --synthetic for the compositor alone)
+    Demo(demo::DemoArgs),
     /// Print the compositor's pass plan for a pass-count or blending-mode experiment.
     ///
     /// Example: lensmap passes --layers 3 --viewpoints 2 --terms 2 --variant multipass --format rgba8
@@ -89,7 +91,7 @@ fn is_bad_input(error: &anyhow::Error) -> bool {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Demo(args) => compositor::demo(args),
+        Command::Demo(args) => demo::run(args),
         Command::Passes(args) => compositor::passes(args),
         Command::Reference(args) => reference::run(args),
         Command::Render(args) => render::run(args),

@@ -4,7 +4,8 @@
 
 use std::{sync::Arc, time::Instant};
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec2, DVec3, Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::{
     paths::{PathOracle, ScreenCamera, VertexPaths},
@@ -17,6 +18,9 @@ use crate::{
     scene::{Camera, Scene},
     trace::{Ray, Term, bvh::SurfaceHit, stats::TraceCounters, world::TraceScene},
 };
+
+/// Longest edge of an environment piece on the GPU, metres.
+pub const ENVIRONMENT_PIECE_METRES: f32 = 0.25;
 
 /// A lens object's layered EMs.
 #[derive(Clone, Debug)]
@@ -208,7 +212,10 @@ impl HybridScene {
         }
     }
 
-    /// Opaque environment meshes with per-vertex Lambert shading (view independent: once per scene).
+    /// The opaque environment for the GPU: each environment triangle cut into pieces no longer
+    /// than [`ENVIRONMENT_PIECE_METRES`] along any edge, each piece flat-shaded (Lambert with
+    /// shadows, its texture sampled) at its centroid. View independent, so made once per scene;
+    /// textures such as a checker floor stay recognisable without texture mapping on the GPU.
     pub fn environment_meshes(scene: &Scene, trace: &TraceScene) -> Vec<EnvironmentMesh> {
         scene
             .objects
@@ -217,16 +224,56 @@ impl HybridScene {
             .filter(|(i, _)| trace.object_lens.get(*i).is_some_and(|l| l.is_none()))
             .map(|(object, o)| {
                 let mesh = &o.mesh;
-                let colours = (0..mesh.positions.len())
-                    .map(|v| {
-                        let position = mesh.positions[v].as_dvec3();
-                        let normal = mesh
-                            .normals
-                            .get(v)
-                            .map_or(DVec3::Y, |n| n.as_dvec3().normalize_or(DVec3::Y));
-                        let uv = mesh.uvs.get(v).copied().unwrap_or(Vec2::ZERO).as_dvec2();
-                        // Shade as seen from just off the surface along the normal (two-sided
-                        // Lambert does not depend on the viewer).
+                let mut pieces: Vec<[usize; 3]> = Vec::new();
+                let mut corners: Vec<[(DVec3, DVec3, DVec2); 3]> = Vec::new();
+                for t in &mesh.triangles {
+                    let vertex = |i: u32| {
+                        let i = i as usize;
+                        (
+                            mesh.positions[i].as_dvec3(),
+                            mesh.normals.get(i).map_or(DVec3::Y, |n| n.as_dvec3()),
+                            mesh.uvs.get(i).copied().unwrap_or(Vec2::ZERO).as_dvec2(),
+                        )
+                    };
+                    let longest = (0..3)
+                        .map(|e| {
+                            (mesh.positions[t[e] as usize]
+                                - mesh.positions[t[(e + 1) % 3] as usize])
+                                .length()
+                        })
+                        .fold(0.0f32, f32::max);
+                    // n×n pieces per triangle (barycentric grid), n a power of two, capped.
+                    let n = ((longest / ENVIRONMENT_PIECE_METRES).ceil() as u32)
+                        .clamp(1, 256)
+                        .next_power_of_two() as usize;
+                    let [a, b, c] = t.map(vertex);
+                    let at = |i: usize, j: usize| {
+                        let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                        let w = 1.0 - u - v;
+                        (
+                            a.0 * w + b.0 * u + c.0 * v,
+                            a.1 * w + b.1 * u + c.1 * v,
+                            a.2 * w + b.2 * u + c.2 * v,
+                        )
+                    };
+                    for j in 0..n {
+                        for i in 0..n - j {
+                            corners.push([at(i, j), at(i + 1, j), at(i, j + 1)]);
+                            if i + j + 1 < n {
+                                corners.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+                            }
+                        }
+                    }
+                }
+                pieces.extend((0..corners.len()).map(|p| [3 * p, 3 * p + 1, 3 * p + 2]));
+                let colours: Vec<Vec3> = corners
+                    .par_iter()
+                    .map(|piece| {
+                        let position = (piece[0].0 + piece[1].0 + piece[2].0) / 3.0;
+                        let normal = (piece[0].1 + piece[1].1 + piece[2].1).normalize_or(DVec3::Y);
+                        let uv = (piece[0].2 + piece[1].2 + piece[2].2) / 3.0;
+                        // Seen from just off the surface along the normal: two-sided Lambert
+                        // does not depend on the viewer.
                         let ray = Ray::new(position + normal, -normal);
                         let hit = SurfaceHit {
                             distance: 1.0,
@@ -242,9 +289,12 @@ impl HybridScene {
                     })
                     .collect();
                 EnvironmentMesh {
-                    positions: mesh.positions.clone(),
-                    colours,
-                    triangles: mesh.triangles.clone(),
+                    positions: corners
+                        .iter()
+                        .flat_map(|piece| piece.map(|c| c.0.as_vec3()))
+                        .collect(),
+                    colours: colours.iter().flat_map(|c| [*c; 3]).collect(),
+                    triangles: pieces.iter().map(|p| p.map(|i| i as u32)).collect(),
                 }
             })
             .collect()

@@ -4,6 +4,7 @@
 
 #[macro_use]
 mod common;
+mod bench_hybrid;
 mod bench_passes;
 mod bench_trace;
 mod compositor;
@@ -54,6 +55,10 @@ enum BenchCommand {
     ///
     /// Example: lensmap bench passes --width 640 --height 480
     Passes(bench_passes::BenchPassesArgs),
+    /// Hybrid frame time per stage (medians), single pass vs multipass.
+    ///
+    /// Example: lensmap bench hybrid --width 640 --height 480
+    Hybrid(bench_hybrid::BenchHybridArgs),
     /// Ray tracer throughput on teapot-room, greedy vs full tree, 1 and 2 threads.
     ///
     /// Example: lensmap bench trace --width 640 --height 480 --supersampling 3
@@ -97,6 +102,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render::run(args),
         Command::Bench(BenchCommand::Passes(args)) => bench_passes::run(args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(args),
+        Command::Bench(BenchCommand::Hybrid(args)) => bench_hybrid::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

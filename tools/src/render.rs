@@ -78,6 +78,10 @@ pub struct HybridFrame {
     pub stats: HybridStats,
     /// GPU upload, rendering and readback, ms.
     pub gpu_ms: f64,
+    /// Of which: uploading the frame's data (lens geometry; EMs only when new), ms.
+    pub upload_ms: f64,
+    /// Of which: recording, executing and reading back the frame.
+    pub render: lensmap::render::FrameTimings,
     /// Whole frame, ms.
     pub total_ms: f64,
 }
@@ -104,13 +108,16 @@ pub fn hybrid_frame(
     let (frame, stats) = hybrid.frame(camera, options)?;
     let gpu_start = Instant::now();
     let mut uploaded = renderer.upload(gpu, &frame)?;
-    let (image, _) = renderer.render(gpu, &mut uploaded, variant, format)?;
+    let upload_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
+    let (image, render) = renderer.render(gpu, &mut uploaded, variant, format)?;
     let image = image.box_downsample(camera.supersampling);
     let gpu_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
     Ok(HybridFrame {
         image,
         stats,
         gpu_ms,
+        upload_ms,
+        render,
         total_ms: start.elapsed().as_secs_f64() * 1e3,
     })
 }

@@ -20,7 +20,7 @@ use crate::{
 };
 
 /// Longest edge of an environment piece on the GPU, metres.
-pub const ENVIRONMENT_PIECE_METRES: f32 = 0.25;
+pub const ENVIRONMENT_PIECE_METRES: f32 = 0.5;
 
 /// A lens object's layered EMs.
 #[derive(Clone, Debug)]

@@ -1,0 +1,168 @@
+//! `lensmap bench hybrid`: where a hybrid frame's time goes, per stage, as medians over repeated
+//! frames, single pass vs multipass measured in the same run.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use lensmap::{
+    gpu::{Gpu, GpuOptions},
+    hybrid::HybridOptions,
+    render::{Renderer, TargetFormat, Variant},
+    scene::Scene,
+};
+use serde_json::json;
+
+use crate::common::median;
+use crate::compositor::FormatArg;
+use crate::demo::novel_camera;
+use crate::render::{HybridFrame, hybrid_frame, hybrid_scene};
+
+#[derive(Args)]
+pub struct BenchHybridArgs {
+    /// Built-in scene name or path.
+    #[arg(long, default_value = "teapot-room")]
+    scene: String,
+    /// Frame width.
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    /// Frame height.
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// Supersampling k×k of the framebuffer.
+    #[arg(long, default_value_t = 1)]
+    supersampling: u32,
+    /// Tessellation threshold in subpixels.
+    #[arg(long, default_value_t = 3.0)]
+    t: f32,
+    /// Framebuffer format.
+    #[arg(long, value_enum, default_value = "rgba16f")]
+    format: FormatArg,
+    /// Projected EMs: cube-map face size.
+    #[arg(long, default_value_t = 128)]
+    em_size: u32,
+    /// Timed frames per variant (after two warm-up frames).
+    #[arg(long, default_value_t = 9)]
+    frames: usize,
+    /// Where to write the JSON results.
+    #[arg(long, default_value = "out/bench-hybrid.json")]
+    json: PathBuf,
+}
+
+pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
+    let mut scene = Scene::load_named(&args.scene)?;
+    scene.camera.width = args.width;
+    scene.camera.height = args.height;
+    scene.camera.supersampling = args.supersampling.max(1);
+    let camera = novel_camera(&scene);
+    let hybrid = hybrid_scene(scene, None, args.em_size)?;
+    let gpu = Gpu::new(&GpuOptions::from_env())?;
+    let mut renderer = Renderer::new(&gpu)?;
+    let options = HybridOptions {
+        t: args.t,
+        ..HybridOptions::default()
+    };
+    let format = TargetFormat::from(args.format);
+    say!(
+        "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
+        gpu.device_name(),
+        hybrid.scene.name,
+        args.width,
+        args.height,
+        camera.supersampling,
+        camera.supersampling,
+        args.t,
+        format.name(),
+        rayon::current_num_threads(),
+        args.frames
+    );
+    say!(
+        "{:<12} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9}",
+        "variant",
+        "trace",
+        "texgen",
+        "tessel.",
+        "upload",
+        "record",
+        "execute",
+        "readback",
+        "other",
+        "total ms"
+    );
+    let mut rows = Vec::new();
+    for variant in [Variant::SinglePass, Variant::Multipass] {
+        for _ in 0..2 {
+            hybrid_frame(
+                &gpu,
+                &mut renderer,
+                &hybrid,
+                &camera,
+                &options,
+                variant,
+                format,
+            )?;
+        }
+        let frames: Vec<HybridFrame> = (0..args.frames.max(1))
+            .map(|_| {
+                hybrid_frame(
+                    &gpu,
+                    &mut renderer,
+                    &hybrid,
+                    &camera,
+                    &options,
+                    variant,
+                    format,
+                )
+            })
+            .collect::<anyhow::Result<_>>()?;
+        let stage =
+            |f: &dyn Fn(&HybridFrame) -> f64| median(&mut frames.iter().map(f).collect::<Vec<_>>());
+        let trace = stage(&|f| f.stats.trace_ms);
+        let texgen = stage(&|f| f.stats.texgen_ms);
+        let tessellation = stage(&|f| f.stats.tessellation_ms);
+        let upload = stage(&|f| f.upload_ms);
+        let record = stage(&|f| f.render.record_ms);
+        let execute = stage(&|f| f.render.execute_ms);
+        let readback = stage(&|f| f.render.readback_ms);
+        let other = stage(&|f| f.other_ms());
+        let total = stage(&|f| f.total_ms);
+        say!(
+            "{:<12} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1}",
+            variant.name(),
+            trace,
+            texgen,
+            tessellation,
+            upload,
+            record,
+            execute,
+            readback,
+            other,
+            total
+        );
+        let last = frames.last().context("at least one frame")?;
+        rows.push(json!({
+            "variant": variant.name(),
+            "median_ms": {
+                "ray_tracing_at_vertices": trace, "texture_coordinates": texgen, "tessellation": tessellation,
+                "upload": upload, "record": record, "execute": execute, "readback": readback,
+                "other": other, "total": total,
+            },
+            "rays": last.stats.counters.all_rays(),
+            "triangle_tests": last.stats.counters.triangle_tests,
+            "lens_triangles_out": last.stats.triangles_out,
+        }));
+    }
+    let out = json!({
+        "device": gpu.device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
+        "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
+        "threads": rayon::current_num_threads(), "frames": args.frames, "rows": rows,
+    });
+    if let Some(parent) = args.json.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+    }
+    std::fs::write(&args.json, serde_json::to_string_pretty(&out)?)
+        .with_context(|| args.json.display().to_string())?;
+    say!("wrote {}", args.json.display());
+    Ok(())
+}

@@ -187,3 +187,32 @@ fn awkward_cameras_render_without_error_or_nan() {
     }
     assert_clean(&gpu);
 }
+
+#[test]
+fn a_written_bake_reads_back_into_the_same_frame() {
+    let mut scene = Scene::load_named("glass-sphere").unwrap();
+    scene.camera.width = 40;
+    scene.camera.height = 30;
+    scene.camera.supersampling = 1;
+    let camera = scene.camera;
+    let (projected, _) = HybridScene::projected(
+        scene.clone(),
+        &ProjectedOptions {
+            size: 8,
+            supersampling: 1,
+        },
+    )
+    .unwrap();
+    let dir = temp_dir("bake").join("bake");
+    projected.to_bake().write(&dir).unwrap();
+    let baked = HybridScene::from_bake(scene, lensmap::layers::Bake::read(&dir).unwrap()).unwrap();
+    let (a, _) = projected.frame(&camera, &HybridOptions::default()).unwrap();
+    let (b, _) = baked.frame(&camera, &HybridOptions::default()).unwrap();
+    assert_eq!(a.lenses.len(), b.lenses.len());
+    for (x, y) in a.lenses.iter().zip(&b.lenses) {
+        assert_eq!(x.positions, y.positions);
+        assert_eq!(x.terms, y.terms);
+        // A projected bake has one viewpoint sample: the same maps, bit for bit.
+        assert_eq!(*x.layers[0][0], *y.layers[0][0]);
+    }
+}

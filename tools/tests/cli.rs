@@ -101,3 +101,32 @@ fn no_vulkan_driver_exits_2_naming_the_package() {
     assert!(stderr.contains("mesa-vulkan-drivers"), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+#[test]
+fn render_with_a_missing_bake_exits_2_naming_it() {
+    let out = lensmap(&[
+        "render",
+        "--scene",
+        "glass-sphere",
+        "--bake",
+        "/nonexistent/lensmap-bake",
+        "--out",
+        "/tmp/lensmap-cli-render.png",
+    ]);
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("/nonexistent/lensmap-bake"), "{stderr}");
+}
+
+#[test]
+fn render_with_an_unknown_scene_exits_2() {
+    let out = lensmap(&["render", "--scene", "no-such-scene", "--projected"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-scene"));
+}

@@ -59,7 +59,7 @@ mod tests {
         (0..count)
             .map(|i| {
                 let a = (i as f64 * step_degrees).to_radians();
-                DVec3::new(4.0 * a.cos(), 1.0, 4.0 * a.sin())
+                DVec3::new(4.0 * a.cos(), 0.0, 4.0 * a.sin())
             })
             .collect()
     }
@@ -76,7 +76,7 @@ mod tests {
         // A camera 2° past sample 5 (at 40°) towards sample 6 (48°): weights 6/8 and 2/8.
         let samples = circle(45, 8.0);
         let a = 42f64.to_radians();
-        let camera = DVec3::new(4.0 * a.cos(), 1.0, 4.0 * a.sin());
+        let camera = DVec3::new(4.0 * a.cos(), 0.0, 4.0 * a.sin());
         let b = blend(&samples, DVec3::ZERO, camera).unwrap();
         assert_eq!(b.samples.len(), 2);
         assert_eq!((b.samples[0].0, b.samples[1].0), (5, 6));

@@ -130,3 +130,19 @@ fn render_with_an_unknown_scene_exits_2() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no-such-scene"));
 }
+
+#[test]
+fn a_malformed_scene_file_exits_2_with_file_and_line() {
+    let dir = std::env::temp_dir().join(format!("lensmap-cli-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("broken.toml");
+    std::fs::write(&path, "[camera]\nposition = [0, 1, 2\n").unwrap();
+    let scene = path.to_string_lossy().to_string();
+    for command in [&["reference", "--scene", &scene, "--out", "/tmp/lensmap-cli-ref"][..], &["render", "--scene", &scene, "--projected"][..]] {
+        let out = lensmap(command);
+        assert_eq!(out.status.code(), Some(2), "{command:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains("broken.toml") && !stderr.contains("panicked"), "{stderr}");
+    }
+}

@@ -102,14 +102,14 @@ fn main() {
 /// Parses, validates and writes one SPIR-V module per entry point (and per specialization).
 fn compile(source: &str, shown: &str) -> Result<Vec<(String, String, Vec<u32>)>, String> {
     let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| format!("error: {}", e.emit_to_string_with_path(source, shown)))?;
+        .map_err(|e| e.emit_to_string_with_path(source, shown))?;
     let mut validator = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::IMMEDIATES | naga::valid::Capabilities::CUBE_ARRAY_TEXTURES,
     );
     let info = validator
         .validate(&module)
-        .map_err(|e| format!("error: {}", e.emit_to_string_with_path(source, shown)))?;
+        .map_err(|e| e.emit_to_string_with_path(source, shown))?;
     // Vulkan conventions throughout (y down in clip space, depth 0..1): no coordinate flip.
     let options = naga::back::spv::Options {
         lang_version: (1, 3),

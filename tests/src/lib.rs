@@ -17,6 +17,8 @@ pub fn gpu() -> Gpu {
 /// Fails the test if the validation layer reported anything.
 pub fn assert_clean(gpu: &Gpu) {
     let report = gpu.validation_report();
+    let asked = std::env::var("LENSMAP_TEST_NO_VALIDATION").map_or(true, |v| v != "1");
+    assert!(!asked || report.enabled, "the validation layer is not on");
     assert!(
         report.messages.is_empty(),
         "{} validation message(s):\n{}",

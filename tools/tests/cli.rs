@@ -138,11 +138,23 @@ fn a_malformed_scene_file_exits_2_with_file_and_line() {
     let path = dir.join("broken.toml");
     std::fs::write(&path, "[camera]\nposition = [0, 1, 2\n").unwrap();
     let scene = path.to_string_lossy().to_string();
-    for command in [&["reference", "--scene", &scene, "--out", "/tmp/lensmap-cli-ref"][..], &["render", "--scene", &scene, "--projected"][..]] {
+    for command in [
+        &[
+            "reference",
+            "--scene",
+            &scene,
+            "--out",
+            "/tmp/lensmap-cli-ref",
+        ][..],
+        &["render", "--scene", &scene, "--projected"][..],
+    ] {
         let out = lensmap(command);
         assert_eq!(out.status.code(), Some(2), "{command:?}");
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
-        assert!(stderr.contains("broken.toml") && !stderr.contains("panicked"), "{stderr}");
+        assert!(
+            stderr.contains("broken.toml") && !stderr.contains("panicked"),
+            "{stderr}"
+        );
     }
 }

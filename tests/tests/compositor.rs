@@ -139,7 +139,7 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
         width: SIZE,
         height: SIZE,
         view_proj,
-        environment: vec![EnvironmentMesh {
+        environment: vec![std::sync::Arc::new(EnvironmentMesh {
             positions: vec![
                 Vec3::new(-6.0, -6.0, -3.0),
                 Vec3::new(6.0, -6.0, -3.0),
@@ -151,7 +151,7 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
                 Vec3::new(0.1, 0.1, 0.9),
             ],
             triangles: vec![[0, 1, 2]],
-        }],
+        })],
         lenses: vec![LensObject {
             name: "sheet".into(),
             positions,

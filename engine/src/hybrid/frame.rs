@@ -56,8 +56,8 @@ pub struct HybridScene {
     pub viewpoints: Vec<DVec3>,
     /// Per lens object (TraceScene order).
     pub lenses: Vec<LensLayers>,
-    /// The opaque environment for the GPU, with Lambert shading per vertex.
-    pub environment: Vec<EnvironmentMesh>,
+    /// The opaque environment for the GPU, flat-shaded pieces (see [`HybridScene::environment_meshes`]).
+    pub environment: Vec<Arc<EnvironmentMesh>>,
 }
 
 /// Per-frame options.
@@ -216,7 +216,7 @@ impl HybridScene {
     /// than [`ENVIRONMENT_PIECE_METRES`] along any edge, each piece flat-shaded (Lambert with
     /// shadows, its texture sampled) at its centroid. View independent, so made once per scene;
     /// textures such as a checker floor stay recognisable without texture mapping on the GPU.
-    pub fn environment_meshes(scene: &Scene, trace: &TraceScene) -> Vec<EnvironmentMesh> {
+    pub fn environment_meshes(scene: &Scene, trace: &TraceScene) -> Vec<Arc<EnvironmentMesh>> {
         scene
             .objects
             .iter()
@@ -288,14 +288,14 @@ impl HybridScene {
                         trace.shade_diffuse(&ray, &hit, &mut counters).as_vec3()
                     })
                     .collect();
-                EnvironmentMesh {
+                Arc::new(EnvironmentMesh {
                     positions: corners
                         .iter()
                         .flat_map(|piece| piece.map(|c| c.0.as_vec3()))
                         .collect(),
                     colours: colours.iter().flat_map(|c| [*c; 3]).collect(),
                     triangles: pieces.iter().map(|p| p.map(|i| i as u32)).collect(),
-                }
+                })
             })
             .collect()
     }
@@ -441,11 +441,13 @@ fn texgen(
             let fg = (0..positions.len())
                 .map(|v| path(v).map_or(Vec3::ZERO, |p| p.fg.as_vec3()))
                 .collect();
+            // Every (vertex, shell) is independent: in parallel, collected in order.
             let directions = layers
                 .shells
                 .iter()
                 .map(|shell| {
                     (0..positions.len())
+                        .into_par_iter()
                         .map(|v| match path(v) {
                             Some(p) => shell
                                 .texture_direction_for_ray(

@@ -113,8 +113,11 @@ impl<'a> PathOracle<'a> {
         };
         let eye_ray = Ray::new(self.camera.eye, direction);
         counters.primary_rays += 1;
-        let first = self.trace.closest_hit(&eye_ray, None, None, counters);
+        // Only what lies up to the vertex matters: the vertex itself, or an occluder.
         let tolerance = 1e-4 * distance.max(1.0);
+        let first =
+            self.trace
+                .closest_hit_within(&eye_ray, distance + tolerance, None, None, counters);
         let visible = matches!(first, Some(h) if h.part == Part::Lens(self.lens)
             && (h.hit.distance - distance).abs() <= tolerance);
         let hit = match first {

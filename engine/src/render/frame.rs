@@ -131,7 +131,7 @@ struct Targets {
 pub struct UploadedFrame {
     shape: FrameShape,
     view_proj: [f32; 16],
-    environment: Vec<GpuMesh>,
+    environment: Vec<Arc<GpuMesh>>,
     lenses: Vec<GpuLens>,
     descriptor_pool: vk::DescriptorPool,
     targets: HashMap<TargetFormat, Targets>,
@@ -169,8 +169,17 @@ pub struct Renderer {
     /// Uploaded layered EMs, keyed by the identity of their `Arc<CubeMap>`s: a frame that hands
     /// over the same maps as a recent one reuses their cube-map array instead of uploading again.
     layer_cache: HashMap<Vec<usize>, CachedLayers>,
+    /// Uploaded environment meshes, keyed by the identity of their `Arc<EnvironmentMesh>`.
+    mesh_cache: HashMap<usize, CachedMesh>,
     /// Uploads so far (for evicting cache entries no recent frame used).
     generation: u64,
+}
+
+/// One uploaded environment mesh and the mesh it holds (kept so its address stays unique).
+struct CachedMesh {
+    _mesh: Arc<super::EnvironmentMesh>,
+    buffers: Arc<GpuMesh>,
+    last_used: u64,
 }
 
 /// One uploaded cube-map array and the maps it holds (kept so their addresses stay unique).
@@ -319,6 +328,7 @@ impl Renderer {
             pipelines: HashMap::new(),
             command_buffer: gpu.allocate_command_buffer()?,
             layer_cache: HashMap::new(),
+            mesh_cache: HashMap::new(),
             generation: 0,
         };
         let vk_err = |call| move |result| GpuError::Vulkan { call, result };
@@ -383,47 +393,7 @@ impl Renderer {
             .environment
             .iter()
             .filter(|m| !m.triangles.is_empty())
-            .map(|mesh| {
-                let positions: Vec<u8> = mesh
-                    .positions
-                    .iter()
-                    .flat_map(|p| p.to_array())
-                    .flat_map(f32::to_le_bytes)
-                    .collect();
-                let colours: Vec<u8> = mesh
-                    .colours
-                    .iter()
-                    .flat_map(|c| c.to_array())
-                    .flat_map(f32::to_le_bytes)
-                    .collect();
-                let indices: Vec<u8> = mesh
-                    .triangles
-                    .iter()
-                    .flatten()
-                    .flat_map(|i| i.to_le_bytes())
-                    .collect();
-                Ok(GpuMesh {
-                    positions: Buffer::with_data(
-                        gpu,
-                        "environment positions",
-                        &positions,
-                        BufferUsage::Vertex,
-                    )?,
-                    colours: Buffer::with_data(
-                        gpu,
-                        "environment colours",
-                        &colours,
-                        BufferUsage::Vertex,
-                    )?,
-                    indices: Buffer::with_data(
-                        gpu,
-                        "environment indices",
-                        &indices,
-                        BufferUsage::Index,
-                    )?,
-                    index_count: (mesh.triangles.len() * 3) as u32,
-                })
-            })
+            .map(|mesh| self.environment_mesh(gpu, mesh))
             .collect::<Result<Vec<_>, GpuError>>()?;
 
         let set_count = frame
@@ -477,6 +447,56 @@ impl Renderer {
         self.layer_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
         Ok(uploaded)
+    }
+
+    /// The vertex and index buffers of an environment mesh, from the cache or freshly uploaded.
+    fn environment_mesh(
+        &mut self,
+        gpu: &Gpu,
+        mesh: &Arc<super::EnvironmentMesh>,
+    ) -> Result<Arc<GpuMesh>, GpuError> {
+        let key = Arc::as_ptr(mesh) as usize;
+        if let Some(cached) = self.mesh_cache.get_mut(&key) {
+            cached.last_used = self.generation;
+            return Ok(cached.buffers.clone());
+        }
+        let floats = |v: &[glam::Vec3]| -> Vec<u8> {
+            v.iter()
+                .flat_map(|p| p.to_array())
+                .flat_map(f32::to_le_bytes)
+                .collect()
+        };
+        let indices: Vec<u8> = mesh
+            .triangles
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        let buffers = Arc::new(GpuMesh {
+            positions: Buffer::with_data(
+                gpu,
+                "environment positions",
+                &floats(&mesh.positions),
+                BufferUsage::Vertex,
+            )?,
+            colours: Buffer::with_data(
+                gpu,
+                "environment colours",
+                &floats(&mesh.colours),
+                BufferUsage::Vertex,
+            )?,
+            indices: Buffer::with_data(gpu, "environment indices", &indices, BufferUsage::Index)?,
+            index_count: (mesh.triangles.len() * 3) as u32,
+        });
+        self.mesh_cache.insert(
+            key,
+            CachedMesh {
+                _mesh: mesh.clone(),
+                buffers: buffers.clone(),
+                last_used: self.generation,
+            },
+        );
+        Ok(buffers)
     }
 
     /// The cube-map array holding `cubes`, from the cache or freshly uploaded.

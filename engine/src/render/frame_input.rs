@@ -109,8 +109,9 @@ pub struct FrameInput {
     pub height: u32,
     /// World → Vulkan clip space (y down, depth 0..1).
     pub view_proj: Mat4,
-    /// Opaque environment, drawn first.
-    pub environment: Vec<EnvironmentMesh>,
+    /// Opaque environment, drawn first. Shared (`Arc`) like the layered EMs: the renderer keeps a
+    /// mesh's buffers for as long as frames keep handing it the same `Arc`.
+    pub environment: Vec<Arc<EnvironmentMesh>>,
     /// Lens objects.
     pub lenses: Vec<LensObject>,
     /// Weight of each viewpoint sample (one or two entries, summing to 1). A zero weight skips

@@ -1098,7 +1098,7 @@ mod tests {
             width: 8,
             height: 8,
             view_proj: Mat4::IDENTITY,
-            environment: vec![environment],
+            environment: vec![std::sync::Arc::new(environment)],
             lenses: vec![lens],
             viewpoint_weights: weights,
         }
@@ -1215,11 +1215,11 @@ mod tests {
             width: 32,
             height: 32,
             view_proj,
-            environment: vec![EnvironmentMesh {
+            environment: vec![std::sync::Arc::new(EnvironmentMesh {
                 positions: corners.clone(),
                 colours: corners.clone(),
                 triangles: vec![[0, 1, 2]],
-            }],
+            })],
             lenses: vec![],
             viewpoint_weights: vec![1.0],
         };
@@ -1486,7 +1486,7 @@ mod tests {
             width: size,
             height: size,
             view_proj,
-            environment: vec![environment],
+            environment: vec![std::sync::Arc::new(environment)],
             lenses: vec![LensObject {
                 name: "sphere".into(),
                 positions,

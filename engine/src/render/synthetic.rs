@@ -252,7 +252,7 @@ pub fn uv_sphere(radius: f32, stacks: u32, slices: u32) -> (Vec<Vec3>, Vec<[u32;
 }
 
 /// A floor checkerboard and a back wall, as flat-coloured quads.
-fn room() -> Vec<EnvironmentMesh> {
+fn room() -> Vec<std::sync::Arc<EnvironmentMesh>> {
     let mut mesh = EnvironmentMesh {
         positions: Vec::new(),
         colours: Vec::new(),
@@ -298,7 +298,7 @@ fn room() -> Vec<EnvironmentMesh> {
         ],
         wall,
     );
-    vec![mesh]
+    vec![std::sync::Arc::new(mesh)]
 }
 
 /// The demo camera's view-projection (for callers that build their own frames).

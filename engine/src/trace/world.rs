@@ -202,6 +202,19 @@ impl TraceScene {
         skip_lens: Option<usize>,
         counters: &mut TraceCounters,
     ) -> Option<WorldHit> {
+        self.closest_hit_within(ray, f64::INFINITY, exclude, skip_lens, counters)
+    }
+
+    /// [`TraceScene::closest_hit`] limited to distances ≤ `max_distance` (metres): a query that
+    /// only asks what lies before a known point (a visibility test) traverses less.
+    pub fn closest_hit_within(
+        &self,
+        ray: &Ray,
+        max_distance: f64,
+        exclude: Option<SurfaceId>,
+        skip_lens: Option<usize>,
+        counters: &mut TraceCounters,
+    ) -> Option<WorldHit> {
         let mut best: Option<WorldHit> = None;
         let parts = std::iter::once(Part::Environment).chain(
             (0..self.lenses.len())
@@ -209,7 +222,7 @@ impl TraceScene {
                 .map(Part::Lens),
         );
         for part in parts {
-            let max = best.map_or(f64::INFINITY, |b| b.hit.distance);
+            let max = best.map_or(max_distance, |b| b.hit.distance);
             let skip = exclude.filter(|e| e.part == part).map(|e| e.primitive);
             if let Some(hit) =
                 self.bvh(part)

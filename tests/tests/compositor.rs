@@ -252,30 +252,82 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).unwrap();
     let mut rng = Pcg64::seed_from_u64(7);
-    let mut frame = random_frame(&mut rng, 2, 2, &[Term::Refraction, Term::Reflection]);
-    frame.viewpoint_weights = vec![1.0, 0.0];
-    let mut single = frame.clone();
-    single.viewpoint_weights = vec![1.0];
-    single.lenses[0].layers.truncate(1);
-    for variant in [Variant::Multipass, Variant::SinglePass] {
-        let mut a = renderer.upload(&gpu, &frame).unwrap();
-        let mut b = renderer.upload(&gpu, &single).unwrap();
-        let plan = Renderer::plan(&a, variant, TargetFormat::Rgba32f);
-        if variant == Variant::Multipass {
-            assert_eq!(
-                (plan.count("layer"), plan.count("alpha-clear")),
-                (4, 1),
-                "{plan}"
-            );
+    let both = random_frame(&mut rng, 2, 2, &[Term::Refraction, Term::Reflection]);
+    // Either viewpoint may be the one with weight 0.
+    for zero in [1, 0] {
+        let mut frame = both.clone();
+        frame.viewpoint_weights = if zero == 1 {
+            vec![1.0, 0.0]
+        } else {
+            vec![0.0, 1.0]
+        };
+        let mut single = frame.clone();
+        single.viewpoint_weights = vec![1.0];
+        single.lenses[0].layers.remove(zero);
+        for variant in [Variant::Multipass, Variant::SinglePass] {
+            let mut a = renderer.upload(&gpu, &frame).unwrap();
+            let mut b = renderer.upload(&gpu, &single).unwrap();
+            let plan = Renderer::plan(&a, variant, TargetFormat::Rgba32f);
+            if variant == Variant::Multipass {
+                assert_eq!(
+                    (plan.count("layer"), plan.count("alpha-clear")),
+                    (4, 1),
+                    "{plan}"
+                );
+            }
+            let (x, _) = renderer
+                .render(&gpu, &mut a, variant, TargetFormat::Rgba32f)
+                .unwrap();
+            let (y, _) = renderer
+                .render(&gpu, &mut b, variant, TargetFormat::Rgba32f)
+                .unwrap();
+            assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
         }
-        let (x, _) = renderer
-            .render(&gpu, &mut a, variant, TargetFormat::Rgba32f)
-            .unwrap();
-        let (y, _) = renderer
-            .render(&gpu, &mut b, variant, TargetFormat::Rgba32f)
-            .unwrap();
-        assert_eq!(x, y, "{variant:?}");
     }
+    assert_clean(&gpu);
+}
+
+#[test]
+fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
+    let gpu = gpu();
+    let mut renderer = Renderer::new(&gpu).unwrap();
+    let mut rng = Pcg64::seed_from_u64(5);
+    // Two lens objects with one name would give two passes one name.
+    let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
+    frame.lenses.push(frame.lenses[0].clone());
+    let message = renderer
+        .upload(&gpu, &frame)
+        .err()
+        .expect("duplicate names are rejected")
+        .to_string();
+    assert!(message.contains("name"), "{message}");
+    // A lens with no layers.
+    let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
+    frame.lenses[0].layers[0].clear();
+    frame.lenses[0].terms[0].directions.clear();
+    let message = renderer
+        .upload(&gpu, &frame)
+        .err()
+        .expect("no layers is rejected")
+        .to_string();
+    assert!(message.contains("no layers"), "{message}");
+    // More layers than the single pass carries: an error naming the way out; multipass draws it.
+    let frame = random_frame(&mut rng, 7, 1, &[Term::Reflection]);
+    let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
+    let message = renderer
+        .render(
+            &gpu,
+            &mut uploaded,
+            Variant::SinglePass,
+            TargetFormat::Rgba8,
+        )
+        .err()
+        .expect("7 layers in the single pass is rejected")
+        .to_string();
+    assert!(message.contains("multipass"), "{message}");
+    renderer
+        .render(&gpu, &mut uploaded, Variant::Multipass, TargetFormat::Rgba8)
+        .unwrap();
     assert_clean(&gpu);
 }
 

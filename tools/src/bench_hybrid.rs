@@ -50,6 +50,14 @@ pub struct BenchHybridArgs {
 }
 
 pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
+    crate::render::check_hybrid_options(args.t, 3.0, args.em_size)?;
+    if args.width == 0 || args.height == 0 {
+        return Err(crate::compositor::BadUsage(format!(
+            "--width {} --height {}: give a frame of at least 1×1 pixels",
+            args.width, args.height
+        ))
+        .into());
+    }
     let mut scene = Scene::load_named(&args.scene)?;
     scene.camera.width = args.width;
     scene.camera.height = args.height;
@@ -155,7 +163,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let out = json!({
         "device": gpu.device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
         "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
-        "threads": rayon::current_num_threads(), "frames": args.frames, "rows": rows,
+        "threads": rayon::current_num_threads(), "frames": args.frames.max(1), "rows": rows,
     });
     if let Some(parent) = args.json.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)

@@ -122,6 +122,27 @@ pub fn hybrid_frame(
     })
 }
 
+/// Rejects tessellation and EM options no frame can use (exit code 2 naming the flag).
+pub fn check_hybrid_options(t: f32, angle_degrees: f64, em_size: u32) -> anyhow::Result<()> {
+    let bad = |s: String| Err(crate::compositor::BadUsage(s).into());
+    if !(t.is_finite() && t > 0.0) {
+        return bad(format!(
+            "--t {t}: give a positive number of subpixels, e.g. 3"
+        ));
+    }
+    if !(angle_degrees.is_finite() && angle_degrees > 0.0 && angle_degrees < 180.0) {
+        return bad(format!(
+            "--angle-degrees {angle_degrees}: give an angle in (0, 180), e.g. 3"
+        ));
+    }
+    if !(1..=2048).contains(&em_size) {
+        return bad(format!(
+            "--em-size {em_size}: give a cube-map face size from 1 to 2048 texels, e.g. 128"
+        ));
+    }
+    Ok(())
+}
+
 /// Loads the scene and its layered EMs as the arguments say.
 pub fn hybrid_scene(
     scene: Scene,
@@ -196,21 +217,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         t: args.t,
         angle_radians: args.angle_degrees.to_radians(),
     };
-    if !(args.t.is_finite() && args.t > 0.0) {
-        return Err(crate::compositor::BadUsage(format!(
-            "--t {}: give a positive number of subpixels",
-            args.t
-        ))
-        .into());
-    }
+    check_hybrid_options(args.t, args.angle_degrees, args.em_size)?;
+    // The GPU first: without a driver, fail before the expensive preparation.
+    let gpu = Gpu::new(&GpuOptions::from_env())?;
+    let mut renderer = Renderer::new(&gpu)?;
     let prepare = Instant::now();
     let hybrid = hybrid_scene(scene, args.bake.as_deref(), args.em_size)?;
     let prepare_s = prepare.elapsed().as_secs_f64();
     if let Some(dir) = &args.write_bake {
         hybrid.to_bake().write(dir)?;
     }
-    let gpu = Gpu::new(&GpuOptions::from_env())?;
-    let mut renderer = Renderer::new(&gpu)?;
     let (variant, format) = (Variant::from(args.variant), TargetFormat::from(args.format));
     // The first frame pays for pipeline creation and shader compilation: render it, then time a
     // second one.

@@ -308,7 +308,24 @@ impl HybridScene {
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
         let k = camera.supersampling.max(1);
         let (width, height) = (camera.width * k, camera.height * k);
-        let view_proj = camera.view_proj(0.05, 200.0);
+        // The far plane just past the farthest scene point, so nothing the reference sees is clipped.
+        let far = self
+            .scene
+            .objects
+            .iter()
+            .filter_map(|o| o.mesh.bounds())
+            .flat_map(|(lo, hi)| {
+                (0..8).map(move |i| {
+                    Vec3::new(
+                        [lo.x, hi.x][i & 1],
+                        [lo.y, hi.y][(i >> 1) & 1],
+                        [lo.z, hi.z][i >> 2],
+                    )
+                })
+            })
+            .map(|corner| corner.distance(camera.position))
+            .fold(1.0f32, f32::max);
+        let view_proj = camera.view_proj(0.05, 1.01 * far + 1.0);
         let screen = ScreenCamera {
             eye: camera.position.as_dvec3(),
             view_proj,
@@ -322,6 +339,15 @@ impl HybridScene {
         .unwrap_or(viewpoints::ViewpointBlend {
             samples: vec![(0, 1.0)],
         });
+        // EMs shared by every viewpoint sample (projected ones) need no blending: one sample,
+        // weight 1, half the compositing work.
+        let blend = if self.lenses.iter().all(|l| l.maps.len() == 1) {
+            viewpoints::ViewpointBlend {
+                samples: vec![(blend.samples[0].0, 1.0)],
+            }
+        } else {
+            blend
+        };
         let mut stats = HybridStats::default();
         let mut lenses = Vec::new();
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {

@@ -219,7 +219,8 @@ fn vk_layout(layout: Layout) -> vk::ImageLayout {
     match layout {
         Layout::Undefined => vk::ImageLayout::UNDEFINED,
         Layout::ColourAttachment => vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-        Layout::DepthAttachment => vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+        // Valid for depth-only formats without the separateDepthStencilLayouts feature.
+        Layout::DepthAttachment => vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
         Layout::ShaderRead => vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         Layout::TransferSrc => vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
     }
@@ -445,6 +446,8 @@ impl Renderer {
         }
         let generation = self.generation;
         self.layer_cache
+            .retain(|_, cached| cached.last_used + 1 >= generation);
+        self.mesh_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
         Ok(uploaded)
     }
@@ -738,7 +741,21 @@ impl Renderer {
         frame: &mut UploadedFrame,
         variant: Variant,
         format: TargetFormat,
-    ) -> Result<(RenderedImage, FrameTimings), GpuError> {
+    ) -> Result<(RenderedImage, FrameTimings), RenderError> {
+        if variant == Variant::SinglePass
+            && let Some(lens) = frame
+                .shape
+                .lenses
+                .iter()
+                .find(|l| l.layer_count() > super::MAX_LAYERS_SINGLE_PASS)
+        {
+            return Err(RenderError::BadInput(format!(
+                "lens \"{}\" has {} layers; the single-pass variant supports at most {}: use the multipass variant",
+                lens.name,
+                lens.layer_count(),
+                super::MAX_LAYERS_SINGLE_PASS
+            )));
+        }
         let start = Instant::now();
         let plan = Self::plan(frame, variant, format);
         let (width, height) = (frame.shape.width, frame.shape.height);
@@ -761,10 +778,13 @@ impl Renderer {
             };
             slot.insert(targets);
         }
-        let mut pipelines = HashMap::new();
+        // One pipeline per step (None for a readback), derived from the step's declaration.
+        let mut pipelines = Vec::with_capacity(plan.steps.len());
         for step in &plan.steps {
             if let Some(key) = step.pass.pipeline_key(&plan.images) {
-                pipelines.insert(step.pass.name.clone(), self.pipeline(gpu, key)?);
+                pipelines.push(Some(self.pipeline(gpu, key)?));
+            } else {
+                pipelines.push(None);
             }
         }
         let command_buffer = self.command_buffer;
@@ -802,7 +822,7 @@ impl Renderer {
         plan: &Plan<Draw>,
         frame: &UploadedFrame,
         format: TargetFormat,
-        pipelines: &HashMap<String, vk::Pipeline>,
+        pipelines: &[Option<vk::Pipeline>],
     ) -> Result<(), GpuError> {
         let device = gpu.device();
         let targets = &frame.targets[&format];
@@ -844,7 +864,7 @@ impl Renderer {
             extent: vk::Extent2D { width, height },
         };
 
-        for step in &plan.steps {
+        for (step, pipeline) in plan.steps.iter().zip(pipelines) {
             if !step.barriers.is_empty() {
                 let barriers: Vec<vk::ImageMemoryBarrier2> = step
                     .barriers
@@ -903,7 +923,7 @@ impl Renderer {
                     let (depth_load, depth_clear) = clear(load);
                     vk::RenderingAttachmentInfo::default()
                         .image_view(targets.depth.view)
-                        .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                        .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
                         .load_op(depth_load)
                         .store_op(store(s))
                         .clear_value(vk::ClearValue {
@@ -930,13 +950,15 @@ impl Renderer {
             gpu.begin_label(cb, &step.pass.name);
             match &step.pass.kind {
                 PassKind::Draw { draws, .. } => {
-                    let pipeline = pipelines[&step.pass.name];
-                    // SAFETY: recording inside a rendering instance with a compatible pipeline.
-                    unsafe {
-                        device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::GRAPHICS, pipeline)
-                    };
-                    for draw in draws {
-                        self.record_draw(device, cb, frame, *draw);
+                    // Every draw pass has a pipeline (pipeline_key is Some for draws).
+                    if let Some(pipeline) = *pipeline {
+                        // SAFETY: recording inside a rendering instance with a compatible pipeline.
+                        unsafe {
+                            device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::GRAPHICS, pipeline)
+                        };
+                        for draw in draws {
+                            self.record_draw(device, cb, frame, *draw);
+                        }
                     }
                 }
                 PassKind::Readback { .. } => {
@@ -1054,13 +1076,16 @@ impl Renderer {
                             gpu_lens.sets[viewpoint]
                         }
                         _ => {
-                            constants.weight_a = weight(0);
-                            constants.weight_b = if gpu_lens.layers.len() > 1 {
-                                weight(1)
-                            } else {
-                                0.0
-                            };
-                            gpu_lens.sets[0]
+                            // The single pass blends the viewpoints with weight > 0 in order, as
+                            // the plan's specialization counts them: binding 1 and weight_a are
+                            // the first active viewpoint's, binding 2 and weight_b the second's.
+                            let active: Vec<usize> = (0..gpu_lens.sets.len())
+                                .filter(|&v| weight(v) > 0.0)
+                                .collect();
+                            let first = active.first().copied().unwrap_or(0);
+                            constants.weight_a = weight(first);
+                            constants.weight_b = active.get(1).map_or(0.0, |&v| weight(v));
+                            gpu_lens.sets[first]
                         }
                     };
                     device.cmd_bind_descriptor_sets(

@@ -76,7 +76,18 @@ impl FrameInput {
         for (l, lens) in self.lenses.iter().enumerate() {
             let at = format!("lenses[{l}] ({})", lens.name);
             check_mesh(&at, &lens.positions, &lens.triangles)?;
+            // Pass names and debug labels are made from lens names.
+            if self.lenses[..l].iter().any(|other| other.name == lens.name) {
+                return bad(format!(
+                    "{at}.name is used by an earlier lens; give every lens object its own name"
+                ));
+            }
             let n = lens.layer_count();
+            if n == 0 {
+                return bad(format!(
+                    "{at}.layers has no layers; give every viewpoint sample at least one layer (cube map)"
+                ));
+            }
             if lens.layers.len() != self.viewpoint_weights.len() {
                 return bad(format!(
                     "{at}.layers has {} viewpoints but viewpoint_weights has {}; give one layered EM per viewpoint sample",

@@ -321,8 +321,7 @@ fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
             Variant::SinglePass,
             TargetFormat::Rgba8,
         )
-        .err()
-        .expect("7 layers in the single pass is rejected")
+        .expect_err("7 layers in the single pass is rejected")
         .to_string();
     assert!(message.contains("multipass"), "{message}");
     renderer

@@ -18,7 +18,12 @@ use clap::{Parser, Subcommand};
 
 /// Hybrid rendering of shiny and glass objects with layered environment maps.
 #[derive(Parser)]
-#[command(name = "lensmap", version, about, propagate_version = true)]
+#[command(
+    name = "lensmap",
+    version,
+    about = "Hybrid rendering of shiny and glass objects with layered environment maps",
+    propagate_version = true
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -13,10 +13,9 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::median;
 use crate::compositor::FormatArg;
 use crate::demo::novel_camera;
-use crate::render::{HybridFrame, hybrid_frame, hybrid_scene};
+use crate::render::{HybridFrame, hybrid_scene, median_stage, timed_frames};
 
 #[derive(Args)]
 pub struct BenchHybridArgs {
@@ -99,32 +98,17 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     );
     let mut rows = Vec::new();
     for variant in [Variant::SinglePass, Variant::Multipass] {
-        for _ in 0..2 {
-            hybrid_frame(
-                &gpu,
-                &mut renderer,
-                &hybrid,
-                &camera,
-                &options,
-                variant,
-                format,
-            )?;
-        }
-        let frames: Vec<HybridFrame> = (0..args.frames.max(1))
-            .map(|_| {
-                hybrid_frame(
-                    &gpu,
-                    &mut renderer,
-                    &hybrid,
-                    &camera,
-                    &options,
-                    variant,
-                    format,
-                )
-            })
-            .collect::<anyhow::Result<_>>()?;
-        let stage =
-            |f: &dyn Fn(&HybridFrame) -> f64| median(&mut frames.iter().map(f).collect::<Vec<_>>());
+        let frames = timed_frames(
+            &gpu,
+            &mut renderer,
+            &hybrid,
+            &camera,
+            &options,
+            variant,
+            format,
+            (2, args.frames),
+        )?;
+        let stage = |f: &dyn Fn(&HybridFrame) -> f64| median_stage(&frames, f);
         let trace = stage(&|f| f.stats.trace_ms);
         let texgen = stage(&|f| f.stats.texgen_ms);
         let tessellation = stage(&|f| f.stats.tessellation_ms);

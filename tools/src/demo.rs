@@ -21,8 +21,8 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{median, progress_bar};
-use crate::render::{hybrid_frame, lens_psnr, write_image};
+use crate::common::progress_bar;
+use crate::render::{lens_psnr, median_stage, timed_frames, write_image};
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -171,7 +171,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 ..HybridOptions::default()
             };
             // The first frame compiles pipelines; then the median of three timed frames.
-            hybrid_frame(
+            let frames = timed_frames(
                 &gpu,
                 &mut renderer,
                 &hybrid,
@@ -179,23 +179,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 &options,
                 variant,
                 TargetFormat::Rgba16f,
+                (1, 3),
             )?;
-            let frames = (0..3)
-                .map(|_| {
-                    hybrid_frame(
-                        &gpu,
-                        &mut renderer,
-                        &hybrid,
-                        &camera,
-                        &options,
-                        variant,
-                        TargetFormat::Rgba16f,
-                    )
-                })
-                .collect::<anyhow::Result<Vec<_>>>()?;
-            let stage = |f: &dyn Fn(&crate::render::HybridFrame) -> f64| {
-                median(&mut frames.iter().map(f).collect::<Vec<_>>())
-            };
+            let stage = |f: &dyn Fn(&crate::render::HybridFrame) -> f64| median_stage(&frames, f);
             let (trace_ms, texgen_ms, tessellation_ms, other_ms, total_ms) = (
                 stage(&|f| f.stats.trace_ms),
                 stage(&|f| f.stats.texgen_ms),

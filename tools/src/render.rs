@@ -143,6 +143,31 @@ pub fn check_hybrid_options(t: f32, angle_degrees: f64, em_size: u32) -> anyhow:
     Ok(())
 }
 
+/// `warmup` untimed frames (the first compiles pipelines), then `count` timed ones.
+#[allow(clippy::too_many_arguments)]
+pub fn timed_frames(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    hybrid: &HybridScene,
+    camera: &Camera,
+    options: &HybridOptions,
+    variant: Variant,
+    format: TargetFormat,
+    (warmup, count): (usize, usize),
+) -> anyhow::Result<Vec<HybridFrame>> {
+    for _ in 0..warmup {
+        hybrid_frame(gpu, renderer, hybrid, camera, options, variant, format)?;
+    }
+    (0..count.max(1))
+        .map(|_| hybrid_frame(gpu, renderer, hybrid, camera, options, variant, format))
+        .collect()
+}
+
+/// Median over `frames` of one stage's time.
+pub fn median_stage(frames: &[HybridFrame], stage: impl Fn(&HybridFrame) -> f64) -> f64 {
+    crate::common::median(&mut frames.iter().map(stage).collect::<Vec<_>>())
+}
+
 /// Loads the scene and its layered EMs as the arguments say.
 pub fn hybrid_scene(
     scene: Scene,

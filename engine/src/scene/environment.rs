@@ -96,14 +96,11 @@ impl LatLongMap {
     /// Bilinear radiance seen looking along `direction`.
     pub fn radiance(&self, direction: Vec3) -> Vec3 {
         let uv = direction_to_lat_long(direction);
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = uv.y * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
-        let bottom = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
-        top.lerp(bottom, fy)
+        super::image_file::bilinear(
+            uv.x * self.width as f32,
+            uv.y * self.height as f32,
+            |x, y| self.texel(x, y),
+        )
     }
 }
 

@@ -6,6 +6,18 @@ use std::path::Path;
 use glam::Vec3;
 use image::DynamicImage;
 
+/// Bilinear filtering at continuous texel coordinates (`x`, `y`; texel centres at integers + ½),
+/// with `texel` deciding how coordinates outside the image wrap or clamp.
+pub(crate) fn bilinear(x: f32, y: f32, texel: impl Fn(i64, i64) -> Vec3) -> Vec3 {
+    let (x, y) = (x - 0.5, y - 0.5);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
+    let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
+    top.lerp(bottom, fy)
+}
+
 /// A decoded image in linear RGB, row-major, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct LinearImage {

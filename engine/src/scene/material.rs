@@ -106,14 +106,11 @@ impl ImageTexture {
     /// Bilinear sample at `uv` with repeat wrapping; texel (x, y) has its centre at
     /// u = (x + ½)/width, v = 1 − (y + ½)/height.
     pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
-        let bottom = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
-        top.lerp(bottom, fy)
+        super::image_file::bilinear(
+            uv.x * self.width as f32,
+            (1.0 - uv.y) * self.height as f32,
+            |x, y| self.texel(x, y),
+        )
     }
 }
 

@@ -21,7 +21,7 @@ use crate::{
 
 use super::{
     FrameInput, RenderError, Term,
-    plan::{Draw, FrameShape, TargetFormat, Variant, frame_graph, program},
+    plan::{Draw, FrameResources, FrameShape, TargetFormat, Variant, frame_graph, program},
 };
 
 /// A frame read back from the GPU, converted to f32 RGBA (rows top to bottom).
@@ -729,9 +729,22 @@ impl Renderer {
 
     /// The plan a frame would record.
     pub fn plan(frame: &UploadedFrame, variant: Variant, format: TargetFormat) -> Plan<Draw> {
-        let (graph, _) = frame_graph(&frame.shape, variant, format);
-        // The frame graph is well-formed by construction; a failure here is a bug in plan.rs.
-        graph.compile().expect("frame graphs always compile")
+        Self::plan_with_resources(frame, variant, format).0
+    }
+
+    /// The plan and the graph's handles of the frame's images.
+    fn plan_with_resources(
+        frame: &UploadedFrame,
+        variant: Variant,
+        format: TargetFormat,
+    ) -> (Plan<Draw>, FrameResources) {
+        let (graph, resources) = frame_graph(&frame.shape, variant, format);
+        // The frame graph is well-formed by construction (lens names are unique, checked by
+        // FrameInput::validate); a failure here is a bug in plan.rs.
+        (
+            graph.compile().expect("frame graphs always compile"),
+            resources,
+        )
     }
 
     /// Renders the frame and reads it back.
@@ -757,7 +770,7 @@ impl Renderer {
             )));
         }
         let start = Instant::now();
-        let plan = Self::plan(frame, variant, format);
+        let (plan, resources) = Self::plan_with_resources(frame, variant, format);
         let (width, height) = (frame.shape.width, frame.shape.height);
         if let std::collections::hash_map::Entry::Vacant(slot) = frame.targets.entry(format) {
             let colour_format = vk_format(format.graph_format());
@@ -791,7 +804,7 @@ impl Renderer {
         let mut record_ms = 0.0;
         let execute_start = std::cell::Cell::new(Instant::now());
         gpu.record_submit_wait(command_buffer, |cb| {
-            self.record(gpu, cb, &plan, frame, format, &pipelines)?;
+            self.record(gpu, cb, (&plan, &resources), frame, format, &pipelines)?;
             record_ms = start.elapsed().as_secs_f64() * 1e3;
             execute_start.set(Instant::now());
             Ok(())
@@ -819,7 +832,7 @@ impl Renderer {
         &self,
         gpu: &Gpu,
         cb: vk::CommandBuffer,
-        plan: &Plan<Draw>,
+        (plan, resources): (&Plan<Draw>, &FrameResources),
         frame: &UploadedFrame,
         format: TargetFormat,
         pipelines: &[Option<vk::Pipeline>],
@@ -827,29 +840,31 @@ impl Renderer {
         let device = gpu.device();
         let targets = &frame.targets[&format];
         let (width, height) = (frame.shape.width, frame.shape.height);
+        // The graph's image handles → the frame's Vulkan images (imported cube arrays never need
+        // barriers within a frame: uploads leave them SHADER_READ_ONLY; mapped all the same).
         let image_of = |id: graph::ImageId| -> (vk::Image, vk::ImageAspectFlags, u32) {
-            let info = &plan.images[id.0 as usize];
-            if id.0 == 0 {
-                (targets.colour.handle, vk::ImageAspectFlags::COLOR, 1)
-            } else if id.0 == 1 {
-                (targets.depth.handle, vk::ImageAspectFlags::DEPTH, 1)
-            } else {
-                // Imported cube arrays are named lens{i}/em{v}; they never need barriers in a
-                // frame (uploads leave them SHADER_READ_ONLY), but map them for completeness.
-                let mut found = (vk::Image::null(), vk::ImageAspectFlags::COLOR, 1);
-                for (li, lens) in frame.lenses.iter().enumerate() {
-                    for (vi, image) in lens.layers.iter().enumerate() {
-                        if info.name == format!("lens{li}/em{vi}") {
-                            found = (
-                                image.handle,
-                                vk::ImageAspectFlags::COLOR,
-                                image.desc.array_layers,
-                            );
-                        }
-                    }
-                }
-                found
+            if id == resources.colour {
+                return (targets.colour.handle, vk::ImageAspectFlags::COLOR, 1);
             }
+            if id == resources.depth {
+                return (targets.depth.handle, vk::ImageAspectFlags::DEPTH, 1);
+            }
+            resources
+                .layers
+                .iter()
+                .zip(&frame.lenses)
+                .flat_map(|(ids, lens)| ids.iter().zip(&lens.layers))
+                .find(|(layer_id, _)| **layer_id == id)
+                .map_or(
+                    (vk::Image::null(), vk::ImageAspectFlags::COLOR, 1),
+                    |(_, image)| {
+                        (
+                            image.handle,
+                            vk::ImageAspectFlags::COLOR,
+                            image.desc.array_layers,
+                        )
+                    },
+                )
         };
         let viewport = vk::Viewport {
             x: 0.0,

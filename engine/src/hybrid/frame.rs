@@ -378,10 +378,7 @@ impl HybridScene {
                 let traced_ms = oracle.traced_ms();
                 stats.trace_ms += traced_ms;
                 stats.tessellation_ms += (elapsed - traced_ms).max(0.0);
-                stats.counters.primary_rays += counters.primary_rays;
-                stats.counters.secondary_rays += counters.secondary_rays;
-                stats.counters.shadow_rays += counters.shadow_rays;
-                stats.counters.triangle_tests += counters.triangle_tests;
+                stats.counters += counters;
                 stats.triangles_in += mesh.triangles.len();
                 stats.triangles_out += tessellation.mesh.triangles.len();
                 stats.vertices_traced += tessellation.stats.vertices_evaluated;

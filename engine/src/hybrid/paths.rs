@@ -180,12 +180,8 @@ impl VertexOracle for PathOracle<'_> {
             .collect();
         if let Ok(mut guard) = self.counters.lock() {
             guard.1 += start.elapsed().as_secs_f64() * 1e3;
-            let total = &mut guard.0;
             for (_, _, c) in &results {
-                total.primary_rays += c.primary_rays;
-                total.secondary_rays += c.secondary_rays;
-                total.shadow_rays += c.shadow_rays;
-                total.triangle_tests += c.triangle_tests;
+                guard.0 += *c;
             }
         }
         results

@@ -5,7 +5,6 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use glam::Vec3;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     render::{
@@ -152,22 +151,6 @@ pub fn passes(args: PassesArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes a rendered frame as `<stem>.png` (sRGB) and `<stem>.exr` (linear).
-pub fn write_frame(image: &RenderedImage, out: &std::path::Path, stem: &str) -> anyhow::Result<()> {
-    let rgb: Vec<Vec3> = image
-        .pixels
-        .iter()
-        .map(|p| Vec3::new(p[0], p[1], p[2]))
-        .collect();
-    let png = out.join(format!("{stem}.png"));
-    let exr = out.join(format!("{stem}.exr"));
-    lensmap::trace::image::write_png(&png, image.width, image.height, &rgb)
-        .with_context(|| png.display().to_string())?;
-    lensmap::trace::image::write_exr(&exr, image.width, image.height, &rgb)
-        .with_context(|| exr.display().to_string())?;
-    Ok(())
-}
-
 /// Largest per-channel difference between two frames.
 pub fn max_difference(a: &RenderedImage, b: &RenderedImage) -> f64 {
     a.pixels
@@ -219,7 +202,7 @@ pub fn synthetic_demo(args: &crate::demo::DemoArgs) -> anyhow::Result<()> {
             times.push(timings.record_ms + timings.execute_ms);
         }
         let stem = format!("demo-{}", variant.name());
-        write_frame(&image, &args.out, &stem)?;
+        crate::render::write_image(&image, &args.out.join(format!("{stem}.png")))?;
         say!(
             "{:<12} {} prime + {} layer + {} alpha-clear + {} single-pass passes, median frame {:.2} ms → {}/{stem}.png, .exr",
             variant.name(),

@@ -6,6 +6,7 @@
 //! [`gpu`] (ash: devices, memory, images), [`graph`] (the pass graph, no Vulkan calls) and
 //! [`render`] (the compositor frame and its CPU f64 model).
 
+pub mod cubemap;
 pub mod gpu;
 pub mod graph;
 pub mod hybrid;

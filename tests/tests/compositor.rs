@@ -4,11 +4,12 @@
 //! path runs with the validation layer on.
 
 use glam::{Mat4, Vec3};
+use lensmap::cubemap::CubeMap;
 use lensmap::render::{
-    CubeMap, EnvironmentMesh, FrameInput, LensObject, Renderer, TargetFormat, Term, TermVertices,
-    Variant,
+    EnvironmentMesh, FrameInput, LensObject, Renderer, TargetFormat, TermVertices, Variant,
     model::{ModelOptions, render_model_with},
 };
+use lensmap::trace::Term;
 use lensmap_tests::{assert_clean, gpu};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;

@@ -8,11 +8,11 @@ mod layers_bake {
     use std::path::{Path, PathBuf};
 
     use glam::{DVec2, DVec3, Vec3};
+    use lensmap::cubemap::CubeMap;
     use lensmap::layers::bake::{
         ALPHA_TOLERANCE, MANIFEST_FILE_NAME, map_file_name, read_cube_map_exr, write_cube_map_exr,
     };
     use lensmap::layers::{Bake, BakeError, BakedLens, LayerShell, Manifest};
-    use lensmap::render::CubeMap;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64;
 

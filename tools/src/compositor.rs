@@ -5,10 +5,11 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use lensmap::trace::Term;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     render::{
-        FrameShape, RenderedImage, Renderer, TargetFormat, Term, Variant,
+        FrameShape, RenderedImage, Renderer, TargetFormat, Variant,
         plan::frame_graph,
         synthetic::{SyntheticOptions, sphere_frame},
     },

@@ -13,8 +13,9 @@ use super::{
     viewpoints,
 };
 use crate::{
+    cubemap::CubeMap,
     layers::LayerShell,
-    render::{CubeMap, EnvironmentMesh, FrameInput, LensObject, TermVertices},
+    render::{EnvironmentMesh, FrameInput, LensObject, TermVertices},
     scene::{Camera, Scene},
     trace::{Ray, Term, bvh::SurfaceHit, stats::TraceCounters, world::TraceScene},
 };

@@ -41,16 +41,14 @@ use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use super::shell::LayerShell;
-use crate::render::CubeMap;
+pub use crate::cubemap::ALPHA_TOLERANCE;
+use crate::cubemap::{CubeMap, CubeMapError, TexelProblem, check_face_texels};
 
 /// The manifest format this code writes and reads.
 pub const FORMAT_VERSION: u32 = 1;
 
 /// File name of the manifest inside a bake directory.
 pub const MANIFEST_FILE_NAME: &str = "manifest.json";
-
-/// How far outside [0, 1] a texel's α may be (rounding in the solver) before reading rejects it.
-pub const ALPHA_TOLERANCE: f32 = 1e-4;
 
 /// Face names in Vulkan layer order, as used in EXR part names.
 pub const FACE_NAMES: [&str; 6] = ["+X", "-X", "+Y", "-Y", "+Z", "-Z"];
@@ -692,83 +690,92 @@ impl Manifest {
     }
 }
 
-/// Checks a cube map's shape (size, full chain, texel counts) and values (finite, α in [0, 1]
-/// within [`ALPHA_TOLERANCE`]); `path` names it in errors.
+/// Checks a cube map with the one cube-map validator ([`CubeMap::validate`]: size, full chain,
+/// texel counts, finite texels with α in [0, 1] within [`ALPHA_TOLERANCE`]) and reports a problem
+/// as the bake error that names `path` and the EXR part.
 pub fn check_cube_map(cube: &CubeMap, size: u32, path: &Path) -> Result<(), BakeError> {
-    let levels = CubeMap::full_chain_levels(size);
-    if cube.size != size {
-        return Err(BakeError::WrongSize {
-            path: path.to_owned(),
-            part: part_name(0, 0),
-            found: format!("{0}×{0}", cube.size),
-            expected: size,
-            size,
-        });
-    }
-    if cube.levels.len() > levels as usize {
-        return Err(BakeError::BadPart {
-            path: path.to_owned(),
-            part: part_name(levels as usize, 0),
-            problem: format!("is beyond the {levels} levels of a {size}² cube map"),
-        });
-    }
-    for level in 0..levels as usize {
-        let Some(faces) = cube.levels.get(level) else {
-            return Err(BakeError::MissingLevel {
-                path: path.to_owned(),
-                part: part_name(level, 0),
-                size,
-                levels,
-            });
-        };
-        let edge = (size >> level).max(1) as usize;
-        for (face, texels) in faces.iter().enumerate() {
-            if texels.len() != edge * edge {
-                return Err(BakeError::WrongSize {
-                    path: path.to_owned(),
-                    part: part_name(level, face),
-                    found: format!("{} texels", texels.len()),
-                    expected: edge as u32,
-                    size,
-                });
-            }
-            check_texels(texels, edge, path, &part_name(level, face))?;
-        }
-    }
-    Ok(())
+    cube.validate(Some(size))
+        .map_err(|error| cube_map_error(error, path))
 }
 
-/// Finite channels and α within [0, 1] (tolerance), in row-major order.
-fn check_texels(
-    texels: &[[f32; 4]],
-    edge: usize,
-    path: &Path,
-    part: &str,
-) -> Result<(), BakeError> {
-    for (index, texel) in texels.iter().enumerate() {
-        let (x, y) = (index % edge, index / edge);
-        if let Some(channel) = texel.iter().position(|v| !v.is_finite()) {
-            return Err(BakeError::NonFinite {
-                path: path.to_owned(),
-                part: part.to_owned(),
-                x,
-                y,
-                channel: ['R', 'G', 'B', 'A'][channel],
-                value: texel[channel],
-            });
-        }
-        let alpha = texel[3];
-        if !(-ALPHA_TOLERANCE..=1.0 + ALPHA_TOLERANCE).contains(&alpha) {
-            return Err(BakeError::AlphaOutOfRange {
-                path: path.to_owned(),
-                part: part.to_owned(),
-                x,
-                y,
-                value: alpha,
-            });
-        }
+/// A cube-map problem as the bake error naming the file and its EXR part.
+fn cube_map_error(error: CubeMapError, path: &Path) -> BakeError {
+    let path = path.to_owned();
+    match error {
+        CubeMapError::NotPowerOfTwo { size } => BakeError::NonPowerOfTwo { path, size },
+        CubeMapError::WrongSize { found, expected } => BakeError::WrongSize {
+            path,
+            part: part_name(0, 0),
+            found: format!("{found}×{found}"),
+            expected,
+            size: expected,
+        },
+        CubeMapError::ExtraLevel {
+            level,
+            size,
+            levels,
+        } => BakeError::BadPart {
+            path,
+            part: part_name(level, 0),
+            problem: format!("is beyond the {levels} levels of a {size}² cube map"),
+        },
+        CubeMapError::MissingLevel {
+            level,
+            size,
+            levels,
+        } => BakeError::MissingLevel {
+            path,
+            part: part_name(level, 0),
+            size,
+            levels,
+        },
+        CubeMapError::TexelCount {
+            level,
+            face,
+            found,
+            edge,
+        } => BakeError::WrongSize {
+            path,
+            part: part_name(level, face.index()),
+            found: format!("{found} texels"),
+            expected: edge,
+            size: edge << level,
+        },
+        CubeMapError::Texel {
+            level,
+            face,
+            x,
+            y,
+            problem,
+        } => texel_error(path, part_name(level, face.index()), x, y, problem),
     }
-    Ok(())
+}
+
+/// A bad texel as the bake error naming the file and part.
+fn texel_error(
+    path: PathBuf,
+    part: String,
+    x: usize,
+    y: usize,
+    problem: TexelProblem,
+) -> BakeError {
+    match problem {
+        TexelProblem::NonFinite { channel, value } => BakeError::NonFinite {
+            path,
+            part,
+            x,
+            y,
+            channel: ['R', 'G', 'B', 'A'][channel],
+            value,
+        },
+        TexelProblem::AlphaOutOfRange { value } => BakeError::AlphaOutOfRange {
+            path,
+            part,
+            x,
+            y,
+            value,
+        },
+    }
 }
 
 /// Writes `cube` as a cube-map EXR (the layout in the module docs) to `path` and fsyncs it.
@@ -892,7 +899,8 @@ pub fn read_cube_map_exr(path: &Path, size: u32) -> Result<CubeMap, BakeError> {
                 texel[index] = *value;
             }
         }
-        check_texels(&texels, edge, path, &name)?;
+        check_face_texels(&texels, edge)
+            .map_err(|(x, y, problem)| texel_error(path.to_owned(), name.clone(), x, y, problem))?;
         found[level][face] = Some(texels);
     }
     let mut chain = Vec::with_capacity(levels);

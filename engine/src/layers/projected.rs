@@ -15,7 +15,7 @@ use rayon::prelude::*;
 
 use super::LayerShell;
 use crate::{
-    render::{CubeMap, cube_sampling::CubeFace},
+    cubemap::{CubeFace, CubeMap},
     scene::{LayerSpec, Scene},
     trace::{
         Ray, TraceOptions,

@@ -7,7 +7,7 @@ use std::{collections::HashMap, sync::Arc, time::Instant};
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 
-use super::CubeMap;
+use crate::cubemap::CubeMap;
 use crate::{
     gpu::{
         Buffer, BufferUsage, Gpu, GpuError, GraphicsPipelineDesc, Image, ImageDesc, VertexInput,
@@ -17,10 +17,11 @@ use crate::{
         self, Access, Blend, CompareOp, Cull, Format, Layout, LoadOp, PassKind, PipelineKey, Plan,
         StoreOp,
     },
+    trace::Term,
 };
 
 use super::{
-    FrameInput, RenderError, Term,
+    FrameInput, RenderError,
     plan::{Draw, FrameResources, FrameShape, TargetFormat, Variant, frame_graph, program},
 };
 

@@ -7,6 +7,9 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec3};
 
+use crate::cubemap::CubeMap;
+use crate::trace::Term;
+
 /// Maximum number of viewpoint samples blended in one frame (the paper blends the two nearest).
 pub const MAX_VIEWPOINTS: usize = 2;
 
@@ -14,44 +17,6 @@ pub const MAX_VIEWPOINTS: usize = 2;
 /// one interpolated direction per layer and term, 2·MAX_LAYERS_SINGLE_PASS + 2 varyings, within
 /// Vulkan's guaranteed 16 locations). The multipass variant has no such limit.
 pub const MAX_LAYERS_SINGLE_PASS: usize = 6;
-
-/// The two shading terms: the ray tracer's, so per-vertex data and reference images agree.
-pub use crate::trace::path::Term;
-
-/// A cube map of premultiplied RGBA (α·rgb, α) texels with a full mip chain.
-///
-/// Faces follow Vulkan's order (+X, −X, +Y, −Y, +Z, −Z) and its face-coordinate conventions
-/// (Vulkan spec, "Cube Map Face Selection"); texels are row-major with row 0 at t = 0.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CubeMap {
-    /// Edge length of a level-0 face in texels (a power of two, ≥ 1).
-    pub size: u32,
-    /// `levels[l][face]` holds `(size >> l)²` texels; `levels.len() == log2(size) + 1`.
-    pub levels: Vec<[Vec<[f32; 4]>; 6]>,
-}
-
-impl CubeMap {
-    /// Number of mip levels of a full chain for a face of `size` texels.
-    pub fn full_chain_levels(size: u32) -> u32 {
-        32 - size.max(1).leading_zeros()
-    }
-
-    /// Edge length of mip level `level`.
-    pub fn level_size(&self, level: usize) -> u32 {
-        (self.size >> level).max(1)
-    }
-
-    /// A cube map whose every texel of every level is `texel`.
-    pub fn uniform(size: u32, texel: [f32; 4]) -> Self {
-        let levels = (0..Self::full_chain_levels(size))
-            .map(|l| {
-                let n = ((size >> l).max(1) as usize).pow(2);
-                std::array::from_fn(|_| vec![texel; n])
-            })
-            .collect();
-        CubeMap { size, levels }
-    }
-}
 
 /// Per-vertex data of one shading term of a lens object.
 #[derive(Clone, Debug, PartialEq)]
@@ -119,49 +84,153 @@ pub struct FrameInput {
     pub viewpoint_weights: Vec<f32>,
 }
 
-impl CubeMap {
-    /// A cube map from its level-0 faces, with the rest of the chain made by 2×2 box filtering.
-    /// Averaging premultiplied texels is exact (filtering commutes with premultiplication).
-    pub fn from_level0(size: u32, faces: [Vec<[f32; 4]>; 6]) -> Self {
-        let mut levels = vec![faces];
-        let mut edge = size as usize;
-        while edge > 1 {
-            let half = edge / 2;
-            let previous = &levels[levels.len() - 1];
-            let next: [Vec<[f32; 4]>; 6] = std::array::from_fn(|face| {
-                let src = &previous[face];
-                (0..half * half)
-                    .map(|i| {
-                        let (x, y) = (2 * (i % half), 2 * (i / half));
-                        let texels = [
-                            src[y * edge + x],
-                            src[y * edge + x + 1],
-                            src[(y + 1) * edge + x],
-                            src[(y + 1) * edge + x + 1],
-                        ];
-                        std::array::from_fn(|c| 0.25 * texels.iter().map(|t| t[c]).sum::<f32>())
-                    })
-                    .collect()
-            });
-            levels.push(next);
-            edge = half;
+impl FrameInput {
+    /// Checks sizes, indices and values before anything reaches the GPU: every mesh index in
+    /// range, every value finite, every layered EM the same size with a full chain and valid texels
+    /// ([`CubeMap::validate`]), one layered EM per viewpoint weight and unique lens names.
+    pub fn validate(&self) -> Result<(), super::RenderError> {
+        let bad = |s: String| Err(super::RenderError::BadInput(s));
+        if self.width == 0 || self.height == 0 {
+            return bad(format!(
+                "width×height is {}×{}; both must be ≥ 1",
+                self.width, self.height
+            ));
         }
-        CubeMap { size, levels }
+        if self.viewpoint_weights.is_empty() || self.viewpoint_weights.len() > MAX_VIEWPOINTS {
+            return bad(format!(
+                "viewpoint_weights has {} entries; give 1 or {MAX_VIEWPOINTS}",
+                self.viewpoint_weights.len()
+            ));
+        }
+        if self
+            .viewpoint_weights
+            .iter()
+            .any(|w| !w.is_finite() || *w < 0.0)
+        {
+            return bad(format!(
+                "viewpoint_weights {:?} must be finite and ≥ 0",
+                self.viewpoint_weights
+            ));
+        }
+        if !self.view_proj.is_finite() {
+            return bad(
+                "view_proj has NaN or infinite entries; build it from a valid camera".into(),
+            );
+        }
+        for (m, mesh) in self.environment.iter().enumerate() {
+            if mesh.colours.len() != mesh.positions.len() {
+                return bad(format!(
+                    "environment[{m}].colours has {} entries for {} positions; give one per vertex",
+                    mesh.colours.len(),
+                    mesh.positions.len()
+                ));
+            }
+            check_mesh(
+                &format!("environment[{m}]"),
+                &mesh.positions,
+                &mesh.triangles,
+            )?;
+            if mesh.colours.iter().any(|c| !c.is_finite()) {
+                return bad(format!(
+                    "environment[{m}].colours has NaN or infinite values"
+                ));
+            }
+        }
+        for (l, lens) in self.lenses.iter().enumerate() {
+            let at = format!("lenses[{l}] ({})", lens.name);
+            check_mesh(&at, &lens.positions, &lens.triangles)?;
+            // Pass names and debug labels are made from lens names.
+            if self.lenses[..l].iter().any(|other| other.name == lens.name) {
+                return bad(format!(
+                    "{at}.name is used by an earlier lens; give every lens object its own name"
+                ));
+            }
+            let n = lens.layer_count();
+            if n == 0 {
+                return bad(format!(
+                    "{at}.layers has no layers; give every viewpoint sample at least one layer (cube map)"
+                ));
+            }
+            if lens.layers.len() != self.viewpoint_weights.len() {
+                return bad(format!(
+                    "{at}.layers has {} viewpoints but viewpoint_weights has {}; give one layered EM per viewpoint sample",
+                    lens.layers.len(),
+                    self.viewpoint_weights.len()
+                ));
+            }
+            if lens.terms.is_empty() || lens.terms.len() > 2 {
+                return bad(format!(
+                    "{at}.terms has {} entries; give refraction and/or reflection",
+                    lens.terms.len()
+                ));
+            }
+            if lens.terms.len() == 2 && lens.terms[0].term == lens.terms[1].term {
+                return bad(format!("{at}.terms names {:?} twice", lens.terms[0].term));
+            }
+            let size = lens
+                .layers
+                .first()
+                .and_then(|v| v.first())
+                .map_or(1, |c| c.size);
+            for (v, cubes) in lens.layers.iter().enumerate() {
+                if cubes.len() != n {
+                    return bad(format!(
+                        "{at}.layers[{v}] has {} layers, viewpoint 0 has {n}; every viewpoint needs the same n",
+                        cubes.len()
+                    ));
+                }
+                for (i, cube) in cubes.iter().enumerate() {
+                    if let Err(error) = cube.validate(Some(size)) {
+                        return bad(format!("{at}.layers[{v}][{i}]: {error}"));
+                    }
+                }
+            }
+            for term in &lens.terms {
+                let t = format!("{at}.terms[{:?}]", term.term);
+                if term.fg.len() != lens.positions.len() || term.fg.iter().any(|c| !c.is_finite()) {
+                    return bad(format!(
+                        "{t}.fg needs one finite rgb per vertex ({} given for {})",
+                        term.fg.len(),
+                        lens.positions.len()
+                    ));
+                }
+                if term.directions.len() != n {
+                    return bad(format!(
+                        "{t}.directions has {} layers, the EMs have {n}",
+                        term.directions.len()
+                    ));
+                }
+                for (i, d) in term.directions.iter().enumerate() {
+                    if d.len() != lens.positions.len() || d.iter().any(|v| !v.is_finite()) {
+                        return bad(format!(
+                            "{t}.directions[{i}] needs one finite direction per vertex"
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
     }
+}
 
-    /// A cube map whose level-0 texel is `f(direction through the texel centre)`, mips box-filtered.
-    pub fn from_fn(size: u32, f: impl Fn(glam::DVec3) -> [f32; 4]) -> Self {
-        let edge = size as usize;
-        let faces = std::array::from_fn(|face| {
-            let face = super::cube_sampling::CubeFace::ALL[face];
-            (0..edge * edge)
-                .map(|i| {
-                    let s = ((i % edge) as f64 + 0.5) / edge as f64;
-                    let t = ((i / edge) as f64 + 0.5) / edge as f64;
-                    f(face.direction(2.0 * s - 1.0, 2.0 * t - 1.0))
-                })
-                .collect()
-        });
-        CubeMap::from_level0(size, faces)
+fn check_mesh(
+    at: &str,
+    positions: &[glam::Vec3],
+    triangles: &[[u32; 3]],
+) -> Result<(), super::RenderError> {
+    if positions.iter().any(|p| !p.is_finite()) {
+        return Err(super::RenderError::BadInput(format!(
+            "{at}.positions has NaN or infinite values"
+        )));
     }
+    if let Some(t) = triangles
+        .iter()
+        .position(|t| t.iter().any(|&i| i as usize >= positions.len()))
+    {
+        return Err(super::RenderError::BadInput(format!(
+            "{at}.triangles[{t}] indexes past the {} positions",
+            positions.len()
+        )));
+    }
+    Ok(())
 }

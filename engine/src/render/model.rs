@@ -17,7 +17,7 @@
 //! Texture LODs come from derivatives over the pixel's 2×2 quad (by default coarse: top-right −
 //! top-left, bottom-left − top-left), with every quad pixel evaluated by the fragment's own
 //! triangle extended beyond its edges, as helper invocations are; cube maps are sampled through
-//! [`super::cube_sampling`].
+//! [`crate::cubemap::sampling`].
 //!
 //! The spec leaves the LOD's derivatives (coarse or fine) and its logarithm's precision to the
 //! implementation. [`ModelOptions::default`] is the spec's arithmetic with coarse derivatives;
@@ -35,10 +35,13 @@ use std::fmt;
 use glam::{DMat4, DVec2, DVec3, DVec4};
 use rayon::prelude::*;
 
-pub use super::cube_sampling::LodLog2;
-use super::cube_sampling::{competing_faces, cube_lod_on_face, major_face, sample_cube};
-pub use super::cube_sampling::{cube_lod, sample_cube_trilinear};
-use super::frame_input::{CubeMap, FrameInput, LensObject, Term};
+use super::frame_input::{FrameInput, LensObject};
+use crate::cubemap::CubeMap;
+use crate::cubemap::face::{competing_faces, major_face};
+pub use crate::cubemap::sampling::LodLog2;
+pub use crate::cubemap::sampling::{cube_lod, sample_cube_trilinear};
+use crate::cubemap::sampling::{cube_lod_on_face, sample_cube};
+use crate::trace::Term;
 
 /// Why a model pixel is not a fair point of comparison with a GPU frame. A pixel carries the
 /// first applicable reason in the order of [`Exclusion::ALL`].

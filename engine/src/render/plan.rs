@@ -8,7 +8,8 @@ use crate::graph::{
     LoadOp, Pass, PassKind, StoreOp,
 };
 
-use super::{FrameInput, Term};
+use super::FrameInput;
+use crate::trace::Term;
 
 /// How lens objects are composited.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

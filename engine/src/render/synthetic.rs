@@ -7,9 +7,11 @@ use std::f64::consts::PI;
 
 use glam::{DVec3, Mat4, Vec3};
 
-use super::{CubeMap, EnvironmentMesh, FrameInput, LensObject, Term, TermVertices};
+use super::{EnvironmentMesh, FrameInput, LensObject, TermVertices};
+use crate::cubemap::CubeMap;
 use crate::{
     scene::Camera,
+    trace::Term,
     trace::fresnel::{dielectric, reflect, refract},
 };
 

@@ -1,0 +1,363 @@
+#!/usr/bin/env bash
+# same-output.sh — prove that a refactor changed no behaviour of the `lensmap` CLI.
+#
+# Usage:  tools/scripts/same-output.sh BEFORE_BINARY AFTER_BINARY [WORKDIR]
+#
+# Runs both binaries on the same fixed set of commands (demo, synthetic demo, render in several
+# variants/formats/scenes, a bake written and read back, passes plans, the three benchmarks,
+# reference, two bad-input cases), each binary into its own directory (WORKDIR/before,
+# WORKDIR/after; captured stdout/stderr/exit codes in WORKDIR/logs/{before,after}). WORKDIR
+# defaults to a fresh `mktemp -d`; if given, only its before/, after/ and logs/ are replaced.
+# Then it compares:
+#   1. every PNG/EXR written: byte-identical (cmp);
+#   2. every JSON written or printed: same structure (keys recursively, array lengths) and equal
+#      values for every field that is not a wall-clock timing (see TIMING below); strings have
+#      the output directory normalized to <DIR>. manifest.json of a bake: the `created_by` field
+#      is left out;
+#   3. every stdout text: same lines after masking every number by `#` and collapsing spaces
+#      (the same fields in the same order); `passes` tables are compared exactly (deterministic
+#      plans); output-dir paths are normalized to <DIR> first;
+#   4. exit codes: equal; every command that should succeed must exit 0 on both sides; the two
+#      bad-input cases must print exactly one stderr line on each side (texts shown, not compared);
+# and fails on any Khronos validation message (LENSMAP_VALIDATION=1 is set): a
+# "validation messages: N" line with N > 0, or a "validation <SEVERITY>: ..." line on stderr.
+#
+# Prints one line per comparison, a summary and finally `SAME` (exit 0) or
+# `DIFFERENT (k problems)` (exit 1). Exit 2 on usage errors.
+#
+# Needs a Vulkan driver (lavapipe: mesa-vulkan-drivers, libvulkan1) and vulkan-validationlayers,
+# and python3 (standard library only). About 15 s of run time per binary on 2 CPU cores.
+# Self-check: running it with the same binary twice (BEFORE == AFTER) must print SAME; this
+# checks that every compared output is deterministic and that the timing masks are right.
+set -uo pipefail
+
+if [ $# -lt 2 ] || [ $# -gt 3 ]; then
+    echo "usage: $0 BEFORE_BINARY AFTER_BINARY [WORKDIR]" >&2
+    exit 2
+fi
+for bin in "$1" "$2"; do
+    if [ ! -x "$bin" ]; then
+        echo "error: $bin is not an executable file" >&2
+        exit 2
+    fi
+done
+BEFORE=$(realpath "$1")
+AFTER=$(realpath "$2")
+if [ $# -eq 3 ]; then
+    mkdir -p "$3" || exit 2
+    WORKDIR=$(cd "$3" && pwd -P)
+else
+    WORKDIR=$(mktemp -d -t same-output.XXXXXX) || exit 2
+    WORKDIR=$(cd "$WORKDIR" && pwd -P)
+fi
+rm -rf "$WORKDIR/before" "$WORKDIR/after" "$WORKDIR/logs"
+mkdir -p "$WORKDIR/before" "$WORKDIR/after" "$WORKDIR/logs/before" "$WORKDIR/logs/after"
+CASES="$WORKDIR/logs/cases.tsv"
+: >"$CASES"
+
+export LENSMAP_VALIDATION=1
+
+# ---------------------------------------------------------------------------------------------
+# The commands. `@DIR@` stands for the side's output directory (WORKDIR/before or WORKDIR/after).
+# Kinds: text  = stdout is text, compared with numbers masked
+#        exact = stdout is text, compared exactly (deterministic: pass plans)
+#        json  = stdout is JSON, compared as JSON
+#        bad   = must fail: exit codes equal, stderr one line on each side (text not compared)
+# ---------------------------------------------------------------------------------------------
+declare -a CASE_NAMES=() CASE_KINDS=() CASE_ARGS=()
+case_add() { # NAME KIND ARGS...
+    CASE_NAMES+=("$1")
+    CASE_KINDS+=("$2")
+    shift 2
+    local joined="" arg
+    for arg in "$@"; do joined+="$arg"$'\x1f'; done
+    CASE_ARGS+=("$joined")
+}
+
+case_add demo text demo --out @DIR@/demo --width 160 --height 120 --supersampling 2 --json @DIR@/demo.json
+case_add demo-synthetic text demo --synthetic --out @DIR@/synthetic --width 160 --height 120 --frames 1
+
+TR=(--scene teapot-room --projected --view 2 --width 160 --height 120 --supersampling 2 --compare --json)
+case_add render-tr json render "${TR[@]}" --out @DIR@/render-tr.png
+case_add render-tr-multipass-rgba8 json render "${TR[@]}" --variant multipass --format rgba8 --out @DIR@/render-tr-multipass-rgba8.png
+case_add render-tr-rgba32f json render "${TR[@]}" --format rgba32f --out @DIR@/render-tr-rgba32f.png
+case_add render-gs json render --scene glass-sphere --projected --view 0 --width 96 --height 72 --supersampling 1 --compare --json --out @DIR@/render-gs.png
+case_add render-mt json render --scene mirror-teapot --projected --width 96 --height 72 --supersampling 1 --json --out @DIR@/render-mt.png
+# The human-readable report of `render` too (same settings as render-gs).
+case_add render-gs-text text render --scene glass-sphere --projected --view 0 --width 96 --height 72 --supersampling 1 --compare --out @DIR@/render-gs-text.png
+
+# A bake written once, then read back (its EXRs and manifest are compared as written files).
+case_add render-write-bake json render --scene teapot-room --projected --view 2 --width 160 --height 120 --supersampling 2 --write-bake @DIR@/bake --json --out @DIR@/render-write-bake.png
+case_add render-from-bake json render --scene teapot-room --bake @DIR@/bake --view 2 --width 160 --height 120 --supersampling 2 --compare --json --out @DIR@/render-from-bake.png
+
+# Pass plans: layers 1..4 (and 6, the single-pass maximum), 1|2 viewpoints, 1|2 terms,
+# both variants, every format; each as a table (exact) and as JSON.
+for config in \
+    "1 1 1 multipass rgba8" \
+    "1 2 2 single-pass rgba16f" \
+    "1 1 2 single-pass rgba32f" \
+    "2 1 2 multipass rgba16f" \
+    "2 2 1 single-pass rgba32f" \
+    "2 2 2 multipass rgba32f" \
+    "3 2 2 multipass rgba8" \
+    "3 1 1 single-pass rgba8" \
+    "3 2 1 multipass rgba32f" \
+    "4 2 2 multipass rgba16f" \
+    "4 1 2 single-pass rgba8" \
+    "4 2 2 single-pass rgba32f" \
+    "6 2 2 single-pass rgba16f"; do
+    read -r layers viewpoints terms variant format <<<"$config"
+    name="passes-l$layers-v$viewpoints-t$terms-$variant-$format"
+    set -- --layers "$layers" --viewpoints "$viewpoints" --terms "$terms" --variant "$variant" --format "$format"
+    case_add "$name" exact passes "$@"
+    case_add "$name-json" json passes "$@" --json
+done
+
+case_add bench-passes text bench passes --width 64 --height 48 --frames 1 --max-layers 2 --json @DIR@/bench-passes.json
+case_add bench-hybrid text bench hybrid --width 96 --height 72 --frames 1 --json @DIR@/bench-hybrid.json
+case_add bench-trace text bench trace --width 48 --height 36 --supersampling 1 --runs 1 --json @DIR@/bench-trace.json
+case_add reference json reference --scene glass-sphere --view 0 --width 64 --height 48 --out @DIR@/reference --json
+case_add reference-text text reference --scene glass-sphere --view 0 --width 64 --height 48 --out @DIR@/reference-text
+
+# Bad input. `--t -1` (with a space) is rejected by clap as an unknown argument '-1' with a
+# multi-line usage message, before lensmap sees it; `--t=-1` reaches lensmap's own check.
+case_add bad-passes-layers bad passes --layers 9 --variant single-pass
+case_add bad-render-t bad render --scene teapot-room --projected --t=-1
+
+# ---------------------------------------------------------------------------------------------
+run_side() { # SIDE BINARY
+    local side=$1 bin=$2 dir="$WORKDIR/$1" logs="$WORKDIR/logs/$1" i name
+    local started=$SECONDS
+    echo "running $side: $bin"
+    for i in "${!CASE_NAMES[@]}"; do
+        name=${CASE_NAMES[$i]}
+        local -a args=()
+        local arg
+        mapfile -t -d $'\x1f' args < <(printf '%s' "${CASE_ARGS[$i]}")
+        for arg in "${!args[@]}"; do args[$arg]=${args[$arg]//@DIR@/$dir}; done
+        printf '%s\n' "${args[*]}" >"$logs/$name.cmd"
+        # Run inside the side's directory, so that any relative default output lands there too.
+        (cd "$dir" && "$bin" "${args[@]}") >"$logs/$name.out" 2>"$logs/$name.err" </dev/null
+        echo $? >"$logs/$name.rc"
+    done
+    echo "  $side: ${#CASE_NAMES[@]} commands in $((SECONDS - started)) s"
+}
+
+for i in "${!CASE_NAMES[@]}"; do
+    printf '%s\t%s\n' "${CASE_NAMES[$i]}" "${CASE_KINDS[$i]}" >>"$CASES"
+done
+run_side before "$BEFORE"
+run_side after "$AFTER"
+
+# ---------------------------------------------------------------------------------------------
+python3 - "$WORKDIR" <<'PY'
+import json, os, re, subprocess, sys
+
+work = sys.argv[1]
+problems = []
+counts = {"images": 0, "images_same": 0, "json": 0, "json_same": 0, "text": 0, "text_same": 0,
+          "exit": 0, "exit_same": 0, "other": 0, "other_same": 0}
+
+def problem(msg):
+    problems.append(msg)
+    print(f"  PROBLEM: {msg}")
+
+def read(path):
+    with open(path, encoding="utf-8", errors="replace") as f:
+        return f.read()
+
+def normalize_dir(text, side):
+    # Output paths differ only in the side's directory name.
+    return text.replace(os.path.join(work, side), "<DIR>")
+
+# ---- JSON -----------------------------------------------------------------------------------
+# Wall-clock timings, found in the actual JSON: keys with an underscore-separated word "ms"
+# (total_ms, gpu_ms, median_frame_ms, reference.ms, median_ms {...}), "seconds" (seconds,
+# median_seconds, prepare_seconds), "time" (reduction_time, reduction.time: ratios of times),
+# and throughput mrays_per_second. Plain substring "ms" would wrongly hit rms_vs_rgba32f and
+# terms, which are deterministic. Everything under a timing key is a timing (median_ms {...},
+# seconds [...]); its structure is still compared.
+TIMING_WORDS = {"ms", "seconds", "time"}
+TIMING_KEYS = {"mrays_per_second"}
+# Not behaviour: who wrote a bake (the version string).
+IGNORED_KEYS = {"manifest.json": {"created_by"}}
+
+def is_timing(key):
+    return key in TIMING_KEYS or bool(TIMING_WORDS & set(key.lower().split("_")))
+
+def json_diff(a, b, path, timing, ignored, out):
+    if isinstance(a, dict) and isinstance(b, dict):
+        ka, kb = set(a) - ignored, set(b) - ignored
+        for k in sorted(ka - kb):
+            out.append(f"{path}.{k}: only in before")
+        for k in sorted(kb - ka):
+            out.append(f"{path}.{k}: only in after")
+        for k in sorted(ka & kb):
+            json_diff(a[k], b[k], f"{path}.{k}", timing or is_timing(k), ignored, out)
+    elif isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            out.append(f"{path}: array length {len(a)} vs {len(b)}")
+        for i, (x, y) in enumerate(zip(a, b)):
+            json_diff(x, y, f"{path}[{i}]", timing, ignored, out)
+    elif timing:
+        number = (int, float)
+        if not (isinstance(a, number) and isinstance(b, number)) and type(a) is not type(b):
+            out.append(f"{path}: timing of type {type(a).__name__} vs {type(b).__name__}")
+    elif type(a) is not type(b) or a != b:
+        out.append(f"{path}: {json.dumps(a)} vs {json.dumps(b)}")
+
+def compare_json(label, text_a, text_b, ignored=frozenset()):
+    counts["json"] += 1
+    try:
+        a = json.loads(normalize_dir(text_a, "before"))
+        b = json.loads(normalize_dir(text_b, "after"))
+    except json.JSONDecodeError as e:
+        problem(f"{label}: not valid JSON ({e})")
+        return
+    diffs = []
+    json_diff(a, b, "$", False, set(ignored), diffs)
+    if diffs:
+        problem(f"{label}: JSON differs in {len(diffs)} field(s)")
+        for d in diffs[:20]:
+            print(f"      {d}")
+        if len(diffs) > 20:
+            print(f"      ... and {len(diffs) - 20} more")
+    else:
+        counts["json_same"] += 1
+        print(f"  same       json   {label}")
+
+# ---- text -----------------------------------------------------------------------------------
+NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+def mask(text):
+    lines = []
+    for line in text.splitlines():
+        line = NUMBER.sub("#", line)
+        lines.append(re.sub(r" +", " ", line).strip())
+    return lines
+
+def compare_text(label, text_a, text_b, exact):
+    counts["text"] += 1
+    a, b = normalize_dir(text_a, "before"), normalize_dir(text_b, "after")
+    la, lb = (a.splitlines(), b.splitlines()) if exact else (mask(a), mask(b))
+    if la == lb:
+        counts["text_same"] += 1
+        print(f"  same       text   {label}{' (exact)' if exact else ''}")
+        return
+    problem(f"{label}: text differs{' (exact comparison)' if exact else ' (numbers masked)'}")
+    shown = 0
+    for i in range(max(len(la), len(lb))):
+        x = la[i] if i < len(la) else "<missing>"
+        y = lb[i] if i < len(lb) else "<missing>"
+        if x != y and shown < 10:
+            print(f"      line {i + 1}: before: {x}")
+            print(f"      {' ' * len(str(i + 1))}       after:  {y}")
+            shown += 1
+
+# ---- validation -----------------------------------------------------------------------------
+COUNT_LINE = re.compile(r"validation messages: (\d+)")
+MESSAGE_LINE = re.compile(r"^validation [A-Z_]+: ")
+validation_counts = 0
+
+def check_validation(label, side, out, err):
+    global validation_counts
+    for line in (out + "\n" + err).splitlines():
+        m = COUNT_LINE.search(line)
+        if m:
+            validation_counts += 1
+            if int(m.group(1)) > 0:
+                problem(f"{label} ({side}): {line.strip()}")
+        elif MESSAGE_LINE.match(line):
+            problem(f"{label} ({side}): {line.strip()[:300]}")
+
+# ---- the commands' stdout, stderr and exit codes --------------------------------------------
+print()
+print("== command outputs")
+cases = [line.split("\t") for line in read(os.path.join(work, "logs", "cases.tsv")).splitlines()]
+for name, kind in cases:
+    logs = {s: os.path.join(work, "logs", s, name) for s in ("before", "after")}
+    out = {s: read(logs[s] + ".out") for s in logs}
+    err = {s: read(logs[s] + ".err") for s in logs}
+    rc = {s: int(read(logs[s] + ".rc").strip() or -1) for s in logs}
+    for s in logs:
+        check_validation(name, s, out[s], err[s])
+    counts["exit"] += 1
+    if rc["before"] != rc["after"]:
+        problem(f"{name}: exit code {rc['before']} (before) vs {rc['after']} (after)")
+    else:
+        counts["exit_same"] += 1
+    if kind == "bad":
+        print(f"  {'same' if rc['before'] == rc['after'] else 'DIFFERENT':<10} exit   {name}: "
+              f"{rc['before']} vs {rc['after']}")
+        if rc["before"] == 0:
+            problem(f"{name}: bad input accepted (exit 0)")
+        for s in logs:
+            lines = err[s].splitlines()
+            print(f"      stderr {s:<6}: {' | '.join(lines)}")
+            if len(lines) != 1:
+                problem(f"{name} ({s}): stderr has {len(lines)} lines, expected 1")
+        compare_text(f"{name} stdout", out["before"], out["after"], exact=False)
+        continue
+    for s in logs:
+        if rc[s] != 0:
+            problem(f"{name} ({s}): exit code {rc[s]}; stderr: {err[s].strip()[:500]}")
+    if kind == "json":
+        compare_json(f"{name} stdout", out["before"], out["after"])
+    else:
+        compare_text(f"{name} stdout", out["before"], out["after"], exact=(kind == "exact"))
+    # stderr of a successful command is normally empty; compare it like text
+    if err["before"].strip() or err["after"].strip():
+        compare_text(f"{name} stderr", err["before"], err["after"], exact=False)
+
+# ---- the files written ----------------------------------------------------------------------
+def files_under(root):
+    found = set()
+    for d, _, names in os.walk(root):
+        for n in names:
+            found.add(os.path.relpath(os.path.join(d, n), root))
+    return found
+
+print()
+print("== files written")
+root = {s: os.path.join(work, s) for s in ("before", "after")}
+fa, fb = files_under(root["before"]), files_under(root["after"])
+for rel in sorted(fa - fb):
+    problem(f"{rel}: written only by before")
+for rel in sorted(fb - fa):
+    problem(f"{rel}: written only by after")
+for rel in sorted(fa & fb):
+    pa, pb = os.path.join(root["before"], rel), os.path.join(root["after"], rel)
+    ext = os.path.splitext(rel)[1].lower()
+    if ext == ".json":
+        compare_json(rel, read(pa), read(pb), IGNORED_KEYS.get(os.path.basename(rel), frozenset()))
+        continue
+    kind = "image" if ext in (".png", ".exr") else "file"
+    key = "images" if kind == "image" else "other"
+    counts[key] += 1
+    r = subprocess.run(["cmp", pa, pb], capture_output=True, text=True)
+    if r.returncode == 0:
+        counts[key + "_same"] += 1
+        print(f"  identical  {kind:<6} {rel}")
+    else:
+        problem(f"{rel}: {kind} not byte-identical ({(r.stdout + r.stderr).strip()})")
+
+if counts["images"] == 0:
+    problem("no images were written: nothing rendered (is a Vulkan driver installed?)")
+if validation_counts == 0:
+    problem("no 'validation messages: N' line seen: was the validation layer on?")
+
+print()
+print("== summary")
+print(f"  images compared:        {counts['images']}, byte-identical: {counts['images_same']}")
+print(f"  JSON compared:          {counts['json']} (files and stdout), same: {counts['json_same']}")
+print(f"  text outputs compared:  {counts['text']}, same: {counts['text_same']}")
+print(f"  exit codes compared:    {counts['exit']}, equal: {counts['exit_same']}")
+if counts["other"]:
+    print(f"  other files compared:   {counts['other']}, byte-identical: {counts['other_same']}")
+print(f"  validation count lines: {validation_counts} (all must say 0; no message lines allowed)")
+print(f"  outputs in {work}")
+if problems:
+    print(f"DIFFERENT ({len(problems)} problems)")
+    sys.exit(1)
+print("SAME")
+PY

@@ -2,8 +2,26 @@
 //! `build.rs` (a shader error fails the build naming file and line). One file per pass family:
 //! `environment` (opaque vertex-coloured meshes) and `lens` (the layered-EM compositor, both
 //! variants).
+//!
+//! What Rust must agree on with the shaders is generated from them by `build.rs`: the push-constant
+//! structs ([`LensConstants`], [`EnvironmentConstants`]) with compile-time checks of their layout,
+//! the single-pass layer limit [`MAX_LAYERS`], and the table of specialized entry points keyed by
+//! [`Overrides`].
 
 include!(concat!(env!("OUT_DIR"), "/modules.rs"));
+
+/// The WGSL `override` values a `*_specialized` entry point was compiled with (`build.rs` compiles
+/// every combination). Field names are the override names in lower case: the generated table
+/// spells them, so an override renamed in WGSL fails to compile here.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Overrides {
+    /// `LAYER_COUNT`: layers composited, 1 ..= [`MAX_LAYERS`].
+    pub layer_count: u32,
+    /// `TERM_MASK`: bit 0 the refraction term, bit 1 the reflection term (1, 2 or 3).
+    pub term_mask: u32,
+    /// `VIEWPOINTS`: viewpoint samples blended, 1 or 2.
+    pub viewpoints: u32,
+}
 
 /// A compiled entry point.
 #[derive(Clone, Copy, Debug)]
@@ -12,8 +30,8 @@ pub struct Shader {
     pub file: &'static str,
     /// Entry point name, also the SPIR-V entry point.
     pub entry: &'static str,
-    /// Override values baked in (`LAYER_COUNT=3,TERM_MASK=3,VIEWPOINTS=2`), empty if none.
-    pub specialization: &'static str,
+    /// Override values baked in, `None` for an entry point without overrides.
+    pub overrides: Option<Overrides>,
     /// SPIR-V bytes (little-endian words).
     pub spirv: &'static [u8],
 }
@@ -28,34 +46,43 @@ impl Shader {
     }
 }
 
-/// The compiled entry point `entry` of `file`, or `None` if there is no such shader.
+/// The compiled entry point `entry` of `file` (one without overrides), or `None` if there is none.
 pub fn shader(file: &str, entry: &str) -> Option<Shader> {
-    specialized(file, entry, "")
+    all().find(|s| s.file == file && s.entry == entry && s.overrides.is_none())
 }
 
-/// The entry point `entry` of `file` compiled with the override values `specialization`
-/// (`LAYER_COUNT=3,TERM_MASK=3,VIEWPOINTS=2`; entry points named `*_specialized` only).
-pub fn specialized(file: &str, entry: &str, specialization: &str) -> Option<Shader> {
-    all().find(|s| s.file == file && s.entry == entry && s.specialization == specialization)
+/// The entry point `entry` of `file` compiled with `overrides` (entry points named
+/// `*_specialized` only), or `None` if `build.rs` did not compile that combination.
+pub fn specialized(file: &str, entry: &str, overrides: Overrides) -> Option<Shader> {
+    all().find(|s| s.file == file && s.entry == entry && s.overrides == Some(overrides))
 }
 
 /// Every compiled entry point.
 pub fn all() -> impl Iterator<Item = Shader> {
-    MODULES
+    let plain = MODULES.iter().map(|&(file, entry, spirv)| Shader {
+        file,
+        entry,
+        overrides: None,
+        spirv,
+    });
+    let specialized = SPECIALIZED
         .iter()
-        .map(|&(file, entry, specialization, spirv)| Shader {
+        .map(|&(file, entry, overrides, spirv)| Shader {
             file,
             entry,
-            specialization,
+            overrides: Some(overrides),
             spirv,
-        })
+        });
+    plain.chain(specialized)
 }
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn every_entry_point_is_valid_spirv() {
-        let names: Vec<_> = super::all().map(|s| (s.file, s.entry)).collect();
+        let names: Vec<_> = all().map(|s| (s.file, s.entry)).collect();
         for expected in [
             ("environment", "vs_environment"),
             ("environment", "fs_environment"),
@@ -70,21 +97,34 @@ mod tests {
                 "missing {expected:?} in {names:?}"
             );
         }
-        for layers in 1..=6 {
-            for terms in 1..=3 {
+        for layer_count in 1..=MAX_LAYERS {
+            for term_mask in 1..=3 {
                 for viewpoints in 1..=2 {
-                    let key =
-                        format!("LAYER_COUNT={layers},TERM_MASK={terms},VIEWPOINTS={viewpoints}");
+                    let overrides = Overrides {
+                        layer_count,
+                        term_mask,
+                        viewpoints,
+                    };
                     assert!(
-                        super::specialized("lens", "fs_single_pass_specialized", &key).is_some(),
-                        "{key}"
+                        specialized("lens", "fs_single_pass_specialized", overrides).is_some(),
+                        "{overrides:?}"
                     );
                 }
             }
         }
-        for shader in super::all() {
+        assert_eq!(SPECIALIZED.len(), MAX_LAYERS as usize * 3 * 2);
+        for shader in all() {
             let words = shader.words();
             assert_eq!(words[0], 0x0723_0203, "{}: SPIR-V magic", shader.entry);
         }
+    }
+
+    #[test]
+    fn push_constants_follow_the_wgsl_layout() {
+        // The generated structs assert naga's offsets at compile time; here, the sizes the
+        // pipeline layouts declare are the structs' sizes, multiples of 4 as Vulkan requires.
+        assert_eq!(std::mem::size_of::<EnvironmentConstants>(), 64);
+        assert_eq!(std::mem::size_of::<LensConstants>() % 4, 0);
+        assert_eq!(std::mem::offset_of!(LensConstants, weight_a), 64);
     }
 }

@@ -19,7 +19,7 @@ struct LensConstants {
     // Weight of viewpoint sample a (multipass: this pass's weight) and b (single pass only).
     weight_a: f32,
     weight_b: f32,
-    // Multipass: unused. Single pass: number of layers n (≤ 6).
+    // Multipass: unused. Single pass: number of layers n (≤ MAX_LAYERS).
     layer_count: u32,
     // Single pass: bit 0 = refraction term present, bit 1 = reflection term present.
     term_mask: u32,
@@ -81,6 +81,12 @@ fn fs_layer(in: LayerVertex) -> @location(0) vec4<f32> {
     let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer);
     return vec4<f32>(texel.rgb * in.fg * constants.weight_a, texel.a);
 }
+
+// The most layers the single pass composites: one interpolated direction per layer and term
+// (t0…t5, r0…r5 below) plus the two F·G make 2·MAX_LAYERS + 2 varyings, within Vulkan's guaranteed
+// 16 locations. shaders/build.rs reads this constant: it compiles the single pass for every layer
+// count up to it, and Rust takes the limit from there (lensmap_shaders::MAX_LAYERS).
+const MAX_LAYERS: u32 = 6u;
 
 struct SinglePassVertex {
     @builtin(position) @invariant clip: vec4<f32>,

@@ -268,7 +268,7 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let mut a = renderer.upload(&gpu, &frame).unwrap();
             let mut b = renderer.upload(&gpu, &single).unwrap();
-            let plan = Renderer::plan(&a, variant, TargetFormat::Rgba32f);
+            let plan = Renderer::plan(&a, variant, TargetFormat::Rgba32f).unwrap();
             if variant == Variant::Multipass {
                 assert_eq!(
                     (plan.count("layer"), plan.count("alpha-clear")),

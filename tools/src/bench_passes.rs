@@ -83,7 +83,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let mut results: Vec<(TargetFormat, RenderedImage, f64, f64, usize)> = Vec::new();
             for format in TargetFormat::ALL {
-                let plan = Renderer::plan(&uploaded, variant, format);
+                let plan = Renderer::plan(&uploaded, variant, format)?;
                 let passes = plan.steps.len();
                 let (image, _) = renderer.render(&gpu, &mut uploaded, variant, format)?;
                 let mut frame_ms = Vec::new();

@@ -9,7 +9,7 @@ use lensmap::trace::Term;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     render::{
-        FrameShape, RenderedImage, Renderer, TargetFormat, Variant,
+        FrameShape, RenderedImage, Renderer, SinglePassProgram, TargetFormat, Variant,
         plan::frame_graph,
         synthetic::{SyntheticOptions, sphere_frame},
     },
@@ -91,20 +91,12 @@ pub fn passes(args: PassesArgs) -> anyhow::Result<()> {
     } else {
         &[Term::Reflection]
     };
-    if matches!(args.variant, VariantArg::SinglePass)
-        && args.layers > lensmap::render::MAX_LAYERS_SINGLE_PASS
-    {
-        return Err(BadUsage(format!(
-            "--layers {}: the single-pass variant supports at most {} layers; use --variant multipass",
-            args.layers,
-            lensmap::render::MAX_LAYERS_SINGLE_PASS
-        ))
-        .into());
-    }
     let shape = FrameShape::synthetic(640, 480, args.layers, args.viewpoints as usize, terms);
     let variant = Variant::from(args.variant);
     let format = TargetFormat::from(args.format);
-    let plan = frame_graph(&shape, variant, format).0.compile()?;
+    let (graph, _) = frame_graph(&shape, variant, format)
+        .map_err(|error| BadUsage(format!("--layers {}: {error}", args.layers)))?;
+    let plan = graph.compile()?;
     let counts = json!({
         "prime": plan.count("prime"),
         "layer": plan.count("layer"),
@@ -164,14 +156,11 @@ pub fn max_difference(a: &RenderedImage, b: &RenderedImage) -> f64 {
 /// Renders the synthetic scene with both variants, writes PNG and EXR, prints counts and times.
 pub fn synthetic_demo(args: &crate::demo::DemoArgs) -> anyhow::Result<()> {
     let (width, height) = (args.width.unwrap_or(640), args.height.unwrap_or(480));
-    if width == 0
-        || height == 0
-        || args.layers == 0
-        || args.layers > lensmap::render::MAX_LAYERS_SINGLE_PASS
+    if width == 0 || height == 0 || args.layers == 0 || args.layers > SinglePassProgram::MAX_LAYERS
     {
         return Err(BadUsage(format!(
             "--width/--height must be ≥ 1 and --layers within 1..={} (got {}×{}, {} layers)",
-            lensmap::render::MAX_LAYERS_SINGLE_PASS,
+            SinglePassProgram::MAX_LAYERS,
             width,
             height,
             args.layers
@@ -194,7 +183,7 @@ pub fn synthetic_demo(args: &crate::demo::DemoArgs) -> anyhow::Result<()> {
     let format = TargetFormat::Rgba32f;
     let mut images = Vec::new();
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let plan = Renderer::plan(&uploaded, variant, format);
+        let plan = Renderer::plan(&uploaded, variant, format)?;
         // Warm-up frame: the first frame after creating a pipeline pays for shader compilation.
         let (image, _) = renderer.render(&gpu, &mut uploaded, variant, format)?;
         let mut times: Vec<f64> = Vec::new();

@@ -54,9 +54,9 @@ pub struct RenderingInstance {
 
 /// One live pass of the plan, in execution order.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Step<D> {
+pub struct Step<D, P> {
     /// The pass.
-    pub pass: Pass<D>,
+    pub pass: Pass<D, P>,
     /// Barriers recorded before it (only on the first step of a rendering instance, or a readback).
     pub barriers: Vec<Barrier>,
     /// `Some` on the first step of a rendering instance: begin rendering before this step.
@@ -67,18 +67,18 @@ pub struct Step<D> {
 
 /// A compiled graph: what `render/` records, and what `lensmap passes` prints.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Plan<D> {
+pub struct Plan<D, P> {
     /// The images, indexed by [`ImageId`].
     pub images: Vec<ImageInfo>,
     /// The buffers, indexed by `BufferId`.
     pub buffers: Vec<BufferInfo>,
     /// Live passes in order.
-    pub steps: Vec<Step<D>>,
+    pub steps: Vec<Step<D, P>>,
     /// Passes dropped, with why.
     pub culled: Vec<(String, CullReason)>,
 }
 
-impl<D> Plan<D> {
+impl<D, P> Plan<D, P> {
     /// Live passes of a category.
     pub fn count(&self, category: &str) -> usize {
         self.steps
@@ -108,7 +108,7 @@ impl<D> Plan<D> {
 }
 
 /// Images a pass reads (their earlier contents matter to it) and writes.
-fn reads_and_writes<D>(pass: &Pass<D>) -> (Vec<ImageId>, Vec<ImageId>) {
+fn reads_and_writes<D, P>(pass: &Pass<D, P>) -> (Vec<ImageId>, Vec<ImageId>) {
     match &pass.kind {
         PassKind::Draw {
             colour,
@@ -136,7 +136,7 @@ fn reads_and_writes<D>(pass: &Pass<D>) -> (Vec<ImageId>, Vec<ImageId>) {
 }
 
 /// Whether the pass fully redefines `image` (so earlier writers are not needed by it).
-fn redefines<D>(pass: &Pass<D>, image: ImageId) -> bool {
+fn redefines<D, P>(pass: &Pass<D, P>, image: ImageId) -> bool {
     match &pass.kind {
         PassKind::Draw { colour, depth, .. } => {
             (colour.image == image && colour.load != LoadOp::Load)
@@ -146,14 +146,45 @@ fn redefines<D>(pass: &Pass<D>, image: ImageId) -> bool {
     }
 }
 
-impl<D: Clone> Graph<D> {
-    /// Validates the declaration and compiles it into a plan.
-    pub fn compile(&self) -> Result<Plan<D>, GraphError> {
-        self.validate()?;
+/// Per declared pass: `None` while it is live, else why it was culled.
+type Culling = Vec<Option<CullReason>>;
 
-        // 1. Empty draw lists go first: a pass with no draws changes nothing unless it clears.
-        let mut culled: Vec<Option<CullReason>> = self
+/// Where an image stands while the plan is scheduled: its layout, the last access and whether
+/// that access wrote.
+type ImageState = (Layout, Access, bool);
+
+impl<D: Clone, P: Clone> Graph<D, P> {
+    /// Validates the declaration and compiles it into a plan, in four phases: empty draw lists
+    /// are culled, then passes whose outputs nobody reads; the live passes are checked for reads
+    /// before writes; then they are grouped into rendering instances with their barriers.
+    pub fn compile(&self) -> Result<Plan<D, P>, GraphError> {
+        self.validate()?;
+        let mut culled = self.cull_empty_draw_lists();
+        self.cull_unread_outputs(&mut culled);
+        self.check_reads_before_writes(&culled)?;
+        let live: Vec<&Pass<D, P>> = self
             .passes
+            .iter()
+            .zip(&culled)
+            .filter(|(_, c)| c.is_none())
+            .map(|(p, _)| p)
+            .collect();
+        Ok(Plan {
+            images: self.images.clone(),
+            buffers: self.buffers.clone(),
+            steps: self.schedule(&live),
+            culled: self
+                .passes
+                .iter()
+                .zip(culled)
+                .filter_map(|(p, c)| c.map(|c| (p.name.clone(), c)))
+                .collect(),
+        })
+    }
+
+    /// Phase 1: a pass with no draws changes nothing unless it clears.
+    fn cull_empty_draw_lists(&self) -> Culling {
+        self.passes
             .iter()
             .map(|p| match &p.kind {
                 PassKind::Draw {
@@ -169,10 +200,12 @@ impl<D: Clone> Graph<D> {
                 }
                 _ => None,
             })
-            .collect();
+            .collect()
+    }
 
-        // 2. Reachability, walking back from the side effects: `needed` holds the images whose
-        //    current contents a later live pass reads.
+    /// Phase 2: reachability, walking back from the side effects: `needed` holds the images whose
+    /// current contents a later live pass reads.
+    fn cull_unread_outputs(&self, culled: &mut Culling) {
         let mut needed: HashSet<ImageId> = HashSet::new();
         for (index, pass) in self.passes.iter().enumerate().rev() {
             if culled[index].is_some() {
@@ -193,8 +226,10 @@ impl<D: Clone> Graph<D> {
             }
             needed.extend(reads);
         }
+    }
 
-        // 3. Read-before-write over the live passes.
+    /// Phase 3: every image a live pass reads was imported or written by an earlier live pass.
+    fn check_reads_before_writes(&self, culled: &Culling) -> Result<(), GraphError> {
         let mut defined: HashSet<ImageId> = self
             .images
             .iter()
@@ -202,7 +237,7 @@ impl<D: Clone> Graph<D> {
             .filter(|(_, i)| i.imported)
             .map(|(n, _)| ImageId(n as u32))
             .collect();
-        for (pass, _) in self.passes.iter().zip(&culled).filter(|(_, c)| c.is_none()) {
+        for (pass, _) in self.passes.iter().zip(culled).filter(|(_, c)| c.is_none()) {
             let (reads, writes) = reads_and_writes(pass);
             if let Some(r) = reads.iter().find(|r| !defined.contains(r)) {
                 return Err(GraphError::ReadBeforeWrite {
@@ -212,16 +247,13 @@ impl<D: Clone> Graph<D> {
             }
             defined.extend(writes);
         }
+        Ok(())
+    }
 
-        // 4. Rendering instances and barriers.
-        let live: Vec<&Pass<D>> = self
-            .passes
-            .iter()
-            .zip(&culled)
-            .filter(|(_, c)| c.is_none())
-            .map(|(p, _)| p)
-            .collect();
-        let mut state: Vec<(Layout, Access, bool)> = self
+    /// Phase 4: the live passes as steps: consecutive draw passes on the same attachments become
+    /// one rendering instance, and each instance or readback gets the barriers its images need.
+    fn schedule(&self, live: &[&Pass<D, P>]) -> Vec<Step<D, P>> {
+        let mut state: Vec<ImageState> = self
             .images
             .iter()
             .map(|i| {
@@ -232,7 +264,7 @@ impl<D: Clone> Graph<D> {
                 }
             })
             .collect();
-        let mut steps: Vec<Step<D>> = Vec::with_capacity(live.len());
+        let mut steps: Vec<Step<D, P>> = Vec::with_capacity(live.len());
         let mut index = 0;
         while index < live.len() {
             let pass = live[index];
@@ -256,118 +288,14 @@ impl<D: Clone> Graph<D> {
                     });
                     index += 1;
                 }
-                PassKind::Draw { colour, depth, .. } => {
-                    // Extend the instance while the next pass uses the same attachments and loads them.
-                    let mut last = index;
-                    while let Some(next) = live.get(last + 1) {
-                        match &next.kind {
-                            PassKind::Draw {
-                                colour: c,
-                                depth: d,
-                                ..
-                            } if c.image == colour.image
-                                && c.load == LoadOp::Load
-                                && d.map(|d| d.image) == depth.map(|d| d.image)
-                                && d.is_none_or(|d| d.load == LoadOp::Load) =>
-                            {
-                                last += 1
-                            }
-                            _ => break,
-                        }
-                    }
-                    let group = &live[index..=last];
-                    let store = |f: &dyn Fn(&Pass<D>) -> Option<StoreOp>| {
-                        if group.iter().any(|p| f(p) == Some(StoreOp::Store)) {
-                            StoreOp::Store
-                        } else {
-                            StoreOp::DontCare
-                        }
-                    };
-                    let colour_store = store(&|p| match &p.kind {
-                        PassKind::Draw { colour, .. } => Some(colour.store),
-                        _ => None,
-                    });
-                    let depth_store = store(&|p| match &p.kind {
-                        PassKind::Draw { depth, .. } => depth.map(|d: DepthAttachment| d.store),
-                        _ => None,
-                    });
-                    let instance = RenderingInstance {
-                        colour: (colour.image, colour.load, colour_store),
-                        depth: depth.map(|d| (d.image, d.load, depth_store)),
-                    };
-                    let mut barriers = Vec::new();
-                    transition(
-                        &mut state,
-                        &mut barriers,
-                        colour.image,
-                        Layout::ColourAttachment,
-                        Access::ColourAttachment,
-                        true,
-                        colour.load != LoadOp::Load,
-                    );
-                    if let Some(d) = depth {
-                        let writes = group.iter().any(|p| match &p.kind {
-                            PassKind::Draw { depth, .. } => depth.is_some_and(|d| d.write),
-                            _ => false,
-                        }) || d.load != LoadOp::Load;
-                        transition(
-                            &mut state,
-                            &mut barriers,
-                            d.image,
-                            Layout::DepthAttachment,
-                            Access::DepthAttachment,
-                            writes,
-                            d.load != LoadOp::Load,
-                        );
-                    }
-                    let mut sampled_all: Vec<ImageId> = group
-                        .iter()
-                        .flat_map(|p| match &p.kind {
-                            PassKind::Draw { sampled, .. } => sampled.clone(),
-                            _ => Vec::new(),
-                        })
-                        .collect();
-                    sampled_all.sort();
-                    sampled_all.dedup();
-                    for s in sampled_all {
-                        transition(
-                            &mut state,
-                            &mut barriers,
-                            s,
-                            Layout::ShaderRead,
-                            Access::FragmentSample,
-                            false,
-                            false,
-                        );
-                    }
-                    for (offset, p) in group.iter().enumerate() {
-                        steps.push(Step {
-                            pass: (*p).clone(),
-                            barriers: if offset == 0 {
-                                std::mem::take(&mut barriers)
-                            } else {
-                                Vec::new()
-                            },
-                            begin: (offset == 0).then_some(instance),
-                            end: index + offset == last,
-                        });
-                    }
+                PassKind::Draw { .. } => {
+                    let last = instance_end(live, index);
+                    steps.extend(rendering_instance(&live[index..=last], &mut state));
                     index = last + 1;
                 }
             }
         }
-
-        Ok(Plan {
-            images: self.images.clone(),
-            buffers: self.buffers.clone(),
-            steps,
-            culled: self
-                .passes
-                .iter()
-                .zip(culled)
-                .filter_map(|(p, c)| c.map(|c| (p.name.clone(), c)))
-                .collect(),
-        })
+        steps
     }
 
     fn validate(&self) -> Result<(), GraphError> {
@@ -440,9 +368,126 @@ impl<D: Clone> Graph<D> {
     }
 }
 
+/// The index of the last pass of the rendering instance that the draw pass `live[first]` begins:
+/// the instance extends while the next pass uses the same attachments and loads them.
+fn instance_end<D, P>(live: &[&Pass<D, P>], first: usize) -> usize {
+    let PassKind::Draw { colour, depth, .. } = &live[first].kind else {
+        return first;
+    };
+    let mut last = first;
+    while let Some(next) = live.get(last + 1) {
+        match &next.kind {
+            PassKind::Draw {
+                colour: c,
+                depth: d,
+                ..
+            } if c.image == colour.image
+                && c.load == LoadOp::Load
+                && d.map(|d| d.image) == depth.map(|d| d.image)
+                && d.is_none_or(|d| d.load == LoadOp::Load) =>
+            {
+                last += 1
+            }
+            _ => break,
+        }
+    }
+    last
+}
+
+/// The steps of one rendering instance (`group`: consecutive draw passes on the same attachments):
+/// its load and store ops, and the barriers its attachments and sampled images need, all on the
+/// first step.
+fn rendering_instance<D: Clone, P: Clone>(
+    group: &[&Pass<D, P>],
+    state: &mut [ImageState],
+) -> Vec<Step<D, P>> {
+    let PassKind::Draw { colour, depth, .. } = &group[0].kind else {
+        return Vec::new();
+    };
+    let store = |f: &dyn Fn(&Pass<D, P>) -> Option<StoreOp>| {
+        if group.iter().any(|p| f(p) == Some(StoreOp::Store)) {
+            StoreOp::Store
+        } else {
+            StoreOp::DontCare
+        }
+    };
+    let colour_store = store(&|p| match &p.kind {
+        PassKind::Draw { colour, .. } => Some(colour.store),
+        _ => None,
+    });
+    let depth_store = store(&|p| match &p.kind {
+        PassKind::Draw { depth, .. } => depth.map(|d: DepthAttachment| d.store),
+        _ => None,
+    });
+    let instance = RenderingInstance {
+        colour: (colour.image, colour.load, colour_store),
+        depth: depth.map(|d| (d.image, d.load, depth_store)),
+    };
+    let mut barriers = Vec::new();
+    transition(
+        state,
+        &mut barriers,
+        colour.image,
+        Layout::ColourAttachment,
+        Access::ColourAttachment,
+        true,
+        colour.load != LoadOp::Load,
+    );
+    if let Some(d) = depth {
+        let writes = group.iter().any(|p| match &p.kind {
+            PassKind::Draw { depth, .. } => depth.is_some_and(|d| d.write),
+            _ => false,
+        }) || d.load != LoadOp::Load;
+        transition(
+            state,
+            &mut barriers,
+            d.image,
+            Layout::DepthAttachment,
+            Access::DepthAttachment,
+            writes,
+            d.load != LoadOp::Load,
+        );
+    }
+    let mut sampled_all: Vec<ImageId> = group
+        .iter()
+        .flat_map(|p| match &p.kind {
+            PassKind::Draw { sampled, .. } => sampled.clone(),
+            _ => Vec::new(),
+        })
+        .collect();
+    sampled_all.sort();
+    sampled_all.dedup();
+    for s in sampled_all {
+        transition(
+            state,
+            &mut barriers,
+            s,
+            Layout::ShaderRead,
+            Access::FragmentSample,
+            false,
+            false,
+        );
+    }
+    let last = group.len() - 1;
+    group
+        .iter()
+        .enumerate()
+        .map(|(offset, p)| Step {
+            pass: (*p).clone(),
+            barriers: if offset == 0 {
+                std::mem::take(&mut barriers)
+            } else {
+                Vec::new()
+            },
+            begin: (offset == 0).then_some(instance),
+            end: offset == last,
+        })
+        .collect()
+}
+
 /// Records the barrier (if any) that moves `image` to `layout` for `access`.
 fn transition(
-    state: &mut [(Layout, Access, bool)],
+    state: &mut [ImageState],
     barriers: &mut Vec<Barrier>,
     image: ImageId,
     layout: Layout,
@@ -468,7 +513,7 @@ fn transition(
     state[image.0 as usize] = (layout, access, writes);
 }
 
-impl<D> fmt::Display for Plan<D> {
+impl<D, P> fmt::Display for Plan<D, P> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,

@@ -8,14 +8,13 @@ fn draw(
     load: LoadOp,
     depth: Option<(ImageId, LoadOp, bool)>,
     draws: usize,
-) -> Pass<u32> {
+) -> Pass<u32, &'static str> {
     Pass {
         name: name.into(),
         category: "test",
         side_effect: false,
         kind: PassKind::Draw {
             program: "p",
-            specialization: [0; 3],
             colour: ColourAttachment {
                 image: colour,
                 load,
@@ -38,7 +37,7 @@ fn draw(
     }
 }
 
-fn frame() -> (Graph<u32>, ImageId, ImageId, BufferId) {
+fn frame() -> (Graph<u32, &'static str>, ImageId, ImageId, BufferId) {
     let mut g = Graph::new();
     let colour = g.image("colour", Format::Rgba32Float, 8, 8);
     let depth = g.image("depth", Format::Depth32Float, 8, 8);
@@ -46,7 +45,7 @@ fn frame() -> (Graph<u32>, ImageId, ImageId, BufferId) {
     (g, colour, depth, readback)
 }
 
-fn readback(colour: ImageId, buffer: BufferId) -> Pass<u32> {
+fn readback(colour: ImageId, buffer: BufferId) -> Pass<u32, &'static str> {
     Pass {
         name: "readback".into(),
         category: "readback",

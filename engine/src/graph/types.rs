@@ -219,13 +219,11 @@ pub struct DepthAttachment {
 }
 
 /// The pipeline a draw pass needs, derived from its declaration: two passes with equal keys share
-/// one pipeline.
+/// one pipeline. `P` is the shader program type of the graph's user (`render/` maps it to SPIR-V).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct PipelineKey {
-    /// Shader program name (render maps it to entry points).
-    pub program: &'static str,
-    /// The program's specialization constants (render decides their meaning; zeros if none).
-    pub specialization: [u32; 3],
+pub struct PipelineKey<P> {
+    /// The shader program.
+    pub program: P,
     /// Colour format.
     pub colour_format: Format,
     /// Depth format, if a depth attachment is bound.
@@ -244,13 +242,11 @@ pub struct PipelineKey {
 
 /// What a pass does.
 #[derive(Clone, Debug, PartialEq)]
-pub enum PassKind<D> {
+pub enum PassKind<D, P> {
     /// Rasterize `draws` with `program` into the attachments.
     Draw {
-        /// Shader program name.
-        program: &'static str,
-        /// Specialization constants of the program (zeros if none).
-        specialization: [u32; 3],
+        /// The shader program (a type of the graph's user: the graph only compares it).
+        program: P,
         /// Colour attachment.
         colour: ColourAttachment,
         /// Depth attachment.
@@ -275,7 +271,7 @@ pub enum PassKind<D> {
 
 /// A declared pass.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Pass<D> {
+pub struct Pass<D, P> {
     /// Unique name (debug label).
     pub name: String,
     /// A category for counting (`prime`, `layer`, `alpha-clear`, …).
@@ -283,23 +279,24 @@ pub struct Pass<D> {
     /// Kept even if nothing reads its outputs.
     pub side_effect: bool,
     /// What it does.
-    pub kind: PassKind<D>,
+    pub kind: PassKind<D, P>,
 }
 
-impl<D> Pass<D> {
+impl<D, P> Pass<D, P> {
     /// The pipeline this pass needs (draw passes only).
-    pub fn pipeline_key(&self, images: &[ImageInfo]) -> Option<PipelineKey> {
+    pub fn pipeline_key(&self, images: &[ImageInfo]) -> Option<PipelineKey<P>>
+    where
+        P: Copy,
+    {
         match &self.kind {
             PassKind::Draw {
                 program,
-                specialization,
                 colour,
                 depth,
                 cull,
                 ..
             } => Some(PipelineKey {
-                program,
-                specialization: *specialization,
+                program: *program,
                 colour_format: images.get(colour.image.0 as usize)?.format,
                 depth_format: match depth {
                     Some(d) => Some(images.get(d.image.0 as usize)?.format),
@@ -326,13 +323,13 @@ impl<D> Pass<D> {
 
 /// A graph being declared. Passes run in declaration order.
 #[derive(Clone, Debug)]
-pub struct Graph<D> {
+pub struct Graph<D, P> {
     pub(crate) images: Vec<ImageInfo>,
     pub(crate) buffers: Vec<BufferInfo>,
-    pub(crate) passes: Vec<Pass<D>>,
+    pub(crate) passes: Vec<Pass<D, P>>,
 }
 
-impl<D> Default for Graph<D> {
+impl<D, P> Default for Graph<D, P> {
     fn default() -> Self {
         Graph {
             images: Vec::new(),
@@ -342,7 +339,7 @@ impl<D> Default for Graph<D> {
     }
 }
 
-impl<D> Graph<D> {
+impl<D, P> Graph<D, P> {
     /// An empty graph.
     pub fn new() -> Self {
         Self::default()
@@ -384,12 +381,12 @@ impl<D> Graph<D> {
     }
 
     /// Adds a pass after the others.
-    pub fn add_pass(&mut self, pass: Pass<D>) {
+    pub fn add_pass(&mut self, pass: Pass<D, P>) {
         self.passes.push(pass);
     }
 
     /// The declared passes.
-    pub fn passes(&self) -> &[Pass<D>] {
+    pub fn passes(&self) -> &[Pass<D, P>] {
         &self.passes
     }
 

@@ -1,6 +1,6 @@
 //! What one compositor frame is made of, as plain CPU data: the environment meshes, the lens
 //! objects with their per-vertex shading terms and cube-map directions, and the viewpoint samples'
-//! layered environment maps. The GPU frame ([`super::Frame`]) and the CPU f64 model
+//! layered environment maps. The GPU renderer ([`super::Renderer`]) and the CPU f64 model
 //! ([`super::model`]) both consume exactly this.
 
 use std::sync::Arc;
@@ -12,11 +12,6 @@ use crate::trace::Term;
 
 /// Maximum number of viewpoint samples blended in one frame (the paper blends the two nearest).
 pub const MAX_VIEWPOINTS: usize = 2;
-
-/// Maximum layers per lens object that the single-pass variant supports (its vertex shader carries
-/// one interpolated direction per layer and term, 2·MAX_LAYERS_SINGLE_PASS + 2 varyings, within
-/// Vulkan's guaranteed 16 locations). The multipass variant has no such limit.
-pub const MAX_LAYERS_SINGLE_PASS: usize = 6;
 
 /// Per-vertex data of one shading term of a lens object.
 #[derive(Clone, Debug, PartialEq)]

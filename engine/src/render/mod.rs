@@ -1,15 +1,26 @@
-//! The compositor: the frame's pass graph ([`plan`]), its recording on the GPU ([`frame`]) and the
-//! CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
+//! The compositor: what a frame is made of ([`FrameInput`]), its pass graph ([`plan`]) with typed
+//! shader programs ([`program`]), the GPU side in files of one job each (uploads, pipelines,
+//! recording, the renderer that runs them, the graph's types in Vulkan's words), the read-back
+//! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 
-pub mod frame;
 mod frame_input;
+mod image;
 pub mod model;
+mod pipelines;
 pub mod plan;
+pub mod program;
+mod record;
+mod renderer;
 pub mod synthetic;
+mod upload;
+mod vulkan;
 
-pub use frame::{FrameTimings, RenderedImage, Renderer, UploadedFrame};
 pub use frame_input::*;
-pub use plan::{FrameShape, TargetFormat, Variant};
+pub use image::RenderedImage;
+pub use plan::{FramePlan, FrameShape, TargetFormat, Variant};
+pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
+pub use renderer::{FrameTimings, Renderer};
+pub use upload::UploadedFrame;
 
 /// Errors from uploading or rendering a frame.
 #[derive(Debug, thiserror::Error)]
@@ -17,6 +28,10 @@ pub enum RenderError {
     /// The frame's data is inconsistent; the message names the field and the fix.
     #[error("frame input: {0}")]
     BadInput(String),
+    /// A lens object needs a shader program that does not exist (e.g. more layers than the
+    /// single pass supports); the message names the lens and the fix.
+    #[error("frame input: {0}")]
+    Program(#[from] ProgramError),
     /// The GPU failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),

@@ -5,10 +5,11 @@
 
 use crate::graph::{
     Blend, ColourAttachment, ColourMask, CompareOp, Cull, DepthAttachment, Format, Graph, ImageId,
-    LoadOp, Pass, PassKind, StoreOp,
+    LoadOp, Pass, PassKind, Plan, StoreOp,
 };
 
 use super::FrameInput;
+use super::program::{ProgramError, ShaderProgram, SinglePassProgram};
 use crate::trace::Term;
 
 /// How lens objects are composited.
@@ -214,20 +215,19 @@ pub struct FrameResources {
     pub layers: Vec<Vec<ImageId>>,
 }
 
-/// Shader program names (render maps them to entry points).
-pub(crate) mod program {
-    pub const ENVIRONMENT: &str = "environment";
-    pub const LENS_ZERO: &str = "lens-zero";
-    pub const LENS_LAYER: &str = "lens-layer";
-    pub const LENS_SINGLE_PASS: &str = "lens-single-pass";
-}
+/// A frame's declared pass graph: draws of [`Draw`] with [`ShaderProgram`]s.
+pub type FrameGraph = Graph<Draw, ShaderProgram>;
 
-/// Declares the frame's passes.
+/// A frame's compiled plan.
+pub type FramePlan = Plan<Draw, ShaderProgram>;
+
+/// Declares the frame's passes. Fails only where a lens object needs a program that does not
+/// exist (more layers than the single pass supports).
 pub fn frame_graph(
     shape: &FrameShape,
     variant: Variant,
     format: TargetFormat,
-) -> (Graph<Draw>, FrameResources) {
+) -> Result<(FrameGraph, FrameResources), ProgramError> {
     let mut graph = Graph::new();
     let colour = graph.image("colour", format.graph_format(), shape.width, shape.height);
     let depth = graph.image("depth", Format::Depth32Float, shape.width, shape.height);
@@ -262,7 +262,7 @@ pub fn frame_graph(
     };
     let draw_pass = |name: String,
                      category: &'static str,
-                     (program, specialization): (&'static str, [u32; 3]),
+                     program: ShaderProgram,
                      colour: ColourAttachment,
                      depth: DepthAttachment,
                      cull: Cull,
@@ -273,7 +273,6 @@ pub fn frame_graph(
         side_effect: false,
         kind: PassKind::Draw {
             program,
-            specialization,
             colour,
             depth: Some(depth),
             cull,
@@ -286,7 +285,7 @@ pub fn frame_graph(
     graph.add_pass(draw_pass(
         "environment".into(),
         "environment",
-        (program::ENVIRONMENT, [0; 3]),
+        ShaderProgram::Environment,
         attach(LoadOp::Clear([0.0; 4]), Blend::Replace, ColourMask::RGBA),
         depth_attach(LoadOp::Clear([1.0; 4]), CompareOp::Less, true),
         Cull::None,
@@ -313,20 +312,12 @@ pub fn frame_graph(
             Variant::SinglePass => graph.add_pass(draw_pass(
                 format!("{name}/single-pass"),
                 "single-pass",
-                (
-                    program::LENS_SINGLE_PASS,
-                    [
-                        n as u32,
-                        lens.terms
-                            .iter()
-                            .map(|t| match t {
-                                Term::Refraction => 1,
-                                Term::Reflection => 2,
-                            })
-                            .sum(),
-                        active.len() as u32,
-                    ],
-                ),
+                ShaderProgram::LensSinglePass(SinglePassProgram::new(
+                    name,
+                    n,
+                    &lens.terms,
+                    active.len(),
+                )?),
                 attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
                 depth_attach(LoadOp::Load, CompareOp::Less, true),
                 Cull::Back,
@@ -337,7 +328,7 @@ pub fn frame_graph(
                 graph.add_pass(draw_pass(
                     format!("{name}/prime"),
                     "prime",
-                    (program::LENS_ZERO, [0; 3]),
+                    ShaderProgram::LensZero,
                     attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
                     depth_attach(LoadOp::Load, CompareOp::Less, true),
                     Cull::Back,
@@ -352,7 +343,7 @@ pub fn frame_graph(
                             graph.add_pass(draw_pass(
                                 format!("{group}/alpha-clear"),
                                 "alpha-clear",
-                                (program::LENS_ZERO, [0; 3]),
+                                ShaderProgram::LensZero,
                                 attach(LoadOp::Load, Blend::Replace, ColourMask::A),
                                 depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
                                 Cull::Back,
@@ -377,7 +368,7 @@ pub fn frame_graph(
                             graph.add_pass(draw_pass(
                                 format!("{group}/layer{layer}"),
                                 "layer",
-                                (program::LENS_LAYER, [0; 3]),
+                                ShaderProgram::LensLayer,
                                 attach(LoadOp::Load, Blend::FrontToBackOver, ColourMask::RGBA),
                                 depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
                                 Cull::Back,
@@ -400,28 +391,24 @@ pub fn frame_graph(
             buffer: readback,
         },
     });
-    (
+    Ok((
         graph,
         FrameResources {
             colour,
             depth,
             layers,
         },
-    )
+    ))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn plan(
-        layers: usize,
-        viewpoints: usize,
-        terms: &[Term],
-        variant: Variant,
-    ) -> crate::graph::Plan<Draw> {
+    fn plan(layers: usize, viewpoints: usize, terms: &[Term], variant: Variant) -> FramePlan {
         let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
         frame_graph(&shape, variant, TargetFormat::Rgba32f)
+            .unwrap()
             .0
             .compile()
             .unwrap()
@@ -485,6 +472,7 @@ mod tests {
         shape.viewpoint_weights = vec![1.0, 0.0];
         shape.lenses[0].empty[0][1] = true;
         let p = frame_graph(&shape, Variant::Multipass, TargetFormat::Rgba8)
+            .unwrap()
             .0
             .compile()
             .unwrap();

@@ -1,0 +1,333 @@
+//! Recording a compiled frame plan into a command buffer: barriers from the plan, dynamic
+//! rendering instances, a debug label around every pass, draws with their push constants
+//! (the structs `shaders/build.rs` generated from the WGSL) and the readback copy.
+
+use ash::vk;
+use bytemuck::Zeroable;
+use lensmap_shaders::{EnvironmentConstants, LensConstants};
+
+use super::{
+    TargetFormat,
+    pipelines::Pipelines,
+    plan::{Draw, FramePlan, FrameResources},
+    upload::{GpuLens, UploadedFrame},
+    vulkan::{vk_access, vk_layout},
+};
+use crate::{
+    gpu::Gpu,
+    graph::{self, LoadOp, PassKind, StoreOp},
+    trace::Term,
+};
+
+/// What recording one frame reads.
+pub(super) struct Recorder<'a> {
+    /// The device (labels, commands).
+    pub(super) gpu: &'a Gpu,
+    /// Layouts the draws bind against.
+    pub(super) pipelines: &'a Pipelines,
+    /// The uploaded frame.
+    pub(super) frame: &'a UploadedFrame,
+}
+
+impl Recorder<'_> {
+    /// Records `plan` into `cb`: per step its barriers, the rendering instance it begins, a debug
+    /// label, its draws or its copy, the end of its instance. `pipelines` holds each step's
+    /// pipeline (`None` for a readback).
+    pub(super) fn record(
+        &self,
+        cb: vk::CommandBuffer,
+        (plan, resources): (&FramePlan, &FrameResources),
+        format: TargetFormat,
+        pipelines: &[Option<vk::Pipeline>],
+    ) {
+        let (gpu, frame) = (self.gpu, self.frame);
+        let device = gpu.device();
+        let targets = &frame.targets[&format];
+        let (width, height) = (frame.shape.width, frame.shape.height);
+        // The graph's image handles → the frame's Vulkan images (imported cube arrays never need
+        // barriers within a frame: uploads leave them SHADER_READ_ONLY; mapped all the same).
+        let image_of = |id: graph::ImageId| -> (vk::Image, vk::ImageAspectFlags, u32) {
+            if id == resources.colour {
+                return (targets.colour.handle, vk::ImageAspectFlags::COLOR, 1);
+            }
+            if id == resources.depth {
+                return (targets.depth.handle, vk::ImageAspectFlags::DEPTH, 1);
+            }
+            resources
+                .layers
+                .iter()
+                .zip(&frame.lenses)
+                .flat_map(|(ids, lens)| ids.iter().zip(&lens.layers))
+                .find(|(layer_id, _)| **layer_id == id)
+                .map_or(
+                    (vk::Image::null(), vk::ImageAspectFlags::COLOR, 1),
+                    |(_, image)| {
+                        (
+                            image.handle,
+                            vk::ImageAspectFlags::COLOR,
+                            image.desc.array_layers,
+                        )
+                    },
+                )
+        };
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: width as f32,
+            height: height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let scissor = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: vk::Extent2D { width, height },
+        };
+
+        for (step, pipeline) in plan.steps.iter().zip(pipelines) {
+            if !step.barriers.is_empty() {
+                let barriers: Vec<vk::ImageMemoryBarrier2> = step
+                    .barriers
+                    .iter()
+                    .map(|b| {
+                        let (image, aspect, layers) = image_of(b.image);
+                        let (src_stage, src_access) = vk_access(b.src);
+                        let (dst_stage, dst_access) = vk_access(b.dst);
+                        vk::ImageMemoryBarrier2::default()
+                            .src_stage_mask(src_stage)
+                            .src_access_mask(src_access)
+                            .dst_stage_mask(dst_stage)
+                            .dst_access_mask(dst_access)
+                            .old_layout(vk_layout(b.old_layout))
+                            .new_layout(vk_layout(b.new_layout))
+                            .image(image)
+                            .subresource_range(vk::ImageSubresourceRange {
+                                aspect_mask: aspect,
+                                base_mip_level: 0,
+                                level_count: vk::REMAINING_MIP_LEVELS,
+                                base_array_layer: 0,
+                                layer_count: layers,
+                            })
+                    })
+                    .collect();
+                // SAFETY: recording; the barriers describe images alive for the submission.
+                unsafe {
+                    device.cmd_pipeline_barrier2(
+                        cb,
+                        &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+                    )
+                };
+            }
+            if let Some(instance) = &step.begin {
+                let clear = |load: LoadOp| match load {
+                    LoadOp::Clear(c) => (vk::AttachmentLoadOp::CLEAR, c),
+                    LoadOp::Load => (vk::AttachmentLoadOp::LOAD, [0.0; 4]),
+                    LoadOp::DontCare => (vk::AttachmentLoadOp::DONT_CARE, [0.0; 4]),
+                };
+                let store = |s: StoreOp| match s {
+                    StoreOp::Store => vk::AttachmentStoreOp::STORE,
+                    StoreOp::DontCare => vk::AttachmentStoreOp::DONT_CARE,
+                };
+                let (colour_load, colour_clear) = clear(instance.colour.1);
+                let colour = [vk::RenderingAttachmentInfo::default()
+                    .image_view(targets.colour.view)
+                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .load_op(colour_load)
+                    .store_op(store(instance.colour.2))
+                    .clear_value(vk::ClearValue {
+                        color: vk::ClearColorValue {
+                            float32: colour_clear,
+                        },
+                    })];
+                let depth = instance.depth.map(|(_, load, s)| {
+                    let (depth_load, depth_clear) = clear(load);
+                    vk::RenderingAttachmentInfo::default()
+                        .image_view(targets.depth.view)
+                        .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+                        .load_op(depth_load)
+                        .store_op(store(s))
+                        .clear_value(vk::ClearValue {
+                            depth_stencil: vk::ClearDepthStencilValue {
+                                depth: depth_clear[0],
+                                stencil: 0,
+                            },
+                        })
+                });
+                let mut rendering = vk::RenderingInfo::default()
+                    .render_area(scissor)
+                    .layer_count(1)
+                    .color_attachments(&colour);
+                if let Some(depth) = depth.as_ref() {
+                    rendering = rendering.depth_attachment(depth);
+                }
+                // SAFETY: recording; attachments are in the layouts the plan's barriers set.
+                unsafe {
+                    device.cmd_begin_rendering(cb, &rendering);
+                    device.cmd_set_viewport(cb, 0, &[viewport]);
+                    device.cmd_set_scissor(cb, 0, &[scissor]);
+                }
+            }
+            gpu.begin_label(cb, &step.pass.name);
+            match &step.pass.kind {
+                PassKind::Draw { draws, .. } => {
+                    // Every draw pass has a pipeline (pipeline_key is Some for draws).
+                    if let Some(pipeline) = *pipeline {
+                        // SAFETY: recording inside a rendering instance with a compatible pipeline.
+                        unsafe {
+                            device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::GRAPHICS, pipeline)
+                        };
+                        for draw in draws {
+                            self.record_draw(cb, *draw);
+                        }
+                    }
+                }
+                PassKind::Readback { .. } => {
+                    let region = vk::BufferImageCopy::default()
+                        .image_subresource(vk::ImageSubresourceLayers {
+                            aspect_mask: vk::ImageAspectFlags::COLOR,
+                            mip_level: 0,
+                            base_array_layer: 0,
+                            layer_count: 1,
+                        })
+                        .image_extent(vk::Extent3D {
+                            width,
+                            height,
+                            depth: 1,
+                        });
+                    let to_host = [vk::MemoryBarrier2::default()
+                        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                        .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+                    // SAFETY: the colour target is TRANSFER_SRC after this step's barrier.
+                    unsafe {
+                        device.cmd_copy_image_to_buffer(
+                            cb,
+                            targets.colour.handle,
+                            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                            targets.readback.handle,
+                            &[region],
+                        );
+                        device.cmd_pipeline_barrier2(
+                            cb,
+                            &vk::DependencyInfo::default().memory_barriers(&to_host),
+                        );
+                    }
+                }
+            }
+            gpu.end_label(cb);
+            if step.end {
+                // SAFETY: closes the instance begun by this run's first step.
+                unsafe { device.cmd_end_rendering(cb) };
+            }
+        }
+    }
+
+    /// Records one draw with its push constants and descriptor set; the pipeline is bound.
+    fn record_draw(&self, cb: vk::CommandBuffer, draw: Draw) {
+        let (device, frame) = (self.gpu.device(), self.frame);
+        let lens_constants = |lens: &GpuLens| LensConstants {
+            view_proj: frame.view_proj,
+            weight_a: 0.0,
+            weight_b: 0.0,
+            layer_count: lens.layer_count,
+            term_mask: u32::from(lens.fg_offset.contains_key(&Term::Refraction))
+                | (u32::from(lens.fg_offset.contains_key(&Term::Reflection)) << 1),
+            position_offset: 0,
+            fg_offset_t: lens.fg_offset.get(&Term::Refraction).copied().unwrap_or(0),
+            fg_offset_r: lens.fg_offset.get(&Term::Reflection).copied().unwrap_or(0),
+            direction_offset_t: lens
+                .direction_offset
+                .get(&Term::Refraction)
+                .copied()
+                .unwrap_or(0),
+            direction_offset_r: lens
+                .direction_offset
+                .get(&Term::Reflection)
+                .copied()
+                .unwrap_or(0),
+            vertex_count: lens.vertex_count,
+            layer: 0,
+            ..Zeroable::zeroed()
+        };
+        let weight = |v: usize| frame.shape.viewpoint_weights.get(v).copied().unwrap_or(0.0);
+        // SAFETY (all arms): recording inside a rendering instance with the matching pipeline bound;
+        // buffers and sets live as long as `frame`.
+        unsafe {
+            match draw {
+                Draw::Environment { mesh } => {
+                    let mesh = &frame.environment[mesh];
+                    device.cmd_push_constants(
+                        cb,
+                        self.pipelines.environment_layout,
+                        vk::ShaderStageFlags::VERTEX,
+                        0,
+                        bytemuck::bytes_of(&EnvironmentConstants {
+                            view_proj: frame.view_proj,
+                        }),
+                    );
+                    device.cmd_bind_vertex_buffers(
+                        cb,
+                        0,
+                        &[mesh.positions.handle, mesh.colours.handle],
+                        &[0, 0],
+                    );
+                    device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
+                    device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);
+                }
+                Draw::LensZero { lens } | Draw::SinglePass { lens } | Draw::Layer { lens, .. } => {
+                    let gpu_lens = &frame.lenses[lens];
+                    let mut constants = lens_constants(gpu_lens);
+                    let set = match draw {
+                        Draw::Layer {
+                            viewpoint,
+                            term,
+                            layer,
+                            ..
+                        } => {
+                            constants.weight_a = weight(viewpoint);
+                            constants.fg_offset_t = gpu_lens.fg_offset[&term];
+                            constants.direction_offset_t = gpu_lens.direction_offset[&term]
+                                + layer as u32 * gpu_lens.vertex_count;
+                            constants.layer = layer as u32;
+                            gpu_lens.sets[viewpoint]
+                        }
+                        _ => {
+                            // The single pass blends the viewpoints with weight > 0 in order, as
+                            // the plan's specialization counts them: binding 1 and weight_a are
+                            // the first active viewpoint's, binding 2 and weight_b the second's.
+                            let active: Vec<usize> = (0..gpu_lens.sets.len())
+                                .filter(|&v| weight(v) > 0.0)
+                                .collect();
+                            let first = active.first().copied().unwrap_or(0);
+                            constants.weight_a = weight(first);
+                            constants.weight_b = active.get(1).map_or(0.0, |&v| weight(v));
+                            gpu_lens.sets[first]
+                        }
+                    };
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        self.pipelines.lens_layout,
+                        0,
+                        &[set],
+                        &[],
+                    );
+                    device.cmd_push_constants(
+                        cb,
+                        self.pipelines.lens_layout,
+                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        bytemuck::bytes_of(&constants),
+                    );
+                    device.cmd_bind_index_buffer(
+                        cb,
+                        gpu_lens.indices.handle,
+                        0,
+                        vk::IndexType::UINT32,
+                    );
+                    device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,428 @@
+//! Uploading a frame: the lens objects' per-vertex data and indices into buffers, their layered
+//! EMs into cube-map arrays, the environment meshes into vertex buffers, one descriptor set per
+//! (lens, viewpoint), and the targets of each framebuffer format on first use. Layered EMs and
+//! environment meshes are cached by the identity of their `Arc`s, so frames that hand over the
+//! same maps and meshes upload them once.
+
+use std::{collections::HashMap, sync::Arc};
+
+use ash::vk;
+
+use super::{
+    EnvironmentMesh, FrameInput, FrameShape, LensObject, RenderError, TargetFormat,
+    pipelines::Pipelines,
+};
+use crate::{
+    cubemap::CubeMap,
+    gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, context::Shared},
+    trace::Term,
+};
+
+/// A lens object's data on the GPU.
+pub(super) struct GpuLens {
+    /// The storage buffer the descriptor sets point at (kept alive here).
+    _data: Buffer,
+    pub(super) indices: Buffer,
+    pub(super) index_count: u32,
+    pub(super) vertex_count: u32,
+    /// Offset (vec4 units) of F·G per term, and of layer 0's directions per term.
+    pub(super) fg_offset: HashMap<Term, u32>,
+    pub(super) direction_offset: HashMap<Term, u32>,
+    pub(super) layer_count: u32,
+    /// One cube-map array per viewpoint sample (shared with the renderer's cache).
+    pub(super) layers: Vec<Arc<Image>>,
+    /// One descriptor set per viewpoint (binding 1 = that viewpoint, binding 2 = the other).
+    pub(super) sets: Vec<vk::DescriptorSet>,
+}
+
+/// An environment mesh's vertex and index buffers.
+pub(super) struct GpuMesh {
+    pub(super) positions: Buffer,
+    pub(super) colours: Buffer,
+    pub(super) indices: Buffer,
+    pub(super) index_count: u32,
+}
+
+/// The attachments and readback buffer of one framebuffer format.
+pub(super) struct Targets {
+    pub(super) colour: Image,
+    pub(super) depth: Image,
+    pub(super) readback: Buffer,
+}
+
+/// A frame's data uploaded once and rendered any number of times, in any variant and format.
+pub struct UploadedFrame {
+    pub(super) shape: FrameShape,
+    pub(super) view_proj: [[f32; 4]; 4],
+    pub(super) environment: Vec<Arc<GpuMesh>>,
+    pub(super) lenses: Vec<GpuLens>,
+    descriptor_pool: vk::DescriptorPool,
+    pub(super) targets: HashMap<TargetFormat, Targets>,
+    shared: Arc<Shared>,
+}
+
+impl Drop for UploadedFrame {
+    fn drop(&mut self) {
+        // SAFETY: every submission using these sets was waited for.
+        unsafe {
+            let _ = self.shared.device.device_wait_idle();
+            self.shared
+                .device
+                .destroy_descriptor_pool(self.descriptor_pool, None);
+        }
+    }
+}
+
+impl UploadedFrame {
+    /// The frame's shape (what its plan depends on).
+    pub fn shape(&self) -> &FrameShape {
+        &self.shape
+    }
+}
+
+impl Targets {
+    /// Colour and depth attachments of `width × height` and a readback buffer for the colour.
+    pub(super) fn new(
+        gpu: &Gpu,
+        format: TargetFormat,
+        width: u32,
+        height: u32,
+    ) -> Result<Targets, GpuError> {
+        let colour_format = super::vulkan::vk_format(format.graph_format());
+        Ok(Targets {
+            colour: Image::new(
+                gpu,
+                ImageDesc::colour_target("colour", colour_format, width, height),
+            )?,
+            depth: Image::new(gpu, ImageDesc::depth_target("depth", width, height))?,
+            readback: Buffer::new(
+                gpu,
+                "readback",
+                u64::from(width)
+                    * u64::from(height)
+                    * u64::from(crate::gpu::format_bytes(colour_format)),
+                BufferUsage::Readback,
+            )?,
+        })
+    }
+}
+
+/// The renderer's uploads that outlive one frame, by `Arc` identity.
+#[derive(Default)]
+pub(super) struct UploadCache {
+    /// Uploaded layered EMs, keyed by the identity of their `Arc<CubeMap>`s: a frame that hands
+    /// over the same maps as a recent one reuses their cube-map array instead of uploading again.
+    layer_cache: HashMap<Vec<usize>, CachedLayers>,
+    /// Uploaded environment meshes, keyed by the identity of their `Arc<EnvironmentMesh>`.
+    mesh_cache: HashMap<usize, CachedMesh>,
+    /// Uploads so far (for evicting cache entries no recent frame used).
+    generation: u64,
+}
+
+/// One uploaded environment mesh and the mesh it holds (kept so its address stays unique).
+struct CachedMesh {
+    _mesh: Arc<EnvironmentMesh>,
+    buffers: Arc<GpuMesh>,
+    last_used: u64,
+}
+
+/// One uploaded cube-map array and the maps it holds (kept so their addresses stay unique).
+struct CachedLayers {
+    _maps: Vec<Arc<CubeMap>>,
+    image: Arc<Image>,
+    last_used: u64,
+}
+
+fn vec4_bytes(values: impl IntoIterator<Item = [f32; 4]>) -> Vec<u8> {
+    values
+        .into_iter()
+        .flat_map(|v| v.map(f32::to_le_bytes))
+        .flatten()
+        .collect()
+}
+
+impl UploadCache {
+    /// Validates and uploads a frame's data. Layered EMs already uploaded for one of the last two
+    /// frames (the same `Arc<CubeMap>`s) are reused.
+    pub(super) fn upload(
+        &mut self,
+        gpu: &Gpu,
+        pipelines: &Pipelines,
+        frame: &FrameInput,
+    ) -> Result<UploadedFrame, RenderError> {
+        frame.validate()?;
+        self.generation += 1;
+        let environment = frame
+            .environment
+            .iter()
+            .filter(|m| !m.triangles.is_empty())
+            .map(|mesh| self.environment_mesh(gpu, mesh))
+            .collect::<Result<Vec<_>, GpuError>>()?;
+
+        let set_count = frame
+            .lenses
+            .iter()
+            .map(|l| l.layers.len())
+            .sum::<usize>()
+            .max(1) as u32;
+        let pool_sizes = [
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: set_count,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: 2 * set_count,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLER,
+                descriptor_count: set_count,
+            },
+        ];
+        let device = gpu.device();
+        // SAFETY: valid create info; destroyed by UploadedFrame::drop.
+        let descriptor_pool = unsafe {
+            device.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(set_count)
+                    .pool_sizes(&pool_sizes),
+                None,
+            )
+        }
+        .map_err(|result| GpuError::Vulkan {
+            call: "vkCreateDescriptorPool",
+            result,
+        })?;
+        let mut uploaded = UploadedFrame {
+            shape: FrameShape::of(frame),
+            view_proj: frame.view_proj.to_cols_array_2d(),
+            environment,
+            lenses: Vec::new(),
+            descriptor_pool,
+            targets: HashMap::new(),
+            shared: gpu.shared.clone(),
+        };
+        for (index, lens) in frame.lenses.iter().enumerate() {
+            let gpu_lens = self.upload_lens(gpu, pipelines, descriptor_pool, index, lens)?;
+            uploaded.lenses.push(gpu_lens);
+        }
+        let generation = self.generation;
+        self.layer_cache
+            .retain(|_, cached| cached.last_used + 1 >= generation);
+        self.mesh_cache
+            .retain(|_, cached| cached.last_used + 1 >= generation);
+        Ok(uploaded)
+    }
+
+    /// The vertex and index buffers of an environment mesh, from the cache or freshly uploaded.
+    fn environment_mesh(
+        &mut self,
+        gpu: &Gpu,
+        mesh: &Arc<EnvironmentMesh>,
+    ) -> Result<Arc<GpuMesh>, GpuError> {
+        let key = Arc::as_ptr(mesh) as usize;
+        if let Some(cached) = self.mesh_cache.get_mut(&key) {
+            cached.last_used = self.generation;
+            return Ok(cached.buffers.clone());
+        }
+        let floats = |v: &[glam::Vec3]| -> Vec<u8> {
+            v.iter()
+                .flat_map(|p| p.to_array())
+                .flat_map(f32::to_le_bytes)
+                .collect()
+        };
+        let indices: Vec<u8> = mesh
+            .triangles
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        let buffers = Arc::new(GpuMesh {
+            positions: Buffer::with_data(
+                gpu,
+                "environment positions",
+                &floats(&mesh.positions),
+                BufferUsage::Vertex,
+            )?,
+            colours: Buffer::with_data(
+                gpu,
+                "environment colours",
+                &floats(&mesh.colours),
+                BufferUsage::Vertex,
+            )?,
+            indices: Buffer::with_data(gpu, "environment indices", &indices, BufferUsage::Index)?,
+            index_count: (mesh.triangles.len() * 3) as u32,
+        });
+        self.mesh_cache.insert(
+            key,
+            CachedMesh {
+                _mesh: mesh.clone(),
+                buffers: buffers.clone(),
+                last_used: self.generation,
+            },
+        );
+        Ok(buffers)
+    }
+
+    /// The cube-map array holding `cubes`, from the cache or freshly uploaded.
+    fn layer_image(
+        &mut self,
+        gpu: &Gpu,
+        name: &str,
+        cubes: &[Arc<CubeMap>],
+    ) -> Result<Arc<Image>, GpuError> {
+        let key: Vec<usize> = cubes.iter().map(|c| Arc::as_ptr(c) as usize).collect();
+        if let Some(cached) = self.layer_cache.get_mut(&key) {
+            cached.last_used = self.generation;
+            return Ok(cached.image.clone());
+        }
+        let size = cubes.first().map_or(1, |c| c.size);
+        let mut image = Image::new(
+            gpu,
+            ImageDesc::cube_array(
+                name,
+                vk::Format::R32G32B32A32_SFLOAT,
+                size,
+                cubes.len() as u32,
+            ),
+        )?;
+        for level in 0..image.desc.mip_levels as usize {
+            let bytes = vec4_bytes(
+                cubes
+                    .iter()
+                    .flat_map(|cube| cube.levels[level].iter().flatten().copied()),
+            );
+            image.upload(gpu, level as u32, 0, 6 * cubes.len() as u32, &bytes)?;
+        }
+        let image = Arc::new(image);
+        self.layer_cache.insert(
+            key,
+            CachedLayers {
+                _maps: cubes.to_vec(),
+                image: image.clone(),
+                last_used: self.generation,
+            },
+        );
+        Ok(image)
+    }
+
+    fn upload_lens(
+        &mut self,
+        gpu: &Gpu,
+        pipelines: &Pipelines,
+        pool: vk::DescriptorPool,
+        index: usize,
+        lens: &LensObject,
+    ) -> Result<GpuLens, GpuError> {
+        let vertex_count = lens.positions.len() as u32;
+        let mut data: Vec<[f32; 4]> = lens
+            .positions
+            .iter()
+            .map(|p| p.extend(1.0).to_array())
+            .collect();
+        let mut fg_offset = HashMap::new();
+        let mut direction_offset = HashMap::new();
+        for term in &lens.terms {
+            fg_offset.insert(term.term, data.len() as u32);
+            data.extend(term.fg.iter().map(|c| c.extend(0.0).to_array()));
+            direction_offset.insert(term.term, data.len() as u32);
+            for layer in &term.directions {
+                data.extend(layer.iter().map(|d| d.extend(0.0).to_array()));
+            }
+        }
+        let name = format!("lens{index} data");
+        let data = Buffer::with_data(gpu, &name, &vec4_bytes(data), BufferUsage::Storage)?;
+        let indices: Vec<u8> = lens
+            .triangles
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        let indices = Buffer::with_data(
+            gpu,
+            &format!("lens{index} indices"),
+            &indices,
+            BufferUsage::Index,
+        )?;
+
+        let mut layers = Vec::new();
+        for (viewpoint, cubes) in lens.layers.iter().enumerate() {
+            layers.push(self.layer_image(gpu, &format!("lens{index}/em{viewpoint}"), cubes)?);
+        }
+
+        let layouts = vec![pipelines.lens_set_layout; layers.len()];
+        let device = gpu.device();
+        // SAFETY: the pool was sized for one set per (lens, viewpoint).
+        let sets = unsafe {
+            device.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(pool)
+                    .set_layouts(&layouts),
+            )
+        }
+        .map_err(|result| GpuError::Vulkan {
+            call: "vkAllocateDescriptorSets",
+            result,
+        })?;
+        for (viewpoint, set) in sets.iter().enumerate() {
+            let other = if layers.len() > 1 {
+                1 - viewpoint.min(1)
+            } else {
+                viewpoint
+            };
+            let buffer_info = [vk::DescriptorBufferInfo {
+                buffer: data.handle,
+                offset: 0,
+                range: vk::WHOLE_SIZE,
+            }];
+            let image_a = [vk::DescriptorImageInfo {
+                sampler: vk::Sampler::null(),
+                image_view: layers[viewpoint].view,
+                image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            }];
+            let image_b = [vk::DescriptorImageInfo {
+                image_view: layers[other].view,
+                ..image_a[0]
+            }];
+            let sampler = [vk::DescriptorImageInfo {
+                sampler: pipelines.sampler,
+                ..Default::default()
+            }];
+            let writes = [
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(0)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&buffer_info),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(1)
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(&image_a),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(2)
+                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                    .image_info(&image_b),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(3)
+                    .descriptor_type(vk::DescriptorType::SAMPLER)
+                    .image_info(&sampler),
+            ];
+            // SAFETY: the set is not in use; the infos live until return.
+            unsafe { device.update_descriptor_sets(&writes, &[]) };
+        }
+        Ok(GpuLens {
+            _data: data,
+            indices,
+            index_count: (lens.triangles.len() * 3) as u32,
+            vertex_count,
+            fg_offset,
+            direction_offset,
+            layer_count: lens.layer_count() as u32,
+            layers,
+            sets,
+        })
+    }
+}

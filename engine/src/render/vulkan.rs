@@ -1,0 +1,95 @@
+//! The pass graph's vocabulary in Vulkan's words: formats, layouts, accesses (pipeline stages and
+//! access flags), compare ops and blend states. The one place where `graph/` types meet `vk`.
+
+use ash::vk;
+
+use crate::graph::{self, Access, Blend, CompareOp, Format, Layout};
+
+/// The Vulkan format of a graph format.
+pub(super) fn vk_format(format: Format) -> vk::Format {
+    match format {
+        Format::Rgba8Unorm => vk::Format::R8G8B8A8_UNORM,
+        Format::Rgba16Float => vk::Format::R16G16B16A16_SFLOAT,
+        Format::Rgba32Float => vk::Format::R32G32B32A32_SFLOAT,
+        Format::Depth32Float => vk::Format::D32_SFLOAT,
+    }
+}
+
+/// The Vulkan image layout of a graph layout.
+pub(super) fn vk_layout(layout: Layout) -> vk::ImageLayout {
+    match layout {
+        Layout::Undefined => vk::ImageLayout::UNDEFINED,
+        Layout::ColourAttachment => vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+        // Valid for depth-only formats without the separateDepthStencilLayouts feature.
+        Layout::DepthAttachment => vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+        Layout::ShaderRead => vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        Layout::TransferSrc => vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+    }
+}
+
+/// The pipeline stages and access flags of a graph access.
+pub(super) fn vk_access(access: Access) -> (vk::PipelineStageFlags2, vk::AccessFlags2) {
+    match access {
+        // Whatever ran before on the queue (earlier frames included) finishes first.
+        Access::None => (
+            vk::PipelineStageFlags2::ALL_COMMANDS,
+            vk::AccessFlags2::NONE,
+        ),
+        Access::ColourAttachment => (
+            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            vk::AccessFlags2::COLOR_ATTACHMENT_READ | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+        ),
+        Access::DepthAttachment => (
+            vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+        ),
+        Access::FragmentSample => (
+            vk::PipelineStageFlags2::FRAGMENT_SHADER,
+            vk::AccessFlags2::SHADER_SAMPLED_READ,
+        ),
+        Access::VertexStorageRead => (
+            vk::PipelineStageFlags2::VERTEX_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ,
+        ),
+        Access::TransferRead => (
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_READ,
+        ),
+        Access::TransferWrite => (
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        ),
+    }
+}
+
+/// The Vulkan depth compare op.
+pub(super) fn vk_compare(op: CompareOp) -> vk::CompareOp {
+    match op {
+        CompareOp::Less => vk::CompareOp::LESS,
+        CompareOp::LessOrEqual => vk::CompareOp::LESS_OR_EQUAL,
+    }
+}
+
+/// The colour attachment's blend state and write mask.
+pub(super) fn blend_state(
+    blend: Blend,
+    mask: graph::ColourMask,
+) -> vk::PipelineColorBlendAttachmentState {
+    let state = vk::PipelineColorBlendAttachmentState::default()
+        .color_write_mask(vk::ColorComponentFlags::from_raw(u32::from(mask.0)));
+    match blend {
+        Blend::Replace => state.blend_enable(false),
+        // Front-to-back "over" (README, "How a frame is composited"): src·(1 − dstα) + dst·1 on
+        // colour and alpha.
+        Blend::FrontToBackOver => state
+            .blend_enable(true)
+            .src_color_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+            .dst_color_blend_factor(vk::BlendFactor::ONE)
+            .color_blend_op(vk::BlendOp::ADD)
+            .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
+            .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+            .alpha_blend_op(vk::BlendOp::ADD),
+    }
+}

@@ -55,11 +55,16 @@ pub struct ValidationReport {
 /// Everything that must outlive every resource: resources hold an `Arc` of it, so the device and
 /// instance are destroyed only after the last buffer and image.
 pub(crate) struct Shared {
+    /// The Vulkan loader; held so that the library stays loaded while the instance lives.
     pub(crate) entry: ash::Entry,
+    /// The Vulkan instance, destroyed last.
     pub(crate) instance: ash::Instance,
+    /// The logical device with its one graphics queue.
     pub(crate) device: ash::Device,
+    /// gpu-allocator's allocator for every buffer and image; dropped by hand before the device.
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
     debug_instance: Option<ash::ext::debug_utils::Instance>,
+    /// Debug-utils command-buffer labels around passes; `None` when the extension is absent.
     pub(crate) debug_device: Option<ash::ext::debug_utils::Device>,
     messenger: vk::DebugUtilsMessengerEXT,
     messages: Box<Mutex<Vec<String>>>,
@@ -83,9 +88,13 @@ impl Drop for Shared {
 
 /// A Vulkan device with one graphics queue, ready to render headless.
 pub struct Gpu {
+    /// The instance, device and allocator, shared with every resource made from this GPU.
     pub(crate) shared: Arc<Shared>,
+    /// The graphics queue (queue 0 of the chosen family) every submission goes to.
     pub(crate) queue: vk::Queue,
+    /// The pool of that family's command buffers, resettable one by one.
     pub(crate) command_pool: vk::CommandPool,
+    /// The chosen physical device's properties (limits, API version, name).
     pub(crate) properties: vk::PhysicalDeviceProperties,
     name: String,
 }

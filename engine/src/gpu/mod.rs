@@ -56,6 +56,8 @@ pub enum GpuError {
 
 /// Attaches the failing entry point's name to a `vk::Result`.
 pub(crate) trait VkContext<T> {
+    /// The value, or [`GpuError::Vulkan`] naming `call` (the Vulkan entry point, e.g.
+    /// `"vkCreateImage"`).
     fn vk(self, call: &'static str) -> Result<T, GpuError>;
 }
 

@@ -21,8 +21,11 @@ pub(crate) fn bilinear(x: f32, y: f32, texel: impl Fn(i64, i64) -> Vec3) -> Vec3
 /// A decoded image in linear RGB, row-major, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct LinearImage {
+    /// Width in pixels, ≥ 1.
     pub width: u32,
+    /// Height in pixels, ≥ 1.
     pub height: u32,
+    /// `width × height` linear rgb texels, each finite and ≥ 0.
     pub texels: Vec<Vec3>,
 }
 
@@ -35,9 +38,13 @@ pub(crate) enum ImageProblem {
     Empty,
     /// Texels that are NaN, infinite or negative.
     BadTexels {
+        /// How many texels are bad.
         count: usize,
+        /// Column of the first bad texel (0 on the left).
         x: u32,
+        /// Row of the first bad texel (0 at the top).
         y: u32,
+        /// The first bad texel's linear rgb value.
         value: Vec3,
     },
 }

@@ -126,10 +126,10 @@
 //!
 //! `transform = { translate = [x, y, z], rotate_degrees = [rx, ry, rz], scale = s or [sx, sy, sz] }`
 //! (defaults: none, none, 1) is M = T · Rz · Ry · Rx · S: scale, then rotate about x, then y, then
-//! z (right-handed: counter-clockwise seen from the positive end of the axis), then translate. Positions are
-//! transformed by M and normals by its inverse transpose, at load time, so every mesh is in world
-//! space. A mirroring scale keeps the winding outward. Triangles are counter-clockwise seen from the
-//! front (outward) side.
+//! z (right-handed: counter-clockwise seen from the positive end of the axis), then translate.
+//! Positions are transformed by M and normals by its inverse transpose, at load time, so every mesh
+//! is in world space. A mirroring scale keeps the winding outward. Triangles are counter-clockwise
+//! seen from the front (outward) side.
 //!
 //! Checks: positions, normals and uvs must be finite (an OBJ with NaN or infinite values is an
 //! error); an OBJ with zero-area triangles is an error naming how many and the first, unless
@@ -182,6 +182,28 @@
 //! scenes/room.toml: materials[0].glass.ior: index of refraction 0 is not > 0; give the glass's index of refraction, e.g. 1.5
 //! scenes/room.toml: objects[2].obj.path: scenes/bunny.obj: 3 degenerate (zero-area) triangle(s), the first is triangle 17 (0-based); remove those triangles from the OBJ, or set drop_degenerate = true to have them dropped
 //! ```
+//!
+//! ### Layer shells of a lens object
+//!
+//! `[[lenses]]` may list `layers`, the shells of its layered environment map, nearest first, each
+//! centred on the lens object's centroid (its EM origin), in metres:
+//!
+//! ```toml
+//! [[lenses]]
+//! name = "teapot"
+//! objects = ["teapot"]
+//! layers = [{ sphere = 1.4 }, { cylinder = 3.5 }, { sphere = 10.0 }]
+//! ```
+//!
+//! | key | shell |
+//! |---|---|
+//! | `sphere = r` | a sphere of radius r |
+//! | `cylinder = r` | an infinite vertical (y-axis) cylinder of radius r |
+//! | `box = [hx, hy, hz]` | an axis-aligned box with these half extents |
+//! | `ellipsoid = [rx, ry, rz]` | an axis-aligned ellipsoid with these radii |
+//!
+//! Without `layers`, the runtime's projected EMs use one sphere at the mean distance of the
+//! environment seen from the EM origin.
 
 mod camera;
 mod environment;

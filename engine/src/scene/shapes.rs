@@ -11,8 +11,11 @@ use super::mesh::TriangleMesh;
 
 /// One sample of a parametric surface: position, unit normal (outward), texture coordinate.
 pub(crate) struct SurfacePoint {
+    /// Position in the shape's local frame, metres.
     pub position: Vec3,
+    /// Unit normal pointing out of the front side.
     pub normal: Vec3,
+    /// Texture coordinate (u right, v up, as in OBJ).
     pub uv: Vec2,
 }
 

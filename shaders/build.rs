@@ -33,7 +33,7 @@ fn specializations(max_layers: u32) -> Vec<(&'static str, Vec<u32>)> {
 }
 
 /// Every combination of the specialization values, as (name, value) lists.
-fn combinations(specializations: &[(&'static str, Vec<u32>)]) -> Vec<Vec<(&'static str, u32)>> {
+fn combinations(specializations: &[(&'static str, Vec<u32>)]) -> Vec<Combination> {
     let mut all = vec![Vec::new()];
     for (name, values) in specializations {
         all = all
@@ -59,10 +59,13 @@ fn key(combination: &[(&str, u32)]) -> String {
         .join(",")
 }
 
+/// Override values of one specialization, as (name, value); empty for none.
+type Combination = Vec<(&'static str, u32)>;
+
 /// What one shader file compiled to.
 struct Compiled {
-    /// (entry point, override values, SPIR-V words); override values empty when none.
-    blobs: Vec<(String, Vec<(&'static str, u32)>, Vec<u32>)>,
+    /// (entry point, override values, SPIR-V words).
+    blobs: Vec<(String, Combination, Vec<u32>)>,
     /// Rust source of the file's push-constant structs.
     push_constants: String,
     /// The file's `const MAX_LAYERS`, if it declares one.

@@ -1,16 +1,22 @@
 //! lensmap: hybrid rendering of shiny and glass "lens" objects.
 //!
 //! The local lens object is ray traced per vertex; the rest of the world is approximated by layered
-//! environment maps composited on the GPU (Hakura & Snyder, EGWR 2001). The rooms, in data-flow
-//! order: [`scene`] (scene files and meshes), [`trace`] (the CPU reference ray tracer),
-//! [`gpu`] (ash: devices, memory, images), [`graph`] (the pass graph, no Vulkan calls) and
-//! [`render`] (the compositor frame and its CPU f64 model).
+//! environment maps composited on the GPU (Hakura & Snyder, EGWR 2001). The rooms, bottom up:
+//! [`scene`] (scene files and meshes), [`graph`] (the pass graph, no Vulkan calls), [`cubemap`]
+//! (cube maps, their faces, f64 sampling and the one validator), [`options`] (option errors);
+//! [`trace`] (the CPU reference ray tracer), [`gpu`] (ash: devices, memory, images); [`metrics`]
+//! (masked image errors); [`render`] (the compositor and its CPU f64 model); [`layers`] (shells,
+//! projected EMs, the bake format); [`hybrid`] (per-frame vertex tracing, tessellation, texgen);
+//! and on top [`runner`], the frame runner the command line, the tests and hosts call.
 
 pub mod cubemap;
 pub mod gpu;
 pub mod graph;
 pub mod hybrid;
 pub mod layers;
+pub mod metrics;
+pub mod options;
 pub mod render;
+pub mod runner;
 pub mod scene;
 pub mod trace;

@@ -8,6 +8,7 @@ use glam::Vec3;
 use lensmap::{
     hybrid::{HybridOptions, HybridScene},
     layers::projected::ProjectedOptions,
+    metrics::{self, Channels, Coverage, Encoding, Mask},
     render::{Renderer, TargetFormat, Variant},
     scene::Scene,
     trace::{TraceOptions, render_reference},
@@ -99,25 +100,17 @@ layers = [{ sphere = 1000.0 }]
         let (image, _) = renderer
             .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
             .unwrap();
-        let mut sum = 0.0f64;
-        let mut count = 0usize;
-        for ((pixel, r), mask) in image
-            .pixels
-            .iter()
-            .zip(&reference.reflection)
-            .zip(&reference.lens_mask)
-        {
-            if *mask < 1.0 {
-                continue;
-            }
-            for c in 0..3 {
-                let d = f64::from(pixel[c] - r[c]);
-                sum += d * d;
-            }
-            count += 1;
-        }
+        // Linear HDR over the pixels the reference sees as all mirror.
+        let error = metrics::compare(
+            &image.pixels,
+            &reference.reflection,
+            &Mask::from_coverage(&reference.lens_mask, Coverage::Full),
+            Encoding::Linear,
+            Channels::Rgb,
+        )
+        .unwrap();
+        let (count, rms) = (error.pixels, error.rmse);
         assert!(count > 2000, "the mirror covers {count} pixels");
-        let rms = (sum / (3 * count) as f64).sqrt();
         println!(
             "{variant:?}: RMS {rms:.2e} over {count} mirror pixels (limit {:.2e})",
             1.0 / 255.0

@@ -3,19 +3,21 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::HybridOptions,
-    render::{Renderer, TargetFormat, Variant},
+    hybrid::{HybridOptions, tessellate::DEFAULT_T},
+    layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    render::{TargetFormat, Variant},
+    runner::{
+        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, load_hybrid_scene,
+        novel_camera,
+    },
     scene::Scene,
 };
 use serde_json::json;
 
-use crate::compositor::FormatArg;
-use crate::demo::novel_camera;
-use crate::render::{HybridFrame, hybrid_scene, median_stage, timed_frames};
+use crate::common::{BadUsage, FormatArg, flag_error, write_json};
 
 #[derive(Args)]
 pub struct BenchHybridArgs {
@@ -32,13 +34,13 @@ pub struct BenchHybridArgs {
     #[arg(long, default_value_t = 1)]
     supersampling: u32,
     /// Tessellation threshold in subpixels.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = DEFAULT_T)]
     t: f32,
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba16f")]
     format: FormatArg,
     /// Projected EMs: cube-map face size.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     em_size: u32,
     /// Timed frames per variant (after two warm-up frames).
     #[arg(long, default_value_t = 9)]
@@ -49,9 +51,12 @@ pub struct BenchHybridArgs {
 }
 
 pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
-    crate::render::check_hybrid_options(args.t, 3.0, args.em_size)?;
+    let hybrid_options = HybridOptions::with_t(args.t);
+    hybrid_options.validate().map_err(flag_error)?;
+    let projected = ProjectedOptions::with_size(args.em_size);
+    projected.validate().map_err(flag_error)?;
     if args.width == 0 || args.height == 0 {
-        return Err(crate::compositor::BadUsage(format!(
+        return Err(BadUsage(format!(
             "--width {} --height {}: give a frame of at least 1×1 pixels",
             args.width, args.height
         ))
@@ -62,17 +67,12 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     scene.camera.height = args.height;
     scene.camera.supersampling = args.supersampling.max(1);
     let camera = novel_camera(&scene);
-    let hybrid = hybrid_scene(scene, None, args.em_size)?;
-    let gpu = Gpu::new(&GpuOptions::from_env())?;
-    let mut renderer = Renderer::new(&gpu)?;
-    let options = HybridOptions {
-        t: args.t,
-        ..HybridOptions::default()
-    };
+    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let format = TargetFormat::from(args.format);
     say!(
         "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
-        gpu.device_name(),
+        runner.gpu().device_name(),
         hybrid.scene.name,
         args.width,
         args.height,
@@ -98,17 +98,17 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     );
     let mut rows = Vec::new();
     for variant in [Variant::SinglePass, Variant::Multipass] {
-        let frames = timed_frames(
-            &gpu,
-            &mut renderer,
-            &hybrid,
-            &camera,
-            &options,
+        let options = FrameOptions {
+            hybrid: hybrid_options,
             variant,
             format,
-            (2, args.frames),
-        )?;
-        let stage = |f: &dyn Fn(&HybridFrame) -> f64| median_stage(&frames, f);
+        };
+        let repetitions = Repetitions {
+            warmup: 2,
+            timed: args.frames,
+        };
+        let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
+        let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
         let trace = stage(&|f| f.stats.trace_ms);
         let texgen = stage(&|f| f.stats.texgen_ms);
         let tessellation = stage(&|f| f.stats.tessellation_ms);
@@ -131,7 +131,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
             other,
             total
         );
-        let last = frames.last().context("at least one frame")?;
+        let last = frames.last();
         rows.push(json!({
             "variant": variant.name(),
             "median_ms": {
@@ -145,16 +145,11 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         }));
     }
     let out = json!({
-        "device": gpu.device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
+        "device": runner.gpu().device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
         "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
         "threads": rayon::current_num_threads(), "frames": args.frames.max(1), "rows": rows,
     });
-    if let Some(parent) = args.json.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("creating {}", parent.display()))?;
-    }
-    std::fs::write(&args.json, serde_json::to_string_pretty(&out)?)
-        .with_context(|| args.json.display().to_string())?;
+    write_json(&args.json, &out)?;
     say!("wrote {}", args.json.display());
     Ok(())
 }

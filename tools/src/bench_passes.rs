@@ -8,15 +8,16 @@ use anyhow::Context;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
+    metrics::{self, Channels, Encoding, ImageError, Mask},
     render::{
         RenderedImage, Renderer, TargetFormat, Variant,
         synthetic::{SyntheticOptions, sphere_frame},
     },
+    runner::FrameRunner,
 };
 use serde_json::json;
 
-use crate::common::median;
-use crate::compositor::max_difference;
+use crate::common::write_json;
 
 #[derive(Args)]
 pub struct BenchPassesArgs {
@@ -37,31 +38,29 @@ pub struct BenchPassesArgs {
     json: PathBuf,
 }
 
-/// Mean-square and largest difference over the pixels where `mask` holds.
-fn error(a: &RenderedImage, reference: &RenderedImage, mask: &[bool]) -> (f64, f64) {
-    let mut sum = 0.0;
-    let mut count = 0usize;
-    let mut max: f64 = 0.0;
-    for ((p, q), m) in a.pixels.iter().zip(&reference.pixels).zip(mask) {
-        if !m {
-            continue;
-        }
-        for c in 0..3 {
-            let d = f64::from(p[c] - q[c]);
-            sum += d * d;
-            max = max.max(d.abs());
-            count += 1;
-        }
-    }
-    ((sum / count.max(1) as f64).sqrt(), max)
+/// Linear RGB error of `image` against `reference` over `mask`; `None` when the mask is empty
+/// (the figure would measure nothing, so none is reported).
+fn error(image: &RenderedImage, reference: &RenderedImage, mask: &Mask) -> Option<ImageError> {
+    metrics::compare(
+        &image.pixels,
+        &reference.pixels,
+        mask,
+        Encoding::Linear,
+        Channels::Rgb,
+    )
+    .ok()
+}
+
+/// A figure for the table: `-` where there is none.
+fn figure(value: Option<f64>) -> String {
+    value.map_or_else(|| "-".to_owned(), |v| format!("{v:.3e}"))
 }
 
 pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
-    let gpu = Gpu::new(&GpuOptions::from_env())?;
-    let mut renderer = Renderer::new(&gpu)?;
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     println!(
         "device: {}  ({}×{}, {} timed frames per row, median)",
-        gpu.device_name(),
+        runner.gpu().device_name(),
         args.width,
         args.height,
         args.frames
@@ -78,28 +77,19 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             layers,
             ..SyntheticOptions::default()
         });
-        let mut uploaded = renderer.upload(&gpu, &frame)?;
+        let mut uploaded = runner.upload(&frame)?;
         let mut by_variant = Vec::new();
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let mut results: Vec<(TargetFormat, RenderedImage, f64, f64, usize)> = Vec::new();
             for format in TargetFormat::ALL {
                 let plan = Renderer::plan(&uploaded, variant, format)?;
                 let passes = plan.steps.len();
-                let (image, _) = renderer.render(&gpu, &mut uploaded, variant, format)?;
-                let mut frame_ms = Vec::new();
-                let mut execute_ms = Vec::new();
-                for _ in 0..args.frames.max(1) {
-                    let (_, t) = renderer.render(&gpu, &mut uploaded, variant, format)?;
-                    frame_ms.push(t.record_ms + t.execute_ms);
-                    execute_ms.push(t.execute_ms);
-                }
-                results.push((
-                    format,
-                    image,
-                    median(&mut frame_ms),
-                    median(&mut execute_ms),
-                    passes,
-                ));
+                let renders = runner.timed_renders(&mut uploaded, variant, format, args.frames)?;
+                let (frame_ms, execute_ms) = (
+                    renders.median(|t| t.record_ms + t.execute_ms),
+                    renders.median(|t| t.execute_ms),
+                );
+                results.push((format, renders.image, frame_ms, execute_ms, passes));
             }
             let reference = results
                 .iter()
@@ -109,19 +99,21 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             // Lens pixels: where the frame differs from the environment alone is hard to know
             // here, so compare every pixel the lens could touch: all pixels with α < 1 after the
             // environment (the lens leaves the last group's α, the environment writes α = 1).
-            let mask: Vec<bool> = reference.pixels.iter().map(|p| p[3] < 1.0).collect();
+            // An empty mask (a driver that leaves α = 1 there) gives no figure, never a zero.
+            let mask = Mask::from_flags(reference.pixels.iter().map(|p| p[3] < 1.0).collect());
             for (format, image, frame_ms, execute_ms, passes) in &results {
-                let (rms, max) = error(image, &reference, &mask);
+                let error = error(image, &reference, &mask);
+                let (rms, max) = (error.map(|e| e.rmse), error.map(|e| e.max_abs));
                 println!(
-                    "{:>2}  {:<12} {:<8} {:>11.2} {:>11.2} {:>8}  {:>12.3e} {:>12.3e}",
+                    "{:>2}  {:<12} {:<8} {:>11.2} {:>11.2} {:>8}  {:>12} {:>12}",
                     layers,
                     variant.name(),
                     format.name(),
                     frame_ms,
                     execute_ms,
                     passes,
-                    rms,
-                    max
+                    figure(rms),
+                    figure(max)
                 );
                 rows.push(json!({
                     "layers": layers, "variant": variant.name(), "format": format.name(),
@@ -131,22 +123,24 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             }
             by_variant.push(reference);
         }
-        let difference = max_difference(&by_variant[0], &by_variant[1]);
+        let difference = metrics::compare(
+            &by_variant[0].pixels,
+            &by_variant[1].pixels,
+            &Mask::all(by_variant[0].pixels.len()),
+            Encoding::Linear,
+            Channels::Rgba,
+        )?
+        .max_abs;
         println!(
             "    n = {layers}: single-pass vs multipass in rgba32f, max |difference| {difference:.3e}"
         );
         rows.push(json!({"layers": layers, "single_pass_vs_multipass_rgba32f_max": difference}));
     }
     let out = json!({
-        "device": gpu.device_name(), "width": args.width, "height": args.height,
+        "device": runner.gpu().device_name(), "width": args.width, "height": args.height,
         "frames": args.frames, "rows": rows,
     });
-    if let Some(parent) = args.json.parent() {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("creating {}", parent.display()))?;
-    }
-    std::fs::write(&args.json, serde_json::to_string_pretty(&out)?)
-        .with_context(|| args.json.display().to_string())?;
+    write_json(&args.json, &out)?;
     println!("wrote {}", args.json.display());
     Ok(())
 }

@@ -6,12 +6,12 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::common::median;
-use glam::Vec3;
+use crate::common::write_json;
+use lensmap::metrics::{self, Channels, Coverage, Encoding, Mask};
+use lensmap::runner::median;
 use lensmap::scene::{Camera, Scene};
 use lensmap::trace::{
     self, PathModel, RayTreeOptions, ReferenceImage, TraceCounters, TraceOptions, TraceScene,
-    image::srgb_encode,
 };
 
 /// Arguments of `lensmap bench trace`.
@@ -57,11 +57,12 @@ struct ComparisonRow {
     scene: String,
     /// The full tree's limits.
     full_tree: String,
-    /// RMSE of the sRGB-encoded final images (values in [0, 1]), over all pixels and channels.
+    /// RMSE of the final images in display sRGB (clamped to [0, 1], then encoded), over all
+    /// pixels and channels.
     rmse_srgb: f64,
     /// PSNR in dB for that RMSE with peak 1.
     psnr_db: f64,
-    /// RMSE of linear radiance over pixels that see a lens object.
+    /// RMSE of linear radiance (unclamped) over pixels that see a lens object in either image.
     rmse_linear_lens_pixels: f64,
     /// Rays along light paths (primary + secondary), full tree / greedy.
     path_ray_ratio: f64,
@@ -174,7 +175,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
         if let [(PathModel::Greedy, greedy), (PathModel::Full, full)] = images.as_slice() {
             let defaults = RayTreeOptions::default();
             let label = format!("depth {}, cutoff {}", defaults.max_depth, defaults.cutoff);
-            comparisons.push(compare(scene_name, &label, greedy, full));
+            comparisons.push(compare(scene_name, &label, greedy, full)?);
             // The tree without a contribution cutoff, to depth 6: closer to a complete binary
             // tree, the shape whose cost the paper compares against.
             let uncut = TraceOptions {
@@ -191,7 +192,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
                 .context("creating the rayon thread pool")?;
             let image =
                 pool.install(|| trace::render_reference(&world, &camera, &uncut, &|_| {}))?;
-            comparisons.push(compare(scene_name, "depth 6, no cutoff", greedy, &image));
+            comparisons.push(compare(scene_name, "depth 6, no cutoff", greedy, &image)?);
         }
     }
 
@@ -233,52 +234,47 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
             speed,
             full_vs_greedy: comparisons,
         };
-        let json = serde_json::to_string_pretty(&report)?;
-        std::fs::write(path, format!("{json}\n"))
-            .with_context(|| format!("writing {}", path.display()))?;
+        write_json(path, &report)?;
     }
     Ok(())
 }
 
+/// The full tree's image against the greedy one: display-sRGB error over every pixel, linear
+/// error over the pixels either image sees any lens in, and the ray-count ratios.
 fn compare(
     scene: &str,
     full_tree: &str,
     greedy: &ReferenceImage,
     full: &ReferenceImage,
-) -> ComparisonRow {
-    let srgb = |p: Vec3| Vec3::new(srgb_encode(p.x), srgb_encode(p.y), srgb_encode(p.z));
-    let mut squared = 0.0f64;
-    let mut lens_squared = 0.0f64;
-    let mut lens_count = 0usize;
-    for ((g, f), (mg, mf)) in greedy
-        .radiance
-        .iter()
-        .zip(&full.radiance)
-        .zip(greedy.lens_mask.iter().zip(&full.lens_mask))
-    {
-        let d = (srgb(*g) - srgb(*f)).as_dvec3();
-        squared += d.length_squared();
-        if *mg > 0.0 || *mf > 0.0 {
-            lens_squared += (*g - *f).as_dvec3().length_squared();
-            lens_count += 3;
-        }
-    }
-    let values = (greedy.radiance.len() * 3).max(1) as f64;
-    let rmse = (squared / values).sqrt();
+) -> anyhow::Result<ComparisonRow> {
+    let all = Mask::all(greedy.radiance.len());
+    let display = metrics::compare(
+        &full.radiance,
+        &greedy.radiance,
+        &all,
+        Encoding::DisplaySrgb,
+        Channels::Rgb,
+    )?;
+    let lens = Mask::from_coverage(&greedy.lens_mask, Coverage::Any)
+        .union(&Mask::from_coverage(&full.lens_mask, Coverage::Any));
+    let linear = metrics::compare(
+        &full.radiance,
+        &greedy.radiance,
+        &lens,
+        Encoding::Linear,
+        Channels::Rgb,
+    )
+    .context("comparing the lens pixels of the full tree and the greedy paths")?;
     let ratio = |a: u64, b: u64| if b == 0 { 0.0 } else { a as f64 / b as f64 };
     let (g, f) = (greedy.stats.counters, full.stats.counters);
-    ComparisonRow {
+    Ok(ComparisonRow {
         scene: scene.to_owned(),
         full_tree: full_tree.to_owned(),
-        rmse_srgb: rmse,
-        psnr_db: if rmse > 0.0 {
-            -20.0 * rmse.log10()
-        } else {
-            f64::INFINITY
-        },
-        rmse_linear_lens_pixels: (lens_squared / lens_count.max(1) as f64).sqrt(),
+        rmse_srgb: display.rmse,
+        psnr_db: display.psnr_db,
+        rmse_linear_lens_pixels: linear.rmse,
         path_ray_ratio: ratio(f.path_rays(), g.path_rays()),
         all_ray_ratio: ratio(f.all_rays(), g.all_rays()),
         secondary_ray_ratio: ratio(f.secondary_rays, g.secondary_rays),
-    }
+    })
 }

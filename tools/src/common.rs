@@ -1,11 +1,15 @@
-//! What several commands share: stdout printing that survives a closed pipe, camera arguments
-//! and their validation, and progress bars.
+//! What several commands share: stdout printing that survives a closed pipe, usage errors and
+//! the option enums, camera arguments and their validation, progress bars and JSON reports.
 
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use anyhow::Context;
+use clap::ValueEnum;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
+use lensmap::options::OptionError;
+use lensmap::render::{TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
 use lensmap::trace::image::validate_camera;
 
@@ -15,6 +19,72 @@ macro_rules! say {
         use std::io::Write as _;
         let _ = writeln!(std::io::stdout(), $($arg)*);
     }};
+}
+
+/// A usage error the parser cannot catch (exit code 2).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadUsage(pub String);
+
+/// A library option error as the command line says it: the flag (the option's name with `_`
+/// written `-`), the value and the fix.
+pub fn flag_error(error: OptionError) -> BadUsage {
+    BadUsage(format!(
+        "--{} {}: {}",
+        error.option.replace('_', "-"),
+        error.value,
+        error.fix
+    ))
+}
+
+/// `--variant`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum VariantArg {
+    /// The paper's 4n-pass scheme.
+    Multipass,
+    /// One draw per lens object.
+    SinglePass,
+}
+
+impl From<VariantArg> for Variant {
+    fn from(v: VariantArg) -> Variant {
+        match v {
+            VariantArg::Multipass => Variant::Multipass,
+            VariantArg::SinglePass => Variant::SinglePass,
+        }
+    }
+}
+
+/// `--format`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum FormatArg {
+    /// 8-bit unorm.
+    Rgba8,
+    /// 16-bit float.
+    Rgba16f,
+    /// 32-bit float.
+    Rgba32f,
+}
+
+impl From<FormatArg> for TargetFormat {
+    fn from(f: FormatArg) -> TargetFormat {
+        match f {
+            FormatArg::Rgba8 => TargetFormat::Rgba8,
+            FormatArg::Rgba16f => TargetFormat::Rgba16f,
+            FormatArg::Rgba32f => TargetFormat::Rgba32f,
+        }
+    }
+}
+
+/// Writes a JSON report (pretty, ending in a newline), creating its folder.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+    }
+    let mut json = serde_json::to_string_pretty(value)?;
+    json.push('\n');
+    std::fs::write(path, json).with_context(|| format!("writing {}", path.display()))
 }
 
 /// Which camera to render from (default: the scene's camera).
@@ -126,18 +196,4 @@ pub fn progress_bar(rows: u64) -> ProgressBar {
     }
     bar.set_message("ray tracing");
     bar
-}
-
-/// Median of a sample (0 for none).
-pub fn median(values: &mut [f64]) -> f64 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    values.sort_by(f64::total_cmp);
-    let mid = values.len() / 2;
-    if values.len() % 2 == 1 {
-        values[mid]
-    } else {
-        0.5 * (values[mid - 1] + values[mid])
-    }
 }

@@ -1,66 +1,12 @@
-//! `lensmap demo` and `lensmap passes`: the compositor on the built-in synthetic scene, and its
-//! pass plans for experiments.
+//! `lensmap passes`: the compositor's pass plans for pass-count and blending-mode experiments,
+//! built from a frame's shape alone (no data, no GPU).
 
-use std::time::Instant;
-
-use anyhow::Context;
-use clap::{Args, ValueEnum};
+use clap::Args;
+use lensmap::render::{FrameShape, TargetFormat, Variant, plan::frame_graph};
 use lensmap::trace::Term;
-use lensmap::{
-    gpu::{Gpu, GpuOptions},
-    render::{
-        FrameShape, RenderedImage, Renderer, SinglePassProgram, TargetFormat, Variant,
-        plan::frame_graph,
-        synthetic::{SyntheticOptions, sphere_frame},
-    },
-};
 use serde_json::json;
 
-use crate::common::median;
-
-/// A usage error the parser cannot catch (exit code 2).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct BadUsage(pub String);
-
-/// `--variant`.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum VariantArg {
-    /// The paper's 4n-pass scheme.
-    Multipass,
-    /// One draw per lens object.
-    SinglePass,
-}
-
-impl From<VariantArg> for Variant {
-    fn from(v: VariantArg) -> Variant {
-        match v {
-            VariantArg::Multipass => Variant::Multipass,
-            VariantArg::SinglePass => Variant::SinglePass,
-        }
-    }
-}
-
-/// `--format`.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum FormatArg {
-    /// 8-bit unorm.
-    Rgba8,
-    /// 16-bit float.
-    Rgba16f,
-    /// 32-bit float.
-    Rgba32f,
-}
-
-impl From<FormatArg> for TargetFormat {
-    fn from(f: FormatArg) -> TargetFormat {
-        match f {
-            FormatArg::Rgba8 => TargetFormat::Rgba8,
-            FormatArg::Rgba16f => TargetFormat::Rgba16f,
-            FormatArg::Rgba32f => TargetFormat::Rgba32f,
-        }
-    }
-}
+use crate::common::{BadUsage, FormatArg, VariantArg};
 
 #[derive(Args)]
 pub struct PassesArgs {
@@ -141,79 +87,5 @@ pub fn passes(args: PassesArgs) -> anyhow::Result<()> {
             counts["barriers"]
         );
     }
-    Ok(())
-}
-
-/// Largest per-channel difference between two frames.
-pub fn max_difference(a: &RenderedImage, b: &RenderedImage) -> f64 {
-    a.pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..4).map(move |c| f64::from((p[c] - q[c]).abs())))
-        .fold(0.0, f64::max)
-}
-
-/// Renders the synthetic scene with both variants, writes PNG and EXR, prints counts and times.
-pub fn synthetic_demo(args: &crate::demo::DemoArgs) -> anyhow::Result<()> {
-    let (width, height) = (args.width.unwrap_or(640), args.height.unwrap_or(480));
-    if width == 0 || height == 0 || args.layers == 0 || args.layers > SinglePassProgram::MAX_LAYERS
-    {
-        return Err(BadUsage(format!(
-            "--width/--height must be ≥ 1 and --layers within 1..={} (got {}×{}, {} layers)",
-            SinglePassProgram::MAX_LAYERS,
-            width,
-            height,
-            args.layers
-        ))
-        .into());
-    }
-    let started = Instant::now();
-    let gpu = Gpu::new(&GpuOptions::from_env())?;
-    say!("device: {}", gpu.device_name());
-    let frame = sphere_frame(&SyntheticOptions {
-        width,
-        height,
-        layers: args.layers,
-        ..SyntheticOptions::default()
-    });
-    let mut renderer = Renderer::new(&gpu)?;
-    let mut uploaded = renderer.upload(&gpu, &frame)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let format = TargetFormat::Rgba32f;
-    let mut images = Vec::new();
-    for variant in [Variant::Multipass, Variant::SinglePass] {
-        let plan = Renderer::plan(&uploaded, variant, format)?;
-        // Warm-up frame: the first frame after creating a pipeline pays for shader compilation.
-        let (image, _) = renderer.render(&gpu, &mut uploaded, variant, format)?;
-        let mut times: Vec<f64> = Vec::new();
-        for _ in 0..args.frames.max(1) {
-            let (_, timings) = renderer.render(&gpu, &mut uploaded, variant, format)?;
-            times.push(timings.record_ms + timings.execute_ms);
-        }
-        let stem = format!("demo-{}", variant.name());
-        crate::render::write_image(&image, &args.out.join(format!("{stem}.png")))?;
-        say!(
-            "{:<12} {} prime + {} layer + {} alpha-clear + {} single-pass passes, median frame {:.2} ms → {}/{stem}.png, .exr",
-            variant.name(),
-            plan.count("prime"),
-            plan.count("layer"),
-            plan.count("alpha-clear"),
-            plan.count("single-pass"),
-            median(&mut times),
-            args.out.display()
-        );
-        images.push(image);
-    }
-    say!(
-        "single-pass vs multipass ({}): max |difference| {:.3e}",
-        format.name(),
-        max_difference(&images[0], &images[1])
-    );
-    let report = gpu.validation_report();
-    if report.enabled {
-        say!("validation messages: {}", report.messages.len());
-    }
-    say!("total {:.2} s", started.elapsed().as_secs_f64());
     Ok(())
 }

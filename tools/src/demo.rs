@@ -10,19 +10,22 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::Args;
-use glam::Vec3;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene},
-    layers::projected::ProjectedOptions,
-    render::{RenderedImage, Renderer, TargetFormat, Variant},
-    scene::{Camera, Scene},
+    hybrid::HybridOptions,
+    layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    metrics::{self, Channels, Encoding, Mask},
+    render::{SinglePassProgram, TargetFormat, Variant, synthetic},
+    runner::{
+        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
+        load_hybrid_scene, novel_camera,
+    },
+    scene::Scene,
     trace::{TraceOptions, render_reference},
 };
 use serde_json::json;
 
-use crate::common::progress_bar;
-use crate::render::{lens_psnr, median_stage, timed_frames, write_image};
+use crate::common::{BadUsage, flag_error, progress_bar, write_json};
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -39,7 +42,7 @@ pub struct DemoArgs {
     #[arg(long)]
     pub supersampling: Option<u32>,
     /// Projected EMs: cube-map face size in texels.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
     /// Run the compositor-only demo on the synthetic sphere scene instead.
     #[arg(long)]
@@ -55,45 +58,9 @@ pub struct DemoArgs {
     pub json: Option<PathBuf>,
 }
 
-/// The novel viewpoint of the demo: halfway (in angle) between viewpoint samples 2 and 3, so two
-/// samples are blended.
-pub fn novel_camera(scene: &Scene) -> Camera {
-    let samples = scene.view_space.samples();
-    let look_at = scene.camera.look_at;
-    match (samples.get(2), samples.get(3)) {
-        (Some(a), Some(b)) => {
-            let (da, db) = (*a - look_at, *b - look_at);
-            let direction = (da.normalize() + db.normalize()).normalize_or(da.normalize());
-            scene
-                .camera
-                .with_position(look_at + direction * 0.5 * (da.length() + db.length()))
-        }
-        _ => scene.camera,
-    }
-}
-
-/// Puts two equally sized images side by side.
-fn side_by_side(left: &RenderedImage, right: &[Vec3]) -> RenderedImage {
-    let (w, h) = (left.width, left.height);
-    let mut pixels = Vec::with_capacity((2 * w * h) as usize);
-    for y in 0..h as usize {
-        pixels.extend_from_slice(&left.pixels[y * w as usize..(y + 1) * w as usize]);
-        pixels.extend(
-            right[y * w as usize..(y + 1) * w as usize]
-                .iter()
-                .map(|p| [p.x, p.y, p.z, 1.0]),
-        );
-    }
-    RenderedImage {
-        width: 2 * w,
-        height: h,
-        pixels,
-    }
-}
-
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     if args.synthetic {
-        return crate::compositor::synthetic_demo(&args);
+        return synthetic_demo(&args);
     }
     let started = Instant::now();
     let mut scene = Scene::load_named("teapot-room")?;
@@ -107,22 +74,16 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         scene.camera.supersampling = k;
     }
     let camera = novel_camera(&scene);
-    lensmap::trace::image::validate_camera(&camera).map_err(|e| {
-        crate::compositor::BadUsage(format!("--width/--height/--supersampling: {e}"))
-    })?;
+    lensmap::trace::image::validate_camera(&camera)
+        .map_err(|e| BadUsage(format!("--width/--height/--supersampling: {e}")))?;
+    let projected = ProjectedOptions::with_size(args.em_size);
+    projected.validate().map_err(flag_error)?;
     // The GPU first: without a driver the demo stops here with exit code 2.
-    let gpu = Gpu::new(&GpuOptions::from_env())?;
-    let mut renderer = Renderer::new(&gpu)?;
-    say!("device: {}", gpu.device_name());
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    say!("device: {}", runner.gpu().device_name());
 
     let prepare = Instant::now();
-    let (hybrid, em_rays) = HybridScene::projected(
-        scene,
-        &ProjectedOptions {
-            size: args.em_size,
-            supersampling: 2,
-        },
-    )?;
+    let (hybrid, em_rays) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     say!(
         "projected layered EMs: {} lens objects, {}² texels per face, {} rays, {:.2} s",
         hybrid.lenses.len(),
@@ -148,7 +109,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         k = camera.supersampling
     );
     say!(
-        "{:<12} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>7} {:>7} {:>7} {:>8}",
+        "{:<12} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>7} {:>7} {:>7} {:>8} {:>8}",
         "variant",
         "t",
         "trace ms",
@@ -161,27 +122,24 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         "×time",
         "×rays",
         "×tests",
-        "PSNR dB"
+        "PSNR dB",
+        "lin. dB"
     );
     let mut rows = Vec::new();
     for variant in [Variant::SinglePass, Variant::Multipass] {
         for t in [3.0f32, 5.0] {
-            let options = HybridOptions {
-                t,
-                ..HybridOptions::default()
+            let options = FrameOptions {
+                hybrid: HybridOptions::with_t(t),
+                variant,
+                format: TargetFormat::Rgba16f,
             };
             // The first frame compiles pipelines; then the median of three timed frames.
-            let frames = timed_frames(
-                &gpu,
-                &mut renderer,
-                &hybrid,
-                &camera,
-                &options,
-                variant,
-                TargetFormat::Rgba16f,
-                (1, 3),
-            )?;
-            let stage = |f: &dyn Fn(&crate::render::HybridFrame) -> f64| median_stage(&frames, f);
+            let repetitions = Repetitions {
+                warmup: 1,
+                timed: 3,
+            };
+            let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
+            let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
             let (trace_ms, texgen_ms, tessellation_ms, other_ms, total_ms) = (
                 stage(&|f| f.stats.trace_ms),
                 stage(&|f| f.stats.texgen_ms),
@@ -189,15 +147,20 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 stage(&|f| f.other_ms()),
                 stage(&|f| f.total_ms),
             );
-            let frame = frames.last().context("three frames")?;
+            let frame = frames.last();
             let c = frame.stats.counters;
-            let psnr = lens_psnr(&frame.image, &reference).map_or(f64::NAN, |(p, _)| p);
+            // The figure printed since the first demo (display sRGB, clamped), and beside it the
+            // linear one that also counts errors in highlights above 1.
+            let psnr = |encoding| {
+                lens_error(&frame.image, &reference, encoding).map_or(f64::NAN, |e| e.psnr_db)
+            };
+            let (psnr_display, psnr_linear) = (psnr(Encoding::DisplaySrgb), psnr(Encoding::Linear));
             let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
             let time_ratio = ratio(reference.stats.seconds * 1e3, total_ms);
             let ray_ratio = ratio(rc.all_rays() as f64, c.all_rays() as f64);
             let test_ratio = ratio(rc.triangle_tests as f64, c.triangle_tests as f64);
             say!(
-                "{:<12} {:>3} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>10} {:>11} {:>7.1} {:>7.1} {:>7.1} {:>8.2}",
+                "{:<12} {:>3} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>10} {:>11} {:>7.1} {:>7.1} {:>7.1} {:>8.2} {:>8.2}",
                 variant.name(),
                 t,
                 trace_ms,
@@ -210,15 +173,18 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 time_ratio,
                 ray_ratio,
                 test_ratio,
-                psnr
+                psnr_display,
+                psnr_linear
             );
             let stem = format!("teapot-room-hybrid-{}-t{t}", variant.name());
-            write_image(&frame.image, &args.out.join(format!("{stem}.png")))?;
+            frame
+                .image
+                .write_png_and_exr(&args.out.join(format!("{stem}.png")))?;
             if variant == Variant::SinglePass && t == 3.0 {
-                write_image(
-                    &side_by_side(&frame.image, &reference.radiance),
-                    &args.out.join("teapot-room-side-by-side.png"),
-                )?;
+                frame
+                    .image
+                    .side_by_side(&reference.radiance)
+                    .write_png_and_exr(&args.out.join("teapot-room-side-by-side.png"))?;
             }
             rows.push(json!({
                 "variant": variant.name(), "t": t,
@@ -228,10 +194,14 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 "total_ms": total_ms, "rays": c.all_rays(), "triangle_tests": c.triangle_tests,
                 "lens_triangles_out": frame.stats.triangles_out,
                 "reduction_time": time_ratio, "reduction_rays": ray_ratio, "reduction_triangle_tests": test_ratio,
-                "lens_psnr_db": psnr,
+                "lens_psnr_db": psnr_display,
+                "lens_psnr_linear_db": psnr_linear,
             }));
         }
     }
+    say!(
+        "PSNR dB: display sRGB clamped to [0, 1] over the pixels the reference sees as all lens; lin. dB: linear HDR, unclamped"
+    );
     say!(
         "reference ray tracer: {:.1} ms, {} rays, {} triangle tests ({} threads)",
         reference.stats.seconds * 1e3,
@@ -243,20 +213,88 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         "wrote {}/teapot-room-side-by-side.png (hybrid | reference) and the frames beside it",
         args.out.display()
     );
-    let report = gpu.validation_report();
+    let report = runner.gpu().validation_report();
     if report.enabled {
         say!("validation messages: {}", report.messages.len());
     }
     say!("total {:.1} s", started.elapsed().as_secs_f64());
     if let Some(path) = &args.json {
         let out = json!({
-            "device": gpu.device_name(), "width": camera.width, "height": camera.height,
+            "device": runner.gpu().device_name(), "width": camera.width, "height": camera.height,
             "supersampling": camera.supersampling, "em_size": args.em_size,
             "reference": {"ms": reference.stats.seconds * 1e3, "rays": rc.all_rays(), "triangle_tests": rc.triangle_tests},
             "rows": rows,
         });
-        std::fs::write(path, serde_json::to_string_pretty(&out)?)
-            .with_context(|| path.display().to_string())?;
+        write_json(path, &out)?;
     }
+    Ok(())
+}
+
+/// `lensmap demo --synthetic`: the compositor alone on the synthetic sphere scene with both
+/// variants; writes PNG and EXR, prints pass counts, median frame times and the variants'
+/// difference.
+fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
+    let (width, height) = (args.width.unwrap_or(640), args.height.unwrap_or(480));
+    if width == 0 || height == 0 || args.layers == 0 || args.layers > SinglePassProgram::MAX_LAYERS
+    {
+        return Err(BadUsage(format!(
+            "--width/--height must be ≥ 1 and --layers within 1..={} (got {}×{}, {} layers)",
+            SinglePassProgram::MAX_LAYERS,
+            width,
+            height,
+            args.layers
+        ))
+        .into());
+    }
+    let started = Instant::now();
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    say!("device: {}", runner.gpu().device_name());
+    let frame = synthetic::sphere_frame(&synthetic::SyntheticOptions {
+        width,
+        height,
+        layers: args.layers,
+        ..synthetic::SyntheticOptions::default()
+    });
+    let mut uploaded = runner.upload(&frame)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let format = TargetFormat::Rgba32f;
+    let mut images = Vec::new();
+    for variant in [Variant::Multipass, Variant::SinglePass] {
+        let plan = lensmap::render::Renderer::plan(&uploaded, variant, format)?;
+        let renders = runner.timed_renders(&mut uploaded, variant, format, args.frames)?;
+        let stem = format!("demo-{}", variant.name());
+        renders
+            .image
+            .write_png_and_exr(&args.out.join(format!("{stem}.png")))?;
+        say!(
+            "{:<12} {} prime + {} layer + {} alpha-clear + {} single-pass passes, median frame {:.2} ms → {}/{stem}.png, .exr",
+            variant.name(),
+            plan.count("prime"),
+            plan.count("layer"),
+            plan.count("alpha-clear"),
+            plan.count("single-pass"),
+            renders.median(|t| t.record_ms + t.execute_ms),
+            args.out.display()
+        );
+        images.push(renders.image);
+    }
+    let difference = metrics::compare(
+        &images[0].pixels,
+        &images[1].pixels,
+        &Mask::all(images[0].pixels.len()),
+        Encoding::Linear,
+        Channels::Rgba,
+    )?;
+    say!(
+        "single-pass vs multipass ({}): max |difference| {:.3e}",
+        format.name(),
+        difference.max_abs
+    );
+    let report = runner.gpu().validation_report();
+    if report.enabled {
+        say!("validation messages: {}", report.messages.len());
+    }
+    say!("total {:.2} s", started.elapsed().as_secs_f64());
     Ok(())
 }

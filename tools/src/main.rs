@@ -72,30 +72,42 @@ enum BenchCommand {
 
 /// Whether an error is the user's input (exit 2) rather than a failure of the work (exit 1).
 fn is_bad_input(error: &anyhow::Error) -> bool {
-    error.chain().any(|cause| {
-        cause.is::<lensmap::scene::SceneError>()
-            || cause.is::<compositor::BadUsage>()
-            || cause.is::<lensmap::layers::BakeError>()
-            || cause.is::<lensmap::hybrid::HybridError>()
-            || matches!(
-                cause.downcast_ref::<lensmap::render::RenderError>(),
-                Some(lensmap::render::RenderError::BadInput(_))
-            )
-            || matches!(
-                cause.downcast_ref::<lensmap::gpu::GpuError>(),
-                Some(
-                    lensmap::gpu::GpuError::NoDriver(_)
-                        | lensmap::gpu::GpuError::NoSuitableDevice(_)
-                        | lensmap::gpu::GpuError::ValidationLayerMissing
-                )
-            )
-            || matches!(
-                cause.downcast_ref::<lensmap::render::RenderError>(),
-                Some(lensmap::render::RenderError::Gpu(
-                    lensmap::gpu::GpuError::NoDriver(_)
-                ))
-            )
-    })
+    error.chain().any(is_bad_input_cause)
+}
+
+/// One cause of an error chain: bad input, or a failure of the work? The runner's error forwards
+/// its inner error's message transparently, so it is looked into.
+fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
+    use lensmap::{gpu::GpuError, render::RenderError, runner::RunError};
+    let gpu_input = |error: &GpuError| {
+        matches!(
+            error,
+            GpuError::NoDriver(_)
+                | GpuError::NoSuitableDevice(_)
+                | GpuError::ValidationLayerMissing
+        )
+    };
+    let render_input = |error: &RenderError| match error {
+        RenderError::BadInput(_) | RenderError::Program(_) => true,
+        RenderError::Gpu(error) => matches!(error, GpuError::NoDriver(_)),
+    };
+    if let Some(run) = cause.downcast_ref::<RunError>() {
+        return match run {
+            RunError::Option(_) | RunError::Bake(_) | RunError::Hybrid(_) => true,
+            RunError::Tessellation(_) => false,
+            RunError::Render(error) => render_input(error),
+            RunError::Gpu(error) => gpu_input(error),
+        };
+    }
+    cause.is::<lensmap::scene::SceneError>()
+        || cause.is::<common::BadUsage>()
+        || cause.is::<lensmap::options::OptionError>()
+        || cause.is::<lensmap::layers::BakeError>()
+        || cause.is::<lensmap::hybrid::HybridError>()
+        || cause
+            .downcast_ref::<RenderError>()
+            .is_some_and(render_input)
+        || cause.downcast_ref::<GpuError>().is_some_and(gpu_input)
 }
 
 fn main() -> ExitCode {

@@ -3,24 +3,26 @@
 //! where the time went; `--compare` also renders the reference ray tracer at the same settings
 //! and reports the reduction factors and the PSNR over the lens pixels.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Context;
 use clap::Args;
-use glam::Vec3;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene, HybridStats},
-    layers::{Bake, projected::ProjectedOptions},
-    render::{RenderedImage, Renderer, TargetFormat, Variant},
+    hybrid::{DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene, tessellate::DEFAULT_T},
+    layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    metrics::Encoding,
+    render::{TargetFormat, Variant},
+    runner::{
+        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
+        load_hybrid_scene,
+    },
     scene::{Camera, Scene},
-    trace::{ReferenceImage, TraceOptions, image::srgb_encode, render_reference},
+    trace::{ReferenceImage, TraceOptions, render_reference},
 };
 use serde_json::json;
 
-use crate::common::{CameraArgs, choose_camera, progress_bar};
-use crate::compositor::{FormatArg, VariantArg};
+use crate::common::{CameraArgs, FormatArg, VariantArg, choose_camera, flag_error, progress_bar};
 
 #[derive(Args)]
 #[command(
@@ -42,10 +44,10 @@ pub struct RenderArgs {
     pub camera: CameraArgs,
     /// Tessellation threshold: triangles stop splitting when their edges are shorter than t
     /// subpixels.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = DEFAULT_T)]
     pub t: f32,
     /// Outgoing rays further apart than this many degrees split a triangle.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = DEFAULT_ANGLE_DEGREES)]
     pub angle_degrees: f64,
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "single-pass")]
@@ -54,7 +56,7 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "rgba16f")]
     pub format: FormatArg,
     /// Projected EMs: cube-map face size in texels.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
     /// Also write the layered EMs used as a bake directory.
     #[arg(long, value_name = "DIR")]
@@ -70,210 +72,40 @@ pub struct RenderArgs {
     pub json: bool,
 }
 
-/// One hybrid frame's image and costs.
-pub struct HybridFrame {
-    /// The frame at the camera's resolution (box-filtered from the supersampled framebuffer).
-    pub image: RenderedImage,
-    /// CPU stages.
-    pub stats: HybridStats,
-    /// GPU upload, rendering and readback, ms.
-    pub gpu_ms: f64,
-    /// Of which: uploading the frame's data (lens geometry; EMs only when new), ms.
-    pub upload_ms: f64,
-    /// Of which: recording, executing and reading back the frame.
-    pub render: lensmap::render::FrameTimings,
-    /// Whole frame, ms.
-    pub total_ms: f64,
-}
-
-impl HybridFrame {
-    /// "Other": everything but vertex tracing, texture coordinates and tessellation.
-    pub fn other_ms(&self) -> f64 {
-        (self.total_ms - self.stats.trace_ms - self.stats.texgen_ms - self.stats.tessellation_ms)
-            .max(0.0)
-    }
-}
-
-/// Renders one hybrid frame.
-pub fn hybrid_frame(
-    gpu: &Gpu,
-    renderer: &mut Renderer,
-    hybrid: &HybridScene,
-    camera: &Camera,
-    options: &HybridOptions,
-    variant: Variant,
-    format: TargetFormat,
-) -> anyhow::Result<HybridFrame> {
-    let start = Instant::now();
-    let (frame, stats) = hybrid.frame(camera, options)?;
-    let gpu_start = Instant::now();
-    let mut uploaded = renderer.upload(gpu, &frame)?;
-    let upload_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
-    let (image, render) = renderer.render(gpu, &mut uploaded, variant, format)?;
-    let image = image.box_downsample(camera.supersampling);
-    let gpu_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
-    Ok(HybridFrame {
-        image,
-        stats,
-        gpu_ms,
-        upload_ms,
-        render,
-        total_ms: start.elapsed().as_secs_f64() * 1e3,
-    })
-}
-
-/// Rejects tessellation and EM options no frame can use (exit code 2 naming the flag).
-pub fn check_hybrid_options(t: f32, angle_degrees: f64, em_size: u32) -> anyhow::Result<()> {
-    let bad = |s: String| Err(crate::compositor::BadUsage(s).into());
-    if !(t.is_finite() && t > 0.0) {
-        return bad(format!(
-            "--t {t}: give a positive number of subpixels, e.g. 3"
-        ));
-    }
-    if !(angle_degrees.is_finite() && angle_degrees > 0.0 && angle_degrees < 180.0) {
-        return bad(format!(
-            "--angle-degrees {angle_degrees}: give an angle in (0, 180), e.g. 3"
-        ));
-    }
-    if !(1..=2048).contains(&em_size) {
-        return bad(format!(
-            "--em-size {em_size}: give a cube-map face size from 1 to 2048 texels, e.g. 128"
-        ));
-    }
-    Ok(())
-}
-
-/// `warmup` untimed frames (the first compiles pipelines), then `count` timed ones.
-#[allow(clippy::too_many_arguments)]
-pub fn timed_frames(
-    gpu: &Gpu,
-    renderer: &mut Renderer,
-    hybrid: &HybridScene,
-    camera: &Camera,
-    options: &HybridOptions,
-    variant: Variant,
-    format: TargetFormat,
-    (warmup, count): (usize, usize),
-) -> anyhow::Result<Vec<HybridFrame>> {
-    for _ in 0..warmup {
-        hybrid_frame(gpu, renderer, hybrid, camera, options, variant, format)?;
-    }
-    (0..count.max(1))
-        .map(|_| hybrid_frame(gpu, renderer, hybrid, camera, options, variant, format))
-        .collect()
-}
-
-/// Median over `frames` of one stage's time.
-pub fn median_stage(frames: &[HybridFrame], stage: impl Fn(&HybridFrame) -> f64) -> f64 {
-    crate::common::median(&mut frames.iter().map(stage).collect::<Vec<_>>())
-}
-
-/// Loads the scene and its layered EMs as the arguments say.
-pub fn hybrid_scene(
-    scene: Scene,
-    bake: Option<&Path>,
-    em_size: u32,
-) -> anyhow::Result<HybridScene> {
-    Ok(match bake {
-        Some(dir) => HybridScene::from_bake(scene, Bake::read(dir)?)?,
-        None => {
-            HybridScene::projected(
-                scene,
-                &ProjectedOptions {
-                    size: em_size,
-                    supersampling: 2,
-                },
-            )?
-            .0
-        }
-    })
-}
-
-/// PSNR (dB) of `image` against the reference over the pixels the reference sees as all lens,
-/// on sRGB-encoded values in [0, 1]; `None` when no pixel is all lens.
-pub fn lens_psnr(image: &RenderedImage, reference: &ReferenceImage) -> Option<(f64, usize)> {
-    let mut sum = 0.0;
-    let mut count = 0usize;
-    for ((p, r), m) in image
-        .pixels
-        .iter()
-        .zip(&reference.radiance)
-        .zip(&reference.lens_mask)
-    {
-        if *m < 1.0 {
-            continue;
-        }
-        for c in 0..3 {
-            let d =
-                f64::from(srgb_encode(p[c].clamp(0.0, 1.0)) - srgb_encode(r[c].clamp(0.0, 1.0)));
-            sum += d * d;
-        }
-        count += 1;
-    }
-    (count > 0).then(|| {
-        (
-            10.0 * (1.0 / (sum / (3 * count) as f64).max(1e-20)).log10(),
-            count,
-        )
-    })
-}
-
-/// Writes `image` as PNG (sRGB) at `path` and EXR (linear) beside it.
-pub fn write_image(image: &RenderedImage, path: &Path) -> anyhow::Result<()> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("creating {}", parent.display()))?;
-    }
-    let rgb: Vec<Vec3> = image
-        .pixels
-        .iter()
-        .map(|p| Vec3::new(p[0], p[1], p[2]))
-        .collect();
-    lensmap::trace::image::write_png(&path.with_extension("png"), image.width, image.height, &rgb)?;
-    lensmap::trace::image::write_exr(&path.with_extension("exr"), image.width, image.height, &rgb)?;
-    Ok(())
-}
-
 /// Runs `lensmap render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
-    let options = HybridOptions {
-        t: args.t,
-        angle_radians: args.angle_degrees.to_radians(),
+    let options = FrameOptions {
+        hybrid: HybridOptions::with_t_and_angle(args.t, args.angle_degrees),
+        variant: Variant::from(args.variant),
+        format: TargetFormat::from(args.format),
     };
-    check_hybrid_options(args.t, args.angle_degrees, args.em_size)?;
+    options.hybrid.validate().map_err(flag_error)?;
+    let ems = match &args.bake {
+        Some(dir) => EmSource::Bake(dir.clone()),
+        None => EmSource::Projected(ProjectedOptions::with_size(args.em_size)),
+    };
+    ProjectedOptions::with_size(args.em_size)
+        .validate()
+        .map_err(flag_error)?;
     // The GPU first: without a driver, fail before the expensive preparation.
-    let gpu = Gpu::new(&GpuOptions::from_env())?;
-    let mut renderer = Renderer::new(&gpu)?;
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let prepare = Instant::now();
-    let hybrid = hybrid_scene(scene, args.bake.as_deref(), args.em_size)?;
+    let (hybrid, _) = load_hybrid_scene(scene, &ems)?;
     let prepare_s = prepare.elapsed().as_secs_f64();
     if let Some(dir) = &args.write_bake {
         hybrid.to_bake().write(dir)?;
     }
-    let (variant, format) = (Variant::from(args.variant), TargetFormat::from(args.format));
     // The first frame pays for pipeline creation and shader compilation: render it, then time a
     // second one.
-    hybrid_frame(
-        &gpu,
-        &mut renderer,
-        &hybrid,
-        &camera,
-        &options,
-        variant,
-        format,
-    )?;
-    let frame = hybrid_frame(
-        &gpu,
-        &mut renderer,
-        &hybrid,
-        &camera,
-        &options,
-        variant,
-        format,
-    )?;
-    write_image(&frame.image, &args.out)?;
+    let repetitions = Repetitions {
+        warmup: 1,
+        timed: 1,
+    };
+    let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
+    let frame = frames.last();
+    frame.image.write_png_and_exr(&args.out)?;
 
     let reference = if args.compare {
         let bar = progress_bar(u64::from(camera.height));
@@ -289,10 +121,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         &hybrid,
         &camera,
         &args,
-        &frame,
+        frame,
         reference.as_ref(),
         prepare_s,
-        gpu.device_name(),
+        runner.gpu().device_name(),
     );
     if args.json {
         say!("{}", serde_json::to_string_pretty(&report)?);
@@ -346,9 +178,15 @@ fn report(
             "rays": ratio(rc.all_rays() as f64, c.all_rays() as f64),
             "triangle_tests": ratio(rc.triangle_tests as f64, c.triangle_tests as f64),
         });
-        if let Some((psnr, pixels)) = lens_psnr(&frame.image, reference) {
-            out["lens_psnr_db"] = json!(psnr);
-            out["lens_pixels"] = json!(pixels);
+        // The figure printed since the first release (display sRGB, clamped), and beside it the
+        // linear one that also counts errors in highlights above 1. No pixel all lens: no figure.
+        if let (Ok(display), Ok(linear)) = (
+            lens_error(&frame.image, reference, Encoding::DisplaySrgb),
+            lens_error(&frame.image, reference, Encoding::Linear),
+        ) {
+            out["lens_psnr_db"] = json!(display.psnr_db);
+            out["lens_psnr_linear_db"] = json!(linear.psnr_db);
+            out["lens_pixels"] = json!(display.pixels);
         }
     }
     out
@@ -414,12 +252,17 @@ fn print_table(r: &serde_json::Value) {
             ms(&red["rays"]),
             ms(&red["triangle_tests"])
         );
-        if let Some(psnr) = r["lens_psnr_db"].as_f64() {
-            say!(
-                "  PSNR over {} lens pixels: {:.2} dB",
+        match (
+            r["lens_psnr_db"].as_f64(),
+            r["lens_psnr_linear_db"].as_f64(),
+        ) {
+            (Some(display), Some(linear)) => say!(
+                "  PSNR over {} lens pixels: {:.2} dB (display sRGB, clamped to [0, 1]), {:.2} dB (linear HDR)",
                 r["lens_pixels"],
-                psnr
-            );
+                display,
+                linear
+            ),
+            _ => say!("  no pixel is entirely lens in the reference: no lens PSNR"),
         }
     }
     say!("  wrote {}", r["out"].as_str().unwrap_or(""));

@@ -15,6 +15,7 @@ use super::{
 use crate::{
     cubemap::CubeMap,
     layers::LayerShell,
+    options::OptionError,
     render::{EnvironmentMesh, FrameInput, LensObject, TermVertices},
     scene::{Camera, Scene},
     trace::{Ray, Term, bvh::SurfaceHit, stats::TraceCounters, world::TraceScene},
@@ -61,20 +62,61 @@ pub struct HybridScene {
     pub environment: Vec<Arc<EnvironmentMesh>>,
 }
 
+/// The paper's angle threshold: outgoing rays further apart than this make vertices differ.
+pub const DEFAULT_ANGLE_DEGREES: f64 = 3.0;
+
 /// Per-frame options.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HybridOptions {
-    /// Tessellation threshold t in subpixels.
-    pub t: f32,
-    /// Outgoing rays further apart than this (radians) make vertices differ (paper: 3°).
+    /// Adaptive tessellation: the threshold t in subpixels (one default, one check, in
+    /// [`TessellationOptions`]) and the depth cap.
+    pub tessellation: TessellationOptions,
+    /// Outgoing rays further apart than this (radians) make vertices differ (paper: 3°); in
+    /// (0, π).
     pub angle_radians: f64,
 }
 
 impl Default for HybridOptions {
     fn default() -> Self {
         HybridOptions {
-            t: 3.0,
-            angle_radians: 3f64.to_radians(),
+            tessellation: TessellationOptions::default(),
+            angle_radians: DEFAULT_ANGLE_DEGREES.to_radians(),
+        }
+    }
+}
+
+impl HybridOptions {
+    /// The defaults with tessellation threshold `t` (subpixels).
+    pub fn with_t(t: f32) -> HybridOptions {
+        HybridOptions {
+            tessellation: TessellationOptions {
+                t,
+                ..TessellationOptions::default()
+            },
+            ..HybridOptions::default()
+        }
+    }
+
+    /// The defaults with tessellation threshold `t` and the angle threshold in degrees.
+    pub fn with_t_and_angle(t: f32, angle_degrees: f64) -> HybridOptions {
+        HybridOptions {
+            angle_radians: angle_degrees.to_radians(),
+            ..HybridOptions::with_t(t)
+        }
+    }
+
+    /// Checks every option: `t` ([`TessellationOptions::validate`]) and the angle in (0°, 180°).
+    pub fn validate(&self) -> Result<(), OptionError> {
+        self.tessellation.validate()?;
+        let degrees = self.angle_radians.to_degrees();
+        if degrees.is_finite() && degrees > 0.0 && degrees < 180.0 {
+            Ok(())
+        } else {
+            Err(OptionError::new(
+                "angle_degrees",
+                degrees,
+                "give an angle in (0, 180), e.g. 3",
+            ))
         }
     }
 }
@@ -365,14 +407,7 @@ impl HybridScene {
                     options.angle_radians,
                 );
                 let start = Instant::now();
-                let tessellation = tessellate(
-                    mesh,
-                    &oracle,
-                    &TessellationOptions {
-                        t: options.t,
-                        ..TessellationOptions::default()
-                    },
-                )?;
+                let tessellation = tessellate(mesh, &oracle, &options.tessellation)?;
                 let elapsed = start.elapsed().as_secs_f64() * 1e3;
                 let counters = oracle.counters();
                 // The oracle's batches run inside tessellate(); their share is ray tracing.

@@ -8,4 +8,6 @@ pub mod paths;
 pub mod tessellate;
 pub mod viewpoints;
 
-pub use frame::{HybridError, HybridOptions, HybridScene, HybridStats, LensLayers};
+pub use frame::{
+    DEFAULT_ANGLE_DEGREES, HybridError, HybridOptions, HybridScene, HybridStats, LensLayers,
+};

@@ -64,6 +64,21 @@ impl Default for TessellationOptions {
     }
 }
 
+impl TessellationOptions {
+    /// The one check of `t`: finite and positive.
+    pub fn validate(&self) -> Result<(), crate::options::OptionError> {
+        if self.t.is_finite() && self.t > 0.0 {
+            Ok(())
+        } else {
+            Err(crate::options::OptionError::new(
+                "t",
+                self.t,
+                "give a positive number of subpixels, e.g. 3",
+            ))
+        }
+    }
+}
+
 /// A vertex of the tessellated surface as handed to the [`VertexOracle`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceVertex {
@@ -311,7 +326,7 @@ pub fn tessellate<O: VertexOracle>(
     oracle: &O,
     options: &TessellationOptions,
 ) -> Result<Tessellation<O::Sample>, TessellationError> {
-    if !(options.t.is_finite() && options.t > 0.0) {
+    if options.validate().is_err() {
         return Err(TessellationError::InvalidThreshold(options.t));
     }
     validate(mesh)?;

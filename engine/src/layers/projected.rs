@@ -33,11 +33,40 @@ pub struct ProjectedOptions {
     pub supersampling: u32,
 }
 
+/// The default cube-map face size of projected EMs, texels.
+pub const DEFAULT_EM_SIZE: u32 = 128;
+
+/// The largest cube-map face size of projected EMs, texels.
+pub const MAX_EM_SIZE: u32 = 2048;
+
 impl Default for ProjectedOptions {
     fn default() -> Self {
         ProjectedOptions {
-            size: 64,
+            size: DEFAULT_EM_SIZE,
             supersampling: 2,
+        }
+    }
+}
+
+impl ProjectedOptions {
+    /// The defaults with face size `size`.
+    pub fn with_size(size: u32) -> ProjectedOptions {
+        ProjectedOptions {
+            size,
+            ..ProjectedOptions::default()
+        }
+    }
+
+    /// Checks the face size: 1 ..= [`MAX_EM_SIZE`] texels.
+    pub fn validate(&self) -> Result<(), crate::options::OptionError> {
+        if (1..=MAX_EM_SIZE).contains(&self.size) {
+            Ok(())
+        } else {
+            Err(crate::options::OptionError::new(
+                "em_size",
+                self.size,
+                "give a cube-map face size from 1 to 2048 texels, e.g. 128",
+            ))
         }
     }
 }

@@ -1,7 +1,13 @@
 //! A compositor frame on the CPU: the read-back texels converted to f32 RGBA
-//! ([`RenderedImage`]), box-filtered from the supersampled framebuffer to pixels.
+//! ([`RenderedImage`]), box-filtered from the supersampled framebuffer to pixels, written as PNG
+//! and EXR, and put beside a reference for a side-by-side picture.
+
+use std::path::Path;
+
+use glam::Vec3;
 
 use super::TargetFormat;
+use crate::trace::{TraceError, image};
 
 /// A frame read back from the GPU, converted to f32 RGBA (rows top to bottom).
 #[derive(Clone, Debug, PartialEq)]
@@ -41,6 +47,49 @@ impl RenderedImage {
         RenderedImage {
             width,
             height,
+            pixels,
+        }
+    }
+}
+
+impl RenderedImage {
+    /// The colour of every pixel, α dropped.
+    pub fn rgb(&self) -> Vec<Vec3> {
+        self.pixels
+            .iter()
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect()
+    }
+
+    /// Writes the image as an 8-bit sRGB PNG at `path` (extension made `.png`) and a linear f32
+    /// EXR beside it (`.exr`), creating the folder if needed.
+    pub fn write_png_and_exr(&self, path: &Path) -> Result<(), TraceError> {
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(parent).map_err(|source| TraceError::Io {
+                path: parent.to_owned(),
+                source,
+            })?;
+        }
+        let rgb = self.rgb();
+        image::write_png(&path.with_extension("png"), self.width, self.height, &rgb)?;
+        image::write_exr(&path.with_extension("exr"), self.width, self.height, &rgb)
+    }
+
+    /// This image on the left and `right` (RGB, the same size, rows top to bottom) on the right.
+    pub fn side_by_side(&self, right: &[Vec3]) -> RenderedImage {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut pixels = Vec::with_capacity(2 * w * h);
+        for y in 0..h {
+            pixels.extend_from_slice(&self.pixels[y * w..(y + 1) * w]);
+            pixels.extend(
+                right[y * w..(y + 1) * w]
+                    .iter()
+                    .map(|p| [p.x, p.y, p.z, 1.0]),
+            );
+        }
+        RenderedImage {
+            width: 2 * self.width,
+            height: self.height,
             pixels,
         }
     }

@@ -1,0 +1,317 @@
+//! Image error metrics, one set of rules for every figure lensmap prints or asserts: masked
+//! PSNR, RMSE and largest difference between an image and a reference, either in **linear HDR**
+//! (values as they are, nothing clamped: errors in highlights above 1 count in full) or in
+//! **display sRGB** (each colour channel clamped to [0, 1] and sRGB-encoded, as a PNG shows it;
+//! α only clamped). The mask is explicit, and a comparison over an empty mask is an error, never
+//! a zero.
+//!
+//! PSNR is `10·log10(1 / MSE)` with a peak of 1 in both encodings (in linear HDR, values above 1
+//! can make it negative); identical images give `+∞`.
+
+use glam::Vec3;
+
+use crate::trace::image::srgb_encode;
+
+/// How values are compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Encoding {
+    /// Linear radiance as stored, nothing clamped.
+    Linear,
+    /// Colour channels clamped to [0, 1] and sRGB-encoded (NaN as 0); α clamped to [0, 1].
+    DisplaySrgb,
+}
+
+impl Encoding {
+    /// How outputs name it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Encoding::Linear => "linear HDR",
+            Encoding::DisplaySrgb => "display sRGB, clamped to [0, 1]",
+        }
+    }
+
+    fn encode(self, channel: usize, value: f32) -> f32 {
+        match (self, channel) {
+            (Encoding::Linear, _) => value,
+            (Encoding::DisplaySrgb, 0..=2) => srgb_encode(value),
+            (Encoding::DisplaySrgb, _) => value.clamp(0.0, 1.0),
+        }
+    }
+}
+
+/// Which channels are compared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Channels {
+    /// Red, green and blue.
+    Rgb,
+    /// Red, green, blue and α (both images need α).
+    Rgba,
+}
+
+impl Channels {
+    fn count(self) -> usize {
+        match self {
+            Channels::Rgb => 3,
+            Channels::Rgba => 4,
+        }
+    }
+}
+
+/// A pixel the metrics can read: RGB or RGBA in f32.
+pub trait Pixel {
+    /// Channel `c` (0 = R … 3 = A); α is 1 for pixels without one.
+    fn channel(&self, c: usize) -> f32;
+}
+
+impl Pixel for [f32; 4] {
+    fn channel(&self, c: usize) -> f32 {
+        self[c]
+    }
+}
+
+impl Pixel for [f32; 3] {
+    fn channel(&self, c: usize) -> f32 {
+        self.get(c).copied().unwrap_or(1.0)
+    }
+}
+
+impl Pixel for Vec3 {
+    fn channel(&self, c: usize) -> f32 {
+        if c < 3 { self[c] } else { 1.0 }
+    }
+}
+
+/// Which pixels a comparison covers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Mask {
+    pixels: Vec<bool>,
+}
+
+/// How a per-pixel coverage in [0, 1] (such as the reference's lens mask) becomes a mask.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coverage {
+    /// Pixels covered entirely (coverage ≥ 1): no background mixed in.
+    Full,
+    /// Pixels covered at all (coverage > 0).
+    Any,
+}
+
+impl Mask {
+    /// Every one of `len` pixels.
+    pub fn all(len: usize) -> Mask {
+        Mask {
+            pixels: vec![true; len],
+        }
+    }
+
+    /// The pixels whose `coverage` passes `rule`.
+    pub fn from_coverage(coverage: &[f32], rule: Coverage) -> Mask {
+        Mask {
+            pixels: coverage
+                .iter()
+                .map(|&c| match rule {
+                    Coverage::Full => c >= 1.0,
+                    Coverage::Any => c > 0.0,
+                })
+                .collect(),
+        }
+    }
+
+    /// A mask from one flag per pixel.
+    pub fn from_flags(pixels: Vec<bool>) -> Mask {
+        Mask { pixels }
+    }
+
+    /// Pixels in either mask (the shorter mask's missing pixels count as out).
+    pub fn union(&self, other: &Mask) -> Mask {
+        let len = self.pixels.len().max(other.pixels.len());
+        let at = |m: &Mask, i: usize| m.pixels.get(i).copied().unwrap_or(false);
+        Mask {
+            pixels: (0..len).map(|i| at(self, i) || at(other, i)).collect(),
+        }
+    }
+
+    /// Number of pixels in the mask.
+    pub fn count(&self) -> usize {
+        self.pixels.iter().filter(|&&p| p).count()
+    }
+
+    /// Number of pixels the mask describes (in or out).
+    pub fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    /// Whether the mask describes no pixel at all.
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+}
+
+/// Why a comparison has no value.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum MetricsError {
+    /// The mask selects no pixel: the error over an empty set is undefined, not zero.
+    #[error("the comparison mask selects no pixel, so there is no error to report")]
+    EmptyMask,
+    /// The image, the reference and the mask differ in size.
+    #[error("image has {image} pixels, reference {reference}, mask {mask}: they must agree")]
+    SizeMismatch {
+        /// Pixels of the image.
+        image: usize,
+        /// Pixels of the reference.
+        reference: usize,
+        /// Pixels the mask describes.
+        mask: usize,
+    },
+}
+
+/// The difference between an image and its reference over a mask.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ImageError {
+    /// The values compared.
+    pub encoding: Encoding,
+    /// The channels compared.
+    pub channels: Channels,
+    /// Pixels compared (> 0).
+    pub pixels: usize,
+    /// Mean squared difference over every compared channel value.
+    pub mse: f64,
+    /// Its square root.
+    pub rmse: f64,
+    /// `10·log10(1 / mse)`, dB; `+∞` for identical images.
+    pub psnr_db: f64,
+    /// Largest absolute difference of one channel value.
+    pub max_abs: f64,
+}
+
+/// Compares `image` with `reference` over the pixels of `mask`, in `encoding`, on `channels`.
+/// Differences are taken in f32 after encoding and accumulated in f64, pixel by pixel and
+/// channel by channel in order, so the figure does not depend on threads.
+pub fn compare<A: Pixel, B: Pixel>(
+    image: &[A],
+    reference: &[B],
+    mask: &Mask,
+    encoding: Encoding,
+    channels: Channels,
+) -> Result<ImageError, MetricsError> {
+    if image.len() != reference.len() || image.len() != mask.len() {
+        return Err(MetricsError::SizeMismatch {
+            image: image.len(),
+            reference: reference.len(),
+            mask: mask.len(),
+        });
+    }
+    let mut sum = 0.0f64;
+    let mut max_abs = 0.0f64;
+    let mut pixels = 0usize;
+    for ((p, r), _) in image
+        .iter()
+        .zip(reference)
+        .zip(&mask.pixels)
+        .filter(|(_, inside)| **inside)
+    {
+        for c in 0..channels.count() {
+            let d = f64::from(encoding.encode(c, p.channel(c)) - encoding.encode(c, r.channel(c)));
+            sum += d * d;
+            max_abs = max_abs.max(d.abs());
+        }
+        pixels += 1;
+    }
+    if pixels == 0 {
+        return Err(MetricsError::EmptyMask);
+    }
+    let mse = sum / (channels.count() * pixels) as f64;
+    Ok(ImageError {
+        encoding,
+        channels,
+        pixels,
+        mse,
+        rmse: mse.sqrt(),
+        psnr_db: if mse > 0.0 {
+            10.0 * (1.0 / mse).log10()
+        } else {
+            f64::INFINITY
+        },
+        max_abs,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_error_against_a_hand_computation() {
+        let image = [[0.5f32, 0.25, 2.0, 1.0], [0.0, 0.0, 0.0, 0.5]];
+        let reference = [Vec3::new(0.25, 0.25, 1.0), Vec3::new(9.0, 9.0, 9.0)];
+        let mask = Mask::from_flags(vec![true, false]);
+        let e = compare(&image, &reference, &mask, Encoding::Linear, Channels::Rgb).unwrap();
+        // Differences 0.25, 0, 1 over three values: MSE = (1/16 + 1) / 3.
+        let mse = (1.0 / 16.0 + 1.0) / 3.0;
+        assert_eq!(e.pixels, 1);
+        assert!((e.mse - mse).abs() < 1e-15, "{e:?}");
+        assert!((e.psnr_db - 10.0 * (1.0 / mse).log10()).abs() < 1e-12);
+        assert_eq!(e.max_abs, 1.0, "linear HDR counts the highlight in full");
+    }
+
+    #[test]
+    fn display_srgb_clamps_highlights_and_encodes() {
+        let image = [Vec3::new(2.0, 0.5, 0.0)];
+        let reference = [Vec3::new(1.0, 0.5, 0.0)];
+        let all = Mask::all(1);
+        let display = compare(
+            &image,
+            &reference,
+            &all,
+            Encoding::DisplaySrgb,
+            Channels::Rgb,
+        )
+        .unwrap();
+        assert_eq!(display.mse, 0.0, "2 and 1 both show as white");
+        assert_eq!(display.psnr_db, f64::INFINITY);
+        let linear = compare(&image, &reference, &all, Encoding::Linear, Channels::Rgb).unwrap();
+        assert!((linear.mse - 1.0 / 3.0).abs() < 1e-15);
+        // sRGB(0.5) = 0.7353569…: against black that is the whole difference.
+        let grey = compare(
+            &[Vec3::splat(0.5)],
+            &[Vec3::ZERO],
+            &all,
+            Encoding::DisplaySrgb,
+            Channels::Rgb,
+        )
+        .unwrap();
+        assert!((grey.max_abs - 0.735_356_9).abs() < 1e-6, "{grey:?}");
+    }
+
+    #[test]
+    fn rgba_compares_alpha_and_an_empty_mask_is_an_error() {
+        let a = [[0.0f32, 0.0, 0.0, 0.25]];
+        let b = [[0.0f32, 0.0, 0.0, 1.0]];
+        let e = compare(&a, &b, &Mask::all(1), Encoding::Linear, Channels::Rgba).unwrap();
+        assert_eq!(e.max_abs, 0.75);
+        assert_eq!(
+            compare(
+                &a,
+                &b,
+                &Mask::from_flags(vec![false]),
+                Encoding::Linear,
+                Channels::Rgb
+            ),
+            Err(MetricsError::EmptyMask)
+        );
+        assert!(matches!(
+            compare(&a, &b, &Mask::all(2), Encoding::Linear, Channels::Rgb),
+            Err(MetricsError::SizeMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn coverage_rules_and_union() {
+        let coverage = [0.0, 0.5, 1.0];
+        let full = Mask::from_coverage(&coverage, Coverage::Full);
+        let any = Mask::from_coverage(&coverage, Coverage::Any);
+        assert_eq!((full.count(), any.count()), (1, 2));
+        let other = Mask::from_flags(vec![true, false, false]);
+        assert_eq!(full.union(&other).count(), 2);
+    }
+}

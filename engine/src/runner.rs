@@ -1,0 +1,303 @@
+//! The frame runner: what the command line, the tests and embedding hosts call to turn a scene
+//! and its layered EMs into timed frames. It loads a [`HybridScene`] with baked or projected EMs
+//! ([`load_hybrid_scene`]), runs hybrid frames (per-vertex tracing and tessellation on the CPU,
+//! upload, compositing, read-back, the supersampled framebuffer box-filtered to pixels) with the
+//! paper's per-stage statistics ([`FrameRunner::frame`]), repeats them after warm-up frames for
+//! medians ([`FrameRunner::timed_frames`]), and times the compositor alone on an uploaded frame
+//! ([`FrameRunner::timed_renders`]). The room sits on top of `hybrid/` and `render/`; nothing
+//! here parses arguments or prints.
+
+use std::{path::PathBuf, time::Instant};
+
+use crate::{
+    gpu::{Gpu, GpuError},
+    hybrid::{HybridError, HybridOptions, HybridScene, HybridStats, tessellate::TessellationError},
+    layers::{Bake, BakeError, projected::ProjectedOptions},
+    metrics::{self, Channels, Coverage, Encoding, ImageError, Mask, MetricsError},
+    options::OptionError,
+    render::{
+        FrameTimings, RenderError, RenderedImage, Renderer, TargetFormat, UploadedFrame, Variant,
+    },
+    scene::{Camera, Scene},
+    trace::ReferenceImage,
+};
+
+/// Where a hybrid scene's layered EMs come from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum EmSource {
+    /// A bake directory written by the baker (or `lensmap render --write-bake`).
+    Bake(PathBuf),
+    /// Projected from the scene onto the layer shells its file names.
+    Projected(ProjectedOptions),
+}
+
+/// Why a frame or a scene could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// An option is out of range (exit code 2 on the command line).
+    #[error(transparent)]
+    Option(#[from] OptionError),
+    /// The bake could not be read.
+    #[error(transparent)]
+    Bake(#[from] BakeError),
+    /// The scene and its EMs do not fit together, or the tracer refused the scene.
+    #[error(transparent)]
+    Hybrid(#[from] HybridError),
+    /// Tessellation refused a lens mesh.
+    #[error(transparent)]
+    Tessellation(#[from] TessellationError),
+    /// Uploading or rendering failed.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// The GPU failed.
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// Loads `scene` with its layered EMs; returns the hybrid scene and the rays cast to project
+/// EMs (0 for a bake).
+pub fn load_hybrid_scene(scene: Scene, ems: &EmSource) -> Result<(HybridScene, u64), RunError> {
+    Ok(match ems {
+        EmSource::Bake(dir) => (HybridScene::from_bake(scene, Bake::read(dir)?)?, 0),
+        EmSource::Projected(options) => {
+            options.validate()?;
+            HybridScene::projected(scene, options)?
+        }
+    })
+}
+
+/// What a hybrid frame is rendered with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameOptions {
+    /// Tessellation and the angle threshold.
+    pub hybrid: HybridOptions,
+    /// Compositor variant.
+    pub variant: Variant,
+    /// Framebuffer format.
+    pub format: TargetFormat,
+}
+
+impl Default for FrameOptions {
+    fn default() -> Self {
+        FrameOptions {
+            hybrid: HybridOptions::default(),
+            variant: Variant::SinglePass,
+            format: TargetFormat::Rgba16f,
+        }
+    }
+}
+
+/// How many frames to render before timing (the first pays for pipeline creation and shader
+/// compilation) and how many to time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Repetitions {
+    /// Untimed frames first.
+    pub warmup: usize,
+    /// Timed frames (at least one is rendered).
+    pub timed: usize,
+}
+
+/// One hybrid frame's image and costs.
+#[derive(Clone, Debug)]
+pub struct HybridFrame {
+    /// The frame at the camera's resolution (box-filtered from the supersampled framebuffer).
+    pub image: RenderedImage,
+    /// CPU stages.
+    pub stats: HybridStats,
+    /// GPU upload, rendering and readback, ms.
+    pub gpu_ms: f64,
+    /// Of which: uploading the frame's data (lens geometry; EMs only when new), ms.
+    pub upload_ms: f64,
+    /// Of which: recording, executing and reading back the frame.
+    pub render: FrameTimings,
+    /// Whole frame, ms.
+    pub total_ms: f64,
+}
+
+impl HybridFrame {
+    /// "Other" in the paper's table: everything but vertex tracing, texture coordinates and
+    /// tessellation, ms.
+    pub fn other_ms(&self) -> f64 {
+        (self.total_ms - self.stats.trace_ms - self.stats.texgen_ms - self.stats.tessellation_ms)
+            .max(0.0)
+    }
+}
+
+/// Timed hybrid frames of one setting.
+#[derive(Clone, Debug)]
+pub struct TimedFrames {
+    /// The timed frames in order (at least one).
+    pub frames: Vec<HybridFrame>,
+}
+
+impl TimedFrames {
+    /// Median over the frames of one stage's time.
+    pub fn median(&self, stage: impl Fn(&HybridFrame) -> f64) -> f64 {
+        median(&mut self.frames.iter().map(stage).collect::<Vec<_>>())
+    }
+
+    /// The last frame (its image and counters; counters are the same for every frame).
+    pub fn last(&self) -> &HybridFrame {
+        // `FrameRunner::timed_frames` renders at least one frame.
+        &self.frames[self.frames.len() - 1]
+    }
+}
+
+/// Compositor-only renders of one uploaded frame.
+#[derive(Clone, Debug)]
+pub struct TimedRenders {
+    /// The image of the first (warm-up) render.
+    pub image: RenderedImage,
+    /// Timings of the timed renders (at least one).
+    pub timings: Vec<FrameTimings>,
+}
+
+impl TimedRenders {
+    /// Median over the timed renders of `stage`.
+    pub fn median(&self, stage: impl Fn(&FrameTimings) -> f64) -> f64 {
+        median(&mut self.timings.iter().map(stage).collect::<Vec<_>>())
+    }
+}
+
+/// Median of a sample (0 for none).
+pub fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    values.sort_by(f64::total_cmp);
+    let mid = values.len() / 2;
+    if values.len() % 2 == 1 {
+        values[mid]
+    } else {
+        0.5 * (values[mid - 1] + values[mid])
+    }
+}
+
+/// A device and the compositor on it: runs frames of any hybrid scene.
+pub struct FrameRunner {
+    gpu: Gpu,
+    renderer: Renderer,
+}
+
+impl FrameRunner {
+    /// A runner on `gpu`.
+    pub fn new(gpu: Gpu) -> Result<FrameRunner, GpuError> {
+        let renderer = Renderer::new(&gpu)?;
+        Ok(FrameRunner { gpu, renderer })
+    }
+
+    /// The device (its name, the validation report).
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// Uploads a compositor frame (for compositor-only work such as [`Self::timed_renders`]).
+    pub fn upload(
+        &mut self,
+        frame: &crate::render::FrameInput,
+    ) -> Result<UploadedFrame, RenderError> {
+        self.renderer.upload(&self.gpu, frame)
+    }
+
+    /// Renders one hybrid frame of `hybrid` seen by `camera`.
+    pub fn frame(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+    ) -> Result<HybridFrame, RunError> {
+        options.hybrid.validate()?;
+        let start = Instant::now();
+        let (frame, stats) = hybrid.frame(camera, &options.hybrid)?;
+        let gpu_start = Instant::now();
+        let mut uploaded = self.renderer.upload(&self.gpu, &frame)?;
+        let upload_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
+        let (image, render) =
+            self.renderer
+                .render(&self.gpu, &mut uploaded, options.variant, options.format)?;
+        let image = image.box_downsample(camera.supersampling);
+        let gpu_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
+        Ok(HybridFrame {
+            image,
+            stats,
+            gpu_ms,
+            upload_ms,
+            render,
+            total_ms: start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// `repetitions.warmup` untimed frames, then `repetitions.timed` timed ones (at least one).
+    pub fn timed_frames(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+        repetitions: Repetitions,
+    ) -> Result<TimedFrames, RunError> {
+        for _ in 0..repetitions.warmup {
+            self.frame(hybrid, camera, options)?;
+        }
+        let frames = (0..repetitions.timed.max(1))
+            .map(|_| self.frame(hybrid, camera, options))
+            .collect::<Result<_, _>>()?;
+        Ok(TimedFrames { frames })
+    }
+
+    /// The compositor alone on an uploaded frame: one warm-up render (its image is returned),
+    /// then `timed` timed renders (at least one).
+    pub fn timed_renders(
+        &mut self,
+        uploaded: &mut UploadedFrame,
+        variant: Variant,
+        format: TargetFormat,
+        timed: usize,
+    ) -> Result<TimedRenders, RenderError> {
+        let (image, _) = self.renderer.render(&self.gpu, uploaded, variant, format)?;
+        let timings = (0..timed.max(1))
+            .map(|_| {
+                self.renderer
+                    .render(&self.gpu, uploaded, variant, format)
+                    .map(|(_, timings)| timings)
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(TimedRenders { image, timings })
+    }
+}
+
+/// The demo's and the hybrid benchmark's novel viewpoint: halfway (in angle) between viewpoint
+/// samples 2 and 3 of the scene's view space, at their mean distance from the look-at point, so
+/// two samples are blended; the scene camera when the view space has fewer than four samples.
+pub fn novel_camera(scene: &Scene) -> Camera {
+    let samples = scene.view_space.samples();
+    let look_at = scene.camera.look_at;
+    match (samples.get(2), samples.get(3)) {
+        (Some(a), Some(b)) => {
+            let (da, db) = (*a - look_at, *b - look_at);
+            let direction = (da.normalize() + db.normalize()).normalize_or(da.normalize());
+            scene
+                .camera
+                .with_position(look_at + direction * 0.5 * (da.length() + db.length()))
+        }
+        _ => scene.camera,
+    }
+}
+
+/// The error of a hybrid frame against the reference ray tracer over the lens pixels: those the
+/// reference sees as entirely lens (coverage 1, no background mixed in), RGB, in `encoding`.
+/// [`Encoding::DisplaySrgb`] is the figure lensmap has always printed as "lens PSNR";
+/// [`Encoding::Linear`] also counts errors in highlights above 1. An error when no pixel is all
+/// lens.
+pub fn lens_error(
+    image: &RenderedImage,
+    reference: &ReferenceImage,
+    encoding: Encoding,
+) -> Result<ImageError, MetricsError> {
+    metrics::compare(
+        &image.pixels,
+        &reference.radiance,
+        &Mask::from_coverage(&reference.lens_mask, Coverage::Full),
+        encoding,
+        Channels::Rgb,
+    )
+}

@@ -10,8 +10,8 @@
 //! in that cluster.
 //!
 //! The paper starts LBG from random distances; lensmap starts from evenly spaced quantiles of the
-//! sorted distances, which is deterministic (DESIGN.md: same inputs, same bake) and never starts a
-//! centre outside the data.
+//! sorted distances, which is deterministic (the same inputs always give the same bake, whatever
+//! the thread count) and never starts a centre outside the data.
 
 use std::collections::HashMap;
 

@@ -158,3 +158,49 @@ fn a_malformed_scene_file_exits_2_with_file_and_line() {
         );
     }
 }
+
+#[test]
+fn passes_prints_the_golden_plans() {
+    // The golden plans the engine's unit test checks (engine/src/render/golden), as the command
+    // prints them: every n, viewpoint count, material and variant.
+    let golden_dir =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../engine/src/render/golden");
+    let trimmed =
+        |text: &str| -> Vec<String> { text.lines().map(|l| l.trim_end().to_owned()).collect() };
+    for variant in ["multipass", "single-pass"] {
+        for viewpoints in ["1", "2"] {
+            for (material, terms) in [("glass", "2"), ("mirror", "1")] {
+                let golden = std::fs::read_to_string(
+                    golden_dir.join(format!("{variant}-{viewpoints}-viewpoint-{material}.txt")),
+                )
+                .expect("golden plan file");
+                let sections: Vec<&str> = golden.split("# n = ").skip(1).collect();
+                assert_eq!(sections.len(), 4);
+                for (n, section) in (1..=4).zip(sections) {
+                    let plan: Vec<String> = trimmed(section).into_iter().skip(1).collect();
+                    let layers = n.to_string();
+                    let out = lensmap(&[
+                        "passes",
+                        "--layers",
+                        &layers,
+                        "--viewpoints",
+                        viewpoints,
+                        "--terms",
+                        terms,
+                        "--variant",
+                        variant,
+                        "--format",
+                        "rgba8",
+                    ]);
+                    assert!(out.status.success());
+                    let printed = trimmed(&String::from_utf8_lossy(&out.stdout));
+                    assert_eq!(
+                        printed[..plan.len()],
+                        plan[..],
+                        "{variant} {viewpoints} viewpoint(s) {material} n = {n}"
+                    );
+                }
+            }
+        }
+    }
+}

@@ -36,7 +36,7 @@ impl CubeFace {
         CubeFace::NegativeZ,
     ];
 
-    /// The face's layer number (0..6), the index into [`CubeMap::levels`]`[level]`.
+    /// The face's layer number (0..6), the index into [`super::CubeMap::levels`]`[level]`.
     pub fn index(self) -> usize {
         self as usize
     }

@@ -247,8 +247,9 @@ impl LayerShell {
         })
     }
 
-    /// The cube-map direction of a hit: `hit − em_origin`, not normalized (DESIGN: cube-map
-    /// direction = shell hit − EM origin), for every shell kind including the quad.
+    /// The cube-map direction of a hit: `hit − em_origin`, not normalized (the convention of the
+    /// bake format, `layers/bake.rs`, and of the compositor's cube-map lookups), for every shell
+    /// kind including the quad.
     pub fn texture_direction(&self, em_origin: DVec3, hit: DVec3) -> DVec3 {
         hit - em_origin
     }

@@ -480,4 +480,54 @@ mod tests {
         assert_eq!((p.count("layer"), p.count("alpha-clear")), (4, 1), "{p}");
         assert_eq!(p.culled.len(), 2, "{p}");
     }
+
+    /// The plans `lensmap passes` prints (its defaults: 640×480, RGBA8), n = 1…4, for one and two
+    /// viewpoints, a glass (both terms) and a mirror (reflection only) lens, both variants, as
+    /// text against the golden files in `render/golden/` (read and checked by hand when written;
+    /// the counts above check the same plans independently). Trailing spaces are not compared.
+    /// `LENSMAP_BLESS=1` rewrites the files after a deliberate change, to be read before
+    /// committing.
+    #[test]
+    fn plans_match_the_golden_text() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/render/golden");
+        let bless = std::env::var("LENSMAP_BLESS").is_ok_and(|v| v == "1");
+        let trimmed = |text: &str| -> String {
+            text.lines()
+                .map(|l| format!("{}\n", l.trim_end()))
+                .collect()
+        };
+        let mut mismatches = Vec::new();
+        for variant in [Variant::Multipass, Variant::SinglePass] {
+            for viewpoints in 1..=2 {
+                for (material, terms) in [("glass", &BOTH[..]), ("mirror", &[Term::Reflection][..])]
+                {
+                    let mut text = String::new();
+                    for n in 1..=4 {
+                        let shape = FrameShape::synthetic(640, 480, n, viewpoints, terms);
+                        let plan = frame_graph(&shape, variant, TargetFormat::Rgba8)
+                            .unwrap()
+                            .0
+                            .compile()
+                            .unwrap();
+                        text.push_str(&format!("# n = {n}\n{plan}"));
+                    }
+                    let name = format!("{}-{viewpoints}-viewpoint-{material}.txt", variant.name());
+                    let path = dir.join(&name);
+                    if bless {
+                        std::fs::create_dir_all(&dir).unwrap();
+                        std::fs::write(&path, trimmed(&text)).unwrap();
+                    }
+                    let golden = std::fs::read_to_string(&path).unwrap_or_default();
+                    if trimmed(&golden) != trimmed(&text) {
+                        mismatches.push(format!("{name}:\n{text}"));
+                    }
+                }
+            }
+        }
+        assert!(
+            mismatches.is_empty(),
+            "plans differ from their golden text (LENSMAP_BLESS=1 rewrites them):\n{}",
+            mismatches.join("\n")
+        );
+    }
 }

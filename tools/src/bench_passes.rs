@@ -123,14 +123,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             }
             by_variant.push(reference);
         }
-        let difference = metrics::compare(
-            &by_variant[0].pixels,
-            &by_variant[1].pixels,
-            &Mask::all(by_variant[0].pixels.len()),
-            Encoding::Linear,
-            Channels::Rgba,
-        )?
-        .max_abs;
+        let difference = by_variant[0].max_abs_difference(&by_variant[1])?;
         println!(
             "    n = {layers}: single-pass vs multipass in rgba32f, max |difference| {difference:.3e}"
         );

@@ -82,13 +82,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         format: TargetFormat::from(args.format),
     };
     options.hybrid.validate().map_err(flag_error)?;
+    let projected = ProjectedOptions::with_size(args.em_size);
+    projected.validate().map_err(flag_error)?;
     let ems = match &args.bake {
         Some(dir) => EmSource::Bake(dir.clone()),
-        None => EmSource::Projected(ProjectedOptions::with_size(args.em_size)),
+        None => EmSource::Projected(projected),
     };
-    ProjectedOptions::with_size(args.em_size)
-        .validate()
-        .map_err(flag_error)?;
     // The GPU first: without a driver, fail before the expensive preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let prepare = Instant::now();

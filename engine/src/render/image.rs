@@ -7,7 +7,10 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::TargetFormat;
-use crate::trace::{TraceError, image};
+use crate::{
+    metrics::{self, Channels, Encoding, Mask, MetricsError},
+    trace::{TraceError, image},
+};
 
 /// A frame read back from the GPU, converted to f32 RGBA (rows top to bottom).
 #[derive(Clone, Debug, PartialEq)]
@@ -73,6 +76,20 @@ impl RenderedImage {
         let rgb = self.rgb();
         image::write_png(&path.with_extension("png"), self.width, self.height, &rgb)?;
         image::write_exr(&path.with_extension("exr"), self.width, self.height, &rgb)
+    }
+
+    /// The largest difference of one channel value (RGBA, linear) between this image and
+    /// `other` over every pixel: how far two variants or formats of one frame disagree.
+    pub fn max_abs_difference(&self, other: &RenderedImage) -> Result<f64, MetricsError> {
+        let all = Mask::all(self.pixels.len());
+        metrics::compare(
+            &self.pixels,
+            &other.pixels,
+            &all,
+            Encoding::Linear,
+            Channels::Rgba,
+        )
+        .map(|error| error.max_abs)
     }
 
     /// This image on the left and `right` (RGB, the same size, rows top to bottom) on the right.

@@ -6,6 +6,32 @@
 //! medians ([`FrameRunner::timed_frames`]), and times the compositor alone on an uploaded frame
 //! ([`FrameRunner::timed_renders`]). The room sits on top of `hybrid/` and `render/`; nothing
 //! here parses arguments or prints.
+//!
+//! ```no_run
+//! use lensmap::gpu::{Gpu, GpuOptions};
+//! use lensmap::layers::projected::ProjectedOptions;
+//! use lensmap::metrics::Encoding;
+//! use lensmap::runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error};
+//! use lensmap::runner::{load_hybrid_scene, novel_camera};
+//! use lensmap::scene::Scene;
+//! use lensmap::trace::{TraceOptions, render_reference};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let scene = Scene::load_named("teapot-room")?;
+//! let camera = novel_camera(&scene);
+//! let ems = EmSource::Projected(ProjectedOptions::default());
+//! let (hybrid, _) = load_hybrid_scene(scene, &ems)?;
+//! let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+//! let repetitions = Repetitions { warmup: 1, timed: 3 };
+//! let frames = runner.timed_frames(&hybrid, &camera, &FrameOptions::default(), repetitions)?;
+//! println!("median frame {:.1} ms", frames.median(|f| f.total_ms));
+//! let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {})?;
+//! let error = lens_error(&frames.last().image, &reference, Encoding::Linear)?;
+//! println!("lens PSNR {:.2} dB ({})", error.psnr_db, error.encoding.name());
+//! frames.last().image.write_png_and_exr("out/frame.png".as_ref())?;
+//! # Ok(())
+//! # }
+//! ```
 
 use std::{path::PathBuf, time::Instant};
 

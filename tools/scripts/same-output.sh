@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # same-output.sh — prove that a refactor changed no behaviour of the `lensmap` CLI.
 #
-# Usage:  tools/scripts/same-output.sh BEFORE_BINARY AFTER_BINARY [WORKDIR]
+# Usage:  tools/scripts/same-output.sh [OPTIONS] BEFORE_BINARY AFTER_BINARY [WORKDIR]
 #
 # Runs both binaries on the same fixed set of commands (demo, synthetic demo, render in several
 # variants/formats/scenes, a bake written and read back, passes plans, the three benchmarks,
@@ -9,7 +9,10 @@
 # WORKDIR/after; captured stdout/stderr/exit codes in WORKDIR/logs/{before,after}). WORKDIR
 # defaults to a fresh `mktemp -d`; if given, only its before/, after/ and logs/ are replaced.
 # Then it compares:
-#   1. every PNG/EXR written: byte-identical (cmp);
+#   1. every PNG/EXR written: byte-identical (cmp). One known exception, see EXR below: an EXR
+#      that is not byte-identical passes if its header is byte-identical and it holds the same
+#      chunks (tiles/scanline blocks, by coordinate) with the same bytes, only stored in another
+#      order; if chunk bytes differ, they are decoded and the pixels compared;
 #   2. every JSON written or printed: same structure (keys recursively, array lengths) and equal
 #      values for every field that is not a wall-clock timing (see TIMING below); strings have
 #      the output directory normalized to <DIR>. manifest.json of a bake: the `created_by` field
@@ -22,6 +25,29 @@
 # and fails on any Khronos validation message (LENSMAP_VALIDATION=1 is set): a
 # "validation messages: N" line with N > 0, or a "validation <SEVERITY>: ..." line on stderr.
 #
+# Declared changes. A refactoring sometimes changes a few outputs on purpose (a new JSON field, a
+# new table column, a sum taken in another order). Rather than reading such differences out of a
+# DIFFERENT run by eye, the reviewer states them on the command line; each declared difference is
+# then listed (so it stays visible) but is not a problem, and any other difference still is:
+#   --added-field NAME   (repeatable) a JSON key NAME, at any depth, may exist only in AFTER:
+#                        printed as `added (expected): $.path`. A NAME present on both sides is
+#                        compared as usual; a NAME present only in BEFORE is still a problem.
+#   --rtol X             (default 0: exact) deterministic (non-timing) JSON numbers of the same
+#                        type that differ by |a-b| <= X*max(|a|,|b|) count as equal; printed as
+#                        `equal within rtol: $.path a vs b`. For results whose floating-point
+#                        summation order changed (differences ~1e-16 relative).
+#   --text-change LABEL  (repeatable) the text output with this LABEL (as printed, e.g.
+#                        "demo stdout") may differ, but only by extension: every BEFORE line
+#                        (numbers masked) must still be found, in order, at the start of an AFTER
+#                        line, followed by nothing or by a new word (new columns or text appended
+#                        at its end: `tri tests` -> `tri testsX` does not count), and blank lines
+#                        must stay blank; other AFTER lines are inserted lines. Printed as
+#                        `extended (expected): LABEL` with the extended and inserted lines.
+#                        A LABEL that names no text output is a problem (a typo would otherwise
+#                        go unnoticed).
+# Declared changes that do not occur are noted in the summary but are not problems, so the
+# self-check below also passes with options.
+#
 # Prints one line per comparison, a summary and finally `SAME` (exit 0) or
 # `DIFFERENT (k problems)` (exit 1). Exit 2 on usage errors.
 #
@@ -31,9 +57,39 @@
 # checks that every compared output is deterministic and that the timing masks are right.
 set -uo pipefail
 
-if [ $# -lt 2 ] || [ $# -gt 3 ]; then
-    echo "usage: $0 BEFORE_BINARY AFTER_BINARY [WORKDIR]" >&2
+usage() {
+    echo "usage: $0 [--added-field NAME]... [--rtol X] [--text-change LABEL]..." \
+        "BEFORE_BINARY AFTER_BINARY [WORKDIR]" >&2
     exit 2
+}
+# Declared changes, handed to the comparison (python, below) as KIND VALUE pairs.
+RTOL=0
+declare -a DECLARED=()
+while [ $# -gt 0 ]; do
+    case $1 in
+        --added-field | --text-change)
+            [ $# -ge 2 ] && [ -n "$2" ] || { echo "error: $1 needs a value" >&2; usage; }
+            DECLARED+=("${1#--}" "$2")
+            shift 2
+            ;;
+        --rtol)
+            [ $# -ge 2 ] || { echo "error: --rtol needs a value" >&2; usage; }
+            if ! python3 -c 'import math, sys; x = float(sys.argv[1])
+sys.exit(not (math.isfinite(x) and x >= 0))' "$2" 2>/dev/null; then
+                echo "error: --rtol $2: not a finite number >= 0" >&2
+                usage
+            fi
+            RTOL=$2
+            shift 2
+            ;;
+        --) shift; break ;;
+        -h | --help) usage ;;
+        -*) echo "error: unknown option $1" >&2; usage ;;
+        *) break ;;
+    esac
+done
+if [ $# -lt 2 ] || [ $# -gt 3 ]; then
+    usage
 fi
 for bin in "$1" "$2"; do
     if [ ! -x "$bin" ]; then
@@ -150,13 +206,20 @@ run_side before "$BEFORE"
 run_side after "$AFTER"
 
 # ---------------------------------------------------------------------------------------------
-python3 - "$WORKDIR" <<'PY'
+python3 - "$WORKDIR" "$RTOL" "${DECLARED[@]}" <<'PY'
 import json, os, re, subprocess, sys
 
 work = sys.argv[1]
+# Declared changes (see the header): --rtol, --added-field NAME..., --text-change LABEL...
+RTOL = float(sys.argv[2])
+declared = list(zip(sys.argv[3::2], sys.argv[4::2]))
+ADDED_FIELDS = {v for k, v in declared if k == "added-field"}
+TEXT_CHANGES = {v for k, v in declared if k == "text-change"}
+seen = {"added": set(), "rtol": 0, "extended": set(), "not_extended": set(), "text_labels": set()}
+
 problems = []
-counts = {"images": 0, "images_same": 0, "json": 0, "json_same": 0, "text": 0, "text_same": 0,
-          "exit": 0, "exit_same": 0, "other": 0, "other_same": 0}
+counts = {"images": 0, "images_same": 0, "exr_reordered": 0, "json": 0, "json_same": 0, "json_declared": 0,
+          "text": 0, "text_same": 0, "text_declared": 0, "exit": 0, "exit_same": 0, "other": 0, "other_same": 0}
 
 def problem(msg):
     problems.append(msg)
@@ -185,26 +248,41 @@ IGNORED_KEYS = {"manifest.json": {"created_by"}}
 def is_timing(key):
     return key in TIMING_KEYS or bool(TIMING_WORDS & set(key.lower().split("_")))
 
-def json_diff(a, b, path, timing, ignored, out):
+def within_rtol(a, b):
+    """Two numbers of the same type (not booleans) within the declared --rtol."""
+    return (RTOL > 0 and type(a) is type(b) and type(a) in (int, float)
+            and abs(a - b) <= RTOL * max(abs(a), abs(b)))
+
+def json_diff(a, b, path, timing, ignored, out, expected):
+    """Appends differences to `out` (problems) and declared differences to `expected`."""
     if isinstance(a, dict) and isinstance(b, dict):
         ka, kb = set(a) - ignored, set(b) - ignored
         for k in sorted(ka - kb):
             out.append(f"{path}.{k}: only in before")
         for k in sorted(kb - ka):
-            out.append(f"{path}.{k}: only in after")
+            if k in ADDED_FIELDS:
+                seen["added"].add(k)
+                expected.append(f"added (expected): {path}.{k}")
+            else:
+                out.append(f"{path}.{k}: only in after")
         for k in sorted(ka & kb):
-            json_diff(a[k], b[k], f"{path}.{k}", timing or is_timing(k), ignored, out)
+            json_diff(a[k], b[k], f"{path}.{k}", timing or is_timing(k), ignored, out, expected)
     elif isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             out.append(f"{path}: array length {len(a)} vs {len(b)}")
         for i, (x, y) in enumerate(zip(a, b)):
-            json_diff(x, y, f"{path}[{i}]", timing, ignored, out)
+            json_diff(x, y, f"{path}[{i}]", timing, ignored, out, expected)
     elif timing:
         number = (int, float)
         if not (isinstance(a, number) and isinstance(b, number)) and type(a) is not type(b):
             out.append(f"{path}: timing of type {type(a).__name__} vs {type(b).__name__}")
     elif type(a) is not type(b) or a != b:
-        out.append(f"{path}: {json.dumps(a)} vs {json.dumps(b)}")
+        if within_rtol(a, b):
+            seen["rtol"] += 1
+            expected.append(f"equal within rtol: {path} {json.dumps(a)} vs {json.dumps(b)}"
+                            f" (relative {abs(a - b) / max(abs(a), abs(b)):.1e})")
+        else:
+            out.append(f"{path}: {json.dumps(a)} vs {json.dumps(b)}")
 
 def compare_json(label, text_a, text_b, ignored=frozenset()):
     counts["json"] += 1
@@ -214,17 +292,22 @@ def compare_json(label, text_a, text_b, ignored=frozenset()):
     except json.JSONDecodeError as e:
         problem(f"{label}: not valid JSON ({e})")
         return
-    diffs = []
-    json_diff(a, b, "$", False, set(ignored), diffs)
+    diffs, expected = [], []
+    json_diff(a, b, "$", False, set(ignored), diffs, expected)
     if diffs:
         problem(f"{label}: JSON differs in {len(diffs)} field(s)")
         for d in diffs[:20]:
             print(f"      {d}")
         if len(diffs) > 20:
             print(f"      ... and {len(diffs) - 20} more")
+    elif expected:
+        counts["json_declared"] += 1
+        print(f"  declared   json   {label}: {len(expected)} declared difference(s)")
     else:
         counts["json_same"] += 1
         print(f"  same       json   {label}")
+    for e in expected:  # all of them, even next to problems: each one is a claim to check
+        print(f"      {e}")
 
 # ---- text -----------------------------------------------------------------------------------
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
@@ -236,15 +319,63 @@ def mask(text):
         lines.append(re.sub(r" +", " ", line).strip())
     return lines
 
+GLUED = re.compile(r"[\w#]")  # characters that continue a word (or a masked number)
+
+def extends(x, y):
+    """Whether line y is line x with something appended: x itself, or x followed by a new word
+    (so `tri tests` -> `tri testsX` or `#` -> `#ms` is not an extension). Blank stays blank."""
+    if not x:
+        return not y
+    if not y.startswith(x):
+        return False
+    rest = y[len(x):]
+    return not rest or not (GLUED.match(x[-1]) and GLUED.match(rest[0]))
+
+def match_extension(la, lb):
+    """For a --text-change: every line of la, in order, extended by a line of lb (earliest match
+    first, which finds one if any exists). Returns (extended (i, j) pairs, inserted j, None) or
+    (.., .., index of the first la line that has no match)."""
+    pairs, j = [], 0
+    for i, x in enumerate(la):
+        while j < len(lb) and not extends(x, lb[j]):
+            j += 1
+        if j == len(lb):
+            return pairs, [], i
+        pairs.append((i, j))
+        j += 1
+    matched = {j for _, j in pairs}
+    return pairs, [j for j in range(len(lb)) if j not in matched], None
+
 def compare_text(label, text_a, text_b, exact):
     counts["text"] += 1
+    seen["text_labels"].add(label)
     a, b = normalize_dir(text_a, "before"), normalize_dir(text_b, "after")
     la, lb = (a.splitlines(), b.splitlines()) if exact else (mask(a), mask(b))
     if la == lb:
         counts["text_same"] += 1
         print(f"  same       text   {label}{' (exact)' if exact else ''}")
         return
-    problem(f"{label}: text differs{' (exact comparison)' if exact else ' (numbers masked)'}")
+    how = " (exact comparison)" if exact else " (numbers masked)"
+    if label in TEXT_CHANGES:
+        pairs, inserted, unmatched = match_extension(la, lb)
+        if unmatched is None:
+            seen["extended"].add(label)
+            counts["text_declared"] += 1
+            print(f"  declared   text   {label}")
+            print(f"      extended (expected): {label}")
+            before_of = {j: i for i, j in pairs}
+            for j in range(len(lb)):  # in the after output's order
+                if j in inserted:
+                    print(f"      line {j + 1} inserted: {lb[j]}")
+                elif la[before_of[j]] != lb[j]:
+                    print(f"      line {j + 1} extended: before: {la[before_of[j]]}")
+                    print(f"      {' ' * len(str(j + 1))}                after:  {lb[j]}")
+            return
+        seen["not_extended"].add(label)
+        problem(f"{label}: text differs{how} beyond the declared --text-change: before line "
+                f"{unmatched + 1} is not the start of any later after line: {la[unmatched]}")
+    else:
+        problem(f"{label}: text differs{how}")
     shown = 0
     for i in range(max(len(la), len(lb))):
         x = la[i] if i < len(la) else "<missing>"
@@ -309,6 +440,140 @@ for name, kind in cases:
     if err["before"].strip() or err["after"].strip():
         compare_text(f"{name} stderr", err["before"], err["after"], exact=False)
 
+# ---- EXR -------------------------------------------------------------------------------------
+# Nondeterminism found by running the same binary twice: the frame EXRs (write_exr in
+# engine/src/trace/image.rs, through the `image` crate's OpenEXR encoder) are tiled 64×64, RLE,
+# lineOrder RANDOM_Y, and the tiles are stored in the order their parallel compression finishes.
+# Run to run the offset table and the tile positions differ (same size, same header, same tiles).
+# So an EXR that is not byte-identical is read at the container level: header bytes equal, the
+# same chunk coordinates, and per chunk the same bytes, or failing that the same decoded pixel
+# bytes (NONE, RLE, ZIPS, ZIP; chunks that would not shrink are stored raw). Bake cube maps
+# (scanline, ZIP, lineOrder INCREASING) have been byte-identical run to run.
+import struct, zlib
+from array import array
+
+EXR_LINES_PER_BLOCK = {0: 1, 1: 1, 2: 1, 3: 16, 4: 32, 5: 16, 6: 32, 7: 32, 8: 32, 9: 256}
+
+def _cstr(d, i):
+    j = d.index(b"\0", i)
+    return d[i:j].decode("latin-1"), j + 1
+
+def exr_read(d):
+    """EXR file bytes -> (header bytes, {(part, chunk coordinates): (compression, raw size, data)},
+    whether every channel is 32-bit float)."""
+    if d[:4] != b"\x76\x2f\x31\x01":
+        raise ValueError("not an EXR file")
+    flags = struct.unpack_from("<I", d, 4)[0]
+    if flags & 0x800:
+        raise ValueError("deep data is not supported")
+    multipart = bool(flags & 0x1000)
+    i, headers = 8, []
+    while True:
+        attrs = {}
+        while d[i] != 0:
+            name, i = _cstr(d, i)
+            _, i = _cstr(d, i)
+            size = struct.unpack_from("<i", d, i)[0]
+            attrs[name] = d[i + 4:i + 4 + size]
+            i += 4 + size
+        i += 1
+        headers.append(attrs)
+        if not multipart or d[i] == 0:
+            break
+    i += 1 if multipart else 0
+    header_bytes, chunks, all_float = d[:i], {}, True
+    for part, attrs in enumerate(headers):
+        count = struct.unpack("<i", attrs["chunkCount"])[0]
+        kind = attrs.get("type", b"tiledimage" if flags & 0x200 else b"scanlineimage")
+        tiled = kind.rstrip(b"\0") == b"tiledimage"
+        compression = attrs["compression"][0]
+        x0, y0, x1, y1 = struct.unpack("<4i", attrs["dataWindow"])
+        pixel_bytes, k, channels = 0, 0, attrs["channels"]
+        while channels[k] != 0:
+            _, k = _cstr(channels, k)
+            pixel_type = struct.unpack_from("<i", channels, k)[0]
+            all_float = all_float and pixel_type == 2
+            pixel_bytes += 2 if pixel_type == 1 else 4
+            k += 16
+        for offset in struct.unpack_from(f"<{count}Q", d, i):
+            p = offset + (4 if multipart else 0)
+            if tiled:
+                key = struct.unpack_from("<4i", d, p)
+                p += 16
+                tx, ty, lx, ly = key
+                xs, ys, mode = struct.unpack_from("<IIB", attrs["tiles"])
+                up = bool(mode & 0x10)
+                level = lambda n, l: max(1, -(-n // (1 << l)) if up else n >> l)
+                w = min(xs, level(x1 - x0 + 1, lx) - tx * xs)
+                h = min(ys, level(y1 - y0 + 1, ly) - ty * ys)
+            else:
+                key = struct.unpack_from("<i", d, p)
+                p += 4
+                w = x1 - x0 + 1
+                h = min(EXR_LINES_PER_BLOCK.get(compression, 1), y1 + 1 - key[0])
+            size = struct.unpack_from("<i", d, p)[0]
+            chunks[(part, key)] = (compression, w * h * pixel_bytes, d[p + 4:p + 4 + size])
+        i += 8 * count
+    return header_bytes, chunks, all_float
+
+def _unpredict(t):
+    t = bytearray(t)
+    for k in range(1, len(t)):
+        t[k] = (t[k - 1] + t[k] - 128) & 0xFF
+    half = (len(t) + 1) // 2
+    out = bytearray(len(t))
+    out[0::2], out[1::2] = t[:half], t[half:]
+    return bytes(out)
+
+def exr_decode(compression, raw_size, data):
+    """A chunk's pixel bytes."""
+    if compression == 0 or len(data) >= raw_size:
+        return data
+    if compression == 1:  # RLE
+        out, k = bytearray(), 0
+        while k < len(data):
+            n = struct.unpack_from("b", data, k)[0]
+            if n < 0:
+                out += data[k + 1:k + 1 - n]
+                k += 1 - n
+            else:
+                out += data[k + 1:k + 2] * (n + 1)
+                k += 2
+        return _unpredict(out)
+    if compression in (2, 3):  # ZIPS, ZIP
+        return _unpredict(zlib.decompress(data))
+    raise ValueError(f"EXR compression {compression} cannot be decoded here")
+
+def compare_exr(pa, pb):
+    """(equal?, verdict) for two EXRs that are not byte-identical."""
+    try:
+        ha, ca, floats = exr_read(open(pa, "rb").read())
+        hb, cb, _ = exr_read(open(pb, "rb").read())
+    except (ValueError, KeyError, IndexError, struct.error) as e:
+        return False, f"cannot read as EXR ({e})"
+    if ha != hb:
+        return False, "EXR headers differ"
+    if set(ca) != set(cb):
+        return False, f"different chunks ({len(ca)} vs {len(cb)})"
+    changed = [key for key in ca if ca[key][2] != cb[key][2]]
+    if not changed:
+        return True, f"same {len(ca)} chunks, stored in another order"
+    differing, worst = 0, 0.0
+    for key in changed:
+        try:
+            xa, xb = exr_decode(*ca[key]), exr_decode(*cb[key])
+        except (ValueError, zlib.error) as e:
+            return False, f"chunk {key} differs and cannot be decoded ({e})"
+        if xa != xb:
+            differing += 1
+            if floats and len(xa) == len(xb):
+                fa, fb = array("f", xa), array("f", xb)
+                worst = max([worst] + [abs(x - y) for x, y in zip(fa, fb) if x != y])
+    if differing == 0:
+        return True, f"same pixels; {len(changed)} chunk(s) compressed differently"
+    extra = f", max |difference| {worst:.3e}" if floats else ""
+    return False, f"pixels differ in {differing} of {len(ca)} chunks{extra}"
+
 # ---- the files written ----------------------------------------------------------------------
 def files_under(root):
     found = set()
@@ -338,23 +603,49 @@ for rel in sorted(fa & fb):
     if r.returncode == 0:
         counts[key + "_same"] += 1
         print(f"  identical  {kind:<6} {rel}")
+        continue
+    cmp_says = (r.stdout + r.stderr).strip().replace(work + "/", "")
+    if ext == ".exr":
+        equal, verdict = compare_exr(pa, pb)
+        if equal:
+            counts["exr_reordered"] += 1
+            print(f"  same       image  {rel}  (not byte-identical: {verdict})")
+        else:
+            problem(f"{rel}: EXR differs: {verdict} ({cmp_says})")
     else:
-        problem(f"{rel}: {kind} not byte-identical ({(r.stdout + r.stderr).strip()})")
+        problem(f"{rel}: {kind} not byte-identical ({cmp_says})")
 
 if counts["images"] == 0:
     problem("no images were written: nothing rendered (is a Vulkan driver installed?)")
+for label in sorted(TEXT_CHANGES - seen["text_labels"]):
+    problem(f"--text-change {label!r}: no text output has this label")
 if validation_counts == 0:
     problem("no 'validation messages: N' line seen: was the validation layer on?")
 
 print()
 print("== summary")
-print(f"  images compared:        {counts['images']}, byte-identical: {counts['images_same']}")
-print(f"  JSON compared:          {counts['json']} (files and stdout), same: {counts['json_same']}")
-print(f"  text outputs compared:  {counts['text']}, same: {counts['text_same']}")
+print(f"  images compared:        {counts['images']}, byte-identical: {counts['images_same']}, "
+      f"same EXR chunks in another order: {counts['exr_reordered']}")
+print(f"  JSON compared:          {counts['json']} (files and stdout), same: {counts['json_same']}, "
+      f"only declared differences: {counts['json_declared']}")
+print(f"  text outputs compared:  {counts['text']}, same: {counts['text_same']}, "
+      f"only declared differences: {counts['text_declared']}")
 print(f"  exit codes compared:    {counts['exit']}, equal: {counts['exit_same']}")
 if counts["other"]:
     print(f"  other files compared:   {counts['other']}, byte-identical: {counts['other_same']}")
 print(f"  validation count lines: {validation_counts} (all must say 0; no message lines allowed)")
+if declared or RTOL:
+    def seen_or_not(used):
+        return "seen" if used else "NOT SEEN (no such difference; not a problem)"
+    print("  declared changes:")
+    for name in sorted(ADDED_FIELDS):
+        print(f"    --added-field {name}: {seen_or_not(name in seen['added'])}")
+    if RTOL:
+        print(f"    --rtol {RTOL:g}: {seen['rtol']} value(s) equal within it")
+    for label in sorted(TEXT_CHANGES):
+        verdict = ("DIFFERS BEYOND IT (a problem, see above)" if label in seen["not_extended"]
+                   else seen_or_not(label in seen["extended"]))
+        print(f"    --text-change {label!r}: {verdict}")
 print(f"  outputs in {work}")
 if problems:
     print(f"DIFFERENT ({len(problems)} problems)")

@@ -9,10 +9,10 @@
 //!
 //! Besides the blobs, `$OUT_DIR/modules.rs` holds what Rust must agree on with the shaders, taken
 //! from the shaders themselves so the two cannot drift apart:
-//! - the table of specialized blobs, keyed by a typed [`SinglePassOverrides`] value whose field
-//!   names are the WGSL override names (a renamed override fails to compile);
+//! - the table of specialized blobs, keyed by a typed `Overrides` value (`src/lib.rs`) whose
+//!   field names are the WGSL override names (a renamed override fails to compile);
 //! - the single-pass layer limit (`const MAX_LAYERS` in `lens.wgsl`, next to the varyings that
-//!   set it);
+//!   set it; checked against the number of varyings `vs_single_pass` writes);
 //! - every push-constant (`var<immediate>`) struct as a `#[repr(C)]` Rust struct with naga's
 //!   offsets, explicit padding, and compile-time assertions of its size and every field's offset.
 
@@ -126,8 +126,14 @@ fn main() {
                     }
                 }
                 push_constants.push_str(&compiled.push_constants);
-                if compiled.max_layers.is_some() {
-                    max_layers = compiled.max_layers;
+                if let Some(found) = compiled.max_layers {
+                    if max_layers.is_some() {
+                        eprintln!(
+                            "error: {shown}: a second `const {MAX_LAYERS_CONSTANT}`; declare it once, in lens.wgsl"
+                        );
+                        failed = true;
+                    }
+                    max_layers = Some(found);
                 }
             }
             Err(message) => {
@@ -178,6 +184,10 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
         .map_err(|e| e.emit_to_string_with_path(source, shown))?;
     let max_layers = u32_constant(&module, MAX_LAYERS_CONSTANT)
         .map_err(|problem| format!("error: {shown}: {problem}"))?;
+    if let Some(max_layers) = max_layers {
+        check_single_pass_varyings(&module, max_layers)
+            .map_err(|problem| format!("error: {shown}: {problem}"))?;
+    }
     // Vulkan conventions throughout (y down in clip space, depth 0..1): no coordinate flip.
     let options = naga::back::spv::Options {
         lang_version: (1, 3),
@@ -233,6 +243,40 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
         push_constants: push_constant_structs(&module, shown)?,
         max_layers,
     })
+}
+
+/// The single pass carries one interpolated direction per layer and term plus the two F·G: its
+/// vertex stage must write exactly `2·MAX_LAYERS + 2` location varyings, or raising `MAX_LAYERS`
+/// without adding varyings (and the fragment code that reads them) would compile a shader that
+/// silently composites fewer layers.
+fn check_single_pass_varyings(module: &naga::Module, max_layers: u32) -> Result<(), String> {
+    const ENTRY: &str = "vs_single_pass";
+    let entry = module
+        .entry_points
+        .iter()
+        .find(|ep| ep.name == ENTRY)
+        .ok_or_else(|| format!("`const {MAX_LAYERS_CONSTANT}` needs the entry point `{ENTRY}`"))?;
+    let locations =
+        entry
+            .function
+            .result
+            .as_ref()
+            .map_or(0, |result| match &module.types[result.ty].inner {
+                naga::TypeInner::Struct { members, .. } => members
+                    .iter()
+                    .filter(|m| matches!(m.binding, Some(naga::Binding::Location { .. })))
+                    .count(),
+                _ => 0,
+            });
+    let expected = 2 * max_layers as usize + 2;
+    if locations == expected {
+        Ok(())
+    } else {
+        Err(format!(
+            "`{ENTRY}` writes {locations} varyings but `const {MAX_LAYERS_CONSTANT} = {max_layers}` \
+             needs {expected} (a direction per layer and term, and two F·G): change both together"
+        ))
+    }
 }
 
 /// The value of the module's `const NAME: u32 = …;`, if it declares one.

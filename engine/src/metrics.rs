@@ -6,7 +6,9 @@
 //! a zero.
 //!
 //! PSNR is `10·log10(1 / MSE)` with a peak of 1 in both encodings (in linear HDR, values above 1
-//! can make it negative); identical images give `+∞`.
+//! can make it negative), capped at 200 dB (MSE floored at 1e-20) so that identical images give a
+//! finite figure every output (JSON included) can hold. A NaN or infinite value compared in
+//! linear HDR is an error, not a figure; display sRGB shows NaN as 0, as a PNG does.
 
 use glam::Vec3;
 
@@ -17,7 +19,7 @@ use crate::trace::image::srgb_encode;
 pub enum Encoding {
     /// Linear radiance as stored, nothing clamped.
     Linear,
-    /// Colour channels clamped to [0, 1] and sRGB-encoded (NaN as 0); α clamped to [0, 1].
+    /// Colour channels clamped to [0, 1] and sRGB-encoded, α clamped to [0, 1]; NaN as 0.
     DisplaySrgb,
 }
 
@@ -34,6 +36,7 @@ impl Encoding {
         match (self, channel) {
             (Encoding::Linear, _) => value,
             (Encoding::DisplaySrgb, 0..=2) => srgb_encode(value),
+            (Encoding::DisplaySrgb, _) if value.is_nan() => 0.0,
             (Encoding::DisplaySrgb, _) => value.clamp(0.0, 1.0),
         }
     }
@@ -131,24 +134,19 @@ impl Mask {
         }
     }
 
-    /// Number of pixels in the mask.
-    pub fn count(&self) -> usize {
+    /// Number of pixels the mask selects.
+    pub fn selected(&self) -> usize {
         self.pixels.iter().filter(|&&p| p).count()
     }
 
-    /// Number of pixels the mask describes (in or out).
-    pub fn len(&self) -> usize {
+    /// Number of pixels the mask describes, selected or not (the image size it fits).
+    pub fn pixel_count(&self) -> usize {
         self.pixels.len()
-    }
-
-    /// Whether the mask describes no pixel at all.
-    pub fn is_empty(&self) -> bool {
-        self.pixels.is_empty()
     }
 }
 
 /// Why a comparison has no value.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MetricsError {
     /// The mask selects no pixel: the error over an empty set is undefined, not zero.
     #[error("the comparison mask selects no pixel, so there is no error to report")]
@@ -163,7 +161,22 @@ pub enum MetricsError {
         /// Pixels the mask describes.
         mask: usize,
     },
+    /// A value compared in linear HDR is NaN or infinite, so no error figure means anything.
+    #[error("pixel {pixel} channel {channel} of the {which} is {value}; it must be finite")]
+    NonFinite {
+        /// "image" or "reference".
+        which: &'static str,
+        /// Pixel index (row-major).
+        pixel: usize,
+        /// Channel (0 = R … 3 = A).
+        channel: usize,
+        /// The value.
+        value: f32,
+    },
 }
+
+/// The MSE below which PSNR stops growing: 200 dB.
+const MSE_FLOOR: f64 = 1e-20;
 
 /// The difference between an image and its reference over a mask.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -178,7 +191,7 @@ pub struct ImageError {
     pub mse: f64,
     /// Its square root.
     pub rmse: f64,
-    /// `10·log10(1 / mse)`, dB; `+∞` for identical images.
+    /// `10·log10(1 / max(mse, 1e-20))`, dB: at most 200.
     pub psnr_db: f64,
     /// Largest absolute difference of one channel value.
     pub max_abs: f64,
@@ -194,24 +207,39 @@ pub fn compare<A: Pixel, B: Pixel>(
     encoding: Encoding,
     channels: Channels,
 ) -> Result<ImageError, MetricsError> {
-    if image.len() != reference.len() || image.len() != mask.len() {
+    if image.len() != reference.len() || image.len() != mask.pixel_count() {
         return Err(MetricsError::SizeMismatch {
             image: image.len(),
             reference: reference.len(),
-            mask: mask.len(),
+            mask: mask.pixel_count(),
         });
     }
     let mut sum = 0.0f64;
     let mut max_abs = 0.0f64;
     let mut pixels = 0usize;
-    for ((p, r), _) in image
+    for (index, ((p, r), _)) in image
         .iter()
         .zip(reference)
         .zip(&mask.pixels)
-        .filter(|(_, inside)| **inside)
+        .enumerate()
+        .filter(|(_, (_, inside))| **inside)
     {
-        for c in 0..channels.count() {
-            let d = f64::from(encoding.encode(c, p.channel(c)) - encoding.encode(c, r.channel(c)));
+        for channel in 0..channels.count() {
+            let (a, b) = (
+                encoding.encode(channel, p.channel(channel)),
+                encoding.encode(channel, r.channel(channel)),
+            );
+            for (which, value) in [("image", a), ("reference", b)] {
+                if !value.is_finite() {
+                    return Err(MetricsError::NonFinite {
+                        which,
+                        pixel: index,
+                        channel,
+                        value,
+                    });
+                }
+            }
+            let d = f64::from(a - b);
             sum += d * d;
             max_abs = max_abs.max(d.abs());
         }
@@ -227,11 +255,7 @@ pub fn compare<A: Pixel, B: Pixel>(
         pixels,
         mse,
         rmse: mse.sqrt(),
-        psnr_db: if mse > 0.0 {
-            10.0 * (1.0 / mse).log10()
-        } else {
-            f64::INFINITY
-        },
+        psnr_db: 10.0 * (1.0 / mse.max(MSE_FLOOR)).log10(),
         max_abs,
     })
 }
@@ -268,7 +292,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(display.mse, 0.0, "2 and 1 both show as white");
-        assert_eq!(display.psnr_db, f64::INFINITY);
+        assert_eq!(display.psnr_db, 200.0, "identical: the cap");
         let linear = compare(&image, &reference, &all, Encoding::Linear, Channels::Rgb).unwrap();
         assert!((linear.mse - 1.0 / 3.0).abs() < 1e-15);
         // sRGB(0.5) = 0.7353569…: against black that is the whole difference.
@@ -306,12 +330,40 @@ mod tests {
     }
 
     #[test]
+    fn non_finite_values_are_errors_in_linear_and_zero_on_display() {
+        let nan = [[f32::NAN, 0.0, 0.0, 1.0]];
+        let black = [[0.0f32, 0.0, 0.0, 1.0]];
+        let all = Mask::all(1);
+        assert!(matches!(
+            compare(&nan, &black, &all, Encoding::Linear, Channels::Rgb),
+            Err(MetricsError::NonFinite {
+                which: "image",
+                pixel: 0,
+                channel: 0,
+                ..
+            })
+        ));
+        let infinite = [Vec3::new(0.0, f32::INFINITY, 0.0)];
+        assert!(matches!(
+            compare(&black, &infinite, &all, Encoding::Linear, Channels::Rgb),
+            Err(MetricsError::NonFinite {
+                which: "reference",
+                channel: 1,
+                ..
+            })
+        ));
+        let shown = compare(&nan, &black, &all, Encoding::DisplaySrgb, Channels::Rgba).unwrap();
+        assert_eq!(shown.mse, 0.0, "a PNG shows NaN as 0");
+    }
+
+    #[test]
     fn coverage_rules_and_union() {
         let coverage = [0.0, 0.5, 1.0];
         let full = Mask::from_coverage(&coverage, Coverage::Full);
         let any = Mask::from_coverage(&coverage, Coverage::Any);
-        assert_eq!((full.count(), any.count()), (1, 2));
+        assert_eq!((full.selected(), any.selected()), (1, 2));
         let other = Mask::from_flags(vec![true, false, false]);
-        assert_eq!(full.union(&other).count(), 2);
+        assert_eq!(full.union(&other).selected(), 2);
+        assert_eq!(full.pixel_count(), 3);
     }
 }

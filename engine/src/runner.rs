@@ -75,9 +75,6 @@ pub enum RunError {
     /// Uploading or rendering failed.
     #[error(transparent)]
     Render(#[from] RenderError),
-    /// The GPU failed.
-    #[error(transparent)]
-    Gpu(#[from] GpuError),
 }
 
 /// Loads `scene` with its layered EMs; returns the hybrid scene and the rays cast to project
@@ -149,14 +146,19 @@ impl HybridFrame {
     }
 }
 
-/// Timed hybrid frames of one setting.
+/// Timed hybrid frames of one setting: at least one (made only by
+/// [`FrameRunner::timed_frames`]).
 #[derive(Clone, Debug)]
 pub struct TimedFrames {
-    /// The timed frames in order (at least one).
-    pub frames: Vec<HybridFrame>,
+    frames: Vec<HybridFrame>,
 }
 
 impl TimedFrames {
+    /// The timed frames in order.
+    pub fn frames(&self) -> &[HybridFrame] {
+        &self.frames
+    }
+
     /// Median over the frames of one stage's time.
     pub fn median(&self, stage: impl Fn(&HybridFrame) -> f64) -> f64 {
         median(&mut self.frames.iter().map(stage).collect::<Vec<_>>())
@@ -201,15 +203,16 @@ pub fn median(values: &mut [f64]) -> f64 {
 
 /// A device and the compositor on it: runs frames of any hybrid scene.
 pub struct FrameRunner {
-    gpu: Gpu,
+    // Declared before `gpu` so that it is dropped first (its objects belong to that device).
     renderer: Renderer,
+    gpu: Gpu,
 }
 
 impl FrameRunner {
     /// A runner on `gpu`.
     pub fn new(gpu: Gpu) -> Result<FrameRunner, GpuError> {
         let renderer = Renderer::new(&gpu)?;
-        Ok(FrameRunner { gpu, renderer })
+        Ok(FrameRunner { renderer, gpu })
     }
 
     /// The device (its name, the validation report).
@@ -326,4 +329,56 @@ pub fn lens_error(
         encoding,
         Channels::Rgb,
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn median_of_odd_even_and_empty_samples() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&mut []), 0.0);
+    }
+
+    #[test]
+    fn the_novel_camera_bisects_samples_2_and_3() {
+        let scene = Scene::load_named("teapot-room").unwrap();
+        let samples = scene.view_space.samples();
+        let look_at = scene.camera.look_at;
+        let camera = novel_camera(&scene);
+        let (a, b, c) = (
+            (samples[2] - look_at).normalize(),
+            (samples[3] - look_at).normalize(),
+            (camera.position - look_at).normalize(),
+        );
+        // Equal angles to both samples, in their plane, between them.
+        assert!((c.dot(a) - c.dot(b)).abs() < 1e-6, "{c} {a} {b}");
+        assert!(c.dot(a) > a.dot(b));
+        let distance = 0.5 * ((samples[2] - look_at).length() + (samples[3] - look_at).length());
+        assert!(((camera.position - look_at).length() - distance).abs() < 1e-4);
+    }
+
+    #[test]
+    fn other_is_what_the_papers_three_cpu_stages_leave() {
+        let frame = HybridFrame {
+            image: RenderedImage {
+                width: 1,
+                height: 1,
+                pixels: vec![[0.0; 4]],
+            },
+            stats: HybridStats {
+                trace_ms: 4.0,
+                texgen_ms: 1.0,
+                tessellation_ms: 2.0,
+                ..HybridStats::default()
+            },
+            gpu_ms: 2.5,
+            upload_ms: 0.5,
+            render: FrameTimings::default(),
+            total_ms: 10.0,
+        };
+        assert_eq!(frame.other_ms(), 3.0);
+    }
 }

@@ -10,6 +10,7 @@ use lensmap::{
     layers::projected::ProjectedOptions,
     metrics::{self, Channels, Coverage, Encoding, Mask},
     render::{Renderer, TargetFormat, Variant},
+    runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
     scene::Scene,
     trace::{TraceOptions, render_reference},
 };
@@ -77,32 +78,29 @@ layers = [{ sphere = 1000.0 }]
     std::fs::write(&scene_path, text).unwrap();
     let scene = Scene::load(&scene_path).unwrap();
     let camera = scene.camera;
-    let (hybrid, _) = HybridScene::projected(
-        scene,
-        &ProjectedOptions {
-            size: 64,
-            supersampling: 2,
-        },
-    )
-    .unwrap();
-    let (frame, stats) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
-    assert!(
-        stats.triangles_out > stats.triangles_in,
-        "the mirror is tessellated: {stats:?}"
-    );
-
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
+    let ems = EmSource::Projected(ProjectedOptions {
+        size: 64,
+        supersampling: 2,
+    });
+    let (hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+    let mut runner = FrameRunner::new(gpu()).unwrap();
     let reference =
         render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {}).unwrap();
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
-            .unwrap();
+        let options = FrameOptions {
+            hybrid: HybridOptions::default(),
+            variant,
+            format: TargetFormat::Rgba32f,
+        };
+        let frame = runner.frame(&hybrid, &camera, &options).unwrap();
+        let stats = frame.stats;
+        assert!(
+            stats.triangles_out > stats.triangles_in,
+            "the mirror is tessellated: {stats:?}"
+        );
         // Linear HDR over the pixels the reference sees as all mirror.
         let error = metrics::compare(
-            &image.pixels,
+            &frame.image.pixels,
             &reference.reflection,
             &Mask::from_coverage(&reference.lens_mask, Coverage::Full),
             Encoding::Linear,
@@ -117,7 +115,7 @@ layers = [{ sphere = 1000.0 }]
         );
         assert!(rms <= 1.0 / 255.0, "{variant:?}: RMS {rms} > 1/255");
     }
-    assert_clean(&gpu);
+    assert_clean(runner.gpu());
 }
 
 #[test]
@@ -127,16 +125,12 @@ fn awkward_cameras_render_without_error_or_nan() {
     scene.camera.height = 36;
     scene.camera.supersampling = 1;
     let base = scene.camera;
-    let (hybrid, _) = HybridScene::projected(
-        scene,
-        &ProjectedOptions {
-            size: 16,
-            supersampling: 1,
-        },
-    )
-    .unwrap();
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
+    let ems = EmSource::Projected(ProjectedOptions {
+        size: 16,
+        supersampling: 1,
+    });
+    let (hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+    let mut runner = FrameRunner::new(gpu()).unwrap();
     let sphere_centre = Vec3::new(0.0, 1.2, 0.0);
     let cameras = [
         (
@@ -155,17 +149,21 @@ fn awkward_cameras_render_without_error_or_nan() {
         }),
     ];
     for (what, camera) in cameras {
-        let (frame, stats) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
-        let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
+        let mut stats = None;
         for variant in [Variant::Multipass, Variant::SinglePass] {
-            let (image, _) = renderer
-                .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba16f)
-                .unwrap();
+            let options = FrameOptions {
+                hybrid: HybridOptions::default(),
+                variant,
+                format: TargetFormat::Rgba16f,
+            };
+            let frame = runner.frame(&hybrid, &camera, &options).unwrap();
             assert!(
-                image.pixels.iter().flatten().all(|v| v.is_finite()),
+                frame.image.pixels.iter().flatten().all(|v| v.is_finite()),
                 "{what}: NaN or Inf"
             );
+            stats = Some(frame.stats);
         }
+        let stats = stats.unwrap();
         println!(
             "{what}: {} lens triangles traced from {}",
             stats.triangles_out, stats.triangles_in
@@ -178,7 +176,7 @@ fn awkward_cameras_render_without_error_or_nan() {
             );
         }
     }
-    assert_clean(&gpu);
+    assert_clean(runner.gpu());
 }
 
 #[test]
@@ -208,4 +206,46 @@ fn a_written_bake_reads_back_into_the_same_frame() {
         // A projected bake has one viewpoint sample: the same maps, bit for bit.
         assert_eq!(*x.layers[0][0], *y.layers[0][0]);
     }
+}
+
+/// The frame runner does exactly what a hand-written frame does: the hybrid frame on the CPU, its
+/// upload, the compositor and the box filter from the supersampled framebuffer to pixels, here
+/// done step by step with the lower-level API on a second renderer; the images must be equal bit
+/// for bit, the counters too.
+#[test]
+fn the_frame_runner_equals_the_frame_done_by_hand() {
+    let mut scene = Scene::load_named("glass-sphere").unwrap();
+    scene.camera.width = 40;
+    scene.camera.height = 30;
+    scene.camera.supersampling = 2;
+    let camera = scene.camera;
+    let options = ProjectedOptions {
+        size: 16,
+        supersampling: 1,
+    };
+    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(options)).unwrap();
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let by_hand_gpu = gpu();
+    let mut renderer = Renderer::new(&by_hand_gpu).unwrap();
+    for variant in [Variant::Multipass, Variant::SinglePass] {
+        let frame_options = FrameOptions {
+            hybrid: HybridOptions::with_t(4.0),
+            variant,
+            format: TargetFormat::Rgba32f,
+        };
+        let run = runner.frame(&hybrid, &camera, &frame_options).unwrap();
+        let (input, stats) = hybrid.frame(&camera, &frame_options.hybrid).unwrap();
+        let mut uploaded = renderer.upload(&by_hand_gpu, &input).unwrap();
+        let (full, _) = renderer
+            .render(&by_hand_gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .unwrap();
+        assert_eq!((full.width, full.height), (80, 60), "supersampled 2×2");
+        let by_hand = full.box_downsample(2);
+        assert_eq!((run.image.width, run.image.height), (40, 30));
+        assert!(run.image == by_hand, "{variant:?}: the images differ");
+        assert_eq!(run.stats.counters, stats.counters, "{variant:?}");
+        assert_eq!(run.stats.triangles_out, stats.triangles_out, "{variant:?}");
+    }
+    assert_clean(runner.gpu());
+    assert_clean(&by_hand_gpu);
 }

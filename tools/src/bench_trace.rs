@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use crate::common::write_json;
-use lensmap::metrics::{self, Channels, Coverage, Encoding, Mask};
+use lensmap::metrics::{self, Channels, Coverage, Encoding, Mask, MetricsError};
 use lensmap::runner::median;
 use lensmap::scene::{Camera, Scene};
 use lensmap::trace::{
@@ -62,8 +62,9 @@ struct ComparisonRow {
     rmse_srgb: f64,
     /// PSNR in dB for that RMSE with peak 1.
     psnr_db: f64,
-    /// RMSE of linear radiance (unclamped) over pixels that see a lens object in either image.
-    rmse_linear_lens_pixels: f64,
+    /// RMSE of linear radiance (unclamped) over pixels that see a lens object in either image;
+    /// `None` when no pixel does.
+    rmse_linear_lens_pixels: Option<f64>,
     /// Rays along light paths (primary + secondary), full tree / greedy.
     path_ray_ratio: f64,
     /// All rays including shadow rays, full tree / greedy.
@@ -211,12 +212,13 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
     );
     for c in &comparisons {
         say!(
-            "{:<14} {:<20} {:>10.4} {:>9.2} {:>14.4} {:>15.2} {:>14.2} {:>14.2}",
+            "{:<14} {:<20} {:>10.4} {:>9.2} {:>14} {:>15.2} {:>14.2} {:>14.2}",
             c.scene,
             c.full_tree,
             c.rmse_srgb,
             c.psnr_db,
-            c.rmse_linear_lens_pixels,
+            c.rmse_linear_lens_pixels
+                .map_or_else(|| "-".to_owned(), |rmse| format!("{rmse:.4}")),
             c.path_ray_ratio,
             c.all_ray_ratio,
             c.secondary_ray_ratio
@@ -257,14 +259,18 @@ fn compare(
     )?;
     let lens = Mask::from_coverage(&greedy.lens_mask, Coverage::Any)
         .union(&Mask::from_coverage(&full.lens_mask, Coverage::Any));
-    let linear = metrics::compare(
+    // No lens pixel at all (a tiny image): no figure, never a zero.
+    let linear = match metrics::compare(
         &full.radiance,
         &greedy.radiance,
         &lens,
         Encoding::Linear,
         Channels::Rgb,
-    )
-    .context("comparing the lens pixels of the full tree and the greedy paths")?;
+    ) {
+        Ok(error) => Some(error.rmse),
+        Err(MetricsError::EmptyMask) => None,
+        Err(error) => return Err(error.into()),
+    };
     let ratio = |a: u64, b: u64| if b == 0 { 0.0 } else { a as f64 / b as f64 };
     let (g, f) = (greedy.stats.counters, full.stats.counters);
     Ok(ComparisonRow {
@@ -272,7 +278,7 @@ fn compare(
         full_tree: full_tree.to_owned(),
         rmse_srgb: display.rmse,
         psnr_db: display.psnr_db,
-        rmse_linear_lens_pixels: linear.rmse,
+        rmse_linear_lens_pixels: linear,
         path_ray_ratio: ratio(f.path_rays(), g.path_rays()),
         all_ray_ratio: ratio(f.all_rays(), g.all_rays()),
         secondary_ray_ratio: ratio(f.secondary_rays, g.secondary_rays),

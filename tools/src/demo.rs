@@ -183,7 +183,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
             if variant == Variant::SinglePass && t == 3.0 {
                 frame
                     .image
-                    .side_by_side(&reference.radiance)
+                    .side_by_side(&reference.radiance)?
                     .write_png_and_exr(&args.out.join("teapot-room-side-by-side.png"))?;
             }
             rows.push(json!({

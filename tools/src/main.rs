@@ -7,8 +7,8 @@ mod common;
 mod bench_hybrid;
 mod bench_passes;
 mod bench_trace;
-mod compositor;
 mod demo;
+mod passes;
 mod reference;
 mod render;
 
@@ -39,7 +39,7 @@ enum Command {
     /// Print the compositor's pass plan for a pass-count or blending-mode experiment.
     ///
     /// Example: lensmap passes --layers 3 --viewpoints 2 --terms 2 --variant multipass --format rgba8
-    Passes(compositor::PassesArgs),
+    Passes(passes::PassesArgs),
     /// Render reference images with the CPU ray tracer.
     ///
     /// Example: lensmap reference --scene glass-sphere --view 0 --tree greedy --out out/reference
@@ -96,7 +96,6 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
             RunError::Option(_) | RunError::Bake(_) | RunError::Hybrid(_) => true,
             RunError::Tessellation(_) => false,
             RunError::Render(error) => render_input(error),
-            RunError::Gpu(error) => gpu_input(error),
         };
     }
     cause.is::<lensmap::scene::SceneError>()
@@ -114,7 +113,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => demo::run(args),
-        Command::Passes(args) => compositor::passes(args),
+        Command::Passes(args) => passes::run(args),
         Command::Reference(args) => reference::run(args),
         Command::Render(args) => render::run(args),
         Command::Bench(BenchCommand::Passes(args)) => bench_passes::run(args),

@@ -11,7 +11,7 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene, tessellate::DEFAULT_T},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
-    metrics::Encoding,
+    metrics::{Encoding, MetricsError},
     render::{TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
@@ -124,7 +124,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         reference.as_ref(),
         prepare_s,
         runner.gpu().device_name(),
-    );
+    )?;
     if args.json {
         say!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -141,7 +141,7 @@ fn report(
     reference: Option<&ReferenceImage>,
     prepare_s: f64,
     device: &str,
-) -> serde_json::Value {
+) -> anyhow::Result<serde_json::Value> {
     let c = frame.stats.counters;
     let mut out = json!({
         "scene": hybrid.scene.name, "device": device,
@@ -179,16 +179,20 @@ fn report(
         });
         // The figure printed since the first release (display sRGB, clamped), and beside it the
         // linear one that also counts errors in highlights above 1. No pixel all lens: no figure.
-        if let (Ok(display), Ok(linear)) = (
+        match (
             lens_error(&frame.image, reference, Encoding::DisplaySrgb),
             lens_error(&frame.image, reference, Encoding::Linear),
         ) {
-            out["lens_psnr_db"] = json!(display.psnr_db);
-            out["lens_psnr_linear_db"] = json!(linear.psnr_db);
-            out["lens_pixels"] = json!(display.pixels);
+            (Ok(display), Ok(linear)) => {
+                out["lens_psnr_db"] = json!(display.psnr_db);
+                out["lens_psnr_linear_db"] = json!(linear.psnr_db);
+                out["lens_pixels"] = json!(display.pixels);
+            }
+            (Err(MetricsError::EmptyMask), _) | (_, Err(MetricsError::EmptyMask)) => {}
+            (Err(error), _) | (_, Err(error)) => return Err(error.into()),
         }
     }
-    out
+    Ok(out)
 }
 
 fn print_table(r: &serde_json::Value) {

@@ -204,3 +204,26 @@ fn passes_prints_the_golden_plans() {
         }
     }
 }
+
+#[test]
+fn out_of_range_options_exit_2_naming_the_flag() {
+    for (flag, value) in [("--t", "0"), ("--angle-degrees", "200"), ("--em-size", "0")] {
+        let option = format!("{flag}={value}");
+        let out = lensmap(&[
+            "render",
+            "--scene",
+            "glass-sphere",
+            "--projected",
+            &option,
+            "--out",
+            "/tmp/lensmap-cli-option.png",
+        ]);
+        assert_eq!(out.status.code(), Some(2), "{option}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains(&format!("{flag} {value}:")),
+            "{option}: {stderr}"
+        );
+    }
+}

@@ -108,13 +108,16 @@ impl HybridOptions {
     /// Checks every option: `t` ([`TessellationOptions::validate`]) and the angle in (0°, 180°).
     pub fn validate(&self) -> Result<(), OptionError> {
         self.tessellation.validate()?;
-        let degrees = self.angle_radians.to_degrees();
-        if degrees.is_finite() && degrees > 0.0 && degrees < 180.0 {
+        // The check is on the radians the oracle uses (an angle that underflows to 0 is out);
+        // the message shows degrees as the user wrote them, at f32 precision so that the trip
+        // through radians does not show (`-3`, not `-3.0000000000000004`).
+        let radians = self.angle_radians;
+        if radians.is_finite() && radians > 0.0 && radians < std::f64::consts::PI {
             Ok(())
         } else {
             Err(OptionError::new(
                 "angle_degrees",
-                degrees,
+                radians.to_degrees() as f32,
                 "give an angle in (0, 180), e.g. 3",
             ))
         }

@@ -53,9 +53,6 @@ impl RenderedImage {
             pixels,
         }
     }
-}
-
-impl RenderedImage {
     /// The colour of every pixel, α dropped.
     pub fn rgb(&self) -> Vec<Vec3> {
         self.pixels
@@ -93,8 +90,15 @@ impl RenderedImage {
     }
 
     /// This image on the left and `right` (RGB, the same size, rows top to bottom) on the right.
-    pub fn side_by_side(&self, right: &[Vec3]) -> RenderedImage {
+    pub fn side_by_side(&self, right: &[Vec3]) -> Result<RenderedImage, TraceError> {
         let (w, h) = (self.width as usize, self.height as usize);
+        if right.len() != w * h || self.pixels.len() != w * h {
+            return Err(TraceError::InvalidImage(format!(
+                "side by side: {} and {} pixels for two {w}×{h} images",
+                self.pixels.len(),
+                right.len()
+            )));
+        }
         let mut pixels = Vec::with_capacity(2 * w * h);
         for y in 0..h {
             pixels.extend_from_slice(&self.pixels[y * w..(y + 1) * w]);
@@ -104,11 +108,11 @@ impl RenderedImage {
                     .map(|p| [p.x, p.y, p.z, 1.0]),
             );
         }
-        RenderedImage {
+        Ok(RenderedImage {
             width: 2 * self.width,
             height: self.height,
             pixels,
-        }
+        })
     }
 }
 

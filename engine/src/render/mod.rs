@@ -31,8 +31,32 @@ pub enum RenderError {
     /// A lens object needs a shader program that does not exist (e.g. more layers than the
     /// single pass supports); the message names the lens and the fix.
     #[error("frame input: {0}")]
-    Program(#[from] ProgramError),
+    Program(ProgramError),
     /// The GPU failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
+}
+
+// By hand rather than `#[from]`: a `#[from]` field is also the error's source, and the command
+// line, which prints an error with its sources, would then say the same sentence twice.
+impl From<ProgramError> for RenderError {
+    fn from(error: ProgramError) -> RenderError {
+        RenderError::Program(error)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_program_error_is_said_once() {
+        let error = RenderError::from(ProgramError::TooManyLayers {
+            lens: "teapot".into(),
+            layers: 7,
+            max: 6,
+        });
+        assert!(std::error::Error::source(&error).is_none());
+        assert_eq!(error.to_string().matches("7 layers").count(), 1, "{error}");
+    }
 }

@@ -22,7 +22,8 @@ pub struct SyntheticOptions {
     pub width: u32,
     /// Framebuffer height in pixels.
     pub height: u32,
-    /// Layers n per viewpoint (1..=6 for the single-pass variant).
+    /// Layers n per viewpoint (1 ..= [`super::SinglePassProgram::MAX_LAYERS`] for the
+    /// single-pass variant).
     pub layers: usize,
     /// Viewpoint samples blended (1 or 2).
     pub viewpoints: usize,

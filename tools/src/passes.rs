@@ -31,7 +31,7 @@ pub struct PassesArgs {
 }
 
 /// Prints the plan of one lens object's frame.
-pub fn passes(args: PassesArgs) -> anyhow::Result<()> {
+pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     let terms: &[Term] = if args.terms == 2 {
         &[Term::Refraction, Term::Reflection]
     } else {

@@ -24,4 +24,19 @@ impl OptionError {
             fix,
         }
     }
+
+    /// `Ok` when `valid`, else the error for `option` = `value` with `fix`: the shape of every
+    /// option check.
+    pub fn require(
+        valid: bool,
+        option: &'static str,
+        value: impl ToString,
+        fix: &'static str,
+    ) -> Result<(), OptionError> {
+        if valid {
+            Ok(())
+        } else {
+            Err(OptionError::new(option, value, fix))
+        }
+    }
 }

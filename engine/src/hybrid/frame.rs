@@ -112,15 +112,12 @@ impl HybridOptions {
         // the message shows degrees as the user wrote them, at f32 precision so that the trip
         // through radians does not show (`-3`, not `-3.0000000000000004`).
         let radians = self.angle_radians;
-        if radians.is_finite() && radians > 0.0 && radians < std::f64::consts::PI {
-            Ok(())
-        } else {
-            Err(OptionError::new(
-                "angle_degrees",
-                radians.to_degrees() as f32,
-                "give an angle in (0, 180), e.g. 3",
-            ))
-        }
+        OptionError::require(
+            radians.is_finite() && radians > 0.0 && radians < std::f64::consts::PI,
+            "angle_degrees",
+            radians.to_degrees() as f32,
+            "give an angle in (0, 180), e.g. 3",
+        )
     }
 }
 

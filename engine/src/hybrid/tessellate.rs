@@ -67,15 +67,12 @@ impl Default for TessellationOptions {
 impl TessellationOptions {
     /// The one check of `t`: finite and positive.
     pub fn validate(&self) -> Result<(), crate::options::OptionError> {
-        if self.t.is_finite() && self.t > 0.0 {
-            Ok(())
-        } else {
-            Err(crate::options::OptionError::new(
-                "t",
-                self.t,
-                "give a positive number of subpixels, e.g. 3",
-            ))
-        }
+        crate::options::OptionError::require(
+            self.t.is_finite() && self.t > 0.0,
+            "t",
+            self.t,
+            "give a positive number of subpixels, e.g. 3",
+        )
     }
 }
 

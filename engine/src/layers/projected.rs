@@ -59,15 +59,12 @@ impl ProjectedOptions {
 
     /// Checks the face size: 1 ..= [`MAX_EM_SIZE`] texels.
     pub fn validate(&self) -> Result<(), crate::options::OptionError> {
-        if (1..=MAX_EM_SIZE).contains(&self.size) {
-            Ok(())
-        } else {
-            Err(crate::options::OptionError::new(
-                "em_size",
-                self.size,
-                "give a cube-map face size from 1 to 2048 texels, e.g. 128",
-            ))
-        }
+        crate::options::OptionError::require(
+            (1..=MAX_EM_SIZE).contains(&self.size),
+            "em_size",
+            self.size,
+            "give a cube-map face size from 1 to 2048 texels, e.g. 128",
+        )
     }
 }
 

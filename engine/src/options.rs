@@ -16,15 +16,6 @@ pub struct OptionError {
 }
 
 impl OptionError {
-    /// An error for `option` = `value`.
-    pub fn new(option: &'static str, value: impl ToString, fix: &'static str) -> OptionError {
-        OptionError {
-            option,
-            value: value.to_string(),
-            fix,
-        }
-    }
-
     /// `Ok` when `valid`, else the error for `option` = `value` with `fix`: the shape of every
     /// option check.
     pub fn require(
@@ -36,7 +27,11 @@ impl OptionError {
         if valid {
             Ok(())
         } else {
-            Err(OptionError::new(option, value, fix))
+            Err(OptionError {
+                option,
+                value: value.to_string(),
+                fix,
+            })
         }
     }
 }

@@ -148,12 +148,14 @@ impl Pipelines {
         Ok(pipelines)
     }
 
-    /// The pipeline layout a program's pipelines use.
+    /// The pipeline layout a program's pipelines use: the environment's push constants only, or
+    /// the lens programs' descriptor set and push constants.
     pub(super) fn layout_of(&self, program: ShaderProgram) -> vk::PipelineLayout {
-        if program.is_lens() {
-            self.lens_layout
-        } else {
-            self.environment_layout
+        match program {
+            ShaderProgram::Environment => self.environment_layout,
+            ShaderProgram::LensZero
+            | ShaderProgram::LensLayer
+            | ShaderProgram::LensSinglePass(_) => self.lens_layout,
         }
     }
 

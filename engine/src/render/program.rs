@@ -94,11 +94,6 @@ impl SinglePassProgram {
             },
         })
     }
-
-    /// The override values the fragment shader is compiled with.
-    pub fn overrides(self) -> Overrides {
-        self.overrides
-    }
 }
 
 /// A shader program of the compositor: a vertex and a fragment entry point and the vertex input
@@ -144,14 +139,10 @@ impl ShaderProgram {
     pub fn vertex_input(self) -> VertexInput {
         match self {
             ShaderProgram::Environment => VertexInput::PositionColour,
-            _ => VertexInput::None,
+            ShaderProgram::LensZero
+            | ShaderProgram::LensLayer
+            | ShaderProgram::LensSinglePass(_) => VertexInput::None,
         }
-    }
-
-    /// Whether the program uses the lens pipeline layout (descriptor set and lens push constants)
-    /// rather than the environment's.
-    pub fn is_lens(self) -> bool {
-        !matches!(self, ShaderProgram::Environment)
     }
 }
 

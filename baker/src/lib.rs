@@ -1,5 +1,12 @@
-//! The offline baker: infers layered environment maps so that the hardware rendering matches the
-//! reference ray tracer (hybrid-rendering paper §4.2–4.3). So far it places the layer shells
-//! ([`clustering`]); the targets, rendering matrices and solver come with the baker issue.
+//! The offline baker: infers lensmap's layered environment maps so that the hardware rendering
+//! matches the reference ray tracer (hybrid-rendering paper §4.2–4.3). The rooms: [`clustering`]
+//! places layer shells (LBG); [`matrix`] measures rendering matrices from test renderings read
+//! back from the device; [`targets`] turns intersection records into per-layer targets and
+//! confidence; [`solve`] finds the EM over all MIP levels by confidence-weighted, regularized
+//! least squares; [`infer`] runs them for one lens object at one camera.
 
 pub mod clustering;
+pub mod infer;
+pub mod matrix;
+pub mod solve;
+pub mod targets;

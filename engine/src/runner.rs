@@ -228,6 +228,22 @@ impl FrameRunner {
         self.renderer.upload(&self.gpu, frame)
     }
 
+    /// Uploads and renders one compositor frame at its framebuffer resolution (no box filter):
+    /// the baker's test renderings go through here, so they use exactly the runtime's shaders,
+    /// passes, sampler and target format.
+    pub fn render(
+        &mut self,
+        frame: &crate::render::FrameInput,
+        variant: Variant,
+        format: TargetFormat,
+    ) -> Result<RenderedImage, RenderError> {
+        let mut uploaded = self.renderer.upload(&self.gpu, frame)?;
+        Ok(self
+            .renderer
+            .render(&self.gpu, &mut uploaded, variant, format)?
+            .0)
+    }
+
     /// Renders one hybrid frame of `hybrid` seen by `camera`.
     pub fn frame(
         &mut self,

@@ -1,0 +1,326 @@
+//! Inference of one lens object's layered EM at one camera (a viewpoint sample): the EM
+//! resolution from test renderings, then per layer the rendering matrices of both terms
+//! ([`crate::matrix`]), the targets and confidence from intersection records
+//! ([`crate::targets`]) and the solve over all MIP levels ([`crate::solve`]).
+
+use std::time::Instant;
+
+use lensmap::{
+    cubemap::CubeMap,
+    hybrid::{HybridOptions, HybridScene},
+    render::{FrameInput, TargetFormat, Variant},
+    runner::FrameRunner,
+    scene::Camera,
+    trace::{LensRecords, Term},
+};
+
+use crate::{
+    matrix::{LayerFrame, LayerFrames, MatrixError, RenderingMatrix, TestRenderer, TexelLayout},
+    solve::{Equations, Smoothness, SolveError, SolveOptions, SolveReport, solve},
+    targets::{DEFAULT_CONFIDENCE_DEGREES, TargetError, term_targets},
+};
+
+/// The default largest EM face size the resolution search considers, texels.
+pub const DEFAULT_MAX_EM_SIZE: u32 = 256;
+
+/// The Vulkan device as a [`TestRenderer`]: frames rendered by the runtime's compositor into an
+/// RGBA32F target, exactly as [`FrameRunner::render`] renders them.
+pub struct DeviceRenderer<'a> {
+    /// The runner (device and compositor).
+    pub runner: &'a mut FrameRunner,
+    /// The compositor variant.
+    pub variant: Variant,
+}
+
+impl TestRenderer for DeviceRenderer<'_> {
+    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f64; 4]>, MatrixError> {
+        let image = self
+            .runner
+            .render(frame, self.variant, TargetFormat::Rgba32f)
+            .map_err(|e| MatrixError::Render(e.to_string()))?;
+        Ok(image.pixels.iter().map(|p| p.map(f64::from)).collect())
+    }
+}
+
+/// How the EM face size is chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmSize {
+    /// The smallest size whose finest level is the finest level any lens pixel reads, searched
+    /// up to this cap (paper: "the most detailed EM MIPMAP level actually accessed").
+    Auto {
+        /// Largest size considered (a power of two).
+        cap: u32,
+    },
+    /// This size (a power of two).
+    Fixed(u32),
+}
+
+/// Inference options.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InferOptions {
+    /// The runtime frame's options (tessellation), as the hybrid frame uses them.
+    pub hybrid: HybridOptions,
+    /// Compositor variant of the test renderings.
+    pub variant: Variant,
+    /// EM face size.
+    pub em_size: EmSize,
+    /// Confidence threshold θ_c, radians.
+    pub theta_c: f64,
+    /// Solver options.
+    pub solve: SolveOptions,
+}
+
+impl Default for InferOptions {
+    fn default() -> Self {
+        InferOptions {
+            hybrid: HybridOptions::default(),
+            variant: Variant::SinglePass,
+            em_size: EmSize::Auto {
+                cap: DEFAULT_MAX_EM_SIZE,
+            },
+            theta_c: DEFAULT_CONFIDENCE_DEGREES.to_radians(),
+            solve: SolveOptions::default(),
+        }
+    }
+}
+
+/// Why inference failed.
+#[derive(Debug, thiserror::Error)]
+pub enum InferError {
+    /// The camera sees no pixel of the lens object.
+    #[error(
+        "lens \"{lens}\": the camera sees none of its pixels; pick a viewpoint that sees the lens object"
+    )]
+    NoLensPixels {
+        /// Lens name.
+        lens: String,
+    },
+    /// An option is out of range.
+    #[error("{0}")]
+    BadOption(String),
+    /// Building the frame failed.
+    #[error("hybrid frame: {0}")]
+    Frame(String),
+    /// Measuring a matrix failed.
+    #[error(transparent)]
+    Matrix(#[from] MatrixError),
+    /// Building targets failed.
+    #[error(transparent)]
+    Targets(#[from] TargetError),
+    /// The solve failed.
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+}
+
+/// What inferring one layer took.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LayerReport {
+    /// Layer index (nearest first).
+    pub layer: usize,
+    /// Test renderings (all terms).
+    pub renders: usize,
+    /// Non-zeros of each term's matrix.
+    pub nonzeros: Vec<usize>,
+    /// Matrix measurement time (all terms), ms.
+    pub matrix_ms: f64,
+    /// Target building time (all terms), ms.
+    pub targets_ms: f64,
+    /// The solve.
+    pub solve: SolveReport,
+}
+
+/// One lens object's inferred layered EM at one camera.
+#[derive(Clone, Debug)]
+pub struct Inference {
+    /// One cube map per layer, nearest first.
+    pub maps: Vec<CubeMap>,
+    /// Face size used.
+    pub size: u32,
+    /// Finest level read at the search cap (Auto), for the report.
+    pub finest_level_at_cap: Option<usize>,
+    /// Test renderings of the resolution search.
+    pub search_renders: usize,
+    /// Per layer.
+    pub layers: Vec<LayerReport>,
+    /// Building the runtime frame (tessellation, texgen), ms.
+    pub frame_ms: f64,
+    /// Everything, ms.
+    pub total_ms: f64,
+}
+
+/// The finest MIP level any lens pixel of `layer` reads with cube maps of face size `size`:
+/// ⌈levels / 4⌉ test renderings, level l lit (= 1) in channel l mod 4 of render ⌊l / 4⌋ (a
+/// fragment reads two adjacent levels, which land in different channels). `None` when no pixel
+/// reads the map. Returns the level and the renders made.
+pub fn finest_level_read(
+    renderer: &mut dyn TestRenderer,
+    layer: &LayerFrame,
+    size: u32,
+) -> Result<(Option<usize>, usize), MatrixError> {
+    let layout = TexelLayout::new(size);
+    let base =
+        renderer.render(&layer.with_em(std::sync::Arc::new(CubeMap::uniform(size, [0.0; 4]))))?;
+    let mut renders = 1;
+    for first in (0..layout.levels()).step_by(4) {
+        let mut x = vec![[0.0f64; 4]; layout.len()];
+        for level in first..(first + 4).min(layout.levels()) {
+            for column in layout.level_columns(level) {
+                x[column][level - first] = 1.0;
+            }
+        }
+        let pixels = renderer.render(&layer.with_em(std::sync::Arc::new(layout.to_cube(&x))))?;
+        renders += 1;
+        for c in 0..4 {
+            if pixels.iter().zip(&base).any(|(p, b)| p[c] - b[c] != 0.0) {
+                return Ok((Some(first + c), renders));
+            }
+        }
+    }
+    Ok((None, renders))
+}
+
+/// Infers the layered EM of lens object `lens` of `hybrid` at `camera` to match `records` (the
+/// reference ray tracer's intersection records of that lens at that camera), on the shells the
+/// hybrid scene already has.
+pub fn infer_lens(
+    runner: &mut FrameRunner,
+    hybrid: &HybridScene,
+    lens: usize,
+    camera: &Camera,
+    records: &LensRecords,
+    options: &InferOptions,
+) -> Result<Inference, InferError> {
+    let start = Instant::now();
+    options
+        .hybrid
+        .validate()
+        .map_err(|e| InferError::BadOption(e.to_string()))?;
+    let Some(layers) = hybrid.lenses.get(lens) else {
+        return Err(InferError::BadOption(format!(
+            "lens {lens} does not exist; the scene has {} lens objects",
+            hybrid.lenses.len()
+        )));
+    };
+    let name = hybrid.trace.lenses[lens].name.clone();
+    let (frame, _) = hybrid
+        .frame(camera, &options.hybrid)
+        .map_err(|e| InferError::Frame(e.to_string()))?;
+    let frame_ms = start.elapsed().as_secs_f64() * 1e3;
+    let frames = LayerFrames::new(&frame, lens)?;
+    let terms = frames.terms();
+    let n = layers.shells.len();
+    let k = camera.supersampling.max(1);
+    let mut renderer = DeviceRenderer {
+        runner,
+        variant: options.variant,
+    };
+    // The resolution: the finest level read by any (term, layer) frame at the cap.
+    let (size, finest_level_at_cap, search_renders) = match options.em_size {
+        EmSize::Fixed(size) => (size, None, 0),
+        EmSize::Auto { cap } => {
+            if !cap.is_power_of_two() {
+                return Err(InferError::BadOption(format!(
+                    "EM size cap {cap} is not a power of two; give e.g. 256"
+                )));
+            }
+            let mut finest: Option<usize> = None;
+            let mut renders = 0;
+            for &term in &terms {
+                for layer in 0..n {
+                    let (level, made) =
+                        finest_level_read(&mut renderer, &frames.layer(term, layer)?, cap)?;
+                    renders += made;
+                    if let Some(level) = level {
+                        finest = Some(finest.map_or(level, |f: usize| f.min(level)));
+                    }
+                }
+            }
+            let Some(level) = finest else {
+                return Err(InferError::NoLensPixels { lens: name });
+            };
+            ((cap >> level).max(1), Some(level), renders)
+        }
+    };
+    if !size.is_power_of_two() {
+        return Err(InferError::BadOption(format!(
+            "EM size {size} is not a power of two; give e.g. 128"
+        )));
+    }
+    let display = (camera.width, camera.height);
+    let layout = TexelLayout::new(size);
+    let smoothness = Smoothness::new(&layout);
+    let mut targets = Vec::new();
+    let targets_start = Instant::now();
+    for &term in &terms {
+        targets.push(term_targets(
+            records,
+            term,
+            &layers.shells,
+            display,
+            k,
+            options.theta_c,
+        )?);
+    }
+    let targets_ms = targets_start.elapsed().as_secs_f64() * 1e3 / n.max(1) as f64;
+    if targets.iter().all(|t| t.pixels_with_records == 0) {
+        return Err(InferError::NoLensPixels { lens: name });
+    }
+    let mut maps = Vec::new();
+    let mut reports = Vec::new();
+    for layer in 0..n {
+        let matrix_start = Instant::now();
+        let matrices: Vec<RenderingMatrix> = terms
+            .iter()
+            .map(|&term| {
+                RenderingMatrix::measure(&mut renderer, &frames.layer(term, layer)?, size, k)
+            })
+            .collect::<Result<_, _>>()?;
+        let matrix_ms = matrix_start.elapsed().as_secs_f64() * 1e3;
+        if matrices.iter().all(|m| m.nnz() == 0) {
+            return Err(InferError::NoLensPixels { lens: name });
+        }
+        let equations: Vec<Equations<'_>> = matrices
+            .iter()
+            .zip(&targets)
+            .map(|(m, t)| Equations {
+                a: &m.a,
+                b: &t.layers[layer],
+                confidence: &t.confidence,
+            })
+            .collect();
+        let (x, solve_report) = solve(
+            &equations,
+            &layout,
+            &smoothness,
+            &vec![[0.0; 4]; layout.len()],
+            &options.solve,
+        )?;
+        maps.push(layout.to_cube(&x));
+        reports.push(LayerReport {
+            layer,
+            renders: matrices.iter().map(|m| m.renders).sum(),
+            nonzeros: matrices.iter().map(RenderingMatrix::nnz).collect(),
+            matrix_ms,
+            targets_ms,
+            solve: solve_report,
+        });
+    }
+    Ok(Inference {
+        maps,
+        size,
+        finest_level_at_cap,
+        search_renders,
+        layers: reports,
+        frame_ms,
+        total_ms: start.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// The terms of a lens object, in the order the compositor draws them.
+pub fn lens_terms(frame: &FrameInput, lens: usize) -> Vec<Term> {
+    frame
+        .lenses
+        .get(lens)
+        .map(|l| l.terms.iter().map(|t| t.term).collect())
+        .unwrap_or_default()
+}

@@ -1,0 +1,597 @@
+//! Rendering matrices read back from the device (hybrid-rendering paper §4.3; PEM paper, "EM
+//! Inference"): the linear map A from every texel of one layer's cube map — all six faces and all
+//! MIP levels, each a separate unknown — to the display pixels of the final image, after the box
+//! filter of supersampling.
+//!
+//! # What A is, and what it leaves out (the one place this is said)
+//!
+//! A row is a display pixel (row-major, the camera's width × height); a column is a texel
+//! ([`TexelLayout`]). A is measured on a *layer frame* ([`LayerFrame`]): the hybrid frame of one
+//! lens object with **one term and one layer**, F·G = 1 at every vertex, viewpoint weight 1,
+//! opaque geometry drawn black (it still occludes) and no other lens object shaded. So A holds
+//! only the geometry of the hardware's sampling — which texels each pixel reads, with which
+//! filter weights, and how the supersampled pixels are averaged. It leaves out:
+//!
+//! - **F·G** (Fresnel × attenuation) and the **viewpoint weight**: the targets exclude them too.
+//!   They are *incident* radiance (PEM paper), so Fresnel stays out of the EM and the runtime
+//!   multiplies it back per vertex. The runtime frame's pixel is therefore ≈ F·G·w·(A x) on
+//!   smooth regions, exactly A x in the layer frame.
+//! - **Alpha**: texels are premultiplied (α·rgb, α), filtering is linear in each channel alike, so
+//!   one matrix serves all four channels: pixel rgba = A·(texel rgba).
+//! - The **opaque geometry's** own colour: the layer frame's pixel is `base + A x`, where `base`
+//!   is the frame of the all-zero EM (black opaque pixels with α = 1, zero elsewhere).
+//!
+//! # Test renderings, and why decoding them is unambiguous
+//!
+//! One pixel fragment takes one trilinear, seamless sample: at most a 2×2 footprint in each of two
+//! *adjacent* MIP levels (no anisotropy: the runtime's sampler has none), the footprint reaching
+//! into the *adjacent* faces at a seam (a corner: three mutually adjacent faces). So texels that
+//! cannot meet in one fragment are lit together:
+//!
+//! - **levels of one parity** (even or odd): a fragment reads levels ⌊λ⌋ and ⌊λ⌋ + 1;
+//! - **one pair of opposite faces** (±X, ±Y or ±Z): a footprint never reaches the opposite face;
+//! - **one phase** (x mod 2, y mod 2) within a face: a 2×2 footprint holds one texel of each phase.
+//!
+//! That makes 2 parities × 3 face pairs × 4 phases = 24 subsets; the four phases go in the four
+//! colour channels (channels filter independently), so **6 groups** of renders per layer frame.
+//! Within a subset each fragment reads at most one lit texel; a box-filtered display pixel may mix
+//! several fragments, so decoding happens per framebuffer pixel and the box filter is applied to
+//! the decoded entries. Per group:
+//!
+//! - one **weight render**, lit texels = 1: the fragment's value is that texel's filter weight w;
+//! - D **digit renders**, lit texel = 2^(−digit) with the digit (0 ≤ digit < 32) the texel's
+//!   index in its subset written in base 32: the value is w·2^(−digit). Scaling an input by a
+//!   power of two scales every floating-point product and sum of the filter exactly, so
+//!   value / w is exactly a power of two and the digit is read without rounding ambiguity
+//!   (decoding still accepts a relative error of 1e-3 and reports anything else).
+//!
+//! Renders per layer frame: 1 (the base, all-zero EM) + 6 × (1 + D), D = ⌈log₃₂ (largest
+//! subset)⌉; D ≤ 5 for any face size up to lensmap's 2048, so at most 37 renders whatever the
+//! texel count (25 at 128², 31 at 512²). Groups with no texels are skipped.
+
+use std::sync::Arc;
+
+use lensmap::{
+    cubemap::{CubeFace, CubeMap},
+    render::{EnvironmentMesh, FrameInput, LensObject, TermVertices},
+    trace::Term,
+};
+use rayon::prelude::*;
+use sprs::{CsMat, TriMat};
+
+/// Base of the digits that name a texel within its subset (exponents 0..32 of 2^(−digit)).
+const DIGIT_BASE: usize = 32;
+/// Relative mismatch between a digit render's ratio and the nearest power of two beyond which
+/// the device is reported as not linear.
+const DIGIT_TOLERANCE: f64 = 1e-3;
+/// Colour channels, each an independent group of lit texels.
+const CHANNELS: usize = 4;
+/// Render groups per layer frame: 2 level parities × 3 opposite-face pairs.
+pub const GROUPS: usize = 6;
+
+/// Why a rendering matrix cannot be measured.
+#[derive(Debug, thiserror::Error)]
+pub enum MatrixError {
+    /// The frame does not have what the layer frame needs; names the field and the fix.
+    #[error("rendering matrix: {0}")]
+    BadInput(String),
+    /// A test rendering failed on the device.
+    #[error("rendering matrix: test rendering failed: {0}")]
+    Render(String),
+    /// A test rendering's value is not what a linear filter gives: the device's filtering is not
+    /// linear in the texels (or a fragment read two lit texels of one subset).
+    #[error(
+        "rendering matrix: framebuffer pixel ({x}, {y}) channel {channel}: {problem}; the device's filtering is not linear in the texels, so no rendering matrix describes it"
+    )]
+    Decode {
+        /// Framebuffer x.
+        x: u32,
+        /// Framebuffer y.
+        y: u32,
+        /// Channel 0..4.
+        channel: usize,
+        /// What was found.
+        problem: String,
+    },
+}
+
+/// Column numbering of a cube map's texels: level by level (finest first), face by face in
+/// Vulkan's order, row by row.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TexelLayout {
+    /// Level-0 face size (a power of two).
+    pub size: u32,
+    /// First column of each level; the last entry is the total.
+    offsets: Vec<usize>,
+}
+
+/// One texel: MIP level, face, column x, row y.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Texel {
+    /// MIP level (0 = finest).
+    pub level: usize,
+    /// Face.
+    pub face: CubeFace,
+    /// Column within the face.
+    pub x: u32,
+    /// Row within the face.
+    pub y: u32,
+}
+
+impl TexelLayout {
+    /// The layout of a full-chain cube map of face size `size` (a power of two ≥ 1).
+    pub fn new(size: u32) -> TexelLayout {
+        let levels = CubeMap::full_chain_levels(size) as usize;
+        let mut offsets = vec![0];
+        for level in 0..levels {
+            let edge = (size >> level).max(1) as usize;
+            offsets.push(offsets[level] + 6 * edge * edge);
+        }
+        TexelLayout { size, offsets }
+    }
+
+    /// Number of MIP levels.
+    pub fn levels(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// Edge of `level`.
+    pub fn edge(&self, level: usize) -> u32 {
+        (self.size >> level).max(1)
+    }
+
+    /// Number of texels (columns).
+    pub fn len(&self) -> usize {
+        self.offsets[self.levels()]
+    }
+
+    /// Never empty (a 1² cube has six texels); for clippy's `len` convention.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Column of `texel`.
+    pub fn column(&self, texel: Texel) -> usize {
+        let edge = self.edge(texel.level) as usize;
+        self.offsets[texel.level]
+            + texel.face.index() * edge * edge
+            + texel.y as usize * edge
+            + texel.x as usize
+    }
+
+    /// Texel of `column` (< [`Self::len`]).
+    pub fn texel(&self, column: usize) -> Texel {
+        let level = self.offsets.partition_point(|&o| o <= column) - 1;
+        let edge = self.edge(level) as usize;
+        let within = column - self.offsets[level];
+        let face = CubeFace::ALL[within / (edge * edge)];
+        let pixel = within % (edge * edge);
+        Texel {
+            level,
+            face,
+            x: (pixel % edge) as u32,
+            y: (pixel / edge) as u32,
+        }
+    }
+
+    /// Columns of `level`.
+    pub fn level_columns(&self, level: usize) -> std::ops::Range<usize> {
+        self.offsets[level]..self.offsets[level + 1]
+    }
+
+    /// A cube map from a column vector of premultiplied texels.
+    pub fn to_cube(&self, x: &[[f64; 4]]) -> CubeMap {
+        let levels = (0..self.levels())
+            .map(|level| {
+                let edge = self.edge(level) as usize;
+                let start = self.offsets[level];
+                std::array::from_fn(|face| {
+                    let from = start + face * edge * edge;
+                    x[from..from + edge * edge]
+                        .iter()
+                        .map(|t| t.map(|v| v as f32))
+                        .collect()
+                })
+            })
+            .collect();
+        CubeMap {
+            size: self.size,
+            levels,
+        }
+    }
+
+    /// The column vector of a cube map of this layout's size.
+    pub fn from_cube(&self, cube: &CubeMap) -> Vec<[f64; 4]> {
+        cube.levels
+            .iter()
+            .flat_map(|faces| faces.iter().flatten())
+            .map(|t| t.map(f64::from))
+            .collect()
+    }
+
+    /// The test-rendering subset of a texel: (group, channel). See the module documentation.
+    fn subset(texel: Texel) -> (usize, usize) {
+        let parity = texel.level % 2;
+        let pair = texel.face.index() / 2;
+        let phase = (texel.x % 2 + 2 * (texel.y % 2)) as usize;
+        (parity * 3 + pair, phase)
+    }
+}
+
+/// The texels lit together, per group and channel, in column order; a texel's index in its list
+/// is what the digit renders encode.
+struct Subsets {
+    members: Vec<[Vec<usize>; CHANNELS]>,
+    digits: u32,
+}
+
+impl Subsets {
+    fn new(layout: &TexelLayout) -> Subsets {
+        let mut members: Vec<[Vec<usize>; CHANNELS]> =
+            (0..GROUPS).map(|_| Default::default()).collect();
+        for column in 0..layout.len() {
+            let (group, channel) = TexelLayout::subset(layout.texel(column));
+            members[group][channel].push(column);
+        }
+        let largest = members.iter().flatten().map(Vec::len).max().unwrap_or(0);
+        let mut digits = 0;
+        while DIGIT_BASE.pow(digits) < largest {
+            digits += 1;
+        }
+        Subsets { members, digits }
+    }
+
+    /// The test cube of `group`: its texels = 1 (`digit` None) or 2^(−digit d of their index).
+    fn cube(&self, layout: &TexelLayout, group: usize, digit: Option<u32>) -> CubeMap {
+        let mut x = vec![[0.0f64; 4]; layout.len()];
+        for (channel, columns) in self.members[group].iter().enumerate() {
+            for (index, &column) in columns.iter().enumerate() {
+                x[column][channel] = match digit {
+                    None => 1.0,
+                    Some(d) => {
+                        let value = (index / DIGIT_BASE.pow(d)) % DIGIT_BASE;
+                        (-(value as f64)).exp2()
+                    }
+                };
+            }
+        }
+        layout.to_cube(&x)
+    }
+}
+
+/// Renders frames at framebuffer resolution: the Vulkan device (through
+/// [`lensmap::runner::FrameRunner::render`]) in the baker, or a CPU model in tests.
+pub trait TestRenderer {
+    /// The frame's framebuffer pixels, row-major, premultiplied RGBA.
+    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f64; 4]>, MatrixError>;
+}
+
+/// The frame whose lens pixels are `base + A x`: one lens object, one term, one layer, F·G = 1,
+/// weight 1, opaque geometry black. Made from a runtime frame by [`LayerFrames`].
+#[derive(Clone, Debug)]
+pub struct LayerFrame {
+    frame: FrameInput,
+    /// The term.
+    pub term: Term,
+    /// The layer.
+    pub layer: usize,
+}
+
+impl LayerFrame {
+    /// The layer frame with `em` as the layer's cube map.
+    pub fn with_em(&self, em: Arc<CubeMap>) -> FrameInput {
+        let mut frame = self.frame.clone();
+        frame.lenses[0].layers = vec![vec![em]];
+        frame
+    }
+
+    /// Framebuffer width and height.
+    pub fn size(&self) -> (u32, u32) {
+        (self.frame.width, self.frame.height)
+    }
+}
+
+/// The layer frames of one lens object of a runtime frame: shares the blackened opaque geometry
+/// between them so the renderer uploads it once.
+pub struct LayerFrames {
+    template: FrameInput,
+    lens: LensObject,
+}
+
+impl LayerFrames {
+    /// From a runtime frame (as [`lensmap::hybrid::HybridScene::frame`] builds it) and the index
+    /// of the lens object in it. Other lens objects become black occluders.
+    pub fn new(frame: &FrameInput, lens: usize) -> Result<LayerFrames, MatrixError> {
+        let Some(object) = frame.lenses.get(lens) else {
+            return Err(MatrixError::BadInput(format!(
+                "lens {lens} does not exist; the frame has {} lens objects",
+                frame.lenses.len()
+            )));
+        };
+        let black = |positions: &[glam::Vec3], triangles: &[[u32; 3]]| {
+            Arc::new(EnvironmentMesh {
+                positions: positions.to_vec(),
+                colours: vec![glam::Vec3::ZERO; positions.len()],
+                triangles: triangles.to_vec(),
+            })
+        };
+        let mut environment: Vec<Arc<EnvironmentMesh>> = frame
+            .environment
+            .iter()
+            .map(|m| black(&m.positions, &m.triangles))
+            .collect();
+        environment.extend(
+            frame
+                .lenses
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| *i != lens)
+                .map(|(_, other)| black(&other.positions, &other.triangles)),
+        );
+        Ok(LayerFrames {
+            template: FrameInput {
+                width: frame.width,
+                height: frame.height,
+                view_proj: frame.view_proj,
+                environment,
+                lenses: Vec::new(),
+                viewpoint_weights: vec![1.0],
+            },
+            lens: object.clone(),
+        })
+    }
+
+    /// The terms the lens object has.
+    pub fn terms(&self) -> Vec<Term> {
+        self.lens.terms.iter().map(|t| t.term).collect()
+    }
+
+    /// Number of layers.
+    pub fn layer_count(&self) -> usize {
+        self.lens.terms.first().map_or(0, |t| t.directions.len())
+    }
+
+    /// The layer frame of (`term`, `layer`).
+    pub fn layer(&self, term: Term, layer: usize) -> Result<LayerFrame, MatrixError> {
+        let Some(vertices) = self.lens.terms.iter().find(|t| t.term == term) else {
+            return Err(MatrixError::BadInput(format!(
+                "lens \"{}\" has no {term:?} term",
+                self.lens.name
+            )));
+        };
+        let Some(directions) = vertices.directions.get(layer) else {
+            return Err(MatrixError::BadInput(format!(
+                "lens \"{}\" has {} layers; layer {layer} does not exist",
+                self.lens.name,
+                vertices.directions.len()
+            )));
+        };
+        let mut frame = self.template.clone();
+        frame.lenses.push(LensObject {
+            name: self.lens.name.clone(),
+            positions: self.lens.positions.clone(),
+            triangles: self.lens.triangles.clone(),
+            terms: vec![TermVertices {
+                term,
+                fg: vec![glam::Vec3::ONE; self.lens.positions.len()],
+                directions: vec![directions.clone()],
+            }],
+            layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],
+        });
+        Ok(LayerFrame { frame, term, layer })
+    }
+}
+
+/// A measured rendering matrix and how it was measured.
+#[derive(Clone, Debug)]
+pub struct RenderingMatrix {
+    /// Display pixels × texels, CSR. Entries are filter weights / k² (box filter included).
+    pub a: CsMat<f64>,
+    /// The layer frame of the all-zero EM at display resolution: the frame is `base + A x`.
+    pub base: Vec<[f64; 4]>,
+    /// Column layout.
+    pub layout: TexelLayout,
+    /// Display width and height.
+    pub display: (u32, u32),
+    /// Test renderings made.
+    pub renders: usize,
+}
+
+impl RenderingMatrix {
+    /// Measures A of `layer` with cube maps of face size `size` through `renderer`; the
+    /// framebuffer is `k`× the display resolution per axis (supersampling), box-filtered.
+    pub fn measure(
+        renderer: &mut dyn TestRenderer,
+        layer: &LayerFrame,
+        size: u32,
+        k: u32,
+    ) -> Result<RenderingMatrix, MatrixError> {
+        if !size.is_power_of_two() {
+            return Err(MatrixError::BadInput(format!(
+                "cube-map size {size} is not a power of two; give 1, 2, 4, …"
+            )));
+        }
+        let k = k.max(1);
+        let (fb_width, fb_height) = layer.size();
+        if !fb_width.is_multiple_of(k) || !fb_height.is_multiple_of(k) {
+            return Err(MatrixError::BadInput(format!(
+                "framebuffer {fb_width}×{fb_height} is not a multiple of the supersampling {k}"
+            )));
+        }
+        let display = (fb_width / k, fb_height / k);
+        let layout = TexelLayout::new(size);
+        let subsets = Subsets::new(&layout);
+        let mut renders = 0;
+        let mut render = |cube: CubeMap, renders: &mut usize| {
+            *renders += 1;
+            let pixels = renderer.render(&layer.with_em(Arc::new(cube)))?;
+            if pixels.len() != (fb_width * fb_height) as usize {
+                return Err(MatrixError::Render(format!(
+                    "{} pixels read back for a {fb_width}×{fb_height} framebuffer",
+                    pixels.len()
+                )));
+            }
+            Ok(pixels)
+        };
+        let base_fb = render(CubeMap::uniform(size, [0.0; 4]), &mut renders)?;
+        let mut triplets: Vec<(usize, usize, f64)> = Vec::new();
+        let scale = 1.0 / f64::from(k * k);
+        let display_pixel = |i: usize| {
+            let (x, y) = (i as u32 % fb_width, i as u32 / fb_width);
+            (y / k * display.0 + x / k) as usize
+        };
+        for group in 0..GROUPS {
+            if subsets.members[group].iter().all(Vec::is_empty) {
+                continue;
+            }
+            let weights = render(subsets.cube(&layout, group, None), &mut renders)?;
+            // (framebuffer pixel, channel, weight) of every fragment that read a lit texel.
+            let lit: Vec<(usize, usize, f64)> = weights
+                .par_iter()
+                .zip(&base_fb)
+                .enumerate()
+                .flat_map_iter(|(i, (w, b))| {
+                    (0..CHANNELS).filter_map(move |c| {
+                        let weight = w[c] - b[c];
+                        (weight != 0.0).then_some((i, c, weight))
+                    })
+                })
+                .collect();
+            let mut index = vec![0usize; lit.len()];
+            for digit in 0..subsets.digits {
+                let values = render(subsets.cube(&layout, group, Some(digit)), &mut renders)?;
+                let decoded: Vec<Result<usize, MatrixError>> = lit
+                    .par_iter()
+                    .map(|&(i, c, weight)| {
+                        let ratio = (values[i][c] - base_fb[i][c]) / weight;
+                        let value = (-ratio.log2()).round();
+                        let problem = |what: String| MatrixError::Decode {
+                            x: i as u32 % fb_width,
+                            y: i as u32 / fb_width,
+                            channel: c,
+                            problem: what,
+                        };
+                        if !(0.0..DIGIT_BASE as f64).contains(&value)
+                            || (ratio * value.exp2() - 1.0).abs() > DIGIT_TOLERANCE
+                        {
+                            return Err(problem(format!(
+                                "digit render {digit} gave {ratio} × the weight {weight}, not a power of two 2^-d with d < {DIGIT_BASE}"
+                            )));
+                        }
+                        Ok(value as usize * DIGIT_BASE.pow(digit))
+                    })
+                    .collect();
+                for (slot, part) in index.iter_mut().zip(decoded) {
+                    *slot += part?;
+                }
+            }
+            for (&(i, c, weight), &index) in lit.iter().zip(&index) {
+                let Some(&column) = subsets.members[group][c].get(index) else {
+                    return Err(MatrixError::Decode {
+                        x: i as u32 % fb_width,
+                        y: i as u32 / fb_width,
+                        channel: c,
+                        problem: format!(
+                            "decoded texel index {index} but the subset has {} texels",
+                            subsets.members[group][c].len()
+                        ),
+                    });
+                };
+                triplets.push((display_pixel(i), column, weight * scale));
+            }
+        }
+        let rows = (display.0 * display.1) as usize;
+        let mut tri = TriMat::with_capacity((rows, layout.len()), triplets.len());
+        for (row, column, value) in triplets {
+            tri.add_triplet(row, column, value);
+        }
+        let mut base = vec![[0.0f64; 4]; rows];
+        for (i, b) in base_fb.iter().enumerate() {
+            let target = &mut base[display_pixel(i)];
+            for c in 0..CHANNELS {
+                target[c] += b[c] * scale;
+            }
+        }
+        Ok(RenderingMatrix {
+            a: tri.to_csr(),
+            base,
+            layout,
+            display,
+            renders,
+        })
+    }
+
+    /// `A x` (no base), per display pixel, premultiplied RGBA.
+    pub fn apply(&self, x: &[[f64; 4]]) -> Vec<[f64; 4]> {
+        multiply(&self.a, x)
+    }
+
+    /// The display pixels any texel reaches, and their coverage by the lens: the row sums of A
+    /// (1 where a pixel is lens in every subsample).
+    pub fn coverage(&self) -> Vec<f64> {
+        self.a
+            .outer_iterator()
+            .map(|row| row.data().iter().sum())
+            .collect()
+    }
+
+    /// The number of non-zero entries.
+    pub fn nnz(&self) -> usize {
+        self.a.nnz()
+    }
+
+    /// The finest MIP level any pixel reads (with a weight above `threshold`); `None` when no
+    /// pixel reads the map at all.
+    pub fn finest_level(&self, threshold: f64) -> Option<usize> {
+        let mut finest: Option<usize> = None;
+        for (_, (_, column)) in self
+            .a
+            .iter()
+            .filter(|(v, _)| v.abs() > threshold)
+            .map(|(v, ij)| (v, ij))
+        {
+            let level = self.layout.texel(column).level;
+            finest = Some(finest.map_or(level, |f| f.min(level)));
+        }
+        finest
+    }
+}
+
+/// `m x` for a CSR matrix and a vector of RGBA.
+pub fn multiply(m: &CsMat<f64>, x: &[[f64; 4]]) -> Vec<[f64; 4]> {
+    debug_assert!(m.is_csr());
+    m.outer_iterator()
+        .collect::<Vec<_>>()
+        .par_iter()
+        .map(|row| {
+            let mut sum = [0.0; 4];
+            for (column, &value) in row.iter() {
+                for c in 0..CHANNELS {
+                    sum[c] += value * x[column][c];
+                }
+            }
+            sum
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_layout_numbers_every_texel_once() {
+        for size in [1, 2, 8] {
+            let layout = TexelLayout::new(size);
+            let total: usize = (0..layout.levels())
+                .map(|l| 6 * (layout.edge(l) as usize).pow(2))
+                .sum();
+            assert_eq!(layout.len(), total);
+            for column in 0..layout.len() {
+                assert_eq!(layout.column(layout.texel(column)), column);
+            }
+            let cube = CubeMap::from_fn(size, |d| [d.x as f32, d.y as f32, d.z as f32, 1.0]);
+            assert_eq!(layout.to_cube(&layout.from_cube(&cube)), cube);
+        }
+    }
+}

@@ -1,0 +1,166 @@
+//! Targets and confidence (hybrid-rendering paper §4.3): from the reference ray tracer's
+//! intersection records at a camera, per layer and term, the image b the inferred EM must
+//! reproduce and the confidence that weights each pixel's equation.
+//!
+//! A record's outgoing ray is split between the layers exactly as the projected EMs split the
+//! rays from the EM origin ([`lensmap::layers::projected`]): with tᵢ the distance along the ray to
+//! shell i, layer i holds the first front-facing hit at a distance in (½(tᵢ₋₁ + tᵢ), ½(tᵢ + tᵢ₊₁)]
+//! (the records keep every hit, so an inner layer's surface does not hide what an outer layer
+//! holds: the paper's ray continuation); the outermost layer also holds the environment at
+//! infinity. b is premultiplied RGBA at display resolution: α = the fraction of the pixel's
+//! supersamples whose outgoing ray has a hit in the layer, rgb = the sum of those hits' radiance
+//! over the supersample count — incident radiance, without F·G (see [`crate::matrix`]).
+
+use glam::DVec3;
+use lensmap::{
+    layers::LayerShell,
+    trace::{LensRecords, Term},
+};
+
+/// The paper's confidence threshold θ_c, degrees.
+pub const DEFAULT_CONFIDENCE_DEGREES: f64 = 5.0;
+
+/// Why targets cannot be made.
+#[derive(Debug, thiserror::Error)]
+pub enum TargetError {
+    /// An input is inconsistent; names the field and the fix.
+    #[error("targets: {0}")]
+    BadInput(String),
+}
+
+/// The paper's per-pixel confidence `1 − min(θ_m², θ_c²)/θ_c²`: 1 when all of a pixel's outgoing
+/// rays are parallel, falling to 0 at θ_m = θ_c and beyond. Angles in radians; θ_c > 0.
+pub fn confidence(theta_m: f64, theta_c: f64) -> f64 {
+    let c2 = theta_c * theta_c;
+    1.0 - (theta_m * theta_m).min(c2) / c2
+}
+
+/// One term's targets of every layer at one camera.
+#[derive(Clone, Debug)]
+pub struct TermTargets {
+    /// The term.
+    pub term: Term,
+    /// `layers[layer][pixel]`: premultiplied RGBA incident radiance, display resolution.
+    pub layers: Vec<Vec<[f64; 4]>>,
+    /// Per display pixel confidence in [0, 1] (0 where the lens is not seen).
+    pub confidence: Vec<f64>,
+    /// Display pixels with at least one record of this term.
+    pub pixels_with_records: usize,
+}
+
+/// Builds the targets of `term` for lens records `records` of a `width × height` image
+/// supersampled `k × k`, for layer shells `shells` (nearest first), with threshold `theta_c`
+/// (radians). Only records where the lens object is what the camera sees count.
+pub fn term_targets(
+    records: &LensRecords,
+    term: Term,
+    shells: &[LayerShell],
+    (width, height): (u32, u32),
+    k: u32,
+    theta_c: f64,
+) -> Result<TermTargets, TargetError> {
+    if shells.is_empty() {
+        return Err(TargetError::BadInput(
+            "no layer shells; give at least one".into(),
+        ));
+    }
+    if !(theta_c.is_finite() && theta_c > 0.0) {
+        return Err(TargetError::BadInput(format!(
+            "confidence angle {} degrees; give an angle > 0, e.g. 5",
+            theta_c.to_degrees()
+        )));
+    }
+    let pixels = (width as usize) * (height as usize);
+    let n = shells.len();
+    let mut layers = vec![vec![[0.0f64; 4]; pixels]; n];
+    let mut directions: Vec<Vec<DVec3>> = vec![Vec::new(); pixels];
+    let scale = 1.0 / f64::from(k.max(1) * k.max(1));
+    for record in records
+        .records
+        .iter()
+        .filter(|r| r.term == term && r.visible)
+    {
+        let (x, y) = (
+            record.image_position.x.floor(),
+            record.image_position.y.floor(),
+        );
+        if x < 0.0 || y < 0.0 || x >= width as f32 || y >= height as f32 {
+            return Err(TargetError::BadInput(format!(
+                "a record at image position {} lies outside the {width}×{height} image; compile the records with the same camera",
+                record.image_position
+            )));
+        }
+        let pixel = y as usize * width as usize + x as usize;
+        let ray = record.outgoing_ray;
+        directions[pixel].push(ray.direction.normalize_or_zero());
+        let distances: Vec<f64> = shells
+            .iter()
+            .map(|s| {
+                s.intersect(ray.origin, ray.direction)
+                    .map_or(f64::INFINITY, |h| h.t)
+            })
+            .collect();
+        let hits = records.hits_of(record);
+        for layer in 0..n {
+            let start = if layer == 0 {
+                0.0
+            } else {
+                0.5 * (distances[layer - 1] + distances[layer])
+            };
+            let end = if layer + 1 == n {
+                f64::INFINITY
+            } else {
+                0.5 * (distances[layer] + distances[layer + 1])
+            };
+            let hit = hits
+                .iter()
+                .find(|h| h.distance > start && h.distance <= end)
+                .map(|h| h.radiance);
+            let radiance = match hit {
+                Some(radiance) => radiance,
+                None if layer + 1 == n => record.background,
+                None => continue,
+            };
+            let target = &mut layers[layer][pixel];
+            target[0] += radiance.x * scale;
+            target[1] += radiance.y * scale;
+            target[2] += radiance.z * scale;
+            target[3] += scale;
+        }
+    }
+    let confidence: Vec<f64> = directions
+        .iter()
+        .map(|rays| {
+            if rays.is_empty() {
+                return 0.0;
+            }
+            let mut widest = 0.0f64;
+            for (i, a) in rays.iter().enumerate() {
+                for b in &rays[i + 1..] {
+                    widest = widest.max(a.angle_between(*b));
+                }
+            }
+            confidence(widest, theta_c)
+        })
+        .collect();
+    Ok(TermTargets {
+        term,
+        layers,
+        pixels_with_records: directions.iter().filter(|d| !d.is_empty()).count(),
+        confidence,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn confidence_closed_forms() {
+        let c = 5f64.to_radians();
+        assert_eq!(confidence(0.0, c), 1.0);
+        assert!((confidence(0.5 * c, c) - 0.75).abs() < 1e-15);
+        assert_eq!(confidence(c, c), 0.0);
+        assert_eq!(confidence(3.0 * c, c), 0.0);
+    }
+}

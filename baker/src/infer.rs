@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use lensmap::{
-    cubemap::CubeMap,
+    cubemap::{CubeMap, sampling::sample_cube_trilinear},
     hybrid::{HybridOptions, HybridScene},
     render::{FrameInput, TargetFormat, Variant},
     runner::FrameRunner,
@@ -21,7 +21,7 @@ use crate::{
 };
 
 /// The default largest EM face size the resolution search considers, texels.
-pub const DEFAULT_MAX_EM_SIZE: u32 = 256;
+pub const DEFAULT_MAX_EM_SIZE: u32 = 128;
 
 /// The Vulkan device as a [`TestRenderer`]: frames rendered by the runtime's compositor into an
 /// RGBA32F target, exactly as [`FrameRunner::render`] renders them.
@@ -288,13 +288,16 @@ pub fn infer_lens(
                 confidence: &t.confidence,
             })
             .collect();
-        let (x, solve_report) = solve(
-            &equations,
-            &layout,
-            &smoothness,
-            &vec![[0.0; 4]; layout.len()],
-            &options.solve,
-        )?;
+        // CG starts from the layer's current (projected) EM, resampled to this size: where no
+        // pixel constrains a texel, few iterations move it, and the projection is a better guess
+        // there than zero.
+        let start = layers
+            .maps
+            .first()
+            .and_then(|maps| maps.get(layer))
+            .map(|current| layout.from_cube(&resampled(current, size)))
+            .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
+        let (x, solve_report) = solve(&equations, &layout, &smoothness, &start, &options.solve)?;
         maps.push(layout.to_cube(&x));
         reports.push(LayerReport {
             layer,
@@ -313,6 +316,17 @@ pub fn infer_lens(
         layers: reports,
         frame_ms,
         total_ms: start.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// `cube` at face size `size`: itself when the sizes agree, else level 0 sampled bilinearly at
+/// the new texel centres and the chain box-filtered.
+fn resampled(cube: &CubeMap, size: u32) -> CubeMap {
+    if cube.size == size {
+        return cube.clone();
+    }
+    CubeMap::from_fn(size, |direction| {
+        sample_cube_trilinear(cube, direction, 0.0).map(|v| v as f32)
     })
 }
 

@@ -315,10 +315,29 @@ impl LayerFrames {
                 triangles: triangles.to_vec(),
             })
         };
+        // Only opaque triangles that can cover a lens pixel matter (they occlude it); the rest
+        // would only cost rasterization in every test rendering. Kept: every triangle whose
+        // screen bounding box meets the lens object's, or that crosses the eye plane.
+        let lens_box = screen_box(frame, &object.positions, object.triangles.iter());
+        let keep = |positions: &[glam::Vec3], triangles: &[[u32; 3]]| -> Vec<[u32; 3]> {
+            triangles
+                .iter()
+                .filter(|t| match (lens_box, screen_box(frame, positions, std::iter::once(*t))) {
+                    (Some(lens), Some(own)) => {
+                        own.0.x <= lens.1.x
+                            && lens.0.x <= own.1.x
+                            && own.0.y <= lens.1.y
+                            && lens.0.y <= own.1.y
+                    }
+                    _ => true,
+                })
+                .copied()
+                .collect()
+        };
         let mut environment: Vec<Arc<EnvironmentMesh>> = frame
             .environment
             .iter()
-            .map(|m| black(&m.positions, &m.triangles))
+            .map(|m| black(&m.positions, &keep(&m.positions, &m.triangles)))
             .collect();
         environment.extend(
             frame
@@ -326,7 +345,7 @@ impl LayerFrames {
                 .iter()
                 .enumerate()
                 .filter(|(i, _)| *i != lens)
-                .map(|(_, other)| black(&other.positions, &other.triangles)),
+                .map(|(_, other)| black(&other.positions, &keep(&other.positions, &other.triangles))),
         );
         Ok(LayerFrames {
             template: FrameInput {
@@ -380,6 +399,29 @@ impl LayerFrames {
         });
         Ok(LayerFrame { frame, term, layer })
     }
+}
+
+/// The normalized-device-coordinate bounding box of `triangles`, or `None` when a vertex is at or
+/// behind the eye plane (then the box is unbounded and the triangle is kept).
+fn screen_box<'a>(
+    frame: &FrameInput,
+    positions: &[glam::Vec3],
+    triangles: impl Iterator<Item = &'a [u32; 3]>,
+) -> Option<(glam::Vec2, glam::Vec2)> {
+    let mut lo = glam::Vec2::splat(f32::INFINITY);
+    let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
+    for t in triangles {
+        for &i in t {
+            let clip = frame.view_proj * positions[i as usize].extend(1.0);
+            if !(clip.w > 1e-6) {
+                return None;
+            }
+            let ndc = glam::Vec2::new(clip.x, clip.y) / clip.w;
+            lo = lo.min(ndc);
+            hi = hi.max(ndc);
+        }
+    }
+    Some((lo, hi))
 }
 
 /// A measured rendering matrix and how it was measured.

@@ -44,8 +44,8 @@ impl Default for SolveOptions {
     fn default() -> Self {
         SolveOptions {
             smoothness: DEFAULT_SMOOTHNESS,
-            tolerance: 1e-7,
-            max_iterations: 3000,
+            tolerance: 1e-4,
+            max_iterations: 400,
         }
     }
 }
@@ -66,6 +66,11 @@ pub enum SolveError {
     /// Inconsistent sizes or values; names what and the fix.
     #[error("solve: {0}")]
     BadInput(String),
+    /// No texel has any weighted equation: nothing to fit.
+    #[error(
+        "solve: no equation has weight: the confidence is zero wherever the rendering matrices have entries (or they are empty); check the targets' camera and the confidence angle"
+    )]
+    NoData,
 }
 
 /// What a solve did.
@@ -171,6 +176,104 @@ impl Smoothness {
     }
 }
 
+/// How far outside the range a texel may drift (rounding in CG) before it is pinned.
+const RANGE_SLACK: f64 = 1e-6;
+
+/// Rounds of the range active set.
+const MAX_RANGE_ROUNDS: usize = 6;
+
+/// A premultiplied texel put in range: rgb ≥ 0, 0 ≤ α ≤ 1.
+fn in_range(texel: [f64; 4]) -> [f64; 4] {
+    [
+        texel[0].max(0.0),
+        texel[1].max(0.0),
+        texel[2].max(0.0),
+        texel[3].clamp(0.0, 1.0),
+    ]
+}
+
+fn dot(a: &[[f64; 4]], b: &[[f64; 4]]) -> [f64; 4] {
+    a.par_iter()
+        .zip(b)
+        .map(|(a, b)| std::array::from_fn(|c| a[c] * b[c]))
+        .reduce(|| [0.0; 4], |s: [f64; 4], t| std::array::from_fn(|c| s[c] + t[c]))
+}
+
+/// Preconditioned CG on the free entries of `x` (the `fixed` ones keep their value), the four
+/// channels as independent systems sharing the operator. Returns the iterations and the final
+/// worst relative residual.
+fn conjugate_gradient(
+    normal: &dyn Fn(&[[f64; 4]]) -> Vec<[f64; 4]>,
+    rhs: &[[f64; 4]],
+    preconditioner: &[f64],
+    fixed: &[[bool; 4]],
+    x: &mut [[f64; 4]],
+    tolerance: f64,
+    max_iterations: usize,
+) -> (usize, f64) {
+    let n = x.len();
+    let free = |v: &mut Vec<[f64; 4]>| {
+        for (e, f) in v.iter_mut().zip(fixed) {
+            for c in 0..4 {
+                if f[c] {
+                    e[c] = 0.0;
+                }
+            }
+        }
+    };
+    let mut rhs_free = rhs.to_vec();
+    free(&mut rhs_free);
+    let rhs_norm = dot(&rhs_free, &rhs_free).map(|v| if v > 0.0 { v.sqrt() } else { 1.0 });
+    let relative = |r: &[[f64; 4]]| {
+        let rr = dot(r, r);
+        (0..4).map(|c| rr[c].sqrt() / rhs_norm[c]).fold(0.0, f64::max)
+    };
+    let nx = normal(x);
+    let mut r: Vec<[f64; 4]> = rhs
+        .iter()
+        .zip(&nx)
+        .map(|(b, a)| std::array::from_fn(|c| b[c] - a[c]))
+        .collect();
+    free(&mut r);
+    let precondition = |r: &[[f64; 4]]| -> Vec<[f64; 4]> {
+        r.iter()
+            .zip(preconditioner)
+            .map(|(r, m)| r.map(|v| v * m))
+            .collect()
+    };
+    let mut z = precondition(&r);
+    let mut p = z.clone();
+    let mut rz = dot(&r, &z);
+    let mut iterations = 0;
+    let mut residual = relative(&r);
+    while residual > tolerance && iterations < max_iterations {
+        let mut q = normal(&p);
+        free(&mut q);
+        let pq = dot(&p, &q);
+        let alpha: [f64; 4] =
+            std::array::from_fn(|c| if pq[c] > 0.0 { rz[c] / pq[c] } else { 0.0 });
+        for i in 0..n {
+            for c in 0..4 {
+                x[i][c] += alpha[c] * p[i][c];
+                r[i][c] -= alpha[c] * q[i][c];
+            }
+        }
+        z = precondition(&r);
+        let rz_next = dot(&r, &z);
+        let beta: [f64; 4] =
+            std::array::from_fn(|c| if rz[c] > 0.0 { rz_next[c] / rz[c] } else { 0.0 });
+        for i in 0..n {
+            for c in 0..4 {
+                p[i][c] = z[i][c] + beta[c] * p[i][c];
+            }
+        }
+        rz = rz_next;
+        iterations += 1;
+        residual = relative(&r);
+    }
+    (iterations, residual)
+}
+
 /// Solves for one layer's texels (see the module documentation); `x0` is the starting guess (the
 /// projected EM, say), `layout` the columns.
 pub fn solve(
@@ -237,6 +340,9 @@ pub fn solve(
     }
     let seen: Vec<f64> = data_diagonal.iter().copied().filter(|d| *d > 0.0).collect();
     let seen_texels = seen.len();
+    if seen_texels == 0 {
+        return Err(SolveError::NoData);
+    }
     let mean_seen = if seen.is_empty() {
         1.0
     } else {
@@ -275,81 +381,44 @@ pub fn solve(
             }
         }
     }
-    let norm = |v: &[[f64; 4]]| -> [f64; 4] {
-        let mut s = [0.0; 4];
-        for e in v {
-            for c in 0..4 {
-                s[c] += e[c] * e[c];
-            }
-        }
-        s.map(f64::sqrt)
-    };
-    let rhs_norm = norm(&rhs).map(|v| if v > 0.0 { v } else { 1.0 });
-    let mut x = x0.to_vec();
-    let nx = normal(&x);
-    let mut r: Vec<[f64; 4]> = rhs
-        .iter()
-        .zip(&nx)
-        .map(|(b, a)| std::array::from_fn(|c| b[c] - a[c]))
-        .collect();
-    let precondition = |r: &[[f64; 4]]| -> Vec<[f64; 4]> {
-        r.iter()
-            .zip(&preconditioner)
-            .map(|(r, m)| r.map(|v| v * m))
-            .collect()
-    };
-    let dot = |a: &[[f64; 4]], b: &[[f64; 4]]| -> [f64; 4] {
-        let mut s = [0.0; 4];
-        for (a, b) in a.iter().zip(b) {
-            for c in 0..4 {
-                s[c] += a[c] * b[c];
-            }
-        }
-        s
-    };
-    let mut z = precondition(&r);
-    let mut p = z.clone();
-    let mut rz = dot(&r, &z);
+    // Range by an active set: solve on the free texels, pin the ones that leave the range at
+    // their bound, and solve again for the rest (at most a few rounds: few texels are pinned).
+    let mut x: Vec<[f64; 4]> = x0.iter().map(|t| in_range(*t)).collect();
+    let mut fixed = vec![[false; 4]; n];
     let mut iterations = 0;
-    let relative = |r: &[[f64; 4]]| {
-        let rn = norm(r);
-        (0..4).map(|c| rn[c] / rhs_norm[c]).fold(0.0, f64::max)
-    };
-    let mut residual = relative(&r);
-    while residual > options.tolerance && iterations < options.max_iterations {
-        let q = normal(&p);
-        let pq = dot(&p, &q);
-        let alpha: [f64; 4] =
-            std::array::from_fn(|c| if pq[c] > 0.0 { rz[c] / pq[c] } else { 0.0 });
-        for i in 0..n {
+    let mut residual = 0.0;
+    for _round in 0..MAX_RANGE_ROUNDS {
+        let (used, reached) = conjugate_gradient(
+            &normal,
+            &rhs,
+            &preconditioner,
+            &fixed,
+            &mut x,
+            options.tolerance,
+            options.max_iterations.saturating_sub(iterations).max(1),
+        );
+        iterations += used;
+        residual = reached;
+        let mut pinned = 0;
+        for (texel, fix) in x.iter_mut().zip(&mut fixed) {
+            let bounded = in_range(*texel);
             for c in 0..4 {
-                x[i][c] += alpha[c] * p[i][c];
-                r[i][c] -= alpha[c] * q[i][c];
+                // Overshoots within rounding are clamped at the end, not pinned.
+                if (bounded[c] - texel[c]).abs() > RANGE_SLACK {
+                    texel[c] = bounded[c];
+                    fix[c] = true;
+                    pinned += 1;
+                }
             }
         }
-        z = precondition(&r);
-        let rz_next = dot(&r, &z);
-        let beta: [f64; 4] =
-            std::array::from_fn(|c| if rz[c] > 0.0 { rz_next[c] / rz[c] } else { 0.0 });
-        for i in 0..n {
-            for c in 0..4 {
-                p[i][c] = z[i][c] + beta[c] * p[i][c];
-            }
+        if pinned == 0 {
+            break;
         }
-        rz = rz_next;
-        iterations += 1;
-        residual = relative(&r);
     }
-    let mut clamped_texels = 0;
+    let clamped_texels = fixed.iter().filter(|f| f.contains(&true)).count();
+    // Whatever remains out of range after the last round (none, unless the rounds ran out).
     for texel in &mut x {
-        let before = *texel;
-        for v in &mut texel[..3] {
-            *v = v.max(0.0);
-        }
-        texel[3] = texel[3].clamp(0.0, 1.0);
-        if *texel != before {
-            clamped_texels += 1;
-        }
+        *texel = in_range(*texel);
     }
     Ok((
         x,
@@ -421,10 +490,14 @@ mod tests {
             &layout,
             &g,
             &vec![[0.0; 4]; layout.len()],
-            &SolveOptions::default(),
+            &SolveOptions {
+                tolerance: 1e-9,
+                max_iterations: 10_000,
+                ..SolveOptions::default()
+            },
         )
         .unwrap();
-        assert!(report.relative_residual <= 1e-7, "{report:?}");
+        assert!(report.relative_residual <= 1e-9, "{report:?}");
         assert!((x[seen][0] - 1.0).abs() < 1e-2, "{:?}", x[seen]);
         assert!(x.iter().flatten().all(|v| v.is_finite()));
         // The harmonic fill of a closed surface with one pinned value is the constant: every

@@ -17,6 +17,7 @@ use lensmap::{
 use lensmap_baker::{
     infer::DeviceRenderer,
     matrix::{LayerFrames, MatrixError, RenderingMatrix, TestRenderer, TexelLayout},
+    solve::{Equations, SolveError, SolveOptions, Smoothness, solve},
 };
 use lensmap_tests::{assert_clean, gpu};
 use rand::{Rng, SeedableRng};
@@ -173,4 +174,216 @@ fn the_matrix_agrees_with_the_f64_model() {
         "{close} of {compared} within 1e-5"
     );
     assert_clean(runner.gpu());
+}
+
+/// Standard normal samples (Box–Muller).
+fn gaussian(rng: &mut Pcg64) -> f64 {
+    let (u, v): (f64, f64) = (rng.gen_range(f64::EPSILON..1.0), rng.gen_range(0.0..1.0));
+    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+}
+
+fn psnr_over(a: &[[f64; 4]], b: &[[f64; 4]], mask: &[bool]) -> f64 {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for ((a, b), m) in a.iter().zip(b).zip(mask) {
+        if *m {
+            for c in 0..4 {
+                sum += (a[c] - b[c]).powi(2);
+                count += 1;
+            }
+        }
+    }
+    assert!(count > 0, "empty mask");
+    let peak = b
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .flat_map(|(v, _)| *v)
+        .fold(0.0f64, f64::max);
+    10.0 * (peak * peak / (sum / count as f64)).log10()
+}
+
+#[test]
+fn the_solver_inverts_the_matrix() {
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    // An EM small enough (8², 510 texels) for 128×96 pixels of two terms to determine the texels
+    // they see; the re-render holds whatever the size.
+    let size = 8;
+    let (_, frame, _) = frame_of("teapot-room", (128, 96, 2));
+    let frames = LayerFrames::new(&frame, 0).unwrap();
+    let terms = frames.terms();
+    let mut device = DeviceRenderer {
+        runner: &mut runner,
+        variant: Variant::SinglePass,
+    };
+    let matrices: Vec<RenderingMatrix> = terms
+        .iter()
+        .map(|&t| {
+            RenderingMatrix::measure(&mut device, &frames.layer(t, 1).unwrap(), size, 2)
+                .unwrap()
+        })
+        .collect();
+    let layout = matrices[0].layout.clone();
+    let smoothness = Smoothness::new(&layout);
+    let mut rng = Pcg64::seed_from_u64(0x5017e);
+    let truth = random_em(&mut rng, &layout);
+    let clean: Vec<Vec<[f64; 4]>> = matrices.iter().map(|m| m.apply(&truth)).collect();
+    let masks: Vec<Vec<bool>> = matrices
+        .iter()
+        .map(|m| m.coverage().iter().map(|c| *c > 0.0).collect())
+        .collect();
+    let ones = vec![1.0; clean[0].len()];
+    let solve_for = |targets: &[Vec<[f64; 4]>]| {
+        let equations: Vec<Equations<'_>> = matrices
+            .iter()
+            .zip(targets)
+            .map(|(m, b)| Equations {
+                a: &m.a,
+                b,
+                confidence: &ones,
+            })
+            .collect();
+        solve(
+            &equations,
+            &layout,
+            &smoothness,
+            &vec![[0.0; 4]; layout.len()],
+            &SolveOptions {
+                smoothness: 1e-6,
+                tolerance: 1e-9,
+                max_iterations: 20_000,
+                ..SolveOptions::default()
+            },
+        )
+        .unwrap()
+    };
+    let (x, report) = solve_for(&clean);
+    println!("clean: {report:?}");
+    // The re-render matches b.
+    for ((m, b), mask) in matrices.iter().zip(&clean).zip(&masks) {
+        let psnr = psnr_over(&m.apply(&x), b, mask);
+        println!("re-render PSNR {psnr:.1} dB");
+        assert!(psnr >= 60.0, "re-render PSNR {psnr:.1} dB");
+    }
+    // Observed texels (those whose data weight is a sizeable share of the strongest) match x*;
+    // texels nobody sees are finite, in range and smooth.
+    let mut weight = vec![0.0f64; layout.len()];
+    for m in &matrices {
+        for (&v, (_, column)) in m.a.iter() {
+            weight[column] += v * v;
+        }
+    }
+    let strongest = weight.iter().copied().fold(0.0, f64::max);
+    let mut observed = 0;
+    for (i, w) in weight.iter().enumerate() {
+        if *w >= 0.05 * strongest {
+            observed += 1;
+            for c in 0..4 {
+                assert!(
+                    (x[i][c] - truth[i][c]).abs() <= 1e-3,
+                    "observed texel {:?} channel {c}: {} vs x* {}",
+                    layout.texel(i),
+                    x[i][c],
+                    truth[i][c]
+                );
+            }
+        }
+    }
+    let unseen: Vec<usize> = (0..layout.len()).filter(|&i| weight[i] == 0.0).collect();
+    println!("{observed} observed texels, {} unseen", unseen.len());
+    assert!(observed > 20 && !unseen.is_empty());
+    for &i in &unseen {
+        assert!(x[i].iter().all(|v| v.is_finite()) && (0.0..=1.0).contains(&x[i][3]));
+        assert!(x[i][..3].iter().all(|v| *v >= 0.0));
+    }
+    // Smooth: the fill stays within the range of the observed values (a harmonic field obeys the
+    // maximum principle), so no unseen texel overshoots.
+    let (lo, hi) = truth.iter().flatten().fold((f64::MAX, f64::MIN), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    for &i in &unseen {
+        for c in 0..4 {
+            assert!(x[i][c] >= lo - 1e-6 && x[i][c] <= hi + 1e-6, "unseen {:?}: {:?}", layout.texel(i), x[i]);
+        }
+    }
+    // 5% Gaussian noise in b: the re-render is no further from the clean image than the noise.
+    let noisy: Vec<Vec<[f64; 4]>> = clean
+        .iter()
+        .map(|b| {
+            let rms = (b.iter().flatten().map(|v| v * v).sum::<f64>() / (4 * b.len()) as f64).sqrt();
+            b.iter()
+                .map(|p| p.map(|v| if v != 0.0 { v + 0.05 * rms * gaussian(&mut rng) } else { v }))
+                .collect()
+        })
+        .collect();
+    let (xn, report) = solve_for(&noisy);
+    println!("noisy: {report:?}");
+    for (((m, b), bn), mask) in matrices.iter().zip(&clean).zip(&noisy).zip(&masks) {
+        let rerender = psnr_over(&m.apply(&xn), b, mask);
+        let noise = psnr_over(bn, b, mask);
+        println!("noisy: re-render vs clean {rerender:.1} dB, noise {noise:.1} dB");
+        assert!(rerender >= noise, "re-render {rerender:.1} dB worse than the noise {noise:.1} dB");
+    }
+    assert_clean(runner.gpu());
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let layout = TexelLayout::new(4);
+    let smoothness = Smoothness::new(&layout);
+    let mut tri = sprs::TriMat::new((2, layout.len()));
+    tri.add_triplet(0, 3, 0.5);
+    let a = tri.to_csr();
+    let start = vec![[0.0; 4]; layout.len()];
+    // Zero confidence everywhere: nothing to fit.
+    let zero = solve(
+        &[Equations {
+            a: &a,
+            b: &[[0.5; 4], [0.0; 4]],
+            confidence: &[0.0, 0.0],
+        }],
+        &layout,
+        &smoothness,
+        &start,
+        &SolveOptions::default(),
+    );
+    assert!(matches!(zero, Err(SolveError::NoData)), "{zero:?}");
+    // Mismatched sizes.
+    let mismatched = solve(
+        &[Equations {
+            a: &a,
+            b: &[[0.5; 4]],
+            confidence: &[1.0, 1.0],
+        }],
+        &layout,
+        &smoothness,
+        &start,
+        &SolveOptions::default(),
+    );
+    assert!(matches!(mismatched, Err(SolveError::BadInput(_))), "{mismatched:?}");
+    // NaN in a target.
+    let nan = solve(
+        &[Equations {
+            a: &a,
+            b: &[[f64::NAN; 4], [0.0; 4]],
+            confidence: &[1.0, 1.0],
+        }],
+        &layout,
+        &smoothness,
+        &start,
+        &SolveOptions::default(),
+    );
+    assert!(matches!(nan, Err(SolveError::BadInput(_))), "{nan:?}");
+    // A layer no outgoing ray reaches (b = 0 where the lens is): the documented result is a
+    // transparent, black layer, finite everywhere.
+    let (x, _) = solve(
+        &[Equations {
+            a: &a,
+            b: &[[0.0; 4], [0.0; 4]],
+            confidence: &[1.0, 1.0],
+        }],
+        &layout,
+        &smoothness,
+        &start,
+        &SolveOptions::default(),
+    )
+    .unwrap();
+    assert!(x.iter().flatten().all(|v| *v == 0.0));
 }

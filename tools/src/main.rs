@@ -5,6 +5,7 @@
 #[macro_use]
 mod common;
 mod bench_hybrid;
+mod bench_infer;
 mod bench_passes;
 mod bench_trace;
 mod demo;
@@ -68,6 +69,11 @@ enum BenchCommand {
     ///
     /// Example: lensmap bench trace --width 640 --height 480 --supersampling 3
     Trace(bench_trace::BenchTraceArgs),
+    /// The baker's core at one viewpoint sample: inferred vs projected EMs (lens PSNR against a
+    /// better-converged reference) and the inference's cost per stage (median of runs).
+    ///
+    /// Example: lensmap bench infer --scene glass-sphere --width 320 --height 240
+    Infer(bench_infer::BenchInferArgs),
 }
 
 /// Whether an error is the user's input (exit 2) rather than a failure of the work (exit 1).
@@ -119,6 +125,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Passes(args)) => bench_passes::run(args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(args),
         Command::Bench(BenchCommand::Hybrid(args)) => bench_hybrid::run(args),
+        Command::Bench(BenchCommand::Infer(args)) => bench_infer::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

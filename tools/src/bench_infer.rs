@@ -1,0 +1,209 @@
+//! `lensmap bench infer`: the baker's core at one viewpoint sample. For each lens object of a
+//! scene, the layered EM is inferred on the projected shells' geometry from the reference ray
+//! tracer's intersection records at the scene camera, and the hybrid frames with projected and
+//! with inferred EMs are compared with an independent, better-converged reference (more
+//! supersamples than the targets had, so fitting the targets' own noise earns nothing). The
+//! inference is repeated and its median time reported, stage by stage.
+
+use std::{path::PathBuf, sync::Arc, time::Instant};
+
+use clap::Args;
+use lensmap::{
+    gpu::{Gpu, GpuOptions},
+    hybrid::HybridOptions,
+    layers::projected::ProjectedOptions,
+    metrics::Encoding,
+    render::{TargetFormat, Variant},
+    runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene, median},
+    scene::Scene,
+    trace::{TraceOptions, compile_records, render_reference},
+};
+use lensmap_baker::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions, infer_lens};
+use serde_json::json;
+
+use crate::common::{BadUsage, flag_error, write_json};
+
+#[derive(Args)]
+#[command(after_help = "Example:\n  lensmap bench infer --scene glass-sphere --width 320 --height 240")]
+pub struct BenchInferArgs {
+    /// Built-in scene name or path.
+    #[arg(long, default_value = "teapot-room")]
+    scene: String,
+    /// Image width.
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// Supersampling k×k of the targets (and of the hybrid framebuffer).
+    #[arg(long, default_value_t = 3)]
+    supersampling: u32,
+    /// Supersampling of the independent reference the frames are judged against.
+    #[arg(long, default_value_t = 6)]
+    reference_supersampling: u32,
+    /// Largest EM face size the resolution search considers (power of two).
+    #[arg(long, default_value_t = DEFAULT_MAX_EM_SIZE)]
+    max_em_size: u32,
+    /// Projected EMs' face size (the baseline).
+    #[arg(long, default_value_t = 128)]
+    em_size: u32,
+    /// Relative smoothness weight of the solve.
+    #[arg(long, default_value_t = lensmap_baker::solve::DEFAULT_SMOOTHNESS)]
+    smoothness: f64,
+    /// CG stops at this relative residual.
+    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance)]
+    tolerance: f64,
+    /// Inference runs; the median time is reported.
+    #[arg(long, default_value_t = 3)]
+    runs: usize,
+    /// Where to write the JSON results.
+    #[arg(long, default_value = "out/bench-infer.json")]
+    json: PathBuf,
+}
+
+pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
+    let projected = ProjectedOptions::with_size(args.em_size);
+    projected.validate().map_err(flag_error)?;
+    if args.width == 0 || args.height == 0 || args.supersampling == 0 || args.reference_supersampling == 0 {
+        return Err(BadUsage(format!(
+            "--width {} --height {} --supersampling {} --reference-supersampling {}: give values ≥ 1",
+            args.width, args.height, args.supersampling, args.reference_supersampling
+        ))
+        .into());
+    }
+    if !args.max_em_size.is_power_of_two() {
+        return Err(BadUsage(format!(
+            "--max-em-size {}: give a power of two, e.g. 256",
+            args.max_em_size
+        ))
+        .into());
+    }
+    let scene = Scene::load_named(&args.scene)?;
+    let mut camera = scene.camera;
+    camera.width = args.width;
+    camera.height = args.height;
+    camera.supersampling = args.supersampling;
+    let mut reference_camera = camera;
+    reference_camera.supersampling = args.reference_supersampling;
+    let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let device = runner.gpu().device_name().to_string();
+    println!(
+        "{}: {}×{}, targets {k}×{k}, reference {r}×{r}, device {device}",
+        args.scene,
+        args.width,
+        args.height,
+        k = args.supersampling,
+        r = args.reference_supersampling
+    );
+    let trace_options = TraceOptions::default();
+    let start = Instant::now();
+    let reference = render_reference(&hybrid.trace, &reference_camera, &trace_options, &|_| {})?;
+    println!("reference traced in {:.1} s", start.elapsed().as_secs_f64());
+    let frame_options = FrameOptions {
+        hybrid: HybridOptions::default(),
+        variant: Variant::SinglePass,
+        format: TargetFormat::Rgba32f,
+    };
+    let judge = |runner: &mut FrameRunner, hybrid: &lensmap::hybrid::HybridScene| -> anyhow::Result<(f64, f64)> {
+        let frame = runner.frame(hybrid, &camera, &frame_options)?;
+        Ok((
+            lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db,
+            lens_error(&frame.image, &reference, Encoding::Linear)?.psnr_db,
+        ))
+    };
+    let (projected_srgb, projected_linear) = judge(&mut runner, &hybrid)?;
+    let records_start = Instant::now();
+    let records = compile_records(&hybrid.trace, &camera, &trace_options)?;
+    let records_ms = records_start.elapsed().as_secs_f64() * 1e3;
+    let options = InferOptions {
+        em_size: EmSize::Auto {
+            cap: args.max_em_size,
+        },
+        solve: lensmap_baker::solve::SolveOptions {
+            smoothness: args.smoothness,
+            tolerance: args.tolerance,
+            ..lensmap_baker::solve::SolveOptions::default()
+        },
+        ..InferOptions::default()
+    };
+    let mut lenses = Vec::new();
+    let mut inferred_maps = Vec::new();
+    for (lens, lens_records) in records.lenses.iter().enumerate() {
+        let name = lens_records.name.clone();
+        let mut times = Vec::new();
+        let mut last = None;
+        for _ in 0..args.runs.max(1) {
+            let inference = infer_lens(&mut runner, &hybrid, lens, &camera, lens_records, &options)?;
+            times.push(inference.total_ms);
+            last = Some(inference);
+        }
+        let Some(inference) = last else { continue };
+        let total_ms = median(&mut times);
+        println!(
+            "lens \"{name}\": EM {s}² (finest level read at {cap}²: {:?}; {} search renders), inference median {:.1} s of {} runs (frame {:.0} ms)",
+            inference.finest_level_at_cap,
+            inference.search_renders,
+            total_ms / 1e3,
+            times.len(),
+            inference.frame_ms,
+            s = inference.size,
+            cap = args.max_em_size,
+        );
+        for layer in &inference.layers {
+            println!(
+                "  layer {}: {} test renders, non-zeros {:?}, matrices {:.0} ms, targets {:.0} ms, solve {:.0} ms ({} iterations, residual {:.1e}, {} seen texels, {} pinned to range)",
+                layer.layer,
+                layer.renders,
+                layer.nonzeros,
+                layer.matrix_ms,
+                layer.targets_ms,
+                layer.solve.ms,
+                layer.solve.iterations,
+                layer.solve.relative_residual,
+                layer.solve.seen_texels,
+                layer.solve.clamped_texels
+            );
+        }
+        lenses.push(json!({
+            "lens": name,
+            "em_size": inference.size,
+            "finest_level_at_cap": inference.finest_level_at_cap,
+            "search_renders": inference.search_renders,
+            "median_ms": total_ms,
+            "ms": times,
+            "frame_ms": inference.frame_ms,
+            "layers": inference.layers,
+        }));
+        inferred_maps.push((lens, inference.maps));
+    }
+    for (lens, maps) in inferred_maps {
+        hybrid.lenses[lens].maps = vec![maps.into_iter().map(Arc::new).collect()];
+    }
+    let (inferred_srgb, inferred_linear) = judge(&mut runner, &hybrid)?;
+    println!(
+        "lens PSNR vs the {r}×{r} reference: projected {projected_srgb:.2} dB sRGB / {projected_linear:.2} dB linear; inferred {inferred_srgb:.2} dB sRGB / {inferred_linear:.2} dB linear ({:+.2} / {:+.2} dB); records {:.1} s",
+        inferred_srgb - projected_srgb,
+        inferred_linear - projected_linear,
+        records_ms / 1e3,
+        r = args.reference_supersampling
+    );
+    write_json(
+        &args.json,
+        &json!({
+            "scene": args.scene,
+            "device": device,
+            "width": args.width,
+            "height": args.height,
+            "supersampling": args.supersampling,
+            "reference_supersampling": args.reference_supersampling,
+            "records_ms": records_ms,
+            "lenses": lenses,
+            "lens_psnr_db": {
+                "projected": {"srgb": projected_srgb, "linear": projected_linear},
+                "inferred": {"srgb": inferred_srgb, "linear": inferred_linear},
+            },
+        }),
+    )?;
+    Ok(())
+}

@@ -6,7 +6,8 @@
 use glam::{Mat4, Vec3};
 use lensmap::cubemap::CubeMap;
 use lensmap::render::{
-    EnvironmentMesh, FrameInput, LensObject, Renderer, TargetFormat, TermVertices, Variant,
+    EnvironmentMesh, FrameInput, LensFaces, LensObject, Renderer, TargetFormat, TermVertices,
+    Variant,
     model::{ModelOptions, render_model_with},
 };
 use lensmap::trace::Term;
@@ -157,6 +158,7 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
             name: "sheet".into(),
             positions,
             triangles,
+            faces: LensFaces::Front,
             terms,
             layers: layer_maps,
         }],

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use super::{
     paths::{PathOracle, ScreenCamera, VertexPaths},
+    sky::SkyDome,
     tessellate::{TessellationError, TessellationOptions, tessellate},
     viewpoints,
 };
@@ -16,7 +17,7 @@ use crate::{
     cubemap::CubeMap,
     layers::LayerShell,
     options::OptionError,
-    render::{EnvironmentMesh, FrameInput, LensObject, TermVertices},
+    render::{EnvironmentMesh, FrameInput, LensFaces, LensObject, TermVertices},
     scene::{Camera, Scene},
     trace::{Ray, Term, bvh::SurfaceHit, stats::TraceCounters, world::TraceScene},
 };
@@ -58,8 +59,13 @@ pub struct HybridScene {
     pub viewpoints: Vec<DVec3>,
     /// Per lens object (TraceScene order).
     pub lenses: Vec<LensLayers>,
+    /// Per lens object (TraceScene order), which faces are traced and drawn (see
+    /// [`HybridScene::lens_faces`]).
+    pub faces: Vec<LensFaces>,
     /// The opaque environment for the GPU, flat-shaded pieces (see [`HybridScene::environment_meshes`]).
     pub environment: Vec<Arc<EnvironmentMesh>>,
+    /// The environment at infinity for the GPU, drawn behind everything; `None` when it is black.
+    pub sky: Option<SkyDome>,
 }
 
 /// The paper's angle threshold: outgoing rays further apart than this make vertices differ.
@@ -170,13 +176,17 @@ impl HybridScene {
             .map(|p| p.as_dvec3())
             .collect();
         let environment = Self::environment_meshes(&scene, &trace);
+        let faces = Self::lens_faces(&scene, &trace);
+        let sky = SkyDome::new(&trace);
         Ok((
             HybridScene {
                 scene,
                 trace,
                 viewpoints,
                 lenses,
+                faces,
                 environment,
+                sky,
             },
             rays,
         ))
@@ -211,12 +221,16 @@ impl HybridScene {
         }
         let viewpoints = bake.viewpoints.iter().map(|p| p.as_dvec3()).collect();
         let environment = Self::environment_meshes(&scene, &trace);
+        let faces = Self::lens_faces(&scene, &trace);
+        let sky = SkyDome::new(&trace);
         Ok(HybridScene {
             scene,
             trace,
             viewpoints,
             lenses,
+            faces,
             environment,
+            sky,
         })
     }
 
@@ -253,6 +267,31 @@ impl HybridScene {
                 })
                 .collect(),
         }
+    }
+
+    /// Which faces of each lens object (TraceScene order) are traced and drawn: both when any of
+    /// its meshes is open ([`crate::scene::TriangleMesh::is_closed`] says no), because the camera
+    /// can then see the inside of the surface (the Newell teapot between lid and rim), whose
+    /// back faces the reference tracer shades; front faces only for closed meshes, whose back
+    /// faces are hidden from any camera outside them, so they cost nothing.
+    pub fn lens_faces(scene: &Scene, trace: &TraceScene) -> Vec<LensFaces> {
+        trace
+            .lenses
+            .iter()
+            .map(|lens| {
+                let open = lens.objects.iter().any(|&object| {
+                    scene
+                        .objects
+                        .get(object)
+                        .is_some_and(|o| !o.mesh.is_closed())
+                });
+                if open {
+                    LensFaces::Both
+                } else {
+                    LensFaces::Front
+                }
+            })
+            .collect()
     }
 
     /// The opaque environment for the GPU: each environment triangle cut into pieces no longer
@@ -351,8 +390,9 @@ impl HybridScene {
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
         let k = camera.supersampling.max(1);
         let (width, height) = (camera.width * k, camera.height * k);
-        // The far plane just past the farthest scene point, so nothing the reference sees is clipped.
-        let far = self
+        // The far plane just past the farthest scene point, so nothing the reference sees is
+        // clipped; and past the sky dome beyond it when there is one.
+        let farthest = self
             .scene
             .objects
             .iter()
@@ -368,6 +408,11 @@ impl HybridScene {
             })
             .map(|corner| corner.distance(camera.position))
             .fold(1.0f32, f32::max);
+        let sky = self.sky.as_ref().map(|sky| {
+            let radius = SkyDome::radius_beyond(farthest);
+            (sky.mesh(camera.position, radius), radius)
+        });
+        let far = sky.as_ref().map_or(farthest, |(_, radius)| *radius);
         let view_proj = camera.view_proj(0.05, 1.01 * far + 1.0);
         let screen = ScreenCamera {
             eye: camera.position.as_dvec3(),
@@ -397,6 +442,7 @@ impl HybridScene {
             let mut positions: Vec<Vec3> = Vec::new();
             let mut triangles: Vec<[u32; 3]> = Vec::new();
             let mut samples: Vec<Option<VertexPaths>> = Vec::new();
+            let faces = self.faces.get(lens_index).copied().unwrap_or_default();
             for &object in &lens.objects {
                 let mesh = &self.scene.objects[object].mesh;
                 let oracle = PathOracle::new(
@@ -405,6 +451,7 @@ impl HybridScene {
                     object,
                     screen,
                     options.angle_radians,
+                    faces,
                 );
                 let start = Instant::now();
                 let tessellation = tessellate(mesh, &oracle, &options.tessellation)?;
@@ -435,7 +482,7 @@ impl HybridScene {
                 );
             }
             let start = Instant::now();
-            let object = texgen(
+            let mut object = texgen(
                 &self.trace,
                 lens_index,
                 layers,
@@ -444,6 +491,7 @@ impl HybridScene {
                 &samples,
                 &blend,
             );
+            object.faces = faces;
             stats.texgen_ms += start.elapsed().as_secs_f64() * 1e3;
             lenses.push(object);
         }
@@ -451,7 +499,12 @@ impl HybridScene {
             width,
             height,
             view_proj,
-            environment: self.environment.clone(),
+            environment: self
+                .environment
+                .iter()
+                .cloned()
+                .chain(sky.map(|(mesh, _)| mesh))
+                .collect(),
             lenses,
             viewpoint_weights: blend.samples.iter().map(|(_, w)| *w as f32).collect(),
         };
@@ -531,6 +584,7 @@ fn texgen(
         name: trace.lenses[lens].name.clone(),
         positions,
         triangles,
+        faces: LensFaces::Front,
         terms: term_vertices,
         layers: blend
             .samples

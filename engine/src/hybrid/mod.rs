@@ -5,6 +5,7 @@
 
 pub mod frame;
 pub mod paths;
+pub mod sky;
 pub mod tessellate;
 pub mod viewpoints;
 

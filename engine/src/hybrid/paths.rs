@@ -9,6 +9,7 @@ use glam::{DVec2, DVec3, Mat4, Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::tessellate::{SurfaceVertex, VertexEvaluation, VertexOracle, faces_eye};
+use crate::render::LensFaces;
 use crate::trace::{
     GreedyOptions, Ray, Term,
     bvh::SurfaceHit,
@@ -61,19 +62,23 @@ pub struct PathOracle<'a> {
     camera: ScreenCamera,
     /// cos of the largest angle between two vertices' outgoing rays before they count as different.
     cos_threshold: f64,
+    /// Which faces are evaluated: both for an open mesh, whose inside the camera can see.
+    faces: LensFaces,
     greedy: GreedyOptions,
     counters: Mutex<(TraceCounters, f64)>,
 }
 
 impl<'a> PathOracle<'a> {
     /// An oracle for scene object `object` of lens object `lens`; `angle_radians` is the paper's
-    /// 3° outgoing-direction threshold.
+    /// 3° outgoing-direction threshold; `faces` says whether back-facing triangles are evaluated
+    /// too ([`LensFaces::Both`], for an open mesh).
     pub fn new(
         trace: &'a TraceScene,
         lens: usize,
         object: usize,
         camera: ScreenCamera,
         angle_radians: f64,
+        faces: LensFaces,
     ) -> Self {
         PathOracle {
             trace,
@@ -81,6 +86,7 @@ impl<'a> PathOracle<'a> {
             object,
             camera,
             cos_threshold: angle_radians.cos(),
+            faces,
             greedy: GreedyOptions::default(),
             counters: Mutex::new((TraceCounters::default(), 0.0)),
         }
@@ -212,6 +218,10 @@ impl VertexOracle for PathOracle<'_> {
 
     fn front_facing(&self, corners: [Vec3; 3]) -> bool {
         faces_eye(corners, self.camera.eye.as_vec3())
+    }
+
+    fn evaluates_back_faces(&self) -> bool {
+        self.faces == LensFaces::Both
     }
 
     fn outside_view(&self, corners: [Vec3; 3]) -> bool {

@@ -12,7 +12,8 @@
 //!
 //! The per-vertex work (ray tracing in the runtime) is the caller's [`VertexOracle`]. Each vertex
 //! is evaluated exactly once: input vertices of front-facing triangles are evaluated up front
-//! (vertices whose triangles are all back-facing never are), and every midpoint is created once
+//! (vertices whose triangles are all back-facing never are, unless the oracle asks for back
+//! faces too: [`VertexOracle::evaluates_back_faces`]), and every midpoint is created once
 //! through an **edge hash table** keyed by the sorted vertex-index pair, so a neighbour that splits
 //! the same edge reuses the midpoint and its sample. Subdivision proceeds level by level and the
 //! new vertices of each level are handed to [`VertexOracle::evaluate_batch`] together, which a
@@ -145,6 +146,15 @@ pub trait VertexOracle {
     /// camera at `eye` this is [`faces_eye`].
     fn front_facing(&self, corners: [Vec3; 3]) -> bool;
 
+    /// Whether back-facing input triangles are evaluated and subdivided like front-facing ones
+    /// (they still count as back-facing in [`TessellationStats`]). An open surface can be seen
+    /// from behind (the inside of the teapot through the gap between lid and rim), so its back
+    /// faces must be shaded; a closed one cannot from outside, and skipping its back faces saves
+    /// their vertices. The default says no.
+    fn evaluates_back_faces(&self) -> bool {
+        false
+    }
+
     /// Whether the triangle with these world-space corners is certainly outside the view (all
     /// corners beyond one frustum plane): such a triangle covers no pixel and is not split. The
     /// default says no.
@@ -218,7 +228,8 @@ pub struct TriangleRecord {
 pub struct TessellationStats {
     /// Triangles in the input mesh.
     pub input_triangles: usize,
-    /// Input triangles that face the camera (and were considered for subdivision).
+    /// Input triangles that face the camera (and were considered for subdivision, as back-facing
+    /// ones are too when the oracle [evaluates back faces](VertexOracle::evaluates_back_faces)).
     pub front_facing_triangles: usize,
     /// Input triangles that face away (kept, apart from T-junction removal on shared edges).
     pub back_facing_triangles: usize,
@@ -458,8 +469,9 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
                 .front_facing(corners.map(|v| self.positions[v as usize]))
             {
                 self.stats.back_facing_triangles += 1;
-                Some(StopReason::BackFacing)
+                (!self.oracle.evaluates_back_faces()).then_some(StopReason::BackFacing)
             } else {
+                self.stats.front_facing_triangles += 1;
                 None
             };
             match stop {
@@ -470,7 +482,6 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
                     stop,
                 }),
                 None => {
-                    self.stats.front_facing_triangles += 1;
                     for v in corners {
                         if !marked[v as usize] {
                             marked[v as usize] = true;
@@ -841,6 +852,7 @@ mod tests {
         scale: Vec2,
         differ: bool,
         visible: bool,
+        back_faces: bool,
         evaluations: Cell<usize>,
     }
 
@@ -850,6 +862,7 @@ mod tests {
                 scale: Vec2::splat(scale),
                 differ,
                 visible: true,
+                back_faces: false,
                 evaluations: Cell::new(0),
             }
         }
@@ -872,6 +885,9 @@ mod tests {
         }
         fn front_facing(&self, corners: [Vec3; 3]) -> bool {
             faces_eye(corners, corners[0] + Vec3::Z)
+        }
+        fn evaluates_back_faces(&self) -> bool {
+            self.back_faces
         }
     }
 
@@ -992,6 +1008,41 @@ mod tests {
         let back: Vec<_> = out.triangles.iter().filter(|r| r.source == 1).collect();
         assert_eq!(back.len(), 4);
         assert!(back.iter().all(|r| r.stop == StopReason::BackFacing));
+        assert!((area(&out.mesh) - area(&input)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn an_oracle_that_evaluates_back_faces_gets_them_evaluated_and_split() {
+        // The folded mesh of the test above, for an open surface: the back-facing triangle is
+        // treated like a front-facing one (its own vertex evaluated, split where its vertices
+        // differ), and still counted as back-facing.
+        let input = mesh(
+            &[
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.2, 0.2, -0.5],
+            ],
+            &[[0, 1, 2], [1, 3, 2]],
+        );
+        let oracle = Flat {
+            back_faces: true,
+            ..Flat::new(8.0, true)
+        };
+        let out = tessellate(&input, &oracle, &options(3.0)).unwrap();
+        assert_eq!(
+            (
+                out.stats.back_facing_triangles,
+                out.stats.front_facing_triangles
+            ),
+            (1, 1)
+        );
+        assert!(out.vertices.iter().all(|v| v.evaluation.is_some()));
+        assert_eq!(out.stats.vertices_evaluated, out.vertices.len());
+        assert_eq!(oracle.evaluations.get(), out.vertices.len());
+        let back: Vec<_> = out.triangles.iter().filter(|r| r.source == 1).collect();
+        assert!(back.len() > 4, "the back face is split: {}", back.len());
+        assert!(back.iter().all(|r| r.stop != StopReason::BackFacing));
         assert!((area(&out.mesh) - area(&input)).abs() < 1e-6);
     }
 

@@ -24,6 +24,18 @@ pub struct TermVertices {
     pub directions: Vec<Vec<Vec3>>,
 }
 
+/// Which faces of a lens object's triangles the compositor draws.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum LensFaces {
+    /// Front faces only (back faces culled): a closed lens mesh seen from outside, whose back
+    /// faces are always hidden behind its front faces.
+    #[default]
+    Front,
+    /// Both faces: an open lens mesh whose inside can be seen (through the gap between a
+    /// teapot's lid and rim), with every triangle shaded, back-facing ones included.
+    Both,
+}
+
 /// A lens object: a triangle mesh whose vertices carry both terms' shading data.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LensObject {
@@ -31,8 +43,10 @@ pub struct LensObject {
     pub name: String,
     /// World-space vertex positions.
     pub positions: Vec<Vec3>,
-    /// Counter-clockwise (front-facing, seen from the camera) triangles.
+    /// Triangles, counter-clockwise seen from their front side.
     pub triangles: Vec<[u32; 3]>,
+    /// Which faces are drawn: back-facing triangles are culled unless [`LensFaces::Both`].
+    pub faces: LensFaces,
     /// The terms this object has: a mirror has only [`Term::Reflection`].
     pub terms: Vec<TermVertices>,
     /// `layers[viewpoint][layer]`: the layered EM of each viewpoint sample, nearest shell first.

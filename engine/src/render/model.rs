@@ -4,11 +4,12 @@
 //! What is modelled, in the order the GPU does it (see [`render_model`]):
 //! 1. colour cleared to (0,0,0,0), depth to 1;
 //! 2. environment meshes, no culling, depth test LESS with write, output (colour, 1);
-//! 3. per lens object: a prime pass (front faces, LESS, depth write, output (0,0,0,0)), then for
-//!    each viewpoint with a non-zero weight and each term the object has (refraction before
-//!    reflection) a group of n layer passes front to back (LESS_OR_EQUAL, no depth write, blend
-//!    `src·(1 − dstα) + dst` on colour and alpha, the shader emitting
-//!    `(texel.rgb · FG · w_v, texel.α)`), with an alpha clear between consecutive groups.
+//! 3. per lens object: a prime pass (front faces, or both for [`super::LensFaces::Both`]; LESS,
+//!    depth write, output (0,0,0,0)), then for each viewpoint with a non-zero weight and each
+//!    term the object has (refraction before reflection) a group of n layer passes front to back
+//!    (LESS_OR_EQUAL, no depth write, blend `src·(1 − dstα) + dst` on colour and alpha, the
+//!    shader emitting `(texel.rgb · FG · w_v, texel.α)`), with an alpha clear between
+//!    consecutive groups.
 //!
 //! Rasterization follows Vulkan: framebuffer coordinates with y down, pixel centres at
 //! (x + ½, y + ½), depth `z_clip/w_clip` interpolated linearly in screen space, attributes
@@ -382,7 +383,8 @@ struct ScreenTriangle {
     inv_w: [f64; 3],
     /// cross(p1 − p0, p2 − p0); Vulkan's signed area is −cross/2.
     cross: f64,
-    /// The passes draw it: environment triangles always, lens triangles when front-facing.
+    /// The passes draw it: environment triangles always, lens triangles when front-facing or
+    /// when their lens draws both faces.
     drawn: bool,
     /// Drawn, or so thin that a GPU's facing decision could differ (then every pixel it could
     /// cover is near one of its edges anyway).
@@ -522,7 +524,9 @@ impl<'a> FrameSetup<'a> {
         let front = cross < 0.0;
         let drawn = match source {
             Source::Environment { .. } => true,
-            Source::Lens { .. } => front,
+            Source::Lens { object } => {
+                front || self.frame.lenses[object].faces == super::LensFaces::Both
+            }
         };
         let longest = edge_length.iter().copied().fold(0.0, f64::max);
         let thin = cross.abs() / longest < self.options.edge_tolerance_px;
@@ -988,7 +992,7 @@ struct LensFragment {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::frame_input::{EnvironmentMesh, TermVertices};
+    use crate::render::frame_input::{EnvironmentMesh, LensFaces, TermVertices};
     use glam::{Mat4, Vec3};
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64;
@@ -1087,6 +1091,7 @@ mod tests {
             name: "square".into(),
             positions,
             triangles: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6]],
+            faces: LensFaces::Front,
             terms: vec![TermVertices {
                 term: Term::Reflection,
                 fg: vec![Vec3::new(0.5, 0.75, 1.0); 7],
@@ -1494,6 +1499,7 @@ mod tests {
                 name: "sphere".into(),
                 positions,
                 triangles,
+                faces: LensFaces::Front,
                 terms,
                 layers,
             }],

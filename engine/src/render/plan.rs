@@ -8,8 +8,8 @@ use crate::graph::{
     LoadOp, Pass, PassKind, Plan, StoreOp,
 };
 
-use super::FrameInput;
 use super::program::{ProgramError, ShaderProgram, SinglePassProgram};
+use super::{FrameInput, LensFaces};
 use crate::trace::Term;
 
 /// How lens objects are composited.
@@ -76,6 +76,8 @@ pub struct LensShape {
     pub name: String,
     /// Number of triangles (0 → no passes).
     pub triangles: usize,
+    /// Which faces are drawn: [`LensFaces::Both`] makes every lens pass cull nothing.
+    pub faces: LensFaces,
     /// The terms present, in group order (refraction before reflection).
     pub terms: Vec<Term>,
     /// `empty[viewpoint][layer]`: the layer's cube map is all zeros, so its pass changes nothing.
@@ -124,6 +126,7 @@ impl FrameShape {
                     LensShape {
                         name: lens.name.clone(),
                         triangles: lens.triangles.len(),
+                        faces: lens.faces,
                         terms,
                         empty: lens
                             .layers
@@ -165,6 +168,7 @@ impl FrameShape {
             lenses: vec![LensShape {
                 name: "lens".into(),
                 triangles: 1,
+                faces: LensFaces::Front,
                 terms: terms.to_vec(),
                 empty: vec![vec![false; layers]; viewpoints],
             }],
@@ -308,6 +312,10 @@ pub fn frame_graph(
             continue;
         }
         let name = &lens.name;
+        let cull = match lens.faces {
+            LensFaces::Front => Cull::Back,
+            LensFaces::Both => Cull::None,
+        };
         match variant {
             Variant::SinglePass => graph.add_pass(draw_pass(
                 format!("{name}/single-pass"),
@@ -320,7 +328,7 @@ pub fn frame_graph(
                 )?),
                 attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
                 depth_attach(LoadOp::Load, CompareOp::Less, true),
-                Cull::Back,
+                cull,
                 layers[lens_index].clone(),
                 vec![Draw::SinglePass { lens: lens_index }],
             )),
@@ -331,7 +339,7 @@ pub fn frame_graph(
                     ShaderProgram::LensZero,
                     attach(LoadOp::Load, Blend::Replace, ColourMask::RGBA),
                     depth_attach(LoadOp::Load, CompareOp::Less, true),
-                    Cull::Back,
+                    cull,
                     Vec::new(),
                     vec![Draw::LensZero { lens: lens_index }],
                 ));
@@ -346,7 +354,7 @@ pub fn frame_graph(
                                 ShaderProgram::LensZero,
                                 attach(LoadOp::Load, Blend::Replace, ColourMask::A),
                                 depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
-                                Cull::Back,
+                                cull,
                                 Vec::new(),
                                 vec![Draw::LensZero { lens: lens_index }],
                             ));
@@ -371,7 +379,7 @@ pub fn frame_graph(
                                 ShaderProgram::LensLayer,
                                 attach(LoadOp::Load, Blend::FrontToBackOver, ColourMask::RGBA),
                                 depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
-                                Cull::Back,
+                                cull,
                                 vec![layers[lens_index][viewpoint]],
                                 draws,
                             ));
@@ -479,6 +487,36 @@ mod tests {
         // One viewpoint × two terms × (3 − 1 empty) layers, one clear between the two groups.
         assert_eq!((p.count("layer"), p.count("alpha-clear")), (4, 1), "{p}");
         assert_eq!(p.culled.len(), 2, "{p}");
+    }
+
+    #[test]
+    fn a_lens_with_both_faces_culls_nothing_in_any_pass() {
+        for variant in [Variant::Multipass, Variant::SinglePass] {
+            for faces in [LensFaces::Front, LensFaces::Both] {
+                let mut shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
+                shape.lenses[0].faces = faces;
+                let (graph, _) = frame_graph(&shape, variant, TargetFormat::Rgba8).unwrap();
+                let lens_culls: Vec<(String, Cull)> = graph
+                    .passes()
+                    .iter()
+                    .filter_map(|pass| match &pass.kind {
+                        PassKind::Draw { cull, .. } if pass.category != "environment" => {
+                            Some((pass.name.clone(), *cull))
+                        }
+                        _ => None,
+                    })
+                    .collect();
+                let expected = match faces {
+                    LensFaces::Front => Cull::Back,
+                    LensFaces::Both => Cull::None,
+                };
+                assert!(!lens_culls.is_empty());
+                assert!(
+                    lens_culls.iter().all(|(_, cull)| *cull == expected),
+                    "{variant:?} {faces:?}: {lens_culls:?}"
+                );
+            }
+        }
     }
 
     /// The plans `lensmap passes` prints (its defaults: 640×480, RGBA8), n = 1…4, for one and two

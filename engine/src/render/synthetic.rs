@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 
 use glam::{DVec3, Mat4, Vec3};
 
-use super::{EnvironmentMesh, FrameInput, LensObject, TermVertices};
+use super::{EnvironmentMesh, FrameInput, LensFaces, LensObject, TermVertices};
 use crate::cubemap::CubeMap;
 use crate::{
     scene::Camera,
@@ -161,6 +161,7 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
             name: "sphere".into(),
             positions,
             triangles,
+            faces: LensFaces::Front,
             terms,
             layers,
         }],

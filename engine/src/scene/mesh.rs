@@ -344,32 +344,37 @@ impl TriangleMesh {
             .collect();
         self.repair_normals();
     }
+    /// Whether the surface is closed and consistently oriented: with vertices identified by their
+    /// positions quantized to 0.1 mm (so that meshes made of patches with duplicated seam
+    /// vertices count as one surface), every directed edge is used by exactly one triangle and
+    /// its reverse by exactly one other. An open mesh (a boundary, such as the Newell teapot's
+    /// rim) can be seen from behind; a closed one only from inside. Two positions that round
+    /// apart although they are the same to within 0.1 mm make a mesh count as open, never the
+    /// reverse.
+    pub fn is_closed(&self) -> bool {
+        let quantize = |p: Vec3| {
+            let q = (p * 1e4).round();
+            (q.x as i64, q.y as i64, q.z as i64)
+        };
+        let mut edges: HashMap<_, u32> = HashMap::new();
+        for tri in &self.triangles {
+            for e in 0..3 {
+                let a = quantize(self.positions[tri[e] as usize]);
+                let b = quantize(self.positions[tri[(e + 1) % 3] as usize]);
+                *edges.entry((a, b)).or_default() += 1;
+            }
+        }
+        !edges.is_empty()
+            && edges
+                .iter()
+                .all(|(&(a, b), &count)| count == 1 && edges.get(&(b, a)) == Some(&1))
+    }
 }
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
     use glam::{Quat, Vec3A};
-
-    /// Every edge, keyed by quantized end positions, is used by exactly two triangles in opposite
-    /// directions (a closed, consistently oriented surface).
-    pub(crate) fn is_closed(mesh: &TriangleMesh) -> bool {
-        let quantize = |p: Vec3| {
-            let q = (p * 1e4).round();
-            (q.x as i64, q.y as i64, q.z as i64)
-        };
-        let mut edges: HashMap<_, i32> = HashMap::new();
-        for tri in &mesh.triangles {
-            for e in 0..3 {
-                let a = quantize(mesh.positions[tri[e] as usize]);
-                let b = quantize(mesh.positions[tri[(e + 1) % 3] as usize]);
-                *edges.entry((a, b)).or_default() += 1;
-            }
-        }
-        edges
-            .iter()
-            .all(|(&(a, b), &count)| count == 1 && edges.get(&(b, a)) == Some(&1))
-    }
 
     /// Enclosed volume by the divergence theorem (positive when the front faces point out).
     pub(crate) fn signed_volume(mesh: &TriangleMesh) -> f64 {

@@ -208,7 +208,7 @@ pub fn torus(
 
 #[cfg(test)]
 mod tests {
-    use super::super::mesh::tests::{is_closed, signed_volume};
+    use super::super::mesh::tests::signed_volume;
     use super::*;
 
     fn assert_unit_outward(mesh: &TriangleMesh, centre_of: impl Fn(Vec3, Vec3) -> Vec3) {
@@ -236,7 +236,7 @@ mod tests {
             assert!((p.length() - 2.5).abs() < 1e-5);
         }
         assert_unit_outward(&mesh, |_, _| Vec3::ZERO);
-        assert!(is_closed(&mesh));
+        assert!(mesh.is_closed());
         // Inscribed polyhedron: a little less than 4/3 π r³.
         let exact = 4.0 / 3.0 * std::f64::consts::PI * 2.5f64.powi(3);
         let volume = signed_volume(&mesh);
@@ -251,7 +251,7 @@ mod tests {
         let mesh = cuboid(Vec3::new(1.0, 2.0, 3.0));
         assert_eq!(mesh.triangle_count(), 12);
         assert_unit_outward(&mesh, |_, _| Vec3::ZERO);
-        assert!(is_closed(&mesh));
+        assert!(mesh.is_closed());
         assert!((signed_volume(&mesh) - 6.0).abs() < 1e-5);
         let (lo, hi) = mesh.bounds().unwrap_or_default();
         assert_eq!(
@@ -271,17 +271,17 @@ mod tests {
                 Vec3::new(0.0, p.y, 0.0)
             }
         });
-        assert!(is_closed(&mesh));
+        assert!(mesh.is_closed());
         let prism = 0.5 * 32.0 * 0.25 * (TAU / 32.0).sin() as f64 * 2.0;
         assert!((signed_volume(&mesh) - prism).abs() < 1e-4);
-        assert!(!is_closed(&cylinder(0.5, 2.0, 32, false)));
+        assert!(!cylinder(0.5, 2.0, 32, false).is_closed());
     }
 
     #[test]
     fn torus_is_closed_with_pappus_volume() {
         let mesh = torus(2.0, 0.5, 64, 32);
         assert_unit_outward(&mesh, |p, _| Vec3::new(p.x, 0.0, p.z).normalize() * 2.0);
-        assert!(is_closed(&mesh));
+        assert!(mesh.is_closed());
         // Pappus: V = 2π R · π r².
         let exact = 2.0 * std::f64::consts::PI * 2.0 * std::f64::consts::PI * 0.25;
         let volume = signed_volume(&mesh);

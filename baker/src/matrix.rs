@@ -322,15 +322,17 @@ impl LayerFrames {
         let keep = |positions: &[glam::Vec3], triangles: &[[u32; 3]]| -> Vec<[u32; 3]> {
             triangles
                 .iter()
-                .filter(|t| match (lens_box, screen_box(frame, positions, std::iter::once(*t))) {
-                    (Some(lens), Some(own)) => {
-                        own.0.x <= lens.1.x
-                            && lens.0.x <= own.1.x
-                            && own.0.y <= lens.1.y
-                            && lens.0.y <= own.1.y
-                    }
-                    _ => true,
-                })
+                .filter(
+                    |t| match (lens_box, screen_box(frame, positions, std::iter::once(*t))) {
+                        (Some(lens), Some(own)) => {
+                            own.0.x <= lens.1.x
+                                && lens.0.x <= own.1.x
+                                && own.0.y <= lens.1.y
+                                && lens.0.y <= own.1.y
+                        }
+                        _ => true,
+                    },
+                )
                 .copied()
                 .collect()
         };
@@ -345,7 +347,9 @@ impl LayerFrames {
                 .iter()
                 .enumerate()
                 .filter(|(i, _)| *i != lens)
-                .map(|(_, other)| black(&other.positions, &keep(&other.positions, &other.triangles))),
+                .map(|(_, other)| {
+                    black(&other.positions, &keep(&other.positions, &other.triangles))
+                }),
         );
         Ok(LayerFrames {
             template: FrameInput {
@@ -396,6 +400,7 @@ impl LayerFrames {
                 directions: vec![directions.clone()],
             }],
             layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],
+            faces: self.lens.faces,
         });
         Ok(LayerFrame { frame, term, layer })
     }
@@ -413,7 +418,7 @@ fn screen_box<'a>(
     for t in triangles {
         for &i in t {
             let clip = frame.view_proj * positions[i as usize].extend(1.0);
-            if !(clip.w > 1e-6) {
+            if clip.w.is_nan() || clip.w <= 1e-6 {
                 return None;
             }
             let ndc = glam::Vec2::new(clip.x, clip.y) / clip.w;
@@ -580,22 +585,6 @@ impl RenderingMatrix {
     /// The number of non-zero entries.
     pub fn nnz(&self) -> usize {
         self.a.nnz()
-    }
-
-    /// The finest MIP level any pixel reads (with a weight above `threshold`); `None` when no
-    /// pixel reads the map at all.
-    pub fn finest_level(&self, threshold: f64) -> Option<usize> {
-        let mut finest: Option<usize> = None;
-        for (_, (_, column)) in self
-            .a
-            .iter()
-            .filter(|(v, _)| v.abs() > threshold)
-            .map(|(v, ij)| (v, ij))
-        {
-            let level = self.layout.texel(column).level;
-            finest = Some(finest.map_or(level, |f| f.min(level)));
-        }
-        finest
     }
 }
 

@@ -179,6 +179,16 @@ impl Smoothness {
 /// How far outside the range a texel may drift (rounding in CG) before it is pinned.
 const RANGE_SLACK: f64 = 1e-6;
 
+/// x ↦ N x, the normal equations' operator.
+type NormalOperator<'a> = dyn Fn(&[[f64; 4]]) -> Vec<[f64; 4]> + 'a;
+
+/// One term's rows scaled by its confidence: C A, its transpose (CSR), and C b.
+struct WeightedTerm {
+    ca: CsMat<f64>,
+    at: CsMat<f64>,
+    cb: Vec<[f64; 4]>,
+}
+
 /// Rounds of the range active set.
 const MAX_RANGE_ROUNDS: usize = 6;
 
@@ -196,14 +206,17 @@ fn dot(a: &[[f64; 4]], b: &[[f64; 4]]) -> [f64; 4] {
     a.par_iter()
         .zip(b)
         .map(|(a, b)| std::array::from_fn(|c| a[c] * b[c]))
-        .reduce(|| [0.0; 4], |s: [f64; 4], t| std::array::from_fn(|c| s[c] + t[c]))
+        .reduce(
+            || [0.0; 4],
+            |s: [f64; 4], t| std::array::from_fn(|c| s[c] + t[c]),
+        )
 }
 
 /// Preconditioned CG on the free entries of `x` (the `fixed` ones keep their value), the four
 /// channels as independent systems sharing the operator. Returns the iterations and the final
 /// worst relative residual.
 fn conjugate_gradient(
-    normal: &dyn Fn(&[[f64; 4]]) -> Vec<[f64; 4]>,
+    normal: &NormalOperator<'_>,
     rhs: &[[f64; 4]],
     preconditioner: &[f64],
     fixed: &[[bool; 4]],
@@ -226,7 +239,9 @@ fn conjugate_gradient(
     let rhs_norm = dot(&rhs_free, &rhs_free).map(|v| if v > 0.0 { v.sqrt() } else { 1.0 });
     let relative = |r: &[[f64; 4]]| {
         let rr = dot(r, r);
-        (0..4).map(|c| rr[c].sqrt() / rhs_norm[c]).fold(0.0, f64::max)
+        (0..4)
+            .map(|c| rr[c].sqrt() / rhs_norm[c])
+            .fold(0.0, f64::max)
     };
     let nx = normal(x);
     let mut r: Vec<[f64; 4]> = rhs
@@ -298,7 +313,7 @@ pub fn solve(
         )));
     }
     // Each term's rows scaled by its confidence: C A and C b.
-    let mut weighted: Vec<(CsMat<f64>, CsMat<f64>, Vec<[f64; 4]>)> = Vec::new();
+    let mut weighted: Vec<WeightedTerm> = Vec::new();
     for (t, e) in equations.iter().enumerate() {
         let rows = e.a.rows();
         if e.a.cols() != n || e.b.len() != rows || e.confidence.len() != rows {
@@ -329,12 +344,16 @@ pub fn solve(
                 .map(|(b, c)| b.map(|v| v * c))
                 .collect();
         let transposed = ca.transpose_view().to_csr();
-        weighted.push((ca, transposed, cb));
+        weighted.push(WeightedTerm {
+            ca,
+            at: transposed,
+            cb,
+        });
     }
     // Diagonal of Σ AᵀC²A: squared column norms.
     let mut data_diagonal = vec![0.0f64; n];
-    for (_, at, _) in &weighted {
-        for (column, row) in at.outer_iterator().enumerate() {
+    for term in &weighted {
+        for (column, row) in term.at.outer_iterator().enumerate() {
             data_diagonal[column] += row.data().iter().map(|v| v * v).sum::<f64>();
         }
     }
@@ -361,9 +380,9 @@ pub fn solve(
     // The normal operator N x = Σ AᵀC²A x + λ GᵀG x, and its right-hand side Σ AᵀC²b.
     let normal = |x: &[[f64; 4]]| -> Vec<[f64; 4]> {
         let mut y = vec![[0.0; 4]; n];
-        for (ca, at, _) in &weighted {
-            let ax = multiply(ca, x);
-            let part = multiply(at, &ax);
+        for term in &weighted {
+            let ax = multiply(&term.ca, x);
+            let part = multiply(&term.at, &ax);
             y.par_iter_mut().zip(part).for_each(|(y, p)| {
                 for c in 0..4 {
                     y[c] += p[c];
@@ -374,8 +393,8 @@ pub fn solve(
         y
     };
     let mut rhs = vec![[0.0; 4]; n];
-    for (_, at, cb) in &weighted {
-        for (r, p) in rhs.iter_mut().zip(multiply(at, cb)) {
+    for term in &weighted {
+        for (r, p) in rhs.iter_mut().zip(multiply(&term.at, &term.cb)) {
             for c in 0..4 {
                 r[c] += p[c];
             }
@@ -503,7 +522,7 @@ mod tests {
         // The harmonic fill of a closed surface with one pinned value is the constant: every
         // texel converges to the seen one (no NaN, no overshoot).
         for t in &x {
-            assert!((t[0] - 1.0).abs() < 1e-2 && t[0] <= 1.0 + 1e-9, "{t:?}");
+            assert!((t[0] - 1.0).abs() < 1e-2 && t[0] <= 1.0 + 1e-6, "{t:?}");
         }
     }
 }

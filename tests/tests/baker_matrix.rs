@@ -17,7 +17,7 @@ use lensmap::{
 use lensmap_baker::{
     infer::DeviceRenderer,
     matrix::{LayerFrames, MatrixError, RenderingMatrix, TestRenderer, TexelLayout},
-    solve::{Equations, SolveError, SolveOptions, Smoothness, solve},
+    solve::{Equations, Smoothness, SolveError, SolveOptions, solve},
 };
 use lensmap_tests::{assert_clean, gpu};
 use rand::{Rng, SeedableRng};
@@ -218,8 +218,7 @@ fn the_solver_inverts_the_matrix() {
     let matrices: Vec<RenderingMatrix> = terms
         .iter()
         .map(|&t| {
-            RenderingMatrix::measure(&mut device, &frames.layer(t, 1).unwrap(), size, 2)
-                .unwrap()
+            RenderingMatrix::measure(&mut device, &frames.layer(t, 1).unwrap(), size, 2).unwrap()
         })
         .collect();
     let layout = matrices[0].layout.clone();
@@ -251,7 +250,6 @@ fn the_solver_inverts_the_matrix() {
                 smoothness: 1e-6,
                 tolerance: 1e-9,
                 max_iterations: 20_000,
-                ..SolveOptions::default()
             },
         )
         .unwrap()
@@ -297,19 +295,36 @@ fn the_solver_inverts_the_matrix() {
     }
     // Smooth: the fill stays within the range of the observed values (a harmonic field obeys the
     // maximum principle), so no unseen texel overshoots.
-    let (lo, hi) = truth.iter().flatten().fold((f64::MAX, f64::MIN), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
+    let (lo, hi) = truth
+        .iter()
+        .flatten()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
     for &i in &unseen {
         for c in 0..4 {
-            assert!(x[i][c] >= lo - 1e-6 && x[i][c] <= hi + 1e-6, "unseen {:?}: {:?}", layout.texel(i), x[i]);
+            assert!(
+                x[i][c] >= lo - 1e-6 && x[i][c] <= hi + 1e-6,
+                "unseen {:?}: {:?}",
+                layout.texel(i),
+                x[i]
+            );
         }
     }
     // 5% Gaussian noise in b: the re-render is no further from the clean image than the noise.
     let noisy: Vec<Vec<[f64; 4]>> = clean
         .iter()
         .map(|b| {
-            let rms = (b.iter().flatten().map(|v| v * v).sum::<f64>() / (4 * b.len()) as f64).sqrt();
+            let rms =
+                (b.iter().flatten().map(|v| v * v).sum::<f64>() / (4 * b.len()) as f64).sqrt();
             b.iter()
-                .map(|p| p.map(|v| if v != 0.0 { v + 0.05 * rms * gaussian(&mut rng) } else { v }))
+                .map(|p| {
+                    p.map(|v| {
+                        if v != 0.0 {
+                            v + 0.05 * rms * gaussian(&mut rng)
+                        } else {
+                            v
+                        }
+                    })
+                })
                 .collect()
         })
         .collect();
@@ -319,7 +334,10 @@ fn the_solver_inverts_the_matrix() {
         let rerender = psnr_over(&m.apply(&xn), b, mask);
         let noise = psnr_over(bn, b, mask);
         println!("noisy: re-render vs clean {rerender:.1} dB, noise {noise:.1} dB");
-        assert!(rerender >= noise, "re-render {rerender:.1} dB worse than the noise {noise:.1} dB");
+        assert!(
+            rerender >= noise,
+            "re-render {rerender:.1} dB worse than the noise {noise:.1} dB"
+        );
     }
     assert_clean(runner.gpu());
 }
@@ -357,7 +375,10 @@ fn bad_input_is_an_error_not_a_panic() {
         &start,
         &SolveOptions::default(),
     );
-    assert!(matches!(mismatched, Err(SolveError::BadInput(_))), "{mismatched:?}");
+    assert!(
+        matches!(mismatched, Err(SolveError::BadInput(_))),
+        "{mismatched:?}"
+    );
     // NaN in a target.
     let nan = solve(
         &[Equations {

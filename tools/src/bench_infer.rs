@@ -24,7 +24,9 @@ use serde_json::json;
 use crate::common::{BadUsage, flag_error, write_json};
 
 #[derive(Args)]
-#[command(after_help = "Example:\n  lensmap bench infer --scene glass-sphere --width 320 --height 240")]
+#[command(
+    after_help = "Example:\n  lensmap bench infer --scene glass-sphere --width 320 --height 240"
+)]
 pub struct BenchInferArgs {
     /// Built-in scene name or path.
     #[arg(long, default_value = "teapot-room")]
@@ -64,7 +66,11 @@ pub struct BenchInferArgs {
 pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
-    if args.width == 0 || args.height == 0 || args.supersampling == 0 || args.reference_supersampling == 0 {
+    if args.width == 0
+        || args.height == 0
+        || args.supersampling == 0
+        || args.reference_supersampling == 0
+    {
         return Err(BadUsage(format!(
             "--width {} --height {} --supersampling {} --reference-supersampling {}: give values ≥ 1",
             args.width, args.height, args.supersampling, args.reference_supersampling
@@ -105,7 +111,9 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         variant: Variant::SinglePass,
         format: TargetFormat::Rgba32f,
     };
-    let judge = |runner: &mut FrameRunner, hybrid: &lensmap::hybrid::HybridScene| -> anyhow::Result<(f64, f64)> {
+    let judge = |runner: &mut FrameRunner,
+                 hybrid: &lensmap::hybrid::HybridScene|
+     -> anyhow::Result<(f64, f64)> {
         let frame = runner.frame(hybrid, &camera, &frame_options)?;
         Ok((
             lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db,
@@ -134,7 +142,8 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..args.runs.max(1) {
-            let inference = infer_lens(&mut runner, &hybrid, lens, &camera, lens_records, &options)?;
+            let inference =
+                infer_lens(&mut runner, &hybrid, lens, &camera, lens_records, &options)?;
             times.push(inference.total_ms);
             last = Some(inference);
         }

@@ -11,7 +11,7 @@ use lensmap::{
     render::{FrameInput, TargetFormat, Variant},
     runner::FrameRunner,
     scene::Camera,
-    trace::{LensRecords, Term},
+    trace::LensRecords,
 };
 
 use crate::{
@@ -33,12 +33,12 @@ pub struct DeviceRenderer<'a> {
 }
 
 impl TestRenderer for DeviceRenderer<'_> {
-    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f64; 4]>, MatrixError> {
-        let image = self
+    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f32; 4]>, MatrixError> {
+        Ok(self
             .runner
             .render(frame, self.variant, TargetFormat::Rgba32f)
-            .map_err(|e| MatrixError::Render(e.to_string()))?;
-        Ok(image.pixels.iter().map(|p| p.map(f64::from)).collect())
+            .map_err(|e| MatrixError::Render(e.to_string()))?
+            .pixels)
     }
 }
 
@@ -154,12 +154,12 @@ pub struct Inference {
 /// reads the map. Returns the level and the renders made.
 pub fn finest_level_read(
     renderer: &mut dyn TestRenderer,
-    layer: &LayerFrame,
+    layer: &mut LayerFrame,
     size: u32,
 ) -> Result<(Option<usize>, usize), MatrixError> {
     let layout = TexelLayout::new(size);
     let base =
-        renderer.render(&layer.with_em(std::sync::Arc::new(CubeMap::uniform(size, [0.0; 4]))))?;
+        renderer.render(layer.with_em(std::sync::Arc::new(CubeMap::uniform(size, [0.0; 4]))))?;
     let mut renders = 1;
     for first in (0..layout.levels()).step_by(4) {
         let mut x = vec![[0.0f64; 4]; layout.len()];
@@ -168,10 +168,10 @@ pub fn finest_level_read(
                 x[column][level - first] = 1.0;
             }
         }
-        let pixels = renderer.render(&layer.with_em(std::sync::Arc::new(layout.to_cube(&x))))?;
+        let pixels = renderer.render(layer.with_em(std::sync::Arc::new(layout.to_cube(&x))))?;
         renders += 1;
         for c in 0..4 {
-            if pixels.iter().zip(&base).any(|(p, b)| p[c] - b[c] != 0.0) {
+            if pixels.iter().zip(&base).any(|(p, b)| p[c] != b[c]) {
                 return Ok((Some(first + c), renders));
             }
         }
@@ -228,7 +228,7 @@ pub fn infer_lens(
             for &term in &terms {
                 for layer in 0..n {
                     let (level, made) =
-                        finest_level_read(&mut renderer, &frames.layer(term, layer)?, cap)?;
+                        finest_level_read(&mut renderer, &mut frames.layer(term, layer)?, cap)?;
                     renders += made;
                     if let Some(level) = level {
                         finest = Some(finest.map_or(level, |f: usize| f.min(level)));
@@ -272,7 +272,7 @@ pub fn infer_lens(
         let matrices: Vec<RenderingMatrix> = terms
             .iter()
             .map(|&term| {
-                RenderingMatrix::measure(&mut renderer, &frames.layer(term, layer)?, size, k)
+                RenderingMatrix::measure(&mut renderer, &mut frames.layer(term, layer)?, size, k)
             })
             .collect::<Result<_, _>>()?;
         let matrix_ms = matrix_start.elapsed().as_secs_f64() * 1e3;
@@ -328,13 +328,4 @@ fn resampled(cube: &CubeMap, size: u32) -> CubeMap {
     CubeMap::from_fn(size, |direction| {
         sample_cube_trilinear(cube, direction, 0.0).map(|v| v as f32)
     })
-}
-
-/// The terms of a lens object, in the order the compositor draws them.
-pub fn lens_terms(frame: &FrameInput, lens: usize) -> Vec<Term> {
-    frame
-        .lenses
-        .get(lens)
-        .map(|l| l.terms.iter().map(|t| t.term).collect())
-        .unwrap_or_default()
 }

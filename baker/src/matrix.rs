@@ -262,8 +262,9 @@ impl Subsets {
 /// Renders frames at framebuffer resolution: the Vulkan device (through
 /// [`lensmap::runner::FrameRunner::render`]) in the baker, or a CPU model in tests.
 pub trait TestRenderer {
-    /// The frame's framebuffer pixels, row-major, premultiplied RGBA.
-    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f64; 4]>, MatrixError>;
+    /// The frame's framebuffer pixels, row-major, premultiplied RGBA (f32, as the RGBA32F
+    /// target holds them).
+    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f32; 4]>, MatrixError>;
 }
 
 /// The frame whose lens pixels are `base + A x`: one lens object, one term, one layer, F·G = 1,
@@ -278,11 +279,11 @@ pub struct LayerFrame {
 }
 
 impl LayerFrame {
-    /// The layer frame with `em` as the layer's cube map.
-    pub fn with_em(&self, em: Arc<CubeMap>) -> FrameInput {
-        let mut frame = self.frame.clone();
-        frame.lenses[0].layers = vec![vec![em]];
-        frame
+    /// The layer frame with `em` as the layer's cube map (set in place: test renderings change
+    /// only the map, never copy the lens mesh).
+    pub fn with_em(&mut self, em: Arc<CubeMap>) -> &FrameInput {
+        self.frame.lenses[0].layers = vec![vec![em]];
+        &self.frame
     }
 
     /// Framebuffer width and height.
@@ -449,7 +450,7 @@ impl RenderingMatrix {
     /// framebuffer is `k`× the display resolution per axis (supersampling), box-filtered.
     pub fn measure(
         renderer: &mut dyn TestRenderer,
-        layer: &LayerFrame,
+        layer: &mut LayerFrame,
         size: u32,
         k: u32,
     ) -> Result<RenderingMatrix, MatrixError> {
@@ -471,7 +472,7 @@ impl RenderingMatrix {
         let mut renders = 0;
         let mut render = |cube: CubeMap, renders: &mut usize| {
             *renders += 1;
-            let pixels = renderer.render(&layer.with_em(Arc::new(cube)))?;
+            let pixels = renderer.render(layer.with_em(Arc::new(cube)))?;
             if pixels.len() != (fb_width * fb_height) as usize {
                 return Err(MatrixError::Render(format!(
                     "{} pixels read back for a {fb_width}×{fb_height} framebuffer",
@@ -499,7 +500,7 @@ impl RenderingMatrix {
                 .enumerate()
                 .flat_map_iter(|(i, (w, b))| {
                     (0..CHANNELS).filter_map(move |c| {
-                        let weight = w[c] - b[c];
+                        let weight = f64::from(w[c]) - f64::from(b[c]);
                         (weight != 0.0).then_some((i, c, weight))
                     })
                 })
@@ -510,7 +511,8 @@ impl RenderingMatrix {
                 let decoded: Vec<Result<usize, MatrixError>> = lit
                     .par_iter()
                     .map(|&(i, c, weight)| {
-                        let ratio = (values[i][c] - base_fb[i][c]) / weight;
+                        let ratio =
+                            (f64::from(values[i][c]) - f64::from(base_fb[i][c])) / weight;
                         let value = (-ratio.log2()).round();
                         let problem = |what: String| MatrixError::Decode {
                             x: i as u32 % fb_width,
@@ -556,7 +558,7 @@ impl RenderingMatrix {
         for (i, b) in base_fb.iter().enumerate() {
             let target = &mut base[display_pixel(i)];
             for c in 0..CHANNELS {
-                target[c] += b[c] * scale;
+                target[c] += f64::from(b[c]) * scale;
             }
         }
         Ok(RenderingMatrix {
@@ -588,17 +590,17 @@ impl RenderingMatrix {
     }
 }
 
-/// `m x` for a CSR matrix and a vector of RGBA.
+/// `m x` for a CSR matrix and a vector of RGBA, rows in parallel.
 pub fn multiply(m: &CsMat<f64>, x: &[[f64; 4]]) -> Vec<[f64; 4]> {
     debug_assert!(m.is_csr());
-    m.outer_iterator()
-        .collect::<Vec<_>>()
-        .par_iter()
+    let (indptr, indices, data) = (m.indptr(), m.indices(), m.data());
+    (0..m.rows())
+        .into_par_iter()
         .map(|row| {
             let mut sum = [0.0; 4];
-            for (column, &value) in row.iter() {
+            for k in indptr.outer_inds_sz(row) {
                 for c in 0..CHANNELS {
-                    sum[c] += value * x[column][c];
+                    sum[c] += data[k] * x[indices[k]][c];
                 }
             }
             sum

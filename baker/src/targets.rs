@@ -13,7 +13,7 @@
 
 use glam::DVec3;
 use lensmap::{
-    layers::LayerShell,
+    layers::{LayerShell, projected::layer_range},
     trace::{LensRecords, Term},
 };
 
@@ -101,17 +101,8 @@ pub fn term_targets(
             })
             .collect();
         let hits = records.hits_of(record);
-        for layer in 0..n {
-            let start = if layer == 0 {
-                0.0
-            } else {
-                0.5 * (distances[layer - 1] + distances[layer])
-            };
-            let end = if layer + 1 == n {
-                f64::INFINITY
-            } else {
-                0.5 * (distances[layer] + distances[layer + 1])
-            };
+        for (layer, image) in layers.iter_mut().enumerate() {
+            let (start, end) = layer_range(&distances, layer);
             let hit = hits
                 .iter()
                 .find(|h| h.distance > start && h.distance <= end)
@@ -121,7 +112,7 @@ pub fn term_targets(
                 None if layer + 1 == n => record.background,
                 None => continue,
             };
-            let target = &mut layers[layer][pixel];
+            let target = &mut image[pixel];
             target[0] += radiance.x * scale;
             target[1] += radiance.y * scale;
             target[2] += radiance.z * scale;

@@ -61,8 +61,12 @@ fn random_em(rng: &mut Pcg64, layout: &TexelLayout) -> Vec<[f64; 4]> {
 struct ModelRenderer;
 
 impl TestRenderer for ModelRenderer {
-    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f64; 4]>, MatrixError> {
-        Ok(render_model_with(frame, &ModelOptions::lavapipe()).rgba)
+    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f32; 4]>, MatrixError> {
+        Ok(render_model_with(frame, &ModelOptions::lavapipe())
+            .rgba
+            .iter()
+            .map(|p| p.map(|v| v as f32))
+            .collect())
     }
 }
 
@@ -77,13 +81,14 @@ fn the_matrix_is_the_hardware() {
         for variant in [Variant::Multipass, Variant::SinglePass] {
             for term in frames.terms() {
                 for layer in if n > 1 { vec![0, n - 1] } else { vec![0] } {
-                    let layer_frame = frames.layer(term, layer).unwrap();
+                    let mut layer_frame = frames.layer(term, layer).unwrap();
                     let mut device = DeviceRenderer {
                         runner: &mut runner,
                         variant,
                     };
                     let matrix =
-                        RenderingMatrix::measure(&mut device, &layer_frame, EM_SIZE, 2).unwrap();
+                        RenderingMatrix::measure(&mut device, &mut layer_frame, EM_SIZE, 2)
+                            .unwrap();
                     let case = format!("{name} {variant:?} {term:?} layer {layer}");
                     let lens_pixels = matrix.coverage().iter().filter(|c| **c > 0.0).count();
                     assert!(lens_pixels > 100, "{case}: {lens_pixels} lens pixels");
@@ -92,7 +97,7 @@ fn the_matrix_is_the_hardware() {
                         let x = random_em(&mut rng, &matrix.layout);
                         let image = runner
                             .render(
-                                &layer_frame.with_em(Arc::new(matrix.layout.to_cube(&x))),
+                                layer_frame.with_em(Arc::new(matrix.layout.to_cube(&x))),
                                 variant,
                                 TargetFormat::Rgba32f,
                             )
@@ -135,15 +140,15 @@ fn the_matrix_agrees_with_the_f64_model() {
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let (_, frame, _) = frame_of("teapot-room", (96, 72, 1));
     let frames = LayerFrames::new(&frame, 0).unwrap();
-    let layer_frame = frames.layer(frames.terms()[0], 0).unwrap();
+    let mut layer_frame = frames.layer(frames.terms()[0], 0).unwrap();
     let mut device = DeviceRenderer {
         runner: &mut runner,
         variant: Variant::Multipass,
     };
-    let hardware = RenderingMatrix::measure(&mut device, &layer_frame, EM_SIZE, 1).unwrap();
-    let model = RenderingMatrix::measure(&mut ModelRenderer, &layer_frame, EM_SIZE, 1).unwrap();
+    let hardware = RenderingMatrix::measure(&mut device, &mut layer_frame, EM_SIZE, 1).unwrap();
+    let model = RenderingMatrix::measure(&mut ModelRenderer, &mut layer_frame, EM_SIZE, 1).unwrap();
     let excluded = render_model_with(
-        &layer_frame.with_em(Arc::new(CubeMap::uniform(EM_SIZE, [0.5; 4]))),
+        layer_frame.with_em(Arc::new(CubeMap::uniform(EM_SIZE, [0.5; 4]))),
         &ModelOptions::lavapipe(),
     )
     .exclusion;
@@ -218,7 +223,8 @@ fn the_solver_inverts_the_matrix() {
     let matrices: Vec<RenderingMatrix> = terms
         .iter()
         .map(|&t| {
-            RenderingMatrix::measure(&mut device, &frames.layer(t, 1).unwrap(), size, 2).unwrap()
+            RenderingMatrix::measure(&mut device, &mut frames.layer(t, 1).unwrap(), size, 2)
+                .unwrap()
         })
         .collect();
     let layout = matrices[0].layout.clone();

@@ -482,16 +482,18 @@ impl HybridScene {
                 );
             }
             let start = Instant::now();
-            let mut object = texgen(
+            let object = texgen(
                 &self.trace,
                 lens_index,
                 layers,
-                positions,
-                triangles,
+                LensMesh {
+                    positions,
+                    triangles,
+                    faces,
+                },
                 &samples,
                 &blend,
             );
-            object.faces = faces;
             stats.texgen_ms += start.elapsed().as_secs_f64() * 1e3;
             lenses.push(object);
         }
@@ -512,6 +514,13 @@ impl HybridScene {
     }
 }
 
+/// A lens object's tessellated mesh and the faces its passes draw.
+struct LensMesh {
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    faces: LensFaces,
+}
+
 /// Texture coordinates: each vertex's outgoing ray per term against each layer shell gives the
 /// cube-map direction `hit − EM origin`; F·G per term. Vertices with no path (back-facing only,
 /// or no refraction at the first interface) get F·G = 0 and their reflection's direction.
@@ -519,11 +528,15 @@ fn texgen(
     trace: &TraceScene,
     lens: usize,
     layers: &LensLayers,
-    positions: Vec<Vec3>,
-    triangles: Vec<[u32; 3]>,
+    mesh: LensMesh,
     samples: &[Option<VertexPaths>],
     blend: &viewpoints::ViewpointBlend,
 ) -> LensObject {
+    let LensMesh {
+        positions,
+        triangles,
+        faces,
+    } = mesh;
     let has = |wanted: fn(&crate::trace::Interface) -> bool| {
         trace.lenses[lens]
             .objects
@@ -584,7 +597,7 @@ fn texgen(
         name: trace.lenses[lens].name.clone(),
         positions,
         triangles,
-        faces: LensFaces::Front,
+        faces,
         terms: term_vertices,
         layers: blend
             .samples

@@ -161,6 +161,24 @@ fn texel_directions(size: u32, k: u32) -> Vec<DVec3> {
     directions
 }
 
+/// The distance range along a ray that layer `layer` holds, given the distances `distances` along
+/// that ray to every shell (nearest shell first, ∞ for a miss): from the midpoint with the previous
+/// shell (0 for the first) to the midpoint with the next (∞ for the last). The one rule the
+/// projected EMs and the baker's targets both split rays by.
+pub fn layer_range(distances: &[f64], layer: usize) -> (f64, f64) {
+    let start = if layer == 0 {
+        0.0
+    } else {
+        0.5 * (distances[layer - 1] + distances[layer])
+    };
+    let end = if layer + 1 >= distances.len() {
+        f64::INFINITY
+    } else {
+        0.5 * (distances[layer] + distances[layer + 1])
+    };
+    (start, end)
+}
+
 /// Distance along the unit ray from `origin` to `shell`, ∞ when it misses.
 fn shell_distance(shell: &LayerShell, origin: DVec3, direction: DVec3) -> f64 {
     shell
@@ -217,17 +235,8 @@ pub fn project_layers(
                     .iter()
                     .map(|s| shell_distance(s, origin, d))
                     .collect();
-                for layer in 0..n {
-                    let start = if layer == 0 {
-                        0.0
-                    } else {
-                        0.5 * (distances[layer - 1] + distances[layer])
-                    };
-                    let end = if layer + 1 == n {
-                        f64::INFINITY
-                    } else {
-                        0.5 * (distances[layer] + distances[layer + 1])
-                    };
+                for (layer, sum) in sums.iter_mut().enumerate() {
+                    let (start, end) = layer_range(&distances, layer);
                     if start.partial_cmp(&end) != Some(std::cmp::Ordering::Less) {
                         continue;
                     }
@@ -246,7 +255,6 @@ pub fn project_layers(
                         None => None,
                     };
                     if let Some(radiance) = radiance {
-                        let sum = &mut sums[layer];
                         sum[0] += radiance.x;
                         sum[1] += radiance.y;
                         sum[2] += radiance.z;

@@ -206,10 +206,10 @@ pub fn infer_lens(
         .frame(camera, &options.hybrid)
         .map_err(|e| InferError::Frame(e.to_string()))?;
     let frame_ms = start.elapsed().as_secs_f64() * 1e3;
-    let frames = LayerFrames::new(&frame, lens)?;
+    let k = camera.supersampling.max(1);
+    let frames = LayerFrames::new(&frame, lens, k)?;
     let terms = frames.terms();
     let n = layers.shells.len();
-    let k = camera.supersampling.max(1);
     let mut renderer = DeviceRenderer {
         runner,
         variant: options.variant,

@@ -272,6 +272,8 @@ pub trait TestRenderer {
 #[derive(Clone, Debug)]
 pub struct LayerFrame {
     frame: FrameInput,
+    /// Where the (cropped) framebuffer lies in the runtime frame's.
+    crop: Crop,
     /// The term.
     pub term: Term,
     /// The layer.
@@ -286,9 +288,112 @@ impl LayerFrame {
         &self.frame
     }
 
-    /// Framebuffer width and height.
+    /// Framebuffer width and height (the crop's).
     pub fn size(&self) -> (u32, u32) {
         (self.frame.width, self.frame.height)
+    }
+
+    /// Where the framebuffer lies in the runtime frame's.
+    pub fn crop(&self) -> Crop {
+        self.crop
+    }
+
+    /// A rendering of this frame box-filtered by `k` and placed in the runtime frame's display
+    /// image (zero outside the crop): what `base + A x` is compared with.
+    pub fn to_display(&self, pixels: &[[f32; 4]], k: u32) -> Vec<[f64; 4]> {
+        let k = k.max(1);
+        let crop = self.crop;
+        let display = (crop.full.0 / k, crop.full.1 / k);
+        let scale = 1.0 / f64::from(k * k);
+        let mut image = vec![[0.0f64; 4]; (display.0 * display.1) as usize];
+        for (i, p) in pixels.iter().enumerate() {
+            let target = &mut image[crop.display_pixel(i, k)];
+            for c in 0..CHANNELS {
+                target[c] += f64::from(p[c]) * scale;
+            }
+        }
+        image
+    }
+}
+
+/// A rectangle of the runtime frame's framebuffer, in pixels, aligned to the supersampling so
+/// that it holds whole display pixels. Test renderings draw only it: the lens object's screen
+/// box (what lies outside has no lens pixel), with the projection shifted and scaled so that
+/// every pixel centre is where it was.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Crop {
+    /// Left column.
+    pub x: u32,
+    /// Top row.
+    pub y: u32,
+    /// Width.
+    pub width: u32,
+    /// Height.
+    pub height: u32,
+    /// The runtime frame's framebuffer width and height.
+    pub full: (u32, u32),
+}
+
+impl Crop {
+    /// The crop around NDC box `bounds` (the whole frame when `None`), widened by a pixel and
+    /// aligned to multiples of `k`.
+    fn around(bounds: Option<(glam::Vec2, glam::Vec2)>, full: (u32, u32), k: u32) -> Crop {
+        let whole = Crop {
+            x: 0,
+            y: 0,
+            width: full.0,
+            height: full.1,
+            full,
+        };
+        let Some((lo, hi)) = bounds else {
+            return whole;
+        };
+        let to_pixels = |ndc: f32, size: u32| (ndc + 1.0) * 0.5 * size as f32;
+        let span = |lo: f32, hi: f32, size: u32| -> (u32, u32) {
+            let start = (to_pixels(lo, size).floor() - 1.0).clamp(0.0, size as f32) as u32;
+            let end = (to_pixels(hi, size).ceil() + 1.0).clamp(0.0, size as f32) as u32;
+            let start = start / k * k;
+            let end = end.div_ceil(k) * k;
+            (start, end.min(size).max(start))
+        };
+        let (x0, x1) = span(lo.x, hi.x, full.0);
+        let (y0, y1) = span(lo.y, hi.y, full.1);
+        if x1 == x0 || y1 == y0 {
+            return whole;
+        }
+        Crop {
+            x: x0,
+            y: y0,
+            width: x1 - x0,
+            height: y1 - y0,
+            full,
+        }
+    }
+
+    /// Clip space of the full frame → clip space of the crop: pixel (x + i, y + j) of the full
+    /// framebuffer becomes pixel (i, j).
+    fn clip_transform(&self) -> glam::Mat4 {
+        let (full_w, full_h) = (self.full.0 as f32, self.full.1 as f32);
+        let (w, h) = (self.width as f32, self.height as f32);
+        let sx = full_w / w;
+        let sy = full_h / h;
+        let tx = (full_w - 2.0 * self.x as f32) / w - 1.0;
+        let ty = (full_h - 2.0 * self.y as f32) / h - 1.0;
+        glam::Mat4::from_cols(
+            glam::Vec4::new(sx, 0.0, 0.0, 0.0),
+            glam::Vec4::new(0.0, sy, 0.0, 0.0),
+            glam::Vec4::new(0.0, 0.0, 1.0, 0.0),
+            glam::Vec4::new(tx, ty, 0.0, 1.0),
+        )
+    }
+
+    /// The display pixel (of the full frame, box filter `k`) of crop pixel index `i`.
+    pub fn display_pixel(&self, i: usize, k: u32) -> usize {
+        let (x, y) = (
+            self.x + i as u32 % self.width,
+            self.y + i as u32 / self.width,
+        );
+        ((y / k) * (self.full.0 / k) + x / k) as usize
     }
 }
 
@@ -297,12 +402,14 @@ impl LayerFrame {
 pub struct LayerFrames {
     template: FrameInput,
     lens: LensObject,
+    crop: Crop,
 }
 
 impl LayerFrames {
-    /// From a runtime frame (as [`lensmap::hybrid::HybridScene::frame`] builds it) and the index
-    /// of the lens object in it. Other lens objects become black occluders.
-    pub fn new(frame: &FrameInput, lens: usize) -> Result<LayerFrames, MatrixError> {
+    /// From a runtime frame (as [`lensmap::hybrid::HybridScene::frame`] builds it, supersampled
+    /// `k`×`k`) and the index of the lens object in it. Other lens objects become black
+    /// occluders; the framebuffer is cropped to the lens object's screen box ([`Crop`]).
+    pub fn new(frame: &FrameInput, lens: usize, k: u32) -> Result<LayerFrames, MatrixError> {
         let Some(object) = frame.lenses.get(lens) else {
             return Err(MatrixError::BadInput(format!(
                 "lens {lens} does not exist; the frame has {} lens objects",
@@ -352,16 +459,25 @@ impl LayerFrames {
                     black(&other.positions, &keep(&other.positions, &other.triangles))
                 }),
         );
+        let k = k.max(1);
+        if !frame.width.is_multiple_of(k) || !frame.height.is_multiple_of(k) {
+            return Err(MatrixError::BadInput(format!(
+                "framebuffer {}×{} is not a multiple of the supersampling {k}",
+                frame.width, frame.height
+            )));
+        }
+        let crop = Crop::around(lens_box, (frame.width, frame.height), k);
         Ok(LayerFrames {
             template: FrameInput {
-                width: frame.width,
-                height: frame.height,
-                view_proj: frame.view_proj,
+                width: crop.width,
+                height: crop.height,
+                view_proj: crop.clip_transform() * frame.view_proj,
                 environment,
                 lenses: Vec::new(),
                 viewpoint_weights: vec![1.0],
             },
             lens: object.clone(),
+            crop,
         })
     }
 
@@ -403,7 +519,12 @@ impl LayerFrames {
             layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],
             faces: self.lens.faces,
         });
-        Ok(LayerFrame { frame, term, layer })
+        Ok(LayerFrame {
+            frame,
+            crop: self.crop,
+            term,
+            layer,
+        })
     }
 }
 
@@ -435,7 +556,8 @@ fn screen_box<'a>(
 pub struct RenderingMatrix {
     /// Display pixels × texels, CSR. Entries are filter weights / k² (box filter included).
     pub a: CsMat<f64>,
-    /// The layer frame of the all-zero EM at display resolution: the frame is `base + A x`.
+    /// The layer frame of the all-zero EM at display resolution (zero outside the crop): the
+    /// frame ([`LayerFrame::to_display`]) is `base + A x`.
     pub base: Vec<[f64; 4]>,
     /// Column layout.
     pub layout: TexelLayout,
@@ -461,12 +583,14 @@ impl RenderingMatrix {
         }
         let k = k.max(1);
         let (fb_width, fb_height) = layer.size();
-        if !fb_width.is_multiple_of(k) || !fb_height.is_multiple_of(k) {
+        let crop = layer.crop();
+        if !crop.full.0.is_multiple_of(k) || !crop.full.1.is_multiple_of(k) {
             return Err(MatrixError::BadInput(format!(
-                "framebuffer {fb_width}×{fb_height} is not a multiple of the supersampling {k}"
+                "framebuffer {}×{} is not a multiple of the supersampling {k}",
+                crop.full.0, crop.full.1
             )));
         }
-        let display = (fb_width / k, fb_height / k);
+        let display = (crop.full.0 / k, crop.full.1 / k);
         let layout = TexelLayout::new(size);
         let subsets = Subsets::new(&layout);
         let mut renders = 0;
@@ -484,10 +608,7 @@ impl RenderingMatrix {
         let base_fb = render(CubeMap::uniform(size, [0.0; 4]), &mut renders)?;
         let mut triplets: Vec<(usize, usize, f64)> = Vec::new();
         let scale = 1.0 / f64::from(k * k);
-        let display_pixel = |i: usize| {
-            let (x, y) = (i as u32 % fb_width, i as u32 / fb_width);
-            (y / k * display.0 + x / k) as usize
-        };
+        let display_pixel = |i: usize| crop.display_pixel(i, k);
         for group in 0..GROUPS {
             if subsets.members[group].iter().all(Vec::is_empty) {
                 continue;
@@ -515,8 +636,8 @@ impl RenderingMatrix {
                             (f64::from(values[i][c]) - f64::from(base_fb[i][c])) / weight;
                         let value = (-ratio.log2()).round();
                         let problem = |what: String| MatrixError::Decode {
-                            x: i as u32 % fb_width,
-                            y: i as u32 / fb_width,
+                            x: crop.x + i as u32 % fb_width,
+                            y: crop.y + i as u32 / fb_width,
                             channel: c,
                             problem: what,
                         };
@@ -537,8 +658,8 @@ impl RenderingMatrix {
             for (&(i, c, weight), &index) in lit.iter().zip(&index) {
                 let Some(&column) = subsets.members[group][c].get(index) else {
                     return Err(MatrixError::Decode {
-                        x: i as u32 % fb_width,
-                        y: i as u32 / fb_width,
+                        x: crop.x + i as u32 % fb_width,
+                        y: crop.y + i as u32 / fb_width,
                         channel: c,
                         problem: format!(
                             "decoded texel index {index} but the subset has {} texels",
@@ -554,13 +675,7 @@ impl RenderingMatrix {
         for (row, column, value) in triplets {
             tri.add_triplet(row, column, value);
         }
-        let mut base = vec![[0.0f64; 4]; rows];
-        for (i, b) in base_fb.iter().enumerate() {
-            let target = &mut base[display_pixel(i)];
-            for c in 0..CHANNELS {
-                target[c] += f64::from(b[c]) * scale;
-            }
-        }
+        let base = layer.to_display(&base_fb, k);
         Ok(RenderingMatrix {
             a: tri.to_csr(),
             base,

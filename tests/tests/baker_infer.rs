@@ -26,9 +26,13 @@ fn camera(scene: &Scene, width: u32, height: u32, k: u32) -> Camera {
 #[test]
 fn inferred_ems_beat_projected_ones() {
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    // teapot-room is measured at 640×480 by `lensmap bench infer` (+4.6 dB, short of the goal);
-    // at test sizes its inferred EMs do not beat projection, so it is not asserted here.
-    for (name, size) in [("glass-sphere", (96, 72))] {
+    // The goal (≥ 6 dB at 640×480, 128² EMs) is measured by `lensmap bench infer`; at test
+    // sizes the teapot has fewer pixels per texel and gains less (measured +3.6 dB at 320×240 with
+    // 64² EMs), so it is held to a smaller margin here: a regression guard, not the goal.
+    for (name, size, gain) in [
+        ("glass-sphere", (96, 72), 6.0),
+        ("teapot-room", (320, 240), 2.0),
+    ] {
         let scene = Scene::load_named(name).unwrap();
         let targets_camera = camera(&scene, size.0, size.1, 3);
         let judge_camera = camera(&scene, size.0, size.1, 6);
@@ -80,7 +84,7 @@ fn inferred_ems_beat_projected_ones() {
         let inferred = psnr(&mut runner, &hybrid);
         println!("{name}: lens PSNR projected {projected:.2} dB, inferred {inferred:.2} dB");
         assert!(
-            inferred >= projected + 6.0,
+            inferred >= projected + gain,
             "{name}: inferred {inferred:.2} dB vs projected {projected:.2} dB"
         );
     }

@@ -49,6 +49,9 @@ pub struct BenchInferArgs {
     /// Projected EMs' face size (the baseline).
     #[arg(long, default_value_t = 128)]
     em_size: u32,
+    /// Confidence threshold θ_c in degrees (paper: 5).
+    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES)]
+    confidence_degrees: f64,
     /// Relative smoothness weight of the solve.
     #[arg(long, default_value_t = lensmap_baker::solve::DEFAULT_SMOOTHNESS)]
     smoothness: f64,
@@ -128,6 +131,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         em_size: EmSize::Auto {
             cap: args.max_em_size,
         },
+        theta_c: args.confidence_degrees.to_radians(),
         solve: lensmap_baker::solve::SolveOptions {
             smoothness: args.smoothness,
             tolerance: args.tolerance,

@@ -3,12 +3,12 @@
 //! ([`crate::matrix`]), the targets and confidence from intersection records
 //! ([`crate::targets`]) and the solve over all MIP levels ([`crate::solve`]).
 
-use std::time::Instant;
+use std::{sync::Arc, time::Instant};
 
 use lensmap::{
     cubemap::{CubeMap, sampling::sample_cube_trilinear},
     hybrid::{HybridOptions, HybridScene},
-    render::{FrameInput, TargetFormat, Variant},
+    render::{FrameInput, TargetFormat, UploadedFrame, Variant},
     runner::FrameRunner,
     scene::Camera,
     trace::LensRecords,
@@ -24,20 +24,50 @@ use crate::{
 pub const DEFAULT_MAX_EM_SIZE: u32 = 128;
 
 /// The Vulkan device as a [`TestRenderer`]: frames rendered by the runtime's compositor into an
-/// RGBA32F target, exactly as [`FrameRunner::render`] renders them.
+/// RGBA32F target, uploaded once per test frame, the maps replaced between renderings.
 pub struct DeviceRenderer<'a> {
-    /// The runner (device and compositor).
-    pub runner: &'a mut FrameRunner,
-    /// The compositor variant.
-    pub variant: Variant,
+    runner: &'a mut FrameRunner,
+    variant: Variant,
+    uploaded: Option<UploadedFrame>,
+}
+
+impl<'a> DeviceRenderer<'a> {
+    /// Test renderings on `runner`'s device with compositor variant `variant`.
+    pub fn new(runner: &'a mut FrameRunner, variant: Variant) -> DeviceRenderer<'a> {
+        DeviceRenderer {
+            runner,
+            variant,
+            uploaded: None,
+        }
+    }
 }
 
 impl TestRenderer for DeviceRenderer<'_> {
-    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f32; 4]>, MatrixError> {
+    fn begin(&mut self, frame: &FrameInput) -> Result<(), MatrixError> {
+        // The previous frame first: its drop waits for the device.
+        self.uploaded = None;
+        self.uploaded = Some(
+            self.runner
+                .upload(frame)
+                .map_err(|e| MatrixError::Render(e.to_string()))?,
+        );
+        Ok(())
+    }
+
+    fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError> {
+        let Some(uploaded) = self.uploaded.as_mut() else {
+            return Err(MatrixError::Render(
+                "no test frame begun; call begin first".into(),
+            ));
+        };
+        let failed = |e: lensmap::render::RenderError| MatrixError::Render(e.to_string());
+        self.runner
+            .replace_layers(uploaded, 0, &[vec![em]])
+            .map_err(failed)?;
         Ok(self
             .runner
-            .render(frame, self.variant, TargetFormat::Rgba32f)
-            .map_err(|e| MatrixError::Render(e.to_string()))?
+            .render_uploaded(uploaded, self.variant, TargetFormat::Rgba32f)
+            .map_err(failed)?
             .pixels)
     }
 }
@@ -158,8 +188,9 @@ pub fn finest_level_read(
     size: u32,
 ) -> Result<(Option<usize>, usize), MatrixError> {
     let layout = TexelLayout::new(size);
-    let base =
-        renderer.render(layer.with_em(std::sync::Arc::new(CubeMap::uniform(size, [0.0; 4]))))?;
+    let zero = Arc::new(CubeMap::uniform(size, [0.0; 4]));
+    renderer.begin(layer.with_em(zero.clone()))?;
+    let base = renderer.render(zero)?;
     let mut renders = 1;
     for first in (0..layout.levels()).step_by(4) {
         let mut x = vec![[0.0f64; 4]; layout.len()];
@@ -168,7 +199,7 @@ pub fn finest_level_read(
                 x[column][level - first] = 1.0;
             }
         }
-        let pixels = renderer.render(layer.with_em(std::sync::Arc::new(layout.to_cube(&x))))?;
+        let pixels = renderer.render(Arc::new(layout.to_cube(&x)))?;
         renders += 1;
         for c in 0..4 {
             if pixels.iter().zip(&base).any(|(p, b)| p[c] != b[c]) {
@@ -210,10 +241,7 @@ pub fn infer_lens(
     let frames = LayerFrames::new(&frame, lens, k)?;
     let terms = frames.terms();
     let n = layers.shells.len();
-    let mut renderer = DeviceRenderer {
-        runner,
-        variant: options.variant,
-    };
+    let mut renderer = DeviceRenderer::new(runner, options.variant);
     // The resolution: the finest level read by any (term, layer) frame at the cap.
     let (size, finest_level_at_cap, search_renders) = match options.em_size {
         EmSize::Fixed(size) => (size, None, 0),

@@ -259,12 +259,16 @@ impl Subsets {
     }
 }
 
-/// Renders frames at framebuffer resolution: the Vulkan device (through
-/// [`lensmap::runner::FrameRunner::render`]) in the baker, or a CPU model in tests.
+/// Renders test frames at framebuffer resolution: the Vulkan device (through
+/// [`lensmap::runner::FrameRunner`]) in the baker, or a CPU model in tests. A test frame is
+/// begun once and then rendered with one cube map after another, so a device uploads the frame
+/// once and only the maps after that.
 pub trait TestRenderer {
-    /// The frame's framebuffer pixels, row-major, premultiplied RGBA (f32, as the RGBA32F
-    /// target holds them).
-    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f32; 4]>, MatrixError>;
+    /// Makes `frame` (one lens object with one layer) the frame later renderings draw.
+    fn begin(&mut self, frame: &FrameInput) -> Result<(), MatrixError>;
+    /// Renders the begun frame with `em` (the begun map's face size) as the lens object's layer:
+    /// framebuffer pixels, row-major, premultiplied RGBA, f32 as the RGBA32F target holds them.
+    fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError>;
 }
 
 /// The frame whose lens pixels are `base + A x`: one lens object, one term, one layer, F·G = 1,
@@ -593,10 +597,12 @@ impl RenderingMatrix {
         let display = (crop.full.0 / k, crop.full.1 / k);
         let layout = TexelLayout::new(size);
         let subsets = Subsets::new(&layout);
+        let zero = Arc::new(CubeMap::uniform(size, [0.0; 4]));
+        renderer.begin(layer.with_em(zero.clone()))?;
         let mut renders = 0;
-        let mut render = |cube: CubeMap, renders: &mut usize| {
+        let mut render = |cube: Arc<CubeMap>, renders: &mut usize| {
             *renders += 1;
-            let pixels = renderer.render(layer.with_em(Arc::new(cube)))?;
+            let pixels = renderer.render(cube)?;
             if pixels.len() != (fb_width * fb_height) as usize {
                 return Err(MatrixError::Render(format!(
                     "{} pixels read back for a {fb_width}×{fb_height} framebuffer",
@@ -605,7 +611,7 @@ impl RenderingMatrix {
             }
             Ok(pixels)
         };
-        let base_fb = render(CubeMap::uniform(size, [0.0; 4]), &mut renders)?;
+        let base_fb = render(zero, &mut renders)?;
         let mut triplets: Vec<(usize, usize, f64)> = Vec::new();
         let scale = 1.0 / f64::from(k * k);
         let display_pixel = |i: usize| crop.display_pixel(i, k);
@@ -613,7 +619,7 @@ impl RenderingMatrix {
             if subsets.members[group].iter().all(Vec::is_empty) {
                 continue;
             }
-            let weights = render(subsets.cube(&layout, group, None), &mut renders)?;
+            let weights = render(Arc::new(subsets.cube(&layout, group, None)), &mut renders)?;
             // (framebuffer pixel, channel, weight) of every fragment that read a lit texel.
             let lit: Vec<(usize, usize, f64)> = weights
                 .par_iter()
@@ -628,7 +634,10 @@ impl RenderingMatrix {
                 .collect();
             let mut index = vec![0usize; lit.len()];
             for digit in 0..subsets.digits {
-                let values = render(subsets.cube(&layout, group, Some(digit)), &mut renders)?;
+                let values = render(
+                    Arc::new(subsets.cube(&layout, group, Some(digit))),
+                    &mut renders,
+                )?;
                 let decoded: Vec<Result<usize, MatrixError>> = lit
                     .par_iter()
                     .map(|&(i, c, weight)| {

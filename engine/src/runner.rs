@@ -244,6 +244,31 @@ impl FrameRunner {
             .0)
     }
 
+    /// Renders an uploaded frame at its framebuffer resolution (no box filter).
+    pub fn render_uploaded(
+        &mut self,
+        uploaded: &mut UploadedFrame,
+        variant: Variant,
+        format: TargetFormat,
+    ) -> Result<RenderedImage, RenderError> {
+        Ok(self
+            .renderer
+            .render(&self.gpu, uploaded, variant, format)?
+            .0)
+    }
+
+    /// Replaces the layered EMs of lens `lens` of an uploaded frame (see
+    /// [`Renderer::replace_layers`]): the baker's test renderings change only the maps.
+    pub fn replace_layers(
+        &mut self,
+        uploaded: &mut UploadedFrame,
+        lens: usize,
+        layers: &[Vec<std::sync::Arc<crate::cubemap::CubeMap>>],
+    ) -> Result<(), RenderError> {
+        self.renderer
+            .replace_layers(&self.gpu, uploaded, lens, layers)
+    }
+
     /// Renders one hybrid frame of `hybrid` seen by `camera`.
     pub fn frame(
         &mut self,

@@ -58,10 +58,19 @@ fn random_em(rng: &mut Pcg64, layout: &TexelLayout) -> Vec<[f64; 4]> {
         .collect()
 }
 
-struct ModelRenderer;
+/// The CPU f64 compositor model as a test renderer.
+#[derive(Default)]
+struct ModelRenderer(Option<FrameInput>);
 
 impl TestRenderer for ModelRenderer {
-    fn render(&mut self, frame: &FrameInput) -> Result<Vec<[f32; 4]>, MatrixError> {
+    fn begin(&mut self, frame: &FrameInput) -> Result<(), MatrixError> {
+        self.0 = Some(frame.clone());
+        Ok(())
+    }
+
+    fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError> {
+        let frame = self.0.as_mut().expect("begun");
+        frame.lenses[0].layers = vec![vec![em]];
         Ok(render_model_with(frame, &ModelOptions::lavapipe())
             .rgba
             .iter()
@@ -82,10 +91,7 @@ fn the_matrix_is_the_hardware() {
             for term in frames.terms() {
                 for layer in if n > 1 { vec![0, n - 1] } else { vec![0] } {
                     let mut layer_frame = frames.layer(term, layer).unwrap();
-                    let mut device = DeviceRenderer {
-                        runner: &mut runner,
-                        variant,
-                    };
+                    let mut device = DeviceRenderer::new(&mut runner, variant);
                     let matrix =
                         RenderingMatrix::measure(&mut device, &mut layer_frame, EM_SIZE, 2)
                             .unwrap();
@@ -138,12 +144,11 @@ fn the_matrix_agrees_with_the_f64_model() {
     let (_, frame, _) = frame_of("teapot-room", (96, 72, 1));
     let frames = LayerFrames::new(&frame, 0, 1).unwrap();
     let mut layer_frame = frames.layer(frames.terms()[0], 0).unwrap();
-    let mut device = DeviceRenderer {
-        runner: &mut runner,
-        variant: Variant::Multipass,
-    };
+    let mut device = DeviceRenderer::new(&mut runner, Variant::Multipass);
     let hardware = RenderingMatrix::measure(&mut device, &mut layer_frame, EM_SIZE, 1).unwrap();
-    let model = RenderingMatrix::measure(&mut ModelRenderer, &mut layer_frame, EM_SIZE, 1).unwrap();
+    let model =
+        RenderingMatrix::measure(&mut ModelRenderer::default(), &mut layer_frame, EM_SIZE, 1)
+            .unwrap();
     let exclusion = render_model_with(
         layer_frame.with_em(Arc::new(CubeMap::uniform(EM_SIZE, [0.5; 4]))),
         &ModelOptions::lavapipe(),
@@ -219,10 +224,7 @@ fn the_solver_inverts_the_matrix() {
     let (_, frame, _) = frame_of("teapot-room", (128, 96, 2));
     let frames = LayerFrames::new(&frame, 0, 2).unwrap();
     let terms = frames.terms();
-    let mut device = DeviceRenderer {
-        runner: &mut runner,
-        variant: Variant::SinglePass,
-    };
+    let mut device = DeviceRenderer::new(&mut runner, Variant::SinglePass);
     let matrices: Vec<RenderingMatrix> = terms
         .iter()
         .map(|&t| {

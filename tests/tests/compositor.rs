@@ -3,6 +3,8 @@
 //! describes), and the single-pass frame equals the multipass frame, on random inputs. Every GPU
 //! path runs with the validation layer on.
 
+use std::sync::Arc;
+
 use glam::{Mat4, Vec3};
 use lensmap::cubemap::CubeMap;
 use lensmap::render::{
@@ -359,5 +361,37 @@ fn bad_frame_input_is_an_error_not_a_panic() {
         .expect("a short mip chain is rejected")
         .to_string();
     assert!(message.contains("mip levels"), "{message}");
+    assert_clean(&gpu);
+}
+
+#[test]
+fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() {
+    let gpu = gpu();
+    let mut renderer = Renderer::new(&gpu).unwrap();
+    let mut rng = Pcg64::seed_from_u64(0x7e91ace);
+    let first = random_frame(&mut rng, 2, 2, &[Term::Refraction, Term::Reflection]);
+    let second = random_frame(&mut rng, 2, 2, &[Term::Refraction, Term::Reflection]);
+    let mut replaced = first.clone();
+    replaced.lenses[0].layers = second.lenses[0].layers.clone();
+    let mut uploaded = renderer.upload(&gpu, &first).unwrap();
+    renderer
+        .replace_layers(&gpu, &mut uploaded, 0, &replaced.lenses[0].layers)
+        .unwrap();
+    let mut fresh = renderer.upload(&gpu, &replaced).unwrap();
+    for variant in [Variant::Multipass, Variant::SinglePass] {
+        let (a, _) = renderer
+            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .unwrap();
+        let (b, _) = renderer
+            .render(&gpu, &mut fresh, variant, TargetFormat::Rgba32f)
+            .unwrap();
+        assert_eq!(a.pixels, b.pixels, "{variant:?}");
+    }
+    // A replacement that does not fit the uploaded frame is an error naming the lens.
+    let wrong = vec![vec![Arc::new(CubeMap::uniform(4, [0.0; 4]))]];
+    let error = renderer
+        .replace_layers(&gpu, &mut uploaded, 0, &wrong)
+        .unwrap_err();
+    assert!(error.to_string().contains("lenses[0]"), "{error}");
     assert_clean(&gpu);
 }

@@ -107,6 +107,26 @@ pub struct FrameShape {
 }
 
 impl FrameShape {
+    /// `[viewpoint][layer]`: whether the layer's cube map is all zeros (its pass changes
+    /// nothing and is not recorded).
+    pub fn empty_layers(layers: &[Vec<std::sync::Arc<crate::cubemap::CubeMap>>]) -> Vec<Vec<bool>> {
+        layers
+            .iter()
+            .map(|cubes| {
+                cubes
+                    .iter()
+                    .map(|cube| {
+                        cube.levels
+                            .iter()
+                            .flatten()
+                            .flatten()
+                            .all(|t| *t == [0.0; 4])
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
     /// The shape of a frame's data.
     pub fn of(frame: &FrameInput) -> FrameShape {
         FrameShape {
@@ -128,22 +148,7 @@ impl FrameShape {
                         triangles: lens.triangles.len(),
                         faces: lens.faces,
                         terms,
-                        empty: lens
-                            .layers
-                            .iter()
-                            .map(|layers| {
-                                layers
-                                    .iter()
-                                    .map(|cube| {
-                                        cube.levels
-                                            .iter()
-                                            .flatten()
-                                            .flatten()
-                                            .all(|t| *t == [0.0; 4])
-                                    })
-                                    .collect()
-                            })
-                            .collect(),
+                        empty: Self::empty_layers(&lens.layers),
                     }
                 })
                 .collect(),

@@ -53,6 +53,19 @@ impl Renderer {
         self.cache.upload(gpu, &self.pipelines, frame)
     }
 
+    /// Replaces the layered EMs of lens `lens` of an uploaded frame (one list per viewpoint, as
+    /// many layers and the same face size as before), uploading only the maps.
+    pub fn replace_layers(
+        &mut self,
+        gpu: &Gpu,
+        frame: &mut UploadedFrame,
+        lens: usize,
+        layers: &[Vec<std::sync::Arc<crate::cubemap::CubeMap>>],
+    ) -> Result<(), RenderError> {
+        self.cache
+            .replace_layers(gpu, &self.pipelines, frame, lens, layers)
+    }
+
     /// The plan a frame would record; an error where a lens object needs a program that does
     /// not exist (more layers than the single pass supports).
     pub fn plan(

@@ -214,6 +214,66 @@ impl UploadCache {
         Ok(uploaded)
     }
 
+    /// Replaces the layered EMs of lens `lens` in an uploaded frame (one list per viewpoint, the
+    /// same count and face size as before), uploading only the maps: what the baker's test
+    /// renderings change from one rendering to the next. Every submission of the frame must have
+    /// completed (the renderer waits for its own).
+    pub(super) fn replace_layers(
+        &mut self,
+        gpu: &Gpu,
+        pipelines: &Pipelines,
+        frame: &mut UploadedFrame,
+        lens: usize,
+        layers: &[Vec<Arc<CubeMap>>],
+    ) -> Result<(), RenderError> {
+        let bad = |s: String| Err(RenderError::BadInput(s));
+        let Some(gpu_lens) = frame.lenses.get_mut(lens) else {
+            return bad(format!("lens {lens} is not in the uploaded frame"));
+        };
+        let Some(shape) = frame.shape.lenses.get_mut(lens) else {
+            return bad(format!("lens {lens} is not in the uploaded frame"));
+        };
+        if layers.len() != gpu_lens.layers.len()
+            || layers
+                .iter()
+                .any(|v| v.len() != gpu_lens.layer_count as usize)
+        {
+            return bad(format!(
+                "lenses[{lens}]: {} viewpoints of {:?} layers given; the uploaded frame has {} of {}",
+                layers.len(),
+                layers.iter().map(Vec::len).collect::<Vec<_>>(),
+                gpu_lens.layers.len(),
+                gpu_lens.layer_count
+            ));
+        }
+        let size = gpu_lens
+            .layers
+            .first()
+            .map_or(1, |image| image.desc.extent.width);
+        for (v, cubes) in layers.iter().enumerate() {
+            for (i, cube) in cubes.iter().enumerate() {
+                if let Err(error) = cube.validate(Some(size)) {
+                    return bad(format!("lenses[{lens}].layers[{v}][{i}]: {error}"));
+                }
+            }
+        }
+        self.generation += 1;
+        let images = layers
+            .iter()
+            .enumerate()
+            .map(|(viewpoint, cubes)| {
+                self.layer_image(gpu, &format!("lens{lens}/em{viewpoint}"), cubes)
+            })
+            .collect::<Result<Vec<_>, GpuError>>()?;
+        let generation = self.generation;
+        self.layer_cache
+            .retain(|_, cached| cached.last_used + 1 >= generation);
+        write_lens_sets(gpu, pipelines, &gpu_lens.sets, &gpu_lens._data, &images);
+        gpu_lens.layers = images;
+        shape.empty = FrameShape::empty_layers(layers);
+        Ok(())
+    }
+
     /// The vertex and index buffers of an environment mesh, from the cache or freshly uploaded.
     fn environment_mesh(
         &mut self,
@@ -364,55 +424,7 @@ impl UploadCache {
             call: "vkAllocateDescriptorSets",
             result,
         })?;
-        for (viewpoint, set) in sets.iter().enumerate() {
-            let other = if layers.len() > 1 {
-                1 - viewpoint.min(1)
-            } else {
-                viewpoint
-            };
-            let buffer_info = [vk::DescriptorBufferInfo {
-                buffer: data.handle,
-                offset: 0,
-                range: vk::WHOLE_SIZE,
-            }];
-            let image_a = [vk::DescriptorImageInfo {
-                sampler: vk::Sampler::null(),
-                image_view: layers[viewpoint].view,
-                image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-            }];
-            let image_b = [vk::DescriptorImageInfo {
-                image_view: layers[other].view,
-                ..image_a[0]
-            }];
-            let sampler = [vk::DescriptorImageInfo {
-                sampler: pipelines.sampler,
-                ..Default::default()
-            }];
-            let writes = [
-                vk::WriteDescriptorSet::default()
-                    .dst_set(*set)
-                    .dst_binding(0)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .buffer_info(&buffer_info),
-                vk::WriteDescriptorSet::default()
-                    .dst_set(*set)
-                    .dst_binding(1)
-                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-                    .image_info(&image_a),
-                vk::WriteDescriptorSet::default()
-                    .dst_set(*set)
-                    .dst_binding(2)
-                    .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-                    .image_info(&image_b),
-                vk::WriteDescriptorSet::default()
-                    .dst_set(*set)
-                    .dst_binding(3)
-                    .descriptor_type(vk::DescriptorType::SAMPLER)
-                    .image_info(&sampler),
-            ];
-            // SAFETY: the set is not in use; the infos live until return.
-            unsafe { device.update_descriptor_sets(&writes, &[]) };
-        }
+        write_lens_sets(gpu, pipelines, &sets, &data, &layers);
         Ok(GpuLens {
             _data: data,
             indices,
@@ -424,5 +436,67 @@ impl UploadCache {
             layers,
             sets,
         })
+    }
+}
+
+/// Points every descriptor set of a lens object (one per viewpoint) at its data buffer, its own
+/// viewpoint's cube-map array (binding 1), the other viewpoint's (binding 2) and the sampler.
+/// The sets must not be in use by a pending submission.
+fn write_lens_sets(
+    gpu: &Gpu,
+    pipelines: &Pipelines,
+    sets: &[vk::DescriptorSet],
+    data: &Buffer,
+    layers: &[Arc<Image>],
+) {
+    let device = gpu.device();
+    for (viewpoint, set) in sets.iter().enumerate() {
+        let other = if layers.len() > 1 {
+            1 - viewpoint.min(1)
+        } else {
+            viewpoint
+        };
+        let buffer_info = [vk::DescriptorBufferInfo {
+            buffer: data.handle,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let image_a = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: layers[viewpoint].view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let image_b = [vk::DescriptorImageInfo {
+            image_view: layers[other].view,
+            ..image_a[0]
+        }];
+        let sampler = [vk::DescriptorImageInfo {
+            sampler: pipelines.sampler,
+            ..Default::default()
+        }];
+        let writes = [
+            vk::WriteDescriptorSet::default()
+                .dst_set(*set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .buffer_info(&buffer_info),
+            vk::WriteDescriptorSet::default()
+                .dst_set(*set)
+                .dst_binding(1)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image_a),
+            vk::WriteDescriptorSet::default()
+                .dst_set(*set)
+                .dst_binding(2)
+                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+                .image_info(&image_b),
+            vk::WriteDescriptorSet::default()
+                .dst_set(*set)
+                .dst_binding(3)
+                .descriptor_type(vk::DescriptorType::SAMPLER)
+                .image_info(&sampler),
+        ];
+        // SAFETY: the set is not in use; the infos live until return.
+        unsafe { device.update_descriptor_sets(&writes, &[]) };
     }
 }

@@ -9,19 +9,11 @@ use lensmap::{
     metrics::Encoding,
     render::{TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene},
-    scene::{Camera, Scene},
+    scene::Scene,
     trace::{TraceOptions, compile_records, render_reference},
 };
 use lensmap_baker::infer::{EmSize, InferError, InferOptions, infer_lens};
 use lensmap_tests::{assert_clean, gpu};
-
-fn camera(scene: &Scene, width: u32, height: u32, k: u32) -> Camera {
-    let mut camera = scene.camera;
-    camera.width = width;
-    camera.height = height;
-    camera.supersampling = k;
-    camera
-}
 
 #[test]
 fn inferred_ems_beat_projected_ones() {
@@ -34,8 +26,8 @@ fn inferred_ems_beat_projected_ones() {
         ("teapot-room", (320, 240), 2.0),
     ] {
         let scene = Scene::load_named(name).unwrap();
-        let targets_camera = camera(&scene, size.0, size.1, 3);
-        let judge_camera = camera(&scene, size.0, size.1, 6);
+        let targets_camera = scene.camera.with_resolution(size.0, size.1, 3);
+        let judge_camera = scene.camera.with_resolution(size.0, size.1, 6);
         let (mut hybrid, _) =
             load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(64)))
                 .unwrap();
@@ -96,7 +88,7 @@ fn a_camera_that_sees_no_lens_pixel_is_an_error() {
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let scene = Scene::load_named("glass-sphere").unwrap();
     // Looking away from the sphere (it is at the look-at point; turn the camera around).
-    let mut away = camera(&scene, 32, 24, 1);
+    let mut away = scene.camera.with_resolution(32, 24, 1);
     away.look_at = away.position + (away.position - scene.camera.look_at);
     let (hybrid, _) =
         load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(8))).unwrap();

@@ -26,17 +26,11 @@ use rand_pcg::Pcg64;
 /// EM face size of the tests: small, so a full decode is quick, with 5 MIP levels.
 const EM_SIZE: u32 = 16;
 
-fn small_camera(scene: &Scene, width: u32, height: u32, k: u32) -> Camera {
-    let mut camera = scene.camera;
-    camera.width = width;
-    camera.height = height;
-    camera.supersampling = k;
-    camera
-}
-
 fn frame_of(name: &str, camera_size: (u32, u32, u32)) -> (HybridScene, FrameInput, Camera) {
     let scene = Scene::load_named(name).unwrap();
-    let camera = small_camera(&scene, camera_size.0, camera_size.1, camera_size.2);
+    let camera = scene
+        .camera
+        .with_resolution(camera_size.0, camera_size.1, camera_size.2);
     let (hybrid, _) = HybridScene::projected(scene, &ProjectedOptions::with_size(EM_SIZE)).unwrap();
     let (frame, _) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
     (hybrid, frame, camera)

@@ -88,12 +88,11 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         .into());
     }
     let scene = Scene::load_named(&args.scene)?;
-    let mut camera = scene.camera;
-    camera.width = args.width;
-    camera.height = args.height;
-    camera.supersampling = args.supersampling;
-    let mut reference_camera = camera;
-    reference_camera.supersampling = args.reference_supersampling;
+    let camera = scene
+        .camera
+        .with_resolution(args.width, args.height, args.supersampling);
+    let reference_camera =
+        camera.with_resolution(args.width, args.height, args.reference_supersampling);
     let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();

@@ -68,6 +68,17 @@ impl Camera {
     pub fn with_position(&self, position: Vec3) -> Camera {
         Camera { position, ..*self }
     }
+
+    /// The same camera with an image of `width × height` pixels, each supersampled
+    /// `supersampling × supersampling`.
+    pub fn with_resolution(&self, width: u32, height: u32, supersampling: u32) -> Camera {
+        Camera {
+            width,
+            height,
+            supersampling,
+            ..*self
+        }
+    }
 }
 
 /// The viewpoint samples of the view space, each a camera position looking at the camera's

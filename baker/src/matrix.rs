@@ -751,4 +751,198 @@ mod tests {
             assert_eq!(layout.to_cube(&layout.from_cube(&cube)), cube);
         }
     }
+
+    /// A device whose every framebuffer pixel reads a footprint given by hand — texel columns
+    /// and filter weights — so the decoded matrix can be compared with the truth entry by entry.
+    struct CraftedDevice {
+        layout: TexelLayout,
+        footprints: Vec<Vec<(usize, f32)>>,
+    }
+
+    impl TestRenderer for CraftedDevice {
+        fn begin(&mut self, _frame: &FrameInput) -> Result<(), MatrixError> {
+            Ok(())
+        }
+
+        fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError> {
+            let x = self.layout.from_cube(&em);
+            Ok(self
+                .footprints
+                .iter()
+                .map(|footprint| {
+                    let mut sum = [0.0f32; 4];
+                    for &(column, weight) in footprint {
+                        for c in 0..4 {
+                            sum[c] += weight * x[column][c] as f32;
+                        }
+                    }
+                    sum
+                })
+                .collect())
+        }
+    }
+
+    /// A frame of `width × height` with one lens triangle, one term and one layer: what
+    /// [`LayerFrames`] needs; the crafted device ignores its geometry. The triangle covers the
+    /// whole screen so the crop is the whole frame.
+    fn crafted_frame(width: u32, height: u32) -> FrameInput {
+        let positions = vec![
+            glam::Vec3::new(-10.0, -10.0, 0.5),
+            glam::Vec3::new(10.0, -10.0, 0.5),
+            glam::Vec3::new(0.0, 10.0, 0.5),
+        ];
+        FrameInput {
+            width,
+            height,
+            view_proj: glam::Mat4::IDENTITY,
+            environment: Vec::new(),
+            lenses: vec![LensObject {
+                name: "crafted".into(),
+                positions: positions.clone(),
+                triangles: vec![[0, 1, 2]],
+                terms: vec![TermVertices {
+                    term: Term::Reflection,
+                    fg: vec![glam::Vec3::ONE; 3],
+                    directions: vec![positions],
+                }],
+                layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],
+                faces: lensmap::render::LensFaces::Front,
+            }],
+            viewpoint_weights: vec![1.0],
+        }
+    }
+
+    #[test]
+    fn decoding_recovers_crafted_footprints_across_seams_corners_and_levels() {
+        use lensmap::cubemap::face::texel_source;
+        use rand::{Rng, SeedableRng};
+        let size = 8;
+        let layout = TexelLayout::new(size);
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(0xdec0de);
+        let (width, height, k) = (12u32, 10u32, 2u32);
+        // Trilinear footprints: a 2×2 bilinear footprint at level l and at l + 1, anywhere on a
+        // face — including past its edges, where the seam's texels come from the neighbouring
+        // face, and at corners, where only three texels exist (the spec's corner rule averages
+        // them; here the fourth weight goes to the three). Some pixels read nothing.
+        let bilinear = |level: usize, face: CubeFace, i: i64, j: i64, weights: [f32; 4]| {
+            let edge = layout.edge(level);
+            let mut taps = Vec::new();
+            let corners = [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)];
+            let found: Vec<Option<usize>> = corners
+                .iter()
+                .map(|&(x, y)| {
+                    texel_source(face, edge, x, y)
+                        .map(|(face, x, y)| layout.column(Texel { level, face, x, y }))
+                })
+                .collect();
+            let missing: f32 = found
+                .iter()
+                .zip(weights)
+                .filter(|(f, _)| f.is_none())
+                .map(|(_, w)| w)
+                .sum();
+            let present = found.iter().filter(|f| f.is_some()).count() as f32;
+            for (f, w) in found.iter().zip(weights) {
+                if let Some(column) = f {
+                    taps.push((*column, w + missing / present));
+                }
+            }
+            taps
+        };
+        let footprints: Vec<Vec<(usize, f32)>> = (0..width * k * height * k)
+            .map(|p| {
+                if p % 7 == 3 {
+                    return Vec::new();
+                }
+                let level = rng.gen_range(0..layout.levels() - 1);
+                let face = CubeFace::ALL[rng.gen_range(0..6)];
+                let edge = i64::from(layout.edge(level));
+                let i = rng.gen_range(-1..edge);
+                let j = rng.gen_range(-1..edge);
+                let (fx, fy, fl): (f32, f32, f32) = (
+                    rng.gen_range(0.0..1.0),
+                    rng.gen_range(0.0..1.0),
+                    rng.gen_range(0.0..1.0),
+                );
+                let w = [
+                    (1.0 - fx) * (1.0 - fy),
+                    fx * (1.0 - fy),
+                    (1.0 - fx) * fy,
+                    fx * fy,
+                ];
+                let mut taps: Vec<(usize, f32)> =
+                    bilinear(level, face, i, j, w.map(|v| v * (1.0 - fl)));
+                taps.extend(bilinear(
+                    level + 1,
+                    face,
+                    i.div_euclid(2),
+                    j.div_euclid(2),
+                    w.map(|v| v * fl),
+                ));
+                taps
+            })
+            .collect();
+        let mut device = CraftedDevice {
+            layout: layout.clone(),
+            footprints: footprints.clone(),
+        };
+        let frames = LayerFrames::new(&crafted_frame(width * k, height * k), 0, k).unwrap();
+        let mut layer = frames.layer(Term::Reflection, 0).unwrap();
+        assert_eq!(layer.crop().width, width * k, "the crop is the whole frame");
+        let matrix = RenderingMatrix::measure(&mut device, &mut layer, size, k).unwrap();
+        // The truth: every tap of every framebuffer pixel, box-filtered.
+        let mut truth =
+            vec![std::collections::BTreeMap::<usize, f64>::new(); (width * height) as usize];
+        for (p, footprint) in footprints.iter().enumerate() {
+            let row = layer.crop().display_pixel(p, k);
+            for &(column, weight) in footprint {
+                *truth[row].entry(column).or_default() += f64::from(weight) / f64::from(k * k);
+            }
+        }
+        let mut entries = 0;
+        for (row, expected) in matrix.a.outer_iterator().zip(&truth) {
+            let decoded: std::collections::BTreeMap<usize, f64> =
+                row.iter().map(|(c, v)| (c, *v)).collect();
+            assert_eq!(
+                decoded.keys().collect::<Vec<_>>(),
+                expected.keys().collect::<Vec<_>>()
+            );
+            for (column, value) in expected {
+                assert!(
+                    (decoded[column] - value).abs() < 1e-7,
+                    "{column}: {} vs {value}",
+                    decoded[column]
+                );
+                entries += 1;
+            }
+        }
+        assert!(entries > 2000, "{entries} entries");
+        // 1 base + 6 groups × (1 weight + D digit renders), D = 2 for 8² (largest subset 34).
+        assert_eq!(matrix.renders, 1 + 6 * 3);
+    }
+
+    #[test]
+    fn a_fragment_reading_two_lit_texels_of_one_subset_is_reported() {
+        // Two texels of the same subset (level 0, +X, phase (0, 0)) in one footprint: no linear
+        // filter does that, and decoding must say so rather than invent a texel.
+        let size = 8;
+        let layout = TexelLayout::new(size);
+        let column = |x, y| {
+            layout.column(Texel {
+                level: 0,
+                face: CubeFace::PositiveX,
+                x,
+                y,
+            })
+        };
+        let footprints = vec![vec![(column(0, 0), 0.5), (column(2, 0), 0.5)]; 4];
+        let mut device = CraftedDevice {
+            layout: layout.clone(),
+            footprints,
+        };
+        let frames = LayerFrames::new(&crafted_frame(2, 2), 0, 1).unwrap();
+        let mut layer = frames.layer(Term::Reflection, 0).unwrap();
+        let error = RenderingMatrix::measure(&mut device, &mut layer, size, 1).unwrap_err();
+        assert!(matches!(error, MatrixError::Decode { .. }), "{error}");
+    }
 }

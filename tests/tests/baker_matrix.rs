@@ -17,7 +17,7 @@ use lensmap::{
 use lensmap_baker::{
     infer::DeviceRenderer,
     matrix::{LayerFrames, MatrixError, RenderingMatrix, TestRenderer, TexelLayout},
-    solve::{Equations, Smoothness, SolveError, SolveOptions, solve},
+    solve::{Equations, Smoothness, SolveError, SolveMethod, SolveOptions, solve},
 };
 use lensmap_tests::{assert_clean, gpu};
 use rand::{Rng, SeedableRng};
@@ -252,6 +252,7 @@ fn the_solver_inverts_the_matrix() {
             &smoothness,
             &vec![[0.0; 4]; layout.len()],
             &SolveOptions {
+                method: SolveMethod::ConjugateGradient,
                 smoothness: 1e-6,
                 tolerance: 1e-9,
                 max_iterations: 20_000,

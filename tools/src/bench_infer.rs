@@ -52,6 +52,9 @@ pub struct BenchInferArgs {
     /// Confidence threshold θ_c in degrees (paper: 5).
     #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES)]
     confidence_degrees: f64,
+    /// The solver's iterative method.
+    #[arg(long, value_enum, default_value = "cg")]
+    solver: SolverArg,
     /// Relative smoothness weight of the solve.
     #[arg(long, default_value_t = lensmap_baker::solve::DEFAULT_SMOOTHNESS)]
     smoothness: f64,
@@ -64,6 +67,15 @@ pub struct BenchInferArgs {
     /// Where to write the JSON results.
     #[arg(long, default_value = "out/bench-infer.json")]
     json: PathBuf,
+}
+
+/// `--solver`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum SolverArg {
+    /// Conjugate gradient on the normal equations.
+    Cg,
+    /// LSQR on the least-squares system.
+    Lsqr,
 }
 
 pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
@@ -132,6 +144,10 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         },
         theta_c: args.confidence_degrees.to_radians(),
         solve: lensmap_baker::solve::SolveOptions {
+            method: match args.solver {
+                SolverArg::Cg => lensmap_baker::solve::SolveMethod::ConjugateGradient,
+                SolverArg::Lsqr => lensmap_baker::solve::SolveMethod::Lsqr,
+            },
             smoothness: args.smoothness,
             tolerance: args.tolerance,
             ..lensmap_baker::solve::SolveOptions::default()

@@ -171,6 +171,14 @@ impl Smoothness {
         sum
     }
 
+    /// The graph Laplacian GᵀG x: per texel, Σ over its neighbours of (x_texel − x_neighbour).
+    /// Zero at a texel no pixel sees once the solve has converged (the fill is harmonic there).
+    pub fn laplacian(&self, x: &[[f64; 4]]) -> Vec<[f64; 4]> {
+        let mut y = vec![[0.0; 4]; x.len()];
+        self.add_normal(1.0, x, &mut y);
+        y
+    }
+
     /// y += weight · GᵀG x.
     fn add_normal(&self, weight: f64, x: &[[f64; 4]], y: &mut [[f64; 4]]) {
         for &(a, b) in &self.pairs {

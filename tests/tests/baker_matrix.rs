@@ -315,6 +315,19 @@ fn the_solver_inverts_the_matrix() {
             );
         }
     }
+    // …and harmonic: their Laplacian (over neighbours within faces, across seams and to parent
+    // and child levels) vanishes up to the solver's tolerance.
+    let laplacian = smoothness.laplacian(&x);
+    for &i in &unseen {
+        for c in 0..4 {
+            assert!(
+                laplacian[i][c].abs() <= 1e-4,
+                "unseen {:?}: Laplacian {:?}",
+                layout.texel(i),
+                laplacian[i]
+            );
+        }
+    }
     // 5% Gaussian noise in b: the re-render is no further from the clean image than the noise.
     let noisy: Vec<Vec<[f64; 4]>> = clean
         .iter()

@@ -210,6 +210,38 @@ pub fn finest_level_read(
     Ok((None, renders))
 }
 
+/// The finest MIP level any (term, layer) frame of `frames` reads with face size `cap`
+/// ([`finest_level_read`] for each), and the renders made.
+pub fn finest_level_of_frames(
+    renderer: &mut dyn TestRenderer,
+    frames: &LayerFrames,
+    layers: usize,
+    cap: u32,
+) -> Result<(Option<usize>, usize), MatrixError> {
+    let mut finest: Option<usize> = None;
+    let mut renders = 0;
+    for &term in &frames.terms() {
+        for layer in 0..layers {
+            let (level, made) = finest_level_read(renderer, &mut frames.layer(term, layer)?, cap)?;
+            renders += made;
+            if let Some(level) = level {
+                finest = Some(finest.map_or(level, |f: usize| f.min(level)));
+            }
+        }
+    }
+    Ok((finest, renders))
+}
+
+/// One view an EM is fitted to: a camera and the reference ray tracer's intersection records of
+/// the lens object at that camera.
+#[derive(Clone, Copy, Debug)]
+pub struct View<'a> {
+    /// The camera (its resolution × supersampling is the test frames' framebuffer).
+    pub camera: &'a Camera,
+    /// The lens object's records at that camera.
+    pub records: &'a LensRecords,
+}
+
 /// Infers the layered EM of lens object `lens` of `hybrid` at `camera` to match `records` (the
 /// reference ray tracer's intersection records of that lens at that camera), on the shells the
 /// hybrid scene already has.
@@ -219,6 +251,20 @@ pub fn infer_lens(
     lens: usize,
     camera: &Camera,
     records: &LensRecords,
+    options: &InferOptions,
+) -> Result<Inference, InferError> {
+    infer_lens_views(runner, hybrid, lens, &[View { camera, records }], options)
+}
+
+/// Infers one layered EM of lens object `lens` that matches every view of `views` at once (the
+/// paper's simultaneous inference over multiple viewpoints: one solve, the equations of every
+/// view stacked). The EM size is searched on the first view. A view that sees none of the lens
+/// object adds no equations; all of them seeing none is an error.
+pub fn infer_lens_views(
+    runner: &mut FrameRunner,
+    hybrid: &HybridScene,
+    lens: usize,
+    views: &[View<'_>],
     options: &InferOptions,
 ) -> Result<Inference, InferError> {
     let start = Instant::now();
@@ -233,16 +279,25 @@ pub fn infer_lens(
         )));
     };
     let name = hybrid.trace.lenses[lens].name.clone();
-    let (frame, _) = hybrid
-        .frame(camera, &options.hybrid)
-        .map_err(|e| InferError::Frame(e.to_string()))?;
-    let frame_ms = start.elapsed().as_secs_f64() * 1e3;
-    let k = camera.supersampling.max(1);
-    let frames = LayerFrames::new(&frame, lens, k)?;
-    let terms = frames.terms();
     let n = layers.shells.len();
+    // Per view: its test frames.
+    let mut seen = Vec::new();
+    for view in views {
+        let (frame, _) = hybrid
+            .frame(view.camera, &options.hybrid)
+            .map_err(|e| InferError::Frame(e.to_string()))?;
+        let k = view.camera.supersampling.max(1);
+        seen.push((view, LayerFrames::new(&frame, lens, k)?));
+    }
+    let frame_ms = start.elapsed().as_secs_f64() * 1e3;
+    if seen.is_empty() {
+        return Err(InferError::BadOption(
+            "no views to infer from; give at least one camera".into(),
+        ));
+    }
     let mut renderer = DeviceRenderer::new(runner, options.variant);
-    // The resolution: the finest level read by any (term, layer) frame at the cap.
+    // The resolution: the finest level read by any (term, layer) frame of the first view at the
+    // cap.
     let (size, finest_level_at_cap, search_renders) = match options.em_size {
         EmSize::Fixed(size) => (size, None, 0),
         EmSize::Auto { cap } => {
@@ -251,18 +306,7 @@ pub fn infer_lens(
                     "EM size cap {cap} is not a power of two; give e.g. 256"
                 )));
             }
-            let mut finest: Option<usize> = None;
-            let mut renders = 0;
-            for &term in &terms {
-                for layer in 0..n {
-                    let (level, made) =
-                        finest_level_read(&mut renderer, &mut frames.layer(term, layer)?, cap)?;
-                    renders += made;
-                    if let Some(level) = level {
-                        finest = Some(finest.map_or(level, |f: usize| f.min(level)));
-                    }
-                }
-            }
+            let (finest, renders) = finest_level_of_frames(&mut renderer, &seen[0].1, n, cap)?;
             let Some(level) = finest else {
                 return Err(InferError::NoLensPixels { lens: name });
             };
@@ -274,46 +318,69 @@ pub fn infer_lens(
             "EM size {size} is not a power of two; give e.g. 128"
         )));
     }
-    let display = (camera.width, camera.height);
     let layout = TexelLayout::new(size);
     let smoothness = Smoothness::new(&layout);
-    let mut targets = Vec::new();
+    // targets[view][term]
     let targets_start = Instant::now();
-    for &term in &terms {
-        targets.push(term_targets(
-            records,
-            term,
-            &layers.shells,
-            display,
-            k,
-            options.theta_c,
-        )?);
+    let mut targets = Vec::new();
+    for (view, frames) in &seen {
+        let camera = view.camera;
+        let per_term = frames
+            .terms()
+            .iter()
+            .map(|&term| {
+                term_targets(
+                    view.records,
+                    term,
+                    &layers.shells,
+                    (camera.width, camera.height),
+                    camera.supersampling.max(1),
+                    options.theta_c,
+                )
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        targets.push(per_term);
     }
     let targets_ms = targets_start.elapsed().as_secs_f64() * 1e3 / n.max(1) as f64;
-    if targets.iter().all(|t| t.pixels_with_records == 0) {
+    if targets.iter().flatten().all(|t| t.pixels_with_records == 0) {
         return Err(InferError::NoLensPixels { lens: name });
     }
     let mut maps = Vec::new();
     let mut reports = Vec::new();
     for layer in 0..n {
         let matrix_start = Instant::now();
-        let matrices: Vec<RenderingMatrix> = terms
-            .iter()
-            .map(|&term| {
-                RenderingMatrix::measure(&mut renderer, &mut frames.layer(term, layer)?, size, k)
-            })
-            .collect::<Result<_, _>>()?;
+        // matrices[view][term]
+        let mut matrices: Vec<Vec<RenderingMatrix>> = Vec::new();
+        for (view, frames) in &seen {
+            let k = view.camera.supersampling.max(1);
+            matrices.push(
+                frames
+                    .terms()
+                    .iter()
+                    .map(|&term| {
+                        RenderingMatrix::measure(
+                            &mut renderer,
+                            &mut frames.layer(term, layer)?,
+                            size,
+                            k,
+                        )
+                    })
+                    .collect::<Result<_, _>>()?,
+            );
+        }
         let matrix_ms = matrix_start.elapsed().as_secs_f64() * 1e3;
-        if matrices.iter().all(|m| m.nnz() == 0) {
+        if matrices.iter().flatten().all(|m| m.nnz() == 0) {
             return Err(InferError::NoLensPixels { lens: name });
         }
         let equations: Vec<Equations<'_>> = matrices
             .iter()
             .zip(&targets)
-            .map(|(m, t)| Equations {
-                a: &m.a,
-                b: &t.layers[layer],
-                confidence: &t.confidence,
+            .flat_map(|(matrices, targets)| {
+                matrices.iter().zip(targets).map(move |(m, t)| Equations {
+                    a: &m.a,
+                    b: &t.layers[layer],
+                    confidence: &t.confidence,
+                })
             })
             .collect();
         // CG starts from the layer's current (projected) EM, resampled to this size: where no
@@ -329,8 +396,12 @@ pub fn infer_lens(
         maps.push(layout.to_cube(&x));
         reports.push(LayerReport {
             layer,
-            renders: matrices.iter().map(|m| m.renders).sum(),
-            nonzeros: matrices.iter().map(RenderingMatrix::nnz).collect(),
+            renders: matrices.iter().flatten().map(|m| m.renders).sum(),
+            nonzeros: matrices
+                .iter()
+                .flatten()
+                .map(RenderingMatrix::nnz)
+                .collect(),
             matrix_ms,
             targets_ms,
             solve: solve_report,

@@ -5,8 +5,10 @@
 //! confidence; [`solve`] finds the EM over all MIP levels by confidence-weighted, regularized
 //! least squares; [`infer`] runs them for one lens object at one camera.
 
+pub mod bake;
 pub mod clustering;
 pub mod infer;
 pub mod matrix;
+pub mod placement;
 pub mod solve;
 pub mod targets;

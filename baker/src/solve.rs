@@ -227,14 +227,29 @@ fn in_range(texel: [f64; 4]) -> [f64; 4] {
     ]
 }
 
+/// Texels per chunk of [`dot`]'s parallel partial sums.
+const DOT_CHUNK: usize = 4096;
+
+/// `Σ a·b` per channel. Partial sums over fixed chunks, added in chunk order: rayon's own
+/// `reduce` splits where work is stolen, so its rounding (and every CG iterate after it) would
+/// change from run to run, and a bake must give the same bytes every time.
 fn dot(a: &[[f64; 4]], b: &[[f64; 4]]) -> [f64; 4] {
-    a.par_iter()
-        .zip(b)
-        .map(|(a, b)| std::array::from_fn(|c| a[c] * b[c]))
-        .reduce(
-            || [0.0; 4],
-            |s: [f64; 4], t| std::array::from_fn(|c| s[c] + t[c]),
-        )
+    let partial: Vec<[f64; 4]> = a
+        .par_chunks(DOT_CHUNK)
+        .zip(b.par_chunks(DOT_CHUNK))
+        .map(|(a, b)| {
+            let mut sum = [0.0; 4];
+            for (a, b) in a.iter().zip(b) {
+                for c in 0..4 {
+                    sum[c] += a[c] * b[c];
+                }
+            }
+            sum
+        })
+        .collect();
+    partial
+        .iter()
+        .fold([0.0; 4], |s, t| std::array::from_fn(|c| s[c] + t[c]))
 }
 
 /// Preconditioned CG on the free entries of `x` (the `fixed` ones keep their value), the four

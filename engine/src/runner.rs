@@ -81,7 +81,16 @@ pub enum RunError {
 /// EMs (0 for a bake).
 pub fn load_hybrid_scene(scene: Scene, ems: &EmSource) -> Result<(HybridScene, u64), RunError> {
     Ok(match ems {
-        EmSource::Bake(dir) => (HybridScene::from_bake(scene, Bake::read(dir)?)?, 0),
+        EmSource::Bake(dir) => (
+            // The mismatch names `manifest.json`; say which directory's.
+            HybridScene::from_bake(scene, Bake::read(dir)?).map_err(|error| match error {
+                HybridError::BakeMismatch(message) => {
+                    HybridError::BakeMismatch(format!("{}/{message}", dir.display()))
+                }
+                other => other,
+            })?,
+            0,
+        ),
         EmSource::Projected(options) => {
             options.validate()?;
             HybridScene::projected(scene, options)?

@@ -122,6 +122,7 @@ mod layers_bake {
             created_by: lensmap::layers::bake::default_created_by(),
             viewpoints,
             lenses,
+            provenance: None,
         }
     }
 

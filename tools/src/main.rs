@@ -4,6 +4,7 @@
 
 #[macro_use]
 mod common;
+mod bake;
 mod bench_hybrid;
 mod bench_infer;
 mod bench_passes;
@@ -49,6 +50,11 @@ enum Command {
     ///
     /// Example: lensmap render --scene teapot-room --projected --view 2 --compare --out out/hybrid.png
     Render(render::RenderArgs),
+    /// Bake inferred layered EMs over a scene's view space into a bake directory (resumable,
+    /// shardable; --merge joins shards).
+    ///
+    /// Example: lensmap bake --scene teapot-room --samples 0,1 --out out/bake
+    Bake(bake::BakeArgs),
     /// Benchmarks (medians of repeated runs, ratios measured in the same run).
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -97,11 +103,25 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
         RenderError::BadInput(_) | RenderError::Program(_) => true,
         RenderError::Gpu(error) => matches!(error, GpuError::NoDriver(_)),
     };
+    let run_input = |run: &RunError| match run {
+        RunError::Option(_) | RunError::Bake(_) | RunError::Hybrid(_) => true,
+        RunError::Tessellation(_) => false,
+        RunError::Render(error) => render_input(error),
+    };
     if let Some(run) = cause.downcast_ref::<RunError>() {
-        return match run {
-            RunError::Option(_) | RunError::Bake(_) | RunError::Hybrid(_) => true,
-            RunError::Tessellation(_) => false,
-            RunError::Render(error) => render_input(error),
+        return run_input(run);
+    }
+    // The baker's error forwards its inner errors transparently too.
+    if let Some(failure) = cause.downcast_ref::<lensmap_baker::bake::BakeFailure>() {
+        use lensmap_baker::bake::BakeFailure;
+        return match failure {
+            BakeFailure::BadInput(_) | BakeFailure::Bake(_) | BakeFailure::Staged { .. } => true,
+            BakeFailure::Hybrid(_) => true,
+            BakeFailure::Run(run) => run_input(run),
+            BakeFailure::Infer(_)
+            | BakeFailure::Placement(_)
+            | BakeFailure::Trace(_)
+            | BakeFailure::Metrics(_) => false,
         };
     }
     cause.is::<lensmap::scene::SceneError>()
@@ -122,6 +142,7 @@ fn main() -> ExitCode {
         Command::Passes(args) => passes::run(args),
         Command::Reference(args) => reference::run(args),
         Command::Render(args) => render::run(args),
+        Command::Bake(args) => bake::run(args),
         Command::Bench(BenchCommand::Passes(args)) => bench_passes::run(args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(args),
         Command::Bench(BenchCommand::Hybrid(args)) => bench_hybrid::run(args),

@@ -153,13 +153,40 @@ impl HybridScene {
         scene: Scene,
         options: &crate::layers::projected::ProjectedOptions,
     ) -> Result<(HybridScene, u64), HybridError> {
-        use crate::layers::projected::{em_origin, lens_shells, project_layers};
+        use crate::layers::projected::{em_origin, lens_shells};
         let trace = TraceScene::new(&scene)?;
-        let mut rays = 0;
-        let lenses = (0..trace.lenses.len())
+        let shells = (0..trace.lenses.len())
             .map(|lens| {
                 let origin = em_origin(&scene, lens);
-                let shells = lens_shells(&trace, &scene, lens, origin);
+                (origin, lens_shells(&trace, &scene, lens, origin))
+            })
+            .collect();
+        Self::projected_on(scene, trace, shells, options)
+    }
+
+    /// A hybrid scene with projected layered EMs on the given shells: `shells[lens]` is the EM
+    /// origin and the shells of lens object `lens` (TraceScene order), nearest first. Also
+    /// returns the rays the projection cast.
+    pub fn projected_on(
+        scene: Scene,
+        trace: TraceScene,
+        shells: Vec<(DVec3, Vec<LayerShell>)>,
+        options: &crate::layers::projected::ProjectedOptions,
+    ) -> Result<(HybridScene, u64), HybridError> {
+        use crate::layers::projected::project_layers;
+        if shells.len() != trace.lenses.len() {
+            return Err(HybridError::BakeMismatch(format!(
+                "{} lens objects given shells, but scene \"{}\" has {}; give shells for every lens object",
+                shells.len(),
+                scene.name,
+                trace.lenses.len()
+            )));
+        }
+        let mut rays = 0;
+        let lenses = shells
+            .into_iter()
+            .enumerate()
+            .map(|(lens, (origin, shells))| {
                 let (maps, cast) = project_layers(&trace, lens, origin, &shells, options);
                 rays += cast;
                 LensLayers {
@@ -193,7 +220,17 @@ impl HybridScene {
     }
 
     /// A hybrid scene whose layered EMs come from a bake (matched to lens objects by name).
+    /// A bake that carries its scene's identity ([`crate::layers::Provenance`], written by
+    /// `lensmap bake`) must have been made from this very scene content.
     pub fn from_bake(scene: Scene, bake: crate::layers::Bake) -> Result<HybridScene, HybridError> {
+        if let Some(provenance) = &bake.provenance
+            && provenance.scene_hash != scene.content_hash()
+        {
+            return Err(HybridError::BakeMismatch(format!(
+                "manifest.json: provenance.scene_hash: the bake was made from scene \"{}\" with other content than scene \"{}\"; bake this scene (lensmap bake --scene {} --out DIR) or pass the scene it was made from",
+                bake.scene, scene.name, scene.name
+            )));
+        }
         let trace = TraceScene::new(&scene)?;
         let mut baked: Vec<Option<crate::layers::BakedLens>> =
             bake.lenses.into_iter().map(Some).collect();
@@ -266,6 +303,7 @@ impl HybridScene {
                         .collect(),
                 })
                 .collect(),
+            provenance: None,
         }
     }
 

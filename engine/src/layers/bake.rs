@@ -73,6 +73,24 @@ pub struct Manifest {
     pub viewpoints: Vec<Vec3>,
     /// The lens objects, at least one, with unique non-empty names.
     pub lenses: Vec<ManifestLens>,
+    /// Where the bake came from (written by `lensmap bake`; absent in bakes written from
+    /// projected EMs): what resuming, merging and rendering check the bake against.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub provenance: Option<Provenance>,
+}
+
+/// What a bake was made from, so that one made from another scene or with other options is
+/// refused instead of rendered wrong.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Provenance {
+    /// The scene's content hash (`Scene::content_hash`): geometry, materials, lights, the
+    /// environment, the lens objects, the view space and the camera's aim.
+    pub scene_hash: String,
+    /// Hash of every bake option that changes the maps (resolution, EM size, layers, views…).
+    pub options_hash: String,
+    /// The view-space index of each viewpoint, in the order of `viewpoints`: strictly increasing.
+    pub samples: Vec<usize>,
 }
 
 /// One lens object in the manifest.
@@ -109,6 +127,8 @@ pub struct Bake {
     pub viewpoints: Vec<Vec3>,
     /// The lens objects.
     pub lenses: Vec<BakedLens>,
+    /// Where it came from (see [`Provenance`]), when known.
+    pub provenance: Option<Provenance>,
 }
 
 /// One lens object's layered EMs.
@@ -333,6 +353,32 @@ pub enum BakeError {
     },
 }
 
+/// SHA-256 of `value`'s `Debug` text, as 64 hex digits: the identity of a scene or of a bake's
+/// options in a bake's [`Provenance`]. The text is streamed into the hasher, never held whole.
+/// Stable for the same lensmap build; a change to any value changes it.
+pub fn debug_hash(value: &impl std::fmt::Debug) -> String {
+    use sha2::Digest;
+    use std::fmt::Write as _;
+    struct Hasher(sha2::Sha256);
+    impl std::fmt::Write for Hasher {
+        fn write_str(&mut self, text: &str) -> std::fmt::Result {
+            self.0.update(text.as_bytes());
+            Ok(())
+        }
+    }
+    let mut hasher = Hasher(sha2::Sha256::new());
+    // Writing into a hasher cannot fail.
+    let _ = write!(hasher, "{value:?}");
+    hasher
+        .0
+        .finalize()
+        .iter()
+        .fold(String::with_capacity(64), |mut hex, byte| {
+            let _ = write!(hex, "{byte:02x}");
+            hex
+        })
+}
+
 /// `"lensmap <version>"`, the usual [`Bake::created_by`].
 pub fn default_created_by() -> String {
     concat!("lensmap ", env!("CARGO_PKG_VERSION")).to_owned()
@@ -425,6 +471,7 @@ impl Bake {
                         .collect(),
                 })
                 .collect(),
+            provenance: self.provenance.clone(),
         };
         manifest.validate(dir)?;
         Ok(manifest)
@@ -515,7 +562,136 @@ impl Bake {
             created_by: manifest.created_by,
             viewpoints: manifest.viewpoints,
             lenses,
+            provenance: manifest.provenance,
         })
+    }
+}
+
+/// A bake built piece by piece in a staging directory beside its final place, `.NAME.baking`,
+/// then committed atomically in one swap (as [`Bake::write`] does): what `lensmap bake` writes
+/// sample by sample, so that a killed bake loses at most the sample in flight and never the
+/// bake already at `NAME`. Every file is written under a temporary name, fsynced and renamed,
+/// so a file present under its own name is complete. One baker per directory at a time.
+#[derive(Debug)]
+pub struct Staging {
+    dir: PathBuf,
+    parent: PathBuf,
+    previous: PathBuf,
+    path: PathBuf,
+}
+
+impl Staging {
+    /// The staging directory of bake directory `dir`, created (with `dir`'s parents) when absent
+    /// and kept when present, for resuming. A swap an earlier write left half done is finished
+    /// first; an existing `dir` that is not a bake is refused.
+    pub fn open(dir: &Path) -> Result<Staging, BakeError> {
+        let (parent, name) = split_directory(dir)?;
+        fs::create_dir_all(&parent).map_err(io_error(&parent, "create"))?;
+        let previous = parent.join(format!(".{name}.previous"));
+        restore_interrupted_swap(dir, &previous)?;
+        if dir.exists() && !is_bake_or_empty(dir) {
+            return Err(BakeError::NotABake {
+                dir: dir.to_owned(),
+            });
+        }
+        let path = parent.join(format!(".{name}.baking"));
+        if !path.is_dir() {
+            fs::create_dir(&path).map_err(io_error(&path, "create"))?;
+        }
+        Ok(Staging {
+            dir: dir.to_owned(),
+            parent,
+            previous,
+            path,
+        })
+    }
+
+    /// Empties the staging directory (a fresh start: nothing of an earlier bake is reused).
+    pub fn clear(&self) -> Result<(), BakeError> {
+        fs::remove_dir_all(&self.path).map_err(io_error(&self.path, "remove"))?;
+        fs::create_dir(&self.path).map_err(io_error(&self.path, "create"))
+    }
+
+    /// The staging directory.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The bake directory it will become.
+    pub fn final_dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Whether the complete file `name` is staged.
+    pub fn contains(&self, name: &str) -> bool {
+        self.path.join(name).is_file()
+    }
+
+    /// Writes `bytes` to `name` in the staging directory: a temporary file, fsynced, renamed.
+    pub fn write_file(&self, name: &str, bytes: &[u8]) -> Result<(), BakeError> {
+        let temporary = self.path.join(format!(".{name}.tmp"));
+        write_synced(&temporary, bytes)?;
+        self.rename_into(&temporary, name)
+    }
+
+    /// Checks `cube` (face size `size`) and writes it as cube-map EXR `name`, as
+    /// [`Staging::write_file`] does; errors name the file's final path.
+    pub fn write_cube_map(&self, name: &str, cube: &CubeMap, size: u32) -> Result<(), BakeError> {
+        check_cube_map(cube, size, &self.dir.join(name))?;
+        let temporary = self.path.join(format!(".{name}.tmp"));
+        write_cube_map_exr(cube, &temporary)?;
+        self.rename_into(&temporary, name)
+    }
+
+    /// Copies the complete file `from` in as `name` (bytes unchanged), as
+    /// [`Staging::write_file`] does.
+    pub fn copy_in(&self, from: &Path, name: &str) -> Result<(), BakeError> {
+        let bytes = fs::read(from).map_err(io_error(from, "read"))?;
+        self.write_file(name, &bytes)
+    }
+
+    fn rename_into(&self, temporary: &Path, name: &str) -> Result<(), BakeError> {
+        let target = self.path.join(name);
+        fs::rename(temporary, &target).map_err(io_error(&target, "rename into place"))?;
+        sync_directory(&self.path)
+    }
+
+    /// Makes the staged bake the bake directory: checks `manifest` (which must list only staged
+    /// map files), removes every staged file it does not list, writes it, and swaps the staging
+    /// directory in for the old bake in one rename (see the module docs).
+    pub fn commit(self, manifest: &Manifest) -> Result<(), BakeError> {
+        manifest.validate(&self.dir.join(MANIFEST_FILE_NAME))?;
+        let mut listed = HashSet::new();
+        for (index, lens) in manifest.lenses.iter().enumerate() {
+            for (layer_index, layer) in lens.layers.iter().enumerate() {
+                for (viewpoint, file) in layer.maps.iter().enumerate() {
+                    if !self.contains(file) {
+                        return Err(BakeError::MissingMap {
+                            path: self.path.join(file),
+                            field: format!(
+                                "lenses[{index}].layers[{layer_index}].maps[{viewpoint}]"
+                            ),
+                        });
+                    }
+                    listed.insert(file.clone());
+                }
+            }
+        }
+        let entries = fs::read_dir(&self.path).map_err(io_error(&self.path, "list"))?;
+        for entry in entries {
+            let entry = entry.map_err(io_error(&self.path, "list"))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if !listed.contains(&name) {
+                let path = entry.path();
+                fs::remove_file(&path).map_err(io_error(&path, "remove"))?;
+            }
+        }
+        write_synced(
+            &self.path.join(MANIFEST_FILE_NAME),
+            manifest.to_json().as_bytes(),
+        )?;
+        sync_directory(&self.path)?;
+        swap_in(&self.path, &self.dir, &self.previous, &self.parent)
     }
 }
 
@@ -627,6 +803,26 @@ impl Manifest {
                 path: path.to_owned(),
                 size: self.cube_map_size,
             });
+        }
+        if let Some(provenance) = &self.provenance {
+            if provenance.samples.len() != self.viewpoints.len() {
+                return Err(BakeError::InconsistentCount {
+                    path: path.to_owned(),
+                    field: "provenance.samples".into(),
+                    found: provenance.samples.len(),
+                    what: "indices",
+                    expected_from: "viewpoints".to_owned(),
+                    expected: self.viewpoints.len(),
+                    fix: "list one view-space index per viewpoint, or bake again",
+                });
+            }
+            if provenance.samples.windows(2).any(|w| w[0] >= w[1]) {
+                return invalid(
+                    "provenance.samples".into(),
+                    format!("{:?} is not strictly increasing", provenance.samples),
+                    "list each view-space index once, in increasing order, or bake again",
+                );
+            }
         }
         let mut names = HashSet::new();
         for (index, lens) in self.lenses.iter().enumerate() {

@@ -6,5 +6,5 @@ pub mod bake;
 pub mod projected;
 pub mod shell;
 
-pub use bake::{Bake, BakeError, BakedLens, Manifest};
+pub use bake::{Bake, BakeError, BakedLens, Manifest, Provenance, Staging};
 pub use shell::{LayerShell, ShellError, ShellHit};

@@ -326,6 +326,25 @@ impl Scene {
         load::scene_from_toml(text, origin)
     }
 
+    /// A hash of everything a bake depends on: the objects (names, world-space meshes,
+    /// materials), the lights, the environment, the lens objects (with their layer specs), the
+    /// view space and the camera's aim (look-at, up, field of view: the viewpoint samples look
+    /// where the camera looks). Not the camera's position, resolution or supersampling, and not
+    /// the name. [`crate::layers::bake::debug_hash`] of those values: the same scene loaded by the
+    /// same lensmap always gives the same hash, and any change to what is hashed changes it.
+    pub fn content_hash(&self) -> String {
+        let camera = &self.camera;
+        crate::layers::bake::debug_hash(&(
+            &self.objects,
+            &self.materials,
+            &self.lights,
+            &self.environment,
+            &self.lenses,
+            &self.view_space,
+            (camera.look_at, camera.up, camera.vfov_radians),
+        ))
+    }
+
     /// A built-in scene by name (see [`BUILTIN_SCENES`]), or `None` for an unknown name.
     pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
         let (name, text) = BUILTIN_SOURCES.iter().find(|(n, _)| *n == name)?;

@@ -1,0 +1,1259 @@
+//! The offline stage over a whole view space (hybrid-rendering paper §4): a *plan* fixed for the
+//! scene and the options (layer placement, shells, EM size), then every requested viewpoint
+//! sample as one unit of work (records traced from K views around the sample, one EM per lens
+//! object and layer inferred against all K views at once), staged sample by sample and committed
+//! as one bake directory (`lensmap::layers::bake`).
+//!
+//! **Plan.** Each lens object's EM origin is its centroid. Its layers are the scene file's when
+//! it names them and `--layers auto`; otherwise LBG clustering of intersection distances over
+//! [`PLACEMENT_SAMPLES`] viewpoints spread over the whole view space, shells fitted per layer
+//! ([`crate::placement`]). With `auto` and no named layers, the layer count grows from 1 while one
+//! more layer raises the lens object's PSNR (projected EMs on the placed shells, at view-space
+//! sample 0, against the reference) by more than [`AUTO_LAYER_GAIN_DB`], up to
+//! [`MAX_AUTO_LAYERS`]; a lens object whose environment is distant gets one layer that way. The
+//! EM size is searched (finest level read) at view-space sample 0. The plan depends only on the
+//! scene and the options, never on which samples a process bakes, so shards agree on it.
+//!
+//! **Multi-view.** Sample i's EMs are solved against K views spread uniformly over its share of
+//! the view space: rotations of the sample about the vertical through the look-at point by
+//! `s·((j + ½)/K − ½)`, j = 0…K−1, s the angle to the nearest other sample (so K = 1 is the
+//! sample alone, and odd K include it).
+//!
+//! **Staging, resume, shards.** Work goes into `Staging` (`.NAME.baking` beside the bake): the
+//! plan (`plan.json`), then per sample its cube maps and last its report `sample-NNN.json`,
+//! which marks it complete. A killed bake loses at most the sample in flight; the bake at NAME is
+//! replaced only by the final commit. `resume` keeps a staging directory whose plan matches and
+//! takes complete samples from it and from a bake at NAME made with the same scene and options.
+//! Everything is deterministic (fixed reductions, ordered sums, a deterministic device), so a
+//! resumed bake, a merged set of shards and a single-process bake give the same bytes.
+
+use std::{
+    collections::BTreeMap,
+    path::{Path, PathBuf},
+    sync::Arc,
+    time::Instant,
+};
+
+use glam::{DQuat, DVec3, Vec3};
+use lensmap::{
+    cubemap::CubeMap,
+    hybrid::{HybridError, HybridScene},
+    layers::{
+        LayerShell, Manifest, Provenance, Staging,
+        bake::{
+            BakeError, ManifestLayer, ManifestLens, debug_hash, default_created_by, map_file_name,
+        },
+        projected::{ProjectedOptions, em_origin, lens_shells},
+    },
+    metrics::{self, Channels, Encoding, Mask},
+    render::TargetFormat,
+    runner::{FrameOptions, FrameRunner, RunError},
+    scene::{Camera, Scene},
+    trace::{
+        LensRecords, TraceError, TraceOptions, compile_records, render_reference, world::TraceScene,
+    },
+};
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferError, InferOptions, View, infer_lens_views},
+    matrix::LayerFrames,
+    placement::{PlacementError, lens_hits, place_layers},
+};
+
+/// Viewpoints (spread evenly over the view space) whose records place the layers.
+pub const PLACEMENT_SAMPLES: usize = 8;
+
+/// Placement records are traced at this fraction of the bake's resolution, 1 sample per pixel.
+pub const PLACEMENT_SCALE: u32 = 4;
+
+/// `--layers auto` stops adding layers when one more raises the lens PSNR by no more than this.
+pub const AUTO_LAYER_GAIN_DB: f64 = 0.5;
+
+/// `--layers auto` places at most this many layers.
+pub const MAX_AUTO_LAYERS: usize = 4;
+
+/// The default number of views per sample (see the README's measurement).
+pub const DEFAULT_MULTI_VIEW: usize = 3;
+
+/// The spread of the views around a sample when the view space has a single sample, degrees.
+pub const SINGLE_SAMPLE_SPREAD_DEGREES: f64 = 8.0;
+
+/// Bumped whenever the baker's algorithm changes its output, so that a bake or staging
+/// directory of an older baker is never resumed or merged with a newer one's.
+pub const BAKER_REVISION: u32 = 1;
+
+/// The staged plan's file name.
+pub const PLAN_FILE: &str = "plan.json";
+
+/// How many layers each lens object gets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayerCount {
+    /// The scene's layers where it names them, else grown while they help (module docs).
+    Auto,
+    /// This many, placed by clustering (at most; empty clusters are dropped).
+    Count(usize),
+}
+
+/// Everything that decides a bake's maps (and so its options hash), and whether to judge it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BakeOptions {
+    /// Target views' width in pixels.
+    pub width: u32,
+    /// Target views' height in pixels.
+    pub height: u32,
+    /// Target views' k×k supersampling (the hybrid test frames' too).
+    pub supersampling: u32,
+    /// The EM face size: searched at sample 0 up to a cap, or fixed.
+    pub em_size: EmSize,
+    /// Layers per lens object.
+    pub layers: LayerCount,
+    /// K: views per sample.
+    pub multi_view: usize,
+    /// Inference options (θc, solver, tessellation, compositor variant); its `em_size` is
+    /// replaced by the plan's.
+    pub infer: InferOptions,
+    /// Whether each sample's lens PSNR is measured against a reference traced at the sample
+    /// (does not change the maps).
+    pub judge: bool,
+}
+
+impl Default for BakeOptions {
+    fn default() -> Self {
+        BakeOptions {
+            width: 640,
+            height: 480,
+            supersampling: 3,
+            em_size: EmSize::Auto {
+                cap: DEFAULT_MAX_EM_SIZE,
+            },
+            layers: LayerCount::Auto,
+            multi_view: DEFAULT_MULTI_VIEW,
+            infer: InferOptions::default(),
+            judge: true,
+        }
+    }
+}
+
+impl BakeOptions {
+    /// The identity of everything that changes the maps (not `judge`).
+    pub fn hash(&self) -> String {
+        let infer = &self.infer;
+        debug_hash(&(
+            BAKER_REVISION,
+            (self.width, self.height, self.supersampling),
+            self.em_size,
+            self.layers,
+            self.multi_view,
+            (infer.hybrid, infer.variant, infer.theta_c, infer.solve),
+        ))
+    }
+
+    /// Checks the options; the message names the option and the fix.
+    pub fn validate(&self) -> Result<(), BakeFailure> {
+        let bad = |text: String| Err(BakeFailure::BadInput(text));
+        if self.width == 0 || self.height == 0 || self.supersampling == 0 {
+            return bad(format!(
+                "--width {} --height {} --supersampling {}: give values ≥ 1",
+                self.width, self.height, self.supersampling
+            ));
+        }
+        let size = match self.em_size {
+            EmSize::Auto { cap } => cap,
+            EmSize::Fixed(size) => size,
+        };
+        if !size.is_power_of_two() || size > lensmap::layers::projected::MAX_EM_SIZE {
+            return bad(format!(
+                "--em-size {size}: give auto or a power of two from 1 to {}, e.g. 128",
+                lensmap::layers::projected::MAX_EM_SIZE
+            ));
+        }
+        if let LayerCount::Count(n) = self.layers
+            && !(1..=8).contains(&n)
+        {
+            return bad(format!("--layers {n}: give auto or a count from 1 to 8"));
+        }
+        if !(1..=9).contains(&self.multi_view) {
+            return bad(format!(
+                "--multi-view {}: give a view count from 1 to 9 (1 turns multi-view off)",
+                self.multi_view
+            ));
+        }
+        self.infer
+            .hybrid
+            .validate()
+            .map_err(|e| BakeFailure::BadInput(e.to_string()))
+    }
+}
+
+/// Why a bake failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeFailure {
+    /// The user's input (options, sample lists, shards to merge): exit code 2.
+    #[error("{0}")]
+    BadInput(String),
+    /// Reading or writing the bake directory.
+    #[error(transparent)]
+    Bake(#[from] BakeError),
+    /// Inference.
+    #[error(transparent)]
+    Infer(#[from] InferError),
+    /// Layer placement.
+    #[error(transparent)]
+    Placement(#[from] PlacementError),
+    /// The ray tracer.
+    #[error(transparent)]
+    Trace(#[from] TraceError),
+    /// Building the hybrid scene.
+    #[error(transparent)]
+    Hybrid(#[from] HybridError),
+    /// A hybrid frame.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// A metric.
+    #[error(transparent)]
+    Metrics(#[from] metrics::MetricsError),
+    /// A staged file is not what this code wrote.
+    #[error("{}: {message}; delete it (or bake without --resume)", path.display())]
+    Staged {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// What is fixed for a scene and options before any sample is baked.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// Scene name.
+    pub scene: String,
+    /// [`Scene::content_hash`].
+    pub scene_hash: String,
+    /// [`BakeOptions::hash`].
+    pub options_hash: String,
+    /// The EM face size of every map.
+    pub em_size: u32,
+    /// Per lens object (TraceScene order).
+    pub lenses: Vec<PlannedLens>,
+}
+
+/// One lens object's plan.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlannedLens {
+    /// Name.
+    pub name: String,
+    /// EM origin (centroid), metres.
+    pub em_origin: DVec3,
+    /// Shells, nearest first.
+    pub shells: Vec<LayerShell>,
+    /// Where they came from: `scene` (named by the scene file) or `clustered`.
+    pub source: String,
+    /// Per layer, the scene objects in it (clustered layers only).
+    pub objects: Vec<Vec<String>>,
+    /// Per layer, the fit measure (RMS relative depth error) of the chosen shell (clustered
+    /// layers only).
+    pub fit_rms: Vec<f64>,
+    /// `--layers auto` without named layers: lens PSNR (dB) with 1, 2, … layers as tried.
+    pub auto_psnr_db: Vec<f64>,
+}
+
+/// What one sample's bake took and reached (also the sample's completion mark on disk).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SampleReport {
+    /// View-space index.
+    pub sample: usize,
+    /// Position, metres.
+    pub position: Vec3,
+    /// The plan's options hash, so a report of another plan is never taken for this one.
+    pub options_hash: String,
+    /// Per lens object.
+    pub lenses: Vec<LensReport>,
+    /// Lens PSNR at the sample (sRGB) with the inferred EMs against a reference traced at the
+    /// sample with the targets' supersampling; `None` when not judged.
+    pub psnr_db: Option<f64>,
+    /// The same with projected EMs on the same shells.
+    pub projected_psnr_db: Option<f64>,
+    /// Seconds per stage.
+    pub seconds: StageSeconds,
+}
+
+/// One lens object at one sample.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LensReport {
+    /// Name.
+    pub name: String,
+    /// Shell kinds, nearest first.
+    pub shells: Vec<String>,
+    /// Per layer: non-zeros of all its matrices (all views and terms).
+    pub nonzeros: Vec<usize>,
+    /// Per layer: solver iterations.
+    pub iterations: Vec<usize>,
+    /// Per layer: relative residual.
+    pub residual: Vec<f64>,
+    /// Views that saw the lens object.
+    pub views: usize,
+}
+
+/// Seconds per stage of one sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageSeconds {
+    /// Tracing the views' intersection records.
+    pub tracing: f64,
+    /// Hybrid frames of the views (tessellation, texgen).
+    pub frames: f64,
+    /// Test renderings read back into rendering matrices.
+    pub matrices: f64,
+    /// Targets and confidence.
+    pub targets: f64,
+    /// The solves.
+    pub solve: f64,
+    /// The reference and the frames that judge the sample.
+    pub judge: f64,
+    /// Writing the maps.
+    pub write: f64,
+    /// Everything.
+    pub total: f64,
+}
+
+/// The view-space indices `spec` names for a view space of `count` samples: `all`, `I,J,K` or
+/// `A..B` (B excluded) or `A..=B`; sorted, without repeats.
+pub fn parse_samples(spec: &str, count: usize, scene: &str) -> Result<Vec<usize>, BakeFailure> {
+    let fix = |problem: String| {
+        BakeFailure::BadInput(format!(
+            "--samples {spec}: {problem}; scene \"{scene}\" has samples 0..{count} (give all, I,J,K, A..B or A..=B)"
+        ))
+    };
+    let index = |text: &str| -> Result<usize, BakeFailure> {
+        let i: usize = text
+            .trim()
+            .parse()
+            .map_err(|_| fix(format!("'{}' is not a sample index", text.trim())))?;
+        if i >= count {
+            return Err(fix(format!("sample {i} does not exist")));
+        }
+        Ok(i)
+    };
+    let mut samples: Vec<usize> = if spec.trim() == "all" {
+        (0..count).collect()
+    } else if let Some((a, b)) = spec.split_once("..") {
+        let (inclusive, b) = match b.strip_prefix('=') {
+            Some(b) => (true, b),
+            None => (false, b),
+        };
+        let start = index(a)?;
+        let end: usize = b
+            .trim()
+            .parse()
+            .map_err(|_| fix(format!("'{}' is not a sample index", b.trim())))?;
+        let end = if inclusive { end + 1 } else { end };
+        if end > count {
+            return Err(fix(format!("sample {} does not exist", end - 1)));
+        }
+        if end <= start {
+            return Err(fix("the range is empty".into()));
+        }
+        (start..end).collect()
+    } else {
+        spec.split(',').map(index).collect::<Result<_, _>>()?
+    };
+    samples.sort_unstable();
+    samples.dedup();
+    Ok(samples)
+}
+
+/// `I/N`: shard I (1-based) of N.
+pub fn parse_shard(spec: &str) -> Result<(usize, usize), BakeFailure> {
+    let bad = || {
+        BakeFailure::BadInput(format!(
+            "--shard {spec}: give I/N with 1 ≤ I ≤ N, e.g. 1/4 for the first of four shards"
+        ))
+    };
+    let (i, n) = spec.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || i == 0 || i > n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// The samples shard `i` of `n` bakes: every n-th of `samples`, starting at the i-th.
+pub fn shard_samples(samples: &[usize], (i, n): (usize, usize)) -> Vec<usize> {
+    samples
+        .iter()
+        .enumerate()
+        .filter(|(position, _)| position % n == i - 1)
+        .map(|(_, &s)| s)
+        .collect()
+}
+
+/// The camera at view-space sample position `position`: the scene camera moved there, at the
+/// bake's resolution.
+fn sample_camera(scene: &Scene, position: Vec3, options: &BakeOptions) -> Camera {
+    scene.camera.with_position(position).with_resolution(
+        options.width,
+        options.height,
+        options.supersampling,
+    )
+}
+
+/// Angle between two directions, robust near 0 and π.
+fn angle(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
+}
+
+/// The K views of sample `sample` (module docs).
+pub fn view_cameras(scene: &Scene, sample: usize, options: &BakeOptions) -> Vec<Camera> {
+    let positions = scene.view_space.samples();
+    let look_at = scene.camera.look_at.as_dvec3();
+    let own = positions[sample].as_dvec3() - look_at;
+    let spacing = positions
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != sample)
+        .map(|(_, p)| angle(own, p.as_dvec3() - look_at))
+        .filter(|a| *a > 1e-9)
+        .fold(f64::INFINITY, f64::min);
+    let spacing = if spacing.is_finite() {
+        spacing
+    } else {
+        SINGLE_SAMPLE_SPREAD_DEGREES.to_radians()
+    };
+    let k = options.multi_view.max(1);
+    (0..k)
+        .map(|j| {
+            let offset = spacing * ((j as f64 + 0.5) / k as f64 - 0.5);
+            let position = look_at + DQuat::from_rotation_y(offset) * own;
+            sample_camera(scene, position.as_vec3(), options)
+        })
+        .collect()
+}
+
+/// The reference's pixels that are all lens object `lens` (every supersample's first hit), from
+/// its records at that camera.
+fn lens_pixels(records: &LensRecords, camera: &Camera) -> Mask {
+    let k = camera.supersampling.max(1);
+    let mut counts = vec![0u32; (camera.width * camera.height) as usize];
+    for record in records.records.iter().filter(|r| r.visible) {
+        let (x, y) = (
+            record.image_position.x.floor() as usize,
+            record.image_position.y.floor() as usize,
+        );
+        if let Some(count) = counts.get_mut(y * camera.width as usize + x) {
+            *count += 1;
+        }
+    }
+    // Records come one per term: a pixel of a glass lens has 2k² of them.
+    let terms = records
+        .records
+        .iter()
+        .map(|r| r.term)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len()
+        .max(1) as u32;
+    Mask::from_flags(counts.iter().map(|&c| c == terms * k * k).collect())
+}
+
+/// Lens PSNR (sRGB) of `hybrid` at `camera` over `mask` against the reference radiance.
+fn masked_psnr(
+    runner: &mut FrameRunner,
+    hybrid: &HybridScene,
+    camera: &Camera,
+    reference: &[Vec3],
+    mask: &Mask,
+    options: &BakeOptions,
+) -> Result<f64, BakeFailure> {
+    let frame = runner.frame(
+        hybrid,
+        camera,
+        &FrameOptions {
+            hybrid: options.infer.hybrid,
+            variant: options.infer.variant,
+            format: TargetFormat::Rgba32f,
+        },
+    )?;
+    Ok(metrics::compare(
+        &frame.image.pixels,
+        reference,
+        mask,
+        Encoding::DisplaySrgb,
+        Channels::Rgb,
+    )?
+    .psnr_db)
+}
+
+/// Projected EMs of every lens object on `shells` (per lens: origin and shells), at `size`.
+fn projected_scene(
+    scene: &Scene,
+    shells: Vec<(DVec3, Vec<LayerShell>)>,
+    size: u32,
+) -> Result<HybridScene, BakeFailure> {
+    let trace = TraceScene::new(scene)?;
+    Ok(HybridScene::projected_on(
+        scene.clone(),
+        trace,
+        shells,
+        &ProjectedOptions::with_size(size),
+    )?
+    .0)
+}
+
+/// Makes the plan for `scene` and `options` (module docs). `progress` hears each step.
+pub fn make_plan(
+    runner: &mut FrameRunner,
+    scene: &Scene,
+    options: &BakeOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Plan, BakeFailure> {
+    options.validate()?;
+    let trace = TraceScene::new(scene)?;
+    let trace_options = TraceOptions::default();
+    let positions = scene.view_space.samples();
+    let lens_count = trace.lenses.len();
+    if lens_count == 0 {
+        return Err(BakeFailure::BadInput(format!(
+            "scene \"{}\" has no lens objects, so there is nothing to bake; add a glass or mirror object",
+            scene.name
+        )));
+    }
+    // Placement views: PLACEMENT_SAMPLES spread evenly over the view space, at reduced size.
+    let placement_views: Vec<Camera> = {
+        let count = positions.len().min(PLACEMENT_SAMPLES);
+        (0..count)
+            .map(|i| positions[i * positions.len() / count])
+            .map(|p| {
+                scene.camera.with_position(p).with_resolution(
+                    (options.width / PLACEMENT_SCALE).max(1),
+                    (options.height / PLACEMENT_SCALE).max(1),
+                    1,
+                )
+            })
+            .collect()
+    };
+    let judge_camera = sample_camera(scene, positions[0], options).with_resolution(
+        (options.width / PLACEMENT_SCALE).max(1),
+        (options.height / PLACEMENT_SCALE).max(1),
+        2,
+    );
+    let mut lenses = Vec::with_capacity(lens_count);
+    let mut auto_reference = None;
+    for lens in 0..lens_count {
+        let name = trace.lenses[lens].name.clone();
+        let origin = em_origin(scene, lens);
+        let named = !scene.lenses[lens].layers.is_empty();
+        let mut planned = PlannedLens {
+            name: name.clone(),
+            em_origin: origin,
+            shells: Vec::new(),
+            source: "scene".into(),
+            objects: Vec::new(),
+            fit_rms: Vec::new(),
+            auto_psnr_db: Vec::new(),
+        };
+        if options.layers == LayerCount::Auto && named {
+            planned.shells = lens_shells(&trace, scene, lens, origin);
+            lenses.push(planned);
+            continue;
+        }
+        progress(&format!("placing layers of \"{name}\""));
+        let hits = lens_hits(&trace, lens, &placement_views, &trace_options)?;
+        if hits.is_empty() {
+            // Nothing around it: one shell far away holds the environment at infinity.
+            planned.source = "clustered".into();
+            planned.shells = lens_shells(&trace, scene, lens, origin);
+            planned.objects = vec![Vec::new()];
+            lenses.push(planned);
+            continue;
+        }
+        planned.source = "clustered".into();
+        let place = |k: usize| place_layers(scene, &name, origin, &hits, k);
+        match options.layers {
+            LayerCount::Count(k) => {
+                let placement = place(k)?;
+                planned.shells = placement.layers.iter().map(|l| l.shell).collect();
+                planned.objects = placement.layers.iter().map(|l| l.objects.clone()).collect();
+                planned.fit_rms = placement
+                    .layers
+                    .iter()
+                    .map(|l| l.rms_relative_error)
+                    .collect();
+            }
+            LayerCount::Auto => {
+                // Grow while a layer helps this lens object's pixels at sample 0.
+                if auto_reference.is_none() {
+                    progress("tracing the reference that judges layer counts");
+                    let reference =
+                        render_reference(&trace, &judge_camera, &trace_options, &|_| {})?;
+                    let records = compile_records(&trace, &judge_camera, &trace_options)?;
+                    auto_reference = Some((reference, records));
+                }
+                let Some((reference, records)) = &auto_reference else {
+                    unreachable!("traced just above")
+                };
+                let mask = lens_pixels(&records.lenses[lens], &judge_camera);
+                let others: Vec<(DVec3, Vec<LayerShell>)> = (0..lens_count)
+                    .map(|other| {
+                        let o = em_origin(scene, other);
+                        (o, lens_shells(&trace, scene, other, o))
+                    })
+                    .collect();
+                let mut best: Option<(f64, crate::placement::Placement)> = None;
+                for k in 1..=MAX_AUTO_LAYERS {
+                    let placement = place(k)?;
+                    if best
+                        .as_ref()
+                        .is_some_and(|(_, b)| b.layers.len() >= placement.layers.len())
+                    {
+                        break; // no more distinct clusters
+                    }
+                    progress(&format!("judging {k} layer(s) for \"{name}\""));
+                    let mut shells = others.clone();
+                    shells[lens] = (origin, placement.layers.iter().map(|l| l.shell).collect());
+                    let hybrid = projected_scene(scene, shells, 64)?;
+                    let psnr = masked_psnr(
+                        runner,
+                        &hybrid,
+                        &judge_camera,
+                        &reference.radiance,
+                        &mask,
+                        options,
+                    )?;
+                    planned.auto_psnr_db.push(psnr);
+                    match &best {
+                        Some((previous, _)) if psnr <= previous + AUTO_LAYER_GAIN_DB => break,
+                        _ => best = Some((psnr, placement)),
+                    }
+                }
+                let Some((_, placement)) = best else {
+                    unreachable!("k = 1 always places a layer")
+                };
+                planned.shells = placement.layers.iter().map(|l| l.shell).collect();
+                planned.objects = placement.layers.iter().map(|l| l.objects.clone()).collect();
+                planned.fit_rms = placement
+                    .layers
+                    .iter()
+                    .map(|l| l.rms_relative_error)
+                    .collect();
+            }
+        }
+        lenses.push(planned);
+    }
+    let em_size = match options.em_size {
+        EmSize::Fixed(size) => size,
+        EmSize::Auto { cap } => {
+            progress("searching the EM size at sample 0");
+            let hybrid = projected_scene(
+                scene,
+                lenses
+                    .iter()
+                    .map(|l| (l.em_origin, l.shells.clone()))
+                    .collect(),
+                cap.min(64),
+            )?;
+            let camera = sample_camera(scene, positions[0], options);
+            let (frame, _) = hybrid
+                .frame(&camera, &options.infer.hybrid)
+                .map_err(|e| InferError::Frame(e.to_string()))?;
+            let mut renderer = crate::infer::DeviceRenderer::new(runner, options.infer.variant);
+            let mut finest: Option<usize> = None;
+            for (lens, planned) in lenses.iter().enumerate() {
+                let frames = LayerFrames::new(&frame, lens, camera.supersampling.max(1))
+                    .map_err(InferError::from)?;
+                let (level, _) = crate::infer::finest_level_of_frames(
+                    &mut renderer,
+                    &frames,
+                    planned.shells.len(),
+                    cap,
+                )
+                .map_err(InferError::from)?;
+                if let Some(level) = level {
+                    finest = Some(finest.map_or(level, |f: usize| f.min(level)));
+                }
+            }
+            // No lens pixel at sample 0: the cap.
+            (cap >> finest.unwrap_or(0)).max(1)
+        }
+    };
+    Ok(Plan {
+        scene: scene.name.clone(),
+        scene_hash: scene.content_hash(),
+        options_hash: options.hash(),
+        em_size,
+        lenses,
+    })
+}
+
+/// The hybrid scene a plan's samples are inferred on: the plan's shells with projected EMs (the
+/// solver's starting guess) at the plan's EM size.
+pub fn working_scene(scene: &Scene, plan: &Plan) -> Result<HybridScene, BakeFailure> {
+    projected_scene(
+        scene,
+        plan.lenses
+            .iter()
+            .map(|l| (l.em_origin, l.shells.clone()))
+            .collect(),
+        plan.em_size,
+    )
+}
+
+/// Bakes view-space sample `sample`: the maps of every lens object (`maps[lens][layer]`) and
+/// the report. `hybrid` is [`working_scene`]; its maps are left as they were.
+pub fn bake_sample(
+    runner: &mut FrameRunner,
+    scene: &Scene,
+    hybrid: &mut HybridScene,
+    plan: &Plan,
+    sample: usize,
+    options: &BakeOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Vec<Vec<CubeMap>>, SampleReport), BakeFailure> {
+    let start = Instant::now();
+    let mut seconds = StageSeconds::default();
+    let trace_options = TraceOptions::default();
+    let cameras = view_cameras(scene, sample, options);
+    let mut records = Vec::with_capacity(cameras.len());
+    for (j, camera) in cameras.iter().enumerate() {
+        progress(&format!("tracing view {}/{}", j + 1, cameras.len()));
+        let t = Instant::now();
+        records.push(compile_records(&hybrid.trace, camera, &trace_options)?);
+        seconds.tracing += t.elapsed().as_secs_f64();
+    }
+    let infer = InferOptions {
+        em_size: EmSize::Fixed(plan.em_size),
+        ..options.infer
+    };
+    let mut maps = Vec::new();
+    let mut lenses = Vec::new();
+    for (lens, planned) in plan.lenses.iter().enumerate() {
+        progress(&format!("inferring \"{}\"", planned.name));
+        // Views that see the lens object.
+        let views: Vec<View<'_>> = cameras
+            .iter()
+            .zip(&records)
+            .filter(|(_, set)| set.lenses[lens].records.iter().any(|r| r.visible))
+            .map(|(camera, set)| View {
+                camera,
+                records: &set.lenses[lens],
+            })
+            .collect();
+        if views.is_empty() {
+            // Unseen from this sample: the projected EMs stand in.
+            maps.push(
+                hybrid.lenses[lens].maps[0]
+                    .iter()
+                    .map(|m| CubeMap::clone(m))
+                    .collect(),
+            );
+            lenses.push(LensReport {
+                name: planned.name.clone(),
+                shells: planned.shells.iter().map(|s| s.kind().to_owned()).collect(),
+                nonzeros: vec![0; planned.shells.len()],
+                iterations: vec![0; planned.shells.len()],
+                residual: vec![0.0; planned.shells.len()],
+                views: 0,
+            });
+            continue;
+        }
+        let inference = infer_lens_views(runner, hybrid, lens, &views, &infer)?;
+        seconds.frames += inference.frame_ms / 1e3;
+        for layer in &inference.layers {
+            seconds.matrices += layer.matrix_ms / 1e3;
+            seconds.targets += layer.targets_ms / 1e3;
+            seconds.solve += layer.solve.ms / 1e3;
+        }
+        lenses.push(LensReport {
+            name: planned.name.clone(),
+            shells: planned.shells.iter().map(|s| s.kind().to_owned()).collect(),
+            nonzeros: inference
+                .layers
+                .iter()
+                .map(|l| l.nonzeros.iter().sum())
+                .collect(),
+            iterations: inference
+                .layers
+                .iter()
+                .map(|l| l.solve.iterations)
+                .collect(),
+            residual: inference
+                .layers
+                .iter()
+                .map(|l| l.solve.relative_residual)
+                .collect(),
+            views: views.len(),
+        });
+        maps.push(inference.maps);
+    }
+    let (mut psnr_db, mut projected_psnr_db) = (None, None);
+    if options.judge {
+        progress("judging");
+        let t = Instant::now();
+        let camera = sample_camera(scene, scene.view_space.samples()[sample], options);
+        let reference = render_reference(&hybrid.trace, &camera, &trace_options, &|_| {})?;
+        let mask = Mask::from_coverage(&reference.lens_mask, metrics::Coverage::Full);
+        if mask.selected() > 0 {
+            projected_psnr_db = Some(masked_psnr(
+                runner,
+                hybrid,
+                &camera,
+                &reference.radiance,
+                &mask,
+                options,
+            )?);
+            let projected: Vec<_> = hybrid.lenses.iter().map(|l| l.maps.clone()).collect();
+            for (layers, inferred) in hybrid.lenses.iter_mut().zip(&maps) {
+                layers.maps = vec![inferred.iter().cloned().map(Arc::new).collect()];
+            }
+            let judged = masked_psnr(runner, hybrid, &camera, &reference.radiance, &mask, options);
+            for (layers, maps) in hybrid.lenses.iter_mut().zip(projected) {
+                layers.maps = maps;
+            }
+            psnr_db = Some(judged?);
+        }
+        seconds.judge = t.elapsed().as_secs_f64();
+    }
+    seconds.total = start.elapsed().as_secs_f64();
+    Ok((
+        maps,
+        SampleReport {
+            sample,
+            position: scene.view_space.samples()[sample],
+            options_hash: plan.options_hash.clone(),
+            lenses,
+            psnr_db,
+            projected_psnr_db,
+            seconds,
+        },
+    ))
+}
+
+/// The staged report file of sample `sample`.
+pub fn report_file_name(sample: usize) -> String {
+    format!("sample-{sample:03}.json")
+}
+
+/// What [`bake`] did.
+#[derive(Clone, Debug, Serialize)]
+pub struct BakeSummary {
+    /// The plan.
+    pub plan: Plan,
+    /// Samples in the bake now (view-space indices).
+    pub samples: Vec<usize>,
+    /// Samples baked by this run.
+    pub baked: Vec<usize>,
+    /// Samples taken complete from staging or the previous bake.
+    pub resumed: Vec<usize>,
+    /// Reports of the samples baked by this run (and of resumed ones whose report was staged).
+    pub reports: Vec<SampleReport>,
+    /// Seconds making (or reading) the plan.
+    pub plan_seconds: f64,
+}
+
+/// Progress of a bake, for a progress bar.
+pub enum Progress<'a> {
+    /// The plan is being made.
+    Plan(&'a str),
+    /// Sample `done` of `of` (this run's) is at `stage`.
+    Sample {
+        /// View-space index.
+        sample: usize,
+        /// Samples finished so far in this run.
+        done: usize,
+        /// Samples this run bakes.
+        of: usize,
+        /// What it is doing.
+        stage: &'a str,
+    },
+}
+
+/// Bakes `samples` of `scene` into `dir` (module docs): plans, bakes each sample not already
+/// complete (with `resume`), stages it, and commits the bake directory at the end.
+pub fn bake(
+    runner: &mut FrameRunner,
+    scene: &Scene,
+    dir: &Path,
+    samples: &[usize],
+    options: &BakeOptions,
+    resume: bool,
+    progress: &mut dyn FnMut(Progress<'_>),
+) -> Result<BakeSummary, BakeFailure> {
+    options.validate()?;
+    let positions = scene.view_space.samples();
+    if let Some(&bad) = samples.iter().find(|&&s| s >= positions.len()) {
+        return Err(BakeFailure::BadInput(format!(
+            "--samples: sample {bad} does not exist; scene \"{}\" has samples 0..{}",
+            scene.name,
+            positions.len()
+        )));
+    }
+    if samples.is_empty() {
+        return Err(BakeFailure::BadInput(
+            "no samples to bake (the shard or the sample list is empty); give more samples or fewer shards".into(),
+        ));
+    }
+    let staging = Staging::open(dir)?;
+    let scene_hash = scene.content_hash();
+    let options_hash = options.hash();
+    let plan_start = Instant::now();
+    // The staged plan, when resuming one made for this scene and these options.
+    let staged_plan: Option<Plan> = if resume && staging.contains(PLAN_FILE) {
+        let path = staging.path().join(PLAN_FILE);
+        let text = std::fs::read_to_string(&path).map_err(|source| BakeError::Io {
+            path: path.clone(),
+            action: "read",
+            source,
+        })?;
+        serde_json::from_str::<Plan>(&text)
+            .ok()
+            .filter(|p| p.scene_hash == scene_hash && p.options_hash == options_hash)
+    } else {
+        None
+    };
+    let plan = match staged_plan {
+        Some(plan) => plan,
+        None => {
+            staging.clear()?;
+            let plan = make_plan(runner, scene, options, &mut |stage| {
+                progress(Progress::Plan(stage))
+            })?;
+            let json = serde_json::to_string_pretty(&plan)
+                .unwrap_or_else(|e| unreachable!("a plan always serializes: {e}"));
+            staging.write_file(PLAN_FILE, json.as_bytes())?;
+            plan
+        }
+    };
+    let plan_seconds = plan_start.elapsed().as_secs_f64();
+    let map_names = |sample: usize| -> Vec<Vec<String>> {
+        plan.lenses
+            .iter()
+            .enumerate()
+            .map(|(lens, planned)| {
+                (0..planned.shells.len())
+                    .map(|layer| map_file_name(lens, &planned.name, sample, layer))
+                    .collect()
+            })
+            .collect()
+    };
+    // Complete samples: staged ones, then (resuming) those of the previous bake at `dir`.
+    let mut complete: BTreeMap<usize, Option<SampleReport>> = BTreeMap::new();
+    for sample in 0..positions.len() {
+        let name = report_file_name(sample);
+        if staging.contains(&name) {
+            let path = staging.path().join(&name);
+            let report: SampleReport = std::fs::read_to_string(&path)
+                .ok()
+                .and_then(|text| serde_json::from_str(&text).ok())
+                .ok_or_else(|| BakeFailure::Staged {
+                    path: path.clone(),
+                    message: "not a sample report of this lensmap".into(),
+                })?;
+            if report.options_hash == plan.options_hash
+                && map_names(sample)
+                    .iter()
+                    .flatten()
+                    .all(|m| staging.contains(m))
+            {
+                complete.insert(sample, Some(report));
+            }
+        }
+    }
+    let mut resumed: Vec<usize> = complete.keys().copied().collect();
+    if resume && let Ok(manifest) = Manifest::read(dir) {
+        let same = manifest.provenance.as_ref().is_some_and(|p| {
+            p.scene_hash == plan.scene_hash && p.options_hash == plan.options_hash
+        }) && manifest.cube_map_size == plan.em_size;
+        if let (true, Some(provenance)) = (same, &manifest.provenance) {
+            for (position, &sample) in provenance.samples.iter().enumerate() {
+                if complete.contains_key(&sample) {
+                    continue;
+                }
+                let names = map_names(sample);
+                let listed = manifest.lenses.iter().zip(&names).all(|(lens, names)| {
+                    lens.layers.len() == names.len()
+                        && lens
+                            .layers
+                            .iter()
+                            .zip(names)
+                            .all(|(layer, name)| layer.maps.get(position) == Some(name))
+                });
+                if !listed {
+                    continue;
+                }
+                for name in names.iter().flatten() {
+                    staging.copy_in(&dir.join(name), name)?;
+                }
+                let marker = SampleReport {
+                    sample,
+                    position: positions[sample],
+                    options_hash: plan.options_hash.clone(),
+                    lenses: Vec::new(),
+                    psnr_db: None,
+                    projected_psnr_db: None,
+                    seconds: StageSeconds::default(),
+                };
+                stage_report(&staging, &marker)?;
+                complete.insert(sample, None);
+                resumed.push(sample);
+            }
+        }
+    }
+    resumed.sort_unstable();
+    let todo: Vec<usize> = samples
+        .iter()
+        .copied()
+        .filter(|s| !complete.contains_key(s))
+        .collect();
+    let mut reports: Vec<SampleReport> = complete.values().flatten().cloned().collect();
+    if !todo.is_empty() {
+        let mut hybrid = working_scene(scene, &plan)?;
+        for (done, &sample) in todo.iter().enumerate() {
+            let of = todo.len();
+            let (maps, report) = bake_sample(
+                runner,
+                scene,
+                &mut hybrid,
+                &plan,
+                sample,
+                options,
+                &mut |stage| {
+                    progress(Progress::Sample {
+                        sample,
+                        done,
+                        of,
+                        stage,
+                    })
+                },
+            )?;
+            progress(Progress::Sample {
+                sample,
+                done,
+                of,
+                stage: "writing",
+            });
+            let t = Instant::now();
+            for (layers, names) in maps.iter().zip(map_names(sample)) {
+                for (cube, name) in layers.iter().zip(names) {
+                    staging.write_cube_map(&name, cube, plan.em_size)?;
+                }
+            }
+            let mut report = report;
+            report.seconds.write = t.elapsed().as_secs_f64();
+            report.seconds.total += report.seconds.write;
+            // The report last: it marks the sample complete.
+            stage_report(&staging, &report)?;
+            complete.insert(sample, Some(report.clone()));
+            reports.push(report);
+        }
+    }
+    reports.sort_by_key(|r| r.sample);
+    let in_bake: Vec<usize> = complete.keys().copied().collect();
+    let manifest = plan_manifest(&plan, &in_bake, &positions);
+    staging.commit(&manifest)?;
+    Ok(BakeSummary {
+        plan,
+        samples: in_bake,
+        baked: todo,
+        resumed,
+        reports,
+        plan_seconds,
+    })
+}
+
+fn stage_report(staging: &Staging, report: &SampleReport) -> Result<(), BakeFailure> {
+    let json = serde_json::to_string_pretty(report)
+        .unwrap_or_else(|e| unreachable!("a report always serializes: {e}"));
+    staging.write_file(&report_file_name(report.sample), json.as_bytes())?;
+    Ok(())
+}
+
+/// The manifest of a bake of `samples` (view-space indices, increasing) under `plan`.
+fn plan_manifest(plan: &Plan, samples: &[usize], positions: &[Vec3]) -> Manifest {
+    Manifest {
+        format_version: lensmap::layers::bake::FORMAT_VERSION,
+        scene: plan.scene.clone(),
+        created_by: default_created_by(),
+        cube_map_size: plan.em_size,
+        viewpoints: samples.iter().map(|&s| positions[s]).collect(),
+        lenses: plan
+            .lenses
+            .iter()
+            .enumerate()
+            .map(|(lens, planned)| ManifestLens {
+                name: planned.name.clone(),
+                em_origin: planned.em_origin,
+                layers: planned
+                    .shells
+                    .iter()
+                    .enumerate()
+                    .map(|(layer, shell)| ManifestLayer {
+                        shell: *shell,
+                        maps: samples
+                            .iter()
+                            .map(|&s| map_file_name(lens, &planned.name, s, layer))
+                            .collect(),
+                    })
+                    .collect(),
+            })
+            .collect(),
+        provenance: Some(Provenance {
+            scene_hash: plan.scene_hash.clone(),
+            options_hash: plan.options_hash.clone(),
+            samples: samples.to_vec(),
+        }),
+    }
+}
+
+/// Joins the bakes in `shards` (made by `lensmap bake --shard`) into one bake at `out`: they
+/// must come from the same scene and options (same provenance hashes, lens objects, shells and
+/// EM size) and hold disjoint samples. Every map is read and checked before anything is written.
+pub fn merge(shards: &[PathBuf], out: &Path) -> Result<Manifest, BakeFailure> {
+    if shards.len() < 2 {
+        return Err(BakeFailure::BadInput(
+            "--merge needs at least two bake directories, e.g. --merge out/shard-1 out/shard-2"
+                .into(),
+        ));
+    }
+    let mut manifests = Vec::new();
+    for dir in shards {
+        let manifest = Manifest::read(dir)?;
+        let Some(provenance) = manifest.provenance.clone() else {
+            return Err(BakeFailure::BadInput(format!(
+                "{}: has no provenance (not written by lensmap bake), so it cannot be merged; bake it with lensmap bake --shard",
+                dir.join("manifest.json").display()
+            )));
+        };
+        // Every map readable and valid.
+        lensmap::layers::Bake::read(dir)?;
+        manifests.push((dir, manifest, provenance));
+    }
+    let (first_dir, first, first_provenance) = &manifests[0];
+    let mut by_sample: BTreeMap<usize, (usize, usize)> = BTreeMap::new();
+    for (index, (dir, manifest, provenance)) in manifests.iter().enumerate() {
+        let differs = |what: &str| {
+            Err(BakeFailure::BadInput(format!(
+                "{} and {}: {what} differ, so these are not shards of one bake; merge only shards made with the same scene and options",
+                first_dir.display(),
+                dir.display()
+            )))
+        };
+        if provenance.scene_hash != first_provenance.scene_hash || manifest.scene != first.scene {
+            return differs("the scenes");
+        }
+        if provenance.options_hash != first_provenance.options_hash
+            || manifest.cube_map_size != first.cube_map_size
+        {
+            return differs("the bake options");
+        }
+        let shape = |m: &Manifest| -> Vec<(String, DVec3, Vec<LayerShell>)> {
+            m.lenses
+                .iter()
+                .map(|l| {
+                    (
+                        l.name.clone(),
+                        l.em_origin,
+                        l.layers.iter().map(|layer| layer.shell).collect(),
+                    )
+                })
+                .collect()
+        };
+        if shape(manifest) != shape(first) {
+            return differs("the lens objects or their shells");
+        }
+        for (position, &sample) in provenance.samples.iter().enumerate() {
+            if let Some((other, _)) = by_sample.insert(sample, (index, position)) {
+                return Err(BakeFailure::BadInput(format!(
+                    "{} and {} both hold sample {sample}; merge shards with disjoint samples",
+                    manifests[other].0.display(),
+                    dir.display()
+                )));
+            }
+        }
+    }
+    let staging = Staging::open(out)?;
+    staging.clear()?;
+    let mut merged = Manifest {
+        viewpoints: Vec::new(),
+        provenance: Some(Provenance {
+            samples: Vec::new(),
+            ..first_provenance.clone()
+        }),
+        ..first.clone()
+    };
+    for lens in &mut merged.lenses {
+        for layer in &mut lens.layers {
+            layer.maps.clear();
+        }
+    }
+    for (&sample, &(index, position)) in &by_sample {
+        let (dir, manifest, _) = &manifests[index];
+        merged.viewpoints.push(manifest.viewpoints[position]);
+        if let Some(p) = merged.provenance.as_mut() {
+            p.samples.push(sample);
+        }
+        for (lens, source) in merged.lenses.iter_mut().zip(&manifest.lenses) {
+            for (layer, source) in lens.layers.iter_mut().zip(&source.layers) {
+                let name = &source.maps[position];
+                staging.copy_in(&dir.join(name), name)?;
+                layer.maps.push(name.clone());
+            }
+        }
+    }
+    staging.commit(&merged)?;
+    Ok(merged)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_lists_and_shards_parse_or_say_the_fix() {
+        assert_eq!(parse_samples("all", 4, "s").unwrap(), vec![0, 1, 2, 3]);
+        assert_eq!(parse_samples("3,1,1", 4, "s").unwrap(), vec![1, 3]);
+        assert_eq!(parse_samples("1..3", 4, "s").unwrap(), vec![1, 2]);
+        assert_eq!(parse_samples("1..=3", 4, "s").unwrap(), vec![1, 2, 3]);
+        for bad in ["4", "1..5", "2..2", "x", "1,,2"] {
+            let e = parse_samples(bad, 4, "s").unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--samples {bad}:")), "{e}");
+            assert!(e.contains("0..4"), "{e}");
+        }
+        assert_eq!(parse_shard("2/3").unwrap(), (2, 3));
+        for bad in ["3/2", "0/0", "0/2", "1", "a/b"] {
+            assert!(parse_shard(bad).is_err(), "{bad}");
+        }
+        let all: Vec<usize> = (0..7).collect();
+        let shards: Vec<Vec<usize>> = (1..=3).map(|i| shard_samples(&all, (i, 3))).collect();
+        assert_eq!(shards, vec![vec![0, 3, 6], vec![1, 4], vec![2, 5]]);
+    }
+
+    #[test]
+    fn views_spread_over_the_samples_share_of_the_circle() {
+        let scene = Scene::load_named("glass-sphere").unwrap();
+        let options = BakeOptions {
+            multi_view: 3,
+            ..BakeOptions::default()
+        };
+        let look_at = scene.camera.look_at.as_dvec3();
+        let samples = scene.view_space.samples();
+        let cameras = view_cameras(&scene, 5, &options);
+        assert_eq!(cameras.len(), 3);
+        // The middle view is the sample; the others ±1/3 of the 8° spacing from it.
+        assert!(cameras[1].position.distance(samples[5]) < 1e-5);
+        for (camera, want) in [(&cameras[0], -8.0f64 / 3.0), (&cameras[2], 8.0 / 3.0)] {
+            let got = angle(
+                camera.position.as_dvec3() - look_at,
+                samples[5].as_dvec3() - look_at,
+            );
+            assert!((got.to_degrees() - want.abs()).abs() < 1e-3, "{got}");
+            assert_eq!(camera.look_at, scene.camera.look_at);
+        }
+        let one = BakeOptions {
+            multi_view: 1,
+            ..BakeOptions::default()
+        };
+        let single = view_cameras(&scene, 5, &one);
+        assert!(single[0].position.distance(samples[5]) < 1e-5);
+    }
+}

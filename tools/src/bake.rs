@@ -1,0 +1,281 @@
+//! `lensmap bake`: inferred layered EMs over a scene's view space, written as a bake directory
+//! (`lensmap_baker::bake`), resumable and shardable; and `lensmap bake --merge`, which joins
+//! shards.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use lensmap::{
+    gpu::{Gpu, GpuOptions},
+    hybrid::HybridOptions,
+    scene::Scene,
+};
+use lensmap_baker::{
+    bake::{
+        BakeOptions, LayerCount, Progress, bake, merge, parse_samples, parse_shard, shard_samples,
+    },
+    infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions},
+};
+use serde_json::json;
+
+use crate::common::BadUsage;
+
+#[derive(Args)]
+#[command(after_help = "Examples:
+  lensmap bake --scene teapot-room --samples 0,1 --out out/bake
+  lensmap bake --scene teapot-room --shard 2/8 --out out/shard-2     (one job of an array)
+  lensmap bake --merge out/shard-1 out/shard-2 --out out/bake")]
+pub struct BakeArgs {
+    /// Built-in scene name or path (not with --merge).
+    #[arg(long, required_unless_present = "merge")]
+    scene: Option<String>,
+    /// The bake directory to write (replaced atomically when the bake is complete).
+    #[arg(long)]
+    out: PathBuf,
+    /// Viewpoint samples: all, I,J,K, A..B (B excluded) or A..=B.
+    #[arg(long, default_value = "all")]
+    samples: String,
+    /// Layers per lens object: auto (the scene's named layers, else as many as help) or a
+    /// count placed by clustering.
+    #[arg(long, default_value = "auto")]
+    layers: String,
+    /// EM face size: auto (the finest level read at sample 0, up to 128) or a power of two.
+    #[arg(long, default_value = "auto")]
+    em_size: String,
+    /// Views per sample, spread over its share of the view space (1: the sample alone).
+    #[arg(long, default_value_t = lensmap_baker::bake::DEFAULT_MULTI_VIEW)]
+    multi_view: usize,
+    /// Target views' width in pixels.
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    /// Target views' height in pixels.
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// Target views' k×k supersampling.
+    #[arg(long, default_value_t = 3)]
+    supersampling: u32,
+    /// Tessellation threshold t of the frames the EMs are fitted through, subpixels.
+    #[arg(long, default_value_t = 3.0)]
+    t: f32,
+    /// Confidence threshold θc, degrees.
+    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES)]
+    confidence_degrees: f64,
+    /// Bake only shard I of N: every N-th requested sample, starting at the I-th.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<String>,
+    /// Keep samples already complete (staged, or in the bake at --out made with the same scene
+    /// and options) and bake only the rest.
+    #[arg(long)]
+    resume: bool,
+    /// Skip measuring each sample's lens PSNR against a reference (saves a reference trace per
+    /// sample; the maps are the same).
+    #[arg(long)]
+    no_judge: bool,
+    /// Join these shard directories into --out instead of baking.
+    #[arg(long, num_args = 1.., value_name = "DIR", conflicts_with_all = ["scene", "shard", "resume"])]
+    merge: Vec<PathBuf>,
+    /// Print one JSON summary on stdout instead of the text report.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `lensmap bake`.
+pub fn run(args: BakeArgs) -> anyhow::Result<()> {
+    if !args.merge.is_empty() {
+        let manifest = merge(&args.merge, &args.out)?;
+        let samples = manifest
+            .provenance
+            .as_ref()
+            .map(|p| p.samples.clone())
+            .unwrap_or_default();
+        if args.json {
+            say!(
+                "{}",
+                serde_json::to_string_pretty(&json!({
+                    "out": args.out,
+                    "merged": args.merge,
+                    "samples": samples,
+                }))?
+            );
+        } else {
+            say!(
+                "merged {} shards into {}: samples {samples:?}",
+                args.merge.len(),
+                args.out.display()
+            );
+        }
+        return Ok(());
+    }
+    let Some(scene_name) = &args.scene else {
+        return Err(
+            BadUsage("--scene: name the scene to bake, e.g. --scene teapot-room".into()).into(),
+        );
+    };
+    let options = options(&args)?;
+    let scene = Scene::load_named(scene_name)?;
+    let mut samples = parse_samples(&args.samples, scene.view_space.len(), &scene.name)?;
+    if let Some(spec) = &args.shard {
+        samples = shard_samples(&samples, parse_shard(spec)?);
+    }
+    options.validate()?;
+    let mut runner = lensmap::runner::FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let device = runner.gpu().device_name().to_string();
+    let bar = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(samples.len() as u64);
+        if let Ok(style) = ProgressStyle::with_template(
+            "{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} samples {msg}",
+        ) {
+            bar.set_style(style);
+        }
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let summary = bake(
+        &mut runner,
+        &scene,
+        &args.out,
+        &samples,
+        &options,
+        args.resume,
+        &mut |progress| match progress {
+            Progress::Plan(stage) => {
+                bar.set_prefix("plan");
+                bar.set_message(stage.to_owned());
+            }
+            Progress::Sample {
+                sample,
+                done,
+                stage,
+                ..
+            } => {
+                bar.set_prefix(format!("sample {sample}"));
+                bar.set_position(done as u64);
+                bar.set_message(stage.to_owned());
+            }
+        },
+    )?;
+    bar.finish_and_clear();
+    let validation = runner.gpu().validation_report();
+    if let Some(first) = validation.messages.first() {
+        anyhow::bail!(
+            "the Vulkan validation layer reported {} message(s) during the bake; the first: {first}",
+            validation.messages.len()
+        );
+    }
+    if args.json {
+        say!(
+            "{}",
+            serde_json::to_string_pretty(&json!({
+                "scene": scene.name,
+                "out": args.out,
+                "device": device,
+                "summary": summary,
+            }))?
+        );
+        return Ok(());
+    }
+    say!(
+        "{}: {} sample(s) in {} ({} baked now, {} resumed), EM {}², plan {:.1} s, device {device}",
+        scene.name,
+        summary.samples.len(),
+        args.out.display(),
+        summary.baked.len(),
+        summary.resumed.len(),
+        summary.plan.em_size,
+        summary.plan_seconds,
+    );
+    for lens in &summary.plan.lenses {
+        let shells: Vec<String> = lens
+            .shells
+            .iter()
+            .map(|s| format!("{} ~{:.2} m", s.kind(), shell_size(s)))
+            .collect();
+        say!(
+            "  lens \"{}\": {} layers from {} [{}]{}",
+            lens.name,
+            lens.shells.len(),
+            lens.source,
+            shells.join(", "),
+            if lens.objects.is_empty() {
+                String::new()
+            } else {
+                format!(" objects {:?}", lens.objects)
+            }
+        );
+    }
+    for report in summary
+        .reports
+        .iter()
+        .filter(|r| summary.baked.contains(&r.sample))
+    {
+        let s = &report.seconds;
+        say!(
+            "  sample {}: {:.1} s (tracing {:.1}, frames {:.1}, matrices {:.1}, targets {:.1}, solve {:.1}, judge {:.1}, write {:.1}){}",
+            report.sample,
+            s.total,
+            s.tracing,
+            s.frames,
+            s.matrices,
+            s.targets,
+            s.solve,
+            s.judge,
+            s.write,
+            match (report.psnr_db, report.projected_psnr_db) {
+                (Some(inferred), Some(projected)) => format!(
+                    "; lens PSNR at the sample {inferred:.2} dB (projected {projected:.2} dB)"
+                ),
+                _ => String::new(),
+            }
+        );
+    }
+    Ok(())
+}
+
+/// A shell's characteristic size for the report: radius, or the largest half extent.
+fn shell_size(shell: &lensmap::layers::LayerShell) -> f64 {
+    use lensmap::layers::LayerShell;
+    match *shell {
+        LayerShell::Sphere { radius, .. } | LayerShell::Cylinder { radius, .. } => radius,
+        LayerShell::Box { half_extents, .. } => half_extents.max_element(),
+        LayerShell::Ellipsoid { radii, .. } => radii.max_element(),
+        LayerShell::Quad { half_extents, .. } => half_extents.max_element(),
+    }
+}
+
+/// The bake options the flags give.
+fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
+    let em_size = match args.em_size.as_str() {
+        "auto" => EmSize::Auto {
+            cap: DEFAULT_MAX_EM_SIZE,
+        },
+        text => EmSize::Fixed(text.parse().map_err(|_| {
+            BadUsage(format!(
+                "--em-size {text}: give auto or a power of two such as 128"
+            ))
+        })?),
+    };
+    let layers =
+        match args.layers.as_str() {
+            "auto" => LayerCount::Auto,
+            text => LayerCount::Count(text.parse().map_err(|_| {
+                BadUsage(format!("--layers {text}: give auto or a count such as 3"))
+            })?),
+        };
+    Ok(BakeOptions {
+        width: args.width,
+        height: args.height,
+        supersampling: args.supersampling,
+        em_size,
+        layers,
+        multi_view: args.multi_view,
+        infer: InferOptions {
+            hybrid: HybridOptions::with_t(args.t),
+            theta_c: args.confidence_degrees.to_radians(),
+            ..InferOptions::default()
+        },
+        judge: !args.no_judge,
+    })
+}

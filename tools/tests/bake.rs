@@ -1,0 +1,269 @@
+//! `lensmap bake` as a user runs it, on a tiny glass-sphere bake (validation layer on): shards
+//! merged and a killed-then-resumed bake give the same bytes as one uninterrupted bake, the
+//! previous bake survives a kill, and bad input exits 2 with one line naming the fix.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// Small enough for CI: 48×36 views at 1×1, 16² maps, two clustered layers, two views a sample.
+const TINY: [&str; 14] = [
+    "--width",
+    "48",
+    "--height",
+    "36",
+    "--supersampling",
+    "1",
+    "--em-size",
+    "16",
+    "--layers",
+    "2",
+    "--multi-view",
+    "2",
+    "--no-judge",
+    "--json",
+];
+
+fn lensmap_command(args: &[&str]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_lensmap"));
+    command.args(args).env("LENSMAP_VALIDATION", "1");
+    command
+}
+
+fn lensmap(args: &[&str]) -> Output {
+    lensmap_command(args)
+        .output()
+        .expect("the lensmap binary runs")
+}
+
+fn bake(scene: &str, samples: &str, out: &Path, extra: &[&str]) -> Output {
+    let out = out.to_str().expect("UTF-8 temp path");
+    let mut args = vec!["bake", "--scene", scene, "--samples", samples, "--out", out];
+    args.extend_from_slice(&TINY);
+    args.extend_from_slice(extra);
+    lensmap(&args)
+}
+
+fn succeeded(output: &Output) {
+    assert!(
+        output.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        output.status.code(),
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// Every file of a directory, name → bytes.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|entry| {
+            let entry = entry.unwrap();
+            (
+                entry.file_name().to_string_lossy().into_owned(),
+                std::fs::read(entry.path()).unwrap(),
+            )
+        })
+        .collect()
+}
+
+fn same_bytes(a: &Path, b: &Path) {
+    let (fa, fb) = (files(a), files(b));
+    assert_eq!(
+        fa.keys().collect::<Vec<_>>(),
+        fb.keys().collect::<Vec<_>>(),
+        "{} vs {}",
+        a.display(),
+        b.display()
+    );
+    for (name, bytes) in &fa {
+        assert!(
+            bytes == &fb[name],
+            "{name} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lensmap-bake-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn manifest_samples(dir: &Path) -> Vec<u64> {
+    let text = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    json["provenance"]["samples"]
+        .as_array()
+        .expect("a lensmap bake has provenance")
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect()
+}
+
+#[test]
+fn shards_and_a_killed_resumed_bake_equal_one_uninterrupted_bake() {
+    let root = temp_dir("shards");
+    let whole = root.join("whole");
+    let output = bake("glass-sphere", "0..3", &whole, &[]);
+    succeeded(&output);
+    assert_eq!(manifest_samples(&whole), vec![0, 1, 2]);
+    let summary: serde_json::Value =
+        serde_json::from_slice(&output.stdout).expect("--json prints one JSON summary");
+    let layers = &summary["summary"]["plan"]["lenses"][0]["shells"];
+    assert_eq!(layers.as_array().map(Vec::len), Some(2), "{summary}");
+    assert!(summary["summary"]["reports"][0]["lenses"][0]["nonzeros"][0].as_u64() > Some(0));
+
+    // Two shards, merged: the same bytes.
+    let (one, two, merged) = (root.join("s1"), root.join("s2"), root.join("merged"));
+    succeeded(&bake("glass-sphere", "0..3", &one, &["--shard", "1/2"]));
+    succeeded(&bake("glass-sphere", "0..3", &two, &["--shard", "2/2"]));
+    assert_eq!(manifest_samples(&one), vec![0, 2]);
+    assert_eq!(manifest_samples(&two), vec![1]);
+    succeeded(&lensmap(&[
+        "bake",
+        "--merge",
+        one.to_str().unwrap(),
+        two.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]));
+    same_bytes(&merged, &whole);
+
+    // A previous bake (sample 0), then a fresh bake of four samples killed after its first.
+    let dir = root.join("killed");
+    succeeded(&bake("glass-sphere", "0", &dir, &[]));
+    let previous = files(&dir);
+    let mut args: Vec<String> = ["bake", "--scene", "glass-sphere", "--samples", "0..4"]
+        .map(String::from)
+        .to_vec();
+    args.extend(["--out".into(), dir.to_str().unwrap().into()]);
+    args.extend(TINY.map(String::from));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let mut child = lensmap_command(&args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let staging = root.join(".killed.baking");
+    let start = Instant::now();
+    loop {
+        let staged = std::fs::read_dir(&staging).map_or(0, |entries| {
+            entries
+                .filter_map(Result::ok)
+                .filter(|e| e.file_name().to_string_lossy().starts_with("sample-"))
+                .count()
+        });
+        if staged >= 1 {
+            break;
+        }
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the bake finished before it could be killed"
+        );
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "no sample staged"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert_eq!(files(&dir), previous, "the previous bake is untouched");
+    // Resume: the staged sample is kept, the rest baked, and the result is the whole bake's.
+    let resumed = bake("glass-sphere", "0..3", &dir, &["--resume"]);
+    succeeded(&resumed);
+    let json: serde_json::Value = serde_json::from_slice(&resumed.stdout).unwrap();
+    assert!(
+        !json["summary"]["resumed"].as_array().unwrap().is_empty(),
+        "{json}"
+    );
+    // The killed run staged sample 0..4's first ones; the bake holds what is complete.
+    let samples = manifest_samples(&dir);
+    assert!(samples.starts_with(&[0, 1, 2]), "{samples:?}");
+    if samples == [0, 1, 2] {
+        same_bytes(&dir, &whole);
+    } else {
+        // Sample 3 was staged too before the kill: every file of the whole bake is still equal.
+        let (got, want) = (files(&dir), files(&whole));
+        for (name, bytes) in &want {
+            if name != "manifest.json" {
+                assert!(got.get(name) == Some(bytes), "{name}");
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+fn fails_with_2(output: &Output, wanted: &str) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "one line: {stderr}");
+    assert!(stderr.contains(wanted), "'{wanted}' not in: {stderr}");
+}
+
+#[test]
+fn bad_input_exits_2_with_one_line_naming_the_fix() {
+    let root = temp_dir("bad");
+    let out = root.join("never");
+    fails_with_2(
+        &bake("glass-sphere", "99", &out, &[]),
+        "sample 99 does not exist",
+    );
+    for shard in ["3/2", "0/0"] {
+        fails_with_2(
+            &bake("glass-sphere", "0", &out, &["--shard", shard]),
+            "give I/N with 1 ≤ I ≤ N",
+        );
+    }
+    fails_with_2(
+        &lensmap(&[
+            "bake",
+            "--scene",
+            "glass-sphere",
+            "--em-size",
+            "100",
+            "--out",
+            out.to_str().unwrap(),
+        ]),
+        "--em-size 100",
+    );
+    assert!(!out.exists(), "nothing written for bad input");
+
+    let (glass, mirror) = (root.join("glass"), root.join("mirror"));
+    succeeded(&bake("glass-sphere", "0", &glass, &[]));
+    succeeded(&bake("mirror-teapot", "0", &mirror, &[]));
+    let merge = |a: &Path, b: &Path| {
+        lensmap(&[
+            "bake",
+            "--merge",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
+    fails_with_2(&merge(&glass, &mirror), "the scenes differ");
+    fails_with_2(&merge(&glass, &glass), "both hold sample 0");
+    let render = lensmap(&[
+        "render",
+        "--scene",
+        "mirror-teapot",
+        "--bake",
+        glass.to_str().unwrap(),
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--out",
+        root.join("render.png").to_str().unwrap(),
+    ]);
+    fails_with_2(&render, "bake this scene");
+    assert!(!out.exists(), "nothing written for bad input");
+    let _ = std::fs::remove_dir_all(&root);
+}

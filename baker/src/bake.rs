@@ -501,6 +501,23 @@ fn projected_scene(
     .0)
 }
 
+/// The viewpoints whose records place the layers: [`PLACEMENT_SAMPLES`] spread evenly over the
+/// view space, at 1/[`PLACEMENT_SCALE`] of the bake's resolution, one sample per pixel.
+pub fn placement_cameras(scene: &Scene, options: &BakeOptions) -> Vec<Camera> {
+    let positions = scene.view_space.samples();
+    let count = positions.len().min(PLACEMENT_SAMPLES);
+    (0..count)
+        .map(|i| positions[i * positions.len() / count])
+        .map(|p| {
+            scene.camera.with_position(p).with_resolution(
+                (options.width / PLACEMENT_SCALE).max(1),
+                (options.height / PLACEMENT_SCALE).max(1),
+                1,
+            )
+        })
+        .collect()
+}
+
 /// Makes the plan for `scene` and `options` (module docs). `progress` hears each step.
 pub fn make_plan(
     runner: &mut FrameRunner,
@@ -519,20 +536,7 @@ pub fn make_plan(
             scene.name
         )));
     }
-    // Placement views: PLACEMENT_SAMPLES spread evenly over the view space, at reduced size.
-    let placement_views: Vec<Camera> = {
-        let count = positions.len().min(PLACEMENT_SAMPLES);
-        (0..count)
-            .map(|i| positions[i * positions.len() / count])
-            .map(|p| {
-                scene.camera.with_position(p).with_resolution(
-                    (options.width / PLACEMENT_SCALE).max(1),
-                    (options.height / PLACEMENT_SCALE).max(1),
-                    1,
-                )
-            })
-            .collect()
-    };
+    let placement_views = placement_cameras(scene, options);
     let judge_camera = sample_camera(scene, positions[0], options).with_resolution(
         (options.width / PLACEMENT_SCALE).max(1),
         (options.height / PLACEMENT_SCALE).max(1),

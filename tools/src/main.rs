@@ -5,6 +5,7 @@
 #[macro_use]
 mod common;
 mod bake;
+mod bench_bake;
 mod bench_hybrid;
 mod bench_infer;
 mod bench_passes;
@@ -80,6 +81,11 @@ enum BenchCommand {
     ///
     /// Example: lensmap bench infer --scene glass-sphere --width 320 --height 240
     Infer(bench_infer::BenchInferArgs),
+    /// Baked EMs away from where they were fitted: on a sample, halfway to the next, 15° above
+    /// (lens and non-lens PSNR against a better-converged reference, projected EMs beside).
+    ///
+    /// Example: lensmap bench bake --scene teapot-room --bake out/bake --sample 0
+    Bake(bench_bake::BenchBakeArgs),
 }
 
 /// Whether an error is the user's input (exit 2) rather than a failure of the work (exit 1).
@@ -147,6 +153,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(args),
         Command::Bench(BenchCommand::Hybrid(args)) => bench_hybrid::run(args),
         Command::Bench(BenchCommand::Infer(args)) => bench_infer::run(args),
+        Command::Bench(BenchCommand::Bake(args)) => bench_bake::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

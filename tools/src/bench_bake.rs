@@ -1,0 +1,194 @@
+//! `lensmap bench bake`: how well baked (inferred) layered EMs render a scene away from where
+//! they were fitted. Three cameras around viewpoint sample A: on the sample, halfway (in angle)
+//! between samples A and A+1, and 15° above the circle at sample A. Each is judged against an
+//! independent reference traced with more supersamples than the bake's targets had, for
+//! projected EMs (the scene's shells) and for every bake given, over the lens pixels and the
+//! non-lens pixels.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use glam::{DQuat, Vec3};
+use lensmap::{
+    gpu::{Gpu, GpuOptions},
+    hybrid::{HybridOptions, HybridScene},
+    layers::{Bake, projected::ProjectedOptions},
+    metrics::{self, Channels, Encoding, Mask},
+    render::{TargetFormat, Variant},
+    runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene},
+    scene::{Camera, Scene},
+    trace::{TraceOptions, render_reference},
+};
+use serde_json::json;
+
+use crate::common::{BadUsage, write_json};
+
+#[derive(Args)]
+#[command(after_help = "Example:
+  lensmap bake --scene teapot-room --samples 0,1 --out out/bake
+  lensmap bench bake --scene teapot-room --bake out/bake --sample 0")]
+pub struct BenchBakeArgs {
+    /// Built-in scene name or path.
+    #[arg(long, default_value = "teapot-room")]
+    scene: String,
+    /// Bake directories to judge (each must hold samples A and A+1), labelled by their names.
+    #[arg(long, num_args = 1.., required = true)]
+    bake: Vec<PathBuf>,
+    /// Viewpoint sample A.
+    #[arg(long, default_value_t = 0)]
+    sample: usize,
+    /// Image width.
+    #[arg(long, default_value_t = 640)]
+    width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 480)]
+    height: u32,
+    /// Supersampling k×k of the hybrid framebuffer.
+    #[arg(long, default_value_t = 3)]
+    supersampling: u32,
+    /// Supersampling of the independent reference.
+    #[arg(long, default_value_t = 6)]
+    reference_supersampling: u32,
+    /// Tessellation threshold t, subpixels.
+    #[arg(long, default_value_t = 3.0)]
+    t: f32,
+    /// Projected EMs' face size (the baseline).
+    #[arg(long, default_value_t = 128)]
+    em_size: u32,
+    /// Where to write the JSON results.
+    #[arg(long, default_value = "out/bench-bake.json")]
+    json: PathBuf,
+}
+
+/// The three cameras: on sample A, halfway to A+1, 15° above A.
+fn cameras(
+    scene: &Scene,
+    a: usize,
+    width: u32,
+    height: u32,
+    k: u32,
+) -> Vec<(&'static str, Camera)> {
+    let samples = scene.view_space.samples();
+    let look_at = scene.camera.look_at;
+    let base = scene.camera.with_resolution(width, height, k);
+    let (pa, pb) = (samples[a] - look_at, samples[a + 1] - look_at);
+    let halfway = look_at
+        + (pa.normalize() + pb.normalize()).normalize_or(pa.normalize())
+            * 0.5
+            * (pa.length() + pb.length());
+    // Up by 15° about the horizontal axis perpendicular to the view direction.
+    let axis = pa.cross(Vec3::Y).normalize_or(Vec3::X).as_dvec3();
+    let above =
+        look_at + (DQuat::from_axis_angle(axis, -15f64.to_radians()) * pa.as_dvec3()).as_vec3();
+    let above = if above.y > samples[a].y {
+        above
+    } else {
+        look_at + (DQuat::from_axis_angle(axis, 15f64.to_radians()) * pa.as_dvec3()).as_vec3()
+    };
+    vec![
+        ("on sample", base.with_position(samples[a])),
+        ("halfway", base.with_position(halfway)),
+        ("15° above", base.with_position(above)),
+    ]
+}
+
+pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
+    if args.width == 0
+        || args.height == 0
+        || args.supersampling == 0
+        || args.reference_supersampling == 0
+    {
+        return Err(BadUsage(format!(
+            "--width {} --height {} --supersampling {} --reference-supersampling {}: give values ≥ 1",
+            args.width, args.height, args.supersampling, args.reference_supersampling
+        ))
+        .into());
+    }
+    let scene = Scene::load_named(&args.scene)?;
+    if args.sample + 1 >= scene.view_space.len() {
+        return Err(BadUsage(format!(
+            "--sample {}: needs samples A and A+1; scene \"{}\" has samples 0..{}",
+            args.sample,
+            scene.name,
+            scene.view_space.len()
+        ))
+        .into());
+    }
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let device = runner.gpu().device_name().to_string();
+    let mut contenders: Vec<(String, HybridScene)> = vec![(
+        "projected".into(),
+        load_hybrid_scene(
+            scene.clone(),
+            &EmSource::Projected(ProjectedOptions::with_size(args.em_size)),
+        )?
+        .0,
+    )];
+    for dir in &args.bake {
+        let bake = Bake::read(dir)?;
+        let label = dir.file_name().map_or_else(
+            || dir.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        contenders.push((label, HybridScene::from_bake(scene.clone(), bake)?));
+    }
+    let options = FrameOptions {
+        hybrid: HybridOptions::with_t(args.t),
+        variant: Variant::SinglePass,
+        format: TargetFormat::Rgba32f,
+    };
+    say!(
+        "{}: {}×{} at {k}×{k}, t = {}, reference {r}×{r}, device {device}; lens | non-lens PSNR, dB (sRGB)",
+        scene.name,
+        args.width,
+        args.height,
+        args.t,
+        k = args.supersampling,
+        r = args.reference_supersampling
+    );
+    let mut rows = Vec::new();
+    for (name, camera) in cameras(
+        &scene,
+        args.sample,
+        args.width,
+        args.height,
+        args.supersampling,
+    ) {
+        let reference_camera =
+            camera.with_resolution(args.width, args.height, args.reference_supersampling);
+        let reference = render_reference(
+            &contenders[0].1.trace,
+            &reference_camera,
+            &TraceOptions::default(),
+            &|_| {},
+        )?;
+        let non_lens = Mask::from_flags(reference.lens_mask.iter().map(|&c| c == 0.0).collect());
+        let mut cells = Vec::new();
+        let mut line = format!("{name:<10}");
+        for (label, hybrid) in &contenders {
+            let frame = runner.frame(hybrid, &camera, &options)?;
+            let lens = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
+            let other = metrics::compare(
+                &frame.image.pixels,
+                &reference.radiance,
+                &non_lens,
+                Encoding::DisplaySrgb,
+                Channels::Rgb,
+            )?
+            .psnr_db;
+            line.push_str(&format!("  {label}: {lens:.2} | {other:.2}"));
+            cells.push(json!({"ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other}));
+        }
+        say!("{line}");
+        rows.push(json!({"camera": name, "position": camera.position, "results": cells}));
+    }
+    write_json(
+        &args.json,
+        &json!({
+            "scene": scene.name, "device": device, "width": args.width, "height": args.height,
+            "supersampling": args.supersampling, "reference_supersampling": args.reference_supersampling,
+            "t": args.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
+        }),
+    )?;
+    Ok(())
+}

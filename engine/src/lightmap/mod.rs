@@ -5,9 +5,9 @@
 //! covers (texture and shadows included), averaged over k×k sub-samples where the radiance
 //! changes within it, and the GPU samples it with bilinear filtering.
 //!
-//! - [`atlas`]: the parameterization. Edge-connected coplanar triangles form one planar chart
-//!   (a plane's whole grid, a cylinder side's quad, a cap's fan), each gets its own rectangle in
-//!   the object's atlas with a gutter, and texel density is uniform in texels per metre.
+//! - [`atlas`]: the parameterization. Each triangle, or each pair of coplanar triangles forming a
+//!   quad (a plane's grid cell, a cylinder side's quad), is one planar chart with its own
+//!   rectangle in the object's atlas and a gutter; texel density is uniform in texels per metre.
 //! - [`radiance`]: filling an atlas by ray tracing (rayon over texel rows), adaptive
 //!   supersampling, and the gutter's dilation.
 //!

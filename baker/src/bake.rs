@@ -497,6 +497,7 @@ fn projected_scene(
         trace,
         shells,
         &ProjectedOptions::with_size(size),
+        &lensmap::lightmap::LightMapOptions::default(),
     )?
     .0)
 }

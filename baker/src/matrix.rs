@@ -425,6 +425,7 @@ impl LayerFrames {
                 positions: positions.to_vec(),
                 colours: vec![glam::Vec3::ZERO; positions.len()],
                 triangles: triangles.to_vec(),
+                light_map: None,
             })
         };
         // Only opaque triangles that can cover a lens pixel matter (they occlude it); the rest

@@ -4,7 +4,8 @@
 //! environment maps composited on the GPU (Hakura & Snyder, EGWR 2001). The rooms, bottom up:
 //! [`scene`] (scene files and meshes), [`graph`] (the pass graph, no Vulkan calls), [`cubemap`]
 //! (cube maps, their faces, f64 sampling and the one validator), [`options`] (option errors);
-//! [`trace`] (the CPU reference ray tracer), [`gpu`] (ash: devices, memory, images); [`metrics`]
+//! [`trace`] (the CPU reference ray tracer), [`lightmap`] (the opaque environment's light maps:
+//! charts, atlases, ray-traced radiance), [`gpu`] (ash: devices, memory, images); [`metrics`]
 //! (masked image errors); [`render`] (the compositor and its CPU f64 model); [`layers`] (shells,
 //! projected EMs, the bake format); [`hybrid`] (per-frame vertex tracing, tessellation, texgen);
 //! and on top [`runner`], the frame runner the command line, the tests and hosts call.
@@ -14,6 +15,7 @@ pub mod gpu;
 pub mod graph;
 pub mod hybrid;
 pub mod layers;
+pub mod lightmap;
 pub mod metrics;
 pub mod options;
 pub mod render;

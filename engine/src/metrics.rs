@@ -97,6 +97,8 @@ pub enum Coverage {
     Full,
     /// Pixels covered at all (coverage > 0).
     Any,
+    /// Pixels not covered at all (coverage = 0): nothing of the covering object mixed in.
+    None,
 }
 
 impl Mask {
@@ -115,6 +117,7 @@ impl Mask {
                 .map(|&c| match rule {
                     Coverage::Full => c >= 1.0,
                     Coverage::Any => c > 0.0,
+                    Coverage::None => c == 0.0,
                 })
                 .collect(),
         }
@@ -361,7 +364,11 @@ mod tests {
         let coverage = [0.0, 0.5, 1.0];
         let full = Mask::from_coverage(&coverage, Coverage::Full);
         let any = Mask::from_coverage(&coverage, Coverage::Any);
-        assert_eq!((full.selected(), any.selected()), (1, 2));
+        let none = Mask::from_coverage(&coverage, Coverage::None);
+        assert_eq!(
+            (full.selected(), any.selected(), none.selected()),
+            (1, 2, 1)
+        );
         let other = Mask::from_flags(vec![true, false, false]);
         assert_eq!(full.union(&other).selected(), 2);
         assert_eq!(full.pixel_count(), 3);

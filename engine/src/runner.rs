@@ -39,6 +39,7 @@ use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{HybridError, HybridOptions, HybridScene, HybridStats, tessellate::TessellationError},
     layers::{Bake, BakeError, projected::ProjectedOptions},
+    lightmap::LightMapOptions,
     metrics::{self, Channels, Coverage, Encoding, ImageError, Mask, MetricsError},
     options::OptionError,
     render::{
@@ -77,23 +78,35 @@ pub enum RunError {
     Render(#[from] RenderError),
 }
 
-/// Loads `scene` with its layered EMs; returns the hybrid scene and the rays cast to project
-/// EMs (0 for a bake).
+/// Loads `scene` with its layered EMs and light maps of the default options; returns the hybrid
+/// scene and the rays cast to project EMs (0 for a bake).
 pub fn load_hybrid_scene(scene: Scene, ems: &EmSource) -> Result<(HybridScene, u64), RunError> {
+    load_hybrid_scene_with_light_maps(scene, ems, &LightMapOptions::default())
+}
+
+/// [`load_hybrid_scene`] with the environment's light maps made with `light_maps`.
+pub fn load_hybrid_scene_with_light_maps(
+    scene: Scene,
+    ems: &EmSource,
+    light_maps: &LightMapOptions,
+) -> Result<(HybridScene, u64), RunError> {
+    light_maps.validate()?;
     Ok(match ems {
         EmSource::Bake(dir) => (
             // The mismatch names `manifest.json`; say which directory's.
-            HybridScene::from_bake(scene, Bake::read(dir)?).map_err(|error| match error {
-                HybridError::BakeMismatch(message) => {
-                    HybridError::BakeMismatch(format!("{}/{message}", dir.display()))
-                }
-                other => other,
-            })?,
+            HybridScene::from_bake_with_light_maps(scene, Bake::read(dir)?, light_maps).map_err(
+                |error| match error {
+                    HybridError::BakeMismatch(message) => {
+                        HybridError::BakeMismatch(format!("{}/{message}", dir.display()))
+                    }
+                    other => other,
+                },
+            )?,
             0,
         ),
         EmSource::Projected(options) => {
             options.validate()?;
-            HybridScene::projected(scene, options)?
+            HybridScene::projected_with_light_maps(scene, options, light_maps)?
         }
     })
 }
@@ -376,6 +389,24 @@ pub fn lens_error(
         &image.pixels,
         &reference.radiance,
         &Mask::from_coverage(&reference.lens_mask, Coverage::Full),
+        encoding,
+        Channels::Rgb,
+    )
+}
+
+/// The error of a hybrid frame against the reference ray tracer over the non-lens pixels: those
+/// in which no reference sub-sample saw a lens object (coverage 0), so the opaque environment,
+/// light-mapped on the GPU, and the background are all they show; RGB, in `encoding`. An error
+/// when every pixel sees some lens.
+pub fn non_lens_error(
+    image: &RenderedImage,
+    reference: &ReferenceImage,
+    encoding: Encoding,
+) -> Result<ImageError, MetricsError> {
+    metrics::compare(
+        &image.pixels,
+        &reference.radiance,
+        &Mask::from_coverage(&reference.lens_mask, Coverage::None),
         encoding,
         Channels::Rgb,
     )

@@ -1,7 +1,7 @@
 //! lensmap's shaders as SPIR-V: WGSL sources in `shaders/wgsl/`, compiled and validated by naga in
 //! `build.rs` (a shader error fails the build naming file and line). One file per pass family:
-//! `environment` (opaque vertex-coloured meshes) and `lens` (the layered-EM compositor, both
-//! variants).
+//! `environment` (opaque meshes: vertex colour times a light map) and `lens` (the layered-EM
+//! compositor, both variants).
 //!
 //! What Rust must agree on with the shaders is generated from them by `build.rs`: the push-constant
 //! structs ([`LensConstants`], [`EnvironmentConstants`]) with compile-time checks of their layout,

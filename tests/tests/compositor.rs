@@ -155,6 +155,7 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
                 Vec3::new(0.1, 0.1, 0.9),
             ],
             triangles: vec![[0, 1, 2]],
+            light_map: None,
         })],
         lenses: vec![LensObject {
             name: "sheet".into(),

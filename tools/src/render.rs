@@ -11,11 +11,12 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene, tessellate::DEFAULT_T},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    lightmap::{DEFAULT_TEXELS_PER_METRE, LightMapOptions},
     metrics::{Encoding, MetricsError},
     render::{TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
-        load_hybrid_scene,
+        load_hybrid_scene_with_light_maps, non_lens_error,
     },
     scene::{Camera, Scene},
     trace::{ReferenceImage, TraceOptions, render_reference},
@@ -58,6 +59,10 @@ pub struct RenderArgs {
     /// Projected EMs: cube-map face size in texels.
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
+    /// Light maps of the opaque environment: texels per metre (lowered per object whose atlas
+    /// would pass 4096²).
+    #[arg(long, default_value_t = DEFAULT_TEXELS_PER_METRE)]
+    pub light_map_density: f64,
     /// Also write the layered EMs used as a bake directory.
     #[arg(long, value_name = "DIR")]
     pub write_bake: Option<PathBuf>,
@@ -91,7 +96,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     // The GPU first: without a driver, fail before the expensive preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let prepare = Instant::now();
-    let (hybrid, _) = load_hybrid_scene(scene, &ems)?;
+    let light_maps = LightMapOptions {
+        texels_per_metre: args.light_map_density,
+        ..LightMapOptions::default()
+    };
+    light_maps.validate().map_err(flag_error)?;
+    let (hybrid, _) = load_hybrid_scene_with_light_maps(scene, &ems, &light_maps)?;
     let prepare_s = prepare.elapsed().as_secs_f64();
     if let Some(dir) = &args.write_bake {
         hybrid.to_bake().write(dir)?;
@@ -149,6 +159,17 @@ fn report(
         "t": args.t, "variant": Variant::from(args.variant).name(), "format": TargetFormat::from(args.format).name(),
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
         "prepare_seconds": prepare_s,
+        "light_maps": {
+            "texels_per_metre": args.light_map_density,
+            "ms": hybrid.light_maps.ms,
+            "gpu_bytes": hybrid.light_maps.gpu_bytes,
+            "texels": hybrid.light_maps.texels,
+            "shaded_texels": hybrid.light_maps.shaded_texels,
+            "supersampled_texels": hybrid.light_maps.supersampled_texels,
+            "samples": hybrid.light_maps.samples,
+            "shadow_rays": hybrid.light_maps.shadow_rays,
+            "charts": hybrid.light_maps.charts,
+        },
         "hybrid": {
             "ray_tracing_at_vertices_ms": frame.stats.trace_ms,
             "texture_coordinates_ms": frame.stats.texgen_ms,
@@ -191,6 +212,15 @@ fn report(
             (Err(MetricsError::EmptyMask), _) | (_, Err(MetricsError::EmptyMask)) => {}
             (Err(error), _) | (_, Err(error)) => return Err(error.into()),
         }
+        // The opaque environment (light-mapped) and the background: pixels no lens covers.
+        match non_lens_error(&frame.image, reference, Encoding::DisplaySrgb) {
+            Ok(display) => {
+                out["non_lens_psnr_db"] = json!(display.psnr_db);
+                out["non_lens_pixels"] = json!(display.pixels);
+            }
+            Err(MetricsError::EmptyMask) => {}
+            Err(error) => return Err(error.into()),
+        }
     }
     Ok(out)
 }
@@ -210,6 +240,16 @@ fn print_table(r: &serde_json::Value) {
         r["format"].as_str().unwrap_or(""),
         r["device"].as_str().unwrap_or(""),
         r["layered_ems"].as_str().unwrap_or("")
+    );
+    let l = &r["light_maps"];
+    say!(
+        "  light maps (once per scene): {:.0} ms, {:.1} MiB RGBA16F, {} charts, {} of {} texels shaded, {} supersampled",
+        ms(&l["ms"]),
+        ms(&l["gpu_bytes"]) / 1048576.0,
+        l["charts"],
+        l["shaded_texels"],
+        l["texels"],
+        l["supersampled_texels"]
     );
     say!(
         "  ray tracing at vertices     {:>10.1} ms",
@@ -266,6 +306,13 @@ fn print_table(r: &serde_json::Value) {
                 linear
             ),
             _ => say!("  no pixel is entirely lens in the reference: no lens PSNR"),
+        }
+        if let Some(display) = r["non_lens_psnr_db"].as_f64() {
+            say!(
+                "  PSNR over {} non-lens pixels: {:.2} dB (display sRGB, clamped to [0, 1])",
+                r["non_lens_pixels"],
+                display
+            );
         }
     }
     say!("  wrote {}", r["out"].as_str().unwrap_or(""));

@@ -11,8 +11,9 @@ use super::{Gpu, GpuError, VkContext};
 pub enum VertexInput {
     /// No vertex buffers.
     None,
-    /// Binding 0: position (vec3 f32), binding 1: colour (vec3 f32).
-    PositionColour,
+    /// Binding 0: position (vec3 f32), binding 1: colour (vec3 f32), binding 2: light-map
+    /// texture coordinates (vec2 f32).
+    PositionColourUv,
 }
 
 /// Everything a graphics pipeline is made of.
@@ -87,6 +88,11 @@ impl Gpu {
                 stride: 12,
                 input_rate: vk::VertexInputRate::VERTEX,
             },
+            vk::VertexInputBindingDescription {
+                binding: 2,
+                stride: 8,
+                input_rate: vk::VertexInputRate::VERTEX,
+            },
         ];
         let attributes = [
             vk::VertexInputAttributeDescription {
@@ -101,10 +107,16 @@ impl Gpu {
                 format: vk::Format::R32G32B32_SFLOAT,
                 offset: 0,
             },
+            vk::VertexInputAttributeDescription {
+                location: 2,
+                binding: 2,
+                format: vk::Format::R32G32_SFLOAT,
+                offset: 0,
+            },
         ];
         let vertex_input = match desc.vertex_input {
             VertexInput::None => vk::PipelineVertexInputStateCreateInfo::default(),
-            VertexInput::PositionColour => vk::PipelineVertexInputStateCreateInfo::default()
+            VertexInput::PositionColourUv => vk::PipelineVertexInputStateCreateInfo::default()
                 .vertex_binding_descriptions(&bindings)
                 .vertex_attribute_descriptions(&attributes),
         };

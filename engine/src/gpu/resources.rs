@@ -178,6 +178,19 @@ impl ImageDesc {
         }
     }
 
+    /// A sampled 2D texture of one level (a light map).
+    pub fn texture_2d(name: &str, format: vk::Format, width: u32, height: u32) -> ImageDesc {
+        ImageDesc {
+            name: name.into(),
+            format,
+            extent: vk::Extent2D { width, height },
+            mip_levels: 1,
+            array_layers: 1,
+            usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+            cube: false,
+        }
+    }
+
     /// `cubes` sampled cube maps of `size`² faces with a full mip chain, as one cube array.
     pub fn cube_array(name: &str, format: vk::Format, size: u32, cubes: u32) -> ImageDesc {
         ImageDesc {

@@ -4,7 +4,7 @@
 
 use std::{sync::Arc, time::Instant};
 
-use glam::{DVec2, DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::{
@@ -16,14 +16,12 @@ use super::{
 use crate::{
     cubemap::CubeMap,
     layers::LayerShell,
+    lightmap::{LightMapOptions, LightMapStats, build_light_mapped_mesh},
     options::OptionError,
-    render::{EnvironmentMesh, FrameInput, LensFaces, LensObject, TermVertices},
+    render::{EnvironmentMesh, FrameInput, LensFaces, LensObject, MeshLightMap, TermVertices},
     scene::{Camera, Scene},
-    trace::{Ray, Term, bvh::SurfaceHit, stats::TraceCounters, world::TraceScene},
+    trace::{Term, stats::TraceCounters, world::TraceScene},
 };
-
-/// Longest edge of an environment piece on the GPU, metres.
-pub const ENVIRONMENT_PIECE_METRES: f32 = 0.5;
 
 /// A lens object's layered EMs.
 #[derive(Clone, Debug)]
@@ -47,6 +45,14 @@ pub enum HybridError {
     /// A bake does not fit the scene; the message names the field and the fix.
     #[error("{0}")]
     BakeMismatch(String),
+    /// An environment object's light map cannot be made.
+    #[error("object \"{object}\": light map: {error}")]
+    LightMap {
+        /// The scene object.
+        object: String,
+        /// Why.
+        error: crate::lightmap::AtlasError,
+    },
 }
 
 /// Everything a hybrid frame is made from that does not change with the camera.
@@ -62,8 +68,11 @@ pub struct HybridScene {
     /// Per lens object (TraceScene order), which faces are traced and drawn (see
     /// [`HybridScene::lens_faces`]).
     pub faces: Vec<LensFaces>,
-    /// The opaque environment for the GPU, flat-shaded pieces (see [`HybridScene::environment_meshes`]).
+    /// The opaque environment for the GPU, light-mapped (see
+    /// [`HybridScene::light_mapped_environment`]).
     pub environment: Vec<Arc<EnvironmentMesh>>,
+    /// What making the environment's light maps cost.
+    pub light_maps: LightMapStats,
     /// The environment at infinity for the GPU, drawn behind everything; `None` when it is black.
     pub sky: Option<SkyDome>,
 }
@@ -147,11 +156,20 @@ pub struct HybridStats {
 }
 
 impl HybridScene {
-    /// A hybrid scene with projected layered EMs (see [`crate::layers::projected`]); also returns
-    /// the rays the projection cast.
+    /// A hybrid scene with projected layered EMs (see [`crate::layers::projected`]) and light
+    /// maps of the default options; also returns the rays the projection cast.
     pub fn projected(
         scene: Scene,
         options: &crate::layers::projected::ProjectedOptions,
+    ) -> Result<(HybridScene, u64), HybridError> {
+        Self::projected_with_light_maps(scene, options, &LightMapOptions::default())
+    }
+
+    /// [`HybridScene::projected`] with light maps made with `light_maps`.
+    pub fn projected_with_light_maps(
+        scene: Scene,
+        options: &crate::layers::projected::ProjectedOptions,
+        light_maps: &LightMapOptions,
     ) -> Result<(HybridScene, u64), HybridError> {
         use crate::layers::projected::{em_origin, lens_shells};
         let trace = TraceScene::new(&scene)?;
@@ -161,17 +179,19 @@ impl HybridScene {
                 (origin, lens_shells(&trace, &scene, lens, origin))
             })
             .collect();
-        Self::projected_on(scene, trace, shells, options)
+        Self::projected_on(scene, trace, shells, options, light_maps)
     }
 
     /// A hybrid scene with projected layered EMs on the given shells: `shells[lens]` is the EM
     /// origin and the shells of lens object `lens` (TraceScene order), nearest first. Also
-    /// returns the rays the projection cast.
+    /// returns the rays the projection cast. The environment gets light maps made with
+    /// `light_maps`.
     pub fn projected_on(
         scene: Scene,
         trace: TraceScene,
         shells: Vec<(DVec3, Vec<LayerShell>)>,
         options: &crate::layers::projected::ProjectedOptions,
+        light_maps: &LightMapOptions,
     ) -> Result<(HybridScene, u64), HybridError> {
         use crate::layers::projected::project_layers;
         if shells.len() != trace.lenses.len() {
@@ -202,7 +222,8 @@ impl HybridScene {
             .iter()
             .map(|p| p.as_dvec3())
             .collect();
-        let environment = Self::environment_meshes(&scene, &trace);
+        let (environment, light_map_stats) =
+            Self::light_mapped_environment(&scene, &trace, light_maps)?;
         let faces = Self::lens_faces(&scene, &trace);
         let sky = SkyDome::new(&trace);
         Ok((
@@ -213,16 +234,27 @@ impl HybridScene {
                 lenses,
                 faces,
                 environment,
+                light_maps: light_map_stats,
                 sky,
             },
             rays,
         ))
     }
 
-    /// A hybrid scene whose layered EMs come from a bake (matched to lens objects by name).
-    /// A bake that carries its scene's identity ([`crate::layers::Provenance`], written by
-    /// `lensmap bake`) must have been made from this very scene content.
+    /// A hybrid scene whose layered EMs come from a bake (matched to lens objects by name), with
+    /// light maps of the default options.
     pub fn from_bake(scene: Scene, bake: crate::layers::Bake) -> Result<HybridScene, HybridError> {
+        Self::from_bake_with_light_maps(scene, bake, &LightMapOptions::default())
+    }
+
+    /// [`HybridScene::from_bake`] with light maps made with `light_maps`. A bake that carries
+    /// its scene's identity ([`crate::layers::Provenance`], written by `lensmap bake`) must have
+    /// been made from this very scene content.
+    pub fn from_bake_with_light_maps(
+        scene: Scene,
+        bake: crate::layers::Bake,
+        light_maps: &LightMapOptions,
+    ) -> Result<HybridScene, HybridError> {
         if let Some(provenance) = &bake.provenance
             && provenance.scene_hash != scene.content_hash()
         {
@@ -257,7 +289,8 @@ impl HybridScene {
             });
         }
         let viewpoints = bake.viewpoints.iter().map(|p| p.as_dvec3()).collect();
-        let environment = Self::environment_meshes(&scene, &trace);
+        let (environment, light_map_stats) =
+            Self::light_mapped_environment(&scene, &trace, light_maps)?;
         let faces = Self::lens_faces(&scene, &trace);
         let sky = SkyDome::new(&trace);
         Ok(HybridScene {
@@ -267,6 +300,7 @@ impl HybridScene {
             lenses,
             faces,
             environment,
+            light_maps: light_map_stats,
             sky,
         })
     }
@@ -332,92 +366,41 @@ impl HybridScene {
             .collect()
     }
 
-    /// The opaque environment for the GPU: each environment triangle cut into pieces no longer
-    /// than [`ENVIRONMENT_PIECE_METRES`] along any edge, each piece flat-shaded (Lambert with
-    /// shadows, its texture sampled) at its centroid. View independent, so made once per scene;
-    /// textures such as a checker floor stay recognisable without texture mapping on the GPU.
-    pub fn environment_meshes(scene: &Scene, trace: &TraceScene) -> Vec<Arc<EnvironmentMesh>> {
-        scene
-            .objects
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| trace.object_lens.get(*i).is_some_and(|l| l.is_none()))
-            .map(|(object, o)| {
-                let mesh = &o.mesh;
-                let mut pieces: Vec<[usize; 3]> = Vec::new();
-                let mut corners: Vec<[(DVec3, DVec3, DVec2); 3]> = Vec::new();
-                for t in &mesh.triangles {
-                    let vertex = |i: u32| {
-                        let i = i as usize;
-                        (
-                            mesh.positions[i].as_dvec3(),
-                            mesh.normals.get(i).map_or(DVec3::Y, |n| n.as_dvec3()),
-                            mesh.uvs.get(i).copied().unwrap_or(Vec2::ZERO).as_dvec2(),
-                        )
-                    };
-                    let longest = (0..3)
-                        .map(|e| {
-                            (mesh.positions[t[e] as usize]
-                                - mesh.positions[t[(e + 1) % 3] as usize])
-                                .length()
-                        })
-                        .fold(0.0f32, f32::max);
-                    // n×n pieces per triangle (barycentric grid), n a power of two, capped.
-                    let n = ((longest / ENVIRONMENT_PIECE_METRES).ceil() as u32)
-                        .clamp(1, 256)
-                        .next_power_of_two() as usize;
-                    let [a, b, c] = t.map(vertex);
-                    let at = |i: usize, j: usize| {
-                        let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
-                        let w = 1.0 - u - v;
-                        (
-                            a.0 * w + b.0 * u + c.0 * v,
-                            a.1 * w + b.1 * u + c.1 * v,
-                            a.2 * w + b.2 * u + c.2 * v,
-                        )
-                    };
-                    for j in 0..n {
-                        for i in 0..n - j {
-                            corners.push([at(i, j), at(i + 1, j), at(i, j + 1)]);
-                            if i + j + 1 < n {
-                                corners.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
-                            }
-                        }
-                    }
-                }
-                pieces.extend((0..corners.len()).map(|p| [3 * p, 3 * p + 1, 3 * p + 2]));
-                let colours: Vec<Vec3> = corners
-                    .par_iter()
-                    .map(|piece| {
-                        let position = (piece[0].0 + piece[1].0 + piece[2].0) / 3.0;
-                        let normal = (piece[0].1 + piece[1].1 + piece[2].1).normalize_or(DVec3::Y);
-                        let uv = (piece[0].2 + piece[1].2 + piece[2].2) / 3.0;
-                        // Seen from just off the surface along the normal: two-sided Lambert
-                        // does not depend on the viewer.
-                        let ray = Ray::new(position + normal, -normal);
-                        let hit = SurfaceHit {
-                            distance: 1.0,
-                            position,
-                            geometric_normal: normal,
-                            shading_normal: normal,
-                            uv,
-                            object,
-                            primitive: u32::MAX,
-                        };
-                        let mut counters = TraceCounters::default();
-                        trace.shade_diffuse(&ray, &hit, &mut counters).as_vec3()
-                    })
-                    .collect();
-                Arc::new(EnvironmentMesh {
-                    positions: corners
-                        .iter()
-                        .flat_map(|piece| piece.map(|c| c.0.as_vec3()))
-                        .collect(),
-                    colours: colours.iter().flat_map(|c| [*c; 3]).collect(),
-                    triangles: pieces.iter().map(|p| p.map(|i| i as u32)).collect(),
-                })
-            })
-            .collect()
+    /// The opaque environment for the GPU: each environment object with its light map (see
+    /// [`crate::lightmap`]: the ray-traced radiance leaving its surface, texture and shadows
+    /// included, view independent, so made once per scene), drawn white × the map. Objects in
+    /// scene order; also returns what the maps cost.
+    pub fn light_mapped_environment(
+        scene: &Scene,
+        trace: &TraceScene,
+        options: &LightMapOptions,
+    ) -> Result<(Vec<Arc<EnvironmentMesh>>, LightMapStats), HybridError> {
+        let start = Instant::now();
+        let mut stats = LightMapStats::default();
+        let mut meshes = Vec::new();
+        for (object, o) in scene.objects.iter().enumerate() {
+            if trace.object_lens.get(object).is_none_or(|l| l.is_some()) {
+                continue;
+            }
+            let (mesh, object_stats) = build_light_mapped_mesh(trace, &o.mesh, object, options)
+                .map_err(|error| HybridError::LightMap {
+                    object: o.name.clone(),
+                    error,
+                })?;
+            stats += object_stats;
+            meshes.push(Arc::new(EnvironmentMesh {
+                colours: vec![Vec3::ONE; mesh.positions.len()],
+                positions: mesh.positions,
+                triangles: mesh.triangles,
+                light_map: Some(MeshLightMap {
+                    uvs: mesh.uvs,
+                    map: mesh.map,
+                }),
+            }));
+        }
+        // Objects were mapped one after another: the sum of their times is the wall time.
+        stats.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok((meshes, stats))
     }
 
     /// Builds the frame for `camera` (its resolution × supersampling is the framebuffer size).

@@ -114,6 +114,7 @@ impl SkyDome {
         let mesh = Arc::new(EnvironmentMesh {
             positions: self.directions.iter().map(|d| eye + radius * *d).collect(),
             colours: self.colours.clone(),
+            light_map: None,
             triangles: self.triangles.clone(),
         });
         *last = Some((eye, radius, mesh.clone()));

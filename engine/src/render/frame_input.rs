@@ -5,9 +5,10 @@
 
 use std::sync::Arc;
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 use crate::cubemap::CubeMap;
+use crate::lightmap::LightMap;
 use crate::trace::Term;
 
 /// Maximum number of viewpoint samples blended in one frame (the paper blends the two nearest).
@@ -63,15 +64,28 @@ impl LensObject {
     }
 }
 
-/// An opaque environment mesh drawn before the lens objects with depth test and write.
+/// An opaque environment mesh drawn before the lens objects with depth test and write. A
+/// fragment shows its interpolated vertex colour times its light map's bilinear sample (1
+/// without a light map).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EnvironmentMesh {
     /// World-space vertex positions.
     pub positions: Vec<Vec3>,
-    /// Per-vertex linear rgb colour.
+    /// Per-vertex linear rgb colour (white for a light-mapped mesh whose map holds the radiance).
     pub colours: Vec<Vec3>,
     /// Counter-clockwise triangles (both sides are drawn).
     pub triangles: Vec<[u32; 3]>,
+    /// The mesh's light map and its texture coordinates, if it has one.
+    pub light_map: Option<MeshLightMap>,
+}
+
+/// A light map on an environment mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshLightMap {
+    /// Per-vertex texture coordinates into `map`, in [0, 1]².
+    pub uvs: Vec<Vec2>,
+    /// The map: linear radiance, sampled bilinearly with clamp to edge, one level.
+    pub map: LightMap,
 }
 
 /// Everything one compositor frame needs.
@@ -143,6 +157,20 @@ impl FrameInput {
                 return bad(format!(
                     "environment[{m}].colours has NaN or infinite values"
                 ));
+            }
+            if let Some(light_map) = &mesh.light_map {
+                if light_map.uvs.len() != mesh.positions.len()
+                    || light_map.uvs.iter().any(|uv| !uv.is_finite())
+                {
+                    return bad(format!(
+                        "environment[{m}].light_map.uvs needs one finite uv per vertex ({} given for {})",
+                        light_map.uvs.len(),
+                        mesh.positions.len()
+                    ));
+                }
+                if let Err(error) = light_map.map.validate() {
+                    return bad(format!("environment[{m}].light_map.map: {error}"));
+                }
             }
         }
         for (l, lens) in self.lenses.iter().enumerate() {

@@ -694,8 +694,16 @@ impl<'a> FrameSetup<'a> {
                 continue;
             };
             if fragment.covered && fragment.depth < depth {
-                let colours = &self.frame.environment[mesh].colours;
-                let rgb = self.interpolate(triangle, centre, |v| colours[v].as_dvec3());
+                let environment = &self.frame.environment[mesh];
+                let colours = &environment.colours;
+                let mut rgb = self.interpolate(triangle, centre, |v| colours[v].as_dvec3());
+                // Times the light map's bilinear sample at the perspective-correct uv.
+                if let Some(light_map) = &environment.light_map {
+                    let uv = self.interpolate(triangle, centre, |v| {
+                        light_map.uvs[v].as_dvec2().extend(0.0)
+                    });
+                    rgb *= light_map.map.sample_bilinear(uv.truncate());
+                }
                 colour = [rgb.x, rgb.y, rgb.z, 1.0];
                 depth = fragment.depth;
                 visible = Some(fragment.triangle);
@@ -1065,6 +1073,7 @@ mod tests {
                 Vec3::new(-1.0, 3.0, 0.25),
             ],
             triangles: vec![[0, 1, 2]],
+            light_map: None,
         };
         let n = layers[0].len();
         // Front-facing order in framebuffer coordinates: (2,2) → (2,6) → (6,6) → (6,2).
@@ -1227,6 +1236,7 @@ mod tests {
                 positions: corners.clone(),
                 colours: corners.clone(),
                 triangles: vec![[0, 1, 2]],
+                light_map: None,
             })],
             lenses: vec![],
             viewpoint_weights: vec![1.0],
@@ -1383,6 +1393,7 @@ mod tests {
                 .map(|_| Vec3::new(rng.r#gen(), rng.r#gen(), rng.r#gen()))
                 .collect(),
             triangles: vec![[0, 1, 2], [0, 2, 3]],
+            light_map: None,
         };
         let (rings, segments) = (12usize, 24usize);
         let mut positions = Vec::new();

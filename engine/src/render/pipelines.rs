@@ -1,7 +1,8 @@
-//! What every frame's pipelines share, and the pipelines themselves: the lens descriptor-set
-//! layout, the two pipeline layouts (their push-constant ranges sized by the structs generated
-//! from the WGSL), the trilinear sampler, and one pipeline per [`PipelineKey`], created on first
-//! use from the pass's declaration.
+//! What every frame's pipelines share, and the pipelines themselves: the lens and environment
+//! descriptor-set layouts, the two pipeline layouts (their push-constant ranges sized by the
+//! structs generated from the WGSL), the trilinear sampler of the layered EMs and the bilinear one
+//! of the light maps, and one pipeline per [`PipelineKey`], created on first use from the pass's
+//! declaration.
 
 use std::{collections::HashMap, sync::Arc};
 
@@ -25,10 +26,15 @@ pub(super) struct Pipelines {
     pub(super) lens_set_layout: vk::DescriptorSetLayout,
     /// The lens programs' layout: set 0 and [`LensConstants`].
     pub(super) lens_layout: vk::PipelineLayout,
-    /// The environment program's layout: [`EnvironmentConstants`] only.
+    /// Set 0 of the environment program: the mesh's light map and its sampler.
+    pub(super) environment_set_layout: vk::DescriptorSetLayout,
+    /// The environment program's layout: set 0 and [`EnvironmentConstants`].
     pub(super) environment_layout: vk::PipelineLayout,
     /// Trilinear, clamp to edge, every level.
     pub(super) sampler: vk::Sampler,
+    /// Light maps: bilinear, clamp to edge, level 0 only (charts' gutters are sized for one
+    /// level).
+    pub(super) light_map_sampler: vk::Sampler,
     pipelines: HashMap<PipelineKey<ShaderProgram>, vk::Pipeline>,
 }
 
@@ -45,7 +51,9 @@ impl Drop for Pipelines {
             device.destroy_pipeline_layout(self.lens_layout, None);
             device.destroy_pipeline_layout(self.environment_layout, None);
             device.destroy_descriptor_set_layout(self.lens_set_layout, None);
+            device.destroy_descriptor_set_layout(self.environment_set_layout, None);
             device.destroy_sampler(self.sampler, None);
+            device.destroy_sampler(self.light_map_sampler, None);
         }
     }
 }
@@ -92,8 +100,10 @@ impl Pipelines {
             shared: gpu.shared.clone(),
             lens_set_layout: vk::DescriptorSetLayout::null(),
             lens_layout: vk::PipelineLayout::null(),
+            environment_set_layout: vk::DescriptorSetLayout::null(),
             environment_layout: vk::PipelineLayout::null(),
             sampler: vk::Sampler::null(),
+            light_map_sampler: vk::Sampler::null(),
             pipelines: HashMap::new(),
         };
         let vk_err = |call| move |result| GpuError::Vulkan { call, result };
@@ -124,9 +134,29 @@ impl Pipelines {
                 offset: 0,
                 size: push_size::<EnvironmentConstants>(),
             }];
+            let environment_bindings = [
+                binding(
+                    0,
+                    vk::DescriptorType::SAMPLED_IMAGE,
+                    vk::ShaderStageFlags::FRAGMENT,
+                ),
+                binding(
+                    1,
+                    vk::DescriptorType::SAMPLER,
+                    vk::ShaderStageFlags::FRAGMENT,
+                ),
+            ];
+            pipelines.environment_set_layout = device
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&environment_bindings),
+                    None,
+                )
+                .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
+            let environment_sets = [pipelines.environment_set_layout];
             pipelines.environment_layout = device
                 .create_pipeline_layout(
                     &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&environment_sets)
                         .push_constant_ranges(&environment_push),
                     None,
                 )
@@ -144,12 +174,24 @@ impl Pipelines {
             pipelines.sampler = device
                 .create_sampler(&sampler, None)
                 .map_err(vk_err("vkCreateSampler"))?;
+            let light_map_sampler = vk::SamplerCreateInfo::default()
+                .mag_filter(vk::Filter::LINEAR)
+                .min_filter(vk::Filter::LINEAR)
+                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .min_lod(0.0)
+                .max_lod(0.0);
+            pipelines.light_map_sampler = device
+                .create_sampler(&light_map_sampler, None)
+                .map_err(vk_err("vkCreateSampler"))?;
         }
         Ok(pipelines)
     }
 
-    /// The pipeline layout a program's pipelines use: the environment's push constants only, or
-    /// the lens programs' descriptor set and push constants.
+    /// The pipeline layout a program's pipelines use: the environment's or the lens programs'
+    /// descriptor set and push constants.
     pub(super) fn layout_of(&self, program: ShaderProgram) -> vk::PipelineLayout {
         match program {
             ShaderProgram::Environment => self.environment_layout,

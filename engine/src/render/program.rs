@@ -138,7 +138,7 @@ impl ShaderProgram {
     /// The vertex buffers the program reads (lens programs read a storage buffer instead).
     pub fn vertex_input(self) -> VertexInput {
         match self {
-            ShaderProgram::Environment => VertexInput::PositionColour,
+            ShaderProgram::Environment => VertexInput::PositionColourUv,
             ShaderProgram::LensZero
             | ShaderProgram::LensLayer
             | ShaderProgram::LensSinglePass(_) => VertexInput::None,

@@ -265,11 +265,19 @@ impl Recorder<'_> {
                             view_proj: frame.view_proj,
                         }),
                     );
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        self.pipelines.environment_layout,
+                        0,
+                        &[mesh.set],
+                        &[],
+                    );
                     device.cmd_bind_vertex_buffers(
                         cb,
                         0,
-                        &[mesh.positions.handle, mesh.colours.handle],
-                        &[0, 0],
+                        &[mesh.positions.handle, mesh.colours.handle, mesh.uvs.handle],
+                        &[0, 0, 0],
                     );
                     device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
                     device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);

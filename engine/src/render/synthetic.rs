@@ -261,6 +261,7 @@ fn room() -> Vec<std::sync::Arc<EnvironmentMesh>> {
         positions: Vec::new(),
         colours: Vec::new(),
         triangles: Vec::new(),
+        light_map: None,
     };
     let mut quad = |corners: [Vec3; 4], colour: Vec3| {
         let base = mesh.positions.len() as u32;

@@ -1,8 +1,9 @@
 //! Uploading a frame: the lens objects' per-vertex data and indices into buffers, their layered
-//! EMs into cube-map arrays, the environment meshes into vertex buffers, one descriptor set per
-//! (lens, viewpoint), and the targets of each framebuffer format on first use. Layered EMs and
-//! environment meshes are cached by the identity of their `Arc`s, so frames that hand over the
-//! same maps and meshes upload them once.
+//! EMs into cube-map arrays, the environment meshes into vertex buffers and their light maps into
+//! RGBA16F textures (each mesh with its own descriptor set), one descriptor set per (lens,
+//! viewpoint), and the targets of each framebuffer format on first use. Layered EMs and
+//! environment meshes (light maps included) are cached by the identity of their `Arc`s, so
+//! frames that hand over the same maps and meshes upload them once.
 
 use std::{collections::HashMap, sync::Arc};
 
@@ -35,12 +36,33 @@ pub(super) struct GpuLens {
     pub(super) sets: Vec<vk::DescriptorSet>,
 }
 
-/// An environment mesh's vertex and index buffers.
+/// An environment mesh's vertex and index buffers, its light map (a shared white 1×1 map for a
+/// mesh without one) and the descriptor set that binds it, from a pool of its own (the mesh
+/// outlives frames in the cache).
 pub(super) struct GpuMesh {
     pub(super) positions: Buffer,
     pub(super) colours: Buffer,
+    pub(super) uvs: Buffer,
     pub(super) indices: Buffer,
     pub(super) index_count: u32,
+    /// Kept alive for the descriptor set.
+    _light_map: Arc<Image>,
+    descriptor_pool: vk::DescriptorPool,
+    pub(super) set: vk::DescriptorSet,
+    shared: Arc<Shared>,
+}
+
+impl Drop for GpuMesh {
+    fn drop(&mut self) {
+        // SAFETY: the owner waited for every submission using the set (frames hold the mesh
+        // until their submissions complete); the pool belongs to this device.
+        unsafe {
+            let _ = self.shared.device.device_wait_idle();
+            self.shared
+                .device
+                .destroy_descriptor_pool(self.descriptor_pool, None);
+        }
+    }
 }
 
 /// The attachments and readback buffer of one framebuffer format.
@@ -117,6 +139,8 @@ pub(super) struct UploadCache {
     mesh_cache: HashMap<usize, CachedMesh>,
     /// Uploads so far (for evicting cache entries no recent frame used).
     generation: u64,
+    /// The white 1×1 light map of meshes without one, made on first use.
+    white: Option<Arc<Image>>,
 }
 
 /// One uploaded environment mesh and the mesh it holds (kept so its address stays unique).
@@ -156,7 +180,7 @@ impl UploadCache {
             .environment
             .iter()
             .filter(|m| !m.triangles.is_empty())
-            .map(|mesh| self.environment_mesh(gpu, mesh))
+            .map(|mesh| self.environment_mesh(gpu, pipelines, mesh))
             .collect::<Result<Vec<_>, GpuError>>()?;
 
         let set_count = frame
@@ -278,6 +302,7 @@ impl UploadCache {
     fn environment_mesh(
         &mut self,
         gpu: &Gpu,
+        pipelines: &Pipelines,
         mesh: &Arc<EnvironmentMesh>,
     ) -> Result<Arc<GpuMesh>, GpuError> {
         let key = Arc::as_ptr(mesh) as usize;
@@ -297,6 +322,32 @@ impl UploadCache {
             .flatten()
             .flat_map(|i| i.to_le_bytes())
             .collect();
+        let (uvs, light_map) = match &mesh.light_map {
+            Some(light_map) => {
+                let map = &light_map.map;
+                let mut image = Image::new(
+                    gpu,
+                    ImageDesc::texture_2d(
+                        "light map",
+                        vk::Format::R16G16B16A16_SFLOAT,
+                        map.width,
+                        map.height,
+                    ),
+                )?;
+                image.upload(gpu, 0, 0, 1, &map.to_bytes())?;
+                (light_map.uvs.clone(), Arc::new(image))
+            }
+            None => (
+                vec![glam::Vec2::ZERO; mesh.positions.len()],
+                self.white_map(gpu)?,
+            ),
+        };
+        let uv_bytes: Vec<u8> = uvs
+            .iter()
+            .flat_map(|uv| uv.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let (descriptor_pool, set) = light_map_set(gpu, pipelines, &light_map)?;
         let buffers = Arc::new(GpuMesh {
             positions: Buffer::with_data(
                 gpu,
@@ -310,8 +361,13 @@ impl UploadCache {
                 &floats(&mesh.colours),
                 BufferUsage::Vertex,
             )?,
+            uvs: Buffer::with_data(gpu, "environment uvs", &uv_bytes, BufferUsage::Vertex)?,
             indices: Buffer::with_data(gpu, "environment indices", &indices, BufferUsage::Index)?,
             index_count: (mesh.triangles.len() * 3) as u32,
+            _light_map: light_map,
+            descriptor_pool,
+            set,
+            shared: gpu.shared.clone(),
         });
         self.mesh_cache.insert(
             key,
@@ -322,6 +378,22 @@ impl UploadCache {
             },
         );
         Ok(buffers)
+    }
+
+    /// The white 1×1 light map (RGBA16F ones), made once.
+    fn white_map(&mut self, gpu: &Gpu) -> Result<Arc<Image>, GpuError> {
+        if let Some(white) = &self.white {
+            return Ok(white.clone());
+        }
+        let mut image = Image::new(
+            gpu,
+            ImageDesc::texture_2d("white light map", vk::Format::R16G16B16A16_SFLOAT, 1, 1),
+        )?;
+        let one = crate::lightmap::LightMap::uniform(1, 1, [1.0; 4]);
+        image.upload(gpu, 0, 0, 1, &one.to_bytes())?;
+        let image = Arc::new(image);
+        self.white = Some(image.clone());
+        Ok(image)
     }
 
     /// The cube-map array holding `cubes`, from the cache or freshly uploaded.
@@ -437,6 +509,83 @@ impl UploadCache {
             sets,
         })
     }
+}
+
+/// A descriptor pool of one environment set and that set, pointing at `light_map` and the
+/// light-map sampler.
+fn light_map_set(
+    gpu: &Gpu,
+    pipelines: &Pipelines,
+    light_map: &Image,
+) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
+    let device = gpu.device();
+    let sizes = [
+        vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::SAMPLED_IMAGE,
+            descriptor_count: 1,
+        },
+        vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::SAMPLER,
+            descriptor_count: 1,
+        },
+    ];
+    // SAFETY: valid create info; destroyed by GpuMesh::drop (or below on failure).
+    let pool = unsafe {
+        device.create_descriptor_pool(
+            &vk::DescriptorPoolCreateInfo::default()
+                .max_sets(1)
+                .pool_sizes(&sizes),
+            None,
+        )
+    }
+    .map_err(|result| GpuError::Vulkan {
+        call: "vkCreateDescriptorPool",
+        result,
+    })?;
+    let layouts = [pipelines.environment_set_layout];
+    // SAFETY: the pool was sized for this one set.
+    let sets = unsafe {
+        device.allocate_descriptor_sets(
+            &vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(pool)
+                .set_layouts(&layouts),
+        )
+    };
+    let set = match sets {
+        Ok(sets) => sets[0],
+        Err(result) => {
+            // SAFETY: the pool is unused.
+            unsafe { device.destroy_descriptor_pool(pool, None) };
+            return Err(GpuError::Vulkan {
+                call: "vkAllocateDescriptorSets",
+                result,
+            });
+        }
+    };
+    let image = [vk::DescriptorImageInfo {
+        sampler: vk::Sampler::null(),
+        image_view: light_map.view,
+        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    }];
+    let sampler = [vk::DescriptorImageInfo {
+        sampler: pipelines.light_map_sampler,
+        ..Default::default()
+    }];
+    let writes = [
+        vk::WriteDescriptorSet::default()
+            .dst_set(set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+            .image_info(&image),
+        vk::WriteDescriptorSet::default()
+            .dst_set(set)
+            .dst_binding(1)
+            .descriptor_type(vk::DescriptorType::SAMPLER)
+            .image_info(&sampler),
+    ];
+    // SAFETY: the set is new and unused; the infos live until return.
+    unsafe { device.update_descriptor_sets(&writes, &[]) };
+    Ok((pool, set))
 }
 
 /// Points every descriptor set of a lens object (one per viewpoint) at its data buffer, its own

@@ -227,12 +227,27 @@ impl MeshBvh {
     }
 
     fn surface_hit(&self, id: u32, t: f64, u: f64, v: f64) -> SurfaceHit {
-        let triangle = &self.triangles[id as usize];
+        self.triangles[id as usize].surface(id, t, u, v)
+    }
+}
+
+impl SourceTriangle {
+    /// The surface at barycentrics `(u, v)` (the weights of vertices 1 and 2; values outside the
+    /// triangle extrapolate along its plane), with exactly the normals, texture coordinates and
+    /// sides a ray hit there gets: what light maps shade. `None` for a degenerate or non-finite
+    /// triangle (one the BVH leaves out). `primitive` is `u32::MAX` (no BVH id).
+    pub fn surface_at(&self, u: f64, v: f64) -> Option<SurfaceHit> {
+        prepare_triangle(self).map(|triangle| triangle.surface(u32::MAX, 0.0, u, v))
+    }
+}
+
+impl BvhTriangle {
+    /// The hit at distance `t` and barycentrics `(u, v)` on this triangle (BVH id `id`).
+    fn surface(&self, id: u32, t: f64, u: f64, v: f64) -> SurfaceHit {
         let w = 1.0 - u - v;
-        let position = triangle.v0 + u * triangle.e1 + v * triangle.e2;
-        let interpolated =
-            w * triangle.normals[0] + u * triangle.normals[1] + v * triangle.normals[2];
-        let geometric_normal = triangle.geometric_normal;
+        let position = self.v0 + u * self.e1 + v * self.e2;
+        let interpolated = w * self.normals[0] + u * self.normals[1] + v * self.normals[2];
+        let geometric_normal = self.geometric_normal;
         let shading_normal = if interpolated.length_squared() > 1e-24 {
             let n = interpolated.normalize();
             // A shading normal on the wrong side of the face would flip inside and outside.
@@ -244,20 +259,18 @@ impl MeshBvh {
         } else {
             geometric_normal
         };
-        let uv = w * triangle.uvs[0] + u * triangle.uvs[1] + v * triangle.uvs[2];
+        let uv = w * self.uvs[0] + u * self.uvs[1] + v * self.uvs[2];
         SurfaceHit {
             distance: t,
             position,
             geometric_normal,
             shading_normal,
             uv,
-            object: triangle.object as usize,
+            object: self.object as usize,
             primitive: id,
         }
     }
-}
 
-impl BvhTriangle {
     /// Möller–Trumbore in f64: `(t, u, v)` with `t` in `(min_distance, max_distance)`.
     #[inline]
     fn intersect(

@@ -296,6 +296,21 @@ pub fn sanitize(value: DVec3) -> DVec3 {
 }
 
 fn push_triangles(out: &mut Vec<SourceTriangle>, mesh: &TriangleMesh, object: usize) {
+    out.extend(
+        mesh.triangles
+            .iter()
+            .filter_map(|triangle| source_triangle(mesh, triangle, object)),
+    );
+}
+
+/// Triangle `triangle` of `mesh` (scene object `object`) as the BVH builds over it: missing
+/// normals are zero (the face normal stands in), missing texture coordinates zero; `None` when an
+/// index is out of range.
+pub fn source_triangle(
+    mesh: &TriangleMesh,
+    triangle: &[u32; 3],
+    object: usize,
+) -> Option<SourceTriangle> {
     let vertex = |index: u32| -> Option<(Vec3, Vec3, Vec2)> {
         let i = index as usize;
         let position = *mesh.positions.get(i)?;
@@ -303,19 +318,15 @@ fn push_triangles(out: &mut Vec<SourceTriangle>, mesh: &TriangleMesh, object: us
         let uv = mesh.uvs.get(i).copied().unwrap_or(Vec2::ZERO);
         Some((position, normal, uv))
     };
-    for triangle in &mesh.triangles {
-        let (Some(a), Some(b), Some(c)) = (
-            vertex(triangle[0]),
-            vertex(triangle[1]),
-            vertex(triangle[2]),
-        ) else {
-            continue;
-        };
-        out.push(SourceTriangle {
-            positions: [a.0, b.0, c.0],
-            normals: [a.1, b.1, c.1],
-            uvs: [a.2, b.2, c.2],
-            object: object as u32,
-        });
-    }
+    let (a, b, c) = (
+        vertex(triangle[0])?,
+        vertex(triangle[1])?,
+        vertex(triangle[2])?,
+    );
+    Some(SourceTriangle {
+        positions: [a.0, b.0, c.0],
+        normals: [a.1, b.1, c.1],
+        uvs: [a.2, b.2, c.2],
+        object: object as u32,
+    })
 }

@@ -2,11 +2,9 @@
 //! (`lensmap_baker::bake`), resumable and shardable; and `lensmap bake --merge`, which joins
 //! shards.
 
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::HybridOptions,
@@ -122,17 +120,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     options.validate()?;
     let mut runner = lensmap::runner::FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();
-    let bar = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(samples.len() as u64);
-        if let Ok(style) = ProgressStyle::with_template(
-            "{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} samples {msg}",
-        ) {
-            bar.set_style(style);
-        }
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = crate::common::progress_bar_of(samples.len() as u64, "samples");
     let summary = bake(
         &mut runner,
         &scene,
@@ -141,19 +129,15 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         &options,
         args.resume,
         &mut |progress| match progress {
-            Progress::Plan(stage) => {
-                bar.set_prefix("plan");
-                bar.set_message(stage.to_owned());
-            }
+            Progress::Plan(stage) => bar.set_message(format!("plan: {stage}")),
             Progress::Sample {
                 sample,
                 done,
                 stage,
                 ..
             } => {
-                bar.set_prefix(format!("sample {sample}"));
                 bar.set_position(done as u64);
-                bar.set_message(stage.to_owned());
+                bar.set_message(format!("sample {sample}: {stage}"));
             }
         },
     )?;

@@ -1,8 +1,11 @@
-//! `lensmap demo`: the main job on the built-in `teapot-room` scene. It builds projected layered
-//! EMs, renders the hybrid frame from a novel viewpoint between two viewpoint samples with both
-//! compositor variants and t = 3 and t = 5, renders the reference ray tracer at the same
-//! settings, writes the images (and a side-by-side) into `out/`, and prints the paper's table,
-//! the reduction factors and the PSNR over the lens pixels. `--synthetic` runs the compositor
+//! `lensmap demo`: the main job on the built-in `teapot-room` scene. It bakes inferred layered
+//! EMs at the two viewpoint samples a novel viewpoint lies between (cached in `out/bake`, reused
+//! while the scene and the bake options are unchanged: the bake's provenance is the key), builds
+//! projected layered EMs beside them, renders the hybrid frame from that viewpoint with both
+//! kinds of EMs, both compositor variants and t = 3 and t = 5, renders the reference ray tracer
+//! at the same settings, writes the images (and a side-by-side: inferred | projected | reference)
+//! into `out/`, and prints the paper's table, the reduction factors and the PSNR over the lens
+//! pixels. `--synthetic` runs the compositor
 //! alone on its synthetic sphere scene instead.
 
 use std::path::PathBuf;
@@ -12,10 +15,11 @@ use anyhow::Context;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::HybridOptions,
+    hybrid::{HybridOptions, HybridScene},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    layers::{Bake, Manifest},
     metrics::Encoding,
-    render::{SinglePassProgram, TargetFormat, Variant, synthetic},
+    render::{RenderedImage, SinglePassProgram, TargetFormat, Variant, synthetic},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
         load_hybrid_scene, novel_camera,
@@ -23,9 +27,10 @@ use lensmap::{
     scene::Scene,
     trace::{TraceOptions, render_reference},
 };
+use lensmap_baker::bake::{BakeOptions, Progress, bake};
 use serde_json::json;
 
-use crate::common::{BadUsage, flag_error, progress_bar, write_json};
+use crate::common::{BadUsage, flag_error, progress_bar, progress_bar_of, write_json};
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -82,6 +87,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     say!("device: {}", runner.gpu().device_name());
 
+    let inferred = inferred_scene(&mut runner, &scene, &camera, &args.out.join("bake"))?;
     let prepare = Instant::now();
     let (hybrid, em_rays) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     say!(
@@ -109,7 +115,8 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         k = camera.supersampling
     );
     say!(
-        "{:<12} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>7} {:>7} {:>7} {:>8} {:>8}",
+        "{:<10} {:<12} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>7} {:>7} {:>7} {:>8} {:>8}",
+        "EMs",
         "variant",
         "t",
         "trace ms",
@@ -126,68 +133,69 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         "lin. dB"
     );
     let mut rows = Vec::new();
-    for variant in [Variant::SinglePass, Variant::Multipass] {
-        for t in [3.0f32, 5.0] {
-            let options = FrameOptions {
-                hybrid: HybridOptions::with_t(t),
-                variant,
-                format: TargetFormat::Rgba16f,
-            };
-            // The first frame compiles pipelines; then the median of three timed frames.
-            let repetitions = Repetitions {
-                warmup: 1,
-                timed: 3,
-            };
-            let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
-            let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
-            let (trace_ms, texgen_ms, tessellation_ms, other_ms, total_ms) = (
-                stage(&|f| f.stats.trace_ms),
-                stage(&|f| f.stats.texgen_ms),
-                stage(&|f| f.stats.tessellation_ms),
-                stage(&|f| f.other_ms()),
-                stage(&|f| f.total_ms),
-            );
-            let frame = frames.last();
-            let c = frame.stats.counters;
-            // The figure printed since the first demo (display sRGB, clamped), and beside it the
-            // linear one that also counts errors in highlights above 1.
-            let psnr = |encoding| {
-                lens_error(&frame.image, &reference, encoding).map_or(f64::NAN, |e| e.psnr_db)
-            };
-            let (psnr_display, psnr_linear) = (psnr(Encoding::DisplaySrgb), psnr(Encoding::Linear));
-            let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
-            let time_ratio = ratio(reference.stats.seconds * 1e3, total_ms);
-            let ray_ratio = ratio(rc.all_rays() as f64, c.all_rays() as f64);
-            let test_ratio = ratio(rc.triangle_tests as f64, c.triangle_tests as f64);
-            say!(
-                "{:<12} {:>3} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>10} {:>11} {:>7.1} {:>7.1} {:>7.1} {:>8.2} {:>8.2}",
-                variant.name(),
-                t,
-                trace_ms,
-                texgen_ms,
-                tessellation_ms,
-                other_ms,
-                total_ms,
-                c.all_rays(),
-                c.triangle_tests,
-                time_ratio,
-                ray_ratio,
-                test_ratio,
-                psnr_display,
-                psnr_linear
-            );
-            let stem = format!("teapot-room-hybrid-{}-t{t}", variant.name());
-            frame
-                .image
-                .write_png_and_exr(&args.out.join(format!("{stem}.png")))?;
-            if variant == Variant::SinglePass && t == 3.0 {
+    let mut side_by_side = Vec::new();
+    for (ems, hybrid) in [("inferred", &inferred), ("projected", &hybrid)] {
+        for variant in [Variant::SinglePass, Variant::Multipass] {
+            for t in [3.0f32, 5.0] {
+                let options = FrameOptions {
+                    hybrid: HybridOptions::with_t(t),
+                    variant,
+                    format: TargetFormat::Rgba16f,
+                };
+                // The first frame compiles pipelines; then the median of three timed frames.
+                let repetitions = Repetitions {
+                    warmup: 1,
+                    timed: 3,
+                };
+                let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
+                let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
+                let (trace_ms, texgen_ms, tessellation_ms, other_ms, total_ms) = (
+                    stage(&|f| f.stats.trace_ms),
+                    stage(&|f| f.stats.texgen_ms),
+                    stage(&|f| f.stats.tessellation_ms),
+                    stage(&|f| f.other_ms()),
+                    stage(&|f| f.total_ms),
+                );
+                let frame = frames.last();
+                let c = frame.stats.counters;
+                // The figure printed since the first demo (display sRGB, clamped), and beside it the
+                // linear one that also counts errors in highlights above 1.
+                let psnr = |encoding| {
+                    lens_error(&frame.image, &reference, encoding).map_or(f64::NAN, |e| e.psnr_db)
+                };
+                let (psnr_display, psnr_linear) =
+                    (psnr(Encoding::DisplaySrgb), psnr(Encoding::Linear));
+                let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
+                let time_ratio = ratio(reference.stats.seconds * 1e3, total_ms);
+                let ray_ratio = ratio(rc.all_rays() as f64, c.all_rays() as f64);
+                let test_ratio = ratio(rc.triangle_tests as f64, c.triangle_tests as f64);
+                say!(
+                    "{:<10} {:<12} {:>3} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>10} {:>11} {:>7.1} {:>7.1} {:>7.1} {:>8.2} {:>8.2}",
+                    ems,
+                    variant.name(),
+                    t,
+                    trace_ms,
+                    texgen_ms,
+                    tessellation_ms,
+                    other_ms,
+                    total_ms,
+                    c.all_rays(),
+                    c.triangle_tests,
+                    time_ratio,
+                    ray_ratio,
+                    test_ratio,
+                    psnr_display,
+                    psnr_linear
+                );
+                let stem = format!("teapot-room-hybrid-{ems}-{}-t{t}", variant.name());
                 frame
                     .image
-                    .side_by_side(&reference.radiance)?
-                    .write_png_and_exr(&args.out.join("teapot-room-side-by-side.png"))?;
-            }
-            rows.push(json!({
-                "variant": variant.name(), "t": t,
+                    .write_png_and_exr(&args.out.join(format!("{stem}.png")))?;
+                if variant == Variant::SinglePass && t == 3.0 {
+                    side_by_side.push(frame.image.clone());
+                }
+                rows.push(json!({
+                "ems": ems, "variant": variant.name(), "t": t,
                 "median_of": 3,
                 "ray_tracing_at_vertices_ms": trace_ms, "texture_coordinates_ms": texgen_ms,
                 "tessellation_ms": tessellation_ms, "other_ms": other_ms,
@@ -197,8 +205,20 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 "lens_psnr_db": psnr_display,
                 "lens_psnr_linear_db": psnr_linear,
             }));
+            }
         }
     }
+    let reference_image = RenderedImage {
+        width: camera.width,
+        height: camera.height,
+        pixels: reference
+            .radiance
+            .iter()
+            .map(|p| [p.x, p.y, p.z, 1.0])
+            .collect(),
+    };
+    side_by_side.push(reference_image);
+    beside(&side_by_side)?.write_png_and_exr(&args.out.join("teapot-room-side-by-side.png"))?;
     say!(
         "PSNR dB: display sRGB clamped to [0, 1] over the pixels the reference sees as all lens; lin. dB: linear HDR, unclamped"
     );
@@ -210,7 +230,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     say!(
-        "wrote {}/teapot-room-side-by-side.png (hybrid | reference) and the frames beside it",
+        "wrote {}/teapot-room-side-by-side.png (inferred | projected | reference, single pass, t = 3) and the frames beside it",
         args.out.display()
     );
     let report = runner.gpu().validation_report();
@@ -228,6 +248,108 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         write_json(path, &out)?;
     }
     Ok(())
+}
+
+/// Images of one size side by side, left to right.
+fn beside(images: &[RenderedImage]) -> anyhow::Result<RenderedImage> {
+    let Some(first) = images.first() else {
+        anyhow::bail!("no images to put side by side");
+    };
+    let (w, h) = (first.width as usize, first.height as usize);
+    if images.iter().any(|i| i.pixels.len() != w * h) {
+        anyhow::bail!("side by side: the images differ in size");
+    }
+    let mut pixels = Vec::with_capacity(images.len() * w * h);
+    for y in 0..h {
+        for image in images {
+            pixels.extend_from_slice(&image.pixels[y * w..(y + 1) * w]);
+        }
+    }
+    Ok(RenderedImage {
+        width: first.width * images.len() as u32,
+        height: first.height,
+        pixels,
+    })
+}
+
+/// The hybrid scene with EMs inferred at the two viewpoint samples `camera` lies between (the
+/// two nearest by angle), baked into `dir` unless a bake there already holds them for this scene
+/// and these options (its provenance says so): the first demo bakes, later ones reuse it.
+fn inferred_scene(
+    runner: &mut FrameRunner,
+    scene: &Scene,
+    camera: &lensmap::scene::Camera,
+    dir: &std::path::Path,
+) -> anyhow::Result<HybridScene> {
+    let positions: Vec<glam::DVec3> = scene
+        .view_space
+        .samples()
+        .iter()
+        .map(|p| p.as_dvec3())
+        .collect();
+    let blend = lensmap::hybrid::viewpoints::blend(
+        &positions,
+        camera.look_at.as_dvec3(),
+        camera.position.as_dvec3(),
+    )
+    .map_or_else(|| vec![0], |b| b.samples.iter().map(|(i, _)| *i).collect());
+    let mut samples = blend;
+    samples.sort_unstable();
+    let options = BakeOptions {
+        width: camera.width,
+        height: camera.height,
+        supersampling: camera.supersampling,
+        judge: false,
+        ..BakeOptions::default()
+    };
+    let cached = Manifest::read(dir)
+        .ok()
+        .and_then(|m| m.provenance)
+        .is_some_and(|p| {
+            p.scene_hash == scene.content_hash()
+                && p.options_hash == options.hash()
+                && samples.iter().all(|s| p.samples.contains(s))
+        });
+    let start = Instant::now();
+    if cached {
+        say!(
+            "inferred layered EMs: samples {samples:?} cached in {}",
+            dir.display()
+        );
+    } else {
+        say!(
+            "inferred layered EMs: baking samples {samples:?} into {} (cached for the next run)",
+            dir.display()
+        );
+        let bar = progress_bar_of(samples.len() as u64, "samples");
+        bake(
+            runner,
+            scene,
+            dir,
+            &samples,
+            &options,
+            true,
+            &mut |progress| match progress {
+                Progress::Plan(stage) => bar.set_message(format!("plan: {stage}")),
+                Progress::Sample {
+                    sample,
+                    done,
+                    stage,
+                    ..
+                } => {
+                    bar.set_position(done as u64);
+                    bar.set_message(format!("sample {sample}: {stage}"));
+                }
+            },
+        )?;
+        bar.finish_and_clear();
+    }
+    let hybrid = HybridScene::from_bake(scene.clone(), Bake::read(dir)?)?;
+    say!(
+        "inferred layered EMs ready in {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+    Ok(hybrid)
 }
 
 /// `lensmap demo --synthetic`: the compositor alone on the synthetic sphere scene with both

@@ -147,7 +147,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                     warmup: 1,
                     timed: 3,
                 };
-                let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
+                let frames = runner.timed_frames(hybrid, &camera, &options, repetitions)?;
                 let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
                 let (trace_ms, texgen_ms, tessellation_ms, other_ms, total_ms) = (
                     stage(&|f| f.stats.trace_ms),

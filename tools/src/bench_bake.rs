@@ -3,7 +3,8 @@
 //! between samples A and A+1, and 15° above the circle at sample A. Each is judged against an
 //! independent reference traced with more supersamples than the bake's targets had, for
 //! projected EMs (the scene's shells) and for every bake given, over the lens pixels and the
-//! non-lens pixels.
+//! non-lens pixels; and, for the error budget, the frame with perfect information at each vertex
+//! (`HybridScene::vertex_exact_frame`), whose lens error is the tessellation's share.
 
 use std::path::PathBuf;
 
@@ -179,6 +180,17 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             line.push_str(&format!("  {label}: {lens:.2} | {other:.2}"));
             cells.push(json!({"ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other}));
         }
+        // The error budget's tessellation share: the same tessellation with the exact radiance
+        // at every vertex, interpolated (no EM, no shell, no filtering).
+        let (exact_frame, _) = contenders[0]
+            .1
+            .vertex_exact_frame(&camera, &options.hybrid)?;
+        let exact = runner
+            .render(&exact_frame, options.variant, options.format)?
+            .box_downsample(camera.supersampling);
+        let exact_lens = lens_error(&exact, &reference, Encoding::DisplaySrgb)?.psnr_db;
+        line.push_str(&format!("  vertex-exact: {exact_lens:.2}"));
+        cells.push(json!({"ems": "vertex-exact", "lens_psnr_db": exact_lens}));
         say!("{line}");
         rows.push(json!({"camera": name, "position": camera.position, "results": cells}));
     }

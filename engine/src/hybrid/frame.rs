@@ -409,6 +409,29 @@ impl HybridScene {
         camera: &Camera,
         options: &HybridOptions,
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
+        self.build_frame(camera, options, false)
+    }
+
+    /// The frame with *perfect information at each vertex*: every lens object tessellated as
+    /// [`HybridScene::frame`] does, but drawn as an opaque mesh whose vertex colours are the
+    /// exact two-term radiance there (each term's `F·G` times the reference tracer's radiance
+    /// along the vertex's outgoing ray), interpolated across each triangle. What it misses
+    /// against the reference is what the tessellation's vertices cannot carry, whatever the
+    /// layered EMs: the error budget's tessellation share (`lensmap bench bake`).
+    pub fn vertex_exact_frame(
+        &self,
+        camera: &Camera,
+        options: &HybridOptions,
+    ) -> Result<(FrameInput, HybridStats), TessellationError> {
+        self.build_frame(camera, options, true)
+    }
+
+    fn build_frame(
+        &self,
+        camera: &Camera,
+        options: &HybridOptions,
+        vertex_exact: bool,
+    ) -> Result<(FrameInput, HybridStats), TessellationError> {
         let k = camera.supersampling.max(1);
         let (width, height) = (camera.width * k, camera.height * k);
         // The far plane just past the farthest scene point, so nothing the reference sees is
@@ -459,6 +482,7 @@ impl HybridScene {
         };
         let mut stats = HybridStats::default();
         let mut lenses = Vec::new();
+        let mut exact = Vec::new();
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
             let mut positions: Vec<Vec3> = Vec::new();
             let mut triangles: Vec<[u32; 3]> = Vec::new();
@@ -502,6 +526,16 @@ impl HybridScene {
                         .map(|v| v.evaluation.as_ref().map(|e| e.sample)),
                 );
             }
+            if vertex_exact {
+                exact.push(Arc::new(vertex_radiance_mesh(
+                    &self.trace,
+                    lens_index,
+                    positions,
+                    triangles,
+                    &samples,
+                )));
+                continue;
+            }
             let start = Instant::now();
             let object = texgen(
                 &self.trace,
@@ -526,12 +560,45 @@ impl HybridScene {
                 .environment
                 .iter()
                 .cloned()
+                .chain(exact)
                 .chain(sky.map(|(mesh, _)| mesh))
                 .collect(),
             lenses,
             viewpoint_weights: blend.samples.iter().map(|(_, w)| *w as f32).collect(),
         };
         Ok((frame, stats))
+    }
+}
+
+/// A lens object's tessellated mesh as an opaque mesh coloured with the exact radiance at each
+/// vertex (see [`HybridScene::vertex_exact_frame`]); black where a vertex has no path.
+fn vertex_radiance_mesh(
+    trace: &TraceScene,
+    lens: usize,
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+    samples: &[Option<VertexPaths>],
+) -> EnvironmentMesh {
+    let options = crate::trace::TraceOptions::default();
+    let colours = samples
+        .par_iter()
+        .map(|sample| {
+            let mut counters = TraceCounters::default();
+            let mut radiance = DVec3::ZERO;
+            for path in sample.iter().flat_map(|s| s.terms.iter().flatten()) {
+                if path.fg != DVec3::ZERO {
+                    radiance += path.fg
+                        * trace.outgoing_radiance(&path.outgoing, lens, 1, &options, &mut counters);
+                }
+            }
+            radiance.as_vec3()
+        })
+        .collect();
+    EnvironmentMesh {
+        positions,
+        colours,
+        triangles,
+        light_map: None,
     }
 }
 

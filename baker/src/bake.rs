@@ -151,6 +151,7 @@ impl BakeOptions {
             self.layers,
             self.multi_view,
             (infer.hybrid, infer.variant, infer.theta_c, infer.solve),
+            infer.direct_images,
         ))
     }
 
@@ -1249,16 +1250,24 @@ mod tests {
         let samples = scene.view_space.samples();
         let cameras = view_cameras(&scene, 5, &options);
         assert_eq!(cameras.len(), 3);
-        // The middle view is the sample; the others ±1/3 of the 8° spacing from it.
+        // The middle view is the sample; the others rotated about the vertical through the
+        // look-at point by ±1/3 of the angle s between neighbouring samples (as seen from the
+        // look-at point), one on each side.
         assert!(cameras[1].position.distance(samples[5]) < 1e-5);
-        for (camera, want) in [(&cameras[0], -8.0f64 / 3.0), (&cameras[2], 8.0 / 3.0)] {
-            let got = angle(
-                camera.position.as_dvec3() - look_at,
-                samples[5].as_dvec3() - look_at,
-            );
-            assert!((got.to_degrees() - want.abs()).abs() < 1e-3, "{got}");
+        let from = |p: Vec3| p.as_dvec3() - look_at;
+        let s = angle(from(samples[5]), from(samples[6]));
+        let own = from(samples[5]);
+        for (camera, side) in [(&cameras[0], -1.0), (&cameras[2], 1.0)] {
+            let want = look_at + DQuat::from_rotation_y(side * s / 3.0) * own;
+            assert!(camera.position.as_dvec3().distance(want) < 1e-5);
             assert_eq!(camera.look_at, scene.camera.look_at);
         }
+        // On opposite sides: towards sample 4 and towards sample 6.
+        let towards =
+            |camera: &Camera, p: Vec3| angle(from(camera.position), from(p)) < angle(own, from(p));
+        assert!(towards(&cameras[0], samples[4]) != towards(&cameras[0], samples[6]));
+        assert!(towards(&cameras[2], samples[4]) != towards(&cameras[2], samples[6]));
+        assert!(towards(&cameras[0], samples[4]) != towards(&cameras[2], samples[4]));
         let one = BakeOptions {
             multi_view: 1,
             ..BakeOptions::default()

@@ -96,6 +96,9 @@ pub struct InferOptions {
     pub em_size: EmSize,
     /// Confidence threshold θ_c, radians.
     pub theta_c: f64,
+    /// Add direct-image equations ([`crate::direct`]) for the texels the lens images leave
+    /// unconstrained.
+    pub direct_images: bool,
     /// Solver options.
     pub solve: SolveOptions,
 }
@@ -109,6 +112,7 @@ impl Default for InferOptions {
                 cap: DEFAULT_MAX_EM_SIZE,
             },
             theta_c: DEFAULT_CONFIDENCE_DEGREES.to_radians(),
+            direct_images: false,
             solve: SolveOptions::default(),
         }
     }
@@ -149,6 +153,8 @@ pub struct LayerReport {
     pub layer: usize,
     /// Test renderings (all terms).
     pub renders: usize,
+    /// Direct-image equations added (0 when off).
+    pub direct_rows: usize,
     /// Non-zeros of each term's matrix.
     pub nonzeros: Vec<usize>,
     /// Matrix measurement time (all terms), ms.
@@ -372,7 +378,31 @@ pub fn infer_lens_views(
         if matrices.iter().flatten().all(|m| m.nnz() == 0) {
             return Err(InferError::NoLensPixels { lens: name });
         }
-        let equations: Vec<Equations<'_>> = matrices
+        // The layer's current (projected) EM at this size: CG's start (where no pixel
+        // constrains a texel, few iterations move it, and the projection is a better guess there
+        // than zero) and the direct images' values.
+        let current = layers
+            .maps
+            .first()
+            .and_then(|maps| maps.get(layer))
+            .map(|current| resampled(current, size));
+        let direct = match (&current, options.direct_images) {
+            (Some(projected), true) => {
+                let records: Vec<&LensRecords> = seen.iter().map(|(v, _)| v.records).collect();
+                Some(crate::direct::direct_equations(
+                    &hybrid.trace,
+                    lens,
+                    layers.em_origin,
+                    &layers.shells,
+                    layer,
+                    &layout,
+                    projected,
+                    &records,
+                ))
+            }
+            _ => None,
+        };
+        let mut equations: Vec<Equations<'_>> = matrices
             .iter()
             .zip(&targets)
             .flat_map(|(matrices, targets)| {
@@ -383,20 +413,23 @@ pub fn infer_lens_views(
                 })
             })
             .collect();
-        // CG starts from the layer's current (projected) EM, resampled to this size: where no
-        // pixel constrains a texel, few iterations move it, and the projection is a better guess
-        // there than zero.
-        let start = layers
-            .maps
-            .first()
-            .and_then(|maps| maps.get(layer))
-            .map(|current| layout.from_cube(&resampled(current, size)))
+        if let Some(direct) = &direct {
+            equations.push(Equations {
+                a: &direct.a,
+                b: &direct.b,
+                confidence: &direct.confidence,
+            });
+        }
+        let start = current
+            .as_ref()
+            .map(|current| layout.from_cube(current))
             .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
         let (x, solve_report) = solve(&equations, &layout, &smoothness, &start, &options.solve)?;
         maps.push(layout.to_cube(&x));
         reports.push(LayerReport {
             layer,
             renders: matrices.iter().flatten().map(|m| m.renders).sum(),
+            direct_rows: direct.as_ref().map_or(0, |d| d.b.len()),
             nonzeros: matrices
                 .iter()
                 .flatten()

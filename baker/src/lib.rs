@@ -7,6 +7,7 @@
 
 pub mod bake;
 pub mod clustering;
+pub mod direct;
 pub mod infer;
 pub mod matrix;
 pub mod placement;

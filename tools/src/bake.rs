@@ -60,6 +60,9 @@ pub struct BakeArgs {
     /// Confidence threshold θc, degrees.
     #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES)]
     confidence_degrees: f64,
+    /// Direct images from the EM origin for the texels no lens view constrains.
+    #[arg(long, value_enum, default_value = "off")]
+    direct_images: OnOff,
     /// Bake only shard I of N: every N-th requested sample, starting at the I-th.
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
@@ -77,6 +80,15 @@ pub struct BakeArgs {
     /// Print one JSON summary on stdout instead of the text report.
     #[arg(long)]
     json: bool,
+}
+
+/// `on` or `off`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
 }
 
 /// Runs `lensmap bake`.
@@ -258,6 +270,7 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
         infer: InferOptions {
             hybrid: HybridOptions::with_t(args.t),
             theta_c: args.confidence_degrees.to_radians(),
+            direct_images: matches!(args.direct_images, OnOff::On),
             ..InferOptions::default()
         },
         judge: !args.no_judge,

@@ -77,19 +77,36 @@ fn texel_of(direction: DVec3, size: u32) -> usize {
     c.face.index() * n * n + clamp(c.t) * n + clamp(c.s)
 }
 
-/// The direct equations of layer `layer` of lens object `lens` (EM origin `origin`, shells
-/// `shells`), for cube maps of `layout`, with direct values from `projected` (that layer's
-/// projected EM at the layout's size), far from the hits of `records`.
+/// One layer of one lens object, where its direct rays start and what splits them.
+#[derive(Clone, Copy)]
+pub struct DirectLayer<'a> {
+    /// The scene's ray-tracing structures.
+    pub trace: &'a TraceScene,
+    /// The lens object (skipped by the direct rays).
+    pub lens: usize,
+    /// Its EM origin.
+    pub origin: DVec3,
+    /// Its shells, nearest first.
+    pub shells: &'a [LayerShell],
+    /// The layer.
+    pub layer: usize,
+}
+
+/// The direct equations of `at` for cube maps of `layout`, with direct values from `projected`
+/// (that layer's projected EM at the layout's size), far from the hits of `records`.
 pub fn direct_equations(
-    trace: &TraceScene,
-    lens: usize,
-    origin: DVec3,
-    shells: &[LayerShell],
-    layer: usize,
+    at: &DirectLayer<'_>,
     layout: &TexelLayout,
     projected: &CubeMap,
     records: &[&LensRecords],
 ) -> DirectEquations {
+    let DirectLayer {
+        trace,
+        lens,
+        origin,
+        shells,
+        layer,
+    } = *at;
     let size = layout.size;
     let n = size as usize;
     let buckets = record_buckets(origin, size, records);

@@ -389,15 +389,15 @@ pub fn infer_lens_views(
         let direct = match (&current, options.direct_images) {
             (Some(projected), true) => {
                 let records: Vec<&LensRecords> = seen.iter().map(|(v, _)| v.records).collect();
-                Some(crate::direct::direct_equations(
-                    &hybrid.trace,
+                let at = crate::direct::DirectLayer {
+                    trace: &hybrid.trace,
                     lens,
-                    layers.em_origin,
-                    &layers.shells,
+                    origin: layers.em_origin,
+                    shells: &layers.shells,
                     layer,
-                    &layout,
-                    projected,
-                    &records,
+                };
+                Some(crate::direct::direct_equations(
+                    &at, &layout, projected, &records,
                 ))
             }
             _ => None,

@@ -287,17 +287,15 @@ layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
                 radiance: DVec3::ZERO,
             }],
         };
-        let none = direct_equations(&trace, 0, origin, &shells, 0, &layout, &maps[0], &[]);
-        let some = direct_equations(
-            &trace,
-            0,
+        let at = DirectLayer {
+            trace: &trace,
+            lens: 0,
             origin,
-            &shells,
-            0,
-            &layout,
-            &maps[0],
-            &[&records],
-        );
+            shells: &shells,
+            layer: 0,
+        };
+        let none = direct_equations(&at, &layout, &maps[0], &[]);
+        let some = direct_equations(&at, &layout, &maps[0], &[&records]);
         // Without records every texel of every level is far.
         assert_eq!(none.b.len(), layout.len());
         // With the record (its direction falls in texel (8, 8) of −Z), the (2·2 + 1)² level-0

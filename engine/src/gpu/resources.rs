@@ -403,6 +403,119 @@ impl Image {
     }
 }
 
+impl Image {
+    /// Uploads every mip level of every layer at once — `levels[l]` tightly packed like
+    /// [`Image::upload`]'s bytes for level `l` and all layers — through one staging buffer and
+    /// one submission (a level at a time costs a submission and a wait each, which dominated the
+    /// baker's test renderings), then leaves the image SHADER_READ_ONLY_OPTIMAL.
+    pub fn upload_all(&mut self, gpu: &Gpu, levels: &[Vec<u8>]) -> Result<(), GpuError> {
+        let texel = format_bytes(self.desc.format) as u64;
+        let layers = self.desc.array_layers;
+        let mut offsets = Vec::with_capacity(levels.len());
+        let mut total = 0u64;
+        for (level, bytes) in levels.iter().enumerate() {
+            let width = (self.desc.extent.width >> level).max(1) as u64;
+            let height = (self.desc.extent.height >> level).max(1) as u64;
+            let expected = width * height * texel * u64::from(layers);
+            if bytes.len() as u64 != expected {
+                return Err(GpuError::BadUpload {
+                    what: self.desc.name.clone(),
+                    problem: format!(
+                        "level {level}: {} bytes (expected {expected} bytes for {layers} layers)",
+                        bytes.len()
+                    ),
+                });
+            }
+            offsets.push(total);
+            total += expected;
+        }
+        if levels.len() != self.desc.mip_levels as usize {
+            return Err(GpuError::BadUpload {
+                what: self.desc.name.clone(),
+                problem: format!(
+                    "{} levels given, the image has {}",
+                    levels.len(),
+                    self.desc.mip_levels
+                ),
+            });
+        }
+        let staging = Buffer::with_data(
+            gpu,
+            "upload staging",
+            &levels.concat(),
+            BufferUsage::Staging,
+        )?;
+        let range = self.full_range();
+        let before_layout = if self.uploaded {
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL
+        } else {
+            vk::ImageLayout::UNDEFINED
+        };
+        let regions: Vec<vk::BufferImageCopy> = offsets
+            .iter()
+            .enumerate()
+            .map(|(level, &offset)| {
+                vk::BufferImageCopy::default()
+                    .buffer_offset(offset)
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: range.aspect_mask,
+                        mip_level: level as u32,
+                        base_array_layer: 0,
+                        layer_count: layers,
+                    })
+                    .image_extent(vk::Extent3D {
+                        width: (self.desc.extent.width >> level).max(1),
+                        height: (self.desc.extent.height >> level).max(1),
+                        depth: 1,
+                    })
+            })
+            .collect();
+        let device = &gpu.shared.device;
+        let handle = self.handle;
+        gpu.submit_and_wait(|cb| {
+            let to_transfer = [vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
+                .src_access_mask(vk::AccessFlags2::NONE)
+                .dst_stage_mask(vk::PipelineStageFlags2::COPY)
+                .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .old_layout(before_layout)
+                .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                .image(handle)
+                .subresource_range(range)];
+            let to_read = [vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
+                .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
+                .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+                .image(handle)
+                .subresource_range(range)];
+            // SAFETY: recording into `cb`; staging and image outlive the wait in submit_and_wait.
+            unsafe {
+                device.cmd_pipeline_barrier2(
+                    cb,
+                    &vk::DependencyInfo::default().image_memory_barriers(&to_transfer),
+                );
+                device.cmd_copy_buffer_to_image(
+                    cb,
+                    staging.handle,
+                    handle,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &regions,
+                );
+                device.cmd_pipeline_barrier2(
+                    cb,
+                    &vk::DependencyInfo::default().image_memory_barriers(&to_read),
+                );
+            }
+            Ok(())
+        })?;
+        self.uploaded = true;
+        Ok(())
+    }
+}
+
 impl Drop for Image {
     fn drop(&mut self) {
         // SAFETY: the owner has waited for every submission using this image.

@@ -418,14 +418,16 @@ impl UploadCache {
                 cubes.len() as u32,
             ),
         )?;
-        for level in 0..image.desc.mip_levels as usize {
-            let bytes = vec4_bytes(
-                cubes
-                    .iter()
-                    .flat_map(|cube| cube.levels[level].iter().flatten().copied()),
-            );
-            image.upload(gpu, level as u32, 0, 6 * cubes.len() as u32, &bytes)?;
-        }
+        let levels: Vec<Vec<u8>> = (0..image.desc.mip_levels as usize)
+            .map(|level| {
+                vec4_bytes(
+                    cubes
+                        .iter()
+                        .flat_map(|cube| cube.levels[level].iter().flatten().copied()),
+                )
+            })
+            .collect();
+        image.upload_all(gpu, &levels)?;
         let image = Arc::new(image);
         self.layer_cache.insert(
             key,

@@ -39,10 +39,10 @@ pub const DEFAULT_MAX_TEXELS_PER_METRE: f64 = 256.0;
 
 /// Pixels of the scene camera's resolution per texel side by default, at each chart's nearest
 /// viewpoint (P). Measured at 640×480 with the default budget, non-lens PSNR against the
-/// reference (display sRGB) / build time on two shared cores / RGBA16F memory: mirror-teapot
-/// from viewpoint 0, 49.9 dB, 1.4 s, 31 MiB (uniform 32/m: 39.4 dB, 0.4–0.6 s, 14.7 MiB);
-/// teapot-room's camera 59.0 dB, 1.3 s, 30 MiB (uniform 32/m: 51.0 dB). P = 3 gave 46.6 dB on
-/// mirror-teapot at 24 MiB, too close to 45 dB.
+/// reference (display sRGB) / build time on two cores / RGBA16F memory: mirror-teapot from
+/// viewpoint 0, 49.9 dB, 0.66 s, 31 MiB (uniform 32/m: 39.4 dB, 0.34 s, 14.7 MiB);
+/// teapot-room's camera 59.0 dB, 0.70 s, 30 MiB (uniform 32/m: 51.0 dB, 0.37 s, 15.8 MiB).
+/// P = 3 gave 46.6 dB on mirror-teapot, too close to 45 dB.
 pub const DEFAULT_PIXELS_PER_TEXEL: f64 = 2.0;
 
 /// Largest light-map atlas side by default, texels: an object whose charts do not fit at the
@@ -50,9 +50,9 @@ pub const DEFAULT_PIXELS_PER_TEXEL: f64 = 2.0;
 pub const DEFAULT_MAX_ATLAS_SIZE: u32 = 4096;
 
 /// Texels of all of a scene's light maps together by default: 4 Mi, 32 MiB of RGBA16F, about
-/// 1.3 s to fill on two cores. Both measured scenes reach it at P = 2 (mirror-teapot's
+/// 0.7 s to fill on two cores. Both measured scenes reach it at P = 2 (mirror-teapot's
 /// densities are lowered to 0.78×, teapot-room's to 0.58×); at 8 Mi they took 50–62 MiB and
-/// 1.9–2.2 s for +2.6 dB on teapot-room and −1.2 dB on mirror-teapot (texels finer than the
+/// 1.1–1.3 s for +2.6 dB on teapot-room and −1.2 dB on mirror-teapot (texels finer than the
 /// pixels alias without mip maps where a surface is seen at a slant).
 pub const DEFAULT_MAX_TEXELS: u64 = 4 << 20;
 

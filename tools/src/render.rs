@@ -11,7 +11,10 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene, tessellate::DEFAULT_T},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
-    lightmap::{DEFAULT_TEXELS_PER_METRE, LightMapOptions},
+    lightmap::{
+        DEFAULT_MAX_TEXELS, DEFAULT_MAX_TEXELS_PER_METRE, DEFAULT_MIN_TEXELS_PER_METRE,
+        DEFAULT_PIXELS_PER_TEXEL, LightMapOptions,
+    },
     metrics::{Encoding, MetricsError},
     render::{TargetFormat, Variant},
     runner::{
@@ -59,10 +62,24 @@ pub struct RenderArgs {
     /// Projected EMs: cube-map face size in texels.
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
-    /// Light maps of the opaque environment: texels per metre (lowered per object whose atlas
-    /// would pass 4096²).
-    #[arg(long, default_value_t = DEFAULT_TEXELS_PER_METRE)]
+    /// Light maps of the opaque environment: the least texel density of any chart, texels per
+    /// metre. Each chart gets one texel per --light-map-pixels-per-texel pixels of the scene
+    /// camera's resolution seen from its nearest viewpoint (view-space samples and the scene
+    /// camera), within [this, --light-map-max-density]; all densities are lowered alike where
+    /// an atlas would pass 4096² or all of them --light-map-max-texels.
+    #[arg(long, default_value_t = DEFAULT_MIN_TEXELS_PER_METRE)]
     pub light_map_density: f64,
+    /// Light maps: the greatest texel density of any chart, texels per metre. Give the same
+    /// value as --light-map-density for one uniform density.
+    #[arg(long, default_value_t = DEFAULT_MAX_TEXELS_PER_METRE)]
+    pub light_map_max_density: f64,
+    /// Light maps: pixels per texel side at a chart's nearest viewpoint (P).
+    #[arg(long, default_value_t = DEFAULT_PIXELS_PER_TEXEL)]
+    pub light_map_pixels_per_texel: f64,
+    /// Light maps: texels of all the atlases together (8 bytes each on the GPU); over it, every
+    /// chart's density is lowered by one factor.
+    #[arg(long, default_value_t = DEFAULT_MAX_TEXELS)]
+    pub light_map_max_texels: u64,
     /// Also write the layered EMs used as a bake directory.
     #[arg(long, value_name = "DIR")]
     pub write_bake: Option<PathBuf>,
@@ -97,7 +114,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let prepare = Instant::now();
     let light_maps = LightMapOptions {
-        texels_per_metre: args.light_map_density,
+        min_texels_per_metre: args.light_map_density,
+        max_texels_per_metre: args.light_map_max_density,
+        pixels_per_texel: args.light_map_pixels_per_texel,
+        max_texels: args.light_map_max_texels,
         ..LightMapOptions::default()
     };
     light_maps.validate().map_err(flag_error)?;
@@ -160,7 +180,12 @@ fn report(
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
         "prepare_seconds": prepare_s,
         "light_maps": {
-            "texels_per_metre": args.light_map_density,
+            "min_texels_per_metre_asked": args.light_map_density,
+            "max_texels_per_metre_asked": args.light_map_max_density,
+            "pixels_per_texel": args.light_map_pixels_per_texel,
+            "max_texels": args.light_map_max_texels,
+            "min_texels_per_metre": hybrid.light_maps.min_texels_per_metre,
+            "max_texels_per_metre": hybrid.light_maps.max_texels_per_metre,
             "ms": hybrid.light_maps.ms,
             "gpu_bytes": hybrid.light_maps.gpu_bytes,
             "texels": hybrid.light_maps.texels,
@@ -243,10 +268,12 @@ fn print_table(r: &serde_json::Value) {
     );
     let l = &r["light_maps"];
     say!(
-        "  light maps (once per scene): {:.0} ms, {:.1} MiB RGBA16F, {} charts, {} of {} texels shaded, {} supersampled",
+        "  light maps (once per scene): {:.0} ms, {:.1} MiB RGBA16F, {} charts at {:.1}–{:.1} texels/m, {} of {} texels shaded, {} supersampled",
         ms(&l["ms"]),
         ms(&l["gpu_bytes"]) / 1048576.0,
         l["charts"],
+        ms(&l["min_texels_per_metre"]),
+        ms(&l["max_texels_per_metre"]),
         l["shaded_texels"],
         l["texels"],
         l["supersampled_texels"]

@@ -16,7 +16,9 @@ use super::{
 use crate::{
     cubemap::CubeMap,
     layers::LayerShell,
-    lightmap::{LightMapOptions, LightMapStats, build_light_mapped_mesh},
+    lightmap::{
+        LightMapOptions, LightMapStats, PlanError, Viewers, build_light_mapped_mesh, plan_atlases,
+    },
     options::OptionError,
     render::{EnvironmentMesh, FrameInput, LensFaces, LensObject, MeshLightMap, TermVertices},
     scene::{Camera, Scene},
@@ -53,6 +55,9 @@ pub enum HybridError {
         /// Why.
         error: crate::lightmap::AtlasError,
     },
+    /// The light maps together pass their texel budget.
+    #[error("light maps: {0}")]
+    LightMapBudget(PlanError),
 }
 
 /// Everything a hybrid frame is made from that does not change with the camera.
@@ -368,27 +373,38 @@ impl HybridScene {
 
     /// The opaque environment for the GPU: each environment object with its light map (see
     /// [`crate::lightmap`]: the ray-traced radiance leaving its surface, texture and shadows
-    /// included, view independent, so made once per scene), drawn white × the map. Objects in
-    /// scene order; also returns what the maps cost.
+    /// included, view independent, so made once per scene), drawn white × the map. Each chart's
+    /// texel density follows its distance to the scene's nearest viewpoint
+    /// ([`Viewers::of_scene`]). Objects in scene order; also returns what the maps cost.
     pub fn light_mapped_environment(
         scene: &Scene,
         trace: &TraceScene,
         options: &LightMapOptions,
     ) -> Result<(Vec<Arc<EnvironmentMesh>>, LightMapStats), HybridError> {
         let start = Instant::now();
+        let objects: Vec<usize> = (0..scene.objects.len())
+            .filter(|&object| trace.object_lens.get(object).is_some_and(|l| l.is_none()))
+            .collect();
+        let meshes: Vec<&crate::scene::TriangleMesh> =
+            objects.iter().map(|&o| &scene.objects[o].mesh).collect();
+        let light_map_error = |object: usize, error| HybridError::LightMap {
+            object: scene.objects[object].name.clone(),
+            error,
+        };
+        let atlases = plan_atlases(&meshes, &Viewers::of_scene(scene), options).map_err(
+            |error| match error {
+                PlanError::Mesh { mesh, error } => light_map_error(objects[mesh], error),
+                budget => HybridError::LightMapBudget(budget),
+            },
+        )?;
         let mut stats = LightMapStats::default();
-        let mut meshes = Vec::new();
-        for (object, o) in scene.objects.iter().enumerate() {
-            if trace.object_lens.get(object).is_none_or(|l| l.is_some()) {
-                continue;
-            }
-            let (mesh, object_stats) = build_light_mapped_mesh(trace, &o.mesh, object, options)
-                .map_err(|error| HybridError::LightMap {
-                    object: o.name.clone(),
-                    error,
-                })?;
+        let mut environment = Vec::new();
+        for ((&object, mesh), atlas) in objects.iter().zip(meshes).zip(&atlases) {
+            let (mesh, object_stats) =
+                build_light_mapped_mesh(trace, mesh, object, atlas, options.supersampling)
+                    .map_err(|error| light_map_error(object, error))?;
             stats += object_stats;
-            meshes.push(Arc::new(EnvironmentMesh {
+            environment.push(Arc::new(EnvironmentMesh {
                 colours: vec![Vec3::ONE; mesh.positions.len()],
                 positions: mesh.positions,
                 triangles: mesh.triangles,
@@ -400,7 +416,7 @@ impl HybridScene {
         }
         // Objects were mapped one after another: the sum of their times is the wall time.
         stats.ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok((meshes, stats))
+        Ok((environment, stats))
     }
 
     /// Builds the frame for `camera` (its resolution × supersampling is the framebuffer size).

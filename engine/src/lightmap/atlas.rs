@@ -6,8 +6,9 @@
 //! or shading discontinuity along a mesh edge (a checker square aligned with the plane's grid)
 //! stays sharp: bilinear filtering never mixes the two sides. Its texture coordinates are the orthogonal projection onto its plane along
 //! two axes chosen to make its bounding rectangle smallest (one of its edges' directions), scaled
-//! by the texel density: distances on the surface keep their length, so a texel covers the same
-//! area everywhere. Each chart gets its own rectangle of the atlas, its bounding rectangle in
+//! by the chart's own texel density (chosen per chart by the caller, see [`super::density`]):
+//! distances on the surface keep their length, so a texel covers the same area everywhere in a
+//! chart. Each chart gets its own rectangle of the atlas, its bounding rectangle in
 //! texels plus a [`GUTTER_TEXELS`] border, which the radiance pass fills (conservatively
 //! covered texels are shaded, the rest dilated), so bilinear filtering anywhere inside a
 //! triangle reads only texels of its own chart.
@@ -68,6 +69,9 @@ pub struct Chart {
     pub axes: [DVec3; 2],
     /// Size of the charted area along the axes, metres.
     pub extent: DVec2,
+    /// This chart's texel density, texels per metre along both axes: the one asked for, times
+    /// the atlas's [`Atlas::density_scale`].
+    pub texels_per_metre: f64,
     /// The chart's rectangle in the atlas, gutter included.
     pub rect: TexelRect,
 }
@@ -81,23 +85,30 @@ impl Chart {
     }
 
     /// Continuous atlas texel coordinates of chart coordinates `local` (texel `(x, y)` spans
-    /// `[x, x+1] × [y, y+1]`) at `texels_per_metre`.
-    pub fn texel_of_local(&self, local: DVec2, texels_per_metre: f64) -> DVec2 {
+    /// `[x, x+1] × [y, y+1]`) at the chart's density.
+    pub fn texel_of_local(&self, local: DVec2) -> DVec2 {
         let corner = f64::from(GUTTER_TEXELS);
         DVec2::new(
-            f64::from(self.rect.x) + corner + local.x * texels_per_metre,
-            f64::from(self.rect.y) + corner + local.y * texels_per_metre,
+            f64::from(self.rect.x) + corner + local.x * self.texels_per_metre,
+            f64::from(self.rect.y) + corner + local.y * self.texels_per_metre,
         )
     }
 
     /// Chart coordinates of continuous atlas texel coordinates `texel` (the inverse of
     /// [`Chart::texel_of_local`]).
-    pub fn local_of_texel(&self, texel: DVec2, texels_per_metre: f64) -> DVec2 {
+    pub fn local_of_texel(&self, texel: DVec2) -> DVec2 {
         let corner = f64::from(GUTTER_TEXELS);
         DVec2::new(
-            (texel.x - f64::from(self.rect.x) - corner) / texels_per_metre,
-            (texel.y - f64::from(self.rect.y) - corner) / texels_per_metre,
+            (texel.x - f64::from(self.rect.x) - corner) / self.texels_per_metre,
+            (texel.y - f64::from(self.rect.y) - corner) / self.texels_per_metre,
         )
+    }
+
+    /// Texels of the chart's rectangle, gutter included.
+    fn size_at(&self, texels_per_metre: f64) -> (u32, u32) {
+        let side =
+            |metres: f64| ((metres * texels_per_metre).ceil() as u32).max(1) + 2 * GUTTER_TEXELS;
+        (side(self.extent.x), side(self.extent.y))
     }
 }
 
@@ -106,15 +117,25 @@ impl Chart {
 pub enum AtlasError {
     /// Even at the lowest density tried, the charts do not fit the size cap.
     #[error(
-        "{charts} light-map charts do not fit a {max_size}² atlas even at {texels_per_metre:.3} texels/m; raise the atlas size cap"
+        "{charts} light-map charts do not fit a {max_size}² atlas even at {scale:.3e} × their densities; raise the atlas size cap"
     )]
     DoesNotFit {
         /// Charts of the mesh.
         charts: usize,
         /// The cap, texels.
         max_size: u32,
-        /// The last density tried.
-        texels_per_metre: f64,
+        /// The last factor tried on the charts' densities.
+        scale: f64,
+    },
+    /// The atlas was made from a mesh with another number of triangles.
+    #[error(
+        "the atlas charts {atlas_triangles} triangles but the mesh has {mesh_triangles}; make the atlas from this mesh"
+    )]
+    OtherMesh {
+        /// Triangles the atlas charts.
+        atlas_triangles: usize,
+        /// Triangles of the mesh.
+        mesh_triangles: usize,
     },
     /// A vertex index points past the positions.
     #[error("triangle {triangle} indexes past the {positions} positions")]
@@ -133,8 +154,9 @@ pub struct Atlas {
     pub width: u32,
     /// Atlas height, texels.
     pub height: u32,
-    /// The density used: the one asked for, or lower where the cap required it.
-    pub texels_per_metre: f64,
+    /// The factor, in (0, 1], by which the size cap lowered every chart's requested density
+    /// (1 where the atlas fitted as asked).
+    pub density_scale: f64,
     /// The charts, in order of their first triangle.
     pub charts: Vec<Chart>,
     /// `chart_of[triangle]`: the chart holding each triangle of the mesh.
@@ -142,12 +164,24 @@ pub struct Atlas {
 }
 
 impl Atlas {
-    /// Charts `triangles` over `positions` and packs them at `texels_per_metre`, lowered for
-    /// this mesh until the atlas fits `max_size` on both sides.
+    /// Charts `triangles` over `positions` and packs them at one density, `texels_per_metre`,
+    /// lowered for this mesh until the atlas fits `max_size` on both sides.
     pub fn new(
         positions: &[Vec3],
         triangles: &[[u32; 3]],
         texels_per_metre: f64,
+        max_size: u32,
+    ) -> Result<Atlas, AtlasError> {
+        Self::with_densities(positions, triangles, |_| texels_per_metre, max_size)
+    }
+
+    /// Charts `triangles` over `positions` and packs them, each chart at the density
+    /// `density(corners)` gives for the world corners of its triangles (texels per metre, > 0),
+    /// all lowered by one factor until the atlas fits `max_size` on both sides.
+    pub fn with_densities(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        density: impl Fn(&[[DVec3; 3]]) -> f64,
         max_size: u32,
     ) -> Result<Atlas, AtlasError> {
         if let Some(triangle) = triangles
@@ -159,63 +193,45 @@ impl Atlas {
                 positions: positions.len(),
             });
         }
-        let shapes = planar_charts(positions, triangles);
+        let mut charts = planar_charts(positions, triangles);
         let mut chart_of = vec![0; triangles.len()];
-        for (c, shape) in shapes.iter().enumerate() {
-            for &t in &shape.triangles {
+        for (c, chart) in charts.iter_mut().enumerate() {
+            for &t in &chart.triangles {
                 chart_of[t] = c;
             }
-        }
-        let mut density = texels_per_metre;
-        // Each retry shrinks every chart by the atlas's excess; a few suffice (charts have a
-        // minimum size of one texel plus the gutter, so a hopeless mesh stops at the limit).
-        for _ in 0..24 {
-            let sizes: Vec<(u32, u32)> = shapes
+            let corners: Vec<[DVec3; 3]> = chart
+                .triangles
                 .iter()
-                .map(|s| {
-                    let side =
-                        |metres: f64| ((metres * density).ceil() as u32).max(1) + 2 * GUTTER_TEXELS;
-                    (side(s.extent.x), side(s.extent.y))
-                })
+                .map(|&t| triangles[t].map(|i| positions[i as usize].as_dvec3()))
                 .collect();
-            let (width, height, places) = shelf_pack(&sizes);
-            if width <= max_size && height <= max_size {
-                let charts = shapes
-                    .into_iter()
-                    .zip(sizes.iter().zip(places))
-                    .map(|(shape, (&(w, h), (x, y)))| Chart {
-                        triangles: shape.triangles,
-                        origin: shape.origin,
-                        axes: shape.axes,
-                        extent: shape.extent,
-                        rect: TexelRect {
-                            x,
-                            y,
-                            width: w,
-                            height: h,
-                        },
-                    })
-                    .collect();
-                return Ok(Atlas {
-                    width,
-                    height,
-                    texels_per_metre: density,
-                    charts,
-                    chart_of,
-                });
-            }
-            density *= 0.97 * f64::from(max_size) / f64::from(width.max(height));
+            chart.texels_per_metre = density(&corners);
         }
-        Err(AtlasError::DoesNotFit {
-            charts: shapes.len(),
+        pack(charts, chart_of, 1.0, max_size)
+    }
+
+    /// The same charts with every density times `scale` (in (0, 1]), packed again under
+    /// `max_size`: how a budget over several atlases lowers them all alike.
+    pub fn rescaled(&self, scale: f64, max_size: u32) -> Result<Atlas, AtlasError> {
+        let mut charts = self.charts.clone();
+        for chart in &mut charts {
+            chart.texels_per_metre *= scale;
+        }
+        pack(
+            charts,
+            self.chart_of.clone(),
+            self.density_scale * scale,
             max_size,
-            texels_per_metre: density,
-        })
+        )
+    }
+
+    /// Texels of the atlas, unused space included.
+    pub fn texels(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height)
     }
 
     /// Light-map texture coordinates ([0, 1]²) of world point `p` in `chart`.
     pub fn uv(&self, chart: &Chart, p: DVec3) -> DVec2 {
-        let texel = chart.texel_of_local(chart.local(p), self.texels_per_metre);
+        let texel = chart.texel_of_local(chart.local(p));
         DVec2::new(
             texel.x / f64::from(self.width),
             texel.y / f64::from(self.height),
@@ -223,17 +239,54 @@ impl Atlas {
     }
 }
 
-/// A chart before packing.
-struct ChartShape {
-    triangles: Vec<usize>,
-    origin: DVec3,
-    axes: [DVec3; 2],
-    extent: DVec2,
+/// Packs `charts` at their densities, all lowered by one factor until the atlas fits
+/// `max_size`; `density_scale` is the factor already applied to them.
+fn pack(
+    mut charts: Vec<Chart>,
+    chart_of: Vec<usize>,
+    density_scale: f64,
+    max_size: u32,
+) -> Result<Atlas, AtlasError> {
+    let mut scale = 1.0;
+    // Each retry shrinks every chart by the atlas's excess; a few suffice (charts have a
+    // minimum size of one texel plus the gutter, so a hopeless mesh stops at the limit).
+    for _ in 0..24 {
+        let sizes: Vec<(u32, u32)> = charts
+            .iter()
+            .map(|c| c.size_at(c.texels_per_metre * scale))
+            .collect();
+        let (width, height, places) = shelf_pack(&sizes);
+        if width <= max_size && height <= max_size {
+            for (chart, (&(w, h), (x, y))) in charts.iter_mut().zip(sizes.iter().zip(places)) {
+                chart.texels_per_metre *= scale;
+                chart.rect = TexelRect {
+                    x,
+                    y,
+                    width: w,
+                    height: h,
+                };
+            }
+            return Ok(Atlas {
+                width,
+                height,
+                density_scale: density_scale * scale,
+                charts,
+                chart_of,
+            });
+        }
+        scale *= 0.97 * f64::from(max_size) / f64::from(width.max(height));
+    }
+    Err(AtlasError::DoesNotFit {
+        charts: charts.len(),
+        max_size,
+        scale: density_scale * scale,
+    })
 }
 
 /// Triangles paired into quads across their longest edges (in index order, so the result
 /// depends only on the mesh), or alone.
-fn planar_charts(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<ChartShape> {
+/// Each chart comes without a density or a place in the atlas yet.
+fn planar_charts(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Chart> {
     let p = |i: u32| positions[i as usize].as_dvec3();
     let normal = |t: &[u32; 3]| {
         (p(t[1]) - p(t[0]))
@@ -295,7 +348,7 @@ fn chart_shape(
     triangles: &[[u32; 3]],
     members: Vec<usize>,
     normal: DVec3,
-) -> ChartShape {
+) -> Chart {
     let p = |i: u32| positions[i as usize].as_dvec3();
     let points: Vec<DVec3> = members.iter().flat_map(|&t| triangles[t].map(p)).collect();
     let normal = if normal == DVec3::ZERO {
@@ -340,11 +393,18 @@ fn chart_shape(
         .unwrap_or_else(|| bounds(DVec3::X));
     // The origin on the chart plane (through the first point), at the rectangle's corner.
     let plane_offset = points.first().map_or(0.0, |q| q.dot(normal));
-    ChartShape {
+    Chart {
         triangles: members,
         origin: u * lo.x + v * lo.y + normal * plane_offset,
         axes: [u, v],
         extent: hi - lo,
+        texels_per_metre: 0.0,
+        rect: TexelRect {
+            x: 0,
+            y: 0,
+            width: 1,
+            height: 1,
+        },
     }
 }
 
@@ -426,7 +486,10 @@ mod tests {
         let mesh = shapes::plane(glam::Vec2::new(20.0, 20.0), 4);
         let atlas = Atlas::new(&mesh.positions, &mesh.triangles, 128.0, 1024).unwrap();
         assert!(atlas.width <= 1024 && atlas.height <= 1024);
-        assert!(atlas.texels_per_metre < 128.0 && atlas.texels_per_metre > 40.0);
+        assert!(atlas.density_scale < 1.0 && atlas.density_scale > 40.0 / 128.0);
+        for chart in &atlas.charts {
+            assert_eq!(chart.texels_per_metre, 128.0 * atlas.density_scale);
+        }
     }
 
     /// Every chart inside the atlas, no two sharing a texel, and every point of every triangle
@@ -476,7 +539,7 @@ mod tests {
                     }
                     let [p0, p1, p2] = tri.map(|i| mesh.positions[i as usize].as_dvec3());
                     let p = p0 + (p1 - p0) * a + (p2 - p0) * b;
-                    let texel = chart.texel_of_local(chart.local(p), atlas.texels_per_metre);
+                    let texel = chart.texel_of_local(chart.local(p));
                     assert!(
                         texel.x >= f64::from(r.x) + g - 1e-6
                             && texel.y >= f64::from(r.y) + g - 1e-6

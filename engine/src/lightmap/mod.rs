@@ -7,7 +7,9 @@
 //!
 //! - [`atlas`]: the parameterization. Each triangle, or each pair of coplanar triangles forming a
 //!   quad (a plane's grid cell, a cylinder side's quad), is one planar chart with its own
-//!   rectangle in the object's atlas and a gutter; texel density is uniform in texels per metre.
+//!   rectangle in the object's atlas and a gutter; texel density is uniform within a chart.
+//! - [`density`]: each chart's density from its distance to the nearest viewpoint, so texels are
+//!   about as fine as the pixels that show them, and a texel budget over the whole scene.
 //! - [`radiance`]: filling an atlas by ray tracing (rayon over texel rows), adaptive
 //!   supersampling, and the gutter's dilation.
 //!
@@ -15,6 +17,7 @@
 //! compositor uploads it as RGBA16F and its CPU model samples it the same way.
 
 pub mod atlas;
+pub mod density;
 pub mod radiance;
 
 use glam::DVec3;
@@ -23,18 +26,35 @@ use half::f16;
 use crate::options::OptionError;
 
 pub use atlas::{Atlas, AtlasError, Chart, TexelRect};
+pub use density::{PlanError, Viewers, plan_atlases};
 pub use radiance::{LightMapStats, LightMappedMesh, build_light_mapped_mesh};
 
-/// Texel density of the light maps by default, texels per metre. Measured on teapot-room at
-/// 640×480, scene camera, non-lens PSNR against the reference (display sRGB) / build time on two
-/// cores / RGBA16F memory: 16/m 45.8 dB, 0.2 s, 4.8 MiB; 32/m 51.0 dB, 0.7 s, 15.8 MiB; 64/m
-/// 56.5 dB, 2.0 s, 54 MiB; 128/m 60.5 dB, 5.4 s, 205 MiB. 32/m clears the 45 dB with
-/// margin at a fraction of the cost above it.
-pub const DEFAULT_TEXELS_PER_METRE: f64 = 32.0;
+/// Least texel density of any chart by default, texels per metre: what charts far from every
+/// viewpoint get, unless the budget lowers it.
+pub const DEFAULT_MIN_TEXELS_PER_METRE: f64 = 16.0;
+
+/// Greatest texel density of any chart by default, texels per metre: 4 mm texels, for surfaces
+/// right in front of a viewpoint.
+pub const DEFAULT_MAX_TEXELS_PER_METRE: f64 = 256.0;
+
+/// Pixels of the scene camera's resolution per texel side by default, at each chart's nearest
+/// viewpoint (P). Measured at 640×480 with the default budget, non-lens PSNR against the
+/// reference (display sRGB) / build time on two cores / RGBA16F memory: mirror-teapot from
+/// viewpoint 0, 49.9 dB, 0.66 s, 31 MiB (uniform 32/m: 39.4 dB, 0.34 s, 14.7 MiB);
+/// teapot-room's camera 59.0 dB, 0.70 s, 30 MiB (uniform 32/m: 51.0 dB, 0.37 s, 15.8 MiB).
+/// P = 3 gave 46.6 dB on mirror-teapot, too close to 45 dB.
+pub const DEFAULT_PIXELS_PER_TEXEL: f64 = 2.0;
 
 /// Largest light-map atlas side by default, texels: an object whose charts do not fit at the
-/// requested density gets a lower density of its own (a 20 m floor fits 128/m in 2564²).
+/// requested densities gets them all lowered by one factor of its own.
 pub const DEFAULT_MAX_ATLAS_SIZE: u32 = 4096;
+
+/// Texels of all of a scene's light maps together by default: 4 Mi, 32 MiB of RGBA16F, about
+/// 0.7 s to fill on two cores. Both measured scenes reach it at P = 2 (mirror-teapot's
+/// densities are lowered to 0.78×, teapot-room's to 0.58×); at 8 Mi they took 50–62 MiB and
+/// 1.1–1.3 s for +2.6 dB on teapot-room and −1.2 dB on mirror-teapot (texels finer than the
+/// pixels alias without mip maps where a surface is seen at a slant).
+pub const DEFAULT_MAX_TEXELS: u64 = 4 << 20;
 
 /// Sub-samples per texel side, by default, where the radiance changes within a texel.
 pub const DEFAULT_SUPERSAMPLING: u32 = 4;
@@ -42,11 +62,21 @@ pub const DEFAULT_SUPERSAMPLING: u32 = 4;
 /// How light maps are made.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightMapOptions {
-    /// Texel density, texels per metre along each chart axis; in [1, 4096].
-    pub texels_per_metre: f64,
-    /// Largest atlas side, texels; in [16, 16384]. An object whose atlas would be larger is
-    /// given a lower density (see [`Atlas::texels_per_metre`]).
+    /// Least texel density of a chart, texels per metre along each chart axis; in [1, 4096].
+    /// Lowered only by the caps below.
+    pub min_texels_per_metre: f64,
+    /// Greatest texel density of a chart, texels per metre; in [`Self::min_texels_per_metre`],
+    /// 4096]. Equal to the least, every chart gets that one density.
+    pub max_texels_per_metre: f64,
+    /// P: a chart's texel is to span about P pixels of the scene camera's resolution seen from
+    /// the chart's nearest viewpoint (see [`density`]); in [0.25, 64].
+    pub pixels_per_texel: f64,
+    /// Largest atlas side, texels; in [16, 16384]. An object whose atlas would be larger has all
+    /// its charts' densities lowered by one factor (see [`Atlas::density_scale`]).
     pub max_atlas_size: u32,
+    /// Texels of all the scene's atlases together (unused atlas space included); in
+    /// [2¹⁶, 2³²]. Over it, every chart's density is lowered by one factor.
+    pub max_texels: u64,
     /// k: a texel where the radiance changes (its centre sample differs from a neighbour's)
     /// averages k×k stratified sub-samples; elsewhere its centre sample stands for it. In [1, 16].
     pub supersampling: u32,
@@ -55,27 +85,59 @@ pub struct LightMapOptions {
 impl Default for LightMapOptions {
     fn default() -> Self {
         LightMapOptions {
-            texels_per_metre: DEFAULT_TEXELS_PER_METRE,
+            min_texels_per_metre: DEFAULT_MIN_TEXELS_PER_METRE,
+            max_texels_per_metre: DEFAULT_MAX_TEXELS_PER_METRE,
+            pixels_per_texel: DEFAULT_PIXELS_PER_TEXEL,
             max_atlas_size: DEFAULT_MAX_ATLAS_SIZE,
+            max_texels: DEFAULT_MAX_TEXELS,
             supersampling: DEFAULT_SUPERSAMPLING,
         }
     }
 }
 
 impl LightMapOptions {
+    /// One density, `texels_per_metre`, for every chart (the caps still apply).
+    pub fn uniform(texels_per_metre: f64) -> LightMapOptions {
+        LightMapOptions {
+            min_texels_per_metre: texels_per_metre,
+            max_texels_per_metre: texels_per_metre,
+            ..LightMapOptions::default()
+        }
+    }
+
     /// Checks every option against its range.
     pub fn validate(&self) -> Result<(), OptionError> {
+        let density = |d: f64| d.is_finite() && (1.0..=4096.0).contains(&d);
         OptionError::require(
-            self.texels_per_metre.is_finite() && (1.0..=4096.0).contains(&self.texels_per_metre),
+            density(self.min_texels_per_metre),
             "light_map_density",
-            self.texels_per_metre,
-            "give texels per metre in [1, 4096], e.g. 128",
+            self.min_texels_per_metre,
+            "give texels per metre in [1, 4096], e.g. 16",
+        )?;
+        OptionError::require(
+            density(self.max_texels_per_metre)
+                && self.max_texels_per_metre >= self.min_texels_per_metre,
+            "light_map_max_density",
+            self.max_texels_per_metre,
+            "give texels per metre in [light_map_density, 4096], e.g. 256",
+        )?;
+        OptionError::require(
+            self.pixels_per_texel.is_finite() && (0.25..=64.0).contains(&self.pixels_per_texel),
+            "light_map_pixels_per_texel",
+            self.pixels_per_texel,
+            "give pixels per texel in [0.25, 64], e.g. 2",
         )?;
         OptionError::require(
             (16..=16384).contains(&self.max_atlas_size),
             "light_map_max_size",
             self.max_atlas_size,
             "give an atlas side in [16, 16384] texels, e.g. 4096",
+        )?;
+        OptionError::require(
+            (1 << 16..=1 << 32).contains(&self.max_texels),
+            "light_map_max_texels",
+            self.max_texels,
+            "give a texel budget in [65536, 4294967296], e.g. 4194304 (32 MiB)",
         )?;
         OptionError::require(
             (1..=16).contains(&self.supersampling),

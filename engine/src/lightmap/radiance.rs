@@ -25,7 +25,7 @@ use glam::{DVec2, DVec3, Vec2, Vec3};
 use half::f16;
 use rayon::prelude::*;
 
-use super::{Atlas, AtlasError, LightMap, LightMapOptions};
+use super::{Atlas, AtlasError, LightMap};
 use crate::{
     scene::TriangleMesh,
     trace::{
@@ -82,10 +82,25 @@ pub struct LightMapStats {
     pub gpu_bytes: u64,
     /// Wall time, ms.
     pub ms: f64,
+    /// Lowest chart density, texels per metre (0 when no object was mapped).
+    pub min_texels_per_metre: f64,
+    /// Highest chart density, texels per metre (0 when no object was mapped).
+    pub max_texels_per_metre: f64,
 }
 
 impl std::ops::AddAssign for LightMapStats {
     fn add_assign(&mut self, other: LightMapStats) {
+        if other.objects > 0 {
+            if self.objects == 0 {
+                self.min_texels_per_metre = other.min_texels_per_metre;
+                self.max_texels_per_metre = other.max_texels_per_metre;
+            } else {
+                self.min_texels_per_metre =
+                    self.min_texels_per_metre.min(other.min_texels_per_metre);
+                self.max_texels_per_metre =
+                    self.max_texels_per_metre.max(other.max_texels_per_metre);
+            }
+        }
         self.objects += other.objects;
         self.charts += other.charts;
         self.texels += other.texels;
@@ -98,23 +113,25 @@ impl std::ops::AddAssign for LightMapStats {
     }
 }
 
-/// Charts `mesh` (scene object `object` of `trace`), fills its light map and returns the mesh
-/// with light-map texture coordinates.
+/// Fills the light map of `mesh` (scene object `object` of `trace`) over `atlas`, made from
+/// this mesh (see [`super::plan_atlases`]), with k = `supersampling`, and returns the mesh with
+/// light-map texture coordinates.
 pub fn build_light_mapped_mesh(
     trace: &TraceScene,
     mesh: &TriangleMesh,
     object: usize,
-    options: &LightMapOptions,
+    atlas: &Atlas,
+    supersampling: u32,
 ) -> Result<(LightMappedMesh, LightMapStats), AtlasError> {
     let start = Instant::now();
-    let atlas = Atlas::new(
-        &mesh.positions,
-        &mesh.triangles,
-        options.texels_per_metre,
-        options.max_atlas_size,
-    )?;
-    let filler = Filler::new(trace, mesh, object, &atlas);
-    let (texels, mut stats) = filler.fill(options.supersampling.max(1));
+    if atlas.chart_of.len() != mesh.triangles.len() {
+        return Err(AtlasError::OtherMesh {
+            atlas_triangles: atlas.chart_of.len(),
+            mesh_triangles: mesh.triangles.len(),
+        });
+    }
+    let filler = Filler::new(trace, mesh, object, atlas);
+    let (texels, mut stats) = filler.fill(supersampling.max(1));
     let map = LightMap {
         width: atlas.width,
         height: atlas.height,
@@ -140,6 +157,9 @@ pub fn build_light_mapped_mesh(
         .collect();
     stats.objects = 1;
     stats.charts = atlas.charts.len();
+    let densities = atlas.charts.iter().map(|c| c.texels_per_metre);
+    stats.min_texels_per_metre = densities.clone().fold(f64::INFINITY, f64::min);
+    stats.max_texels_per_metre = densities.fold(0.0, f64::max);
     stats.texels = u64::from(atlas.width) * u64::from(atlas.height);
     stats.gpu_bytes = map.gpu_bytes();
     stats.ms = start.elapsed().as_secs_f64() * 1e3;
@@ -176,7 +196,7 @@ impl<'a> Filler<'a> {
                 let chart = &atlas.charts[atlas.chart_of[t]];
                 triangle.map(|i| {
                     let p = mesh.positions[i as usize].as_dvec3();
-                    chart.texel_of_local(chart.local(p), atlas.texels_per_metre)
+                    chart.texel_of_local(chart.local(p))
                 })
             })
             .collect();
@@ -515,7 +535,7 @@ impl Barycentric {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
+    use crate::{lightmap::LightMapOptions, scene::Scene};
 
     /// Every texel of every chart's rectangle is filled (α = 1: shaded or dilated), and the
     /// bilinear footprint of any point of any triangle lies in its own chart's rectangle.
@@ -525,21 +545,20 @@ mod tests {
         let mut rng = rand_pcg::Pcg64::seed_from_u64(0x6077e7);
         let scene = Scene::load_named("teapot-room").unwrap();
         let trace = TraceScene::new(&scene).unwrap();
-        let options = LightMapOptions {
-            texels_per_metre: 6.0,
-            ..LightMapOptions::default()
-        };
+        let options = LightMapOptions::uniform(6.0);
         for name in ["floor", "column-0", "wall-left"] {
             let object = scene.objects.iter().position(|o| o.name == name).unwrap();
             let mesh = &scene.objects[object].mesh;
             let atlas = Atlas::new(
                 &mesh.positions,
                 &mesh.triangles,
-                options.texels_per_metre,
+                options.min_texels_per_metre,
                 options.max_atlas_size,
             )
             .unwrap();
-            let (lit, stats) = build_light_mapped_mesh(&trace, mesh, object, &options).unwrap();
+            let (lit, stats) =
+                build_light_mapped_mesh(&trace, mesh, object, &atlas, options.supersampling)
+                    .unwrap();
             assert_eq!((lit.map.width, lit.map.height), (atlas.width, atlas.height));
             assert!(
                 stats.shaded_texels > 0 && stats.shadow_rays > 0,

@@ -264,6 +264,19 @@ pub struct PlannedLens {
     pub auto_psnr_db: Vec<f64>,
 }
 
+impl PlannedLens {
+    /// Takes the shells, objects and fits of a placement.
+    fn adopt(&mut self, placement: &crate::placement::Placement) {
+        self.shells = placement.layers.iter().map(|l| l.shell).collect();
+        self.objects = placement.layers.iter().map(|l| l.objects.clone()).collect();
+        self.fit_rms = placement
+            .layers
+            .iter()
+            .map(|l| l.rms_relative_error)
+            .collect();
+    }
+}
+
 /// What one sample's bake took and reached (also the sample's completion mark on disk).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SampleReport {
@@ -583,14 +596,7 @@ pub fn make_plan(
         let place = |k: usize| place_layers(scene, &name, origin, &hits, k);
         match options.layers {
             LayerCount::Count(k) => {
-                let placement = place(k)?;
-                planned.shells = placement.layers.iter().map(|l| l.shell).collect();
-                planned.objects = placement.layers.iter().map(|l| l.objects.clone()).collect();
-                planned.fit_rms = placement
-                    .layers
-                    .iter()
-                    .map(|l| l.rms_relative_error)
-                    .collect();
+                planned.adopt(&place(k)?);
             }
             LayerCount::Auto => {
                 // Grow while a layer helps this lens object's pixels at sample 0.
@@ -641,13 +647,7 @@ pub fn make_plan(
                 let Some((_, placement)) = best else {
                     unreachable!("k = 1 always places a layer")
                 };
-                planned.shells = placement.layers.iter().map(|l| l.shell).collect();
-                planned.objects = placement.layers.iter().map(|l| l.objects.clone()).collect();
-                planned.fit_rms = placement
-                    .layers
-                    .iter()
-                    .map(|l| l.rms_relative_error)
-                    .collect();
+                planned.adopt(&placement);
             }
         }
         lenses.push(planned);

@@ -140,18 +140,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         &samples,
         &options,
         args.resume,
-        &mut |progress| match progress {
-            Progress::Plan(stage) => bar.set_message(format!("plan: {stage}")),
-            Progress::Sample {
-                sample,
-                done,
-                stage,
-                ..
-            } => {
-                bar.set_position(done as u64);
-                bar.set_message(format!("sample {sample}: {stage}"));
-            }
-        },
+        &mut |progress| show_progress(&bar, progress),
     )?;
     bar.finish_and_clear();
     let validation = runner.gpu().validation_report();
@@ -228,6 +217,22 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Shows a bake's progress on a bar over its samples (`lensmap bake` and the demo).
+pub fn show_progress(bar: &indicatif::ProgressBar, progress: Progress<'_>) {
+    match progress {
+        Progress::Plan(stage) => bar.set_message(format!("plan: {stage}")),
+        Progress::Sample {
+            sample,
+            done,
+            stage,
+            ..
+        } => {
+            bar.set_position(done as u64);
+            bar.set_message(format!("sample {sample}: {stage}"));
+        }
+    }
 }
 
 /// A shell's characteristic size for the report: radius, or the largest half extent.

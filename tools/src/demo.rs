@@ -27,7 +27,7 @@ use lensmap::{
     scene::Scene,
     trace::{TraceOptions, render_reference},
 };
-use lensmap_baker::bake::{BakeOptions, Progress, bake};
+use lensmap_baker::bake::{BakeOptions, bake};
 use serde_json::json;
 
 use crate::common::{BadUsage, flag_error, progress_bar, progress_bar_of, write_json};
@@ -329,18 +329,7 @@ fn inferred_scene(
             &samples,
             &options,
             true,
-            &mut |progress| match progress {
-                Progress::Plan(stage) => bar.set_message(format!("plan: {stage}")),
-                Progress::Sample {
-                    sample,
-                    done,
-                    stage,
-                    ..
-                } => {
-                    bar.set_position(done as u64);
-                    bar.set_message(format!("sample {sample}: {stage}"));
-                }
-            },
+            &mut |progress| crate::bake::show_progress(&bar, progress),
         )?;
         bar.finish_and_clear();
     }

@@ -332,7 +332,18 @@ impl Image {
                 ),
             });
         }
-        let staging = Buffer::with_data(gpu, "upload staging", bytes, BufferUsage::Staging)?;
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: self.desc.aspect(),
+                mip_level: level,
+                base_array_layer: first_layer,
+                layer_count,
+            })
+            .image_extent(vk::Extent3D {
+                width: width as u32,
+                height: height as u32,
+                depth: 1,
+            });
         let range = vk::ImageSubresourceRange {
             aspect_mask: self.desc.aspect(),
             base_mip_level: level,
@@ -340,74 +351,12 @@ impl Image {
             base_array_layer: first_layer,
             layer_count,
         };
-        let (before_range, before_layout) = if self.uploaded {
-            (range, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-        } else {
-            (self.full_range(), vk::ImageLayout::UNDEFINED)
-        };
-        let device = &gpu.shared.device;
-        let handle = self.handle;
-        gpu.submit_and_wait(|cb| {
-            let to_transfer = [vk::ImageMemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
-                .src_access_mask(vk::AccessFlags2::NONE)
-                .dst_stage_mask(vk::PipelineStageFlags2::COPY)
-                .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .old_layout(before_layout)
-                .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                .image(handle)
-                .subresource_range(before_range)];
-            let region = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: range.aspect_mask,
-                    mip_level: level,
-                    base_array_layer: first_layer,
-                    layer_count,
-                })
-                .image_extent(vk::Extent3D {
-                    width: width as u32,
-                    height: height as u32,
-                    depth: 1,
-                });
-            let to_read = [vk::ImageMemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
-                .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
-                .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-                .image(handle)
-                .subresource_range(before_range)];
-            // SAFETY: recording into `cb`; staging and image outlive the wait in submit_and_wait.
-            unsafe {
-                device.cmd_pipeline_barrier2(
-                    cb,
-                    &vk::DependencyInfo::default().image_memory_barriers(&to_transfer),
-                );
-                device.cmd_copy_buffer_to_image(
-                    cb,
-                    staging.handle,
-                    handle,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                );
-                device.cmd_pipeline_barrier2(
-                    cb,
-                    &vk::DependencyInfo::default().image_memory_barriers(&to_read),
-                );
-            }
-            Ok(())
-        })?;
-        self.uploaded = true;
-        Ok(())
+        self.copy_from_staging(gpu, bytes, &[region], range)
     }
-}
 
-impl Image {
     /// Uploads every mip level of every layer at once — `levels[l]` tightly packed like
     /// [`Image::upload`]'s bytes for level `l` and all layers — through one staging buffer and
-    /// one submission (a level at a time costs a submission and a wait each, which dominated the
-    /// baker's test renderings), then leaves the image SHADER_READ_ONLY_OPTIMAL.
+    /// one submission instead of one per level, then leaves the image SHADER_READ_ONLY_OPTIMAL.
     pub fn upload_all(&mut self, gpu: &Gpu, levels: &[Vec<u8>]) -> Result<(), GpuError> {
         let texel = format_bytes(self.desc.format) as u64;
         let layers = self.desc.array_layers;
@@ -439,18 +388,7 @@ impl Image {
                 ),
             });
         }
-        let staging = Buffer::with_data(
-            gpu,
-            "upload staging",
-            &levels.concat(),
-            BufferUsage::Staging,
-        )?;
         let range = self.full_range();
-        let before_layout = if self.uploaded {
-            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL
-        } else {
-            vk::ImageLayout::UNDEFINED
-        };
         let regions: Vec<vk::BufferImageCopy> = offsets
             .iter()
             .enumerate()
@@ -470,6 +408,25 @@ impl Image {
                     })
             })
             .collect();
+        self.copy_from_staging(gpu, &levels.concat(), &regions, range)
+    }
+
+    /// Copies `bytes` through a staging buffer into `regions` of the image in one submission,
+    /// with layout transitions over `range` around it (over the whole image on the first upload,
+    /// which moves it from UNDEFINED), leaving it SHADER_READ_ONLY_OPTIMAL.
+    fn copy_from_staging(
+        &mut self,
+        gpu: &Gpu,
+        bytes: &[u8],
+        regions: &[vk::BufferImageCopy],
+        range: vk::ImageSubresourceRange,
+    ) -> Result<(), GpuError> {
+        let staging = Buffer::with_data(gpu, "upload staging", bytes, BufferUsage::Staging)?;
+        let (before_range, before_layout) = if self.uploaded {
+            (range, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+        } else {
+            (self.full_range(), vk::ImageLayout::UNDEFINED)
+        };
         let device = &gpu.shared.device;
         let handle = self.handle;
         gpu.submit_and_wait(|cb| {
@@ -481,7 +438,7 @@ impl Image {
                 .old_layout(before_layout)
                 .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
                 .image(handle)
-                .subresource_range(range)];
+                .subresource_range(before_range)];
             let to_read = [vk::ImageMemoryBarrier2::default()
                 .src_stage_mask(vk::PipelineStageFlags2::COPY)
                 .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
@@ -490,7 +447,7 @@ impl Image {
                 .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
                 .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
                 .image(handle)
-                .subresource_range(range)];
+                .subresource_range(before_range)];
             // SAFETY: recording into `cb`; staging and image outlive the wait in submit_and_wait.
             unsafe {
                 device.cmd_pipeline_barrier2(
@@ -502,7 +459,7 @@ impl Image {
                     staging.handle,
                     handle,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &regions,
+                    regions,
                 );
                 device.cmd_pipeline_barrier2(
                     cb,

@@ -10,7 +10,8 @@
 //! ([`crate::placement`]). With `auto` and no named layers, the layer count grows from 1 while one
 //! more layer raises the lens object's PSNR (projected EMs on the placed shells, at view-space
 //! sample 0, against the reference) by more than [`AUTO_LAYER_GAIN_DB`], up to
-//! [`MAX_AUTO_LAYERS`]; a lens object whose environment is distant gets one layer that way. The
+//! [`MAX_AUTO_LAYERS`]; a lens object whose environment is distant gets one layer that way (and
+//! one that sample 0 does not see gets one, for want of pixels to judge by). The
 //! EM size is searched (finest level read) at view-space sample 0. The plan depends only on the
 //! scene and the options, never on which samples a process bakes, so shards agree on it.
 //!
@@ -611,6 +612,14 @@ pub fn make_plan(
                     unreachable!("traced just above")
                 };
                 let mask = lens_pixels(&records.lenses[lens], &judge_camera);
+                if mask.selected() == 0 {
+                    // Sample 0 does not see this lens object: nothing to judge a layer count
+                    // by, so one layer (a PSNR over no pixel is an error, not a figure).
+                    planned.source = "clustered (unseen at sample 0: one layer)".into();
+                    planned.adopt(&place(1)?);
+                    lenses.push(planned);
+                    continue;
+                }
                 let others: Vec<(DVec3, Vec<LayerShell>)> = (0..lens_count)
                     .map(|other| {
                         let o = em_origin(scene, other);

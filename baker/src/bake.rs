@@ -57,7 +57,10 @@ use lensmap::{
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferError, InferOptions, View, infer_lens_views},
+    infer::{
+        DEFAULT_MAX_EM_SIZE, EmSize, InferError, InferOptions, InferStep, View,
+        infer_lens_views_observed,
+    },
     matrix::LayerFrames,
     placement::{PlacementError, lens_hits, place_layers},
 };
@@ -728,7 +731,7 @@ pub fn bake_sample(
     plan: &Plan,
     sample: usize,
     options: &BakeOptions,
-    progress: &mut dyn FnMut(&str),
+    progress: &mut dyn FnMut(Step<'_>),
 ) -> Result<(Vec<Vec<CubeMap>>, SampleReport), BakeFailure> {
     let start = Instant::now();
     let mut seconds = StageSeconds::default();
@@ -736,7 +739,11 @@ pub fn bake_sample(
     let cameras = view_cameras(scene, sample, options);
     let mut records = Vec::with_capacity(cameras.len());
     for (j, camera) in cameras.iter().enumerate() {
-        progress(&format!("tracing view {}/{}", j + 1, cameras.len()));
+        progress(Step {
+            stage: "tracing",
+            position: j,
+            of: cameras.len(),
+        });
         let t = Instant::now();
         records.push(compile_records(&hybrid.trace, camera, &trace_options)?);
         seconds.tracing += t.elapsed().as_secs_f64();
@@ -748,7 +755,6 @@ pub fn bake_sample(
     let mut maps = Vec::new();
     let mut lenses = Vec::new();
     for (lens, planned) in plan.lenses.iter().enumerate() {
-        progress(&format!("inferring \"{}\"", planned.name));
         // Views that see the lens object.
         let views: Vec<View<'_>> = cameras
             .iter()
@@ -777,7 +783,23 @@ pub fn bake_sample(
             });
             continue;
         }
-        let inference = infer_lens_views(runner, hybrid, lens, &views, &infer)?;
+        let matrices = format!("matrices \"{}\"", planned.name);
+        let solving = format!("solve \"{}\"", planned.name);
+        let inference =
+            infer_lens_views_observed(runner, hybrid, lens, &views, &infer, &mut |step| {
+                progress(match step {
+                    InferStep::Matrices { layer, layers } => Step {
+                        stage: &matrices,
+                        position: layer,
+                        of: layers,
+                    },
+                    InferStep::Solve { layer, layers } => Step {
+                        stage: &solving,
+                        position: layer,
+                        of: layers,
+                    },
+                })
+            })?;
         seconds.frames += inference.frame_ms / 1e3;
         for layer in &inference.layers {
             seconds.matrices += layer.matrix_ms / 1e3;
@@ -808,7 +830,11 @@ pub fn bake_sample(
     }
     let (mut psnr_db, mut projected_psnr_db) = (None, None);
     if options.judge {
-        progress("judging");
+        progress(Step {
+            stage: "judging",
+            position: 0,
+            of: 1,
+        });
         let t = Instant::now();
         let camera = sample_camera(scene, scene.view_space.samples()[sample], options);
         let reference = render_reference(&hybrid.trace, &camera, &trace_options, &|_| {})?;
@@ -871,11 +897,23 @@ pub struct BakeSummary {
     pub plan_seconds: f64,
 }
 
-/// Progress of a bake, for a progress bar.
+/// A stage of one sample's bake and how far along it is: `position` of `of` steps done (views
+/// traced, layers measured or solved).
+#[derive(Clone, Copy, Debug)]
+pub struct Step<'a> {
+    /// The stage: `tracing`, `matrices "lens"`, `solve "lens"`, `judging`, `writing`.
+    pub stage: &'a str,
+    /// Steps done.
+    pub position: usize,
+    /// Steps in the stage.
+    pub of: usize,
+}
+
+/// Progress of a bake, for progress bars.
 pub enum Progress<'a> {
     /// The plan is being made.
     Plan(&'a str),
-    /// Sample `done` of `of` (this run's) is at `stage`.
+    /// Sample `done` of `of` (this run's) is at `step`.
     Sample {
         /// View-space index.
         sample: usize,
@@ -883,8 +921,8 @@ pub enum Progress<'a> {
         done: usize,
         /// Samples this run bakes.
         of: usize,
-        /// What it is doing.
-        stage: &'a str,
+        /// The stage and its progress.
+        step: Step<'a>,
     },
 }
 
@@ -1037,12 +1075,12 @@ pub fn bake(
                 &plan,
                 sample,
                 options,
-                &mut |stage| {
+                &mut |step| {
                     progress(Progress::Sample {
                         sample,
                         done,
                         of,
-                        stage,
+                        step,
                     })
                 },
             )?;
@@ -1050,7 +1088,11 @@ pub fn bake(
                 sample,
                 done,
                 of,
-                stage: "writing",
+                step: Step {
+                    stage: "writing",
+                    position: 0,
+                    of: 1,
+                },
             });
             let t = Instant::now();
             for (layers, names) in maps.iter().zip(map_names(sample)) {

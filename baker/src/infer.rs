@@ -273,6 +273,37 @@ pub fn infer_lens_views(
     views: &[View<'_>],
     options: &InferOptions,
 ) -> Result<Inference, InferError> {
+    infer_lens_views_observed(runner, hybrid, lens, views, options, &mut |_| {})
+}
+
+/// Which step of an inference is starting, for progress displays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InferStep {
+    /// Measuring the rendering matrices of layer `layer` of `layers`.
+    Matrices {
+        /// The layer (0-based).
+        layer: usize,
+        /// Layers in all.
+        layers: usize,
+    },
+    /// Solving layer `layer` of `layers`.
+    Solve {
+        /// The layer (0-based).
+        layer: usize,
+        /// Layers in all.
+        layers: usize,
+    },
+}
+
+/// [`infer_lens_views`], telling `observe` as each step starts.
+pub fn infer_lens_views_observed(
+    runner: &mut FrameRunner,
+    hybrid: &HybridScene,
+    lens: usize,
+    views: &[View<'_>],
+    options: &InferOptions,
+    observe: &mut dyn FnMut(InferStep),
+) -> Result<Inference, InferError> {
     let start = Instant::now();
     options
         .hybrid
@@ -354,6 +385,7 @@ pub fn infer_lens_views(
     let mut maps = Vec::new();
     let mut reports = Vec::new();
     for layer in 0..n {
+        observe(InferStep::Matrices { layer, layers: n });
         let matrix_start = Instant::now();
         // matrices[view][term]
         let mut matrices: Vec<Vec<RenderingMatrix>> = Vec::new();
@@ -424,6 +456,7 @@ pub fn infer_lens_views(
             .as_ref()
             .map(|current| layout.from_cube(current))
             .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
+        observe(InferStep::Solve { layer, layers: n });
         let (x, solve_report) = solve(&equations, &layout, &smoothness, &start, &options.solve)?;
         maps.push(layout.to_cube(&x));
         reports.push(LayerReport {

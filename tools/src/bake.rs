@@ -4,7 +4,10 @@
 
 use std::path::PathBuf;
 
+use std::io::IsTerminal;
+
 use clap::Args;
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::HybridOptions,
@@ -132,7 +135,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     options.validate()?;
     let mut runner = lensmap::runner::FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();
-    let bar = crate::common::progress_bar_of(samples.len() as u64, "samples");
+    let bars = BakeBars::new(samples.len());
     let summary = bake(
         &mut runner,
         &scene,
@@ -140,9 +143,9 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         &samples,
         &options,
         args.resume,
-        &mut |progress| show_progress(&bar, progress),
+        &mut |progress| bars.show(progress),
     )?;
-    bar.finish_and_clear();
+    bars.finish();
     let validation = runner.gpu().validation_report();
     if let Some(first) = validation.messages.first() {
         anyhow::bail!(
@@ -219,19 +222,61 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Shows a bake's progress on a bar over its samples (`lensmap bake` and the demo).
-pub fn show_progress(bar: &indicatif::ProgressBar, progress: Progress<'_>) {
-    match progress {
-        Progress::Plan(stage) => bar.set_message(format!("plan: {stage}")),
-        Progress::Sample {
-            sample,
-            done,
+/// A bake's progress on stderr, hidden when stderr is not a terminal: one bar over the samples,
+/// one over the stage of the sample in flight (views traced, layers measured or solved).
+pub struct BakeBars {
+    _multi: MultiProgress,
+    samples: ProgressBar,
+    stage: ProgressBar,
+}
+
+impl BakeBars {
+    /// Bars for a bake of `samples` samples.
+    pub fn new(samples: usize) -> BakeBars {
+        let multi = if std::io::stderr().is_terminal() {
+            MultiProgress::new()
+        } else {
+            MultiProgress::with_draw_target(ProgressDrawTarget::hidden())
+        };
+        let style = |template: &str| {
+            ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar())
+        };
+        let samples_bar = multi.add(ProgressBar::new(samples as u64));
+        samples_bar.set_style(style(
+            "{msg:<24} [{elapsed_precise}] {wide_bar} {pos}/{len} samples (eta {eta})",
+        ));
+        let stage = multi.add(ProgressBar::new(1));
+        stage.set_style(style("{msg:<24} {wide_bar} {pos}/{len}"));
+        BakeBars {
+            _multi: multi,
+            samples: samples_bar,
             stage,
-            ..
-        } => {
-            bar.set_position(done as u64);
-            bar.set_message(format!("sample {sample}: {stage}"));
         }
+    }
+
+    /// Shows `progress`.
+    pub fn show(&self, progress: Progress<'_>) {
+        match progress {
+            Progress::Plan(stage) => {
+                self.samples.set_message("plan");
+                self.stage.set_message(stage.to_owned());
+            }
+            Progress::Sample {
+                sample, done, step, ..
+            } => {
+                self.samples.set_position(done as u64);
+                self.samples.set_message(format!("sample {sample}"));
+                self.stage.set_length(step.of as u64);
+                self.stage.set_position(step.position as u64);
+                self.stage.set_message(step.stage.to_owned());
+            }
+        }
+    }
+
+    /// Removes the bars.
+    pub fn finish(&self) {
+        self.stage.finish_and_clear();
+        self.samples.finish_and_clear();
     }
 }
 

@@ -185,22 +185,15 @@ pub fn choose_camera(
 
 /// A row progress bar on stderr, hidden when stderr is not a terminal.
 pub fn progress_bar(rows: u64) -> ProgressBar {
-    let bar = progress_bar_of(rows, "rows");
-    bar.set_message("ray tracing");
-    bar
-}
-
-/// A progress bar over `len` things called `unit` on stderr, hidden when stderr is not a
-/// terminal.
-pub fn progress_bar_of(len: u64, unit: &str) -> ProgressBar {
     if !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
     }
-    let bar = ProgressBar::new(len);
-    if let Ok(style) = ProgressStyle::with_template(&format!(
-        "{{msg}} [{{elapsed_precise}}] {{wide_bar}} {{pos}}/{{len}} {unit} (eta {{eta}})"
-    )) {
+    let bar = ProgressBar::new(rows);
+    if let Ok(style) = ProgressStyle::with_template(
+        "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})",
+    ) {
         bar.set_style(style);
     }
+    bar.set_message("ray tracing");
     bar
 }

@@ -30,7 +30,7 @@ use lensmap::{
 use lensmap_baker::bake::{BakeOptions, bake};
 use serde_json::json;
 
-use crate::common::{BadUsage, flag_error, progress_bar, progress_bar_of, write_json};
+use crate::common::{BadUsage, flag_error, progress_bar, write_json};
 
 #[derive(Args)]
 pub struct DemoArgs {
@@ -321,7 +321,7 @@ fn inferred_scene(
             "inferred layered EMs: baking samples {samples:?} into {} (cached for the next run)",
             dir.display()
         );
-        let bar = progress_bar_of(samples.len() as u64, "samples");
+        let bars = crate::bake::BakeBars::new(samples.len());
         bake(
             runner,
             scene,
@@ -329,9 +329,9 @@ fn inferred_scene(
             &samples,
             &options,
             true,
-            &mut |progress| crate::bake::show_progress(&bar, progress),
+            &mut |progress| bars.show(progress),
         )?;
-        bar.finish_and_clear();
+        bars.finish();
     }
     let hybrid = HybridScene::from_bake(scene.clone(), Bake::read(dir)?)?;
     say!(

@@ -92,6 +92,9 @@ pub const SINGLE_SAMPLE_SPREAD_DEGREES: f64 = 8.0;
 /// directory of an older baker is never resumed or merged with a newer one's.
 pub const BAKER_REVISION: u32 = 1;
 
+/// The radius of the one shell of a lens object whose views hit nothing, metres.
+pub const FAR_SHELL_METRES: f64 = 100.0;
+
 /// The staged plan's file name.
 pub const PLAN_FILE: &str = "plan.json";
 
@@ -182,6 +185,12 @@ impl BakeOptions {
             && !(1..=8).contains(&n)
         {
             return bad(format!("--layers {n}: give auto or a count from 1 to 8"));
+        }
+        let theta = self.infer.theta_c.to_degrees();
+        if !(theta.is_finite() && theta > 0.0 && theta < 180.0) {
+            return bad(format!(
+                "--confidence-degrees {theta}: give an angle in (0, 180), e.g. 30"
+            ));
         }
         if !(1..=9).contains(&self.multi_view) {
             return bad(format!(
@@ -318,6 +327,21 @@ pub struct LensReport {
     pub views: usize,
 }
 
+impl LensReport {
+    /// The report of a lens object no view lets the baker fit (its projected maps stand in).
+    fn unseen(planned: &PlannedLens) -> LensReport {
+        let n = planned.shells.len();
+        LensReport {
+            name: planned.name.clone(),
+            shells: planned.shells.iter().map(|s| s.kind().to_owned()).collect(),
+            nonzeros: vec![0; n],
+            iterations: vec![0; n],
+            residual: vec![0.0; n],
+            views: 0,
+        }
+    }
+}
+
 /// Seconds per stage of one sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct StageSeconds {
@@ -369,7 +393,12 @@ pub fn parse_samples(spec: &str, count: usize, scene: &str) -> Result<Vec<usize>
             .trim()
             .parse()
             .map_err(|_| fix(format!("'{}' is not a sample index", b.trim())))?;
-        let end = if inclusive { end + 1 } else { end };
+        let end = if inclusive {
+            end.checked_add(1)
+                .ok_or_else(|| fix(format!("sample {end} does not exist")))?
+        } else {
+            end
+        };
         if end > count {
             return Err(fix(format!("sample {} does not exist", end - 1)));
         }
@@ -590,8 +619,11 @@ pub fn make_plan(
         let hits = lens_hits(&trace, lens, &placement_views, &trace_options)?;
         if hits.is_empty() {
             // Nothing around it: one shell far away holds the environment at infinity.
-            planned.source = "clustered".into();
-            planned.shells = lens_shells(&trace, scene, lens, origin);
+            planned.source = "clustered (nothing around it: one far layer)".into();
+            planned.shells = vec![LayerShell::Sphere {
+                centre: origin,
+                radius: FAR_SHELL_METRES,
+            }];
             planned.objects = vec![Vec::new()];
             lenses.push(planned);
             continue;
@@ -773,19 +805,12 @@ pub fn bake_sample(
                     .map(|m| CubeMap::clone(m))
                     .collect(),
             );
-            lenses.push(LensReport {
-                name: planned.name.clone(),
-                shells: planned.shells.iter().map(|s| s.kind().to_owned()).collect(),
-                nonzeros: vec![0; planned.shells.len()],
-                iterations: vec![0; planned.shells.len()],
-                residual: vec![0.0; planned.shells.len()],
-                views: 0,
-            });
+            lenses.push(LensReport::unseen(planned));
             continue;
         }
         let matrices = format!("matrices \"{}\"", planned.name);
         let solving = format!("solve \"{}\"", planned.name);
-        let inference =
+        let inferred =
             infer_lens_views_observed(runner, hybrid, lens, &views, &infer, &mut |step| {
                 progress(match step {
                     InferStep::Matrices { layer, layers } => Step {
@@ -799,7 +824,23 @@ pub fn bake_sample(
                         of: layers,
                     },
                 })
-            })?;
+            });
+        let inference = match inferred {
+            Ok(inference) => inference,
+            // Seen in the records but covering no pixel centre of the frames (a sliver at the
+            // frame's edge): nothing to fit, so the projected maps stand in, as for an unseen one.
+            Err(InferError::NoLensPixels { .. }) => {
+                maps.push(
+                    hybrid.lenses[lens].maps[0]
+                        .iter()
+                        .map(|m| CubeMap::clone(m))
+                        .collect(),
+                );
+                lenses.push(LensReport::unseen(planned));
+                continue;
+            }
+            Err(error) => return Err(error.into()),
+        };
         seconds.frames += inference.frame_ms / 1e3;
         for layer in &inference.layers {
             seconds.matrices += layer.matrix_ms / 1e3;

@@ -15,7 +15,8 @@
 //! ellipsoid (least squares on x²/a² + y²/b² + z²/c² = 1) and an axis-aligned box (half extents
 //! refined by assigning each hit to the face its direction reaches first), both capped at
 //! [`MAX_SHELL_STRETCH`] × the farthest hit (a floor alone fits an unbounded one). The smallest RMS
-//! wins; on a tie within [`SIMPLER_SHELL_MARGIN`] the simpler kind (in that order) wins.
+//! wins, except that the simplest kind (in that order) within [`SIMPLER_SHELL_MARGIN`] of it is
+//! preferred.
 //! Quads are not fitted: a lens object surrounded by a sparse layer is better served by the
 //! scene naming it.
 
@@ -219,10 +220,12 @@ fn fit_shell(origin: DVec3, points: &[DVec3]) -> (LayerShell, f64, Vec<(&'static
     // content and keeps the shell finite where it has none.
     let farthest = points.iter().map(|p| p.length()).fold(1e-3, f64::max);
     let cap = DVec3::splat(MAX_SHELL_STRETCH * farthest);
-    if let Some(radii) = fit_ellipsoid(points) {
+    // Fitted in units of the mean distance, so the singularity test does not depend on scale.
+    let scaled: Vec<DVec3> = points.iter().map(|p| *p / radius).collect();
+    if let Some(radii) = fit_ellipsoid(&scaled) {
         candidates.push(LayerShell::Ellipsoid {
             centre: origin,
-            radii: radii.min(cap),
+            radii: (radii * radius).min(cap),
         });
     }
     candidates.push(LayerShell::Box {
@@ -233,12 +236,12 @@ fn fit_shell(origin: DVec3, points: &[DVec3]) -> (LayerShell, f64, Vec<(&'static
         .iter()
         .map(|shell| (shell.kind(), fit_error(shell, origin, points)))
         .collect();
-    let mut best = 0;
-    for (i, (_, error)) in errors.iter().enumerate().skip(1) {
-        if *error < errors[best].1 * (1.0 - SIMPLER_SHELL_MARGIN) {
-            best = i;
-        }
-    }
+    // The simplest kind within the margin of the best fit.
+    let lowest = errors.iter().map(|(_, e)| *e).fold(f64::INFINITY, f64::min);
+    let best = errors
+        .iter()
+        .position(|(_, e)| *e * (1.0 - SIMPLER_SHELL_MARGIN) <= lowest)
+        .unwrap_or(0);
     (candidates[best], errors[best].1, errors)
 }
 

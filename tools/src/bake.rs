@@ -70,7 +70,8 @@ pub struct BakeArgs {
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
     /// Keep samples already complete (staged, or in the bake at --out made with the same scene
-    /// and options) and bake only the rest.
+    /// and options) and bake only the rest; the bake then holds every complete sample, asked
+    /// for or not.
     #[arg(long)]
     resume: bool,
     /// Skip measuring each sample's lens PSNR against a reference (saves a reference trace per

@@ -106,7 +106,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         .into());
     }
     let scene = Scene::load_named(&args.scene)?;
-    if args.sample + 1 >= scene.view_space.len() {
+    if args.sample >= scene.view_space.len().saturating_sub(1) {
         return Err(BadUsage(format!(
             "--sample {}: needs samples A and A+1; scene \"{}\" has samples 0..{}",
             args.sample,

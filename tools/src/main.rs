@@ -121,13 +121,14 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
     if let Some(failure) = cause.downcast_ref::<lensmap_baker::bake::BakeFailure>() {
         use lensmap_baker::bake::BakeFailure;
         return match failure {
-            BakeFailure::BadInput(_) | BakeFailure::Bake(_) | BakeFailure::Staged { .. } => true,
-            BakeFailure::Hybrid(_) => true,
+            // Reading or writing the bake directory: the disk failing is the work's failure,
+            // everything else (a directory that is not a bake, a damaged manifest…) the input's.
+            BakeFailure::Bake(error) => !matches!(error, lensmap::layers::BakeError::Io { .. }),
+            BakeFailure::BadInput(_) | BakeFailure::Staged { .. } => true,
+            // A scene the ray tracer refuses, as everywhere else.
+            BakeFailure::Hybrid(_) | BakeFailure::Trace(_) => true,
             BakeFailure::Run(run) => run_input(run),
-            BakeFailure::Infer(_)
-            | BakeFailure::Placement(_)
-            | BakeFailure::Trace(_)
-            | BakeFailure::Metrics(_) => false,
+            BakeFailure::Infer(_) | BakeFailure::Placement(_) | BakeFailure::Metrics(_) => false,
         };
     }
     cause.is::<lensmap::scene::SceneError>()

@@ -657,8 +657,9 @@ impl Staging {
     }
 
     /// Makes the staged bake the bake directory: checks `manifest` (which must list only staged
-    /// map files), removes every staged file it does not list, writes it, and swaps the staging
-    /// directory in for the old bake in one rename (see the module docs).
+    /// map files), writes it, swaps the staging directory in for the old bake in one rename (see
+    /// the module docs), then removes from the new bake every file the manifest does not list
+    /// (the staged plan and reports).
     pub fn commit(self, manifest: &Manifest) -> Result<(), BakeError> {
         manifest.validate(&self.dir.join(MANIFEST_FILE_NAME))?;
         let mut listed = HashSet::new();
@@ -677,21 +678,24 @@ impl Staging {
                 }
             }
         }
-        let entries = fs::read_dir(&self.path).map_err(io_error(&self.path, "list"))?;
-        for entry in entries {
-            let entry = entry.map_err(io_error(&self.path, "list"))?;
-            let name = entry.file_name().to_string_lossy().into_owned();
-            if !listed.contains(&name) {
-                let path = entry.path();
-                fs::remove_file(&path).map_err(io_error(&path, "remove"))?;
-            }
-        }
         write_synced(
             &self.path.join(MANIFEST_FILE_NAME),
             manifest.to_json().as_bytes(),
         )?;
         sync_directory(&self.path)?;
-        swap_in(&self.path, &self.dir, &self.previous, &self.parent)
+        // Swap first, tidy after: until the new bake is in place the staged plan and reports
+        // stay, so a kill or a failure here still resumes (and a failed swap keeps staging).
+        swap_in_keeping(&self.path, &self.dir, &self.previous, &self.parent, true)?;
+        let entries = fs::read_dir(&self.dir).map_err(io_error(&self.dir, "list"))?;
+        for entry in entries {
+            let entry = entry.map_err(io_error(&self.dir, "list"))?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if name != MANIFEST_FILE_NAME && !listed.contains(&name) {
+                let path = entry.path();
+                fs::remove_file(&path).map_err(io_error(&path, "remove"))?;
+            }
+        }
+        sync_directory(&self.dir)
     }
 }
 
@@ -1169,6 +1173,18 @@ fn is_bake_or_empty(dir: &Path) -> bool {
 /// Renames the complete `staging` directory to `dir`, moving an old bake aside to `previous`
 /// first and removing it afterwards.
 fn swap_in(staging: &Path, dir: &Path, previous: &Path, parent: &Path) -> Result<(), BakeError> {
+    swap_in_keeping(staging, dir, previous, parent, false)
+}
+
+/// [`swap_in`]; with `keep_staging`, a failed rename leaves `staging` in place (a resumable
+/// bake's staged work) instead of removing it.
+fn swap_in_keeping(
+    staging: &Path,
+    dir: &Path,
+    previous: &Path,
+    parent: &Path,
+    keep_staging: bool,
+) -> Result<(), BakeError> {
     let had_old = dir.exists();
     if had_old {
         fs::rename(dir, previous).map_err(io_error(dir, "move aside"))?;
@@ -1177,7 +1193,9 @@ fn swap_in(staging: &Path, dir: &Path, previous: &Path, parent: &Path) -> Result
         if had_old {
             let _ = fs::rename(previous, dir);
         }
-        let _ = fs::remove_dir_all(staging);
+        if !keep_staging {
+            let _ = fs::remove_dir_all(staging);
+        }
         return Err(io_error(dir, "rename the staging directory to")(error));
     }
     sync_directory(parent)?;

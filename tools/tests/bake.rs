@@ -233,6 +233,14 @@ fn bad_input_exits_2_with_one_line_naming_the_fix() {
         ]),
         "--em-size 100",
     );
+    fails_with_2(
+        &bake("glass-sphere", "0", &out, &["--confidence-degrees", "0"]),
+        "--confidence-degrees 0",
+    );
+    fails_with_2(
+        &bake("glass-sphere", "0..=18446744073709551615", &out, &[]),
+        "does not exist",
+    );
     assert!(!out.exists(), "nothing written for bad input");
 
     let (glass, mirror) = (root.join("glass"), root.join("mirror"));

@@ -186,6 +186,12 @@ impl BakeOptions {
         {
             return bad(format!("--layers {n}: give auto or a count from 1 to 8"));
         }
+        let tolerance = self.infer.solve.tolerance;
+        if !(tolerance.is_finite() && tolerance > 0.0 && tolerance < 1.0) {
+            return bad(format!(
+                "--tolerance {tolerance}: give a relative residual in (0, 1), e.g. 1e-4"
+            ));
+        }
         let theta = self.infer.theta_c.to_degrees();
         if !(theta.is_finite() && theta > 0.0 && theta < 180.0) {
             return bad(format!(

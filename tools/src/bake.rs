@@ -63,6 +63,9 @@ pub struct BakeArgs {
     /// Confidence threshold θc, degrees.
     #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES)]
     confidence_degrees: f64,
+    /// The solver stops at this relative residual of the normal equations.
+    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance)]
+    tolerance: f64,
     /// Direct images from the EM origin for the texels no lens view constrains.
     #[arg(long, value_enum, default_value = "off")]
     direct_images: OnOff,
@@ -322,6 +325,10 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
             hybrid: HybridOptions::with_t(args.t),
             theta_c: args.confidence_degrees.to_radians(),
             direct_images: matches!(args.direct_images, OnOff::On),
+            solve: lensmap_baker::solve::SolveOptions {
+                tolerance: args.tolerance,
+                ..lensmap_baker::solve::SolveOptions::default()
+            },
             ..InferOptions::default()
         },
         judge: !args.no_judge,

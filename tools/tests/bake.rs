@@ -238,6 +238,10 @@ fn bad_input_exits_2_with_one_line_naming_the_fix() {
         "--confidence-degrees 0",
     );
     fails_with_2(
+        &bake("glass-sphere", "0", &out, &["--tolerance", "0"]),
+        "--tolerance 0",
+    );
+    fails_with_2(
         &bake("glass-sphere", "0..=18446744073709551615", &out, &[]),
         "does not exist",
     );

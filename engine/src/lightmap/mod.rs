@@ -1,7 +1,7 @@
 //! Light maps for the opaque environment: the PEM paper's parameterized texture maps. Diffuse
 //! shading here is view independent (two-sided Lambert with shadows,
-//! [`TraceScene::shade_diffuse`]), so one texture per environment object, made once per scene,
-//! serves every viewpoint: each texel holds the ray-traced outgoing radiance of the surface it
+//! [`crate::trace::world::TraceScene::shade_diffuse`]), so one texture per environment object,
+//! made once per scene, serves every viewpoint: each texel holds the ray-traced outgoing radiance of the surface it
 //! covers (texture and shadows included), averaged over k×k sub-samples where the radiance
 //! changes within it, and the GPU samples it with bilinear filtering.
 //!

@@ -361,18 +361,21 @@ impl FrameRunner {
 /// samples 2 and 3 of the scene's view space, at their mean distance from the look-at point, so
 /// two samples are blended; the scene camera when the view space has fewer than four samples.
 pub fn novel_camera(scene: &Scene) -> Camera {
+    camera_between(scene, 2, 3).unwrap_or(scene.camera)
+}
+
+/// The scene camera halfway (in angle about the look-at point) between viewpoint samples `a`
+/// and `b`, at their mean distance from it; `None` when the view space lacks either sample.
+pub fn camera_between(scene: &Scene, a: usize, b: usize) -> Option<Camera> {
     let samples = scene.view_space.samples();
     let look_at = scene.camera.look_at;
-    match (samples.get(2), samples.get(3)) {
-        (Some(a), Some(b)) => {
-            let (da, db) = (*a - look_at, *b - look_at);
-            let direction = (da.normalize() + db.normalize()).normalize_or(da.normalize());
-            scene
-                .camera
-                .with_position(look_at + direction * 0.5 * (da.length() + db.length()))
-        }
-        _ => scene.camera,
-    }
+    let (da, db) = (*samples.get(a)? - look_at, *samples.get(b)? - look_at);
+    let direction = (da.normalize() + db.normalize()).normalize_or(da.normalize());
+    Some(
+        scene
+            .camera
+            .with_position(look_at + direction * 0.5 * (da.length() + db.length())),
+    )
 }
 
 /// The error of a hybrid frame against the reference ray tracer over the lens pixels: those the

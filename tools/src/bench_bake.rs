@@ -14,9 +14,12 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{HybridOptions, HybridScene},
     layers::{Bake, projected::ProjectedOptions},
-    metrics::{self, Channels, Encoding, Mask},
+    metrics::Encoding,
     render::{TargetFormat, Variant},
-    runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene},
+    runner::{
+        EmSource, FrameOptions, FrameRunner, camera_between, lens_error, load_hybrid_scene,
+        non_lens_error,
+    },
     scene::{Camera, Scene},
     trace::{TraceOptions, render_reference},
 };
@@ -72,11 +75,8 @@ fn cameras(
     let samples = scene.view_space.samples();
     let look_at = scene.camera.look_at;
     let base = scene.camera.with_resolution(width, height, k);
-    let (pa, pb) = (samples[a] - look_at, samples[a + 1] - look_at);
-    let halfway = look_at
-        + (pa.normalize() + pb.normalize()).normalize_or(pa.normalize())
-            * 0.5
-            * (pa.length() + pb.length());
+    let pa = samples[a] - look_at;
+    let halfway = camera_between(scene, a, a + 1).map_or(samples[a], |c| c.position);
     // Up by 15° about the horizontal axis perpendicular to the view direction.
     let axis = pa.cross(Vec3::Y).normalize_or(Vec3::X).as_dvec3();
     let above =
@@ -163,20 +163,12 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             &TraceOptions::default(),
             &|_| {},
         )?;
-        let non_lens = Mask::from_flags(reference.lens_mask.iter().map(|&c| c == 0.0).collect());
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
         for (label, hybrid) in &contenders {
             let frame = runner.frame(hybrid, &camera, &options)?;
             let lens = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
-            let other = metrics::compare(
-                &frame.image.pixels,
-                &reference.radiance,
-                &non_lens,
-                Encoding::DisplaySrgb,
-                Channels::Rgb,
-            )?
-            .psnr_db;
+            let other = non_lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
             line.push_str(&format!("  {label}: {lens:.2} | {other:.2}"));
             cells.push(json!({"ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other}));
         }

@@ -38,7 +38,7 @@ use std::{
 use glam::{DQuat, DVec3, Vec3};
 use lensmap::{
     cubemap::CubeMap,
-    hybrid::{HybridError, HybridScene},
+    hybrid::{HybridError, HybridScene, viewpoints::angle},
     layers::{
         LayerShell, Manifest, Provenance, Staging,
         bake::{
@@ -456,11 +456,6 @@ fn sample_camera(scene: &Scene, position: Vec3, options: &BakeOptions) -> Camera
         options.height,
         options.supersampling,
     )
-}
-
-/// Angle between two directions, robust near 0 and π.
-fn angle(a: DVec3, b: DVec3) -> f64 {
-    a.cross(b).length().atan2(a.dot(b))
 }
 
 /// The K views of sample `sample` (module docs).

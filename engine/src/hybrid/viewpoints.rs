@@ -16,7 +16,7 @@ pub struct ViewpointBlend {
 }
 
 /// Angle between two directions, robust near 0 and π (atan2 of the cross and dot products).
-fn angle(a: DVec3, b: DVec3) -> f64 {
+pub fn angle(a: DVec3, b: DVec3) -> f64 {
     a.cross(b).length().atan2(a.dot(b))
 }
 

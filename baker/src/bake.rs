@@ -38,13 +38,13 @@ use std::{
 use glam::{DQuat, DVec3, Vec3};
 use lensmap::{
     cubemap::CubeMap,
-    hybrid::{HybridError, HybridScene, viewpoints::angle},
+    hybrid::{HybridError, HybridScene, LensLayers, viewpoints::angle},
     layers::{
         LayerShell, Manifest, Provenance, Staging,
         bake::{
             BakeError, ManifestLayer, ManifestLens, debug_hash, default_created_by, map_file_name,
         },
-        projected::{ProjectedOptions, em_origin, lens_shells},
+        projected::{ProjectedOptions, em_origin, lens_shells, project_layers},
     },
     metrics::{self, Channels, Encoding, Mask},
     render::TargetFormat,
@@ -94,6 +94,10 @@ pub const BAKER_REVISION: u32 = 1;
 
 /// The radius of the one shell of a lens object whose views hit nothing, metres.
 pub const FAR_SHELL_METRES: f64 = 100.0;
+
+/// Face size of the projected EMs the plan judges layer counts with (and, capped by the EM size
+/// cap, searches the EM size on).
+const JUDGE_EM_SIZE: u32 = 64;
 
 /// The staged plan's file name.
 pub const PLAN_FILE: &str = "plan.json";
@@ -555,6 +559,29 @@ fn projected_scene(
     .0)
 }
 
+/// Replaces lens object `lens`'s layered EMs in `hybrid` by projected ones on `shells` (EM
+/// origin `origin`) at face size `size`.
+fn project_into(
+    hybrid: &mut HybridScene,
+    lens: usize,
+    origin: DVec3,
+    shells: Vec<LayerShell>,
+    size: u32,
+) {
+    let (maps, _) = project_layers(
+        &hybrid.trace,
+        lens,
+        origin,
+        &shells,
+        &ProjectedOptions::with_size(size),
+    );
+    hybrid.lenses[lens] = LensLayers {
+        em_origin: origin,
+        shells,
+        maps: vec![maps.into_iter().map(Arc::new).collect()],
+    };
+}
+
 /// The viewpoints whose records place the layers: [`PLACEMENT_SAMPLES`] spread evenly over the
 /// view space, at 1/[`PLACEMENT_SCALE`] of the bake's resolution, one sample per pixel.
 pub fn placement_cameras(scene: &Scene, options: &BakeOptions) -> Vec<Camera> {
@@ -598,6 +625,18 @@ pub fn make_plan(
     );
     let mut lenses = Vec::with_capacity(lens_count);
     let mut auto_reference = None;
+    // One hybrid scene judges every candidate (and searches the EM size): its environment and
+    // light maps do not depend on the shells, so only a lens object's projected layers change.
+    // Made when first needed, with every lens object on its default shells at JUDGE_EM_SIZE.
+    let mut judge_scene: Option<HybridScene> = None;
+    let judge_size = match options.em_size {
+        EmSize::Auto { cap } => cap.min(JUDGE_EM_SIZE),
+        EmSize::Fixed(_) => JUDGE_EM_SIZE,
+    };
+    let default_shells = |lens: usize| {
+        let origin = em_origin(scene, lens);
+        (origin, lens_shells(&trace, scene, lens, origin))
+    };
     for lens in 0..lens_count {
         let name = trace.lenses[lens].name.clone();
         let origin = em_origin(scene, lens);
@@ -656,12 +695,17 @@ pub fn make_plan(
                     lenses.push(planned);
                     continue;
                 }
-                let others: Vec<(DVec3, Vec<LayerShell>)> = (0..lens_count)
-                    .map(|other| {
-                        let o = em_origin(scene, other);
-                        (o, lens_shells(&trace, scene, other, o))
-                    })
-                    .collect();
+                if judge_scene.is_none() {
+                    judge_scene = Some(projected_scene(
+                        scene,
+                        (0..lens_count).map(default_shells).collect(),
+                        JUDGE_EM_SIZE,
+                    )?);
+                }
+                let Some(hybrid) = judge_scene.as_mut() else {
+                    unreachable!("made just above")
+                };
+                let default_layers = hybrid.lenses[lens].clone();
                 let mut best: Option<(f64, crate::placement::Placement)> = None;
                 for k in 1..=MAX_AUTO_LAYERS {
                     let placement = place(k)?;
@@ -672,12 +716,11 @@ pub fn make_plan(
                         break; // no more distinct clusters
                     }
                     progress(&format!("judging {k} layer(s) for \"{name}\""));
-                    let mut shells = others.clone();
-                    shells[lens] = (origin, placement.layers.iter().map(|l| l.shell).collect());
-                    let hybrid = projected_scene(scene, shells, 64)?;
+                    let shells = placement.layers.iter().map(|l| l.shell).collect();
+                    project_into(hybrid, lens, origin, shells, JUDGE_EM_SIZE);
                     let psnr = masked_psnr(
                         runner,
-                        &hybrid,
+                        hybrid,
                         &judge_camera,
                         &reference.radiance,
                         &mask,
@@ -689,6 +732,7 @@ pub fn make_plan(
                         _ => best = Some((psnr, placement)),
                     }
                 }
+                hybrid.lenses[lens] = default_layers;
                 let Some((_, placement)) = best else {
                     unreachable!("k = 1 always places a layer")
                 };
@@ -701,14 +745,19 @@ pub fn make_plan(
         EmSize::Fixed(size) => size,
         EmSize::Auto { cap } => {
             progress("searching the EM size at sample 0");
-            let hybrid = projected_scene(
-                scene,
-                lenses
-                    .iter()
-                    .map(|l| (l.em_origin, l.shells.clone()))
-                    .collect(),
-                cap.min(64),
-            )?;
+            let planned_shells = lenses
+                .iter()
+                .map(|l| (l.em_origin, l.shells.clone()))
+                .collect::<Vec<_>>();
+            let hybrid = match judge_scene.as_mut() {
+                Some(hybrid) => {
+                    for (lens, (origin, shells)) in planned_shells.into_iter().enumerate() {
+                        project_into(hybrid, lens, origin, shells, judge_size);
+                    }
+                    hybrid
+                }
+                None => judge_scene.insert(projected_scene(scene, planned_shells, judge_size)?),
+            };
             let camera = sample_camera(scene, positions[0], options);
             let (frame, _) = hybrid
                 .frame(&camera, &options.infer.hybrid)

@@ -25,7 +25,7 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, write_json};
+use crate::common::{BadUsage, JudgeArgs, write_json};
 
 #[derive(Args)]
 #[command(after_help = "Example:
@@ -41,18 +41,8 @@ pub struct BenchBakeArgs {
     /// Viewpoint sample A.
     #[arg(long, default_value_t = 0)]
     sample: usize,
-    /// Image width.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
-    /// Supersampling k×k of the hybrid framebuffer.
-    #[arg(long, default_value_t = 3)]
-    supersampling: u32,
-    /// Supersampling of the independent reference.
-    #[arg(long, default_value_t = 6)]
-    reference_supersampling: u32,
+    #[command(flatten)]
+    judge: JudgeArgs,
     /// Tessellation threshold t, subpixels.
     #[arg(long, default_value_t = 3.0)]
     t: f32,
@@ -94,17 +84,7 @@ fn cameras(
 }
 
 pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
-    if args.width == 0
-        || args.height == 0
-        || args.supersampling == 0
-        || args.reference_supersampling == 0
-    {
-        return Err(BadUsage(format!(
-            "--width {} --height {} --supersampling {} --reference-supersampling {}: give values ≥ 1",
-            args.width, args.height, args.supersampling, args.reference_supersampling
-        ))
-        .into());
-    }
+    args.judge.validate()?;
     let scene = Scene::load_named(&args.scene)?;
     if args.sample >= scene.view_space.len().saturating_sub(1) {
         return Err(BadUsage(format!(
@@ -141,22 +121,25 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     say!(
         "{}: {}×{} at {k}×{k}, t = {}, reference {r}×{r}, device {device}; lens | non-lens PSNR, dB (sRGB)",
         scene.name,
-        args.width,
-        args.height,
+        args.judge.width,
+        args.judge.height,
         args.t,
-        k = args.supersampling,
-        r = args.reference_supersampling
+        k = args.judge.supersampling,
+        r = args.judge.reference_supersampling
     );
     let mut rows = Vec::new();
     for (name, camera) in cameras(
         &scene,
         args.sample,
-        args.width,
-        args.height,
-        args.supersampling,
+        args.judge.width,
+        args.judge.height,
+        args.judge.supersampling,
     ) {
-        let reference_camera =
-            camera.with_resolution(args.width, args.height, args.reference_supersampling);
+        let reference_camera = camera.with_resolution(
+            args.judge.width,
+            args.judge.height,
+            args.judge.reference_supersampling,
+        );
         let reference = render_reference(
             &contenders[0].1.trace,
             &reference_camera,
@@ -189,8 +172,8 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     write_json(
         &args.json,
         &json!({
-            "scene": scene.name, "device": device, "width": args.width, "height": args.height,
-            "supersampling": args.supersampling, "reference_supersampling": args.reference_supersampling,
+            "scene": scene.name, "device": device, "width": args.judge.width, "height": args.judge.height,
+            "supersampling": args.judge.supersampling, "reference_supersampling": args.judge.reference_supersampling,
             "t": args.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
         }),
     )?;

@@ -21,7 +21,7 @@ use lensmap::{
 use lensmap_baker::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions, infer_lens};
 use serde_json::json;
 
-use crate::common::{BadUsage, flag_error, write_json};
+use crate::common::{BadUsage, JudgeArgs, flag_error, write_json};
 
 #[derive(Args)]
 #[command(
@@ -31,18 +31,8 @@ pub struct BenchInferArgs {
     /// Built-in scene name or path.
     #[arg(long, default_value = "teapot-room")]
     scene: String,
-    /// Image width.
-    #[arg(long, default_value_t = 640)]
-    width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 480)]
-    height: u32,
-    /// Supersampling k×k of the targets (and of the hybrid framebuffer).
-    #[arg(long, default_value_t = 3)]
-    supersampling: u32,
-    /// Supersampling of the independent reference the frames are judged against.
-    #[arg(long, default_value_t = 6)]
-    reference_supersampling: u32,
+    #[command(flatten)]
+    judge: JudgeArgs,
     /// Largest EM face size the resolution search considers (power of two).
     #[arg(long, default_value_t = DEFAULT_MAX_EM_SIZE)]
     max_em_size: u32,
@@ -81,17 +71,7 @@ enum SolverArg {
 pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
-    if args.width == 0
-        || args.height == 0
-        || args.supersampling == 0
-        || args.reference_supersampling == 0
-    {
-        return Err(BadUsage(format!(
-            "--width {} --height {} --supersampling {} --reference-supersampling {}: give values ≥ 1",
-            args.width, args.height, args.supersampling, args.reference_supersampling
-        ))
-        .into());
-    }
+    args.judge.validate()?;
     if !args.max_em_size.is_power_of_two() {
         return Err(BadUsage(format!(
             "--max-em-size {}: give a power of two, e.g. 256",
@@ -100,21 +80,26 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         .into());
     }
     let scene = Scene::load_named(&args.scene)?;
-    let camera = scene
-        .camera
-        .with_resolution(args.width, args.height, args.supersampling);
-    let reference_camera =
-        camera.with_resolution(args.width, args.height, args.reference_supersampling);
+    let camera = scene.camera.with_resolution(
+        args.judge.width,
+        args.judge.height,
+        args.judge.supersampling,
+    );
+    let reference_camera = camera.with_resolution(
+        args.judge.width,
+        args.judge.height,
+        args.judge.reference_supersampling,
+    );
     let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();
     println!(
         "{}: {}×{}, targets {k}×{k}, reference {r}×{r}, device {device}",
         args.scene,
-        args.width,
-        args.height,
-        k = args.supersampling,
-        r = args.reference_supersampling
+        args.judge.width,
+        args.judge.height,
+        k = args.judge.supersampling,
+        r = args.judge.reference_supersampling
     );
     let trace_options = TraceOptions::default();
     let start = Instant::now();
@@ -214,17 +199,17 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         inferred_srgb - projected_srgb,
         inferred_linear - projected_linear,
         records_ms / 1e3,
-        r = args.reference_supersampling
+        r = args.judge.reference_supersampling
     );
     write_json(
         &args.json,
         &json!({
             "scene": args.scene,
             "device": device,
-            "width": args.width,
-            "height": args.height,
-            "supersampling": args.supersampling,
-            "reference_supersampling": args.reference_supersampling,
+            "width": args.judge.width,
+            "height": args.judge.height,
+            "supersampling": args.judge.supersampling,
+            "reference_supersampling": args.judge.reference_supersampling,
             "records_ms": records_ms,
             "lenses": lenses,
             "lens_psnr_db": {

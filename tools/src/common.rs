@@ -87,6 +87,41 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<
     std::fs::write(path, json).with_context(|| format!("writing {}", path.display()))
 }
 
+/// The frames a benchmark judges and the independent reference it judges them against (`bench
+/// infer`, `bench bake`).
+#[derive(clap::Args)]
+pub struct JudgeArgs {
+    /// Image width.
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 480)]
+    pub height: u32,
+    /// Supersampling k×k of the hybrid framebuffer (and of the targets, where there are any).
+    #[arg(long, default_value_t = 3)]
+    pub supersampling: u32,
+    /// Supersampling of the independent reference the frames are judged against.
+    #[arg(long, default_value_t = 6)]
+    pub reference_supersampling: u32,
+}
+
+impl JudgeArgs {
+    /// Every size and supersampling at least 1.
+    pub fn validate(&self) -> Result<(), BadUsage> {
+        if self.width == 0
+            || self.height == 0
+            || self.supersampling == 0
+            || self.reference_supersampling == 0
+        {
+            return Err(BadUsage(format!(
+                "--width {} --height {} --supersampling {} --reference-supersampling {}: give values ≥ 1",
+                self.width, self.height, self.supersampling, self.reference_supersampling
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// Which camera to render from (default: the scene's camera).
 #[derive(clap::Args, Debug, Clone)]
 pub struct CameraArgs {

@@ -55,16 +55,10 @@ pub struct BenchBakeArgs {
 }
 
 /// The three cameras: on sample A, halfway to A+1, 15° above A.
-fn cameras(
-    scene: &Scene,
-    a: usize,
-    width: u32,
-    height: u32,
-    k: u32,
-) -> Vec<(&'static str, Camera)> {
+fn cameras(scene: &Scene, a: usize, judge: &JudgeArgs) -> Vec<(&'static str, Camera)> {
     let samples = scene.view_space.samples();
     let look_at = scene.camera.look_at;
-    let base = scene.camera.with_resolution(width, height, k);
+    let base = judge.frame_camera(&scene.camera);
     let pa = samples[a] - look_at;
     let halfway = camera_between(scene, a, a + 1).map_or(samples[a], |c| c.position);
     // Up by 15° about the horizontal axis perpendicular to the view direction.
@@ -128,18 +122,8 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         r = args.judge.reference_supersampling
     );
     let mut rows = Vec::new();
-    for (name, camera) in cameras(
-        &scene,
-        args.sample,
-        args.judge.width,
-        args.judge.height,
-        args.judge.supersampling,
-    ) {
-        let reference_camera = camera.with_resolution(
-            args.judge.width,
-            args.judge.height,
-            args.judge.reference_supersampling,
-        );
+    for (name, camera) in cameras(&scene, args.sample, &args.judge) {
+        let reference_camera = args.judge.reference_camera(&camera);
         let reference = render_reference(
             &contenders[0].1.trace,
             &reference_camera,

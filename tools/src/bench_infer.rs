@@ -80,16 +80,8 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         .into());
     }
     let scene = Scene::load_named(&args.scene)?;
-    let camera = scene.camera.with_resolution(
-        args.judge.width,
-        args.judge.height,
-        args.judge.supersampling,
-    );
-    let reference_camera = camera.with_resolution(
-        args.judge.width,
-        args.judge.height,
-        args.judge.reference_supersampling,
-    );
+    let camera = args.judge.frame_camera(&scene.camera);
+    let reference_camera = args.judge.reference_camera(&camera);
     let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();

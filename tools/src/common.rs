@@ -106,6 +106,16 @@ pub struct JudgeArgs {
 }
 
 impl JudgeArgs {
+    /// `camera` at the judged frames' size and supersampling.
+    pub fn frame_camera(&self, camera: &Camera) -> Camera {
+        camera.with_resolution(self.width, self.height, self.supersampling)
+    }
+
+    /// `camera` at the reference's size and supersampling.
+    pub fn reference_camera(&self, camera: &Camera) -> Camera {
+        camera.with_resolution(self.width, self.height, self.reference_supersampling)
+    }
+
     /// Every size and supersampling at least 1.
     pub fn validate(&self) -> Result<(), BadUsage> {
         if self.width == 0

@@ -38,8 +38,9 @@ pub struct BakeArgs {
     /// Viewpoint samples: all, I,J,K, A..B (B excluded) or A..=B.
     #[arg(long, default_value = "all")]
     samples: String,
-    /// Layers per lens object: auto (the scene's named layers, else as many as help) or a
-    /// count placed by clustering.
+    /// Layers per lens object, placed by clustering with fitted shells: auto (as many as the
+    /// scene names, else as many as help) or a count; or scene (the scene's named shells as
+    /// they are).
     #[arg(long, default_value = "auto")]
     layers: String,
     /// EM face size: auto (the finest level read at sample 0, up to 128) or a power of two.
@@ -307,13 +308,15 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
             ))
         })?),
     };
-    let layers =
-        match args.layers.as_str() {
-            "auto" => LayerCount::Auto,
-            text => LayerCount::Count(text.parse().map_err(|_| {
-                BadUsage(format!("--layers {text}: give auto or a count such as 3"))
-            })?),
-        };
+    let layers = match args.layers.as_str() {
+        "auto" => LayerCount::Auto,
+        "scene" => LayerCount::Scene,
+        text => LayerCount::Count(text.parse().map_err(|_| {
+            BadUsage(format!(
+                "--layers {text}: give auto, scene or a count such as 3"
+            ))
+        })?),
+    };
     Ok(BakeOptions {
         width: args.width,
         height: args.height,

@@ -81,10 +81,9 @@ pub const MAX_AUTO_LAYERS: usize = 4;
 
 /// The default number of views per sample. Measured with `lensmap bench bake` (640×480, 3×3
 /// targets, lens PSNR against a 6×6 reference; on sample 0, halfway to sample 1, 15° above):
-/// K = 3 against K = 1 is +0.71 / +0.42 dB between and above the samples of teapot-room (−0.82
-/// on the sample), +0.94 / +1.01 / +0.06 dB on mirror-teapot and −0.03 / +0.10 / +0.23 dB on
-/// glass-sphere: better in 7 of 9 cases, for 2.3× the bake time (teapot-room: 62 s per
-/// sample against 26–27 s on 2 cores).
+/// K = 3 against K = 1 is +0.18 / +0.59 / −0.35 dB on teapot-room, +0.94 / +1.01 / +0.06 dB on
+/// mirror-teapot and −0.03 / +0.10 / +0.23 dB on glass-sphere: better in 7 of 9 cases, for 2.4×
+/// the bake time (teapot-room: 65 s per sample against 27 s on 2 cores).
 pub const DEFAULT_MULTI_VIEW: usize = 3;
 
 /// The spread of the views around a sample when the view space has a single sample, degrees.

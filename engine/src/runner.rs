@@ -37,13 +37,17 @@ use std::{path::PathBuf, time::Instant};
 
 use crate::{
     gpu::{Gpu, GpuError},
-    hybrid::{HybridError, HybridOptions, HybridScene, HybridStats, tessellate::TessellationError},
+    hybrid::{
+        HybridError, HybridOptions, HybridScene, HybridStats, frame::BuiltFrame,
+        tessellate::TessellationError,
+    },
     layers::{Bake, BakeError, projected::ProjectedOptions},
     lightmap::LightMapOptions,
     metrics::{self, Channels, Coverage, Encoding, ImageError, Mask, MetricsError},
     options::OptionError,
     render::{
-        FrameTimings, RenderError, RenderedImage, Renderer, TargetFormat, UploadedFrame, Variant,
+        FRAMES_IN_FLIGHT, FrameTimings, RenderError, RenderedImage, Renderer, Submission,
+        TargetFormat, UploadedFrame, Variant,
     },
     scene::{Camera, Scene},
     trace::ReferenceImage,
@@ -224,17 +228,48 @@ pub fn median(values: &mut [f64]) -> f64 {
 }
 
 /// A device and the compositor on it: runs frames of any hybrid scene.
+///
+/// Frames are uploaded into [`FRAMES_IN_FLIGHT`] reusable slots in turn (buffers, descriptor
+/// pool and targets kept from frame to frame), and a frame equal to the one the last slot holds
+/// (a still camera: [`HybridScene::frame_unless`]) is only rendered again, with no CPU stage and
+/// no upload.
 pub struct FrameRunner {
-    // Declared before `gpu` so that it is dropped first (its objects belong to that device).
+    // Declared before `gpu` so that they are dropped first (their objects belong to that device).
+    slots: Vec<Slot>,
+    /// The slot the last frame went to.
+    last_slot: usize,
     renderer: Renderer,
     gpu: Gpu,
+}
+
+/// One reusable upload and the identity of the hybrid frame it holds (0: none).
+#[derive(Default)]
+struct Slot {
+    uploaded: Option<UploadedFrame>,
+    identity: u64,
+}
+
+/// A frame whose CPU stages and upload are done and whose GPU work was submitted.
+struct Pending {
+    slot: usize,
+    submission: Submission,
+    stats: HybridStats,
+    supersampling: u32,
+    upload_ms: f64,
+    start: Instant,
+    gpu_start: Instant,
 }
 
 impl FrameRunner {
     /// A runner on `gpu`.
     pub fn new(gpu: Gpu) -> Result<FrameRunner, GpuError> {
         let renderer = Renderer::new(&gpu)?;
-        Ok(FrameRunner { renderer, gpu })
+        Ok(FrameRunner {
+            slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
+            last_slot: 0,
+            renderer,
+            gpu,
+        })
     }
 
     /// The device (its name, the validation report).
@@ -291,35 +326,109 @@ impl FrameRunner {
             .replace_layers(&self.gpu, uploaded, lens, layers)
     }
 
-    /// Renders one hybrid frame of `hybrid` seen by `camera`.
+    /// Renders one hybrid frame of `hybrid` seen by `camera`, and reads it back.
     pub fn frame(
         &mut self,
         hybrid: &HybridScene,
         camera: &Camera,
         options: &FrameOptions,
     ) -> Result<HybridFrame, RunError> {
+        let (frames, _) = self.frames_in_flight(hybrid, std::slice::from_ref(camera), options)?;
+        frames
+            .into_iter()
+            .next()
+            .ok_or_else(|| RenderError::BadInput("no frame was rendered".into()).into())
+    }
+
+    /// Renders `cameras` in order with up to [`FRAMES_IN_FLIGHT`] frames in flight: the CPU
+    /// stages of frame N + 1 run while the GPU renders frame N, and a frame is read back only
+    /// when its slot is needed again or at the end. Each frame's `total_ms` is its latency, from
+    /// the start of its CPU stages to its image on the host; the second value is the wall time
+    /// of the whole run, ms (throughput = frames / wall time).
+    pub fn frames_in_flight(
+        &mut self,
+        hybrid: &HybridScene,
+        cameras: &[Camera],
+        options: &FrameOptions,
+    ) -> Result<(Vec<HybridFrame>, f64), RunError> {
         options.hybrid.validate()?;
         let start = Instant::now();
-        let (frame, stats) = hybrid.frame(camera, &options.hybrid)?;
-        let gpu_start = Instant::now();
-        let mut uploaded = self.renderer.upload(&self.gpu, &frame)?;
-        let upload_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
-        let (image, render) =
-            self.renderer
-                .render(&self.gpu, &mut uploaded, options.variant, options.format)?;
-        let image = image.box_downsample(camera.supersampling);
-        let gpu_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
+        let mut frames = Vec::with_capacity(cameras.len());
+        let mut in_flight = std::collections::VecDeque::new();
+        for camera in cameras {
+            let frame_start = Instant::now();
+            let held = self.slots[self.last_slot].identity;
+            let built = hybrid.frame_unless(camera, &options.hybrid, held)?;
+            let slot = match built {
+                BuiltFrame::Unchanged(_) => self.last_slot,
+                BuiltFrame::New(..) => (self.last_slot + 1) % self.slots.len(),
+            };
+            // The slot's previous frame is read back before the slot is written again.
+            while in_flight.iter().any(|p: &Pending| p.slot == slot) {
+                if let Some(oldest) = in_flight.pop_front() {
+                    frames.push(self.finish(oldest)?);
+                }
+            }
+            let gpu_start = Instant::now();
+            let stats = match built {
+                BuiltFrame::Unchanged(stats) => stats,
+                BuiltFrame::New(frame, stats, identity) => {
+                    let uploaded = match self.slots[slot].uploaded.take() {
+                        Some(previous) => self.renderer.upload_into(&self.gpu, &frame, previous)?,
+                        None => self.renderer.upload(&self.gpu, &frame)?,
+                    };
+                    self.slots[slot] = Slot {
+                        uploaded: Some(uploaded),
+                        identity,
+                    };
+                    stats
+                }
+            };
+            let upload_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
+            self.last_slot = slot;
+            let Some(uploaded) = self.slots[slot].uploaded.as_mut() else {
+                // A held identity is only ever that of an uploaded slot.
+                return Err(RenderError::BadInput("a still frame has no upload".into()).into());
+            };
+            let submission =
+                self.renderer
+                    .submit(&self.gpu, uploaded, options.variant, options.format)?;
+            in_flight.push_back(Pending {
+                slot,
+                submission,
+                stats,
+                supersampling: camera.supersampling,
+                upload_ms,
+                start: frame_start,
+                gpu_start,
+            });
+        }
+        while let Some(pending) = in_flight.pop_front() {
+            frames.push(self.finish(pending)?);
+        }
+        Ok((frames, start.elapsed().as_secs_f64() * 1e3))
+    }
+
+    /// Waits for a submitted frame, reads it back and box-filters it to pixels.
+    fn finish(&mut self, pending: Pending) -> Result<HybridFrame, RunError> {
+        let Some(uploaded) = self.slots[pending.slot].uploaded.as_ref() else {
+            return Err(RenderError::BadInput("a pending frame lost its upload".into()).into());
+        };
+        let (image, render) = self.renderer.finish(uploaded, pending.submission)?;
+        let image = image.box_downsample(pending.supersampling);
         Ok(HybridFrame {
             image,
-            stats,
-            gpu_ms,
-            upload_ms,
+            stats: pending.stats,
+            gpu_ms: pending.gpu_start.elapsed().as_secs_f64() * 1e3,
+            upload_ms: pending.upload_ms,
             render,
-            total_ms: start.elapsed().as_secs_f64() * 1e3,
+            total_ms: pending.start.elapsed().as_secs_f64() * 1e3,
         })
     }
 
-    /// `repetitions.warmup` untimed frames, then `repetitions.timed` timed ones (at least one).
+    /// `repetitions.warmup` untimed frames, then `repetitions.timed` timed ones (at least one),
+    /// each built from scratch (the scene's frame cache is cleared first: a repeated camera is
+    /// timed as a moving one would be; [`FrameRunner::frame`] twice times a still one).
     pub fn timed_frames(
         &mut self,
         hybrid: &HybridScene,
@@ -327,11 +436,15 @@ impl FrameRunner {
         options: &FrameOptions,
         repetitions: Repetitions,
     ) -> Result<TimedFrames, RunError> {
+        let full_frame = |runner: &mut Self| {
+            hybrid.forget_frame();
+            runner.frame(hybrid, camera, options)
+        };
         for _ in 0..repetitions.warmup {
-            self.frame(hybrid, camera, options)?;
+            full_frame(self)?;
         }
         let frames = (0..repetitions.timed.max(1))
-            .map(|_| self.frame(hybrid, camera, options))
+            .map(|_| full_frame(self))
             .collect::<Result<_, _>>()?;
         Ok(TimedFrames { frames })
     }

@@ -233,7 +233,10 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
             variant,
             format: TargetFormat::Rgba32f,
         };
+        // Both frames built from scratch (a repeated camera would reuse the cached frame).
+        hybrid.forget_frame();
         let run = runner.frame(&hybrid, &camera, &frame_options).unwrap();
+        hybrid.forget_frame();
         let (input, stats) = hybrid.frame(&camera, &frame_options.hybrid).unwrap();
         let mut uploaded = renderer.upload(&by_hand_gpu, &input).unwrap();
         let (full, _) = renderer

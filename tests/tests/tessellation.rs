@@ -10,8 +10,9 @@
 //! preserved to 1e-5 relative, triangles on and wound like their source triangles, termination
 //! (each leaf stopped for a reason the oracle confirms) and each vertex evaluated exactly once.
 
-use std::cell::{Cell, RefCell};
 use std::collections::{HashMap, HashSet};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{DVec3, Mat4, Vec2, Vec3};
 use lensmap::hybrid::tessellate::{
@@ -96,8 +97,8 @@ struct Sample {
 struct Oracle {
     camera: Camera,
     criterion: Criterion,
-    evaluated: RefCell<Vec<(u32, Vec3)>>,
-    visibility_queries: Cell<usize>,
+    evaluated: Mutex<Vec<(u32, Vec3)>>,
+    visibility_queries: AtomicUsize,
 }
 
 impl Oracle {
@@ -105,8 +106,8 @@ impl Oracle {
         Oracle {
             camera,
             criterion,
-            evaluated: RefCell::new(Vec::new()),
-            visibility_queries: Cell::new(0),
+            evaluated: Mutex::new(Vec::new()),
+            visibility_queries: AtomicUsize::new(0),
         }
     }
 }
@@ -124,7 +125,8 @@ impl VertexOracle for Oracle {
 
     fn evaluate(&self, vertex: &SurfaceVertex) -> Sample {
         self.evaluated
-            .borrow_mut()
+            .lock()
+            .unwrap()
             .push((vertex.index, vertex.position));
         let p = vertex.position;
         let hash = mix(u64::from(p.x.to_bits())
@@ -139,8 +141,7 @@ impl VertexOracle for Oracle {
     }
 
     fn visible(&self, vertex: &SurfaceVertex) -> bool {
-        self.visibility_queries
-            .set(self.visibility_queries.get() + 1);
+        self.visibility_queries.fetch_add(1, Ordering::Relaxed);
         self.criterion != Criterion::AlwaysOccludedBelow || vertex.position.y > -0.2
     }
 
@@ -577,10 +578,10 @@ fn check_case(name: &str, input: &TriangleMesh, oracle: &Oracle, t: f32) -> Case
 
     // Evaluation reuse: one evaluation per vertex of a front-facing triangle, none elsewhere,
     // and no position (within a connected part) evaluated twice.
-    let evaluated = oracle.evaluated.borrow();
+    let evaluated = oracle.evaluated.lock().unwrap();
     assert_eq!(evaluated.len(), stats.vertices_evaluated, "{case}");
     assert_eq!(
-        oracle.visibility_queries.get(),
+        oracle.visibility_queries.load(Ordering::Relaxed),
         stats.vertices_evaluated,
         "{case}"
     );
@@ -690,10 +691,28 @@ fn random_closed_meshes_stay_closed_for_every_threshold_and_oracle() {
     }
 }
 
+/// Runs `work` on a rayon pool of `threads` threads.
+fn with_threads<R: Send>(threads: usize, work: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("a thread pool")
+        .install(work)
+}
+
+/// The invariants hold whatever the thread count (the tessellator runs its phases in parallel).
 #[test]
 fn the_teapot_stays_watertight_for_every_threshold_and_oracle() {
     let mesh = unit_teapot(2);
-    check_mesh("teapot", &mesh, Vec3::new(1.6, 1.4, 2.2));
+    for threads in [1, 4] {
+        with_threads(threads, || {
+            check_mesh(
+                &format!("teapot, {threads} threads"),
+                &mesh,
+                Vec3::new(1.6, 1.4, 2.2),
+            )
+        });
+    }
 }
 
 #[test]
@@ -714,9 +733,13 @@ fn tessellation_is_deterministic() {
         .expect("valid input");
         (out.mesh, out.stats)
     };
-    let (first, second) = (run(), run());
-    assert_eq!(first.0, second.0);
-    assert_eq!(first.1, second.1);
+    let first = with_threads(1, run);
+    // Identical output at every thread count, and from run to run.
+    for threads in [1, 2, 3, 8] {
+        let other = with_threads(threads, run);
+        assert_eq!(first.0, other.0, "{threads} threads");
+        assert_eq!(first.1, other.1, "{threads} threads");
+    }
     assert!(
         first.1.splits_1_to_2 + first.1.splits_1_to_3 > 0,
         "{:?}",

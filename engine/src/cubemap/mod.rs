@@ -139,6 +139,15 @@ impl CubeMap {
         (self.size >> level).max(1)
     }
 
+    /// Whether every texel of every level is zero: a layer that adds nothing to a frame.
+    pub fn is_all_zero(&self) -> bool {
+        self.levels
+            .iter()
+            .flatten()
+            .flatten()
+            .all(|t| *t == [0.0; 4])
+    }
+
     /// The one check every consumer of cube maps applies: a power-of-two size (equal to
     /// `expected_size` when given), exactly the full mip chain, `(size >> l)²` texels per face of
     /// level l, and every texel finite with α in [0, 1] (tolerance [`ALPHA_TOLERANCE`]), as

@@ -255,10 +255,14 @@ impl Gpu {
         let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true);
+        // Timeline semaphores are required of every Vulkan 1.2 device: frames in flight are
+        // tracked by one counter instead of a fence per submission.
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queues)
             .enabled_features(&features)
-            .push_next(&mut features13);
+            .push_next(&mut features13)
+            .push_next(&mut features12);
         // SAFETY: physical_device comes from this instance; the create info lives until return.
         let device = match unsafe { instance.create_device(physical_device, &device_info, None) } {
             Ok(device) => device,
@@ -404,6 +408,48 @@ impl Gpu {
         result
     }
 
+    /// Records into an existing command buffer (reset first) and submits it, signalling
+    /// `timeline` with `value` when it completes; does not wait (see [`Timeline::wait`]).
+    pub fn record_submit(
+        &self,
+        command_buffer: vk::CommandBuffer,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
+        timeline: &Timeline,
+        value: u64,
+    ) -> Result<(), GpuError> {
+        let device = &self.shared.device;
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        // SAFETY: the caller waited for the command buffer's previous submission.
+        unsafe {
+            device
+                .reset_command_buffer(command_buffer, vk::CommandBufferResetFlags::empty())
+                .vk("vkResetCommandBuffer")?;
+            device
+                .begin_command_buffer(command_buffer, &begin)
+                .vk("vkBeginCommandBuffer")?;
+        }
+        record(command_buffer)?;
+        let buffers = [vk::CommandBufferSubmitInfo::default().command_buffer(command_buffer)];
+        let signals = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(timeline.semaphore)
+            .value(value)
+            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let submit = vk::SubmitInfo2::default()
+            .command_buffer_infos(&buffers)
+            .signal_semaphore_infos(&signals);
+        // SAFETY: recorded above; the semaphore is a live timeline of this device and `value`
+        // is greater than any value signalled on it before (the caller counts up).
+        unsafe {
+            device
+                .end_command_buffer(command_buffer)
+                .vk("vkEndCommandBuffer")?;
+            device
+                .queue_submit2(self.queue, &[submit], vk::Fence::null())
+                .vk("vkQueueSubmit2")
+        }
+    }
+
     /// Records into an existing command buffer (reset first), submits and waits.
     pub fn record_submit_wait(
         &self,
@@ -524,4 +570,53 @@ fn choose_device(
             "none offers Vulkan 1.3, a graphics queue and cube-map arrays (found {rejected:?})"
         ))
     })
+}
+
+/// A timeline semaphore: a counter the queue raises as submissions complete. Frames in flight
+/// each signal the next value, and the host waits for a frame by its value.
+pub struct Timeline {
+    shared: Arc<Shared>,
+    semaphore: vk::Semaphore,
+}
+
+impl Timeline {
+    /// A timeline starting at 0.
+    pub fn new(gpu: &Gpu) -> Result<Timeline, GpuError> {
+        let mut kind = vk::SemaphoreTypeCreateInfo::default()
+            .semaphore_type(vk::SemaphoreType::TIMELINE)
+            .initial_value(0);
+        let info = vk::SemaphoreCreateInfo::default().push_next(&mut kind);
+        // SAFETY: valid create info; destroyed in Drop.
+        let semaphore =
+            unsafe { gpu.shared.device.create_semaphore(&info, None) }.vk("vkCreateSemaphore")?;
+        Ok(Timeline {
+            shared: gpu.shared.clone(),
+            semaphore,
+        })
+    }
+
+    /// Blocks until the counter reaches `value` (at once for 0).
+    pub fn wait(&self, value: u64) -> Result<(), GpuError> {
+        if value == 0 {
+            return Ok(());
+        }
+        let semaphores = [self.semaphore];
+        let values = [value];
+        let info = vk::SemaphoreWaitInfo::default()
+            .semaphores(&semaphores)
+            .values(&values);
+        // SAFETY: a live timeline semaphore of this device.
+        unsafe { self.shared.device.wait_semaphores(&info, u64::MAX) }.vk("vkWaitSemaphores")
+    }
+}
+
+impl Drop for Timeline {
+    fn drop(&mut self) {
+        // SAFETY: nothing can wait on or signal the semaphore once its owner is gone, except
+        // submissions still running, which the idle wait covers.
+        unsafe {
+            let _ = self.shared.device.device_wait_idle();
+            self.shared.device.destroy_semaphore(self.semaphore, None);
+        }
+    }
 }

@@ -2,7 +2,13 @@
 //! generate the layered-EM texture coordinates, pick the viewpoint samples, and assemble the
 //! [`FrameInput`] the compositor renders. Timed per stage like the paper's table.
 
-use std::{sync::Arc, time::Instant};
+use std::{
+    sync::{
+        Arc, Mutex,
+        atomic::{AtomicU64, Ordering},
+    },
+    time::Instant,
+};
 
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
@@ -80,6 +86,67 @@ pub struct HybridScene {
     pub light_maps: LightMapStats,
     /// The environment at infinity for the GPU, drawn behind everything; `None` when it is black.
     pub sky: Option<SkyDome>,
+    /// The last frame built, reused while nothing it depends on changed.
+    cache: Mutex<Option<CachedFrame>>,
+}
+
+/// Everything a hybrid frame depends on besides the (immutable) scene and trace structures: a
+/// frame with an equal key is the same frame.
+#[derive(Clone, Debug, PartialEq)]
+struct FrameKey {
+    camera: Camera,
+    options: HybridOptions,
+    vertex_exact: bool,
+    /// Per lens object: EM origin, shells and the identity of every map (`Arc` address).
+    layers: Vec<(DVec3, Vec<LayerShell>, Vec<Vec<usize>>)>,
+}
+
+impl FrameKey {
+    fn new(
+        scene: &HybridScene,
+        camera: &Camera,
+        options: &HybridOptions,
+        vertex_exact: bool,
+    ) -> Self {
+        FrameKey {
+            camera: *camera,
+            options: *options,
+            vertex_exact,
+            layers: scene
+                .lenses
+                .iter()
+                .map(|l| {
+                    let maps = l
+                        .maps
+                        .iter()
+                        .map(|v| v.iter().map(|m| Arc::as_ptr(m) as usize).collect())
+                        .collect();
+                    (l.em_origin, l.shells.clone(), maps)
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The last frame a [`HybridScene`] built, with the identity that tells a caller holding its
+/// upload that nothing changed.
+struct CachedFrame {
+    key: FrameKey,
+    frame: FrameInput,
+    stats: HybridStats,
+    identity: u64,
+}
+
+/// Identities of built frames, unique in the process (0 is never used).
+static FRAME_IDENTITY: AtomicU64 = AtomicU64::new(1);
+
+/// A frame from [`HybridScene::frame_unless`].
+#[derive(Debug)]
+pub enum BuiltFrame {
+    /// The frame the caller already holds (same identity): nothing to build or upload.
+    Unchanged(HybridStats),
+    /// A frame to upload, with its identity.
+    New(FrameInput, HybridStats, u64),
 }
 
 /// The paper's angle threshold: outgoing rays further apart than this make vertices differ.
@@ -158,6 +225,12 @@ pub struct HybridStats {
     pub triangles_out: usize,
     /// Vertices ray traced.
     pub vertices_traced: usize,
+    /// Lens objects skipped because their bounds lie wholly outside the view frustum: neither
+    /// traced nor tessellated nor drawn.
+    pub lenses_outside_view: usize,
+    /// Whether the frame was reused whole from the previous one (same camera, options and
+    /// layered EMs): no vertex traced, tessellated or given texture coordinates.
+    pub reused: bool,
 }
 
 impl HybridScene {
@@ -241,6 +314,7 @@ impl HybridScene {
                 environment,
                 light_maps: light_map_stats,
                 sky,
+                cache: Mutex::new(None),
             },
             rays,
         ))
@@ -307,6 +381,7 @@ impl HybridScene {
             environment,
             light_maps: light_map_stats,
             sky,
+            cache: Mutex::new(None),
         })
     }
 
@@ -420,12 +495,73 @@ impl HybridScene {
     }
 
     /// Builds the frame for `camera` (its resolution × supersampling is the framebuffer size).
+    /// A frame equal to the previous one (same camera, options and layered EMs) is copied from
+    /// it rather than traced again (`stats.reused`).
     pub fn frame(
         &self,
         camera: &Camera,
         options: &HybridOptions,
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
-        self.build_frame(camera, options, false)
+        match self.frame_unless(camera, options, 0)? {
+            BuiltFrame::New(frame, stats, _) => Ok((frame, stats)),
+            // Identity 0 is never held.
+            BuiltFrame::Unchanged(_) => unreachable!("no frame has identity 0"),
+        }
+    }
+
+    /// Forgets the last frame, so that the next one is built from scratch even for the same
+    /// camera: what timing a full frame needs.
+    pub fn forget_frame(&self) {
+        if let Ok(mut cache) = self.cache.lock() {
+            *cache = None;
+        }
+    }
+
+    /// The frame for `camera`, or [`BuiltFrame::Unchanged`] when it is the frame of identity
+    /// `held` (one this scene built before, which the caller still holds): a still camera then
+    /// costs no CPU stage at all. Otherwise as [`HybridScene::frame`], with the new frame's
+    /// identity.
+    ///
+    /// The cache is keyed by everything a frame depends on that may change: the camera, the
+    /// options and each lens object's EM origin, shells and maps (by `Arc` identity). The scene
+    /// and its trace structures are treated as fixed once built.
+    pub fn frame_unless(
+        &self,
+        camera: &Camera,
+        options: &HybridOptions,
+        held: u64,
+    ) -> Result<BuiltFrame, TessellationError> {
+        let key = FrameKey::new(self, camera, options, false);
+        if let Ok(cache) = self.cache.lock()
+            && let Some(cached) = cache.as_ref()
+            && cached.key == key
+        {
+            let stats = HybridStats {
+                reused: true,
+                trace_ms: 0.0,
+                tessellation_ms: 0.0,
+                texgen_ms: 0.0,
+                counters: TraceCounters::default(),
+                vertices_traced: 0,
+                ..cached.stats
+            };
+            return Ok(if cached.identity == held {
+                BuiltFrame::Unchanged(stats)
+            } else {
+                BuiltFrame::New(cached.frame.clone(), stats, cached.identity)
+            });
+        }
+        let (frame, stats) = self.build_frame(camera, options, false)?;
+        let identity = FRAME_IDENTITY.fetch_add(1, Ordering::Relaxed);
+        if let Ok(mut cache) = self.cache.lock() {
+            *cache = Some(CachedFrame {
+                key,
+                frame: frame.clone(),
+                stats,
+                identity,
+            });
+        }
+        Ok(BuiltFrame::New(frame, stats, identity))
     }
 
     /// The frame with *perfect information at each vertex*: every lens object tessellated as
@@ -504,7 +640,22 @@ impl HybridScene {
             let mut triangles: Vec<[u32; 3]> = Vec::new();
             let mut samples: Vec<Option<VertexPaths>> = Vec::new();
             let faces = self.faces.get(lens_index).copied().unwrap_or_default();
-            for &object in &lens.objects {
+            let visible_objects: Vec<usize> = lens
+                .objects
+                .iter()
+                .copied()
+                .filter(|&object| {
+                    !self.scene.objects[object]
+                        .mesh
+                        .bounds()
+                        .is_some_and(|bounds| box_outside_view(bounds, &view_proj))
+                })
+                .collect();
+            if visible_objects.is_empty() {
+                stats.lenses_outside_view += 1;
+                continue;
+            }
+            for &object in &visible_objects {
                 let mesh = &self.scene.objects[object].mesh;
                 let oracle = PathOracle::new(
                     &self.trace,
@@ -584,6 +735,30 @@ impl HybridScene {
         };
         Ok((frame, stats))
     }
+}
+
+/// Whether the axis-aligned box `(lo, hi)` lies wholly outside the Vulkan clip volume of
+/// `view_proj`: all eight corners beyond one of its planes. Conservative: a box that only
+/// straddles the corner of the frustum counts as visible.
+fn box_outside_view((lo, hi): (Vec3, Vec3), view_proj: &glam::Mat4) -> bool {
+    let corners: [glam::Vec4; 8] = std::array::from_fn(|i| {
+        *view_proj
+            * Vec3::new(
+                [lo.x, hi.x][i & 1],
+                [lo.y, hi.y][(i >> 1) & 1],
+                [lo.z, hi.z][i >> 2],
+            )
+            .extend(1.0)
+    });
+    let planes: [fn(&glam::Vec4) -> bool; 6] = [
+        |c| c.x < -c.w,
+        |c| c.x > c.w,
+        |c| c.y < -c.w,
+        |c| c.y > c.w,
+        |c| c.z < 0.0,
+        |c| c.z > c.w,
+    ];
+    planes.iter().any(|outside| corners.iter().all(outside))
 }
 
 /// A lens object's tessellated mesh as an opaque mesh coloured with the exact radiance at each
@@ -708,5 +883,66 @@ fn texgen(
             .iter()
             .map(|(sample, _)| layers.maps[(*sample).min(layers.maps.len() - 1)].clone())
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The box test against brute force: a box reported outside has no sampled point inside the
+    /// clip volume, and boxes with a point inside are never reported outside.
+    #[test]
+    fn boxes_outside_the_view_hold_no_visible_point() {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(10);
+        let camera = Camera {
+            position: Vec3::new(0.0, 1.0, 4.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov_radians: 0.8,
+            width: 64,
+            height: 48,
+            supersampling: 1,
+        };
+        let view_proj = camera.view_proj(0.05, 100.0);
+        let inside = |p: Vec3| {
+            let c = view_proj * p.extend(1.0);
+            c.x.abs() <= c.w && c.y.abs() <= c.w && c.z >= 0.0 && c.z <= c.w
+        };
+        let (mut outside_count, mut visible_count) = (0, 0);
+        for _ in 0..400 {
+            let centre = Vec3::new(
+                rng.gen_range(-12.0..12.0),
+                rng.gen_range(-12.0..12.0),
+                rng.gen_range(-12.0..12.0),
+            );
+            let half = Vec3::new(
+                rng.gen_range(0.01..2.0),
+                rng.gen_range(0.01..2.0),
+                rng.gen_range(0.01..2.0),
+            );
+            let (lo, hi) = (centre - half, centre + half);
+            let any_inside = (0..2000).any(|_| {
+                inside(Vec3::new(
+                    rng.gen_range(lo.x..=hi.x),
+                    rng.gen_range(lo.y..=hi.y),
+                    rng.gen_range(lo.z..=hi.z),
+                ))
+            });
+            if box_outside_view((lo, hi), &view_proj) {
+                outside_count += 1;
+                assert!(
+                    !any_inside,
+                    "box {lo} … {hi} reported outside holds a visible point"
+                );
+            } else if any_inside {
+                visible_count += 1;
+            }
+        }
+        assert!(
+            outside_count > 50 && visible_count > 20,
+            "{outside_count} {visible_count}"
+        );
     }
 }

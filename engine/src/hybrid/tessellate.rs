@@ -19,6 +19,14 @@
 //! new vertices of each level are handed to [`VertexOracle::evaluate_batch`] together, which a
 //! runtime can evaluate in parallel.
 //!
+//! **Parallel and deterministic.** Each level runs in two phases: the split decisions of all
+//! active triangles are made in parallel (they only read the evaluations), then the midpoints are
+//! created in one ordered pass over the decisions (the edge table is an `FxHashMap`, not
+//! SipHash), so a midpoint's index is the same whatever the thread count. Front-facing tests,
+//! screen projections and T-junction removal (per leaf, reading the finished edge table) are
+//! parallel too, and their results are gathered in input order: the output is identical for
+//! any number of threads.
+//!
 //! **T-junction removal** follows the paper: once subdivision stops, the edge hash is queried
 //! recursively along each edge of every leaf triangle, which yields all vertices a more finely
 //! subdivided neighbour placed on that edge. A leaf with such extra vertices is a convex polygon
@@ -30,9 +38,11 @@
 //! every triangle wound like its source triangle.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::BinaryHeap;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use rustc_hash::FxHashMap;
 
 use crate::scene::TriangleMesh;
 
@@ -329,11 +339,15 @@ pub enum TessellationError {
 /// Input normals are used when present (one per vertex; generated from the faces when the mesh
 /// has none); texture coordinates are carried along when present. Triangles that repeat a vertex
 /// index are passed through unchanged.
-pub fn tessellate<O: VertexOracle>(
+pub fn tessellate<O>(
     mesh: &TriangleMesh,
     oracle: &O,
     options: &TessellationOptions,
-) -> Result<Tessellation<O::Sample>, TessellationError> {
+) -> Result<Tessellation<O::Sample>, TessellationError>
+where
+    O: VertexOracle + Sync,
+    O::Sample: Send + Sync,
+{
     if options.validate().is_err() {
         return Err(TessellationError::InvalidThreshold(options.t));
     }
@@ -396,8 +410,17 @@ enum Decision {
     Split([bool; 3]),
 }
 
+/// The output triangles of a run of leaves and what T-junction removal did there.
+#[derive(Default)]
+struct LeafPieces {
+    triangles: Vec<[u32; 3]>,
+    records: Vec<TriangleRecord>,
+    t_junction_leaves: usize,
+    t_junction_vertices: usize,
+}
+
 /// The growing output mesh, the edge hash table and the per-vertex evaluations.
-struct Builder<'o, O: VertexOracle> {
+struct Builder<'o, O: VertexOracle + Sync> {
     oracle: &'o O,
     options: TessellationOptions,
     positions: Vec<Vec3>,
@@ -408,7 +431,7 @@ struct Builder<'o, O: VertexOracle> {
     /// Screen positions of evaluated vertices (`None`: not projectable).
     screens: Vec<Option<Vec2>>,
     /// The edge hash table: sorted vertex pair → midpoint vertex.
-    midpoints: HashMap<(u32, u32), u32>,
+    midpoints: FxHashMap<(u32, u32), u32>,
     /// Vertices created or marked since the last batch evaluation.
     pending: Vec<u32>,
     /// Unit geometric normals of the input triangles (fallback for opposing vertex normals).
@@ -416,7 +439,11 @@ struct Builder<'o, O: VertexOracle> {
     stats: TessellationStats,
 }
 
-impl<'o, O: VertexOracle> Builder<'o, O> {
+impl<'o, O> Builder<'o, O>
+where
+    O: VertexOracle + Sync,
+    O::Sample: Send + Sync,
+{
     fn new(
         mesh: &TriangleMesh,
         oracle: &'o O,
@@ -443,7 +470,7 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
             origins: (0..count as u32).map(VertexOrigin::Input).collect(),
             evaluations: (0..count).map(|_| None).collect(),
             screens: vec![None; count],
-            midpoints: HashMap::new(),
+            midpoints: FxHashMap::default(),
             pending: Vec::new(),
             face_normals,
             stats: TessellationStats {
@@ -459,20 +486,29 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
         let mut leaves = Vec::new();
         let mut active = Vec::new();
         let mut marked = vec![false; self.positions.len()];
-        for (source, &corners) in mesh.triangles.iter().enumerate() {
+        // Which input triangles face the camera: asked in parallel, used in order.
+        let facing: Vec<Option<bool>> = mesh
+            .triangles
+            .par_iter()
+            .map(|&[a, b, c]| {
+                (a != b && b != c && c != a).then(|| {
+                    self.oracle
+                        .front_facing([a, b, c].map(|v| self.positions[v as usize]))
+                })
+            })
+            .collect();
+        for (source, (&corners, facing)) in mesh.triangles.iter().zip(facing).enumerate() {
             let source = source as u32;
-            let [a, b, c] = corners;
-            let stop = if a == b || b == c || c == a {
-                Some(StopReason::Degenerate)
-            } else if !self
-                .oracle
-                .front_facing(corners.map(|v| self.positions[v as usize]))
-            {
-                self.stats.back_facing_triangles += 1;
-                (!self.oracle.evaluates_back_faces()).then_some(StopReason::BackFacing)
-            } else {
-                self.stats.front_facing_triangles += 1;
-                None
+            let stop = match facing {
+                None => Some(StopReason::Degenerate),
+                Some(false) => {
+                    self.stats.back_facing_triangles += 1;
+                    (!self.oracle.evaluates_back_faces()).then_some(StopReason::BackFacing)
+                }
+                Some(true) => {
+                    self.stats.front_facing_triangles += 1;
+                    None
+                }
             };
             match stop {
                 Some(stop) => leaves.push(Leaf {
@@ -495,9 +531,15 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
         let mut depth = 0;
         while !active.is_empty() {
             self.evaluate_pending()?;
+            // Phase one, in parallel: every decision reads only finished evaluations.
+            let decisions: Vec<Decision> = active
+                .par_iter()
+                .map(|triangle| self.decide(triangle.corners, depth))
+                .collect();
+            // Phase two, in order: midpoints get the same indices at any thread count.
             let mut next = Vec::new();
-            for triangle in active {
-                match self.decide(triangle.corners, depth) {
+            for (triangle, decision) in active.into_iter().zip(decisions) {
+                match decision {
                     Decision::Stop(stop) => {
                         self.stats.max_depth_reached = self.stats.max_depth_reached.max(depth);
                         match stop {
@@ -519,7 +561,7 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
             depth += 1;
         }
         // Stable: keeps creation order within each source triangle.
-        leaves.sort_by_key(|leaf| leaf.source);
+        leaves.par_sort_by_key(|leaf| leaf.source);
         Ok(leaves)
     }
 
@@ -546,13 +588,18 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
             });
         }
         self.stats.vertices_evaluated += batch.len();
-        for (vertex, evaluation) in batch.iter().zip(evaluations) {
+        let screens: Vec<Option<Vec2>> = batch
+            .par_iter()
+            .map(|vertex| {
+                self.oracle
+                    .screen(vertex.position)
+                    .filter(|p| p.is_finite())
+            })
+            .collect();
+        for ((vertex, evaluation), screen) in batch.iter().zip(evaluations).zip(screens) {
             let i = vertex.index as usize;
             self.evaluations[i] = Some(evaluation);
-            self.screens[i] = self
-                .oracle
-                .screen(vertex.position)
-                .filter(|p| p.is_finite());
+            self.screens[i] = screen;
         }
         self.pending.clear();
         Ok(())
@@ -705,14 +752,13 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
         }
     }
 
-    /// Removes T-junctions and assembles the output.
-    fn finish(mut self, leaves: Vec<Leaf>) -> Tessellation<O::Sample> {
-        let mut triangles = Vec::with_capacity(leaves.len());
-        let mut records = Vec::with_capacity(leaves.len());
+    /// The output triangles of some leaves: each leaf as it is, or re-triangulated through the
+    /// vertices that finer neighbours placed on its sides (the paper's T-junction removal).
+    fn remove_t_junctions(&self, leaves: &[Leaf]) -> LeafPieces {
+        let mut out = LeafPieces::default();
         let mut polygon = Vec::new();
         let mut sides = Vec::new();
-        let mut pieces = Vec::new();
-        for leaf in &leaves {
+        for leaf in leaves {
             let record = TriangleRecord {
                 source: leaf.source,
                 leaf: leaf.corners,
@@ -720,8 +766,8 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
                 stop: leaf.stop,
             };
             if leaf.stop == StopReason::Degenerate {
-                triangles.push(leaf.corners);
-                records.push(record);
+                out.triangles.push(leaf.corners);
+                out.records.push(record);
                 continue;
             }
             polygon.clear();
@@ -734,18 +780,39 @@ impl<'o, O: VertexOracle> Builder<'o, O> {
                 let start = polygon.len();
                 self.edge_vertices(u, w, &mut polygon);
                 sides.resize(polygon.len(), side_bit(i));
-                self.stats.t_junction_vertices += polygon.len() - start;
+                out.t_junction_vertices += polygon.len() - start;
             }
             if polygon.len() == 3 {
-                triangles.push(leaf.corners);
-                records.push(record);
+                out.triangles.push(leaf.corners);
+                out.records.push(record);
                 continue;
             }
-            self.stats.t_junction_leaves += 1;
-            pieces.clear();
-            triangulate_boundary(&polygon, &sides, &self.positions, &mut pieces);
-            triangles.extend_from_slice(&pieces);
-            records.extend(std::iter::repeat_n(record, pieces.len()));
+            out.t_junction_leaves += 1;
+            let before = out.triangles.len();
+            triangulate_boundary(&polygon, &sides, &self.positions, &mut out.triangles);
+            let pieces = out.triangles.len() - before;
+            out.records.extend(std::iter::repeat_n(record, pieces));
+        }
+        out
+    }
+
+    /// Removes T-junctions and assembles the output: leaves in parallel chunks, each reading
+    /// the finished edge table, gathered in leaf order.
+    fn finish(mut self, leaves: Vec<Leaf>) -> Tessellation<O::Sample> {
+        /// Leaves per parallel task: large enough that a task outweighs its scheduling.
+        const LEAVES_PER_TASK: usize = 1024;
+        let chunks: Vec<LeafPieces> = leaves
+            .par_chunks(LEAVES_PER_TASK)
+            .map(|chunk| self.remove_t_junctions(chunk))
+            .collect();
+        let count = chunks.iter().map(|c| c.triangles.len()).sum();
+        let mut triangles = Vec::with_capacity(count);
+        let mut records = Vec::with_capacity(count);
+        for chunk in chunks {
+            triangles.extend(chunk.triangles);
+            records.extend(chunk.records);
+            self.stats.t_junction_leaves += chunk.t_junction_leaves;
+            self.stats.t_junction_vertices += chunk.t_junction_vertices;
         }
         self.stats.output_triangles = triangles.len();
         self.stats.output_vertices = self.positions.len();
@@ -845,7 +912,8 @@ fn triangulate_boundary(
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
-    use std::cell::Cell;
+    use std::collections::HashMap;
+    use std::sync::atomic::{AtomicUsize, Ordering};
 
     /// An orthographic camera looking down −z: screen = scale · (x, y); front = +z normal.
     struct Flat {
@@ -853,7 +921,7 @@ mod tests {
         differ: bool,
         visible: bool,
         back_faces: bool,
-        evaluations: Cell<usize>,
+        evaluations: AtomicUsize,
     }
 
     impl Flat {
@@ -863,7 +931,7 @@ mod tests {
                 differ,
                 visible: true,
                 back_faces: false,
-                evaluations: Cell::new(0),
+                evaluations: AtomicUsize::new(0),
             }
         }
     }
@@ -871,7 +939,7 @@ mod tests {
     impl VertexOracle for Flat {
         type Sample = Vec3;
         fn evaluate(&self, vertex: &SurfaceVertex) -> Vec3 {
-            self.evaluations.set(self.evaluations.get() + 1);
+            self.evaluations.fetch_add(1, Ordering::Relaxed);
             vertex.position
         }
         fn visible(&self, _: &SurfaceVertex) -> bool {
@@ -937,7 +1005,10 @@ mod tests {
             assert_eq!(out.stats.vertices_evaluated, (side + 1) * (side + 2) / 2);
             assert_eq!(out.stats.max_depth_reached, depth);
             assert_eq!(out.stats.t_junction_leaves, 0);
-            assert_eq!(oracle.evaluations.get(), out.stats.vertices_evaluated);
+            assert_eq!(
+                oracle.evaluations.load(Ordering::Relaxed),
+                out.stats.vertices_evaluated
+            );
             assert!((area(&out.mesh) - 0.5).abs() < 1e-6);
         }
     }
@@ -1039,7 +1110,10 @@ mod tests {
         );
         assert!(out.vertices.iter().all(|v| v.evaluation.is_some()));
         assert_eq!(out.stats.vertices_evaluated, out.vertices.len());
-        assert_eq!(oracle.evaluations.get(), out.vertices.len());
+        assert_eq!(
+            oracle.evaluations.load(Ordering::Relaxed),
+            out.vertices.len()
+        );
         let back: Vec<_> = out.triangles.iter().filter(|r| r.source == 1).collect();
         assert!(back.len() > 4, "the back face is split: {}", back.len());
         assert!(back.iter().all(|r| r.stop != StopReason::BackFacing));

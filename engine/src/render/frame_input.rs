@@ -112,6 +112,14 @@ impl FrameInput {
     /// range, every value finite, every layered EM the same size with a full chain and valid texels
     /// ([`CubeMap::validate`]), one layered EM per viewpoint weight and unique lens names.
     pub fn validate(&self) -> Result<(), super::RenderError> {
+        self.validate_with(&|_| false)
+    }
+
+    /// [`FrameInput::validate`], except that the contents of the environment meshes and cube maps
+    /// that `checked` knows (by the address of their `Arc`) are not scanned again: the renderer's
+    /// upload cache checked them when it first uploaded them, so a frame that hands over the same
+    /// maps and meshes pays only for its lens objects. Sizes and counts are still checked.
+    pub fn validate_with(&self, checked: &dyn Fn(usize) -> bool) -> Result<(), super::RenderError> {
         let bad = |s: String| Err(super::RenderError::BadInput(s));
         if self.width == 0 || self.height == 0 {
             return bad(format!(
@@ -141,6 +149,9 @@ impl FrameInput {
             );
         }
         for (m, mesh) in self.environment.iter().enumerate() {
+            if checked(Arc::as_ptr(mesh) as usize) {
+                continue;
+            }
             if mesh.colours.len() != mesh.positions.len() {
                 return bad(format!(
                     "environment[{m}].colours has {} entries for {} positions; give one per vertex",
@@ -217,6 +228,16 @@ impl FrameInput {
                     ));
                 }
                 for (i, cube) in cubes.iter().enumerate() {
+                    if checked(Arc::as_ptr(cube) as usize) {
+                        if cube.size != size {
+                            let error = crate::cubemap::CubeMapError::WrongSize {
+                                found: cube.size,
+                                expected: size,
+                            };
+                            return bad(format!("{at}.layers[{v}][{i}]: {error}"));
+                        }
+                        continue;
+                    }
                     if let Err(error) = cube.validate(Some(size)) {
                         return bad(format!("{at}.layers[{v}][{i}]: {error}"));
                     }

@@ -19,7 +19,7 @@ pub use frame_input::*;
 pub use image::RenderedImage;
 pub use plan::{FramePlan, FrameShape, TargetFormat, Variant};
 pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
-pub use renderer::{FrameTimings, Renderer};
+pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, Renderer, Submission};
 pub use upload::UploadedFrame;
 
 /// Errors from uploading or rendering a frame.

@@ -112,23 +112,23 @@ impl FrameShape {
     pub fn empty_layers(layers: &[Vec<std::sync::Arc<crate::cubemap::CubeMap>>]) -> Vec<Vec<bool>> {
         layers
             .iter()
-            .map(|cubes| {
-                cubes
-                    .iter()
-                    .map(|cube| {
-                        cube.levels
-                            .iter()
-                            .flatten()
-                            .flatten()
-                            .all(|t| *t == [0.0; 4])
-                    })
-                    .collect()
-            })
+            .map(|cubes| cubes.iter().map(|cube| cube.is_all_zero()).collect())
             .collect()
     }
 
     /// The shape of a frame's data.
     pub fn of(frame: &FrameInput) -> FrameShape {
+        Self::of_with(frame, |cubes| {
+            cubes.iter().map(|cube| cube.is_all_zero()).collect()
+        })
+    }
+
+    /// The shape of a frame's data, with `empty` saying which cube maps of one viewpoint's
+    /// layered EM are all zeros (the renderer answers from its cache instead of scanning).
+    pub fn of_with(
+        frame: &FrameInput,
+        empty: impl Fn(&[std::sync::Arc<crate::cubemap::CubeMap>]) -> Vec<bool>,
+    ) -> FrameShape {
         FrameShape {
             width: frame.width,
             height: frame.height,
@@ -148,7 +148,7 @@ impl FrameShape {
                         triangles: lens.triangles.len(),
                         faces: lens.faces,
                         terms,
-                        empty: Self::empty_layers(&lens.layers),
+                        empty: lens.layers.iter().map(|cubes| empty(cubes)).collect(),
                     }
                 })
                 .collect(),

@@ -4,7 +4,7 @@
 //! synchronization2, a debug label around every pass), submits it and reads the colour target
 //! back ([`super::image`]).
 
-use std::time::Instant;
+use std::{sync::Arc, time::Instant};
 
 use ash::vk;
 
@@ -16,7 +16,11 @@ use super::{
     record::Recorder,
     upload::{Targets, UploadCache, UploadedFrame},
 };
-use crate::gpu::{Gpu, GpuError};
+use crate::gpu::{Gpu, GpuError, Timeline};
+
+/// Frames that may be recorded and executing at once: the CPU prepares frame N + 1 while the GPU
+/// renders frame N.
+pub const FRAMES_IN_FLIGHT: usize = 2;
 
 /// Where one frame's time went, in milliseconds of wall time on the host.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -29,28 +33,61 @@ pub struct FrameTimings {
     pub readback_ms: f64,
 }
 
-/// Pipelines, layouts and the sampler shared by every frame, the uploads frames share, and the
-/// command buffer frames are recorded into.
+/// Pipelines, layouts and the sampler shared by every frame, the uploads frames share, the
+/// command buffers frames are recorded into (one per frame in flight) and the timeline semaphore
+/// that says which submissions completed.
 pub struct Renderer {
     pipelines: Pipelines,
     cache: UploadCache,
-    command_buffer: vk::CommandBuffer,
+    /// `(command buffer, timeline value of its last submission)`, used round robin.
+    command_buffers: Vec<(vk::CommandBuffer, u64)>,
+    timeline: Arc<Timeline>,
+    /// The value the last submission signals.
+    submitted: u64,
+}
+
+/// A frame submitted by [`Renderer::submit`] and not yet waited for: hand it to
+/// [`Renderer::finish`] with the same uploaded frame.
+#[must_use = "a submitted frame is waited for and read back by Renderer::finish"]
+#[derive(Debug)]
+pub struct Submission {
+    value: u64,
+    format: TargetFormat,
+    record_ms: f64,
+    submitted_at: Instant,
 }
 
 impl Renderer {
     /// Creates the layouts and sampler; pipelines are created on first use.
     pub fn new(gpu: &Gpu) -> Result<Renderer, GpuError> {
+        let command_buffers = (0..FRAMES_IN_FLIGHT)
+            .map(|_| gpu.allocate_command_buffer().map(|cb| (cb, 0)))
+            .collect::<Result<_, _>>()?;
         Ok(Renderer {
             pipelines: Pipelines::new(gpu)?,
             cache: UploadCache::default(),
-            command_buffer: gpu.allocate_command_buffer()?,
+            command_buffers,
+            timeline: Arc::new(Timeline::new(gpu)?),
+            submitted: 0,
         })
     }
 
     /// Validates and uploads a frame's data. Layered EMs and environment meshes already uploaded
     /// for one of the last two frames (the same `Arc`s) are reused.
     pub fn upload(&mut self, gpu: &Gpu, frame: &FrameInput) -> Result<UploadedFrame, RenderError> {
-        self.cache.upload(gpu, &self.pipelines, frame)
+        self.cache.upload(gpu, &self.pipelines, frame, None)
+    }
+
+    /// [`Renderer::upload`] into the buffers, descriptor pool and targets of `previous` (after
+    /// waiting for its last submission): what a stream of frames does to allocate nothing.
+    pub fn upload_into(
+        &mut self,
+        gpu: &Gpu,
+        frame: &FrameInput,
+        previous: UploadedFrame,
+    ) -> Result<UploadedFrame, RenderError> {
+        self.cache
+            .upload(gpu, &self.pipelines, frame, Some(previous))
     }
 
     /// Replaces the layered EMs of lens `lens` of an uploaded frame (one list per viewpoint, as
@@ -89,7 +126,7 @@ impl Renderer {
         Ok((plan, resources))
     }
 
-    /// Renders the frame and reads it back.
+    /// Renders the frame and reads it back: [`Renderer::submit`], then [`Renderer::finish`].
     pub fn render(
         &mut self,
         gpu: &Gpu,
@@ -97,6 +134,20 @@ impl Renderer {
         variant: Variant,
         format: TargetFormat,
     ) -> Result<(RenderedImage, FrameTimings), RenderError> {
+        let submission = self.submit(gpu, frame, variant, format)?;
+        self.finish(frame, submission)
+    }
+
+    /// Records the frame's plan (its passes and the readback copy) and submits it without
+    /// waiting. At most [`FRAMES_IN_FLIGHT`] frames execute at once: a command buffer is reused
+    /// only after its previous submission completed.
+    pub fn submit(
+        &mut self,
+        gpu: &Gpu,
+        frame: &mut UploadedFrame,
+        variant: Variant,
+        format: TargetFormat,
+    ) -> Result<Submission, RenderError> {
         let start = Instant::now();
         let (plan, resources) = Self::plan_with_resources(frame, variant, format)?;
         let (width, height) = (frame.shape().width, frame.shape().height);
@@ -112,23 +163,62 @@ impl Renderer {
                 pipelines.push(None);
             }
         }
+        // The frame's own previous submission wrote its targets: wait for it (a no-op when the
+        // caller alternates frames, as a stream with frames in flight does).
+        if let Some((timeline, value)) = &frame.last_submission {
+            timeline.wait(*value)?;
+        }
+        let slot = (self.submitted as usize) % self.command_buffers.len();
+        let (command_buffer, last) = self.command_buffers[slot];
+        self.timeline.wait(last)?;
+        let value = self.submitted + 1;
         let recorder = Recorder {
             gpu,
             pipelines: &self.pipelines,
             frame,
         };
         let mut record_ms = 0.0;
-        let execute_start = std::cell::Cell::new(Instant::now());
-        gpu.record_submit_wait(self.command_buffer, |cb| {
-            recorder.record(cb, (&plan, &resources), format, &pipelines);
-            record_ms = start.elapsed().as_secs_f64() * 1e3;
-            execute_start.set(Instant::now());
-            Ok(())
-        })?;
-        let execute_ms = execute_start.get().elapsed().as_secs_f64() * 1e3;
+        gpu.record_submit(
+            command_buffer,
+            |cb| {
+                recorder.record(cb, (&plan, &resources), format, &pipelines);
+                record_ms = start.elapsed().as_secs_f64() * 1e3;
+                Ok(())
+            },
+            &self.timeline,
+            value,
+        )?;
+        self.submitted = value;
+        self.command_buffers[slot].1 = value;
+        frame.last_submission = Some((self.timeline.clone(), value));
+        Ok(Submission {
+            value,
+            format,
+            record_ms,
+            submitted_at: Instant::now(),
+        })
+    }
+
+    /// Waits for a submitted frame and reads its colour target back.
+    pub fn finish(
+        &self,
+        frame: &UploadedFrame,
+        submission: Submission,
+    ) -> Result<(RenderedImage, FrameTimings), RenderError> {
+        self.timeline.wait(submission.value)?;
+        let execute_ms = submission.submitted_at.elapsed().as_secs_f64() * 1e3;
         let decode_start = Instant::now();
-        let targets = &frame.targets[&format];
-        let pixels = decode(targets.readback.read(), format, (width * height) as usize);
+        let (width, height) = (frame.shape().width, frame.shape().height);
+        let Some(targets) = frame.targets.get(&submission.format) else {
+            return Err(RenderError::BadInput(
+                "finish() was given another frame than the one submitted".into(),
+            ));
+        };
+        let pixels = decode(
+            targets.readback.read(),
+            submission.format,
+            (width * height) as usize,
+        );
         let readback_ms = decode_start.elapsed().as_secs_f64() * 1e3;
         Ok((
             RenderedImage {
@@ -137,7 +227,7 @@ impl Renderer {
                 pixels,
             },
             FrameTimings {
-                record_ms,
+                record_ms: submission.record_ms,
                 execute_ms,
                 readback_ms,
             },

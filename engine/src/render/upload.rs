@@ -15,14 +15,15 @@ use super::{
 };
 use crate::{
     cubemap::CubeMap,
-    gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, context::Shared},
+    gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, Timeline, context::Shared},
     trace::Term,
 };
 
 /// A lens object's data on the GPU.
 pub(super) struct GpuLens {
-    /// The storage buffer the descriptor sets point at (kept alive here).
-    _data: Buffer,
+    /// The storage buffer the descriptor sets point at; kept, and rewritten in place, by the
+    /// next frame uploaded into the same [`UploadedFrame`] when it is large enough.
+    data: Buffer,
     pub(super) indices: Buffer,
     pub(super) index_count: u32,
     pub(super) vertex_count: u32,
@@ -73,25 +74,103 @@ pub(super) struct Targets {
 }
 
 /// A frame's data uploaded once and rendered any number of times, in any variant and format.
+///
+/// Its buffers, descriptor pool and targets are reusable: uploading the next frame *into* it
+/// ([`super::Renderer::upload_into`]) rewrites the mapped lens buffers in place (growing them only
+/// when a frame needs more), resets the descriptor pool instead of creating one, and keeps the
+/// colour, depth and readback targets of the same size, so a steady stream of frames allocates
+/// nothing.
 pub struct UploadedFrame {
     pub(super) shape: FrameShape,
     pub(super) view_proj: [[f32; 4]; 4],
     pub(super) environment: Vec<Arc<GpuMesh>>,
     pub(super) lenses: Vec<GpuLens>,
-    descriptor_pool: vk::DescriptorPool,
+    /// The pool of the lens descriptor sets (`None` only while a new frame takes it over).
+    pool: Option<DescriptorPool>,
     pub(super) targets: HashMap<TargetFormat, Targets>,
-    shared: Arc<Shared>,
+    /// The timeline value of the last submission that reads this frame (0: none) and the
+    /// timeline it counts on: the frame is not changed or freed before it completes.
+    pub(super) last_submission: Option<(Arc<Timeline>, u64)>,
 }
 
 impl Drop for UploadedFrame {
     fn drop(&mut self) {
-        // SAFETY: every submission using these sets was waited for.
+        // The pool, buffers and targets die after this: their last use must have completed.
+        if let Some((timeline, value)) = &self.last_submission {
+            let _ = timeline.wait(*value);
+        }
+    }
+}
+
+/// A descriptor pool that destroys itself; its sets are reset together when a frame is uploaded
+/// into it again.
+struct DescriptorPool {
+    shared: Arc<Shared>,
+    handle: vk::DescriptorPool,
+    /// Sets it was sized for.
+    capacity: u32,
+}
+
+impl DescriptorPool {
+    /// A pool for `sets` lens descriptor sets.
+    fn new(gpu: &Gpu, sets: u32) -> Result<DescriptorPool, GpuError> {
+        let pool_sizes = [
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: sets,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: 2 * sets,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLER,
+                descriptor_count: sets,
+            },
+        ];
+        // SAFETY: valid create info; destroyed by Drop.
+        let handle = unsafe {
+            gpu.device().create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(sets)
+                    .pool_sizes(&pool_sizes),
+                None,
+            )
+        }
+        .map_err(|result| GpuError::Vulkan {
+            call: "vkCreateDescriptorPool",
+            result,
+        })?;
+        Ok(DescriptorPool {
+            shared: gpu.shared.clone(),
+            handle,
+            capacity: sets,
+        })
+    }
+
+    /// Frees every set of the pool at once. No submission that uses them may be pending.
+    fn reset(&self) -> Result<(), GpuError> {
+        // SAFETY: the caller waited for the sets' last use (UploadedFrame::last_submission).
         unsafe {
-            let _ = self.shared.device.device_wait_idle();
             self.shared
                 .device
-                .destroy_descriptor_pool(self.descriptor_pool, None);
+                .reset_descriptor_pool(self.handle, vk::DescriptorPoolResetFlags::empty())
         }
+        .map_err(|result| GpuError::Vulkan {
+            call: "vkResetDescriptorPool",
+            result,
+        })
+    }
+}
+
+impl Drop for DescriptorPool {
+    fn drop(&mut self) {
+        // SAFETY: the owning frame waited for its last submission before dropping its fields.
+        unsafe {
+            self.shared
+                .device
+                .destroy_descriptor_pool(self.handle, None)
+        };
     }
 }
 
@@ -141,6 +220,18 @@ pub(super) struct UploadCache {
     generation: u64,
     /// The white 1×1 light map of meshes without one, made on first use.
     white: Option<Arc<Image>>,
+    /// Cube maps whose texels were validated and scanned for emptiness, by the identity of their
+    /// `Arc` (held, so the address stays unique): frames that hand over the same maps are not
+    /// scanned again.
+    checked_cubes: HashMap<usize, CheckedCube>,
+}
+
+/// A validated cube map.
+struct CheckedCube {
+    _cube: Arc<CubeMap>,
+    /// Whether every texel is zero (its pass changes nothing and is not recorded).
+    empty: bool,
+    last_used: u64,
 }
 
 /// One uploaded environment mesh and the mesh it holds (kept so its address stays unique).
@@ -166,16 +257,32 @@ fn vec4_bytes(values: impl IntoIterator<Item = [f32; 4]>) -> Vec<u8> {
 }
 
 impl UploadCache {
-    /// Validates and uploads a frame's data. Layered EMs already uploaded for one of the last two
-    /// frames (the same `Arc<CubeMap>`s) are reused.
+    /// Validates and uploads a frame's data, into `previous` when given (its last submission
+    /// must have completed): its lens buffers, descriptor pool and targets are reused where they
+    /// are large enough. Layered EMs and environment meshes already uploaded for one of the last
+    /// two frames (the same `Arc`s) are reused, and their contents are not validated again.
     pub(super) fn upload(
         &mut self,
         gpu: &Gpu,
         pipelines: &Pipelines,
         frame: &FrameInput,
+        previous: Option<UploadedFrame>,
     ) -> Result<UploadedFrame, RenderError> {
-        frame.validate()?;
+        frame.validate_with(&|address| {
+            self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
+        })?;
         self.generation += 1;
+        let generation = self.generation;
+        for cube in frame.lenses.iter().flat_map(|l| l.layers.iter().flatten()) {
+            self.checked_cubes
+                .entry(Arc::as_ptr(cube) as usize)
+                .and_modify(|checked| checked.last_used = generation)
+                .or_insert_with(|| CheckedCube {
+                    _cube: cube.clone(),
+                    empty: cube.is_all_zero(),
+                    last_used: generation,
+                });
+        }
         let environment = frame
             .environment
             .iter()
@@ -189,52 +296,63 @@ impl UploadCache {
             .map(|l| l.layers.len())
             .sum::<usize>()
             .max(1) as u32;
-        let pool_sizes = [
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: set_count,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 2 * set_count,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLER,
-                descriptor_count: set_count,
-            },
-        ];
-        let device = gpu.device();
-        // SAFETY: valid create info; destroyed by UploadedFrame::drop.
-        let descriptor_pool = unsafe {
-            device.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(set_count)
-                    .pool_sizes(&pool_sizes),
-                None,
-            )
+        let (width, height) = (frame.width, frame.height);
+        let (pool, targets, mut old_lenses) = match previous {
+            Some(mut previous) => {
+                if let Some((timeline, value)) = previous.last_submission.take() {
+                    timeline.wait(value)?;
+                }
+                let pool = previous.pool.take();
+                let targets = std::mem::take(&mut previous.targets);
+                let lenses = std::mem::take(&mut previous.lenses);
+                let same_size = previous.shape.width == width && previous.shape.height == height;
+                (
+                    pool,
+                    if same_size { targets } else { HashMap::new() },
+                    lenses,
+                )
+            }
+            None => (None, HashMap::new(), Vec::new()),
+        };
+        let pool = match pool {
+            Some(pool) if pool.capacity >= set_count => {
+                pool.reset()?;
+                pool
+            }
+            _ => DescriptorPool::new(gpu, set_count)?,
+        };
+        let checked = &self.checked_cubes;
+        let shape = FrameShape::of_with(frame, |cubes| {
+            cubes
+                .iter()
+                .map(|cube| {
+                    checked
+                        .get(&(Arc::as_ptr(cube) as usize))
+                        .is_some_and(|c| c.empty)
+                })
+                .collect()
+        });
+        let mut lenses = Vec::with_capacity(frame.lenses.len());
+        let mut reusable = old_lenses.drain(..).map(Some).collect::<Vec<_>>();
+        for (index, lens) in frame.lenses.iter().enumerate() {
+            let old = reusable.get_mut(index).and_then(Option::take);
+            lenses.push(self.upload_lens(gpu, pipelines, pool.handle, index, lens, old)?);
         }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkCreateDescriptorPool",
-            result,
-        })?;
-        let mut uploaded = UploadedFrame {
-            shape: FrameShape::of(frame),
+        let uploaded = UploadedFrame {
+            shape,
             view_proj: frame.view_proj.to_cols_array_2d(),
             environment,
-            lenses: Vec::new(),
-            descriptor_pool,
-            targets: HashMap::new(),
-            shared: gpu.shared.clone(),
+            lenses,
+            pool: Some(pool),
+            targets,
+            last_submission: None,
         };
-        for (index, lens) in frame.lenses.iter().enumerate() {
-            let gpu_lens = self.upload_lens(gpu, pipelines, descriptor_pool, index, lens)?;
-            uploaded.lenses.push(gpu_lens);
-        }
-        let generation = self.generation;
         self.layer_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
         self.mesh_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
+        self.checked_cubes
+            .retain(|_, checked| checked.last_used + 1 >= generation);
         Ok(uploaded)
     }
 
@@ -292,7 +410,7 @@ impl UploadCache {
         let generation = self.generation;
         self.layer_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
-        write_lens_sets(gpu, pipelines, &gpu_lens.sets, &gpu_lens._data, &images);
+        write_lens_sets(gpu, pipelines, &gpu_lens.sets, &gpu_lens.data, &images);
         gpu_lens.layers = images;
         shape.empty = FrameShape::empty_layers(layers);
         Ok(())
@@ -440,6 +558,8 @@ impl UploadCache {
         Ok(image)
     }
 
+    /// Uploads a lens object's vertex data and indices, into `old`'s buffers where they are
+    /// large enough, and allocates and writes its descriptor sets from `pool`.
     fn upload_lens(
         &mut self,
         gpu: &Gpu,
@@ -447,6 +567,7 @@ impl UploadCache {
         pool: vk::DescriptorPool,
         index: usize,
         lens: &LensObject,
+        old: Option<GpuLens>,
     ) -> Result<GpuLens, GpuError> {
         let vertex_count = lens.positions.len() as u32;
         let mut data: Vec<[f32; 4]> = lens
@@ -464,18 +585,19 @@ impl UploadCache {
                 data.extend(layer.iter().map(|d| d.extend(0.0).to_array()));
             }
         }
-        let name = format!("lens{index} data");
-        let data = Buffer::with_data(gpu, &name, &vec4_bytes(data), BufferUsage::Storage)?;
-        let indices: Vec<u8> = lens
-            .triangles
-            .iter()
-            .flatten()
-            .flat_map(|i| i.to_le_bytes())
-            .collect();
-        let indices = Buffer::with_data(
+        let (old_data, old_indices) = old.map_or((None, None), |o| (Some(o.data), Some(o.indices)));
+        let data = reuse_or_new(
             gpu,
+            old_data,
+            &format!("lens{index} data"),
+            bytemuck::cast_slice(&data),
+            BufferUsage::Storage,
+        )?;
+        let indices = reuse_or_new(
+            gpu,
+            old_indices,
             &format!("lens{index} indices"),
-            &indices,
+            bytemuck::cast_slice(&lens.triangles),
             BufferUsage::Index,
         )?;
 
@@ -500,7 +622,7 @@ impl UploadCache {
         })?;
         write_lens_sets(gpu, pipelines, &sets, &data, &layers);
         Ok(GpuLens {
-            _data: data,
+            data,
             indices,
             index_count: (lens.triangles.len() * 3) as u32,
             vertex_count,
@@ -511,6 +633,27 @@ impl UploadCache {
             sets,
         })
     }
+}
+
+/// `data` in `old` when it is large enough (rewritten in place: the mapped memory is the
+/// buffer), else in a new buffer with a quarter to spare, so that a growing stream of frames
+/// reallocates rarely.
+fn reuse_or_new(
+    gpu: &Gpu,
+    old: Option<Buffer>,
+    name: &str,
+    data: &[u8],
+    usage: BufferUsage,
+) -> Result<Buffer, GpuError> {
+    let mut buffer = match old {
+        Some(buffer) if buffer.size >= data.len() as u64 => buffer,
+        _ => {
+            let size = data.len() as u64;
+            Buffer::new(gpu, name, size + size / 4, usage)?
+        }
+    };
+    buffer.write(0, data, name)?;
+    Ok(buffer)
 }
 
 /// A descriptor pool of one environment set and that set, pointing at `light_map` and the

@@ -1,0 +1,173 @@
+//! A stream of hybrid frames (issue 10): frames in flight, reused uploads, a still camera and
+//! lens objects outside the view change no image. Each frame of a stream is compared bit for bit
+//! (RGBA32F) with the same frame rendered alone by a fresh runner, which builds everything from
+//! scratch: a second, independent path through the same stages.
+
+use lensmap::{
+    hybrid::HybridOptions,
+    layers::projected::ProjectedOptions,
+    render::{TargetFormat, Variant},
+    runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
+    scene::{Camera, Scene},
+};
+use lensmap_tests::{assert_clean, gpu};
+
+/// teapot-room (two lens objects, one open) at 48×36 with 16² projected EMs.
+fn small_teapot_room() -> lensmap::hybrid::HybridScene {
+    let mut scene = Scene::load_named("teapot-room").unwrap();
+    scene.camera.width = 48;
+    scene.camera.height = 36;
+    scene.camera.supersampling = 1;
+    let options = ProjectedOptions {
+        size: 16,
+        supersampling: 1,
+    };
+    load_hybrid_scene(scene, &EmSource::Projected(options))
+        .unwrap()
+        .0
+}
+
+/// The scene camera turned about the vertical through its look-at point by `degrees`.
+fn orbit(camera: &Camera, degrees: f32) -> Camera {
+    let rotation = glam::Quat::from_rotation_y(degrees.to_radians());
+    Camera {
+        position: camera.look_at + rotation * (camera.position - camera.look_at),
+        ..*camera
+    }
+}
+
+fn options(variant: Variant) -> FrameOptions {
+    FrameOptions {
+        hybrid: HybridOptions::with_t(3.0),
+        variant,
+        format: TargetFormat::Rgba32f,
+    }
+}
+
+/// Frames in flight over a moving camera (with a repeated camera in the middle: a still frame)
+/// equal the frames rendered one at a time, each by a fresh runner from a fresh scene cache.
+#[test]
+fn frames_in_flight_equal_frames_rendered_alone() {
+    let hybrid = small_teapot_room();
+    let base = hybrid.scene.camera;
+    let cameras = [
+        orbit(&base, 0.0),
+        orbit(&base, 4.0),
+        orbit(&base, 4.0),
+        orbit(&base, 8.0),
+        orbit(&base, 0.0),
+    ];
+    for variant in [Variant::SinglePass, Variant::Multipass] {
+        let mut stream = FrameRunner::new(gpu()).unwrap();
+        hybrid.forget_frame();
+        let (frames, wall_ms) = stream
+            .frames_in_flight(&hybrid, &cameras, &options(variant))
+            .unwrap();
+        assert_eq!(frames.len(), cameras.len());
+        assert!(wall_ms > 0.0);
+        // The repeated camera is the only reused frame.
+        let reused: Vec<bool> = frames.iter().map(|f| f.stats.reused).collect();
+        assert_eq!(reused, [false, false, true, false, false], "{variant:?}");
+        assert_eq!(frames[2].stats.vertices_traced, 0);
+        assert!(frames[1].stats.vertices_traced > 0);
+        for (i, (frame, camera)) in frames.iter().zip(&cameras).enumerate() {
+            let mut alone = FrameRunner::new(gpu()).unwrap();
+            hybrid.forget_frame();
+            let expected = alone.frame(&hybrid, camera, &options(variant)).unwrap();
+            assert!(!expected.stats.reused);
+            assert!(
+                frame.image == expected.image,
+                "{variant:?}: frame {i} of the stream differs from the frame rendered alone"
+            );
+            assert!(frame.image.pixels.iter().flatten().all(|c| c.is_finite()));
+            assert_clean(alone.gpu());
+        }
+        assert_clean(stream.gpu());
+    }
+}
+
+/// A still camera: the second frame reuses the first's tessellation, texture coordinates and
+/// upload (nothing traced), and its image is the first's, bit for bit.
+#[test]
+fn a_still_camera_renders_the_same_frame_without_cpu_work() {
+    let hybrid = small_teapot_room();
+    let camera = hybrid.scene.camera;
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let first = runner
+        .frame(&hybrid, &camera, &options(Variant::SinglePass))
+        .unwrap();
+    let second = runner
+        .frame(&hybrid, &camera, &options(Variant::SinglePass))
+        .unwrap();
+    assert!(!first.stats.reused && second.stats.reused);
+    assert!(first.stats.vertices_traced > 0);
+    assert_eq!(second.stats.vertices_traced, 0);
+    assert_eq!(second.stats.counters.all_rays(), 0);
+    assert_eq!(second.stats.triangles_out, first.stats.triangles_out);
+    assert!(first.image == second.image);
+    // Other options are another frame.
+    let coarser = FrameOptions {
+        hybrid: HybridOptions::with_t(6.0),
+        ..options(Variant::SinglePass)
+    };
+    let third = runner.frame(&hybrid, &camera, &coarser).unwrap();
+    assert!(!third.stats.reused && third.stats.vertices_traced > 0);
+    assert_clean(runner.gpu());
+}
+
+/// A camera that looks away from every lens object traces and tessellates none of them (the
+/// frustum test itself is checked against sampled points in `hybrid::frame`'s unit tests).
+#[test]
+fn lens_objects_outside_the_view_are_skipped() {
+    let hybrid = small_teapot_room();
+    let base = hybrid.scene.camera;
+    // Look from the scene camera straight away from the lens objects.
+    let away = Camera {
+        look_at: base.position + (base.position - base.look_at),
+        ..base
+    };
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let frame = runner
+        .frame(&hybrid, &away, &options(Variant::SinglePass))
+        .unwrap();
+    assert_eq!(frame.stats.lenses_outside_view, hybrid.trace.lenses.len());
+    assert_eq!(frame.stats.vertices_traced, 0);
+    assert_eq!(frame.stats.triangles_out, 0);
+    // A camera that sees them skips none.
+    let seen = runner
+        .frame(&hybrid, &base, &options(Variant::SinglePass))
+        .unwrap();
+    assert_eq!(seen.stats.lenses_outside_view, 0);
+    assert!(seen.stats.vertices_traced > 0);
+
+    assert_clean(runner.gpu());
+}
+
+/// The frame is the same at every thread count: tessellation, tracing and texture coordinates
+/// run in parallel but gather their results in order.
+#[test]
+fn frames_do_not_depend_on_the_thread_count() {
+    let hybrid = small_teapot_room();
+    let camera = orbit(&hybrid.scene.camera, 2.0);
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let mut render = |threads: usize| {
+        hybrid.forget_frame();
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                runner
+                    .frame(&hybrid, &camera, &options(Variant::SinglePass))
+                    .unwrap()
+            })
+    };
+    let one = render(1);
+    for threads in [2, 5] {
+        let other = render(threads);
+        assert_eq!(one.stats.triangles_out, other.stats.triangles_out);
+        assert_eq!(one.stats.counters, other.stats.counters);
+        assert!(one.image == other.image, "{threads} threads");
+    }
+    assert_clean(runner.gpu());
+}

@@ -159,6 +159,8 @@ pub struct HybridFrame {
     pub upload_ms: f64,
     /// Of which: recording, executing and reading back the frame.
     pub render: FrameTimings,
+    /// Of which: box-filtering the supersampled framebuffer to pixels, ms.
+    pub downsample_ms: f64,
     /// Whole frame, ms.
     pub total_ms: f64,
 }
@@ -168,6 +170,22 @@ impl HybridFrame {
     /// tessellation, ms.
     pub fn other_ms(&self) -> f64 {
         (self.total_ms - self.stats.trace_ms - self.stats.texgen_ms - self.stats.tessellation_ms)
+            .max(0.0)
+    }
+
+    /// What no stage accounts for (waiting, scheduling): the total minus every measured stage,
+    /// ms. Near zero for a frame rendered alone; in a stream it includes waiting for the GPU.
+    pub fn unaccounted_ms(&self) -> f64 {
+        (self.total_ms
+            - self.stats.trace_ms
+            - self.stats.texgen_ms
+            - self.stats.tessellation_ms
+            - self.stats.assemble_ms
+            - self.upload_ms
+            - self.render.record_ms
+            - self.render.execute_ms
+            - self.render.readback_ms
+            - self.downsample_ms)
             .max(0.0)
     }
 }
@@ -415,13 +433,16 @@ impl FrameRunner {
             return Err(RenderError::BadInput("a pending frame lost its upload".into()).into());
         };
         let (image, render) = self.renderer.finish(uploaded, pending.submission)?;
+        let downsample_start = Instant::now();
         let image = image.box_downsample(pending.supersampling);
+        let downsample_ms = downsample_start.elapsed().as_secs_f64() * 1e3;
         Ok(HybridFrame {
             image,
             stats: pending.stats,
             gpu_ms: pending.gpu_start.elapsed().as_secs_f64() * 1e3,
             upload_ms: pending.upload_ms,
             render,
+            downsample_ms,
             total_ms: pending.start.elapsed().as_secs_f64() * 1e3,
         })
     }
@@ -573,9 +594,16 @@ mod tests {
             },
             gpu_ms: 2.5,
             upload_ms: 0.5,
-            render: FrameTimings::default(),
+            render: FrameTimings {
+                record_ms: 0.25,
+                execute_ms: 1.0,
+                readback_ms: 0.5,
+            },
+            downsample_ms: 0.25,
             total_ms: 10.0,
         };
         assert_eq!(frame.other_ms(), 3.0);
+        // Of the other 3 ms, 2.5 are measured stages.
+        assert_eq!(frame.unaccounted_ms(), 0.5);
     }
 }

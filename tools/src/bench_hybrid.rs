@@ -1,5 +1,7 @@
 //! `lensmap bench hybrid`: where a hybrid frame's time goes, per stage, as medians over repeated
-//! frames, single pass vs multipass measured in the same run.
+//! frames, single pass vs multipass measured in the same run; then a still camera against a
+//! moving one, latency against throughput with two frames in flight, and the thread scaling of
+//! the CPU stages (1, 2 and all threads).
 
 use std::path::PathBuf;
 
@@ -10,10 +12,10 @@ use lensmap::{
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{TargetFormat, Variant},
     runner::{
-        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, load_hybrid_scene,
+        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, load_hybrid_scene, median,
         novel_camera,
     },
-    scene::Scene,
+    scene::{Camera, Scene},
 };
 use serde_json::json;
 
@@ -83,17 +85,20 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         rayon::current_num_threads(),
         args.frames
     );
+    let threads = rayon::current_num_threads();
     say!(
-        "{:<12} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9}",
+        "{:<12} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>8} {:>7} {:>7} {:>9}",
         "variant",
         "trace",
         "texgen",
         "tessel.",
+        "assemble",
         "upload",
         "record",
         "execute",
         "readback",
-        "other",
+        "filter",
+        "unacc.",
         "total ms"
     );
     let mut rows = Vec::new();
@@ -109,47 +114,173 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         };
         let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
         let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
-        let trace = stage(&|f| f.stats.trace_ms);
-        let texgen = stage(&|f| f.stats.texgen_ms);
-        let tessellation = stage(&|f| f.stats.tessellation_ms);
-        let upload = stage(&|f| f.upload_ms);
-        let record = stage(&|f| f.render.record_ms);
-        let execute = stage(&|f| f.render.execute_ms);
-        let readback = stage(&|f| f.render.readback_ms);
-        let other = stage(&|f| f.other_ms());
-        let total = stage(&|f| f.total_ms);
+        let row = StageMedians {
+            trace: stage(&|f| f.stats.trace_ms),
+            texgen: stage(&|f| f.stats.texgen_ms),
+            tessellation: stage(&|f| f.stats.tessellation_ms),
+            assemble: stage(&|f| f.stats.assemble_ms),
+            upload: stage(&|f| f.upload_ms),
+            record: stage(&|f| f.render.record_ms),
+            execute: stage(&|f| f.render.execute_ms),
+            readback: stage(&|f| f.render.readback_ms),
+            downsample: stage(&|f| f.downsample_ms),
+            unaccounted: stage(&|f| f.unaccounted_ms()),
+            total: stage(&|f| f.total_ms),
+        };
         say!(
-            "{:<12} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1}",
+            "{:<12} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>7.1} {:>7.1} {:>8.1} {:>8.1} {:>7.1} {:>7.1} {:>9.1}",
             variant.name(),
-            trace,
-            texgen,
-            tessellation,
-            upload,
-            record,
-            execute,
-            readback,
-            other,
-            total
+            row.trace,
+            row.texgen,
+            row.tessellation,
+            row.assemble,
+            row.upload,
+            row.record,
+            row.execute,
+            row.readback,
+            row.downsample,
+            row.unaccounted,
+            row.total
         );
         let last = frames.last();
         rows.push(json!({
             "variant": variant.name(),
-            "median_ms": {
-                "ray_tracing_at_vertices": trace, "texture_coordinates": texgen, "tessellation": tessellation,
-                "upload": upload, "record": record, "execute": execute, "readback": readback,
-                "other": other, "total": total,
-            },
+            "median_ms": row.to_json(),
             "rays": last.stats.counters.all_rays(),
             "triangle_tests": last.stats.counters.triangle_tests,
             "lens_triangles_out": last.stats.triangles_out,
+            "vertices_traced": last.stats.vertices_traced,
         }));
     }
+
+    // The rest is single pass, the runtime's default.
+    let options = FrameOptions {
+        hybrid: hybrid_options,
+        variant: Variant::SinglePass,
+        format,
+    };
+    let timed = args.frames.max(1);
+
+    // A still camera: every frame after the first reuses its tessellation, texture coordinates
+    // and upload.
+    let mut first = Vec::new();
+    let mut still = Vec::new();
+    for _ in 0..timed {
+        hybrid.forget_frame();
+        first.push(runner.frame(&hybrid, &camera, &options)?.total_ms);
+        let again = runner.frame(&hybrid, &camera, &options)?;
+        if !again.stats.reused {
+            anyhow::bail!("a still camera's second frame was not reused");
+        }
+        still.push(again.total_ms);
+    }
+    let (first_ms, still_ms) = (median(&mut first), median(&mut still));
+    say!(
+        "still camera: first frame {first_ms:.1} ms, each next frame {still_ms:.1} ms ({:.0}% of the first)",
+        100.0 * still_ms / first_ms
+    );
+
+    // A moving camera (a 0.5° step per frame around the look-at point): latency of frames
+    // rendered one at a time, and throughput with two frames in flight.
+    let path: Vec<Camera> = (0..timed + 2)
+        .map(|i| orbit(&camera, 0.5 * i as f32))
+        .collect();
+    runner.frames_in_flight(&hybrid, &path[..2], &options)?;
+    let one_at_a_time = std::time::Instant::now();
+    let mut latencies = Vec::new();
+    for camera in &path[2..] {
+        latencies.push(runner.frame(&hybrid, camera, &options)?.total_ms);
+    }
+    let sequential_ms = one_at_a_time.elapsed().as_secs_f64() * 1e3;
+    let (_, in_flight_ms) = runner.frames_in_flight(&hybrid, &path[2..], &options)?;
+    let latency_ms = median(&mut latencies);
+    let fps = |wall_ms: f64| timed as f64 / (wall_ms / 1e3);
+    say!(
+        "moving camera, {timed} frames: latency {latency_ms:.1} ms (median); throughput {:.1} fps one at a time, {:.1} fps with two frames in flight ({:.2}×)",
+        fps(sequential_ms),
+        fps(in_flight_ms),
+        sequential_ms / in_flight_ms
+    );
+
+    // Thread scaling of the CPU stages (tracing, tessellation, texture coordinates, assembly).
+    let mut counts = vec![1, 2, threads];
+    counts.dedup();
+    counts.retain(|&n| n <= threads.max(2));
+    let mut scaling = Vec::new();
+    for &count in &counts {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(count).build()?;
+        let repetitions = Repetitions {
+            warmup: 1,
+            timed: args.frames,
+        };
+        let frames =
+            pool.install(|| runner.timed_frames(&hybrid, &camera, &options, repetitions))?;
+        let cpu = frames.median(|f| {
+            f.stats.trace_ms + f.stats.tessellation_ms + f.stats.texgen_ms + f.stats.assemble_ms
+        });
+        let tessellation = frames.median(|f| f.stats.tessellation_ms);
+        let total = frames.median(|f| f.total_ms);
+        scaling.push((count, cpu, tessellation, total));
+    }
+    let (_, cpu_1, tessellation_1, _) = scaling[0];
+    for &(count, cpu, tessellation, total) in &scaling {
+        say!(
+            "{count:>2} threads: CPU stages {cpu:.1} ms ({:.2}× of 1 thread), tessellation {tessellation:.1} ms ({:.2}×), frame {total:.1} ms",
+            cpu_1 / cpu,
+            tessellation_1 / tessellation
+        );
+    }
+
     let out = json!({
         "device": runner.gpu().device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
         "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
-        "threads": rayon::current_num_threads(), "frames": args.frames.max(1), "rows": rows,
+        "threads": threads, "frames": timed, "rows": rows,
+        "still_camera": { "first_ms": first_ms, "next_ms": still_ms, "ratio": still_ms / first_ms },
+        "moving_camera": {
+            "latency_ms": latency_ms, "fps_one_at_a_time": fps(sequential_ms),
+            "fps_in_flight": fps(in_flight_ms), "frames_in_flight": lensmap::render::FRAMES_IN_FLIGHT,
+        },
+        "thread_scaling": scaling.iter().map(|&(threads, cpu, tessellation, total)| json!({
+            "threads": threads, "cpu_stages_ms": cpu, "tessellation_ms": tessellation, "frame_ms": total,
+            "cpu_speedup": cpu_1 / cpu, "tessellation_speedup": tessellation_1 / tessellation,
+        })).collect::<Vec<_>>(),
     });
     write_json(&args.json, &out)?;
     say!("wrote {}", args.json.display());
     Ok(())
+}
+
+/// Median stage times of one setting, ms.
+struct StageMedians {
+    trace: f64,
+    texgen: f64,
+    tessellation: f64,
+    assemble: f64,
+    upload: f64,
+    record: f64,
+    execute: f64,
+    readback: f64,
+    downsample: f64,
+    unaccounted: f64,
+    total: f64,
+}
+
+impl StageMedians {
+    fn to_json(&self) -> serde_json::Value {
+        json!({
+            "ray_tracing_at_vertices": self.trace, "texture_coordinates": self.texgen,
+            "tessellation": self.tessellation, "assemble": self.assemble, "upload": self.upload,
+            "record": self.record, "execute": self.execute, "readback": self.readback,
+            "downsample": self.downsample, "unaccounted": self.unaccounted, "total": self.total,
+        })
+    }
+}
+
+/// `camera` turned about the vertical through its look-at point by `degrees`.
+fn orbit(camera: &Camera, degrees: f32) -> Camera {
+    let rotation = glam::Quat::from_rotation_y(degrees.to_radians());
+    Camera {
+        position: camera.look_at + rotation * (camera.position - camera.look_at),
+        ..*camera
+    }
 }

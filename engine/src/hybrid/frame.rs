@@ -217,6 +217,9 @@ pub struct HybridStats {
     pub tessellation_ms: f64,
     /// Texture coordinate generation, ms.
     pub texgen_ms: f64,
+    /// The rest of building the frame on the CPU (far plane, sky dome, viewpoint blend, the
+    /// frustum test, gathering the lens meshes), ms.
+    pub assemble_ms: f64,
     /// Rays and triangle tests of the vertex tracing.
     pub counters: TraceCounters,
     /// Lens triangles before and after tessellation.
@@ -541,6 +544,7 @@ impl HybridScene {
                 trace_ms: 0.0,
                 tessellation_ms: 0.0,
                 texgen_ms: 0.0,
+                assemble_ms: 0.0,
                 counters: TraceCounters::default(),
                 vertices_traced: 0,
                 ..cached.stats
@@ -584,6 +588,7 @@ impl HybridScene {
         options: &HybridOptions,
         vertex_exact: bool,
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
+        let start = Instant::now();
         let k = camera.supersampling.max(1);
         let (width, height) = (camera.width * k, camera.height * k);
         // The far plane just past the farthest scene point, so nothing the reference sees is
@@ -651,9 +656,10 @@ impl HybridScene {
                         .is_some_and(|bounds| box_outside_view(bounds, &view_proj))
                 })
                 .collect();
+            // A lens object wholly outside the view keeps its (empty) place in the frame, so
+            // that frame lens i is still trace lens i; an empty lens object records no pass.
             if visible_objects.is_empty() {
                 stats.lenses_outside_view += 1;
-                continue;
             }
             for &object in &visible_objects {
                 let mesh = &self.scene.objects[object].mesh;
@@ -733,6 +739,11 @@ impl HybridScene {
             lenses,
             viewpoint_weights: blend.samples.iter().map(|(_, w)| *w as f32).collect(),
         };
+        stats.assemble_ms = (start.elapsed().as_secs_f64() * 1e3
+            - stats.trace_ms
+            - stats.tessellation_ms
+            - stats.texgen_ms)
+            .max(0.0);
         Ok((frame, stats))
     }
 }

@@ -171,3 +171,38 @@ fn frames_do_not_depend_on_the_thread_count() {
     }
     assert_clean(runner.gpu());
 }
+
+/// Footprint coarsening: off by default; on, a lens object far from the camera (few subpixels
+/// on screen) gets a coarser t, fewer triangles and the count in the stats; a negative footprint
+/// is refused.
+#[test]
+fn small_footprints_get_a_coarser_t_only_when_asked() {
+    let hybrid = small_teapot_room();
+    let base = hybrid.scene.camera;
+    // Farther away: the lens objects cover part of the 48×36 frame, all below 1000 subpixels.
+    let far = Camera {
+        position: base.look_at + 1.5 * (base.position - base.look_at),
+        ..base
+    };
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let exact = runner
+        .frame(&hybrid, &far, &options(Variant::SinglePass))
+        .unwrap();
+    assert_eq!(exact.stats.lenses_coarsened, 0);
+    let coarse_options = FrameOptions {
+        hybrid: HybridOptions::with_t(3.0).with_footprint(1000.0),
+        ..options(Variant::SinglePass)
+    };
+    let coarse = runner.frame(&hybrid, &far, &coarse_options).unwrap();
+    assert!(coarse.stats.lenses_coarsened > 0, "{:?}", coarse.stats);
+    assert!(
+        coarse.stats.vertices_traced < exact.stats.vertices_traced,
+        "{} vs {}",
+        coarse.stats.vertices_traced,
+        exact.stats.vertices_traced
+    );
+    assert!(coarse.image.pixels.iter().flatten().all(|c| c.is_finite()));
+    let negative = HybridOptions::with_t(3.0).with_footprint(-1.0);
+    assert!(negative.validate().is_err());
+    assert_clean(runner.gpu());
+}

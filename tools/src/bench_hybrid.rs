@@ -38,6 +38,10 @@ pub struct BenchHybridArgs {
     /// Tessellation threshold in subpixels.
     #[arg(long, default_value_t = DEFAULT_T)]
     t: f32,
+    /// Footprint coarsening below this many subpixels (0: off, the default, so that frames are
+    /// the exact ones).
+    #[arg(long, default_value_t = 0.0)]
+    footprint: f32,
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba16f")]
     format: FormatArg,
@@ -53,7 +57,7 @@ pub struct BenchHybridArgs {
 }
 
 pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
-    let hybrid_options = HybridOptions::with_t(args.t);
+    let hybrid_options = HybridOptions::with_t(args.t).with_footprint(args.footprint);
     hybrid_options.validate().map_err(flag_error)?;
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;

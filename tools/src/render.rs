@@ -53,6 +53,10 @@ pub struct RenderArgs {
     /// Outgoing rays further apart than this many degrees split a triangle.
     #[arg(long, default_value_t = DEFAULT_ANGLE_DEGREES)]
     pub angle_degrees: f64,
+    /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
+    /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
+    #[arg(long, default_value_t = 0.0)]
+    pub footprint: f32,
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -99,7 +103,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = FrameOptions {
-        hybrid: HybridOptions::with_t_and_angle(args.t, args.angle_degrees),
+        hybrid: HybridOptions::with_t_and_angle(args.t, args.angle_degrees)
+            .with_footprint(args.footprint),
         variant: Variant::from(args.variant),
         format: TargetFormat::from(args.format),
     };

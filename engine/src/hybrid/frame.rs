@@ -161,6 +161,11 @@ pub struct HybridOptions {
     /// Outgoing rays further apart than this (radians) make vertices differ (paper: 3°); in
     /// (0, π).
     pub angle_radians: f64,
+    /// Footprint coarsening, in subpixels; 0 (the default) turns it off. A lens object whose
+    /// screen footprint (the longer side of its projected bounding box) spans fewer subpixels
+    /// than this is tessellated with `t × footprint / extent` (at most 8 t): a distant or tiny
+    /// object gets proportionally fewer vertices. Changes the image where it applies.
+    pub footprint_subpixels: f32,
 }
 
 impl Default for HybridOptions {
@@ -168,9 +173,13 @@ impl Default for HybridOptions {
         HybridOptions {
             tessellation: TessellationOptions::default(),
             angle_radians: DEFAULT_ANGLE_DEGREES.to_radians(),
+            footprint_subpixels: 0.0,
         }
     }
 }
+
+/// The most footprint coarsening multiplies `t` by.
+pub const MAX_FOOTPRINT_COARSENING: f32 = 8.0;
 
 impl HybridOptions {
     /// The defaults with tessellation threshold `t` (subpixels).
@@ -192,9 +201,24 @@ impl HybridOptions {
         }
     }
 
-    /// Checks every option: `t` ([`TessellationOptions::validate`]) and the angle in (0°, 180°).
+    /// These options with footprint coarsening below `subpixels` (0: off).
+    pub fn with_footprint(self, subpixels: f32) -> HybridOptions {
+        HybridOptions {
+            footprint_subpixels: subpixels,
+            ..self
+        }
+    }
+
+    /// Checks every option: `t` ([`TessellationOptions::validate`]), the footprint (finite,
+    /// ≥ 0) and the angle in (0°, 180°).
     pub fn validate(&self) -> Result<(), OptionError> {
         self.tessellation.validate()?;
+        OptionError::require(
+            self.footprint_subpixels.is_finite() && self.footprint_subpixels >= 0.0,
+            "footprint",
+            self.footprint_subpixels,
+            "give a number of subpixels ≥ 0 (0 turns footprint coarsening off), e.g. 64",
+        )?;
         // The check is on the radians the oracle uses (an angle that underflows to 0 is out);
         // the message shows degrees as the user wrote them, at f32 precision so that the trip
         // through radians does not show (`-3`, not `-3.0000000000000004`).
@@ -231,6 +255,9 @@ pub struct HybridStats {
     /// Lens objects skipped because their bounds lie wholly outside the view frustum: neither
     /// traced nor tessellated nor drawn.
     pub lenses_outside_view: usize,
+    /// Lens objects tessellated with a coarser `t` because their screen footprint is smaller
+    /// than [`HybridOptions::footprint_subpixels`].
+    pub lenses_coarsened: usize,
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
     pub reused: bool,
@@ -582,6 +609,49 @@ impl HybridScene {
         self.build_frame(camera, options, true)
     }
 
+    /// The tessellation options of a lens object made of `objects`: `t` scaled up by footprint
+    /// coarsening where its projected bounds span fewer than `footprint_subpixels` (never when
+    /// a corner of its bounds is behind the eye: the footprint is then unknown).
+    fn coarsened(
+        &self,
+        objects: &[usize],
+        options: &HybridOptions,
+        view_proj: &glam::Mat4,
+        subpixels: Vec2,
+    ) -> TessellationOptions {
+        let mut tessellation = options.tessellation;
+        if options.footprint_subpixels <= 0.0 || objects.is_empty() {
+            return tessellation;
+        }
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        for &object in objects {
+            let Some((a, b)) = self.scene.objects[object].mesh.bounds() else {
+                continue;
+            };
+            for i in 0..8 {
+                let corner = Vec3::new(
+                    [a.x, b.x][i & 1],
+                    [a.y, b.y][(i >> 1) & 1],
+                    [a.z, b.z][i >> 2],
+                );
+                let clip = *view_proj * corner.extend(1.0);
+                if !(clip.w > 1e-6) {
+                    return tessellation;
+                }
+                let p = (Vec2::new(clip.x, clip.y) / clip.w + Vec2::ONE) * 0.5 * subpixels;
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        let extent = (hi - lo).max_element();
+        if extent.is_finite() && extent < options.footprint_subpixels {
+            let scale =
+                (options.footprint_subpixels / extent.max(1e-3)).min(MAX_FOOTPRINT_COARSENING);
+            tessellation.t *= scale;
+        }
+        tessellation
+    }
+
     fn build_frame(
         &self,
         camera: &Camera,
@@ -661,6 +731,11 @@ impl HybridScene {
             if visible_objects.is_empty() {
                 stats.lenses_outside_view += 1;
             }
+            let tessellation_options =
+                self.coarsened(&visible_objects, options, &view_proj, screen.subpixels);
+            if tessellation_options.t != options.tessellation.t {
+                stats.lenses_coarsened += 1;
+            }
             for &object in &visible_objects {
                 let mesh = &self.scene.objects[object].mesh;
                 let oracle = PathOracle::new(
@@ -672,7 +747,7 @@ impl HybridScene {
                     faces,
                 );
                 let start = Instant::now();
-                let tessellation = tessellate(mesh, &oracle, &options.tessellation)?;
+                let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
                 let elapsed = start.elapsed().as_secs_f64() * 1e3;
                 let counters = oracle.counters();
                 // The oracle's batches run inside tessellate(); their share is ray tracing.

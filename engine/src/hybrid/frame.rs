@@ -635,7 +635,7 @@ impl HybridScene {
                     [a.z, b.z][i >> 2],
                 );
                 let clip = *view_proj * corner.extend(1.0);
-                if !(clip.w > 1e-6) {
+                if clip.w.is_nan() || clip.w <= 1e-6 {
                     return tessellation;
                 }
                 let p = (Vec2::new(clip.x, clip.y) / clip.w + Vec2::ONE) * 0.5 * subpixels;

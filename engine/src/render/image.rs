@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::TargetFormat;
 use crate::{
@@ -33,7 +34,10 @@ impl RenderedImage {
         }
         let (width, height) = (self.width / k, self.height / k);
         let scale = 1.0 / (k * k) as f32;
+        // Every output pixel is independent: in parallel, in order (the same sums in the same
+        // order as one thread, so the result does not depend on the thread count).
         let pixels = (0..width * height)
+            .into_par_iter()
             .map(|i| {
                 let (x, y) = (i % width, i / width);
                 let mut sum = [0.0f32; 4];
@@ -121,19 +125,13 @@ impl RenderedImage {
 pub(super) fn decode(bytes: &[u8], format: TargetFormat, pixels: usize) -> Vec<[f32; 4]> {
     match format {
         TargetFormat::Rgba8 => bytes
-            .chunks_exact(4)
+            .par_chunks_exact(4)
             .take(pixels)
             .map(|c| [0, 1, 2, 3].map(|i| f32::from(c[i]) / 255.0))
             .collect(),
-        TargetFormat::Rgba16f => bytes
-            .chunks_exact(8)
-            .take(pixels)
-            .map(|c| {
-                [0, 1, 2, 3].map(|i| half::f16::from_le_bytes([c[2 * i], c[2 * i + 1]]).to_f32())
-            })
-            .collect(),
+        TargetFormat::Rgba16f => decode_half(&bytes[..(8 * pixels).min(bytes.len())]),
         TargetFormat::Rgba32f => bytes
-            .chunks_exact(16)
+            .par_chunks_exact(16)
             .take(pixels)
             .map(|c| {
                 [0, 1, 2, 3].map(|i| {
@@ -141,5 +139,73 @@ pub(super) fn decode(bytes: &[u8], format: TargetFormat, pixels: usize) -> Vec<[
                 })
             })
             .collect(),
+    }
+}
+
+/// RGBA16F texels to f32 RGBA, in parallel chunks through half's slice conversion (which uses the
+/// CPU's F16C instructions where it has them: a scalar conversion of every value cost ~20 ms for a
+/// 1920×1440 frame).
+fn decode_half(bytes: &[u8]) -> Vec<[f32; 4]> {
+    use half::slice::{HalfBitsSliceExt, HalfFloatSliceExt};
+    /// Pixels per parallel task.
+    const CHUNK: usize = 16384;
+    let scalar = |c: &[u8]| {
+        [0, 1, 2, 3].map(|i| half::f16::from_le_bytes([c[2 * i], c[2 * i + 1]]).to_f32())
+    };
+    // The mapped buffer is aligned far beyond 2 bytes and little-endian on every host Vulkan
+    // runs on here; anything else takes the scalar path.
+    let Ok(bits) = bytemuck::try_cast_slice::<u8, u16>(bytes) else {
+        return bytes.par_chunks_exact(8).map(scalar).collect();
+    };
+    if cfg!(target_endian = "big") {
+        return bytes.par_chunks_exact(8).map(scalar).collect();
+    }
+    let mut pixels = vec![[0.0f32; 4]; bits.len() / 4];
+    pixels
+        .par_chunks_mut(CHUNK)
+        .zip(bits.par_chunks(4 * CHUNK))
+        .for_each(|(out, bits)| {
+            let out: &mut [f32] = bytemuck::cast_slice_mut(out);
+            bits[..out.len()]
+                .reinterpret_cast::<half::f16>()
+                .convert_to_f32_slice(out);
+        });
+    pixels
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The chunked F16C-capable conversion equals the scalar one bit for bit on random texels
+    /// (every finite half, infinities included; NaNs excluded, whose payloads may be quieted),
+    /// over a length that is not a multiple of the chunk.
+    #[test]
+    fn half_decoding_matches_the_scalar_conversion() {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(16);
+        let pixels = 40_000 + 3;
+        let bytes: Vec<u8> = (0..4 * pixels)
+            .flat_map(|_| {
+                loop {
+                    let h = half::f16::from_bits(rng.r#gen::<u16>());
+                    if !h.is_nan() {
+                        break h.to_le_bytes();
+                    }
+                }
+            })
+            .collect();
+        let fast = decode(&bytes, TargetFormat::Rgba16f, pixels);
+        assert_eq!(fast.len(), pixels);
+        for (i, (pixel, c)) in fast.iter().zip(bytes.chunks_exact(8)).enumerate() {
+            for k in 0..4 {
+                let scalar = half::f16::from_le_bytes([c[2 * k], c[2 * k + 1]]).to_f32();
+                assert_eq!(
+                    pixel[k].to_bits(),
+                    scalar.to_bits(),
+                    "pixel {i} channel {k}"
+                );
+            }
+        }
     }
 }

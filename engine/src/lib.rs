@@ -10,6 +10,7 @@
 //! projected EMs, the bake format); [`hybrid`] (per-frame vertex tracing, tessellation, texgen);
 //! and on top [`runner`], the frame runner the command line, the tests and hosts call.
 
+pub mod atomic;
 pub mod cubemap;
 pub mod gpu;
 pub mod graph;

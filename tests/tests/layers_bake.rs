@@ -459,7 +459,11 @@ mod layers_bake {
         let path = dir.join(MANIFEST_FILE_NAME);
         let good = fs::read_to_string(&path).unwrap();
         type Edit = fn(&mut Manifest);
-        let cases: [(&str, Edit); 7] = [
+        let cases: [(&str, Edit); 8] = [
+            // Finite but absurd: f32 texture directions would lose all precision.
+            ("lenses[0].em_origin", |m| {
+                m.lenses[0].em_origin = DVec3::new(1e300, 0.0, 0.0)
+            }),
             ("lenses[1].layers[0].shell.radius", |m| {
                 m.lenses[1].layers[0].shell = LayerShell::Sphere {
                     centre: DVec3::ZERO,

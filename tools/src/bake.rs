@@ -59,13 +59,13 @@ pub struct BakeArgs {
     #[arg(long, default_value_t = 3)]
     supersampling: u32,
     /// Tessellation threshold t of the frames the EMs are fitted through, subpixels.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     t: f32,
     /// Confidence threshold θc, degrees.
-    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES)]
+    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES, allow_negative_numbers = true)]
     confidence_degrees: f64,
     /// The solver stops at this relative residual of the normal equations.
-    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance)]
+    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true)]
     tolerance: f64,
     /// Direct images from the EM origin for the texels no lens view constrains.
     #[arg(long, value_enum, default_value = "off")]

@@ -44,7 +44,7 @@ pub struct BenchBakeArgs {
     #[command(flatten)]
     judge: JudgeArgs,
     /// Tessellation threshold t, subpixels.
-    #[arg(long, default_value_t = 3.0)]
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     t: f32,
     /// Projected EMs' face size (the baseline).
     #[arg(long, default_value_t = 128)]

@@ -36,11 +36,11 @@ pub struct BenchHybridArgs {
     #[arg(long, default_value_t = 1)]
     supersampling: u32,
     /// Tessellation threshold in subpixels.
-    #[arg(long, default_value_t = DEFAULT_T)]
+    #[arg(long, default_value_t = DEFAULT_T, allow_negative_numbers = true)]
     t: f32,
     /// Footprint coarsening below this many subpixels (0: off, the default, so that frames are
     /// the exact ones).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     footprint: f32,
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba16f")]
@@ -68,10 +68,17 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
+    if args.supersampling == 0 || args.frames == 0 {
+        return Err(BadUsage(format!(
+            "--supersampling {} --frames {}: give at least 1 of each",
+            args.supersampling, args.frames
+        ))
+        .into());
+    }
     let mut scene = Scene::load_named(&args.scene)?;
     scene.camera.width = args.width;
     scene.camera.height = args.height;
-    scene.camera.supersampling = args.supersampling.max(1);
+    scene.camera.supersampling = args.supersampling;
     let camera = novel_camera(&scene);
     let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
@@ -163,7 +170,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         variant: Variant::SinglePass,
         format,
     };
-    let timed = args.frames.max(1);
+    let timed = args.frames;
 
     // A still camera: every frame after the first reuses its tessellation, texture coordinates
     // and upload.

@@ -40,16 +40,16 @@ pub struct BenchInferArgs {
     #[arg(long, default_value_t = 128)]
     em_size: u32,
     /// Confidence threshold θ_c in degrees (paper: 5).
-    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES)]
+    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES, allow_negative_numbers = true)]
     confidence_degrees: f64,
     /// The solver's iterative method.
     #[arg(long, value_enum, default_value = "cg")]
     solver: SolverArg,
     /// Relative smoothness weight of the solve.
-    #[arg(long, default_value_t = lensmap_baker::solve::DEFAULT_SMOOTHNESS)]
+    #[arg(long, default_value_t = lensmap_baker::solve::DEFAULT_SMOOTHNESS, allow_negative_numbers = true)]
     smoothness: f64,
     /// CG stops at this relative residual.
-    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance)]
+    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true)]
     tolerance: f64,
     /// Inference runs; the median time is reported.
     #[arg(long, default_value_t = 3)]
@@ -85,7 +85,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();
-    println!(
+    say!(
         "{}: {}×{}, targets {k}×{k}, reference {r}×{r}, device {device}",
         args.scene,
         args.judge.width,
@@ -96,7 +96,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let trace_options = TraceOptions::default();
     let start = Instant::now();
     let reference = render_reference(&hybrid.trace, &reference_camera, &trace_options, &|_| {})?;
-    println!("reference traced in {:.1} s", start.elapsed().as_secs_f64());
+    say!("reference traced in {:.1} s", start.elapsed().as_secs_f64());
     let frame_options = FrameOptions {
         hybrid: HybridOptions::default(),
         variant: Variant::SinglePass,
@@ -145,7 +145,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         }
         let Some(inference) = last else { continue };
         let total_ms = median(&mut times);
-        println!(
+        say!(
             "lens \"{name}\": EM {s}² (finest level read at {cap}²: {:?}; {} search renders), inference median {:.1} s of {} runs (frame {:.0} ms)",
             inference.finest_level_at_cap,
             inference.search_renders,
@@ -156,7 +156,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
             cap = args.max_em_size,
         );
         for layer in &inference.layers {
-            println!(
+            say!(
                 "  layer {}: {} test renders, non-zeros {:?}, matrices {:.0} ms, targets {:.0} ms, solve {:.0} ms ({} iterations, residual {:.1e}, {} seen texels, {} pinned to range)",
                 layer.layer,
                 layer.renders,
@@ -186,7 +186,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         hybrid.lenses[lens].maps = vec![maps.into_iter().map(Arc::new).collect()];
     }
     let (inferred_srgb, inferred_linear) = judge(&mut runner, &hybrid)?;
-    println!(
+    say!(
         "lens PSNR vs the {r}×{r} reference: projected {projected_srgb:.2} dB sRGB / {projected_linear:.2} dB linear; inferred {inferred_srgb:.2} dB sRGB / {inferred_linear:.2} dB linear ({:+.2} / {:+.2} dB); records {:.1} s",
         inferred_srgb - projected_srgb,
         inferred_linear - projected_linear,

@@ -57,17 +57,39 @@ fn figure(value: Option<f64>) -> String {
 }
 
 pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
+    let most = lensmap::render::SinglePassProgram::MAX_LAYERS;
+    if !(1..=most).contains(&args.max_layers) {
+        return Err(crate::common::BadUsage(format!(
+            "--max-layers {}: give 1 to {most} (the single pass it is compared with composites at most {most})",
+            args.max_layers
+        ))
+        .into());
+    }
+    if args.frames == 0 || args.width == 0 || args.height == 0 {
+        return Err(crate::common::BadUsage(format!(
+            "--frames {} --width {} --height {}: give at least one frame of at least 1×1 pixels",
+            args.frames, args.width, args.height
+        ))
+        .into());
+    }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    println!(
+    say!(
         "device: {}  ({}×{}, {} timed frames per row, median)",
         runner.gpu().device_name(),
         args.width,
         args.height,
         args.frames
     );
-    println!(
+    say!(
         "{:>2}  {:<12} {:<8} {:>11} {:>11} {:>8}  {:>12} {:>12}",
-        "n", "variant", "format", "frame ms", "execute ms", "passes", "RMS vs f32", "max vs f32"
+        "n",
+        "variant",
+        "format",
+        "frame ms",
+        "execute ms",
+        "passes",
+        "RMS vs f32",
+        "max vs f32"
     );
     let mut rows = Vec::new();
     for layers in 1..=args.max_layers.max(1) {
@@ -104,7 +126,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             for (format, image, frame_ms, execute_ms, passes) in &results {
                 let error = error(image, &reference, &mask);
                 let (rms, max) = (error.map(|e| e.rmse), error.map(|e| e.max_abs));
-                println!(
+                say!(
                     "{:>2}  {:<12} {:<8} {:>11.2} {:>11.2} {:>8}  {:>12} {:>12}",
                     layers,
                     variant.name(),
@@ -124,7 +146,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             by_variant.push(reference);
         }
         let difference = by_variant[0].max_abs_difference(&by_variant[1])?;
-        println!(
+        say!(
             "    n = {layers}: single-pass vs multipass in rgba32f, max |difference| {difference:.3e}"
         );
         rows.push(json!({"layers": layers, "single_pass_vs_multipass_rgba32f_max": difference}));
@@ -134,6 +156,6 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         "frames": args.frames, "rows": rows,
     });
     write_json(&args.json, &out)?;
-    println!("wrote {}", args.json.display());
+    say!("wrote {}", args.json.display());
     Ok(())
 }

@@ -13,12 +13,31 @@ use lensmap::render::{TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
 use lensmap::trace::image::validate_camera;
 
-/// Prints a line on stdout; a closed stdout (`lensmap … | head`) ends the output, not the work.
+/// Prints a line on stdout. A closed stdout (`lensmap … | head -1`) ends the program quietly with
+/// [`CLOSED_PIPE_EXIT`], as a Unix tool that SIGPIPE ends would: with no reader the work has no
+/// point (bakes are staged and swapped in atomically, so nothing is lost).
 macro_rules! say {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
+    () => {{
+        $crate::common::say_line(format_args!(""));
     }};
+    ($($arg:tt)*) => {{
+        $crate::common::say_line(format_args!($($arg)*));
+    }};
+}
+
+/// The exit status after stdout was closed: 128 + SIGPIPE, what a shell reports for a program
+/// that SIGPIPE ended.
+pub const CLOSED_PIPE_EXIT: i32 = 128 + 13;
+
+/// Writes one line to stdout (see `say!`); exits with [`CLOSED_PIPE_EXIT`] when the reader has
+/// gone, and ignores other write errors (a full disk behind a redirect does not stop the work).
+pub fn say_line(line: std::fmt::Arguments) {
+    use std::io::Write as _;
+    if let Err(error) = writeln!(std::io::stdout().lock(), "{line}")
+        && error.kind() == std::io::ErrorKind::BrokenPipe
+    {
+        std::process::exit(CLOSED_PIPE_EXIT);
+    }
 }
 
 /// A usage error the parser cannot catch (exit code 2).
@@ -84,7 +103,8 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<
     }
     let mut json = serde_json::to_string_pretty(value)?;
     json.push('\n');
-    std::fs::write(path, json).with_context(|| format!("writing {}", path.display()))
+    lensmap::atomic::write_atomically(path, json.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// The frames a benchmark judges and the independent reference it judges them against (`bench
@@ -241,4 +261,40 @@ pub fn progress_bar(rows: u64) -> ProgressBar {
     }
     bar.set_message("ray tracing");
     bar
+}
+
+/// Where an image command writes: a PNG (sRGB) and an EXR (linear) of the same stem.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageOut {
+    /// The PNG.
+    pub png: PathBuf,
+    /// The EXR beside it.
+    pub exr: PathBuf,
+}
+
+impl ImageOut {
+    /// Reads `--out PATH`: a `.png` or `.exr` path names both files (the other extension beside
+    /// it); an existing folder, or a path without an extension (a folder, created), gets
+    /// `DEFAULT_STEM.png` and `.exr` inside. Any other extension is a usage error: the command
+    /// writes only those two formats, and says so before doing any work.
+    pub fn parse(path: &Path, default_stem: &str) -> Result<ImageOut, BadUsage> {
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let stem = match extension.as_deref() {
+            _ if path.is_dir() => path.join(default_stem),
+            None => path.join(default_stem),
+            Some("png" | "exr") => path.to_path_buf(),
+            Some(other) => {
+                return Err(BadUsage(format!(
+                    "--out {}: .{other} is not written; give a .png or .exr path (both are written) or a folder",
+                    path.display()
+                )));
+            }
+        };
+        Ok(ImageOut {
+            png: stem.with_extension("png"),
+            exr: stem.with_extension("exr"),
+        })
+    }
 }

@@ -143,7 +143,18 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Usage errors in one line (clap's own message, without the usage block), exit code 2;
+    // --help and --version print as clap prints them.
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(error) if !error.use_stderr() => error.exit(),
+        Err(error) => {
+            let rendered = error.to_string();
+            let line = rendered.lines().next().unwrap_or("error: bad usage");
+            eprintln!("{line} (see --help)");
+            return ExitCode::from(2);
+        }
+    };
     let result = match cli.command {
         Command::Demo(args) => demo::run(args),
         Command::Passes(args) => passes::run(args),

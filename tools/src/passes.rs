@@ -37,6 +37,14 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     } else {
         &[Term::Reflection]
     };
+    if !(1..=FrameShape::MAX_EXPERIMENT_LAYERS).contains(&args.layers) {
+        return Err(BadUsage(format!(
+            "--layers {}: give 1 to {} layers per viewpoint sample",
+            args.layers,
+            FrameShape::MAX_EXPERIMENT_LAYERS
+        ))
+        .into());
+    }
     let shape = FrameShape::synthetic(640, 480, args.layers, args.viewpoints as usize, terms);
     let variant = Variant::from(args.variant);
     let format = TargetFormat::from(args.format);
@@ -75,7 +83,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         });
         say!("{}", serde_json::to_string_pretty(&out)?);
     } else {
-        print!("{plan}");
+        say!("{}", plan.to_string().trim_end_matches('\n'));
         say!(
             "{} lens passes: {} prime + {} layer + {} alpha clear + {} single-pass; {} rendering instance(s), {} barrier(s)",
             variant.name(),

@@ -26,7 +26,9 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{CameraArgs, FormatArg, VariantArg, choose_camera, flag_error, progress_bar};
+use crate::common::{
+    CameraArgs, FormatArg, ImageOut, VariantArg, choose_camera, flag_error, progress_bar,
+};
 
 #[derive(Args)]
 #[command(
@@ -48,14 +50,14 @@ pub struct RenderArgs {
     pub camera: CameraArgs,
     /// Tessellation threshold: triangles stop splitting when their edges are shorter than t
     /// subpixels.
-    #[arg(long, default_value_t = DEFAULT_T)]
+    #[arg(long, default_value_t = DEFAULT_T, allow_negative_numbers = true)]
     pub t: f32,
     /// Outgoing rays further apart than this many degrees split a triangle.
-    #[arg(long, default_value_t = DEFAULT_ANGLE_DEGREES)]
+    #[arg(long, default_value_t = DEFAULT_ANGLE_DEGREES, allow_negative_numbers = true)]
     pub angle_degrees: f64,
     /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub footprint: f32,
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "single-pass")]
@@ -71,14 +73,14 @@ pub struct RenderArgs {
     /// camera's resolution seen from its nearest viewpoint (view-space samples and the scene
     /// camera), within [this, --light-map-max-density]; all densities are lowered alike where
     /// an atlas would pass 4096² or all of them --light-map-max-texels.
-    #[arg(long, default_value_t = DEFAULT_MIN_TEXELS_PER_METRE)]
+    #[arg(long, default_value_t = DEFAULT_MIN_TEXELS_PER_METRE, allow_negative_numbers = true)]
     pub light_map_density: f64,
     /// Light maps: the greatest texel density of any chart, texels per metre. Give the same
     /// value as --light-map-density for one uniform density.
-    #[arg(long, default_value_t = DEFAULT_MAX_TEXELS_PER_METRE)]
+    #[arg(long, default_value_t = DEFAULT_MAX_TEXELS_PER_METRE, allow_negative_numbers = true)]
     pub light_map_max_density: f64,
     /// Light maps: pixels per texel side at a chart's nearest viewpoint (P).
-    #[arg(long, default_value_t = DEFAULT_PIXELS_PER_TEXEL)]
+    #[arg(long, default_value_t = DEFAULT_PIXELS_PER_TEXEL, allow_negative_numbers = true)]
     pub light_map_pixels_per_texel: f64,
     /// Light maps: texels of all the atlases together (8 bytes each on the GPU); over it, every
     /// chart's density is lowered by one factor.
@@ -90,7 +92,8 @@ pub struct RenderArgs {
     /// Also render the reference ray tracer at the same settings and compare.
     #[arg(long)]
     pub compare: bool,
-    /// Output image (PNG, sRGB; an EXR with linear values is written beside it).
+    /// Output image: a .png (sRGB) with a linear .exr written beside it (or the .exr, with the
+    /// .png beside it), or a folder that gets hybrid.png and hybrid.exr.
     #[arg(long, default_value = "out/hybrid.png")]
     pub out: PathBuf,
     /// Print the report as JSON.
@@ -100,6 +103,7 @@ pub struct RenderArgs {
 
 /// Runs `lensmap render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let out = ImageOut::parse(&args.out, "hybrid")?;
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = FrameOptions {
@@ -139,7 +143,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
     let frame = frames.last();
-    frame.image.write_png_and_exr(&args.out)?;
+    frame.image.write_png_and_exr(&out.png)?;
 
     let reference = if args.compare {
         let bar = progress_bar(u64::from(camera.height));
@@ -159,6 +163,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         reference.as_ref(),
         prepare_s,
         runner.gpu().device_name(),
+        &out,
     )?;
     if args.json {
         say!("{}", serde_json::to_string_pretty(&report)?);
@@ -176,6 +181,7 @@ fn report(
     reference: Option<&ReferenceImage>,
     prepare_s: f64,
     device: &str,
+    written: &ImageOut,
 ) -> anyhow::Result<serde_json::Value> {
     let c = frame.stats.counters;
     let mut out = json!({
@@ -213,7 +219,8 @@ fn report(
             "lens_triangles_out": frame.stats.triangles_out,
             "vertices_traced": frame.stats.vertices_traced,
         },
-        "out": args.out,
+        "out": written.png,
+        "out_exr": written.exr,
     });
     if let Some(reference) = reference {
         let rc = reference.stats.counters;
@@ -347,5 +354,9 @@ fn print_table(r: &serde_json::Value) {
             );
         }
     }
-    say!("  wrote {}", r["out"].as_str().unwrap_or(""));
+    say!(
+        "  wrote {} and {}",
+        r["out"].as_str().unwrap_or(""),
+        r["out_exr"].as_str().unwrap_or("")
+    );
 }

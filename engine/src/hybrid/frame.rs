@@ -415,9 +415,37 @@ impl HybridScene {
         })
     }
 
-    /// These layered EMs as a bake: projected EMs become a bake with one viewpoint sample.
+    /// These layered EMs as a bake: projected EMs become a bake with one viewpoint sample. The
+    /// bake carries this scene's identity ([`crate::layers::Provenance`]), so `render --bake`
+    /// refuses it for another scene, even one whose lens objects have the same names.
     pub fn to_bake(&self) -> crate::layers::Bake {
         let shared = self.lenses.iter().all(|l| l.maps.len() == 1);
+        let samples = if shared {
+            vec![0]
+        } else {
+            (0..self.viewpoints.len()).collect()
+        };
+        // What shaped the maps: their origins, shells and sizes (the maps themselves are in the
+        // bake).
+        let shaped_by: Vec<_> = self
+            .lenses
+            .iter()
+            .map(|l| {
+                (
+                    l.em_origin,
+                    &l.shells,
+                    l.maps.first().and_then(|m| m.first()).map(|c| c.size),
+                )
+            })
+            .collect();
+        let provenance = crate::layers::Provenance {
+            scene_hash: self.scene.content_hash(),
+            options_hash: crate::layers::bake::debug_hash(&(
+                "written from a hybrid scene",
+                shaped_by,
+            )),
+            samples,
+        };
         crate::layers::Bake {
             scene: self.scene.name.clone(),
             created_by: crate::layers::bake::default_created_by(),
@@ -447,7 +475,7 @@ impl HybridScene {
                         .collect(),
                 })
                 .collect(),
-            provenance: None,
+            provenance: Some(provenance),
         }
     }
 

@@ -837,11 +837,16 @@ impl Manifest {
                     "give every lens object a unique name",
                 );
             }
-            if !lens.em_origin.is_finite() {
+            if !lens.em_origin.is_finite()
+                || lens.em_origin.abs().max_element() > MAX_EM_ORIGIN_METRES
+            {
                 return invalid(
                     format!("lenses[{index}].em_origin"),
-                    format!("is {} (not finite)", lens.em_origin),
-                    "the EM origin must be a finite point in metres",
+                    format!(
+                        "is {} (not a finite point within {MAX_EM_ORIGIN_METRES:e} m of the origin)",
+                        lens.em_origin
+                    ),
+                    "the EM origin is the lens object's centroid in metres; bake the scene again",
                 );
             }
             if lens.layers.is_empty() {
@@ -1219,6 +1224,11 @@ fn sync_directory(dir: &Path) -> Result<(), BakeError> {
         .and_then(|directory| directory.sync_all())
         .map_err(io_error(dir, "fsync"))
 }
+
+/// The farthest an EM origin may lie from the scene origin along any axis, metres: f32 texture
+/// directions (`hit − origin`) lose all precision beyond it, so a manifest naming a farther
+/// point is corrupt, not a scene.
+pub const MAX_EM_ORIGIN_METRES: f64 = 1e6;
 
 fn io_error(path: &Path, action: &'static str) -> impl FnOnce(std::io::Error) -> BakeError {
     let path = path.to_owned();

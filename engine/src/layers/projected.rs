@@ -57,13 +57,21 @@ impl ProjectedOptions {
         }
     }
 
-    /// Checks the face size: 1 ..= [`MAX_EM_SIZE`] texels.
+    /// Checks the face size: a power of two in 1 ..= [`MAX_EM_SIZE`] texels (cube maps carry a
+    /// full mip chain; a size that is not one is refused, never rounded silently); and the
+    /// supersampling: 1 ..= 16 rays per texel side.
     pub fn validate(&self) -> Result<(), crate::options::OptionError> {
         crate::options::OptionError::require(
-            (1..=MAX_EM_SIZE).contains(&self.size),
+            (1..=MAX_EM_SIZE).contains(&self.size) && self.size.is_power_of_two(),
             "em_size",
             self.size,
-            "give a cube-map face size from 1 to 2048 texels, e.g. 128",
+            "give a power-of-two cube-map face size from 1 to 2048 texels, e.g. 128",
+        )?;
+        crate::options::OptionError::require(
+            (1..=16).contains(&self.supersampling),
+            "em_supersampling",
+            self.supersampling,
+            "give 1 to 16 rays per texel side, e.g. 2",
         )
     }
 }

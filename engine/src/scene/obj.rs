@@ -17,6 +17,18 @@ pub(crate) fn load_obj(path: &Path, smooth_normals: bool) -> Result<TriangleMesh
         ignore_points: true,
         ignore_lines: true,
     };
+    // tobj reads `l a b c` (a polyline) as a triangle; a line element is no surface, so it is
+    // refused here with its line number rather than turned into geometry.
+    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    if let Some(number) = text
+        .lines()
+        .position(|line| line.trim_start().starts_with("l ") || line.trim() == "l")
+    {
+        return Err(format!(
+            "line {}: `l` (a polyline) is not a surface; lensmap reads faces (`f`) only, so remove the line or make it a face",
+            number + 1
+        ));
+    }
     let (models, _materials) = tobj::load_obj(path, &options).map_err(|e| e.to_string())?;
     let mut mesh = TriangleMesh::default();
     let all_have_uvs = models
@@ -64,4 +76,25 @@ pub(crate) fn load_obj(path: &Path, smooth_normals: bool) -> Result<TriangleMesh
         }
     }
     Ok(mesh)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_polyline_is_refused_with_its_line() {
+        let dir = std::env::temp_dir().join(format!("lensmap-obj-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("line.obj");
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n").unwrap();
+        let error = load_obj(&path, false).unwrap_err();
+        assert!(
+            error.contains("line 4") && error.contains("polyline"),
+            "{error}"
+        );
+        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert_eq!(load_obj(&path, false).unwrap().triangles.len(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

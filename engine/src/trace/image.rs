@@ -216,7 +216,7 @@ impl ReferenceImage {
     }
 }
 
-/// Writes linear RGB pixels as a 32-bit float EXR.
+/// Writes linear RGB pixels as a 32-bit float EXR, atomically ([`crate::atomic`]).
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), TraceError> {
     let data: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
     let image = image::Rgb32FImage::from_raw(width, height, data).ok_or_else(|| {
@@ -225,15 +225,12 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Resul
             pixels.len()
         ))
     })?;
-    image
-        .save_with_format(path, image::ImageFormat::OpenExr)
-        .map_err(|source| TraceError::Image {
-            path: path.to_path_buf(),
-            source,
-        })
+    write_encoded(path, |bytes| {
+        image.write_to(bytes, image::ImageFormat::OpenExr)
+    })
 }
 
-/// Writes linear RGB pixels as an 8-bit sRGB PNG (clamped to [0, 1]).
+/// Writes linear RGB pixels as an 8-bit sRGB PNG (clamped to [0, 1]), atomically.
 pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), TraceError> {
     let image = image::RgbImage::from_raw(width, height, srgb8(pixels)).ok_or_else(|| {
         TraceError::InvalidImage(format!(
@@ -241,12 +238,24 @@ pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Resul
             pixels.len()
         ))
     })?;
-    image
-        .save_with_format(path, image::ImageFormat::Png)
-        .map_err(|source| TraceError::Image {
-            path: path.to_path_buf(),
-            source,
-        })
+    write_encoded(path, |bytes| image.write_to(bytes, image::ImageFormat::Png))
+}
+
+/// Encodes an image in memory with `encode`, then writes the bytes atomically: a failure (a full
+/// disk) leaves an earlier file at `path` as it was. Errors name `path`, never the temporary.
+fn write_encoded(
+    path: &Path,
+    encode: impl FnOnce(&mut std::io::Cursor<Vec<u8>>) -> image::ImageResult<()>,
+) -> Result<(), TraceError> {
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    encode(&mut bytes).map_err(|source| TraceError::Image {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    crate::atomic::write_atomically(path, bytes.get_ref()).map_err(|source| TraceError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// sRGB encoding of linear values (clamped to [0, 1]) to 8 bits, three bytes per pixel.

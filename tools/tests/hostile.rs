@@ -1,0 +1,284 @@
+//! Hostile input to the command line (issue 11): a closed stdout, sizes that would exhaust memory,
+//! output paths that cannot be honoured and a disk that fills mid-write. Each case asserts the
+//! exit code, one line on stderr naming the option, no panic, and that earlier outputs survive.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn lensmap_command(args: &[&str]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_lensmap"));
+    command.args(args).env("LENSMAP_VALIDATION", "1");
+    command
+}
+
+fn lensmap(args: &[&str]) -> Output {
+    lensmap_command(args)
+        .output()
+        .expect("the lensmap binary runs")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lensmap-hostile-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Exit code 2 and exactly one line on stderr that names `what`; no panic; quickly.
+fn assert_bad_usage(args: &[&str], what: &str) {
+    let start = Instant::now();
+    let out = lensmap(args);
+    let elapsed = start.elapsed();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{args:?}: {stderr}");
+    assert!(
+        stderr.contains(what),
+        "{args:?} should name {what}: {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    assert!(
+        elapsed < Duration::from_secs(5),
+        "{args:?} took {elapsed:?}"
+    );
+}
+
+/// `lensmap passes … | head -1`: the plan of 256 layers is far larger than a pipe's buffer, so the
+/// program is still writing when the reader goes; it ends quietly with 128 + SIGPIPE.
+#[test]
+fn a_closed_stdout_ends_the_program_quietly() {
+    for extra in [&[][..], &["--json"][..]] {
+        let mut args = vec!["passes", "--layers", "256", "--variant", "multipass"];
+        args.extend_from_slice(extra);
+        let mut child = lensmap_command(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        assert!(!first.is_empty());
+        // The reader is dropped here: stdout is closed.
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(141), "{args:?}: {stderr}");
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
+    }
+}
+
+/// One number must not exhaust memory or time: refused at once, naming the option.
+#[test]
+fn sizes_beyond_the_limits_are_refused_before_any_work() {
+    assert_bad_usage(&["passes", "--layers", "4000000000"], "--layers");
+    assert_bad_usage(&["passes", "--layers", "2000"], "--layers");
+    assert_bad_usage(&["passes", "--layers", "0"], "--layers");
+    assert_bad_usage(&["bench", "passes", "--max-layers", "0"], "--max-layers");
+    assert_bad_usage(
+        &["bench", "passes", "--max-layers", "100000"],
+        "--max-layers",
+    );
+    assert_bad_usage(&["bench", "hybrid", "--frames", "0"], "--frames");
+    assert_bad_usage(
+        &["bench", "hybrid", "--supersampling", "0"],
+        "--supersampling",
+    );
+    assert_bad_usage(
+        &[
+            "render",
+            "--scene",
+            "glass-sphere",
+            "--projected",
+            "--em-size",
+            "12",
+        ],
+        "em-size",
+    );
+    assert_bad_usage(
+        &[
+            "render",
+            "--scene",
+            "glass-sphere",
+            "--projected",
+            "--footprint",
+            "-1",
+        ],
+        "footprint",
+    );
+}
+
+/// `--out` takes what the command writes (.png, .exr, a folder) and says what it wrote; another
+/// extension is refused before any work, and nothing is written.
+#[test]
+fn out_paths_are_honoured_or_refused() {
+    let dir = temp_dir("out");
+    let tiny = [
+        "render",
+        "--scene",
+        "glass-sphere",
+        "--projected",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--supersampling",
+        "1",
+        "--em-size",
+        "8",
+    ];
+    let jpg = dir.join("x.jpg");
+    let mut args = tiny.to_vec();
+    args.extend(["--out", jpg.to_str().unwrap()]);
+    assert_bad_usage(&args, "--out");
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "nothing written"
+    );
+
+    let folder = dir.join("frames");
+    std::fs::create_dir_all(&folder).unwrap();
+    let mut args = tiny.to_vec();
+    args.extend(["--out", folder.to_str().unwrap()]);
+    let out = lensmap(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for name in ["hybrid.png", "hybrid.exr"] {
+        let path = folder.join(name);
+        assert!(path.is_file(), "{name}");
+        assert!(
+            stdout.contains(path.to_str().unwrap()),
+            "says it wrote {name}: {stdout}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A run that fails mid-write (the file size limit, as a full disk would) leaves the earlier
+/// output at the same path as it was.
+#[test]
+fn a_failed_write_keeps_the_earlier_output() {
+    let dir = temp_dir("full");
+    let frame = dir.join("frame.png");
+    let args = [
+        "render",
+        "--scene",
+        "glass-sphere",
+        "--projected",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--supersampling",
+        "1",
+        "--em-size",
+        "8",
+        "--out",
+        frame.to_str().unwrap(),
+    ];
+    let out = lensmap(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let before = (read(&frame), read(&frame.with_extension("exr")));
+    // 8 KiB per file: the EXR (64×48×12 bytes) cannot be written.
+    let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
+    let script = format!(
+        "ulimit -f 16; exec '{}' {}",
+        env!("CARGO_BIN_EXE_lensmap"),
+        quoted.join(" ")
+    );
+    let out = Command::new("sh").args(["-c", &script]).output().unwrap();
+    assert!(
+        !out.status.success(),
+        "the write should fail under ulimit -f"
+    );
+    assert_eq!(
+        before,
+        (read(&frame), read(&frame.with_extension("exr"))),
+        "earlier output intact"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+fn read(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// A bake written by `render --write-bake` carries its scene's identity: another scene (whatever
+/// its lens objects are called) refuses it with one line naming the field and the fix.
+#[test]
+fn a_written_bake_is_refused_by_another_scene() {
+    let dir = temp_dir("write-bake");
+    let bake = dir.join("bake");
+    let tiny = [
+        "--projected",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--supersampling",
+        "1",
+        "--em-size",
+        "8",
+    ];
+    let mut args = vec!["render", "--scene", "glass-sphere"];
+    args.extend(tiny);
+    let frame = dir.join("a.png");
+    args.extend([
+        "--write-bake",
+        bake.to_str().unwrap(),
+        "--out",
+        frame.to_str().unwrap(),
+    ]);
+    let out = lensmap(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let other = dir.join("b.png");
+    assert_bad_usage(
+        &[
+            "render",
+            "--scene",
+            "mirror-teapot",
+            "--bake",
+            bake.to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+        ],
+        "provenance.scene_hash",
+    );
+    // The scene it was written from reads it back.
+    let out = lensmap(&[
+        "render",
+        "--scene",
+        "glass-sphere",
+        "--bake",
+        bake.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--supersampling",
+        "1",
+        "--out",
+        other.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

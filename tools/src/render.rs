@@ -161,9 +161,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         &args,
         frame,
         reference.as_ref(),
-        prepare_s,
-        runner.gpu().device_name(),
-        &out,
+        Run {
+            prepare_s,
+            device: runner.gpu().device_name(),
+            written: &out,
+        },
     )?;
     if args.json {
         say!("{}", serde_json::to_string_pretty(&report)?);
@@ -173,16 +175,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What the report says about the run besides the frame: the scene preparation time, the device
+/// and the files written.
+struct Run<'a> {
+    prepare_s: f64,
+    device: &'a str,
+    written: &'a ImageOut,
+}
+
 fn report(
     hybrid: &HybridScene,
     camera: &Camera,
     args: &RenderArgs,
     frame: &HybridFrame,
     reference: Option<&ReferenceImage>,
-    prepare_s: f64,
-    device: &str,
-    written: &ImageOut,
+    run: Run,
 ) -> anyhow::Result<serde_json::Value> {
+    let Run {
+        prepare_s,
+        device,
+        written,
+    } = run;
     let c = frame.stats.counters;
     let mut out = json!({
         "scene": hybrid.scene.name, "device": device,

@@ -19,6 +19,19 @@ fn lensmap(args: &[&str]) -> Output {
         .expect("the lensmap binary runs")
 }
 
+/// A render small enough for CI: 16×12 at 1×1, 8² projected maps.
+const TINY_RENDER: [&str; 9] = [
+    "--projected",
+    "--width",
+    "16",
+    "--height",
+    "12",
+    "--supersampling",
+    "1",
+    "--em-size",
+    "8",
+];
+
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lensmap-hostile-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -115,20 +128,8 @@ fn sizes_beyond_the_limits_are_refused_before_any_work() {
 #[test]
 fn out_paths_are_honoured_or_refused() {
     let dir = temp_dir("out");
-    let tiny = [
-        "render",
-        "--scene",
-        "glass-sphere",
-        "--projected",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--supersampling",
-        "1",
-        "--em-size",
-        "8",
-    ];
+    let mut tiny = vec!["render", "--scene", "glass-sphere"];
+    tiny.extend(TINY_RENDER);
     let jpg = dir.join("x.jpg");
     let mut args = tiny.to_vec();
     args.extend(["--out", jpg.to_str().unwrap()]);
@@ -220,19 +221,8 @@ fn read(path: &Path) -> Vec<u8> {
 fn a_written_bake_is_refused_by_another_scene() {
     let dir = temp_dir("write-bake");
     let bake = dir.join("bake");
-    let tiny = [
-        "--projected",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--supersampling",
-        "1",
-        "--em-size",
-        "8",
-    ];
     let mut args = vec!["render", "--scene", "glass-sphere"];
-    args.extend(tiny);
+    args.extend(TINY_RENDER);
     let frame = dir.join("a.png");
     args.extend([
         "--write-bake",

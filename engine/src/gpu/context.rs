@@ -417,6 +417,32 @@ impl Gpu {
         timeline: &Timeline,
         value: u64,
     ) -> Result<(), GpuError> {
+        self.record_into(command_buffer, record)?;
+        let buffers = [vk::CommandBufferSubmitInfo::default().command_buffer(command_buffer)];
+        let signals = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(timeline.semaphore)
+            .value(value)
+            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let submit = vk::SubmitInfo2::default()
+            .command_buffer_infos(&buffers)
+            .signal_semaphore_infos(&signals);
+        // SAFETY: recorded above; the semaphore is a live timeline of this device and `value`
+        // is greater than any value signalled on it before (the caller counts up).
+        unsafe {
+            self.shared
+                .device
+                .queue_submit2(self.queue, &[submit], vk::Fence::null())
+                .vk("vkQueueSubmit2")
+        }
+    }
+
+    /// Resets `command_buffer`, begins it for one submission, lets `record` fill it and ends it.
+    /// The command buffer must not be pending (its last submission completed).
+    fn record_into(
+        &self,
+        command_buffer: vk::CommandBuffer,
+        record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
+    ) -> Result<(), GpuError> {
         let device = &self.shared.device;
         let begin = vk::CommandBufferBeginInfo::default()
             .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
@@ -430,24 +456,8 @@ impl Gpu {
                 .vk("vkBeginCommandBuffer")?;
         }
         record(command_buffer)?;
-        let buffers = [vk::CommandBufferSubmitInfo::default().command_buffer(command_buffer)];
-        let signals = [vk::SemaphoreSubmitInfo::default()
-            .semaphore(timeline.semaphore)
-            .value(value)
-            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
-        let submit = vk::SubmitInfo2::default()
-            .command_buffer_infos(&buffers)
-            .signal_semaphore_infos(&signals);
-        // SAFETY: recorded above; the semaphore is a live timeline of this device and `value`
-        // is greater than any value signalled on it before (the caller counts up).
-        unsafe {
-            device
-                .end_command_buffer(command_buffer)
-                .vk("vkEndCommandBuffer")?;
-            device
-                .queue_submit2(self.queue, &[submit], vk::Fence::null())
-                .vk("vkQueueSubmit2")
-        }
+        // SAFETY: begun above, recorded by `record`.
+        unsafe { device.end_command_buffer(command_buffer) }.vk("vkEndCommandBuffer")
     }
 
     /// Records into an existing command buffer (reset first), submits and waits.
@@ -457,23 +467,9 @@ impl Gpu {
         record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
     ) -> Result<(), GpuError> {
         let device = &self.shared.device;
-        let begin = vk::CommandBufferBeginInfo::default()
-            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        // SAFETY: the command buffer is not in use (callers wait for every submission).
+        self.record_into(command_buffer, record)?;
+        // SAFETY: recorded above; the fence is waited on and destroyed before return.
         unsafe {
-            device
-                .reset_command_buffer(command_buffer, vk::CommandBufferResetFlags::empty())
-                .vk("vkResetCommandBuffer")?;
-            device
-                .begin_command_buffer(command_buffer, &begin)
-                .vk("vkBeginCommandBuffer")?;
-        }
-        record(command_buffer)?;
-        // SAFETY: as above; the fence is waited on and destroyed before return.
-        unsafe {
-            device
-                .end_command_buffer(command_buffer)
-                .vk("vkEndCommandBuffer")?;
             let fence = device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
                 .vk("vkCreateFence")?;

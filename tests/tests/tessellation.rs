@@ -565,6 +565,10 @@ fn check_case(name: &str, input: &TriangleMesh, oracle: &Oracle, t: f32) -> Case
                 }
             }
             StopReason::MaxDepth => assert_eq!(record.depth, options.max_depth, "{case}"),
+            StopReason::Budget => assert!(
+                out.mesh.positions.len() + 3 > options.max_vertices,
+                "{case}: a budget stop below the budget"
+            ),
             // The test oracles see everything (the default outside_view).
             StopReason::BackFacing | StopReason::Degenerate | StopReason::OffScreen => {
                 panic!("{case}: {record:?}")
@@ -728,6 +732,7 @@ fn tessellation_is_deterministic() {
             &TessellationOptions {
                 t: 1.0,
                 max_depth: 12,
+                ..TessellationOptions::default()
             },
         )
         .expect("valid input");
@@ -756,8 +761,16 @@ fn finer_thresholds_give_more_triangles() {
     let eye = Vec3::new(1.6, 1.4, 2.2);
     let count = |criterion, t| {
         let oracle = Oracle::new(Camera::new(eye, 1.0), criterion);
-        let out = tessellate(&mesh, &oracle, &TessellationOptions { t, max_depth: 12 })
-            .expect("valid input");
+        let out = tessellate(
+            &mesh,
+            &oracle,
+            &TessellationOptions {
+                t,
+                max_depth: 12,
+                ..TessellationOptions::default()
+            },
+        )
+        .expect("valid input");
         out.stats.output_triangles
     };
     for criterion in [Criterion::Always, Criterion::Direction] {

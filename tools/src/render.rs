@@ -59,6 +59,10 @@ pub struct RenderArgs {
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub footprint: f32,
+    /// The frame's budget of lens vertices (each is ray traced): past it no triangle is split
+    /// further, and a warning says how many were left unsplit.
+    #[arg(long, default_value_t = lensmap::hybrid::tessellate::DEFAULT_MAX_VERTICES)]
+    pub max_vertices: usize,
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -108,7 +112,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = FrameOptions {
         hybrid: HybridOptions::with_t_and_angle(args.t, args.angle_degrees)
-            .with_footprint(args.footprint),
+            .with_footprint(args.footprint)
+            .with_max_vertices(args.max_vertices),
         variant: Variant::from(args.variant),
         format: TargetFormat::from(args.format),
     };
@@ -231,6 +236,7 @@ fn report(
             "lens_triangles_in": frame.stats.triangles_in,
             "lens_triangles_out": frame.stats.triangles_out,
             "vertices_traced": frame.stats.vertices_traced,
+            "leaves_stopped_by_vertex_budget": frame.stats.stopped_by_budget,
         },
         "out": written.png,
         "out_exr": written.exr,
@@ -332,6 +338,12 @@ fn print_table(r: &serde_json::Value) {
         h["lens_triangles_out"],
         h["vertices_traced"]
     );
+    if h["leaves_stopped_by_vertex_budget"].as_u64().unwrap_or(0) > 0 {
+        eprintln!(
+            "warning: the frame's vertex budget was spent: {} triangles were left unsplit (coarser than t asks); raise --max-vertices or t",
+            h["leaves_stopped_by_vertex_budget"]
+        );
+    }
     if r.get("reference").is_some() {
         let f = &r["reference"];
         let red = &r["reduction"];

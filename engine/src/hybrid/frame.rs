@@ -201,6 +201,13 @@ impl HybridOptions {
         }
     }
 
+    /// These options with a frame budget of `vertices` lens vertices
+    /// ([`TessellationOptions::max_vertices`]).
+    pub fn with_max_vertices(mut self, vertices: usize) -> HybridOptions {
+        self.tessellation.max_vertices = vertices;
+        self
+    }
+
     /// These options with footprint coarsening below `subpixels` (0: off).
     pub fn with_footprint(self, subpixels: f32) -> HybridOptions {
         HybridOptions {
@@ -255,6 +262,9 @@ pub struct HybridStats {
     /// Lens objects skipped because their bounds lie wholly outside the view frustum: neither
     /// traced nor tessellated nor drawn.
     pub lenses_outside_view: usize,
+    /// Leaves left unsplit because the frame's vertex budget
+    /// ([`TessellationOptions::max_vertices`], shared by all lens objects in order) was spent.
+    pub stopped_by_budget: usize,
     /// Lens objects tessellated with a coarser `t` because their screen footprint is smaller
     /// than [`HybridOptions::footprint_subpixels`].
     pub lenses_coarsened: usize,
@@ -736,6 +746,8 @@ impl HybridScene {
             blend
         };
         let mut stats = HybridStats::default();
+        // The vertex budget is the frame's: each lens object gets what the ones before left.
+        let mut vertex_budget = options.tessellation.max_vertices;
         let mut lenses = Vec::new();
         let mut exact = Vec::new();
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
@@ -759,7 +771,7 @@ impl HybridScene {
             if visible_objects.is_empty() {
                 stats.lenses_outside_view += 1;
             }
-            let tessellation_options =
+            let mut tessellation_options =
                 self.coarsened(&visible_objects, options, &view_proj, screen.subpixels);
             if tessellation_options.t != options.tessellation.t {
                 stats.lenses_coarsened += 1;
@@ -775,7 +787,10 @@ impl HybridScene {
                     faces,
                 );
                 let start = Instant::now();
+                tessellation_options.max_vertices = vertex_budget.max(mesh.positions.len());
                 let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
+                vertex_budget = vertex_budget.saturating_sub(tessellation.mesh.positions.len());
+                stats.stopped_by_budget += tessellation.stats.stopped_by_budget;
                 let elapsed = start.elapsed().as_secs_f64() * 1e3;
                 let counters = oracle.counters();
                 // The oracle's batches run inside tessellate(); their share is ray tracing.

@@ -53,6 +53,11 @@ pub const DEFAULT_T: f32 = 3.0;
 /// take a 2000-subpixel input edge below half a subpixel.
 pub const DEFAULT_MAX_DEPTH: u32 = 12;
 
+/// The default [`TessellationOptions::max_vertices`]: some 16 million vertex rays (a few seconds
+/// on two cores), fifteen times what the paper's setting needs (teapot-room at 1920×1440
+/// subpixels, t = 3: ~130,000 vertices), so it only bounds runaway requests such as t = 1e-6.
+pub const DEFAULT_MAX_VERTICES: usize = 2_000_000;
+
 /// How finely [`tessellate`] subdivides.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TessellationOptions {
@@ -64,6 +69,11 @@ pub struct TessellationOptions {
     /// normally stops at `t` well before this; the cap only bounds work for an oracle whose
     /// screen projection misbehaves. Triangles stopped by it report [`StopReason::MaxDepth`].
     pub max_depth: u32,
+    /// Budget of output vertices (each is ray traced): once the mesh holds this many, no
+    /// triangle is split further and the rest report [`StopReason::Budget`] — the tessellation
+    /// degrades to a coarser one instead of running away. Splits are taken in a fixed order, so
+    /// where the budget ends does not depend on the thread count.
+    pub max_vertices: usize,
 }
 
 impl Default for TessellationOptions {
@@ -71,6 +81,7 @@ impl Default for TessellationOptions {
         TessellationOptions {
             t: DEFAULT_T,
             max_depth: DEFAULT_MAX_DEPTH,
+            max_vertices: DEFAULT_MAX_VERTICES,
         }
     }
 }
@@ -217,6 +228,8 @@ pub enum StopReason {
     Small,
     /// Its vertices differ and some edge is long, but it is at the depth cap.
     MaxDepth,
+    /// It would have been split, but the mesh reached [`TessellationOptions::max_vertices`].
+    Budget,
 }
 
 /// Where an output triangle came from.
@@ -263,6 +276,8 @@ pub struct TessellationStats {
     pub max_depth_reached: u32,
     /// Leaves stopped by the depth cap although their vertices differ and an edge is long.
     pub stopped_at_max_depth: usize,
+    /// Leaves not split because the vertex budget was spent ([`StopReason::Budget`]).
+    pub stopped_by_budget: usize,
     /// Leaves not split because all three vertices are invisible.
     pub occluded_leaves: usize,
     /// Leaves re-triangulated to remove T-junctions.
@@ -552,6 +567,17 @@ where
                             source: triangle.source,
                             depth,
                             stop,
+                        });
+                    }
+                    // A split adds at most three vertices: none once they would pass the budget.
+                    Decision::Split(_) if self.positions.len() + 3 > self.options.max_vertices => {
+                        self.stats.stopped_by_budget += 1;
+                        self.stats.max_depth_reached = self.stats.max_depth_reached.max(depth);
+                        leaves.push(Leaf {
+                            corners: triangle.corners,
+                            source: triangle.source,
+                            depth,
+                            stop: StopReason::Budget,
                         });
                     }
                     Decision::Split(long) => self.split(&triangle, long, &mut next)?,
@@ -982,7 +1008,7 @@ mod tests {
     fn options(t: f32) -> TessellationOptions {
         TessellationOptions {
             t,
-            max_depth: DEFAULT_MAX_DEPTH,
+            ..TessellationOptions::default()
         }
     }
 
@@ -1143,11 +1169,54 @@ mod tests {
         let opts = TessellationOptions {
             t: 1.0,
             max_depth: 2,
+            ..TessellationOptions::default()
         };
         let out = tessellate(&input, &Flat::new(1e6, true), &opts).unwrap();
         assert_eq!(out.stats.max_depth_reached, 2);
         assert_eq!(out.stats.output_triangles, 16);
         assert_eq!(out.stats.stopped_at_max_depth, 16);
+    }
+
+    /// The vertex budget stops splitting where it runs out, deterministically, and the result is
+    /// still a valid (watertight, T-junction-free) tessellation: every leaf is counted.
+    #[test]
+    fn the_vertex_budget_bounds_the_mesh() {
+        let input = mesh(
+            &[
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 1.0, 0.0],
+            ],
+            &[[0, 1, 2], [1, 3, 2]],
+        );
+        let unbounded = tessellate(&input, &Flat::new(1e3, true), &options(1.0)).unwrap();
+        let budget = unbounded.mesh.positions.len() / 10;
+        let bounded_options = TessellationOptions {
+            max_vertices: budget,
+            ..options(1.0)
+        };
+        let out = tessellate(&input, &Flat::new(1e3, true), &bounded_options).unwrap();
+        assert!(
+            out.mesh.positions.len() <= budget,
+            "{} > {budget}",
+            out.mesh.positions.len()
+        );
+        assert!(out.stats.stopped_by_budget > 0);
+        assert!(out.triangles.iter().any(|t| t.stop == StopReason::Budget));
+        // Area is preserved: the leaves still tile the input.
+        let area = |m: &TriangleMesh| -> f32 {
+            m.triangles
+                .iter()
+                .map(|&[a, b, c]| {
+                    let p = |i: u32| m.positions[i as usize];
+                    0.5 * (p(b) - p(a)).cross(p(c) - p(a)).length()
+                })
+                .sum()
+        };
+        assert!((area(&out.mesh) - 1.0).abs() < 1e-5);
+        let again = tessellate(&input, &Flat::new(1e3, true), &bounded_options).unwrap();
+        assert_eq!(out.mesh, again.mesh);
     }
 
     #[test]

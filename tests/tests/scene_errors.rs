@@ -520,6 +520,46 @@ objects = ["ball"]
         );
     }
 
+    /// One number must not exhaust memory: sizes past the documented limits are refused at load,
+    /// before anything is built, naming the field (issue 11).
+    #[test]
+    fn sizes_past_the_limits_are_refused_before_building() {
+        let dir = temp_folder("limits");
+        let cases = [
+            (
+                ("count = 4", "count = 4000000000"),
+                "view_space.circle.count",
+                "4000000000 viewpoint samples",
+                "fewer samples",
+            ),
+            (
+                (
+                    "plane = { size = [4, 4] }",
+                    "plane = { size = [4, 4], subdivisions = 4096 }",
+                ),
+                "objects[1].plane.subdivisions",
+                "33554432 triangles",
+                "fewer subdivisions",
+            ),
+            (
+                ("segments = 16, rings = 8", "segments = 4096, rings = 4096"),
+                "objects[0].sphere.segments",
+                "33554432 triangles",
+                "fewer subdivisions",
+            ),
+        ];
+        for ((from, to), field, what, fix) in cases {
+            let start = std::time::Instant::now();
+            let (file, error) = load_error(&dir, &edit(from, to));
+            assert_message(&error, &file, field, what, fix);
+            assert!(
+                start.elapsed().as_secs_f64() < 5.0,
+                "{field}: {:?}",
+                start.elapsed()
+            );
+        }
+    }
+
     #[test]
     fn view_sample_at_the_look_at_point() {
         let dir = temp_folder("view-list");

@@ -241,8 +241,9 @@ pub fn choose_camera(
         field: "camera (after --view/--camera-position/--look-at/--width/--height/--supersampling)"
             .to_owned(),
         problem: error.to_string(),
-        fix: "give a camera position distinct from the look-at point, an image of at least 1×1 \
-              and --supersampling of at least 1"
+        fix: "give an image of at least 1×1 within the subpixel limits, --supersampling of at \
+              least 1, and a camera position distinct from the look-at point within 1e6 m of the \
+              origin"
             .to_owned(),
     })?;
     Ok(camera)

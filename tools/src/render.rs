@@ -61,7 +61,7 @@ pub struct RenderArgs {
     pub footprint: f32,
     /// The frame's budget of lens vertices (each is ray traced): past it no triangle is split
     /// further, and a warning says how many were left unsplit.
-    #[arg(long, default_value_t = lensmap::hybrid::tessellate::DEFAULT_MAX_VERTICES)]
+    #[arg(long, default_value_t = lensmap::hybrid::tessellate::DEFAULT_MAX_VERTICES, allow_negative_numbers = true)]
     pub max_vertices: usize,
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "single-pass")]

@@ -95,6 +95,21 @@ fn sizes_beyond_the_limits_are_refused_before_any_work() {
         "--max-layers",
     );
     assert_bad_usage(&["bench", "hybrid", "--frames", "0"], "--frames");
+    let render = ["render", "--scene", "glass-sphere", "--projected"];
+    for (extra, what) in [
+        (
+            &["--width", "100000"][..],
+            "300000×1440 subpixels; the limit is 16384",
+        ),
+        (&["--supersampling", "1000"][..], "640000×480000 subpixels"),
+        (&["--camera-position", "1e30,0,0"][..], "farther than 1e6 m"),
+        (&["--t", "-1"][..], "--t -1"),
+        (&["--max-vertices", "-5"][..], "--max-vertices"),
+    ] {
+        let mut args = render.to_vec();
+        args.extend_from_slice(extra);
+        assert_bad_usage(&args, what);
+    }
     assert_bad_usage(
         &["bench", "hybrid", "--supersampling", "0"],
         "--supersampling",

@@ -268,6 +268,13 @@ impl UploadCache {
         frame: &FrameInput,
         previous: Option<UploadedFrame>,
     ) -> Result<UploadedFrame, RenderError> {
+        let most = gpu.properties().limits.max_image_dimension2_d;
+        if frame.width > most || frame.height > most {
+            return Err(RenderError::BadInput(format!(
+                "the framebuffer is {}×{} subpixels, past this device's limit of {most} a side (maxImageDimension2D); give a smaller image or less supersampling",
+                frame.width, frame.height
+            )));
+        }
         frame.validate_with(&|address| {
             self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
         })?;

@@ -23,6 +23,11 @@ use super::{LayerSpec, LensObject, Scene, SceneObject, obj, shapes, teapot};
 const MAX_TESSELLATION: u32 = 64;
 /// Largest segment count of the round shapes.
 const MAX_SEGMENTS: u32 = 4096;
+/// Most triangles one built-in shape may have (2 million: a few hundred MB with its BVH);
+/// checked before the shape is built, so a large subdivision count is an error, not an abort.
+pub const MAX_SHAPE_TRIANGLES: u64 = 2_000_000;
+/// Most viewpoint samples a view space may have (each is a bake of every lens object).
+pub const MAX_VIEWPOINT_SAMPLES: u32 = 10_000;
 /// Smallest accepted distance between a camera and its look-at point, and the smallest sine of
 /// the angle between the view direction and `up`.
 const CAMERA_EPSILON: f32 = 1e-6;
@@ -172,6 +177,20 @@ impl Loader<'_> {
             None => "give three finite numbers ≥ 0 (linear rgb)".to_owned(),
         };
         Err(self.error(field, format!("{value:?} is out of range"), fix))
+    }
+
+    /// Checks a built-in shape's triangle count against [`MAX_SHAPE_TRIANGLES`] before it is
+    /// built; `field` names the count that sets it.
+    fn triangle_budget(&self, field: &str, triangles: u64) -> Result<()> {
+        if triangles <= MAX_SHAPE_TRIANGLES {
+            Ok(())
+        } else {
+            Err(self.error(
+                field,
+                format!("makes {triangles} triangles, more than the {MAX_SHAPE_TRIANGLES} one shape may have"),
+                "give fewer subdivisions or segments",
+            ))
+        }
     }
 
     fn count(&self, field: &str, value: u32, min: u32, max: u32) -> Result<u32> {
@@ -473,15 +492,17 @@ impl Loader<'_> {
                 self.positive(&format!("{f}.size"), plane.size[0], "metres")?,
                 self.positive(&format!("{f}.size"), plane.size[1], "metres")?,
             );
-            shapes::plane(
-                size,
-                self.count(
-                    &format!("{f}.subdivisions"),
-                    plane.subdivisions,
-                    1,
-                    MAX_SEGMENTS,
-                )?,
-            )
+            let subdivisions = self.count(
+                &format!("{f}.subdivisions"),
+                plane.subdivisions,
+                1,
+                MAX_SEGMENTS,
+            )?;
+            self.triangle_budget(
+                &format!("{f}.subdivisions"),
+                2 * u64::from(subdivisions).pow(2),
+            )?;
+            shapes::plane(size, subdivisions)
         } else if let Some(cuboid) = &spec.cuboid {
             let f = format!("{field}.box.size");
             let size = [0, 1, 2].map(|k| self.positive(&f, cuboid.size[k], "metres"));
@@ -489,11 +510,15 @@ impl Loader<'_> {
             shapes::cuboid(Vec3::new(x?, y?, z?))
         } else if let Some(sphere) = &spec.sphere {
             let f = format!("{field}.sphere");
-            shapes::sphere(
-                self.positive(&format!("{f}.radius"), sphere.radius, "metres")?,
-                self.count(&format!("{f}.segments"), sphere.segments, 3, MAX_SEGMENTS)?,
-                self.count(&format!("{f}.rings"), sphere.rings, 2, MAX_SEGMENTS)?,
-            )
+            let radius = self.positive(&format!("{f}.radius"), sphere.radius, "metres")?;
+            let segments =
+                self.count(&format!("{f}.segments"), sphere.segments, 3, MAX_SEGMENTS)?;
+            let rings = self.count(&format!("{f}.rings"), sphere.rings, 2, MAX_SEGMENTS)?;
+            self.triangle_budget(
+                &format!("{f}.segments"),
+                2 * u64::from(segments) * u64::from(rings),
+            )?;
+            shapes::sphere(radius, segments, rings)
         } else if let Some(cylinder) = &spec.cylinder {
             let f = format!("{field}.cylinder");
             shapes::cylinder(
@@ -515,22 +540,23 @@ impl Loader<'_> {
                     "give minor_radius < major_radius",
                 ));
             }
-            shapes::torus(
-                major,
-                minor,
-                self.count(
-                    &format!("{f}.major_segments"),
-                    torus.major_segments,
-                    3,
-                    MAX_SEGMENTS,
-                )?,
-                self.count(
-                    &format!("{f}.minor_segments"),
-                    torus.minor_segments,
-                    3,
-                    MAX_SEGMENTS,
-                )?,
-            )
+            let major_segments = self.count(
+                &format!("{f}.major_segments"),
+                torus.major_segments,
+                3,
+                MAX_SEGMENTS,
+            )?;
+            let minor_segments = self.count(
+                &format!("{f}.minor_segments"),
+                torus.minor_segments,
+                3,
+                MAX_SEGMENTS,
+            )?;
+            self.triangle_budget(
+                &format!("{f}.major_segments"),
+                2 * u64::from(major_segments) * u64::from(minor_segments),
+            )?;
+            shapes::torus(major, minor, major_segments, minor_segments)
         } else if let Some(teapot) = &spec.teapot {
             let f = format!("{field}.teapot");
             let level = self.count(
@@ -785,6 +811,9 @@ impl Loader<'_> {
                 if list.is_empty() {
                     return Err(self.error("view_space.list", "the list of viewpoints is empty", "give at least one position [x, y, z]"));
                 }
+                if list.len() > MAX_VIEWPOINT_SAMPLES as usize {
+                    return Err(self.error("view_space.list", format!("{} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", list.len()), "give fewer samples"));
+                }
                 let positions = list
                     .iter()
                     .enumerate()
@@ -803,6 +832,13 @@ impl Loader<'_> {
                 format!("{f}.count"),
                 "a view space with 0 viewpoint samples",
                 "give count ≥ 1 (e.g. 45 samples 8° apart close the circle)",
+            ));
+        }
+        if spec.count > MAX_VIEWPOINT_SAMPLES {
+            return Err(self.error(
+                format!("{f}.count"),
+                format!("{} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", spec.count),
+                "give fewer samples (45 samples 8° apart close the circle)",
             ));
         }
         let step = self.finite(&format!("{f}.step_degrees"), spec.step_degrees)?;

@@ -48,11 +48,25 @@ struct Row {
     counters: TraceCounters,
 }
 
-/// Checks that `camera` can generate rays: a non-empty image, k ≥ 1, a finite position distinct
-/// from the look-at point, an up vector not parallel to the view direction, a field of view in
-/// (0, π).
+/// The largest side of a supersampled image, subpixels: 16384, what most Vulkan devices allow
+/// for a 2D image (the renderer also checks the device's own limit).
+pub const MAX_SUBPIXEL_SIDE: u32 = 16384;
+
+/// The most subpixels of an image (8192²): an RGBA32F target, its depth, its readback and the
+/// host copy take ~50 bytes each, 3.4 GB here.
+pub const MAX_SUBPIXELS: u64 = 8192 * 8192;
+
+/// How far from the scene origin a camera's position and look-at point may lie, metres: beyond it
+/// f32 view directions lose the precision to aim.
+pub const MAX_CAMERA_METRES: f32 = 1e6;
+
+/// Checks that `camera` can generate rays: a non-empty image within [`MAX_SUBPIXEL_SIDE`] and
+/// [`MAX_SUBPIXELS`], k ≥ 1, a finite position within [`MAX_CAMERA_METRES`] distinct from the
+/// look-at point, an up vector not parallel to the view direction, a field of view in (0, π).
 pub fn validate_camera(camera: &Camera) -> Result<(), TraceError> {
     let forward = camera.look_at - camera.position;
+    let side = |n: u32| u64::from(n) * u64::from(camera.supersampling);
+    let subpixels = side(camera.width) * side(camera.height);
     let problem = if camera.width == 0 || camera.height == 0 {
         Some(format!(
             "the image is empty ({}×{})",
@@ -60,9 +74,27 @@ pub fn validate_camera(camera: &Camera) -> Result<(), TraceError> {
         ))
     } else if camera.supersampling == 0 {
         Some("supersampling is 0 (use 1 or more)".to_owned())
+    } else if side(camera.width).max(side(camera.height)) > u64::from(MAX_SUBPIXEL_SIDE)
+        || subpixels > MAX_SUBPIXELS
+    {
+        Some(format!(
+            "{}×{} pixels with {k}×{k} supersampling is {}×{} subpixels; the limit is {MAX_SUBPIXEL_SIDE} a side and {MAX_SUBPIXELS} in all",
+            camera.width,
+            camera.height,
+            side(camera.width),
+            side(camera.height),
+            k = camera.supersampling
+        ))
     } else if !(camera.position.is_finite() && camera.look_at.is_finite() && camera.up.is_finite())
     {
         Some("the position, look-at or up vector is not finite".to_owned())
+    } else if camera.position.abs().max_element() > MAX_CAMERA_METRES
+        || camera.look_at.abs().max_element() > MAX_CAMERA_METRES
+    {
+        Some(format!(
+            "the position {} or look-at {} lies farther than {MAX_CAMERA_METRES:e} m from the origin",
+            camera.position, camera.look_at
+        ))
     } else if forward.length_squared() <= 1e-12 {
         Some("the look-at point equals the camera position".to_owned())
     } else if forward.normalize().cross(camera.up).length_squared() <= 1e-12 {

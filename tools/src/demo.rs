@@ -43,11 +43,11 @@ pub struct DemoArgs {
     /// Frame height (default: the scene camera's, 480).
     #[arg(long)]
     pub height: Option<u32>,
-    /// Supersampling k×k (default: the scene camera's, 3).
-    #[arg(long)]
+    /// Supersampling k×k (default: the scene camera's, 3). Not for --synthetic.
+    #[arg(long, conflicts_with = "synthetic")]
     pub supersampling: Option<u32>,
-    /// Projected EMs: cube-map face size in texels.
-    #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
+    /// Projected EMs: cube-map face size in texels. Not for --synthetic.
+    #[arg(long, default_value_t = DEFAULT_EM_SIZE, conflicts_with = "synthetic")]
     pub em_size: u32,
     /// Run the compositor-only demo on the synthetic sphere scene instead.
     #[arg(long)]
@@ -346,14 +346,19 @@ fn inferred_scene(
 /// difference.
 fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
     let (width, height) = (args.width.unwrap_or(640), args.height.unwrap_or(480));
-    if width == 0 || height == 0 || args.layers == 0 || args.layers > SinglePassProgram::MAX_LAYERS
+    if width == 0
+        || height == 0
+        || args.layers == 0
+        || args.layers > SinglePassProgram::MAX_LAYERS
+        || args.frames == 0
     {
         return Err(BadUsage(format!(
-            "--width/--height must be ≥ 1 and --layers within 1..={} (got {}×{}, {} layers)",
+            "--width/--height must be ≥ 1, --layers within 1..={} and --frames ≥ 1 (got {}×{}, {} layers, {} frames)",
             SinglePassProgram::MAX_LAYERS,
             width,
             height,
-            args.layers
+            args.layers,
+            args.frames
         ))
         .into());
     }
@@ -371,6 +376,7 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", args.out.display()))?;
     let format = TargetFormat::Rgba32f;
     let mut images = Vec::new();
+    let mut rows = Vec::new();
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let plan = lensmap::render::Renderer::plan(&uploaded, variant, format)?;
         let renders = runner.timed_renders(&mut uploaded, variant, format, args.frames)?;
@@ -388,13 +394,28 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
             renders.median(|t| t.record_ms + t.execute_ms),
             args.out.display()
         );
+        rows.push(json!({
+            "variant": variant.name(), "prime": plan.count("prime"), "layer": plan.count("layer"),
+            "alpha_clear": plan.count("alpha-clear"), "single_pass": plan.count("single-pass"),
+            "median_frame_ms": renders.median(|t| t.record_ms + t.execute_ms),
+            "png": args.out.join(format!("{stem}.png")), "exr": args.out.join(format!("{stem}.exr")),
+        }));
         images.push(renders.image);
     }
+    let difference = images[0].max_abs_difference(&images[1])?;
     say!(
-        "single-pass vs multipass ({}): max |difference| {:.3e}",
-        format.name(),
-        images[0].max_abs_difference(&images[1])?
+        "single-pass vs multipass ({}): max |difference| {difference:.3e}",
+        format.name()
     );
+    if let Some(path) = &args.json {
+        let report = json!({
+            "device": runner.gpu().device_name(), "width": width, "height": height,
+            "layers": args.layers, "frames": args.frames, "format": format.name(),
+            "variants": rows, "single_pass_vs_multipass_max_difference": difference,
+        });
+        write_json(path, &report)?;
+        say!("wrote {}", path.display());
+    }
     let report = runner.gpu().validation_report();
     if report.enabled {
         say!("validation messages: {}", report.messages.len());

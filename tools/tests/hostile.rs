@@ -287,3 +287,47 @@ fn a_written_bake_is_refused_by_another_scene() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Options that do not apply are refused rather than ignored; `--json` is honoured; a misspelt
+/// scene name gets a suggestion.
+#[test]
+fn options_say_what_they_do() {
+    assert_bad_usage(
+        &["demo", "--synthetic", "--supersampling", "0"],
+        "--supersampling",
+    );
+    assert_bad_usage(&["demo", "--synthetic", "--em-size", "0"], "--em-size");
+    assert_bad_usage(&["demo", "--synthetic", "--frames", "0"], "--frames");
+    assert_bad_usage(
+        &["render", "--scene", "teapot-rom", "--projected"],
+        "did you mean teapot-room?",
+    );
+    assert_bad_usage(
+        &["render", "--scene", "glass_sphere", "--projected"],
+        "did you mean glass-sphere?",
+    );
+    let dir = temp_dir("synthetic");
+    let report = dir.join("report.json");
+    let out = lensmap(&[
+        "demo",
+        "--synthetic",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--frames",
+        "1",
+        "--out",
+        dir.to_str().unwrap(),
+        "--json",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&read(&report)).unwrap();
+    assert_eq!(json["variants"].as_array().map(Vec::len), Some(2), "{json}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

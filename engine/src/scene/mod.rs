@@ -359,13 +359,26 @@ impl Scene {
         }
         let path = Path::new(name_or_path);
         if !path.exists() {
-            return Err(SceneError::Read {
-                file: path.to_path_buf(),
-                problem: "not a built-in scene and no such file".to_owned(),
-                fix: format!(
+            // "Did you mean": the built-in name nearest the one given, if it is near.
+            let nearest = BUILTIN_SCENES
+                .iter()
+                .map(|name| (strsim::damerau_levenshtein(name, name_or_path), *name))
+                .min()
+                .filter(|&(distance, _)| distance <= 3);
+            let fix = match nearest {
+                Some((_, name)) => format!(
+                    "did you mean {name}? Name a built-in scene ({}) or the path of a scene .toml file",
+                    BUILTIN_SCENES.join(", ")
+                ),
+                None => format!(
                     "name a built-in scene ({}) or the path of a scene .toml file",
                     BUILTIN_SCENES.join(", ")
                 ),
+            };
+            return Err(SceneError::Read {
+                file: path.to_path_buf(),
+                problem: "not a built-in scene and no such file".to_owned(),
+                fix,
             });
         }
         Scene::load(path)

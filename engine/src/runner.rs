@@ -56,8 +56,13 @@ use crate::{
 /// Where a hybrid scene's layered EMs come from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum EmSource {
-    /// A bake directory written by the baker (or `lensmap render --write-bake`).
+    /// A bake directory written by the baker (or `lensmap render --write-bake`) for this very
+    /// scene: its manifest's provenance must name the scene's content hash.
     Bake(PathBuf),
+    /// A bake directory used whatever scene it was made for (`render --accept-any-bake`): for
+    /// deliberate reuse, e.g. a hand-made bake or one made before the scene was edited. Lens
+    /// objects are still matched by name and every map is still validated.
+    AnyBake(PathBuf),
     /// Projected from the scene onto the layer shells its file names.
     Projected(ProjectedOptions),
 }
@@ -82,6 +87,21 @@ pub enum RunError {
     Render(#[from] RenderError),
 }
 
+/// A bake as [`EmSource`] asks: one that says nothing of the scene it was made for is refused
+/// unless any bake is accepted, and an accepted one loses its provenance, so that no scene check
+/// applies to it.
+fn checked_identity(mut bake: Bake, accept_any: bool) -> Result<Bake, HybridError> {
+    if accept_any {
+        bake.provenance = None;
+    } else if bake.provenance.is_none() {
+        return Err(HybridError::BakeMismatch(
+            "manifest.json: provenance: the bake does not say which scene it was made from; bake this scene (lensmap bake --scene S --out DIR), or pass --accept-any-bake to use it anyway"
+                .into(),
+        ));
+    }
+    Ok(bake)
+}
+
 /// Loads `scene` with its layered EMs and light maps of the default options; returns the hybrid
 /// scene and the rays cast to project EMs (0 for a bake).
 pub fn load_hybrid_scene(scene: Scene, ems: &EmSource) -> Result<(HybridScene, u64), RunError> {
@@ -96,16 +116,19 @@ pub fn load_hybrid_scene_with_light_maps(
 ) -> Result<(HybridScene, u64), RunError> {
     light_maps.validate()?;
     Ok(match ems {
-        EmSource::Bake(dir) => (
+        EmSource::Bake(dir) | EmSource::AnyBake(dir) => (
             // The mismatch names `manifest.json`; say which directory's.
-            HybridScene::from_bake_with_light_maps(scene, Bake::read(dir)?, light_maps).map_err(
-                |error| match error {
-                    HybridError::BakeMismatch(message) => {
-                        HybridError::BakeMismatch(format!("{}/{message}", dir.display()))
-                    }
-                    other => other,
-                },
-            )?,
+            HybridScene::from_bake_with_light_maps(
+                scene,
+                checked_identity(Bake::read(dir)?, matches!(ems, EmSource::AnyBake(_)))?,
+                light_maps,
+            )
+            .map_err(|error| match error {
+                HybridError::BakeMismatch(message) => {
+                    HybridError::BakeMismatch(format!("{}/{message}", dir.display()))
+                }
+                other => other,
+            })?,
             0,
         ),
         EmSource::Projected(options) => {

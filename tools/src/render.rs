@@ -93,6 +93,10 @@ pub struct RenderArgs {
     /// Also write the layered EMs used as a bake directory.
     #[arg(long, value_name = "DIR")]
     pub write_bake: Option<PathBuf>,
+    /// Use the --bake directory even if its manifest names another scene, or none (deliberate
+    /// reuse; lens objects are still matched by name).
+    #[arg(long, requires = "bake")]
+    pub accept_any_bake: bool,
     /// Also render the reference ray tracer at the same settings and compare.
     #[arg(long)]
     pub compare: bool,
@@ -121,6 +125,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     let ems = match &args.bake {
+        Some(dir) if args.accept_any_bake => EmSource::AnyBake(dir.clone()),
         Some(dir) => EmSource::Bake(dir.clone()),
         None => EmSource::Projected(projected),
     };

@@ -265,7 +265,7 @@ fn a_written_bake_is_refused_by_another_scene() {
         "provenance.scene_hash",
     );
     // The scene it was written from reads it back.
-    let out = lensmap(&[
+    let again = [
         "render",
         "--scene",
         "glass-sphere",
@@ -279,7 +279,25 @@ fn a_written_bake_is_refused_by_another_scene() {
         "1",
         "--out",
         other.to_str().unwrap(),
-    ]);
+    ];
+    let out = lensmap(&again);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // A manifest that says nothing of its scene is refused, unless any bake is accepted.
+    let manifest = bake.join("manifest.json");
+    let mut json: serde_json::Value = serde_json::from_slice(&read(&manifest)).unwrap();
+    json.as_object_mut()
+        .unwrap()
+        .remove("provenance")
+        .expect("a provenance");
+    std::fs::write(&manifest, serde_json::to_vec_pretty(&json).unwrap()).unwrap();
+    assert_bad_usage(&again, "--accept-any-bake");
+    let mut accepting = again.to_vec();
+    accepting.push("--accept-any-bake");
+    let out = lensmap(&accepting);
     assert!(
         out.status.success(),
         "{}",

@@ -10,6 +10,21 @@ use std::path::{Path, PathBuf};
 /// folder if needed. Errors are the I/O error of the step that failed; the temporary file is
 /// removed on failure.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    // A symbolic link is written through (its target replaced, not the link); a device, FIFO
+    // or other special file (`/dev/null`, `/dev/stdout`) cannot be replaced by renaming, so it
+    // is written to directly.
+    let resolved;
+    let path = match fs::symlink_metadata(path) {
+        Ok(meta) if meta.file_type().is_symlink() => {
+            resolved = fs::canonicalize(path)?;
+            if !fs::metadata(&resolved)?.is_file() {
+                return fs::write(&resolved, bytes);
+            }
+            resolved.as_path()
+        }
+        Ok(meta) if !meta.is_file() && !meta.is_dir() => return fs::write(path, bytes),
+        _ => path,
+    };
     let parent = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())

@@ -206,3 +206,59 @@ fn small_footprints_get_a_coarser_t_only_when_asked() {
     assert!(negative.validate().is_err());
     assert_clean(runner.gpu());
 }
+
+/// The still-camera cache is keyed by every part of the scene a caller may swap: new environment
+/// meshes, another sky, other viewpoint samples each make the next frame a new one.
+#[test]
+fn swapping_scene_parts_is_not_a_still_frame() {
+    let mut hybrid = small_teapot_room();
+    let camera = hybrid.scene.camera;
+    let options = options(Variant::SinglePass);
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    runner.frame(&hybrid, &camera, &options).unwrap();
+    assert!(
+        runner
+            .frame(&hybrid, &camera, &options)
+            .unwrap()
+            .stats
+            .reused
+    );
+    // The same meshes in new Arcs.
+    hybrid.environment = hybrid
+        .environment
+        .iter()
+        .map(|m| std::sync::Arc::new((**m).clone()))
+        .collect();
+    assert!(
+        !runner
+            .frame(&hybrid, &camera, &options)
+            .unwrap()
+            .stats
+            .reused
+    );
+    assert!(
+        runner
+            .frame(&hybrid, &camera, &options)
+            .unwrap()
+            .stats
+            .reused
+    );
+    hybrid.viewpoints.reverse();
+    assert!(
+        !runner
+            .frame(&hybrid, &camera, &options)
+            .unwrap()
+            .stats
+            .reused
+    );
+    let had_sky = hybrid.sky.take().is_some();
+    assert_eq!(
+        runner
+            .frame(&hybrid, &camera, &options)
+            .unwrap()
+            .stats
+            .reused,
+        !had_sky
+    );
+    assert_clean(runner.gpu());
+}

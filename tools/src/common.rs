@@ -13,9 +13,9 @@ use lensmap::render::{TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
 use lensmap::trace::image::validate_camera;
 
-/// Prints a line on stdout. A closed stdout (`lensmap … | head -1`) ends the program quietly with
-/// [`CLOSED_PIPE_EXIT`], as a Unix tool that SIGPIPE ends would: with no reader the work has no
-/// point (bakes are staged and swapped in atomically, so nothing is lost).
+/// Prints a line on stdout. Once stdout is closed (`lensmap … | head -1`) nothing more is
+/// printed, the work and the files it was asked to write are finished, and the program then
+/// ends quietly with [`CLOSED_PIPE_EXIT`] ([`exit_status`]).
 macro_rules! say {
     () => {{
         $crate::common::say_line(format_args!(""));
@@ -27,16 +27,33 @@ macro_rules! say {
 
 /// The exit status after stdout was closed: 128 + SIGPIPE, what a shell reports for a program
 /// that SIGPIPE ended.
-pub const CLOSED_PIPE_EXIT: i32 = 128 + 13;
+pub const CLOSED_PIPE_EXIT: u8 = 128 + 13;
 
-/// Writes one line to stdout (see `say!`); exits with [`CLOSED_PIPE_EXIT`] when the reader has
-/// gone, and ignores other write errors (a full disk behind a redirect does not stop the work).
+/// Set once a write to stdout found the reader gone.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Writes one line to stdout (see `say!`); remembers a closed stdout and prints nothing more.
+/// Other write errors are ignored (a full disk behind a redirect does not stop the work).
 pub fn say_line(line: std::fmt::Arguments) {
     use std::io::Write as _;
+    use std::sync::atomic::Ordering;
+    if STDOUT_CLOSED.load(Ordering::Relaxed) {
+        return;
+    }
     if let Err(error) = writeln!(std::io::stdout().lock(), "{line}")
         && error.kind() == std::io::ErrorKind::BrokenPipe
     {
-        std::process::exit(CLOSED_PIPE_EXIT);
+        STDOUT_CLOSED.store(true, Ordering::Relaxed);
+    }
+}
+
+/// The exit status for a run that succeeded: [`CLOSED_PIPE_EXIT`] when stdout was closed
+/// under it, else success.
+pub fn exit_status() -> std::process::ExitCode {
+    if STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
+        std::process::ExitCode::from(CLOSED_PIPE_EXIT)
+    } else {
+        std::process::ExitCode::SUCCESS
     }
 }
 
@@ -282,20 +299,30 @@ impl ImageOut {
         let extension = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        let stem = match extension.as_deref() {
-            _ if path.is_dir() => path.join(default_stem),
-            None => path.join(default_stem),
-            Some("png" | "exr") => path.to_path_buf(),
-            Some(other) => {
-                return Err(BadUsage(format!(
-                    "--out {}: .{other} is not written; give a .png or .exr path (both are written) or a folder",
-                    path.display()
-                )));
-            }
-        };
-        Ok(ImageOut {
+        match extension.as_deref() {
+            _ if path.is_dir() => Ok(Self::in_folder(path, default_stem)),
+            None => Ok(Self::in_folder(path, default_stem)),
+            // The path given is kept as written (`Shot.PNG` stays `Shot.PNG`).
+            Some("png") => Ok(ImageOut {
+                png: path.to_path_buf(),
+                exr: path.with_extension("exr"),
+            }),
+            Some("exr") => Ok(ImageOut {
+                png: path.with_extension("png"),
+                exr: path.to_path_buf(),
+            }),
+            Some(other) => Err(BadUsage(format!(
+                "--out {}: .{other} is not written; give a .png or .exr path (both are written) or a folder",
+                path.display()
+            ))),
+        }
+    }
+
+    fn in_folder(folder: &Path, stem: &str) -> ImageOut {
+        let stem = folder.join(stem);
+        ImageOut {
             png: stem.with_extension("png"),
             exr: stem.with_extension("exr"),
-        })
+        }
     }
 }

@@ -147,11 +147,25 @@ fn main() -> ExitCode {
     // --help and --version print as clap prints them.
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        Err(error) if !error.use_stderr() => error.exit(),
+        // --help, --version, and a bare `lensmap` or `lensmap bench` (help on stderr, exit 2).
+        Err(error)
+            if !error.use_stderr()
+                || error.kind()
+                    == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            error.exit()
+        }
         Err(error) => {
+            // clap's message without its usage block, its lines (the missing arguments, the
+            // possible values, a suggestion) joined into one.
             let rendered = error.to_string();
-            let line = rendered.lines().next().unwrap_or("error: bad usage");
-            eprintln!("{line} (see --help)");
+            let parts: Vec<&str> = rendered
+                .lines()
+                .take_while(|line| !line.starts_with("Usage:"))
+                .map(str::trim)
+                .filter(|line| !line.is_empty() && !line.starts_with("For more information"))
+                .collect();
+            eprintln!("{} (see --help)", parts.join(" "));
             return ExitCode::from(2);
         }
     };
@@ -168,7 +182,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Bake(args)) => bench_bake::run(args),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => common::exit_status(),
         Err(error) => {
             // One line: the outermost context and its causes, joined.
             let line: Vec<String> = error.chain().map(|c| c.to_string()).collect();

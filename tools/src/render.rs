@@ -153,7 +153,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
     let frame = frames.last();
-    frame.image.write_png_and_exr(&out.png)?;
+    frame.image.write_files(&out.png, &out.exr)?;
 
     let reference = if args.compare {
         let bar = progress_bar(u64::from(camera.height));

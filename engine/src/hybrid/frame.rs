@@ -99,6 +99,13 @@ struct FrameKey {
     vertex_exact: bool,
     /// Per lens object: EM origin, shells and the identity of every map (`Arc` address).
     layers: Vec<(DVec3, Vec<LayerShell>, Vec<Vec<usize>>)>,
+    /// The rest of the scene a frame draws: the environment meshes (`Arc` addresses), the sky
+    /// dome (its identity), the viewpoint samples and which lens faces are drawn. Callers may
+    /// change these public fields; a changed one is another frame.
+    environment: Vec<usize>,
+    sky: Option<usize>,
+    viewpoints: Vec<DVec3>,
+    faces: Vec<LensFaces>,
 }
 
 impl FrameKey {
@@ -124,6 +131,14 @@ impl FrameKey {
                     (l.em_origin, l.shells.clone(), maps)
                 })
                 .collect(),
+            environment: scene
+                .environment
+                .iter()
+                .map(|m| Arc::as_ptr(m) as usize)
+                .collect(),
+            sky: scene.sky.as_ref().map(SkyDome::identity),
+            viewpoints: scene.viewpoints.clone(),
+            faces: scene.faces.clone(),
         }
     }
 }
@@ -591,8 +606,10 @@ impl HybridScene {
     /// identity.
     ///
     /// The cache is keyed by everything a frame depends on that may change: the camera, the
-    /// options and each lens object's EM origin, shells and maps (by `Arc` identity). The scene
-    /// and its trace structures are treated as fixed once built.
+    /// options, each lens object's EM origin, shells and maps (by `Arc` identity), the
+    /// environment meshes, the sky dome, the viewpoint samples and the drawn faces. The scene
+    /// description and its trace structures are treated as fixed once built (call
+    /// [`HybridScene::forget_frame`] after changing them).
     pub fn frame_unless(
         &self,
         camera: &Camera,

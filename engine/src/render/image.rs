@@ -69,15 +69,15 @@ impl RenderedImage {
     /// Writes the image as an 8-bit sRGB PNG at `path` (extension made `.png`) and a linear f32
     /// EXR beside it (`.exr`), creating the folder if needed.
     pub fn write_png_and_exr(&self, path: &Path) -> Result<(), TraceError> {
-        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(parent).map_err(|source| TraceError::Io {
-                path: parent.to_owned(),
-                source,
-            })?;
-        }
+        self.write_files(&path.with_extension("png"), &path.with_extension("exr"))
+    }
+
+    /// Writes the image as an 8-bit sRGB PNG at `png` and a linear f32 EXR at `exr`, each
+    /// atomically, creating their folders if needed.
+    pub fn write_files(&self, png: &Path, exr: &Path) -> Result<(), TraceError> {
         let rgb = self.rgb();
-        image::write_png(&path.with_extension("png"), self.width, self.height, &rgb)?;
-        image::write_exr(&path.with_extension("exr"), self.width, self.height, &rgb)
+        image::write_png(png, self.width, self.height, &rgb)?;
+        image::write_exr(exr, self.width, self.height, &rgb)
     }
 
     /// The largest difference of one channel value (RGBA, linear) between this image and

@@ -205,6 +205,13 @@ impl Renderer {
         frame: &UploadedFrame,
         submission: Submission,
     ) -> Result<(RenderedImage, FrameTimings), RenderError> {
+        // Only the frame's latest submission's readback is there to read: a later one reuses
+        // the same buffer.
+        if frame.last_submission.as_ref().map(|(_, v)| *v) != Some(submission.value) {
+            return Err(RenderError::BadInput(
+                "finish() was given a submission this frame has since been submitted again over; finish each submission before submitting the frame again".into(),
+            ));
+        }
         self.timeline.wait(submission.value)?;
         let execute_ms = submission.submitted_at.elapsed().as_secs_f64() * 1e3;
         let decode_start = Instant::now();

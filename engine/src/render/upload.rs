@@ -55,10 +55,12 @@ pub(super) struct GpuMesh {
 
 impl Drop for GpuMesh {
     fn drop(&mut self) {
-        // SAFETY: the owner waited for every submission using the set (frames hold the mesh
-        // until their submissions complete); the pool belongs to this device.
+        // SAFETY: no submission using the set is pending: every uploaded frame holds its meshes
+        // until its last submission completed (UploadedFrame waits for it before its fields
+        // drop), so the last owner drops the mesh only after that; the pool belongs to this
+        // device. (No idle wait: evicting a moving sky dome's mesh must not stall the frames in
+        // flight.)
         unsafe {
-            let _ = self.shared.device.device_wait_idle();
             self.shared
                 .device
                 .destroy_descriptor_pool(self.descriptor_pool, None);
@@ -376,6 +378,10 @@ impl UploadCache {
         layers: &[Vec<Arc<CubeMap>>],
     ) -> Result<(), RenderError> {
         let bad = |s: String| Err(RenderError::BadInput(s));
+        // The descriptor sets and maps change: nothing submitted may still read them.
+        if let Some((timeline, value)) = &frame.last_submission {
+            timeline.wait(*value)?;
+        }
         let Some(gpu_lens) = frame.lenses.get_mut(lens) else {
             return bad(format!("lens {lens} is not in the uploaded frame"));
         };

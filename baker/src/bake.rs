@@ -704,15 +704,13 @@ pub fn make_plan(
                     lenses.push(planned);
                     continue;
                 }
-                if judge_scene.is_none() {
-                    judge_scene = Some(projected_scene(
+                let hybrid = match &mut judge_scene {
+                    Some(hybrid) => hybrid,
+                    judge_scene @ None => judge_scene.insert(projected_scene(
                         scene,
                         (0..lens_count).map(default_shells).collect(),
                         JUDGE_EM_SIZE,
-                    )?);
-                }
-                let Some(hybrid) = judge_scene.as_mut() else {
-                    unreachable!("made just above")
+                    )?),
                 };
                 let default_layers = hybrid.lenses[lens].clone();
                 let mut best: Option<(f64, crate::placement::Placement)> = None;
@@ -856,8 +854,36 @@ pub fn bake_sample(
                 records: &set.lenses[lens],
             })
             .collect();
-        if views.is_empty() {
-            // Unseen from this sample: the projected EMs stand in.
+        let matrices = format!("matrices \"{}\"", planned.name);
+        let solving = format!("solve \"{}\"", planned.name);
+        let inferred = if views.is_empty() {
+            None
+        } else {
+            let inferred =
+                infer_lens_views_observed(runner, hybrid, lens, &views, &infer, &mut |step| {
+                    progress(match step {
+                        InferStep::Matrices { layer, layers } => Step {
+                            stage: &matrices,
+                            position: layer,
+                            of: layers,
+                        },
+                        InferStep::Solve { layer, layers } => Step {
+                            stage: &solving,
+                            position: layer,
+                            of: layers,
+                        },
+                    })
+                });
+            match inferred {
+                Ok(inference) => Some(inference),
+                // Seen in the records but covering no pixel centre of the frames (a sliver at
+                // the frame's edge): nothing to fit.
+                Err(InferError::NoLensPixels { .. }) => None,
+                Err(error) => return Err(error.into()),
+            }
+        };
+        // Unseen from this sample, or nothing to fit: the projected maps stand in.
+        let Some(inference) = inferred else {
             maps.push(
                 hybrid.lenses[lens].maps[0]
                     .iter()
@@ -866,39 +892,6 @@ pub fn bake_sample(
             );
             lenses.push(LensReport::unseen(planned));
             continue;
-        }
-        let matrices = format!("matrices \"{}\"", planned.name);
-        let solving = format!("solve \"{}\"", planned.name);
-        let inferred =
-            infer_lens_views_observed(runner, hybrid, lens, &views, &infer, &mut |step| {
-                progress(match step {
-                    InferStep::Matrices { layer, layers } => Step {
-                        stage: &matrices,
-                        position: layer,
-                        of: layers,
-                    },
-                    InferStep::Solve { layer, layers } => Step {
-                        stage: &solving,
-                        position: layer,
-                        of: layers,
-                    },
-                })
-            });
-        let inference = match inferred {
-            Ok(inference) => inference,
-            // Seen in the records but covering no pixel centre of the frames (a sliver at the
-            // frame's edge): nothing to fit, so the projected maps stand in, as for an unseen one.
-            Err(InferError::NoLensPixels { .. }) => {
-                maps.push(
-                    hybrid.lenses[lens].maps[0]
-                        .iter()
-                        .map(|m| CubeMap::clone(m))
-                        .collect(),
-                );
-                lenses.push(LensReport::unseen(planned));
-                continue;
-            }
-            Err(error) => return Err(error.into()),
         };
         seconds.frames += inference.frame_ms / 1e3;
         for layer in &inference.layers {

@@ -27,15 +27,6 @@ fn small_teapot_room() -> lensmap::hybrid::HybridScene {
         .0
 }
 
-/// The scene camera turned about the vertical through its look-at point by `degrees`.
-fn orbit(camera: &Camera, degrees: f32) -> Camera {
-    let rotation = glam::Quat::from_rotation_y(degrees.to_radians());
-    Camera {
-        position: camera.look_at + rotation * (camera.position - camera.look_at),
-        ..*camera
-    }
-}
-
 fn options(variant: Variant) -> FrameOptions {
     FrameOptions {
         hybrid: HybridOptions::with_t(3.0),
@@ -51,11 +42,11 @@ fn frames_in_flight_equal_frames_rendered_alone() {
     let hybrid = small_teapot_room();
     let base = hybrid.scene.camera;
     let cameras = [
-        orbit(&base, 0.0),
-        orbit(&base, 4.0),
-        orbit(&base, 4.0),
-        orbit(&base, 8.0),
-        orbit(&base, 0.0),
+        base.orbited(0.0),
+        base.orbited(4.0),
+        base.orbited(4.0),
+        base.orbited(8.0),
+        base.orbited(0.0),
     ];
     for variant in [Variant::SinglePass, Variant::Multipass] {
         let mut stream = FrameRunner::new(gpu()).unwrap();
@@ -148,7 +139,7 @@ fn lens_objects_outside_the_view_are_skipped() {
 #[test]
 fn frames_do_not_depend_on_the_thread_count() {
     let hybrid = small_teapot_room();
-    let camera = orbit(&hybrid.scene.camera, 2.0);
+    let camera = hybrid.scene.camera.orbited(2.0);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let mut render = |threads: usize| {
         hybrid.forget_frame();

@@ -194,7 +194,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     // A moving camera (a 0.5° step per frame around the look-at point): latency of frames
     // rendered one at a time, and throughput with two frames in flight.
     let path: Vec<Camera> = (0..timed + 2)
-        .map(|i| orbit(&camera, 0.5 * i as f32))
+        .map(|i| camera.orbited(0.5 * i as f32))
         .collect();
     runner.frames_in_flight(&hybrid, &path[..2], &options)?;
     let one_at_a_time = std::time::Instant::now();
@@ -284,14 +284,5 @@ impl StageMedians {
             "record": self.record, "execute": self.execute, "readback": self.readback,
             "downsample": self.downsample, "unaccounted": self.unaccounted, "total": self.total,
         })
-    }
-}
-
-/// `camera` turned about the vertical through its look-at point by `degrees`.
-fn orbit(camera: &Camera, degrees: f32) -> Camera {
-    let rotation = glam::Quat::from_rotation_y(degrees.to_radians());
-    Camera {
-        position: camera.look_at + rotation * (camera.position - camera.look_at),
-        ..*camera
     }
 }

@@ -2,9 +2,12 @@
 //! merged and a killed-then-resumed bake give the same bytes as one uninterrupted bake, the
 //! previous bake survives a kill, and bad input exits 2 with one line naming the fix.
 
+mod common;
+use common::{lensmap, lensmap_command};
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
 /// Small enough for CI: 48×36 views at 1×1, 16² maps, two clustered layers, two views a sample.
@@ -24,18 +27,6 @@ const TINY: [&str; 14] = [
     "--no-judge",
     "--json",
 ];
-
-fn lensmap_command(args: &[&str]) -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_lensmap"));
-    command.args(args).env("LENSMAP_VALIDATION", "1");
-    command
-}
-
-fn lensmap(args: &[&str]) -> Output {
-    lensmap_command(args)
-        .output()
-        .expect("the lensmap binary runs")
-}
 
 fn bake(scene: &str, samples: &str, out: &Path, extra: &[&str]) -> Output {
     let out = out.to_str().expect("UTF-8 temp path");

@@ -2,22 +2,13 @@
 //! output paths that cannot be honoured and a disk that fills mid-write. Each case asserts the
 //! exit code, one line on stderr naming the option, no panic, and that earlier outputs survive.
 
+mod common;
+use common::{lensmap, lensmap_command};
+
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn lensmap_command(args: &[&str]) -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_lensmap"));
-    command.args(args).env("LENSMAP_VALIDATION", "1");
-    command
-}
-
-fn lensmap(args: &[&str]) -> Output {
-    lensmap_command(args)
-        .output()
-        .expect("the lensmap binary runs")
-}
 
 /// A render small enough for CI: 16×12 at 1×1, 8² projected maps.
 const TINY_RENDER: [&str; 9] = [

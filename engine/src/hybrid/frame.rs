@@ -147,7 +147,8 @@ impl FrameKey {
 /// upload that nothing changed.
 struct CachedFrame {
     key: FrameKey,
-    frame: FrameInput,
+    /// Shared with the caller that uploads it: caching a frame copies nothing.
+    frame: Arc<FrameInput>,
     stats: HybridStats,
     identity: u64,
 }
@@ -161,7 +162,7 @@ pub enum BuiltFrame {
     /// The frame the caller already holds (same identity): nothing to build or upload.
     Unchanged(HybridStats),
     /// A frame to upload, with its identity.
-    New(FrameInput, HybridStats, u64),
+    New(Arc<FrameInput>, HybridStats, u64),
 }
 
 /// The paper's angle threshold: outgoing rays further apart than this make vertices differ.
@@ -586,7 +587,8 @@ impl HybridScene {
         options: &HybridOptions,
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
         match self.frame_unless(camera, options, 0)? {
-            BuiltFrame::New(frame, stats, _) => Ok((frame, stats)),
+            // The cache keeps its share: the caller gets its own copy.
+            BuiltFrame::New(frame, stats, _) => Ok((Arc::unwrap_or_clone(frame), stats)),
             // Identity 0 is never held.
             BuiltFrame::Unchanged(_) => unreachable!("no frame has identity 0"),
         }
@@ -634,15 +636,16 @@ impl HybridScene {
             return Ok(if cached.identity == held {
                 BuiltFrame::Unchanged(stats)
             } else {
-                BuiltFrame::New(cached.frame.clone(), stats, cached.identity)
+                BuiltFrame::New(Arc::clone(&cached.frame), stats, cached.identity)
             });
         }
         let (frame, stats) = self.build_frame(camera, options, false)?;
+        let frame = Arc::new(frame);
         let identity = FRAME_IDENTITY.fetch_add(1, Ordering::Relaxed);
         if let Ok(mut cache) = self.cache.lock() {
             *cache = Some(CachedFrame {
                 key,
-                frame: frame.clone(),
+                frame: Arc::clone(&frame),
                 stats,
                 identity,
             });
@@ -671,8 +674,7 @@ impl HybridScene {
         &self,
         objects: &[usize],
         options: &HybridOptions,
-        view_proj: &glam::Mat4,
-        subpixels: Vec2,
+        screen: &ScreenCamera,
     ) -> TessellationOptions {
         let mut tessellation = options.tessellation;
         if options.footprint_subpixels <= 0.0 || objects.is_empty() {
@@ -683,17 +685,10 @@ impl HybridScene {
             let Some((a, b)) = self.scene.objects[object].mesh.bounds() else {
                 continue;
             };
-            for i in 0..8 {
-                let corner = Vec3::new(
-                    [a.x, b.x][i & 1],
-                    [a.y, b.y][(i >> 1) & 1],
-                    [a.z, b.z][i >> 2],
-                );
-                let clip = *view_proj * corner.extend(1.0);
-                if clip.w.is_nan() || clip.w <= 1e-6 {
+            for corner in box_corners((a, b)) {
+                let Some(p) = screen.project(corner) else {
                     return tessellation;
-                }
-                let p = (Vec2::new(clip.x, clip.y) / clip.w + Vec2::ONE) * 0.5 * subpixels;
+                };
                 lo = lo.min(p);
                 hi = hi.max(p);
             }
@@ -723,15 +718,7 @@ impl HybridScene {
             .objects
             .iter()
             .filter_map(|o| o.mesh.bounds())
-            .flat_map(|(lo, hi)| {
-                (0..8).map(move |i| {
-                    Vec3::new(
-                        [lo.x, hi.x][i & 1],
-                        [lo.y, hi.y][(i >> 1) & 1],
-                        [lo.z, hi.z][i >> 2],
-                    )
-                })
-            })
+            .flat_map(box_corners)
             .map(|corner| corner.distance(camera.position))
             .fold(1.0f32, f32::max);
         let sky = self.sky.as_ref().map(|sky| {
@@ -788,8 +775,7 @@ impl HybridScene {
             if visible_objects.is_empty() {
                 stats.lenses_outside_view += 1;
             }
-            let mut tessellation_options =
-                self.coarsened(&visible_objects, options, &view_proj, screen.subpixels);
+            let mut tessellation_options = self.coarsened(&visible_objects, options, &screen);
             if tessellation_options.t != options.tessellation.t {
                 stats.lenses_coarsened += 1;
             }
@@ -883,28 +869,22 @@ impl HybridScene {
     }
 }
 
-/// Whether the axis-aligned box `(lo, hi)` lies wholly outside the Vulkan clip volume of
-/// `view_proj`: all eight corners beyond one of its planes. Conservative: a box that only
-/// straddles the corner of the frustum counts as visible.
+/// Whether the axis-aligned box `(lo, hi)` lies wholly outside the view of `view_proj`: its eight
+/// corners outside the clip volume as the tessellation's triangle test decides
+/// ([`super::paths::outside_clip_volume`]).
 fn box_outside_view((lo, hi): (Vec3, Vec3), view_proj: &glam::Mat4) -> bool {
-    let corners: [glam::Vec4; 8] = std::array::from_fn(|i| {
-        *view_proj
-            * Vec3::new(
-                [lo.x, hi.x][i & 1],
-                [lo.y, hi.y][(i >> 1) & 1],
-                [lo.z, hi.z][i >> 2],
-            )
-            .extend(1.0)
-    });
-    let planes: [fn(&glam::Vec4) -> bool; 6] = [
-        |c| c.x < -c.w,
-        |c| c.x > c.w,
-        |c| c.y < -c.w,
-        |c| c.y > c.w,
-        |c| c.z < 0.0,
-        |c| c.z > c.w,
-    ];
-    planes.iter().any(|outside| corners.iter().all(outside))
+    super::paths::outside_clip_volume(&box_corners((lo, hi)).map(|p| *view_proj * p.extend(1.0)))
+}
+
+/// The eight corners of the axis-aligned box `(lo, hi)`.
+fn box_corners((lo, hi): (Vec3, Vec3)) -> [Vec3; 8] {
+    std::array::from_fn(|i| {
+        Vec3::new(
+            [lo.x, hi.x][i & 1],
+            [lo.y, hi.y][(i >> 1) & 1],
+            [lo.z, hi.z][i >> 2],
+        )
+    })
 }
 
 /// A lens object's tessellated mesh as an opaque mesh coloured with the exact radiance at each

@@ -54,6 +54,19 @@ pub struct ScreenCamera {
     pub subpixels: Vec2,
 }
 
+impl ScreenCamera {
+    /// Where a world-space point lands, in subpixels; `None` at or behind the eye's plane, or
+    /// for a non-finite projection.
+    pub fn project(&self, position: Vec3) -> Option<Vec2> {
+        let clip = self.view_proj * position.extend(1.0);
+        if !clip.is_finite() || clip.w <= 1e-6 {
+            return None;
+        }
+        let ndc = Vec2::new(clip.x, clip.y) / clip.w;
+        Some((ndc + Vec2::ONE) * 0.5 * self.subpixels)
+    }
+}
+
 /// Ray traces the vertices of one scene object of one lens object.
 pub struct PathOracle<'a> {
     trace: &'a TraceScene,
@@ -208,12 +221,7 @@ impl VertexOracle for PathOracle<'_> {
     }
 
     fn screen(&self, position: Vec3) -> Option<Vec2> {
-        let clip = self.camera.view_proj * position.extend(1.0);
-        if !clip.is_finite() || clip.w <= 1e-6 {
-            return None;
-        }
-        let ndc = Vec2::new(clip.x, clip.y) / clip.w;
-        Some((ndc + Vec2::ONE) * 0.5 * self.camera.subpixels)
+        self.camera.project(position)
     }
 
     fn front_facing(&self, corners: [Vec3; 3]) -> bool {
@@ -225,18 +233,21 @@ impl VertexOracle for PathOracle<'_> {
     }
 
     fn outside_view(&self, corners: [Vec3; 3]) -> bool {
-        let clip = corners.map(|p| self.camera.view_proj * p.extend(1.0));
-        // Vulkan clip volume: −w ≤ x, y ≤ w, 0 ≤ z ≤ w. Outside when every corner fails the same
-        // plane.
-        let planes: [fn(glam::Vec4) -> bool; 5] = [
-            |c| c.x < -c.w,
-            |c| c.x > c.w,
-            |c| c.y < -c.w,
-            |c| c.y > c.w,
-            |c| c.z < 0.0,
-        ];
-        planes
-            .iter()
-            .any(|outside| clip.iter().all(|c| outside(*c)))
+        outside_clip_volume(&corners.map(|p| self.camera.view_proj * p.extend(1.0)))
     }
+}
+
+/// Whether clip-space points lie wholly outside the Vulkan view volume: all of them beyond one of
+/// its side planes (−w ≤ x, y ≤ w) or its near plane (0 ≤ z). The far plane is not tested: the
+/// runtime puts it past everything in the scene. Conservative: points that only straddle a
+/// corner of the frustum count as visible.
+pub(crate) fn outside_clip_volume(clip: &[glam::Vec4]) -> bool {
+    let planes: [fn(&glam::Vec4) -> bool; 5] = [
+        |c| c.x < -c.w,
+        |c| c.x > c.w,
+        |c| c.y < -c.w,
+        |c| c.y > c.w,
+        |c| c.z < 0.0,
+    ];
+    planes.iter().any(|outside| clip.iter().all(outside))
 }

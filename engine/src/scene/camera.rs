@@ -69,6 +69,16 @@ impl Camera {
         Camera { position, ..*self }
     }
 
+    /// The same camera turned by `degrees` about the vertical through its look-at point (a step
+    /// of a camera moving around the scene).
+    pub fn orbited(&self, degrees: f32) -> Camera {
+        let rotation = glam::Quat::from_rotation_y(degrees.to_radians());
+        Camera {
+            position: self.look_at + rotation * (self.position - self.look_at),
+            ..*self
+        }
+    }
+
     /// The same camera with an image of `width × height` pixels, each supersampled
     /// `supersampling × supersampling`.
     pub fn with_resolution(&self, width: u32, height: u32, supersampling: u32) -> Camera {

@@ -4,8 +4,6 @@
 
 use std::path::PathBuf;
 
-use std::io::IsTerminal;
-
 use clap::Args;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lensmap::{
@@ -21,7 +19,7 @@ use lensmap_baker::{
 };
 use serde_json::json;
 
-use crate::common::BadUsage;
+use crate::common::{BadUsage, progress_shown, report};
 
 #[derive(Args)]
 #[command(after_help = "Examples:
@@ -85,9 +83,6 @@ pub struct BakeArgs {
     /// Join these shard directories into --out instead of baking.
     #[arg(long, num_args = 1.., value_name = "DIR", conflicts_with_all = ["scene", "shard", "resume"])]
     merge: Vec<PathBuf>,
-    /// Print one JSON summary on stdout instead of the text report.
-    #[arg(long)]
-    json: bool,
 }
 
 /// `on` or `off`.
@@ -108,22 +103,19 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
             .as_ref()
             .map(|p| p.samples.clone())
             .unwrap_or_default();
-        if args.json {
-            say!(
-                "{}",
-                serde_json::to_string_pretty(&json!({
-                    "out": args.out,
-                    "merged": args.merge,
-                    "samples": samples,
-                }))?
-            );
-        } else {
-            say!(
-                "merged {} shards into {}: samples {samples:?}",
-                args.merge.len(),
-                args.out.display()
-            );
-        }
+        report(
+            &json!({
+                "out": args.out,
+                "merged": args.merge,
+                "samples": samples,
+            }),
+            None,
+        )?;
+        say!(
+            "merged {} shards into {}: samples {samples:?}",
+            args.merge.len(),
+            args.out.display()
+        );
         return Ok(());
     }
     let Some(scene_name) = &args.scene else {
@@ -158,18 +150,15 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
             validation.messages.len()
         );
     }
-    if args.json {
-        say!(
-            "{}",
-            serde_json::to_string_pretty(&json!({
-                "scene": scene.name,
-                "out": args.out,
-                "device": device,
-                "summary": summary,
-            }))?
-        );
-        return Ok(());
-    }
+    report(
+        &json!({
+            "scene": scene.name,
+            "out": args.out,
+            "device": device,
+            "summary": summary,
+        }),
+        None,
+    )?;
     say!(
         "{}: {} sample(s) in {} ({} baked now, {} resumed), EM {}², plan {:.1} s, device {device}",
         scene.name,
@@ -238,7 +227,7 @@ pub struct BakeBars {
 impl BakeBars {
     /// Bars for a bake of `samples` samples.
     pub fn new(samples: usize) -> BakeBars {
-        let multi = if std::io::stderr().is_terminal() {
+        let multi = if progress_shown() {
             MultiProgress::new()
         } else {
             MultiProgress::with_draw_target(ProgressDrawTarget::hidden())

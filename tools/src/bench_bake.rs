@@ -25,7 +25,7 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, JudgeArgs, write_json};
+use crate::common::{BadUsage, JudgeArgs, report};
 
 #[derive(Args)]
 #[command(after_help = "Example:
@@ -49,9 +49,9 @@ pub struct BenchBakeArgs {
     /// Projected EMs' face size (the baseline).
     #[arg(long, default_value_t = 128)]
     em_size: u32,
-    /// Where to write the JSON results.
-    #[arg(long, default_value = "out/bench-bake.json")]
-    json: PathBuf,
+    /// Also write the JSON results to this file (--json prints them on stdout).
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
 }
 
 /// The three cameras: on sample A, halfway to A+1, 15° above A.
@@ -153,13 +153,13 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         say!("{line}");
         rows.push(json!({"camera": name, "position": camera.position, "results": cells}));
     }
-    write_json(
-        &args.json,
+    report(
         &json!({
             "scene": scene.name, "device": device, "width": args.judge.width, "height": args.judge.height,
             "supersampling": args.judge.supersampling, "reference_supersampling": args.judge.reference_supersampling,
             "t": args.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
         }),
+        args.report.as_deref(),
     )?;
     Ok(())
 }

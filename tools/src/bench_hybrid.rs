@@ -19,9 +19,10 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, FormatArg, flag_error, write_json};
+use crate::common::{BadUsage, FormatArg, flag_error, report};
 
 #[derive(Args)]
+#[command(after_help = "Example:\n  lensmap bench hybrid --scene teapot-room --width 640 --height 480 --t 3 --report out/bench-hybrid.json")]
 pub struct BenchHybridArgs {
     /// Built-in scene name or path.
     #[arg(long, default_value = "teapot-room")]
@@ -51,9 +52,9 @@ pub struct BenchHybridArgs {
     /// Timed frames per variant (after two warm-up frames).
     #[arg(long, default_value_t = 9)]
     frames: usize,
-    /// Where to write the JSON results.
-    #[arg(long, default_value = "out/bench-hybrid.json")]
-    json: PathBuf,
+    /// Also write the JSON results to this file (--json prints them on stdout).
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
 }
 
 pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
@@ -256,8 +257,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
             "cpu_speedup": cpu_1 / cpu, "tessellation_speedup": tessellation_1 / tessellation,
         })).collect::<Vec<_>>(),
     });
-    write_json(&args.json, &out)?;
-    say!("wrote {}", args.json.display());
+    report(&out, args.report.as_deref())?;
     Ok(())
 }
 

@@ -21,7 +21,7 @@ use lensmap::{
 use lensmap_baker::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions, infer_lens};
 use serde_json::json;
 
-use crate::common::{BadUsage, JudgeArgs, flag_error, write_json};
+use crate::common::{BadUsage, JudgeArgs, flag_error, report};
 
 #[derive(Args)]
 #[command(
@@ -54,9 +54,9 @@ pub struct BenchInferArgs {
     /// Inference runs; the median time is reported.
     #[arg(long, default_value_t = 3)]
     runs: usize,
-    /// Where to write the JSON results.
-    #[arg(long, default_value = "out/bench-infer.json")]
-    json: PathBuf,
+    /// Also write the JSON results to this file (--json prints them on stdout).
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
 }
 
 /// `--solver`.
@@ -193,8 +193,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         records_ms / 1e3,
         r = args.judge.reference_supersampling
     );
-    write_json(
-        &args.json,
+    report(
         &json!({
             "scene": args.scene,
             "device": device,
@@ -209,6 +208,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
                 "inferred": {"srgb": inferred_srgb, "linear": inferred_linear},
             },
         }),
+        args.report.as_deref(),
     )?;
     Ok(())
 }

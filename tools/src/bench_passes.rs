@@ -17,9 +17,10 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::write_json;
+use crate::common::report;
 
 #[derive(Args)]
+#[command(after_help = "Example:\n  lensmap bench passes --width 640 --height 480 --report out/bench-passes.json")]
 pub struct BenchPassesArgs {
     /// Frame width.
     #[arg(long, default_value_t = 640)]
@@ -33,9 +34,9 @@ pub struct BenchPassesArgs {
     /// Largest layer count n (from 1).
     #[arg(long, default_value_t = 4)]
     max_layers: usize,
-    /// Where to write the JSON results.
-    #[arg(long, default_value = "out/bench-passes.json")]
-    json: PathBuf,
+    /// Also write the JSON results to this file (--json prints them on stdout).
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
 }
 
 /// Linear RGB error of `image` against `reference` over `mask`; `None` when the mask is empty
@@ -155,7 +156,6 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         "device": runner.gpu().device_name(), "width": args.width, "height": args.height,
         "frames": args.frames, "rows": rows,
     });
-    write_json(&args.json, &out)?;
-    say!("wrote {}", args.json.display());
+    report(&out, args.report.as_deref())?;
     Ok(())
 }

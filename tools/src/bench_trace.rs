@@ -6,7 +6,6 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::common::write_json;
 use lensmap::metrics::{self, Channels, Coverage, Encoding, Mask, MetricsError};
 use lensmap::runner::median;
 use lensmap::scene::{Camera, Scene};
@@ -17,7 +16,7 @@ use lensmap::trace::{
 /// Arguments of `lensmap bench trace`.
 #[derive(clap::Args, Debug, Clone)]
 #[command(
-    after_help = "Example:\n  lensmap bench trace --width 320 --height 240 --supersampling 2 --json trace.json"
+    after_help = "Example:\n  lensmap bench trace --width 320 --height 240 --supersampling 2 --report trace.json"
 )]
 pub struct BenchTraceArgs {
     /// Image width in pixels.
@@ -32,9 +31,9 @@ pub struct BenchTraceArgs {
     /// Timed renders per configuration; the median is reported.
     #[arg(long, default_value_t = 3)]
     pub runs: u32,
-    /// Also write the results as JSON to this file.
+    /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
+    pub report: Option<PathBuf>,
 }
 
 /// One timed configuration.
@@ -226,19 +225,16 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
     }
     say!("(the paper reports about 5× more ray queries for the full tree)");
 
-    if let Some(path) = &args.json {
-        let report = BenchReport {
-            width: args.width,
-            height: args.height,
-            supersampling: args.supersampling,
-            runs,
-            cpu_threads_available: std::thread::available_parallelism().map_or(1, |n| n.get()),
-            speed,
-            full_vs_greedy: comparisons,
-        };
-        write_json(path, &report)?;
-    }
-    Ok(())
+    let report = BenchReport {
+        width: args.width,
+        height: args.height,
+        supersampling: args.supersampling,
+        runs,
+        cpu_threads_available: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        speed,
+        full_vs_greedy: comparisons,
+    };
+    crate::common::report(&report, args.report.as_deref())
 }
 
 /// The full tree's image against the greedy one: display-sRGB error over every pixel, linear

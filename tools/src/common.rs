@@ -1,21 +1,26 @@
-//! What several commands share: stdout printing that survives a closed pipe, usage errors and
-//! the option enums, camera arguments and their validation, progress bars and JSON reports.
+//! What several commands share: how a command talks (`--json`, `--quiet`, results on stdout that
+//! survive a closed pipe, status and progress on stderr), usage errors and the option enums,
+//! camera arguments and their validation, progress and JSON reports.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 
 use anyhow::Context;
 use clap::ValueEnum;
 use glam::Vec3;
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lensmap::options::OptionError;
 use lensmap::render::{TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
 use lensmap::trace::image::validate_camera;
 
-/// Prints a line on stdout. Once stdout is closed (`lensmap … | head -1`) nothing more is
-/// printed, the work and the files it was asked to write are finished, and the program then
-/// ends quietly with [`CLOSED_PIPE_EXIT`] ([`exit_status`]).
+/// Prints a line of the human-readable result on stdout: nothing under `--json` (the JSON
+/// document is the result then) or `--quiet`. Once stdout is closed (`lensmap … | head -1`)
+/// nothing more is printed, the work and the files it was asked to write are finished, and the
+/// program then ends quietly with [`CLOSED_PIPE_EXIT`] ([`exit_status`]).
 macro_rules! say {
     () => {{
         $crate::common::say_line(format_args!(""));
@@ -25,18 +30,57 @@ macro_rules! say {
     }};
 }
 
+/// Prints a warning on stderr, whatever `--quiet` says: an adjusted value or a spent budget is
+/// never silent.
+macro_rules! warn {
+    ($($arg:tt)*) => {{
+        eprintln!("warning: {}", format_args!($($arg)*));
+    }};
+}
+
+/// How every command talks, from the global flags: the same on every command.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Voice {
+    /// `--json`: the result is one JSON document on stdout and nothing else is printed there;
+    /// an error is one JSON line on stderr.
+    pub json: bool,
+    /// `--quiet`: no progress and no human-readable report (errors, warnings and the `--json`
+    /// document still print).
+    pub quiet: bool,
+}
+
+static VOICE: OnceLock<Voice> = OnceLock::new();
+
+/// Sets how the commands talk, once, before any command runs.
+pub fn set_voice(voice: Voice) {
+    let _ = VOICE.set(voice);
+}
+
+/// How the commands talk (the default before [`set_voice`]: human, not quiet).
+pub fn voice() -> Voice {
+    VOICE.get().copied().unwrap_or_default()
+}
+
 /// The exit status after stdout was closed: 128 + SIGPIPE, what a shell reports for a program
 /// that SIGPIPE ended.
 pub const CLOSED_PIPE_EXIT: u8 = 128 + 13;
 
 /// Set once a write to stdout found the reader gone.
-static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
 
-/// Writes one line to stdout (see `say!`); remembers a closed stdout and prints nothing more.
-/// Other write errors are ignored (a full disk behind a redirect does not stop the work).
+/// Writes one line of the human report to stdout (see `say!`).
 pub fn say_line(line: std::fmt::Arguments) {
+    let voice = voice();
+    if voice.json || voice.quiet {
+        return;
+    }
+    write_stdout(line);
+}
+
+/// Writes one line to stdout; remembers a closed stdout and prints nothing more. Other write
+/// errors are ignored (a full disk behind a redirect does not stop the work).
+fn write_stdout(line: std::fmt::Arguments) {
     use std::io::Write as _;
-    use std::sync::atomic::Ordering;
     if STDOUT_CLOSED.load(Ordering::Relaxed) {
         return;
     }
@@ -50,11 +94,26 @@ pub fn say_line(line: std::fmt::Arguments) {
 /// The exit status for a run that succeeded: [`CLOSED_PIPE_EXIT`] when stdout was closed
 /// under it, else success.
 pub fn exit_status() -> std::process::ExitCode {
-    if STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) {
+    if STDOUT_CLOSED.load(Ordering::Relaxed) {
         std::process::ExitCode::from(CLOSED_PIPE_EXIT)
     } else {
         std::process::ExitCode::SUCCESS
     }
+}
+
+/// A command's machine-readable result: printed on stdout under `--json` (pretty, the only
+/// thing there), and written atomically to `file` when one was asked for (`--report FILE`),
+/// which the human report then names.
+pub fn report(value: &impl serde::Serialize, file: Option<&Path>) -> anyhow::Result<()> {
+    if let Some(path) = file {
+        write_json(path, value)?;
+    }
+    if voice().json {
+        write_stdout(format_args!("{}", serde_json::to_string_pretty(value)?));
+    } else if let Some(path) = file {
+        say!("wrote {}", path.display());
+    }
+    Ok(())
 }
 
 /// A usage error the parser cannot catch (exit code 2).
@@ -112,7 +171,7 @@ impl From<FormatArg> for TargetFormat {
     }
 }
 
-/// Writes a JSON report (pretty, ending in a newline), creating its folder.
+/// Writes a JSON report (pretty, ending in a newline) atomically, creating its folder.
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent)
@@ -266,19 +325,65 @@ pub fn choose_camera(
     Ok(camera)
 }
 
-/// A row progress bar on stderr, hidden when stderr is not a terminal.
-pub fn progress_bar(rows: u64) -> ProgressBar {
-    if !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
+/// Whether progress may be drawn: stderr is a terminal and `--quiet` was not given.
+pub fn progress_shown() -> bool {
+    !voice().quiet && std::io::stderr().is_terminal()
+}
+
+/// A command's stages as it goes, on stderr: "step i of n: what" with a spinner and the elapsed
+/// time, or a bar where the stage counts its work (rows, frames). Hidden when stderr is not a
+/// terminal or under `--quiet`.
+pub struct Steps {
+    total: usize,
+    started: usize,
+}
+
+impl Steps {
+    /// A command of `total` stages.
+    pub fn new(total: usize) -> Steps {
+        Steps { total, started: 0 }
     }
-    let bar = ProgressBar::new(rows);
-    if let Ok(style) = ProgressStyle::with_template(
-        "{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} rows (eta {eta})",
-    ) {
-        bar.set_style(style);
+
+    /// Starts the next stage with a spinner; `finish_and_clear` it when the stage ends.
+    pub fn step(&mut self, what: &str) -> ProgressBar {
+        let bar = self.bar(None);
+        bar.set_message(self.next(what));
+        bar.enable_steady_tick(Duration::from_millis(120));
+        bar
     }
-    bar.set_message("ray tracing");
-    bar
+
+    /// Starts the next stage as a bar over `length` `unit`s.
+    pub fn counted(&mut self, what: &str, length: u64, unit: &str) -> ProgressBar {
+        let bar = self.bar(Some((length, unit)));
+        bar.set_message(self.next(what));
+        bar
+    }
+
+    fn next(&mut self, what: &str) -> String {
+        self.started += 1;
+        format!("step {} of {}: {what}", self.started, self.total.max(self.started))
+    }
+
+    fn bar(&self, counted: Option<(u64, &str)>) -> ProgressBar {
+        let (bar, template) = match counted {
+            Some((length, unit)) => (
+                ProgressBar::new(length),
+                format!("{{msg}} [{{elapsed_precise}}] {{wide_bar}} {{pos}}/{{len}} {unit} (eta {{eta}})"),
+            ),
+            None => (
+                ProgressBar::new_spinner(),
+                "{spinner} {msg} [{elapsed_precise}]".to_owned(),
+            ),
+        };
+        if !progress_shown() {
+            bar.set_draw_target(ProgressDrawTarget::hidden());
+            return bar;
+        }
+        if let Ok(style) = ProgressStyle::with_template(&template) {
+            bar.set_style(style);
+        }
+        bar
+    }
 }
 
 /// Where an image command writes: a PNG (sRGB) and an EXR (linear) of the same stem.

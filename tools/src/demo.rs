@@ -30,9 +30,13 @@ use lensmap::{
 use lensmap_baker::bake::{BakeOptions, bake};
 use serde_json::json;
 
-use crate::common::{BadUsage, flag_error, progress_bar, write_json};
+use crate::common::{BadUsage, Steps, flag_error, report};
 
 #[derive(Args)]
+#[command(after_help = "Examples:
+  lensmap demo                       (bakes into out/bake on the first run, then reuses it)
+  lensmap demo --json > demo.json    (the report as JSON, nothing else on stdout)
+  lensmap demo --synthetic --report out/synthetic.json")]
 pub struct DemoArgs {
     /// Output directory.
     #[arg(long, default_value = "out")]
@@ -58,9 +62,9 @@ pub struct DemoArgs {
     /// Synthetic demo: timed frames per variant.
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
-    /// Also write the report as JSON here.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
+    /// Also write the report as JSON to this file.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
 }
 
 pub fn run(args: DemoArgs) -> anyhow::Result<()> {
@@ -87,9 +91,18 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     say!("device: {}", runner.gpu().device_name());
 
-    let inferred = inferred_scene(&mut runner, &scene, &camera, &args.out.join("bake"))?;
+    let mut steps = Steps::new(5);
+    let inferred = inferred_scene(
+        &mut runner,
+        &scene,
+        &camera,
+        &args.out.join("bake"),
+        &mut steps,
+    )?;
+    let step = steps.step("projected layered EMs and light maps");
     let prepare = Instant::now();
     let (hybrid, em_rays) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    step.finish_and_clear();
     say!(
         "projected layered EMs: {} lens objects, {}² texels per face, {} rays, {:.2} s",
         hybrid.lenses.len(),
@@ -98,7 +111,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         prepare.elapsed().as_secs_f64()
     );
 
-    let bar = progress_bar(u64::from(camera.height));
+    let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
     let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|rows| {
         bar.set_position(u64::from(rows))
     })?;
@@ -134,6 +147,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     );
     let mut rows = Vec::new();
     let mut side_by_side = Vec::new();
+    let bar = steps.counted("hybrid frames", 8, "settings");
     for (ems, hybrid) in [("inferred", &inferred), ("projected", &hybrid)] {
         for variant in [Variant::SinglePass, Variant::Multipass] {
             for t in [3.0f32, 5.0] {
@@ -205,9 +219,12 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 "lens_psnr_db": psnr_display,
                 "lens_psnr_linear_db": psnr_linear,
             }));
+                bar.inc(1);
             }
         }
     }
+    bar.finish_and_clear();
+    let step = steps.step("side-by-side image");
     let reference_image = RenderedImage {
         width: camera.width,
         height: camera.height,
@@ -219,6 +236,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     };
     side_by_side.push(reference_image);
     beside(&side_by_side)?.write_png_and_exr(&args.out.join("teapot-room-side-by-side.png"))?;
+    step.finish_and_clear();
     say!(
         "PSNR dB: display sRGB clamped to [0, 1] over the pixels the reference sees as all lens; lin. dB: linear HDR, unclamped"
     );
@@ -233,21 +251,20 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         "wrote {}/teapot-room-side-by-side.png (inferred | projected | reference, single pass, t = 3) and the frames beside it",
         args.out.display()
     );
-    let report = runner.gpu().validation_report();
-    if report.enabled {
-        say!("validation messages: {}", report.messages.len());
+    let validation = runner.gpu().validation_report();
+    if validation.enabled {
+        say!("validation messages: {}", validation.messages.len());
     }
     say!("total {:.1} s", started.elapsed().as_secs_f64());
-    if let Some(path) = &args.json {
-        let out = json!({
-            "device": runner.gpu().device_name(), "width": camera.width, "height": camera.height,
-            "supersampling": camera.supersampling, "em_size": args.em_size,
-            "reference": {"ms": reference.stats.seconds * 1e3, "rays": rc.all_rays(), "triangle_tests": rc.triangle_tests},
-            "rows": rows,
-        });
-        write_json(path, &out)?;
-    }
-    Ok(())
+    let out = json!({
+        "device": runner.gpu().device_name(), "width": camera.width, "height": camera.height,
+        "supersampling": camera.supersampling, "em_size": args.em_size,
+        "reference": {"ms": reference.stats.seconds * 1e3, "rays": rc.all_rays(), "triangle_tests": rc.triangle_tests},
+        "rows": rows,
+        "side_by_side": args.out.join("teapot-room-side-by-side.png"),
+        "seconds": started.elapsed().as_secs_f64(),
+    });
+    report(&out, args.report.as_deref())
 }
 
 /// Images of one size side by side, left to right.
@@ -280,6 +297,7 @@ fn inferred_scene(
     scene: &Scene,
     camera: &lensmap::scene::Camera,
     dir: &std::path::Path,
+    steps: &mut Steps,
 ) -> anyhow::Result<HybridScene> {
     let positions: Vec<glam::DVec3> = scene
         .view_space
@@ -316,7 +334,11 @@ fn inferred_scene(
             "inferred layered EMs: samples {samples:?} cached in {}",
             dir.display()
         );
+        steps.step("inferred layered EMs (cached)").finish_and_clear();
     } else {
+        let step = steps.step(&format!(
+            "baking inferred layered EMs at samples {samples:?} (once; cached)"
+        ));
         say!(
             "inferred layered EMs: baking samples {samples:?} into {} (cached for the next run)",
             dir.display()
@@ -332,6 +354,7 @@ fn inferred_scene(
             &mut |progress| bars.show(progress),
         )?;
         bars.finish();
+        step.finish_and_clear();
     }
     let hybrid = HybridScene::from_bake(scene.clone(), Bake::read(dir)?)?;
     say!(
@@ -377,7 +400,9 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
     let format = TargetFormat::Rgba32f;
     let mut images = Vec::new();
     let mut rows = Vec::new();
+    let mut steps = Steps::new(2);
     for variant in [Variant::Multipass, Variant::SinglePass] {
+        let step = steps.step(&format!("{} frames", variant.name()));
         let plan = lensmap::render::Renderer::plan(&uploaded, variant, format)?;
         let renders = runner.timed_renders(&mut uploaded, variant, format, args.frames)?;
         let stem = format!("demo-{}", variant.name());
@@ -401,25 +426,22 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
             "png": args.out.join(format!("{stem}.png")), "exr": args.out.join(format!("{stem}.exr")),
         }));
         images.push(renders.image);
+        step.finish_and_clear();
     }
     let difference = images[0].max_abs_difference(&images[1])?;
     say!(
         "single-pass vs multipass ({}): max |difference| {difference:.3e}",
         format.name()
     );
-    if let Some(path) = &args.json {
-        let report = json!({
-            "device": runner.gpu().device_name(), "width": width, "height": height,
-            "layers": args.layers, "frames": args.frames, "format": format.name(),
-            "variants": rows, "single_pass_vs_multipass_max_difference": difference,
-        });
-        write_json(path, &report)?;
-        say!("wrote {}", path.display());
-    }
-    let report = runner.gpu().validation_report();
-    if report.enabled {
-        say!("validation messages: {}", report.messages.len());
+    let validation = runner.gpu().validation_report();
+    if validation.enabled {
+        say!("validation messages: {}", validation.messages.len());
     }
     say!("total {:.2} s", started.elapsed().as_secs_f64());
-    Ok(())
+    let out = json!({
+        "device": runner.gpu().device_name(), "width": width, "height": height,
+        "layers": args.layers, "frames": args.frames, "format": format.name(),
+        "variants": rows, "single_pass_vs_multipass_max_difference": difference,
+    });
+    report(&out, args.report.as_deref())
 }

@@ -17,7 +17,7 @@ mod render;
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 /// Hybrid rendering of shiny and glass objects with layered environment maps.
 #[derive(Parser)]
@@ -25,11 +25,45 @@ use clap::{Parser, Subcommand};
     name = "lensmap",
     version,
     about = "Hybrid rendering of shiny and glass objects with layered environment maps",
-    propagate_version = true
+    propagate_version = true,
+    after_help = "Examples:
+  lensmap demo                                   the main job on the built-in teapot-room
+  lensmap render --scene glass-sphere --projected --compare --out out/frame.png
+  lensmap passes --layers 3 --json | jq .counts"
 )]
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Print the result as one JSON document on stdout (nothing else there) and an error as
+    /// one JSON line on stderr; the same on every command.
+    #[arg(long, global = true)]
+    json: bool,
+    /// No progress and no human-readable report (errors, warnings and --json still print).
+    #[arg(long, short, global = true)]
+    quiet: bool,
+}
+
+/// What every `--help` ends with: the exit codes and the environment variables.
+const HELP_FOOTER: &str = "Exit codes:
+  0    success
+  1    the work failed (a disk error, a GPU failure, a result the work could not reach)
+  2    bad usage or bad input (an option, a scene, an asset or a bake), said in one line
+  141  stdout was closed before the end (e.g. piped into head); the work and files finished
+
+Environment:
+  LENSMAP_VALIDATION=1   enable the Khronos validation layer (fails on any message)
+  LENSMAP_DEVICE=NAME    use the Vulkan device whose name contains NAME (default: the best)
+  RAYON_NUM_THREADS=N    CPU threads for ray tracing, tessellation and the baker";
+
+/// The command tree with [`HELP_FOOTER`] after every command's own help (its example first).
+fn command_with_footer(command: clap::Command) -> clap::Command {
+    let after = match command.get_after_help() {
+        Some(own) => format!("{own}\n\n{HELP_FOOTER}"),
+        None => HELP_FOOTER.to_owned(),
+    };
+    command
+        .after_help(after)
+        .mut_subcommands(command_with_footer)
 }
 
 #[derive(Subcommand)]
@@ -143,9 +177,14 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
 }
 
 fn main() -> ExitCode {
+    // Before parsing: a usage error is said as JSON too when --json was asked for.
+    let json_asked = std::env::args_os().any(|a| a == "--json");
     // Usage errors in one line (clap's own message, without the usage block), exit code 2;
     // --help and --version print as clap prints them.
-    let cli = match Cli::try_parse() {
+    let parsed = command_with_footer(Cli::command())
+        .try_get_matches()
+        .and_then(|matches| Cli::from_arg_matches(&matches));
+    let cli = match parsed {
         Ok(cli) => cli,
         // --help, --version, and a bare `lensmap` or `lensmap bench` (help on stderr, exit 2).
         Err(error)
@@ -165,10 +204,13 @@ fn main() -> ExitCode {
                 .map(str::trim)
                 .filter(|line| !line.is_empty() && !line.starts_with("For more information"))
                 .collect();
-            eprintln!("{} (see --help)", parts.join(" "));
-            return ExitCode::from(2);
+            return fail(&format!("{} (see --help)", parts.join(" ")), 2, json_asked);
         }
     };
+    common::set_voice(common::Voice {
+        json: cli.json,
+        quiet: cli.quiet,
+    });
     let result = match cli.command {
         Command::Demo(args) => demo::run(args),
         Command::Passes(args) => passes::run(args),
@@ -184,14 +226,37 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => common::exit_status(),
         Err(error) => {
-            // One line: the outermost context and its causes, joined.
-            let line: Vec<String> = error.chain().map(|c| c.to_string()).collect();
-            eprintln!("error: {}", line.join(": "));
-            if is_bad_input(&error) {
-                ExitCode::from(2)
-            } else {
-                ExitCode::from(1)
-            }
+            // One line: the outermost context and its causes, each said once.
+            let line = error_line(&error);
+            let code = if is_bad_input(&error) { 2 } else { 1 };
+            fail(&format!("error: {line}"), code, cli.json)
         }
     }
+}
+
+/// The error chain in one line: each cause once (a cause whose text its outer message already
+/// holds, as a `#[error(transparent)]` or a `{0}` wrapper repeats it, is not said again).
+fn error_line(error: &anyhow::Error) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for cause in error.chain() {
+        let text = cause.to_string();
+        if !parts.iter().any(|outer| outer.contains(&text)) {
+            parts.push(text);
+        }
+    }
+    parts.join(": ")
+}
+
+/// Says a failure on stderr, one line (one JSON object under `--json`), and gives its exit code.
+fn fail(line: &str, code: u8, json: bool) -> ExitCode {
+    if json {
+        let message = line.strip_prefix("error: ").unwrap_or(line);
+        eprintln!(
+            "{}",
+            serde_json::json!({ "error": message, "exit_code": code })
+        );
+    } else {
+        eprintln!("{line}");
+    }
+    ExitCode::from(code)
 }

@@ -6,9 +6,12 @@ use lensmap::render::{FrameShape, TargetFormat, Variant, plan::frame_graph};
 use lensmap::trace::Term;
 use serde_json::json;
 
-use crate::common::{BadUsage, FormatArg, VariantArg};
+use crate::common::{BadUsage, FormatArg, VariantArg, report, voice};
 
 #[derive(Args)]
+#[command(
+    after_help = "Example:\n  lensmap passes --layers 3 --viewpoints 2 --terms 2 --variant multipass --format rgba8"
+)]
 pub struct PassesArgs {
     /// Layers n per viewpoint sample.
     #[arg(long, default_value_t = 3)]
@@ -25,9 +28,6 @@ pub struct PassesArgs {
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba8")]
     format: FormatArg,
-    /// Print JSON instead of the table.
-    #[arg(long)]
-    json: bool,
 }
 
 /// Prints the plan of one lens object's frame.
@@ -60,7 +60,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         "rendering_instances": plan.rendering_instances(),
         "barriers": plan.barrier_count(),
     });
-    if args.json {
+    if voice().json {
         let steps: Vec<_> = plan
             .steps
             .iter()
@@ -81,7 +81,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
             "variant": variant.name(), "format": format.name(), "counts": counts, "steps": steps,
             "culled": plan.culled.iter().map(|(n, r)| json!({"pass": n, "reason": r.to_string()})).collect::<Vec<_>>(),
         });
-        say!("{}", serde_json::to_string_pretty(&out)?);
+        report(&out, None)?;
     } else {
         say!("{}", plan.to_string().trim_end_matches('\n'));
         say!(

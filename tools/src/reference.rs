@@ -8,7 +8,7 @@ use anyhow::Context;
 use lensmap::scene::Scene;
 use lensmap::trace::{self, PathModel, ReferenceImage, RenderStats, TraceOptions, TraceScene};
 
-use crate::common::{CameraArgs, choose_camera, progress_bar};
+use crate::common::{CameraArgs, Steps, choose_camera, write_json};
 
 /// Arguments of `lensmap reference`.
 #[derive(clap::Args, Debug, Clone)]
@@ -28,9 +28,6 @@ pub struct ReferenceArgs {
     /// Output directory (created if missing).
     #[arg(long)]
     pub out: PathBuf,
-    /// Print the statistics as JSON on stdout instead of a summary.
-    #[arg(long)]
-    pub json: bool,
 }
 
 /// The ray-path model named on the command line.
@@ -77,21 +74,25 @@ struct Report<'a> {
 
 /// Runs `lensmap reference`.
 pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
+    let mut steps = Steps::new(3);
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
+    let step = steps.step("preparing the scene for ray tracing");
     let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;
+    step.finish_and_clear();
     let options = TraceOptions {
         model: args.tree.into(),
         ..TraceOptions::default()
     };
 
-    let progress = progress_bar(u64::from(camera.height));
+    let progress = steps.counted("ray tracing", u64::from(camera.height), "rows");
     let image = trace::render_reference(&world, &camera, &options, &|rows| {
         progress.set_position(u64::from(rows));
     })
     .context("rendering the reference image")?;
     progress.finish_and_clear();
 
+    let step = steps.step("writing the images");
     let mut files = image
         .write(&args.out)
         .context("writing the reference images")?
@@ -120,15 +121,10 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     let stats_path = args.out.join("stats.json");
     files.push(stats_path.clone());
     let report = Report { files, ..report };
-    let json = serde_json::to_string_pretty(&report)?;
-    std::fs::write(&stats_path, format!("{json}\n"))
-        .with_context(|| format!("writing {}", stats_path.display()))?;
-
-    if args.json {
-        say!("{json}");
-    } else {
-        print_summary(&scene.name, &args.out, options.model, &image.stats, &image);
-    }
+    write_json(&stats_path, &report)?;
+    step.finish_and_clear();
+    crate::common::report(&report, None)?;
+    print_summary(&scene.name, &args.out, options.model, &image.stats, &image);
     Ok(())
 }
 

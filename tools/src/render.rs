@@ -27,7 +27,7 @@ use lensmap::{
 use serde_json::json;
 
 use crate::common::{
-    CameraArgs, FormatArg, ImageOut, VariantArg, choose_camera, flag_error, progress_bar,
+    CameraArgs, FormatArg, ImageOut, Steps, VariantArg, choose_camera, flag_error,
 };
 
 #[derive(Args)]
@@ -104,9 +104,6 @@ pub struct RenderArgs {
     /// .png beside it), or a folder that gets hybrid.png and hybrid.exr.
     #[arg(long, default_value = "out/hybrid.png")]
     pub out: PathBuf,
-    /// Print the report as JSON.
-    #[arg(long)]
-    pub json: bool,
 }
 
 /// Runs `lensmap render`.
@@ -131,6 +128,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     // The GPU first: without a driver, fail before the expensive preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let mut steps = Steps::new(if args.compare { 3 } else { 2 });
+    let step = steps.step("light maps and layered EMs");
     let prepare = Instant::now();
     let light_maps = LightMapOptions {
         min_texels_per_metre: args.light_map_density,
@@ -145,6 +144,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if let Some(dir) = &args.write_bake {
         hybrid.to_bake().write(dir)?;
     }
+    step.finish_and_clear();
+    let step = steps.step("hybrid frame (a warm-up, then the timed one)");
     // The first frame pays for pipeline creation and shader compilation: render it, then time a
     // second one.
     let repetitions = Repetitions {
@@ -154,9 +155,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
     let frame = frames.last();
     frame.image.write_files(&out.png, &out.exr)?;
+    step.finish_and_clear();
 
     let reference = if args.compare {
-        let bar = progress_bar(u64::from(camera.height));
+        let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
         let image = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|rows| {
             bar.set_position(u64::from(rows))
         })?;
@@ -177,11 +179,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             written: &out,
         },
     )?;
-    if args.json {
-        say!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        print_table(&report);
-    }
+    crate::common::report(&report, None)?;
+    print_table(&report);
     Ok(())
 }
 
@@ -344,8 +343,8 @@ fn print_table(r: &serde_json::Value) {
         h["vertices_traced"]
     );
     if h["leaves_stopped_by_vertex_budget"].as_u64().unwrap_or(0) > 0 {
-        eprintln!(
-            "warning: the frame's vertex budget was spent: {} triangles were left unsplit (coarser than t asks); raise --max-vertices or t",
+        warn!(
+            "the frame's vertex budget was spent: {} triangles were left unsplit (coarser than t asks); raise --max-vertices or t",
             h["leaves_stopped_by_vertex_budget"]
         );
     }

@@ -297,7 +297,7 @@ fn a_written_bake_is_refused_by_another_scene() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Options that do not apply are refused rather than ignored; `--json` is honoured; a misspelt
+/// Options that do not apply are refused rather than ignored; `--report` is honoured; a misspelt
 /// scene name gets a suggestion.
 #[test]
 fn options_say_what_they_do() {
@@ -328,7 +328,7 @@ fn options_say_what_they_do() {
         "1",
         "--out",
         dir.to_str().unwrap(),
-        "--json",
+        "--report",
         report.to_str().unwrap(),
     ]);
     assert!(

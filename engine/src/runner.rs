@@ -318,6 +318,17 @@ impl FrameRunner {
         &self.gpu
     }
 
+    /// Checks that frames of `camera` (its subpixels) in `format` fit this device, before any
+    /// work: [`crate::render::check_framebuffer`].
+    pub fn check_framebuffer(
+        &self,
+        camera: &crate::scene::Camera,
+        format: TargetFormat,
+    ) -> Result<(), RenderError> {
+        let side = |pixels: u32| pixels.saturating_mul(camera.supersampling);
+        crate::render::check_framebuffer(&self.gpu, side(camera.width), side(camera.height), format)
+    }
+
     /// Uploads a compositor frame (for compositor-only work such as [`Self::timed_renders`]).
     pub fn upload(
         &mut self,

@@ -91,6 +91,8 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();
+    let mut steps = crate::common::Steps::new(4);
+    let step = steps.step("projected layered EMs, light maps and the bakes");
     let mut contenders: Vec<(String, HybridScene)> = vec![(
         "projected".into(),
         load_hybrid_scene(
@@ -107,6 +109,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         );
         contenders.push((label, HybridScene::from_bake(scene.clone(), bake)?));
     }
+    step.finish_and_clear();
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(args.t),
         variant: Variant::SinglePass,
@@ -124,11 +127,16 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for (name, camera) in cameras(&scene, args.sample, &args.judge) {
         let reference_camera = args.judge.reference_camera(&camera);
+        let bar = steps.counted(
+            &format!("camera {name}: reference, then the frames"),
+            u64::from(reference_camera.height),
+            "rows",
+        );
         let reference = render_reference(
             &contenders[0].1.trace,
             &reference_camera,
             &TraceOptions::default(),
-            &|_| {},
+            &|rows| bar.set_position(u64::from(rows)),
         )?;
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
@@ -150,6 +158,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         let exact_lens = lens_error(&exact, &reference, Encoding::DisplaySrgb)?.psnr_db;
         line.push_str(&format!("  vertex-exact: {exact_lens:.2}"));
         cells.push(json!({"ems": "vertex-exact", "lens_psnr_db": exact_lens}));
+        bar.finish_and_clear();
         say!("{line}");
         rows.push(json!({"camera": name, "position": camera.position, "results": cells}));
     }

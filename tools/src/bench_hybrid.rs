@@ -22,7 +22,9 @@ use serde_json::json;
 use crate::common::{BadUsage, FormatArg, flag_error, report};
 
 #[derive(Args)]
-#[command(after_help = "Example:\n  lensmap bench hybrid --scene teapot-room --width 640 --height 480 --t 3 --report out/bench-hybrid.json")]
+#[command(
+    after_help = "Example:\n  lensmap bench hybrid --scene teapot-room --width 640 --height 480 --t 3 --report out/bench-hybrid.json"
+)]
 pub struct BenchHybridArgs {
     /// Built-in scene name or path.
     #[arg(long, default_value = "teapot-room")]
@@ -81,9 +83,16 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     scene.camera.height = args.height;
     scene.camera.supersampling = args.supersampling;
     let camera = novel_camera(&scene);
-    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    lensmap::trace::image::validate_camera(&camera)
+        .map_err(|e| BadUsage(format!("--width/--height/--supersampling: {e}")))?;
+    // The device and the framebuffer's fit first: refused before the scene's preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let format = TargetFormat::from(args.format);
+    runner.check_framebuffer(&camera, format)?;
+    let mut steps = crate::common::Steps::new(5);
+    let step = steps.step("projected layered EMs and light maps");
+    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    step.finish_and_clear();
     say!(
         "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
         runner.gpu().device_name(),
@@ -114,6 +123,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         "total ms"
     );
     let mut rows = Vec::new();
+    let step = steps.step("per-stage medians, single pass and multipass");
     for variant in [Variant::SinglePass, Variant::Multipass] {
         let options = FrameOptions {
             hybrid: hybrid_options,
@@ -173,8 +183,10 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     };
     let timed = args.frames;
 
+    step.finish_and_clear();
     // A still camera: every frame after the first reuses its tessellation, texture coordinates
     // and upload.
+    let step = steps.step("a still camera");
     let mut first = Vec::new();
     let mut still = Vec::new();
     for _ in 0..timed {
@@ -187,6 +199,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         still.push(again.total_ms);
     }
     let (first_ms, still_ms) = (median(&mut first), median(&mut still));
+    step.finish_and_clear();
     say!(
         "still camera: first frame {first_ms:.1} ms, each next frame {still_ms:.1} ms ({:.0}% of the first)",
         100.0 * still_ms / first_ms
@@ -194,6 +207,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
 
     // A moving camera (a 0.5° step per frame around the look-at point): latency of frames
     // rendered one at a time, and throughput with two frames in flight.
+    let step = steps.step("a moving camera, one at a time and in flight");
     let path: Vec<Camera> = (0..timed + 2)
         .map(|i| camera.orbited(0.5 * i as f32))
         .collect();
@@ -206,6 +220,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let sequential_ms = one_at_a_time.elapsed().as_secs_f64() * 1e3;
     let (_, in_flight_ms) = runner.frames_in_flight(&hybrid, &path[2..], &options)?;
     let latency_ms = median(&mut latencies);
+    step.finish_and_clear();
     let fps = |wall_ms: f64| timed as f64 / (wall_ms / 1e3);
     say!(
         "moving camera, {timed} frames: latency {latency_ms:.1} ms (median); throughput {:.1} fps one at a time, {:.1} fps with two frames in flight ({:.2}×)",
@@ -219,6 +234,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     counts.dedup();
     counts.retain(|&n| n <= threads.max(2));
     let mut scaling = Vec::new();
+    let bar = steps.counted("thread scaling", counts.len() as u64, "thread counts");
     for &count in &counts {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(count).build()?;
         let repetitions = Repetitions {
@@ -233,7 +249,9 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         let tessellation = frames.median(|f| f.stats.tessellation_ms);
         let total = frames.median(|f| f.total_ms);
         scaling.push((count, cpu, tessellation, total));
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     let (_, cpu_1, tessellation_1, _) = scaling[0];
     for &(count, cpu, tessellation, total) in &scaling {
         say!(

@@ -82,8 +82,11 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let scene = Scene::load_named(&args.scene)?;
     let camera = args.judge.frame_camera(&scene.camera);
     let reference_camera = args.judge.reference_camera(&camera);
-    let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let mut steps = crate::common::Steps::new(4);
+    let step = steps.step("projected layered EMs and light maps");
+    let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    step.finish_and_clear();
     let device = runner.gpu().device_name().to_string();
     say!(
         "{}: {}×{}, targets {k}×{k}, reference {r}×{r}, device {device}",
@@ -95,7 +98,15 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     );
     let trace_options = TraceOptions::default();
     let start = Instant::now();
-    let reference = render_reference(&hybrid.trace, &reference_camera, &trace_options, &|_| {})?;
+    let bar = steps.counted(
+        "reference ray tracer",
+        u64::from(reference_camera.height),
+        "rows",
+    );
+    let reference = render_reference(&hybrid.trace, &reference_camera, &trace_options, &|rows| {
+        bar.set_position(u64::from(rows))
+    })?;
+    bar.finish_and_clear();
     say!("reference traced in {:.1} s", start.elapsed().as_secs_f64());
     let frame_options = FrameOptions {
         hybrid: HybridOptions::default(),
@@ -112,8 +123,10 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         ))
     };
     let (projected_srgb, projected_linear) = judge(&mut runner, &hybrid)?;
+    let step = steps.step("intersection records");
     let records_start = Instant::now();
     let records = compile_records(&hybrid.trace, &camera, &trace_options)?;
+    step.finish_and_clear();
     let records_ms = records_start.elapsed().as_secs_f64() * 1e3;
     let options = InferOptions {
         em_size: EmSize::Auto {
@@ -133,6 +146,11 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     };
     let mut lenses = Vec::new();
     let mut inferred_maps = Vec::new();
+    let bar = steps.counted(
+        "inference",
+        (records.lenses.len() * args.runs.max(1)) as u64,
+        "inferences",
+    );
     for (lens, lens_records) in records.lenses.iter().enumerate() {
         let name = lens_records.name.clone();
         let mut times = Vec::new();
@@ -142,6 +160,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
                 infer_lens(&mut runner, &hybrid, lens, &camera, lens_records, &options)?;
             times.push(inference.total_ms);
             last = Some(inference);
+            bar.inc(1);
         }
         let Some(inference) = last else { continue };
         let total_ms = median(&mut times);
@@ -182,6 +201,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         }));
         inferred_maps.push((lens, inference.maps));
     }
+    bar.finish_and_clear();
     for (lens, maps) in inferred_maps {
         hybrid.lenses[lens].maps = vec![maps.into_iter().map(Arc::new).collect()];
     }

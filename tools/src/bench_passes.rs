@@ -20,7 +20,9 @@ use serde_json::json;
 use crate::common::report;
 
 #[derive(Args)]
-#[command(after_help = "Example:\n  lensmap bench passes --width 640 --height 480 --report out/bench-passes.json")]
+#[command(
+    after_help = "Example:\n  lensmap bench passes --width 640 --height 480 --report out/bench-passes.json"
+)]
 pub struct BenchPassesArgs {
     /// Frame width.
     #[arg(long, default_value_t = 640)]
@@ -93,6 +95,12 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         "max vs f32"
     );
     let mut rows = Vec::new();
+    let formats = TargetFormat::ALL.len() as u64;
+    let bar = crate::common::Steps::new(1).counted(
+        "compositor frames",
+        args.max_layers as u64 * 2 * formats,
+        "settings",
+    );
     for layers in 1..=args.max_layers.max(1) {
         let frame = sphere_frame(&SyntheticOptions {
             width: args.width,
@@ -113,6 +121,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
                     renders.median(|t| t.execute_ms),
                 );
                 results.push((format, renders.image, frame_ms, execute_ms, passes));
+                bar.inc(1);
             }
             let reference = results
                 .iter()
@@ -156,6 +165,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         "device": runner.gpu().device_name(), "width": args.width, "height": args.height,
         "frames": args.frames, "rows": rows,
     });
+    bar.finish_and_clear();
     report(&out, args.report.as_deref())?;
     Ok(())
 }

@@ -107,6 +107,10 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
         "tests/ray"
     );
 
+    // Teapot-room: both models at 1 and 2 threads, `runs` each, and the uncut tree; glass-sphere:
+    // both models and the uncut tree once.
+    let bar =
+        crate::common::Steps::new(1).counted("reference images", 4 * u64::from(runs) + 4, "images");
     for scene_name in ["teapot-room", "glass-sphere"] {
         let scene = Scene::load_named(scene_name)?;
         let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;
@@ -139,6 +143,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
                 for _ in 0..timed_runs {
                     let image = pool
                         .install(|| trace::render_reference(&world, &camera, &options, &|_| {}))?;
+                    bar.inc(1);
                     seconds.push(image.stats.seconds);
                     last = Some(image);
                 }
@@ -192,10 +197,12 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
                 .context("creating the rayon thread pool")?;
             let image =
                 pool.install(|| trace::render_reference(&world, &camera, &uncut, &|_| {}))?;
+            bar.inc(1);
             comparisons.push(compare(scene_name, "depth 6, no cutoff", greedy, &image)?);
         }
     }
 
+    bar.finish_and_clear();
     say!();
     say!("full ray tree vs greedy two-term paths (same image size and sampling):");
     say!(

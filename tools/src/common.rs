@@ -361,14 +361,20 @@ impl Steps {
 
     fn next(&mut self, what: &str) -> String {
         self.started += 1;
-        format!("step {} of {}: {what}", self.started, self.total.max(self.started))
+        format!(
+            "step {} of {}: {what}",
+            self.started,
+            self.total.max(self.started)
+        )
     }
 
     fn bar(&self, counted: Option<(u64, &str)>) -> ProgressBar {
         let (bar, template) = match counted {
             Some((length, unit)) => (
                 ProgressBar::new(length),
-                format!("{{msg}} [{{elapsed_precise}}] {{wide_bar}} {{pos}}/{{len}} {unit} (eta {{eta}})"),
+                format!(
+                    "{{msg}} [{{elapsed_precise}}] {{wide_bar}} {{pos}}/{{len}} {unit} (eta {{eta}})"
+                ),
             ),
             None => (
                 ProgressBar::new_spinner(),

@@ -89,6 +89,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     projected.validate().map_err(flag_error)?;
     // The GPU first: without a driver the demo stops here with exit code 2.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    runner.check_framebuffer(&camera, TargetFormat::Rgba16f)?;
     say!("device: {}", runner.gpu().device_name());
 
     let mut steps = Steps::new(5);
@@ -334,7 +335,9 @@ fn inferred_scene(
             "inferred layered EMs: samples {samples:?} cached in {}",
             dir.display()
         );
-        steps.step("inferred layered EMs (cached)").finish_and_clear();
+        steps
+            .step("inferred layered EMs (cached)")
+            .finish_and_clear();
     } else {
         let step = steps.step(&format!(
             "baking inferred layered EMs at samples {samples:?} (once; cached)"

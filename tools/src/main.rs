@@ -127,6 +127,12 @@ fn is_bad_input(error: &anyhow::Error) -> bool {
     error.chain().any(is_bad_input_cause)
 }
 
+/// A bake that cannot be read or written: the disk failing is the work's failure (exit 1),
+/// everything else (a directory that is not a bake, a damaged manifest…) the input's.
+fn bake_input(error: &lensmap::layers::BakeError) -> bool {
+    !matches!(error, lensmap::layers::BakeError::Io { .. })
+}
+
 /// One cause of an error chain: bad input, or a failure of the work? The runner's error forwards
 /// its inner error's message transparently, so it is looked into.
 fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
@@ -144,7 +150,8 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
         RenderError::Gpu(error) => matches!(error, GpuError::NoDriver(_)),
     };
     let run_input = |run: &RunError| match run {
-        RunError::Option(_) | RunError::Bake(_) | RunError::Hybrid(_) => true,
+        RunError::Bake(error) => bake_input(error),
+        RunError::Option(_) | RunError::Hybrid(_) => true,
         RunError::Tessellation(_) => false,
         RunError::Render(error) => render_input(error),
     };
@@ -155,9 +162,7 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
     if let Some(failure) = cause.downcast_ref::<lensmap_baker::bake::BakeFailure>() {
         use lensmap_baker::bake::BakeFailure;
         return match failure {
-            // Reading or writing the bake directory: the disk failing is the work's failure,
-            // everything else (a directory that is not a bake, a damaged manifest…) the input's.
-            BakeFailure::Bake(error) => !matches!(error, lensmap::layers::BakeError::Io { .. }),
+            BakeFailure::Bake(error) => bake_input(error),
             BakeFailure::BadInput(_) | BakeFailure::Staged { .. } => true,
             // A scene the ray tracer refuses, as everywhere else.
             BakeFailure::Hybrid(_) | BakeFailure::Trace(_) => true,
@@ -168,7 +173,9 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
     cause.is::<lensmap::scene::SceneError>()
         || cause.is::<common::BadUsage>()
         || cause.is::<lensmap::options::OptionError>()
-        || cause.is::<lensmap::layers::BakeError>()
+        || cause
+            .downcast_ref::<lensmap::layers::BakeError>()
+            .is_some_and(bake_input)
         || cause.is::<lensmap::hybrid::HybridError>()
         || cause
             .downcast_ref::<RenderError>()

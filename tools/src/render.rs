@@ -128,6 +128,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     // The GPU first: without a driver, fail before the expensive preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    runner.check_framebuffer(&camera, options.format)?;
     let mut steps = Steps::new(if args.compare { 3 } else { 2 });
     let step = steps.step("light maps and layered EMs");
     let prepare = Instant::now();

@@ -96,6 +96,9 @@ pub struct Gpu {
     pub(crate) command_pool: vk::CommandPool,
     /// The chosen physical device's properties (limits, API version, name).
     pub(crate) properties: vk::PhysicalDeviceProperties,
+    /// The largest device-local memory heap, bytes: what budgets of GPU memory are checked
+    /// against before any work starts.
+    device_local_heap_bytes: u64,
     name: String,
 }
 
@@ -246,6 +249,15 @@ impl Gpu {
             }
         };
         let (physical_device, queue_family, properties) = chosen;
+        // SAFETY: physical_device comes from this instance.
+        let memory = unsafe { instance.get_physical_device_memory_properties(physical_device) };
+        let device_local_heap_bytes = memory
+            .memory_heaps_as_slice()
+            .iter()
+            .filter(|heap| heap.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|heap| heap.size)
+            .max()
+            .unwrap_or(0);
 
         let priorities = [1.0f32];
         let queues = [vk::DeviceQueueCreateInfo::default()
@@ -324,6 +336,7 @@ impl Gpu {
             queue,
             command_pool,
             properties,
+            device_local_heap_bytes,
             name,
         })
     }
@@ -336,6 +349,11 @@ impl Gpu {
     /// The physical device's properties.
     pub fn properties(&self) -> &vk::PhysicalDeviceProperties {
         &self.properties
+    }
+
+    /// The size of the device's largest device-local memory heap, bytes.
+    pub fn device_local_heap_bytes(&self) -> u64 {
+        self.device_local_heap_bytes
     }
 
     /// The logical device, for `render/`.

@@ -1230,11 +1230,60 @@ fn sync_directory(dir: &Path) -> Result<(), BakeError> {
 /// point is corrupt, not a scene.
 pub const MAX_EM_ORIGIN_METRES: f64 = 1e6;
 
+/// An I/O error naming the path a user knows: a path inside the staging, previous or temporary
+/// names this module writes through is said as the bake path it stands for.
 fn io_error(path: &Path, action: &'static str) -> impl FnOnce(std::io::Error) -> BakeError {
-    let path = path.to_owned();
+    let path = public_path(path);
     move |source| BakeError::Io {
         path,
         action,
         source,
+    }
+}
+
+/// `path` with each internal name (`.NAME.baking`, `.NAME.writing-PID`, `.NAME.previous`,
+/// `.NAME.tmp`) replaced by the `NAME` it stands for.
+fn public_path(path: &Path) -> PathBuf {
+    path.components()
+        .map(|component| {
+            let text = component.as_os_str().to_string_lossy();
+            let public = text.strip_prefix('.').and_then(|rest| {
+                [".baking", ".previous", ".tmp"]
+                    .iter()
+                    .find_map(|suffix| rest.strip_suffix(suffix))
+                    .or_else(|| rest.rsplit_once(".writing-").map(|(name, _)| name))
+            });
+            match public {
+                Some(name) if !name.is_empty() => std::ffi::OsString::from(name),
+                _ => component.as_os_str().to_owned(),
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::public_path;
+    use std::path::Path;
+
+    #[test]
+    fn errors_name_the_bake_paths_a_user_knows() {
+        for (internal, public) in [
+            (
+                "/a/.bake.writing-4242/manifest.json",
+                "/a/bake/manifest.json",
+            ),
+            ("/a/.bake.baking/.x.exr.tmp", "/a/bake/x.exr"),
+            ("/a/.bake.previous", "/a/bake"),
+            ("out/bake/lens0.exr", "out/bake/lens0.exr"),
+            ("/a/.hidden/b", "/a/.hidden/b"),
+            ("/a/..tmp", "/a/..tmp"),
+        ] {
+            assert_eq!(
+                public_path(Path::new(internal)),
+                Path::new(public),
+                "{internal}"
+            );
+        }
     }
 }

@@ -374,7 +374,7 @@ impl<'a> Filler<'a> {
         let texels = values
             .iter()
             .zip(&filled)
-            .map(|(v, &f)| [v.x, v.y, v.z, if f { 1.0 } else { 0.0 }].map(f16::from_f32))
+            .map(|(v, &f)| [v.x, v.y, v.z, if f { 1.0 } else { 0.0 }].map(saturating_f16))
             .collect();
         let stats = super::LightMapStats {
             shaded_texels: shaded,
@@ -530,6 +530,15 @@ impl Barycentric {
                 side * normal.dot(centre - p) + 0.5 * (normal.x.abs() + normal.y.abs()) >= 0.0
             })
     }
+}
+
+/// `value` as RGBA16F, radiance past the format's largest finite value (65504) saturating to
+/// it rather than becoming infinite: a bright light close to a wall is as white as the display
+/// shows it (the RGBA16F framebuffer saturates the same way), not a light map that fails. A NaN
+/// stays NaN, for [`super::LightMap::validate`] to refuse.
+fn saturating_f16(value: f32) -> f16 {
+    let max = f16::MAX.to_f32();
+    f16::from_f32(if value > max { max } else { value })
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ pub use image::RenderedImage;
 pub use plan::{FramePlan, FrameShape, TargetFormat, Variant};
 pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, Renderer, Submission};
-pub use upload::UploadedFrame;
+pub use upload::{FRAMEBUFFER_HEAP_SHARE, UploadedFrame, check_framebuffer};
 
 /// Errors from uploading or rendering a frame.
 #[derive(Debug, thiserror::Error)]

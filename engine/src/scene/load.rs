@@ -28,6 +28,16 @@ const MAX_SEGMENTS: u32 = 4096;
 pub const MAX_SHAPE_TRIANGLES: u64 = 2_000_000;
 /// Most viewpoint samples a view space may have (each is a bake of every lens object).
 pub const MAX_VIEWPOINT_SAMPLES: u32 = 10_000;
+/// Farthest from the origin, in metres along any axis, that a vertex of an object, the camera,
+/// its look-at point or a viewpoint sample may lie (the limit the ray tracer's cameras keep):
+/// f32 positions there are still 6 cm apart, and every size, area and product the BVH, light-map
+/// atlas and projection compute from them stays finite. Checked at load, naming the field, so a
+/// huge number is an error and not a panic, a NaN or a message about an internal buffer later.
+pub const MAX_SCENE_METRES: f32 = crate::trace::image::MAX_CAMERA_METRES;
+/// Largest radiance (environment) or radiant intensity (lights) component accepted: far above
+/// any physical value, and small enough that the sums the renderer forms from them (mip levels
+/// average four texels) stay finite in f32, so a huge number is refused here, naming its field.
+pub const MAX_RADIANCE: f32 = 1e30;
 /// Smallest accepted distance between a camera and its look-at point, and the smallest sine of
 /// the angle between the view direction and `up`.
 const CAMERA_EPSILON: f32 = 1e-6;
@@ -110,6 +120,7 @@ impl Loader<'_> {
             None => ViewSpace::List(vec![camera.position]),
         };
         for (i, sample) in view_space.samples().into_iter().enumerate() {
+            self.within_scene(&format!("view_space sample {i}"), sample)?;
             self.check_view(
                 &format!("view_space sample {i}"),
                 &camera.with_position(sample),
@@ -164,17 +175,58 @@ impl Loader<'_> {
         }
     }
 
-    /// A linear rgb colour ≥ 0, and ≤ `max` when given.
+    /// A finite position within [`MAX_SCENE_METRES`] of the origin.
+    fn point(&self, field: &str, value: [f32; 3]) -> Result<Vec3> {
+        let v = self.finite_vec3(field, value)?;
+        self.within_scene(field, v)?;
+        Ok(v)
+    }
+
+    /// `position` lies within [`MAX_SCENE_METRES`] of the origin along every axis.
+    fn within_scene(&self, field: &str, position: Vec3) -> Result<()> {
+        if position.abs().max_element() <= MAX_SCENE_METRES {
+            Ok(())
+        } else {
+            Err(self.error(
+                field,
+                format!(
+                    "{position} lies {:.3e} m from the origin along an axis, farther than {MAX_SCENE_METRES:e} m",
+                    position.abs().max_element()
+                ),
+                format!("keep the scene within {MAX_SCENE_METRES:e} m of the origin (units are metres)"),
+            ))
+        }
+    }
+
+    /// Every finite vertex of `mesh` within [`MAX_SCENE_METRES`] of the origin; `what` says
+    /// whose vertices they are. Non-finite vertices are left to [`TriangleMesh::check`].
+    fn mesh_within_scene(&self, field: &str, mesh: &TriangleMesh, what: &str) -> Result<()> {
+        let far = |p: &Vec3| p.is_finite() && p.abs().max_element() > MAX_SCENE_METRES;
+        match mesh.positions.iter().position(far) {
+            None => Ok(()),
+            Some(vertex) => Err(self.error(
+                field,
+                format!(
+                    "{what} vertex {vertex} (0-based) lies {:.3e} m from the origin along an axis, farther than {MAX_SCENE_METRES:e} m",
+                    mesh.positions[vertex].abs().max_element()
+                ),
+                format!("keep the scene within {MAX_SCENE_METRES:e} m of the origin (units are metres): use smaller sizes, scale or translate"),
+            )),
+        }
+    }
+
+    /// A linear rgb colour ≥ 0, and ≤ `max` when given (an albedo or reflectance), else ≤
+    /// [`MAX_RADIANCE`] (a radiance or intensity).
     fn colour(&self, field: &str, value: [f32; 3], max: Option<f32>) -> Result<Vec3> {
         let v = Vec3::from_array(value);
-        let in_range =
-            v.is_finite() && v.min_element() >= 0.0 && max.is_none_or(|m| v.max_element() <= m);
+        let limit = max.unwrap_or(MAX_RADIANCE);
+        let in_range = v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= limit;
         if in_range {
             return Ok(v);
         }
         let fix = match max {
             Some(max) => format!("give three numbers in [0, {max}] (linear rgb)"),
-            None => "give three finite numbers ≥ 0 (linear rgb)".to_owned(),
+            None => format!("give three finite numbers in [0, {MAX_RADIANCE:e}] (linear rgb)"),
         };
         Err(self.error(field, format!("{value:?} is out of range"), fix))
     }
@@ -206,8 +258,8 @@ impl Loader<'_> {
     }
 
     fn camera(&self, spec: &CameraSpec) -> Result<Camera> {
-        let position = self.finite_vec3("camera.position", spec.position)?;
-        let look_at = self.finite_vec3("camera.look_at", spec.look_at)?;
+        let position = self.point("camera.position", spec.position)?;
+        let look_at = self.point("camera.look_at", spec.look_at)?;
         let up = self.finite_vec3("camera.up", spec.up)?;
         let vfov = spec.vfov_degrees;
         if !(vfov.is_finite() && vfov > 0.0 && vfov < 180.0) {
@@ -290,6 +342,26 @@ impl Loader<'_> {
                 let image = load_linear_rgb(&path).map_err(|problem| {
                     self.error("environment.latlong.path", format!("{}: {problem}", path.display()), "give a readable lat-long EXR with finite, non-negative radiance (relative paths start at the scene file's folder)")
                 })?;
+                let brightest = image
+                    .texels
+                    .iter()
+                    .map(|t| t.max_element())
+                    .fold(0.0, f32::max);
+                if brightest * scale > MAX_RADIANCE {
+                    let field = if brightest > MAX_RADIANCE {
+                        "environment.latlong.path"
+                    } else {
+                        "environment.latlong.scale"
+                    };
+                    return Err(self.error(
+                        field,
+                        format!(
+                            "{}: the brightest texel {brightest:e} times scale {scale} is beyond the {MAX_RADIANCE:e} a radiance may be",
+                            path.display()
+                        ),
+                        "give a smaller scale, or divide the image's texels",
+                    ));
+                }
                 Ok(Environment::LatLong(LatLongMap {
                     width: image.width,
                     height: image.height,
@@ -439,11 +511,21 @@ impl Loader<'_> {
             };
             debug_assert!(material < materials.len());
             let mut mesh = self.mesh(&field, spec)?;
+            self.mesh_within_scene(
+                &format!("{field}.{}", mesh_field(spec)),
+                &mesh,
+                "the mesh's",
+            )?;
             if spec.inside_out {
                 mesh.flip();
             }
             let transform = self.transform(&format!("{field}.transform"), &spec.transform)?;
             mesh.transform(&transform);
+            self.mesh_within_scene(
+                &format!("{field}.transform"),
+                &mesh,
+                "the transformed mesh's",
+            )?;
             if let Err(problem) = mesh.check() {
                 return Err(self.error(
                     format!("{field}.transform"),
@@ -627,6 +709,8 @@ impl Loader<'_> {
                 "export the mesh as a Wavefront OBJ with v/vn/vt/f records",
             )
         })?;
+        // Before the check: a huge triangle's area overflows and would be called degenerate.
+        self.mesh_within_scene(&path_field, &mesh, &format!("{}:", resolved.display()))?;
         let fix = "remove those triangles from the OBJ, or set drop_degenerate = true to have them dropped";
         match mesh.check() {
             Ok(()) => {}
@@ -859,6 +943,25 @@ impl Loader<'_> {
             step_radians: step.to_radians(),
             count: spec.count,
         })
+    }
+}
+
+/// The field of an object's mesh that sets its size: what a mesh too large is reported at.
+fn mesh_field(spec: &ObjectSpec) -> &'static str {
+    if spec.obj.is_some() {
+        "obj.path"
+    } else if spec.plane.is_some() {
+        "plane.size"
+    } else if spec.cuboid.is_some() {
+        "box.size"
+    } else if spec.sphere.is_some() {
+        "sphere.radius"
+    } else if spec.cylinder.is_some() {
+        "cylinder"
+    } else if spec.torus.is_some() {
+        "torus.major_radius"
+    } else {
+        "teapot"
     }
 }
 

@@ -10,19 +10,41 @@ use std::path::{Path, PathBuf};
 /// folder if needed. Errors are the I/O error of the step that failed; the temporary file is
 /// removed on failure.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    // A symbolic link is written through (its target replaced, not the link); a device, FIFO
-    // or other special file (`/dev/null`, `/dev/stdout`) cannot be replaced by renaming, so it
-    // is written to directly.
+    stage(path, bytes)?.commit()
+}
+
+/// A file written and fsynced beside its target under a temporary name, not yet in place:
+/// [`Staged::commit`] renames it over the target, and dropping it uncommitted removes the
+/// temporary. Staging every file of a set before committing any keeps the set together: a
+/// failure while staging (a full disk) leaves every earlier file of the set as it was, not a new
+/// PNG beside an old EXR.
+#[derive(Debug)]
+#[must_use = "a staged file is removed unless committed"]
+pub struct Staged {
+    /// The temporary and the target it replaces; `None` once committed, or for a special file
+    /// (written directly: it cannot be replaced by renaming).
+    pending: Option<(PathBuf, PathBuf)>,
+}
+
+/// Writes `bytes` beside `path` under a temporary name and fsyncs it, creating the parent folder
+/// if needed; [`Staged::commit`] puts it in place. A symbolic link is written through (its target
+/// is what gets replaced); a device, FIFO or other special file (`/dev/null`, `/dev/stdout`) is
+/// written to directly here, as renaming cannot replace it.
+pub fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<Staged> {
     let resolved;
     let path = match fs::symlink_metadata(path) {
         Ok(meta) if meta.file_type().is_symlink() => {
             resolved = fs::canonicalize(path)?;
             if !fs::metadata(&resolved)?.is_file() {
-                return fs::write(&resolved, bytes);
+                fs::write(&resolved, bytes)?;
+                return Ok(Staged { pending: None });
             }
             resolved.as_path()
         }
-        Ok(meta) if !meta.is_file() && !meta.is_dir() => return fs::write(path, bytes),
+        Ok(meta) if !meta.is_file() && !meta.is_dir() => {
+            fs::write(path, bytes)?;
+            return Ok(Staged { pending: None });
+        }
         _ => path,
     };
     let parent = path
@@ -34,19 +56,46 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     let written = (|| {
         let mut file = File::create(&temporary)?;
         file.write_all(bytes)?;
-        file.sync_all()?;
-        fs::rename(&temporary, path)
+        file.sync_all()
     })();
-    if written.is_err() {
+    if let Err(error) = written {
         let _ = fs::remove_file(&temporary);
-        return written;
+        return Err(error);
     }
-    // The rename is durable once the folder is; a folder that cannot be opened to sync (some
-    // file systems) still holds the new file.
-    if let Ok(folder) = File::open(parent) {
-        let _ = folder.sync_all();
+    Ok(Staged {
+        pending: Some((temporary, path.to_path_buf())),
+    })
+}
+
+impl Staged {
+    /// Renames the staged file over its target and syncs the folder.
+    pub fn commit(mut self) -> std::io::Result<()> {
+        let Some((temporary, target)) = self.pending.take() else {
+            return Ok(());
+        };
+        if let Err(error) = fs::rename(&temporary, &target) {
+            let _ = fs::remove_file(&temporary);
+            return Err(error);
+        }
+        // The rename is durable once the folder is; a folder that cannot be opened to sync (some
+        // file systems) still holds the new file.
+        let parent = target
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        if let Ok(folder) = File::open(parent) {
+            let _ = folder.sync_all();
+        }
+        Ok(())
     }
-    Ok(())
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if let Some((temporary, _)) = self.pending.take() {
+            let _ = fs::remove_file(temporary);
+        }
+    }
 }
 
 /// `.NAME.PID.tmp` beside `path`: hidden, and unique per process.
@@ -84,6 +133,29 @@ mod tests {
             2,
             "no temporary left behind"
         );
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_staged_file_is_in_place_only_once_committed() {
+        let dir = std::env::temp_dir().join(format!("lensmap-staged-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        let (a, b) = (dir.join("a.png"), dir.join("a.exr"));
+        write_atomically(&a, b"old a").unwrap();
+        write_atomically(&b, b"old b").unwrap();
+        // The second of a pair fails to stage (its folder would be a file): the first is dropped
+        // uncommitted, and both earlier files stay.
+        let staged = stage(&a, b"new a").unwrap();
+        assert!(stage(&a.join("b.exr"), b"new b").is_err());
+        drop(staged);
+        assert_eq!(fs::read(&a).unwrap(), b"old a");
+        assert_eq!(fs::read(&b).unwrap(), b"old b");
+        let (sa, sb) = (stage(&a, b"new a").unwrap(), stage(&b, b"new b").unwrap());
+        sa.commit().unwrap();
+        sb.commit().unwrap();
+        assert_eq!(fs::read(&a).unwrap(), b"new a");
+        assert_eq!(fs::read(&b).unwrap(), b"new b");
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 2, "no temporary left");
         fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -632,6 +632,7 @@ mod tests {
                 record_ms: 0.25,
                 execute_ms: 1.0,
                 readback_ms: 0.5,
+                passes: 3,
             },
             downsample_ms: 0.25,
             total_ms: 10.0,

@@ -56,6 +56,7 @@ pub struct ValidationReport {
 /// instance are destroyed only after the last buffer and image.
 pub(crate) struct Shared {
     /// The Vulkan loader; held so that the library stays loaded while the instance lives.
+    #[expect(dead_code, reason = "held, never read: it keeps libvulkan loaded")]
     pub(crate) entry: ash::Entry,
     /// The Vulkan instance, destroyed last.
     pub(crate) instance: ash::Instance,
@@ -68,6 +69,9 @@ pub(crate) struct Shared {
     pub(crate) debug_device: Option<ash::ext::debug_utils::Device>,
     messenger: vk::DebugUtilsMessengerEXT,
     messages: Box<Mutex<Vec<String>>>,
+    /// Whether lensmap created the instance and device (and destroys them), or a host lent them
+    /// ([`Gpu::from_host`]: only what lensmap made on them is destroyed).
+    owned: bool,
 }
 
 impl Drop for Shared {
@@ -77,11 +81,13 @@ impl Drop for Shared {
         unsafe {
             let _ = self.device.device_wait_idle();
             ManuallyDrop::drop(&mut self.allocator);
-            self.device.destroy_device(None);
-            if let Some(debug) = &self.debug_instance {
-                debug.destroy_debug_utils_messenger(self.messenger, None);
+            if self.owned {
+                self.device.destroy_device(None);
+                if let Some(debug) = &self.debug_instance {
+                    debug.destroy_debug_utils_messenger(self.messenger, None);
+                }
+                self.instance.destroy_instance(None);
             }
-            self.instance.destroy_instance(None);
         }
     }
 }
@@ -132,7 +138,239 @@ unsafe extern "system" fn count_message(
     vk::FALSE
 }
 
+/// A created or lent device before lensmap's allocator and command pool are made on it.
+struct Parts {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    physical_device: vk::PhysicalDevice,
+    device: ash::Device,
+    queue_family: u32,
+    queue: vk::Queue,
+    properties: vk::PhysicalDeviceProperties,
+    debug_instance: Option<ash::ext::debug_utils::Instance>,
+    messenger: vk::DebugUtilsMessengerEXT,
+    messages: Box<Mutex<Vec<String>>>,
+}
+
+/// What lensmap needs enabled on a host's device, as the host declares it: Vulkan gives no way
+/// to ask a `VkDevice` which features it was created with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HostFeatures {
+    /// `VkPhysicalDeviceVulkan13Features::dynamicRendering`.
+    pub dynamic_rendering: bool,
+    /// `VkPhysicalDeviceVulkan13Features::synchronization2`.
+    pub synchronization2: bool,
+    /// `VkPhysicalDeviceVulkan12Features::timelineSemaphore`.
+    pub timeline_semaphore: bool,
+    /// `VkPhysicalDeviceFeatures::imageCubeArray`.
+    pub image_cube_array: bool,
+}
+
+impl HostFeatures {
+    /// Every feature lensmap needs.
+    pub const ALL: HostFeatures = HostFeatures {
+        dynamic_rendering: true,
+        synchronization2: true,
+        timeline_semaphore: true,
+        image_cube_array: true,
+    };
+
+    /// The names of the needed features that are not enabled.
+    fn missing(&self) -> Vec<&'static str> {
+        [
+            (self.dynamic_rendering, "dynamicRendering"),
+            (self.synchronization2, "synchronization2"),
+            (self.timeline_semaphore, "timelineSemaphore"),
+            (self.image_cube_array, "imageCubeArray"),
+        ]
+        .into_iter()
+        .filter(|(enabled, _)| !enabled)
+        .map(|(_, name)| name)
+        .collect()
+    }
+}
+
+/// A host's Vulkan objects lent to lensmap ([`Gpu::from_host`]).
+#[derive(Clone, Copy)]
+pub struct HostDevice {
+    /// The loader's `vkGetInstanceProcAddr`.
+    pub get_instance_proc_addr: vk::PFN_vkGetInstanceProcAddr,
+    /// The host's instance (Vulkan 1.3).
+    pub instance: vk::Instance,
+    /// The physical device `device` was made from.
+    pub physical_device: vk::PhysicalDevice,
+    /// The host's device.
+    pub device: vk::Device,
+    /// The queue family of `queue`, with graphics.
+    pub queue_family: u32,
+    /// The queue lensmap submits to.
+    pub queue: vk::Queue,
+    /// The features the host enabled on `device`.
+    pub enabled: HostFeatures,
+}
+
 impl Gpu {
+    /// A GPU on a host's own instance, device and queue (an engine embedding lensmap): lensmap
+    /// records and submits on `host.queue` and makes its own allocator, command pool and
+    /// resources on `host.device`, destroying only those. The host keeps the instance and
+    /// device alive until the `Gpu` is dropped, does not use the queue from another thread while
+    /// lensmap submits, and must have enabled what lensmap needs ([`HostDevice::enabled`]);
+    /// a missing feature, a queue family without graphics or a device older than Vulkan 1.3 is
+    /// refused naming it.
+    ///
+    /// # Safety
+    /// Every handle in `host` must be valid and come from the same instance, `host.queue` must
+    /// belong to `host.queue_family` of `host.device`, and `get_instance_proc_addr` must be the
+    /// loader's (or the driver's) `vkGetInstanceProcAddr`.
+    pub unsafe fn from_host(host: &HostDevice) -> Result<Gpu, GpuError> {
+        let static_fn = ash::StaticFn {
+            get_instance_proc_addr: host.get_instance_proc_addr,
+        };
+        // SAFETY: the caller gives the loader's vkGetInstanceProcAddr and live handles.
+        let (entry, instance) = unsafe {
+            let entry = ash::Entry::from_static_fn(static_fn);
+            let instance = ash::Instance::load(entry.static_fn(), host.instance);
+            (entry, instance)
+        };
+        // SAFETY: the physical device comes from this instance (the caller's promise).
+        let (properties, families, features) = unsafe {
+            (
+                instance.get_physical_device_properties(host.physical_device),
+                instance.get_physical_device_queue_family_properties(host.physical_device),
+                instance.get_physical_device_features(host.physical_device),
+            )
+        };
+        let mut missing = host.enabled.missing();
+        if features.image_cube_array != vk::TRUE {
+            missing.push("imageCubeArray (the device does not support it)");
+        }
+        if properties.api_version < vk::API_VERSION_1_3 {
+            return Err(GpuError::NoSuitableDevice(
+                "the host's device is older than Vulkan 1.3; lensmap needs 1.3 (dynamic rendering, synchronization2)".into(),
+            ));
+        }
+        let graphics = families
+            .get(host.queue_family as usize)
+            .is_some_and(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS));
+        if !graphics {
+            return Err(GpuError::NoSuitableDevice(format!(
+                "the host's queue family {} has no graphics queue (the device has {} families); give a family with VK_QUEUE_GRAPHICS_BIT",
+                host.queue_family,
+                families.len()
+            )));
+        }
+        if !missing.is_empty() {
+            return Err(GpuError::NoSuitableDevice(format!(
+                "the host's device lacks {}: enable it when creating the VkDevice (VkPhysicalDeviceFeatures / Vulkan12Features / Vulkan13Features) and say so in the enabled features",
+                missing.join(", ")
+            )));
+        }
+        // SAFETY: the device comes from this instance (the caller's promise).
+        let device = unsafe { ash::Device::load(instance.fp_v1_0(), host.device) };
+        let parts = Parts {
+            entry,
+            instance,
+            physical_device: host.physical_device,
+            device,
+            queue_family: host.queue_family,
+            queue: host.queue,
+            properties,
+            debug_instance: None,
+            messenger: vk::DebugUtilsMessengerEXT::null(),
+            messages: Box::default(),
+        };
+        Gpu::assemble(parts, false).map_err(|(error, _)| error)
+    }
+
+    /// The allocator, command pool and name over a created (or lent) device; on failure the
+    /// parts come back for the caller to destroy what it owns.
+    fn assemble(parts: Parts, owned: bool) -> Result<Gpu, (GpuError, Parts)> {
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: parts.instance.clone(),
+            device: parts.device.clone(),
+            physical_device: parts.physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        });
+        let allocator = match allocator {
+            Ok(allocator) => allocator,
+            Err(source) => {
+                let error = GpuError::Allocation {
+                    what: "the allocator".into(),
+                    source,
+                };
+                return Err((error, parts));
+            }
+        };
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(parts.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid device and queue family; the pool is destroyed in Gpu::drop.
+        let command_pool = match unsafe { parts.device.create_command_pool(&pool_info, None) } {
+            Ok(pool) => pool,
+            Err(result) => {
+                drop(allocator);
+                let error = GpuError::Vulkan {
+                    call: "vkCreateCommandPool",
+                    result,
+                };
+                return Err((error, parts));
+            }
+        };
+        // SAFETY: the physical device comes from this instance.
+        let memory = unsafe {
+            parts
+                .instance
+                .get_physical_device_memory_properties(parts.physical_device)
+        };
+        let device_local_heap_bytes = memory
+            .memory_heaps_as_slice()
+            .iter()
+            .filter(|heap| heap.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|heap| heap.size)
+            .max()
+            .unwrap_or(0);
+        let Parts {
+            entry,
+            instance,
+            device,
+            queue,
+            properties,
+            debug_instance,
+            messenger,
+            messages,
+            ..
+        } = parts;
+        let debug_device = debug_instance
+            .as_ref()
+            .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        // From here the Shared owns (or borrows) the device and destroys it in its Drop.
+        let shared = Arc::new(Shared {
+            entry,
+            instance,
+            device,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            debug_instance,
+            debug_device,
+            messenger,
+            messages,
+            owned,
+        });
+        let name = properties
+            .device_name_as_c_str()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|_| String::from("(unnamed device)"));
+        Ok(Gpu {
+            shared,
+            queue,
+            command_pool,
+            properties,
+            device_local_heap_bytes,
+            name,
+        })
+    }
+
     /// Loads Vulkan at run time, creates an instance (with validation if asked) and the chosen
     /// device. Fails with [`GpuError::NoDriver`] when there is no loader or no driver.
     pub fn new(options: &GpuOptions) -> Result<Gpu, GpuError> {
@@ -249,15 +487,6 @@ impl Gpu {
             }
         };
         let (physical_device, queue_family, properties) = chosen;
-        // SAFETY: physical_device comes from this instance.
-        let memory = unsafe { instance.get_physical_device_memory_properties(physical_device) };
-        let device_local_heap_bytes = memory
-            .memory_heaps_as_slice()
-            .iter()
-            .filter(|heap| heap.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
-            .map(|heap| heap.size)
-            .max()
-            .unwrap_or(0);
 
         let priorities = [1.0f32];
         let queues = [vk::DeviceQueueCreateInfo::default()
@@ -286,59 +515,35 @@ impl Gpu {
                 });
             }
         };
-        let allocator = Allocator::new(&AllocatorCreateDesc {
-            instance: instance.clone(),
-            device: device.clone(),
-            physical_device,
-            debug_settings: Default::default(),
-            buffer_device_address: false,
-            allocation_sizes: Default::default(),
-        });
-        let allocator = match allocator {
-            Ok(allocator) => allocator,
-            Err(source) => {
-                // SAFETY: the device has no children yet.
-                unsafe { device.destroy_device(None) };
-                destroy_instance(&instance);
-                return Err(GpuError::Allocation {
-                    what: "the allocator".into(),
-                    source,
-                });
-            }
-        };
-        let debug_device = debug_instance
-            .as_ref()
-            .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
-        let shared = Arc::new(Shared {
+        // SAFETY: valid device and queue family.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let parts = Parts {
             entry,
             instance,
+            physical_device,
             device,
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            queue_family,
+            queue,
+            properties,
             debug_instance,
-            debug_device,
             messenger,
             messages,
-        });
-        // SAFETY: valid device and queue family; the pool is destroyed in Gpu::drop.
-        let queue = unsafe { shared.device.get_device_queue(queue_family, 0) };
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let command_pool = unsafe { shared.device.create_command_pool(&pool_info, None) }
-            .vk("vkCreateCommandPool")?;
-        let name = properties
-            .device_name_as_c_str()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|_| String::from("(unnamed device)"));
-        let _ = &shared.entry;
-        Ok(Gpu {
-            shared,
-            queue,
-            command_pool,
-            properties,
-            device_local_heap_bytes,
-            name,
-        })
+        };
+        match Gpu::assemble(parts, true) {
+            Ok(gpu) => Ok(gpu),
+            Err((error, parts)) => {
+                // SAFETY: the device has no children (the allocator and pool were not made or
+                // are gone); the messenger goes before its instance.
+                unsafe {
+                    parts.device.destroy_device(None);
+                    if let Some(debug) = &parts.debug_instance {
+                        debug.destroy_debug_utils_messenger(parts.messenger, None);
+                    }
+                    parts.instance.destroy_instance(None);
+                }
+                Err(error)
+            }
+        }
     }
 
     /// The device's name as the driver reports it (`llvmpipe (LLVM 15.0.6, 256 bits)` on lavapipe).

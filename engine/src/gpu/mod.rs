@@ -8,7 +8,9 @@ mod pipeline;
 pub(crate) mod resources;
 
 pub use ash::vk;
-pub use context::{DeviceChoice, Gpu, GpuOptions, Timeline, ValidationReport};
+pub use context::{
+    DeviceChoice, Gpu, GpuOptions, HostDevice, HostFeatures, Timeline, ValidationReport,
+};
 pub use pipeline::{GraphicsPipelineDesc, VertexInput};
 pub use resources::{Buffer, BufferUsage, Image, ImageDesc, format_bytes};
 

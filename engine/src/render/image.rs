@@ -72,12 +72,15 @@ impl RenderedImage {
         self.write_files(&path.with_extension("png"), &path.with_extension("exr"))
     }
 
-    /// Writes the image as an 8-bit sRGB PNG at `png` and a linear f32 EXR at `exr`, each
-    /// atomically, creating their folders if needed.
+    /// Writes the image as an 8-bit sRGB PNG at `png` and a linear f32 EXR at `exr`, creating
+    /// their folders if needed: both are staged before either is put in place, so a failure (a
+    /// full disk) leaves the earlier pair as it was, never a new PNG beside an old EXR.
     pub fn write_files(&self, png: &Path, exr: &Path) -> Result<(), TraceError> {
         let rgb = self.rgb();
-        image::write_png(png, self.width, self.height, &rgb)?;
-        image::write_exr(exr, self.width, self.height, &rgb)
+        let png = image::stage_png(png, self.width, self.height, &rgb)?;
+        let exr = image::stage_exr(exr, self.width, self.height, &rgb)?;
+        png.commit()?;
+        exr.commit()
     }
 
     /// The largest difference of one channel value (RGBA, linear) between this image and

@@ -31,6 +31,9 @@ pub struct FrameTimings {
     pub execute_ms: f64,
     /// Converting the read-back bytes to f32.
     pub readback_ms: f64,
+    /// Passes the frame recorded (the plan's steps: environment, prime, layer passes, alpha
+    /// clears or single passes, the readback).
+    pub passes: usize,
 }
 
 /// Pipelines, layouts and the sampler shared by every frame, the uploads frames share, the
@@ -53,6 +56,7 @@ pub struct Renderer {
 pub struct Submission {
     value: u64,
     format: TargetFormat,
+    passes: usize,
     record_ms: f64,
     submitted_at: Instant,
 }
@@ -194,6 +198,7 @@ impl Renderer {
         Ok(Submission {
             value,
             format,
+            passes: plan.steps.len(),
             record_ms,
             submitted_at: Instant::now(),
         })
@@ -237,6 +242,7 @@ impl Renderer {
                 record_ms: submission.record_ms,
                 execute_ms,
                 readback_ms,
+                passes: submission.passes,
             },
         ))
     }

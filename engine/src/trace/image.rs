@@ -225,7 +225,10 @@ impl ReferenceImage {
             source,
         })?;
         let mask: Vec<Vec3> = self.lens_mask.iter().map(|&m| Vec3::splat(m)).collect();
+        // Every file staged before any is put in place: a failure (a full disk) leaves the
+        // earlier set whole.
         let mut paths = Vec::new();
+        let mut staged = Vec::new();
         for (name, pixels) in [
             ("reference", &self.radiance),
             ("refraction", &self.refraction),
@@ -233,11 +236,14 @@ impl ReferenceImage {
             ("lens_mask", &mask),
         ] {
             let exr = directory.join(format!("{name}.exr"));
-            write_exr(&exr, self.width, self.height, pixels)?;
+            staged.push(stage_exr(&exr, self.width, self.height, pixels)?);
             paths.push(exr);
             let png = directory.join(format!("{name}.png"));
-            write_png(&png, self.width, self.height, pixels)?;
+            staged.push(stage_png(&png, self.width, self.height, pixels)?);
             paths.push(png);
+        }
+        for file in staged {
+            file.commit()?;
         }
         Ok(WrittenFiles { paths })
     }
@@ -250,6 +256,41 @@ impl ReferenceImage {
 
 /// Writes linear RGB pixels as a 32-bit float EXR, atomically ([`crate::atomic`]).
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), TraceError> {
+    stage_exr(path, width, height, pixels)?.commit()
+}
+
+/// Writes linear RGB pixels as an 8-bit sRGB PNG (clamped to [0, 1]), atomically.
+pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), TraceError> {
+    stage_png(path, width, height, pixels)?.commit()
+}
+
+/// An image file written beside its place, not yet in it ([`crate::atomic::Staged`]): stage
+/// every file of a set (a PNG and its EXR) before committing any, so that a failure leaves the
+/// earlier set whole.
+#[derive(Debug)]
+#[must_use = "a staged image is removed unless committed"]
+pub struct StagedImage {
+    path: PathBuf,
+    staged: crate::atomic::Staged,
+}
+
+impl StagedImage {
+    /// Puts the file in place; an error names its path.
+    pub fn commit(self) -> Result<(), TraceError> {
+        let path = self.path;
+        self.staged
+            .commit()
+            .map_err(|source| TraceError::Io { path, source })
+    }
+}
+
+/// [`write_exr`] up to its last step: the EXR encoded, written and synced beside `path`.
+pub fn stage_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[Vec3],
+) -> Result<StagedImage, TraceError> {
     let data: Vec<f32> = pixels.iter().flat_map(|p| p.to_array()).collect();
     let image = image::Rgb32FImage::from_raw(width, height, data).ok_or_else(|| {
         TraceError::InvalidImage(format!(
@@ -257,36 +298,46 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Resul
             pixels.len()
         ))
     })?;
-    write_encoded(path, |bytes| {
+    stage_encoded(path, |bytes| {
         image.write_to(bytes, image::ImageFormat::OpenExr)
     })
 }
 
-/// Writes linear RGB pixels as an 8-bit sRGB PNG (clamped to [0, 1]), atomically.
-pub fn write_png(path: &Path, width: u32, height: u32, pixels: &[Vec3]) -> Result<(), TraceError> {
+/// [`write_png`] up to its last step: the PNG encoded, written and synced beside `path`.
+pub fn stage_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[Vec3],
+) -> Result<StagedImage, TraceError> {
     let image = image::RgbImage::from_raw(width, height, srgb8(pixels)).ok_or_else(|| {
         TraceError::InvalidImage(format!(
             "{} pixels do not fill {width}×{height}",
             pixels.len()
         ))
     })?;
-    write_encoded(path, |bytes| image.write_to(bytes, image::ImageFormat::Png))
+    stage_encoded(path, |bytes| image.write_to(bytes, image::ImageFormat::Png))
 }
 
-/// Encodes an image in memory with `encode`, then writes the bytes atomically: a failure (a full
-/// disk) leaves an earlier file at `path` as it was. Errors name `path`, never the temporary.
-fn write_encoded(
+/// Encodes an image in memory with `encode`, then stages the bytes beside `path`: a failure (a
+/// full disk) leaves an earlier file at `path` as it was. Errors name `path`, never the
+/// temporary.
+fn stage_encoded(
     path: &Path,
     encode: impl FnOnce(&mut std::io::Cursor<Vec<u8>>) -> image::ImageResult<()>,
-) -> Result<(), TraceError> {
+) -> Result<StagedImage, TraceError> {
     let mut bytes = std::io::Cursor::new(Vec::new());
     encode(&mut bytes).map_err(|source| TraceError::Image {
         path: path.to_path_buf(),
         source,
     })?;
-    crate::atomic::write_atomically(path, bytes.get_ref()).map_err(|source| TraceError::Io {
+    let staged = crate::atomic::stage(path, bytes.get_ref()).map_err(|source| TraceError::Io {
         path: path.to_path_buf(),
         source,
+    })?;
+    Ok(StagedImage {
+        path: path.to_path_buf(),
+        staged,
     })
 }
 

@@ -1,0 +1,964 @@
+//! lensmap's C ABI (`lensmap.h`, generated from this file by cbindgen): C and C++ hosts load a
+//! scene and its layered EMs and render hybrid frames, on lensmap's own Vulkan device (headless)
+//! or on the host's. It wraps the same library API the `lensmap` command line calls
+//! ([`lensmap::runner::FrameRunner`], [`lensmap::runner::load_hybrid_scene`]) and adds nothing
+//! the command line could not use.
+//!
+//! Conventions (after rustls-ffi):
+//! - Opaque handles with `_new`/`_free` pairs; `_free(NULL)` is a no-op. Every handle lensmap
+//!   gives out is registered until freed, so a freed or foreign pointer is refused with
+//!   `LENSMAP_RESULT_INVALID_HANDLE` (a double free is detected) instead of being dereferenced.
+//! - Every function returns a stable, numbered [`LensmapResult`]; out-pointers are written only
+//!   on success.
+//! - [`lensmap_last_error`] gives the message of the last failure on the calling thread.
+//! - No panic crosses the ABI: every export catches one and returns `LENSMAP_RESULT_PANIC`.
+//! - Option structs begin with `struct_size` (set it to `sizeof` the struct): fields can be added
+//!   later without breaking callers built against this header.
+//!
+//! Thread safety: a `LensmapContext` may be used from any thread, by one thread at a time; a
+//! call on a context another thread is inside returns `LENSMAP_RESULT_BUSY` (it does not wait).
+//! A `LensmapScene` is immutable once loaded and may be rendered by several contexts at once.
+//! Freeing a handle while another thread uses it is the caller's error and is not detected.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::ffi::{CStr, CString, c_char, c_void};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::{Mutex, TryLockError};
+
+use lensmap::gpu::{Gpu, GpuError, GpuOptions, HostDevice, HostFeatures, vk};
+use lensmap::hybrid::{HybridOptions, HybridScene};
+use lensmap::layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions};
+use lensmap::render::{FrameShape, RenderError, TargetFormat, Variant, plan::frame_graph};
+use lensmap::runner::{EmSource, FrameOptions, FrameRunner, RunError, load_hybrid_scene};
+use lensmap::scene::{Camera, Scene, SceneError};
+
+/// The ABI version this header describes; raised when a struct grows or a function is added.
+pub const LENSMAP_ABI_VERSION: u32 = 1;
+
+/// `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
+pub const LENSMAP_VARIANT_SINGLE_PASS: u32 = 0;
+/// `LensmapFrameOptions::variant`: the paper's 4n-pass compositor with alpha clears.
+pub const LENSMAP_VARIANT_MULTIPASS: u32 = 1;
+/// `LensmapFrameOptions::format`: an 8-bit unorm framebuffer.
+pub const LENSMAP_FORMAT_RGBA8: u32 = 0;
+/// `LensmapFrameOptions::format`: a 16-bit float framebuffer.
+pub const LENSMAP_FORMAT_RGBA16F: u32 = 1;
+/// `LensmapFrameOptions::format`: a 32-bit float framebuffer.
+pub const LENSMAP_FORMAT_RGBA32F: u32 = 2;
+
+/// `LensmapHostDevice::enabled_features`: `VkPhysicalDeviceVulkan13Features::dynamicRendering`.
+pub const LENSMAP_FEATURE_DYNAMIC_RENDERING: u32 = 1;
+/// `LensmapHostDevice::enabled_features`: `VkPhysicalDeviceVulkan13Features::synchronization2`.
+pub const LENSMAP_FEATURE_SYNCHRONIZATION2: u32 = 2;
+/// `LensmapHostDevice::enabled_features`: `VkPhysicalDeviceVulkan12Features::timelineSemaphore`.
+pub const LENSMAP_FEATURE_TIMELINE_SEMAPHORE: u32 = 4;
+/// `LensmapHostDevice::enabled_features`: `VkPhysicalDeviceFeatures::imageCubeArray`.
+pub const LENSMAP_FEATURE_IMAGE_CUBE_ARRAY: u32 = 8;
+/// Every feature lensmap needs enabled on a host's device.
+pub const LENSMAP_FEATURES_REQUIRED: u32 = 15;
+
+/// What a call did. The numbers are stable: new codes are only ever added.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LensmapResult {
+    /// Success.
+    Ok = 0,
+    /// A required pointer argument was NULL.
+    NullArgument = 1,
+    /// A handle is not a live one of this kind (freed already, or never made by lensmap).
+    InvalidHandle = 2,
+    /// An option struct's `struct_size` is not a size this lensmap knows.
+    StructSize = 3,
+    /// A value is out of range or malformed (the message names the field and the fix).
+    InvalidArgument = 4,
+    /// No Vulkan loader or driver (install `mesa-vulkan-drivers` for lavapipe).
+    NoDriver = 5,
+    /// No suitable device, or the host's device lacks a feature lensmap needs.
+    Device = 6,
+    /// The scene file or a scene asset is wrong (the message names file, field and fix).
+    Scene = 7,
+    /// The bake directory is missing, damaged or made for another scene.
+    Bake = 8,
+    /// An image format lensmap cannot render to.
+    UnsupportedFormat = 9,
+    /// The caller's buffer is too small (the message gives the size needed).
+    BufferTooSmall = 10,
+    /// The handle is in use by a call on another thread.
+    Busy = 11,
+    /// The work failed on the GPU or the CPU (the message says where).
+    Render = 12,
+    /// A bug in lensmap, caught at the ABI boundary: please report the message.
+    Panic = 13,
+}
+
+/// A Vulkan instance (`VkInstance` from vulkan/vulkan.h; a dispatchable handle).
+pub type VkInstance = *mut c_void;
+/// A Vulkan physical device (`VkPhysicalDevice`; a dispatchable handle).
+pub type VkPhysicalDevice = *mut c_void;
+/// A Vulkan device (`VkDevice`; a dispatchable handle).
+pub type VkDevice = *mut c_void;
+/// A Vulkan queue (`VkQueue`; a dispatchable handle).
+pub type VkQueue = *mut c_void;
+/// The loader's `vkGetInstanceProcAddr` (`PFN_vkGetInstanceProcAddr`).
+#[allow(non_camel_case_types, reason = "vulkan.h's name, which the header uses")]
+pub type PFN_vkGetInstanceProcAddr = Option<
+    unsafe extern "system" fn(
+        instance: VkInstance,
+        name: *const c_char,
+    ) -> Option<unsafe extern "system" fn()>,
+>;
+
+/// Options of [`lensmap_context_new`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct LensmapContextOptions {
+    /// `sizeof(LensmapContextOptions)`.
+    pub struct_size: u32,
+    /// Non-zero: enable the Khronos validation layer (its messages go to stderr and are counted).
+    pub validation: u32,
+    /// A substring of the device name to use, or NULL for the best device (discrete GPU first).
+    pub device_name: *const c_char,
+}
+
+/// A host's Vulkan objects lent to [`lensmap_context_new_on_host`]. The host keeps them alive
+/// until the context is freed and does not use `queue` from another thread during a lensmap
+/// call.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct LensmapHostDevice {
+    /// `sizeof(LensmapHostDevice)`.
+    pub struct_size: u32,
+    /// The loader's `vkGetInstanceProcAddr`.
+    pub get_instance_proc_addr: PFN_vkGetInstanceProcAddr,
+    /// The host's instance (Vulkan 1.3).
+    pub instance: VkInstance,
+    /// The physical device `device` was made from.
+    pub physical_device: VkPhysicalDevice,
+    /// The host's device.
+    pub device: VkDevice,
+    /// The queue family of `queue` (it must support graphics).
+    pub queue_family: u32,
+    /// The queue lensmap records and submits on.
+    pub queue: VkQueue,
+    /// The `LENSMAP_FEATURE_*` bits the host enabled when creating `device`; all of
+    /// `LENSMAP_FEATURES_REQUIRED` are needed (Vulkan cannot be asked which were enabled).
+    pub enabled_features: u32,
+}
+
+/// Options of [`lensmap_scene_load`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct LensmapSceneOptions {
+    /// `sizeof(LensmapSceneOptions)`.
+    pub struct_size: u32,
+    /// A built-in scene name (`teapot-room`, `glass-sphere`, `mirror-teapot`) or the path of a
+    /// scene `.toml`, UTF-8.
+    pub scene: *const c_char,
+    /// A bake directory made for this scene by `lensmap bake`, UTF-8; NULL for layered EMs
+    /// projected from the scene onto its layer shells.
+    pub bake_dir: *const c_char,
+    /// Projected EMs: the cube-map face size, a power of two (0: the default, 128).
+    pub em_size: u32,
+    /// Non-zero: use `bake_dir` even if it was made for another scene (deliberate reuse).
+    pub accept_any_bake: u32,
+}
+
+/// One frame: the camera, the tessellation threshold, the compositor and the framebuffer.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct LensmapFrameOptions {
+    /// `sizeof(LensmapFrameOptions)`.
+    pub struct_size: u32,
+    /// Camera position, metres (right-handed, y up).
+    pub position: [f32; 3],
+    /// The point the camera looks at, metres.
+    pub look_at: [f32; 3],
+    /// The up vector (not parallel to the view direction).
+    pub up: [f32; 3],
+    /// Vertical field of view, degrees, in (0, 180).
+    pub vfov_degrees: f32,
+    /// Image width, pixels (≥ 1).
+    pub width: u32,
+    /// Image height, pixels (≥ 1).
+    pub height: u32,
+    /// k for k×k supersampling (≥ 1; the frame is box-filtered down to width × height).
+    pub supersampling: u32,
+    /// Tessellation threshold: triangles stop splitting when their edges are shorter than t
+    /// subpixels (> 0; 0 means the default, 3).
+    pub t: f32,
+    /// `LENSMAP_VARIANT_*`.
+    pub variant: u32,
+    /// `LENSMAP_FORMAT_*`: the framebuffer's precision.
+    pub format: u32,
+}
+
+/// Where a frame's time went and what it cost (the paper's table). Set `struct_size`; lensmap
+/// fills the fields that fit in it.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LensmapFrameStats {
+    /// `sizeof(LensmapFrameStats)`.
+    pub struct_size: u32,
+    /// Passes the compositor recorded.
+    pub passes: u32,
+    /// Ray tracing at the lens vertices, ms.
+    pub trace_ms: f64,
+    /// Texture coordinate generation, ms.
+    pub texgen_ms: f64,
+    /// Adaptive tessellation, ms.
+    pub tessellation_ms: f64,
+    /// Upload, recording, GPU execution, readback and box filter, ms.
+    pub other_ms: f64,
+    /// The whole frame, ms.
+    pub total_ms: f64,
+    /// Rays cast (primary, secondary and shadow).
+    pub rays: u64,
+    /// Ray-triangle intersection tests.
+    pub triangle_tests: u64,
+    /// Lens triangles after tessellation.
+    pub lens_triangles: u64,
+    /// Lens vertices ray traced.
+    pub vertices_traced: u64,
+}
+
+/// A plan to print: the compositor's passes for one lens object's frame of this shape.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct LensmapPlanOptions {
+    /// `sizeof(LensmapPlanOptions)`.
+    pub struct_size: u32,
+    /// Layers per viewpoint sample (1 … 256).
+    pub layers: u32,
+    /// Viewpoint samples blended (1 or 2).
+    pub viewpoints: u32,
+    /// Shading terms: 2 (glass: refraction and reflection) or 1 (mirror).
+    pub terms: u32,
+    /// `LENSMAP_VARIANT_*`.
+    pub variant: u32,
+    /// `LENSMAP_FORMAT_*`.
+    pub format: u32,
+}
+
+/// A Vulkan device with lensmap's pipelines and per-frame buffers.
+pub struct LensmapContext {
+    runner: Mutex<FrameRunner>,
+}
+
+/// A scene with its layered EMs and light maps, ready to render.
+pub struct LensmapScene {
+    hybrid: HybridScene,
+}
+
+/// Which kind of handle an address is registered as.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Context,
+    Scene,
+}
+
+/// Every live handle, by address: a pointer not here is never dereferenced.
+static LIVE: Mutex<Option<HashMap<usize, Kind>>> = Mutex::new(None);
+
+fn live() -> std::sync::MutexGuard<'static, Option<HashMap<usize, Kind>>> {
+    // A panic while the lock was held left the map consistent (inserts and removes are single
+    // operations), so a poisoned lock is taken over.
+    LIVE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+fn register<T>(handle: Box<T>, kind: Kind) -> *mut T {
+    let pointer = Box::into_raw(handle);
+    live()
+        .get_or_insert_with(HashMap::new)
+        .insert(pointer as usize, kind);
+    pointer
+}
+
+fn is_live(pointer: usize, kind: Kind) -> bool {
+    live()
+        .as_ref()
+        .is_some_and(|map| map.get(&pointer) == Some(&kind))
+}
+
+/// Removes `pointer` from the live handles; false when it was not one of `kind`.
+fn unregister(pointer: usize, kind: Kind) -> bool {
+    let mut guard = live();
+    let Some(map) = guard.as_mut() else {
+        return false;
+    };
+    if map.get(&pointer) == Some(&kind) {
+        map.remove(&pointer);
+        true
+    } else {
+        false
+    }
+}
+
+/// A failed call: its code and the message [`lensmap_last_error`] gives.
+struct Failure {
+    code: LensmapResult,
+    message: String,
+}
+
+impl Failure {
+    fn new(code: LensmapResult, message: impl Into<String>) -> Failure {
+        Failure {
+            code,
+            message: message.into(),
+        }
+    }
+}
+
+impl From<GpuError> for Failure {
+    fn from(error: GpuError) -> Failure {
+        let code = match error {
+            GpuError::NoDriver(_) => LensmapResult::NoDriver,
+            GpuError::NoSuitableDevice(_) | GpuError::ValidationLayerMissing => {
+                LensmapResult::Device
+            }
+            _ => LensmapResult::Render,
+        };
+        Failure::new(code, error.to_string())
+    }
+}
+
+impl From<RenderError> for Failure {
+    fn from(error: RenderError) -> Failure {
+        match error {
+            RenderError::Gpu(error) => error.into(),
+            RenderError::BadInput(_) | RenderError::Program(_) => {
+                Failure::new(LensmapResult::InvalidArgument, error.to_string())
+            }
+        }
+    }
+}
+
+impl From<RunError> for Failure {
+    fn from(error: RunError) -> Failure {
+        let code = match &error {
+            RunError::Render(_) => {
+                return match error {
+                    RunError::Render(render) => render.into(),
+                    other => Failure::new(LensmapResult::Render, other.to_string()),
+                };
+            }
+            RunError::Option(_) => LensmapResult::InvalidArgument,
+            RunError::Bake(_) => LensmapResult::Bake,
+            RunError::Hybrid(lensmap::hybrid::HybridError::BakeMismatch(_)) => {
+                LensmapResult::Bake
+            }
+            RunError::Hybrid(_) => LensmapResult::Scene,
+            RunError::Tessellation(_) => LensmapResult::Render,
+        };
+        Failure::new(code, error.to_string())
+    }
+}
+
+impl From<SceneError> for Failure {
+    fn from(error: SceneError) -> Failure {
+        Failure::new(LensmapResult::Scene, error.to_string())
+    }
+}
+
+thread_local! {
+    /// The message of the last failure on this thread.
+    static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+}
+
+fn remember(message: &str) {
+    // An interior NUL would end the C string early: it is replaced.
+    let text = CString::new(message.replace('\0', "\u{fffd}")).unwrap_or_default();
+    LAST_ERROR.with(|last| *last.borrow_mut() = text);
+}
+
+/// The panic boundary every export goes through: runs `body`, turns its failure or panic into a
+/// code and remembers the message.
+fn boundary(body: impl FnOnce() -> Result<(), Failure>) -> LensmapResult {
+    let failure = match catch_unwind(AssertUnwindSafe(body)) {
+        Ok(Ok(())) => return LensmapResult::Ok,
+        Ok(Err(failure)) => failure,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| (*s).to_owned())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "(no message)".to_owned());
+            Failure::new(
+                LensmapResult::Panic,
+                format!("lensmap panicked (a bug; please report it): {what}"),
+            )
+        }
+    };
+    remember(&failure.message);
+    failure.code
+}
+
+/// `*pointer`, or a NullArgument failure naming it.
+///
+/// # Safety
+/// A non-null `pointer` must point to a readable `T`.
+unsafe fn read_struct<T: Copy>(pointer: *const T, name: &str) -> Result<T, Failure> {
+    if pointer.is_null() {
+        return Err(Failure::new(
+            LensmapResult::NullArgument,
+            format!("{name} is NULL"),
+        ));
+    }
+    // SAFETY: non-null, and readable by the caller's promise. Its first field is the size.
+    let size = unsafe { *(pointer as *const u32) };
+    if size as usize != std::mem::size_of::<T>() {
+        return Err(Failure::new(
+            LensmapResult::StructSize,
+            format!(
+                "{name}->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {} bytes; set it to sizeof the struct from the lensmap.h this library ships",
+                std::mem::size_of::<T>()
+            ),
+        ));
+    }
+    // SAFETY: the caller says a whole T is there, and the size it wrote agrees.
+    Ok(unsafe { *pointer })
+}
+
+/// A UTF-8 C string, or a failure naming the field.
+///
+/// # Safety
+/// A non-null `text` must be NUL-terminated and readable.
+unsafe fn read_text(text: *const c_char, name: &str) -> Result<Option<String>, Failure> {
+    if text.is_null() {
+        return Ok(None);
+    }
+    // SAFETY: the caller's promise.
+    let text = unsafe { CStr::from_ptr(text) };
+    text.to_str().map(|s| Some(s.to_owned())).map_err(|_| {
+        Failure::new(
+            LensmapResult::InvalidArgument,
+            format!("{name} is not UTF-8"),
+        )
+    })
+}
+
+fn null(name: &str) -> Failure {
+    Failure::new(LensmapResult::NullArgument, format!("{name} is NULL"))
+}
+
+fn variant(value: u32, field: &str) -> Result<Variant, Failure> {
+    match value {
+        LENSMAP_VARIANT_SINGLE_PASS => Ok(Variant::SinglePass),
+        LENSMAP_VARIANT_MULTIPASS => Ok(Variant::Multipass),
+        other => Err(Failure::new(
+            LensmapResult::InvalidArgument,
+            format!(
+                "{field} is {other}; give LENSMAP_VARIANT_SINGLE_PASS (0) or LENSMAP_VARIANT_MULTIPASS (1)"
+            ),
+        )),
+    }
+}
+
+fn format(value: u32, field: &str) -> Result<TargetFormat, Failure> {
+    match value {
+        LENSMAP_FORMAT_RGBA8 => Ok(TargetFormat::Rgba8),
+        LENSMAP_FORMAT_RGBA16F => Ok(TargetFormat::Rgba16f),
+        LENSMAP_FORMAT_RGBA32F => Ok(TargetFormat::Rgba32f),
+        other => Err(Failure::new(
+            LensmapResult::UnsupportedFormat,
+            format!(
+                "{field} is {other}; lensmap renders to LENSMAP_FORMAT_RGBA8 (0), LENSMAP_FORMAT_RGBA16F (1) or LENSMAP_FORMAT_RGBA32F (2)"
+            ),
+        )),
+    }
+}
+
+/// The context behind a handle, locked for this call.
+///
+/// # Safety
+/// `context` must be NULL, a live context, or a pointer lensmap never gave out.
+unsafe fn lock_context<'a>(
+    context: *mut LensmapContext,
+) -> Result<std::sync::MutexGuard<'a, FrameRunner>, Failure> {
+    if context.is_null() {
+        return Err(null("context"));
+    }
+    if !is_live(context as usize, Kind::Context) {
+        return Err(Failure::new(
+            LensmapResult::InvalidHandle,
+            "context is not a live LensmapContext (freed already, or not made by lensmap_context_new)",
+        ));
+    }
+    // SAFETY: a live handle points to a LensmapContext until it is freed.
+    let context = unsafe { &*context };
+    match context.runner.try_lock() {
+        Ok(runner) => Ok(runner),
+        Err(TryLockError::WouldBlock) => Err(Failure::new(
+            LensmapResult::Busy,
+            "the context is in use by a call on another thread; use a context from one thread at a time (or one context per thread)",
+        )),
+        // A panic inside an earlier call on this context was caught at the boundary; the
+        // runner's state may be half updated, so the context is not used again.
+        Err(TryLockError::Poisoned(_)) => Err(Failure::new(
+            LensmapResult::Render,
+            "the context is unusable after an earlier call panicked; free it and create another",
+        )),
+    }
+}
+
+/// The scene behind a handle.
+///
+/// # Safety
+/// `scene` must be NULL, a live scene, or a pointer lensmap never gave out.
+unsafe fn scene_ref<'a>(scene: *const LensmapScene) -> Result<&'a LensmapScene, Failure> {
+    if scene.is_null() {
+        return Err(null("scene"));
+    }
+    if !is_live(scene as usize, Kind::Scene) {
+        return Err(Failure::new(
+            LensmapResult::InvalidHandle,
+            "scene is not a live LensmapScene (freed already, or not made by lensmap_scene_load)",
+        ));
+    }
+    // SAFETY: a live handle points to a LensmapScene until it is freed.
+    Ok(unsafe { &*scene })
+}
+
+/// The ABI version of the loaded library ([`LENSMAP_ABI_VERSION`] of its header).
+#[unsafe(no_mangle)]
+pub extern "C" fn lensmap_abi_version() -> u32 {
+    LENSMAP_ABI_VERSION
+}
+
+/// The message of the last failure on the calling thread, NUL-terminated UTF-8; an empty string
+/// before any failure. Successful calls leave it as it is. The pointer stays valid until the
+/// next failing call on this thread; copy the text to keep it.
+#[unsafe(no_mangle)]
+pub extern "C" fn lensmap_last_error() -> *const c_char {
+    LAST_ERROR.with(|last| last.borrow().as_ptr())
+}
+
+/// Creates a context on lensmap's own Vulkan instance and device (headless). `options` may be
+/// NULL for the defaults (best device, no validation). On success `*out` is a new context to
+/// free with [`lensmap_context_free`].
+///
+/// # Safety
+/// `options` must be NULL or point to a `LensmapContextOptions`; `out` must be writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_context_new(
+    options: *const LensmapContextOptions,
+    out: *mut *mut LensmapContext,
+) -> LensmapResult {
+    boundary(|| {
+        if out.is_null() {
+            return Err(null("out"));
+        }
+        let mut gpu_options = GpuOptions::default();
+        if !options.is_null() {
+            // SAFETY: the caller's promise.
+            let options = unsafe { read_struct(options, "options") }?;
+            gpu_options.validation = options.validation != 0;
+            // SAFETY: the caller's promise.
+            if let Some(name) = unsafe { read_text(options.device_name, "options->device_name") }?
+            {
+                gpu_options.device = lensmap::gpu::DeviceChoice::NameContains(name);
+            }
+        }
+        let runner = FrameRunner::new(Gpu::new(&gpu_options)?)?;
+        let handle = register(
+            Box::new(LensmapContext {
+                runner: Mutex::new(runner),
+            }),
+            Kind::Context,
+        );
+        // SAFETY: checked non-null; writable by the caller's promise.
+        unsafe { *out = handle };
+        Ok(())
+    })
+}
+
+/// Creates a context on the host's Vulkan instance, device and queue: lensmap makes its own
+/// allocator, command pool and resources on the host's device and destroys only those. The host
+/// must have enabled `LENSMAP_FEATURES_REQUIRED` and say so in `enabled_features`; a missing
+/// feature returns `LENSMAP_RESULT_DEVICE` naming it.
+///
+/// # Safety
+/// `host` must point to a `LensmapHostDevice` whose handles are valid and belong together;
+/// `out` must be writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_context_new_on_host(
+    host: *const LensmapHostDevice,
+    out: *mut *mut LensmapContext,
+) -> LensmapResult {
+    boundary(|| {
+        if out.is_null() {
+            return Err(null("out"));
+        }
+        // SAFETY: the caller's promise.
+        let host = unsafe { read_struct(host, "host") }?;
+        let Some(get_instance_proc_addr) = host.get_instance_proc_addr else {
+            return Err(null("host->get_instance_proc_addr"));
+        };
+        for (pointer, name) in [
+            (host.instance, "host->instance"),
+            (host.physical_device, "host->physical_device"),
+            (host.device, "host->device"),
+            (host.queue, "host->queue"),
+        ] {
+            if pointer.is_null() {
+                return Err(null(name));
+            }
+        }
+        let bits = host.enabled_features;
+        let enabled = HostFeatures {
+            dynamic_rendering: bits & LENSMAP_FEATURE_DYNAMIC_RENDERING != 0,
+            synchronization2: bits & LENSMAP_FEATURE_SYNCHRONIZATION2 != 0,
+            timeline_semaphore: bits & LENSMAP_FEATURE_TIMELINE_SEMAPHORE != 0,
+            image_cube_array: bits & LENSMAP_FEATURE_IMAGE_CUBE_ARRAY != 0,
+        };
+        use vk::Handle as _;
+        let lent = HostDevice {
+            // SAFETY: the C and Rust signatures of vkGetInstanceProcAddr are the same ABI.
+            get_instance_proc_addr: unsafe {
+                std::mem::transmute::<
+                    unsafe extern "system" fn(
+                        VkInstance,
+                        *const c_char,
+                    ) -> Option<unsafe extern "system" fn()>,
+                    vk::PFN_vkGetInstanceProcAddr,
+                >(get_instance_proc_addr)
+            },
+            instance: vk::Instance::from_raw(host.instance as u64),
+            physical_device: vk::PhysicalDevice::from_raw(host.physical_device as u64),
+            device: vk::Device::from_raw(host.device as u64),
+            queue_family: host.queue_family,
+            queue: vk::Queue::from_raw(host.queue as u64),
+            enabled,
+        };
+        // SAFETY: the caller promises valid handles that belong together.
+        let gpu = unsafe { Gpu::from_host(&lent) }?;
+        let runner = FrameRunner::new(gpu)?;
+        let handle = register(
+            Box::new(LensmapContext {
+                runner: Mutex::new(runner),
+            }),
+            Kind::Context,
+        );
+        // SAFETY: checked non-null; writable by the caller's promise.
+        unsafe { *out = handle };
+        Ok(())
+    })
+}
+
+/// Frees a context (waiting for its device to be idle). NULL is a no-op; a pointer that is not
+/// a live context (a second free) returns `LENSMAP_RESULT_INVALID_HANDLE` and frees nothing.
+///
+/// # Safety
+/// No other thread may be using `context`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_context_free(context: *mut LensmapContext) -> LensmapResult {
+    boundary(|| {
+        if context.is_null() {
+            return Ok(());
+        }
+        if !unregister(context as usize, Kind::Context) {
+            return Err(Failure::new(
+                LensmapResult::InvalidHandle,
+                "lensmap_context_free: not a live LensmapContext (freed twice?); nothing freed",
+            ));
+        }
+        // SAFETY: it was live, made by Box::into_raw, and is unregistered now: freed once.
+        drop(unsafe { Box::from_raw(context) });
+        Ok(())
+    })
+}
+
+/// Loads a scene and its layered EMs (a bake directory, or projected from the scene) and its
+/// light maps. On success `*out` is a new scene to free with [`lensmap_scene_free`].
+///
+/// # Safety
+/// `options` must point to a `LensmapSceneOptions` whose strings are NUL-terminated or NULL;
+/// `out` must be writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_scene_load(
+    options: *const LensmapSceneOptions,
+    out: *mut *mut LensmapScene,
+) -> LensmapResult {
+    boundary(|| {
+        if out.is_null() {
+            return Err(null("out"));
+        }
+        // SAFETY: the caller's promise.
+        let options = unsafe { read_struct(options, "options") }?;
+        // SAFETY: the caller's promise.
+        let Some(name) = (unsafe { read_text(options.scene, "options->scene") })? else {
+            return Err(null("options->scene"));
+        };
+        // SAFETY: the caller's promise.
+        let bake = unsafe { read_text(options.bake_dir, "options->bake_dir") }?;
+        let scene = Scene::load_named(&name)?;
+        let ems = match bake {
+            Some(dir) if options.accept_any_bake != 0 => EmSource::AnyBake(dir.into()),
+            Some(dir) => EmSource::Bake(dir.into()),
+            None => {
+                let size = if options.em_size == 0 {
+                    DEFAULT_EM_SIZE
+                } else {
+                    options.em_size
+                };
+                let projected = ProjectedOptions::with_size(size);
+                projected.validate().map_err(|e| {
+                    Failure::new(
+                        LensmapResult::InvalidArgument,
+                        format!("options->em_size {}: {}", e.value, e.fix),
+                    )
+                })?;
+                EmSource::Projected(projected)
+            }
+        };
+        let (hybrid, _) = load_hybrid_scene(scene, &ems)?;
+        let handle = register(Box::new(LensmapScene { hybrid }), Kind::Scene);
+        // SAFETY: checked non-null; writable by the caller's promise.
+        unsafe { *out = handle };
+        Ok(())
+    })
+}
+
+/// Frees a scene. NULL is a no-op; a pointer that is not a live scene (a second free) returns
+/// `LENSMAP_RESULT_INVALID_HANDLE` and frees nothing.
+///
+/// # Safety
+/// No other thread may be using `scene`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_scene_free(scene: *mut LensmapScene) -> LensmapResult {
+    boundary(|| {
+        if scene.is_null() {
+            return Ok(());
+        }
+        if !unregister(scene as usize, Kind::Scene) {
+            return Err(Failure::new(
+                LensmapResult::InvalidHandle,
+                "lensmap_scene_free: not a live LensmapScene (freed twice?); nothing freed",
+            ));
+        }
+        // SAFETY: it was live, made by Box::into_raw, and is unregistered now: freed once.
+        drop(unsafe { Box::from_raw(scene) });
+        Ok(())
+    })
+}
+
+/// The camera and frame options of a `LensmapFrameOptions`, validated.
+fn frame_settings(options: &LensmapFrameOptions) -> Result<(Camera, FrameOptions), Failure> {
+    let camera = Camera {
+        position: glam::Vec3::from_array(options.position),
+        look_at: glam::Vec3::from_array(options.look_at),
+        up: glam::Vec3::from_array(options.up),
+        vfov_radians: options.vfov_degrees.to_radians(),
+        width: options.width,
+        height: options.height,
+        supersampling: options.supersampling,
+    };
+    lensmap::trace::image::validate_camera(&camera).map_err(|error| {
+        Failure::new(
+            LensmapResult::InvalidArgument,
+            format!(
+                "options (position, look_at, up, vfov_degrees, width, height, supersampling): {error}"
+            ),
+        )
+    })?;
+    let t = if options.t == 0.0 {
+        lensmap::hybrid::tessellate::DEFAULT_T
+    } else {
+        options.t
+    };
+    let hybrid = HybridOptions::with_t(t);
+    hybrid.validate().map_err(|error| {
+        Failure::new(
+            LensmapResult::InvalidArgument,
+            format!("options->{} {}: {}", error.option, error.value, error.fix),
+        )
+    })?;
+    Ok((
+        camera,
+        FrameOptions {
+            hybrid,
+            variant: variant(options.variant, "options->variant")?,
+            format: format(options.format, "options->format")?,
+        },
+    ))
+}
+
+/// Renders one hybrid frame of `scene` and reads it back into `rgba`: `width × height` pixels,
+/// rows top to bottom, 4 floats each (linear, premultiplied RGBA), `rgba_floats` ≥
+/// `4 × width × height`. `stats` may be NULL; else set its `struct_size` and lensmap fills it.
+///
+/// # Safety
+/// `context` and `scene` must be handles from this library (or NULL); `options` must point to a
+/// `LensmapFrameOptions`; `rgba` must be writable for `rgba_floats` floats; `stats` NULL or
+/// writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_render_to_memory(
+    context: *mut LensmapContext,
+    scene: *const LensmapScene,
+    options: *const LensmapFrameOptions,
+    rgba: *mut f32,
+    rgba_floats: usize,
+    stats: *mut LensmapFrameStats,
+) -> LensmapResult {
+    boundary(|| {
+        // SAFETY: the caller's promise.
+        let options = unsafe { read_struct(options, "options") }?;
+        if rgba.is_null() {
+            return Err(null("rgba"));
+        }
+        let stats_size = if stats.is_null() {
+            None
+        } else {
+            // SAFETY: non-null and writable by the caller's promise; its first field is the size.
+            let size = unsafe { *(stats as *const u32) } as usize;
+            if size < 8 || size > std::mem::size_of::<LensmapFrameStats>() {
+                return Err(Failure::new(
+                    LensmapResult::StructSize,
+                    format!(
+                        "stats->struct_size is {size}; set it to sizeof(LensmapFrameStats) ({})",
+                        std::mem::size_of::<LensmapFrameStats>()
+                    ),
+                ));
+            }
+            Some(size)
+        };
+        let (camera, frame_options) = frame_settings(&options)?;
+        let needed = 4 * camera.width as usize * camera.height as usize;
+        if rgba_floats < needed {
+            return Err(Failure::new(
+                LensmapResult::BufferTooSmall,
+                format!(
+                    "rgba holds {rgba_floats} floats; a {}×{} frame needs {needed} (4 per pixel)",
+                    camera.width, camera.height
+                ),
+            ));
+        }
+        // SAFETY: the caller's promise for both handles.
+        let scene = unsafe { scene_ref(scene) }?;
+        // SAFETY: as above.
+        let mut runner = unsafe { lock_context(context) }?;
+        runner.check_framebuffer(&camera, frame_options.format)?;
+        let frame = runner.frame(&scene.hybrid, &camera, &frame_options)?;
+        // SAFETY: writable for rgba_floats ≥ needed floats (the caller's promise, checked).
+        let out = unsafe { std::slice::from_raw_parts_mut(rgba, needed) };
+        for (chunk, pixel) in out.chunks_exact_mut(4).zip(&frame.image.pixels) {
+            chunk.copy_from_slice(pixel);
+        }
+        if let (Some(size), false) = (stats_size, stats.is_null()) {
+            let counters = frame.stats.counters;
+            let filled = LensmapFrameStats {
+                struct_size: size as u32,
+                passes: frame.render.passes as u32,
+                trace_ms: frame.stats.trace_ms,
+                texgen_ms: frame.stats.texgen_ms,
+                tessellation_ms: frame.stats.tessellation_ms,
+                other_ms: frame.other_ms(),
+                total_ms: frame.total_ms,
+                rays: counters.all_rays(),
+                triangle_tests: counters.triangle_tests,
+                lens_triangles: frame.stats.triangles_out as u64,
+                vertices_traced: frame.stats.vertices_traced as u64,
+            };
+            // SAFETY: `size` bytes of `stats` are writable (the caller set struct_size), and
+            // `size` ≤ sizeof(LensmapFrameStats): the fields that fit are copied.
+            unsafe {
+                std::ptr::copy_nonoverlapping(
+                    &filled as *const LensmapFrameStats as *const u8,
+                    stats as *mut u8,
+                    size,
+                );
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Writes the compositor's plan for a frame of this shape as text (the table `lensmap passes`
+/// prints) into `buffer`, NUL-terminated, and its length without the NUL into `*length`. With
+/// `buffer` NULL only `*length` is written (a size query: allocate `*length + 1` bytes). A
+/// `capacity` of `*length` or less returns `LENSMAP_RESULT_BUFFER_TOO_SMALL` and writes nothing.
+///
+/// # Safety
+/// `options` must point to a `LensmapPlanOptions`; `buffer` NULL or writable for `capacity`
+/// bytes; `length` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_plan_text(
+    options: *const LensmapPlanOptions,
+    buffer: *mut c_char,
+    capacity: usize,
+    length: *mut usize,
+) -> LensmapResult {
+    boundary(|| {
+        // SAFETY: the caller's promise.
+        let options = unsafe { read_struct(options, "options") }?;
+        if length.is_null() {
+            return Err(null("length"));
+        }
+        let most = FrameShape::MAX_EXPERIMENT_LAYERS;
+        if !(1..=most).contains(&(options.layers as usize)) {
+            return Err(Failure::new(
+                LensmapResult::InvalidArgument,
+                format!("options->layers is {}; give 1 to {most}", options.layers),
+            ));
+        }
+        let terms: &[lensmap::trace::Term] = match options.terms {
+            2 => &[
+                lensmap::trace::Term::Refraction,
+                lensmap::trace::Term::Reflection,
+            ],
+            1 => &[lensmap::trace::Term::Reflection],
+            other => {
+                return Err(Failure::new(
+                    LensmapResult::InvalidArgument,
+                    format!(
+                        "options->terms is {other}; give 2 (glass) or 1 (mirror)"
+                    ),
+                ));
+            }
+        };
+        if !(1..=2).contains(&options.viewpoints) {
+            return Err(Failure::new(
+                LensmapResult::InvalidArgument,
+                format!("options->viewpoints is {}; give 1 or 2", options.viewpoints),
+            ));
+        }
+        let shape = FrameShape::synthetic(
+            640,
+            480,
+            options.layers as usize,
+            options.viewpoints as usize,
+            terms,
+        );
+        let (graph, _) = frame_graph(
+            &shape,
+            variant(options.variant, "options->variant")?,
+            format(options.format, "options->format")?,
+        )
+        .map_err(|error| Failure::new(LensmapResult::InvalidArgument, error.to_string()))?;
+        let plan = graph
+            .compile()
+            .map_err(|error| Failure::new(LensmapResult::Render, error.to_string()))?;
+        let text = plan.to_string();
+        if buffer.is_null() {
+            // SAFETY: checked non-null; writable by the caller's promise.
+            unsafe { *length = text.len() };
+            return Ok(());
+        }
+        if capacity <= text.len() {
+            return Err(Failure::new(
+                LensmapResult::BufferTooSmall,
+                format!(
+                    "the plan is {} bytes and its NUL; the buffer holds {capacity}",
+                    text.len()
+                ),
+            ));
+        }
+        // SAFETY: writable for capacity > text.len() bytes (the caller's promise, checked).
+        unsafe {
+            std::ptr::copy_nonoverlapping(text.as_ptr(), buffer as *mut u8, text.len());
+            *buffer.add(text.len()) = 0;
+            *length = text.len();
+        }
+        Ok(())
+    })
+}

@@ -131,6 +131,13 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     }
     options.validate()?;
     let mut runner = lensmap::runner::FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    // The baker's test renderings and judged frames are RGBA32F at the targets' size.
+    runner.check_framebuffer(
+        &scene
+            .camera
+            .with_resolution(args.width, args.height, args.supersampling),
+        lensmap::render::TargetFormat::Rgba32f,
+    )?;
     let device = runner.gpu().device_name().to_string();
     let bars = BakeBars::new(samples.len());
     let summary = bake(

@@ -34,8 +34,15 @@ macro_rules! say {
 /// never silent.
 macro_rules! warn {
     ($($arg:tt)*) => {{
-        eprintln!("warning: {}", format_args!($($arg)*));
+        $crate::common::tell(format_args!("warning: {}", format_args!($($arg)*)));
     }};
+}
+
+/// Writes one line to stderr, ignoring a closed or full stderr (where `eprintln!` panics): the
+/// exit code still says what happened.
+pub fn tell(line: std::fmt::Arguments) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
 }
 
 /// How every command talks, from the global flags: the same on every command.
@@ -407,6 +414,19 @@ impl ImageOut {
     /// `DEFAULT_STEM.png` and `.exr` inside. Any other extension is a usage error: the command
     /// writes only those two formats, and says so before doing any work.
     pub fn parse(path: &Path, default_stem: &str) -> Result<ImageOut, BadUsage> {
+        // A file where a folder must be (`--out notes.txt/frame.png`) is refused before any work.
+        if let Some(blocking) = path
+            .ancestors()
+            .skip(1)
+            .find(|ancestor| ancestor.exists())
+            .filter(|ancestor| !ancestor.is_dir())
+        {
+            return Err(BadUsage(format!(
+                "--out {}: {} is a file, not a folder; give a path in a folder",
+                path.display(),
+                blocking.display()
+            )));
+        }
         let extension = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());

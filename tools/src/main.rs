@@ -258,12 +258,12 @@ fn error_line(error: &anyhow::Error) -> String {
 fn fail(line: &str, code: u8, json: bool) -> ExitCode {
     if json {
         let message = line.strip_prefix("error: ").unwrap_or(line);
-        eprintln!(
+        common::tell(format_args!(
             "{}",
             serde_json::json!({ "error": message, "exit_code": code })
-        );
+        ));
     } else {
-        eprintln!("{line}");
+        common::tell(format_args!("{line}"));
     }
     ExitCode::from(code)
 }

@@ -108,6 +108,13 @@ pub struct RenderArgs {
 
 /// Runs `lensmap render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    // clap's `requires` is met by any member of the `ems` group (clap-rs/clap#4707): checked here.
+    if args.accept_any_bake && args.bake.is_none() {
+        return Err(crate::common::BadUsage(
+            "--accept-any-bake: it applies to --bake DIR only; give --bake DIR or drop it".into(),
+        )
+        .into());
+    }
     let out = ImageOut::parse(&args.out, "hybrid")?;
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;

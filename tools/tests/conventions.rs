@@ -24,10 +24,8 @@ const TINY_RENDER: [&str; 11] = [
 ];
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!(
-        "lensmap-conventions-{name}-{}",
-        std::process::id()
-    ));
+    let dir =
+        std::env::temp_dir().join(format!("lensmap-conventions-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -86,7 +84,10 @@ fn json_is_the_only_thing_on_stdout_for_every_command() {
     let runs: Vec<(Vec<&str>, &str)> = vec![
         (vec!["passes", "--layers", "2", "--json"], "counts"),
         (
-            with(&TINY_RENDER, &["8", "--out", frame.to_str().unwrap(), "--json"]),
+            with(
+                &TINY_RENDER,
+                &["8", "--out", frame.to_str().unwrap(), "--json"],
+            ),
             "hybrid",
         ),
         (
@@ -179,7 +180,11 @@ fn benchmarks_write_files_only_when_asked() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no file written");
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "no file written"
+    );
     let out = common::lensmap_command(&with(&bench, &["--report", "r.json"]))
         .current_dir(&dir)
         .output()
@@ -201,7 +206,13 @@ fn benchmarks_write_files_only_when_asked() {
 fn errors_are_json_lines_under_json() {
     for (args, names) in [
         (
-            vec!["render", "--scene", "no-such-scene", "--projected", "--json"],
+            vec![
+                "render",
+                "--scene",
+                "no-such-scene",
+                "--projected",
+                "--json",
+            ],
             "no-such-scene",
         ),
         (vec!["passes", "--layers", "many", "--json"], "--layers"),
@@ -292,6 +303,10 @@ fn progress_names_each_step_on_a_terminal() {
     // Not a terminal: no progress in the captured stderr.
     let out = lensmap(&args);
     assert!(out.status.success());
-    assert!(out.stderr.is_empty(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

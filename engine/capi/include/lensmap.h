@@ -172,6 +172,9 @@ typedef struct LensmapFrameStats {
   uint32_t struct_size;
   // Passes the compositor recorded.
   uint32_t passes;
+  // 1 when the frame reused the scene's previous one (the same camera and options: a still
+  // camera costs only the GPU pass, and traces no ray), else 0.
+  uint32_t reused;
   // Ray tracing at the lens vertices, ms.
   double trace_ms;
   // Texture coordinate generation, ms.
@@ -246,6 +249,13 @@ LensmapResult lensmap_context_new_on_host(const struct LensmapHostDevice *host,
 // # Safety
 // No other thread may be using `context`.
 LensmapResult lensmap_context_free(struct LensmapContext *context);
+
+// Writes into `*count` the number of Vulkan validation messages the context has seen (0 when
+// validation is off, or on a host's device, whose messages go to the host's messenger).
+//
+// # Safety
+// `context` must be a handle from this library (or NULL); `count` must be writable.
+LensmapResult lensmap_context_validation_messages(struct LensmapContext *context, uint64_t *count);
 
 // Loads a scene and its layered EMs (a bake directory, or projected from the scene) and its
 // light maps. On success `*out` is a new scene to free with [`lensmap_scene_free`].

@@ -101,7 +101,10 @@ pub type VkDevice = *mut c_void;
 /// A Vulkan queue (`VkQueue`; a dispatchable handle).
 pub type VkQueue = *mut c_void;
 /// The loader's `vkGetInstanceProcAddr` (`PFN_vkGetInstanceProcAddr`).
-#[allow(non_camel_case_types, reason = "vulkan.h's name, which the header uses")]
+#[allow(
+    non_camel_case_types,
+    reason = "vulkan.h's name, which the header uses"
+)]
 pub type PFN_vkGetInstanceProcAddr = Option<
     unsafe extern "system" fn(
         instance: VkInstance,
@@ -202,6 +205,9 @@ pub struct LensmapFrameStats {
     pub struct_size: u32,
     /// Passes the compositor recorded.
     pub passes: u32,
+    /// 1 when the frame reused the scene's previous one (the same camera and options: a still
+    /// camera costs only the GPU pass, and traces no ray), else 0.
+    pub reused: u32,
     /// Ray tracing at the lens vertices, ms.
     pub trace_ms: f64,
     /// Texture coordinate generation, ms.
@@ -344,9 +350,7 @@ impl From<RunError> for Failure {
             }
             RunError::Option(_) => LensmapResult::InvalidArgument,
             RunError::Bake(_) => LensmapResult::Bake,
-            RunError::Hybrid(lensmap::hybrid::HybridError::BakeMismatch(_)) => {
-                LensmapResult::Bake
-            }
+            RunError::Hybrid(lensmap::hybrid::HybridError::BakeMismatch(_)) => LensmapResult::Bake,
             RunError::Hybrid(_) => LensmapResult::Scene,
             RunError::Tessellation(_) => LensmapResult::Render,
         };
@@ -554,8 +558,7 @@ pub unsafe extern "C" fn lensmap_context_new(
             let options = unsafe { read_struct(options, "options") }?;
             gpu_options.validation = options.validation != 0;
             // SAFETY: the caller's promise.
-            if let Some(name) = unsafe { read_text(options.device_name, "options->device_name") }?
-            {
+            if let Some(name) = unsafe { read_text(options.device_name, "options->device_name") }? {
                 gpu_options.device = lensmap::gpu::DeviceChoice::NameContains(name);
             }
         }
@@ -619,7 +622,8 @@ pub unsafe extern "C" fn lensmap_context_new_on_host(
                     unsafe extern "system" fn(
                         VkInstance,
                         *const c_char,
-                    ) -> Option<unsafe extern "system" fn()>,
+                    )
+                        -> Option<unsafe extern "system" fn()>,
                     vk::PFN_vkGetInstanceProcAddr,
                 >(get_instance_proc_addr)
             },
@@ -664,6 +668,29 @@ pub unsafe extern "C" fn lensmap_context_free(context: *mut LensmapContext) -> L
         }
         // SAFETY: it was live, made by Box::into_raw, and is unregistered now: freed once.
         drop(unsafe { Box::from_raw(context) });
+        Ok(())
+    })
+}
+
+/// Writes into `*count` the number of Vulkan validation messages the context has seen (0 when
+/// validation is off, or on a host's device, whose messages go to the host's messenger).
+///
+/// # Safety
+/// `context` must be a handle from this library (or NULL); `count` must be writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_context_validation_messages(
+    context: *mut LensmapContext,
+    count: *mut u64,
+) -> LensmapResult {
+    boundary(|| {
+        if count.is_null() {
+            return Err(null("count"));
+        }
+        // SAFETY: the caller's promise.
+        let runner = unsafe { lock_context(context) }?;
+        let messages = runner.gpu().validation_report().messages.len() as u64;
+        // SAFETY: checked non-null; writable by the caller's promise.
+        unsafe { *count = messages };
         Ok(())
     })
 }
@@ -849,6 +876,7 @@ pub unsafe extern "C" fn lensmap_render_to_memory(
             let filled = LensmapFrameStats {
                 struct_size: size as u32,
                 passes: frame.render.passes as u32,
+                reused: u32::from(frame.stats.reused),
                 trace_ms: frame.stats.trace_ms,
                 texgen_ms: frame.stats.texgen_ms,
                 tessellation_ms: frame.stats.tessellation_ms,
@@ -910,9 +938,7 @@ pub unsafe extern "C" fn lensmap_plan_text(
             other => {
                 return Err(Failure::new(
                     LensmapResult::InvalidArgument,
-                    format!(
-                        "options->terms is {other}; give 2 (glass) or 1 (mirror)"
-                    ),
+                    format!("options->terms is {other}; give 2 (glass) or 1 (mirror)"),
                 ));
             }
         };

@@ -6,8 +6,8 @@ use std::path::Path;
 #[test]
 fn the_checked_in_header_is_what_cbindgen_generates() {
     let crate_dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let config = cbindgen::Config::from_file(crate_dir.join("cbindgen.toml"))
-        .expect("cbindgen.toml parses");
+    let config =
+        cbindgen::Config::from_file(crate_dir.join("cbindgen.toml")).expect("cbindgen.toml parses");
     let mut generated = Vec::new();
     cbindgen::Builder::new()
         .with_crate(crate_dir)
@@ -30,7 +30,8 @@ fn the_checked_in_header_is_what_cbindgen_generates() {
     let mut previous = "";
     for line in generated.lines() {
         let is_constant = line.starts_with("#define LENSMAP_") && line.split(' ').count() == 3;
-        let is_type = line.starts_with("typedef struct Lensmap") || line.starts_with("enum Lensmap");
+        let is_type =
+            line.starts_with("typedef struct Lensmap") || line.starts_with("enum Lensmap");
         let is_function = !line.starts_with(' ')
             && !line.starts_with("//")
             && line

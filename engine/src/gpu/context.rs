@@ -129,7 +129,11 @@ unsafe extern "system" fn count_message(
         }
     };
     let line = format!("validation {severity:?}: {text}");
-    eprintln!("{line}");
+    // Not eprintln!: a closed stderr must not panic inside a Vulkan callback.
+    {
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), "{line}");
+    }
     // SAFETY: see above.
     let messages = unsafe { &*(user as *const Mutex<Vec<String>>) };
     if let Ok(mut messages) = messages.lock() {
@@ -284,7 +288,7 @@ impl Gpu {
 
     /// The allocator, command pool and name over a created (or lent) device; on failure the
     /// parts come back for the caller to destroy what it owns.
-    fn assemble(parts: Parts, owned: bool) -> Result<Gpu, (GpuError, Parts)> {
+    fn assemble(parts: Parts, owned: bool) -> Result<Gpu, (GpuError, Box<Parts>)> {
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: parts.instance.clone(),
             device: parts.device.clone(),
@@ -300,7 +304,7 @@ impl Gpu {
                     what: "the allocator".into(),
                     source,
                 };
-                return Err((error, parts));
+                return Err((error, Box::new(parts)));
             }
         };
         let pool_info = vk::CommandPoolCreateInfo::default()
@@ -315,7 +319,7 @@ impl Gpu {
                     call: "vkCreateCommandPool",
                     result,
                 };
-                return Err((error, parts));
+                return Err((error, Box::new(parts)));
             }
         };
         // SAFETY: the physical device comes from this instance.

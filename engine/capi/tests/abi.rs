@@ -1,0 +1,700 @@
+//! The C ABI as a host calls it (through the exported `extern "C"` functions): a frame through
+//! the ABI equals the same frame through the Rust API bit for bit, on lensmap's own device and
+//! on a device the host made itself; and a misuse corpus, each case returning its documented
+//! code with a message naming the problem, out-pointers untouched, no crash. Validation is on
+//! and must stay silent.
+
+use std::ffi::{CStr, CString, c_char};
+use std::ptr::{null, null_mut};
+
+use lensmap::gpu::{Gpu, GpuOptions};
+use lensmap::hybrid::HybridOptions;
+use lensmap::layers::projected::ProjectedOptions;
+use lensmap::render::{TargetFormat, Variant};
+use lensmap::runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene};
+use lensmap::scene::{Camera, Scene};
+use lensmap_capi::*;
+
+fn last_error() -> String {
+    // SAFETY: lensmap_last_error returns a NUL-terminated string valid until the next failure.
+    unsafe { CStr::from_ptr(lensmap_last_error()) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// `code` is `expected` and the message names `what`.
+#[track_caller]
+fn assert_failure(code: LensmapResult, expected: LensmapResult, what: &str) {
+    let message = last_error();
+    assert_eq!(code, expected, "message: {message}");
+    assert!(
+        message.contains(what),
+        "the message should name {what:?}: {message}"
+    );
+}
+
+fn context_options(device: Option<&CString>) -> LensmapContextOptions {
+    LensmapContextOptions {
+        struct_size: size_of::<LensmapContextOptions>() as u32,
+        validation: 1,
+        device_name: device.map_or(null(), |d| d.as_ptr()),
+    }
+}
+
+fn new_context() -> *mut LensmapContext {
+    let mut context = null_mut();
+    // SAFETY: valid options and out-pointer.
+    let code = unsafe { lensmap_context_new(&context_options(None), &mut context) };
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    context
+}
+
+const SCENE: &CStr = c"glass-sphere";
+
+fn scene_options(scene: &CStr, bake: Option<&CStr>) -> LensmapSceneOptions {
+    LensmapSceneOptions {
+        struct_size: size_of::<LensmapSceneOptions>() as u32,
+        scene: scene.as_ptr(),
+        bake_dir: bake.map_or(null(), CStr::as_ptr),
+        em_size: 8,
+        accept_any_bake: 0,
+    }
+}
+
+fn load_scene() -> *mut LensmapScene {
+    let mut scene = null_mut();
+    // SAFETY: valid options and out-pointer.
+    let code = unsafe { lensmap_scene_load(&scene_options(SCENE, None), &mut scene) };
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    scene
+}
+
+/// A small frame of glass-sphere from its scene camera.
+fn frame_options(format: u32) -> LensmapFrameOptions {
+    let camera = Scene::builtin("glass-sphere")
+        .expect("built in")
+        .expect("loads")
+        .camera;
+    LensmapFrameOptions {
+        struct_size: size_of::<LensmapFrameOptions>() as u32,
+        position: camera.position.to_array(),
+        look_at: camera.look_at.to_array(),
+        up: camera.up.to_array(),
+        vfov_degrees: camera.vfov_radians.to_degrees(),
+        width: 40,
+        height: 30,
+        supersampling: 2,
+        t: 3.0,
+        variant: LENSMAP_VARIANT_SINGLE_PASS,
+        format,
+    }
+}
+
+fn render(
+    context: *mut LensmapContext,
+    scene: *const LensmapScene,
+    options: &LensmapFrameOptions,
+    pixels: &mut [f32],
+) -> LensmapResult {
+    let mut stats = LensmapFrameStats {
+        struct_size: size_of::<LensmapFrameStats>() as u32,
+        ..LensmapFrameStats::default()
+    };
+    // SAFETY: `pixels` is writable for its length; the rest are valid or deliberately bad
+    // handles, which the ABI refuses without dereferencing.
+    let code = unsafe {
+        lensmap_render_to_memory(
+            context,
+            scene,
+            options,
+            pixels.as_mut_ptr(),
+            pixels.len(),
+            &mut stats,
+        )
+    };
+    if code == LensmapResult::Ok {
+        assert!(stats.passes >= 2, "{stats:?}");
+        // A still camera (the scene's previous frame) traces nothing.
+        assert!(
+            (stats.rays > 0 && stats.triangle_tests > 0) || stats.reused == 1,
+            "{stats:?}"
+        );
+        assert!(
+            stats.total_ms > 0.0 && stats.total_ms.is_finite(),
+            "{stats:?}"
+        );
+    }
+    code
+}
+
+fn assert_no_validation_messages(context: *mut LensmapContext) {
+    let mut count = u64::MAX;
+    // SAFETY: a live context and a writable count.
+    let code = unsafe { lensmap_context_validation_messages(context, &mut count) };
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    assert_eq!(count, 0, "validation messages (see stderr)");
+}
+
+/// The Rust API's frame for the same scene, camera and options.
+fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f32> {
+    let scene = Scene::load_named("glass-sphere").expect("loads");
+    let (hybrid, _) =
+        load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(8)))
+            .expect("projected");
+    let camera = Camera {
+        position: options.position.into(),
+        look_at: options.look_at.into(),
+        up: options.up.into(),
+        vfov_radians: options.vfov_degrees.to_radians(),
+        width: options.width,
+        height: options.height,
+        supersampling: options.supersampling,
+    };
+    let frame = runner
+        .frame(
+            &hybrid,
+            &camera,
+            &FrameOptions {
+                hybrid: HybridOptions::with_t(options.t),
+                variant: Variant::SinglePass,
+                format: TargetFormat::Rgba32f,
+            },
+        )
+        .expect("renders");
+    frame.image.pixels.iter().flatten().copied().collect()
+}
+
+#[test]
+fn a_frame_through_the_abi_equals_the_rust_apis() {
+    let context = new_context();
+    let scene = load_scene();
+    let options = frame_options(LENSMAP_FORMAT_RGBA32F);
+    let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+    assert_eq!(
+        render(context, scene, &options, &mut pixels),
+        LensmapResult::Ok
+    );
+    assert!(pixels.iter().all(|p| p.is_finite()));
+    assert!(pixels.iter().any(|&p| p > 0.0), "an image, not a blank");
+    let mut runner = FrameRunner::new(
+        Gpu::new(&GpuOptions {
+            validation: true,
+            ..GpuOptions::default()
+        })
+        .expect("a device"),
+    )
+    .expect("a runner");
+    let expected = rust_frame(&mut runner, &options);
+    assert_eq!(pixels, expected, "bit-identical to the Rust API's frame");
+    assert!(runner.gpu().validation_report().messages.is_empty());
+    assert_no_validation_messages(context);
+    // SAFETY: live handles, freed once.
+    unsafe {
+        assert_eq!(lensmap_scene_free(scene), LensmapResult::Ok);
+        assert_eq!(lensmap_context_free(context), LensmapResult::Ok);
+    }
+}
+
+/// Validation messages the hosts' messengers received.
+static HOST_MESSAGES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+unsafe extern "system" fn count_host_message(
+    _severity: ash::vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: ash::vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const ash::vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    _user: *mut std::ffi::c_void,
+) -> ash::vk::Bool32 {
+    // SAFETY: the layer passes valid callback data for the duration of the call.
+    let message = unsafe { (*data).message_as_c_str() }
+        .map(|m| m.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    eprintln!("host validation: {message}");
+    HOST_MESSAGES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    ash::vk::FALSE
+}
+
+/// A host's own Vulkan instance and device (made here with ash, validation on, its messages
+/// counted in [`HOST_MESSAGES`]), lent to lensmap.
+struct HostVulkan {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    debug: ash::ext::debug_utils::Instance,
+    messenger: ash::vk::DebugUtilsMessengerEXT,
+    physical_device: ash::vk::PhysicalDevice,
+    device: ash::Device,
+    family: u32,
+}
+
+impl HostVulkan {
+    fn new() -> HostVulkan {
+        use ash::vk;
+        // SAFETY: loading the system's libvulkan.
+        let entry = unsafe { ash::Entry::load() }.expect("libvulkan");
+        let app = vk::ApplicationInfo::default().api_version(vk::API_VERSION_1_3);
+        let layers = [c"VK_LAYER_KHRONOS_validation".as_ptr()];
+        let extensions = [ash::ext::debug_utils::NAME.as_ptr()];
+        let info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        // SAFETY: valid create info.
+        let instance = unsafe { entry.create_instance(&info, None) }.expect("an instance");
+        let debug = ash::ext::debug_utils::Instance::new(&entry, &instance);
+        let messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION,
+            )
+            .pfn_user_callback(Some(count_host_message));
+        // SAFETY: a static callback without user data.
+        let messenger = unsafe { debug.create_debug_utils_messenger(&messenger_info, None) }
+            .expect("a messenger");
+        // SAFETY: a live instance.
+        let physical_device = unsafe { instance.enumerate_physical_devices() }.expect("devices")[0];
+        // SAFETY: as above.
+        let family =
+            unsafe { instance.get_physical_device_queue_family_properties(physical_device) }
+                .iter()
+                .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS))
+                .expect("a graphics family") as u32;
+        let priorities = [1.0];
+        let queues = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(family)
+            .queue_priorities(&priorities)];
+        let features = vk::PhysicalDeviceFeatures::default().image_cube_array(true);
+        let mut features12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
+        let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            .synchronization2(true);
+        let info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queues)
+            .enabled_features(&features)
+            .push_next(&mut features12)
+            .push_next(&mut features13);
+        // SAFETY: valid create info for a device of this instance.
+        let device =
+            unsafe { instance.create_device(physical_device, &info, None) }.expect("a device");
+        HostVulkan {
+            entry,
+            instance,
+            debug,
+            messenger,
+            physical_device,
+            device,
+            family,
+        }
+    }
+
+    fn lent(&self, enabled_features: u32) -> LensmapHostDevice {
+        use ash::vk::Handle as _;
+        // SAFETY: a queue of the family the device was made with.
+        let queue = unsafe { self.device.get_device_queue(self.family, 0) };
+        LensmapHostDevice {
+            struct_size: size_of::<LensmapHostDevice>() as u32,
+            // SAFETY: the loader's vkGetInstanceProcAddr has this C signature.
+            get_instance_proc_addr: Some(unsafe {
+                std::mem::transmute::<
+                    ash::vk::PFN_vkGetInstanceProcAddr,
+                    unsafe extern "system" fn(
+                        VkInstance,
+                        *const c_char,
+                    )
+                        -> Option<unsafe extern "system" fn()>,
+                >(self.entry.static_fn().get_instance_proc_addr)
+            }),
+            instance: self.instance.handle().as_raw() as VkInstance,
+            physical_device: self.physical_device.as_raw() as VkPhysicalDevice,
+            device: self.device.handle().as_raw() as VkDevice,
+            queue_family: self.family,
+            queue: queue.as_raw() as VkQueue,
+            enabled_features,
+        }
+    }
+}
+
+impl Drop for HostVulkan {
+    fn drop(&mut self) {
+        // SAFETY: lensmap's context on this device was freed first; nothing else uses it.
+        unsafe {
+            self.device.destroy_device(None);
+            self.debug
+                .destroy_debug_utils_messenger(self.messenger, None);
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+#[test]
+fn a_frame_on_the_hosts_own_device_equals_one_on_lensmaps() {
+    let host = HostVulkan::new();
+    let mut context = null_mut();
+    // SAFETY: the host's live handles, which belong together.
+    let code =
+        unsafe { lensmap_context_new_on_host(&host.lent(LENSMAP_FEATURES_REQUIRED), &mut context) };
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    let scene = load_scene();
+    let options = frame_options(LENSMAP_FORMAT_RGBA32F);
+    let mut on_host = vec![0.0f32; 4 * 40 * 30];
+    assert_eq!(
+        render(context, scene, &options, &mut on_host),
+        LensmapResult::Ok
+    );
+    let own = new_context();
+    let mut on_own = vec![0.0f32; 4 * 40 * 30];
+    assert_eq!(render(own, scene, &options, &mut on_own), LensmapResult::Ok);
+    assert_eq!(
+        on_host, on_own,
+        "the same device kind renders the same frame"
+    );
+    assert_no_validation_messages(own);
+    // SAFETY: live handles, freed once, lensmap's context before the host's device.
+    unsafe {
+        assert_eq!(lensmap_context_free(context), LensmapResult::Ok);
+        assert_eq!(lensmap_context_free(own), LensmapResult::Ok);
+        assert_eq!(lensmap_scene_free(scene), LensmapResult::Ok);
+    }
+    drop(host);
+    assert_eq!(
+        HOST_MESSAGES.load(std::sync::atomic::Ordering::Relaxed),
+        0,
+        "the host's validation layer reported messages (see stderr)"
+    );
+}
+
+/// The misuse corpus: every case returns its documented code, names the problem in
+/// `lensmap_last_error()`, leaves out-pointers as they were, and crashes nothing.
+#[test]
+fn misuse_returns_documented_codes_and_useful_messages() {
+    use LensmapResult as R;
+    let untouched = 0x5a5a_usize as *mut LensmapContext;
+    // SAFETY (the whole test): every pointer is valid, NULL, or a deliberately stale or foreign
+    // handle, which the ABI must refuse without dereferencing.
+    unsafe {
+        // 1–2. Freeing NULL is a no-op.
+        assert_eq!(lensmap_context_free(null_mut()), R::Ok);
+        assert_eq!(lensmap_scene_free(null_mut()), R::Ok);
+        // 3. A NULL out-pointer.
+        assert_failure(
+            lensmap_context_new(&context_options(None), null_mut()),
+            R::NullArgument,
+            "out",
+        );
+        // 4. A struct size from another version: refused, the out-pointer untouched.
+        let mut out = untouched;
+        let mut bad = context_options(None);
+        bad.struct_size = 4;
+        assert_failure(
+            lensmap_context_new(&bad, &mut out),
+            R::StructSize,
+            "struct_size",
+        );
+        assert_eq!(out, untouched);
+        // 5. A device no system has.
+        let nowhere = CString::new("no-such-gpu-anywhere").unwrap();
+        assert_failure(
+            lensmap_context_new(&context_options(Some(&nowhere)), &mut out),
+            R::Device,
+            "no-such-gpu-anywhere",
+        );
+        assert_eq!(out, untouched);
+
+        let context = new_context();
+        let scene = load_scene();
+        // 6. An unknown scene.
+        let mut scene_out = 0x77usize as *mut LensmapScene;
+        assert_failure(
+            lensmap_scene_load(&scene_options(c"glass-spere", None), &mut scene_out),
+            R::Scene,
+            "glass-spere",
+        );
+        assert_eq!(scene_out, 0x77usize as *mut LensmapScene);
+        // 7. No scene named.
+        let mut nameless = scene_options(SCENE, None);
+        nameless.scene = null();
+        assert_failure(
+            lensmap_scene_load(&nameless, &mut scene_out),
+            R::NullArgument,
+            "options->scene",
+        );
+        // 8. A bake directory that does not exist.
+        let missing = CString::new(
+            std::env::temp_dir()
+                .join("lensmap-capi-no-such-bake")
+                .to_str()
+                .unwrap(),
+        )
+        .unwrap();
+        assert_failure(
+            lensmap_scene_load(&scene_options(SCENE, Some(&missing)), &mut scene_out),
+            R::Bake,
+            "lensmap-capi-no-such-bake",
+        );
+        // 9. A directory that is not a bake (no manifest).
+        let not_a_bake =
+            std::env::temp_dir().join(format!("lensmap-capi-empty-{}", std::process::id()));
+        std::fs::create_dir_all(&not_a_bake).unwrap();
+        std::fs::write(not_a_bake.join("manifest.json"), b"{ not json").unwrap();
+        let not_a_bake_c = CString::new(not_a_bake.to_str().unwrap()).unwrap();
+        assert_failure(
+            lensmap_scene_load(&scene_options(SCENE, Some(&not_a_bake_c)), &mut scene_out),
+            R::Bake,
+            "manifest.json",
+        );
+        std::fs::remove_dir_all(&not_a_bake).unwrap();
+        // 10. A projected EM size that is not a power of two.
+        let mut odd = scene_options(SCENE, None);
+        odd.em_size = 12;
+        assert_failure(
+            lensmap_scene_load(&odd, &mut scene_out),
+            R::InvalidArgument,
+            "em_size",
+        );
+        assert_eq!(scene_out, 0x77usize as *mut LensmapScene);
+
+        let mut pixels = vec![0.0f32; 4 * 40 * 30];
+        // 11. A zero-size image.
+        let mut empty = frame_options(LENSMAP_FORMAT_RGBA32F);
+        empty.width = 0;
+        assert_failure(
+            render(context, scene, &empty, &mut pixels),
+            R::InvalidArgument,
+            "empty",
+        );
+        // 12. A format lensmap cannot render to.
+        assert_failure(
+            render(context, scene, &frame_options(7), &mut pixels),
+            R::UnsupportedFormat,
+            "options->format is 7",
+        );
+        // 13. An unknown variant.
+        let mut variant = frame_options(LENSMAP_FORMAT_RGBA8);
+        variant.variant = 9;
+        assert_failure(
+            render(context, scene, &variant, &mut pixels),
+            R::InvalidArgument,
+            "options->variant is 9",
+        );
+        // 14. A negative tessellation threshold.
+        let mut negative = frame_options(LENSMAP_FORMAT_RGBA8);
+        negative.t = -1.0;
+        assert_failure(
+            render(context, scene, &negative, &mut pixels),
+            R::InvalidArgument,
+            "t -1",
+        );
+        // 15. A buffer too small for the frame: refused before any work, nothing written.
+        let mut small = vec![-7.0f32; 100];
+        assert_failure(
+            render(
+                context,
+                scene,
+                &frame_options(LENSMAP_FORMAT_RGBA8),
+                &mut small,
+            ),
+            R::BufferTooSmall,
+            "4800",
+        );
+        assert!(small.iter().all(|&v| v == -7.0));
+        // 16. NULL handles.
+        assert_failure(
+            render(
+                null_mut(),
+                scene,
+                &frame_options(LENSMAP_FORMAT_RGBA8),
+                &mut pixels,
+            ),
+            R::NullArgument,
+            "context",
+        );
+        assert_failure(
+            render(
+                context,
+                null(),
+                &frame_options(LENSMAP_FORMAT_RGBA8),
+                &mut pixels,
+            ),
+            R::NullArgument,
+            "scene",
+        );
+        // 17. A scene handle passed as a context (a type confusion): refused, not dereferenced.
+        assert_failure(
+            render(
+                scene as *mut LensmapContext,
+                scene,
+                &frame_options(LENSMAP_FORMAT_RGBA8),
+                &mut pixels,
+            ),
+            R::InvalidHandle,
+            "not a live LensmapContext",
+        );
+        // 18. A stats struct of a size lensmap never had.
+        let mut stats = LensmapFrameStats {
+            struct_size: 3,
+            ..LensmapFrameStats::default()
+        };
+        assert_failure(
+            lensmap_render_to_memory(
+                context,
+                scene,
+                &frame_options(LENSMAP_FORMAT_RGBA8),
+                pixels.as_mut_ptr(),
+                pixels.len(),
+                &mut stats,
+            ),
+            R::StructSize,
+            "stats->struct_size",
+        );
+        // 19. The plan: a size query, then a buffer one byte short.
+        let plan = LensmapPlanOptions {
+            struct_size: size_of::<LensmapPlanOptions>() as u32,
+            layers: 3,
+            viewpoints: 2,
+            terms: 2,
+            variant: LENSMAP_VARIANT_MULTIPASS,
+            format: LENSMAP_FORMAT_RGBA8,
+        };
+        let mut length = 0usize;
+        assert_eq!(lensmap_plan_text(&plan, null_mut(), 0, &mut length), R::Ok);
+        let mut text = vec![1 as c_char; length];
+        let mut unchanged = 12345usize;
+        assert_failure(
+            lensmap_plan_text(&plan, text.as_mut_ptr(), text.len(), &mut unchanged),
+            R::BufferTooSmall,
+            "buffer holds",
+        );
+        assert_eq!(unchanged, 12345);
+        let mut text = vec![1 as c_char; length + 1];
+        assert_eq!(
+            lensmap_plan_text(&plan, text.as_mut_ptr(), text.len(), &mut unchanged),
+            R::Ok
+        );
+        let printed = CStr::from_ptr(text.as_ptr()).to_string_lossy();
+        assert_eq!(printed.len(), length);
+        assert_eq!(printed.matches("alpha-clear").count(), 3, "{printed}");
+        // 20. A plan of 0 layers.
+        let mut none = plan;
+        none.layers = 0;
+        assert_failure(
+            lensmap_plan_text(&none, null_mut(), 0, &mut length),
+            R::InvalidArgument,
+            "options->layers is 0",
+        );
+        // 21. A host's device that lacks a feature lensmap needs (imageCubeArray not enabled).
+        let host = HostVulkan::new();
+        let mut out = untouched;
+        assert_failure(
+            lensmap_context_new_on_host(
+                &host.lent(LENSMAP_FEATURES_REQUIRED & !LENSMAP_FEATURE_IMAGE_CUBE_ARRAY),
+                &mut out,
+            ),
+            R::Device,
+            "imageCubeArray",
+        );
+        // 22. A host without a device.
+        let mut deviceless = host.lent(LENSMAP_FEATURES_REQUIRED);
+        deviceless.device = null_mut();
+        assert_failure(
+            lensmap_context_new_on_host(&deviceless, &mut out),
+            R::NullArgument,
+            "host->device",
+        );
+        // 23. A queue family without graphics (one past the last family).
+        let mut familyless = host.lent(LENSMAP_FEATURES_REQUIRED);
+        familyless.queue_family = 1000;
+        assert_failure(
+            lensmap_context_new_on_host(&familyless, &mut out),
+            R::Device,
+            "queue family 1000",
+        );
+        assert_eq!(out, untouched);
+        drop(host);
+
+        assert_no_validation_messages(context);
+        // 24–25. Double frees are detected and free nothing.
+        assert_eq!(lensmap_scene_free(scene), R::Ok);
+        assert_failure(lensmap_scene_free(scene), R::InvalidHandle, "freed twice");
+        // 26. A freed scene is refused by render.
+        assert_failure(
+            render(
+                context,
+                scene,
+                &frame_options(LENSMAP_FORMAT_RGBA8),
+                &mut pixels,
+            ),
+            R::InvalidHandle,
+            "not a live LensmapScene",
+        );
+        assert_eq!(lensmap_context_free(context), R::Ok);
+        assert_failure(
+            lensmap_context_free(context),
+            R::InvalidHandle,
+            "freed twice",
+        );
+    }
+    // 27. The last error is per thread: a fresh thread has none.
+    let fresh = std::thread::spawn(last_error).join().unwrap();
+    assert_eq!(fresh, "");
+}
+
+/// Calls on one context from two threads at once: one of them is refused with BUSY (the
+/// documented contract: one thread at a time), none crashes, and both go on working after.
+#[test]
+fn two_threads_on_one_context_get_busy_not_a_crash() {
+    struct Shared(*mut LensmapContext, *mut LensmapScene);
+    // SAFETY: the ABI's handles may be passed between threads; the test frees them at the end.
+    unsafe impl Send for Shared {}
+    unsafe impl Sync for Shared {}
+    let shared = std::sync::Arc::new(Shared(new_context(), load_scene()));
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let worker = {
+        let (shared, stop) = (shared.clone(), stop.clone());
+        std::thread::spawn(move || {
+            let mut options = frame_options(LENSMAP_FORMAT_RGBA32F);
+            (options.width, options.height) = (200, 150);
+            let mut pixels = vec![0.0f32; 4 * 200 * 150];
+            let mut busy = 0;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                match render(shared.0, shared.1, &options, &mut pixels) {
+                    LensmapResult::Ok => {}
+                    LensmapResult::Busy => busy += 1,
+                    other => panic!("{other:?}: {}", last_error()),
+                }
+            }
+            busy
+        })
+    };
+    let mut pixels = vec![0.0f32; 4 * 40 * 30];
+    let options = frame_options(LENSMAP_FORMAT_RGBA8);
+    let mut busy = false;
+    for _ in 0..2000 {
+        match render(shared.0, shared.1, &options, &mut pixels) {
+            LensmapResult::Ok => {}
+            LensmapResult::Busy => {
+                assert!(last_error().contains("another thread"), "{}", last_error());
+                busy = true;
+                break;
+            }
+            other => panic!("{other:?}: {}", last_error()),
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let worker_busy = worker.join().expect("the worker never failed");
+    assert!(
+        busy || worker_busy > 0,
+        "a call while another thread rendered was never refused"
+    );
+    assert_eq!(
+        render(shared.0, shared.1, &options, &mut pixels),
+        LensmapResult::Ok
+    );
+    // SAFETY: live handles, freed once, no thread uses them any more.
+    unsafe {
+        assert_eq!(lensmap_scene_free(shared.1), LensmapResult::Ok);
+        assert_eq!(lensmap_context_free(shared.0), LensmapResult::Ok);
+    }
+}

@@ -114,5 +114,10 @@ fn overhead(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, overhead);
+// The macro's generated function has no doc comment to carry.
+#[allow(missing_docs)]
+mod group {
+    super::criterion_group!(benches, super::overhead);
+}
+use group::benches;
 criterion_main!(benches);

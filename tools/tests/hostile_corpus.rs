@@ -1399,7 +1399,6 @@ fn hostile_options_are_refused_naming_the_option() {
 
 /// Options that do not apply are refused, not ignored: `--accept-any-bake` without `--bake`.
 #[test]
-
 fn accept_any_bake_without_a_bake_is_refused() {
     let scratch = Scratch::new("accept");
     let out = scratch.path("frame.png");
@@ -1418,7 +1417,6 @@ fn accept_any_bake_without_a_bake_is_refused() {
 
 /// `--out` under a regular file cannot be honoured: usage (exit 2), said before any work.
 #[test]
-
 fn out_under_a_regular_file_is_refused_before_work() {
     let scratch = Scratch::new("out-file");
     let file = scratch.write("notes.txt", "keep me");
@@ -1686,7 +1684,6 @@ fn a_closed_stdout_still_writes_the_frame() {
 /// An error said to a closed stderr (`lensmap … 2>&1 | head -0`) ends with its exit code, not a
 /// panic about failing to print it.
 #[test]
-
 fn a_closed_stderr_keeps_the_exit_code() {
     let mut child = lensmap_command(&["render", "--scene", "no-such-scene", "--projected"])
         .stdout(Stdio::null())

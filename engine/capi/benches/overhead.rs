@@ -17,15 +17,18 @@ use lensmap_capi::*;
 const WIDTH: u32 = 320;
 const HEIGHT: u32 = 240;
 
-fn camera(step: usize) -> Camera {
+/// A full turn of cameras around the scene camera's look-at point, 0.5° apart.
+fn cameras() -> Vec<Camera> {
     let scene = Scene::load_named("glass-sphere").expect("built in");
-    scene
-        .camera
-        .with_resolution(WIDTH, HEIGHT, 1)
-        .orbited(0.5 * (step % 720) as f32)
+    let base = scene.camera.with_resolution(WIDTH, HEIGHT, 1);
+    (0..720)
+        .map(|step| base.orbited(0.5 * step as f32))
+        .collect()
 }
 
 fn overhead(c: &mut Criterion) {
+    let cameras = cameras();
+    let camera = |step: usize| cameras[step % cameras.len()];
     let mut group = c.benchmark_group("glass-sphere 320x240 frame");
     group.sample_size(30);
 

@@ -286,6 +286,38 @@ fn is_live(pointer: usize, kind: Kind) -> bool {
         .is_some_and(|map| map.get(&pointer) == Some(&kind))
 }
 
+/// Registers a new context for `runner` and writes it to `*out`.
+///
+/// # Safety
+/// `out` must be non-null and writable.
+unsafe fn hand_out_context(runner: FrameRunner, out: *mut *mut LensmapContext) {
+    let context = LensmapContext {
+        runner: Mutex::new(runner),
+    };
+    // SAFETY: the caller's promise.
+    unsafe { *out = register(Box::new(context), Kind::Context) };
+}
+
+/// Frees the live handle `pointer` of `kind` (NULL: nothing to do); refuses one that is not live
+/// (a second free) with `refusal`, freeing nothing.
+///
+/// # Safety
+/// `pointer` must be NULL, not live, or a live handle of `kind` made by [`register`] as a `T`.
+unsafe fn free_handle<T>(pointer: *mut T, kind: Kind, refusal: &str) -> Result<(), Failure> {
+    if pointer.is_null() {
+        return Ok(());
+    }
+    if !unregister(pointer as usize, kind) {
+        return Err(Failure::new(
+            LensmapResult::InvalidHandle,
+            format!("{refusal} (freed twice?); nothing freed"),
+        ));
+    }
+    // SAFETY: it was live, made by Box::into_raw as a T, and is unregistered now: freed once.
+    drop(unsafe { Box::from_raw(pointer) });
+    Ok(())
+}
+
 /// Removes `pointer` from the live handles; false when it was not one of `kind`.
 fn unregister(pointer: usize, kind: Kind) -> bool {
     let mut guard = live();
@@ -568,14 +600,8 @@ pub unsafe extern "C" fn lensmap_context_new(
             }
         }
         let runner = FrameRunner::new(Gpu::new(&gpu_options)?)?;
-        let handle = register(
-            Box::new(LensmapContext {
-                runner: Mutex::new(runner),
-            }),
-            Kind::Context,
-        );
         // SAFETY: checked non-null; writable by the caller's promise.
-        unsafe { *out = handle };
+        unsafe { hand_out_context(runner, out) };
         Ok(())
     })
 }
@@ -642,14 +668,8 @@ pub unsafe extern "C" fn lensmap_context_new_on_host(
         // SAFETY: the caller promises valid handles that belong together.
         let gpu = unsafe { Gpu::from_host(&lent) }?;
         let runner = FrameRunner::new(gpu)?;
-        let handle = register(
-            Box::new(LensmapContext {
-                runner: Mutex::new(runner),
-            }),
-            Kind::Context,
-        );
         // SAFETY: checked non-null; writable by the caller's promise.
-        unsafe { *out = handle };
+        unsafe { hand_out_context(runner, out) };
         Ok(())
     })
 }
@@ -662,18 +682,14 @@ pub unsafe extern "C" fn lensmap_context_new_on_host(
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn lensmap_context_free(context: *mut LensmapContext) -> LensmapResult {
     boundary(|| {
-        if context.is_null() {
-            return Ok(());
+        // SAFETY: a context is only ever registered as Kind::Context.
+        unsafe {
+            free_handle(
+                context,
+                Kind::Context,
+                "lensmap_context_free: not a live LensmapContext",
+            )
         }
-        if !unregister(context as usize, Kind::Context) {
-            return Err(Failure::new(
-                LensmapResult::InvalidHandle,
-                "lensmap_context_free: not a live LensmapContext (freed twice?); nothing freed",
-            ));
-        }
-        // SAFETY: it was live, made by Box::into_raw, and is unregistered now: freed once.
-        drop(unsafe { Box::from_raw(context) });
-        Ok(())
     })
 }
 
@@ -759,18 +775,14 @@ pub unsafe extern "C" fn lensmap_scene_load(
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn lensmap_scene_free(scene: *mut LensmapScene) -> LensmapResult {
     boundary(|| {
-        if scene.is_null() {
-            return Ok(());
+        // SAFETY: a scene is only ever registered as Kind::Scene.
+        unsafe {
+            free_handle(
+                scene,
+                Kind::Scene,
+                "lensmap_scene_free: not a live LensmapScene",
+            )
         }
-        if !unregister(scene as usize, Kind::Scene) {
-            return Err(Failure::new(
-                LensmapResult::InvalidHandle,
-                "lensmap_scene_free: not a live LensmapScene (freed twice?); nothing freed",
-            ));
-        }
-        // SAFETY: it was live, made by Box::into_raw, and is unregistered now: freed once.
-        drop(unsafe { Box::from_raw(scene) });
-        Ok(())
     })
 }
 

@@ -80,10 +80,7 @@ fn same_bytes(a: &Path, b: &Path) {
 }
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensmap-bake-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::temp_dir("bake", name)
 }
 
 fn manifest_samples(dir: &Path) -> Vec<u64> {

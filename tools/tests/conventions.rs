@@ -4,31 +4,36 @@
 //! the exit codes and the environment variables, and progress shows the stages on a terminal.
 
 mod common;
-use common::lensmap;
+use common::{TINY_RENDER, lensmap};
 
 use std::path::PathBuf;
 
-/// A render small enough for CI.
-const TINY_RENDER: [&str; 11] = [
-    "render",
-    "--scene",
-    "glass-sphere",
-    "--projected",
+/// `render` of glass-sphere at [`common::TINY_RENDER`]'s size, then `extra`.
+fn tiny_render<'a>(extra: &[&'a str]) -> Vec<&'a str> {
+    let base = ["render", "--scene", "glass-sphere"];
+    base.iter()
+        .chain(&TINY_RENDER)
+        .chain(extra)
+        .copied()
+        .collect()
+}
+
+/// `bench passes` small enough for CI.
+const TINY_BENCH: [&str; 10] = [
+    "bench",
+    "passes",
     "--width",
     "16",
     "--height",
     "12",
-    "--supersampling",
+    "--frames",
     "1",
-    "--em-size",
+    "--max-layers",
+    "1",
 ];
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("lensmap-conventions-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::temp_dir("conventions", name)
 }
 
 fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
@@ -84,10 +89,7 @@ fn json_is_the_only_thing_on_stdout_for_every_command() {
     let runs: Vec<(Vec<&str>, &str)> = vec![
         (vec!["passes", "--layers", "2", "--json"], "counts"),
         (
-            with(
-                &TINY_RENDER,
-                &["8", "--out", frame.to_str().unwrap(), "--json"],
-            ),
+            tiny_render(&["--out", frame.to_str().unwrap(), "--json"]),
             "hybrid",
         ),
         (
@@ -123,22 +125,7 @@ fn json_is_the_only_thing_on_stdout_for_every_command() {
             ],
             "variants",
         ),
-        (
-            vec![
-                "bench",
-                "passes",
-                "--width",
-                "16",
-                "--height",
-                "12",
-                "--frames",
-                "1",
-                "--max-layers",
-                "1",
-                "--json",
-            ],
-            "rows",
-        ),
+        (with(&TINY_BENCH, &["--json"]), "rows"),
     ];
     for (args, key) in runs {
         let out = lensmap(&args);
@@ -159,18 +146,7 @@ fn json_is_the_only_thing_on_stdout_for_every_command() {
 #[test]
 fn benchmarks_write_files_only_when_asked() {
     let dir = temp_dir("bench-files");
-    let bench = [
-        "bench",
-        "passes",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--frames",
-        "1",
-        "--max-layers",
-        "1",
-    ];
+    let bench = TINY_BENCH;
     let out = common::lensmap_command(&bench)
         .current_dir(&dir)
         .output()
@@ -239,10 +215,7 @@ fn errors_are_json_lines_under_json() {
 fn quiet_prints_nothing_but_what_was_asked_for() {
     let dir = temp_dir("quiet");
     let frame = dir.join("frame.png");
-    let out = lensmap(&with(
-        &TINY_RENDER,
-        &["8", "--out", frame.to_str().unwrap(), "-q"],
-    ));
+    let out = lensmap(&tiny_render(&["--out", frame.to_str().unwrap(), "-q"]));
     assert!(
         out.status.success(),
         "{}",
@@ -277,10 +250,7 @@ fn progress_names_each_step_on_a_terminal() {
             .collect::<Vec<_>>()
             .join(" ")
     };
-    let args = with(
-        &TINY_RENDER,
-        &["8", "--out", frame.to_str().unwrap(), "--compare"],
-    );
+    let args = tiny_render(&["--out", frame.to_str().unwrap(), "--compare"]);
     let line = format!(
         "LENSMAP_VALIDATION=1 '{}' {}",
         env!("CARGO_BIN_EXE_lensmap"),

@@ -3,31 +3,15 @@
 //! exit code, one line on stderr naming the option, no panic, and that earlier outputs survive.
 
 mod common;
-use common::{lensmap, lensmap_command};
+use common::{TINY_RENDER, lensmap, lensmap_command};
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// A render small enough for CI: 16×12 at 1×1, 8² projected maps.
-const TINY_RENDER: [&str; 9] = [
-    "--projected",
-    "--width",
-    "16",
-    "--height",
-    "12",
-    "--supersampling",
-    "1",
-    "--em-size",
-    "8",
-];
-
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensmap-hostile-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    common::temp_dir("hostile", name)
 }
 
 /// Exit code 2 and exactly one line on stderr that names `what`; no panic; quickly.

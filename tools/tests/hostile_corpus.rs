@@ -10,7 +10,7 @@
 //! `layers_bake.rs` hold the first part of the corpus; the cases here are new ones.)
 
 mod common;
-use common::{lensmap, lensmap_command};
+use common::{TINY_RENDER, lensmap, lensmap_command};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -96,13 +96,7 @@ struct Scratch(PathBuf);
 
 impl Scratch {
     fn new(name: &str) -> Scratch {
-        let dir = std::env::temp_dir().join(format!(
-            "lensmap-hostile-corpus-{name}-{}",
-            std::process::id()
-        ));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        Scratch(dir)
+        Scratch(common::temp_dir("hostile-corpus", name))
     }
 
     fn path(&self, name: &str) -> PathBuf {
@@ -236,19 +230,6 @@ impl Earlier {
         assert!(stray.is_empty(), "{case}: left {stray:?}");
     }
 }
-
-/// 16×12 at 1×1 with 8² projected maps: `glass-sphere` small enough for CI.
-const TINY: [&str; 9] = [
-    "--projected",
-    "--width",
-    "16",
-    "--height",
-    "12",
-    "--supersampling",
-    "1",
-    "--em-size",
-    "8",
-];
 
 /// `render --scene SCENE --projected --em-size 8 --out OUT` (the scene's own 16×12 camera).
 fn render_scene(scene: &Path, out: &Path) -> Vec<String> {
@@ -950,7 +931,7 @@ fn damaged_bakes_are_refused_naming_the_file_and_field() {
     let good = scratch.path("good-bake");
     let out = scratch.path("frames/frame.png");
     let mut args = vec!["render", "--scene", "glass-sphere"];
-    args.extend(TINY);
+    args.extend(TINY_RENDER);
     args.extend(["--write-bake", text(&good), "--out", text(&out)]);
     succeeds("writing the bake", &args);
     let render_bake = |bake: &Path| -> Vec<String> {
@@ -1195,7 +1176,7 @@ fn hostile_options_are_refused_naming_the_option() {
     let out = scratch.path("frames/frame.png");
     let base: Vec<&str> = ["render", "--scene", "glass-sphere"]
         .into_iter()
-        .chain(TINY)
+        .chain(TINY_RENDER)
         .chain(["--out", text(&out)])
         .collect();
     succeeds("the base render", &base);
@@ -1403,7 +1384,7 @@ fn accept_any_bake_without_a_bake_is_refused() {
     let scratch = Scratch::new("accept");
     let out = scratch.path("frame.png");
     let mut args = vec!["render", "--scene", "glass-sphere"];
-    args.extend(TINY);
+    args.extend(TINY_RENDER);
     args.extend(["--accept-any-bake", "--out", text(&out)]);
     refused(
         "accept-any-bake-alone",
@@ -1422,7 +1403,7 @@ fn out_under_a_regular_file_is_refused_before_work() {
     let file = scratch.write("notes.txt", "keep me");
     let out = file.join("frame.png");
     let mut args = vec!["render", "--scene", "glass-sphere"];
-    args.extend(TINY);
+    args.extend(TINY_RENDER);
     args.extend(["--out", text(&out)]);
     let start = Instant::now();
     let output = lensmap(&args);
@@ -1644,7 +1625,7 @@ fn a_full_disk_under_write_bake_exits_1() {
     let bake = scratch.path("bake");
     let out = scratch.path("frame.png");
     let mut args = vec!["render", "--scene", "glass-sphere"];
-    args.extend(TINY);
+    args.extend(TINY_RENDER);
     args.extend(["--write-bake", text(&bake), "--out", text(&out)]);
     let (output, elapsed) = with_full_disk(&args, 8);
     assert_refused(
@@ -1664,7 +1645,7 @@ fn a_closed_stdout_still_writes_the_frame() {
     let scratch = Scratch::new("closed-stdout");
     let out = scratch.path("frame.png");
     let mut args = vec!["render", "--scene", "glass-sphere"];
-    args.extend(TINY);
+    args.extend(TINY_RENDER);
     args.extend(["--out", text(&out)]);
     let mut child = lensmap_command(&args)
         .stdout(Stdio::piped())

@@ -213,6 +213,31 @@ impl HybridFrame {
     }
 }
 
+/// A hybrid frame submitted into a host's image ([`FrameRunner::frame_into`]): its costs up to
+/// the submission (the GPU's part is the host's to time).
+#[derive(Clone, Debug)]
+pub struct HostFrame {
+    /// CPU stages.
+    pub stats: HybridStats,
+    /// Uploading the frame's data, ms.
+    pub upload_ms: f64,
+    /// Compiling the plan and recording the command buffer, ms.
+    pub record_ms: f64,
+    /// Passes recorded (the box filter and the hand-back included).
+    pub passes: usize,
+    /// From the start of the CPU stages to the submission, ms.
+    pub total_ms: f64,
+}
+
+impl HostFrame {
+    /// "Other" in the paper's table: everything but vertex tracing, texture coordinates and
+    /// tessellation, ms (here: assembly, upload, recording and submission).
+    pub fn other_ms(&self) -> f64 {
+        (self.total_ms - self.stats.trace_ms - self.stats.texgen_ms - self.stats.tessellation_ms)
+            .max(0.0)
+    }
+}
+
 /// Timed hybrid frames of one setting: at least one (made only by
 /// [`FrameRunner::timed_frames`]).
 #[derive(Clone, Debug)]
@@ -288,6 +313,17 @@ pub struct FrameRunner {
 struct Slot {
     uploaded: Option<UploadedFrame>,
     identity: u64,
+}
+
+/// A frame whose CPU stages and upload are done, in its slot.
+struct Staged {
+    slot: usize,
+    stats: HybridStats,
+    upload_ms: f64,
+    /// When its CPU stages began.
+    start: Instant,
+    /// When its upload began.
+    gpu_start: Instant,
 }
 
 /// A frame whose CPU stages and upload are done and whose GPU work was submitted.
@@ -408,37 +444,16 @@ impl FrameRunner {
         let mut frames = Vec::with_capacity(cameras.len());
         let mut in_flight = std::collections::VecDeque::new();
         for camera in cameras {
-            let frame_start = Instant::now();
-            let held = self.slots[self.last_slot].identity;
-            let built = hybrid.frame_unless(camera, &options.hybrid, held)?;
-            let slot = match built {
-                BuiltFrame::Unchanged(_) => self.last_slot,
-                BuiltFrame::New(..) => (self.last_slot + 1) % self.slots.len(),
-            };
-            // The slot's previous frame is read back before the slot is written again.
-            while in_flight.iter().any(|p: &Pending| p.slot == slot) {
-                if let Some(oldest) = in_flight.pop_front() {
-                    frames.push(self.finish(oldest)?);
+            let staged = self.stage(hybrid, camera, options, |runner, slot| {
+                // The slot's previous frame is read back before the slot is written again.
+                while in_flight.iter().any(|p: &Pending| p.slot == slot) {
+                    if let Some(oldest) = in_flight.pop_front() {
+                        frames.push(runner.finish(oldest)?);
+                    }
                 }
-            }
-            let gpu_start = Instant::now();
-            let stats = match built {
-                BuiltFrame::Unchanged(stats) => stats,
-                BuiltFrame::New(frame, stats, identity) => {
-                    let uploaded = match self.slots[slot].uploaded.take() {
-                        Some(previous) => self.renderer.upload_into(&self.gpu, &frame, previous)?,
-                        None => self.renderer.upload(&self.gpu, &frame)?,
-                    };
-                    self.slots[slot] = Slot {
-                        uploaded: Some(uploaded),
-                        identity,
-                    };
-                    stats
-                }
-            };
-            let upload_ms = gpu_start.elapsed().as_secs_f64() * 1e3;
-            self.last_slot = slot;
-            let Some(uploaded) = self.slots[slot].uploaded.as_mut() else {
+                Ok(())
+            })?;
+            let Some(uploaded) = self.slots[staged.slot].uploaded.as_mut() else {
                 // A held identity is only ever that of an uploaded slot.
                 return Err(RenderError::BadInput("a still frame has no upload".into()).into());
             };
@@ -446,19 +461,102 @@ impl FrameRunner {
                 self.renderer
                     .submit(&self.gpu, uploaded, options.variant, options.format)?;
             in_flight.push_back(Pending {
-                slot,
+                slot: staged.slot,
                 submission,
-                stats,
+                stats: staged.stats,
                 supersampling: camera.supersampling,
-                upload_ms,
-                start: frame_start,
-                gpu_start,
+                upload_ms: staged.upload_ms,
+                start: staged.start,
+                gpu_start: staged.gpu_start,
             });
         }
         while let Some(pending) = in_flight.pop_front() {
             frames.push(self.finish(pending)?);
         }
         Ok((frames, start.elapsed().as_secs_f64() * 1e3))
+    }
+
+    /// Renders one hybrid frame of `hybrid` seen by `camera` into a host's image on this
+    /// runner's device (a runner made on the host's device: [`Gpu::from_host`]) and returns once
+    /// it is submitted, with no readback: the CPU stages and upload as for [`Self::frame`], the
+    /// frame's plan ending in the GPU box filter into `host` (whose size is the camera's width ×
+    /// height), submitted with the host's wait and signal semaphores. The host learns that the
+    /// frame is done from its signal semaphores (or from later work on the same queue).
+    pub fn frame_into(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+        host: &crate::render::HostImage,
+    ) -> Result<HostFrame, RunError> {
+        options.hybrid.validate()?;
+        if (host.width, host.height) != (camera.width, camera.height) {
+            return Err(RenderError::BadInput(format!(
+                "host image is {}×{}; the camera's frame is {}×{}: give an image of the camera's size",
+                host.width, host.height, camera.width, camera.height
+            ))
+            .into());
+        }
+        let staged = self.stage(hybrid, camera, options, |_, _| Ok(()))?;
+        let Some(uploaded) = self.slots[staged.slot].uploaded.as_mut() else {
+            return Err(RenderError::BadInput("a still frame has no upload".into()).into());
+        };
+        let submission = self.renderer.submit_to(
+            &self.gpu,
+            uploaded,
+            options.variant,
+            options.format,
+            Some(host),
+        )?;
+        Ok(HostFrame {
+            stats: staged.stats,
+            upload_ms: staged.upload_ms,
+            record_ms: submission.record_ms(),
+            passes: submission.passes(),
+            total_ms: staged.start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// A frame's CPU stages (unless the last slot holds it already: a still camera) and its
+    /// upload into the next slot, after `free_slot` made sure nothing pending still reads it.
+    fn stage(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+        mut free_slot: impl FnMut(&mut Self, usize) -> Result<(), RunError>,
+    ) -> Result<Staged, RunError> {
+        let start = Instant::now();
+        let held = self.slots[self.last_slot].identity;
+        let built = hybrid.frame_unless(camera, &options.hybrid, held)?;
+        let slot = match built {
+            BuiltFrame::Unchanged(_) => self.last_slot,
+            BuiltFrame::New(..) => (self.last_slot + 1) % self.slots.len(),
+        };
+        free_slot(self, slot)?;
+        let gpu_start = Instant::now();
+        let stats = match built {
+            BuiltFrame::Unchanged(stats) => stats,
+            BuiltFrame::New(frame, stats, identity) => {
+                let uploaded = match self.slots[slot].uploaded.take() {
+                    Some(previous) => self.renderer.upload_into(&self.gpu, &frame, previous)?,
+                    None => self.renderer.upload(&self.gpu, &frame)?,
+                };
+                self.slots[slot] = Slot {
+                    uploaded: Some(uploaded),
+                    identity,
+                };
+                stats
+            }
+        };
+        self.last_slot = slot;
+        Ok(Staged {
+            slot,
+            stats,
+            upload_ms: gpu_start.elapsed().as_secs_f64() * 1e3,
+            start,
+            gpu_start,
+        })
     }
 
     /// Waits for a submitted frame, reads it back and box-filters it to pixels.

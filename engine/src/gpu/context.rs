@@ -636,25 +636,45 @@ impl Gpu {
     }
 
     /// Records into an existing command buffer (reset first) and submits it, signalling
-    /// `timeline` with `value` when it completes; does not wait (see [`Timeline::wait`]).
+    /// `timeline` with `value` when it completes; does not wait (see [`Timeline::wait`]). The
+    /// submission also waits for `waits` (semaphore, value: the value matters for timeline
+    /// semaphores only) before any colour attachment output, and signals `signals` with the
+    /// timeline: a host's semaphores around a frame rendered into its image.
     pub fn record_submit(
         &self,
         command_buffer: vk::CommandBuffer,
         record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
-        timeline: &Timeline,
-        value: u64,
+        (timeline, value): (&Timeline, u64),
+        waits: &[(vk::Semaphore, u64)],
+        signals: &[(vk::Semaphore, u64)],
     ) -> Result<(), GpuError> {
         self.record_into(command_buffer, record)?;
         let buffers = [vk::CommandBufferSubmitInfo::default().command_buffer(command_buffer)];
-        let signals = [vk::SemaphoreSubmitInfo::default()
-            .semaphore(timeline.semaphore)
-            .value(value)
-            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let waits: Vec<vk::SemaphoreSubmitInfo> = waits
+            .iter()
+            .map(|&(semaphore, value)| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(semaphore)
+                    .value(value)
+                    .stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+            })
+            .collect();
+        let signals: Vec<vk::SemaphoreSubmitInfo> = std::iter::once((timeline.semaphore, value))
+            .chain(signals.iter().copied())
+            .map(|(semaphore, value)| {
+                vk::SemaphoreSubmitInfo::default()
+                    .semaphore(semaphore)
+                    .value(value)
+                    .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+            })
+            .collect();
         let submit = vk::SubmitInfo2::default()
             .command_buffer_infos(&buffers)
+            .wait_semaphore_infos(&waits)
             .signal_semaphore_infos(&signals);
-        // SAFETY: recorded above; the semaphore is a live timeline of this device and `value`
-        // is greater than any value signalled on it before (the caller counts up).
+        // SAFETY: recorded above; the timeline is a live semaphore of this device and `value`
+        // is greater than any value signalled on it before (the caller counts up); the caller's
+        // semaphores are live ones of this device (its promise).
         unsafe {
             self.shared
                 .device

@@ -160,7 +160,10 @@ impl ImageDesc {
             extent: vk::Extent2D { width, height },
             mip_levels: 1,
             array_layers: 1,
-            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+            // Sampled: the box filter into a host's image reads it.
+            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::TRANSFER_SRC
+                | vk::ImageUsageFlags::SAMPLED,
             cube: false,
         }
     }

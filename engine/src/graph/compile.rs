@@ -5,7 +5,7 @@ use std::{collections::HashSet, fmt};
 
 use super::{
     Access, BufferInfo, DepthAttachment, Graph, GraphError, ImageId, ImageInfo, Layout, LoadOp,
-    Pass, PassKind, StoreOp,
+    Origin, Pass, PassKind, StoreOp,
 };
 
 /// Why a declared pass is not in the plan.
@@ -131,7 +131,7 @@ fn reads_and_writes<D, P>(pass: &Pass<D, P>) -> (Vec<ImageId>, Vec<ImageId>) {
             }
             (reads, writes)
         }
-        PassKind::Readback { image, .. } => (vec![*image], Vec::new()),
+        PassKind::Readback { image, .. } | PassKind::Export { image } => (vec![*image], Vec::new()),
     }
 }
 
@@ -142,7 +142,7 @@ fn redefines<D, P>(pass: &Pass<D, P>, image: ImageId) -> bool {
             (colour.image == image && colour.load != LoadOp::Load)
                 || depth.is_some_and(|d| d.image == image && d.load != LoadOp::Load)
         }
-        PassKind::Readback { .. } => false,
+        PassKind::Readback { .. } | PassKind::Export { .. } => false,
     }
 }
 
@@ -213,7 +213,10 @@ impl<D: Clone, P: Clone> Graph<D, P> {
             }
             let (reads, writes) = reads_and_writes(pass);
             let live = pass.side_effect
-                || matches!(pass.kind, PassKind::Readback { .. })
+                || matches!(
+                    pass.kind,
+                    PassKind::Readback { .. } | PassKind::Export { .. }
+                )
                 || writes.iter().any(|w| needed.contains(w));
             if !live {
                 culled[index] = Some(CullReason::OutputUnused);
@@ -228,13 +231,14 @@ impl<D: Clone, P: Clone> Graph<D, P> {
         }
     }
 
-    /// Phase 3: every image a live pass reads was imported or written by an earlier live pass.
+    /// Phase 3: every image a live pass reads was imported or written by an earlier live pass
+    /// (an external image's contents before the frame are its owner's: never read).
     fn check_reads_before_writes(&self, culled: &Culling) -> Result<(), GraphError> {
         let mut defined: HashSet<ImageId> = self
             .images
             .iter()
             .enumerate()
-            .filter(|(_, i)| i.imported)
+            .filter(|(_, i)| i.origin == Origin::Imported)
             .map(|(n, _)| ImageId(n as u32))
             .collect();
         for (pass, _) in self.passes.iter().zip(culled).filter(|(_, c)| c.is_none()) {
@@ -256,12 +260,11 @@ impl<D: Clone, P: Clone> Graph<D, P> {
         let mut state: Vec<ImageState> = self
             .images
             .iter()
-            .map(|i| {
-                if i.imported {
-                    (Layout::ShaderRead, Access::None, false)
-                } else {
-                    (Layout::Undefined, Access::None, false)
-                }
+            .map(|i| match i.origin {
+                Origin::Frame => (Layout::Undefined, Access::None, false),
+                Origin::Imported => (Layout::ShaderRead, Access::None, false),
+                // The owner may have written it just before: its first use waits for that.
+                Origin::External => (Layout::External, Access::External, true),
             })
             .collect();
         let mut steps: Vec<Step<D, P>> = Vec::with_capacity(live.len());
@@ -277,6 +280,25 @@ impl<D: Clone, P: Clone> Graph<D, P> {
                         *image,
                         Layout::TransferSrc,
                         Access::TransferRead,
+                        false,
+                        false,
+                    );
+                    steps.push(Step {
+                        pass: pass.clone(),
+                        barriers,
+                        begin: None,
+                        end: false,
+                    });
+                    index += 1;
+                }
+                PassKind::Export { image } => {
+                    let mut barriers = Vec::new();
+                    transition(
+                        &mut state,
+                        &mut barriers,
+                        *image,
+                        Layout::External,
+                        Access::External,
                         false,
                         false,
                     );
@@ -349,6 +371,15 @@ impl<D: Clone, P: Clone> Graph<D, P> {
                             pass: pass.name.clone(),
                             kind: "buffer",
                             index: b.0,
+                        });
+                    }
+                }
+                PassKind::Export { image: i } => {
+                    let info = image(*i)?;
+                    if info.origin != Origin::External {
+                        return Err(GraphError::NotExternal {
+                            pass: pass.name.clone(),
+                            image: info.name.clone(),
                         });
                     }
                 }
@@ -500,7 +531,9 @@ fn transition(
     if old_layout != layout || hazard {
         barriers.push(Barrier {
             image,
-            old_layout: if discard {
+            // An external image leaves the layout its owner said it is in, even when its
+            // contents are discarded: the owner's word is what the recorded barrier must match.
+            old_layout: if discard && old_layout != Layout::External {
                 Layout::Undefined
             } else {
                 old_layout
@@ -539,6 +572,7 @@ impl<D, P> fmt::Display for Plan<D, P> {
                     },
                 ),
                 PassKind::Readback { .. } => ("copy".into(), "-".into(), "-".into()),
+                PassKind::Export { .. } => ("hand back".into(), "-".into(), "-".into()),
             };
             let rendering = match (&step.begin, step.end) {
                 (Some(instance), true) => format!("begin {}+end", load_name(instance.colour.1)),

@@ -37,6 +37,14 @@ pub enum GraphError {
         /// The handle's index.
         index: u32,
     },
+    /// An export of an image that is not external (the frame's own images are not handed out).
+    #[error("pass `{pass}` exports image `{image}`, which is not an external image")]
+    NotExternal {
+        /// The exporting pass.
+        pass: String,
+        /// The image's debug name.
+        image: String,
+    },
     /// A colour format used as depth or the other way round.
     #[error("pass `{pass}` uses image `{image}` as a {role} attachment but its format is {format}")]
     BadAttachment {

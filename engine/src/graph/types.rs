@@ -20,6 +20,12 @@ pub enum Format {
     Rgba16Float,
     /// 32-bit float RGBA (exact against the f64 model).
     Rgba32Float,
+    /// 8-bit unsigned normalized BGRA (a host's swapchain image, typically).
+    Bgra8Unorm,
+    /// 8-bit RGBA, sRGB-encoded on write.
+    Rgba8Srgb,
+    /// 8-bit BGRA, sRGB-encoded on write.
+    Bgra8Srgb,
     /// 32-bit float depth.
     Depth32Float,
 }
@@ -37,6 +43,9 @@ impl fmt::Display for Format {
             Format::Rgba8Unorm => "rgba8",
             Format::Rgba16Float => "rgba16f",
             Format::Rgba32Float => "rgba32f",
+            Format::Bgra8Unorm => "bgra8",
+            Format::Rgba8Srgb => "rgba8-srgb",
+            Format::Bgra8Srgb => "bgra8-srgb",
             Format::Depth32Float => "d32f",
         })
     }
@@ -51,8 +60,20 @@ pub struct ImageInfo {
     pub format: Format,
     /// Width × height of level 0.
     pub extent: (u32, u32),
-    /// Imported images exist before the frame (uploaded textures) in [`Layout::ShaderRead`].
-    pub imported: bool,
+    /// Where the image comes from.
+    pub origin: Origin,
+}
+
+/// Where an image of a graph comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// Created for the frame (a transient or the frame's own output); undefined before it.
+    Frame,
+    /// Exists before the frame (an uploaded texture), in [`Layout::ShaderRead`].
+    Imported,
+    /// Owned by the graph's user (a host's `VkImage`): in [`Layout::External`] before the frame,
+    /// and handed back in it by a [`PassKind::Export`].
+    External,
 }
 
 /// A buffer's description.
@@ -77,6 +98,9 @@ pub enum Layout {
     ShaderRead,
     /// Source of a copy.
     TransferSrc,
+    /// Whatever layout the owner of an [`Origin::External`] image has it in before the frame,
+    /// or wants it in after (`render/` maps it to the layouts the host gave).
+    External,
 }
 
 impl fmt::Display for Layout {
@@ -87,6 +111,7 @@ impl fmt::Display for Layout {
             Layout::DepthAttachment => "depth",
             Layout::ShaderRead => "shader-read",
             Layout::TransferSrc => "transfer-src",
+            Layout::External => "external",
         })
     }
 }
@@ -108,6 +133,8 @@ pub enum Access {
     TransferRead,
     /// Copy destination.
     TransferWrite,
+    /// Any use by the owner of an [`Origin::External`] image, before or after the frame.
+    External,
 }
 
 /// What happens to an attachment when a pass begins.
@@ -267,6 +294,12 @@ pub enum PassKind<D, P> {
         /// Destination buffer.
         buffer: BufferId,
     },
+    /// Hand an [`Origin::External`] image back to its owner in [`Layout::External`] (a side
+    /// effect: it keeps the passes that wrote the image alive).
+    Export {
+        /// The external image.
+        image: ImageId,
+    },
 }
 
 /// A declared pass.
@@ -308,15 +341,15 @@ impl<D, P> Pass<D, P> {
                 depth_write: depth.is_some_and(|d| d.write),
                 cull: *cull,
             }),
-            PassKind::Readback { .. } => None,
+            PassKind::Readback { .. } | PassKind::Export { .. } => None,
         }
     }
 
-    /// Number of draws (0 for a readback).
+    /// Number of draws (0 for a readback or an export).
     pub fn draw_count(&self) -> usize {
         match &self.kind {
             PassKind::Draw { draws, .. } => draws.len(),
-            PassKind::Readback { .. } => 0,
+            PassKind::Readback { .. } | PassKind::Export { .. } => 0,
         }
     }
 }
@@ -347,12 +380,24 @@ impl<D, P> Graph<D, P> {
 
     /// Declares an image the frame creates (transient or an output).
     pub fn image(&mut self, name: &str, format: Format, width: u32, height: u32) -> ImageId {
-        self.push_image(name, format, (width, height), false)
+        self.push_image(name, format, (width, height), Origin::Frame)
     }
 
     /// Declares an image that exists before the frame, already in [`Layout::ShaderRead`].
     pub fn import_image(&mut self, name: &str, format: Format, width: u32, height: u32) -> ImageId {
-        self.push_image(name, format, (width, height), true)
+        self.push_image(name, format, (width, height), Origin::Imported)
+    }
+
+    /// Declares an image the graph's user owns (a host's `VkImage`): in [`Layout::External`]
+    /// before the frame; a [`PassKind::Export`] hands it back.
+    pub fn external_image(
+        &mut self,
+        name: &str,
+        format: Format,
+        width: u32,
+        height: u32,
+    ) -> ImageId {
+        self.push_image(name, format, (width, height), Origin::External)
     }
 
     fn push_image(
@@ -360,13 +405,13 @@ impl<D, P> Graph<D, P> {
         name: &str,
         format: Format,
         extent: (u32, u32),
-        imported: bool,
+        origin: Origin,
     ) -> ImageId {
         self.images.push(ImageInfo {
             name: name.into(),
             format,
             extent,
-            imported,
+            origin,
         });
         ImageId(self.images.len() as u32 - 1)
     }

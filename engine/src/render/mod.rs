@@ -4,6 +4,7 @@
 //! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 
 mod frame_input;
+mod host_image;
 mod image;
 pub mod model;
 mod pipelines;
@@ -16,8 +17,9 @@ mod upload;
 mod vulkan;
 
 pub use frame_input::*;
+pub use host_image::HostImage;
 pub use image::RenderedImage;
-pub use plan::{FramePlan, FrameShape, TargetFormat, Variant};
+pub use plan::{FramePlan, FrameShape, Output, TargetFormat, Variant};
 pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, Renderer, Submission};
 pub use upload::{FRAMEBUFFER_HEAP_SHARE, UploadedFrame, check_framebuffer};

@@ -1,5 +1,5 @@
 //! What every frame's pipelines share, and the pipelines themselves: the lens and environment
-//! descriptor-set layouts, the two pipeline layouts (their push-constant ranges sized by the
+//! descriptor-set layouts, the pipeline layouts (lens, environment, box filter) (their push-constant ranges sized by the
 //! structs generated from the WGSL), the trilinear sampler of the layered EMs and the bilinear one
 //! of the light maps, and one pipeline per [`PipelineKey`], created on first use from the pass's
 //! declaration.
@@ -7,7 +7,7 @@
 use std::{collections::HashMap, sync::Arc};
 
 use ash::vk;
-use lensmap_shaders::{EnvironmentConstants, LensConstants};
+use lensmap_shaders::{EnvironmentConstants, LensConstants, ResolveConstants};
 
 use super::{
     ShaderProgram,
@@ -30,6 +30,10 @@ pub(super) struct Pipelines {
     pub(super) environment_set_layout: vk::DescriptorSetLayout,
     /// The environment program's layout: set 0 and [`EnvironmentConstants`].
     pub(super) environment_layout: vk::PipelineLayout,
+    /// Set 0 of the box filter: the colour target it averages (read with texel fetches).
+    pub(super) box_filter_set_layout: vk::DescriptorSetLayout,
+    /// The box filter's layout: set 0 and [`ResolveConstants`].
+    pub(super) box_filter_layout: vk::PipelineLayout,
     /// Trilinear, clamp to edge, every level.
     pub(super) sampler: vk::Sampler,
     /// Light maps: bilinear, clamp to edge, level 0 only (charts' gutters are sized for one
@@ -50,8 +54,10 @@ impl Drop for Pipelines {
             }
             device.destroy_pipeline_layout(self.lens_layout, None);
             device.destroy_pipeline_layout(self.environment_layout, None);
+            device.destroy_pipeline_layout(self.box_filter_layout, None);
             device.destroy_descriptor_set_layout(self.lens_set_layout, None);
             device.destroy_descriptor_set_layout(self.environment_set_layout, None);
+            device.destroy_descriptor_set_layout(self.box_filter_set_layout, None);
             device.destroy_sampler(self.sampler, None);
             device.destroy_sampler(self.light_map_sampler, None);
         }
@@ -102,6 +108,8 @@ impl Pipelines {
             lens_layout: vk::PipelineLayout::null(),
             environment_set_layout: vk::DescriptorSetLayout::null(),
             environment_layout: vk::PipelineLayout::null(),
+            box_filter_set_layout: vk::DescriptorSetLayout::null(),
+            box_filter_layout: vk::PipelineLayout::null(),
             sampler: vk::Sampler::null(),
             light_map_sampler: vk::Sampler::null(),
             pipelines: HashMap::new(),
@@ -161,6 +169,31 @@ impl Pipelines {
                     None,
                 )
                 .map_err(vk_err("vkCreatePipelineLayout"))?;
+            let box_filter_bindings = [binding(
+                0,
+                vk::DescriptorType::SAMPLED_IMAGE,
+                vk::ShaderStageFlags::FRAGMENT,
+            )];
+            pipelines.box_filter_set_layout = device
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&box_filter_bindings),
+                    None,
+                )
+                .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
+            let box_filter_sets = [pipelines.box_filter_set_layout];
+            let box_filter_push = [vk::PushConstantRange {
+                stage_flags: vk::ShaderStageFlags::FRAGMENT,
+                offset: 0,
+                size: push_size::<ResolveConstants>(),
+            }];
+            pipelines.box_filter_layout = device
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&box_filter_sets)
+                        .push_constant_ranges(&box_filter_push),
+                    None,
+                )
+                .map_err(vk_err("vkCreatePipelineLayout"))?;
             // Trilinear, clamp to edge, every level; cube maps filter seamlessly (Vulkan default).
             let sampler = vk::SamplerCreateInfo::default()
                 .mag_filter(vk::Filter::LINEAR)
@@ -198,6 +231,7 @@ impl Pipelines {
             ShaderProgram::LensZero
             | ShaderProgram::LensLayer
             | ShaderProgram::LensSinglePass(_) => self.lens_layout,
+            ShaderProgram::BoxFilter => self.box_filter_layout,
         }
     }
 

@@ -216,6 +216,29 @@ pub enum Draw {
         /// Lens index.
         lens: usize,
     },
+    /// A full-screen triangle averaging `supersampling`² subpixels of the colour target into
+    /// each pixel of an external image.
+    BoxFilter {
+        /// k for k×k subpixels per pixel.
+        supersampling: u32,
+    },
+}
+
+/// Where a frame's pixels go.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// Copied into a host-visible buffer at the framebuffer's resolution (the box filter of
+    /// supersampling runs on the CPU after the readback).
+    Readback,
+    /// Box-filtered on the GPU into an image its owner lent (a host's `VkImage`) and handed back
+    /// to it: no readback.
+    External {
+        /// The image's format.
+        format: Format,
+        /// k for k×k framebuffer subpixels per image pixel (the framebuffer's sides divided by
+        /// k are the image's).
+        supersampling: u32,
+    },
 }
 
 /// Images and buffers of a frame graph.
@@ -227,6 +250,8 @@ pub struct FrameResources {
     pub depth: ImageId,
     /// `layers[lens][viewpoint]`: the imported cube-map array.
     pub layers: Vec<Vec<ImageId>>,
+    /// The external image of an [`Output::External`] frame.
+    pub external: Option<ImageId>,
 }
 
 /// A frame's declared pass graph: draws of [`Draw`] with [`ShaderProgram`]s.
@@ -235,20 +260,27 @@ pub type FrameGraph = Graph<Draw, ShaderProgram>;
 /// A frame's compiled plan.
 pub type FramePlan = Plan<Draw, ShaderProgram>;
 
-/// Declares the frame's passes. Fails only where a lens object needs a program that does not
-/// exist (more layers than the single pass supports).
+/// Declares the frame's passes, ending in a readback. Fails only where a lens object needs a
+/// program that does not exist (more layers than the single pass supports).
 pub fn frame_graph(
     shape: &FrameShape,
     variant: Variant,
     format: TargetFormat,
 ) -> Result<(FrameGraph, FrameResources), ProgramError> {
+    frame_graph_to(shape, variant, format, Output::Readback)
+}
+
+/// Declares the frame's passes, ending in `output`: [`frame_graph`] with a choice of where the
+/// pixels go.
+pub fn frame_graph_to(
+    shape: &FrameShape,
+    variant: Variant,
+    format: TargetFormat,
+    output: Output,
+) -> Result<(FrameGraph, FrameResources), ProgramError> {
     let mut graph = Graph::new();
     let colour = graph.image("colour", format.graph_format(), shape.width, shape.height);
     let depth = graph.image("depth", Format::Depth32Float, shape.width, shape.height);
-    let readback = graph.buffer(
-        "readback",
-        u64::from(shape.width) * u64::from(shape.height) * 16,
-    );
     let layers: Vec<Vec<ImageId>> = shape
         .lenses
         .iter()
@@ -400,21 +432,70 @@ pub fn frame_graph(
         }
     }
 
-    graph.add_pass(Pass {
-        name: "readback".into(),
-        category: "readback",
-        side_effect: true,
-        kind: PassKind::Readback {
-            image: colour,
-            buffer: readback,
-        },
-    });
+    let external = match output {
+        Output::Readback => {
+            let readback = graph.buffer(
+                "readback",
+                u64::from(shape.width) * u64::from(shape.height) * 16,
+            );
+            graph.add_pass(Pass {
+                name: "readback".into(),
+                category: "readback",
+                side_effect: true,
+                kind: PassKind::Readback {
+                    image: colour,
+                    buffer: readback,
+                },
+            });
+            None
+        }
+        Output::External {
+            format: image_format,
+            supersampling,
+        } => {
+            let k = supersampling.max(1);
+            let image = graph.external_image(
+                "host-image",
+                image_format,
+                shape.width / k,
+                shape.height / k,
+            );
+            graph.add_pass(Pass {
+                name: "box-filter".into(),
+                category: "box-filter",
+                side_effect: false,
+                kind: PassKind::Draw {
+                    program: ShaderProgram::BoxFilter,
+                    colour: ColourAttachment {
+                        image,
+                        load: LoadOp::DontCare,
+                        store: StoreOp::Store,
+                        blend: Blend::Replace,
+                        write_mask: ColourMask::RGBA,
+                    },
+                    depth: None,
+                    cull: Cull::None,
+                    sampled: vec![colour],
+                    storage: Vec::new(),
+                    draws: vec![Draw::BoxFilter { supersampling: k }],
+                },
+            });
+            graph.add_pass(Pass {
+                name: "export".into(),
+                category: "export",
+                side_effect: true,
+                kind: PassKind::Export { image },
+            });
+            Some(image)
+        }
+    };
     Ok((
         graph,
         FrameResources {
             colour,
             depth,
             layers,
+            external,
         },
     ))
 }

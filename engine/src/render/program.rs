@@ -108,6 +108,8 @@ pub enum ShaderProgram {
     LensLayer,
     /// The single-pass variant, specialized.
     LensSinglePass(SinglePassProgram),
+    /// The supersampling box filter into an external image (`resolve.wgsl`).
+    BoxFilter,
 }
 
 impl ShaderProgram {
@@ -124,6 +126,7 @@ impl ShaderProgram {
             ShaderProgram::Environment => plain("environment", "vs_environment", "fs_environment"),
             ShaderProgram::LensZero => plain("lens", "vs_position", "fs_zero"),
             ShaderProgram::LensLayer => plain("lens", "vs_layer", "fs_layer"),
+            ShaderProgram::BoxFilter => plain("resolve", "vs_full_screen", "fs_box_filter"),
             ShaderProgram::LensSinglePass(program) => Some((
                 lensmap_shaders::shader("lens", "vs_single_pass")?,
                 lensmap_shaders::specialized(
@@ -141,7 +144,8 @@ impl ShaderProgram {
             ShaderProgram::Environment => VertexInput::PositionColourUv,
             ShaderProgram::LensZero
             | ShaderProgram::LensLayer
-            | ShaderProgram::LensSinglePass(_) => VertexInput::None,
+            | ShaderProgram::LensSinglePass(_)
+            | ShaderProgram::BoxFilter => VertexInput::None,
         }
     }
 }
@@ -156,6 +160,7 @@ mod tests {
             ShaderProgram::Environment,
             ShaderProgram::LensZero,
             ShaderProgram::LensLayer,
+            ShaderProgram::BoxFilter,
         ];
         let term_sets: [&[Term]; 3] = [
             &[Term::Refraction],
@@ -171,7 +176,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(programs.len(), 3 + 6 * SinglePassProgram::MAX_LAYERS);
+        assert_eq!(programs.len(), 4 + 6 * SinglePassProgram::MAX_LAYERS);
         for program in programs {
             let (vertex, fragment) = program.shaders().expect("compiled by shaders/build.rs");
             assert_ne!(vertex.entry, fragment.entry, "{program:?}");

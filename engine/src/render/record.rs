@@ -1,21 +1,22 @@
 //! Recording a compiled frame plan into a command buffer: barriers from the plan, dynamic
 //! rendering instances, a debug label around every pass, draws with their push constants
-//! (the structs `shaders/build.rs` generated from the WGSL) and the readback copy.
+//! (the structs `shaders/build.rs` generated from the WGSL), and the readback copy or the box
+//! filter into a host's image.
 
 use ash::vk;
 use bytemuck::Zeroable;
-use lensmap_shaders::{EnvironmentConstants, LensConstants};
+use lensmap_shaders::{EnvironmentConstants, LensConstants, ResolveConstants};
 
 use super::{
-    TargetFormat,
+    HostImage, TargetFormat,
     pipelines::Pipelines,
     plan::{Draw, FramePlan, FrameResources},
-    upload::{GpuLens, UploadedFrame},
+    upload::{GpuLens, Targets, UploadedFrame},
     vulkan::{vk_access, vk_layout},
 };
 use crate::{
     gpu::Gpu,
-    graph::{self, LoadOp, PassKind, StoreOp},
+    graph::{self, Layout, LoadOp, PassKind, StoreOp},
     trace::Term,
 };
 
@@ -27,6 +28,8 @@ pub(super) struct Recorder<'a> {
     pub(super) pipelines: &'a Pipelines,
     /// The uploaded frame.
     pub(super) frame: &'a UploadedFrame,
+    /// The host's image, for a plan with an external image.
+    pub(super) host: Option<&'a HostImage>,
 }
 
 impl Recorder<'_> {
@@ -44,9 +47,13 @@ impl Recorder<'_> {
         let device = gpu.device();
         let targets = &frame.targets[&format];
         let (width, height) = (frame.shape.width, frame.shape.height);
+        let host = self.host.filter(|_| resources.external.is_some());
         // The graph's image handles → the frame's Vulkan images (imported cube arrays never need
         // barriers within a frame: uploads leave them SHADER_READ_ONLY; mapped all the same).
         let image_of = |id: graph::ImageId| -> (vk::Image, vk::ImageAspectFlags, u32) {
+            if let (Some(host), true) = (host, Some(id) == resources.external) {
+                return (host.image, vk::ImageAspectFlags::COLOR, 1);
+            }
             if id == resources.colour {
                 return (targets.colour.handle, vk::ImageAspectFlags::COLOR, 1);
             }
@@ -70,17 +77,17 @@ impl Recorder<'_> {
                     },
                 )
         };
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: width as f32,
-            height: height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
+        // The host's layouts stand in for the graph's External (before the frame, then after).
+        let layout = |graph_layout: Layout, before: bool| match (graph_layout, host) {
+            (Layout::External, Some(host)) if before => host.current_layout,
+            (Layout::External, Some(host)) => host.final_layout,
+            _ => vk_layout(graph_layout),
         };
-        let scissor = vk::Rect2D {
-            offset: vk::Offset2D::default(),
-            extent: vk::Extent2D { width, height },
+        // A rendering instance covers its colour attachment: the framebuffer, or the host's
+        // image (the framebuffer's size over the supersampling factor).
+        let attachment = |id: graph::ImageId| match host {
+            Some(host) if Some(id) == resources.external => (host.view, host.width, host.height),
+            _ => (targets.colour.view, width, height),
         };
 
         for (step, pipeline) in plan.steps.iter().zip(pipelines) {
@@ -97,8 +104,8 @@ impl Recorder<'_> {
                             .src_access_mask(src_access)
                             .dst_stage_mask(dst_stage)
                             .dst_access_mask(dst_access)
-                            .old_layout(vk_layout(b.old_layout))
-                            .new_layout(vk_layout(b.new_layout))
+                            .old_layout(layout(b.old_layout, true))
+                            .new_layout(layout(b.new_layout, false))
                             .image(image)
                             .subresource_range(vk::ImageSubresourceRange {
                                 aspect_mask: aspect,
@@ -128,8 +135,9 @@ impl Recorder<'_> {
                     StoreOp::DontCare => vk::AttachmentStoreOp::DONT_CARE,
                 };
                 let (colour_load, colour_clear) = clear(instance.colour.1);
+                let (view, width, height) = attachment(instance.colour.0);
                 let colour = [vk::RenderingAttachmentInfo::default()
-                    .image_view(targets.colour.view)
+                    .image_view(view)
                     .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
                     .load_op(colour_load)
                     .store_op(store(instance.colour.2))
@@ -152,6 +160,18 @@ impl Recorder<'_> {
                             },
                         })
                 });
+                let viewport = vk::Viewport {
+                    x: 0.0,
+                    y: 0.0,
+                    width: width as f32,
+                    height: height as f32,
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                };
+                let scissor = vk::Rect2D {
+                    offset: vk::Offset2D::default(),
+                    extent: vk::Extent2D { width, height },
+                };
                 let mut rendering = vk::RenderingInfo::default()
                     .render_area(scissor)
                     .layer_count(1)
@@ -176,7 +196,7 @@ impl Recorder<'_> {
                             device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::GRAPHICS, pipeline)
                         };
                         for draw in draws {
-                            self.record_draw(cb, *draw);
+                            self.record_draw(cb, *draw, targets);
                         }
                     }
                 }
@@ -213,6 +233,8 @@ impl Recorder<'_> {
                         );
                     }
                 }
+                // The hand-back is this step's barrier (to the host's final layout): no command.
+                PassKind::Export { .. } => {}
             }
             gpu.end_label(cb);
             if step.end {
@@ -223,7 +245,8 @@ impl Recorder<'_> {
     }
 
     /// Records one draw with its push constants and descriptor set; the pipeline is bound.
-    fn record_draw(&self, cb: vk::CommandBuffer, draw: Draw) {
+    /// `targets` are the framebuffer's (the box filter reads their colour).
+    fn record_draw(&self, cb: vk::CommandBuffer, draw: Draw, targets: &Targets) {
         let (device, frame) = (self.gpu.device(), self.frame);
         let lens_constants = |lens: &GpuLens| LensConstants {
             view_proj: frame.view_proj,
@@ -254,6 +277,31 @@ impl Recorder<'_> {
         // buffers and sets live as long as `frame`.
         unsafe {
             match draw {
+                Draw::BoxFilter { supersampling } => {
+                    let k = supersampling.max(1);
+                    // The CPU filter's scale, computed the same way (RenderedImage::box_downsample).
+                    let constants = ResolveConstants {
+                        supersampling: k,
+                        scale: 1.0 / (k * k) as f32,
+                        ..Zeroable::zeroed()
+                    };
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        self.pipelines.box_filter_layout,
+                        0,
+                        &[targets.box_filter_set],
+                        &[],
+                    );
+                    device.cmd_push_constants(
+                        cb,
+                        self.pipelines.box_filter_layout,
+                        vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        bytemuck::bytes_of(&constants),
+                    );
+                    device.cmd_draw(cb, 3, 1, 0, 0);
+                }
                 Draw::Environment { mesh } => {
                     let mesh = &frame.environment[mesh];
                     device.cmd_push_constants(

@@ -9,10 +9,10 @@ use std::{sync::Arc, time::Instant};
 use ash::vk;
 
 use super::{
-    FrameInput, FramePlan, RenderError, RenderedImage, TargetFormat, Variant,
+    FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat, Variant,
     image::decode,
     pipelines::Pipelines,
-    plan::{FrameResources, frame_graph},
+    plan::{FrameResources, Output, frame_graph, frame_graph_to},
     record::Recorder,
     upload::{Targets, UploadCache, UploadedFrame},
 };
@@ -55,10 +55,24 @@ pub struct Renderer {
 #[derive(Debug)]
 pub struct Submission {
     value: u64,
+    /// False for a frame rendered into a host's image: nothing to read back.
+    readback: bool,
     format: TargetFormat,
     passes: usize,
     record_ms: f64,
     submitted_at: Instant,
+}
+
+impl Submission {
+    /// Passes the frame recorded.
+    pub fn passes(&self) -> usize {
+        self.passes
+    }
+
+    /// Compiling the plan and recording the command buffer, ms.
+    pub fn record_ms(&self) -> f64 {
+        self.record_ms
+    }
 }
 
 impl Renderer {
@@ -152,11 +166,33 @@ impl Renderer {
         variant: Variant,
         format: TargetFormat,
     ) -> Result<Submission, RenderError> {
+        self.submit_to(gpu, frame, variant, format, None)
+    }
+
+    /// [`Renderer::submit`] with a choice of destination: `host` (a host's image on this
+    /// device, whose size is the frame's divided by the supersampling factor) gets the frame
+    /// box-filtered on the GPU, with the host's semaphores on the submission and no readback;
+    /// `None` reads the framebuffer back. A host frame is complete when its `signal` semaphores
+    /// are (or [`Renderer::finish`] returns, which also waits).
+    pub fn submit_to(
+        &mut self,
+        gpu: &Gpu,
+        frame: &mut UploadedFrame,
+        variant: Variant,
+        format: TargetFormat,
+        host: Option<&HostImage>,
+    ) -> Result<Submission, RenderError> {
         let start = Instant::now();
-        let (plan, resources) = Self::plan_with_resources(frame, variant, format)?;
         let (width, height) = (frame.shape().width, frame.shape().height);
+        let output = match host {
+            Some(image) => image.output(width, height)?,
+            None => Output::Readback,
+        };
+        let (graph, resources) = frame_graph_to(frame.shape(), variant, format, output)?;
+        // The frame graph is well-formed by construction (see plan_with_resources).
+        let plan = graph.compile().expect("frame graphs always compile");
         if let std::collections::hash_map::Entry::Vacant(slot) = frame.targets.entry(format) {
-            slot.insert(Targets::new(gpu, format, width, height)?);
+            slot.insert(Targets::new(gpu, &self.pipelines, format, width, height)?);
         }
         // One pipeline per step (None for a readback), derived from the step's declaration.
         let mut pipelines = Vec::with_capacity(plan.steps.len());
@@ -180,8 +216,10 @@ impl Renderer {
             gpu,
             pipelines: &self.pipelines,
             frame,
+            host,
         };
         let mut record_ms = 0.0;
+        let (waits, signals) = host.map_or((&[][..], &[][..]), |h| (&h.wait[..], &h.signal[..]));
         gpu.record_submit(
             command_buffer,
             |cb| {
@@ -189,14 +227,16 @@ impl Renderer {
                 record_ms = start.elapsed().as_secs_f64() * 1e3;
                 Ok(())
             },
-            &self.timeline,
-            value,
+            (&self.timeline, value),
+            waits,
+            signals,
         )?;
         self.submitted = value;
         self.command_buffers[slot].1 = value;
         frame.last_submission = Some((self.timeline.clone(), value));
         Ok(Submission {
             value,
+            readback: host.is_none(),
             format,
             passes: plan.steps.len(),
             record_ms,
@@ -204,7 +244,8 @@ impl Renderer {
         })
     }
 
-    /// Waits for a submitted frame and reads its colour target back.
+    /// Waits for a submitted frame and reads its colour target back (a frame rendered into a
+    /// host's image has nothing to read: its image here is empty, 0×0).
     pub fn finish(
         &self,
         frame: &UploadedFrame,
@@ -219,6 +260,21 @@ impl Renderer {
         }
         self.timeline.wait(submission.value)?;
         let execute_ms = submission.submitted_at.elapsed().as_secs_f64() * 1e3;
+        if !submission.readback {
+            return Ok((
+                RenderedImage {
+                    width: 0,
+                    height: 0,
+                    pixels: Vec::new(),
+                },
+                FrameTimings {
+                    record_ms: submission.record_ms,
+                    execute_ms,
+                    readback_ms: 0.0,
+                    passes: submission.passes,
+                },
+            ));
+        }
         let decode_start = Instant::now();
         let (width, height) = (frame.shape().width, frame.shape().height);
         let Some(targets) = frame.targets.get(&submission.format) else {

@@ -126,11 +126,16 @@ fn framebuffer_budget(
     Ok(())
 }
 
-/// The attachments and readback buffer of one framebuffer format.
+/// The attachments and readback buffer of one framebuffer format, and the box filter's
+/// descriptor set of the colour target (for frames rendered into a host's image).
 pub(super) struct Targets {
     pub(super) colour: Image,
     pub(super) depth: Image,
     pub(super) readback: Buffer,
+    /// Set 0 of the box filter: `colour`, sampled (a set may outlive the view it names as long as
+    /// it is not used after).
+    pub(super) box_filter_set: vk::DescriptorSet,
+    _box_filter_pool: DescriptorPool,
 }
 
 /// A frame's data uploaded once and rendered any number of times, in any variant and format.
@@ -174,26 +179,38 @@ struct DescriptorPool {
 impl DescriptorPool {
     /// A pool for `sets` lens descriptor sets.
     fn new(gpu: &Gpu, sets: u32) -> Result<DescriptorPool, GpuError> {
-        let pool_sizes = [
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: sets,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 2 * sets,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLER,
-                descriptor_count: sets,
-            },
-        ];
+        Self::with_sizes(
+            gpu,
+            sets,
+            &[
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::STORAGE_BUFFER,
+                    descriptor_count: sets,
+                },
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::SAMPLED_IMAGE,
+                    descriptor_count: 2 * sets,
+                },
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::SAMPLER,
+                    descriptor_count: sets,
+                },
+            ],
+        )
+    }
+
+    /// A pool for `sets` sets holding `pool_sizes` descriptors in all.
+    fn with_sizes(
+        gpu: &Gpu,
+        sets: u32,
+        pool_sizes: &[vk::DescriptorPoolSize],
+    ) -> Result<DescriptorPool, GpuError> {
         // SAFETY: valid create info; destroyed by Drop.
         let handle = unsafe {
             gpu.device().create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
                     .max_sets(sets)
-                    .pool_sizes(&pool_sizes),
+                    .pool_sizes(pool_sizes),
                 None,
             )
         }
@@ -242,19 +259,57 @@ impl UploadedFrame {
 }
 
 impl Targets {
-    /// Colour and depth attachments of `width × height` and a readback buffer for the colour.
+    /// Colour and depth attachments of `width × height`, a readback buffer for the colour and
+    /// the box filter's set reading it.
     pub(super) fn new(
         gpu: &Gpu,
+        pipelines: &Pipelines,
         format: TargetFormat,
         width: u32,
         height: u32,
     ) -> Result<Targets, GpuError> {
         let colour_format = super::vulkan::vk_format(format.graph_format());
+        let colour = Image::new(
+            gpu,
+            ImageDesc::colour_target("colour", colour_format, width, height),
+        )?;
+        let pool = DescriptorPool::with_sizes(
+            gpu,
+            1,
+            &[vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: 1,
+            }],
+        )?;
+        let layouts = [pipelines.box_filter_set_layout];
+        // SAFETY: the pool was sized for this one set; it is destroyed with the targets.
+        let set = unsafe {
+            gpu.device().allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(pool.handle)
+                    .set_layouts(&layouts),
+            )
+        }
+        .map_err(|result| GpuError::Vulkan {
+            call: "vkAllocateDescriptorSets",
+            result,
+        })?[0];
+        let image = [vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: colour.view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }];
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+            .image_info(&image);
+        // SAFETY: the set is new and unused; the info lives until return.
+        unsafe { gpu.device().update_descriptor_sets(&[write], &[]) };
         Ok(Targets {
-            colour: Image::new(
-                gpu,
-                ImageDesc::colour_target("colour", colour_format, width, height),
-            )?,
+            colour,
+            box_filter_set: set,
+            _box_filter_pool: pool,
             depth: Image::new(gpu, ImageDesc::depth_target("depth", width, height))?,
             readback: Buffer::new(
                 gpu,

@@ -11,8 +11,26 @@ pub(super) fn vk_format(format: Format) -> vk::Format {
         Format::Rgba8Unorm => vk::Format::R8G8B8A8_UNORM,
         Format::Rgba16Float => vk::Format::R16G16B16A16_SFLOAT,
         Format::Rgba32Float => vk::Format::R32G32B32A32_SFLOAT,
+        Format::Bgra8Unorm => vk::Format::B8G8R8A8_UNORM,
+        Format::Rgba8Srgb => vk::Format::R8G8B8A8_SRGB,
+        Format::Bgra8Srgb => vk::Format::B8G8R8A8_SRGB,
         Format::Depth32Float => vk::Format::D32_SFLOAT,
     }
+}
+
+/// The graph format of a host image's Vulkan format: the colour formats every Vulkan device can
+/// render to (their colour-attachment support is mandatory), `None` for any other.
+pub(super) fn graph_format_of(format: vk::Format) -> Option<Format> {
+    [
+        Format::Rgba8Unorm,
+        Format::Rgba16Float,
+        Format::Rgba32Float,
+        Format::Bgra8Unorm,
+        Format::Rgba8Srgb,
+        Format::Bgra8Srgb,
+    ]
+    .into_iter()
+    .find(|f| vk_format(*f) == format)
 }
 
 /// The Vulkan image layout of a graph layout.
@@ -24,6 +42,9 @@ pub(super) fn vk_layout(layout: Layout) -> vk::ImageLayout {
         Layout::DepthAttachment => vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
         Layout::ShaderRead => vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         Layout::TransferSrc => vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        // The recorder puts the host's own layouts in place of this one (Recorder::record); a
+        // plan with an external image is only ever recorded with the host's image.
+        Layout::External => vk::ImageLayout::GENERAL,
     }
 }
 
@@ -60,6 +81,12 @@ pub(super) fn vk_access(access: Access) -> (vk::PipelineStageFlags2, vk::AccessF
         Access::TransferWrite => (
             vk::PipelineStageFlags2::COPY,
             vk::AccessFlags2::TRANSFER_WRITE,
+        ),
+        // A host's work on its image, before the frame (it may have written it) or after it:
+        // every stage, every memory access.
+        Access::External => (
+            vk::PipelineStageFlags2::ALL_COMMANDS,
+            vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE,
         ),
     }
 }

@@ -1,0 +1,291 @@
+//! Frames rendered into a host's image (issue 12): the frame's plan ends in the GPU box filter
+//! into an image lensmap does not own, with no readback. Each is compared with the same frame
+//! read back and box-filtered on the CPU by a fresh runner (a second path through the same
+//! framebuffer): bit for bit in RGBA32F at k = 1, 2 and 3 and in RGBA8 at k = 1; a BGRA sRGB
+//! image holds the CPU frame's sRGB encoding with its channels swapped, within the one 8-bit step
+//! the specification allows an sRGB conversion. The host's signal semaphore is signalled, and a
+//! frame waits for the host's wait semaphore.
+
+use lensmap::{
+    gpu::{Buffer, BufferUsage, Gpu, Image, ImageDesc, vk},
+    hybrid::HybridOptions,
+    layers::projected::ProjectedOptions,
+    render::{HostImage, TargetFormat, Variant},
+    runner::{EmSource, FrameOptions, FrameRunner, RunError, load_hybrid_scene},
+    scene::{Camera, Scene},
+    trace::image::srgb_encode,
+};
+use lensmap_tests::{assert_clean, gpu};
+
+/// teapot-room (two lens objects, one open) at 24×18 pixels with 16² projected EMs.
+fn small_teapot_room() -> lensmap::hybrid::HybridScene {
+    let mut scene = Scene::load_named("teapot-room").unwrap();
+    scene.camera.width = 24;
+    scene.camera.height = 18;
+    scene.camera.supersampling = 1;
+    let options = ProjectedOptions {
+        size: 16,
+        supersampling: 1,
+    };
+    load_hybrid_scene(scene, &EmSource::Projected(options))
+        .unwrap()
+        .0
+}
+
+fn options(format: TargetFormat) -> FrameOptions {
+    FrameOptions {
+        hybrid: HybridOptions::with_t(3.0),
+        variant: Variant::SinglePass,
+        format,
+    }
+}
+
+/// An image a host could have made: the camera's size, usable as a colour attachment and a copy
+/// source.
+fn host_image(gpu: &Gpu, format: vk::Format, camera: &Camera) -> Image {
+    Image::new(
+        gpu,
+        ImageDesc::colour_target("host", format, camera.width, camera.height),
+    )
+    .unwrap()
+}
+
+/// `image` as lent to a frame: from UNDEFINED to TRANSFER_SRC_OPTIMAL (read back below).
+fn lent(image: &Image) -> HostImage {
+    HostImage {
+        image: image.handle,
+        view: image.view,
+        format: image.desc.format,
+        width: image.desc.extent.width,
+        height: image.desc.extent.height,
+        current_layout: vk::ImageLayout::UNDEFINED,
+        final_layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        wait: Vec::new(),
+        signal: Vec::new(),
+    }
+}
+
+/// What the host does next: copies the image (in TRANSFER_SRC_OPTIMAL, after the frame on the
+/// same queue) into a buffer and waits.
+fn read_back(gpu: &Gpu, image: &Image) -> Vec<u8> {
+    let extent = image.desc.extent;
+    let bytes = u64::from(extent.width)
+        * u64::from(extent.height)
+        * u64::from(lensmap::gpu::format_bytes(image.desc.format));
+    let buffer = Buffer::new(gpu, "host readback", bytes, BufferUsage::Readback).unwrap();
+    gpu.submit_and_wait(|cb| {
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_extent(vk::Extent3D {
+                width: extent.width,
+                height: extent.height,
+                depth: 1,
+            });
+        let to_host = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COPY)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+        // SAFETY: recording; the frame left the image in TRANSFER_SRC_OPTIMAL, and its hand-back
+        // barrier makes its writes available to every later command on the queue.
+        unsafe {
+            gpu.device().cmd_copy_image_to_buffer(
+                cb,
+                image.handle,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buffer.handle,
+                &[region],
+            );
+            gpu.device().cmd_pipeline_barrier2(
+                cb,
+                &vk::DependencyInfo::default().memory_barriers(&to_host),
+            );
+        }
+        Ok(())
+    })
+    .unwrap();
+    buffer.read().to_vec()
+}
+
+/// The frame read back and box-filtered on the CPU by a fresh runner: the expected pixels.
+fn cpu_frame(
+    hybrid: &lensmap::hybrid::HybridScene,
+    camera: &Camera,
+    format: TargetFormat,
+) -> Vec<[f32; 4]> {
+    let mut alone = FrameRunner::new(gpu()).unwrap();
+    hybrid.forget_frame();
+    let frame = alone.frame(hybrid, camera, &options(format)).unwrap();
+    assert_clean(alone.gpu());
+    frame.image.pixels
+}
+
+#[test]
+fn a_frame_into_a_host_image_equals_the_frame_read_back() {
+    let hybrid = small_teapot_room();
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let cases = [
+        (TargetFormat::Rgba32f, vk::Format::R32G32B32A32_SFLOAT, 1),
+        (TargetFormat::Rgba32f, vk::Format::R32G32B32A32_SFLOAT, 2),
+        (TargetFormat::Rgba32f, vk::Format::R32G32B32A32_SFLOAT, 3),
+        (TargetFormat::Rgba8, vk::Format::R8G8B8A8_UNORM, 1),
+    ];
+    for (format, image_format, k) in cases {
+        let camera = Camera {
+            supersampling: k,
+            ..hybrid.scene.camera
+        };
+        let image = host_image(runner.gpu(), image_format, &camera);
+        hybrid.forget_frame();
+        let frame = runner
+            .frame_into(&hybrid, &camera, &options(format), &lent(&image))
+            .unwrap();
+        assert!(frame.passes >= 4, "environment, lens, box filter, export");
+        assert!(frame.stats.vertices_traced > 0);
+        let bytes = read_back(runner.gpu(), &image);
+        let expected = cpu_frame(&hybrid, &camera, format);
+        assert_eq!(expected.len(), (camera.width * camera.height) as usize);
+        let mut distinct: Vec<[u32; 4]> = expected.iter().map(|p| p.map(f32::to_bits)).collect();
+        distinct.sort_unstable();
+        distinct.dedup();
+        assert!(
+            distinct.len() > 50,
+            "a frame with a picture in it, not a flat one"
+        );
+        for (i, pixel) in expected.iter().enumerate() {
+            for c in 0..4 {
+                let got = match format {
+                    TargetFormat::Rgba8 => f32::from(bytes[4 * i + c]) / 255.0,
+                    _ => f32::from_le_bytes(
+                        bytes[16 * i + 4 * c..16 * i + 4 * c + 4]
+                            .try_into()
+                            .unwrap(),
+                    ),
+                };
+                assert_eq!(
+                    got.to_bits(),
+                    pixel[c].to_bits(),
+                    "{format:?} k = {k}: pixel {i} channel {c}: host image {got}, read back {}",
+                    pixel[c]
+                );
+            }
+        }
+    }
+    assert_clean(runner.gpu());
+}
+
+#[test]
+fn an_srgb_bgra_image_holds_the_encoded_frame_and_the_semaphores_are_honoured() {
+    let hybrid = small_teapot_room();
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let camera = Camera {
+        supersampling: 2,
+        ..hybrid.scene.camera
+    };
+    let image = host_image(runner.gpu(), vk::Format::B8G8R8A8_SRGB, &camera);
+    let device = runner.gpu().device().clone();
+    let timeline = |initial: u64| {
+        let mut kind = vk::SemaphoreTypeCreateInfo::default()
+            .semaphore_type(vk::SemaphoreType::TIMELINE)
+            .initial_value(initial);
+        // SAFETY: a valid create info; destroyed at the end of the test.
+        unsafe {
+            device.create_semaphore(
+                &vk::SemaphoreCreateInfo::default().push_next(&mut kind),
+                None,
+            )
+        }
+        .unwrap()
+    };
+    // The host's semaphores: the frame waits for `ready` to reach 1 (the host signals it from
+    // the CPU after submitting) and signals `done` with 7.
+    let (ready, done) = (timeline(0), timeline(0));
+    let mut host = lent(&image);
+    host.wait = vec![(ready, 1)];
+    host.signal = vec![(done, 7)];
+    runner
+        .frame_into(&hybrid, &camera, &options(TargetFormat::Rgba32f), &host)
+        .unwrap();
+    // SAFETY: live semaphores of this device; ready's value only grows.
+    unsafe {
+        assert_eq!(
+            device.get_semaphore_counter_value(done).unwrap(),
+            0,
+            "waits for ready"
+        );
+        device
+            .signal_semaphore(&vk::SemaphoreSignalInfo::default().semaphore(ready).value(1))
+            .unwrap();
+        let semaphores = [done];
+        let values = [7];
+        device
+            .wait_semaphores(
+                &vk::SemaphoreWaitInfo::default()
+                    .semaphores(&semaphores)
+                    .values(&values),
+                10_000_000_000,
+            )
+            .unwrap();
+    }
+    let bytes = read_back(runner.gpu(), &image);
+    let expected = cpu_frame(&hybrid, &camera, TargetFormat::Rgba32f);
+    let mut worst = 0;
+    for (i, pixel) in expected.iter().enumerate() {
+        // BGRA: blue first. Alpha is linear in sRGB formats.
+        let want = [
+            srgb_encode(pixel[2]),
+            srgb_encode(pixel[1]),
+            srgb_encode(pixel[0]),
+            pixel[3].clamp(0.0, 1.0),
+        ]
+        .map(|v| (v * 255.0).round() as i32);
+        for c in 0..4 {
+            let step = (i32::from(bytes[4 * i + c]) - want[c]).abs();
+            worst = worst.max(step);
+        }
+    }
+    assert!(
+        worst <= 1,
+        "an sRGB channel is {worst} steps off the CPU's encoding"
+    );
+    // SAFETY: the frame completed (done reached 7); nothing uses them any more.
+    unsafe {
+        device.destroy_semaphore(ready, None);
+        device.destroy_semaphore(done, None);
+    }
+    assert_clean(runner.gpu());
+}
+
+#[test]
+fn host_images_that_do_not_fit_the_frame_are_refused_naming_the_fix() {
+    let hybrid = small_teapot_room();
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let camera = hybrid.scene.camera;
+    let image = host_image(runner.gpu(), vk::Format::R8G8B8A8_UNORM, &camera);
+    let mut refusal = |host: HostImage| -> String {
+        match runner.frame_into(&hybrid, &camera, &options(TargetFormat::Rgba8), &host) {
+            Err(error @ RunError::Render(_)) => error.to_string(),
+            other => panic!("expected a refusal, got {other:?}"),
+        }
+    };
+    let mut half = lent(&image);
+    half.width /= 2;
+    assert!(refusal(half).contains("camera's size"));
+    let mut depth = lent(&image);
+    depth.format = vk::Format::D32_SFLOAT;
+    assert!(refusal(depth).contains("R8G8B8A8_UNORM"));
+    let mut undefined = lent(&image);
+    undefined.final_layout = vk::ImageLayout::UNDEFINED;
+    assert!(refusal(undefined).contains("final layout"));
+    let mut null = lent(&image);
+    null.view = vk::ImageView::null();
+    assert!(refusal(null).contains("VK_NULL_HANDLE"));
+    assert!(HostImage::supports(vk::Format::B8G8R8A8_SRGB));
+    assert!(!HostImage::supports(vk::Format::R8G8B8_UNORM));
+    assert_clean(runner.gpu());
+}

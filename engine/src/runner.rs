@@ -497,6 +497,12 @@ impl FrameRunner {
             ))
             .into());
         }
+        // Everything else about the image is checked before any CPU stage runs.
+        let k = camera.supersampling.max(1);
+        host.output(
+            camera.width.saturating_mul(k),
+            camera.height.saturating_mul(k),
+        )?;
         let staged = self.stage(hybrid, camera, options, |_, _| Ok(()))?;
         let Some(uploaded) = self.slots[staged.slot].uploaded.as_mut() else {
             return Err(RenderError::BadInput("a still frame has no upload".into()).into());

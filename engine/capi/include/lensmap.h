@@ -8,7 +8,7 @@
 #include <vulkan/vulkan.h>
 
 // The ABI version this header describes; raised when a struct grows or a function is added.
-#define LENSMAP_ABI_VERSION 1
+#define LENSMAP_ABI_VERSION 2
 
 // `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 #define LENSMAP_VARIANT_SINGLE_PASS 0
@@ -195,6 +195,39 @@ typedef struct LensmapFrameStats {
   uint64_t vertices_traced;
 } LensmapFrameStats;
 
+// A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a
+// context made by [`lensmap_context_new_on_host`]. Its size is the frame's `width × height`.
+typedef struct LensmapHostImage {
+  // `sizeof(LensmapHostImage)`.
+  uint32_t struct_size;
+  // The image: 2D, created with `VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT`.
+  VkImage image;
+  // A 2D view of one level and one layer of it.
+  VkImageView view;
+  // Its format: `VK_FORMAT_R8G8B8A8_UNORM`, `_R16G16B16A16_SFLOAT`, `_R32G32B32A32_SFLOAT`,
+  // `_B8G8R8A8_UNORM`, `_R8G8B8A8_SRGB` or `_B8G8R8A8_SRGB` (sRGB formats encode on write).
+  VkFormat format;
+  // The layout it is in when the frame's work begins (after the wait semaphores).
+  VkImageLayout current_layout;
+  // The layout the frame leaves it in (what the host does next: `TRANSFER_SRC_OPTIMAL`,
+  // `SHADER_READ_ONLY_OPTIMAL`, `PRESENT_SRC_KHR`, …; not `UNDEFINED` or `PREINITIALIZED`).
+  VkImageLayout final_layout;
+  // Semaphores the frame waits for before it writes any colour attachment.
+  uint32_t wait_count;
+  // `wait_count` semaphores (NULL when 0).
+  const VkSemaphore *wait_semaphores;
+  // The value to wait for per semaphore (timeline semaphores; ignored for binary ones), or
+  // NULL: all binary.
+  const uint64_t *wait_values;
+  // Semaphores the frame signals when all its work is done.
+  uint32_t signal_count;
+  // `signal_count` semaphores (NULL when 0).
+  const VkSemaphore *signal_semaphores;
+  // The value to signal per semaphore (timeline semaphores; ignored for binary ones), or
+  // NULL: all binary.
+  const uint64_t *signal_values;
+} LensmapHostImage;
+
 // A plan to print: the compositor's passes for one lens object's frame of this shape.
 typedef struct LensmapPlanOptions {
   // `sizeof(LensmapPlanOptions)`.
@@ -287,6 +320,37 @@ LensmapResult lensmap_render_to_memory(struct LensmapContext *context,
                                        float *rgba,
                                        size_t rgba_floats,
                                        struct LensmapFrameStats *stats);
+
+// Renders one hybrid frame of `scene` into the host's image `image` and returns once it is
+// submitted on the host's queue: no readback, no wait. lensmap renders its framebuffer as
+// always and box-filters it (supersampling) into the image on the GPU, with the barriers from
+// `current_layout` to `final_layout`; the submission waits for `image`'s wait semaphores and
+// signals its signal semaphores when done, which is how the host learns the image is ready (or
+// from later work on the same queue). The context must have been made by
+// [`lensmap_context_new_on_host`] on the image's device. `stats` may be NULL; its GPU part is
+// the host's to time (`other_ms` covers upload, recording and submission).
+//
+// # Safety
+// `context` and `scene` must be handles from this library (or NULL); `options` must point to a
+// `LensmapFrameOptions` and `image` to a `LensmapHostImage` whose handles are live objects of
+// the context's device, kept alive until the frame's signal semaphores are signalled; `stats`
+// NULL or writable.
+LensmapResult lensmap_render_to_image(struct LensmapContext *context,
+                                      const struct LensmapScene *scene,
+                                      const struct LensmapFrameOptions *options,
+                                      const struct LensmapHostImage *image,
+                                      struct LensmapFrameStats *stats);
+
+// Fills `options` (whose `struct_size` the caller set) with what `lensmap render --scene`
+// renders by default: the scene's camera (position, look-at, up, vertical field of view,
+// width, height, supersampling), t = 3, the single-pass compositor and an RGBA16F framebuffer.
+// Change what differs, then render.
+//
+// # Safety
+// `scene` must be a handle from this library (or NULL); `options` must point to a writable
+// `LensmapFrameOptions`.
+LensmapResult lensmap_scene_frame_options(const struct LensmapScene *scene,
+                                          struct LensmapFrameOptions *options);
 
 // Writes the compositor's plan for a frame of this shape as text (the table `lensmap passes`
 // prints) into `buffer`, NUL-terminated, and its length without the NUL into `*length`. With

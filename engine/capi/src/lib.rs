@@ -34,7 +34,7 @@ use lensmap::runner::{EmSource, FrameOptions, FrameRunner, RunError, load_hybrid
 use lensmap::scene::{Camera, Scene, SceneError};
 
 /// The ABI version this header describes; raised when a struct grows or a function is added.
-pub const LENSMAP_ABI_VERSION: u32 = 1;
+pub const LENSMAP_ABI_VERSION: u32 = 2;
 
 /// `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 pub const LENSMAP_VARIANT_SINGLE_PASS: u32 = 0;
@@ -100,6 +100,21 @@ pub type VkPhysicalDevice = *mut c_void;
 pub type VkDevice = *mut c_void;
 /// A Vulkan queue (`VkQueue`; a dispatchable handle).
 pub type VkQueue = *mut c_void;
+/// A Vulkan image (`VkImage`; a non-dispatchable handle, a pointer on 64-bit hosts).
+pub type VkImage = *mut c_void;
+/// A Vulkan image view (`VkImageView`; non-dispatchable).
+pub type VkImageView = *mut c_void;
+/// A Vulkan semaphore (`VkSemaphore`; non-dispatchable).
+pub type VkSemaphore = *mut c_void;
+/// A `VkFormat` (a C enum: an `int`).
+pub type VkFormat = i32;
+/// A `VkImageLayout` (a C enum: an `int`).
+pub type VkImageLayout = i32;
+
+// Non-dispatchable handles are pointers in vulkan.h on 64-bit targets only (uint64_t elsewhere):
+// the aliases above are ABI-identical there, and this library is built for 64-bit hosts.
+const _: () = assert!(std::mem::size_of::<*mut c_void>() == 8);
+
 /// The loader's `vkGetInstanceProcAddr` (`PFN_vkGetInstanceProcAddr`).
 #[allow(
     non_camel_case_types,
@@ -196,6 +211,41 @@ pub struct LensmapFrameOptions {
     pub format: u32,
 }
 
+/// A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a
+/// context made by [`lensmap_context_new_on_host`]. Its size is the frame's `width × height`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct LensmapHostImage {
+    /// `sizeof(LensmapHostImage)`.
+    pub struct_size: u32,
+    /// The image: 2D, created with `VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT`.
+    pub image: VkImage,
+    /// A 2D view of one level and one layer of it.
+    pub view: VkImageView,
+    /// Its format: `VK_FORMAT_R8G8B8A8_UNORM`, `_R16G16B16A16_SFLOAT`, `_R32G32B32A32_SFLOAT`,
+    /// `_B8G8R8A8_UNORM`, `_R8G8B8A8_SRGB` or `_B8G8R8A8_SRGB` (sRGB formats encode on write).
+    pub format: VkFormat,
+    /// The layout it is in when the frame's work begins (after the wait semaphores).
+    pub current_layout: VkImageLayout,
+    /// The layout the frame leaves it in (what the host does next: `TRANSFER_SRC_OPTIMAL`,
+    /// `SHADER_READ_ONLY_OPTIMAL`, `PRESENT_SRC_KHR`, …; not `UNDEFINED` or `PREINITIALIZED`).
+    pub final_layout: VkImageLayout,
+    /// Semaphores the frame waits for before it writes any colour attachment.
+    pub wait_count: u32,
+    /// `wait_count` semaphores (NULL when 0).
+    pub wait_semaphores: *const VkSemaphore,
+    /// The value to wait for per semaphore (timeline semaphores; ignored for binary ones), or
+    /// NULL: all binary.
+    pub wait_values: *const u64,
+    /// Semaphores the frame signals when all its work is done.
+    pub signal_count: u32,
+    /// `signal_count` semaphores (NULL when 0).
+    pub signal_semaphores: *const VkSemaphore,
+    /// The value to signal per semaphore (timeline semaphores; ignored for binary ones), or
+    /// NULL: all binary.
+    pub signal_values: *const u64,
+}
+
 /// Where a frame's time went and what it cost (the paper's table). Set `struct_size`; lensmap
 /// fills the fields that fit in it.
 #[repr(C)]
@@ -249,6 +299,8 @@ pub struct LensmapPlanOptions {
 /// A Vulkan device with lensmap's pipelines and per-frame buffers.
 pub struct LensmapContext {
     runner: Mutex<FrameRunner>,
+    /// Made on a host's device (host images can be rendered into), not lensmap's own.
+    on_host: bool,
 }
 
 /// A scene with its layered EMs and light maps, ready to render.
@@ -290,9 +342,10 @@ fn is_live(pointer: usize, kind: Kind) -> bool {
 ///
 /// # Safety
 /// `out` must be non-null and writable.
-unsafe fn hand_out_context(runner: FrameRunner, out: *mut *mut LensmapContext) {
+unsafe fn hand_out_context(runner: FrameRunner, on_host: bool, out: *mut *mut LensmapContext) {
     let context = LensmapContext {
         runner: Mutex::new(runner),
+        on_host,
     };
     // SAFETY: the caller's promise.
     unsafe { *out = register(Box::new(context), Kind::Context) };
@@ -601,7 +654,7 @@ pub unsafe extern "C" fn lensmap_context_new(
         }
         let runner = FrameRunner::new(Gpu::new(&gpu_options)?)?;
         // SAFETY: checked non-null; writable by the caller's promise.
-        unsafe { hand_out_context(runner, out) };
+        unsafe { hand_out_context(runner, false, out) };
         Ok(())
     })
 }
@@ -669,7 +722,7 @@ pub unsafe extern "C" fn lensmap_context_new_on_host(
         let gpu = unsafe { Gpu::from_host(&lent) }?;
         let runner = FrameRunner::new(gpu)?;
         // SAFETY: checked non-null; writable by the caller's promise.
-        unsafe { hand_out_context(runner, out) };
+        unsafe { hand_out_context(runner, true, out) };
         Ok(())
     })
 }
@@ -827,6 +880,74 @@ fn frame_settings(options: &LensmapFrameOptions) -> Result<(Camera, FrameOptions
     ))
 }
 
+/// The size a caller gave its `LensmapFrameStats` (NULL: none wanted), checked: at least the
+/// first two fields, at most the whole struct this library knows.
+///
+/// # Safety
+/// A non-null `stats` must be readable for its first field.
+unsafe fn stats_size(stats: *mut LensmapFrameStats) -> Result<Option<usize>, Failure> {
+    if stats.is_null() {
+        return Ok(None);
+    }
+    // SAFETY: non-null and readable by the caller's promise; its first field is the size.
+    let size = unsafe { *(stats as *const u32) } as usize;
+    if size < 8 || size > std::mem::size_of::<LensmapFrameStats>() {
+        return Err(Failure::new(
+            LensmapResult::StructSize,
+            format!(
+                "stats->struct_size is {size}; set it to sizeof(LensmapFrameStats) ({})",
+                std::mem::size_of::<LensmapFrameStats>()
+            ),
+        ));
+    }
+    Ok(Some(size))
+}
+
+/// Copies the fields of `filled` that fit in the caller's `size` bytes into `stats`.
+///
+/// # Safety
+/// `stats` must be writable for `size` ≤ `sizeof(LensmapFrameStats)` bytes.
+unsafe fn write_stats(stats: *mut LensmapFrameStats, size: usize, filled: LensmapFrameStats) {
+    let filled = LensmapFrameStats {
+        struct_size: size as u32,
+        ..filled
+    };
+    // SAFETY: the caller's promise; `size` ≤ sizeof(LensmapFrameStats), so only the fields that
+    // fit are copied.
+    unsafe {
+        std::ptr::copy_nonoverlapping(
+            &filled as *const LensmapFrameStats as *const u8,
+            stats as *mut u8,
+            size,
+        );
+    }
+}
+
+/// The paper's table of a frame: its CPU stages and counters, with the passes, the total and
+/// "other" (everything but the three CPU stages).
+fn frame_stats(
+    stats: &lensmap::hybrid::HybridStats,
+    passes: usize,
+    total_ms: f64,
+    other_ms: f64,
+) -> LensmapFrameStats {
+    let counters = stats.counters;
+    LensmapFrameStats {
+        struct_size: 0,
+        passes: passes as u32,
+        reused: u32::from(stats.reused),
+        trace_ms: stats.trace_ms,
+        texgen_ms: stats.texgen_ms,
+        tessellation_ms: stats.tessellation_ms,
+        other_ms,
+        total_ms,
+        rays: counters.all_rays(),
+        triangle_tests: counters.triangle_tests,
+        lens_triangles: stats.triangles_out as u64,
+        vertices_traced: stats.vertices_traced as u64,
+    }
+}
+
 /// Renders one hybrid frame of `scene` and reads it back into `rgba`: `width × height` pixels,
 /// rows top to bottom, 4 floats each (linear, premultiplied RGBA), `rgba_floats` ≥
 /// `4 × width × height`. `stats` may be NULL; else set its `struct_size` and lensmap fills it.
@@ -850,22 +971,8 @@ pub unsafe extern "C" fn lensmap_render_to_memory(
         if rgba.is_null() {
             return Err(null("rgba"));
         }
-        let stats_size = if stats.is_null() {
-            None
-        } else {
-            // SAFETY: non-null and writable by the caller's promise; its first field is the size.
-            let size = unsafe { *(stats as *const u32) } as usize;
-            if size < 8 || size > std::mem::size_of::<LensmapFrameStats>() {
-                return Err(Failure::new(
-                    LensmapResult::StructSize,
-                    format!(
-                        "stats->struct_size is {size}; set it to sizeof(LensmapFrameStats) ({})",
-                        std::mem::size_of::<LensmapFrameStats>()
-                    ),
-                ));
-            }
-            Some(size)
-        };
+        // SAFETY: the caller's promise.
+        let stats_size = unsafe { stats_size(stats) }?;
         let (camera, frame_options) = frame_settings(&options)?;
         let needed = 4 * camera.width as usize * camera.height as usize;
         if rgba_floats < needed {
@@ -888,32 +995,203 @@ pub unsafe extern "C" fn lensmap_render_to_memory(
         for (chunk, pixel) in out.chunks_exact_mut(4).zip(&frame.image.pixels) {
             chunk.copy_from_slice(pixel);
         }
-        if let (Some(size), false) = (stats_size, stats.is_null()) {
-            let counters = frame.stats.counters;
-            let filled = LensmapFrameStats {
-                struct_size: size as u32,
-                passes: frame.render.passes as u32,
-                reused: u32::from(frame.stats.reused),
-                trace_ms: frame.stats.trace_ms,
-                texgen_ms: frame.stats.texgen_ms,
-                tessellation_ms: frame.stats.tessellation_ms,
-                other_ms: frame.other_ms(),
-                total_ms: frame.total_ms,
-                rays: counters.all_rays(),
-                triangle_tests: counters.triangle_tests,
-                lens_triangles: frame.stats.triangles_out as u64,
-                vertices_traced: frame.stats.vertices_traced as u64,
+        if let Some(size) = stats_size {
+            let filled = frame_stats(
+                &frame.stats,
+                frame.render.passes,
+                frame.total_ms,
+                frame.other_ms(),
+            );
+            // SAFETY: the caller set struct_size to what it can hold (checked above).
+            unsafe { write_stats(stats, size, filled) };
+        }
+        Ok(())
+    })
+}
+
+/// `count` semaphores and their values (NULL values: zeros) from a host's arrays.
+///
+/// # Safety
+/// Non-null arrays must be readable for `count` elements.
+unsafe fn semaphores(
+    count: u32,
+    handles: *const VkSemaphore,
+    values: *const u64,
+    name: &str,
+) -> Result<Vec<(vk::Semaphore, u64)>, Failure> {
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    if handles.is_null() {
+        return Err(null(&format!(
+            "image->{name}_semaphores (with {name}_count {count})"
+        )));
+    }
+    use vk::Handle as _;
+    (0..count as usize)
+        .map(|i| {
+            // SAFETY: readable for `count` elements by the caller's promise.
+            let handle = unsafe { *handles.add(i) };
+            if handle.is_null() {
+                return Err(null(&format!("image->{name}_semaphores[{i}]")));
+            }
+            let value = if values.is_null() {
+                0
+            } else {
+                // SAFETY: as above.
+                unsafe { *values.add(i) }
             };
-            // SAFETY: `size` bytes of `stats` are writable (the caller set struct_size), and
-            // `size` ≤ sizeof(LensmapFrameStats): the fields that fit are copied.
-            unsafe {
-                std::ptr::copy_nonoverlapping(
-                    &filled as *const LensmapFrameStats as *const u8,
-                    stats as *mut u8,
-                    size,
-                );
+            Ok((vk::Semaphore::from_raw(handle as u64), value))
+        })
+        .collect()
+}
+
+/// Renders one hybrid frame of `scene` into the host's image `image` and returns once it is
+/// submitted on the host's queue: no readback, no wait. lensmap renders its framebuffer as
+/// always and box-filters it (supersampling) into the image on the GPU, with the barriers from
+/// `current_layout` to `final_layout`; the submission waits for `image`'s wait semaphores and
+/// signals its signal semaphores when done, which is how the host learns the image is ready (or
+/// from later work on the same queue). The context must have been made by
+/// [`lensmap_context_new_on_host`] on the image's device. `stats` may be NULL; its GPU part is
+/// the host's to time (`other_ms` covers upload, recording and submission).
+///
+/// # Safety
+/// `context` and `scene` must be handles from this library (or NULL); `options` must point to a
+/// `LensmapFrameOptions` and `image` to a `LensmapHostImage` whose handles are live objects of
+/// the context's device, kept alive until the frame's signal semaphores are signalled; `stats`
+/// NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_render_to_image(
+    context: *mut LensmapContext,
+    scene: *const LensmapScene,
+    options: *const LensmapFrameOptions,
+    image: *const LensmapHostImage,
+    stats: *mut LensmapFrameStats,
+) -> LensmapResult {
+    boundary(|| {
+        // SAFETY: the caller's promise.
+        let options = unsafe { read_struct(options, "options") }?;
+        // SAFETY: the caller's promise.
+        let lent = unsafe { read_struct(image, "image") }?;
+        // SAFETY: the caller's promise.
+        let stats_size = unsafe { stats_size(stats) }?;
+        let (camera, frame_options) = frame_settings(&options)?;
+        let format = vk::Format::from_raw(lent.format);
+        if !lensmap::render::HostImage::supports(format) {
+            return Err(Failure::new(
+                LensmapResult::UnsupportedFormat,
+                format!(
+                    "image->format is {format:?} ({}); lensmap renders into {}",
+                    lent.format,
+                    lensmap::render::HostImage::FORMATS
+                        .map(|f| format!("VK_FORMAT_{f:?}"))
+                        .join(", ")
+                ),
+            ));
+        }
+        for (pointer, name) in [(lent.image, "image->image"), (lent.view, "image->view")] {
+            if pointer.is_null() {
+                return Err(null(name));
             }
         }
+        use vk::Handle as _;
+        let host = lensmap::render::HostImage {
+            image: vk::Image::from_raw(lent.image as u64),
+            view: vk::ImageView::from_raw(lent.view as u64),
+            format,
+            width: camera.width,
+            height: camera.height,
+            current_layout: vk::ImageLayout::from_raw(lent.current_layout),
+            final_layout: vk::ImageLayout::from_raw(lent.final_layout),
+            // SAFETY: the caller's promise for both arrays.
+            wait: unsafe {
+                semaphores(
+                    lent.wait_count,
+                    lent.wait_semaphores,
+                    lent.wait_values,
+                    "wait",
+                )
+            }?,
+            // SAFETY: as above.
+            signal: unsafe {
+                semaphores(
+                    lent.signal_count,
+                    lent.signal_semaphores,
+                    lent.signal_values,
+                    "signal",
+                )
+            }?,
+        };
+        // SAFETY: the caller's promise for both handles.
+        let scene = unsafe { scene_ref(scene) }?;
+        // SAFETY: as above.
+        let mut runner = unsafe { lock_context(context) }?;
+        // SAFETY: live (lock_context checked it) until freed, which the caller does not do now.
+        if !unsafe { &*context }.on_host {
+            return Err(Failure::new(
+                LensmapResult::InvalidArgument,
+                "context was made by lensmap_context_new on lensmap's own device: rendering into a host's image needs a context made by lensmap_context_new_on_host on the image's device",
+            ));
+        }
+        runner.check_framebuffer(&camera, frame_options.format)?;
+        let frame = runner.frame_into(&scene.hybrid, &camera, &frame_options, &host)?;
+        if let Some(size) = stats_size {
+            let filled = frame_stats(&frame.stats, frame.passes, frame.total_ms, frame.other_ms());
+            // SAFETY: the caller set struct_size to what it can hold (checked above).
+            unsafe { write_stats(stats, size, filled) };
+        }
+        Ok(())
+    })
+}
+
+/// The f32 degrees that [`frame_settings`] turns back into exactly `radians`: `to_degrees` and
+/// `to_radians` are not inverses in f32, and a camera one ulp off is another frame. The nearest
+/// value within a few ulps of `radians.to_degrees()` that converts back exactly.
+fn degrees_of(radians: f32) -> f32 {
+    let first = radians.to_degrees();
+    // Fields of view are positive and finite: their neighbours are one bit pattern apart.
+    let bits = first.to_bits();
+    (0..=8u32)
+        .flat_map(|step| [bits.saturating_add(step), bits.saturating_sub(step)])
+        .map(f32::from_bits)
+        .find(|d| d.to_radians() == radians)
+        .unwrap_or(first)
+}
+
+/// Fills `options` (whose `struct_size` the caller set) with what `lensmap render --scene`
+/// renders by default: the scene's camera (position, look-at, up, vertical field of view,
+/// width, height, supersampling), t = 3, the single-pass compositor and an RGBA16F framebuffer.
+/// Change what differs, then render.
+///
+/// # Safety
+/// `scene` must be a handle from this library (or NULL); `options` must point to a writable
+/// `LensmapFrameOptions`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn lensmap_scene_frame_options(
+    scene: *const LensmapScene,
+    options: *mut LensmapFrameOptions,
+) -> LensmapResult {
+    boundary(|| {
+        // SAFETY: the caller's promise (read for its struct_size).
+        unsafe { read_struct(options as *const LensmapFrameOptions, "options") }?;
+        // SAFETY: the caller's promise.
+        let scene = unsafe { scene_ref(scene) }?;
+        let camera = scene.hybrid.scene.camera;
+        let filled = LensmapFrameOptions {
+            struct_size: std::mem::size_of::<LensmapFrameOptions>() as u32,
+            position: camera.position.to_array(),
+            look_at: camera.look_at.to_array(),
+            up: camera.up.to_array(),
+            vfov_degrees: degrees_of(camera.vfov_radians),
+            width: camera.width,
+            height: camera.height,
+            supersampling: camera.supersampling,
+            t: lensmap::hybrid::tessellate::DEFAULT_T,
+            variant: LENSMAP_VARIANT_SINGLE_PASS,
+            format: LENSMAP_FORMAT_RGBA16F,
+        };
+        // SAFETY: writable by the caller's promise, its size checked by read_struct.
+        unsafe { *options = filled };
         Ok(())
     })
 }

@@ -698,3 +698,266 @@ fn two_threads_on_one_context_get_busy_not_a_crash() {
         assert_eq!(lensmap_context_free(shared.0), LensmapResult::Ok);
     }
 }
+
+/// An image of the host's device to render into: `width × height` RGBA32F, device-local, bound,
+/// with a view; and what it takes to free it.
+struct HostTarget<'a> {
+    device: &'a ash::Device,
+    image: ash::vk::Image,
+    view: ash::vk::ImageView,
+    memory: ash::vk::DeviceMemory,
+}
+
+impl<'a> HostTarget<'a> {
+    fn new(host: &'a HostVulkan, width: u32, height: u32) -> HostTarget<'a> {
+        use ash::vk;
+        let device = &host.device;
+        let format = vk::Format::R32G32B32A32_SFLOAT;
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(format)
+            .extent(vk::Extent3D {
+                width,
+                height,
+                depth: 1,
+            })
+            .mip_levels(1)
+            .array_layers(1)
+            .samples(vk::SampleCountFlags::TYPE_1)
+            .usage(vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC);
+        // SAFETY (all calls): valid create infos on the host's live device; freed by Drop.
+        unsafe {
+            let image = device.create_image(&info, None).expect("an image");
+            let needs = device.get_image_memory_requirements(image);
+            let types = host
+                .instance
+                .get_physical_device_memory_properties(host.physical_device);
+            let index = (0..types.memory_type_count)
+                .find(|&i| {
+                    needs.memory_type_bits & (1 << i) != 0
+                        && types.memory_types[i as usize]
+                            .property_flags
+                            .contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
+                })
+                .expect("device-local memory");
+            let memory = device
+                .allocate_memory(
+                    &vk::MemoryAllocateInfo::default()
+                        .allocation_size(needs.size)
+                        .memory_type_index(index),
+                    None,
+                )
+                .expect("memory");
+            device.bind_image_memory(image, memory, 0).expect("bound");
+            let view = device
+                .create_image_view(
+                    &vk::ImageViewCreateInfo::default()
+                        .image(image)
+                        .view_type(vk::ImageViewType::TYPE_2D)
+                        .format(format)
+                        .subresource_range(vk::ImageSubresourceRange {
+                            aspect_mask: vk::ImageAspectFlags::COLOR,
+                            base_mip_level: 0,
+                            level_count: 1,
+                            base_array_layer: 0,
+                            layer_count: 1,
+                        }),
+                    None,
+                )
+                .expect("a view");
+            HostTarget {
+                device,
+                image,
+                view,
+                memory,
+            }
+        }
+    }
+
+    /// The image as lent to `lensmap_render_to_image`, signalling nothing.
+    fn lent(&self) -> LensmapHostImage {
+        use ash::vk::Handle as _;
+        LensmapHostImage {
+            struct_size: size_of::<LensmapHostImage>() as u32,
+            image: self.image.as_raw() as VkImage,
+            view: self.view.as_raw() as VkImageView,
+            format: ash::vk::Format::R32G32B32A32_SFLOAT.as_raw(),
+            current_layout: ash::vk::ImageLayout::UNDEFINED.as_raw(),
+            final_layout: ash::vk::ImageLayout::TRANSFER_SRC_OPTIMAL.as_raw(),
+            wait_count: 0,
+            wait_semaphores: null(),
+            wait_values: null(),
+            signal_count: 0,
+            signal_semaphores: null(),
+            signal_values: null(),
+        }
+    }
+}
+
+impl Drop for HostTarget<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the device is idle (waited below); these objects are the host's own.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_image_view(self.view, None);
+            self.device.destroy_image(self.image, None);
+            self.device.free_memory(self.memory, None);
+        }
+    }
+}
+
+/// `lensmap_render_to_image` and `lensmap_scene_frame_options`: a frame rendered into the host's
+/// image signals the host's timeline semaphore with its value, with no validation message on the
+/// host's device; and the misuse cases of the image path (continuing the corpus's numbering)
+/// return their documented codes and leave the semaphore unsignalled.
+#[test]
+fn a_frame_into_a_hosts_image_signals_its_semaphore_and_misuse_is_refused() {
+    use LensmapResult as R;
+    use ash::vk::{self, Handle as _};
+    let host = HostVulkan::new();
+    let mut context = null_mut();
+    // SAFETY (the whole test): live handles of the host's device, NULL, or deliberately wrong
+    // values the ABI must refuse without using them.
+    unsafe {
+        assert_eq!(
+            lensmap_context_new_on_host(&host.lent(LENSMAP_FEATURES_REQUIRED), &mut context),
+            R::Ok,
+            "{}",
+            last_error()
+        );
+        let scene = load_scene();
+        // The scene's own camera, as `lensmap render` would use it.
+        let mut options = frame_options(LENSMAP_FORMAT_RGBA32F);
+        let mut too_small = options;
+        too_small.struct_size = 8;
+        assert_failure(
+            lensmap_scene_frame_options(scene, &mut too_small),
+            R::StructSize,
+            "struct_size",
+        );
+        assert_eq!(lensmap_scene_frame_options(scene, &mut options), R::Ok);
+        let camera = Scene::builtin("glass-sphere").unwrap().unwrap().camera;
+        assert_eq!(
+            options.vfov_degrees.to_radians(),
+            camera.vfov_radians,
+            "the degrees given back convert to the scene's very field of view"
+        );
+        assert_eq!(
+            (options.width, options.height, options.format),
+            (camera.width, camera.height, LENSMAP_FORMAT_RGBA16F)
+        );
+        options.format = LENSMAP_FORMAT_RGBA32F;
+        (options.width, options.height, options.supersampling) = (40, 30, 2);
+        let target = HostTarget::new(&host, 40, 30);
+        let mut kind =
+            vk::SemaphoreTypeCreateInfo::default().semaphore_type(vk::SemaphoreType::TIMELINE);
+        let done = host
+            .device
+            .create_semaphore(
+                &vk::SemaphoreCreateInfo::default().push_next(&mut kind),
+                None,
+            )
+            .expect("a timeline");
+        let done_raw = done.as_raw() as VkSemaphore;
+        let value = 5u64;
+        let mut image = target.lent();
+        image.signal_count = 1;
+        image.signal_semaphores = &done_raw;
+        image.signal_values = &value;
+
+        // 28. A context on lensmap's own device cannot render into the host's image.
+        let own = new_context();
+        assert_failure(
+            lensmap_render_to_image(own, scene, &options, &image, null_mut()),
+            R::InvalidArgument,
+            "lensmap_context_new_on_host",
+        );
+        // 29. A format lensmap cannot render to.
+        let mut packed = image;
+        packed.format = vk::Format::R5G6B5_UNORM_PACK16.as_raw();
+        assert_failure(
+            lensmap_render_to_image(context, scene, &options, &packed, null_mut()),
+            R::UnsupportedFormat,
+            "R8G8B8A8_UNORM",
+        );
+        // 30. No image.
+        assert_failure(
+            lensmap_render_to_image(context, scene, &options, null(), null_mut()),
+            R::NullArgument,
+            "image",
+        );
+        // 31. An image struct of another size.
+        let mut other_size = image;
+        other_size.struct_size -= 8;
+        assert_failure(
+            lensmap_render_to_image(context, scene, &options, &other_size, null_mut()),
+            R::StructSize,
+            "sizeof",
+        );
+        // 32. A semaphore count with no array.
+        let mut no_array = image;
+        no_array.signal_semaphores = null();
+        assert_failure(
+            lensmap_render_to_image(context, scene, &options, &no_array, null_mut()),
+            R::NullArgument,
+            "signal_semaphores",
+        );
+        // 33. A final layout a frame cannot end in.
+        let mut undefined = image;
+        undefined.final_layout = vk::ImageLayout::UNDEFINED.as_raw();
+        assert_failure(
+            lensmap_render_to_image(context, scene, &options, &undefined, null_mut()),
+            R::InvalidArgument,
+            "final layout",
+        );
+        // 34. No view.
+        let mut viewless = image;
+        viewless.view = null_mut();
+        assert_failure(
+            lensmap_render_to_image(context, scene, &options, &viewless, null_mut()),
+            R::NullArgument,
+            "image->view",
+        );
+        assert_eq!(
+            host.device.get_semaphore_counter_value(done).unwrap(),
+            0,
+            "no refused call signalled"
+        );
+
+        let mut stats = LensmapFrameStats {
+            struct_size: size_of::<LensmapFrameStats>() as u32,
+            ..Default::default()
+        };
+        assert_eq!(
+            lensmap_render_to_image(context, scene, &options, &image, &mut stats),
+            R::Ok,
+            "{}",
+            last_error()
+        );
+        let semaphores = [done];
+        let values = [value];
+        host.device
+            .wait_semaphores(
+                &vk::SemaphoreWaitInfo::default()
+                    .semaphores(&semaphores)
+                    .values(&values),
+                30_000_000_000,
+            )
+            .expect("the frame signals the host's semaphore");
+        assert!(
+            stats.passes >= 4 && stats.rays > 0 && stats.total_ms > 0.0,
+            "{stats:?}"
+        );
+
+        assert_eq!(lensmap_context_free(own), R::Ok);
+        assert_eq!(lensmap_context_free(context), R::Ok);
+        assert_eq!(lensmap_scene_free(scene), R::Ok);
+        host.device.destroy_semaphore(done, None);
+    }
+    drop(host);
+    assert_eq!(
+        HOST_MESSAGES.load(std::sync::atomic::Ordering::Relaxed),
+        0,
+        "the host's validation layer reported messages (see stderr)"
+    );
+}

@@ -58,7 +58,7 @@ impl HostImage {
     /// The graph output of a frame of `width × height` subpixels into this image: its format and
     /// the supersampling factor k (the frame's sides are k times the image's). An error names
     /// what does not fit.
-    pub(super) fn output(&self, width: u32, height: u32) -> Result<Output, RenderError> {
+    pub(crate) fn output(&self, width: u32, height: u32) -> Result<Output, RenderError> {
         let format: Format = vulkan::graph_format_of(self.format).ok_or_else(|| {
             RenderError::BadInput(format!(
                 "host image format {:?}: lensmap renders into {}",

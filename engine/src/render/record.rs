@@ -283,7 +283,6 @@ impl Recorder<'_> {
                     let constants = ResolveConstants {
                         supersampling: k,
                         scale: 1.0 / (k * k) as f32,
-                        ..Zeroable::zeroed()
                     };
                     device.cmd_bind_descriptor_sets(
                         cb,

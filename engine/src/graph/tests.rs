@@ -259,3 +259,77 @@ fn imported_images_are_readable_and_need_no_barrier() {
     let table = plan.to_string();
     assert!(table.contains("colour: undefined->colour"), "{table}");
 }
+
+/// A frame ending in a filter into an external image and its hand-back: the colour target goes
+/// to shader-read for the filter; the external image leaves the owner's layout (kept, even though
+/// the filter discards its contents: the owner's word is what the barrier must match) for a
+/// colour attachment, waiting for the owner's earlier work; and goes back to the owner's layout.
+/// Without the export nothing reads the filter, so both are culled; exporting an image the frame
+/// made is an error.
+#[test]
+fn an_external_image_is_filtered_into_and_handed_back() {
+    let (mut g, colour, depth, _) = frame();
+    let host = g.external_image("host", Format::Bgra8Srgb, 4, 4);
+    g.add_pass(draw(
+        "env",
+        colour,
+        LoadOp::Clear([0.0; 4]),
+        Some((depth, LoadOp::Clear([1.0; 4]), true)),
+        1,
+    ));
+    let mut filter = draw("filter", host, LoadOp::DontCare, None, 1);
+    if let PassKind::Draw { sampled, .. } = &mut filter.kind {
+        sampled.push(colour);
+    }
+    let mut unexported = g.clone();
+    unexported.add_pass(filter.clone());
+    let culled = unexported.compile().unwrap();
+    assert!(culled.steps.is_empty(), "nothing is read:\n{culled}");
+
+    g.add_pass(filter);
+    let export = |image| Pass {
+        name: "export".into(),
+        category: "export",
+        side_effect: true,
+        kind: PassKind::Export { image },
+    };
+    let mut bad = g.clone();
+    bad.add_pass(export(colour));
+    assert!(matches!(
+        bad.compile(),
+        Err(GraphError::NotExternal { ref image, .. }) if image == "colour"
+    ));
+
+    g.add_pass(export(host));
+    let plan = g.compile().unwrap();
+    let names: Vec<&str> = plan.steps.iter().map(|s| s.pass.name.as_str()).collect();
+    assert_eq!(names, ["env", "filter", "export"], "{plan}");
+    let filter_barriers = &plan.steps[1].barriers;
+    assert!(filter_barriers.contains(&Barrier {
+        image: host,
+        old_layout: Layout::External,
+        new_layout: Layout::ColourAttachment,
+        src: Access::External,
+        dst: Access::ColourAttachment,
+    }));
+    assert!(filter_barriers.contains(&Barrier {
+        image: colour,
+        old_layout: Layout::ColourAttachment,
+        new_layout: Layout::ShaderRead,
+        src: Access::ColourAttachment,
+        dst: Access::FragmentSample,
+    }));
+    assert_eq!(
+        plan.steps[2].barriers,
+        [Barrier {
+            image: host,
+            old_layout: Layout::ColourAttachment,
+            new_layout: Layout::External,
+            src: Access::ColourAttachment,
+            dst: Access::External,
+        }]
+    );
+    assert_eq!(plan.steps[1].begin.map(|i| i.colour.0), Some(host));
+    let table = plan.to_string();
+    assert!(table.contains("host: colour->external"), "{table}");
+}

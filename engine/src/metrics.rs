@@ -137,6 +137,11 @@ impl Mask {
         }
     }
 
+    /// Whether pixel `i` is selected (false past the mask's end).
+    pub fn contains(&self, i: usize) -> bool {
+        self.pixels.get(i).copied().unwrap_or(false)
+    }
+
     /// Number of pixels the mask selects.
     pub fn selected(&self) -> usize {
         self.pixels.iter().filter(|&&p| p).count()

@@ -402,6 +402,42 @@ impl FrameRunner {
             .0)
     }
 
+    /// Which pixels of `frame` show a lens object, from its geometry, not from a frame's
+    /// colours: the frame rendered twice in the multipass variant with every layered EM replaced
+    /// by a uniform map, once of (0, 0, 0, 0) texels and once of opaque black (0, 0, 0, 1). A lens
+    /// pixel (its prime passed the depth test) ends with α = 0 in the first render (the prime and
+    /// the alpha clears write 0, and no layer adds any) and α = 1 in the second (each group's
+    /// first layer blends 1 over 0); the environment writes α = 1 in both and the background
+    /// keeps the clear's 0 in both. In RGBA8 these alphas are exact on any driver. The pixels are
+    /// the framebuffer's (its subpixels, before any box filter).
+    pub fn lens_coverage(
+        &mut self,
+        frame: &crate::render::FrameInput,
+    ) -> Result<Mask, RenderError> {
+        let mut alpha = |texel: [f32; 4]| -> Result<Vec<f32>, RenderError> {
+            let mut uniform = frame.clone();
+            for lens in &mut uniform.lenses {
+                for maps in &mut lens.layers {
+                    for map in maps.iter_mut() {
+                        *map =
+                            std::sync::Arc::new(crate::cubemap::CubeMap::uniform(map.size, texel));
+                    }
+                }
+            }
+            let image = self.render(&uniform, Variant::Multipass, TargetFormat::Rgba8)?;
+            Ok(image.pixels.iter().map(|p| p[3]).collect())
+        };
+        let transparent = alpha([0.0; 4])?;
+        let opaque = alpha([0.0, 0.0, 0.0, 1.0])?;
+        Ok(Mask::from_flags(
+            transparent
+                .iter()
+                .zip(&opaque)
+                .map(|(&t, &o)| t == 0.0 && o == 1.0)
+                .collect(),
+        ))
+    }
+
     /// Replaces the layered EMs of lens `lens` of an uploaded frame (see
     /// [`Renderer::replace_layers`]): the baker's test renderings change only the maps.
     pub fn replace_layers(

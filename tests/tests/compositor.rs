@@ -396,3 +396,38 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
     assert!(error.to_string().contains("lenses[0]"), "{error}");
     assert_clean(&gpu);
 }
+
+/// The lens mask from the geometry (`FrameRunner::lens_coverage`: the frame rendered with
+/// all-zero layered EMs, a lens pixel's α exactly 0) against the f64 model's own rasterization
+/// of the same frame (its front-most surface is a lens object): they agree on every pixel the
+/// model does not mark ill-defined (coverage ties on triangle edges), which must be most of them.
+#[test]
+fn the_geometric_lens_mask_is_the_models_lens_coverage() {
+    let mut rng = Pcg64::seed_from_u64(0x6e0_3a5c);
+    let both = [Term::Refraction, Term::Reflection];
+    let frame = random_frame(&mut rng, 2, 2, &both);
+    let mut runner = lensmap::runner::FrameRunner::new(gpu()).unwrap();
+    let mask = runner.lens_coverage(&frame).unwrap();
+    let model = render_model_with(&frame, &ModelOptions::lavapipe());
+    let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
+    assert!(lens_pixels > 1500, "the lens covers {lens_pixels} pixels");
+    let mut compared = 0;
+    for (i, model_lens) in model.lens_mask.iter().enumerate() {
+        if model.exclusion[i].is_some() {
+            continue;
+        }
+        compared += 1;
+        assert_eq!(
+            mask.contains(i),
+            *model_lens,
+            "pixel ({}, {}): geometric mask vs the model's coverage",
+            i as u32 % SIZE,
+            i as u32 / SIZE
+        );
+    }
+    assert!(
+        compared * 10 >= (SIZE * SIZE) as usize * 9,
+        "{compared} pixels compared"
+    );
+    assert_clean(runner.gpu());
+}

@@ -1,23 +1,29 @@
 //! `lensmap bench passes`: compositor frame time for n = 1…4 layers, multipass vs single pass, in
-//! every framebuffer format, on the synthetic scene; and the error of RGBA8 and RGBA16F against
-//! RGBA32F over the lens pixels. Medians of repeated frames, all measured in one run.
+//! every framebuffer format, on the synthetic scene (or on one hybrid frame of a scene, at its own
+//! layer count); and the error of RGBA8 and RGBA16F against RGBA32F over the lens pixels, which
+//! come from the geometry ([`FrameRunner::lens_coverage`]). Medians of repeated frames, all
+//! measured in one run.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
+use glam::Vec3;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
+    hybrid::HybridOptions,
+    layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     metrics::{self, Channels, Encoding, ImageError, Mask},
     render::{
-        RenderedImage, Renderer, TargetFormat, Variant,
+        FrameInput, RenderedImage, Renderer, TargetFormat, Variant,
         synthetic::{SyntheticOptions, sphere_frame},
     },
-    runner::FrameRunner,
+    runner::{EmSource, FrameRunner, load_hybrid_scene},
+    scene::Scene,
 };
 use serde_json::json;
 
-use crate::common::report;
+use crate::common::{BadUsage, flag_error, parse_vec3, report};
 
 #[derive(Args)]
 #[command(
@@ -39,11 +45,66 @@ pub struct BenchPassesArgs {
     /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
+    /// Instead of the synthetic sphere, one hybrid frame of this scene (built-in name or .toml;
+    /// projected layered EMs, the scene's own layer count, at --width × --height).
+    #[arg(long)]
+    scene: Option<String>,
+    /// With --scene: the camera position "x,y,z" (default: the scene camera's).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true, requires = "scene")]
+    camera_position: Option<Vec3>,
+    /// With --scene: the point the camera looks at, "x,y,z" (default: the scene camera's).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true, requires = "scene")]
+    look_at: Option<Vec3>,
+    /// With --scene: the projected EMs' cube-map face size.
+    #[arg(long, default_value_t = DEFAULT_EM_SIZE, requires = "scene")]
+    em_size: u32,
 }
 
-/// Linear RGB error of `image` against `reference` over `mask`; `None` when the mask is empty
-/// (the figure would measure nothing, so none is reported).
-fn error(image: &RenderedImage, reference: &RenderedImage, mask: &Mask) -> Option<ImageError> {
+/// The frames to time, one per layer count: the synthetic sphere with n = 1 … `max_layers`, or
+/// the scene's hybrid frame at its own layer count.
+fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, FrameInput)>> {
+    let Some(name) = &args.scene else {
+        return Ok((1..=args.max_layers)
+            .map(|layers| {
+                let frame = sphere_frame(&SyntheticOptions {
+                    width: args.width,
+                    height: args.height,
+                    layers,
+                    ..SyntheticOptions::default()
+                });
+                (layers, frame)
+            })
+            .collect());
+    };
+    let scene = Scene::load_named(name)?;
+    let mut camera = scene.camera;
+    (camera.width, camera.height, camera.supersampling) = (args.width, args.height, 1);
+    camera.position = args.camera_position.unwrap_or(camera.position);
+    camera.look_at = args.look_at.unwrap_or(camera.look_at);
+    lensmap::trace::image::validate_camera(&camera).map_err(|error| {
+        BadUsage(format!(
+            "--camera-position / --look-at: {error}; give a position and a look-at point apart"
+        ))
+    })?;
+    let projected = ProjectedOptions::with_size(args.em_size);
+    projected.validate().map_err(flag_error)?;
+    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    let (frame, _) = hybrid.frame(&camera, &HybridOptions::default())?;
+    let layers = frame
+        .lenses
+        .iter()
+        .map(|lens| lens.layer_count())
+        .max()
+        .unwrap_or(0);
+    Ok(vec![(layers, frame)])
+}
+
+/// Linear RGB error of `image` against `reference` over `mask` (an empty mask is an error).
+fn error(
+    image: &RenderedImage,
+    reference: &RenderedImage,
+    mask: &Mask,
+) -> Result<ImageError, metrics::MetricsError> {
     metrics::compare(
         &image.pixels,
         &reference.pixels,
@@ -51,12 +112,6 @@ fn error(image: &RenderedImage, reference: &RenderedImage, mask: &Mask) -> Optio
         Encoding::Linear,
         Channels::Rgb,
     )
-    .ok()
-}
-
-/// A figure for the table: `-` where there is none.
-fn figure(value: Option<f64>) -> String {
-    value.map_or_else(|| "-".to_owned(), |v| format!("{v:.3e}"))
 }
 
 pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
@@ -76,6 +131,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         .into());
     }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let frames = frames(&args)?;
     say!(
         "device: {}  ({}×{}, {} timed frames per row, median)",
         runner.gpu().device_name(),
@@ -98,17 +154,22 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
     let formats = TargetFormat::ALL.len() as u64;
     let bar = crate::common::Steps::new(1).counted(
         "compositor frames",
-        args.max_layers as u64 * 2 * formats,
+        frames.len() as u64 * 2 * formats,
         "settings",
     );
-    for layers in 1..=args.max_layers.max(1) {
-        let frame = sphere_frame(&SyntheticOptions {
-            width: args.width,
-            height: args.height,
-            layers,
-            ..SyntheticOptions::default()
-        });
-        let mut uploaded = runner.upload(&frame)?;
+    for (layers, frame) in &frames {
+        let layers = *layers;
+        // The lens pixels, from the geometry: an empty set has no error to report, so the
+        // benchmark stops rather than print a figure that measures nothing.
+        let mask = runner.lens_coverage(frame)?;
+        if mask.selected() == 0 {
+            return Err(BadUsage(format!(
+                "the lens objects cover no pixel of the {}×{} frame (n = {layers}), so there are no lens pixels to measure the formats' error over: aim the camera at a lens object (--camera-position, --look-at)",
+                args.width, args.height
+            ))
+            .into());
+        }
+        let mut uploaded = runner.upload(frame)?;
         let mut by_variant = Vec::new();
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let mut results: Vec<(TargetFormat, RenderedImage, f64, f64, usize)> = Vec::new();
@@ -128,14 +189,9 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
                 .find(|r| r.0 == TargetFormat::Rgba32f)
                 .map(|r| r.1.clone())
                 .context("rgba32f result")?;
-            // Lens pixels: where the frame differs from the environment alone is hard to know
-            // here, so compare every pixel the lens could touch: all pixels with α < 1 after the
-            // environment (the lens leaves the last group's α, the environment writes α = 1).
-            // An empty mask (a driver that leaves α = 1 there) gives no figure, never a zero.
-            let mask = Mask::from_flags(reference.pixels.iter().map(|p| p[3] < 1.0).collect());
             for (format, image, frame_ms, execute_ms, passes) in &results {
-                let error = error(image, &reference, &mask);
-                let (rms, max) = (error.map(|e| e.rmse), error.map(|e| e.max_abs));
+                let error = error(image, &reference, &mask)?;
+                let (rms, max) = (error.rmse, error.max_abs);
                 say!(
                     "{:>2}  {:<12} {:<8} {:>11.2} {:>11.2} {:>8}  {:>12} {:>12}",
                     layers,
@@ -144,13 +200,13 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
                     frame_ms,
                     execute_ms,
                     passes,
-                    figure(rms),
-                    figure(max)
+                    format!("{rms:.3e}"),
+                    format!("{max:.3e}")
                 );
                 rows.push(json!({
                     "layers": layers, "variant": variant.name(), "format": format.name(),
                     "median_frame_ms": frame_ms, "median_execute_ms": execute_ms, "steps": passes,
-                    "rms_vs_rgba32f": rms, "max_vs_rgba32f": max,
+                    "rms_vs_rgba32f": rms, "max_vs_rgba32f": max, "lens_pixels": mask.selected(),
                 }));
             }
             by_variant.push(reference);

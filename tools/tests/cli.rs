@@ -227,3 +227,81 @@ fn out_of_range_options_exit_2_naming_the_flag() {
         );
     }
 }
+
+/// `bench passes` measures the formats' error over the lens pixels found from the geometry: on
+/// the synthetic sphere RGBA8 and RGBA16F differ from RGBA32F there (non-zero, and RGBA8 more),
+/// and RGBA32F has no error against itself; a camera that sees no lens object is exit 2 naming
+/// the fix, never a table of zeros.
+#[test]
+fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_refused() {
+    // The GPU runs with the validation layer on (a message fails the run).
+    let validated = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_lensmap"))
+            .args(args)
+            .env("LENSMAP_VALIDATION", "1")
+            .output()
+            .expect("the lensmap binary runs")
+    };
+    let out = validated(&[
+        "bench",
+        "passes",
+        "--json",
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--frames",
+        "1",
+        "--max-layers",
+        "1",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("validation"), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let rows = report["rows"].as_array().expect("rows");
+    let rms = |variant: &str, format: &str| {
+        rows.iter()
+            .find(|r| r["variant"] == variant && r["format"] == format)
+            .and_then(|r| r["rms_vs_rgba32f"].as_f64())
+            .expect("a row per variant and format")
+    };
+    for variant in ["multipass", "single-pass"] {
+        let (rgba8, rgba16f) = (rms(variant, "rgba8"), rms(variant, "rgba16f"));
+        assert!(
+            rgba8 > rgba16f && rgba16f > 0.0,
+            "{variant}: {rgba8} {rgba16f}"
+        );
+        assert_eq!(rms(variant, "rgba32f"), 0.0);
+    }
+    let lens_pixels = rows[0]["lens_pixels"].as_u64().expect("the mask's size");
+    assert!(
+        (100..48 * 36).contains(&lens_pixels),
+        "the sphere covers part of the frame: {lens_pixels}"
+    );
+
+    let away = validated(&[
+        "bench",
+        "passes",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--frames",
+        "1",
+        "--scene",
+        "glass-sphere",
+        "--em-size",
+        "16",
+        "--camera-position",
+        "0,2.5,5",
+        "--look-at",
+        "0,2.5,10",
+    ]);
+    assert_eq!(away.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&away.stderr);
+    assert!(
+        stderr.contains("cover no pixel") && stderr.contains("--look-at"),
+        "{stderr}"
+    );
+}

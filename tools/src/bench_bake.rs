@@ -54,11 +54,10 @@ pub struct BenchBakeArgs {
     report: Option<PathBuf>,
 }
 
-/// The three cameras: on sample A, halfway to A+1, 15° above A.
-fn cameras(scene: &Scene, a: usize, judge: &JudgeArgs) -> Vec<(&'static str, Camera)> {
+/// The three cameras, `base` moved: on sample A, halfway to A+1, 15° above A.
+pub fn cameras(scene: &Scene, a: usize, base: Camera) -> Vec<(&'static str, Camera)> {
     let samples = scene.view_space.samples();
     let look_at = scene.camera.look_at;
-    let base = judge.frame_camera(&scene.camera);
     let pa = samples[a] - look_at;
     let halfway = camera_between(scene, a, a + 1).map_or(samples[a], |c| c.position);
     // Up by 15° about the horizontal axis perpendicular to the view direction.
@@ -125,7 +124,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         r = args.judge.reference_supersampling
     );
     let mut rows = Vec::new();
-    for (name, camera) in cameras(&scene, args.sample, &args.judge) {
+    for (name, camera) in cameras(&scene, args.sample, args.judge.frame_camera(&scene.camera)) {
         let reference_camera = args.judge.reference_camera(&camera);
         let bar = steps.counted(
             &format!("camera {name}: reference, then the frames"),

@@ -6,11 +6,13 @@
 mod common;
 mod bake;
 mod bench_bake;
+mod bench_error;
 mod bench_hybrid;
 mod bench_infer;
 mod bench_passes;
 mod bench_trace;
 mod demo;
+mod pareto;
 mod passes;
 mod reference;
 mod render;
@@ -120,6 +122,11 @@ enum BenchCommand {
     ///
     /// Example: lensmap bench bake --scene teapot-room --bake out/bake --sample 0
     Bake(bench_bake::BenchBakeArgs),
+    /// Run time against error: a sweep of t, the angle threshold, layers, EM size, variant,
+    /// format, supersampling (and inferred EMs) with three baselines, and a Pareto plot.
+    ///
+    /// Example: lensmap bench error --scene teapot-room --plot out/pareto
+    Error(bench_error::BenchErrorArgs),
 }
 
 /// Whether an error is the user's input (exit 2) rather than a failure of the work (exit 1).
@@ -229,6 +236,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Hybrid(args)) => bench_hybrid::run(args),
         Command::Bench(BenchCommand::Infer(args)) => bench_infer::run(args),
         Command::Bench(BenchCommand::Bake(args)) => bench_bake::run(args),
+        Command::Bench(BenchCommand::Error(args)) => bench_error::run(args),
     };
     match result {
         Ok(()) => common::exit_status(),

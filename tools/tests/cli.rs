@@ -305,3 +305,91 @@ fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_ref
         "{stderr}"
     );
 }
+
+/// `bench error` on a tiny frame: the default, the moved knob asked for and the three baselines
+/// each get a time and a lens PSNR; at least one point is on the Pareto frontier and no point on
+/// it is beaten in both time and error by another; the CSV has a row per point and the plot is
+/// written as SVG and PNG.
+#[test]
+fn bench_error_measures_time_and_error_with_baselines_and_a_frontier() {
+    let dir = std::env::temp_dir().join(format!("lensmap-bench-error-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (csv, plot) = (dir.join("error.csv"), dir.join("plot"));
+    let out = Command::new(env!("CARGO_BIN_EXE_lensmap"))
+        .args([
+            "bench",
+            "error",
+            "--json",
+            "--width",
+            "24",
+            "--height",
+            "18",
+            "--reference-supersampling",
+            "2",
+            "--frames",
+            "1",
+            "--only",
+            "t=8 angle=3° em=128 layers=all single-pass rgba16f ss=1",
+            "--csv",
+        ])
+        .arg(&csv)
+        .arg("--plot")
+        .arg(&plot)
+        .env("LENSMAP_VALIDATION", "1")
+        .output()
+        .expect("the lensmap binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("validation"), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let points = report["points"].as_array().expect("points");
+    let series: Vec<&str> = points.iter().filter_map(|p| p["series"].as_str()).collect();
+    assert_eq!(
+        series,
+        [
+            "default",
+            "t",
+            "baseline: EM at infinity",
+            "baseline: box probe",
+            "baseline: ray tracer, 1 spp"
+        ]
+    );
+    let measured = |p: &serde_json::Value| {
+        (
+            p["frame_ms"].as_f64().expect("a time"),
+            p["lens_psnr_db"].as_f64().expect("an error"),
+        )
+    };
+    for point in points {
+        let (ms, db) = measured(point);
+        assert!(
+            ms > 0.0 && db.is_finite() && db > 0.0 && db < 100.0,
+            "{point}"
+        );
+        assert_eq!(point["per_camera"].as_array().map(Vec::len), Some(3));
+    }
+    let frontier: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| p["on_frontier"] == true)
+        .map(measured)
+        .collect();
+    assert!(!frontier.is_empty());
+    for &(ms, db) in &frontier {
+        assert!(
+            !points.iter().map(measured).any(|(m, d)| m < ms && d > db),
+            "a frontier point ({ms} ms, {db} dB) is beaten"
+        );
+    }
+    let table = std::fs::read_to_string(&csv).expect("the CSV");
+    assert_eq!(table.lines().count(), 1 + points.len());
+    for name in ["pareto.svg", "pareto.png"] {
+        let bytes = std::fs::metadata(plot.join(name))
+            .map(|m| m.len())
+            .unwrap_or(0);
+        assert!(
+            bytes > 1000,
+            "{name}: {bytes} bytes (fonts-dejavu-core installed?)"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,583 @@
+//! `lensmap bench error`: run time against error. It sweeps the knobs that trade one for the other
+//! (the tessellation threshold t, the angle threshold, the layer count, the EM size, the
+//! compositor variant, the framebuffer format, supersampling, and inferred EMs when a bake is
+//! given) at three cameras around a viewpoint sample (on it, halfway to the next, 15° above), and
+//! measures for each setting the median frame time and the lens-pixel PSNR against a reference
+//! traced with more supersamples. Three baselines run in the same sweep: a classic single EM at
+//! infinity, a parallax-corrected box probe (one box shell, what game engines ship), and the
+//! reference ray tracer at one sample per pixel. The result is a table, JSON, CSV, and a Pareto
+//! plot of time against error with the frontier marked.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use glam::Vec3;
+use lensmap::{
+    gpu::{Gpu, GpuOptions},
+    hybrid::{HybridOptions, HybridScene, tessellate::DEFAULT_T},
+    layers::{
+        Bake,
+        projected::{DEFAULT_EM_SIZE, ProjectedOptions, em_origin},
+    },
+    metrics::Encoding,
+    render::{RenderedImage, TargetFormat, Variant},
+    runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error, load_hybrid_scene},
+    scene::{LayerSpec, Scene},
+    trace::{TraceOptions, render_reference},
+};
+use serde_json::json;
+
+use crate::common::{BadUsage, report};
+
+#[derive(Args)]
+#[command(after_help = "Example:
+  lensmap bench error --scene teapot-room --report out/error.json --csv out/error.csv --plot out/pareto")]
+pub struct BenchErrorArgs {
+    /// Built-in scene name or path.
+    #[arg(long, default_value = "teapot-room")]
+    scene: String,
+    /// A bake of the scene holding samples A and A+1: adds settings with its inferred EMs.
+    #[arg(long, value_name = "DIR")]
+    bake: Option<PathBuf>,
+    /// Viewpoint sample A the three cameras are placed around.
+    #[arg(long, default_value_t = 2)]
+    sample: usize,
+    /// Frame width.
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    /// Frame height.
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    /// Supersampling k×k of the reference the frames are judged against.
+    #[arg(long, default_value_t = 4)]
+    reference_supersampling: u32,
+    /// Timed frames per setting and camera (after one warm-up frame); the median counts.
+    #[arg(long, default_value_t = 3)]
+    frames: usize,
+    /// Only every setting whose label contains this text (the default and the baselines always
+    /// run).
+    #[arg(long, value_name = "TEXT")]
+    only: Option<String>,
+    /// Also write the JSON results to this file (--json prints them on stdout).
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
+    /// Also write one CSV row per setting to this file.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+    /// Write the Pareto plot as pareto.svg and pareto.png into this folder.
+    #[arg(long, value_name = "DIR")]
+    plot: Option<PathBuf>,
+    /// Measure nothing: draw the --plot from an earlier run's --report FILE.
+    #[arg(long, value_name = "FILE", requires = "plot")]
+    replot: Option<PathBuf>,
+}
+
+/// The plot of an earlier run, from its JSON report.
+fn replot(report: &Path, dir: &Path) -> anyhow::Result<()> {
+    let text =
+        std::fs::read_to_string(report).with_context(|| format!("reading {}", report.display()))?;
+    let json: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| BadUsage(format!("--replot {}: not JSON ({e})", report.display())))?;
+    let field = |p: &serde_json::Value, name: &str| {
+        p[name].as_f64().ok_or_else(|| {
+            BadUsage(format!(
+                "--replot {}: a point without \"{name}\"; give a report of lensmap bench error",
+                report.display()
+            ))
+        })
+    };
+    let mut points = Vec::new();
+    for p in json["points"].as_array().into_iter().flatten() {
+        let series = p["series"].as_str().unwrap_or("?").to_owned();
+        points.push(crate::pareto::PlotPoint {
+            default: series == "default",
+            series,
+            x_ms: field(p, "frame_ms")?,
+            y_db: field(p, "lens_psnr_db")?,
+            frontier: p["on_frontier"] == true,
+        });
+    }
+    if points.is_empty() {
+        return Err(BadUsage(format!(
+            "--replot {}: no points; give a report of lensmap bench error",
+            report.display()
+        ))
+        .into());
+    }
+    let text = |name: &str| json[name].as_str().unwrap_or("?").to_owned();
+    crate::pareto::write(dir, &points, &text("scene"), &text("device"))
+}
+
+/// Where a setting's layered EMs come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Ems {
+    /// Projected onto the scene's shells (the first `layers` of them).
+    Projected,
+    /// Inferred by the baker (`--bake`).
+    Inferred,
+    /// Baseline: one sphere shell far beyond the scene, a classic EM indexed by direction.
+    Infinity,
+    /// Baseline: one box shell fitted to the room around the EM origin (a parallax-corrected
+    /// box probe).
+    BoxProbe,
+}
+
+impl Ems {
+    fn name(self) -> &'static str {
+        match self {
+            Ems::Projected => "projected",
+            Ems::Inferred => "inferred",
+            Ems::Infinity => "EM at infinity",
+            Ems::BoxProbe => "box probe",
+        }
+    }
+}
+
+/// One point of the sweep: every knob a frame's time and error depend on.
+#[derive(Clone, Debug)]
+struct Setting {
+    /// Which knob the sweep moves here (the plot's series).
+    family: &'static str,
+    t: f32,
+    angle_degrees: f64,
+    em_size: u32,
+    /// The first this many shells of each lens object; `None`: all of them.
+    layers: Option<usize>,
+    variant: Variant,
+    format: TargetFormat,
+    supersampling: u32,
+    ems: Ems,
+}
+
+impl Setting {
+    /// `lensmap render`'s defaults (t = 3, 3°, 128² projected EMs on every shell, single pass,
+    /// RGBA16F) at one sample per pixel.
+    fn default_setting() -> Setting {
+        Setting {
+            family: "default",
+            t: DEFAULT_T,
+            angle_degrees: lensmap::hybrid::DEFAULT_ANGLE_DEGREES,
+            em_size: DEFAULT_EM_SIZE,
+            layers: None,
+            variant: Variant::SinglePass,
+            format: TargetFormat::Rgba16f,
+            supersampling: 1,
+            ems: Ems::Projected,
+        }
+    }
+
+    fn label(&self) -> String {
+        format!(
+            "{} t={} angle={}° em={} layers={} {} {} ss={}",
+            self.ems.name(),
+            self.t,
+            self.angle_degrees,
+            self.em_size,
+            self.layers
+                .map_or_else(|| "all".to_owned(), |n| n.to_string()),
+            self.variant.name(),
+            self.format.name(),
+            self.supersampling
+        )
+    }
+
+    /// The key of the hybrid scene this setting renders (its EMs).
+    fn scene_key(&self) -> (Ems, u32, Option<usize>) {
+        match self.ems {
+            Ems::Projected => (self.ems, self.em_size, self.layers),
+            Ems::Inferred => (self.ems, 0, None),
+            Ems::Infinity | Ems::BoxProbe => (self.ems, self.em_size, None),
+        }
+    }
+}
+
+/// The sweep: the default, each knob moved alone, a t × EM-size grid, supersampling with t,
+/// t with the angle threshold, the baselines, and the inferred EMs when there is a bake.
+fn settings(layer_count: usize, inferred: bool) -> Vec<Setting> {
+    let base = Setting::default_setting();
+    let mut all = vec![base.clone()];
+    let mut add = |family: &'static str, change: &dyn Fn(&mut Setting)| {
+        let mut setting = Setting {
+            family,
+            ..base.clone()
+        };
+        change(&mut setting);
+        all.push(setting);
+    };
+    for t in [0.5, 0.75, 1.0, 1.5, 2.0, 4.0, 6.0, 8.0] {
+        add("t", &|s| s.t = t);
+    }
+    for angle in [1.5, 6.0, 12.0] {
+        add("angle threshold", &|s| s.angle_degrees = angle);
+    }
+    for size in [32, 64, 256] {
+        add("EM size", &|s| s.em_size = size);
+    }
+    for layers in 1..layer_count {
+        add("layers", &|s| s.layers = Some(layers));
+    }
+    add("variant", &|s| s.variant = Variant::Multipass);
+    for format in [TargetFormat::Rgba8, TargetFormat::Rgba32f] {
+        add("format", &|s| s.format = format);
+    }
+    for k in [2, 3] {
+        add("supersampling", &|s| s.supersampling = k);
+    }
+    for t in [1.0, 2.0, 4.0, 8.0] {
+        for size in [32, 64, 256] {
+            add("t × EM size", &|s| (s.t, s.em_size) = (t, size));
+        }
+    }
+    for t in [2.0, 4.0, 8.0] {
+        add("supersampling 2 × t", &|s| (s.supersampling, s.t) = (2, t));
+    }
+    for angle in [1.5, 6.0] {
+        for t in [1.0, 8.0] {
+            add("t × angle", &|s| (s.t, s.angle_degrees) = (t, angle));
+        }
+    }
+    if inferred {
+        for t in [1.0, 3.0, 8.0] {
+            add("inferred EMs", &|s| (s.ems, s.t) = (Ems::Inferred, t));
+        }
+    }
+    add("baseline: EM at infinity", &|s| s.ems = Ems::Infinity);
+    add("baseline: box probe", &|s| s.ems = Ems::BoxProbe);
+    all
+}
+
+/// The half extents of a box centred on lens `lens`'s EM origin fitted to the environment's
+/// bounding box (every object outside the lens objects): per axis the mean of the distances to
+/// the two walls, so the box meets the room halfway between its near and far walls (a box shell
+/// is centred on the EM origin; a game engine's probe box is the room's own, which a room not
+/// centred on the lens object cannot be here).
+fn box_probe(scene: &Scene, lens: usize) -> Option<Vec3> {
+    let in_lens: Vec<usize> = scene
+        .lenses
+        .iter()
+        .flat_map(|l| l.objects.clone())
+        .collect();
+    let (low, high) = scene
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !in_lens.contains(i))
+        .filter_map(|(_, object)| object.mesh.bounds())
+        .reduce(|(a_low, a_high), (b_low, b_high)| (a_low.min(b_low), a_high.max(b_high)))?;
+    let origin = em_origin(scene, lens).as_vec3();
+    let half = ((origin - low).abs() + (high - origin).abs()) * 0.5;
+    (half.min_element() > 0.0).then_some(half)
+}
+
+/// The hybrid scene a setting renders: the scene's shells cut to the first `layers`, or the
+/// baselines' single shell, with projected EMs of `em_size`; or the bake's inferred EMs.
+fn hybrid_scene(
+    scene: &Scene,
+    setting: &Setting,
+    bake: Option<&Path>,
+) -> anyhow::Result<HybridScene> {
+    if setting.ems == Ems::Inferred {
+        let dir = bake.context("inferred EMs need --bake")?;
+        return Ok(HybridScene::from_bake(scene.clone(), Bake::read(dir)?)?);
+    }
+    let mut scene = scene.clone();
+    for lens in 0..scene.lenses.len() {
+        let shells = match setting.ems {
+            Ems::Infinity => vec![LayerSpec::Sphere(1.0e4)],
+            Ems::BoxProbe => vec![LayerSpec::Box(box_probe(&scene, lens).with_context(
+                || {
+                    format!(
+                        "a box probe for lens \"{}\" needs an environment around it",
+                        scene.lenses[lens].name
+                    )
+                },
+            )?)],
+            _ => {
+                let mut shells = scene.lenses[lens].layers.clone();
+                if let Some(n) = setting.layers {
+                    shells.truncate(n.max(1));
+                }
+                shells
+            }
+        };
+        scene.lenses[lens].layers = shells;
+    }
+    let projected = ProjectedOptions::with_size(setting.em_size);
+    Ok(load_hybrid_scene(scene, &EmSource::Projected(projected))?.0)
+}
+
+/// One measured point: a setting's median frame time and lens PSNR, each averaged over the
+/// cameras.
+#[derive(Clone, Debug)]
+struct Point {
+    family: &'static str,
+    label: String,
+    frame_ms: f64,
+    psnr_db: f64,
+    per_camera: Vec<(f64, f64)>,
+}
+
+/// The points no other point beats in both time and error, fastest first.
+fn frontier(points: &[Point]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| {
+        points[a]
+            .frame_ms
+            .total_cmp(&points[b].frame_ms)
+            .then(points[b].psnr_db.total_cmp(&points[a].psnr_db))
+    });
+    let mut best = f64::NEG_INFINITY;
+    order
+        .into_iter()
+        .filter(|&i| {
+            let better = points[i].psnr_db > best;
+            best = best.max(points[i].psnr_db);
+            better
+        })
+        .collect()
+}
+
+pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
+    if let (Some(report), Some(dir)) = (&args.replot, &args.plot) {
+        return replot(report, dir);
+    }
+    if args.width == 0 || args.height == 0 || args.reference_supersampling < 2 || args.frames == 0 {
+        return Err(BadUsage(format!(
+            "--width {} --height {} --reference-supersampling {} --frames {}: give a frame of at least 1×1 pixels, at least one frame, and a reference of at least 2×2 supersamples (the 1-sample ray tracer is a baseline judged against it)",
+            args.width, args.height, args.reference_supersampling, args.frames
+        ))
+        .into());
+    }
+    let scene = Scene::load_named(&args.scene)?;
+    if args.sample + 1 >= scene.view_space.len() {
+        return Err(BadUsage(format!(
+            "--sample {}: the cameras need samples A and A+1; scene \"{}\" has samples 0..{}",
+            args.sample,
+            scene.name,
+            scene.view_space.len()
+        ))
+        .into());
+    }
+    let layer_count = scene
+        .lenses
+        .iter()
+        .map(|l| l.layers.len())
+        .max()
+        .unwrap_or(1);
+    let mut all = settings(layer_count, args.bake.is_some());
+    if let Some(text) = &args.only {
+        all.retain(|s| {
+            s.family == "default"
+                || s.family.starts_with("baseline")
+                || s.label().contains(text.as_str())
+        });
+    }
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let device = runner.gpu().device_name().to_string();
+    let base = scene.camera.with_resolution(args.width, args.height, 1);
+    let cameras = crate::bench_bake::cameras(&scene, args.sample, base);
+
+    let mut steps = crate::common::Steps::new(3);
+    let mut scenes: HashMap<(Ems, u32, Option<usize>), HybridScene> = HashMap::new();
+    let step = steps.counted("layered EMs and light maps", all.len() as u64, "settings");
+    for setting in &all {
+        if let std::collections::hash_map::Entry::Vacant(slot) = scenes.entry(setting.scene_key()) {
+            slot.insert(hybrid_scene(&scene, setting, args.bake.as_deref())?);
+        }
+        step.inc(1);
+    }
+    step.finish_and_clear();
+    let trace = &scenes[&Setting::default_setting().scene_key()].trace;
+
+    say!(
+        "{}: {}×{}, cameras around sample {} (on it, halfway, 15° above), reference {r}×{r}, {} timed frames per setting and camera, device {device}",
+        scene.name,
+        args.width,
+        args.height,
+        args.sample,
+        args.frames,
+        r = args.reference_supersampling
+    );
+    let bar = steps.counted(
+        "references and frames",
+        (cameras.len() * (all.len() + 2)) as u64,
+        "renders",
+    );
+    let mut per_setting: Vec<Vec<(f64, f64)>> = vec![Vec::new(); all.len() + 1];
+    for (_, camera) in &cameras {
+        let reference = render_reference(
+            trace,
+            &camera.with_resolution(args.width, args.height, args.reference_supersampling),
+            &TraceOptions::default(),
+            &|_| {},
+        )?;
+        bar.inc(1);
+        for (i, setting) in all.iter().enumerate() {
+            let camera = camera.with_resolution(args.width, args.height, setting.supersampling);
+            let options = FrameOptions {
+                hybrid: HybridOptions::with_t_and_angle(setting.t, setting.angle_degrees),
+                variant: setting.variant,
+                format: setting.format,
+            };
+            runner.check_framebuffer(&camera, options.format)?;
+            let frames = runner.timed_frames(
+                &scenes[&setting.scene_key()],
+                &camera,
+                &options,
+                Repetitions {
+                    warmup: 1,
+                    timed: args.frames,
+                },
+            )?;
+            let error = lens_error(&frames.last().image, &reference, Encoding::DisplaySrgb)?;
+            per_setting[i].push((frames.median(|f| f.total_ms), error.psnr_db));
+            bar.inc(1);
+        }
+        // Baseline: the reference ray tracer at one sample per pixel.
+        let mut times = Vec::new();
+        let mut image = None;
+        for _ in 0..args.frames {
+            let one = render_reference(
+                trace,
+                &camera.with_resolution(args.width, args.height, 1),
+                &TraceOptions::default(),
+                &|_| {},
+            )?;
+            times.push(one.stats.seconds * 1e3);
+            image = Some(one);
+        }
+        let one = image.context("at least one frame")?;
+        let as_frame = RenderedImage {
+            width: one.width,
+            height: one.height,
+            pixels: one.radiance.iter().map(|c| [c.x, c.y, c.z, 1.0]).collect(),
+        };
+        let error = lens_error(&as_frame, &reference, Encoding::DisplaySrgb)?;
+        per_setting[all.len()].push((lensmap::runner::median(&mut times), error.psnr_db));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+
+    let mean = |values: &[(f64, f64)], pick: fn(&(f64, f64)) -> f64| {
+        values.iter().map(pick).sum::<f64>() / values.len() as f64
+    };
+    let mut points: Vec<Point> = all
+        .iter()
+        .zip(&per_setting)
+        .map(|(setting, values)| Point {
+            family: setting.family,
+            label: setting.label(),
+            frame_ms: mean(values, |v| v.0),
+            psnr_db: mean(values, |v| v.1),
+            per_camera: values.clone(),
+        })
+        .collect();
+    points.push(Point {
+        family: "baseline: ray tracer, 1 spp",
+        label: "reference ray tracer, 1 sample per pixel".into(),
+        frame_ms: mean(&per_setting[all.len()], |v| v.0),
+        psnr_db: mean(&per_setting[all.len()], |v| v.1),
+        per_camera: per_setting[all.len()].clone(),
+    });
+    let on_frontier = frontier(&points);
+    // The default against the frontier: the best PSNR any point reaches in no more time.
+    let default = &points[0];
+    let best_in_time = points
+        .iter()
+        .filter(|p| p.frame_ms <= default.frame_ms)
+        .map(|p| p.psnr_db)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let gap_db = best_in_time - default.psnr_db;
+
+    say!(
+        "{:<24} {:>10} {:>9}  {}",
+        "series",
+        "frame ms",
+        "lens dB",
+        "setting (per camera: ms / dB)"
+    );
+    for (i, point) in points.iter().enumerate() {
+        let cameras_text: Vec<String> = point
+            .per_camera
+            .iter()
+            .map(|(ms, db)| format!("{ms:.0}/{db:.2}"))
+            .collect();
+        say!(
+            "{:<24} {:>10.1} {:>9.2}{} {}  [{}]",
+            point.family,
+            point.frame_ms,
+            point.psnr_db,
+            if on_frontier.contains(&i) { "*" } else { " " },
+            point.label,
+            cameras_text.join(" ")
+        );
+    }
+    say!(
+        "* on the Pareto frontier ({} of {} points); the default is {gap_db:.2} dB below the best point at no more time",
+        on_frontier.len(),
+        points.len()
+    );
+
+    if let Some(path) = &args.csv {
+        let mut csv = String::from("series,setting,frame_ms,lens_psnr_db,on_frontier\n");
+        for (i, point) in points.iter().enumerate() {
+            csv.push_str(&format!(
+                "{},\"{}\",{:.4},{:.4},{}\n",
+                point.family,
+                point.label,
+                point.frame_ms,
+                point.psnr_db,
+                on_frontier.contains(&i)
+            ));
+        }
+        lensmap::atomic::write_atomically(path, csv.as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(dir) = &args.plot {
+        crate::pareto::write(
+            dir,
+            &points_for_plot(&points, &on_frontier),
+            &scene.name,
+            &device,
+        )?;
+    }
+    let rows: Vec<_> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            json!({
+                "series": p.family, "setting": p.label, "frame_ms": p.frame_ms,
+                "lens_psnr_db": p.psnr_db, "on_frontier": on_frontier.contains(&i),
+                "per_camera": p.per_camera.iter().map(|(ms, db)| json!({"frame_ms": ms, "lens_psnr_db": db})).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    report(
+        &json!({
+            "scene": scene.name, "device": device, "width": args.width, "height": args.height,
+            "reference_supersampling": args.reference_supersampling, "frames": args.frames,
+            "cameras": cameras.iter().map(|(name, c)| json!({"camera": name, "position": c.position})).collect::<Vec<_>>(),
+            "encoding": "display sRGB, lens pixels of the reference",
+            "default_gap_to_frontier_db": gap_db, "points": rows,
+        }),
+        args.report.as_deref(),
+    )?;
+    Ok(())
+}
+
+/// The plot's view of the points.
+fn points_for_plot(points: &[Point], on_frontier: &[usize]) -> Vec<crate::pareto::PlotPoint> {
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| crate::pareto::PlotPoint {
+            series: p.family.to_owned(),
+            x_ms: p.frame_ms,
+            y_db: p.psnr_db,
+            frontier: on_frontier.contains(&i),
+            default: i == 0,
+        })
+        .collect()
+}

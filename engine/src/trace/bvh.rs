@@ -20,6 +20,13 @@ use super::Ray;
 /// triangles, so no ray slips between them.
 const BARYCENTRIC_SLACK: f64 = 1e-10;
 
+/// How far behind the real origin, in the BVH's scaled units, the f32 traversal ray starts.
+/// obvhs's node test raises every box's entry distance to at least 1e-4 whatever the ray's own
+/// start, so a box the ray leaves within 1e-4 of its origin was skipped: a camera 1e-5 m from a
+/// 1 m glass cube saw through its face. Starting 1.5e-4 back, every box in front of the real
+/// origin is left beyond that floor; the f64 triangle test still measures from the real origin.
+const TRAVERSAL_BACK_OFF: f64 = 1.5e-4;
+
 /// One triangle handed to [`MeshBvh::build`], in world space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SourceTriangle {
@@ -85,6 +92,11 @@ impl SurfaceHit {
 pub struct MeshBvh {
     bvh: Option<CwBvh>,
     triangles: Vec<BvhTriangle>,
+    /// The power of two that obvhs's f32 coordinates are world coordinates times, chosen to bring
+    /// the largest coordinate into (16, 32] (scaling by a power of two commutes with rounding):
+    /// obvhs's own checks (debug builds) allow an absolute 1e-5 of slack on node bounds, which the
+    /// f32 rounding of a scene a few kilometres across overran, a panic in `TraceScene::new`.
+    scale: f64,
 }
 
 impl std::fmt::Debug for MeshBvh {
@@ -104,9 +116,23 @@ impl MeshBvh {
             return MeshBvh {
                 bvh: None,
                 triangles: prepared,
+                scale: 1.0,
             };
         }
-        let bounds: Vec<PaddedBounds> = prepared.iter().map(padded_bounds).collect();
+        let largest = prepared
+            .iter()
+            .flat_map(|t| [t.v0, t.v0 + t.e1, t.v0 + t.e2])
+            .map(|v| v.abs().max_element())
+            .fold(0.0, f64::max);
+        let scale = if largest > 0.0 {
+            2f64.powi(5 - largest.log2().ceil() as i32)
+        } else {
+            1.0
+        };
+        let bounds: Vec<PaddedBounds> = prepared
+            .iter()
+            .map(|triangle| padded_bounds(triangle, scale))
+            .collect();
         let bvh = build_cwbvh(
             &bounds,
             BvhBuildParams::medium_build(),
@@ -120,6 +146,7 @@ impl MeshBvh {
         MeshBvh {
             bvh: Some(bvh),
             triangles: ordered,
+            scale,
         }
     }
 
@@ -148,7 +175,7 @@ impl MeshBvh {
         let mut best_distance = max_distance;
         let mut tests = 0u64;
         let mut obvhs_hit = RayHit::none();
-        bvh.ray_traverse(f32_ray(ray, max_distance), &mut obvhs_hit, |_, id| {
+        bvh.ray_traverse(self.f32_ray(ray, max_distance), &mut obvhs_hit, |_, id| {
             tests += 1;
             if exclude == Some(id as u32) {
                 return f32::INFINITY;
@@ -157,7 +184,7 @@ impl MeshBvh {
                 Some((t, u, v)) => {
                     best = Some((id as u32, t, u, v));
                     best_distance = t;
-                    round_up(t)
+                    self.traversal_distance(t)
                 }
                 None => f32::INFINITY,
             }
@@ -180,7 +207,7 @@ impl MeshBvh {
             return false;
         };
         let mut tests = 0u64;
-        let missed = bvh.ray_traverse_miss(f32_ray(ray, max_distance), |_, id| {
+        let missed = bvh.ray_traverse_miss(self.f32_ray(ray, max_distance), |_, id| {
             tests += 1;
             if exclude == Some(id as u32) {
                 return f32::INFINITY;
@@ -209,7 +236,7 @@ impl MeshBvh {
         };
         let mut found: Vec<(u32, f64, f64, f64)> = Vec::new();
         let mut tests = 0u64;
-        bvh.ray_traverse_anyhit(f32_ray(ray, max_distance), |_, id| {
+        bvh.ray_traverse_anyhit(self.f32_ray(ray, max_distance), |_, id| {
             tests += 1;
             if exclude == Some(id as u32) {
                 return;
@@ -228,6 +255,30 @@ impl MeshBvh {
 
     fn surface_hit(&self, id: u32, t: f64, u: f64, v: f64) -> SurfaceHit {
         self.triangles[id as usize].surface(id, t, u, v)
+    }
+
+    /// The f32 obvhs ray for traversal only: in the BVH's scaled coordinates, starting
+    /// [`TRAVERSAL_BACK_OFF`] behind `ray`'s origin; exact distances come from the f64 triangle
+    /// test.
+    fn f32_ray(&self, ray: &Ray, max_distance: f64) -> obvhs::ray::Ray {
+        let max = if max_distance.is_finite() {
+            self.traversal_distance(max_distance * (1.0 + 1e-6) + 1e-6)
+        } else {
+            f32::INFINITY
+        };
+        let origin = ray.origin * self.scale - ray.direction * TRAVERSAL_BACK_OFF;
+        obvhs::ray::Ray::new(
+            Vec3A::from(origin.as_vec3()),
+            Vec3A::from(ray.direction.as_vec3()),
+            0.0,
+            max,
+        )
+    }
+
+    /// Distance `t` along a ray (world units of its direction) as its traversal ray measures it,
+    /// rounded up so that pruning with it stays conservative.
+    fn traversal_distance(&self, t: f64) -> f32 {
+        round_up(t * self.scale + TRAVERSAL_BACK_OFF)
     }
 }
 
@@ -343,37 +394,24 @@ fn prepare_triangle(source: &SourceTriangle) -> Option<BvhTriangle> {
     })
 }
 
-/// f32 bounds grown by a relative margin, so the f32 traversal never culls a triangle the f64
-/// test would hit (the f32 ray origin is rounded).
-fn padded_bounds(triangle: &BvhTriangle) -> PaddedBounds {
+/// f32 bounds, in world coordinates times `scale` (a power of two), grown by a relative margin
+/// (at least 1e-5 m), so the f32 traversal never culls a triangle the f64 test would hit (the
+/// f32 ray origin is rounded).
+fn padded_bounds(triangle: &BvhTriangle, scale: f64) -> PaddedBounds {
     let vertices = [
         triangle.v0,
         triangle.v0 + triangle.e1,
         triangle.v0 + triangle.e2,
-    ];
+    ]
+    .map(|v| v * scale);
     let min = vertices[0].min(vertices[1]).min(vertices[2]);
     let max = vertices[0].max(vertices[1]).max(vertices[2]);
-    let magnitude = min.abs().max(max.abs()).max_element().max(1.0);
+    let magnitude = min.abs().max(max.abs()).max_element().max(scale);
     let pad = DVec3::splat(magnitude * 1e-5);
     PaddedBounds(Aabb::new(
         Vec3A::from((min - pad).as_vec3()),
         Vec3A::from((max + pad).as_vec3()),
     ))
-}
-
-/// The f32 obvhs ray for traversal only; exact distances come from the f64 triangle test.
-fn f32_ray(ray: &Ray, max_distance: f64) -> obvhs::ray::Ray {
-    let max = if max_distance.is_finite() {
-        round_up(max_distance * (1.0 + 1e-6) + 1e-6)
-    } else {
-        f32::INFINITY
-    };
-    obvhs::ray::Ray::new(
-        Vec3A::from(ray.origin.as_vec3()),
-        Vec3A::from(ray.direction.as_vec3()),
-        0.0,
-        max,
-    )
 }
 
 /// The smallest f32 not below `t` (t ≥ 0), so pruning with it stays conservative.

@@ -2,8 +2,8 @@
 //! (the tessellation threshold t, the angle threshold, the layer count, the EM size, the
 //! compositor variant, the framebuffer format, supersampling, and inferred EMs when a bake is
 //! given) at three cameras around a viewpoint sample (on it, halfway to the next, 15° above), and
-//! measures for each setting the median frame time and the lens-pixel PSNR against a reference
-//! traced with more supersamples. Three baselines run in the same sweep: a classic single EM at
+//! measures for each setting the median frame time and the lens-pixel PSNR and SSIM against a
+//! reference traced with more supersamples. Three baselines run in the same sweep: a classic single EM at
 //! infinity, a parallax-corrected box probe (one box shell, what game engines ship), and the
 //! reference ray tracer at one sample per pixel. The result is a table, JSON, CSV, and a Pareto
 //! plot of time against error with the frontier marked.
@@ -21,11 +21,11 @@ use lensmap::{
         Bake,
         projected::{DEFAULT_EM_SIZE, ProjectedOptions, em_origin},
     },
-    metrics::Encoding,
+    metrics::{Coverage, Encoding, Mask},
     render::{RenderedImage, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error, load_hybrid_scene},
     scene::{LayerSpec, Scene},
-    trace::{TraceOptions, render_reference},
+    trace::{ReferenceImage, TraceOptions, image::srgb8, render_reference},
 };
 use serde_json::json;
 
@@ -309,7 +309,18 @@ fn hybrid_scene(
     Ok(load_hybrid_scene(scene, &EmSource::Projected(projected))?.0)
 }
 
-/// One measured point: a setting's median frame time and lens PSNR, each averaged over the
+/// What one setting measured at one camera.
+#[derive(Clone, Copy, Debug)]
+struct Measured {
+    /// Median frame time, ms.
+    frame_ms: f64,
+    /// Lens PSNR, display sRGB, dB.
+    psnr_db: f64,
+    /// Lens SSIM ([`lens_ssim`]).
+    ssim: f64,
+}
+
+/// One measured point: a setting's median frame time, lens PSNR and SSIM, each averaged over the
 /// cameras.
 #[derive(Clone, Debug)]
 struct Point {
@@ -317,7 +328,42 @@ struct Point {
     label: String,
     frame_ms: f64,
     psnr_db: f64,
-    per_camera: Vec<(f64, f64)>,
+    ssim: f64,
+    per_camera: Vec<Measured>,
+}
+
+/// SSIM over the lens pixels: image-compare's SSIM of the two images in display sRGB (8 bits,
+/// per channel, over 8×8 windows, its map holding each window's value at its pixels; a negative
+/// window counts as 0), averaged over the reference's fully covered lens pixels and the three
+/// channels. An empty lens mask is an error.
+fn lens_ssim(image: &RenderedImage, reference: &ReferenceImage) -> anyhow::Result<f64> {
+    let size = (reference.width, reference.height);
+    let to_image = |rgb: Vec<Vec3>| {
+        image::RgbImage::from_raw(size.0, size.1, srgb8(&rgb))
+            .context("an image of the frame's size")
+    };
+    let ours = to_image(image.rgb())?;
+    let theirs = to_image(reference.radiance.clone())?;
+    let similarity = image_compare::rgb_similarity_structure(
+        &image_compare::Algorithm::MSSIMSimple,
+        &ours,
+        &theirs,
+    )
+    .map_err(|e| anyhow::anyhow!("SSIM: {e}"))?;
+    // The crate names its map's type only through this 8-bit rendering of it (values clamped to
+    // [0, 1] and truncated to 1/255): the mean below is within 1/255 of the map's.
+    let map = similarity.image.to_color_map().to_rgb8();
+    let mask = Mask::from_coverage(&reference.lens_mask, Coverage::Full);
+    let (sum, count) = map
+        .pixels()
+        .enumerate()
+        .filter(|(i, _)| mask.contains(*i))
+        .fold((0.0f64, 0usize), |(sum, n), (_, p)| {
+            let mean = p.0.iter().map(|&c| f64::from(c) / 255.0).sum::<f64>() / 3.0;
+            (sum + mean, n + 1)
+        });
+    anyhow::ensure!(count > 0, "SSIM: the reference shows no lens pixel");
+    Ok(sum / count as f64)
 }
 
 /// The points no other point beats in both time and error, fastest first.
@@ -406,7 +452,7 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         (cameras.len() * (all.len() + 2)) as u64,
         "renders",
     );
-    let mut per_setting: Vec<Vec<(f64, f64)>> = vec![Vec::new(); all.len() + 1];
+    let mut per_setting: Vec<Vec<Measured>> = vec![Vec::new(); all.len() + 1];
     for (_, camera) in &cameras {
         let reference = render_reference(
             trace,
@@ -432,8 +478,13 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
                     timed: args.frames,
                 },
             )?;
-            let error = lens_error(&frames.last().image, &reference, Encoding::DisplaySrgb)?;
-            per_setting[i].push((frames.median(|f| f.total_ms), error.psnr_db));
+            let image = &frames.last().image;
+            let error = lens_error(image, &reference, Encoding::DisplaySrgb)?;
+            per_setting[i].push(Measured {
+                frame_ms: frames.median(|f| f.total_ms),
+                psnr_db: error.psnr_db,
+                ssim: lens_ssim(image, &reference)?,
+            });
             bar.inc(1);
         }
         // Baseline: the reference ray tracer at one sample per pixel.
@@ -456,12 +507,16 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
             pixels: one.radiance.iter().map(|c| [c.x, c.y, c.z, 1.0]).collect(),
         };
         let error = lens_error(&as_frame, &reference, Encoding::DisplaySrgb)?;
-        per_setting[all.len()].push((lensmap::runner::median(&mut times), error.psnr_db));
+        per_setting[all.len()].push(Measured {
+            frame_ms: lensmap::runner::median(&mut times),
+            psnr_db: error.psnr_db,
+            ssim: lens_ssim(&as_frame, &reference)?,
+        });
         bar.inc(1);
     }
     bar.finish_and_clear();
 
-    let mean = |values: &[(f64, f64)], pick: fn(&(f64, f64)) -> f64| {
+    let mean = |values: &[Measured], pick: fn(&Measured) -> f64| {
         values.iter().map(pick).sum::<f64>() / values.len() as f64
     };
     let mut points: Vec<Point> = all
@@ -470,16 +525,18 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         .map(|(setting, values)| Point {
             family: setting.family,
             label: setting.label(),
-            frame_ms: mean(values, |v| v.0),
-            psnr_db: mean(values, |v| v.1),
+            frame_ms: mean(values, |v| v.frame_ms),
+            psnr_db: mean(values, |v| v.psnr_db),
+            ssim: mean(values, |v| v.ssim),
             per_camera: values.clone(),
         })
         .collect();
     points.push(Point {
         family: "baseline: ray tracer, 1 spp",
         label: "reference ray tracer, 1 sample per pixel".into(),
-        frame_ms: mean(&per_setting[all.len()], |v| v.0),
-        psnr_db: mean(&per_setting[all.len()], |v| v.1),
+        frame_ms: mean(&per_setting[all.len()], |v| v.frame_ms),
+        psnr_db: mean(&per_setting[all.len()], |v| v.psnr_db),
+        ssim: mean(&per_setting[all.len()], |v| v.ssim),
         per_camera: per_setting[all.len()].clone(),
     });
     let on_frontier = frontier(&points);
@@ -493,24 +550,26 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     let gap_db = best_in_time - default.psnr_db;
 
     say!(
-        "{:<24} {:>10} {:>9}  {}",
+        "{:<28} {:>9} {:>8} {:>7}  {}",
         "series",
         "frame ms",
         "lens dB",
+        "SSIM",
         "setting (per camera: ms / dB)"
     );
     for (i, point) in points.iter().enumerate() {
         let cameras_text: Vec<String> = point
             .per_camera
             .iter()
-            .map(|(ms, db)| format!("{ms:.0}/{db:.2}"))
+            .map(|m| format!("{:.0}/{:.2}", m.frame_ms, m.psnr_db))
             .collect();
         say!(
-            "{:<24} {:>10.1} {:>9.2}{} {}  [{}]",
+            "{:<28} {:>9.1} {:>8.2}{} {:>6.4}  {}  [{}]",
             point.family,
             point.frame_ms,
             point.psnr_db,
             if on_frontier.contains(&i) { "*" } else { " " },
+            point.ssim,
             point.label,
             cameras_text.join(" ")
         );
@@ -522,14 +581,15 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     );
 
     if let Some(path) = &args.csv {
-        let mut csv = String::from("series,setting,frame_ms,lens_psnr_db,on_frontier\n");
+        let mut csv = String::from("series,setting,frame_ms,lens_psnr_db,lens_ssim,on_frontier\n");
         for (i, point) in points.iter().enumerate() {
             csv.push_str(&format!(
-                "{},\"{}\",{:.4},{:.4},{}\n",
+                "{},\"{}\",{:.4},{:.4},{:.5},{}\n",
                 point.family,
                 point.label,
                 point.frame_ms,
                 point.psnr_db,
+                point.ssim,
                 on_frontier.contains(&i)
             ));
         }
@@ -550,8 +610,8 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         .map(|(i, p)| {
             json!({
                 "series": p.family, "setting": p.label, "frame_ms": p.frame_ms,
-                "lens_psnr_db": p.psnr_db, "on_frontier": on_frontier.contains(&i),
-                "per_camera": p.per_camera.iter().map(|(ms, db)| json!({"frame_ms": ms, "lens_psnr_db": db})).collect::<Vec<_>>(),
+                "lens_psnr_db": p.psnr_db, "lens_ssim": p.ssim, "on_frontier": on_frontier.contains(&i),
+                "per_camera": p.per_camera.iter().map(|m| json!({"frame_ms": m.frame_ms, "lens_psnr_db": m.psnr_db, "lens_ssim": m.ssim})).collect::<Vec<_>>(),
             })
         })
         .collect();
@@ -560,7 +620,7 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
             "scene": scene.name, "device": device, "width": args.width, "height": args.height,
             "reference_supersampling": args.reference_supersampling, "frames": args.frames,
             "cameras": cameras.iter().map(|(name, c)| json!({"camera": name, "position": c.position})).collect::<Vec<_>>(),
-            "encoding": "display sRGB, lens pixels of the reference",
+            "encoding": "display sRGB, lens pixels of the reference; SSIM: image-compare's 8×8-window SSIM averaged over them",
             "default_gap_to_frontier_db": gap_db, "points": rows,
         }),
         args.report.as_deref(),

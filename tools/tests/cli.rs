@@ -307,7 +307,7 @@ fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_ref
 }
 
 /// `bench error` on a tiny frame: the default, the moved knob asked for and the three baselines
-/// each get a time and a lens PSNR; at least one point is on the Pareto frontier and no point on
+/// each get a time, a lens PSNR and a lens SSIM; at least one point is on the Pareto frontier and no point on
 /// it is beaten in both time and error by another; the CSV has a row per point and the plot is
 /// written as SVG and PNG.
 #[test]

@@ -773,6 +773,7 @@ mod tests {
                 execute_ms: 1.0,
                 readback_ms: 0.5,
                 passes: 3,
+                saturated: 0,
             },
             downsample_ms: 0.25,
             total_ms: 10.0,

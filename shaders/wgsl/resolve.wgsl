@@ -7,6 +7,9 @@
 struct ResolveConstants {
     supersampling: u32,
     scale: f32,
+    // Each subpixel is clamped to ±limit first: 65504 for an RGBA16F framebuffer, whose
+    // overflowed texels hold ±Inf (the CPU readback clamps them the same way), else +Inf.
+    limit: f32,
 }
 
 var<immediate> constants: ResolveConstants;
@@ -28,7 +31,8 @@ fn fs_box_filter(@builtin(position) pixel: vec4<f32>) -> @location(0) vec4<f32> 
     var sum = vec4<f32>(0.0);
     for (var dy = 0u; dy < k; dy++) {
         for (var dx = 0u; dx < k; dx++) {
-            sum += textureLoad(subpixels, origin + vec2<u32>(dx, dy), 0);
+            let texel = textureLoad(subpixels, origin + vec2<u32>(dx, dy), 0);
+            sum += clamp(texel, vec4<f32>(-constants.limit), vec4<f32>(constants.limit));
         }
     }
     return sum * constants.scale;

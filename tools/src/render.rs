@@ -164,6 +164,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let frame = frames.last();
     frame.image.write_files(&out.png, &out.exr)?;
     step.finish_and_clear();
+    if frame.render.saturated > 0 {
+        warn!(
+            "{} channel values passed RGBA16F's range (65504) and were clamped to it; use --format rgba32f for radiance that bright",
+            frame.render.saturated
+        );
+    }
 
     let reference = if args.compare {
         let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
@@ -243,6 +249,7 @@ fn report(
             "other_ms": frame.other_ms(),
             "gpu_ms": frame.gpu_ms,
             "total_ms": frame.total_ms,
+            "saturated_channels": frame.render.saturated,
             "rays": c.all_rays(),
             "triangle_tests": c.triangle_tests,
             "lens_triangles_in": frame.stats.triangles_in,

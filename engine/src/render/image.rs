@@ -124,8 +124,35 @@ impl RenderedImage {
     }
 }
 
-/// Converts read-back texels to f32 RGBA.
-pub(super) fn decode(bytes: &[u8], format: TargetFormat, pixels: usize) -> Vec<[f32; 4]> {
+/// The largest finite RGBA16F value: an overflowed texel is clamped to it.
+pub const HALF_MAX: f32 = 65504.0;
+
+/// Converts read-back texels to f32 RGBA, and counts the channel values that overflowed: an
+/// RGBA16F framebuffer holds ±Inf where blending passed ±65504 (or a driver rounded a value past
+/// it to nearest; Vulkan leaves the rounding mode open), and those are clamped to ±[`HALF_MAX`]
+/// here, so no frame carries an Inf.
+pub(super) fn decode(bytes: &[u8], format: TargetFormat, pixels: usize) -> (Vec<[f32; 4]>, usize) {
+    let mut texels = decode_texels(bytes, format, pixels);
+    let saturated = if format == TargetFormat::Rgba16f {
+        texels
+            .par_iter_mut()
+            .map(|pixel| {
+                let mut count = 0;
+                for value in pixel.iter_mut().filter(|v| v.is_infinite()) {
+                    *value = HALF_MAX.copysign(*value);
+                    count += 1;
+                }
+                count
+            })
+            .sum()
+    } else {
+        0
+    };
+    (texels, saturated)
+}
+
+/// Converts read-back texels to f32 RGBA as they are.
+fn decode_texels(bytes: &[u8], format: TargetFormat, pixels: usize) -> Vec<[f32; 4]> {
     match format {
         TargetFormat::Rgba8 => bytes
             .par_chunks_exact(4)
@@ -181,6 +208,32 @@ mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
 
+    /// Overflowed RGBA16F texels (±Inf) come back clamped to ±65504 and counted; finite values
+    /// and the other formats are untouched.
+    #[test]
+    fn overflowed_half_texels_are_clamped_and_counted() {
+        let texel = |values: [f32; 4]| values.map(|v| half::f16::from_f32(v).to_le_bytes());
+        let bytes: Vec<u8> = [
+            texel([1.0, f32::INFINITY, -f32::INFINITY, 0.5]),
+            texel([65504.0, -2.0, 0.0, 1.0]),
+        ]
+        .iter()
+        .flatten()
+        .flatten()
+        .copied()
+        .collect();
+        let (pixels, saturated) = decode(&bytes, TargetFormat::Rgba16f, 2);
+        assert_eq!(saturated, 2);
+        assert_eq!(pixels[0], [1.0, HALF_MAX, -HALF_MAX, 0.5]);
+        assert_eq!(pixels[1], [65504.0, -2.0, 0.0, 1.0]);
+        let floats: Vec<u8> = [f32::INFINITY, 1.0, 2.0, 3.0]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let (pixels, saturated) = decode(&floats, TargetFormat::Rgba32f, 1);
+        assert_eq!((pixels[0][0], saturated), (f32::INFINITY, 0));
+    }
+
     /// The chunked F16C-capable conversion equals the scalar one bit for bit on random texels
     /// (every finite half, infinities included; NaNs excluded, whose payloads may be quieted),
     /// over a length that is not a multiple of the chunk.
@@ -198,7 +251,7 @@ mod tests {
                 }
             })
             .collect();
-        let fast = decode(&bytes, TargetFormat::Rgba16f, pixels);
+        let fast = decode_texels(&bytes, TargetFormat::Rgba16f, pixels);
         assert_eq!(fast.len(), pixels);
         for (i, (pixel, c)) in fast.iter().zip(bytes.chunks_exact(8)).enumerate() {
             for k in 0..4 {

@@ -221,6 +221,8 @@ pub enum Draw {
     BoxFilter {
         /// k for k×k subpixels per pixel.
         supersampling: u32,
+        /// The framebuffer is RGBA16F: overflowed (±Inf) subpixels are clamped to ±65504.
+        half: bool,
     },
 }
 
@@ -477,7 +479,10 @@ pub fn frame_graph_to(
                     cull: Cull::None,
                     sampled: vec![colour],
                     storage: Vec::new(),
-                    draws: vec![Draw::BoxFilter { supersampling: k }],
+                    draws: vec![Draw::BoxFilter {
+                        supersampling: k,
+                        half: format == TargetFormat::Rgba16f,
+                    }],
                 },
             });
             graph.add_pass(Pass {

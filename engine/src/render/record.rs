@@ -277,12 +277,21 @@ impl Recorder<'_> {
         // buffers and sets live as long as `frame`.
         unsafe {
             match draw {
-                Draw::BoxFilter { supersampling } => {
+                Draw::BoxFilter {
+                    supersampling,
+                    half,
+                } => {
                     let k = supersampling.max(1);
-                    // The CPU filter's scale, computed the same way (RenderedImage::box_downsample).
+                    // The CPU filter's scale, computed the same way (RenderedImage::box_downsample),
+                    // and the readback's clamp of overflowed RGBA16F texels.
                     let constants = ResolveConstants {
                         supersampling: k,
                         scale: 1.0 / (k * k) as f32,
+                        limit: if half {
+                            super::image::HALF_MAX
+                        } else {
+                            f32::INFINITY
+                        },
                     };
                     device.cmd_bind_descriptor_sets(
                         cb,

@@ -34,6 +34,10 @@ pub struct FrameTimings {
     /// Passes the frame recorded (the plan's steps: environment, prime, layer passes, alpha
     /// clears or single passes, the readback).
     pub passes: usize,
+    /// Channel values of an RGBA16F framebuffer that overflowed (±Inf) and were clamped to
+    /// ±65504 on readback (0 for other formats, and for frames into a host's image, whose box
+    /// filter clamps them on the GPU).
+    pub saturated: usize,
 }
 
 /// Pipelines, layouts and the sampler shared by every frame, the uploads frames share, the
@@ -272,6 +276,7 @@ impl Renderer {
                     execute_ms,
                     readback_ms: 0.0,
                     passes: submission.passes,
+                    saturated: 0,
                 },
             ));
         }
@@ -282,7 +287,7 @@ impl Renderer {
                 "finish() was given another frame than the one submitted".into(),
             ));
         };
-        let pixels = decode(
+        let (pixels, saturated) = decode(
             targets.readback.read(),
             submission.format,
             (width * height) as usize,
@@ -299,6 +304,7 @@ impl Renderer {
                 execute_ms,
                 readback_ms,
                 passes: submission.passes,
+                saturated,
             },
         ))
     }

@@ -26,3 +26,21 @@ pub fn assert_clean(gpu: &Gpu) {
         report.messages.join("\n")
     );
 }
+
+/// teapot-room (two lens objects, one open) at `width × height`, 1×1, with 16² projected EMs:
+/// small enough for a test, with every kind of lens object.
+pub fn small_teapot_room(width: u32, height: u32) -> lensmap::hybrid::HybridScene {
+    use lensmap::layers::projected::ProjectedOptions;
+    use lensmap::runner::{EmSource, load_hybrid_scene};
+    let mut scene = lensmap::scene::Scene::load_named("teapot-room").expect("built in");
+    scene.camera.width = width;
+    scene.camera.height = height;
+    scene.camera.supersampling = 1;
+    let options = ProjectedOptions {
+        size: 16,
+        supersampling: 1,
+    };
+    load_hybrid_scene(scene, &EmSource::Projected(options))
+        .expect("teapot-room loads")
+        .0
+}

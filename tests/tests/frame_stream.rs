@@ -5,27 +5,11 @@
 
 use lensmap::{
     hybrid::HybridOptions,
-    layers::projected::ProjectedOptions,
     render::{TargetFormat, Variant},
-    runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
-    scene::{Camera, Scene},
+    runner::{FrameOptions, FrameRunner},
+    scene::Camera,
 };
-use lensmap_tests::{assert_clean, gpu};
-
-/// teapot-room (two lens objects, one open) at 48×36 with 16² projected EMs.
-fn small_teapot_room() -> lensmap::hybrid::HybridScene {
-    let mut scene = Scene::load_named("teapot-room").unwrap();
-    scene.camera.width = 48;
-    scene.camera.height = 36;
-    scene.camera.supersampling = 1;
-    let options = ProjectedOptions {
-        size: 16,
-        supersampling: 1,
-    };
-    load_hybrid_scene(scene, &EmSource::Projected(options))
-        .unwrap()
-        .0
-}
+use lensmap_tests::{assert_clean, gpu, small_teapot_room};
 
 fn options(variant: Variant) -> FrameOptions {
     FrameOptions {
@@ -39,7 +23,7 @@ fn options(variant: Variant) -> FrameOptions {
 /// equal the frames rendered one at a time, each by a fresh runner from a fresh scene cache.
 #[test]
 fn frames_in_flight_equal_frames_rendered_alone() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(48, 36);
     let base = hybrid.scene.camera;
     let cameras = [
         base.orbited(0.0),
@@ -81,7 +65,7 @@ fn frames_in_flight_equal_frames_rendered_alone() {
 /// upload (nothing traced), and its image is the first's, bit for bit.
 #[test]
 fn a_still_camera_renders_the_same_frame_without_cpu_work() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(48, 36);
     let camera = hybrid.scene.camera;
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let first = runner
@@ -110,7 +94,7 @@ fn a_still_camera_renders_the_same_frame_without_cpu_work() {
 /// frustum test itself is checked against sampled points in `hybrid::frame`'s unit tests).
 #[test]
 fn lens_objects_outside_the_view_are_skipped() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(48, 36);
     let base = hybrid.scene.camera;
     // Look from the scene camera straight away from the lens objects.
     let away = Camera {
@@ -138,7 +122,7 @@ fn lens_objects_outside_the_view_are_skipped() {
 /// run in parallel but gather their results in order.
 #[test]
 fn frames_do_not_depend_on_the_thread_count() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(48, 36);
     let camera = hybrid.scene.camera.orbited(2.0);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let mut render = |threads: usize| {
@@ -168,7 +152,7 @@ fn frames_do_not_depend_on_the_thread_count() {
 /// is refused.
 #[test]
 fn small_footprints_get_a_coarser_t_only_when_asked() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(48, 36);
     let base = hybrid.scene.camera;
     // Farther away: the lens objects cover part of the 48×36 frame, all below 1000 subpixels.
     let far = Camera {
@@ -202,7 +186,7 @@ fn small_footprints_get_a_coarser_t_only_when_asked() {
 /// meshes, another sky, other viewpoint samples each make the next frame a new one.
 #[test]
 fn swapping_scene_parts_is_not_a_still_frame() {
-    let mut hybrid = small_teapot_room();
+    let mut hybrid = small_teapot_room(48, 36);
     let camera = hybrid.scene.camera;
     let options = options(Variant::SinglePass);
     let mut runner = FrameRunner::new(gpu()).unwrap();

@@ -9,28 +9,12 @@
 use lensmap::{
     gpu::{Buffer, BufferUsage, Gpu, Image, ImageDesc, vk},
     hybrid::HybridOptions,
-    layers::projected::ProjectedOptions,
     render::{HostImage, TargetFormat, Variant},
-    runner::{EmSource, FrameOptions, FrameRunner, RunError, load_hybrid_scene},
-    scene::{Camera, Scene},
+    runner::{FrameOptions, FrameRunner, RunError},
+    scene::Camera,
     trace::image::srgb_encode,
 };
-use lensmap_tests::{assert_clean, gpu};
-
-/// teapot-room (two lens objects, one open) at 24×18 pixels with 16² projected EMs.
-fn small_teapot_room() -> lensmap::hybrid::HybridScene {
-    let mut scene = Scene::load_named("teapot-room").unwrap();
-    scene.camera.width = 24;
-    scene.camera.height = 18;
-    scene.camera.supersampling = 1;
-    let options = ProjectedOptions {
-        size: 16,
-        supersampling: 1,
-    };
-    load_hybrid_scene(scene, &EmSource::Projected(options))
-        .unwrap()
-        .0
-}
+use lensmap_tests::{assert_clean, gpu, small_teapot_room};
 
 fn options(format: TargetFormat) -> FrameOptions {
     FrameOptions {
@@ -127,7 +111,7 @@ fn cpu_frame(
 
 #[test]
 fn a_frame_into_a_host_image_equals_the_frame_read_back() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(24, 18);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let cases = [
         (TargetFormat::Rgba32f, vk::Format::R32G32B32A32_SFLOAT, 1),
@@ -181,7 +165,7 @@ fn a_frame_into_a_host_image_equals_the_frame_read_back() {
 
 #[test]
 fn an_srgb_bgra_image_holds_the_encoded_frame_and_the_semaphores_are_honoured() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(24, 18);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let camera = Camera {
         supersampling: 2,
@@ -263,7 +247,7 @@ fn an_srgb_bgra_image_holds_the_encoded_frame_and_the_semaphores_are_honoured() 
 
 #[test]
 fn host_images_that_do_not_fit_the_frame_are_refused_naming_the_fix() {
-    let hybrid = small_teapot_room();
+    let hybrid = small_teapot_room(24, 18);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let camera = hybrid.scene.camera;
     let image = host_image(runner.gpu(), vk::Format::R8G8B8A8_UNORM, &camera);

@@ -272,33 +272,20 @@ impl<D: Clone, P: Clone> Graph<D, P> {
         while index < live.len() {
             let pass = live[index];
             match &pass.kind {
-                PassKind::Readback { image, .. } => {
+                // A copy out, or the hand-back of an external image: one step whose barrier
+                // moves the image to where its next user wants it.
+                PassKind::Readback { image, .. } | PassKind::Export { image } => {
+                    let (layout, access) = match pass.kind {
+                        PassKind::Export { .. } => (Layout::External, Access::External),
+                        _ => (Layout::TransferSrc, Access::TransferRead),
+                    };
                     let mut barriers = Vec::new();
                     transition(
                         &mut state,
                         &mut barriers,
                         *image,
-                        Layout::TransferSrc,
-                        Access::TransferRead,
-                        false,
-                        false,
-                    );
-                    steps.push(Step {
-                        pass: pass.clone(),
-                        barriers,
-                        begin: None,
-                        end: false,
-                    });
-                    index += 1;
-                }
-                PassKind::Export { image } => {
-                    let mut barriers = Vec::new();
-                    transition(
-                        &mut state,
-                        &mut barriers,
-                        *image,
-                        Layout::External,
-                        Access::External,
+                        layout,
+                        access,
                         false,
                         false,
                     );

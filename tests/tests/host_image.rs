@@ -39,6 +39,8 @@ fn lent(image: &Image) -> HostImage {
     HostImage {
         image: image.handle,
         view: image.view,
+        mip_level: 0,
+        array_layer: 0,
         format: image.desc.format,
         width: image.desc.extent.width,
         height: image.desc.extent.height,
@@ -269,6 +271,9 @@ fn host_images_that_do_not_fit_the_frame_are_refused_naming_the_fix() {
     let mut null = lent(&image);
     null.view = vk::ImageView::null();
     assert!(refusal(null).contains("VK_NULL_HANDLE"));
+    let mut depth_layout = lent(&image);
+    depth_layout.current_layout = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    assert!(refusal(depth_layout).contains("current layout"));
     assert!(HostImage::supports(vk::Format::B8G8R8A8_SRGB));
     assert!(!HostImage::supports(vk::Format::R8G8B8_UNORM));
     assert_clean(runner.gpu());

@@ -584,9 +584,9 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         let mut csv = String::from("series,setting,frame_ms,lens_psnr_db,lens_ssim,on_frontier\n");
         for (i, point) in points.iter().enumerate() {
             csv.push_str(&format!(
-                "{},\"{}\",{:.4},{:.4},{:.5},{}\n",
-                point.family,
-                point.label,
+                "{},{},{:.4},{:.4},{:.5},{}\n",
+                csv_text(point.family),
+                csv_text(&point.label),
                 point.frame_ms,
                 point.psnr_db,
                 point.ssim,
@@ -626,6 +626,11 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         args.report.as_deref(),
     )?;
     Ok(())
+}
+
+/// A CSV field: quoted, with quotes doubled (RFC 4180), as series names hold commas.
+fn csv_text(text: &str) -> String {
+    format!("\"{}\"", text.replace('"', "\"\""))
 }
 
 /// The plot's view of the points.

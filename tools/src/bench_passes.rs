@@ -96,6 +96,13 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, FrameInput)>> {
         .map(|lens| lens.layer_count())
         .max()
         .unwrap_or(0);
+    let most = lensmap::render::SinglePassProgram::MAX_LAYERS;
+    if layers > most {
+        return Err(BadUsage(format!(
+            "--scene {name}: its lens objects have {layers} layers; the single pass this benchmark compares with composites at most {most}: give a scene with fewer shells"
+        ))
+        .into());
+    }
     Ok(vec![(layers, frame)])
 }
 

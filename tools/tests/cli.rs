@@ -382,6 +382,19 @@ fn bench_error_measures_time_and_error_with_baselines_and_a_frontier() {
     }
     let table = std::fs::read_to_string(&csv).expect("the CSV");
     assert_eq!(table.lines().count(), 1 + points.len());
+    // Six fields a row: commas only between fields (names with commas are quoted).
+    for line in table.lines() {
+        let mut fields = 1;
+        let mut quoted = false;
+        for c in line.chars() {
+            match c {
+                '"' => quoted = !quoted,
+                ',' if !quoted => fields += 1,
+                _ => {}
+            }
+        }
+        assert_eq!(fields, 6, "{line}");
+    }
     for name in ["pareto.svg", "pareto.png"] {
         let bytes = std::fs::metadata(plot.join(name))
             .map(|m| m.len())

@@ -202,12 +202,17 @@ typedef struct LensmapHostImage {
   uint32_t struct_size;
   // The image: 2D, created with `VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT`.
   VkImage image;
-  // A 2D view of one level and one layer of it.
+  // A 2D view of one level and one layer of it: `mip_level` and `array_layer`.
   VkImageView view;
+  // The level the view shows (lensmap's barriers cover that level alone).
+  uint32_t mip_level;
+  // The array layer the view shows (lensmap's barriers cover that layer alone).
+  uint32_t array_layer;
   // Its format: `VK_FORMAT_R8G8B8A8_UNORM`, `_R16G16B16A16_SFLOAT`, `_R32G32B32A32_SFLOAT`,
   // `_B8G8R8A8_UNORM`, `_R8G8B8A8_SRGB` or `_B8G8R8A8_SRGB` (sRGB formats encode on write).
   VkFormat format;
-  // The layout it is in when the frame's work begins (after the wait semaphores).
+  // The layout it is in when the frame's work begins (after the wait semaphores): a
+  // colour-image layout, `UNDEFINED` when its contents do not matter.
   VkImageLayout current_layout;
   // The layout the frame leaves it in (what the host does next: `TRANSFER_SRC_OPTIMAL`,
   // `SHADER_READ_ONLY_OPTIMAL`, `PRESENT_SRC_KHR`, …; not `UNDEFINED` or `PREINITIALIZED`).
@@ -330,6 +335,13 @@ LensmapResult lensmap_render_to_memory(struct LensmapContext *context,
 // [`lensmap_context_new_on_host`] on the image's device. `stats` may be NULL; its GPU part is
 // the host's to time (`other_ms` covers upload, recording and submission).
 //
+// On failure nothing was submitted: the wait semaphores were not waited on (a binary one stays
+// signalled) and the signal semaphores will not be signalled by this call. The call may wait
+// on the CPU for lensmap's own earlier work (a still camera for the previous frame, a moving
+// one for the frame two calls back, which reuse their buffers), never for this call's wait
+// semaphores; so a host must not make an earlier frame's wait semaphores depend on a later
+// lensmap call.
+//
 // # Safety
 // `context` and `scene` must be handles from this library (or NULL); `options` must point to a
 // `LensmapFrameOptions` and `image` to a `LensmapHostImage` whose handles are live objects of
@@ -341,7 +353,8 @@ LensmapResult lensmap_render_to_image(struct LensmapContext *context,
                                       const struct LensmapHostImage *image,
                                       struct LensmapFrameStats *stats);
 
-// Fills `options` (whose `struct_size` the caller set) with what `lensmap render --scene`
+// Fills `options` (whose `struct_size` the caller set; the other fields are not read) with what
+// `lensmap render --scene`
 // renders by default: the scene's camera (position, look-at, up, vertical field of view,
 // width, height, supersampling), t = 3, the single-pass compositor and an RGBA16F framebuffer.
 // Change what differs, then render.

@@ -220,12 +220,17 @@ pub struct LensmapHostImage {
     pub struct_size: u32,
     /// The image: 2D, created with `VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT`.
     pub image: VkImage,
-    /// A 2D view of one level and one layer of it.
+    /// A 2D view of one level and one layer of it: `mip_level` and `array_layer`.
     pub view: VkImageView,
+    /// The level the view shows (lensmap's barriers cover that level alone).
+    pub mip_level: u32,
+    /// The array layer the view shows (lensmap's barriers cover that layer alone).
+    pub array_layer: u32,
     /// Its format: `VK_FORMAT_R8G8B8A8_UNORM`, `_R16G16B16A16_SFLOAT`, `_R32G32B32A32_SFLOAT`,
     /// `_B8G8R8A8_UNORM`, `_R8G8B8A8_SRGB` or `_B8G8R8A8_SRGB` (sRGB formats encode on write).
     pub format: VkFormat,
-    /// The layout it is in when the frame's work begins (after the wait semaphores).
+    /// The layout it is in when the frame's work begins (after the wait semaphores): a
+    /// colour-image layout, `UNDEFINED` when its contents do not matter.
     pub current_layout: VkImageLayout,
     /// The layout the frame leaves it in (what the host does next: `TRANSFER_SRC_OPTIMAL`,
     /// `SHADER_READ_ONLY_OPTIMAL`, `PRESENT_SRC_KHR`, …; not `UNDEFINED` or `PREINITIALIZED`).
@@ -1055,6 +1060,13 @@ unsafe fn semaphores(
 /// [`lensmap_context_new_on_host`] on the image's device. `stats` may be NULL; its GPU part is
 /// the host's to time (`other_ms` covers upload, recording and submission).
 ///
+/// On failure nothing was submitted: the wait semaphores were not waited on (a binary one stays
+/// signalled) and the signal semaphores will not be signalled by this call. The call may wait
+/// on the CPU for lensmap's own earlier work (a still camera for the previous frame, a moving
+/// one for the frame two calls back, which reuse their buffers), never for this call's wait
+/// semaphores; so a host must not make an earlier frame's wait semaphores depend on a later
+/// lensmap call.
+///
 /// # Safety
 /// `context` and `scene` must be handles from this library (or NULL); `options` must point to a
 /// `LensmapFrameOptions` and `image` to a `LensmapHostImage` whose handles are live objects of
@@ -1098,6 +1110,8 @@ pub unsafe extern "C" fn lensmap_render_to_image(
         let host = lensmap::render::HostImage {
             image: vk::Image::from_raw(lent.image as u64),
             view: vk::ImageView::from_raw(lent.view as u64),
+            mip_level: lent.mip_level,
+            array_layer: lent.array_layer,
             format,
             width: camera.width,
             height: camera.height,
@@ -1158,7 +1172,8 @@ fn degrees_of(radians: f32) -> f32 {
         .unwrap_or(first)
 }
 
-/// Fills `options` (whose `struct_size` the caller set) with what `lensmap render --scene`
+/// Fills `options` (whose `struct_size` the caller set; the other fields are not read) with what
+/// `lensmap render --scene`
 /// renders by default: the scene's camera (position, look-at, up, vertical field of view,
 /// width, height, supersampling), t = 3, the single-pass compositor and an RGBA16F framebuffer.
 /// Change what differs, then render.
@@ -1172,8 +1187,21 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
     options: *mut LensmapFrameOptions,
 ) -> LensmapResult {
     boundary(|| {
-        // SAFETY: the caller's promise (read for its struct_size).
-        unsafe { read_struct(options as *const LensmapFrameOptions, "options") }?;
+        if options.is_null() {
+            return Err(null("options"));
+        }
+        // SAFETY: non-null and points to a LensmapFrameOptions (the caller's promise); only its
+        // first field, the size, is read: the rest may be unset.
+        let size = unsafe { *(options as *const u32) } as usize;
+        if size != std::mem::size_of::<LensmapFrameOptions>() {
+            return Err(Failure::new(
+                LensmapResult::StructSize,
+                format!(
+                    "options->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {} bytes; set it to sizeof(LensmapFrameOptions)",
+                    std::mem::size_of::<LensmapFrameOptions>()
+                ),
+            ));
+        }
         // SAFETY: the caller's promise.
         let scene = unsafe { scene_ref(scene) }?;
         let camera = scene.hybrid.scene.camera;
@@ -1190,7 +1218,7 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
             variant: LENSMAP_VARIANT_SINGLE_PASS,
             format: LENSMAP_FORMAT_RGBA16F,
         };
-        // SAFETY: writable by the caller's promise, its size checked by read_struct.
+        // SAFETY: writable by the caller's promise, its size checked above.
         unsafe { *options = filled };
         Ok(())
     })

@@ -781,6 +781,8 @@ impl<'a> HostTarget<'a> {
             struct_size: size_of::<LensmapHostImage>() as u32,
             image: self.image.as_raw() as VkImage,
             view: self.view.as_raw() as VkImageView,
+            mip_level: 0,
+            array_layer: 0,
             format: ash::vk::Format::R32G32B32A32_SFLOAT.as_raw(),
             current_layout: ash::vk::ImageLayout::UNDEFINED.as_raw(),
             final_layout: ash::vk::ImageLayout::TRANSFER_SRC_OPTIMAL.as_raw(),

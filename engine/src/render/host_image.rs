@@ -15,10 +15,14 @@ use crate::graph::Format;
 /// ordered after it as well.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HostImage {
-    /// The image: 2D, one level and layer rendered (the view's), `COLOR_ATTACHMENT` usage.
+    /// The image: 2D, `COLOR_ATTACHMENT` usage.
     pub image: vk::Image,
-    /// A 2D view of it, one level and one layer.
+    /// A 2D view of it: the one level `mip_level` and the one layer `array_layer`.
     pub view: vk::ImageView,
+    /// The level the view shows (the barriers cover it alone).
+    pub mip_level: u32,
+    /// The array layer the view shows (the barriers cover it alone).
+    pub array_layer: u32,
     /// Its format: one of [`HostImage::FORMATS`].
     pub format: vk::Format,
     /// Its width: the frame's pixels, not its subpixels.
@@ -55,6 +59,22 @@ impl HostImage {
         vulkan::graph_format_of(format).is_some()
     }
 
+    /// The layouts a colour image may be in before a frame (`UNDEFINED` and `PREINITIALIZED`
+    /// too) and, but for those two, after it.
+    pub const LAYOUTS: [vk::ImageLayout; 11] = [
+        vk::ImageLayout::UNDEFINED,
+        vk::ImageLayout::PREINITIALIZED,
+        vk::ImageLayout::GENERAL,
+        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+        vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        vk::ImageLayout::ATTACHMENT_OPTIMAL,
+        vk::ImageLayout::READ_ONLY_OPTIMAL,
+        vk::ImageLayout::PRESENT_SRC_KHR,
+        vk::ImageLayout::SHARED_PRESENT_KHR,
+    ];
+
     /// The graph output of a frame of `width × height` subpixels into this image: its format and
     /// the supersampling factor k (the frame's sides are k times the image's). An error names
     /// what does not fit.
@@ -71,12 +91,15 @@ impl HostImage {
                 "host image: image and view must be live handles, not VK_NULL_HANDLE".into(),
             ));
         }
-        if matches!(
-            self.final_layout,
-            vk::ImageLayout::UNDEFINED | vk::ImageLayout::PREINITIALIZED
-        ) {
+        if !Self::LAYOUTS.contains(&self.current_layout) {
             return Err(RenderError::BadInput(format!(
-                "host image final layout {:?}: give the layout the host uses next (a frame cannot end in UNDEFINED or PREINITIALIZED)",
+                "host image current layout {:?}: not a layout of a colour image (give UNDEFINED if its contents do not matter)",
+                self.current_layout
+            )));
+        }
+        if !Self::LAYOUTS[2..].contains(&self.final_layout) {
+            return Err(RenderError::BadInput(format!(
+                "host image final layout {:?}: give the colour-image layout the host uses next (a frame cannot end in UNDEFINED or PREINITIALIZED)",
                 self.final_layout
             )));
         }
@@ -91,9 +114,10 @@ impl HostImage {
                 self.width, self.height
             )));
         }
+        let supersampling = width / self.width;
         Ok(Output::External {
             format,
-            supersampling: width / self.width,
+            supersampling,
         })
     }
 }

@@ -221,7 +221,8 @@ pub enum Draw {
     BoxFilter {
         /// k for k×k subpixels per pixel.
         supersampling: u32,
-        /// The framebuffer is RGBA16F: overflowed (±Inf) subpixels are clamped to ±65504.
+        /// The framebuffer or the image is RGBA16F: subpixels are clamped to ±65504 (an
+        /// overflowed framebuffer texel is ±Inf; the image would make a larger value ±Inf).
         half: bool,
     },
 }
@@ -481,7 +482,10 @@ pub fn frame_graph_to(
                     storage: Vec::new(),
                     draws: vec![Draw::BoxFilter {
                         supersampling: k,
-                        half: format == TargetFormat::Rgba16f,
+                        // A half-float framebuffer may hold ±Inf; a half-float image would turn
+                        // larger values into ±Inf.
+                        half: format == TargetFormat::Rgba16f
+                            || image_format == Format::Rgba16Float,
                     }],
                 },
             });

@@ -50,15 +50,31 @@ impl Recorder<'_> {
         let host = self.host.filter(|_| resources.external.is_some());
         // The graph's image handles → the frame's Vulkan images (imported cube arrays never need
         // barriers within a frame: uploads leave them SHADER_READ_ONLY; mapped all the same).
-        let image_of = |id: graph::ImageId| -> (vk::Image, vk::ImageAspectFlags, u32) {
+        // Each image with the subresources its barriers cover: every level and layer of lensmap's
+        // own images, the one level and layer of a host image that its view shows.
+        let image_of = |id: graph::ImageId| -> (vk::Image, vk::ImageSubresourceRange) {
+            let all = |aspect_mask, layer_count| vk::ImageSubresourceRange {
+                aspect_mask,
+                base_mip_level: 0,
+                level_count: vk::REMAINING_MIP_LEVELS,
+                base_array_layer: 0,
+                layer_count,
+            };
             if let (Some(host), true) = (host, Some(id) == resources.external) {
-                return (host.image, vk::ImageAspectFlags::COLOR, 1);
+                let range = vk::ImageSubresourceRange {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    base_mip_level: host.mip_level,
+                    level_count: 1,
+                    base_array_layer: host.array_layer,
+                    layer_count: 1,
+                };
+                return (host.image, range);
             }
             if id == resources.colour {
-                return (targets.colour.handle, vk::ImageAspectFlags::COLOR, 1);
+                return (targets.colour.handle, all(vk::ImageAspectFlags::COLOR, 1));
             }
             if id == resources.depth {
-                return (targets.depth.handle, vk::ImageAspectFlags::DEPTH, 1);
+                return (targets.depth.handle, all(vk::ImageAspectFlags::DEPTH, 1));
             }
             resources
                 .layers
@@ -67,12 +83,11 @@ impl Recorder<'_> {
                 .flat_map(|(ids, lens)| ids.iter().zip(&lens.layers))
                 .find(|(layer_id, _)| **layer_id == id)
                 .map_or(
-                    (vk::Image::null(), vk::ImageAspectFlags::COLOR, 1),
+                    (vk::Image::null(), all(vk::ImageAspectFlags::COLOR, 1)),
                     |(_, image)| {
                         (
                             image.handle,
-                            vk::ImageAspectFlags::COLOR,
-                            image.desc.array_layers,
+                            all(vk::ImageAspectFlags::COLOR, image.desc.array_layers),
                         )
                     },
                 )
@@ -96,7 +111,7 @@ impl Recorder<'_> {
                     .barriers
                     .iter()
                     .map(|b| {
-                        let (image, aspect, layers) = image_of(b.image);
+                        let (image, range) = image_of(b.image);
                         let (src_stage, src_access) = vk_access(b.src);
                         let (dst_stage, dst_access) = vk_access(b.dst);
                         vk::ImageMemoryBarrier2::default()
@@ -107,13 +122,7 @@ impl Recorder<'_> {
                             .old_layout(layout(b.old_layout, true))
                             .new_layout(layout(b.new_layout, false))
                             .image(image)
-                            .subresource_range(vk::ImageSubresourceRange {
-                                aspect_mask: aspect,
-                                base_mip_level: 0,
-                                level_count: vk::REMAINING_MIP_LEVELS,
-                                base_array_layer: 0,
-                                layer_count: layers,
-                            })
+                            .subresource_range(range)
                     })
                     .collect();
                 // SAFETY: recording; the barriers describe images alive for the submission.

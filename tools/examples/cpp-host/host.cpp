@@ -262,7 +262,18 @@ struct Host {
     uint32_t family = 0;
     VkQueue queue = VK_NULL_HANDLE;
 
+    // The constructor releases what it made before rethrowing (a destructor runs only after a
+    // constructor that finished).
     explicit Host(bool validation) {
+        try {
+            create(validation);
+        } catch (...) {
+            release();
+            throw;
+        }
+    }
+
+    void create(bool validation) {
         VkApplicationInfo app{};
         app.sType = VK_STRUCTURE_TYPE_APPLICATION_INFO;
         app.pApplicationName = "lensmap cpp-host";
@@ -352,7 +363,9 @@ struct Host {
         vkGetDeviceQueue(device, family, 0, &queue);
     }
 
-    ~Host() {
+    ~Host() { release(); }
+
+    void release() noexcept {
         if (device != VK_NULL_HANDLE) vkDestroyDevice(device, nullptr);
         if (messenger != VK_NULL_HANDLE) {
             auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
@@ -360,6 +373,9 @@ struct Host {
             if (destroy) destroy(instance, messenger, nullptr);
         }
         if (instance != VK_NULL_HANDLE) vkDestroyInstance(instance, nullptr);
+        device = VK_NULL_HANDLE;
+        messenger = VK_NULL_HANDLE;
+        instance = VK_NULL_HANDLE;
     }
     Host(const Host &) = delete;
     Host &operator=(const Host &) = delete;
@@ -379,6 +395,16 @@ struct Target {
 
     Target(const Host &host, VkFormat format, uint32_t width, uint32_t height, uint32_t bytes)
         : device(host.device) {
+        try {
+            create(host, format, width, height, bytes);
+        } catch (...) {
+            release();
+            throw;
+        }
+    }
+
+    void create(const Host &host, VkFormat format, uint32_t width, uint32_t height,
+                uint32_t bytes) {
         VkImageCreateInfo image_info{};
         image_info.sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO;
         image_info.imageType = VK_IMAGE_TYPE_2D;
@@ -437,7 +463,10 @@ struct Target {
         check_vk(vkCreateFence(device, &fence_info, nullptr, &fence), "vkCreateFence");
     }
 
-    ~Target() {
+    ~Target() { release(); }
+
+    // Destroying VK_NULL_HANDLE is a no-op, so this undoes a partly finished create() too.
+    void release() noexcept {
         vkDeviceWaitIdle(device);
         vkDestroyFence(device, fence, nullptr);
         vkDestroyCommandPool(device, pool, nullptr);
@@ -549,6 +578,8 @@ void cycle(const Options &options, bool write) {
     image.struct_size = sizeof image;
     image.image = target.image;
     image.view = target.view;
+    image.mip_level = 0;
+    image.array_layer = 0;
     image.format = format.vulkan;
     image.current_layout = VK_IMAGE_LAYOUT_UNDEFINED;
     image.final_layout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;

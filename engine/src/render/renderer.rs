@@ -12,7 +12,7 @@ use super::{
     FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat, Variant,
     image::decode,
     pipelines::Pipelines,
-    plan::{FrameResources, Output, frame_graph, frame_graph_to},
+    plan::{FrameResources, Output, frame_graph_to},
     record::Recorder,
     upload::{Targets, UploadCache, UploadedFrame},
 };
@@ -132,16 +132,17 @@ impl Renderer {
         variant: Variant,
         format: TargetFormat,
     ) -> Result<FramePlan, RenderError> {
-        Ok(Self::plan_with_resources(frame, variant, format)?.0)
+        Ok(Self::plan_with_resources(frame, variant, format, Output::Readback)?.0)
     }
 
-    /// The plan and the graph's handles of the frame's images.
+    /// The plan ending in `output` and the graph's handles of the frame's images.
     fn plan_with_resources(
         frame: &UploadedFrame,
         variant: Variant,
         format: TargetFormat,
+        output: Output,
     ) -> Result<(FramePlan, FrameResources), RenderError> {
-        let (graph, resources) = frame_graph(frame.shape(), variant, format)?;
+        let (graph, resources) = frame_graph_to(frame.shape(), variant, format, output)?;
         // The frame graph is well-formed by construction (lens names are unique, checked by
         // FrameInput::validate); a failure here is a bug in plan.rs.
         let plan = graph.compile().expect("frame graphs always compile");
@@ -192,9 +193,7 @@ impl Renderer {
             Some(image) => image.output(width, height)?,
             None => Output::Readback,
         };
-        let (graph, resources) = frame_graph_to(frame.shape(), variant, format, output)?;
-        // The frame graph is well-formed by construction (see plan_with_resources).
-        let plan = graph.compile().expect("frame graphs always compile");
+        let (plan, resources) = Self::plan_with_resources(frame, variant, format, output)?;
         if let std::collections::hash_map::Entry::Vacant(slot) = frame.targets.entry(format) {
             slot.insert(Targets::new(gpu, &self.pipelines, format, width, height)?);
         }

@@ -44,3 +44,32 @@ pub fn small_teapot_room(width: u32, height: u32) -> lensmap::hybrid::HybridScen
         .expect("teapot-room loads")
         .0
 }
+
+/// A square sheet 1.6 units a side centred on the origin, as a `grid × grid` mesh of quads split
+/// into two triangles each, its vertices lifted by `z(u, v)` (u, v in [−½, ½]): the lens of the
+/// compositor's tests.
+pub fn grid_sheet(grid: u32, z: impl Fn(f32, f32) -> f32) -> (Vec<glam::Vec3>, Vec<[u32; 3]>) {
+    let mut positions = Vec::new();
+    for j in 0..=grid {
+        for i in 0..=grid {
+            let u = i as f32 / grid as f32 - 0.5;
+            let v = j as f32 / grid as f32 - 0.5;
+            positions.push(glam::Vec3::new(1.6 * u, 1.6 * v, z(u, v)));
+        }
+    }
+    let row = grid + 1;
+    let mut triangles = Vec::new();
+    for j in 0..grid {
+        for i in 0..grid {
+            let (a, b, c, d) = (
+                j * row + i,
+                j * row + i + 1,
+                (j + 1) * row + i + 1,
+                (j + 1) * row + i,
+            );
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    (positions, triangles)
+}

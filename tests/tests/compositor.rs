@@ -47,33 +47,8 @@ fn random_cube(rng: &mut Pcg64, size: u32) -> CubeMap {
 /// carry random F·G and smoothly varying random directions for each (term, layer), over a
 /// background triangle; `viewpoints` samples with random weights summing to 1.
 fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term]) -> FrameInput {
-    let grid = 6;
-    let mut positions = Vec::new();
-    for j in 0..=grid {
-        for i in 0..=grid {
-            let u = i as f32 / grid as f32 - 0.5;
-            let v = j as f32 / grid as f32 - 0.5;
-            positions.push(Vec3::new(
-                1.6 * u,
-                1.6 * v,
-                0.15 * (3.0 * u).sin() + 0.25 * v,
-            ));
-        }
-    }
-    let mut triangles = Vec::new();
-    let row = grid + 1;
-    for j in 0..grid {
-        for i in 0..grid {
-            let (a, b, c, d) = (
-                j * row + i,
-                j * row + i + 1,
-                (j + 1) * row + i + 1,
-                (j + 1) * row + i,
-            );
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
-    }
+    let (positions, triangles) =
+        lensmap_tests::grid_sheet(6, |u, v| 0.15 * (3.0 * u).sin() + 0.25 * v);
     let terms = terms
         .iter()
         .map(|&term| {

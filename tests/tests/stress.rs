@@ -1138,29 +1138,7 @@ fn sheet_frame(
     background: [Vec3; 3],
     direction: &dyn Fn(usize, Vec3) -> Vec3,
 ) -> FrameInput {
-    let grid = 4u32;
-    let mut positions = Vec::new();
-    for j in 0..=grid {
-        for i in 0..=grid {
-            let u = i as f32 / grid as f32 - 0.5;
-            let v = j as f32 / grid as f32 - 0.5;
-            positions.push(Vec3::new(1.6 * u, 1.6 * v, 0.0));
-        }
-    }
-    let row = grid + 1;
-    let mut triangles = Vec::new();
-    for j in 0..grid {
-        for i in 0..grid {
-            let (a, b, c, d) = (
-                j * row + i,
-                j * row + i + 1,
-                (j + 1) * row + i + 1,
-                (j + 1) * row + i,
-            );
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
-    }
+    let (positions, triangles) = lensmap_tests::grid_sheet(4, |_, _| 0.0);
     let layer_count = layers[0].len();
     let terms = terms
         .iter()

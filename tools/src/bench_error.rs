@@ -647,3 +647,61 @@ fn points_for_plot(points: &[Point], on_frontier: &[usize]) -> Vec<crate::pareto
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(frame_ms: f64, psnr_db: f64) -> Point {
+        Point {
+            family: "t",
+            label: String::new(),
+            frame_ms,
+            psnr_db,
+            ssim: 0.5,
+            per_camera: Vec::new(),
+        }
+    }
+
+    /// The frontier is exactly the points no other point beats in both time and error, fastest
+    /// first, checked against the definition by brute force on a fixed set with ties.
+    #[test]
+    fn the_frontier_is_the_set_of_undominated_points() {
+        let points: Vec<Point> = [
+            (10.0, 17.0),
+            (12.0, 16.0),
+            (12.0, 18.0),
+            (20.0, 18.0),
+            (30.0, 19.5),
+            (25.0, 19.0),
+            (40.0, 19.5),
+            (5.0, 15.0),
+        ]
+        .into_iter()
+        .map(|(ms, db)| point(ms, db))
+        .collect();
+        let frontier = frontier(&points);
+        let dominated = |i: usize| {
+            points.iter().enumerate().any(|(j, q)| {
+                j != i
+                    && q.frame_ms <= points[i].frame_ms
+                    && q.psnr_db >= points[i].psnr_db
+                    && (q.frame_ms < points[i].frame_ms || q.psnr_db > points[i].psnr_db)
+            })
+        };
+        let mut expected: Vec<usize> = (0..points.len()).filter(|&i| !dominated(i)).collect();
+        expected.sort_by(|&a, &b| points[a].frame_ms.total_cmp(&points[b].frame_ms));
+        assert_eq!(frontier, expected);
+        assert_eq!(frontier, [7, 0, 2, 5, 4]);
+    }
+
+    /// CSV text fields are quoted with their quotes doubled, so a comma stays inside its field.
+    #[test]
+    fn csv_text_quotes_commas_and_quotes() {
+        assert_eq!(
+            csv_text("baseline: ray tracer, 1 spp"),
+            "\"baseline: ray tracer, 1 spp\""
+        );
+        assert_eq!(csv_text("a \"b\""), "\"a \"\"b\"\"\"");
+    }
+}

@@ -39,7 +39,7 @@ pub struct BenchPassesArgs {
     /// Timed frames per configuration (after one warm-up frame).
     #[arg(long, default_value_t = 9)]
     frames: usize,
-    /// Largest layer count n (from 1).
+    /// Largest layer count n (from 1) of the synthetic sphere; with --scene, the scene's own.
     #[arg(long, default_value_t = 4)]
     max_layers: usize,
     /// Also write the JSON results to this file (--json prints them on stdout).

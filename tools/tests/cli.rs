@@ -3,6 +3,8 @@
 
 use std::process::Command;
 
+mod common;
+
 fn lensmap(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_lensmap"))
         .args(args)
@@ -235,13 +237,7 @@ fn out_of_range_options_exit_2_naming_the_flag() {
 #[test]
 fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_refused() {
     // The GPU runs with the validation layer on (a message fails the run).
-    let validated = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_lensmap"))
-            .args(args)
-            .env("LENSMAP_VALIDATION", "1")
-            .output()
-            .expect("the lensmap binary runs")
-    };
+    let validated = common::lensmap;
     let out = validated(&[
         "bench",
         "passes",
@@ -312,32 +308,29 @@ fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_ref
 /// written as SVG and PNG.
 #[test]
 fn bench_error_measures_time_and_error_with_baselines_and_a_frontier() {
-    let dir = std::env::temp_dir().join(format!("lensmap-bench-error-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let dir = common::temp_dir("cli", "bench-error");
     let (csv, plot) = (dir.join("error.csv"), dir.join("plot"));
-    let out = Command::new(env!("CARGO_BIN_EXE_lensmap"))
-        .args([
-            "bench",
-            "error",
-            "--json",
-            "--width",
-            "24",
-            "--height",
-            "18",
-            "--reference-supersampling",
-            "2",
-            "--frames",
-            "1",
-            "--only",
-            "t=8 angle=3° em=128 layers=all single-pass rgba16f ss=1",
-            "--csv",
-        ])
-        .arg(&csv)
-        .arg("--plot")
-        .arg(&plot)
-        .env("LENSMAP_VALIDATION", "1")
-        .output()
-        .expect("the lensmap binary runs");
+    let out = common::lensmap_command(&[
+        "bench",
+        "error",
+        "--json",
+        "--width",
+        "24",
+        "--height",
+        "18",
+        "--reference-supersampling",
+        "2",
+        "--frames",
+        "1",
+        "--only",
+        "t=8 angle=3° em=128 layers=all single-pass rgba16f ss=1",
+        "--csv",
+    ])
+    .arg(&csv)
+    .arg("--plot")
+    .arg(&plot)
+    .output()
+    .expect("the lensmap binary runs");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(!stderr.contains("validation"), "{stderr}");

@@ -37,7 +37,13 @@ struct LensConstants {
     vertex_count: u32,
     // Multipass: which cube of the array this pass samples.
     layer: u32,
+    // Programmable blending: 1 where `current` holds the pixel's value before this pass, 0 for
+    // the lens object's first layer pass (the value is the prime's zero).
+    read_current: u32,
+    // Programmable blending: 1 where a group boundary precedes this pass (the alpha clear).
+    reset_alpha: u32,
 }
+
 
 var<immediate> constants: LensConstants;
 
@@ -80,6 +86,26 @@ fn vs_layer(@builtin(vertex_index) vertex: u32) -> LayerVertex {
 fn fs_layer(in: LayerVertex) -> @location(0) vec4<f32> {
     let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer);
     return vec4<f32>(texel.rgb * in.fg * constants.weight_a, texel.a);
+}
+
+// Programmable blending: the scratch image the previous layer pass wrote.
+@group(1) @binding(0) var current: texture_2d<f32>;
+
+// The layer pass with the blend in the shader: the same source as fs_layer, composited over the
+// pixel's current value with the same arithmetic the fixed-function blend does,
+// src·(1 − dstα) + dst, after the alpha clear where a group begins.
+@fragment
+fn fs_layer_programmable(in: LayerVertex) -> @location(0) vec4<f32> {
+    let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer);
+    let source = vec4<f32>(texel.rgb * in.fg * constants.weight_a, texel.a);
+    var destination = vec4<f32>(0.0);
+    if constants.read_current != 0u {
+        destination = textureLoad(current, vec2<u32>(in.clip.xy), 0);
+    }
+    if constants.reset_alpha != 0u {
+        destination.a = 0.0;
+    }
+    return source * (1.0 - destination.a) + destination;
 }
 
 // The most layers the single pass composites: one interpolated direction per layer and term

@@ -73,3 +73,126 @@ pub fn grid_sheet(grid: u32, z: impl Fn(f32, f32) -> f32) -> (Vec<glam::Vec3>, V
     }
     (positions, triangles)
 }
+
+/// A cube map with independent random premultiplied texels in every level (α ∈ [0, 1],
+/// rgb ∈ [0, α]), so a level mix-up or an upload bug shows.
+pub fn random_cube(rng: &mut rand_pcg::Pcg64, size: u32) -> lensmap::cubemap::CubeMap {
+    use rand::Rng;
+    let levels = (0..lensmap::cubemap::CubeMap::full_chain_levels(size))
+        .map(|l| {
+            let n = ((size >> l).max(1) as usize).pow(2);
+            std::array::from_fn(|_| {
+                (0..n)
+                    .map(|_| {
+                        let a: f32 = rng.gen_range(0.0..=1.0);
+                        [
+                            rng.gen_range(0.0..=a),
+                            rng.gen_range(0.0..=a),
+                            rng.gen_range(0.0..=a),
+                            a,
+                        ]
+                    })
+                    .collect()
+            })
+        })
+        .collect();
+    lensmap::cubemap::CubeMap { size, levels }
+}
+
+/// A random compositor frame of `size × size` pixels: a grid lens (a tilted, slightly bent sheet
+/// seen in perspective) whose vertices carry random F·G and smoothly varying random directions
+/// for each (term, layer), over a background triangle; `viewpoints` (1 or 2) samples with random
+/// weights summing to 1, each with `layers` random 16² cube maps.
+pub fn random_compositor_frame(
+    rng: &mut rand_pcg::Pcg64,
+    size: u32,
+    layers: usize,
+    viewpoints: usize,
+    terms: &[lensmap::trace::Term],
+) -> lensmap::render::FrameInput {
+    use glam::{Mat4, Vec3};
+    use lensmap::render::{EnvironmentMesh, FrameInput, LensFaces, LensObject, TermVertices};
+    use rand::Rng;
+    use std::sync::Arc;
+    let (positions, triangles) = grid_sheet(6, |u, v| 0.15 * (3.0 * u).sin() + 0.25 * v);
+    let mut random_vector = |rng: &mut rand_pcg::Pcg64, r: f32| {
+        Vec3::new(
+            rng.gen_range(-r..r),
+            rng.gen_range(-r..r),
+            rng.gen_range(-r..r),
+        )
+    };
+    let terms = terms
+        .iter()
+        .map(|&term| {
+            let fg = positions
+                .iter()
+                .map(|_| Vec3::new(rng.r#gen(), rng.r#gen(), rng.r#gen()))
+                .collect();
+            let directions = (0..layers)
+                .map(|_| {
+                    // A random linear field of directions plus a little per-vertex noise: smooth
+                    // enough that the implicit LOD spans several mip levels across the lens.
+                    let base = random_vector(rng, 1.0);
+                    let gx = random_vector(rng, 2.0);
+                    let gy = random_vector(rng, 2.0);
+                    positions
+                        .iter()
+                        .map(|p| base + gx * p.x + gy * p.y + random_vector(rng, 0.05))
+                        .collect()
+                })
+                .collect();
+            TermVertices {
+                term,
+                fg,
+                directions,
+            }
+        })
+        .collect();
+    let weights: Vec<f32> = if viewpoints == 1 {
+        vec![1.0]
+    } else {
+        let w: f32 = rng.gen_range(0.05..0.95);
+        vec![w, 1.0 - w]
+    };
+    let layer_maps = (0..viewpoints)
+        .map(|_| {
+            (0..layers)
+                .map(|_| Arc::new(random_cube(rng, 16)))
+                .collect()
+        })
+        .collect();
+    let eye = Vec3::new(0.3, 0.2, 2.6);
+    let view = glam::camera::rh::view::look_at_mat4(eye, Vec3::ZERO, Vec3::Y);
+    let projection =
+        glam::camera::rh::proj::vulkan::perspective(45f32.to_radians(), 1.0, 0.1, 20.0);
+    let view_proj: Mat4 = projection * view;
+    FrameInput {
+        width: size,
+        height: size,
+        view_proj,
+        environment: vec![Arc::new(EnvironmentMesh {
+            positions: vec![
+                Vec3::new(-6.0, -6.0, -3.0),
+                Vec3::new(6.0, -6.0, -3.0),
+                Vec3::new(0.0, 6.0, -3.0),
+            ],
+            colours: vec![
+                Vec3::new(0.9, 0.1, 0.1),
+                Vec3::new(0.1, 0.9, 0.1),
+                Vec3::new(0.1, 0.1, 0.9),
+            ],
+            triangles: vec![[0, 1, 2]],
+            light_map: None,
+        })],
+        lenses: vec![LensObject {
+            name: "sheet".into(),
+            positions,
+            triangles,
+            faces: LensFaces::Front,
+            terms,
+            layers: layer_maps,
+        }],
+        viewpoint_weights: weights,
+    }
+}

@@ -13,7 +13,7 @@ use clap::ValueEnum;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lensmap::options::OptionError;
-use lensmap::render::{TargetFormat, Variant};
+use lensmap::render::{BlendScheme, TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
 use lensmap::trace::image::validate_camera;
 
@@ -153,6 +153,30 @@ impl From<VariantArg> for Variant {
         match v {
             VariantArg::Multipass => Variant::Multipass,
             VariantArg::SinglePass => Variant::SinglePass,
+        }
+    }
+}
+
+/// `--blend`: how the multipass variant combines layers and (viewpoint, term) groups.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum BlendArg {
+    /// The paper's: layers nearest first with src·(1 − dstα) + dst, alpha clears between groups.
+    FrontToBack,
+    /// Layers farthest first with src + dst·(1 − srcα) into a scratch image, added per group.
+    BackToFront,
+    /// Each group into its own image, one resolve summing them.
+    GroupTargets,
+    /// The blend in the fragment shader, reading the previous pass's image.
+    Programmable,
+}
+
+impl From<BlendArg> for BlendScheme {
+    fn from(b: BlendArg) -> BlendScheme {
+        match b {
+            BlendArg::FrontToBack => BlendScheme::FrontToBack,
+            BlendArg::BackToFront => BlendScheme::BackToFront,
+            BlendArg::GroupTargets => BlendScheme::GroupTargets,
+            BlendArg::Programmable => BlendScheme::Programmable,
         }
     }
 }

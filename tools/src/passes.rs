@@ -2,11 +2,14 @@
 //! built from a frame's shape alone (no data, no GPU).
 
 use clap::Args;
-use lensmap::render::{FrameShape, TargetFormat, Variant, plan::frame_graph};
+use lensmap::render::{
+    BlendScheme, FrameShape, TargetFormat, Variant,
+    plan::{Output, frame_graph_blended},
+};
 use lensmap::trace::Term;
 use serde_json::json;
 
-use crate::common::{BadUsage, FormatArg, VariantArg, report, voice};
+use crate::common::{BadUsage, BlendArg, FormatArg, VariantArg, report, voice};
 
 #[derive(Args)]
 #[command(
@@ -25,6 +28,9 @@ pub struct PassesArgs {
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "multipass")]
     variant: VariantArg,
+    /// How the multipass variant combines layers and groups.
+    #[arg(long, value_enum, default_value = "front-to-back")]
+    blend: BlendArg,
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba8")]
     format: FormatArg,
@@ -48,13 +54,16 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     let shape = FrameShape::synthetic(640, 480, args.layers, args.viewpoints as usize, terms);
     let variant = Variant::from(args.variant);
     let format = TargetFormat::from(args.format);
-    let (graph, _) = frame_graph(&shape, variant, format)
+    let blend = BlendScheme::from(args.blend);
+    let (graph, _) = frame_graph_blended(&shape, variant, blend, format, Output::Readback)
         .map_err(|error| BadUsage(format!("--layers {}: {error}", args.layers)))?;
     let plan = graph.compile()?;
     let counts = json!({
         "prime": plan.count("prime"),
         "layer": plan.count("layer"),
         "alpha_clear": plan.count("alpha-clear"),
+        "scratch_clear": plan.count("scratch-clear"),
+        "group_sum": plan.count("group-sum"),
         "single_pass": plan.count("single-pass"),
         "environment": plan.count("environment"),
         "rendering_instances": plan.rendering_instances(),
@@ -78,18 +87,21 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
             .collect();
         let out = json!({
             "layers": args.layers, "viewpoints": args.viewpoints, "terms": args.terms,
-            "variant": variant.name(), "format": format.name(), "counts": counts, "steps": steps,
+            "variant": variant.name(), "blend": blend.name(), "format": format.name(), "counts": counts, "steps": steps,
             "culled": plan.culled.iter().map(|(n, r)| json!({"pass": n, "reason": r.to_string()})).collect::<Vec<_>>(),
         });
         report(&out, None)?;
     } else {
         say!("{}", plan.to_string().trim_end_matches('\n'));
         say!(
-            "{} lens passes: {} prime + {} layer + {} alpha clear + {} single-pass; {} rendering instance(s), {} barrier(s)",
+            "{} ({}) lens passes: {} prime + {} layer + {} alpha clear + {} scratch clear + {} group sum + {} single-pass; {} rendering instance(s), {} barrier(s)",
             variant.name(),
+            blend.name(),
             counts["prime"],
             counts["layer"],
             counts["alpha_clear"],
+            counts["scratch_clear"],
+            counts["group_sum"],
             counts["single_pass"],
             counts["rendering_instances"],
             counts["barriers"]

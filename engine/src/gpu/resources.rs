@@ -152,6 +152,22 @@ pub struct ImageDesc {
 }
 
 impl ImageDesc {
+    /// `layers` framebuffer-sized colour attachments in one 2D-array image, sampled by later
+    /// passes (the blending schemes' scratch images).
+    pub fn scratch_targets(
+        name: &str,
+        format: vk::Format,
+        width: u32,
+        height: u32,
+        layers: u32,
+    ) -> ImageDesc {
+        ImageDesc {
+            array_layers: layers.max(1),
+            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::SAMPLED,
+            ..ImageDesc::colour_target(name, format, width, height)
+        }
+    }
+
     /// A colour attachment that can be read back.
     pub fn colour_target(name: &str, format: vk::Format, width: u32, height: u32) -> ImageDesc {
         ImageDesc {
@@ -226,8 +242,11 @@ pub struct Image {
     pub desc: ImageDesc,
     /// The Vulkan image.
     pub handle: vk::Image,
-    /// A view of every level and layer (2D, or cube array for cube images).
+    /// A view of every level and layer (2D, 2D array for several layers, or cube array for cube
+    /// images).
     pub view: vk::ImageView,
+    /// For a 2D image of several layers: a 2D view of each layer (to render into one).
+    pub layer_views: Vec<vk::ImageView>,
     allocation: Option<Allocation>,
     uploaded: bool,
 }
@@ -263,6 +282,7 @@ impl Image {
             desc,
             handle,
             view: vk::ImageView::null(),
+            layer_views: Vec::new(),
             allocation: None,
             uploaded: false,
         };
@@ -283,6 +303,8 @@ impl Image {
             .image(handle)
             .view_type(if image.desc.cube {
                 vk::ImageViewType::CUBE_ARRAY
+            } else if image.desc.array_layers > 1 {
+                vk::ImageViewType::TYPE_2D_ARRAY
             } else {
                 vk::ImageViewType::TYPE_2D
             })
@@ -291,6 +313,22 @@ impl Image {
         // SAFETY: the view covers the image's own subresources.
         image.view =
             unsafe { device.create_image_view(&view_info, None) }.vk("vkCreateImageView")?;
+        if !image.desc.cube && image.desc.array_layers > 1 {
+            for layer in 0..image.desc.array_layers {
+                let range = vk::ImageSubresourceRange {
+                    base_array_layer: layer,
+                    layer_count: 1,
+                    ..image.full_range()
+                };
+                let info = view_info
+                    .view_type(vk::ImageViewType::TYPE_2D)
+                    .subresource_range(range);
+                // SAFETY: the view covers one of the image's own layers; destroyed in Drop.
+                let view =
+                    unsafe { device.create_image_view(&info, None) }.vk("vkCreateImageView")?;
+                image.layer_views.push(view);
+            }
+        }
         Ok(image)
     }
 
@@ -480,6 +518,9 @@ impl Drop for Image {
     fn drop(&mut self) {
         // SAFETY: the owner has waited for every submission using this image.
         unsafe {
+            for view in &self.layer_views {
+                self.shared.device.destroy_image_view(*view, None);
+            }
             self.shared.device.destroy_image_view(self.view, None);
             self.shared.device.destroy_image(self.handle, None);
         }

@@ -164,6 +164,10 @@ pub enum Blend {
     Replace,
     /// Front-to-back "over" on colour and alpha: `src·(1 − dstα) + dst·1`.
     FrontToBackOver,
+    /// Back-to-front "over" on colour and alpha: `src·1 + dst·(1 − srcα)`.
+    BackToFrontOver,
+    /// Addition on colour and alpha: `src·1 + dst·1`.
+    Add,
 }
 
 impl fmt::Display for Blend {
@@ -171,6 +175,8 @@ impl fmt::Display for Blend {
         f.write_str(match self {
             Blend::Replace => "replace",
             Blend::FrontToBackOver => "src*(1-dstA)+dst",
+            Blend::BackToFrontOver => "src+dst*(1-srcA)",
+            Blend::Add => "src+dst",
         })
     }
 }
@@ -184,6 +190,8 @@ impl ColourMask {
     pub const RGBA: ColourMask = ColourMask(0b1111);
     /// Alpha only: with an output of 0 this is the paper's alpha clear (rgb×1, α×0).
     pub const A: ColourMask = ColourMask(0b1000);
+    /// Colour only: α keeps what the pixel held.
+    pub const RGB: ColourMask = ColourMask(0b0111);
 }
 
 impl fmt::Display for ColourMask {

@@ -19,7 +19,7 @@ mod vulkan;
 pub use frame_input::*;
 pub use host_image::HostImage;
 pub use image::RenderedImage;
-pub use plan::{FramePlan, FrameShape, Output, TargetFormat, Variant};
+pub use plan::{BlendScheme, FramePlan, FrameShape, Output, TargetFormat, Variant};
 pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, Renderer, Submission};
 pub use upload::{FRAMEBUFFER_HEAP_SHARE, UploadedFrame, check_framebuffer};

@@ -7,7 +7,7 @@
 use std::{collections::HashMap, sync::Arc};
 
 use ash::vk;
-use lensmap_shaders::{EnvironmentConstants, LensConstants, ResolveConstants};
+use lensmap_shaders::{EnvironmentConstants, GroupSumConstants, LensConstants, ResolveConstants};
 
 use super::{
     ShaderProgram,
@@ -34,6 +34,12 @@ pub(super) struct Pipelines {
     pub(super) box_filter_set_layout: vk::DescriptorSetLayout,
     /// The box filter's layout: set 0 and [`ResolveConstants`].
     pub(super) box_filter_layout: vk::PipelineLayout,
+    /// The group sum's layout: set 0 (one sampled image, as the box filter's: the scratch
+    /// images' array view) and [`GroupSumConstants`].
+    pub(super) group_sum_layout: vk::PipelineLayout,
+    /// The programmable layer's layout: the lens programs' set 0, set 1 the scratch images'
+    /// array view (the box filter's set layout), and [`LensConstants`].
+    pub(super) programmable_layout: vk::PipelineLayout,
     /// Trilinear, clamp to edge, every level.
     pub(super) sampler: vk::Sampler,
     /// Light maps: bilinear, clamp to edge, level 0 only (charts' gutters are sized for one
@@ -55,6 +61,8 @@ impl Drop for Pipelines {
             device.destroy_pipeline_layout(self.lens_layout, None);
             device.destroy_pipeline_layout(self.environment_layout, None);
             device.destroy_pipeline_layout(self.box_filter_layout, None);
+            device.destroy_pipeline_layout(self.group_sum_layout, None);
+            device.destroy_pipeline_layout(self.programmable_layout, None);
             device.destroy_descriptor_set_layout(self.lens_set_layout, None);
             device.destroy_descriptor_set_layout(self.environment_set_layout, None);
             device.destroy_descriptor_set_layout(self.box_filter_set_layout, None);
@@ -110,6 +118,8 @@ impl Pipelines {
             environment_layout: vk::PipelineLayout::null(),
             box_filter_set_layout: vk::DescriptorSetLayout::null(),
             box_filter_layout: vk::PipelineLayout::null(),
+            group_sum_layout: vk::PipelineLayout::null(),
+            programmable_layout: vk::PipelineLayout::null(),
             sampler: vk::Sampler::null(),
             light_map_sampler: vk::Sampler::null(),
             pipelines: HashMap::new(),
@@ -194,6 +204,28 @@ impl Pipelines {
                     None,
                 )
                 .map_err(vk_err("vkCreatePipelineLayout"))?;
+            let group_sum_push = [vk::PushConstantRange {
+                stage_flags: vk::ShaderStageFlags::FRAGMENT,
+                offset: 0,
+                size: push_size::<GroupSumConstants>(),
+            }];
+            pipelines.group_sum_layout = device
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&box_filter_sets)
+                        .push_constant_ranges(&group_sum_push),
+                    None,
+                )
+                .map_err(vk_err("vkCreatePipelineLayout"))?;
+            let programmable_sets = [pipelines.lens_set_layout, pipelines.box_filter_set_layout];
+            pipelines.programmable_layout = device
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&programmable_sets)
+                        .push_constant_ranges(&lens_push),
+                    None,
+                )
+                .map_err(vk_err("vkCreatePipelineLayout"))?;
             // Trilinear, clamp to edge, every level; cube maps filter seamlessly (Vulkan default).
             let sampler = vk::SamplerCreateInfo::default()
                 .mag_filter(vk::Filter::LINEAR)
@@ -232,6 +264,8 @@ impl Pipelines {
             | ShaderProgram::LensLayer
             | ShaderProgram::LensSinglePass(_) => self.lens_layout,
             ShaderProgram::BoxFilter => self.box_filter_layout,
+            ShaderProgram::GroupSum => self.group_sum_layout,
+            ShaderProgram::LensLayerProgrammable => self.programmable_layout,
         }
     }
 

@@ -31,6 +31,80 @@ impl Variant {
     }
 }
 
+/// How the multipass variant combines the layers of a (viewpoint, term) group and the groups of
+/// a lens object (`--blend`). Every scheme computes the paper's closed form
+/// `Σ_groups w·FG ⊙ (L1 over … over Ln).rgb`, α = the last group's `(L1 over … over Ln).α`; they
+/// differ in the passes, attachments and barriers it takes, and in where rounding happens.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BlendScheme {
+    /// The paper's scheme: per group, layers nearest first with `src·(1 − dstα) + dst` straight
+    /// into the framebuffer, an alpha clear between groups. One rendering instance, no barriers.
+    #[default]
+    FrontToBack,
+    /// Layers farthest first with the classic `src + dst·(1 − srcα)`. "Over" from the back needs
+    /// a clear destination, so each group composites into a cleared scratch image, and a
+    /// full-screen pass adds it to the framebuffer (colour only, but α too for the last group):
+    /// per group one more pass and two barriers.
+    BackToFront,
+    /// Each group composited front to back into its own cleared image (no alpha clears), then one
+    /// full-screen resolve adds the groups' colour and takes the last group's α.
+    GroupTargets,
+    /// Blending in the fragment shader: each layer pass reads the pixel's current value and
+    /// writes `src·(1 − dstα) + dst` (and the alpha clear) with shader arithmetic, so the result
+    /// does not depend on fixed-function blend precision. The current value comes from the
+    /// previous pass's image (passes alternate between two scratch images and end in the
+    /// framebuffer): a barrier per pass, no device feature needed.
+    Programmable,
+}
+
+impl BlendScheme {
+    /// Every scheme, the default first.
+    pub const ALL: [BlendScheme; 4] = [
+        BlendScheme::FrontToBack,
+        BlendScheme::BackToFront,
+        BlendScheme::GroupTargets,
+        BlendScheme::Programmable,
+    ];
+
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            BlendScheme::FrontToBack => "front-to-back",
+            BlendScheme::BackToFront => "back-to-front",
+            BlendScheme::GroupTargets => "group-targets",
+            BlendScheme::Programmable => "programmable",
+        }
+    }
+
+    /// The scheme named `name` on the command line.
+    pub fn from_name(name: &str) -> Option<BlendScheme> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// Scratch images (framebuffer-sized, the framebuffer's format) a frame of `shape` needs.
+    pub fn scratch_images(self, shape: &FrameShape) -> usize {
+        match self {
+            BlendScheme::FrontToBack => 0,
+            BlendScheme::BackToFront => 1,
+            BlendScheme::Programmable => 2,
+            BlendScheme::GroupTargets => shape
+                .lenses
+                .iter()
+                .map(|lens| {
+                    let viewpoints = shape
+                        .viewpoint_weights
+                        .iter()
+                        .enumerate()
+                        .filter(|(v, w)| **w > 0.0 && *v < lens.empty.len())
+                        .count();
+                    viewpoints * lens.terms.len()
+                })
+                .max()
+                .unwrap_or(0),
+        }
+    }
+}
+
 /// Framebuffer colour format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TargetFormat {
@@ -211,6 +285,30 @@ pub enum Draw {
         /// Layer index, 0 = nearest.
         layer: usize,
     },
+    /// One layer of the programmable scheme: the layer's source blended in the shader over the
+    /// pixel's current value.
+    ProgrammableLayer {
+        /// Lens index.
+        lens: usize,
+        /// Viewpoint sample index.
+        viewpoint: usize,
+        /// The term.
+        term: Term,
+        /// Layer index, 0 = nearest.
+        layer: usize,
+        /// The scratch image holding the pixel's current value (the lens object's first layer
+        /// pass, over the prime's zero, is a plain [`Draw::Layer`]).
+        read: Option<u32>,
+        /// A group boundary lies between the previous layer pass and this one: the alpha clear,
+        /// done in the shader (α of the current value taken as 0).
+        reset_alpha: bool,
+    },
+    /// A full-screen pass adding scratch images `0..groups` into the framebuffer: colour summed,
+    /// α the last image's.
+    GroupSum {
+        /// Scratch images summed.
+        groups: u32,
+    },
     /// The single-pass draw of a lens object.
     SinglePass {
         /// Lens index.
@@ -255,6 +353,8 @@ pub struct FrameResources {
     pub layers: Vec<Vec<ImageId>>,
     /// The external image of an [`Output::External`] frame.
     pub external: Option<ImageId>,
+    /// The blending scheme's scratch images, in the order of their layers in the scratch array.
+    pub scratch: Vec<ImageId>,
 }
 
 /// A frame's declared pass graph: draws of [`Draw`] with [`ShaderProgram`]s.
@@ -281,9 +381,36 @@ pub fn frame_graph_to(
     format: TargetFormat,
     output: Output,
 ) -> Result<(FrameGraph, FrameResources), ProgramError> {
+    frame_graph_blended(shape, variant, BlendScheme::FrontToBack, format, output)
+}
+
+/// Declares the frame's passes with the multipass variant's layers and groups combined by
+/// `blend` (the single pass does not blend: it takes only [`BlendScheme::FrontToBack`]).
+pub fn frame_graph_blended(
+    shape: &FrameShape,
+    variant: Variant,
+    blend: BlendScheme,
+    format: TargetFormat,
+    output: Output,
+) -> Result<(FrameGraph, FrameResources), ProgramError> {
+    if variant == Variant::SinglePass && blend != BlendScheme::FrontToBack {
+        return Err(ProgramError::SinglePassBlend {
+            blend: blend.name(),
+        });
+    }
     let mut graph = Graph::new();
     let colour = graph.image("colour", format.graph_format(), shape.width, shape.height);
     let depth = graph.image("depth", Format::Depth32Float, shape.width, shape.height);
+    let scratch: Vec<ImageId> = (0..blend.scratch_images(shape))
+        .map(|k| {
+            graph.image(
+                &format!("scratch{k}"),
+                format.graph_format(),
+                shape.width,
+                shape.height,
+            )
+        })
+        .collect();
     let layers: Vec<Vec<ImageId>> = shape
         .lenses
         .iter()
@@ -295,12 +422,16 @@ pub fn frame_graph_to(
         })
         .collect();
 
-    let attach = |load: LoadOp, blend: Blend, write_mask: ColourMask| ColourAttachment {
-        image: colour,
-        load,
-        store: StoreOp::Store,
-        blend,
-        write_mask,
+    let attach_to =
+        |image: ImageId, load: LoadOp, blend: Blend, write_mask: ColourMask| ColourAttachment {
+            image,
+            load,
+            store: StoreOp::Store,
+            blend,
+            write_mask,
+        };
+    let attach = |load: LoadOp, blend: Blend, write_mask: ColourMask| {
+        attach_to(colour, load, blend, write_mask)
     };
     let depth_attach = |load: LoadOp, test: CompareOp, write: bool| DepthAttachment {
         image: depth,
@@ -388,26 +519,23 @@ pub fn frame_graph_to(
                     Vec::new(),
                     vec![Draw::LensZero { lens: lens_index }],
                 ));
-                let mut first_group = true;
-                for &viewpoint in &active {
-                    for &term in &lens.terms {
-                        let group = format!("{name}/v{viewpoint}/{}", term.name());
-                        if !first_group {
-                            graph.add_pass(draw_pass(
-                                format!("{group}/alpha-clear"),
-                                "alpha-clear",
-                                ShaderProgram::LensZero,
-                                attach(LoadOp::Load, Blend::Replace, ColourMask::A),
-                                depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
-                                cull,
-                                Vec::new(),
-                                vec![Draw::LensZero { lens: lens_index }],
-                            ));
-                        }
-                        first_group = false;
-                        for layer in 0..n {
-                            // An all-zero layer composites as the identity: declare the pass with
-                            // no draws and the graph culls it.
+                let groups: Vec<(usize, Term)> = active
+                    .iter()
+                    .flat_map(|&v| lens.terms.iter().map(move |&t| (v, t)))
+                    .collect();
+                let group_name = |(viewpoint, term): (usize, Term)| {
+                    format!("{name}/v{viewpoint}/{}", term.name())
+                };
+                // The layers of a group in the order `blend` composites them, each with its draw
+                // (none for an all-zero layer: the identity, culled by the graph).
+                let layer_draws = |(viewpoint, term): (usize, Term), back_to_front: bool| {
+                    let mut order: Vec<usize> = (0..n).collect();
+                    if back_to_front {
+                        order.reverse();
+                    }
+                    order
+                        .into_iter()
+                        .map(|layer| {
                             let draws = if lens.empty[viewpoint][layer] {
                                 Vec::new()
                             } else {
@@ -418,16 +546,201 @@ pub fn frame_graph_to(
                                     layer,
                                 }]
                             };
+                            (layer, draws)
+                        })
+                        .collect::<Vec<_>>()
+                };
+                let alpha_clear = |graph: &mut FrameGraph, group: &str, image: ImageId| {
+                    graph.add_pass(draw_pass(
+                        format!("{group}/alpha-clear"),
+                        "alpha-clear",
+                        ShaderProgram::LensZero,
+                        attach_to(image, LoadOp::Load, Blend::Replace, ColourMask::A),
+                        depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
+                        cull,
+                        Vec::new(),
+                        vec![Draw::LensZero { lens: lens_index }],
+                    ))
+                };
+                // A group's layers into `image` with `blend`, behind a clear of the image when
+                // `clear` (a pass with no draws that the graph keeps for its clear).
+                let composite_group = |graph: &mut FrameGraph,
+                                       group: (usize, Term),
+                                       image: ImageId,
+                                       clear: bool,
+                                       layer_blend: Blend| {
+                    let prefix = group_name(group);
+                    if clear {
+                        graph.add_pass(draw_pass(
+                            format!("{prefix}/clear"),
+                            "scratch-clear",
+                            ShaderProgram::LensZero,
+                            attach_to(
+                                image,
+                                LoadOp::Clear([0.0; 4]),
+                                Blend::Replace,
+                                ColourMask::RGBA,
+                            ),
+                            depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
+                            cull,
+                            Vec::new(),
+                            Vec::new(),
+                        ));
+                    }
+                    let back_to_front = layer_blend == Blend::BackToFrontOver;
+                    for (layer, draws) in layer_draws(group, back_to_front) {
+                        graph.add_pass(draw_pass(
+                            format!("{prefix}/layer{layer}"),
+                            "layer",
+                            ShaderProgram::LensLayer,
+                            attach_to(image, LoadOp::Load, layer_blend, ColourMask::RGBA),
+                            depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
+                            cull,
+                            vec![layers[lens_index][group.0]],
+                            draws,
+                        ));
+                    }
+                };
+                // A full-screen pass adding scratch images 0..count into the framebuffer.
+                let group_sum = |graph: &mut FrameGraph, pass: String, count: usize, mask| {
+                    graph.add_pass(Pass {
+                        name: pass,
+                        category: "group-sum",
+                        side_effect: false,
+                        kind: PassKind::Draw {
+                            program: ShaderProgram::GroupSum,
+                            colour: attach(LoadOp::Load, Blend::Add, mask),
+                            depth: None,
+                            cull: Cull::None,
+                            sampled: scratch[..count].to_vec(),
+                            storage: Vec::new(),
+                            draws: vec![Draw::GroupSum {
+                                groups: count as u32,
+                            }],
+                        },
+                    })
+                };
+                match blend {
+                    BlendScheme::FrontToBack => {
+                        for (index, &group) in groups.iter().enumerate() {
+                            if index > 0 {
+                                alpha_clear(&mut graph, &group_name(group), colour);
+                            }
+                            composite_group(
+                                &mut graph,
+                                group,
+                                colour,
+                                false,
+                                Blend::FrontToBackOver,
+                            );
+                        }
+                    }
+                    BlendScheme::BackToFront => {
+                        for (index, &group) in groups.iter().enumerate() {
+                            composite_group(
+                                &mut graph,
+                                group,
+                                scratch[0],
+                                true,
+                                Blend::BackToFrontOver,
+                            );
+                            // Colour only, but the last group's α too (α is the last group's).
+                            let last = index + 1 == groups.len();
+                            group_sum(
+                                &mut graph,
+                                format!("{}/accumulate", group_name(group)),
+                                1,
+                                if last {
+                                    ColourMask::RGBA
+                                } else {
+                                    ColourMask::RGB
+                                },
+                            );
+                        }
+                    }
+                    BlendScheme::GroupTargets => {
+                        for (index, &group) in groups.iter().enumerate() {
+                            composite_group(
+                                &mut graph,
+                                group,
+                                scratch[index],
+                                true,
+                                Blend::FrontToBackOver,
+                            );
+                        }
+                        group_sum(
+                            &mut graph,
+                            format!("{name}/group-sum"),
+                            groups.len(),
+                            ColourMask::RGBA,
+                        );
+                    }
+                    BlendScheme::Programmable => {
+                        // The drawn layers in the front-to-back order, each with its group.
+                        let drawn: Vec<(usize, (usize, Term), usize)> = groups
+                            .iter()
+                            .enumerate()
+                            .flat_map(|(index, &group)| {
+                                (0..n)
+                                    .filter(move |&layer| !lens.empty[group.0][layer])
+                                    .map(move |layer| (index, group, layer))
+                            })
+                            .collect();
+                        // Pass i writes scratch i mod 2 and reads the previous pass's image; the
+                        // last writes the framebuffer, so no pass reads what it writes.
+                        for (i, &(index, (viewpoint, term), layer)) in drawn.iter().enumerate() {
+                            let last = i + 1 == drawn.len();
+                            let target = if last { colour } else { scratch[i % 2] };
+                            let read = (i > 0).then(|| ((i - 1) % 2) as u32);
+                            // The first pass blends over the prime's zero, where
+                            // src·(1 − 0) + 0 = src: the plain layer shader, replacing.
+                            let (program, draw) = match read {
+                                None => (
+                                    ShaderProgram::LensLayer,
+                                    Draw::Layer {
+                                        lens: lens_index,
+                                        viewpoint,
+                                        term,
+                                        layer,
+                                    },
+                                ),
+                                Some(_) => (
+                                    ShaderProgram::LensLayerProgrammable,
+                                    Draw::ProgrammableLayer {
+                                        lens: lens_index,
+                                        viewpoint,
+                                        term,
+                                        layer,
+                                        read,
+                                        reset_alpha: drawn[i - 1].0 != index,
+                                    },
+                                ),
+                            };
                             graph.add_pass(draw_pass(
-                                format!("{group}/layer{layer}"),
+                                format!("{}/layer{layer}", group_name((viewpoint, term))),
                                 "layer",
-                                ShaderProgram::LensLayer,
-                                attach(LoadOp::Load, Blend::FrontToBackOver, ColourMask::RGBA),
+                                program,
+                                attach_to(
+                                    target,
+                                    if last { LoadOp::Load } else { LoadOp::DontCare },
+                                    Blend::Replace,
+                                    ColourMask::RGBA,
+                                ),
                                 depth_attach(LoadOp::Load, CompareOp::LessOrEqual, false),
                                 cull,
-                                vec![layers[lens_index][viewpoint]],
-                                draws,
+                                std::iter::once(layers[lens_index][viewpoint])
+                                    .chain(read.map(|k| scratch[k as usize]))
+                                    .collect(),
+                                vec![draw],
                             ));
+                        }
+                        // Groups after the last drawn layer (all of their layers zero) still
+                        // clear α, as the front-to-back scheme's alpha clears do.
+                        // (With nothing drawn, the prime's α is 0 already.)
+                        if let Some(&(index, _, _)) = drawn.last()
+                            && index + 1 < groups.len()
+                        {
+                            alpha_clear(&mut graph, &group_name(groups[index + 1]), colour);
                         }
                     }
                 }
@@ -505,6 +818,7 @@ pub fn frame_graph_to(
             depth,
             layers,
             external,
+            scratch,
         },
     ))
 }

@@ -31,6 +31,14 @@ pub enum ProgramError {
         /// [`SinglePassProgram::MAX_LAYERS`].
         max: usize,
     },
+    /// A blending scheme other than front-to-back asked of the single pass, which does not blend.
+    #[error(
+        "--blend {blend} applies to the multipass variant; the single pass composites in registers and does not blend: use --variant multipass"
+    )]
+    SinglePassBlend {
+        /// The scheme asked for.
+        blend: &'static str,
+    },
     /// A lens object with no layers, no terms, or not one or two viewpoint samples.
     #[error(
         "lens \"{lens}\": the single pass needs 1 to {max} layers, one or two terms and one or two viewpoints (got {layers}, {terms}, {viewpoints})"
@@ -106,6 +114,12 @@ pub enum ShaderProgram {
     LensZero,
     /// One layer of one (viewpoint, term) group of the multipass variant.
     LensLayer,
+    /// One layer of the programmable blending scheme: the blend done in the shader, over the
+    /// pixel's current value read from a scratch image.
+    LensLayerProgrammable,
+    /// The sum of scratch images into the framebuffer (`composite.wgsl`): back-to-front and
+    /// group-targets blending.
+    GroupSum,
     /// The single-pass variant, specialized.
     LensSinglePass(SinglePassProgram),
     /// The supersampling box filter into an external image (`resolve.wgsl`).
@@ -127,6 +141,10 @@ impl ShaderProgram {
             ShaderProgram::LensZero => plain("lens", "vs_position", "fs_zero"),
             ShaderProgram::LensLayer => plain("lens", "vs_layer", "fs_layer"),
             ShaderProgram::BoxFilter => plain("resolve", "vs_full_screen", "fs_box_filter"),
+            ShaderProgram::LensLayerProgrammable => {
+                plain("lens", "vs_layer", "fs_layer_programmable")
+            }
+            ShaderProgram::GroupSum => plain("composite", "vs_full_screen", "fs_group_sum"),
             ShaderProgram::LensSinglePass(program) => Some((
                 lensmap_shaders::shader("lens", "vs_single_pass")?,
                 lensmap_shaders::specialized(
@@ -145,6 +163,8 @@ impl ShaderProgram {
             ShaderProgram::LensZero
             | ShaderProgram::LensLayer
             | ShaderProgram::LensSinglePass(_)
+            | ShaderProgram::LensLayerProgrammable
+            | ShaderProgram::GroupSum
             | ShaderProgram::BoxFilter => VertexInput::None,
         }
     }
@@ -161,6 +181,8 @@ mod tests {
             ShaderProgram::LensZero,
             ShaderProgram::LensLayer,
             ShaderProgram::BoxFilter,
+            ShaderProgram::LensLayerProgrammable,
+            ShaderProgram::GroupSum,
         ];
         let term_sets: [&[Term]; 3] = [
             &[Term::Refraction],
@@ -176,7 +198,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(programs.len(), 4 + 6 * SinglePassProgram::MAX_LAYERS);
+        assert_eq!(programs.len(), 6 + 6 * SinglePassProgram::MAX_LAYERS);
         for program in programs {
             let (vertex, fragment) = program.shaders().expect("compiled by shaders/build.rs");
             assert_ne!(vertex.entry, fragment.entry, "{program:?}");

@@ -5,7 +5,7 @@
 
 use ash::vk;
 use bytemuck::Zeroable;
-use lensmap_shaders::{EnvironmentConstants, LensConstants, ResolveConstants};
+use lensmap_shaders::{EnvironmentConstants, GroupSumConstants, LensConstants, ResolveConstants};
 
 use super::{
     HostImage, TargetFormat,
@@ -76,6 +76,17 @@ impl Recorder<'_> {
             if id == resources.depth {
                 return (targets.depth.handle, all(vk::ImageAspectFlags::DEPTH, 1));
             }
+            // A scratch image is one layer of the scratch array.
+            if let (Some(k), Some(scratch)) = (
+                resources.scratch.iter().position(|s| *s == id),
+                targets.scratch.as_ref(),
+            ) {
+                let range = vk::ImageSubresourceRange {
+                    base_array_layer: k as u32,
+                    ..all(vk::ImageAspectFlags::COLOR, 1)
+                };
+                return (scratch.image.handle, range);
+            }
             resources
                 .layers
                 .iter()
@@ -102,7 +113,15 @@ impl Recorder<'_> {
         // image (the framebuffer's size over the supersampling factor).
         let attachment = |id: graph::ImageId| match host {
             Some(host) if Some(id) == resources.external => (host.view, host.width, host.height),
-            _ => (targets.colour.view, width, height),
+            _ => {
+                let scratch_view = resources
+                    .scratch
+                    .iter()
+                    .position(|s| *s == id)
+                    .zip(targets.scratch.as_ref())
+                    .and_then(|(k, scratch)| scratch.image.layer_views.get(k).copied());
+                (scratch_view.unwrap_or(targets.colour.view), width, height)
+            }
         };
 
         for (step, pipeline) in plan.steps.iter().zip(pipelines) {
@@ -318,6 +337,78 @@ impl Recorder<'_> {
                         bytemuck::bytes_of(&constants),
                     );
                     device.cmd_draw(cb, 3, 1, 0, 0);
+                }
+                Draw::GroupSum { groups } => {
+                    let Some(set) = targets
+                        .scratch
+                        .as_ref()
+                        .and_then(|s| s.prefix_sets.get((groups as usize).checked_sub(1)?))
+                    else {
+                        return;
+                    };
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        self.pipelines.group_sum_layout,
+                        0,
+                        &[*set],
+                        &[],
+                    );
+                    device.cmd_push_constants(
+                        cb,
+                        self.pipelines.group_sum_layout,
+                        vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        bytemuck::bytes_of(&GroupSumConstants { groups }),
+                    );
+                    device.cmd_draw(cb, 3, 1, 0, 0);
+                }
+                Draw::ProgrammableLayer {
+                    lens,
+                    viewpoint,
+                    term,
+                    layer,
+                    read,
+                    reset_alpha,
+                } => {
+                    let Some(scratch) = &targets.scratch else {
+                        return;
+                    };
+                    let gpu_lens = &frame.lenses[lens];
+                    let mut constants = lens_constants(gpu_lens);
+                    constants.weight_a = weight(viewpoint);
+                    constants.fg_offset_t = gpu_lens.fg_offset[&term];
+                    constants.direction_offset_t =
+                        gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
+                    constants.layer = layer as u32;
+                    constants.read_current = u32::from(read.is_some());
+                    constants.reset_alpha = u32::from(reset_alpha);
+                    let layout = self.pipelines.programmable_layout;
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::GRAPHICS,
+                        layout,
+                        0,
+                        &[
+                            gpu_lens.sets[viewpoint],
+                            scratch.layer_sets[read.unwrap_or(0) as usize],
+                        ],
+                        &[],
+                    );
+                    device.cmd_push_constants(
+                        cb,
+                        layout,
+                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        bytemuck::bytes_of(&constants),
+                    );
+                    device.cmd_bind_index_buffer(
+                        cb,
+                        gpu_lens.indices.handle,
+                        0,
+                        vk::IndexType::UINT32,
+                    );
+                    device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
                 }
                 Draw::Environment { mesh } => {
                     let mesh = &frame.environment[mesh];

@@ -12,7 +12,7 @@ use super::{
     FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat, Variant,
     image::decode,
     pipelines::Pipelines,
-    plan::{FrameResources, Output, frame_graph_to},
+    plan::{BlendScheme, FrameResources, Output, frame_graph_blended},
     record::Recorder,
     upload::{Targets, UploadCache, UploadedFrame},
 };
@@ -132,17 +132,28 @@ impl Renderer {
         variant: Variant,
         format: TargetFormat,
     ) -> Result<FramePlan, RenderError> {
-        Ok(Self::plan_with_resources(frame, variant, format, Output::Readback)?.0)
+        Self::plan_blended(frame, variant, BlendScheme::FrontToBack, format)
+    }
+
+    /// [`Renderer::plan`] with the multipass variant's layers combined by `blend`.
+    pub fn plan_blended(
+        frame: &UploadedFrame,
+        variant: Variant,
+        blend: BlendScheme,
+        format: TargetFormat,
+    ) -> Result<FramePlan, RenderError> {
+        Ok(Self::plan_with_resources(frame, (variant, blend), format, Output::Readback)?.0)
     }
 
     /// The plan ending in `output` and the graph's handles of the frame's images.
     fn plan_with_resources(
         frame: &UploadedFrame,
-        variant: Variant,
+        (variant, blend): (Variant, BlendScheme),
         format: TargetFormat,
         output: Output,
     ) -> Result<(FramePlan, FrameResources), RenderError> {
-        let (graph, resources) = frame_graph_to(frame.shape(), variant, format, output)?;
+        let (graph, resources) =
+            frame_graph_blended(frame.shape(), variant, blend, format, output)?;
         // The frame graph is well-formed by construction (lens names are unique, checked by
         // FrameInput::validate); a failure here is a bug in plan.rs.
         let plan = graph.compile().expect("frame graphs always compile");
@@ -158,6 +169,18 @@ impl Renderer {
         format: TargetFormat,
     ) -> Result<(RenderedImage, FrameTimings), RenderError> {
         let submission = self.submit(gpu, frame, variant, format)?;
+        self.finish(frame, submission)
+    }
+
+    /// [`Renderer::render`] with the multipass variant's layers combined by `blend`.
+    pub fn render_blended(
+        &mut self,
+        gpu: &Gpu,
+        frame: &mut UploadedFrame,
+        (variant, blend): (Variant, BlendScheme),
+        format: TargetFormat,
+    ) -> Result<(RenderedImage, FrameTimings), RenderError> {
+        let submission = self.submit_blended(gpu, frame, (variant, blend), format, None)?;
         self.finish(frame, submission)
     }
 
@@ -187,13 +210,31 @@ impl Renderer {
         format: TargetFormat,
         host: Option<&HostImage>,
     ) -> Result<Submission, RenderError> {
+        self.submit_blended(
+            gpu,
+            frame,
+            (variant, BlendScheme::FrontToBack),
+            format,
+            host,
+        )
+    }
+
+    /// [`Renderer::submit_to`] with the multipass variant's layers combined by `blend`.
+    pub fn submit_blended(
+        &mut self,
+        gpu: &Gpu,
+        frame: &mut UploadedFrame,
+        (variant, blend): (Variant, BlendScheme),
+        format: TargetFormat,
+        host: Option<&HostImage>,
+    ) -> Result<Submission, RenderError> {
         let start = Instant::now();
         let (width, height) = (frame.shape().width, frame.shape().height);
         let output = match host {
             Some(image) => image.output(width, height)?,
             None => Output::Readback,
         };
-        let (plan, resources) = Self::plan_with_resources(frame, variant, format, output)?;
+        let (plan, resources) = Self::plan_with_resources(frame, (variant, blend), format, output)?;
         if let std::collections::hash_map::Entry::Vacant(slot) = frame.targets.entry(format) {
             slot.insert(Targets::new(gpu, &self.pipelines, format, width, height)?);
         }
@@ -210,6 +251,9 @@ impl Renderer {
         // caller alternates frames, as a stream with frames in flight does).
         if let Some((timeline, value)) = &frame.last_submission {
             timeline.wait(*value)?;
+        }
+        if let Some(targets) = frame.targets.get_mut(&format) {
+            targets.ensure_scratch(gpu, &self.pipelines, resources.scratch.len())?;
         }
         let slot = (self.submitted as usize) % self.command_buffers.len();
         let (command_buffer, last) = self.command_buffers[slot];

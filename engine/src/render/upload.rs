@@ -136,6 +136,150 @@ pub(super) struct Targets {
     /// it is not used after).
     pub(super) box_filter_set: vk::DescriptorSet,
     _box_filter_pool: DescriptorPool,
+    /// The blending schemes' scratch images, made when a plan first needs them.
+    pub(super) scratch: Option<Scratch>,
+}
+
+/// Framebuffer-sized scratch images (layers of one 2D-array image, in the framebuffer's format)
+/// and the sets that sample them. Each set's view covers exactly the layers a pass reads, so no
+/// view a draw samples overlaps an attachment or a layer the frame never wrote.
+pub(super) struct Scratch {
+    pub(super) image: Image,
+    /// `layer_sets[k]`: layer k alone (2D; the programmable layer's set 1).
+    pub(super) layer_sets: Vec<vk::DescriptorSet>,
+    /// `prefix_sets[c − 1]`: layers 0..c (2D array; the group sum's set 0 for c groups).
+    pub(super) prefix_sets: Vec<vk::DescriptorSet>,
+    /// The prefix views, destroyed with the scratch images.
+    prefix_views: Vec<vk::ImageView>,
+    _pool: DescriptorPool,
+    shared: Arc<Shared>,
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        // SAFETY: the owning frame waited for its last submission; the views are this image's.
+        unsafe {
+            for view in &self.prefix_views {
+                self.shared.device.destroy_image_view(*view, None);
+            }
+        }
+    }
+}
+
+impl Scratch {
+    fn new(
+        gpu: &Gpu,
+        pipelines: &Pipelines,
+        format: vk::Format,
+        (width, height): (u32, u32),
+        layers: u32,
+    ) -> Result<Scratch, GpuError> {
+        // At least two layers, so the image is an array with a 2D view per layer.
+        let layers = layers.max(2);
+        let image = Image::new(
+            gpu,
+            ImageDesc::scratch_targets("scratch", format, width, height, layers),
+        )?;
+        let pool = DescriptorPool::with_sizes(
+            gpu,
+            2 * layers,
+            &[vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::SAMPLED_IMAGE,
+                descriptor_count: 2 * layers,
+            }],
+        )?;
+        let mut scratch = Scratch {
+            layer_sets: Vec::new(),
+            prefix_sets: Vec::new(),
+            prefix_views: Vec::new(),
+            image,
+            _pool: pool,
+            shared: gpu.shared.clone(),
+        };
+        for count in 1..=layers {
+            let range = vk::ImageSubresourceRange {
+                layer_count: count,
+                ..scratch.image.full_range()
+            };
+            let info = vk::ImageViewCreateInfo::default()
+                .image(scratch.image.handle)
+                .view_type(vk::ImageViewType::TYPE_2D_ARRAY)
+                .format(format)
+                .subresource_range(range);
+            // SAFETY: the view covers the image's own layers; destroyed in Drop.
+            let view =
+                unsafe { gpu.device().create_image_view(&info, None) }.map_err(|result| {
+                    GpuError::Vulkan {
+                        call: "vkCreateImageView",
+                        result,
+                    }
+                })?;
+            scratch.prefix_views.push(view);
+        }
+        for k in 0..layers as usize {
+            let view = scratch.image.layer_views[k];
+            let set = sampled_image_set_in(gpu, pipelines, &scratch._pool, view)?;
+            scratch.layer_sets.push(set);
+            let set =
+                sampled_image_set_in(gpu, pipelines, &scratch._pool, scratch.prefix_views[k])?;
+            scratch.prefix_sets.push(set);
+        }
+        Ok(scratch)
+    }
+}
+
+/// A pool of one set of the one-sampled-image layout (the box filter's), and the set, naming
+/// `view`.
+fn sampled_image_set(
+    gpu: &Gpu,
+    pipelines: &Pipelines,
+    view: vk::ImageView,
+) -> Result<(DescriptorPool, vk::DescriptorSet), GpuError> {
+    let pool = DescriptorPool::with_sizes(
+        gpu,
+        1,
+        &[vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::SAMPLED_IMAGE,
+            descriptor_count: 1,
+        }],
+    )?;
+    let set = sampled_image_set_in(gpu, pipelines, &pool, view)?;
+    Ok((pool, set))
+}
+
+/// A set of the one-sampled-image layout from `pool`, naming `view`.
+fn sampled_image_set_in(
+    gpu: &Gpu,
+    pipelines: &Pipelines,
+    pool: &DescriptorPool,
+    view: vk::ImageView,
+) -> Result<vk::DescriptorSet, GpuError> {
+    let layouts = [pipelines.box_filter_set_layout];
+    // SAFETY: the pool was sized for its sets; it is destroyed with its owner.
+    let set = unsafe {
+        gpu.device().allocate_descriptor_sets(
+            &vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(pool.handle)
+                .set_layouts(&layouts),
+        )
+    }
+    .map_err(|result| GpuError::Vulkan {
+        call: "vkAllocateDescriptorSets",
+        result,
+    })?[0];
+    let image = [vk::DescriptorImageInfo {
+        sampler: vk::Sampler::null(),
+        image_view: view,
+        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    }];
+    let write = vk::WriteDescriptorSet::default()
+        .dst_set(set)
+        .dst_binding(0)
+        .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
+        .image_info(&image);
+    // SAFETY: the set is new and unused; the info lives until return.
+    unsafe { gpu.device().update_descriptor_sets(&[write], &[]) };
+    Ok(set)
 }
 
 /// A frame's data uploaded once and rendered any number of times, in any variant and format.
@@ -273,43 +417,12 @@ impl Targets {
             gpu,
             ImageDesc::colour_target("colour", colour_format, width, height),
         )?;
-        let pool = DescriptorPool::with_sizes(
-            gpu,
-            1,
-            &[vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 1,
-            }],
-        )?;
-        let layouts = [pipelines.box_filter_set_layout];
-        // SAFETY: the pool was sized for this one set; it is destroyed with the targets.
-        let set = unsafe {
-            gpu.device().allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default()
-                    .descriptor_pool(pool.handle)
-                    .set_layouts(&layouts),
-            )
-        }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkAllocateDescriptorSets",
-            result,
-        })?[0];
-        let image = [vk::DescriptorImageInfo {
-            sampler: vk::Sampler::null(),
-            image_view: colour.view,
-            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        }];
-        let write = vk::WriteDescriptorSet::default()
-            .dst_set(set)
-            .dst_binding(0)
-            .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-            .image_info(&image);
-        // SAFETY: the set is new and unused; the info lives until return.
-        unsafe { gpu.device().update_descriptor_sets(&[write], &[]) };
+        let (pool, set) = sampled_image_set(gpu, pipelines, colour.view)?;
         Ok(Targets {
             colour,
             box_filter_set: set,
             _box_filter_pool: pool,
+            scratch: None,
             depth: Image::new(gpu, ImageDesc::depth_target("depth", width, height))?,
             readback: Buffer::new(
                 gpu,
@@ -320,6 +433,33 @@ impl Targets {
                 BufferUsage::Readback,
             )?,
         })
+    }
+}
+
+impl Targets {
+    /// Makes sure the targets hold at least `layers` scratch images (none needed: nothing made).
+    /// No submission using the previous scratch images may be pending.
+    pub(super) fn ensure_scratch(
+        &mut self,
+        gpu: &Gpu,
+        pipelines: &Pipelines,
+        layers: usize,
+    ) -> Result<(), GpuError> {
+        let have = self
+            .scratch
+            .as_ref()
+            .map_or(0, |s| s.image.desc.array_layers as usize);
+        if layers > have {
+            let extent = self.colour.desc.extent;
+            self.scratch = Some(Scratch::new(
+                gpu,
+                pipelines,
+                self.colour.desc.format,
+                (extent.width, extent.height),
+                layers as u32,
+            )?);
+        }
+        Ok(())
     }
 }
 

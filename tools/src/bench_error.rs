@@ -7,6 +7,11 @@
 //! infinity, a parallax-corrected box probe (one box shell, what game engines ship), and the
 //! reference ray tracer at one sample per pixel. The result is a table, JSON, CSV, and a Pareto
 //! plot of time against error with the frontier marked.
+//!
+//! The per-vertex CPU stages run in f64; the "CPU precision" settings run them in f32
+//! ([`VertexPrecision::F32`]) at the default and at RGBA32F, and also report how far each f32
+//! frame lies from its f64 twin over the lens pixels (linear RMS and largest difference): the
+//! error single precision would add.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -16,12 +21,12 @@ use clap::Args;
 use glam::Vec3;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene, tessellate::DEFAULT_T},
+    hybrid::{HybridOptions, HybridScene, paths::VertexPrecision, tessellate::DEFAULT_T},
     layers::{
         Bake,
         projected::{DEFAULT_EM_SIZE, ProjectedOptions, em_origin},
     },
-    metrics::{Coverage, Encoding, Mask},
+    metrics::{Channels, Coverage, Encoding, Mask},
     render::{RenderedImage, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error, load_hybrid_scene},
     scene::{LayerSpec, Scene},
@@ -149,6 +154,8 @@ struct Setting {
     format: TargetFormat,
     supersampling: u32,
     ems: Ems,
+    /// The float type of the per-vertex CPU stages.
+    precision: VertexPrecision,
 }
 
 impl Setting {
@@ -165,12 +172,19 @@ impl Setting {
             format: TargetFormat::Rgba16f,
             supersampling: 1,
             ems: Ems::Projected,
+            precision: VertexPrecision::F64,
         }
     }
 
+    /// The label names the precision only where it is not the default f64, so `--only f64`
+    /// picks the f32 settings (compared with f64) rather than every setting.
     fn label(&self) -> String {
+        let precision = match self.precision {
+            VertexPrecision::F64 => String::new(),
+            other => format!(" CPU {} (vs f64)", other.name()),
+        };
         format!(
-            "{} t={} angle={}° em={} layers={} {} {} ss={}",
+            "{} t={} angle={}° em={} layers={} {} {} ss={}{precision}",
             self.ems.name(),
             self.t,
             self.angle_degrees,
@@ -181,6 +195,19 @@ impl Setting {
             self.format.name(),
             self.supersampling
         )
+    }
+
+    /// This setting with the per-vertex stages in f64: what an f32 setting is compared with.
+    fn f64_twin(&self) -> Setting {
+        Setting {
+            precision: VertexPrecision::F64,
+            ..self.clone()
+        }
+    }
+
+    /// Whether two settings render with the same knobs (the series aside).
+    fn same_knobs(&self, other: &Setting) -> bool {
+        self.label() == other.label()
     }
 
     /// The key of the hybrid scene this setting renders (its EMs).
@@ -194,7 +221,7 @@ impl Setting {
 }
 
 /// The sweep: the default; each knob moved alone; a t × EM-size grid; supersampling with t; t
-/// with the angle threshold (on teapot-room 40 settings besides the default, 43 with a bake);
+/// with the angle threshold (on teapot-room 42 settings besides the default, 45 with a bake);
 /// and the two EM baselines.
 fn settings(layer_count: usize, inferred: bool) -> Vec<Setting> {
     let base = Setting::default_setting();
@@ -220,6 +247,10 @@ fn settings(layer_count: usize, inferred: bool) -> Vec<Setting> {
         add("layers", &|s| s.layers = Some(layers));
     }
     add("variant", &|s| s.variant = Variant::Multipass);
+    add("CPU precision", &|s| s.precision = VertexPrecision::F32);
+    add("CPU precision", &|s| {
+        (s.precision, s.format) = (VertexPrecision::F32, TargetFormat::Rgba32f)
+    });
     for format in [TargetFormat::Rgba8, TargetFormat::Rgba32f] {
         add("format", &|s| s.format = format);
     }
@@ -330,6 +361,10 @@ struct Point {
     psnr_db: f64,
     ssim: f64,
     per_camera: Vec<Measured>,
+    /// An f32 setting's frames against their f64 twins over the lens pixels, linear:
+    /// `(RMS, largest difference)`, the RMS over the pooled squared differences of the cameras,
+    /// the largest over all.
+    f32_vs_f64: Option<(f64, f64)>,
 }
 
 /// SSIM over the lens pixels: image-compare's SSIM of the two images in display sRGB (8 bits,
@@ -421,6 +456,28 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
                 || s.label().contains(text.as_str())
         });
     }
+    // Every f32 setting is compared with its f64 twin: measure the twin too.
+    for twin in all
+        .iter()
+        .filter(|s| s.precision != VertexPrecision::F64)
+        .map(Setting::f64_twin)
+        .collect::<Vec<_>>()
+    {
+        if !all.iter().any(|s| s.same_knobs(&twin)) {
+            all.push(Setting {
+                family: "format",
+                ..twin
+            });
+        }
+    }
+    let twins: Vec<Option<usize>> = all
+        .iter()
+        .map(|s| {
+            (s.precision != VertexPrecision::F64)
+                .then(|| all.iter().position(|t| t.same_knobs(&s.f64_twin())))
+                .flatten()
+        })
+        .collect();
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_name().to_string();
     let base = scene.camera.with_resolution(args.width, args.height, 1);
@@ -453,7 +510,10 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         "renders",
     );
     let mut per_setting: Vec<Vec<Measured>> = vec![Vec::new(); all.len() + 1];
+    // Per f32 setting, per camera: its frame against its f64 twin's over the lens pixels.
+    let mut against_f64: Vec<Vec<lensmap::metrics::ImageError>> = vec![Vec::new(); all.len()];
     for (_, camera) in &cameras {
+        let mut images: Vec<Option<RenderedImage>> = vec![None; all.len()];
         let reference = render_reference(
             trace,
             &camera.with_resolution(args.width, args.height, args.reference_supersampling),
@@ -464,7 +524,8 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         for (i, setting) in all.iter().enumerate() {
             let camera = camera.with_resolution(args.width, args.height, setting.supersampling);
             let options = FrameOptions {
-                hybrid: HybridOptions::with_t_and_angle(setting.t, setting.angle_degrees),
+                hybrid: HybridOptions::with_t_and_angle(setting.t, setting.angle_degrees)
+                    .with_precision(setting.precision),
                 variant: setting.variant,
                 format: setting.format,
             };
@@ -485,7 +546,22 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
                 psnr_db: error.psnr_db,
                 ssim: lens_ssim(image, &reference)?,
             });
+            images[i] = Some(image.clone());
             bar.inc(1);
+        }
+        let lens_pixels = Mask::from_coverage(&reference.lens_mask, Coverage::Full);
+        for (i, twin) in twins.iter().enumerate() {
+            if let (Some(twin), Some(image)) = (twin, &images[i])
+                && let Some(exact) = &images[*twin]
+            {
+                against_f64[i].push(lensmap::metrics::compare(
+                    &image.pixels,
+                    &exact.pixels,
+                    &lens_pixels,
+                    Encoding::Linear,
+                    Channels::Rgb,
+                )?);
+            }
         }
         // Baseline: the reference ray tracer at one sample per pixel.
         let mut times = Vec::new();
@@ -519,16 +595,26 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     let mean = |values: &[Measured], pick: fn(&Measured) -> f64| {
         values.iter().map(pick).sum::<f64>() / values.len() as f64
     };
+    let pooled = |errors: &[lensmap::metrics::ImageError]| {
+        let pixels: usize = errors.iter().map(|e| e.pixels).sum();
+        (!errors.is_empty()).then(|| {
+            let mse = errors.iter().map(|e| e.mse * e.pixels as f64).sum::<f64>() / pixels as f64;
+            let max = errors.iter().map(|e| e.max_abs).fold(0.0, f64::max);
+            (mse.sqrt(), max)
+        })
+    };
     let mut points: Vec<Point> = all
         .iter()
         .zip(&per_setting)
-        .map(|(setting, values)| Point {
+        .zip(&against_f64)
+        .map(|((setting, values), errors)| Point {
             family: setting.family,
             label: setting.label(),
             frame_ms: mean(values, |v| v.frame_ms),
             psnr_db: mean(values, |v| v.psnr_db),
             ssim: mean(values, |v| v.ssim),
             per_camera: values.clone(),
+            f32_vs_f64: pooled(errors),
         })
         .collect();
     points.push(Point {
@@ -538,6 +624,7 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         psnr_db: mean(&per_setting[all.len()], |v| v.psnr_db),
         ssim: mean(&per_setting[all.len()], |v| v.ssim),
         per_camera: per_setting[all.len()].clone(),
+        f32_vs_f64: None,
     });
     let on_frontier = frontier(&points);
     // The default against the frontier: the best PSNR any point reaches in no more time.
@@ -563,8 +650,11 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
             .iter()
             .map(|m| format!("{:.0}/{:.2}", m.frame_ms, m.psnr_db))
             .collect();
+        let against_f64 = point.f32_vs_f64.map_or_else(String::new, |(rms, max)| {
+            format!("  f32 − f64 frame over the lens: RMS {rms:.3e}, max {max:.3e}")
+        });
         say!(
-            "{:<28} {:>9.1} {:>8.2}{} {:>6.4}  {}  [{}]",
+            "{:<28} {:>9.1} {:>8.2}{} {:>6.4}  {}  [{}]{against_f64}",
             point.family,
             point.frame_ms,
             point.psnr_db,
@@ -581,10 +671,16 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     );
 
     if let Some(path) = &args.csv {
-        let mut csv = String::from("series,setting,frame_ms,lens_psnr_db,lens_ssim,on_frontier\n");
+        let mut csv = String::from(
+            "series,setting,frame_ms,lens_psnr_db,lens_ssim,on_frontier,f32_vs_f64_rms,f32_vs_f64_max\n",
+        );
         for (i, point) in points.iter().enumerate() {
+            let (rms, max) = point.f32_vs_f64.map_or_else(
+                || (String::new(), String::new()),
+                |(rms, max)| (format!("{rms:.6e}"), format!("{max:.6e}")),
+            );
             csv.push_str(&format!(
-                "{},{},{:.4},{:.4},{:.5},{}\n",
+                "{},{},{:.4},{:.4},{:.5},{},{rms},{max}\n",
                 csv_text(point.family),
                 csv_text(&point.label),
                 point.frame_ms,
@@ -611,6 +707,7 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
             json!({
                 "series": p.family, "setting": p.label, "frame_ms": p.frame_ms,
                 "lens_psnr_db": p.psnr_db, "lens_ssim": p.ssim, "on_frontier": on_frontier.contains(&i),
+                "f32_vs_f64": p.f32_vs_f64.map(|(rms, max)| json!({"linear_rms": rms, "linear_max": max})),
                 "per_camera": p.per_camera.iter().map(|m| json!({"frame_ms": m.frame_ms, "lens_psnr_db": m.psnr_db, "lens_ssim": m.ssim})).collect::<Vec<_>>(),
             })
         })
@@ -660,6 +757,7 @@ mod tests {
             psnr_db,
             ssim: 0.5,
             per_camera: Vec::new(),
+            f32_vs_f64: None,
         }
     }
 

@@ -13,6 +13,7 @@ use std::{
 use glam::{DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
+pub use super::paths::VertexPrecision;
 use super::{
     paths::{PathOracle, ScreenCamera, VertexPaths},
     sky::SkyDome,
@@ -182,6 +183,9 @@ pub struct HybridOptions {
     /// than this is tessellated with `t × footprint / extent` (at most 8 t): a distant or tiny
     /// object gets proportionally fewer vertices. Changes the image where it applies.
     pub footprint_subpixels: f32,
+    /// The float type of the per-vertex stages (vertex paths, texgen): f64 (the default), or
+    /// f32 to measure what single precision would cost.
+    pub precision: VertexPrecision,
 }
 
 impl Default for HybridOptions {
@@ -190,6 +194,7 @@ impl Default for HybridOptions {
             tessellation: TessellationOptions::default(),
             angle_radians: DEFAULT_ANGLE_DEGREES.to_radians(),
             footprint_subpixels: 0.0,
+            precision: VertexPrecision::F64,
         }
     }
 }
@@ -230,6 +235,11 @@ impl HybridOptions {
             footprint_subpixels: subpixels,
             ..self
         }
+    }
+
+    /// These options with the per-vertex stages in `precision`.
+    pub fn with_precision(self, precision: VertexPrecision) -> HybridOptions {
+        HybridOptions { precision, ..self }
     }
 
     /// Checks every option: `t` ([`TessellationOptions::validate`]), the footprint (finite,
@@ -788,7 +798,8 @@ impl HybridScene {
                     screen,
                     options.angle_radians,
                     faces,
-                );
+                )
+                .with_precision(options.precision);
                 let start = Instant::now();
                 tessellation_options.max_vertices = vertex_budget.max(mesh.positions.len());
                 let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
@@ -842,6 +853,7 @@ impl HybridScene {
                 },
                 &samples,
                 &blend,
+                options.precision,
             );
             stats.texgen_ms += start.elapsed().as_secs_f64() * 1e3;
             lenses.push(object);
@@ -927,8 +939,9 @@ struct LensMesh {
 }
 
 /// Texture coordinates: each vertex's outgoing ray per term against each layer shell gives the
-/// cube-map direction `hit − EM origin`; F·G per term. Vertices with no path (back-facing only,
-/// or no refraction at the first interface) get F·G = 0 and their reflection's direction.
+/// cube-map direction `hit − EM origin` (computed in `precision`); F·G per term. Vertices with no
+/// path (back-facing only, or no refraction at the first interface) get F·G = 0 and their
+/// reflection's direction.
 fn texgen(
     trace: &TraceScene,
     lens: usize,
@@ -936,6 +949,7 @@ fn texgen(
     mesh: LensMesh,
     samples: &[Option<VertexPaths>],
     blend: &viewpoints::ViewpointBlend,
+    precision: VertexPrecision,
 ) -> LensObject {
     let LensMesh {
         positions,
@@ -979,13 +993,23 @@ fn texgen(
                     (0..positions.len())
                         .into_par_iter()
                         .map(|v| match path(v) {
-                            Some(p) => shell
-                                .texture_direction_for_ray(
-                                    layers.em_origin,
-                                    p.outgoing.origin,
-                                    p.outgoing.direction,
-                                )
-                                .as_vec3(),
+                            Some(p) => {
+                                let (origin, direction) = (p.outgoing.origin, p.outgoing.direction);
+                                match precision {
+                                    VertexPrecision::F64 => shell.texture_direction_for_ray(
+                                        layers.em_origin,
+                                        origin,
+                                        direction,
+                                    ),
+                                    VertexPrecision::F32 => shell
+                                        .texture_direction_for_ray_in::<f32>(
+                                            layers.em_origin,
+                                            origin,
+                                            direction,
+                                        ),
+                                }
+                                .as_vec3()
+                            }
                             None => fallback_direction(positions[v]).as_vec3(),
                         })
                         .collect()

@@ -2,6 +2,10 @@
 //! triangle, a visibility query and the two greedy paths (initial refraction, initial reflection)
 //! with their F·G, outgoing ray and topology. This is the [`VertexOracle`] the adaptive
 //! tessellation asks; it evaluates each batch of new vertices in parallel (rayon) and in order.
+//!
+//! The paths are computed in f64 ([`VertexPrecision::F64`], the default). [`VertexPrecision::F32`]
+//! runs the same code with every triangle test, Fresnel coefficient, direction and product in
+//! f32, to measure what single precision would cost (`lensmap bench error`'s "CPU precision").
 
 use std::sync::Mutex;
 
@@ -11,11 +15,37 @@ use rayon::prelude::*;
 use super::tessellate::{SurfaceVertex, VertexEvaluation, VertexOracle, faces_eye};
 use crate::render::LensFaces;
 use crate::trace::{
-    GreedyOptions, Ray, Term,
+    GreedyOptions, GreedyRayPath, Interface, Ray, Term,
     bvh::SurfaceHit,
+    fresnel::{Real, Vector3},
+    path::{LensGeometry, trace_greedy_paths_in},
     stats::TraceCounters,
-    world::{Part, TraceScene},
+    world::{Part, TraceScene, WorldHit},
 };
+
+/// The float type the per-vertex CPU stages compute in: the vertex paths (triangle tests,
+/// Fresnel, directions, F·G) and texgen (the shell intersections). Vertex positions are f32
+/// either way (they are the GPU's), and so are the F·G and directions handed to the GPU.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum VertexPrecision {
+    /// Double precision: what lensmap renders with.
+    #[default]
+    F64,
+    /// Single precision throughout the per-vertex stages, to measure what it would cost (what a
+    /// GPU vertex tracer would compute in); secondary rays start 1.5e-5 (relative) off the
+    /// surface instead of 1e-9, as f32 positions need.
+    F32,
+}
+
+impl VertexPrecision {
+    /// Short name for tables (`f64`, `f32`).
+    pub fn name(self) -> &'static str {
+        match self {
+            VertexPrecision::F64 => "f64",
+            VertexPrecision::F32 => "f32",
+        }
+    }
+}
 
 /// One term's greedy path at a vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,6 +108,7 @@ pub struct PathOracle<'a> {
     /// Which faces are evaluated: both for an open mesh, whose inside the camera can see.
     faces: LensFaces,
     greedy: GreedyOptions,
+    precision: VertexPrecision,
     counters: Mutex<(TraceCounters, f64)>,
 }
 
@@ -101,8 +132,14 @@ impl<'a> PathOracle<'a> {
             cos_threshold: angle_radians.cos(),
             faces,
             greedy: GreedyOptions::default(),
+            precision: VertexPrecision::F64,
             counters: Mutex::new((TraceCounters::default(), 0.0)),
         }
+    }
+
+    /// This oracle computing its paths in `precision` (f64 unless told).
+    pub fn with_precision(self, precision: VertexPrecision) -> Self {
+        PathOracle { precision, ..self }
     }
 
     /// Rays and triangle tests spent so far.
@@ -115,28 +152,41 @@ impl<'a> PathOracle<'a> {
         self.counters.lock().map(|c| c.1).unwrap_or_default()
     }
 
-    /// Traces one vertex: the eye ray (the visibility query, and the first hit when the vertex is
-    /// visible), then the two greedy paths from the vertex.
+    /// Traces one vertex in the oracle's precision: the eye ray (the visibility query, and the
+    /// first hit when the vertex is visible), then the two greedy paths from the vertex.
     fn trace_vertex(
         &self,
         vertex: &SurfaceVertex,
         counters: &mut TraceCounters,
     ) -> (VertexPaths, bool) {
+        match self.precision {
+            VertexPrecision::F64 => self.trace_vertex_in::<f64>(vertex, counters),
+            VertexPrecision::F32 => self.trace_vertex_in::<f32>(vertex, counters),
+        }
+    }
+
+    /// [`PathOracle::trace_vertex`] with the eye ray, every triangle test and the paths in `R`.
+    fn trace_vertex_in<R: Real>(
+        &self,
+        vertex: &SurfaceVertex,
+        counters: &mut TraceCounters,
+    ) -> (VertexPaths, bool) {
         let position = vertex.position.as_dvec3();
-        let to_vertex = position - self.camera.eye;
+        let to_vertex =
+            <R::Vec3 as Vector3>::of(position) - <R::Vec3 as Vector3>::of(self.camera.eye);
         let distance = to_vertex.length();
-        let direction = if distance > 0.0 {
-            to_vertex / distance
+        let direction = if distance > R::ZERO {
+            (to_vertex / distance).to_dvec3()
         } else {
             DVec3::NEG_Z
         };
+        let distance = distance.to_f64();
         let eye_ray = Ray::new(self.camera.eye, direction);
         counters.primary_rays += 1;
         // Only what lies up to the vertex matters: the vertex itself, or an occluder.
         let tolerance = 1e-4 * distance.max(1.0);
         let first =
-            self.trace
-                .closest_hit_within(&eye_ray, distance + tolerance, None, None, counters);
+            closest_hit_within_in::<R>(self.trace, &eye_ray, distance + tolerance, counters);
         let visible = matches!(first, Some(h) if h.part == Part::Lens(self.lens)
             && (h.hit.distance - distance).abs() <= tolerance);
         let hit = match first {
@@ -160,11 +210,14 @@ impl<'a> PathOracle<'a> {
                 }
             }
         };
-        let paths = self
-            .trace
-            .greedy_paths(self.lens, &eye_ray, &hit, self.greedy, counters);
-        let term = |path: &crate::trace::GreedyRayPath| TermPath {
-            fg: path.weight(),
+        let lens = LensIn::<R> {
+            trace: self.trace,
+            lens: self.lens,
+            precision: std::marker::PhantomData,
+        };
+        let paths = trace_greedy_paths_in::<R>(&lens, &eye_ray, &hit, self.greedy, counters);
+        let term = |path: &GreedyRayPath| TermPath {
+            fg: weight_in::<R>(path),
             outgoing: path.outgoing_ray,
             topology: (path.interfaces, path.reflections),
         };
@@ -177,6 +230,69 @@ impl<'a> PathOracle<'a> {
             },
             visible,
         )
+    }
+}
+
+/// [`GreedyRayPath::weight`] (F·G, 0 for a truncated path) with the product in `R`.
+fn weight_in<R: Real>(path: &GreedyRayPath) -> DVec3 {
+    if path.truncated {
+        DVec3::ZERO
+    } else {
+        (<R::Vec3 as Vector3>::of(path.fresnel) * <R::Vec3 as Vector3>::of(path.attenuation))
+            .to_dvec3()
+    }
+}
+
+/// [`TraceScene::closest_hit_within`] (no surface excluded, no lens object skipped) with every
+/// triangle test in `R`: the environment first, then each lens object, each query cut at the
+/// best distance so far.
+fn closest_hit_within_in<R: Real>(
+    trace: &TraceScene,
+    ray: &Ray,
+    max_distance: f64,
+    counters: &mut TraceCounters,
+) -> Option<WorldHit> {
+    let parts = std::iter::once(Part::Environment).chain((0..trace.lenses.len()).map(Part::Lens));
+    let mut best: Option<WorldHit> = None;
+    for part in parts {
+        let max = best.map_or(max_distance, |b| b.hit.distance);
+        if let Some(hit) =
+            trace
+                .bvh(part)
+                .closest_hit_in::<R>(ray, 0.0, max, None, &mut counters.triangle_tests)
+        {
+            best = Some(WorldHit { hit, part });
+        }
+    }
+    best
+}
+
+/// Lens object `lens` as a [`LensGeometry`] whose triangle tests run in `R`: for `R` = f64 the
+/// same as [`TraceScene::lens`].
+struct LensIn<'a, R> {
+    trace: &'a TraceScene,
+    lens: usize,
+    precision: std::marker::PhantomData<R>,
+}
+
+impl<R: Real> LensGeometry for LensIn<'_, R> {
+    fn closest_hit(
+        &self,
+        ray: &Ray,
+        exclude: Option<u32>,
+        counters: &mut TraceCounters,
+    ) -> Option<SurfaceHit> {
+        self.trace.lenses[self.lens].bvh.closest_hit_in::<R>(
+            ray,
+            0.0,
+            f64::INFINITY,
+            exclude,
+            &mut counters.triangle_tests,
+        )
+    }
+
+    fn interface(&self, object: usize) -> Interface {
+        self.trace.lens(self.lens).interface(object)
     }
 }
 

@@ -27,6 +27,8 @@
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
+use crate::trace::fresnel::{Real, Vector3};
+
 /// "Very far from the impostor center" (§4.2): a forced quad hit lies at this multiple of the
 /// quad's half-diagonal `|half_extents|` from its centre.
 ///
@@ -217,7 +219,16 @@ impl LayerShell {
     /// `None` when the ray misses a closed shell, never leaves an infinite cylinder, or when
     /// `origin` or `direction` is not finite or `direction` is zero.
     pub fn intersect(&self, origin: DVec3, direction: DVec3) -> Option<ShellHit> {
-        if !origin.is_finite() || !direction.is_finite() || direction == DVec3::ZERO {
+        self.intersect_in::<f64>(origin, direction)
+    }
+
+    /// [`LayerShell::intersect`] computed in precision `R` (the shell and the ray rounded to it;
+    /// the hit stored in f64, which holds it exactly): f64 is `intersect`; f32 measures what
+    /// single precision would cost.
+    pub fn intersect_in<R: Real>(&self, origin: DVec3, direction: DVec3) -> Option<ShellHit> {
+        let vector = <R::Vec3 as Vector3>::of;
+        let (origin, direction) = (vector(origin), vector(direction));
+        if !origin.is_finite() || !direction.is_finite() || direction == R::Vec3::ZERO {
             return None;
         }
         if let LayerShell::Quad {
@@ -228,21 +239,26 @@ impl LayerShell {
             ..
         } = *self
         {
-            let far = QUAD_FORCED_DISTANCE_FACTOR * half_extents.length();
+            let far = R::of(QUAD_FORCED_DISTANCE_FACTOR) * R::of(half_extents.length());
             return Some(intersect_quad(
-                centre, normal, u_axis, far, origin, direction,
+                vector(centre),
+                vector(normal),
+                vector(u_axis),
+                far,
+                origin,
+                direction,
             ));
         }
         let (near, far) = self.closed_interval(origin, direction)?;
-        if far < 0.0 {
+        if far < R::ZERO {
             return None;
         }
         // Inside or on the surface (near ≤ 0 ≤ far): the exit. Outside: the entry.
-        let t = if near > 0.0 { near } else { far };
-        let point = origin + t * direction;
+        let t = if near > R::ZERO { near } else { far };
+        let point = origin + direction * t;
         (t.is_finite() && point.is_finite()).then_some(ShellHit {
-            point,
-            t,
+            point: point.to_dvec3(),
+            t: t.to_f64(),
             forced: false,
         })
     }
@@ -263,30 +279,56 @@ impl LayerShell {
         origin: DVec3,
         direction: DVec3,
     ) -> DVec3 {
-        match self.intersect(origin, direction) {
-            Some(hit) => self.texture_direction(em_origin, hit.point),
-            None => direction,
+        self.texture_direction_for_ray_in::<f64>(em_origin, origin, direction)
+    }
+
+    /// [`LayerShell::texture_direction_for_ray`] computed in precision `R` (see
+    /// [`LayerShell::intersect_in`]); the direction is the difference of the hit and the EM
+    /// origin in `R`.
+    pub fn texture_direction_for_ray_in<R: Real>(
+        &self,
+        em_origin: DVec3,
+        origin: DVec3,
+        direction: DVec3,
+    ) -> DVec3 {
+        let vector = <R::Vec3 as Vector3>::of;
+        match self.intersect_in::<R>(origin, direction) {
+            Some(hit) => (vector(hit.point) - vector(em_origin)).to_dvec3(),
+            None => vector(direction).to_dvec3(),
         }
     }
 
     /// The parameter interval `[near, far]` over which the line `origin + t·direction` lies in the
     /// closed solid (±∞ where it never leaves), or `None` when it misses. Not for quads.
-    fn closed_interval(&self, origin: DVec3, direction: DVec3) -> Option<(f64, f64)> {
+    fn closed_interval<V: Vector3>(
+        &self,
+        origin: V,
+        direction: V,
+    ) -> Option<(V::Scalar, V::Scalar)> {
+        let (vector, scalar) = (V::of, <V::Scalar as Real>::of);
         match *self {
             LayerShell::Sphere { centre, radius } => {
-                sphere_interval(origin - centre, direction, radius * radius)
+                let radius = scalar(radius);
+                sphere_interval(origin - vector(centre), direction, radius * radius)
             }
             LayerShell::Ellipsoid { centre, radii } => {
-                sphere_interval((origin - centre) / radii, direction / radii, 1.0)
+                let radii = vector(radii);
+                sphere_interval(
+                    (origin - vector(centre)) / radii,
+                    direction / radii,
+                    <V::Scalar as Real>::ONE,
+                )
             }
             LayerShell::Box {
                 centre,
                 half_extents,
             } => {
-                let offset = origin - centre;
-                let x = slab_interval(offset.x, direction.x, half_extents.x)?;
-                let y = slab_interval(offset.y, direction.y, half_extents.y)?;
-                let z = slab_interval(offset.z, direction.z, half_extents.z)?;
+                let offset = (origin - vector(centre)).components();
+                let direction = direction.components();
+                let half = vector(half_extents).components();
+                let x = slab_interval(offset[0], direction[0], half[0])?;
+                let y = slab_interval(offset[1], direction[1], half[1])?;
+                let z = slab_interval(offset[2], direction[2], half[2])?;
                 overlap(overlap(x, y)?, z)
             }
             LayerShell::Cylinder {
@@ -295,17 +337,18 @@ impl LayerShell {
                 radius,
                 half_height,
             } => {
-                let offset = origin - centre;
+                let (axis, radius) = (vector(axis), scalar(radius));
+                let offset = origin - vector(centre);
                 let along = offset.dot(axis);
                 let direction_along = direction.dot(axis);
                 let radial = sphere_interval(
-                    offset - along * axis,
-                    direction - direction_along * axis,
+                    offset - axis * along,
+                    direction - axis * direction_along,
                     radius * radius,
                 )?;
                 match half_height {
                     None => Some(radial),
-                    Some(h) => overlap(radial, slab_interval(along, direction_along, h)?),
+                    Some(h) => overlap(radial, slab_interval(along, direction_along, scalar(h))?),
                 }
             }
             LayerShell::Quad { .. } => None,
@@ -318,33 +361,40 @@ impl LayerShell {
 /// The discriminant is computed from the line's closest approach to the centre rather than as
 /// `b² − a·c`, which cancels catastrophically for grazing rays; the two roots come from the
 /// numerically stable pair `q / a`, `c / q`.
-fn sphere_interval(offset: DVec3, direction: DVec3, radius_sq: f64) -> Option<(f64, f64)> {
+fn sphere_interval<V: Vector3>(
+    offset: V,
+    direction: V,
+    radius_sq: V::Scalar,
+) -> Option<(V::Scalar, V::Scalar)> {
+    let zero = <V::Scalar as Real>::ZERO;
     let a = direction.length_squared();
-    if a == 0.0 {
+    if a == zero {
         // Parallel to the axis of a cylinder: inside for ever or never.
-        return (offset.length_squared() <= radius_sq)
-            .then_some((f64::NEG_INFINITY, f64::INFINITY));
+        return (offset.length_squared() <= radius_sq).then_some((
+            <V::Scalar as Real>::NEG_INFINITY,
+            <V::Scalar as Real>::INFINITY,
+        ));
     }
     let b = offset.dot(direction);
-    let closest = offset - (b / a) * direction;
+    let closest = offset - direction * (b / a);
     let discriminant = a * (radius_sq - closest.length_squared());
-    if discriminant.is_nan() || discriminant < 0.0 {
+    if discriminant.is_nan() || discriminant < zero {
         return None;
     }
     let c = offset.length_squared() - radius_sq;
     let q = -(b + b.signum() * discriminant.sqrt());
-    if q == 0.0 {
+    if q == zero {
         // b = 0 and a tangent touch: the double root −b/a = 0.
-        return Some((0.0, 0.0));
+        return Some((zero, zero));
     }
     let (t0, t1) = (q / a, c / q);
     Some((t0.min(t1), t0.max(t1)))
 }
 
 /// The interval of `t` where `|offset + t·direction| ≤ half` along one axis.
-fn slab_interval(offset: f64, direction: f64, half: f64) -> Option<(f64, f64)> {
-    if direction == 0.0 {
-        return (offset.abs() <= half).then_some((f64::NEG_INFINITY, f64::INFINITY));
+fn slab_interval<R: Real>(offset: R, direction: R, half: R) -> Option<(R, R)> {
+    if direction == R::ZERO {
+        return (offset.abs() <= half).then_some((R::NEG_INFINITY, R::INFINITY));
     }
     let t0 = (-half - offset) / direction;
     let t1 = (half - offset) / direction;
@@ -352,52 +402,53 @@ fn slab_interval(offset: f64, direction: f64, half: f64) -> Option<(f64, f64)> {
 }
 
 /// The intersection of two parameter intervals, `None` when empty.
-fn overlap(a: (f64, f64), b: (f64, f64)) -> Option<(f64, f64)> {
+fn overlap<R: Real>(a: (R, R), b: (R, R)) -> Option<(R, R)> {
     let near = a.0.max(b.0);
     let far = a.1.min(b.1);
     (near <= far).then_some((near, far))
 }
 
 /// The quad's plane hit, or the §4.2 forced point at distance `far` from the centre.
-fn intersect_quad(
-    centre: DVec3,
-    normal: DVec3,
-    u_axis: DVec3,
-    far: f64,
-    origin: DVec3,
-    direction: DVec3,
+fn intersect_quad<V: Vector3>(
+    centre: V,
+    normal: V,
+    u_axis: V,
+    far: V::Scalar,
+    origin: V,
+    direction: V,
 ) -> ShellHit {
-    let forced_at = |in_plane: DVec3| {
-        let point = centre + far * in_plane.try_normalize().unwrap_or(u_axis);
+    let zero = <V::Scalar as Real>::ZERO;
+    let forced_at = |in_plane: V| {
+        let point = centre + in_plane.try_normalize().unwrap_or(u_axis) * far;
         ShellHit {
-            point,
-            t: (point - origin).length() / direction.length(),
+            point: point.to_dvec3(),
+            t: ((point - origin).length() / direction.length()).to_f64(),
             forced: true,
         }
     };
     let denominator = direction.dot(normal);
-    if denominator != 0.0 {
+    if denominator != zero {
         let t = (centre - origin).dot(normal) / denominator;
-        if t >= 0.0 && t.is_finite() {
-            let point = origin + t * direction;
+        if t >= zero && t.is_finite() {
+            let point = origin + direction * t;
             let offset = point - centre;
             if !offset.is_finite() {
-                return forced_at(direction - denominator * normal);
+                return forced_at(direction - normal * denominator);
             }
             if offset.length() <= far {
                 return ShellHit {
-                    point,
-                    t,
+                    point: point.to_dvec3(),
+                    t: t.to_f64(),
                     forced: false,
                 };
             }
             // Beyond the far distance: pulled back along the plane (continuity with the forced
             // rays beyond the horizon). The offset is in the plane up to rounding; project it.
-            return forced_at(offset - offset.dot(normal) * normal);
+            return forced_at(offset - normal * offset.dot(normal));
         }
     }
     // Parallel to the plane or pointing away from it: keep only the tangential component.
-    forced_at(direction - denominator * normal)
+    forced_at(direction - normal * denominator)
 }
 
 fn check_finite_vector(field: &'static str, value: DVec3) -> Result<(), ShellError> {

@@ -15,6 +15,7 @@ use obvhs::{
 };
 
 use super::Ray;
+use super::fresnel::{Real, Vector3};
 
 /// Relative barycentric slack of the triangle test: a hit exactly on a shared edge belongs to both
 /// triangles, so no ray slips between them.
@@ -170,6 +171,22 @@ impl MeshBvh {
         exclude: Option<u32>,
         triangle_tests: &mut u64,
     ) -> Option<SurfaceHit> {
+        self.closest_hit_in::<f64>(ray, min_distance, max_distance, exclude, triangle_tests)
+    }
+
+    /// [`MeshBvh::closest_hit`] with the triangle test and the hit's attributes computed in
+    /// precision `R` (the ray and the triangles rounded to it first): f64 is `closest_hit`; f32
+    /// measures what single precision would cost. The f32 traversal stays the broad phase for
+    /// both: its boxes are padded by 1e-5 of the coordinates' magnitude, far more than an f32
+    /// triangle test's own rounding (~1e-7 relative), so it culls nothing either test would hit.
+    pub fn closest_hit_in<R: Real>(
+        &self,
+        ray: &Ray,
+        min_distance: f64,
+        max_distance: f64,
+        exclude: Option<u32>,
+        triangle_tests: &mut u64,
+    ) -> Option<SurfaceHit> {
         let bvh = self.bvh.as_ref()?;
         let mut best: Option<(u32, f64, f64, f64)> = None;
         let mut best_distance = max_distance;
@@ -180,7 +197,7 @@ impl MeshBvh {
             if exclude == Some(id as u32) {
                 return f32::INFINITY;
             }
-            match self.triangles[id].intersect(ray, min_distance, best_distance) {
+            match self.triangles[id].intersect::<R>(ray, min_distance, best_distance) {
                 Some((t, u, v)) => {
                     best = Some((id as u32, t, u, v));
                     best_distance = t;
@@ -190,7 +207,7 @@ impl MeshBvh {
             }
         });
         *triangle_tests += tests;
-        best.map(|(id, t, u, v)| self.surface_hit(id, t, u, v))
+        best.map(|(id, t, u, v)| self.triangles[id as usize].surface::<R>(id, t, u, v))
     }
 
     /// True when some triangle (other than `exclude`) lies within `(min_distance, max_distance)`
@@ -212,7 +229,7 @@ impl MeshBvh {
             if exclude == Some(id as u32) {
                 return f32::INFINITY;
             }
-            match self.triangles[id].intersect(ray, min_distance, max_distance) {
+            match self.triangles[id].intersect::<f64>(ray, min_distance, max_distance) {
                 Some(_) => 0.0,
                 None => f32::INFINITY,
             }
@@ -241,7 +258,9 @@ impl MeshBvh {
             if exclude == Some(id as u32) {
                 return;
             }
-            if let Some((t, u, v)) = self.triangles[id].intersect(ray, min_distance, max_distance) {
+            if let Some((t, u, v)) =
+                self.triangles[id].intersect::<f64>(ray, min_distance, max_distance)
+            {
                 found.push((id as u32, t, u, v));
             }
         });
@@ -254,7 +273,7 @@ impl MeshBvh {
     }
 
     fn surface_hit(&self, id: u32, t: f64, u: f64, v: f64) -> SurfaceHit {
-        self.triangles[id as usize].surface(id, t, u, v)
+        self.triangles[id as usize].surface::<f64>(id, t, u, v)
     }
 
     /// The f32 obvhs ray for traversal only: in the BVH's scaled coordinates, starting
@@ -288,21 +307,28 @@ impl SourceTriangle {
     /// sides a ray hit there gets: what light maps shade. `None` for a degenerate or non-finite
     /// triangle (one the BVH leaves out). `primitive` is `u32::MAX` (no BVH id).
     pub fn surface_at(&self, u: f64, v: f64) -> Option<SurfaceHit> {
-        prepare_triangle(self).map(|triangle| triangle.surface(u32::MAX, 0.0, u, v))
+        prepare_triangle(self).map(|triangle| triangle.surface::<f64>(u32::MAX, 0.0, u, v))
     }
 }
 
 impl BvhTriangle {
-    /// The hit at distance `t` and barycentrics `(u, v)` on this triangle (BVH id `id`).
-    fn surface(&self, id: u32, t: f64, u: f64, v: f64) -> SurfaceHit {
-        let w = 1.0 - u - v;
-        let position = self.v0 + u * self.e1 + v * self.e2;
-        let interpolated = w * self.normals[0] + u * self.normals[1] + v * self.normals[2];
-        let geometric_normal = self.geometric_normal;
-        let shading_normal = if interpolated.length_squared() > 1e-24 {
+    /// The hit at distance `t` and barycentrics `(u, v)` on this triangle (BVH id `id`), its
+    /// position and normals interpolated in precision `R` (the triangle rounded to it; the unit
+    /// face normal, computed once in f64, only rounded).
+    #[inline]
+    fn surface<R: Real>(&self, id: u32, t: f64, u: f64, v: f64) -> SurfaceHit {
+        let (u_r, v_r) = (R::of(u), R::of(v));
+        let w = R::ONE - u_r - v_r;
+        let vector = <R::Vec3 as Vector3>::of;
+        let position = vector(self.v0) + vector(self.e1) * u_r + vector(self.e2) * v_r;
+        let interpolated = vector(self.normals[0]) * w
+            + vector(self.normals[1]) * u_r
+            + vector(self.normals[2]) * v_r;
+        let geometric_normal = vector(self.geometric_normal);
+        let shading_normal = if interpolated.length_squared() > R::of(1e-24) {
             let n = interpolated.normalize();
             // A shading normal on the wrong side of the face would flip inside and outside.
-            if n.dot(geometric_normal) > 0.0 {
+            if n.dot(geometric_normal) > R::ZERO {
                 n
             } else {
                 geometric_normal
@@ -310,43 +336,51 @@ impl BvhTriangle {
         } else {
             geometric_normal
         };
-        let uv = w * self.uvs[0] + u * self.uvs[1] + v * self.uvs[2];
+        let (u, v) = (u_r.to_f64(), v_r.to_f64());
+        let uv = (1.0 - u - v) * self.uvs[0] + u * self.uvs[1] + v * self.uvs[2];
         SurfaceHit {
             distance: t,
-            position,
-            geometric_normal,
-            shading_normal,
+            position: position.to_dvec3(),
+            geometric_normal: geometric_normal.to_dvec3(),
+            shading_normal: shading_normal.to_dvec3(),
             uv,
             object: self.object as usize,
             primitive: id,
         }
     }
 
-    /// Möller–Trumbore in f64: `(t, u, v)` with `t` in `(min_distance, max_distance)`.
+    /// Möller–Trumbore in precision `R` (ray and triangle rounded to it): `(t, u, v)` with `t` in
+    /// `(min_distance, max_distance)`. The barycentric slack is [`BARYCENTRIC_SLACK`], or 8 ulps
+    /// of `R` where that is larger (f32), so shared edges stay closed in either precision.
     #[inline]
-    fn intersect(
+    fn intersect<R: Real>(
         &self,
         ray: &Ray,
         min_distance: f64,
         max_distance: f64,
     ) -> Option<(f64, f64, f64)> {
-        let p = ray.direction.cross(self.e2);
-        let determinant = self.e1.dot(p);
-        if determinant.abs() < 1e-300 {
+        let vector = <R::Vec3 as Vector3>::of;
+        let (e1, e2) = (vector(self.e1), vector(self.e2));
+        let direction = vector(ray.direction);
+        let p = direction.cross(e2);
+        let determinant = e1.dot(p);
+        if determinant.abs().to_f64() < 1e-300 || determinant == R::ZERO {
             return None;
         }
-        let inverse = 1.0 / determinant;
-        let s = ray.origin - self.v0;
+        let slack = R::of(BARYCENTRIC_SLACK).max(R::of(8.0) * R::EPSILON);
+        let inverse = R::ONE / determinant;
+        let s = vector(ray.origin) - vector(self.v0);
         let u = s.dot(p) * inverse;
-        if !(-BARYCENTRIC_SLACK..=1.0 + BARYCENTRIC_SLACK).contains(&u) {
+        if !(u >= -slack && u <= R::ONE + slack) {
             return None;
         }
-        let q = s.cross(self.e1);
-        let v = ray.direction.dot(q) * inverse;
-        if v < -BARYCENTRIC_SLACK || u + v > 1.0 + BARYCENTRIC_SLACK {
+        let q = s.cross(e1);
+        let v = direction.dot(q) * inverse;
+        if v < -slack || u + v > R::ONE + slack {
             return None;
         }
-        let t = self.e2.dot(q) * inverse;
+        let t = e2.dot(q) * inverse;
+        let (t, u, v) = (t.to_f64(), u.to_f64(), v.to_f64());
         (t > min_distance && t < max_distance).then_some((t, u, v))
     }
 }
@@ -480,7 +514,7 @@ mod tests {
             let brute = prepared
                 .iter()
                 .filter_map(|t| {
-                    t.intersect(&ray, 0.0, f64::INFINITY)
+                    t.intersect::<f64>(&ray, 0.0, f64::INFINITY)
                         .map(|h| (h.0, t.object))
                 })
                 .min_by(|a, b| a.0.total_cmp(&b.0));
@@ -498,7 +532,7 @@ mod tests {
             let all = bvh.all_hits(&ray, 0.0, f64::INFINITY, None, &mut tests);
             let brute_count = prepared
                 .iter()
-                .filter(|t| t.intersect(&ray, 0.0, f64::INFINITY).is_some())
+                .filter(|t| t.intersect::<f64>(&ray, 0.0, f64::INFINITY).is_some())
                 .count();
             assert_eq!(all.len(), brute_count);
             assert!(all.windows(2).all(|w| w[0].distance <= w[1].distance));

@@ -2,25 +2,282 @@
 //!
 //! Exact unpolarized Fresnel for dielectrics (the average of the s- and p-polarized reflectances,
 //! with total internal reflection), Schlick's approximation for mirrors, and the mirror-reflection
-//! and Snell-refraction directions. Everything is f64 and total: cosines are clamped so grazing
-//! incidence and incidence exactly at the critical angle give finite numbers, never NaN.
+//! and Snell-refraction directions. Everything is total: cosines are clamped so grazing incidence
+//! and incidence exactly at the critical angle give finite numbers, never NaN.
+//!
+//! The functions are generic over the float type ([`Real`]): lensmap runs them in f64; the f32
+//! instances exist to measure what single precision in the per-vertex stages would cost
+//! ([`crate::hybrid::paths::VertexPrecision`]). Called with f64 arguments they infer f64.
 
-use glam::DVec3;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+use glam::{DVec3, Vec3};
+
+/// A float type ray-path arithmetic can run in: f64 (what lensmap ships) or f32 (to measure what
+/// single precision costs). Values cross between precisions through f64 ([`DVec3`]), which holds
+/// every f32 exactly, so an f32 result stored in an f64 field is still the f32 result.
+pub trait Real:
+    Copy
+    + PartialOrd
+    + std::fmt::Debug
+    + Send
+    + Sync
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// The 3-vector of this precision (`Vec3`, `DVec3`).
+    type Vec3: Vector3<Scalar = Self>;
+    /// 0.
+    const ZERO: Self;
+    /// 1.
+    const ONE: Self;
+    /// The gap between 1 and the next value (2⁻²³ for f32, 2⁻⁵² for f64).
+    const EPSILON: Self;
+    /// The smallest positive normal value.
+    const MIN_POSITIVE: Self;
+    /// +∞.
+    const INFINITY: Self;
+    /// −∞.
+    const NEG_INFINITY: Self;
+    /// `x` rounded to this precision.
+    fn of(x: f64) -> Self;
+    /// The value in f64 (exact).
+    fn to_f64(self) -> f64;
+    /// √self.
+    fn sqrt(self) -> Self;
+    /// |self|.
+    fn abs(self) -> Self;
+    /// self^exponent.
+    fn powf(self, exponent: Self) -> Self;
+    /// self^exponent.
+    fn powi(self, exponent: i32) -> Self;
+    /// −1, 0 or 1 by sign (±1 for ±0, as the std method).
+    fn signum(self) -> Self;
+    /// Neither NaN nor infinite.
+    fn is_finite(self) -> bool;
+    /// NaN.
+    fn is_nan(self) -> bool;
+    /// The larger (the other one when either is NaN).
+    fn max(self, other: Self) -> Self;
+    /// The smaller (the other one when either is NaN).
+    fn min(self, other: Self) -> Self;
+    /// Clamped to `[low, high]`.
+    fn clamp(self, low: Self, high: Self) -> Self;
+}
+
+/// The 3-vector of a [`Real`] (glam's `Vec3` or `DVec3`), with the operations the ray-path code
+/// uses.
+pub trait Vector3:
+    Copy
+    + PartialEq
+    + std::fmt::Debug
+    + Send
+    + Sync
+    + 'static
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Neg<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Mul<Self::Scalar, Output = Self>
+    + Div<Self::Scalar, Output = Self>
+{
+    /// The component type.
+    type Scalar: Real<Vec3 = Self>;
+    /// The zero vector.
+    const ZERO: Self;
+    /// `v` rounded to this precision.
+    fn of(v: DVec3) -> Self;
+    /// The vector in f64 (exact).
+    fn to_dvec3(self) -> DVec3;
+    /// All three components `s`.
+    fn splat(s: Self::Scalar) -> Self;
+    /// From components.
+    fn new(x: Self::Scalar, y: Self::Scalar, z: Self::Scalar) -> Self;
+    /// The components.
+    fn components(self) -> [Self::Scalar; 3];
+    /// Dot product.
+    fn dot(self, other: Self) -> Self::Scalar;
+    /// Cross product.
+    fn cross(self, other: Self) -> Self;
+    /// Euclidean length.
+    fn length(self) -> Self::Scalar;
+    /// Squared length.
+    fn length_squared(self) -> Self::Scalar;
+    /// Unit vector (NaN for zero, as glam's).
+    fn normalize(self) -> Self;
+    /// Unit vector, or `None` for a zero or non-finite length.
+    fn try_normalize(self) -> Option<Self>;
+    /// Per-component |·|.
+    fn abs(self) -> Self;
+    /// The largest component.
+    fn max_element(self) -> Self::Scalar;
+    /// Per-component minimum.
+    fn min(self, other: Self) -> Self;
+    /// Per-component maximum.
+    fn max(self, other: Self) -> Self;
+    /// Every component finite.
+    fn is_finite(self) -> bool;
+}
+
+macro_rules! real_and_vector {
+    ($real:ty, $vector:ty, $from_f64:expr, $from_dvec3:expr, $to_dvec3:expr) => {
+        impl Real for $real {
+            type Vec3 = $vector;
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const EPSILON: Self = <$real>::EPSILON;
+            const MIN_POSITIVE: Self = <$real>::MIN_POSITIVE;
+            const INFINITY: Self = <$real>::INFINITY;
+            const NEG_INFINITY: Self = <$real>::NEG_INFINITY;
+            #[inline]
+            fn of(x: f64) -> Self {
+                $from_f64(x)
+            }
+            #[inline]
+            fn to_f64(self) -> f64 {
+                f64::from(self)
+            }
+            #[inline]
+            fn sqrt(self) -> Self {
+                <$real>::sqrt(self)
+            }
+            #[inline]
+            fn abs(self) -> Self {
+                <$real>::abs(self)
+            }
+            #[inline]
+            fn powf(self, exponent: Self) -> Self {
+                <$real>::powf(self, exponent)
+            }
+            #[inline]
+            fn powi(self, exponent: i32) -> Self {
+                <$real>::powi(self, exponent)
+            }
+            #[inline]
+            fn signum(self) -> Self {
+                <$real>::signum(self)
+            }
+            #[inline]
+            fn is_finite(self) -> bool {
+                <$real>::is_finite(self)
+            }
+            #[inline]
+            fn is_nan(self) -> bool {
+                <$real>::is_nan(self)
+            }
+            #[inline]
+            fn max(self, other: Self) -> Self {
+                <$real>::max(self, other)
+            }
+            #[inline]
+            fn min(self, other: Self) -> Self {
+                <$real>::min(self, other)
+            }
+            #[inline]
+            fn clamp(self, low: Self, high: Self) -> Self {
+                <$real>::clamp(self, low, high)
+            }
+        }
+
+        impl Vector3 for $vector {
+            type Scalar = $real;
+            const ZERO: Self = <$vector>::ZERO;
+            #[inline]
+            fn of(v: DVec3) -> Self {
+                $from_dvec3(v)
+            }
+            #[inline]
+            fn to_dvec3(self) -> DVec3 {
+                $to_dvec3(self)
+            }
+            #[inline]
+            fn splat(s: $real) -> Self {
+                <$vector>::splat(s)
+            }
+            #[inline]
+            fn new(x: $real, y: $real, z: $real) -> Self {
+                <$vector>::new(x, y, z)
+            }
+            #[inline]
+            fn components(self) -> [$real; 3] {
+                self.to_array()
+            }
+            #[inline]
+            fn dot(self, other: Self) -> $real {
+                <$vector>::dot(self, other)
+            }
+            #[inline]
+            fn cross(self, other: Self) -> Self {
+                <$vector>::cross(self, other)
+            }
+            #[inline]
+            fn length(self) -> $real {
+                <$vector>::length(self)
+            }
+            #[inline]
+            fn length_squared(self) -> $real {
+                <$vector>::length_squared(self)
+            }
+            #[inline]
+            fn normalize(self) -> Self {
+                <$vector>::normalize(self)
+            }
+            #[inline]
+            fn try_normalize(self) -> Option<Self> {
+                <$vector>::try_normalize(self)
+            }
+            #[inline]
+            fn abs(self) -> Self {
+                <$vector>::abs(self)
+            }
+            #[inline]
+            fn max_element(self) -> $real {
+                <$vector>::max_element(self)
+            }
+            #[inline]
+            fn min(self, other: Self) -> Self {
+                <$vector>::min(self, other)
+            }
+            #[inline]
+            fn max(self, other: Self) -> Self {
+                <$vector>::max(self, other)
+            }
+            #[inline]
+            fn is_finite(self) -> bool {
+                <$vector>::is_finite(self)
+            }
+        }
+    };
+}
+
+real_and_vector!(f64, DVec3, |x: f64| x, |v: DVec3| v, |v: DVec3| v);
+real_and_vector!(
+    f32,
+    Vec3,
+    |x: f64| x as f32,
+    |v: DVec3| v.as_vec3(),
+    |v: Vec3| v.as_dvec3()
+);
 
 /// The Fresnel split of light arriving at a smooth dielectric interface.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DielectricFresnel {
+pub struct DielectricFresnel<R = f64> {
     /// Amplitude reflection coefficient squared for s-polarized light, in [0, 1].
-    pub rs: f64,
+    pub rs: R,
     /// Amplitude reflection coefficient squared for p-polarized light, in [0, 1].
-    pub rp: f64,
+    pub rp: R,
     /// Unpolarized reflectance `(rs + rp) / 2`, in [0, 1]; 1 under total internal reflection.
-    pub reflectance: f64,
+    pub reflectance: R,
     /// Unpolarized transmittance `1 − reflectance`, in [0, 1] (energy, without the radiance
     /// scaling by the squared IOR ratio, as in the paper's `T̂F`).
-    pub transmittance: f64,
+    pub transmittance: R,
     /// Cosine of the refraction angle, in [0, 1]; 0 under total internal reflection.
-    pub cos_transmitted: f64,
+    pub cos_transmitted: R,
     /// True when no light is transmitted (incidence at or past the critical angle).
     pub total_internal_reflection: bool,
 }
@@ -30,34 +287,39 @@ pub struct DielectricFresnel {
 /// `cos_incident` is the cosine between the incoming direction reversed and the surface normal on
 /// the incident side (clamped to [0, 1]); `eta_incident` and `eta_transmitted` are the refractive
 /// indices of the medium the light comes from and the one it enters (both > 0).
-pub fn dielectric(cos_incident: f64, eta_incident: f64, eta_transmitted: f64) -> DielectricFresnel {
+pub fn dielectric<R: Real>(
+    cos_incident: R,
+    eta_incident: R,
+    eta_transmitted: R,
+) -> DielectricFresnel<R> {
+    let (zero, one) = (R::ZERO, R::ONE);
     let cos_i = if cos_incident.is_nan() {
-        0.0
+        zero
     } else {
-        cos_incident.clamp(0.0, 1.0)
+        cos_incident.clamp(zero, one)
     };
     let eta = eta_incident / eta_transmitted;
-    let sin2_t = eta * eta * (1.0 - cos_i * cos_i).max(0.0);
-    if sin2_t >= 1.0 || !sin2_t.is_finite() {
+    let sin2_t = eta * eta * (one - cos_i * cos_i).max(zero);
+    if sin2_t >= one || !sin2_t.is_finite() {
         return DielectricFresnel {
-            rs: 1.0,
-            rp: 1.0,
-            reflectance: 1.0,
-            transmittance: 0.0,
-            cos_transmitted: 0.0,
+            rs: one,
+            rp: one,
+            reflectance: one,
+            transmittance: zero,
+            cos_transmitted: zero,
             total_internal_reflection: true,
         };
     }
-    let cos_t = (1.0 - sin2_t).sqrt();
+    let cos_t = (one - sin2_t).sqrt();
     let (n1, n2) = (eta_incident, eta_transmitted);
     let rs = amplitude_squared(n1 * cos_i - n2 * cos_t, n1 * cos_i + n2 * cos_t);
     let rp = amplitude_squared(n2 * cos_i - n1 * cos_t, n2 * cos_i + n1 * cos_t);
-    let reflectance = (0.5 * (rs + rp)).clamp(0.0, 1.0);
+    let reflectance = (R::of(0.5) * (rs + rp)).clamp(zero, one);
     DielectricFresnel {
         rs,
         rp,
         reflectance,
-        transmittance: 1.0 - reflectance,
+        transmittance: one - reflectance,
         cos_transmitted: cos_t,
         total_internal_reflection: false,
     }
@@ -65,12 +327,12 @@ pub fn dielectric(cos_incident: f64, eta_incident: f64, eta_transmitted: f64) ->
 
 /// `(numerator / denominator)²`, taken as 1 when the denominator vanishes (grazing incidence,
 /// where every reflectance tends to 1).
-fn amplitude_squared(numerator: f64, denominator: f64) -> f64 {
-    if denominator.abs() <= f64::MIN_POSITIVE {
-        1.0
+fn amplitude_squared<R: Real>(numerator: R, denominator: R) -> R {
+    if denominator.abs() <= R::MIN_POSITIVE {
+        R::ONE
     } else {
         let r = numerator / denominator;
-        (r * r).min(1.0)
+        (r * r).min(R::ONE)
     }
 }
 
@@ -78,27 +340,34 @@ fn amplitude_squared(numerator: f64, denominator: f64) -> f64 {
 ///
 /// `normal_incidence` is the reflectance at normal incidence per channel (each in [0, 1]);
 /// `cos_incident` is clamped to [0, 1].
-pub fn schlick(normal_incidence: DVec3, cos_incident: f64) -> DVec3 {
+pub fn schlick<V: Vector3>(normal_incidence: V, cos_incident: V::Scalar) -> V {
+    let one = <V::Scalar as Real>::ONE;
     let cos_i = if cos_incident.is_nan() {
-        0.0
+        <V::Scalar as Real>::ZERO
     } else {
-        cos_incident.clamp(0.0, 1.0)
+        cos_incident.clamp(<V::Scalar as Real>::ZERO, one)
     };
-    let m = (1.0 - cos_i).powi(5);
-    normal_incidence + (DVec3::ONE - normal_incidence) * m
+    let m = (one - cos_i).powi(5);
+    normal_incidence + (V::splat(one) - normal_incidence) * m
 }
 
 /// Mirror reflection of `direction` about `normal` (either side; both unit vectors).
-pub fn reflect(direction: DVec3, normal: DVec3) -> DVec3 {
-    (direction - 2.0 * direction.dot(normal) * normal).normalize()
+pub fn reflect<V: Vector3>(direction: V, normal: V) -> V {
+    let two = <V::Scalar as Real>::of(2.0);
+    (direction - normal * (two * direction.dot(normal))).normalize()
 }
 
 /// Snell refraction of the unit `direction` through an interface whose unit `normal` faces the
 /// incident side (`direction · normal ≤ 0`), with `eta = eta_incident / eta_transmitted` and the
 /// transmitted cosine from [`dielectric`]. Only meaningful without total internal reflection.
-pub fn refract(direction: DVec3, normal: DVec3, eta: f64, cos_transmitted: f64) -> DVec3 {
-    let cos_i = (-direction.dot(normal)).clamp(0.0, 1.0);
-    (eta * direction + (eta * cos_i - cos_transmitted) * normal).normalize()
+pub fn refract<V: Vector3>(
+    direction: V,
+    normal: V,
+    eta: V::Scalar,
+    cos_transmitted: V::Scalar,
+) -> V {
+    let cos_i = (-direction.dot(normal)).clamp(<V::Scalar as Real>::ZERO, <V::Scalar as Real>::ONE);
+    (direction * eta + normal * (eta * cos_i - cos_transmitted)).normalize()
 }
 
 #[cfg(test)]

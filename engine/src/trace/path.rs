@@ -15,7 +15,7 @@ use glam::DVec3;
 
 use super::Ray;
 use super::bvh::SurfaceHit;
-use super::fresnel;
+use super::fresnel::{self, Real, Vector3};
 use super::stats::TraceCounters;
 
 /// The two terms of the paper's shading model `T·F_T·G_T + R·F_R·G_R`.
@@ -175,6 +175,13 @@ impl Scattering {
 /// medium). The interpolated normal drives Fresnel and the directions; where it would send a child
 /// to the wrong side of the face, the face normal is used instead.
 pub fn scatter(interface: Interface, direction: DVec3, hit: &SurfaceHit) -> Scattering {
+    scatter_in::<f64>(interface, direction, hit)
+}
+
+/// [`scatter`] with the Fresnel coefficients, the child directions and the origin offsets
+/// computed in precision `R` (inputs rounded to it; results stored in f64, which holds them
+/// exactly): f64 is `scatter`; f32 measures what single precision would cost.
+pub fn scatter_in<R: Real>(interface: Interface, direction: DVec3, hit: &SurfaceHit) -> Scattering {
     let entering = hit.is_front_facing(direction);
     let face = if entering {
         hit.geometric_normal
@@ -186,7 +193,7 @@ pub fn scatter(interface: Interface, direction: DVec3, hit: &SurfaceHit) -> Scat
     } else {
         -hit.shading_normal
     };
-    let scattering = scatter_about(interface, direction, hit, face, shading, entering);
+    let scattering = scatter_about::<R>(interface, direction, hit, face, shading, entering);
     let reflection_ok = scattering.reflection.0.direction.dot(face) > 0.0;
     let refraction_ok = scattering
         .refraction
@@ -194,11 +201,11 @@ pub fn scatter(interface: Interface, direction: DVec3, hit: &SurfaceHit) -> Scat
     if reflection_ok && refraction_ok {
         scattering
     } else {
-        scatter_about(interface, direction, hit, face, face, entering)
+        scatter_about::<R>(interface, direction, hit, face, face, entering)
     }
 }
 
-fn scatter_about(
+fn scatter_about<R: Real>(
     interface: Interface,
     direction: DVec3,
     hit: &SurfaceHit,
@@ -206,18 +213,24 @@ fn scatter_about(
     normal: DVec3,
     entering: bool,
 ) -> Scattering {
+    let vector = <R::Vec3 as Vector3>::of;
+    let (direction, normal) = (vector(direction), vector(normal));
     let cos_incident = -direction.dot(normal);
     let reflected = Ray::new(
-        offset_origin(hit.position, face),
-        fresnel::reflect(direction, normal),
+        offset_origin_in::<R>(hit.position, face),
+        fresnel::reflect(direction, normal).to_dvec3(),
     );
     match interface {
         Interface::Mirror { reflectance } => Scattering {
-            reflection: (reflected, fresnel::schlick(reflectance, cos_incident)),
+            reflection: (
+                reflected,
+                fresnel::schlick(vector(reflectance), cos_incident).to_dvec3(),
+            ),
             refraction: None,
         },
         Interface::Dielectric { ior, .. } => {
-            let (eta_incident, eta_transmitted) = if entering { (1.0, ior) } else { (ior, 1.0) };
+            let (ior, one) = (R::of(ior), R::ONE);
+            let (eta_incident, eta_transmitted) = if entering { (one, ior) } else { (ior, one) };
             let split = fresnel::dielectric(cos_incident, eta_incident, eta_transmitted);
             let refraction = (!split.total_internal_reflection).then(|| {
                 let refracted = fresnel::refract(
@@ -227,12 +240,15 @@ fn scatter_about(
                     split.cos_transmitted,
                 );
                 (
-                    Ray::new(offset_origin(hit.position, -face), refracted),
-                    split.transmittance,
+                    Ray::new(
+                        offset_origin_in::<R>(hit.position, -face),
+                        refracted.to_dvec3(),
+                    ),
+                    split.transmittance.to_f64(),
                 )
             });
             Scattering {
-                reflection: (reflected, DVec3::splat(split.reflectance)),
+                reflection: (reflected, DVec3::splat(split.reflectance.to_f64())),
                 refraction,
             }
         }
@@ -242,8 +258,18 @@ fn scatter_about(
 /// Moves a new ray's origin a hair off the surface towards `side`, so it cannot re-hit the
 /// surface it starts on through rounding (f64: 1e-9 of the coordinate magnitude, at least 1 nm).
 pub fn offset_origin(position: DVec3, side: DVec3) -> DVec3 {
-    let magnitude = position.abs().max_element().max(1.0);
-    position + side * (1e-9 * magnitude)
+    offset_origin_in::<f64>(position, side)
+}
+
+/// [`offset_origin`] in precision `R`, by `max(1e-9, 128 ulps of R)` of the coordinate
+/// magnitude: 1e-9 in f64; 1.5e-5 in f32, whose hit positions are rounded to ~6e-8 of the
+/// magnitude and would re-hit a neighbouring triangle from 1e-9 (below an f32 ulp: no move).
+pub fn offset_origin_in<R: Real>(position: DVec3, side: DVec3) -> DVec3 {
+    let vector = <R::Vec3 as Vector3>::of;
+    let position = vector(position);
+    let magnitude = position.abs().max_element().max(R::ONE);
+    let offset = R::of(1e-9).max(R::of(128.0) * R::EPSILON);
+    (position + vector(side) * (offset * magnitude)).to_dvec3()
 }
 
 /// Traces the two greedy paths started by `incoming` at its first hit `first_hit` on `lens`.
@@ -256,8 +282,22 @@ pub fn trace_greedy_paths(
     options: GreedyOptions,
     counters: &mut TraceCounters,
 ) -> TwoTermPaths {
+    trace_greedy_paths_in::<f64>(lens, incoming, first_hit, options, counters)
+}
+
+/// [`trace_greedy_paths`] with the scattering ([`scatter_in`]), the products of F and G and the
+/// glass distance computed in precision `R`: f64 is `trace_greedy_paths`; f32 measures what
+/// single precision would cost. The intersections are `lens`'s: give it a geometry that
+/// intersects in `R` too (e.g. [`super::bvh::MeshBvh::closest_hit_in`]) for a path wholly in `R`.
+pub fn trace_greedy_paths_in<R: Real>(
+    lens: &impl LensGeometry,
+    incoming: &Ray,
+    first_hit: &SurfaceHit,
+    options: GreedyOptions,
+    counters: &mut TraceCounters,
+) -> TwoTermPaths {
     let interface = lens.interface(first_hit.object);
-    let scattering = scatter(interface, incoming.direction, first_hit);
+    let scattering = scatter_in::<R>(interface, incoming.direction, first_hit);
     let mut start = |term, (ray, fresnel): (Ray, DVec3)| {
         let mut path = GreedyRayPath {
             term,
@@ -269,7 +309,7 @@ pub fn trace_greedy_paths(
             truncated: false,
             reflections: 0,
         };
-        propagate_greedy(lens, &mut path, first_hit.primitive, options, counters);
+        propagate_greedy::<R>(lens, &mut path, first_hit.primitive, options, counters);
         path
     };
     let reflection = start(Term::Reflection, scattering.reflection);
@@ -283,7 +323,7 @@ pub fn trace_greedy_paths(
 }
 
 /// Follows the greedy child from `path.outgoing_ray` until the ray misses the lens object.
-fn propagate_greedy(
+fn propagate_greedy<R: Real>(
     lens: &impl LensGeometry,
     path: &mut GreedyRayPath,
     mut exclude: u32,
@@ -299,21 +339,24 @@ fn propagate_greedy(
         if !hit.is_front_facing(path.outgoing_ray.direction) {
             // Leaving the medium: the segment just travelled was inside it.
             if let Interface::Dielectric { absorption, .. } = interface {
-                path.attenuation *= transmittance(absorption, hit.distance);
-                path.glass_distance += hit.distance;
+                path.attenuation = product::<R>(
+                    path.attenuation,
+                    transmittance_in::<R>(absorption, hit.distance),
+                );
+                path.glass_distance = (R::of(path.glass_distance) + R::of(hit.distance)).to_f64();
             }
         }
         if path.interfaces >= options.max_interfaces.max(1) {
             path.truncated = true;
             return;
         }
-        let scattering = scatter(interface, path.outgoing_ray.direction, &hit);
+        let scattering = scatter_in::<R>(interface, path.outgoing_ray.direction, &hit);
         if scattering.greedy_reflects() && path.interfaces <= 32 {
             path.reflections |= 1 << (path.interfaces - 1);
         }
         path.interfaces += 1;
         let (ray, coefficient) = scattering.greedy_child();
-        path.fresnel *= coefficient;
+        path.fresnel = product::<R>(path.fresnel, coefficient);
         path.outgoing_ray = ray;
         exclude = hit.primitive;
     }
@@ -322,11 +365,21 @@ fn propagate_greedy(
 /// `absorption^distance` per channel (each channel's transmittance per metre, raised to the
 /// distance in metres).
 pub fn transmittance(absorption: DVec3, distance: f64) -> DVec3 {
-    DVec3::new(
-        absorption.x.max(0.0).powf(distance),
-        absorption.y.max(0.0).powf(distance),
-        absorption.z.max(0.0).powf(distance),
-    )
+    transmittance_in::<f64>(absorption, distance)
+}
+
+/// [`transmittance`] in precision `R`.
+pub fn transmittance_in<R: Real>(absorption: DVec3, distance: f64) -> DVec3 {
+    let distance = R::of(distance);
+    let [x, y, z] = <R::Vec3 as Vector3>::of(absorption)
+        .components()
+        .map(|a| a.max(R::ZERO).powf(distance));
+    R::Vec3::new(x, y, z).to_dvec3()
+}
+
+/// The per-channel product `a · b` in precision `R`.
+fn product<R: Real>(a: DVec3, b: DVec3) -> DVec3 {
+    (<R::Vec3 as Vector3>::of(a) * <R::Vec3 as Vector3>::of(b)).to_dvec3()
 }
 
 /// Limits of the full ray tree.

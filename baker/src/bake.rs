@@ -533,6 +533,7 @@ fn masked_psnr(
         &FrameOptions {
             hybrid: options.infer.hybrid,
             variant: options.infer.variant,
+            blend: lensmap::render::BlendScheme::FrontToBack,
             format: TargetFormat::Rgba32f,
         },
     )?;

@@ -46,8 +46,8 @@ use crate::{
     metrics::{self, Channels, Coverage, Encoding, ImageError, Mask, MetricsError},
     options::OptionError,
     render::{
-        FRAMES_IN_FLIGHT, FrameTimings, RenderError, RenderedImage, Renderer, Submission,
-        TargetFormat, UploadedFrame, Variant,
+        BlendScheme, FRAMES_IN_FLIGHT, FrameTimings, RenderError, RenderedImage, Renderer,
+        Submission, TargetFormat, UploadedFrame, Variant,
     },
     scene::{Camera, Scene},
     trace::ReferenceImage,
@@ -145,6 +145,9 @@ pub struct FrameOptions {
     pub hybrid: HybridOptions,
     /// Compositor variant.
     pub variant: Variant,
+    /// How the multipass variant combines layers and groups (the single pass takes only
+    /// [`BlendScheme::FrontToBack`]).
+    pub blend: BlendScheme,
     /// Framebuffer format.
     pub format: TargetFormat,
 }
@@ -154,6 +157,7 @@ impl Default for FrameOptions {
         FrameOptions {
             hybrid: HybridOptions::default(),
             variant: Variant::SinglePass,
+            blend: BlendScheme::FrontToBack,
             format: TargetFormat::Rgba16f,
         }
     }
@@ -493,9 +497,13 @@ impl FrameRunner {
                 // A held identity is only ever that of an uploaded slot.
                 return Err(RenderError::BadInput("a still frame has no upload".into()).into());
             };
-            let submission =
-                self.renderer
-                    .submit(&self.gpu, uploaded, options.variant, options.format)?;
+            let submission = self.renderer.submit_blended(
+                &self.gpu,
+                uploaded,
+                (options.variant, options.blend),
+                options.format,
+                None,
+            )?;
             in_flight.push_back(Pending {
                 slot: staged.slot,
                 submission,
@@ -543,10 +551,10 @@ impl FrameRunner {
         let Some(uploaded) = self.slots[staged.slot].uploaded.as_mut() else {
             return Err(RenderError::BadInput("a still frame has no upload".into()).into());
         };
-        let submission = self.renderer.submit_to(
+        let submission = self.renderer.submit_blended(
             &self.gpu,
             uploaded,
-            options.variant,
+            (options.variant, options.blend),
             options.format,
             Some(host),
         )?;
@@ -653,11 +661,24 @@ impl FrameRunner {
         format: TargetFormat,
         timed: usize,
     ) -> Result<TimedRenders, RenderError> {
-        let (image, _) = self.renderer.render(&self.gpu, uploaded, variant, format)?;
+        self.timed_renders_blended(uploaded, (variant, BlendScheme::FrontToBack), format, timed)
+    }
+
+    /// [`Self::timed_renders`] with the multipass variant's layers combined by `blend`.
+    pub fn timed_renders_blended(
+        &mut self,
+        uploaded: &mut UploadedFrame,
+        compositing: (Variant, BlendScheme),
+        format: TargetFormat,
+        timed: usize,
+    ) -> Result<TimedRenders, RenderError> {
+        let (image, _) = self
+            .renderer
+            .render_blended(&self.gpu, uploaded, compositing, format)?;
         let timings = (0..timed.max(1))
             .map(|_| {
                 self.renderer
-                    .render(&self.gpu, uploaded, variant, format)
+                    .render_blended(&self.gpu, uploaded, compositing, format)
                     .map(|(_, timings)| timings)
             })
             .collect::<Result<_, _>>()?;

@@ -115,7 +115,7 @@ pub fn random_compositor_frame(
     use rand::Rng;
     use std::sync::Arc;
     let (positions, triangles) = grid_sheet(6, |u, v| 0.15 * (3.0 * u).sin() + 0.25 * v);
-    let mut random_vector = |rng: &mut rand_pcg::Pcg64, r: f32| {
+    let random_vector = |rng: &mut rand_pcg::Pcg64, r: f32| {
         Vec3::new(
             rng.gen_range(-r..r),
             rng.gen_range(-r..r),

@@ -37,6 +37,7 @@ fn inferred_ems_beat_projected_ones() {
         let options = FrameOptions {
             hybrid: HybridOptions::default(),
             variant: Variant::SinglePass,
+            blend: lensmap::render::BlendScheme::FrontToBack,
             format: TargetFormat::Rgba32f,
         };
         let psnr = |runner: &mut FrameRunner, hybrid: &_| {

@@ -15,6 +15,7 @@ fn options(variant: Variant) -> FrameOptions {
     FrameOptions {
         hybrid: HybridOptions::with_t(3.0),
         variant,
+        blend: lensmap::render::BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     }
 }

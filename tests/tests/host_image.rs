@@ -20,6 +20,7 @@ fn options(format: TargetFormat) -> FrameOptions {
     FrameOptions {
         hybrid: HybridOptions::with_t(3.0),
         variant: Variant::SinglePass,
+        blend: lensmap::render::BlendScheme::FrontToBack,
         format,
     }
 }

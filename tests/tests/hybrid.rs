@@ -90,6 +90,7 @@ layers = [{ sphere = 1000.0 }]
         let options = FrameOptions {
             hybrid: HybridOptions::default(),
             variant,
+            blend: lensmap::render::BlendScheme::FrontToBack,
             format: TargetFormat::Rgba32f,
         };
         let frame = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -154,6 +155,7 @@ fn awkward_cameras_render_without_error_or_nan() {
             let options = FrameOptions {
                 hybrid: HybridOptions::default(),
                 variant,
+                blend: lensmap::render::BlendScheme::FrontToBack,
                 format: TargetFormat::Rgba16f,
             };
             let frame = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -231,6 +233,7 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
         let frame_options = FrameOptions {
             hybrid: HybridOptions::with_t(4.0),
             variant,
+            blend: lensmap::render::BlendScheme::FrontToBack,
             format: TargetFormat::Rgba32f,
         };
         // Both frames built from scratch (a repeated camera would reuse the cached frame).

@@ -157,6 +157,7 @@ fn the_environment_shows_where_camera_rays_escape() {
             let options = FrameOptions {
                 hybrid: HybridOptions::default(),
                 variant,
+                blend: lensmap::render::BlendScheme::FrontToBack,
                 format: TargetFormat::Rgba32f,
             };
             let frame = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -201,6 +202,7 @@ fn the_environment_shows_where_camera_rays_escape() {
             let options = FrameOptions {
                 hybrid: HybridOptions::default(),
                 variant: *variant,
+                blend: lensmap::render::BlendScheme::FrontToBack,
                 format: TargetFormat::Rgba32f,
             };
             let without = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -254,6 +256,7 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
         let options = FrameOptions {
             hybrid: HybridOptions::with_t(3.0),
             variant,
+            blend: lensmap::render::BlendScheme::FrontToBack,
             format: TargetFormat::Rgba32f,
         };
         let frame = runner.frame(&hybrid, &camera, &options).unwrap();

@@ -32,6 +32,7 @@ fn non_lens_pixels_match_the_reference() {
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(6.0),
         variant: Variant::SinglePass,
+        blend: lensmap::render::BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     };
     let frame = runner.frame(&hybrid, &camera, &options).unwrap();

@@ -112,6 +112,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(args.t),
         variant: Variant::SinglePass,
+        blend: lensmap::render::BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     };
     say!(

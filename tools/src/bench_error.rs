@@ -527,6 +527,7 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
                 hybrid: HybridOptions::with_t_and_angle(setting.t, setting.angle_degrees)
                     .with_precision(setting.precision),
                 variant: setting.variant,
+                blend: lensmap::render::BlendScheme::FrontToBack,
                 format: setting.format,
             };
             runner.check_framebuffer(&camera, options.format)?;

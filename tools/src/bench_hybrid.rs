@@ -128,6 +128,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         let options = FrameOptions {
             hybrid: hybrid_options,
             variant,
+            blend: lensmap::render::BlendScheme::FrontToBack,
             format,
         };
         let repetitions = Repetitions {
@@ -179,6 +180,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let options = FrameOptions {
         hybrid: hybrid_options,
         variant: Variant::SinglePass,
+        blend: lensmap::render::BlendScheme::FrontToBack,
         format,
     };
     let timed = args.frames;

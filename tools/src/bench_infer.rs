@@ -111,6 +111,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let frame_options = FrameOptions {
         hybrid: HybridOptions::default(),
         variant: Variant::SinglePass,
+        blend: lensmap::render::BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     };
     let judge = |runner: &mut FrameRunner,

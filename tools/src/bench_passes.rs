@@ -1,12 +1,13 @@
-//! `lensmap bench passes`: compositor frame time for n = 1…4 layers, multipass vs single pass, in
-//! every framebuffer format, on the synthetic scene (or on one hybrid frame of a scene, at its own
-//! layer count); and the error of RGBA8 and RGBA16F against RGBA32F over the lens pixels, which
+//! `lensmap bench passes`: compositor frame time for n = 1…4 layers and one or two viewpoint
+//! samples, multipass (with each blending scheme `--blend` asks for) vs single pass, in every
+//! framebuffer format, on the synthetic scene (or on one hybrid frame of a scene, at its own
+//! layer count); passes, barriers and rendering instances from each frame's plan; and the error
+//! of every row against the multipass front-to-back frame in RGBA32F over the lens pixels, which
 //! come from the geometry ([`FrameRunner::lens_coverage`]). Medians of repeated frames, all
 //! measured in one run.
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 use glam::Vec3;
 use lensmap::{
@@ -15,7 +16,7 @@ use lensmap::{
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     metrics::{self, Channels, Encoding, ImageError, Mask},
     render::{
-        FrameInput, RenderedImage, Renderer, TargetFormat, Variant,
+        BlendScheme, FrameInput, RenderedImage, Renderer, TargetFormat, Variant,
         synthetic::{SyntheticOptions, sphere_frame},
     },
     runner::{EmSource, FrameRunner, load_hybrid_scene},
@@ -23,7 +24,7 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, flag_error, parse_vec3, report};
+use crate::common::{BadUsage, BlendArg, flag_error, parse_vec3, report};
 
 #[derive(Args)]
 #[command(
@@ -42,6 +43,12 @@ pub struct BenchPassesArgs {
     /// Largest layer count n (from 1) of the synthetic sphere; with --scene, the scene's own.
     #[arg(long, default_value_t = 4)]
     max_layers: usize,
+    /// Blending schemes of the multipass rows: one scheme, or "all".
+    #[arg(long, default_value = "front-to-back", value_parser = parse_blend)]
+    blend: BlendChoice,
+    /// Viewpoint samples of the synthetic sphere: 1, 2, or "both" (each layer count twice).
+    #[arg(long, default_value = "2", value_parser = ["1", "2", "both"])]
+    viewpoints: String,
     /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -60,19 +67,43 @@ pub struct BenchPassesArgs {
     em_size: u32,
 }
 
-/// The frames to time, one per layer count: the synthetic sphere with n = 1 … `max_layers`, or
-/// the scene's hybrid frame at its own layer count.
-fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, FrameInput)>> {
+/// `--blend`: the schemes of the multipass rows.
+#[derive(Clone, Debug)]
+struct BlendChoice(Vec<BlendScheme>);
+
+fn parse_blend(text: &str) -> Result<BlendChoice, String> {
+    use clap::ValueEnum;
+    if text == "all" {
+        return Ok(BlendChoice(BlendScheme::ALL.to_vec()));
+    }
+    BlendArg::from_str(text, false)
+        .map(|arg| BlendChoice(vec![BlendScheme::from(arg)]))
+        .map_err(|_| {
+            let names: Vec<&str> = BlendScheme::ALL.iter().map(|s| s.name()).collect();
+            format!("give one of {} or all", names.join(", "))
+        })
+}
+
+/// The frames to time, one per layer count and viewpoint count: the synthetic sphere with
+/// n = 1 … `max_layers`, or the scene's hybrid frame at its own layer count.
+fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, usize, FrameInput)>> {
     let Some(name) = &args.scene else {
+        let viewpoints: Vec<usize> = match args.viewpoints.as_str() {
+            "1" => vec![1],
+            "both" => vec![1, 2],
+            _ => vec![2],
+        };
         return Ok((1..=args.max_layers)
-            .map(|layers| {
+            .flat_map(|layers| viewpoints.iter().map(move |&v| (layers, v)))
+            .map(|(layers, viewpoints)| {
                 let frame = sphere_frame(&SyntheticOptions {
                     width: args.width,
                     height: args.height,
                     layers,
+                    viewpoints,
                     ..SyntheticOptions::default()
                 });
-                (layers, frame)
+                (layers, viewpoints, frame)
             })
             .collect());
     };
@@ -103,7 +134,8 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, FrameInput)>> {
         ))
         .into());
     }
-    Ok(vec![(layers, frame)])
+    let viewpoints = frame.viewpoint_weights.iter().filter(|w| **w > 0.0).count();
+    Ok(vec![(layers, viewpoints, frame)])
 }
 
 /// Linear RGB error of `image` against `reference` over `mask` (an empty mask is an error).
@@ -147,25 +179,39 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         args.frames
     );
     say!(
-        "{:>2}  {:<12} {:<8} {:>11} {:>11} {:>8}  {:>12} {:>12}",
+        "{:>2} {:>2}  {:<12} {:<14} {:<8} {:>9} {:>9} {:>6} {:>5} {:>5}  {:>10} {:>10}",
         "n",
+        "v",
         "variant",
+        "blend",
         "format",
         "frame ms",
-        "execute ms",
+        "exec ms",
         "passes",
-        "RMS vs f32",
-        "max vs f32"
+        "barr",
+        "inst",
+        "RMS vs ref",
+        "max vs ref"
     );
     let mut rows = Vec::new();
+    let schemes = &args.blend.0;
+    // Rows per frame: each scheme of the multipass variant, then the single pass, in each format.
+    let compositings: Vec<(Variant, BlendScheme)> = schemes
+        .iter()
+        .map(|&blend| (Variant::Multipass, blend))
+        .chain(std::iter::once((
+            Variant::SinglePass,
+            BlendScheme::FrontToBack,
+        )))
+        .collect();
     let formats = TargetFormat::ALL.len() as u64;
     let bar = crate::common::Steps::new(1).counted(
         "compositor frames",
-        frames.len() as u64 * 2 * formats,
+        frames.len() as u64 * compositings.len() as u64 * formats,
         "settings",
     );
-    for (layers, frame) in &frames {
-        let layers = *layers;
+    for (layers, viewpoints, frame) in &frames {
+        let (layers, viewpoints) = (*layers, *viewpoints);
         // The lens pixels, from the geometry: an empty set has no error to report, so the
         // benchmark stops rather than print a figure that measures nothing.
         let mask = runner.lens_coverage(frame)?;
@@ -177,56 +223,69 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             .into());
         }
         let mut uploaded = runner.upload(frame)?;
-        let mut by_variant = Vec::new();
-        for variant in [Variant::Multipass, Variant::SinglePass] {
-            let mut results: Vec<(TargetFormat, RenderedImage, f64, f64, usize)> = Vec::new();
+        // The reference of every row: the paper's scheme in RGBA32F.
+        let reference = runner
+            .timed_renders_blended(
+                &mut uploaded,
+                (Variant::Multipass, BlendScheme::FrontToBack),
+                TargetFormat::Rgba32f,
+                1,
+            )?
+            .image;
+        for &(variant, blend) in &compositings {
             for format in TargetFormat::ALL {
-                let plan = Renderer::plan(&uploaded, variant, format)?;
-                let passes = plan.steps.len();
-                let renders = runner.timed_renders(&mut uploaded, variant, format, args.frames)?;
+                let plan = Renderer::plan_blended(&uploaded, variant, blend, format)?;
+                let renders = runner.timed_renders_blended(
+                    &mut uploaded,
+                    (variant, blend),
+                    format,
+                    args.frames,
+                )?;
                 let (frame_ms, execute_ms) = (
                     renders.median(|t| t.record_ms + t.execute_ms),
                     renders.median(|t| t.execute_ms),
                 );
-                results.push((format, renders.image, frame_ms, execute_ms, passes));
-                bar.inc(1);
-            }
-            let reference = results
-                .iter()
-                .find(|r| r.0 == TargetFormat::Rgba32f)
-                .map(|r| r.1.clone())
-                .context("rgba32f result")?;
-            for (format, image, frame_ms, execute_ms, passes) in &results {
-                let error = error(image, &reference, &mask)?;
+                let error = error(&renders.image, &reference, &mask)?;
                 let (rms, max) = (error.rmse, error.max_abs);
+                let (passes, barriers, instances) = (
+                    plan.steps.len(),
+                    plan.barrier_count(),
+                    plan.rendering_instances(),
+                );
+                let blend_name = match variant {
+                    Variant::Multipass => blend.name(),
+                    Variant::SinglePass => "-",
+                };
                 say!(
-                    "{:>2}  {:<12} {:<8} {:>11.2} {:>11.2} {:>8}  {:>12} {:>12}",
+                    "{:>2} {:>2}  {:<12} {:<14} {:<8} {:>9.2} {:>9.2} {:>6} {:>5} {:>5}  {:>10} {:>10}",
                     layers,
+                    viewpoints,
                     variant.name(),
+                    blend_name,
                     format.name(),
                     frame_ms,
                     execute_ms,
                     passes,
+                    barriers,
+                    instances,
                     format!("{rms:.3e}"),
                     format!("{max:.3e}")
                 );
                 rows.push(json!({
-                    "layers": layers, "variant": variant.name(), "format": format.name(),
+                    "layers": layers, "viewpoints": viewpoints, "variant": variant.name(),
+                    "blend": blend_name, "format": format.name(),
                     "median_frame_ms": frame_ms, "median_execute_ms": execute_ms, "steps": passes,
-                    "rms_vs_rgba32f": rms, "max_vs_rgba32f": max, "lens_pixels": mask.selected(),
+                    "barriers": barriers, "rendering_instances": instances,
+                    "rms_vs_reference": rms, "max_vs_reference": max, "lens_pixels": mask.selected(),
                 }));
+                bar.inc(1);
             }
-            by_variant.push(reference);
         }
-        let difference = by_variant[0].max_abs_difference(&by_variant[1])?;
-        say!(
-            "    n = {layers}: single-pass vs multipass in rgba32f, max |difference| {difference:.3e}"
-        );
-        rows.push(json!({"layers": layers, "single_pass_vs_multipass_rgba32f_max": difference}));
     }
     let out = json!({
         "device": runner.gpu().device_name(), "width": args.width, "height": args.height,
-        "frames": args.frames, "rows": rows,
+        "frames": args.frames,
+        "reference": "multipass, front-to-back, rgba32f", "rows": rows,
     });
     bar.finish_and_clear();
     report(&out, args.report.as_deref())?;

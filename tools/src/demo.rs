@@ -155,6 +155,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
                 let options = FrameOptions {
                     hybrid: HybridOptions::with_t(t),
                     variant,
+                    blend: lensmap::render::BlendScheme::FrontToBack,
                     format: TargetFormat::Rgba16f,
                 };
                 // The first frame compiles pipelines; then the median of three timed frames.

@@ -16,7 +16,7 @@ use lensmap::{
         DEFAULT_PIXELS_PER_TEXEL, LightMapOptions,
     },
     metrics::{Encoding, MetricsError},
-    render::{TargetFormat, Variant},
+    render::{BlendScheme, TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
         load_hybrid_scene_with_light_maps, non_lens_error,
@@ -27,7 +27,8 @@ use lensmap::{
 use serde_json::json;
 
 use crate::common::{
-    CameraArgs, FormatArg, ImageOut, Steps, VariantArg, choose_camera, flag_error,
+    BadUsage, BlendArg, CameraArgs, FormatArg, ImageOut, Steps, VariantArg, choose_camera,
+    flag_error,
 };
 
 #[derive(Args)]
@@ -66,6 +67,10 @@ pub struct RenderArgs {
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
+    /// How the multipass variant combines layers and (viewpoint, term) groups (the single pass
+    /// takes only front-to-back).
+    #[arg(long, value_enum, default_value = "front-to-back")]
+    pub blend: BlendArg,
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba16f")]
     pub format: FormatArg,
@@ -123,9 +128,17 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             .with_footprint(args.footprint)
             .with_max_vertices(args.max_vertices),
         variant: Variant::from(args.variant),
+        blend: BlendScheme::from(args.blend),
         format: TargetFormat::from(args.format),
     };
     options.hybrid.validate().map_err(flag_error)?;
+    if options.variant == Variant::SinglePass && options.blend != BlendScheme::FrontToBack {
+        return Err(BadUsage(format!(
+            "--blend {}: the single pass composites in registers and does not blend; give --variant multipass",
+            options.blend.name()
+        ))
+        .into());
+    }
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     let ems = match &args.bake {
@@ -223,7 +236,7 @@ fn report(
     let mut out = json!({
         "scene": hybrid.scene.name, "device": device,
         "width": camera.width, "height": camera.height, "supersampling": camera.supersampling,
-        "t": args.t, "variant": Variant::from(args.variant).name(), "format": TargetFormat::from(args.format).name(),
+        "t": args.t, "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
         "prepare_seconds": prepare_s,
         "light_maps": {

@@ -231,8 +231,9 @@ fn out_of_range_options_exit_2_naming_the_flag() {
 }
 
 /// `bench passes` measures the formats' error over the lens pixels found from the geometry: on
-/// the synthetic sphere RGBA8 and RGBA16F differ from RGBA32F there (non-zero, and RGBA8 more),
-/// and RGBA32F has no error against itself; a camera that sees no lens object is exit 2 naming
+/// the synthetic sphere, for every blending scheme and the single pass, with one and two
+/// viewpoints, RGBA8 and RGBA16F differ from the multipass front-to-back RGBA32F frame there
+/// (non-zero, and RGBA8 more), and every RGBA32F row is within 1e-5 of it; a camera that sees no lens object is exit 2 naming
 /// the fix, never a table of zeros.
 #[test]
 fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_refused() {
@@ -250,25 +251,54 @@ fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_ref
         "1",
         "--max-layers",
         "1",
+        "--blend",
+        "all",
+        "--viewpoints",
+        "both",
     ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(!stderr.contains("validation"), "{stderr}");
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     let rows = report["rows"].as_array().expect("rows");
-    let rms = |variant: &str, format: &str| {
+    // n = 1 with one and two viewpoints, four schemes and the single pass, three formats.
+    assert_eq!(rows.len(), 2 * 5 * 3);
+    let rms = |viewpoints: u64, variant: &str, blend: &str, format: &str| {
         rows.iter()
-            .find(|r| r["variant"] == variant && r["format"] == format)
-            .and_then(|r| r["rms_vs_rgba32f"].as_f64())
-            .expect("a row per variant and format")
+            .find(|r| {
+                r["viewpoints"] == viewpoints
+                    && r["variant"] == variant
+                    && r["blend"] == blend
+                    && r["format"] == format
+            })
+            .and_then(|r| r["rms_vs_reference"].as_f64())
+            .expect("a row per viewpoint count, scheme and format")
     };
-    for variant in ["multipass", "single-pass"] {
-        let (rgba8, rgba16f) = (rms(variant, "rgba8"), rms(variant, "rgba16f"));
-        assert!(
-            rgba8 > rgba16f && rgba16f > 0.0,
-            "{variant}: {rgba8} {rgba16f}"
+    let compositings = [
+        ("multipass", "front-to-back"),
+        ("multipass", "back-to-front"),
+        ("multipass", "group-targets"),
+        ("multipass", "programmable"),
+        ("single-pass", "-"),
+    ];
+    for viewpoints in [1, 2] {
+        for (variant, blend) in compositings {
+            let (rgba8, rgba16f) = (
+                rms(viewpoints, variant, blend, "rgba8"),
+                rms(viewpoints, variant, blend, "rgba16f"),
+            );
+            assert!(
+                rgba8 > rgba16f && rgba16f > 0.0,
+                "{variant} {blend}: {rgba8} {rgba16f}"
+            );
+            // Every scheme is exact in RGBA32F: within 1e-5 of the reference (which is the
+            // multipass front-to-back row itself: 0).
+            assert!(rms(viewpoints, variant, blend, "rgba32f") <= 1e-5);
+        }
+        assert_eq!(
+            rms(viewpoints, "multipass", "front-to-back", "rgba32f"),
+            0.0
         );
-        assert_eq!(rms(variant, "rgba32f"), 0.0);
     }
     let lens_pixels = rows[0]["lens_pixels"].as_u64().expect("the mask's size");
     assert!(

@@ -102,6 +102,7 @@ fn overhead(c: &mut Criterion) {
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(3.0),
         variant: Variant::SinglePass,
+        blend: lensmap::render::BlendScheme::FrontToBack,
         format: TargetFormat::Rgba16f,
     };
     let mut step = 0;

@@ -880,6 +880,7 @@ fn frame_settings(options: &LensmapFrameOptions) -> Result<(Camera, FrameOptions
         FrameOptions {
             hybrid,
             variant: variant(options.variant, "options->variant")?,
+            blend: lensmap::render::BlendScheme::FrontToBack,
             format: format(options.format, "options->format")?,
         },
     ))

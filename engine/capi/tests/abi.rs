@@ -157,6 +157,7 @@ fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f3
             &FrameOptions {
                 hybrid: HybridOptions::with_t(options.t),
                 variant: Variant::SinglePass,
+                blend: lensmap::render::BlendScheme::FrontToBack,
                 format: TargetFormat::Rgba32f,
             },
         )

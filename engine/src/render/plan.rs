@@ -933,8 +933,177 @@ mod tests {
         }
     }
 
+    fn plan_blended(
+        layers: usize,
+        viewpoints: usize,
+        terms: &[Term],
+        blend: BlendScheme,
+    ) -> FramePlan {
+        let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
+        frame_graph_blended(
+            &shape,
+            Variant::Multipass,
+            blend,
+            TargetFormat::Rgba32f,
+            Output::Readback,
+        )
+        .unwrap()
+        .0
+        .compile()
+        .unwrap()
+    }
+
+    /// Each scheme's pass, barrier and rendering-instance counts for n = 1…4 layers and G =
+    /// viewpoints × terms groups, derived by hand from the scheme's description.
+    #[test]
+    fn each_scheme_has_the_passes_it_is_described_with() {
+        for n in 1..=4 {
+            for viewpoints in 1..=2 {
+                for terms in [&BOTH[..], &[Term::Reflection][..]] {
+                    let g = viewpoints * terms.len();
+                    let count = |p: &FramePlan| {
+                        (
+                            p.count("layer"),
+                            p.count("alpha-clear"),
+                            p.count("scratch-clear"),
+                            p.count("group-sum"),
+                        )
+                    };
+                    let front = plan_blended(n, viewpoints, terms, BlendScheme::FrontToBack);
+                    assert_eq!(count(&front), (g * n, g - 1, 0, 0), "{front}");
+                    assert_eq!((front.rendering_instances(), front.barrier_count()), (1, 3));
+                    // Per group a clear of the scratch image, its layers and an accumulate pass.
+                    let back = plan_blended(n, viewpoints, terms, BlendScheme::BackToFront);
+                    assert_eq!(count(&back), (g * n, 0, g, g), "{back}");
+                    assert_eq!(back.rendering_instances(), 1 + 2 * g, "{back}");
+                    // Per group its own cleared image; one sum of all of them.
+                    let targets = plan_blended(n, viewpoints, terms, BlendScheme::GroupTargets);
+                    assert_eq!(count(&targets), (g * n, 0, g, 1), "{targets}");
+                    assert_eq!(targets.rendering_instances(), 2 + g, "{targets}");
+                    // One rendering instance per layer pass, alternating images (a lone layer
+                    // pass renders straight into the framebuffer, in the prime's instance).
+                    let shader = plan_blended(n, viewpoints, terms, BlendScheme::Programmable);
+                    assert_eq!(count(&shader), (g * n, 0, 0, 0), "{shader}");
+                    let instances = if g * n == 1 { 1 } else { 1 + g * n };
+                    assert_eq!(shader.rendering_instances(), instances, "{shader}");
+                    // No pass samples the image it renders into.
+                    for step in &shader.steps {
+                        if let PassKind::Draw {
+                            colour, sampled, ..
+                        } = &step.pass.kind
+                        {
+                            assert!(!sampled.contains(&colour.image), "{shader}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Back-to-front composites each group's layers farthest first; the others nearest first.
+    #[test]
+    fn back_to_front_reverses_the_layer_order() {
+        let layer_order = |blend| -> Vec<String> {
+            plan_blended(3, 1, &[Term::Reflection], blend)
+                .steps
+                .iter()
+                .filter(|s| s.pass.category == "layer")
+                .map(|s| s.pass.name.rsplit('/').next().unwrap_or("").to_owned())
+                .collect()
+        };
+        assert_eq!(
+            layer_order(BlendScheme::BackToFront),
+            ["layer2", "layer1", "layer0"]
+        );
+        for blend in [
+            BlendScheme::FrontToBack,
+            BlendScheme::GroupTargets,
+            BlendScheme::Programmable,
+        ] {
+            assert_eq!(
+                layer_order(blend),
+                ["layer0", "layer1", "layer2"],
+                "{blend:?}"
+            );
+        }
+    }
+
+    /// The programmable scheme resets α (the alpha clear) exactly where a group begins, and a
+    /// last group whose layers are all zero still ends in an alpha clear.
+    #[test]
+    fn programmable_resets_alpha_at_group_boundaries() {
+        let mut shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
+        let resets = |shape: &FrameShape| -> Vec<(String, bool)> {
+            let plan = frame_graph_blended(
+                shape,
+                Variant::Multipass,
+                BlendScheme::Programmable,
+                TargetFormat::Rgba32f,
+                Output::Readback,
+            )
+            .unwrap()
+            .0
+            .compile()
+            .unwrap();
+            plan.steps
+                .iter()
+                .filter_map(|s| match &s.pass.kind {
+                    PassKind::Draw { draws, .. } => draws.first().and_then(|d| match d {
+                        Draw::ProgrammableLayer { reset_alpha, .. } => {
+                            Some((s.pass.name.clone(), *reset_alpha))
+                        }
+                        Draw::LensZero { .. } if s.pass.category == "alpha-clear" => {
+                            Some((s.pass.name.clone(), true))
+                        }
+                        _ => None,
+                    }),
+                    _ => None,
+                })
+                .collect()
+        };
+        let all = resets(&shape);
+        let reset: Vec<&str> = all
+            .iter()
+            .filter(|(_, r)| *r)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        assert_eq!(
+            reset,
+            ["lens/v0/R/layer0", "lens/v1/T/layer0", "lens/v1/R/layer0"],
+            "{all:?}"
+        );
+        // Viewpoint 1's layers all zero: its two groups draw nothing, and α still ends cleared.
+        shape.lenses[0].empty[1] = vec![true, true];
+        let all = resets(&shape);
+        assert_eq!(
+            all.last().map(|(n, _)| n.as_str()),
+            Some("lens/v1/T/alpha-clear"),
+            "{all:?}"
+        );
+    }
+
+    #[test]
+    fn the_single_pass_takes_only_front_to_back() {
+        let shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
+        for blend in BlendScheme::ALL {
+            let result = frame_graph_blended(
+                &shape,
+                Variant::SinglePass,
+                blend,
+                TargetFormat::Rgba8,
+                Output::Readback,
+            );
+            assert_eq!(
+                result.is_ok(),
+                blend == BlendScheme::FrontToBack,
+                "{blend:?}"
+            );
+        }
+    }
+
     /// The plans `lensmap passes` prints (its defaults: 640×480, RGBA8), n = 1…4, for one and two
-    /// viewpoints, a glass (both terms) and a mirror (reflection only) lens, both variants, as
+    /// viewpoints, a glass (both terms) and a mirror (reflection only) lens, both variants and
+    /// every blending scheme, as
     /// text against the golden files in `render/golden/` (read and checked by hand when written;
     /// the counts above check the same plans independently). Trailing spaces are not compared.
     /// `LENSMAP_BLESS=1` rewrites the files after a deliberate change, to be read before
@@ -949,21 +1118,42 @@ mod tests {
                 .collect()
         };
         let mut mismatches = Vec::new();
-        for variant in [Variant::Multipass, Variant::SinglePass] {
+        let compositings = [
+            (Variant::Multipass, BlendScheme::FrontToBack),
+            (Variant::SinglePass, BlendScheme::FrontToBack),
+            (Variant::Multipass, BlendScheme::BackToFront),
+            (Variant::Multipass, BlendScheme::GroupTargets),
+            (Variant::Multipass, BlendScheme::Programmable),
+        ];
+        for (variant, blend) in compositings {
             for viewpoints in 1..=2 {
                 for (material, terms) in [("glass", &BOTH[..]), ("mirror", &[Term::Reflection][..])]
                 {
                     let mut text = String::new();
                     for n in 1..=4 {
                         let shape = FrameShape::synthetic(640, 480, n, viewpoints, terms);
-                        let plan = frame_graph(&shape, variant, TargetFormat::Rgba8)
-                            .unwrap()
-                            .0
-                            .compile()
-                            .unwrap();
+                        let plan = frame_graph_blended(
+                            &shape,
+                            variant,
+                            blend,
+                            TargetFormat::Rgba8,
+                            Output::Readback,
+                        )
+                        .unwrap()
+                        .0
+                        .compile()
+                        .unwrap();
                         text.push_str(&format!("# n = {n}\n{plan}"));
                     }
-                    let name = format!("{}-{viewpoints}-viewpoint-{material}.txt", variant.name());
+                    // The paper's scheme keeps its files' names; the others add theirs.
+                    let scheme = match blend {
+                        BlendScheme::FrontToBack => String::new(),
+                        other => format!("-{}", other.name()),
+                    };
+                    let name = format!(
+                        "{}{scheme}-{viewpoints}-viewpoint-{material}.txt",
+                        variant.name()
+                    );
                     let path = dir.join(&name);
                     if bless {
                         std::fs::create_dir_all(&dir).unwrap();

@@ -405,7 +405,8 @@ fn bench_error_measures_time_and_error_with_baselines_and_a_frontier() {
     }
     let table = std::fs::read_to_string(&csv).expect("the CSV");
     assert_eq!(table.lines().count(), 1 + points.len());
-    // Six fields a row: commas only between fields (names with commas are quoted).
+    // Eight fields a row (the last two, f32 against f64, empty but for the CPU-precision
+    // settings): commas only between fields (names with commas are quoted).
     for line in table.lines() {
         let mut fields = 1;
         let mut quoted = false;
@@ -416,7 +417,7 @@ fn bench_error_measures_time_and_error_with_baselines_and_a_frontier() {
                 _ => {}
             }
         }
-        assert_eq!(fields, 6, "{line}");
+        assert_eq!(fields, 8, "{line}");
     }
     for name in ["pareto.svg", "pareto.png"] {
         let bytes = std::fs::metadata(plot.join(name))

@@ -3,7 +3,7 @@
 
 use clap::Args;
 use lensmap::render::{
-    BlendScheme, FrameShape, TargetFormat, Variant,
+    BlendScheme, FrameShape, ProgramError, TargetFormat, Variant,
     plan::{Output, frame_graph_blended},
 };
 use lensmap::trace::Term;
@@ -56,7 +56,10 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     let format = TargetFormat::from(args.format);
     let blend = BlendScheme::from(args.blend);
     let (graph, _) = frame_graph_blended(&shape, variant, blend, format, Output::Readback)
-        .map_err(|error| BadUsage(format!("--layers {}: {error}", args.layers)))?;
+        .map_err(|error| match error {
+            ProgramError::SinglePassBlend { .. } => BadUsage(error.to_string()),
+            _ => BadUsage(format!("--layers {}: {error}", args.layers)),
+        })?;
     let plan = graph.compile()?;
     let counts = json!({
         "prime": plan.count("prime"),

@@ -69,6 +69,31 @@ fn passes_prints_the_papers_counts() {
         "{text}"
     );
     assert!(text.contains("1 prime + 8 layer + 3 alpha clear"), "{text}");
+    // The other blending schemes: the same layer passes, arranged as each describes.
+    let blended = |blend: &str| passes_counts(&["--layers", "3", "--blend", blend]);
+    let c = blended("back-to-front");
+    assert_eq!(
+        (
+            c["layer"].as_u64(),
+            c["scratch_clear"].as_u64(),
+            c["group_sum"].as_u64()
+        ),
+        (Some(12), Some(4), Some(4))
+    );
+    let c = blended("group-targets");
+    assert_eq!(
+        (
+            c["layer"].as_u64(),
+            c["alpha_clear"].as_u64(),
+            c["group_sum"].as_u64()
+        ),
+        (Some(12), Some(0), Some(1))
+    );
+    let c = blended("programmable");
+    assert_eq!(
+        (c["layer"].as_u64(), c["rendering_instances"].as_u64()),
+        (Some(12), Some(13))
+    );
 }
 
 #[test]
@@ -79,6 +104,24 @@ fn bad_usage_exits_2_with_one_line() {
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(
         stderr.contains("--layers") && stderr.contains("multipass"),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn a_blending_scheme_for_the_single_pass_exits_2_naming_the_fix() {
+    let out = lensmap(&[
+        "passes",
+        "--variant",
+        "single-pass",
+        "--blend",
+        "programmable",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("--blend programmable") && stderr.contains("--variant multipass"),
         "{stderr}"
     );
 }

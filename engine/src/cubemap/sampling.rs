@@ -12,7 +12,14 @@
 //! bilinear footprint that falls off a face in both i and j (a cube corner) replaces the missing
 //! texel by the average of the three texels that exist. [`CubeSample::corner`] reports it so that
 //! comparisons can leave such samples out.
+//!
+//! Where the specification lets an implementation round or approximate, [`sample_cube_bounds`]
+//! gives the range every conformant result lies in, from the device's [`FilterPrecision`]: the
+//! LOD anywhere in [`cube_lod_range_on_face`] (the spec's allowed approximation of the scale
+//! factor, coarse or fine derivatives, the LOD fraction resolved to `mipmapPrecisionBits`), and
+//! bilinear weights snapped to `subTexelPrecisionBits`.
 
+use ash::vk;
 use glam::DVec3;
 
 use super::CubeMap;
@@ -135,6 +142,88 @@ pub fn cube_lod_with(
     )
 }
 
+/// The filtering precision a device reports, which bounds how far its filtered values may stray
+/// from exact arithmetic (Vulkan requires at least 4 bits of each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FilterPrecision {
+    /// `subTexelPrecisionBits`: bilinear fractions α, β snap to multiples of `2^-bits`.
+    pub sub_texel_bits: u32,
+    /// `mipmapPrecisionBits`: the LOD's fraction (the weight between two mip levels) is resolved
+    /// to multiples of `2^-bits`.
+    pub mipmap_bits: u32,
+}
+
+impl FilterPrecision {
+    /// The precision `limits` reports.
+    pub fn from_limits(limits: &vk::PhysicalDeviceLimits) -> Self {
+        FilterPrecision {
+            sub_texel_bits: limits.sub_texel_precision_bits,
+            mipmap_bits: limits.mipmap_precision_bits,
+        }
+    }
+
+    /// The loosest precision the Vulkan spec allows (4 bits of each).
+    pub const SPEC_MINIMUM: FilterPrecision = FilterPrecision {
+        sub_texel_bits: 4,
+        mipmap_bits: 4,
+    };
+
+    /// The sub-texel grid step `2^-sub_texel_bits`, in texels.
+    pub fn sub_texel_step(self) -> f64 {
+        (-f64::from(self.sub_texel_bits)).exp2()
+    }
+
+    /// The LOD grid step `2^-mipmap_bits`.
+    pub fn mipmap_step(self) -> f64 {
+        (-f64::from(self.mipmap_bits)).exp2()
+    }
+}
+
+/// Every LOD a conformant implementation may use for a sample at `direction` on `face`, as
+/// `[λ_lo, λ_hi]` within `[0, levels − 1]`, for a cube of level-0 face size `cube_size`.
+///
+/// `derivatives` holds the `(∂r/∂x, ∂r/∂y)` pairs the implementation may take (coarse and fine:
+/// the spec lets it choose). For each, the spec's "Scale Factor Operation" lets ρx be any `fx`
+/// with `max(|m_ux|, |m_vx|) ≤ fx ≤ √2 (|m_ux| + |m_vx|)` (likewise y), so `λ_base = log2
+/// max(fx, fy)` lies between the logarithms of those bounds. The range is then widened by
+/// `2·2^-mipmap_bits` on each side: the spec asks for the LOD "computed with
+/// mipmapPrecisionBits of accuracy" and then quantizes the fraction δ between levels to those
+/// bits, a step each (this also covers approximate logarithms, such as lavapipe's
+/// [`LodLog2::PiecewiseLinearOfSquare`], ≤ 0.043 low where lavapipe reports 4 bits). Last it is
+/// clamped as minLod 0, maxLod `levels − 1` clamp it.
+pub fn cube_lod_range_on_face(
+    face: CubeFace,
+    cube_size: u32,
+    levels: u32,
+    direction: DVec3,
+    derivatives: &[(DVec3, DVec3)],
+    precision: FilterPrecision,
+) -> [f64; 2] {
+    let coordinates = face_coordinates_on(face, direction);
+    let size = f64::from(cube_size);
+    let mut range = [f64::INFINITY, f64::NEG_INFINITY];
+    for &(ddx, ddy) in derivatives {
+        let (ds_dx, dt_dx) = face_derivatives(&coordinates, ddx);
+        let (ds_dy, dt_dy) = face_derivatives(&coordinates, ddy);
+        let [m_ux, m_vx, m_uy, m_vy] = [ds_dx, dt_dx, ds_dy, dt_dy].map(|d| (size * d).abs());
+        let lower = m_ux.max(m_vx).max(m_uy).max(m_vy);
+        let upper = std::f64::consts::SQRT_2 * (m_ux + m_vx).max(m_uy + m_vy);
+        range[0] = range[0].min(lower.log2());
+        range[1] = range[1].max(upper.log2());
+    }
+    let step = 2.0 * precision.mipmap_step();
+    let max_lod = f64::from(levels.max(1) - 1);
+    // As in cube_lod_on_face: below 0, −∞ and NaN clamp to level 0.
+    let clamp = |lambda: f64| {
+        if lambda > 0.0 {
+            lambda.min(max_lod)
+        } else {
+            0.0
+        }
+    };
+    [clamp(range[0] - step), clamp(range[1] + step)]
+}
+
 /// One texel of a cube map as f64.
 fn texel(cube: &CubeMap, level: usize, face: CubeFace, i: u32, j: u32) -> [f64; 4] {
     let size = cube.level_size(level) as usize;
@@ -159,38 +248,37 @@ pub struct CubeSample {
     pub corner: bool,
 }
 
-/// Bilinear filtering within one mip level at the face coordinates of `coordinates`, with
-/// seamless edge handling (spec "Texel Linear Filtering": `i0 = ⌊u − ½⌋`, `α = frac(u − ½)`,
+/// A level's bilinear footprint around a point: the four texels (seamless edge handling, a
+/// missing cube-corner texel replaced by the average of the other three) and the point's
+/// fractions α, β between them (spec "Texel Linear Filtering": `i0 = ⌊u − ½⌋`, `α = frac(u − ½)`,
 /// `u = s·size_level`, likewise j and β).
-pub fn sample_level_bilinear(
-    cube: &CubeMap,
-    level: usize,
-    coordinates: &FaceCoordinates,
-) -> CubeSample {
-    let size = cube.level_size(level);
-    let n = f64::from(size);
-    let u = coordinates.s * n - 0.5;
-    let v = coordinates.t * n - 0.5;
-    let (i0, j0) = (u.floor(), v.floor());
-    let (alpha, beta) = (u - i0, v - j0);
-    let (i0, j0) = (i0 as i64, j0 as i64);
-    // Footprint order: (i0,j0), (i1,j0), (i0,j1), (i1,j1).
-    let offsets = [(0, 0), (1, 0), (0, 1), (1, 1)];
-    let weights = [
-        (1.0 - alpha) * (1.0 - beta),
-        alpha * (1.0 - beta),
-        (1.0 - alpha) * beta,
-        alpha * beta,
-    ];
-    let mut values: [Option<[f64; 4]>; 4] = [None; 4];
-    for (value, (di, dj)) in values.iter_mut().zip(offsets) {
-        *value = texel_source(coordinates.face, size, i0 + di, j0 + dj)
-            .map(|(face, i, j)| texel(cube, level, face, i, j));
-    }
-    let mut corner = false;
-    let mut rgba = [0.0; 4];
-    for k in 0..4 {
-        let value = match values[k] {
+struct Footprint {
+    /// Order (i0,j0), (i1,j0), (i0,j1), (i1,j1).
+    texels: [[f64; 4]; 4],
+    /// The footprint entry that is a cube-corner texel whose three source texels differ (the
+    /// spec then leaves its value to the implementation).
+    corner: Option<usize>,
+    alpha: f64,
+    beta: f64,
+}
+
+impl Footprint {
+    fn new(cube: &CubeMap, level: usize, coordinates: &FaceCoordinates) -> Footprint {
+        let size = cube.level_size(level);
+        let n = f64::from(size);
+        let u = coordinates.s * n - 0.5;
+        let v = coordinates.t * n - 0.5;
+        let (i0, j0) = (u.floor(), v.floor());
+        let (alpha, beta) = (u - i0, v - j0);
+        let (i0, j0) = (i0 as i64, j0 as i64);
+        let offsets = [(0, 0), (1, 0), (0, 1), (1, 1)];
+        let mut values: [Option<[f64; 4]>; 4] = [None; 4];
+        for (value, (di, dj)) in values.iter_mut().zip(offsets) {
+            *value = texel_source(coordinates.face, size, i0 + di, j0 + dj)
+                .map(|(face, i, j)| texel(cube, level, face, i, j));
+        }
+        let mut corner = None;
+        let texels = std::array::from_fn(|k| match values[k] {
             Some(value) => value,
             None => {
                 // The corner texel: the spec's recommended average of the three others (at most
@@ -198,7 +286,9 @@ pub fn sample_level_bilinear(
                 // every implementation only where the three are equal: the result must then be
                 // that value, so only unequal texels make the sample implementation-defined.
                 let others: Vec<[f64; 4]> = values.iter().flatten().copied().collect();
-                corner |= weights[k] > 0.0 && others.iter().any(|other| *other != others[0]);
+                if others.iter().any(|other| *other != others[0]) {
+                    corner = Some(k);
+                }
                 let mut sum = [0.0; 4];
                 for other in &others {
                     for c in 0..4 {
@@ -207,12 +297,69 @@ pub fn sample_level_bilinear(
                 }
                 sum
             }
-        };
-        for c in 0..4 {
-            rgba[c] += weights[k] * value[c];
+        });
+        Footprint {
+            texels,
+            corner,
+            alpha,
+            beta,
         }
     }
-    CubeSample { rgba, corner }
+
+    /// The bilinear value at fractions `(alpha, beta)` ∈ [0, 1]².
+    fn filter(&self, alpha: f64, beta: f64) -> CubeSample {
+        let weights = [
+            (1.0 - alpha) * (1.0 - beta),
+            alpha * (1.0 - beta),
+            (1.0 - alpha) * beta,
+            alpha * beta,
+        ];
+        let mut rgba = [0.0; 4];
+        for (weight, value) in weights.iter().zip(&self.texels) {
+            for c in 0..4 {
+                rgba[c] += weight * value[c];
+            }
+        }
+        CubeSample {
+            rgba,
+            corner: self.corner.is_some_and(|k| weights[k] > 0.0),
+        }
+    }
+
+    /// Per channel, the range of the bilinear value over every `(α', β')` within `step` of the
+    /// footprint's own fractions (clamped to [0, 1]): a value that is linear in α and in β takes
+    /// its extremes over a rectangle at its corners. With `step = 2^-subTexelPrecisionBits` this
+    /// contains every result with the fractions snapped to the sub-texel grid, whichever way an
+    /// implementation rounds (the grid holds the integers, so a snapped point never leaves the
+    /// footprint). `corner` is set if the corner texel gets weight anywhere in that rectangle.
+    fn filter_bounds(&self, step: f64) -> ([[f64; 2]; 4], bool) {
+        let alphas = [(self.alpha - step).max(0.0), (self.alpha + step).min(1.0)];
+        let betas = [(self.beta - step).max(0.0), (self.beta + step).min(1.0)];
+        let mut bounds = [[f64::INFINITY, f64::NEG_INFINITY]; 4];
+        let mut corner = false;
+        for alpha in alphas {
+            for beta in betas {
+                let sample = self.filter(alpha, beta);
+                corner |= sample.corner;
+                for (bound, value) in bounds.iter_mut().zip(sample.rgba) {
+                    *bound = [bound[0].min(value), bound[1].max(value)];
+                }
+            }
+        }
+        (bounds, corner)
+    }
+}
+
+/// Bilinear filtering within one mip level at the face coordinates of `coordinates`, with
+/// seamless edge handling (spec "Texel Linear Filtering": `i0 = ⌊u − ½⌋`, `α = frac(u − ½)`,
+/// `u = s·size_level`, likewise j and β).
+pub fn sample_level_bilinear(
+    cube: &CubeMap,
+    level: usize,
+    coordinates: &FaceCoordinates,
+) -> CubeSample {
+    let footprint = Footprint::new(cube, level, coordinates);
+    footprint.filter(footprint.alpha, footprint.beta)
 }
 
 /// Trilinear sample of `cube` at `direction` with LOD `lambda` (clamped to `[0, levels − 1]`),
@@ -250,6 +397,77 @@ pub fn sample_cube(cube: &CubeMap, direction: DVec3, lambda: f64) -> CubeSample 
 /// `lambda`; premultiplied RGBA. See [`sample_cube`].
 pub fn sample_cube_trilinear(cube: &CubeMap, direction: DVec3, lambda: f64) -> [f64; 4] {
     sample_cube(cube, direction, lambda).rgba
+}
+
+/// The range of a trilinear cube sample over what a conformant implementation may do.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CubeSampleBounds {
+    /// Per premultiplied RGBA channel, `[lo, hi]`.
+    pub bounds: [[f64; 2]; 4],
+    /// Some footprint in the range gives an implementation-defined cube-corner texel weight
+    /// (see [`CubeSample::corner`]): the bounds assume the spec's recommended average there.
+    pub corner: bool,
+}
+
+/// Per channel, the range of the trilinear sample of `cube` at `direction` over every LOD in
+/// `lod_range` (see [`cube_lod_range_on_face`]) and bilinear fractions snapped to
+/// `precision`'s sub-texel grid.
+///
+/// The value is piecewise linear in λ between integer levels, with each level's value anywhere in
+/// its snapped-fraction range (`Footprint::filter_bounds`); so are the range's ends, and the hull
+/// over λ is taken at `lod_range`'s ends and the integer levels between them.
+pub fn sample_cube_bounds(
+    cube: &CubeMap,
+    direction: DVec3,
+    lod_range: [f64; 2],
+    precision: FilterPrecision,
+) -> CubeSampleBounds {
+    let coordinates = select_face(direction);
+    let q = cube.levels.len().saturating_sub(1);
+    let step = precision.sub_texel_step();
+    let mut levels: Vec<Option<[[f64; 2]; 4]>> = vec![None; q + 1];
+    let mut corner = false;
+    let mut level_bounds = |level: usize| -> [[f64; 2]; 4] {
+        *levels[level].get_or_insert_with(|| {
+            let (bounds, level_corner) =
+                Footprint::new(cube, level, &coordinates).filter_bounds(step);
+            corner |= level_corner;
+            bounds
+        })
+    };
+    let clamp = |lambda: f64| {
+        if lambda > 0.0 {
+            lambda.min(q as f64)
+        } else {
+            0.0
+        }
+    };
+    let (lo, hi) = (clamp(lod_range[0]), clamp(lod_range[1].max(lod_range[0])));
+    let inner = (lo.floor() as usize + 1..=hi.ceil() as usize).filter(|&k| (k as f64) < hi);
+    let mut bounds = [[f64::INFINITY, f64::NEG_INFINITY]; 4];
+    for d in std::iter::once(lo)
+        .chain(inner.map(|k| k as f64))
+        .chain(std::iter::once(hi))
+    {
+        let first = (d.floor() as usize).min(q);
+        let second = (first + 1).min(q);
+        let delta = d - first as f64;
+        let at_d = if second == first || delta == 0.0 {
+            level_bounds(first)
+        } else {
+            let (a, b) = (level_bounds(first), level_bounds(second));
+            std::array::from_fn(|c| {
+                [
+                    (1.0 - delta) * a[c][0] + delta * b[c][0],
+                    (1.0 - delta) * a[c][1] + delta * b[c][1],
+                ]
+            })
+        };
+        for (bound, value) in bounds.iter_mut().zip(at_d) {
+            *bound = [bound[0].min(value[0]), bound[1].max(value[1])];
+        }
+    }
+    CubeSampleBounds { bounds, corner }
 }
 
 #[cfg(test)]
@@ -651,6 +869,191 @@ mod tests {
                 (dt - fd_t).abs() < 1e-6 * (1.0 + dt.abs()),
                 "{coordinates:?}"
             );
+        }
+    }
+
+    /// Random derivative pairs (coarse-like and fine-like) around `direction`.
+    fn random_derivatives(rng: &mut Pcg64, scale: f64) -> [(DVec3, DVec3); 2] {
+        let mut vector = || {
+            DVec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            ) * scale
+        };
+        let (ddx, ddy) = (vector(), vector());
+        let (ex, ey) = (vector() * 0.1, vector() * 0.1);
+        [(ddx, ddy), (ddx + ex, ddy + ey)]
+    }
+
+    #[test]
+    fn lod_range_holds_the_exact_and_lavapipe_lods_and_has_the_spec_width() {
+        let mut rng = Pcg64::seed_from_u64(6);
+        let size = 16u32;
+        let levels = CubeMap::full_chain_levels(size);
+        let precision = FilterPrecision {
+            sub_texel_bits: 8,
+            mipmap_bits: 4,
+        };
+        for _ in 0..2000 {
+            let direction = DVec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            );
+            let scale = rng.gen_range(0.001..0.5);
+            let derivatives = random_derivatives(&mut rng, scale);
+            let face = major_face(direction);
+            let range =
+                cube_lod_range_on_face(face, size, levels, direction, &derivatives, precision);
+            assert!(range[0] <= range[1]);
+            for (ddx, ddy) in derivatives {
+                for log2 in [LodLog2::Exact, LodLog2::PiecewiseLinearOfSquare] {
+                    let lambda = cube_lod_on_face(face, size, levels, direction, ddx, ddy, log2);
+                    assert!(
+                        range[0] <= lambda && lambda <= range[1],
+                        "{log2:?}: {lambda} outside {range:?}"
+                    );
+                }
+            }
+        }
+        // One screen axis moving s only, at +Z's centre: ρ = m_ux exactly, so the range is
+        // [log2 m_ux, log2 √2·m_ux] widened by 2·2^-4 on each side.
+        let d = 2.0 * 4.0 / f64::from(size); // ∂s/∂x = 4/size, m_ux = 4
+        let range = cube_lod_range_on_face(
+            CubeFace::PositiveZ,
+            size,
+            levels,
+            DVec3::Z,
+            &[(DVec3::X * d, DVec3::ZERO)],
+            precision,
+        );
+        assert!((range[0] - (2.0 - 0.125)).abs() < 1e-12, "{range:?}");
+        assert!((range[1] - (2.5 + 0.125)).abs() < 1e-12, "{range:?}");
+        // Clamped to [0, q].
+        let range = cube_lod_range_on_face(
+            CubeFace::PositiveZ,
+            size,
+            levels,
+            DVec3::Z,
+            &[(DVec3::X * 1e3, DVec3::ZERO)],
+            precision,
+        );
+        assert_eq!(range, [f64::from(levels - 1); 2]);
+    }
+
+    #[test]
+    fn bounds_of_a_uniform_cube_are_its_texel() {
+        let mut rng = Pcg64::seed_from_u64(7);
+        let texel = [0.25f32, 0.5, 0.125, 0.75];
+        let cube = CubeMap::uniform(8, texel);
+        for _ in 0..200 {
+            let direction = DVec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            );
+            let lo = rng.gen_range(-1.0..4.0);
+            let range = [lo, lo + rng.gen_range(0.0..2.0)];
+            let bounds = sample_cube_bounds(&cube, direction, range, FilterPrecision::SPEC_MINIMUM);
+            for (bound, value) in bounds.bounds.iter().zip(texel) {
+                assert!((bound[0] - f64::from(value)).abs() < 1e-12, "{bounds:?}");
+                assert!((bound[1] - f64::from(value)).abs() < 1e-12, "{bounds:?}");
+            }
+        }
+    }
+
+    /// Every value an implementation may produce, drawn by brute force: LODs across the range
+    /// (the fraction snapped down or up to the mip grid), bilinear fractions snapped down or up
+    /// to the sub-texel grid independently per level; each must lie in the bounds, and the
+    /// bounds must be reached (no wider than the hull of the draws plus the sub-texel step's
+    /// effect).
+    #[test]
+    fn brute_force_snapped_samples_stay_inside_the_bounds() {
+        let mut rng = Pcg64::seed_from_u64(8);
+        let cube = random_cube(&mut rng, 16);
+        let q = cube.levels.len() - 1;
+        for precision in [
+            FilterPrecision::SPEC_MINIMUM,
+            FilterPrecision {
+                sub_texel_bits: 8,
+                mipmap_bits: 8,
+            },
+        ] {
+            let sub_step = precision.sub_texel_step();
+            let mip_step = precision.mipmap_step();
+            let mut widest: f64 = 0.0;
+            for _ in 0..300 {
+                let direction = DVec3::new(
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                    rng.gen_range(-1.0..1.0),
+                );
+                let lo = rng.gen_range(-0.5..4.5);
+                let range = [lo, lo + rng.gen_range(0.0..1.5)];
+                let bounds = sample_cube_bounds(&cube, direction, range, precision);
+                if bounds.corner {
+                    continue;
+                }
+                // The nominal value at every λ in the range lies inside.
+                let coordinates = select_face(direction);
+                let mut hull = [[f64::INFINITY, f64::NEG_INFINITY]; 4];
+                let integers = (0..=q)
+                    .map(|k| k as f64)
+                    .filter(|k| (range[0]..=range[1]).contains(k));
+                let lambdas = (0..=64)
+                    .map(|k| range[0] + (range[1] - range[0]) * f64::from(k) / 64.0)
+                    .chain(integers);
+                for lambda in lambdas {
+                    let d = lambda.clamp(0.0, q as f64);
+                    let first = (d.floor() as usize).min(q);
+                    let second = (first + 1).min(q);
+                    let delta_exact = d - first as f64;
+                    for delta in [
+                        delta_exact,
+                        (delta_exact / mip_step).floor() * mip_step,
+                        ((delta_exact / mip_step).ceil() * mip_step).min(1.0),
+                    ] {
+                        // Snapped λ must stay inside the range the caller widened for it.
+                        let snapped = first as f64 + delta;
+                        if delta != delta_exact && !(range[0]..=range[1]).contains(&snapped) {
+                            continue;
+                        }
+                        let snap = |fraction: f64, up: bool| {
+                            let grid = fraction / sub_step;
+                            (if up { grid.ceil() } else { grid.floor() }) * sub_step
+                        };
+                        let a = Footprint::new(&cube, first, &coordinates);
+                        let b = Footprint::new(&cube, second, &coordinates);
+                        let ups: [bool; 4] = std::array::from_fn(|_| rng.gen_bool(0.5));
+                        let va = a.filter(snap(a.alpha, ups[0]), snap(a.beta, ups[1])).rgba;
+                        let vb = b.filter(snap(b.alpha, ups[2]), snap(b.beta, ups[3])).rgba;
+                        for c in 0..4 {
+                            let value = (1.0 - delta) * va[c] + delta * vb[c];
+                            let [low, high] = bounds.bounds[c];
+                            assert!(
+                                low - 1e-12 <= value && value <= high + 1e-12,
+                                "{precision:?} λ {lambda} δ {delta} channel {c}: {value} \
+                                 outside {:?}",
+                                bounds.bounds[c]
+                            );
+                            hull[c] = [hull[c][0].min(value), hull[c][1].max(value)];
+                        }
+                    }
+                }
+                for ([low, high], [drawn_low, drawn_high]) in bounds.bounds.into_iter().zip(hull) {
+                    widest = widest.max(high - low);
+                    // Tight: the draws span all but the part of each end that only unlucky
+                    // snapping reaches (at most 2·step·spread ≤ 2·step with texels in [0, 1]).
+                    let slack = 2.0 * sub_step + 1e-12;
+                    assert!(
+                        low >= drawn_low - slack && high <= drawn_high + slack,
+                        "{precision:?} {range:?}: bounds [{low}, {high}], drawn \
+                         [{drawn_low}, {drawn_high}]"
+                    );
+                }
+            }
+            assert!(widest > 0.0);
         }
     }
 

@@ -30,6 +30,13 @@
 //!
 //! Where a GPU may legitimately differ (coverage at an edge, a depth tie, a cube-face tie, a cube
 //! corner), the pixel gets an [`Exclusion`] saying why, and comparisons leave it out.
+//!
+//! Where it may differ by rounding the spec allows, [`ModelOptions::precision`] asks for
+//! [`ModelImage::bounds`]: per pixel and channel an interval every conformant implementation's
+//! result lies in (up to f32 arithmetic), from the device's reported filtering precision and the
+//! spec's freedom in the LOD ([`crate::cubemap::sampling::sample_cube_bounds`]), carried through
+//! the blend passes with interval arithmetic. A comparison on any driver checks the GPU against
+//! the interval; one on lavapipe can also check against the nominal value.
 
 use std::fmt;
 
@@ -39,9 +46,12 @@ use rayon::prelude::*;
 use super::frame_input::{FrameInput, LensObject};
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::{competing_faces, major_face};
-pub use crate::cubemap::sampling::LodLog2;
+pub use crate::cubemap::sampling::{FilterPrecision, LodLog2};
 pub use crate::cubemap::sampling::{cube_lod, sample_cube_trilinear};
-use crate::cubemap::sampling::{cube_lod_on_face, sample_cube};
+use crate::cubemap::sampling::{
+    cube_lod_on_face, cube_lod_range_on_face, sample_cube, sample_cube_bounds,
+};
+use crate::lightmap::LightMap;
 use crate::trace::Term;
 
 /// Why a model pixel is not a fair point of comparison with a GPU frame. A pixel carries the
@@ -176,6 +186,10 @@ pub struct ModelOptions {
     pub alpha_clear: AlphaClearScope,
     /// Flag lens pixels whose quad straddles triangles ([`Exclusion::QuadStraddle`]).
     pub flag_quad_straddle: bool,
+    /// The device's filtering precision, for [`ModelImage::bounds`]; `None` (the default) gives
+    /// point intervals `[v, v]`. With it, [`Exclusion::CubeCorner`] also covers corner texels
+    /// that any LOD in the allowed range would weigh, not only the nominal LOD's.
+    pub precision: Option<FilterPrecision>,
 }
 
 impl Default for ModelOptions {
@@ -190,6 +204,7 @@ impl Default for ModelOptions {
             derivatives: DerivativeMode::Coarse,
             alpha_clear: AlphaClearScope::LensCoverage,
             flag_quad_straddle: false,
+            precision: None,
         }
     }
 }
@@ -223,6 +238,10 @@ pub struct ModelImage {
     pub lens_mask: Vec<bool>,
     /// The final depth buffer (1.0 where nothing was drawn).
     pub depth: Vec<f64>,
+    /// Per pixel and premultiplied RGBA channel, `[lo, hi]`: where any conformant
+    /// implementation's result lies, in exact arithmetic, given [`ModelOptions::precision`]
+    /// (`[v, v]` without it). Compare with a slack for f32 arithmetic.
+    pub bounds: Vec<[[f64; 2]; 4]>,
 }
 
 impl ModelImage {
@@ -245,6 +264,22 @@ impl ModelImage {
             })
             .filter(|&(_, count)| count > 0)
             .collect()
+    }
+
+    /// How far `rgba` lies outside pixel `index`'s [`ModelImage::bounds`]: the largest distance
+    /// over the channels, 0 when every channel is inside (NaN counts as infinitely far).
+    pub fn distance_outside_bounds(&self, index: usize, rgba: [f64; 4]) -> f64 {
+        self.bounds[index]
+            .iter()
+            .zip(rgba)
+            .map(|(&[lo, hi], value)| {
+                if value.is_nan() {
+                    f64::INFINITY
+                } else {
+                    (lo - value).max(value - hi).max(0.0)
+                }
+            })
+            .fold(0.0, f64::max)
     }
 
     /// Number of lens pixels with no exclusion: the pixels a lens comparison uses.
@@ -328,6 +363,88 @@ pub fn composite_closed_form(groups: &[CompositeGroup]) -> [f64; 4] {
     result
 }
 
+/// A closed interval `[lo, hi]`, one per premultiplied channel in [`ModelImage::bounds`].
+type Interval = [f64; 2];
+
+/// Point intervals `[v, v]`.
+fn point_bounds(rgba: [f64; 4]) -> [Interval; 4] {
+    rgba.map(|v| [v, v])
+}
+
+/// `{x·y : x ∈ a, y ∈ b}`, whatever the signs.
+fn interval_product(a: Interval, b: Interval) -> Interval {
+    let products = [a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]];
+    [
+        products.into_iter().fold(f64::INFINITY, f64::min),
+        products.into_iter().fold(f64::NEG_INFINITY, f64::max),
+    ]
+}
+
+/// [`layer_source`] over a texel interval (weight and F·G exact).
+fn layer_source_bounds(group_weight: f64, fg: [f64; 3], texel: [Interval; 4]) -> [Interval; 4] {
+    let scale = |c: usize| {
+        interval_product(
+            interval_product(texel[c], [fg[c], fg[c]]),
+            [group_weight, group_weight],
+        )
+    };
+    [scale(0), scale(1), scale(2), texel[3]]
+}
+
+/// [`blend_front_to_back`] over intervals: contains the blend of every `dst`, `src` in them.
+fn blend_front_to_back_bounds(dst: [Interval; 4], src: [Interval; 4]) -> [Interval; 4] {
+    let transmittance = [1.0 - dst[3][1], 1.0 - dst[3][0]];
+    let mut out: [Interval; 4] = std::array::from_fn(|c| {
+        let scaled = interval_product(src[c], transmittance);
+        [scaled[0] + dst[c][0], scaled[1] + dst[c][1]]
+    });
+    // α: src·(1 − dst) + dst rises in both src and dst when both lie in [0, 1], so its ends are
+    // exact there (the general form above counts dst twice and is wider).
+    let unit = |a: Interval| 0.0 <= a[0] && a[1] <= 1.0;
+    if unit(src[3]) && unit(dst[3]) {
+        let alpha = |s: f64, d: f64| s * (1.0 - d) + d;
+        out[3] = [alpha(src[3][0], dst[3][0]), alpha(src[3][1], dst[3][1])];
+    }
+    out
+}
+
+/// The alpha clear over intervals: α becomes exactly 0.
+fn alpha_clear_bounds(dst: [Interval; 4]) -> [Interval; 4] {
+    [dst[0], dst[1], dst[2], [0.0, 0.0]]
+}
+
+/// The range of a light map's bilinear rgb at `uv` over fractions snapped to the sub-texel grid
+/// (the same rectangle-corner argument as the cube maps', same clamp-to-edge footprint as
+/// [`LightMap::sample_bilinear`]).
+fn light_map_bounds(map: &LightMap, uv: DVec2, precision: FilterPrecision) -> [Interval; 3] {
+    let step = precision.sub_texel_step();
+    let axis = |coordinate: f64, size: u32| {
+        let x = coordinate * f64::from(size) - 0.5;
+        let base = x.floor();
+        let clamp = |i: f64| i.clamp(0.0, f64::from(size - 1)) as u32;
+        let fraction = x - base;
+        (
+            [clamp(base), clamp(base + 1.0)],
+            [(fraction - step).max(0.0), (fraction + step).min(1.0)],
+        )
+    };
+    let (xs, fxs) = axis(uv.x, map.width);
+    let (ys, fys) = axis(uv.y, map.height);
+    let texel = |x: u32, y: u32| map.texel(x, y).map(f64::from);
+    let mut bounds = [[f64::INFINITY, f64::NEG_INFINITY]; 3];
+    for fx in fxs {
+        for fy in fys {
+            for (c, bound) in bounds.iter_mut().enumerate() {
+                let value = (texel(xs[0], ys[0])[c] * (1.0 - fx) + texel(xs[1], ys[0])[c] * fx)
+                    * (1.0 - fy)
+                    + (texel(xs[0], ys[1])[c] * (1.0 - fx) + texel(xs[1], ys[1])[c] * fx) * fy;
+                *bound = [bound[0].min(value), bound[1].max(value)];
+            }
+        }
+    }
+    bounds
+}
+
 /// Renders `frame` with [`ModelOptions::default`]. See [`render_model_with`].
 pub fn render_model(frame: &FrameInput) -> ModelImage {
     render_model_with(frame, &ModelOptions::default())
@@ -350,9 +467,11 @@ pub fn render_model_with(frame: &FrameInput, options: &ModelOptions) -> ModelIma
         exclusion: Vec::with_capacity(width * height),
         lens_mask: Vec::with_capacity(width * height),
         depth: Vec::with_capacity(width * height),
+        bounds: Vec::with_capacity(width * height),
     };
     for pixel in rows.into_iter().flatten() {
         image.rgba.push(pixel.rgba);
+        image.bounds.push(pixel.bounds);
         image.lens_mask.push(pixel.lens);
         image.depth.push(pixel.depth);
         image.exclusion.push(
@@ -432,6 +551,7 @@ struct Fragment {
 #[derive(Clone, Copy, Debug)]
 struct PixelResult {
     rgba: [f64; 4],
+    bounds: [Interval; 4],
     depth: f64,
     lens: bool,
     flags: u8,
@@ -683,6 +803,7 @@ impl<'a> FrameSetup<'a> {
             flags |= Exclusion::ClippedTriangle.bit();
         }
         let mut colour = [0.0; 4];
+        let mut bounds = point_bounds(colour);
         let mut depth = 1.0;
         let mut visible = None;
         let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
@@ -696,15 +817,26 @@ impl<'a> FrameSetup<'a> {
             if fragment.covered && fragment.depth < depth {
                 let environment = &self.frame.environment[mesh];
                 let colours = &environment.colours;
-                let mut rgb = self.interpolate(triangle, centre, |v| colours[v].as_dvec3());
+                let vertex_rgb = self.interpolate(triangle, centre, |v| colours[v].as_dvec3());
+                let mut rgb = vertex_rgb;
                 // Times the light map's bilinear sample at the perspective-correct uv.
+                let mut light_bounds = None;
                 if let Some(light_map) = &environment.light_map {
                     let uv = self.interpolate(triangle, centre, |v| {
                         light_map.uvs[v].as_dvec2().extend(0.0)
                     });
                     rgb *= light_map.map.sample_bilinear(uv.truncate());
+                    light_bounds = self.options.precision.map(|precision| {
+                        light_map_bounds(&light_map.map, uv.truncate(), precision)
+                    });
                 }
                 colour = [rgb.x, rgb.y, rgb.z, 1.0];
+                bounds = point_bounds(colour);
+                if let Some(light) = light_bounds {
+                    for c in 0..3 {
+                        bounds[c] = interval_product([vertex_rgb[c]; 2], light[c]);
+                    }
+                }
                 depth = fragment.depth;
                 visible = Some(fragment.triangle);
             }
@@ -727,6 +859,7 @@ impl<'a> FrameSetup<'a> {
             for fragment in &object_fragments {
                 if fragment.depth < depth {
                     colour = [0.0; 4];
+                    bounds = point_bounds(colour);
                     depth = fragment.depth;
                     visible = Some(fragment.triangle);
                 }
@@ -748,6 +881,7 @@ impl<'a> FrameSetup<'a> {
                     };
                     if clears_here {
                         colour = alpha_clear(colour);
+                        bounds = alpha_clear_bounds(bounds);
                     }
                 }
                 let weight = f64::from(self.frame.viewpoint_weights[viewpoint]);
@@ -755,12 +889,13 @@ impl<'a> FrameSetup<'a> {
                     for lens_fragment in &passing {
                         let cube = &object.layers[viewpoint][layer];
                         let samples = &lens_fragment.directions[term][layer];
-                        let (sample, sample_flags) = self.sample(cube, samples);
-                        flags |= sample_flags;
-                        let fg = lens_fragment.fg[term];
-                        colour = blend_front_to_back(
-                            colour,
-                            layer_source(weight, [fg.x, fg.y, fg.z], sample),
+                        let sample = self.sample(cube, samples);
+                        flags |= sample.flags;
+                        let fg = lens_fragment.fg[term].to_array();
+                        colour = blend_front_to_back(colour, layer_source(weight, fg, sample.rgba));
+                        bounds = blend_front_to_back_bounds(
+                            bounds,
+                            layer_source_bounds(weight, fg, sample.bounds),
                         );
                     }
                 }
@@ -771,6 +906,7 @@ impl<'a> FrameSetup<'a> {
         let lens = visible.is_some_and(|t| matches!(self.triangles[t].source, Source::Lens { .. }));
         PixelResult {
             rgba: colour,
+            bounds,
             depth,
             lens,
             flags,
@@ -865,12 +1001,14 @@ impl<'a> FrameSetup<'a> {
                         let quad = [at(1, &value), at(2, &value), at(3, &value), at(4, &value)];
                         let quad_top_left = quad[0];
                         let (column, row) = (x & 1, y & 1);
+                        let coarse = (quad[1] - quad[0], quad[2] - quad[0]);
+                        let fine = (
+                            quad[2 * row + 1] - quad[2 * row],
+                            quad[2 + column] - quad[column],
+                        );
                         let (ddx, ddy) = match self.options.derivatives {
-                            DerivativeMode::Coarse => (quad[1] - quad[0], quad[2] - quad[0]),
-                            DerivativeMode::Fine => (
-                                quad[2 * row + 1] - quad[2 * row],
-                                quad[2 + column] - quad[column],
-                            ),
+                            DerivativeMode::Coarse => coarse,
+                            DerivativeMode::Fine => fine,
                         };
                         let direction = at(0, &value);
                         let lod_direction = match self.options.lod_mode {
@@ -888,6 +1026,7 @@ impl<'a> FrameSetup<'a> {
                             lod_direction,
                             ddx,
                             ddy,
+                            either_derivatives: [coarse, fine],
                         }
                     })
                     .collect()
@@ -900,8 +1039,9 @@ impl<'a> FrameSetup<'a> {
         }
     }
 
-    /// A trilinear sample as the layer pass takes it, with the exclusion bits it raises.
-    fn sample(&self, cube: &CubeMap, at: &DirectionSample) -> ([f64; 4], u8) {
+    /// A trilinear sample as the layer pass takes it, its bounds, and the exclusion bits it
+    /// raises.
+    fn sample(&self, cube: &CubeMap, at: &DirectionSample) -> FilteredSample {
         let levels = cube.levels.len() as u32;
         let lod_on = |face| {
             cube_lod_on_face(
@@ -918,7 +1058,7 @@ impl<'a> FrameSetup<'a> {
         let mut flags = 0u8;
         let competing = competing_faces(at.lod_direction, self.options.face_tie_tolerance);
         if competing.len() > 1 {
-            let lods: Vec<f64> = competing.into_iter().map(lod_on).collect();
+            let lods: Vec<f64> = competing.iter().copied().map(lod_on).collect();
             let spread = lods.iter().copied().fold(f64::NEG_INFINITY, f64::max)
                 - lods.iter().copied().fold(f64::INFINITY, f64::min);
             if spread > self.options.lod_tie_tolerance {
@@ -929,7 +1069,38 @@ impl<'a> FrameSetup<'a> {
         if sample.corner {
             flags |= Exclusion::CubeCorner.bit();
         }
-        (sample.rgba, flags)
+        let bounds = match self.options.precision {
+            None => point_bounds(sample.rgba),
+            Some(precision) => {
+                // Every LOD the spec allows, on whichever face f32 face selection may pick.
+                let mut lod_range = [f64::INFINITY, f64::NEG_INFINITY];
+                for face in competing
+                    .iter()
+                    .copied()
+                    .chain([major_face(at.lod_direction)])
+                {
+                    let range = cube_lod_range_on_face(
+                        face,
+                        cube.size,
+                        levels,
+                        at.lod_direction,
+                        &at.either_derivatives,
+                        precision,
+                    );
+                    lod_range = [lod_range[0].min(range[0]), lod_range[1].max(range[1])];
+                }
+                let range = sample_cube_bounds(cube, at.direction, lod_range, precision);
+                if range.corner {
+                    flags |= Exclusion::CubeCorner.bit();
+                }
+                range.bounds
+            }
+        };
+        FilteredSample {
+            rgba: sample.rgba,
+            bounds,
+            flags,
+        }
     }
 
     /// Marks lens pixels whose quad shows more than one triangle (or some non-lens pixel).
@@ -982,9 +1153,20 @@ struct DirectionSample {
     direction: DVec3,
     /// The direction whose face and position decide the LOD ([`LodMode`]).
     lod_direction: DVec3,
-    /// Coarse quad derivatives of the direction.
+    /// Quad derivatives of the direction, coarse or fine as [`ModelOptions::derivatives`] says.
     ddx: DVec3,
     ddy: DVec3,
+    /// `(ddx, ddy)` both ways, coarse then fine: an implementation may take either.
+    either_derivatives: [(DVec3, DVec3); 2],
+}
+
+/// A layer sample at a pixel: the model's value, its bounds ([`ModelImage::bounds`]) and the
+/// exclusion bits it raises.
+#[derive(Clone, Copy, Debug)]
+struct FilteredSample {
+    rgba: [f64; 4],
+    bounds: [Interval; 4],
+    flags: u8,
 }
 
 /// A lens fragment that passes the layer passes' depth test.
@@ -1515,6 +1697,147 @@ mod tests {
                 layers,
             }],
             viewpoint_weights,
+        }
+    }
+
+    #[test]
+    fn bounds_are_points_without_precision_and_hold_the_nominal_value_with_it() {
+        let mut rng = Pcg64::seed_from_u64(13);
+        let frame = random_sphere_frame(&mut rng, 64, 16, 3, 2);
+        // The exact logarithm lies in the bounds at any precision; lavapipe's (≤ 0.043 low) where
+        // the mip precision is as coarse as lavapipe reports (4 bits).
+        let precise = FilterPrecision {
+            sub_texel_bits: 8,
+            mipmap_bits: 8,
+        };
+        let lavapipe_like = FilterPrecision {
+            sub_texel_bits: 8,
+            mipmap_bits: 4,
+        };
+        for (options, precisions) in [
+            (
+                ModelOptions::default(),
+                [FilterPrecision::SPEC_MINIMUM, precise],
+            ),
+            (
+                ModelOptions::lavapipe(),
+                [FilterPrecision::SPEC_MINIMUM, lavapipe_like],
+            ),
+        ] {
+            let nominal = render_model_with(&frame, &options);
+            for (rgba, bounds) in nominal.rgba.iter().zip(&nominal.bounds) {
+                assert_eq!(*bounds, rgba.map(|v| [v, v]));
+            }
+            for precision in precisions {
+                let image = render_model_with(
+                    &frame,
+                    &ModelOptions {
+                        precision: Some(precision),
+                        ..options
+                    },
+                );
+                // The same frame, the same nominal values; bounds around them.
+                assert_eq!(image.rgba, nominal.rgba);
+                let mut widths = Vec::new();
+                for i in 0..image.rgba.len() {
+                    if image.exclusion[i].is_some() {
+                        continue;
+                    }
+                    // Up to the f64 rounding of two evaluation orders.
+                    assert!(image.distance_outside_bounds(i, image.rgba[i]) < 1e-12);
+                    let width = image.bounds[i]
+                        .iter()
+                        .map(|[lo, hi]| hi - lo)
+                        .fold(0.0, f64::max);
+                    if image.lens_mask[i] {
+                        widths.push(width);
+                    } else {
+                        assert_eq!(width, 0.0, "environment pixels are exact");
+                    }
+                }
+                widths.sort_by(f64::total_cmp);
+                let median = widths[widths.len() / 2];
+                eprintln!(
+                    "{:?} {precision:?}: lens interval width median {median:.2e}, largest {:.2e}",
+                    options.lod_log2,
+                    widths.last().unwrap()
+                );
+                assert!(median > 0.0);
+                // α stays a coverage: its bounds lie in [0, 1].
+                for bounds in &image.bounds {
+                    assert!(0.0 <= bounds[3][0] && bounds[3][1] <= 1.0 + 1e-12);
+                }
+            }
+        }
+        // A 1 is exact in any order of arithmetic: the helper reports distances, 0 inside.
+        let image = render_model(&frame);
+        let i = image.index(32, 32);
+        let mut outside = image.rgba[i];
+        outside[2] += 0.25;
+        assert!((image.distance_outside_bounds(i, outside) - 0.25).abs() < 1e-12);
+        assert_eq!(image.distance_outside_bounds(i, image.rgba[i]), 0.0);
+        assert_eq!(
+            image.distance_outside_bounds(i, [f64::NAN; 4]),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn light_map_bounds_hold_the_bilinear_sample() {
+        let mut rng = Pcg64::seed_from_u64(15);
+        let map = LightMap {
+            width: 5,
+            height: 3,
+            texels: (0..15)
+                .map(|_| {
+                    [
+                        rng.gen_range(0.0f32..4.0),
+                        0.5,
+                        rng.gen_range(0.0f32..1.0),
+                        1.0,
+                    ]
+                })
+                .map(|t| t.map(half::f16::from_f32))
+                .collect(),
+        };
+        for _ in 0..500 {
+            let uv = DVec2::new(rng.gen_range(-0.2..1.2), rng.gen_range(-0.2..1.2));
+            let nominal = map.sample_bilinear(uv);
+            let bounds = light_map_bounds(&map, uv, FilterPrecision::SPEC_MINIMUM);
+            for c in 0..3 {
+                assert!(bounds[c][0] - 1e-12 <= nominal[c] && nominal[c] <= bounds[c][1] + 1e-12);
+            }
+            // A uniform channel stays a point.
+            assert!((bounds[1][0] - 0.5).abs() < 1e-12 && (bounds[1][1] - 0.5).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn interval_blend_contains_every_blend_of_its_members() {
+        let mut rng = Pcg64::seed_from_u64(14);
+        let interval = |rng: &mut Pcg64, lo: f64, hi: f64| {
+            let (a, b) = (rng.gen_range(lo..hi), rng.gen_range(lo..hi));
+            [a.min(b), a.max(b)]
+        };
+        for _ in 0..2000 {
+            // Mostly premultiplied values in [0, 1]; sometimes beyond, for the general product.
+            let (lo, hi) = if rng.gen_bool(0.7) {
+                (0.0, 1.0)
+            } else {
+                (-0.5, 1.5)
+            };
+            let dst: [Interval; 4] = std::array::from_fn(|_| interval(&mut rng, lo, hi));
+            let src: [Interval; 4] = std::array::from_fn(|_| interval(&mut rng, lo, hi));
+            let out = blend_front_to_back_bounds(dst, src);
+            for _ in 0..20 {
+                let pick = |i: Interval, rng: &mut Pcg64| i[0] + (i[1] - i[0]) * rng.r#gen::<f64>();
+                let d: [f64; 4] = std::array::from_fn(|c| pick(dst[c], &mut rng));
+                let s: [f64; 4] = std::array::from_fn(|c| pick(src[c], &mut rng));
+                let blended = blend_front_to_back(d, s);
+                for c in 0..4 {
+                    assert!(out[c][0] - 1e-12 <= blended[c] && blended[c] <= out[c][1] + 1e-12);
+                }
+            }
         }
     }
 

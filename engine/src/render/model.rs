@@ -44,6 +44,7 @@ use glam::{DMat4, DVec2, DVec3, DVec4};
 use rayon::prelude::*;
 
 use super::frame_input::{FrameInput, LensObject};
+use super::plan::BlendScheme;
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::{competing_faces, major_face};
 pub use crate::cubemap::sampling::{FilterPrecision, LodLog2};
@@ -190,6 +191,9 @@ pub struct ModelOptions {
     /// point intervals `[v, v]`. With it, [`Exclusion::CubeCorner`] also covers corner texels
     /// that any LOD in the allowed range would weigh, not only the nominal LOD's.
     pub precision: Option<FilterPrecision>,
+    /// The blending scheme whose passes the model evaluates (each in its own arithmetic order;
+    /// they agree to f64 rounding).
+    pub blend: BlendScheme,
 }
 
 impl Default for ModelOptions {
@@ -205,6 +209,7 @@ impl Default for ModelOptions {
             alpha_clear: AlphaClearScope::LensCoverage,
             flag_quad_straddle: false,
             precision: None,
+            blend: BlendScheme::FrontToBack,
         }
     }
 }
@@ -406,6 +411,50 @@ fn blend_front_to_back_bounds(dst: [Interval; 4], src: [Interval; 4]) -> [Interv
         out[3] = [alpha(src[3][0], dst[3][0]), alpha(src[3][1], dst[3][1])];
     }
     out
+}
+
+/// The back-to-front blend `src + dst·(1 − srcα)` (classic "over") over intervals.
+fn blend_back_to_front_bounds(dst: [Interval; 4], src: [Interval; 4]) -> [Interval; 4] {
+    let transmittance = [1.0 - src[3][1], 1.0 - src[3][0]];
+    let mut out: [Interval; 4] = std::array::from_fn(|c| {
+        let scaled = interval_product(dst[c], transmittance);
+        [src[c][0] + scaled[0], src[c][1] + scaled[1]]
+    });
+    // α: s + d·(1 − s) rises in both when both lie in [0, 1].
+    let unit = |a: Interval| 0.0 <= a[0] && a[1] <= 1.0;
+    if unit(src[3]) && unit(dst[3]) {
+        let alpha = |s: f64, d: f64| s + d * (1.0 - s);
+        out[3] = [alpha(src[3][0], dst[3][0]), alpha(src[3][1], dst[3][1])];
+    }
+    out
+}
+
+/// The back-to-front blend on values: `src + dst·(1 − srcα)` on colour and alpha.
+pub fn blend_back_to_front(dst: [f64; 4], src: [f64; 4]) -> [f64; 4] {
+    std::array::from_fn(|c| src[c] + dst[c] * (1.0 - src[3]))
+}
+
+/// Adds `src` to `dst` on the channels of `mask` (bit c: channel c), as an additive blend with
+/// that colour write mask does.
+fn add_masked(dst: [f64; 4], src: [f64; 4], mask: u8) -> [f64; 4] {
+    std::array::from_fn(|c| {
+        if mask & (1 << c) != 0 {
+            dst[c] + src[c]
+        } else {
+            dst[c]
+        }
+    })
+}
+
+/// [`add_masked`] over intervals.
+fn add_masked_bounds(dst: [Interval; 4], src: [Interval; 4], mask: u8) -> [Interval; 4] {
+    std::array::from_fn(|c| {
+        if mask & (1 << c) != 0 {
+            [dst[c][0] + src[c][0], dst[c][1] + src[c][1]]
+        } else {
+            dst[c]
+        }
+    })
 }
 
 /// The alpha clear over intervals: α becomes exactly 0.
@@ -873,8 +922,16 @@ impl<'a> FrameSetup<'a> {
             for lens_fragment in &passing {
                 flags |= lens_fragment.flags;
             }
-            for (group_index, &(viewpoint, term)) in self.groups[object_index].iter().enumerate() {
-                if group_index > 0 {
+            let groups = &self.groups[object_index];
+            // Scratch images of the back-to-front and group-targets schemes (cleared: zero).
+            let mut scratch: Vec<([f64; 4], [Interval; 4])> = Vec::new();
+            for (group_index, &(viewpoint, term)) in groups.iter().enumerate() {
+                let blend = self.options.blend;
+                let into_framebuffer =
+                    matches!(blend, BlendScheme::FrontToBack | BlendScheme::Programmable);
+                if into_framebuffer && group_index > 0 {
+                    // The alpha clear (the programmable scheme's in-shader reset is the same
+                    // arithmetic: α of the current value taken as 0).
                     let clears_here = match self.options.alpha_clear {
                         AlphaClearScope::FullScreen => true,
                         AlphaClearScope::LensCoverage => !passing.is_empty(),
@@ -884,21 +941,66 @@ impl<'a> FrameSetup<'a> {
                         bounds = alpha_clear_bounds(bounds);
                     }
                 }
+                // Where this group's layers composite: the framebuffer, or a cleared scratch.
+                let (mut target, mut target_bounds) = if into_framebuffer {
+                    (colour, bounds)
+                } else {
+                    ([0.0; 4], point_bounds([0.0; 4]))
+                };
                 let weight = f64::from(self.frame.viewpoint_weights[viewpoint]);
-                for layer in 0..object.layer_count() {
+                let n = object.layer_count();
+                let order: Vec<usize> = if blend == BlendScheme::BackToFront {
+                    (0..n).rev().collect()
+                } else {
+                    (0..n).collect()
+                };
+                for layer in order {
                     for lens_fragment in &passing {
                         let cube = &object.layers[viewpoint][layer];
                         let samples = &lens_fragment.directions[term][layer];
                         let sample = self.sample(cube, samples);
                         flags |= sample.flags;
                         let fg = lens_fragment.fg[term].to_array();
-                        colour = blend_front_to_back(colour, layer_source(weight, fg, sample.rgba));
-                        bounds = blend_front_to_back_bounds(
-                            bounds,
-                            layer_source_bounds(weight, fg, sample.bounds),
-                        );
+                        let source = layer_source(weight, fg, sample.rgba);
+                        let source_bounds = layer_source_bounds(weight, fg, sample.bounds);
+                        if blend == BlendScheme::BackToFront {
+                            target = blend_back_to_front(target, source);
+                            target_bounds =
+                                blend_back_to_front_bounds(target_bounds, source_bounds);
+                        } else {
+                            target = blend_front_to_back(target, source);
+                            target_bounds =
+                                blend_front_to_back_bounds(target_bounds, source_bounds);
+                        }
                     }
                 }
+                let last = group_index + 1 == groups.len();
+                match blend {
+                    BlendScheme::FrontToBack | BlendScheme::Programmable => {
+                        (colour, bounds) = (target, target_bounds);
+                    }
+                    // Each group's scratch image added to the framebuffer: colour, and α for the
+                    // last group.
+                    BlendScheme::BackToFront => {
+                        let mask = if last { 0b1111 } else { 0b0111 };
+                        colour = add_masked(colour, target, mask);
+                        bounds = add_masked_bounds(bounds, target_bounds, mask);
+                    }
+                    BlendScheme::GroupTargets => scratch.push((target, target_bounds)),
+                }
+            }
+            // The group sum: the groups' colour summed in order from zero, α the last group's,
+            // added to the framebuffer.
+            if let Some(&(last, last_bounds)) = scratch.last() {
+                let mut sum = [0.0; 4];
+                let mut sum_bounds = point_bounds([0.0; 4]);
+                for (value, value_bounds) in &scratch {
+                    sum = add_masked(sum, *value, 0b0111);
+                    sum_bounds = add_masked_bounds(sum_bounds, *value_bounds, 0b0111);
+                }
+                (sum[3], sum_bounds[3]) = (last[3], last_bounds[3]);
+                colour = add_masked(colour, sum, 0b1111);
+                bounds = add_masked_bounds(bounds, sum_bounds, 0b1111);
             }
         }
 

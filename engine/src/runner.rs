@@ -152,6 +152,20 @@ pub struct FrameOptions {
     pub format: TargetFormat,
 }
 
+impl FrameOptions {
+    /// Checks the options a frame cannot use before any work: the hybrid options, and a blending
+    /// scheme other than front-to-back asked of the single pass (which does not blend).
+    pub fn validate(&self) -> Result<(), OptionError> {
+        self.hybrid.validate()?;
+        OptionError::require(
+            self.variant == Variant::Multipass || self.blend == BlendScheme::FrontToBack,
+            "blend",
+            self.blend.name(),
+            "the single pass composites in registers and does not blend; give variant multipass, or blend front-to-back",
+        )
+    }
+}
+
 impl Default for FrameOptions {
     fn default() -> Self {
         FrameOptions {
@@ -479,7 +493,7 @@ impl FrameRunner {
         cameras: &[Camera],
         options: &FrameOptions,
     ) -> Result<(Vec<HybridFrame>, f64), RunError> {
-        options.hybrid.validate()?;
+        options.validate()?;
         let start = Instant::now();
         let mut frames = Vec::with_capacity(cameras.len());
         let mut in_flight = std::collections::VecDeque::new();
@@ -533,7 +547,7 @@ impl FrameRunner {
         options: &FrameOptions,
         host: &crate::render::HostImage,
     ) -> Result<HostFrame, RunError> {
-        options.hybrid.validate()?;
+        options.validate()?;
         if (host.width, host.height) != (camera.width, camera.height) {
             return Err(RenderError::BadInput(format!(
                 "host image is {}×{}; the camera's frame is {}×{}: give an image of the camera's size",

@@ -122,6 +122,62 @@ fn schemes_agree_when_layers_groups_and_viewpoints_are_skipped() {
     assert_clean(&gpu);
 }
 
+/// Two lens objects in one frame, partly overlapping (the second, a two-sided mirror with three
+/// layers, in front of a two-layer glass sheet): the second object's passes reuse the scratch
+/// images with another group count, and where it covers the first its prime starts over. Every
+/// scheme equals front-to-back within 1e-5.
+#[test]
+fn schemes_agree_with_two_overlapping_lens_objects() {
+    use lensmap::render::LensFaces;
+    let mut runner = lensmap::runner::FrameRunner::new(gpu()).unwrap();
+    let mut rng = Pcg64::seed_from_u64(0x2_1e45);
+    let both = [Term::Refraction, Term::Reflection];
+    let mut frame = random_compositor_frame(&mut rng, SIZE, 2, 2, &both);
+    let mirror_frame = random_compositor_frame(&mut rng, SIZE, 3, 2, &[Term::Reflection]);
+    let mut mirror = mirror_frame.lenses[0].clone();
+    mirror.name = "mirror".into();
+    mirror.faces = LensFaces::Both;
+    for p in &mut mirror.positions {
+        *p += glam::Vec3::new(0.7, 0.3, 0.4);
+    }
+    frame.lenses.push(mirror);
+    // Both objects are in the frame and overlap: each one's coverage from its own frame alone.
+    let mut glass_only = frame.clone();
+    glass_only.lenses.truncate(1);
+    let mut mirror_only = frame.clone();
+    mirror_only.lenses.remove(0);
+    let mut coverage = |f| runner.lens_coverage(f).unwrap().selected();
+    let (all, glass, mirror) = (
+        coverage(&frame),
+        coverage(&glass_only),
+        coverage(&mirror_only),
+    );
+    assert!(
+        glass > 500 && mirror > 500 && all < glass + mirror,
+        "the two objects overlap: {glass} + {mirror} pixels, {all} together"
+    );
+    let mut uploaded = runner.upload(&frame).unwrap();
+    let images: Vec<_> = BlendScheme::ALL
+        .into_iter()
+        .map(|blend| {
+            runner
+                .timed_renders_blended(
+                    &mut uploaded,
+                    (Variant::Multipass, blend),
+                    TargetFormat::Rgba32f,
+                    1,
+                )
+                .unwrap()
+                .image
+        })
+        .collect();
+    for (blend, image) in BlendScheme::ALL.into_iter().zip(&images).skip(1) {
+        let d = largest_difference(&image.pixels, &images[0].pixels);
+        assert!(d <= 1e-5, "{}: differs by {d}", blend.name());
+    }
+    assert_clean(runner.gpu());
+}
+
 /// The single pass does not blend: asking it for another scheme is an error naming the fix.
 #[test]
 fn the_single_pass_refuses_other_schemes() {
@@ -141,6 +197,14 @@ fn the_single_pass_refuses_other_schemes() {
             .unwrap_err()
             .to_string();
         assert!(error.contains("multipass"), "{error}");
+        // The library's frame options say so before any work.
+        let options = lensmap::runner::FrameOptions {
+            variant: Variant::SinglePass,
+            blend,
+            ..Default::default()
+        };
+        let error = options.validate().unwrap_err().to_string();
+        assert!(error.contains("blend") && error.contains("multipass"), "{error}");
     }
     assert_clean(&gpu);
 }

@@ -46,8 +46,9 @@ pub struct BenchPassesArgs {
     /// Blending schemes of the multipass rows: one scheme, or "all".
     #[arg(long, default_value = "front-to-back", value_parser = parse_blend)]
     blend: BlendChoice,
-    /// Viewpoint samples of the synthetic sphere: 1, 2, or "both" (each layer count twice).
-    #[arg(long, default_value = "2", value_parser = ["1", "2", "both"])]
+    /// Viewpoint samples of the synthetic sphere: 1, 2, or "both" (each layer count twice); a
+    /// --scene frame has its own.
+    #[arg(long, default_value = "2", value_parser = ["1", "2", "both"], conflicts_with = "scene")]
     viewpoints: String,
     /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]

@@ -27,8 +27,7 @@ use lensmap::{
 use serde_json::json;
 
 use crate::common::{
-    BadUsage, BlendArg, CameraArgs, FormatArg, ImageOut, Steps, VariantArg, choose_camera,
-    flag_error,
+    BlendArg, CameraArgs, FormatArg, ImageOut, Steps, VariantArg, choose_camera, flag_error,
 };
 
 #[derive(Args)]
@@ -131,14 +130,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         blend: BlendScheme::from(args.blend),
         format: TargetFormat::from(args.format),
     };
-    options.hybrid.validate().map_err(flag_error)?;
-    if options.variant == Variant::SinglePass && options.blend != BlendScheme::FrontToBack {
-        return Err(BadUsage(format!(
-            "--blend {}: the single pass composites in registers and does not blend; give --variant multipass",
-            options.blend.name()
-        ))
-        .into());
-    }
+    options.validate().map_err(flag_error)?;
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     let ems = match &args.bake {

@@ -34,7 +34,10 @@ impl Variant {
 /// How the multipass variant combines the layers of a (viewpoint, term) group and the groups of
 /// a lens object (`--blend`). Every scheme computes the paper's closed form
 /// `Σ_groups w·FG ⊙ (L1 over … over Ln).rgb`, α = the last group's `(L1 over … over Ln).α`; they
-/// differ in the passes, attachments and barriers it takes, and in where rounding happens.
+/// differ in the passes, attachments and barriers it takes, and in where rounding happens. (Where
+/// two lens objects lie at exactly the same depth, the later one's prime fails its `<` test but
+/// its layers pass `<=`, and each scheme then mixes the two objects its own way; the f64 model
+/// marks such pixels as depth ties and leaves them out.)
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BlendScheme {
     /// The paper's scheme: per group, layers nearest first with `src·(1 − dstα) + dst` straight
@@ -44,7 +47,8 @@ pub enum BlendScheme {
     /// Layers farthest first with the classic `src + dst·(1 − srcα)`. "Over" from the back needs
     /// a clear destination, so each group composites into a cleared scratch image, and a
     /// full-screen pass adds it to the framebuffer (colour only, but α too for the last group):
-    /// per group one more pass and two barriers.
+    /// per group two more passes (the clear and the add) and two more rendering instances, with
+    /// three or four barriers.
     BackToFront,
     /// Each group composited front to back into its own cleared image (no alpha clears), then one
     /// full-screen resolve adds the groups' colour and takes the last group's α.
@@ -53,7 +57,7 @@ pub enum BlendScheme {
     /// writes `src·(1 − dstα) + dst` (and the alpha clear) with shader arithmetic, so the result
     /// does not depend on fixed-function blend precision. The current value comes from the
     /// previous pass's image (passes alternate between two scratch images and end in the
-    /// framebuffer): a barrier per pass, no device feature needed.
+    /// framebuffer): a rendering instance and two barriers per pass, no device feature needed.
     Programmable,
 }
 
@@ -298,7 +302,7 @@ pub enum Draw {
         layer: usize,
         /// The scratch image holding the pixel's current value (the lens object's first layer
         /// pass, over the prime's zero, is a plain [`Draw::Layer`]).
-        read: Option<u32>,
+        read: u32,
         /// A group boundary lies between the previous layer pass and this one: the alpha clear,
         /// done in the shader (α of the current value taken as 0).
         reset_alpha: bool,
@@ -704,7 +708,7 @@ pub fn frame_graph_blended(
                                         layer,
                                     },
                                 ),
-                                Some(_) => (
+                                Some(read) => (
                                     ShaderProgram::LensLayerProgrammable,
                                     Draw::ProgrammableLayer {
                                         lens: lens_index,

@@ -114,12 +114,14 @@ impl Recorder<'_> {
         let attachment = |id: graph::ImageId| match host {
             Some(host) if Some(id) == resources.external => (host.view, host.width, host.height),
             _ => {
-                let scratch_view = resources
-                    .scratch
-                    .iter()
-                    .position(|s| *s == id)
-                    .zip(targets.scratch.as_ref())
-                    .and_then(|(k, scratch)| scratch.image.layer_views.get(k).copied());
+                let scratch_view = resources.scratch.iter().position(|s| *s == id).map(|k| {
+                    let view = targets
+                        .scratch
+                        .as_ref()
+                        .and_then(|scratch| scratch.image.layer_views.get(k).copied());
+                    debug_assert!(view.is_some(), "scratch image {k} was not made");
+                    view.unwrap_or(targets.colour.view)
+                });
                 (scratch_view.unwrap_or(targets.colour.view), width, height)
             }
         };
@@ -339,11 +341,13 @@ impl Recorder<'_> {
                     device.cmd_draw(cb, 3, 1, 0, 0);
                 }
                 Draw::GroupSum { groups } => {
+                    // The renderer made the scratch images the plan names before recording.
                     let Some(set) = targets
                         .scratch
                         .as_ref()
                         .and_then(|s| s.prefix_sets.get((groups as usize).checked_sub(1)?))
                     else {
+                        debug_assert!(false, "a group sum without its scratch images");
                         return;
                     };
                     device.cmd_bind_descriptor_sets(
@@ -372,6 +376,7 @@ impl Recorder<'_> {
                     reset_alpha,
                 } => {
                     let Some(scratch) = &targets.scratch else {
+                        debug_assert!(false, "a programmable layer without its scratch images");
                         return;
                     };
                     let gpu_lens = &frame.lenses[lens];
@@ -381,7 +386,7 @@ impl Recorder<'_> {
                     constants.direction_offset_t =
                         gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
                     constants.layer = layer as u32;
-                    constants.read_current = u32::from(read.is_some());
+                    constants.read_current = 1;
                     constants.reset_alpha = u32::from(reset_alpha);
                     let layout = self.pipelines.programmable_layout;
                     device.cmd_bind_descriptor_sets(
@@ -389,10 +394,7 @@ impl Recorder<'_> {
                         vk::PipelineBindPoint::GRAPHICS,
                         layout,
                         0,
-                        &[
-                            gpu_lens.sets[viewpoint],
-                            scratch.layer_sets[read.unwrap_or(0) as usize],
-                        ],
+                        &[gpu_lens.sets[viewpoint], scratch.layer_sets[read as usize]],
                         &[],
                     );
                     device.cmd_push_constants(

@@ -253,7 +253,11 @@ impl Renderer {
             timeline.wait(*value)?;
         }
         if let Some(targets) = frame.targets.get_mut(&format) {
-            targets.ensure_scratch(gpu, &self.pipelines, resources.scratch.len())?;
+            let needed = resources.scratch.len();
+            if needed > 0 {
+                super::upload::check_scratch_budget(gpu, (width, height), format, needed)?;
+            }
+            targets.ensure_scratch(gpu, &self.pipelines, needed)?;
         }
         let slot = (self.submitted as usize) % self.command_buffers.len();
         let (command_buffer, last) = self.command_buffers[slot];

@@ -79,8 +79,26 @@ pub fn check_framebuffer(
     format: TargetFormat,
 ) -> Result<(), RenderError> {
     check_dimensions(gpu, width, height)?;
-    framebuffer_budget(width, height, format, gpu.device_local_heap_bytes())
+    framebuffer_budget(width, height, format, 0, gpu.device_local_heap_bytes())
         .map_err(RenderError::BadInput)
+}
+
+/// [`check_framebuffer`]'s budget with `scratch` more framebuffer-sized colour images per frame
+/// (a blending scheme's, [`Scratch`]), checked before they are made.
+pub(super) fn check_scratch_budget(
+    gpu: &Gpu,
+    (width, height): (u32, u32),
+    format: TargetFormat,
+    scratch: usize,
+) -> Result<(), RenderError> {
+    framebuffer_budget(
+        width,
+        height,
+        format,
+        Scratch::layers_for(scratch),
+        gpu.device_local_heap_bytes(),
+    )
+    .map_err(RenderError::BadInput)
 }
 
 /// The share of the largest device-local heap the framebuffer targets may take; the rest is
@@ -98,29 +116,40 @@ fn check_dimensions(gpu: &Gpu, width: u32, height: u32) -> Result<(), RenderErro
 }
 
 /// The device memory the targets of [`FRAMES_IN_FLIGHT`] frames of `width × height` subpixels in
-/// `format` take (colour, 32-bit depth, readback), against [`FRAMEBUFFER_HEAP_SHARE`] of
-/// `heap_bytes`.
+/// `format` take (colour, 32-bit depth, readback, and `scratch` colour images of a blending
+/// scheme), against [`FRAMEBUFFER_HEAP_SHARE`] of `heap_bytes`.
 fn framebuffer_budget(
     width: u32,
     height: u32,
     format: TargetFormat,
+    scratch: u32,
     heap_bytes: u64,
 ) -> Result<(), String> {
     let colour = u64::from(crate::gpu::format_bytes(super::vulkan::vk_format(
         format.graph_format(),
     )));
-    let per_frame = u64::from(width) * u64::from(height) * (2 * colour + 4);
+    let per_frame = u64::from(width) * u64::from(height) * ((2 + u64::from(scratch)) * colour + 4);
     let needed = per_frame * super::FRAMES_IN_FLIGHT as u64;
     let budget = (heap_bytes as f64 * FRAMEBUFFER_HEAP_SHARE) as u64;
     if needed > budget {
         let mib = |bytes: u64| bytes as f64 / (1u64 << 20) as f64;
         return Err(format!(
-            "the framebuffer is {width}×{height} subpixels in {}: its targets need {:.0} MiB of device memory ({} frames in flight), past this device's budget of {:.0} MiB ({:.0}% of its largest device-local heap); give a smaller image, less supersampling or a smaller --format",
+            "the framebuffer is {width}×{height} subpixels in {}: its targets{} need {:.0} MiB of device memory ({} frames in flight), past this device's budget of {:.0} MiB ({:.0}% of its largest device-local heap); give a smaller image, less supersampling, a smaller --format{}",
             format.name(),
+            if scratch > 0 {
+                format!(" and the blending scheme's {scratch} scratch images")
+            } else {
+                String::new()
+            },
             mib(needed),
             super::FRAMES_IN_FLIGHT,
             mib(budget),
-            FRAMEBUFFER_HEAP_SHARE * 100.0
+            FRAMEBUFFER_HEAP_SHARE * 100.0,
+            if scratch > 0 {
+                " or --blend front-to-back"
+            } else {
+                ""
+            }
         ));
     }
     Ok(())
@@ -167,6 +196,12 @@ impl Drop for Scratch {
 }
 
 impl Scratch {
+    /// The layers made for `needed` scratch images: at least two, so the image is an array with
+    /// a 2D view per layer.
+    pub(super) fn layers_for(needed: usize) -> u32 {
+        if needed == 0 { 0 } else { needed.max(2) as u32 }
+    }
+
     fn new(
         gpu: &Gpu,
         pipelines: &Pipelines,
@@ -174,8 +209,7 @@ impl Scratch {
         (width, height): (u32, u32),
         layers: u32,
     ) -> Result<Scratch, GpuError> {
-        // At least two layers, so the image is an array with a 2D view per layer.
-        let layers = layers.max(2);
+        let layers = Self::layers_for(layers as usize);
         let image = Image::new(
             gpu,
             ImageDesc::scratch_targets("scratch", format, width, height, layers),
@@ -1067,18 +1101,30 @@ mod tests {
         let (width, height) = (4000u32, 3000u32);
         let needed = u64::from(width) * u64::from(height) * 36 * FRAMES_IN_FLIGHT as u64;
         let heap_fitting = (needed as f64 / FRAMEBUFFER_HEAP_SHARE).ceil() as u64 + 1;
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba32f, heap_fitting).is_ok());
-        let error = framebuffer_budget(width, height, TargetFormat::Rgba32f, heap_fitting - 1024)
-            .unwrap_err();
+        assert!(framebuffer_budget(width, height, TargetFormat::Rgba32f, 0, heap_fitting).is_ok());
+        let error =
+            framebuffer_budget(width, height, TargetFormat::Rgba32f, 0, heap_fitting - 1024)
+                .unwrap_err();
         assert!(
             error.contains("4000×3000") && error.contains("--format"),
             "{error}"
         );
         // RGBA8 needs 4 + 4 + 4 bytes a subpixel: a third of RGBA32F's, so it fits there.
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba8, needed / 2).is_ok());
+        assert!(framebuffer_budget(width, height, TargetFormat::Rgba8, 0, needed / 2).is_ok());
         assert!(
-            framebuffer_budget(1, 1, TargetFormat::Rgba8, 0).is_err(),
+            framebuffer_budget(1, 1, TargetFormat::Rgba8, 0, 0).is_err(),
             "no heap"
         );
+        // A blending scheme's scratch images count too: four more RGBA32F images (64 bytes a
+        // subpixel) take the frame past the heap that fits the targets alone, naming --blend.
+        let error =
+            framebuffer_budget(width, height, TargetFormat::Rgba32f, 4, heap_fitting).unwrap_err();
+        assert!(
+            error.contains("4 scratch images") && error.contains("--blend"),
+            "{error}"
+        );
+        let with_scratch = u64::from(width) * u64::from(height) * 100 * FRAMES_IN_FLIGHT as u64;
+        let fitting = (with_scratch as f64 / FRAMEBUFFER_HEAP_SHARE).ceil() as u64 + 1;
+        assert!(framebuffer_budget(width, height, TargetFormat::Rgba32f, 4, fitting).is_ok());
     }
 }

@@ -204,7 +204,10 @@ fn the_single_pass_refuses_other_schemes() {
             ..Default::default()
         };
         let error = options.validate().unwrap_err().to_string();
-        assert!(error.contains("blend") && error.contains("multipass"), "{error}");
+        assert!(
+            error.contains("blend") && error.contains("multipass"),
+            "{error}"
+        );
     }
     assert_clean(&gpu);
 }

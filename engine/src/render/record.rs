@@ -367,51 +367,6 @@ impl Recorder<'_> {
                     );
                     device.cmd_draw(cb, 3, 1, 0, 0);
                 }
-                Draw::ProgrammableLayer {
-                    lens,
-                    viewpoint,
-                    term,
-                    layer,
-                    read,
-                    reset_alpha,
-                } => {
-                    let Some(scratch) = &targets.scratch else {
-                        debug_assert!(false, "a programmable layer without its scratch images");
-                        return;
-                    };
-                    let gpu_lens = &frame.lenses[lens];
-                    let mut constants = lens_constants(gpu_lens);
-                    constants.weight_a = weight(viewpoint);
-                    constants.fg_offset_t = gpu_lens.fg_offset[&term];
-                    constants.direction_offset_t =
-                        gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
-                    constants.layer = layer as u32;
-                    constants.read_current = 1;
-                    constants.reset_alpha = u32::from(reset_alpha);
-                    let layout = self.pipelines.programmable_layout;
-                    device.cmd_bind_descriptor_sets(
-                        cb,
-                        vk::PipelineBindPoint::GRAPHICS,
-                        layout,
-                        0,
-                        &[gpu_lens.sets[viewpoint], scratch.layer_sets[read as usize]],
-                        &[],
-                    );
-                    device.cmd_push_constants(
-                        cb,
-                        layout,
-                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        bytemuck::bytes_of(&constants),
-                    );
-                    device.cmd_bind_index_buffer(
-                        cb,
-                        gpu_lens.indices.handle,
-                        0,
-                        vk::IndexType::UINT32,
-                    );
-                    device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
-                }
                 Draw::Environment { mesh } => {
                     let mesh = &frame.environment[mesh];
                     device.cmd_push_constants(
@@ -440,22 +395,53 @@ impl Recorder<'_> {
                     device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
                     device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);
                 }
-                Draw::LensZero { lens } | Draw::SinglePass { lens } | Draw::Layer { lens, .. } => {
+                Draw::LensZero { lens }
+                | Draw::SinglePass { lens }
+                | Draw::Layer { lens, .. }
+                | Draw::ProgrammableLayer { lens, .. } => {
                     let gpu_lens = &frame.lenses[lens];
                     let mut constants = lens_constants(gpu_lens);
-                    let set = match draw {
+                    // One layer of one (viewpoint, term) group: its weight, F·G and directions.
+                    let mut one_layer = |viewpoint: usize, term: Term, layer: usize| {
+                        constants.weight_a = weight(viewpoint);
+                        constants.fg_offset_t = gpu_lens.fg_offset[&term];
+                        constants.direction_offset_t =
+                            gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
+                        constants.layer = layer as u32;
+                        gpu_lens.sets[viewpoint]
+                    };
+                    // Set 0, and set 1 for the programmable layer (no allocation per draw).
+                    let (layout, sets, set_count) = match draw {
                         Draw::Layer {
                             viewpoint,
                             term,
                             layer,
                             ..
+                        } => (
+                            self.pipelines.lens_layout,
+                            [one_layer(viewpoint, term, layer), vk::DescriptorSet::null()],
+                            1,
+                        ),
+                        Draw::ProgrammableLayer {
+                            viewpoint,
+                            term,
+                            layer,
+                            read,
+                            reset_alpha,
+                            ..
                         } => {
-                            constants.weight_a = weight(viewpoint);
-                            constants.fg_offset_t = gpu_lens.fg_offset[&term];
-                            constants.direction_offset_t = gpu_lens.direction_offset[&term]
-                                + layer as u32 * gpu_lens.vertex_count;
-                            constants.layer = layer as u32;
-                            gpu_lens.sets[viewpoint]
+                            let Some(scratch) = &targets.scratch else {
+                                debug_assert!(false, "a programmable layer without its scratch");
+                                return;
+                            };
+                            let set = one_layer(viewpoint, term, layer);
+                            constants.read_current = 1;
+                            constants.reset_alpha = u32::from(reset_alpha);
+                            (
+                                self.pipelines.programmable_layout,
+                                [set, scratch.layer_sets[read as usize]],
+                                2,
+                            )
                         }
                         _ => {
                             // The single pass blends the viewpoints with weight > 0 in order, as
@@ -467,20 +453,24 @@ impl Recorder<'_> {
                             let first = active.first().copied().unwrap_or(0);
                             constants.weight_a = weight(first);
                             constants.weight_b = active.get(1).map_or(0.0, |&v| weight(v));
-                            gpu_lens.sets[first]
+                            (
+                                self.pipelines.lens_layout,
+                                [gpu_lens.sets[first], vk::DescriptorSet::null()],
+                                1,
+                            )
                         }
                     };
                     device.cmd_bind_descriptor_sets(
                         cb,
                         vk::PipelineBindPoint::GRAPHICS,
-                        self.pipelines.lens_layout,
+                        layout,
                         0,
-                        &[set],
+                        &sets[..set_count],
                         &[],
                     );
                     device.cmd_push_constants(
                         cb,
-                        self.pipelines.lens_layout,
+                        layout,
                         vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                         0,
                         bytemuck::bytes_of(&constants),

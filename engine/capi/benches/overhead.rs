@@ -70,6 +70,7 @@ fn overhead(c: &mut Criterion) {
                 t: 3.0,
                 variant: LENSMAP_VARIANT_SINGLE_PASS,
                 format: LENSMAP_FORMAT_RGBA16F,
+                blend: LENSMAP_BLEND_FRONT_TO_BACK,
             };
             // SAFETY: live handles, a buffer of the frame's size.
             let code = unsafe {

@@ -8,13 +8,26 @@
 #include <vulkan/vulkan.h>
 
 // The ABI version this header describes; raised when a struct grows or a function is added.
-#define LENSMAP_ABI_VERSION 2
+#define LENSMAP_ABI_VERSION 3
 
 // `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 #define LENSMAP_VARIANT_SINGLE_PASS 0
 
 // `LensmapFrameOptions::variant`: the paper's 4n-pass compositor with alpha clears.
 #define LENSMAP_VARIANT_MULTIPASS 1
+
+// `LensmapFrameOptions::blend`: the paper's scheme (layers front to back, alpha clears between
+// groups); the only one the single pass takes.
+#define LENSMAP_BLEND_FRONT_TO_BACK 0
+
+// `LensmapFrameOptions::blend`: layers back to front into a scratch image, added per group.
+#define LENSMAP_BLEND_BACK_TO_FRONT 1
+
+// `LensmapFrameOptions::blend`: each group into its own image, one pass summing them.
+#define LENSMAP_BLEND_GROUP_TARGETS 2
+
+// `LensmapFrameOptions::blend`: the blend done in the fragment shader.
+#define LENSMAP_BLEND_PROGRAMMABLE 3
 
 // `LensmapFrameOptions::format`: an 8-bit unorm framebuffer.
 #define LENSMAP_FORMAT_RGBA8 0
@@ -163,6 +176,9 @@ typedef struct LensmapFrameOptions {
   uint32_t variant;
   // `LENSMAP_FORMAT_*`: the framebuffer's precision.
   uint32_t format;
+  // `LENSMAP_BLEND_*`: how the multipass compositor combines layers and groups (ABI 3; a
+  // struct of ABI 2's size, which ends before this field, means front-to-back).
+  uint32_t blend;
 } LensmapFrameOptions;
 
 // Where a frame's time went and what it cost (the paper's table). Set `struct_size`; lensmap
@@ -247,6 +263,9 @@ typedef struct LensmapPlanOptions {
   uint32_t variant;
   // `LENSMAP_FORMAT_*`.
   uint32_t format;
+  // `LENSMAP_BLEND_*` (ABI 3; a struct of ABI 2's size, which ends before this field, means
+  // front-to-back).
+  uint32_t blend;
 } LensmapPlanOptions;
 
 #ifdef __cplusplus

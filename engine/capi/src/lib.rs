@@ -29,17 +29,29 @@ use std::sync::{Mutex, TryLockError};
 use lensmap::gpu::{Gpu, GpuError, GpuOptions, HostDevice, HostFeatures, vk};
 use lensmap::hybrid::{HybridOptions, HybridScene};
 use lensmap::layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions};
-use lensmap::render::{FrameShape, RenderError, TargetFormat, Variant, plan::frame_graph};
+use lensmap::render::{
+    BlendScheme, FrameShape, RenderError, TargetFormat, Variant,
+    plan::{Output, frame_graph_blended},
+};
 use lensmap::runner::{EmSource, FrameOptions, FrameRunner, RunError, load_hybrid_scene};
 use lensmap::scene::{Camera, Scene, SceneError};
 
 /// The ABI version this header describes; raised when a struct grows or a function is added.
-pub const LENSMAP_ABI_VERSION: u32 = 2;
+pub const LENSMAP_ABI_VERSION: u32 = 3;
 
 /// `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 pub const LENSMAP_VARIANT_SINGLE_PASS: u32 = 0;
 /// `LensmapFrameOptions::variant`: the paper's 4n-pass compositor with alpha clears.
 pub const LENSMAP_VARIANT_MULTIPASS: u32 = 1;
+/// `LensmapFrameOptions::blend`: the paper's scheme (layers front to back, alpha clears between
+/// groups); the only one the single pass takes.
+pub const LENSMAP_BLEND_FRONT_TO_BACK: u32 = 0;
+/// `LensmapFrameOptions::blend`: layers back to front into a scratch image, added per group.
+pub const LENSMAP_BLEND_BACK_TO_FRONT: u32 = 1;
+/// `LensmapFrameOptions::blend`: each group into its own image, one pass summing them.
+pub const LENSMAP_BLEND_GROUP_TARGETS: u32 = 2;
+/// `LensmapFrameOptions::blend`: the blend done in the fragment shader.
+pub const LENSMAP_BLEND_PROGRAMMABLE: u32 = 3;
 /// `LensmapFrameOptions::format`: an 8-bit unorm framebuffer.
 pub const LENSMAP_FORMAT_RGBA8: u32 = 0;
 /// `LensmapFrameOptions::format`: a 16-bit float framebuffer.
@@ -209,6 +221,9 @@ pub struct LensmapFrameOptions {
     pub variant: u32,
     /// `LENSMAP_FORMAT_*`: the framebuffer's precision.
     pub format: u32,
+    /// `LENSMAP_BLEND_*`: how the multipass compositor combines layers and groups (ABI 3; a
+    /// struct of ABI 2's size, which ends before this field, means front-to-back).
+    pub blend: u32,
 }
 
 /// A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a
@@ -299,6 +314,9 @@ pub struct LensmapPlanOptions {
     pub variant: u32,
     /// `LENSMAP_FORMAT_*`.
     pub format: u32,
+    /// `LENSMAP_BLEND_*` (ABI 3; a struct of ABI 2's size, which ends before this field, means
+    /// front-to-back).
+    pub blend: u32,
 }
 
 /// A Vulkan device with lensmap's pipelines and per-frame buffers.
@@ -518,6 +536,50 @@ unsafe fn read_struct<T: Copy>(pointer: *const T, name: &str) -> Result<T, Failu
     Ok(unsafe { *pointer })
 }
 
+/// `*pointer` of a struct that grew at its end: its `struct_size` may be this library's size or
+/// `older`, an earlier ABI's (the struct up to the first field that version lacked); the
+/// missing fields read as zero (each one's zero is the earlier behaviour).
+///
+/// # Safety
+/// A non-null `pointer` must point to a readable struct of the size its first field says, and
+/// `T` must be a `repr(C)` struct of integers and floats (all-zero bytes are a valid `T`).
+unsafe fn read_versioned<T: Copy>(
+    pointer: *const T,
+    name: &str,
+    older: usize,
+) -> Result<T, Failure> {
+    if pointer.is_null() {
+        return Err(Failure::new(
+            LensmapResult::NullArgument,
+            format!("{name} is NULL"),
+        ));
+    }
+    // SAFETY: non-null, and readable by the caller's promise. Its first field is the size.
+    let size = unsafe { *(pointer as *const u32) } as usize;
+    let current = std::mem::size_of::<T>();
+    if size != current && size != older {
+        return Err(Failure::new(
+            LensmapResult::StructSize,
+            format!(
+                "{name}->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {current} bytes (or {older} from ABI 2); set it to sizeof the struct from the lensmap.h this library ships"
+            ),
+        ));
+    }
+    // SAFETY: all-zero bytes are a valid T (the caller's promise); the caller's struct holds
+    // `size` ≤ size_of::<T>() readable bytes, copied over the zeros.
+    let mut value: T = unsafe { std::mem::zeroed() };
+    unsafe {
+        std::ptr::copy_nonoverlapping(pointer as *const u8, &mut value as *mut T as *mut u8, size)
+    };
+    Ok(value)
+}
+
+/// ABI 2's `LensmapFrameOptions`: everything before `blend`.
+const FRAME_OPTIONS_ABI2: usize = std::mem::offset_of!(LensmapFrameOptions, blend);
+
+/// ABI 2's `LensmapPlanOptions`: everything before `blend`.
+const PLAN_OPTIONS_ABI2: usize = std::mem::offset_of!(LensmapPlanOptions, blend);
+
 /// A UTF-8 C string, or a failure naming the field.
 ///
 /// # Safety
@@ -548,6 +610,21 @@ fn variant(value: u32, field: &str) -> Result<Variant, Failure> {
             LensmapResult::InvalidArgument,
             format!(
                 "{field} is {other}; give LENSMAP_VARIANT_SINGLE_PASS (0) or LENSMAP_VARIANT_MULTIPASS (1)"
+            ),
+        )),
+    }
+}
+
+fn blend(value: u32, field: &str) -> Result<BlendScheme, Failure> {
+    match value {
+        LENSMAP_BLEND_FRONT_TO_BACK => Ok(BlendScheme::FrontToBack),
+        LENSMAP_BLEND_BACK_TO_FRONT => Ok(BlendScheme::BackToFront),
+        LENSMAP_BLEND_GROUP_TARGETS => Ok(BlendScheme::GroupTargets),
+        LENSMAP_BLEND_PROGRAMMABLE => Ok(BlendScheme::Programmable),
+        other => Err(Failure::new(
+            LensmapResult::InvalidArgument,
+            format!(
+                "{field} is {other}; give LENSMAP_BLEND_FRONT_TO_BACK (0), _BACK_TO_FRONT (1), _GROUP_TARGETS (2) or _PROGRAMMABLE (3)"
             ),
         )),
     }
@@ -868,22 +945,19 @@ fn frame_settings(options: &LensmapFrameOptions) -> Result<(Camera, FrameOptions
     } else {
         options.t
     };
-    let hybrid = HybridOptions::with_t(t);
-    hybrid.validate().map_err(|error| {
+    let frame_options = FrameOptions {
+        hybrid: HybridOptions::with_t(t),
+        variant: variant(options.variant, "options->variant")?,
+        blend: blend(options.blend, "options->blend")?,
+        format: format(options.format, "options->format")?,
+    };
+    frame_options.validate().map_err(|error| {
         Failure::new(
             LensmapResult::InvalidArgument,
             format!("options->{} {}: {}", error.option, error.value, error.fix),
         )
     })?;
-    Ok((
-        camera,
-        FrameOptions {
-            hybrid,
-            variant: variant(options.variant, "options->variant")?,
-            blend: lensmap::render::BlendScheme::FrontToBack,
-            format: format(options.format, "options->format")?,
-        },
-    ))
+    Ok((camera, frame_options))
 }
 
 /// The size a caller gave its `LensmapFrameStats` (NULL: none wanted), checked: at least the
@@ -973,7 +1047,7 @@ pub unsafe extern "C" fn lensmap_render_to_memory(
 ) -> LensmapResult {
     boundary(|| {
         // SAFETY: the caller's promise.
-        let options = unsafe { read_struct(options, "options") }?;
+        let options = unsafe { read_versioned(options, "options", FRAME_OPTIONS_ABI2) }?;
         if rgba.is_null() {
             return Err(null("rgba"));
         }
@@ -1083,7 +1157,7 @@ pub unsafe extern "C" fn lensmap_render_to_image(
 ) -> LensmapResult {
     boundary(|| {
         // SAFETY: the caller's promise.
-        let options = unsafe { read_struct(options, "options") }?;
+        let options = unsafe { read_versioned(options, "options", FRAME_OPTIONS_ABI2) }?;
         // SAFETY: the caller's promise.
         let lent = unsafe { read_struct(image, "image") }?;
         // SAFETY: the caller's promise.
@@ -1194,12 +1268,12 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
         // SAFETY: non-null and points to a LensmapFrameOptions (the caller's promise); only its
         // first field, the size, is read: the rest may be unset.
         let size = unsafe { *(options as *const u32) } as usize;
-        if size != std::mem::size_of::<LensmapFrameOptions>() {
+        let current = std::mem::size_of::<LensmapFrameOptions>();
+        if size != current && size != FRAME_OPTIONS_ABI2 {
             return Err(Failure::new(
                 LensmapResult::StructSize,
                 format!(
-                    "options->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {} bytes; set it to sizeof(LensmapFrameOptions)",
-                    std::mem::size_of::<LensmapFrameOptions>()
+                    "options->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {current} bytes (or {FRAME_OPTIONS_ABI2} from ABI 2); set it to sizeof(LensmapFrameOptions)"
                 ),
             ));
         }
@@ -1207,7 +1281,7 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
         let scene = unsafe { scene_ref(scene) }?;
         let camera = scene.hybrid.scene.camera;
         let filled = LensmapFrameOptions {
-            struct_size: std::mem::size_of::<LensmapFrameOptions>() as u32,
+            struct_size: size as u32,
             position: camera.position.to_array(),
             look_at: camera.look_at.to_array(),
             up: camera.up.to_array(),
@@ -1218,9 +1292,17 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
             t: lensmap::hybrid::tessellate::DEFAULT_T,
             variant: LENSMAP_VARIANT_SINGLE_PASS,
             format: LENSMAP_FORMAT_RGBA16F,
+            blend: LENSMAP_BLEND_FRONT_TO_BACK,
         };
-        // SAFETY: writable by the caller's promise, its size checked above.
-        unsafe { *options = filled };
+        // SAFETY: writable for `size` bytes by the caller's promise (a struct of that ABI's
+        // size, checked above): only those are written.
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                &filled as *const LensmapFrameOptions as *const u8,
+                options as *mut u8,
+                size,
+            )
+        };
         Ok(())
     })
 }
@@ -1242,7 +1324,7 @@ pub unsafe extern "C" fn lensmap_plan_text(
 ) -> LensmapResult {
     boundary(|| {
         // SAFETY: the caller's promise.
-        let options = unsafe { read_struct(options, "options") }?;
+        let options = unsafe { read_versioned(options, "options", PLAN_OPTIONS_ABI2) }?;
         if length.is_null() {
             return Err(null("length"));
         }
@@ -1279,10 +1361,12 @@ pub unsafe extern "C" fn lensmap_plan_text(
             options.viewpoints as usize,
             terms,
         );
-        let (graph, _) = frame_graph(
+        let (graph, _) = frame_graph_blended(
             &shape,
             variant(options.variant, "options->variant")?,
+            blend(options.blend, "options->blend")?,
             format(options.format, "options->format")?,
+            Output::Readback,
         )
         .map_err(|error| Failure::new(LensmapResult::InvalidArgument, error.to_string()))?;
         let plan = graph

@@ -10,7 +10,7 @@ use std::ptr::{null, null_mut};
 use lensmap::gpu::{Gpu, GpuOptions};
 use lensmap::hybrid::HybridOptions;
 use lensmap::layers::projected::ProjectedOptions;
-use lensmap::render::{TargetFormat, Variant};
+use lensmap::render::{BlendScheme, TargetFormat, Variant};
 use lensmap::runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene};
 use lensmap::scene::{Camera, Scene};
 use lensmap_capi::*;
@@ -87,6 +87,7 @@ fn frame_options(format: u32) -> LensmapFrameOptions {
         t: 3.0,
         variant: LENSMAP_VARIANT_SINGLE_PASS,
         format,
+        blend: LENSMAP_BLEND_FRONT_TO_BACK,
     }
 }
 
@@ -156,8 +157,11 @@ fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f3
             &camera,
             &FrameOptions {
                 hybrid: HybridOptions::with_t(options.t),
-                variant: Variant::SinglePass,
-                blend: lensmap::render::BlendScheme::FrontToBack,
+                variant: match options.variant {
+                    LENSMAP_VARIANT_MULTIPASS => Variant::Multipass,
+                    _ => Variant::SinglePass,
+                },
+                blend: BlendScheme::ALL[options.blend as usize],
                 format: TargetFormat::Rgba32f,
             },
         )
@@ -187,6 +191,81 @@ fn a_frame_through_the_abi_equals_the_rust_apis() {
     .expect("a runner");
     let expected = rust_frame(&mut runner, &options);
     assert_eq!(pixels, expected, "bit-identical to the Rust API's frame");
+    assert!(runner.gpu().validation_report().messages.is_empty());
+    assert_no_validation_messages(context);
+    // SAFETY: live handles, freed once.
+    unsafe {
+        assert_eq!(lensmap_scene_free(scene), LensmapResult::Ok);
+        assert_eq!(lensmap_context_free(context), LensmapResult::Ok);
+    }
+}
+
+/// ABI 3's blend field: each scheme of the multipass compositor through the ABI is bit-identical
+/// to the Rust API's frame with the same scheme; the schemes agree within 1e-5; and an ABI 2
+/// caller's smaller struct (no blend field) still renders, as front-to-back.
+#[test]
+fn blending_schemes_through_the_abi_equal_the_rust_apis_and_abi_2_structs_still_work() {
+    let context = new_context();
+    let scene = load_scene();
+    let mut runner = FrameRunner::new(
+        Gpu::new(&GpuOptions {
+            validation: true,
+            ..GpuOptions::default()
+        })
+        .expect("a device"),
+    )
+    .expect("a runner");
+    let mut frames = Vec::new();
+    for blend in [
+        LENSMAP_BLEND_FRONT_TO_BACK,
+        LENSMAP_BLEND_BACK_TO_FRONT,
+        LENSMAP_BLEND_GROUP_TARGETS,
+        LENSMAP_BLEND_PROGRAMMABLE,
+    ] {
+        let mut options = frame_options(LENSMAP_FORMAT_RGBA32F);
+        options.variant = LENSMAP_VARIANT_MULTIPASS;
+        options.blend = blend;
+        let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+        assert_eq!(
+            render(context, scene, &options, &mut pixels),
+            LensmapResult::Ok
+        );
+        assert_eq!(
+            pixels,
+            rust_frame(&mut runner, &options),
+            "blend {blend}: bit-identical to the Rust API's frame"
+        );
+        frames.push(pixels);
+    }
+    for (blend, pixels) in frames.iter().enumerate().skip(1) {
+        let largest = pixels
+            .iter()
+            .zip(&frames[0])
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(largest <= 1e-5, "blend {blend}: {largest}");
+    }
+    // An ABI 2 struct: its size ends before `blend` (whatever lies past it is not read).
+    let mut old = frame_options(LENSMAP_FORMAT_RGBA32F);
+    old.variant = LENSMAP_VARIANT_MULTIPASS;
+    old.blend = 0xdead;
+    old.struct_size = std::mem::offset_of!(LensmapFrameOptions, blend) as u32;
+    let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+    assert_eq!(render(context, scene, &old, &mut pixels), LensmapResult::Ok);
+    assert_eq!(pixels, frames[0], "an ABI 2 struct renders front-to-back");
+    // lensmap_scene_frame_options fills an ABI 2 struct without writing past it.
+    let mut filled = [0xabu8; size_of::<LensmapFrameOptions>()];
+    let old_size = std::mem::offset_of!(LensmapFrameOptions, blend);
+    filled[..4].copy_from_slice(&(old_size as u32).to_ne_bytes());
+    // SAFETY: `filled` is as large as the struct, so any write lensmap makes is in bounds.
+    let code = unsafe {
+        lensmap_scene_frame_options(scene, filled.as_mut_ptr() as *mut LensmapFrameOptions)
+    };
+    assert_eq!(code, LensmapResult::Ok);
+    assert!(
+        filled[old_size..].iter().all(|&b| b == 0xab),
+        "nothing written past ABI 2's size"
+    );
     assert!(runner.gpu().validation_report().messages.is_empty());
     assert_no_validation_messages(context);
     // SAFETY: live handles, freed once.
@@ -479,6 +558,22 @@ fn misuse_returns_documented_codes_and_useful_messages() {
             R::InvalidArgument,
             "options->variant is 9",
         );
+        // 13a. An unknown blending scheme, and one the single pass cannot take.
+        let mut blend = frame_options(LENSMAP_FORMAT_RGBA8);
+        blend.variant = LENSMAP_VARIANT_MULTIPASS;
+        blend.blend = 9;
+        assert_failure(
+            render(context, scene, &blend, &mut pixels),
+            R::InvalidArgument,
+            "options->blend is 9",
+        );
+        blend.variant = LENSMAP_VARIANT_SINGLE_PASS;
+        blend.blend = LENSMAP_BLEND_PROGRAMMABLE;
+        assert_failure(
+            render(context, scene, &blend, &mut pixels),
+            R::InvalidArgument,
+            "blend programmable",
+        );
         // 14. A negative tessellation threshold.
         let mut negative = frame_options(LENSMAP_FORMAT_RGBA8);
         negative.t = -1.0;
@@ -557,6 +652,7 @@ fn misuse_returns_documented_codes_and_useful_messages() {
             terms: 2,
             variant: LENSMAP_VARIANT_MULTIPASS,
             format: LENSMAP_FORMAT_RGBA8,
+            blend: LENSMAP_BLEND_FRONT_TO_BACK,
         };
         let mut length = 0usize;
         assert_eq!(lensmap_plan_text(&plan, null_mut(), 0, &mut length), R::Ok);

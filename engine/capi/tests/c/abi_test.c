@@ -134,12 +134,21 @@ static void misuse(void) {
     free(rgba);
 
     size_t length = 0;
-    LensmapPlanOptions plan = {sizeof plan, 3, 2, 2, LENSMAP_VARIANT_MULTIPASS, LENSMAP_FORMAT_RGBA8};
+    LensmapPlanOptions plan = {sizeof plan, 3, 2, 2, LENSMAP_VARIANT_MULTIPASS, LENSMAP_FORMAT_RGBA8,
+                               LENSMAP_BLEND_FRONT_TO_BACK};
     CHECK(lensmap_plan_text(&plan, NULL, 0, &length) == LENSMAP_RESULT_OK && length > 0,
           "plan size query");
     char *text = malloc(length + 1);
     CHECK(lensmap_plan_text(&plan, text, length + 1, &length) == LENSMAP_RESULT_OK, "plan");
     CHECK(text != NULL && strstr(text, "alpha-clear") != NULL, "plan text");
+    free(text);
+    plan.blend = LENSMAP_BLEND_GROUP_TARGETS;
+    CHECK(lensmap_plan_text(&plan, NULL, 0, &length) == LENSMAP_RESULT_OK && length > 0,
+          "group-targets plan size query");
+    text = malloc(length + 1);
+    CHECK(lensmap_plan_text(&plan, text, length + 1, &length) == LENSMAP_RESULT_OK,
+          "group-targets plan");
+    CHECK(text != NULL && strstr(text, "group-sum") != NULL, "group-targets plan text");
     free(text);
 
     CHECK(lensmap_scene_free(scene) == LENSMAP_RESULT_OK, "scene_free");

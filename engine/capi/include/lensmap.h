@@ -336,7 +336,7 @@ LensmapResult lensmap_scene_free(struct LensmapScene *scene);
 //
 // # Safety
 // `context` and `scene` must be handles from this library (or NULL); `options` must point to a
-// `LensmapFrameOptions`; `rgba` must be writable for `rgba_floats` floats; `stats` NULL or
+// `LensmapFrameOptions` readable for its `struct_size` bytes; `rgba` must be writable for `rgba_floats` floats; `stats` NULL or
 // writable.
 LensmapResult lensmap_render_to_memory(struct LensmapContext *context,
                                        const struct LensmapScene *scene,
@@ -363,7 +363,7 @@ LensmapResult lensmap_render_to_memory(struct LensmapContext *context,
 //
 // # Safety
 // `context` and `scene` must be handles from this library (or NULL); `options` must point to a
-// `LensmapFrameOptions` and `image` to a `LensmapHostImage` whose handles are live objects of
+// `LensmapFrameOptions` readable for its `struct_size` bytes and `image` to a `LensmapHostImage` whose handles are live objects of
 // the context's device, kept alive until the frame's signal semaphores are signalled; `stats`
 // NULL or writable.
 LensmapResult lensmap_render_to_image(struct LensmapContext *context,
@@ -375,12 +375,13 @@ LensmapResult lensmap_render_to_image(struct LensmapContext *context,
 // Fills `options` (whose `struct_size` the caller set; the other fields are not read) with what
 // `lensmap render --scene`
 // renders by default: the scene's camera (position, look-at, up, vertical field of view,
-// width, height, supersampling), t = 3, the single-pass compositor and an RGBA16F framebuffer.
-// Change what differs, then render.
+// width, height, supersampling), t = 3, the single-pass compositor (front-to-back) and an
+// RGBA16F framebuffer. Change what differs, then render. An ABI 2 caller's smaller struct is
+// filled up to its own size.
 //
 // # Safety
-// `scene` must be a handle from this library (or NULL); `options` must point to a writable
-// `LensmapFrameOptions`.
+// `scene` must be a handle from this library (or NULL); `options` must point to a
+// `LensmapFrameOptions` writable for its `struct_size` bytes.
 LensmapResult lensmap_scene_frame_options(const struct LensmapScene *scene,
                                           struct LensmapFrameOptions *options);
 
@@ -390,7 +391,8 @@ LensmapResult lensmap_scene_frame_options(const struct LensmapScene *scene,
 // `capacity` of `*length` or less returns `LENSMAP_RESULT_BUFFER_TOO_SMALL` and writes nothing.
 //
 // # Safety
-// `options` must point to a `LensmapPlanOptions`; `buffer` NULL or writable for `capacity`
+// `options` must point to a `LensmapPlanOptions` readable for its `struct_size` bytes; `buffer`
+// NULL or writable for `capacity`
 // bytes; `length` writable.
 LensmapResult lensmap_plan_text(const struct LensmapPlanOptions *options,
                                 char *buffer,

@@ -557,11 +557,15 @@ unsafe fn read_versioned<T: Copy>(
     // SAFETY: non-null, and readable by the caller's promise. Its first field is the size.
     let size = unsafe { *(pointer as *const u32) } as usize;
     let current = std::mem::size_of::<T>();
+    debug_assert!(
+        older < current,
+        "an earlier ABI's struct is a prefix of this one"
+    );
     if size != current && size != older {
         return Err(Failure::new(
             LensmapResult::StructSize,
             format!(
-                "{name}->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {current} bytes (or {older} from ABI 2); set it to sizeof the struct from the lensmap.h this library ships"
+                "{name}->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {current} bytes (or {older} from an earlier ABI); set it to sizeof the struct from the lensmap.h this library ships"
             ),
         ));
     }
@@ -574,11 +578,18 @@ unsafe fn read_versioned<T: Copy>(
     Ok(value)
 }
 
-/// ABI 2's `LensmapFrameOptions`: everything before `blend`.
-const FRAME_OPTIONS_ABI2: usize = std::mem::offset_of!(LensmapFrameOptions, blend);
+/// ABI 2's `sizeof(LensmapFrameOptions)`: everything before `blend` (ABI 2 had no trailing
+/// padding, so its size is the new field's offset; pinned, so a reordering cannot move it).
+const FRAME_OPTIONS_ABI2: usize = 68;
 
-/// ABI 2's `LensmapPlanOptions`: everything before `blend`.
-const PLAN_OPTIONS_ABI2: usize = std::mem::offset_of!(LensmapPlanOptions, blend);
+/// ABI 2's `sizeof(LensmapPlanOptions)`: everything before `blend`.
+const PLAN_OPTIONS_ABI2: usize = 24;
+
+const _: () = assert!(
+    FRAME_OPTIONS_ABI2 == std::mem::offset_of!(LensmapFrameOptions, blend)
+        && PLAN_OPTIONS_ABI2 == std::mem::offset_of!(LensmapPlanOptions, blend),
+    "ABI 2's structs end where `blend` begins"
+);
 
 /// A UTF-8 C string, or a failure naming the field.
 ///
@@ -628,6 +639,25 @@ fn blend(value: u32, field: &str) -> Result<BlendScheme, Failure> {
             ),
         )),
     }
+}
+
+/// `options->variant` and `options->blend`, checked together: the single pass takes only
+/// front-to-back.
+fn compositing(variant_value: u32, blend_value: u32) -> Result<(Variant, BlendScheme), Failure> {
+    let (variant, scheme) = (
+        variant(variant_value, "options->variant")?,
+        blend(blend_value, "options->blend")?,
+    );
+    if variant == Variant::SinglePass && scheme != BlendScheme::FrontToBack {
+        return Err(Failure::new(
+            LensmapResult::InvalidArgument,
+            format!(
+                "options->blend is {blend_value} ({}); the single pass takes only LENSMAP_BLEND_FRONT_TO_BACK: set options->variant to LENSMAP_VARIANT_MULTIPASS or options->blend to 0",
+                scheme.name()
+            ),
+        ));
+    }
+    Ok((variant, scheme))
 }
 
 fn format(value: u32, field: &str) -> Result<TargetFormat, Failure> {
@@ -945,10 +975,11 @@ fn frame_settings(options: &LensmapFrameOptions) -> Result<(Camera, FrameOptions
     } else {
         options.t
     };
+    let (variant, blend) = compositing(options.variant, options.blend)?;
     let frame_options = FrameOptions {
         hybrid: HybridOptions::with_t(t),
-        variant: variant(options.variant, "options->variant")?,
-        blend: blend(options.blend, "options->blend")?,
+        variant,
+        blend,
         format: format(options.format, "options->format")?,
     };
     frame_options.validate().map_err(|error| {
@@ -1034,7 +1065,7 @@ fn frame_stats(
 ///
 /// # Safety
 /// `context` and `scene` must be handles from this library (or NULL); `options` must point to a
-/// `LensmapFrameOptions`; `rgba` must be writable for `rgba_floats` floats; `stats` NULL or
+/// `LensmapFrameOptions` readable for its `struct_size` bytes; `rgba` must be writable for `rgba_floats` floats; `stats` NULL or
 /// writable.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn lensmap_render_to_memory(
@@ -1144,7 +1175,7 @@ unsafe fn semaphores(
 ///
 /// # Safety
 /// `context` and `scene` must be handles from this library (or NULL); `options` must point to a
-/// `LensmapFrameOptions` and `image` to a `LensmapHostImage` whose handles are live objects of
+/// `LensmapFrameOptions` readable for its `struct_size` bytes and `image` to a `LensmapHostImage` whose handles are live objects of
 /// the context's device, kept alive until the frame's signal semaphores are signalled; `stats`
 /// NULL or writable.
 #[unsafe(no_mangle)]
@@ -1250,12 +1281,13 @@ fn degrees_of(radians: f32) -> f32 {
 /// Fills `options` (whose `struct_size` the caller set; the other fields are not read) with what
 /// `lensmap render --scene`
 /// renders by default: the scene's camera (position, look-at, up, vertical field of view,
-/// width, height, supersampling), t = 3, the single-pass compositor and an RGBA16F framebuffer.
-/// Change what differs, then render.
+/// width, height, supersampling), t = 3, the single-pass compositor (front-to-back) and an
+/// RGBA16F framebuffer. Change what differs, then render. An ABI 2 caller's smaller struct is
+/// filled up to its own size.
 ///
 /// # Safety
-/// `scene` must be a handle from this library (or NULL); `options` must point to a writable
-/// `LensmapFrameOptions`.
+/// `scene` must be a handle from this library (or NULL); `options` must point to a
+/// `LensmapFrameOptions` writable for its `struct_size` bytes.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn lensmap_scene_frame_options(
     scene: *const LensmapScene,
@@ -1313,7 +1345,8 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
 /// `capacity` of `*length` or less returns `LENSMAP_RESULT_BUFFER_TOO_SMALL` and writes nothing.
 ///
 /// # Safety
-/// `options` must point to a `LensmapPlanOptions`; `buffer` NULL or writable for `capacity`
+/// `options` must point to a `LensmapPlanOptions` readable for its `struct_size` bytes; `buffer`
+/// NULL or writable for `capacity`
 /// bytes; `length` writable.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn lensmap_plan_text(
@@ -1361,10 +1394,11 @@ pub unsafe extern "C" fn lensmap_plan_text(
             options.viewpoints as usize,
             terms,
         );
+        let (variant, blend) = compositing(options.variant, options.blend)?;
         let (graph, _) = frame_graph_blended(
             &shape,
-            variant(options.variant, "options->variant")?,
-            blend(options.blend, "options->blend")?,
+            variant,
+            blend,
             format(options.format, "options->format")?,
             Output::Readback,
         )

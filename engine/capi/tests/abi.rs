@@ -249,23 +249,50 @@ fn blending_schemes_through_the_abi_equal_the_rust_apis_and_abi_2_structs_still_
     let mut old = frame_options(LENSMAP_FORMAT_RGBA32F);
     old.variant = LENSMAP_VARIANT_MULTIPASS;
     old.blend = 0xdead;
-    old.struct_size = std::mem::offset_of!(LensmapFrameOptions, blend) as u32;
+    old.struct_size = 68;
     let mut pixels = vec![f32::NAN; 4 * 40 * 30];
     assert_eq!(render(context, scene, &old, &mut pixels), LensmapResult::Ok);
     assert_eq!(pixels, frames[0], "an ABI 2 struct renders front-to-back");
-    // lensmap_scene_frame_options fills an ABI 2 struct without writing past it.
-    let mut filled = [0xabu8; size_of::<LensmapFrameOptions>()];
-    let old_size = std::mem::offset_of!(LensmapFrameOptions, blend);
-    filled[..4].copy_from_slice(&(old_size as u32).to_ne_bytes());
-    // SAFETY: `filled` is as large as the struct, so any write lensmap makes is in bounds.
+    // lensmap_scene_frame_options fills an ABI 2 struct without writing past it: 17 aligned
+    // words of a struct's 18, the last one a marker.
+    let mut filled = [0xabab_abab_u32; size_of::<LensmapFrameOptions>() / 4];
+    filled[0] = 68;
+    // SAFETY: `filled` is 4-aligned and as large as the struct, so any write is in bounds.
     let code = unsafe {
         lensmap_scene_frame_options(scene, filled.as_mut_ptr() as *mut LensmapFrameOptions)
     };
     assert_eq!(code, LensmapResult::Ok);
+    assert_eq!(filled[17], 0xabab_abab, "nothing written past ABI 2's size");
+    assert_eq!(filled[0], 68, "struct_size stays the caller's");
     assert!(
-        filled[old_size..].iter().all(|&b| b == 0xab),
-        "nothing written past ABI 2's size"
+        filled[1..17].iter().any(|&w| w != 0xabab_abab),
+        "the camera and options were filled"
     );
+    // lensmap_plan_text reads an ABI 2 plan struct (24 bytes) as front-to-back.
+    let mut plan = LensmapPlanOptions {
+        struct_size: 24,
+        layers: 2,
+        viewpoints: 2,
+        terms: 2,
+        variant: LENSMAP_VARIANT_MULTIPASS,
+        format: LENSMAP_FORMAT_RGBA8,
+        blend: 0xdead,
+    };
+    let mut length = 0usize;
+    // SAFETY: valid pointers; a size query writes only `length`.
+    assert_eq!(
+        unsafe { lensmap_plan_text(&plan, null_mut(), 0, &mut length) },
+        LensmapResult::Ok
+    );
+    plan.struct_size = size_of::<LensmapPlanOptions>() as u32;
+    plan.blend = LENSMAP_BLEND_FRONT_TO_BACK;
+    let mut current = 0usize;
+    // SAFETY: as above.
+    assert_eq!(
+        unsafe { lensmap_plan_text(&plan, null_mut(), 0, &mut current) },
+        LensmapResult::Ok
+    );
+    assert_eq!(length, current, "the ABI 2 plan is the front-to-back plan");
     assert!(runner.gpu().validation_report().messages.is_empty());
     assert_no_validation_messages(context);
     // SAFETY: live handles, freed once.
@@ -572,7 +599,44 @@ fn misuse_returns_documented_codes_and_useful_messages() {
         assert_failure(
             render(context, scene, &blend, &mut pixels),
             R::InvalidArgument,
-            "blend programmable",
+            "options->blend is 3 (programmable)",
+        );
+        // 13b. Options struct sizes of no ABI, on a render and on a plan: refused.
+        for size in [0, 64, 76, u32::MAX] {
+            let mut sized = frame_options(LENSMAP_FORMAT_RGBA8);
+            sized.struct_size = size;
+            assert_failure(
+                render(context, scene, &sized, &mut pixels),
+                R::StructSize,
+                "options->struct_size",
+            );
+        }
+        let mut sized_plan = LensmapPlanOptions {
+            struct_size: 20,
+            layers: 2,
+            viewpoints: 1,
+            terms: 1,
+            variant: LENSMAP_VARIANT_MULTIPASS,
+            format: LENSMAP_FORMAT_RGBA8,
+            blend: LENSMAP_BLEND_FRONT_TO_BACK,
+        };
+        let mut plan_length = 0usize;
+        for size in [20, 32, u32::MAX] {
+            sized_plan.struct_size = size;
+            assert_failure(
+                lensmap_plan_text(&sized_plan, null_mut(), 0, &mut plan_length),
+                R::StructSize,
+                "options->struct_size",
+            );
+        }
+        // 13c. The single pass with another blending scheme, in a plan: the C names.
+        sized_plan.struct_size = size_of::<LensmapPlanOptions>() as u32;
+        sized_plan.variant = LENSMAP_VARIANT_SINGLE_PASS;
+        sized_plan.blend = LENSMAP_BLEND_GROUP_TARGETS;
+        assert_failure(
+            lensmap_plan_text(&sized_plan, null_mut(), 0, &mut plan_length),
+            R::InvalidArgument,
+            "LENSMAP_VARIANT_MULTIPASS",
         );
         // 14. A negative tessellation threshold.
         let mut negative = frame_options(LENSMAP_FORMAT_RGBA8);

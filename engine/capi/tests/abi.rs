@@ -137,6 +137,18 @@ fn assert_no_validation_messages(context: *mut LensmapContext) {
 }
 
 /// The Rust API's frame for the same scene, camera and options.
+/// lensmap's Rust API on its own device, validation on: what ABI frames are compared with.
+fn validated_runner() -> FrameRunner {
+    FrameRunner::new(
+        Gpu::new(&GpuOptions {
+            validation: true,
+            ..GpuOptions::default()
+        })
+        .expect("a device"),
+    )
+    .expect("a runner")
+}
+
 fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f32> {
     let scene = Scene::load_named("glass-sphere").expect("loads");
     let (hybrid, _) =
@@ -181,14 +193,7 @@ fn a_frame_through_the_abi_equals_the_rust_apis() {
     );
     assert!(pixels.iter().all(|p| p.is_finite()));
     assert!(pixels.iter().any(|&p| p > 0.0), "an image, not a blank");
-    let mut runner = FrameRunner::new(
-        Gpu::new(&GpuOptions {
-            validation: true,
-            ..GpuOptions::default()
-        })
-        .expect("a device"),
-    )
-    .expect("a runner");
+    let mut runner = validated_runner();
     let expected = rust_frame(&mut runner, &options);
     assert_eq!(pixels, expected, "bit-identical to the Rust API's frame");
     assert!(runner.gpu().validation_report().messages.is_empty());
@@ -207,14 +212,7 @@ fn a_frame_through_the_abi_equals_the_rust_apis() {
 fn blending_schemes_through_the_abi_equal_the_rust_apis_and_abi_2_structs_still_work() {
     let context = new_context();
     let scene = load_scene();
-    let mut runner = FrameRunner::new(
-        Gpu::new(&GpuOptions {
-            validation: true,
-            ..GpuOptions::default()
-        })
-        .expect("a device"),
-    )
-    .expect("a runner");
+    let mut runner = validated_runner();
     let mut frames = Vec::new();
     for blend in [
         LENSMAP_BLEND_FRONT_TO_BACK,

@@ -39,15 +39,26 @@
 //! the decoded entries. Per group:
 //!
 //! - one **weight render**, lit texels = 1: the fragment's value is that texel's filter weight w;
-//! - D **digit renders**, lit texel = 2^(−digit) with the digit (0 ≤ digit < 32) the texel's
-//!   index in its subset written in base 32: the value is w·2^(−digit). Scaling an input by a
-//!   power of two scales every floating-point product and sum of the filter exactly, so
-//!   value / w is exactly a power of two and the digit is read without rounding ambiguity
-//!   (decoding still accepts a relative error of 1e-3 and reports anything else).
+//! - D **digit renders** that write the texel's index in its subset, one base-B digit per
+//!   render, in one of two encodings ([`DigitEncoding`]):
+//!   - **integers** (tried first): the lit texel = digit / B for an integer 0 ≤ digit < B, with
+//!     B = 2^⌈log₂ L / D⌉ for the largest subset L and D = ⌈log₂ L / 16⌉ (so B ≤ 2^16, the
+//!     texel is exact in the f32 map and within [0, 1] as a frame's texels must be). The value
+//!     is w·digit/B up to the filter's rounding; B·value / w is accepted within ±0.1 of an
+//!     integer. On lavapipe the largest distance from an integer over every matrix of a
+//!     teapot-room sample (B = 16384) is 0.0024. **One** digit render per group up to 256² maps
+//!     (L ≤ 2^16), two beyond;
+//!   - **powers of two** (the fallback when an integer decode is off by more than 0.1, as on a
+//!     driver filtering f32 maps at reduced precision): the lit texel = 2^(−digit), B = 32.
+//!     Scaling an input by a power of two scales every floating-point product and sum of the
+//!     filter exactly, so value / w is exactly a power of two and the digit is read without
+//!     rounding ambiguity on any linear filter (decoding still accepts a relative error of 1e-3
+//!     and reports anything else); D = ⌈log₃₂ L⌉, 3 at 128².
 //!
-//! Renders per layer frame: 1 (the base, all-zero EM) + 6 × (1 + D), D = ⌈log₃₂ (largest
-//! subset)⌉; D ≤ 5 for any face size up to lensmap's 2048, so at most 37 renders whatever the
-//! texel count (25 at 128², 31 at 512²). Groups with no texels are skipped.
+//! Renders per layer frame: 1 (the base, all-zero EM) + 6 × (1 + D): 13 with integer digits up
+//! to 256² maps (19 at 512²); with powers of two 25 at 128² and 31 at 512². Groups with no texels
+//! are skipped. A fragment that reads two lit texels of one subset (no linear filter does) gives
+//! a weighted mean of two digits: not an integer or not a power of two, in general, and reported.
 
 use std::sync::Arc;
 
@@ -59,11 +70,17 @@ use lensmap::{
 use rayon::prelude::*;
 use sprs::{CsMat, TriMat};
 
-/// Base of the digits that name a texel within its subset (exponents 0..32 of 2^(−digit)).
-const DIGIT_BASE: usize = 32;
-/// Relative mismatch between a digit render's ratio and the nearest power of two beyond which
-/// the device is reported as not linear.
-const DIGIT_TOLERANCE: f64 = 1e-3;
+/// Base of the power-of-two digits (exponents 0..32 of 2^(−digit)).
+const POWER_BASE: usize = 32;
+/// Relative mismatch between a power-of-two digit render's ratio and the nearest power of two
+/// beyond which the device is reported as not linear.
+const POWER_TOLERANCE: f64 = 1e-3;
+/// Bits per integer digit at most: digits below 2^16 are exact in f32 with 8 bits to spare for
+/// the filter weight's rounding.
+const INTEGER_BITS: u32 = 16;
+/// Distance from the nearest integer beyond which an integer digit render's ratio is not
+/// accepted (the matrix is then measured again with power-of-two digits).
+const INTEGER_TOLERANCE: f64 = 0.1;
 /// Colour channels, each an independent group of lit texels.
 const CHANNELS: usize = 4;
 /// Render groups per layer frame: 2 level parities × 3 opposite-face pairs.
@@ -218,11 +235,80 @@ impl TexelLayout {
     }
 }
 
+/// How the digit renders write a texel's index within its subset (see the module
+/// documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DigitEncoding {
+    /// Digits written as integers 0..B, B ≤ 2^16: one digit render per group up to 256² maps.
+    Integers,
+    /// Digits written as 2^(−digit), base 32: exact on any linear filter, more renders.
+    PowersOfTwo,
+}
+
+impl DigitEncoding {
+    /// The base B and the number of digits D that name every index below `largest`.
+    fn digits(self, largest: usize) -> (usize, u32) {
+        match self {
+            DigitEncoding::Integers => {
+                // ⌈log₂ largest⌉ bits, split evenly over the fewest digits of ≤ INTEGER_BITS.
+                let bits = usize::BITS - largest.saturating_sub(1).leading_zeros();
+                let count = bits.div_ceil(INTEGER_BITS);
+                (1 << bits.div_ceil(count.max(1)), count)
+            }
+            DigitEncoding::PowersOfTwo => {
+                let mut count = 0;
+                while POWER_BASE.pow(count) < largest {
+                    count += 1;
+                }
+                (POWER_BASE, count)
+            }
+        }
+    }
+
+    /// The texel value that writes digit `digit` (< `base`): within [0, 1], as a frame's texels
+    /// must be.
+    fn value(self, digit: usize, base: usize) -> f64 {
+        match self {
+            // digit / B: B is a power of two, so the division is exact and so is the decode's
+            // multiplication by B.
+            DigitEncoding::Integers => digit as f64 / base as f64,
+            DigitEncoding::PowersOfTwo => (-(digit as f64)).exp2(),
+        }
+    }
+
+    /// The digit that a fragment's `ratio` (value / weight) writes, or what is wrong with it.
+    fn decode(self, ratio: f64, base: usize) -> Result<usize, String> {
+        let (digit, off) = match self {
+            DigitEncoding::Integers => {
+                let ratio = ratio * base as f64;
+                let digit = ratio.round();
+                (digit, (ratio - digit).abs() > INTEGER_TOLERANCE)
+            }
+            DigitEncoding::PowersOfTwo => {
+                let digit = (-ratio.log2()).round();
+                (digit, (ratio * digit.exp2() - 1.0).abs() > POWER_TOLERANCE)
+            }
+        };
+        if !(0.0..base as f64).contains(&digit) || off {
+            return Err(match self {
+                DigitEncoding::Integers => {
+                    format!("not within {INTEGER_TOLERANCE} of an integer below {base}")
+                }
+                DigitEncoding::PowersOfTwo => {
+                    format!("not a power of two 2^-d with d < {base}")
+                }
+            });
+        }
+        Ok(digit as usize)
+    }
+}
+
 /// The texels lit together, per group and channel, in column order; a texel's index in its list
 /// is what the digit renders encode.
 struct Subsets {
     members: Vec<[Vec<usize>; CHANNELS]>,
-    digits: u32,
+    /// The most texels of one subset.
+    largest: usize,
 }
 
 impl Subsets {
@@ -234,24 +320,23 @@ impl Subsets {
             members[group][channel].push(column);
         }
         let largest = members.iter().flatten().map(Vec::len).max().unwrap_or(0);
-        let mut digits = 0;
-        while DIGIT_BASE.pow(digits) < largest {
-            digits += 1;
-        }
-        Subsets { members, digits }
+        Subsets { members, largest }
     }
 
-    /// The test cube of `group`: its texels = 1 (`digit` None) or 2^(−digit d of their index).
-    fn cube(&self, layout: &TexelLayout, group: usize, digit: Option<u32>) -> CubeMap {
+    /// The test cube of `group`: its texels = 1 (`digit` None), or the value that writes digit
+    /// `d` of their index in `encoding`, base `base`.
+    fn cube(
+        &self,
+        layout: &TexelLayout,
+        group: usize,
+        digit: Option<(DigitEncoding, usize, u32)>,
+    ) -> CubeMap {
         let mut x = vec![[0.0f64; 4]; layout.len()];
         for (channel, columns) in self.members[group].iter().enumerate() {
             for (index, &column) in columns.iter().enumerate() {
                 x[column][channel] = match digit {
                     None => 1.0,
-                    Some(d) => {
-                        let value = (index / DIGIT_BASE.pow(d)) % DIGIT_BASE;
-                        (-(value as f64)).exp2()
-                    }
+                    Some((encoding, base, d)) => encoding.value((index / base.pow(d)) % base, base),
                 };
             }
         }
@@ -269,6 +354,23 @@ pub trait TestRenderer {
     /// Renders the begun frame with `em` (the begun map's face size) as the lens object's layer:
     /// framebuffer pixels, row-major, premultiplied RGBA, f32 as the RGBA32F target holds them.
     fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError>;
+}
+
+/// A renderer that counts its renderings (those of an attempt that failed to decode).
+struct Counted<'a> {
+    inner: &'a mut dyn TestRenderer,
+    renders: usize,
+}
+
+impl TestRenderer for Counted<'_> {
+    fn begin(&mut self, frame: &FrameInput) -> Result<(), MatrixError> {
+        self.inner.begin(frame)
+    }
+
+    fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError> {
+        self.renders += 1;
+        self.inner.render(em)
+    }
 }
 
 /// The frame whose lens pixels are `base + A x`: one lens object, one term, one layer, F·G = 1,
@@ -568,18 +670,46 @@ pub struct RenderingMatrix {
     pub layout: TexelLayout,
     /// Display width and height.
     pub display: (u32, u32),
-    /// Test renderings made.
+    /// Test renderings made (those of a failed integer-digit attempt included).
     pub renders: usize,
+    /// How the digit renders that decoded A wrote the texel indices.
+    pub encoding: DigitEncoding,
 }
 
 impl RenderingMatrix {
     /// Measures A of `layer` with cube maps of face size `size` through `renderer`; the
-    /// framebuffer is `k`× the display resolution per axis (supersampling), box-filtered.
+    /// framebuffer is `k`× the display resolution per axis (supersampling), box-filtered. Digits
+    /// are written as integers, and as powers of two when the device's filtering is too coarse
+    /// for integers (see the module documentation).
     pub fn measure(
         renderer: &mut dyn TestRenderer,
         layer: &mut LayerFrame,
         size: u32,
         k: u32,
+    ) -> Result<RenderingMatrix, MatrixError> {
+        let mut counted = Counted {
+            inner: &mut *renderer,
+            renders: 0,
+        };
+        match Self::measure_with(&mut counted, layer, size, k, DigitEncoding::Integers) {
+            Err(MatrixError::Decode { .. }) => {
+                let failed = counted.renders;
+                let mut matrix =
+                    Self::measure_with(renderer, layer, size, k, DigitEncoding::PowersOfTwo)?;
+                matrix.renders += failed;
+                Ok(matrix)
+            }
+            other => other,
+        }
+    }
+
+    /// [`RenderingMatrix::measure`] with the digits in `encoding` and no fallback.
+    pub fn measure_with(
+        renderer: &mut dyn TestRenderer,
+        layer: &mut LayerFrame,
+        size: u32,
+        k: u32,
+        encoding: DigitEncoding,
     ) -> Result<RenderingMatrix, MatrixError> {
         if !size.is_power_of_two() {
             return Err(MatrixError::BadInput(format!(
@@ -598,6 +728,7 @@ impl RenderingMatrix {
         let display = (crop.full.0 / k, crop.full.1 / k);
         let layout = TexelLayout::new(size);
         let subsets = Subsets::new(&layout);
+        let (base, digits) = encoding.digits(subsets.largest);
         let zero = Arc::new(CubeMap::uniform(size, [0.0; 4]));
         renderer.begin(layer.with_em(zero.clone()))?;
         let mut renders = 0;
@@ -634,9 +765,9 @@ impl RenderingMatrix {
                 })
                 .collect();
             let mut index = vec![0usize; lit.len()];
-            for digit in 0..subsets.digits {
+            for digit in 0..digits {
                 let values = render(
-                    Arc::new(subsets.cube(&layout, group, Some(digit))),
+                    Arc::new(subsets.cube(&layout, group, Some((encoding, base, digit)))),
                     &mut renders,
                 )?;
                 let decoded: Vec<Result<usize, MatrixError>> = lit
@@ -644,21 +775,17 @@ impl RenderingMatrix {
                     .map(|&(i, c, weight)| {
                         let ratio =
                             (f64::from(values[i][c]) - f64::from(base_fb[i][c])) / weight;
-                        let value = (-ratio.log2()).round();
-                        let problem = |what: String| MatrixError::Decode {
-                            x: crop.x + i as u32 % fb_width,
-                            y: crop.y + i as u32 / fb_width,
-                            channel: c,
-                            problem: what,
-                        };
-                        if !(0.0..DIGIT_BASE as f64).contains(&value)
-                            || (ratio * value.exp2() - 1.0).abs() > DIGIT_TOLERANCE
-                        {
-                            return Err(problem(format!(
-                                "digit render {digit} gave {ratio} × the weight {weight}, not a power of two 2^-d with d < {DIGIT_BASE}"
-                            )));
-                        }
-                        Ok(value as usize * DIGIT_BASE.pow(digit))
+                        encoding
+                            .decode(ratio, base)
+                            .map(|value| value * base.pow(digit))
+                            .map_err(|problem| MatrixError::Decode {
+                                x: crop.x + i as u32 % fb_width,
+                                y: crop.y + i as u32 / fb_width,
+                                channel: c,
+                                problem: format!(
+                                    "digit render {digit} gave {ratio} × the weight {weight}: {problem}"
+                                ),
+                            })
                     })
                     .collect();
                 for (slot, part) in index.iter_mut().zip(decoded) {
@@ -692,6 +819,7 @@ impl RenderingMatrix {
             layout,
             display,
             renders,
+            encoding,
         })
     }
 
@@ -813,18 +941,15 @@ mod tests {
         }
     }
 
-    #[test]
-    fn decoding_recovers_crafted_footprints_across_seams_corners_and_levels() {
+    /// Trilinear footprints for every framebuffer pixel of a `pixels`-pixel frame: a 2×2
+    /// bilinear footprint at level l and at l + 1, anywhere on a face — including past its edges,
+    /// where the seam's texels come from the neighbouring face, and at corners, where only three
+    /// texels exist (the spec's corner rule averages them; here the fourth weight goes to the
+    /// three). Some pixels read nothing.
+    fn crafted_footprints(layout: &TexelLayout, pixels: u32, seed: u64) -> Vec<Vec<(usize, f32)>> {
         use lensmap::cubemap::face::texel_source;
         use rand::{Rng, SeedableRng};
-        let size = 8;
-        let layout = TexelLayout::new(size);
-        let mut rng = rand_pcg::Pcg64::seed_from_u64(0xdec0de);
-        let (width, height, k) = (12u32, 10u32, 2u32);
-        // Trilinear footprints: a 2×2 bilinear footprint at level l and at l + 1, anywhere on a
-        // face — including past its edges, where the seam's texels come from the neighbouring
-        // face, and at corners, where only three texels exist (the spec's corner rule averages
-        // them; here the fourth weight goes to the three). Some pixels read nothing.
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
         let bilinear = |level: usize, face: CubeFace, i: i64, j: i64, weights: [f32; 4]| {
             let edge = layout.edge(level);
             let mut taps = Vec::new();
@@ -850,7 +975,7 @@ mod tests {
             }
             taps
         };
-        let footprints: Vec<Vec<(usize, f32)>> = (0..width * k * height * k)
+        (0..pixels)
             .map(|p| {
                 if p % 7 == 3 {
                     return Vec::new();
@@ -882,15 +1007,25 @@ mod tests {
                 ));
                 taps
             })
-            .collect();
-        let mut device = CraftedDevice {
-            layout: layout.clone(),
-            footprints: footprints.clone(),
-        };
+            .collect()
+    }
+
+    /// Measures the crafted `footprints` (of a `width`×`height` display, supersampled `k`) with
+    /// `measure`, checks every decoded entry against the box-filtered taps to `relative`, and
+    /// returns the matrix.
+    fn check_crafted(
+        device: &mut dyn TestRenderer,
+        footprints: &[Vec<(usize, f32)>],
+        (width, height, k): (u32, u32, u32),
+        size: u32,
+        relative: f64,
+        measure: impl Fn(&mut dyn TestRenderer, &mut LayerFrame) -> Result<RenderingMatrix, MatrixError>,
+    ) -> RenderingMatrix {
         let frames = LayerFrames::new(&crafted_frame(width * k, height * k), 0, k).unwrap();
         let mut layer = frames.layer(Term::Reflection, 0).unwrap();
         assert_eq!(layer.crop().width, width * k, "the crop is the whole frame");
-        let matrix = RenderingMatrix::measure(&mut device, &mut layer, size, k).unwrap();
+        let matrix = measure(device, &mut layer).unwrap();
+        assert_eq!(matrix.layout, TexelLayout::new(size));
         // The truth: every tap of every framebuffer pixel, box-filtered.
         let mut truth =
             vec![std::collections::BTreeMap::<usize, f64>::new(); (width * height) as usize];
@@ -910,7 +1045,7 @@ mod tests {
             );
             for (column, value) in expected {
                 assert!(
-                    (decoded[column] - value).abs() < 1e-7,
+                    (decoded[column] - value).abs() <= relative * value.abs() + 1e-7,
                     "{column}: {} vs {value}",
                     decoded[column]
                 );
@@ -918,8 +1053,148 @@ mod tests {
             }
         }
         assert!(entries > 2000, "{entries} entries");
-        // 1 base + 6 groups × (1 weight + D digit renders), D = 2 for 8² (largest subset 34).
-        assert_eq!(matrix.renders, 1 + 6 * 3);
+        matrix
+    }
+
+    #[test]
+    fn decoding_recovers_crafted_footprints_across_seams_corners_and_levels() {
+        let size = 8;
+        let layout = TexelLayout::new(size);
+        let (width, height, k) = (12u32, 10u32, 2u32);
+        let footprints = crafted_footprints(&layout, width * k * height * k, 0xdec0de);
+        let mut device = CraftedDevice {
+            layout: layout.clone(),
+            footprints: footprints.clone(),
+        };
+        // Integer digits: 1 base + 6 groups × (1 weight + 1 digit render): the largest subset
+        // (34 texels) takes one digit of base 64.
+        let matrix = check_crafted(
+            &mut device,
+            &footprints,
+            (width, height, k),
+            size,
+            0.0,
+            |device, layer| RenderingMatrix::measure(device, layer, size, k),
+        );
+        assert_eq!(matrix.encoding, DigitEncoding::Integers);
+        assert_eq!(matrix.renders, 1 + 6 * 2);
+        // Powers of two, base 32: two digit renders per group; the same matrix.
+        let powers = check_crafted(
+            &mut device,
+            &footprints,
+            (width, height, k),
+            size,
+            0.0,
+            |device, layer| {
+                RenderingMatrix::measure_with(device, layer, size, k, DigitEncoding::PowersOfTwo)
+            },
+        );
+        assert_eq!(powers.renders, 1 + 6 * 3);
+        assert_eq!(powers.a, matrix.a);
+    }
+
+    /// The crafted device with every output scaled by 1 + e, |e| ≤ `relative`, pseudo-random per
+    /// pixel, channel and rendering: a filter of reduced precision.
+    struct CoarseDevice {
+        device: CraftedDevice,
+        relative: f32,
+        renders: u32,
+    }
+
+    impl TestRenderer for CoarseDevice {
+        fn begin(&mut self, frame: &FrameInput) -> Result<(), MatrixError> {
+            self.device.begin(frame)
+        }
+
+        fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError> {
+            self.renders += 1;
+            let mut pixels = self.device.render(em)?;
+            for (i, pixel) in pixels.iter_mut().enumerate() {
+                for (c, value) in pixel.iter_mut().enumerate() {
+                    let phase = (i * 4 + c) as f32 * 0.618 + self.renders as f32 * 1.7;
+                    *value *= 1.0 + self.relative * phase.sin();
+                }
+            }
+            Ok(pixels)
+        }
+    }
+
+    #[test]
+    fn a_coarse_filter_falls_back_to_power_of_two_digits() {
+        // At 128² the largest subset (8,738 texels) takes one integer digit of base 16,384: a
+        // relative error of 1e-4 moves large digits by more than 0.1, so the integer decode is
+        // refused and the powers of two (tolerance 1e-3 relative) decode the matrix.
+        let size = 128;
+        let layout = TexelLayout::new(size);
+        let (width, height, k) = (40u32, 30u32, 2u32);
+        let footprints = crafted_footprints(&layout, width * k * height * k, 0xc0a75e);
+        let mut device = CoarseDevice {
+            device: CraftedDevice {
+                layout: layout.clone(),
+                footprints: footprints.clone(),
+            },
+            relative: 1e-4,
+            renders: 0,
+        };
+        let matrix = check_crafted(
+            &mut device,
+            &footprints,
+            (width, height, k),
+            size,
+            3e-4,
+            |device, layer| RenderingMatrix::measure(device, layer, size, k),
+        );
+        assert_eq!(matrix.encoding, DigitEncoding::PowersOfTwo);
+        // The failed integer attempt's renders (it stops at the first group that fails) are
+        // counted with the 1 + 6 × (1 + 3) of the powers of two.
+        assert_eq!(matrix.renders, device.renders as usize);
+        assert!(matrix.renders > 25, "{}", matrix.renders);
+        // The same device measured exactly (no error) decodes with integers.
+        device.relative = 0.0;
+        let exact = check_crafted(
+            &mut device,
+            &footprints,
+            (width, height, k),
+            size,
+            0.0,
+            |device, layer| RenderingMatrix::measure(device, layer, size, k),
+        );
+        assert_eq!(exact.encoding, DigitEncoding::Integers);
+        assert_eq!(exact.renders, 1 + 6 * 2);
+    }
+
+    #[test]
+    fn digit_bases_name_every_index() {
+        for largest in [0, 1, 2, 33, 34, 8_738, 65_536, 65_537, 174_763, 1 << 24] {
+            for encoding in [DigitEncoding::Integers, DigitEncoding::PowersOfTwo] {
+                let (base, count) = encoding.digits(largest);
+                assert!(
+                    base.pow(count) >= largest,
+                    "{encoding:?} {largest}: {base}^{count}"
+                );
+                if encoding == DigitEncoding::Integers {
+                    assert!(base <= 1 << INTEGER_BITS);
+                    // The fewest digits of at most 16 bits.
+                    assert!(
+                        count == 0 || (1usize << (INTEGER_BITS * (count - 1))) < largest,
+                        "{largest}: {count} digits"
+                    );
+                    // Every digit is exact in f32, and decodes to itself.
+                    for digit in [0, 1, base / 2, base - 1].into_iter().filter(|&d| d < base) {
+                        let value = encoding.value(digit, base);
+                        assert_eq!(f64::from(value as f32), value);
+                        assert!((0.0..=1.0).contains(&value));
+                        assert_eq!(encoding.decode(value, base), Ok(digit));
+                    }
+                }
+            }
+        }
+        assert_eq!(DigitEncoding::Integers.digits(8_738), (16_384, 1));
+        assert_eq!(DigitEncoding::Integers.digits(174_763), (512, 2));
+        assert_eq!(DigitEncoding::PowersOfTwo.digits(8_738), (32, 3));
+        // A weighted mean of two digits is refused in both encodings.
+        assert!(DigitEncoding::Integers.decode(2.5 / 64.0, 64).is_err());
+        assert!(DigitEncoding::PowersOfTwo.decode(0.625, 32).is_err());
     }
 
     #[test]

@@ -124,7 +124,7 @@ fn benches(c: &mut Criterion) {
         .iter()
         .zip(&traced.mesh.normals)
         .enumerate()
-        .filter(|(i, _)| traced.vertices[*i].evaluation.is_some())
+        .filter(|(i, _)| traced.evaluations[*i].is_some())
         .map(|(index, (&position, &normal))| SurfaceVertex {
             index: index as u32,
             position,
@@ -134,11 +134,7 @@ fn benches(c: &mut Criterion) {
         .collect();
     let replay = Replay {
         paths: &oracle,
-        table: traced
-            .vertices
-            .iter()
-            .map(|v| v.evaluation.clone())
-            .collect(),
+        table: traced.evaluations.clone(),
     };
     let all = rayon::current_num_threads();
     let mut thread_counts = vec![1, all];

@@ -486,10 +486,10 @@ fn check_case(name: &str, input: &TriangleMesh, oracle: &Oracle, t: f32) -> Case
     // No T-junctions (within each connected part of the input).
     let input_component = components(input);
     let component: Vec<u32> = out
-        .vertices
+        .origins
         .iter()
-        .scan(Vec::<u32>::new(), |so_far, vertex| {
-            let c = match vertex.origin {
+        .scan(Vec::<u32>::new(), |so_far, origin| {
+            let c = match *origin {
                 VertexOrigin::Input(i) => input_component[i as usize],
                 VertexOrigin::Midpoint([u, _]) => so_far[u as usize],
             };
@@ -533,7 +533,7 @@ fn check_case(name: &str, input: &TriangleMesh, oracle: &Oracle, t: f32) -> Case
     }
 
     // Termination: each leaf stopped for a reason the oracle confirms.
-    let sample = |v: u32| out.vertices[v as usize].evaluation.as_ref();
+    let sample = |v: u32| out.evaluations[v as usize].as_ref();
     for (tri, record) in mesh.triangles.iter().zip(&out.triangles) {
         let source = input.triangles[record.source as usize];
         let front = oracle.front_facing(source.map(|v| input.positions[v as usize]));
@@ -613,16 +613,12 @@ fn check_case(name: &str, input: &TriangleMesh, oracle: &Oracle, t: f32) -> Case
         .filter(|(_, r)| r.stop != StopReason::BackFacing)
         .flat_map(|(tri, _)| tri.iter().copied())
         .collect();
-    for (v, vertex) in out.vertices.iter().enumerate() {
+    for (v, evaluation) in out.evaluations.iter().enumerate() {
         let v = v as u32;
-        assert_eq!(
-            vertex.evaluation.is_some(),
-            seen_index.contains(&v),
-            "{case}"
-        );
+        assert_eq!(evaluation.is_some(), seen_index.contains(&v), "{case}");
         if front_vertices.contains(&v) {
             assert!(
-                vertex.evaluation.is_some(),
+                evaluation.is_some(),
                 "{case}: vertex {v} of a front triangle"
             );
         }
@@ -635,7 +631,7 @@ fn check_case(name: &str, input: &TriangleMesh, oracle: &Oracle, t: f32) -> Case
         .collect();
     for v in 0..input.positions.len() as u32 {
         assert_eq!(
-            out.vertices[v as usize].evaluation.is_some(),
+            out.evaluations[v as usize].is_some(),
             input_front_vertices.contains(&v),
             "{case}: input vertex {v}"
         );

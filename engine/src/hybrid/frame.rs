@@ -17,7 +17,7 @@ pub use super::paths::VertexPrecision;
 use super::{
     paths::{PathOracle, ScreenCamera, VertexPaths},
     sky::SkyDome,
-    tessellate::{TessellationError, TessellationOptions, tessellate},
+    tessellate::{TessellationError, TessellationOptions, VertexEvaluation, tessellate},
     viewpoints,
 };
 use crate::{
@@ -767,7 +767,7 @@ impl HybridScene {
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
             let mut positions: Vec<Vec3> = Vec::new();
             let mut triangles: Vec<[u32; 3]> = Vec::new();
-            let mut samples: Vec<Option<VertexPaths>> = Vec::new();
+            let mut samples: Vec<Option<VertexEvaluation<VertexPaths>>> = Vec::new();
             let faces = self.faces.get(lens_index).copied().unwrap_or_default();
             let visible_objects: Vec<usize> = lens
                 .objects
@@ -815,21 +815,23 @@ impl HybridScene {
                 stats.triangles_in += mesh.triangles.len();
                 stats.triangles_out += tessellation.mesh.triangles.len();
                 stats.vertices_traced += tessellation.stats.vertices_evaluated;
-                let base = positions.len() as u32;
-                positions.extend(&tessellation.mesh.positions);
-                triangles.extend(
-                    tessellation
-                        .mesh
-                        .triangles
-                        .iter()
-                        .map(|t| t.map(|i| i + base)),
-                );
-                samples.extend(
-                    tessellation
-                        .vertices
-                        .iter()
-                        .map(|v| v.evaluation.as_ref().map(|e| e.sample)),
-                );
+                // Moved, not copied, for a lens object of one scene object (the common case).
+                if positions.is_empty() {
+                    positions = tessellation.mesh.positions;
+                    triangles = tessellation.mesh.triangles;
+                    samples = tessellation.evaluations;
+                } else {
+                    let base = positions.len() as u32;
+                    positions.extend(&tessellation.mesh.positions);
+                    triangles.extend(
+                        tessellation
+                            .mesh
+                            .triangles
+                            .iter()
+                            .map(|t| t.map(|i| i + base)),
+                    );
+                    samples.extend(tessellation.evaluations);
+                }
             }
             if vertex_exact {
                 exact.push(Arc::new(vertex_radiance_mesh(
@@ -906,7 +908,7 @@ fn vertex_radiance_mesh(
     lens: usize,
     positions: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
-    samples: &[Option<VertexPaths>],
+    samples: &[Option<VertexEvaluation<VertexPaths>>],
 ) -> EnvironmentMesh {
     let options = crate::trace::TraceOptions::default();
     let colours = samples
@@ -914,7 +916,7 @@ fn vertex_radiance_mesh(
         .map(|sample| {
             let mut counters = TraceCounters::default();
             let mut radiance = DVec3::ZERO;
-            for path in sample.iter().flat_map(|s| s.terms.iter().flatten()) {
+            for path in sample.iter().flat_map(|s| s.sample.terms.iter().flatten()) {
                 if path.fg != DVec3::ZERO {
                     radiance += path.fg
                         * trace.outgoing_radiance(&path.outgoing, lens, 1, &options, &mut counters);
@@ -947,7 +949,7 @@ fn texgen(
     lens: usize,
     layers: &LensLayers,
     mesh: LensMesh,
-    samples: &[Option<VertexPaths>],
+    samples: &[Option<VertexEvaluation<VertexPaths>>],
     blend: &viewpoints::ViewpointBlend,
     precision: VertexPrecision,
 ) -> LensObject {
@@ -973,7 +975,7 @@ fn texgen(
         .iter()
         .map(|&term| {
             let path = |v: usize| {
-                samples[v].and_then(|s| {
+                samples[v].as_ref().map(|e| &e.sample).and_then(|s| {
                     s.get(term)
                         .copied()
                         .or(s.get(Term::Reflection).copied().map(|mut p| {

@@ -414,6 +414,12 @@ struct Active {
     source: u32,
 }
 
+/// A step of [`Builder::edge_vertices`]' walk down an edge's midpoints.
+enum EdgeStep {
+    Edge(u32, u32),
+    Emit(u32),
+}
+
 /// What to do with an active triangle.
 enum Decision {
     Stop(StopReason),
@@ -687,11 +693,14 @@ where
             _ => 0,
         };
         let [a, b, c] = [0, 1, 2].map(|i| triangle.corners[(i + rotation) % 3]);
-        let children: Vec<[u32; 3]> = match long_count {
+        // Pushed in place: a split is the hot path of phase two, which runs serially.
+        let mut push = |corners: [u32; 3]| next.push(Active { corners, source });
+        match long_count {
             1 => {
                 self.stats.splits_1_to_2 += 1;
                 let ab = self.midpoint(a, b, source)?;
-                vec![[a, ab, c], [ab, b, c]]
+                push([a, ab, c]);
+                push([ab, b, c]);
             }
             2 => {
                 self.stats.splits_1_to_3 += 1;
@@ -699,10 +708,13 @@ where
                 let bc = self.midpoint(b, c, source)?;
                 // The quad a, ab, bc, c is cut along its shorter diagonal.
                 let p = |v: u32| self.positions[v as usize];
+                push([ab, b, bc]);
                 if p(a).distance_squared(p(bc)) <= p(ab).distance_squared(p(c)) {
-                    vec![[ab, b, bc], [a, ab, bc], [a, bc, c]]
+                    push([a, ab, bc]);
+                    push([a, bc, c]);
                 } else {
-                    vec![[ab, b, bc], [a, ab, c], [ab, bc, c]]
+                    push([a, ab, c]);
+                    push([ab, bc, c]);
                 }
             }
             _ => {
@@ -710,14 +722,12 @@ where
                 let ab = self.midpoint(a, b, source)?;
                 let bc = self.midpoint(b, c, source)?;
                 let ca = self.midpoint(c, a, source)?;
-                vec![[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+                push([a, ab, ca]);
+                push([ab, b, bc]);
+                push([ca, bc, c]);
+                push([ab, bc, ca]);
             }
-        };
-        next.extend(
-            children
-                .into_iter()
-                .map(|corners| Active { corners, source }),
-        );
+        }
         Ok(())
     }
 
@@ -754,20 +764,17 @@ where
 
     /// Every vertex that the edge hash table places strictly inside edge (u, w), in order from
     /// u to w (the paper's recursive query).
-    fn edge_vertices(&self, u: u32, w: u32, out: &mut Vec<u32>) {
-        enum Step {
-            Edge(u32, u32),
-            Emit(u32),
-        }
-        let mut stack = vec![Step::Edge(u, w)];
+    fn edge_vertices(&self, u: u32, w: u32, out: &mut Vec<u32>, stack: &mut Vec<EdgeStep>) {
+        stack.clear();
+        stack.push(EdgeStep::Edge(u, w));
         while let Some(step) = stack.pop() {
             match step {
-                Step::Emit(m) => out.push(m),
-                Step::Edge(x, y) => {
+                EdgeStep::Emit(m) => out.push(m),
+                EdgeStep::Edge(x, y) => {
                     if let Some(&m) = self.midpoints.get(&(x.min(y), x.max(y))) {
-                        stack.push(Step::Edge(m, y));
-                        stack.push(Step::Emit(m));
-                        stack.push(Step::Edge(x, m));
+                        stack.push(EdgeStep::Edge(m, y));
+                        stack.push(EdgeStep::Emit(m));
+                        stack.push(EdgeStep::Edge(x, m));
                     }
                 }
             }
@@ -780,6 +787,7 @@ where
         let mut out = LeafPieces::default();
         let mut polygon = Vec::new();
         let mut sides = Vec::new();
+        let mut stack = Vec::new();
         for leaf in leaves {
             let record = TriangleRecord {
                 source: leaf.source,
@@ -800,7 +808,7 @@ where
                 polygon.push(u);
                 sides.push(side_bit(i) | side_bit((i + 2) % 3));
                 let start = polygon.len();
-                self.edge_vertices(u, w, &mut polygon);
+                self.edge_vertices(u, w, &mut polygon, &mut stack);
                 sides.resize(polygon.len(), side_bit(i));
                 out.t_junction_vertices += polygon.len() - start;
             }

@@ -15,7 +15,10 @@ use lensmap::{
 };
 
 use crate::{
-    matrix::{LayerFrame, LayerFrames, MatrixError, RenderingMatrix, TestRenderer, TexelLayout},
+    matrix::{
+        DigitEncoding, LayerFrame, LayerFrames, MatrixError, RenderingMatrix, TestRenderer,
+        TexelLayout,
+    },
     solve::{Equations, Smoothness, SolveError, SolveOptions, SolveReport, solve},
     targets::{DEFAULT_CONFIDENCE_DEGREES, TargetError, term_targets},
 };
@@ -384,6 +387,7 @@ pub fn infer_lens_views_observed(
     }
     let mut maps = Vec::new();
     let mut reports = Vec::new();
+    let mut encoding = DigitEncoding::Integers;
     for layer in 0..n {
         observe(InferStep::Matrices { layer, layers: n });
         let matrix_start = Instant::now();
@@ -396,12 +400,16 @@ pub fn infer_lens_views_observed(
                     .terms()
                     .iter()
                     .map(|&term| {
-                        RenderingMatrix::measure(
+                        // A device that needed power-of-two digits once keeps them.
+                        let matrix = RenderingMatrix::measure_from(
                             &mut renderer,
                             &mut frames.layer(term, layer)?,
                             size,
                             k,
-                        )
+                            encoding,
+                        )?;
+                        encoding = matrix.encoding;
+                        Ok::<_, InferError>(matrix)
                     })
                     .collect::<Result<_, _>>()?,
             );

@@ -244,7 +244,8 @@ impl TexelLayout {
 /// documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DigitEncoding {
-    /// Digits written as integers 0..B, B ≤ 2^16: one digit render per group up to 256² maps.
+    /// Digits 0 ≤ d < B (B ≤ 2^16) written as (2d + 1) / 2B: one digit render per group up to
+    /// 256² maps.
     Integers,
     /// Digits written as 2^(−digit), base 32: exact on any linear filter, more renders.
     PowersOfTwo,
@@ -270,7 +271,7 @@ impl DigitEncoding {
         }
     }
 
-    /// The texel value that writes digit `digit` (< `base`): within [0, 1], as a frame's texels
+    /// The texel value that writes digit `digit` (< `base`): within (0, 1], as a frame's texels
     /// must be.
     fn value(self, digit: usize, base: usize) -> f64 {
         match self {

@@ -537,8 +537,8 @@ struct CachedLayers {
     last_used: u64,
 }
 
-fn vec4_bytes<'a>(faces: impl IntoIterator<Item = &'a [[f32; 4]]>) -> Vec<u8> {
-    let mut bytes = Vec::new();
+fn vec4_bytes<'a>(faces: impl IntoIterator<Item = &'a [[f32; 4]]> + Clone) -> Vec<u8> {
+    let mut bytes = Vec::with_capacity(faces.clone().into_iter().map(|f| f.len() * 16).sum());
     for face in faces {
         if cfg!(target_endian = "little") {
             // The same bytes as the per-value conversion below, copied at once (a test rendering

@@ -15,10 +15,10 @@ use rayon::prelude::*;
 use super::tessellate::{SurfaceVertex, VertexEvaluation, VertexOracle, faces_eye};
 use crate::render::LensFaces;
 use crate::trace::{
-    GreedyOptions, GreedyRayPath, Interface, Ray, Term,
+    GreedyOptions, GreedyRayPath, Ray, Term,
     bvh::SurfaceHit,
     fresnel::{Real, Vector3},
-    path::{LensGeometry, trace_greedy_paths_in},
+    path::trace_greedy_paths_in,
     stats::TraceCounters,
     world::{Part, TraceScene, WorldHit},
 };
@@ -210,11 +210,7 @@ impl<'a> PathOracle<'a> {
                 }
             }
         };
-        let lens = LensIn::<R> {
-            trace: self.trace,
-            lens: self.lens,
-            precision: std::marker::PhantomData,
-        };
+        let lens = self.trace.lens_in::<R>(self.lens);
         let paths = trace_greedy_paths_in::<R>(&lens, &eye_ray, &hit, self.greedy, counters);
         let term = |path: &GreedyRayPath| TermPath {
             fg: weight_in::<R>(path),
@@ -265,35 +261,6 @@ fn closest_hit_within_in<R: Real>(
         }
     }
     best
-}
-
-/// Lens object `lens` as a [`LensGeometry`] whose triangle tests run in `R`: for `R` = f64 the
-/// same as [`TraceScene::lens`].
-struct LensIn<'a, R> {
-    trace: &'a TraceScene,
-    lens: usize,
-    precision: std::marker::PhantomData<R>,
-}
-
-impl<R: Real> LensGeometry for LensIn<'_, R> {
-    fn closest_hit(
-        &self,
-        ray: &Ray,
-        exclude: Option<u32>,
-        counters: &mut TraceCounters,
-    ) -> Option<SurfaceHit> {
-        self.trace.lenses[self.lens].bvh.closest_hit_in::<R>(
-            ray,
-            0.0,
-            f64::INFINITY,
-            exclude,
-            &mut counters.triangle_tests,
-        )
-    }
-
-    fn interface(&self, object: usize) -> Interface {
-        self.trace.lens(self.lens).interface(object)
-    }
 }
 
 impl VertexOracle for PathOracle<'_> {

@@ -8,6 +8,7 @@
 use glam::{DVec3, Vec2, Vec3};
 
 use super::bvh::{MeshBvh, SourceTriangle, SurfaceHit};
+use super::fresnel::Real;
 use super::path::{Interface, LensGeometry};
 use super::stats::TraceCounters;
 use super::{Ray, TraceError};
@@ -190,7 +191,16 @@ impl TraceScene {
 
     /// Lens object `lens` as a [`LensGeometry`] for the path models.
     pub fn lens(&self, lens: usize) -> LensView<'_> {
-        LensView { scene: self, lens }
+        self.lens_in::<f64>(lens)
+    }
+
+    /// [`TraceScene::lens`] with its triangle tests in precision `R`.
+    pub fn lens_in<R: Real>(&self, lens: usize) -> LensView<'_, R> {
+        LensView {
+            scene: self,
+            lens,
+            precision: std::marker::PhantomData,
+        }
     }
 
     /// Closest hit over the environment and every lens object except `skip_lens`, skipping the
@@ -258,21 +268,23 @@ impl TraceScene {
     }
 }
 
-/// A lens object seen through the [`LensGeometry`] trait.
+/// A lens object seen through the [`LensGeometry`] trait, its triangle tests in precision `R`
+/// (f64 unless told: [`MeshBvh::closest_hit_in`]).
 #[derive(Clone, Copy, Debug)]
-pub struct LensView<'a> {
+pub struct LensView<'a, R = f64> {
     scene: &'a TraceScene,
     lens: usize,
+    precision: std::marker::PhantomData<R>,
 }
 
-impl LensGeometry for LensView<'_> {
+impl<R: Real> LensGeometry for LensView<'_, R> {
     fn closest_hit(
         &self,
         ray: &Ray,
         exclude: Option<u32>,
         counters: &mut TraceCounters,
     ) -> Option<SurfaceHit> {
-        self.scene.lenses[self.lens].bvh.closest_hit(
+        self.scene.lenses[self.lens].bvh.closest_hit_in::<R>(
             ray,
             0.0,
             f64::INFINITY,

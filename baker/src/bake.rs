@@ -60,8 +60,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::{
     infer::{
-        DEFAULT_MAX_EM_SIZE, EmSize, InferError, InferOptions, InferStep, View,
-        infer_lens_views_observed,
+        DEFAULT_MAX_EM_SIZE, DeviceRenderer, EmSize, InferError, InferOptions, InferStep, View,
+        prepare, solve_layers,
     },
     matrix::LayerFrames,
     placement::{PlacementError, lens_hits, place_layers},
@@ -130,6 +130,9 @@ pub struct BakeOptions {
     pub layers: LayerCount,
     /// K: views per sample.
     pub multi_view: usize,
+    /// Share the farthest layer between lens objects that see the same scene objects there
+    /// (module docs): one map, solved on every sharing lens object's equations.
+    pub share_layers: bool,
     /// Inference options (θc, solver, tessellation, compositor variant); its `em_size` is
     /// replaced by the plan's.
     pub infer: InferOptions,
@@ -149,6 +152,7 @@ impl Default for BakeOptions {
             },
             layers: LayerCount::Auto,
             multi_view: DEFAULT_MULTI_VIEW,
+            share_layers: true,
             infer: InferOptions::default(),
             judge: true,
         }
@@ -165,6 +169,7 @@ impl BakeOptions {
             self.em_size,
             self.layers,
             self.multi_view,
+            self.share_layers,
             (infer.hybrid, infer.variant, infer.theta_c, infer.solve),
             infer.direct_images,
         ))
@@ -269,6 +274,54 @@ pub struct Plan {
     pub em_size: u32,
     /// Per lens object (TraceScene order).
     pub lenses: Vec<PlannedLens>,
+    /// Distant layers shared between lens objects (one map each).
+    #[serde(default)]
+    pub shared: Vec<SharedLayer>,
+}
+
+/// One layer shared by several lens objects: one shell, one EM origin, one map per sample.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SharedLayer {
+    /// `(lens, layer)` of every lens object holding it; the first owns the map (its file name
+    /// and its EM origin, the first lens object's centroid).
+    pub members: Vec<(usize, usize)>,
+    /// The scene objects in it.
+    pub objects: Vec<String>,
+    /// Per member, the fit measure (RMS relative depth error) of the shared shell over the
+    /// member's hits, seen from the shared EM origin.
+    pub fit_rms: Vec<f64>,
+    /// Per member, the fit measure of the shell it would have had alone.
+    pub separate_fit_rms: Vec<f64>,
+}
+
+impl Plan {
+    /// The (lens, layer) whose map lens object `lens`'s layer `layer` uses: its own, or a
+    /// shared layer's owner.
+    pub fn map_owner(&self, lens: usize, layer: usize) -> (usize, usize) {
+        self.shared
+            .iter()
+            .find(|s| s.members.contains(&(lens, layer)))
+            .map_or((lens, layer), |s| s.members[0])
+    }
+
+    /// The EM origin of every layer of lens object `lens`: the owner's centroid.
+    pub fn layer_origins(&self, lens: usize) -> Vec<DVec3> {
+        (0..self.lenses[lens].shells.len())
+            .map(|layer| self.lenses[self.map_owner(lens, layer).0].em_origin)
+            .collect()
+    }
+
+    /// The file of lens object `lens`'s layer `layer` at view-space sample `sample` (a shared
+    /// layer's is its owner's).
+    pub fn map_name(&self, lens: usize, layer: usize, sample: usize) -> String {
+        let (owner, owner_layer) = self.map_owner(lens, layer);
+        map_file_name(owner, &self.lenses[owner].name, sample, owner_layer)
+    }
+
+    /// The shared layers as groups of (lens, layer), for [`crate::infer::solve_layers`].
+    pub fn shared_groups(&self) -> Vec<Vec<(usize, usize)>> {
+        self.shared.iter().map(|s| s.members.clone()).collect()
+    }
 }
 
 /// One lens object's plan.
@@ -292,8 +345,9 @@ pub struct PlannedLens {
 }
 
 impl PlannedLens {
-    /// Takes the shells, objects and fits of a placement.
-    fn adopt(&mut self, placement: &crate::placement::Placement) {
+    /// Takes the shells, objects and fits of a placement; returns the farthest layer's hits
+    /// (world space), what a shared shell is fitted to.
+    fn adopt(&mut self, placement: &crate::placement::Placement) -> Vec<DVec3> {
         self.shells = placement.layers.iter().map(|l| l.shell).collect();
         self.objects = placement.layers.iter().map(|l| l.objects.clone()).collect();
         self.fit_rms = placement
@@ -301,7 +355,78 @@ impl PlannedLens {
             .iter()
             .map(|l| l.rms_relative_error)
             .collect();
+        placement
+            .layers
+            .last()
+            .map(|l| l.points.clone())
+            .unwrap_or_default()
     }
+}
+
+/// A shared shell may fit a member's hits worse than the member's own shell by at most this
+/// much RMS relative depth error.
+pub const SHARED_FIT_SLACK: f64 = 0.02;
+
+/// Shares the farthest layer between clustered lens objects whose farthest layers hold the same
+/// scene objects (the hybrid-rendering paper's shared distant layers): one shell fitted to every
+/// member's hits `far_hits[lens]` about the first member's EM origin, taken when it fits each
+/// member within [`SHARED_FIT_SLACK`] of the member's own shell. Rewrites the members' shells
+/// and fits.
+fn share_far_layers(lenses: &mut [PlannedLens], far_hits: &[Vec<DVec3>]) -> Vec<SharedLayer> {
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (lens, planned) in lenses.iter().enumerate() {
+        let Some(objects) = planned.objects.last() else {
+            continue;
+        };
+        if objects.is_empty() || far_hits[lens].is_empty() {
+            continue;
+        }
+        match groups
+            .iter_mut()
+            .find(|g| lenses[g[0]].objects.last() == Some(objects))
+        {
+            Some(group) => group.push(lens),
+            None => groups.push(vec![lens]),
+        }
+    }
+    let mut shared = Vec::new();
+    for group in groups.into_iter().filter(|g| g.len() >= 2) {
+        let origin = lenses[group[0]].em_origin;
+        let relative =
+            |lens: usize| -> Vec<DVec3> { far_hits[lens].iter().map(|p| *p - origin).collect() };
+        let points: Vec<DVec3> = group.iter().flat_map(|&lens| relative(lens)).collect();
+        let (shell, _, _) = crate::placement::fit_shell(origin, &points);
+        let fit_rms: Vec<f64> = group
+            .iter()
+            .map(|&lens| crate::placement::fit_error(&shell, origin, &relative(lens)))
+            .collect();
+        let separate_fit_rms: Vec<f64> = group
+            .iter()
+            .map(|&lens| lenses[lens].fit_rms.last().copied().unwrap_or(0.0))
+            .collect();
+        if fit_rms
+            .iter()
+            .zip(&separate_fit_rms)
+            .any(|(shared, own)| *shared > own + SHARED_FIT_SLACK)
+        {
+            continue;
+        }
+        let members: Vec<(usize, usize)> = group
+            .iter()
+            .map(|&lens| (lens, lenses[lens].shells.len() - 1))
+            .collect();
+        for (&(lens, layer), &rms) in members.iter().zip(&fit_rms) {
+            lenses[lens].shells[layer] = shell;
+            lenses[lens].fit_rms[layer] = rms;
+        }
+        shared.push(SharedLayer {
+            objects: lenses[group[0]].objects.last().cloned().unwrap_or_default(),
+            members,
+            fit_rms,
+            separate_fit_rms,
+        });
+    }
+    shared
 }
 
 /// What one sample's bake took and reached (also the sample's completion mark on disk).
@@ -581,7 +706,7 @@ fn project_into(
         &ProjectedOptions::with_size(size),
     );
     hybrid.lenses[lens] = LensLayers {
-        em_origin: origin,
+        em_origins: vec![origin; shells.len()],
         shells,
         maps: vec![maps.into_iter().map(Arc::new).collect()],
     };
@@ -629,6 +754,8 @@ pub fn make_plan(
         2,
     );
     let mut lenses = Vec::with_capacity(lens_count);
+    // Per lens object, its farthest clustered layer's hits (empty otherwise).
+    let mut far_hits: Vec<Vec<DVec3>> = vec![Vec::new(); lens_count];
     let mut auto_reference = None;
     // One hybrid scene judges every candidate (and searches the EM size): its environment and
     // light maps do not depend on the shells, so only a lens object's projected layers change.
@@ -682,7 +809,7 @@ pub fn make_plan(
         };
         match count {
             Some(k) => {
-                planned.adopt(&place(k)?);
+                far_hits[lens] = planned.adopt(&place(k)?);
             }
             None => {
                 // Grow while a layer helps this lens object's pixels at sample 0.
@@ -701,7 +828,7 @@ pub fn make_plan(
                     // Sample 0 does not see this lens object: nothing to judge a layer count
                     // by, so one layer (a PSNR over no pixel is an error, not a figure).
                     planned.source = "clustered (unseen at sample 0: one layer)".into();
-                    planned.adopt(&place(1)?);
+                    far_hits[lens] = planned.adopt(&place(1)?);
                     lenses.push(planned);
                     continue;
                 }
@@ -744,16 +871,30 @@ pub fn make_plan(
                 let Some((_, placement)) = best else {
                     unreachable!("k = 1 always places a layer")
                 };
-                planned.adopt(&placement);
+                far_hits[lens] = planned.adopt(&placement);
             }
         }
         lenses.push(planned);
     }
+    let shared = if options.share_layers {
+        share_far_layers(&mut lenses, &far_hits)
+    } else {
+        Vec::new()
+    };
+    let mut plan = Plan {
+        scene: scene.name.clone(),
+        scene_hash: scene.content_hash(),
+        options_hash: options.hash(),
+        em_size: 0,
+        lenses,
+        shared,
+    };
     let em_size = match options.em_size {
         EmSize::Fixed(size) => size,
         EmSize::Auto { cap } => {
             progress("searching the EM size at sample 0");
-            let planned_shells = lenses
+            let planned_shells = plan
+                .lenses
                 .iter()
                 .map(|l| (l.em_origin, l.shells.clone()))
                 .collect::<Vec<_>>();
@@ -766,13 +907,14 @@ pub fn make_plan(
                 }
                 None => judge_scene.insert(projected_scene(scene, planned_shells, judge_size)?),
             };
+            share_maps(hybrid, &plan);
             let camera = sample_camera(scene, positions[0], options);
             let (frame, _) = hybrid
                 .frame(&camera, &options.infer.hybrid)
                 .map_err(|e| InferError::Frame(e.to_string()))?;
             let mut renderer = crate::infer::DeviceRenderer::new(runner, options.infer.variant);
             let mut finest: Option<usize> = None;
-            for (lens, planned) in lenses.iter().enumerate() {
+            for (lens, planned) in plan.lenses.iter().enumerate() {
                 let frames = LayerFrames::new(&frame, lens, camera.supersampling.max(1))
                     .map_err(InferError::from)?;
                 let (level, _) = crate::infer::finest_level_of_frames(
@@ -790,26 +932,44 @@ pub fn make_plan(
             (cap >> finest.unwrap_or(0)).max(1)
         }
     };
-    Ok(Plan {
-        scene: scene.name.clone(),
-        scene_hash: scene.content_hash(),
-        options_hash: options.hash(),
-        em_size,
-        lenses,
-    })
+    plan.em_size = em_size;
+    Ok(plan)
+}
+
+/// Gives every shared layer of `plan` in `hybrid` its owner's EM origin and (projected) maps,
+/// as the bake will hold them: the owner projected that layer from its own origin.
+fn share_maps(hybrid: &mut HybridScene, plan: &Plan) {
+    for shared in &plan.shared {
+        let (owner, owner_layer) = shared.members[0];
+        let origin = hybrid.lenses[owner].em_origins[owner_layer];
+        let maps: Vec<_> = hybrid.lenses[owner]
+            .maps
+            .iter()
+            .map(|v| v[owner_layer].clone())
+            .collect();
+        for &(lens, layer) in &shared.members[1..] {
+            let layers = &mut hybrid.lenses[lens];
+            layers.em_origins[layer] = origin;
+            for (v, map) in layers.maps.iter_mut().zip(&maps) {
+                v[layer] = map.clone();
+            }
+        }
+    }
 }
 
 /// The hybrid scene a plan's samples are inferred on: the plan's shells with projected EMs (the
-/// solver's starting guess) at the plan's EM size.
+/// solver's starting guess) at the plan's EM size, shared layers shared.
 pub fn working_scene(scene: &Scene, plan: &Plan) -> Result<HybridScene, BakeFailure> {
-    projected_scene(
+    let mut hybrid = projected_scene(
         scene,
         plan.lenses
             .iter()
             .map(|l| (l.em_origin, l.shells.clone()))
             .collect(),
         plan.em_size,
-    )
+    )?;
+    share_maps(&mut hybrid, plan);
+    Ok(hybrid)
 }
 
 /// Bakes view-space sample `sample`: the maps of every lens object (`maps[lens][layer]`) and
@@ -842,60 +1002,83 @@ pub fn bake_sample(
         em_size: EmSize::Fixed(plan.em_size),
         ..options.infer
     };
-    let mut maps = Vec::new();
-    let mut lenses = Vec::new();
-    for (lens, planned) in plan.lenses.iter().enumerate() {
-        // Views that see the lens object.
-        let views: Vec<View<'_>> = cameras
-            .iter()
-            .zip(&records)
-            .filter(|(_, set)| set.lenses[lens].records.iter().any(|r| r.visible))
-            .map(|(camera, set)| View {
-                camera,
-                records: &set.lenses[lens],
-            })
-            .collect();
-        let matrices = format!("matrices \"{}\"", planned.name);
-        let solving = format!("solve \"{}\"", planned.name);
-        let inferred = if views.is_empty() {
+    // Every lens object's frames and targets at the views that see it; `None` where none does
+    // or nothing covers a pixel centre (a sliver at the frame's edge): nothing to fit.
+    let view_lists: Vec<Vec<View<'_>>> = (0..plan.lenses.len())
+        .map(|lens| {
+            cameras
+                .iter()
+                .zip(&records)
+                .filter(|(_, set)| set.lenses[lens].records.iter().any(|r| r.visible))
+                .map(|(camera, set)| View {
+                    camera,
+                    records: &set.lenses[lens],
+                })
+                .collect()
+        })
+        .collect();
+    let mut prepared = Vec::with_capacity(plan.lenses.len());
+    for (lens, views) in view_lists.iter().enumerate() {
+        prepared.push(if views.is_empty() {
             None
         } else {
-            let inferred =
-                infer_lens_views_observed(runner, hybrid, lens, &views, &infer, &mut |step| {
-                    progress(match step {
-                        InferStep::Matrices { layer, layers } => Step {
-                            stage: &matrices,
-                            position: layer,
-                            of: layers,
-                        },
-                        InferStep::Solve { layer, layers } => Step {
-                            stage: &solving,
-                            position: layer,
-                            of: layers,
-                        },
-                    })
-                });
-            match inferred {
-                Ok(inference) => Some(inference),
-                // Seen in the records but covering no pixel centre of the frames (a sliver at
-                // the frame's edge): nothing to fit.
+            match prepare(hybrid, lens, views, &infer) {
+                Ok(p) => Some(p),
                 Err(InferError::NoLensPixels { .. }) => None,
                 Err(error) => return Err(error.into()),
             }
-        };
-        // Unseen from this sample, or nothing to fit: the projected maps stand in.
-        let Some(inference) = inferred else {
-            maps.push(
-                hybrid.lenses[lens].maps[0]
-                    .iter()
-                    .map(|m| CubeMap::clone(m))
-                    .collect(),
-            );
+        });
+    }
+    for p in prepared.iter().flatten() {
+        seconds.frames += p.frame_ms() / 1e3;
+    }
+    let stages: Vec<(String, String)> = plan
+        .lenses
+        .iter()
+        .map(|l| (format!("matrices \"{}\"", l.name), format!("solve \"{}\"", l.name)))
+        .collect();
+    let solved = {
+        let mut renderer = DeviceRenderer::new(runner, infer.variant);
+        solve_layers(
+            &mut renderer,
+            hybrid,
+            prepared,
+            &plan.shared_groups(),
+            plan.em_size,
+            &infer,
+            &mut |lens, step| {
+                let (matrices, solving) = &stages[lens];
+                progress(match step {
+                    InferStep::Matrices { layer, layers } => Step {
+                        stage: matrices,
+                        position: layer,
+                        of: layers,
+                    },
+                    InferStep::Solve { layer, layers } => Step {
+                        stage: solving,
+                        position: layer,
+                        of: layers,
+                    },
+                })
+            },
+        )?
+    };
+    let mut maps: Vec<Vec<CubeMap>> = Vec::new();
+    // Which (lens, layer) maps were inferred (the rest are projected).
+    let mut inferred: Vec<Vec<bool>> = Vec::new();
+    let mut lenses = Vec::new();
+    for (lens, (planned, solved)) in plan.lenses.iter().zip(solved).enumerate() {
+        // Unseen from this sample: the projected maps stand in (a layer no pixel reads keeps
+        // its projected map).
+        let projected = |layer: usize| CubeMap::clone(&hybrid.lenses[lens].maps[0][layer]);
+        let Some(solved) = solved else {
+            maps.push((0..planned.shells.len()).map(projected).collect());
+            inferred.push(vec![false; planned.shells.len()]);
             lenses.push(LensReport::unseen(planned));
             continue;
         };
-        seconds.frames += inference.frame_ms / 1e3;
-        for layer in &inference.layers {
+        inferred.push(solved.maps.iter().map(Option::is_some).collect());
+        for layer in &solved.layers {
             seconds.matrices += layer.matrix_ms / 1e3;
             seconds.targets += layer.targets_ms / 1e3;
             seconds.solve += layer.solve.ms / 1e3;
@@ -903,24 +1086,37 @@ pub fn bake_sample(
         lenses.push(LensReport {
             name: planned.name.clone(),
             shells: planned.shells.iter().map(|s| s.kind().to_owned()).collect(),
-            nonzeros: inference
+            nonzeros: solved
                 .layers
                 .iter()
                 .map(|l| l.nonzeros.iter().sum())
                 .collect(),
-            iterations: inference
-                .layers
-                .iter()
-                .map(|l| l.solve.iterations)
-                .collect(),
-            residual: inference
+            iterations: solved.layers.iter().map(|l| l.solve.iterations).collect(),
+            residual: solved
                 .layers
                 .iter()
                 .map(|l| l.solve.relative_residual)
                 .collect(),
-            views: views.len(),
+            views: view_lists[lens].len(),
         });
-        maps.push(inference.maps);
+        maps.push(
+            solved
+                .maps
+                .into_iter()
+                .enumerate()
+                .map(|(layer, map)| map.unwrap_or_else(|| projected(layer)))
+                .collect(),
+        );
+    }
+    // A shared layer is one file: every member holds the inferred map, also a member whose lens
+    // object this sample does not see.
+    for shared in &plan.shared {
+        if let Some(&(lens, layer)) = shared.members.iter().find(|&&(l, j)| inferred[l][j]) {
+            let map = maps[lens][layer].clone();
+            for &(l, j) in &shared.members {
+                maps[l][j] = map.clone();
+            }
+        }
     }
     let (mut psnr_db, mut projected_psnr_db) = (None, None);
     if options.judge {
@@ -1083,7 +1279,7 @@ pub fn bake(
             .enumerate()
             .map(|(lens, planned)| {
                 (0..planned.shells.len())
-                    .map(|layer| map_file_name(lens, &planned.name, sample, layer))
+                    .map(|layer| plan.map_name(lens, layer, sample))
                     .collect()
             })
             .collect()
@@ -1133,8 +1329,12 @@ pub fn bake(
                 if !listed {
                     continue;
                 }
+                let mut copied = std::collections::HashSet::new();
                 for name in names.iter().flatten() {
-                    staging.copy_in(&dir.join(name), name)?;
+                    // A shared layer's file once.
+                    if copied.insert(name) {
+                        staging.copy_in(&dir.join(name), name)?;
+                    }
                 }
                 let marker = SampleReport {
                     sample,
@@ -1189,9 +1389,14 @@ pub fn bake(
                 },
             });
             let t = Instant::now();
+            let mut written = std::collections::HashSet::new();
             for (layers, names) in maps.iter().zip(map_names(sample)) {
                 for (cube, name) in layers.iter().zip(names) {
-                    staging.write_cube_map(&name, cube, plan.em_size)?;
+                    // A shared layer's map once (every member holds the same solution).
+                    if !written.contains(&name) {
+                        staging.write_cube_map(&name, cube, plan.em_size)?;
+                        written.insert(name);
+                    }
                 }
             }
             let mut report = report;
@@ -1242,12 +1447,14 @@ fn plan_manifest(plan: &Plan, samples: &[usize], positions: &[Vec3]) -> Manifest
                 layers: planned
                     .shells
                     .iter()
+                    .zip(plan.layer_origins(lens))
                     .enumerate()
-                    .map(|(layer, shell)| ManifestLayer {
+                    .map(|(layer, (shell, origin))| ManifestLayer {
                         shell: *shell,
+                        em_origin: (origin != planned.em_origin).then_some(origin),
                         maps: samples
                             .iter()
-                            .map(|&s| map_file_name(lens, &planned.name, s, layer))
+                            .map(|&s| plan.map_name(lens, layer, s))
                             .collect(),
                     })
                     .collect(),
@@ -1302,14 +1509,15 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<Manifest, BakeFailure> {
         {
             return differs("the bake options");
         }
-        let shape = |m: &Manifest| -> Vec<(String, DVec3, Vec<LayerShell>)> {
+        let shape = |m: &Manifest| -> Vec<(String, Vec<(DVec3, LayerShell)>)> {
             m.lenses
                 .iter()
                 .map(|l| {
                     (
                         l.name.clone(),
-                        l.em_origin,
-                        l.layers.iter().map(|layer| layer.shell).collect(),
+                        (0..l.layers.len())
+                            .map(|layer| (l.layer_origin(layer), l.layers[layer].shell))
+                            .collect(),
                     )
                 })
                 .collect()
@@ -1348,10 +1556,14 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<Manifest, BakeFailure> {
         if let Some(p) = merged.provenance.as_mut() {
             p.samples.push(sample);
         }
+        let mut copied = std::collections::HashSet::new();
         for (lens, source) in merged.lenses.iter_mut().zip(&manifest.lenses) {
             for (layer, source) in lens.layers.iter_mut().zip(&source.layers) {
                 let name = &source.maps[position];
-                staging.copy_in(&dir.join(name), name)?;
+                // A shared layer's file once.
+                if copied.insert(name) {
+                    staging.copy_in(&dir.join(name), name)?;
+                }
                 layer.maps.push(name.clone());
             }
         }

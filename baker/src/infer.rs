@@ -308,6 +308,98 @@ pub fn infer_lens_views_observed(
     observe: &mut dyn FnMut(InferStep),
 ) -> Result<Inference, InferError> {
     let start = Instant::now();
+    let prepared = prepare(hybrid, lens, views, options)?;
+    let mut renderer = DeviceRenderer::new(runner, options.variant);
+    // The resolution: the finest level read by any (term, layer) frame of the first view at the
+    // cap.
+    let (size, finest_level_at_cap, search_renders) = match options.em_size {
+        EmSize::Fixed(size) => (size, None, 0),
+        EmSize::Auto { cap } => {
+            if !cap.is_power_of_two() {
+                return Err(InferError::BadOption(format!(
+                    "EM size cap {cap} is not a power of two; give e.g. 256"
+                )));
+            }
+            let (finest, renders) = finest_level_of_frames(
+                &mut renderer,
+                &prepared.seen[0].1,
+                prepared.layers(hybrid),
+                cap,
+            )?;
+            let Some(level) = finest else {
+                return Err(InferError::NoLensPixels {
+                    lens: prepared.name,
+                });
+            };
+            ((cap >> level).max(1), Some(level), renders)
+        }
+    };
+    let name = prepared.name.clone();
+    let frame_ms = prepared.frame_ms;
+    let mut solved = solve_layers(
+        &mut renderer,
+        hybrid,
+        vec![Some(prepared)],
+        &[],
+        size,
+        options,
+        &mut |_, step| observe(step),
+    )?;
+    let Some(Some(solved)) = solved.pop() else {
+        unreachable!("one prepared lens object in, one out")
+    };
+    // A layer no pixel reads: nothing of the lens object to fit (the one-lens API's contract).
+    let Some(maps) = solved.maps.into_iter().collect::<Option<Vec<_>>>() else {
+        return Err(InferError::NoLensPixels { lens: name });
+    };
+    Ok(Inference {
+        maps,
+        size,
+        finest_level_at_cap,
+        search_renders,
+        layers: solved.layers,
+        frame_ms,
+        total_ms: start.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// One lens object's inference made ready at any EM size: its test frames and targets per view.
+pub struct Prepared<'v> {
+    /// The lens object (TraceScene index).
+    lens: usize,
+    /// Its name.
+    name: String,
+    /// Per view that sees it: the view and its test frames.
+    seen: Vec<(View<'v>, LayerFrames)>,
+    /// `targets[view][term]`.
+    targets: Vec<Vec<crate::targets::TermTargets>>,
+    /// Building the frames, ms.
+    frame_ms: f64,
+    /// Building the targets, per layer, ms.
+    targets_ms: f64,
+}
+
+impl Prepared<'_> {
+    /// Its layer count in `hybrid`.
+    fn layers(&self, hybrid: &HybridScene) -> usize {
+        hybrid.lenses[self.lens].shells.len()
+    }
+
+    /// Building its frames, ms.
+    pub fn frame_ms(&self) -> f64 {
+        self.frame_ms
+    }
+}
+
+/// Builds lens object `lens`'s test frames and targets at every view of `views` (on the shells
+/// `hybrid` has). No view, or no record in any view's targets, is [`InferError::NoLensPixels`].
+pub fn prepare<'v>(
+    hybrid: &HybridScene,
+    lens: usize,
+    views: &[View<'v>],
+    options: &InferOptions,
+) -> Result<Prepared<'v>, InferError> {
+    let start = Instant::now();
     options
         .hybrid
         .validate()
@@ -327,7 +419,7 @@ pub fn infer_lens_views_observed(
             .frame(view.camera, &options.hybrid)
             .map_err(|e| InferError::Frame(e.to_string()))?;
         let k = view.camera.supersampling.max(1);
-        seen.push((view, LayerFrames::new(&frame, lens, k)?));
+        seen.push((*view, LayerFrames::new(&frame, lens, k)?));
     }
     let frame_ms = start.elapsed().as_secs_f64() * 1e3;
     if seen.is_empty() {
@@ -335,32 +427,6 @@ pub fn infer_lens_views_observed(
             "no views to infer from; give at least one camera".into(),
         ));
     }
-    let mut renderer = DeviceRenderer::new(runner, options.variant);
-    // The resolution: the finest level read by any (term, layer) frame of the first view at the
-    // cap.
-    let (size, finest_level_at_cap, search_renders) = match options.em_size {
-        EmSize::Fixed(size) => (size, None, 0),
-        EmSize::Auto { cap } => {
-            if !cap.is_power_of_two() {
-                return Err(InferError::BadOption(format!(
-                    "EM size cap {cap} is not a power of two; give e.g. 256"
-                )));
-            }
-            let (finest, renders) = finest_level_of_frames(&mut renderer, &seen[0].1, n, cap)?;
-            let Some(level) = finest else {
-                return Err(InferError::NoLensPixels { lens: name });
-            };
-            ((cap >> level).max(1), Some(level), renders)
-        }
-    };
-    if !size.is_power_of_two() {
-        return Err(InferError::BadOption(format!(
-            "EM size {size} is not a power of two; give e.g. 128"
-        )));
-    }
-    let layout = TexelLayout::new(size);
-    let smoothness = Smoothness::new(&layout);
-    // targets[view][term]
     let targets_start = Instant::now();
     let mut targets = Vec::new();
     for (view, frames) in &seen {
@@ -385,111 +451,215 @@ pub fn infer_lens_views_observed(
     if targets.iter().flatten().all(|t| t.pixels_with_records == 0) {
         return Err(InferError::NoLensPixels { lens: name });
     }
-    let mut maps = Vec::new();
-    let mut reports = Vec::new();
-    let mut encoding = DigitEncoding::Integers;
-    for layer in 0..n {
-        observe(InferStep::Matrices { layer, layers: n });
-        let matrix_start = Instant::now();
-        // matrices[view][term]
-        let mut matrices: Vec<Vec<RenderingMatrix>> = Vec::new();
-        for (view, frames) in &seen {
-            let k = view.camera.supersampling.max(1);
-            matrices.push(
-                frames
-                    .terms()
-                    .iter()
-                    .map(|&term| {
-                        // A device that needed power-of-two digits once keeps them.
-                        let matrix = RenderingMatrix::measure_from(
-                            &mut renderer,
-                            &mut frames.layer(term, layer)?,
-                            size,
-                            k,
-                            encoding,
-                        )?;
-                        encoding = matrix.encoding;
-                        Ok::<_, InferError>(matrix)
-                    })
-                    .collect::<Result<_, _>>()?,
-            );
-        }
-        let matrix_ms = matrix_start.elapsed().as_secs_f64() * 1e3;
-        if matrices.iter().flatten().all(|m| m.nnz() == 0) {
-            return Err(InferError::NoLensPixels { lens: name });
-        }
-        // The layer's current (projected) EM at this size: CG's start (where no pixel
-        // constrains a texel, few iterations move it, and the projection is a better guess there
-        // than zero) and the direct images' values.
-        let current = layers
-            .maps
-            .first()
-            .and_then(|maps| maps.get(layer))
-            .map(|current| resampled(current, size));
-        let direct = match (&current, options.direct_images) {
-            (Some(projected), true) => {
-                let records: Vec<&LensRecords> = seen.iter().map(|(v, _)| v.records).collect();
-                let at = crate::direct::DirectLayer {
-                    trace: &hybrid.trace,
-                    lens,
-                    origin: layers.em_origin,
-                    shells: &layers.shells,
-                    layer,
-                };
-                Some(crate::direct::direct_equations(
-                    &at, &layout, projected, &records,
-                ))
-            }
-            _ => None,
-        };
-        let mut equations: Vec<Equations<'_>> = matrices
-            .iter()
-            .zip(&targets)
-            .flat_map(|(matrices, targets)| {
-                matrices.iter().zip(targets).map(move |(m, t)| Equations {
-                    a: &m.a,
-                    b: &t.layers[layer],
-                    confidence: &t.confidence,
-                })
-            })
-            .collect();
-        if let Some(direct) = &direct {
-            equations.push(Equations {
-                a: &direct.a,
-                b: &direct.b,
-                confidence: &direct.confidence,
-            });
-        }
-        let start = current
-            .as_ref()
-            .map(|current| layout.from_cube(current))
-            .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
-        observe(InferStep::Solve { layer, layers: n });
-        let (x, solve_report) = solve(&equations, &layout, &smoothness, &start, &options.solve)?;
-        maps.push(layout.to_cube(&x));
-        reports.push(LayerReport {
-            layer,
-            renders: matrices.iter().flatten().map(|m| m.renders).sum(),
-            direct_rows: direct.as_ref().map_or(0, |d| d.b.len()),
-            nonzeros: matrices
-                .iter()
-                .flatten()
-                .map(RenderingMatrix::nnz)
-                .collect(),
-            matrix_ms,
-            targets_ms,
-            solve: solve_report,
-        });
-    }
-    Ok(Inference {
-        maps,
-        size,
-        finest_level_at_cap,
-        search_renders,
-        layers: reports,
+    Ok(Prepared {
+        lens,
+        name,
+        seen,
+        targets,
         frame_ms,
-        total_ms: start.elapsed().as_secs_f64() * 1e3,
+        targets_ms,
     })
+}
+
+/// What [`solve_layers`] inferred for one lens object.
+pub struct SolvedLens {
+    /// Per layer, the inferred map; `None` for a layer no pixel of any view reads (no equation
+    /// to fit).
+    pub maps: Vec<Option<CubeMap>>,
+    /// Per layer, nearest first. A shared layer's solve is timed at the member that solved it
+    /// (the others report its iterations and residual with 0 ms).
+    pub layers: Vec<LayerReport>,
+}
+
+/// Infers the layered EMs of every lens object of `prepared` (`None`: not inferred) at face size
+/// `size`, one solve per layer on that lens object's equations (all its views, both terms), except
+/// each layer of `shared` — a group of (lens, layer) with one shell and one EM origin, the
+/// hybrid-rendering paper's "more equations … simultaneously solving for a single EM" — which is
+/// solved once on the equations of every member and given to all of them. Returns per lens
+/// object what was inferred (`None` where `prepared` had none). `observe` hears each step with
+/// its lens object.
+pub fn solve_layers(
+    renderer: &mut DeviceRenderer<'_>,
+    hybrid: &HybridScene,
+    prepared: Vec<Option<Prepared<'_>>>,
+    shared: &[Vec<(usize, usize)>],
+    size: u32,
+    options: &InferOptions,
+    observe: &mut dyn FnMut(usize, InferStep),
+) -> Result<Vec<Option<SolvedLens>>, InferError> {
+    if !size.is_power_of_two() {
+        return Err(InferError::BadOption(format!(
+            "EM size {size} is not a power of two; give e.g. 128"
+        )));
+    }
+    let layout = TexelLayout::new(size);
+    let smoothness = Smoothness::new(&layout);
+    let group_of = |lens: usize, layer: usize| -> Vec<(usize, usize)> {
+        shared
+            .iter()
+            .find(|group| group.contains(&(lens, layer)))
+            .cloned()
+            .unwrap_or_else(|| vec![(lens, layer)])
+    };
+    let mut out: Vec<Option<SolvedLens>> = prepared
+        .iter()
+        .enumerate()
+        .map(|(lens, p)| {
+            p.as_ref().map(|_| {
+                let n = hybrid.lenses[lens].shells.len();
+                SolvedLens {
+                    maps: vec![None; n],
+                    layers: Vec::with_capacity(n),
+                }
+            })
+        })
+        .collect();
+    let mut encoding = DigitEncoding::Integers;
+    for (lens, lens_prepared) in prepared.iter().enumerate() {
+        if lens_prepared.is_none() {
+            continue;
+        }
+        let n = hybrid.lenses[lens].shells.len();
+        for layer in 0..n {
+            let group = group_of(lens, layer);
+            // A shared layer is solved at its first inferred member.
+            let first = group
+                .iter()
+                .copied()
+                .find(|&(l, _)| prepared.get(l).is_some_and(Option::is_some));
+            if first != Some((lens, layer)) {
+                continue;
+            }
+            observe(lens, InferStep::Matrices { layer, layers: n });
+            let matrix_start = Instant::now();
+            // Per inferred member: matrices[view][term].
+            let mut members = Vec::new();
+            for &(member_lens, member_layer) in &group {
+                let Some(Some(p)) = prepared.get(member_lens) else {
+                    continue;
+                };
+                let mut matrices: Vec<Vec<RenderingMatrix>> = Vec::new();
+                for (view, frames) in &p.seen {
+                    let k = view.camera.supersampling.max(1);
+                    matrices.push(
+                        frames
+                            .terms()
+                            .iter()
+                            .map(|&term| {
+                                // A device that needed power-of-two digits once keeps them.
+                                let matrix = RenderingMatrix::measure_from(
+                                    renderer,
+                                    &mut frames.layer(term, member_layer)?,
+                                    size,
+                                    k,
+                                    encoding,
+                                )?;
+                                encoding = matrix.encoding;
+                                Ok::<_, InferError>(matrix)
+                            })
+                            .collect::<Result<_, _>>()?,
+                    );
+                }
+                members.push((p, member_layer, matrices));
+            }
+            let matrix_ms = matrix_start.elapsed().as_secs_f64() * 1e3;
+            let seen = members
+                .iter()
+                .any(|(_, _, m)| m.iter().flatten().any(|m| m.nnz() > 0));
+            let mut solve_report = SolveReport::default();
+            let mut map = None;
+            let mut direct_rows = 0;
+            if seen {
+                // The layer's current (projected) EM at this size: CG's start (where no pixel
+                // constrains a texel, few iterations move it, and the projection is a better
+                // guess there than zero) and the direct images' values.
+                let layers = &hybrid.lenses[lens];
+                let current = layers
+                    .maps
+                    .first()
+                    .and_then(|maps| maps.get(layer))
+                    .map(|current| resampled(current, size));
+                // Direct images from the map's own origin, the first member's view of it.
+                let direct = match (&current, options.direct_images) {
+                    (Some(projected), true) => {
+                        let (p, _, _) = &members[0];
+                        let records: Vec<&LensRecords> =
+                            p.seen.iter().map(|(v, _)| v.records).collect();
+                        let at = crate::direct::DirectLayer {
+                            trace: &hybrid.trace,
+                            lens,
+                            origin: layers.em_origins[layer],
+                            shells: &layers.shells,
+                            layer,
+                        };
+                        Some(crate::direct::direct_equations(
+                            &at, &layout, projected, &records,
+                        ))
+                    }
+                    _ => None,
+                };
+                let mut equations: Vec<Equations<'_>> = members
+                    .iter()
+                    .flat_map(|(p, member_layer, matrices)| {
+                        matrices
+                            .iter()
+                            .zip(&p.targets)
+                            .flat_map(move |(matrices, targets)| {
+                                matrices.iter().zip(targets).map(move |(m, t)| Equations {
+                                    a: &m.a,
+                                    b: &t.layers[*member_layer],
+                                    confidence: &t.confidence,
+                                })
+                            })
+                    })
+                    .collect();
+                if let Some(direct) = &direct {
+                    equations.push(Equations {
+                        a: &direct.a,
+                        b: &direct.b,
+                        confidence: &direct.confidence,
+                    });
+                    direct_rows = direct.b.len();
+                }
+                let start = current
+                    .as_ref()
+                    .map(|current| layout.from_cube(current))
+                    .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
+                observe(lens, InferStep::Solve { layer, layers: n });
+                let (x, report) =
+                    solve(&equations, &layout, &smoothness, &start, &options.solve)?;
+                solve_report = report;
+                map = Some(layout.to_cube(&x));
+            }
+            for (p, member_layer, matrices) in &members {
+                let Some(Some(solved)) = out.get_mut(p.lens) else {
+                    unreachable!("every member with matrices was prepared")
+                };
+                solved.maps[*member_layer] = map.clone();
+                let solver = p.lens == lens;
+                solved.layers.push(LayerReport {
+                    layer: *member_layer,
+                    renders: matrices.iter().flatten().map(|m| m.renders).sum(),
+                    direct_rows: if solver { direct_rows } else { 0 },
+                    nonzeros: matrices
+                        .iter()
+                        .flatten()
+                        .map(RenderingMatrix::nnz)
+                        .collect(),
+                    matrix_ms: if solver { matrix_ms } else { 0.0 },
+                    targets_ms: p.targets_ms,
+                    solve: SolveReport {
+                        ms: if solver { solve_report.ms } else { 0.0 },
+                        ..solve_report.clone()
+                    },
+                });
+            }
+        }
+    }
+    for solved in out.iter_mut().flatten() {
+        solved.layers.sort_by_key(|l| l.layer);
+    }
+    Ok(out)
 }
 
 /// `cube` at face size `size`: itself when the sizes agree, else level 0 sampled bilinearly at

@@ -51,6 +51,10 @@ pub struct PlacedLayer {
     pub objects: Vec<String>,
     /// Hits (front-most per ray) the fit used.
     pub hits: usize,
+    /// Those hits, world space, metres (what a shell shared with another lens object is fitted
+    /// to, with theirs).
+    #[serde(skip)]
+    pub points: Vec<DVec3>,
 }
 
 /// The layers of one lens object, nearest first.
@@ -168,6 +172,7 @@ pub fn place_layers(
                 candidates,
                 objects,
                 hits: points.len(),
+                points: points.iter().map(|p| *p + origin).collect(),
             }
         })
         .collect();
@@ -198,7 +203,7 @@ pub fn fit_error(shell: &LayerShell, origin: DVec3, points: &[DVec3]) -> f64 {
 }
 
 /// The best-fitting shell for `points` (relative to `origin`), its RMS and every candidate's.
-fn fit_shell(origin: DVec3, points: &[DVec3]) -> (LayerShell, f64, Vec<(&'static str, f64)>) {
+pub fn fit_shell(origin: DVec3, points: &[DVec3]) -> (LayerShell, f64, Vec<(&'static str, f64)>) {
     let n = points.len().max(1) as f64;
     let mean = |f: &dyn Fn(&DVec3) -> f64| points.iter().map(f).sum::<f64>() / n;
     let radius = mean(&|p| p.length()).max(1e-3);

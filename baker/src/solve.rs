@@ -91,7 +91,7 @@ pub enum SolveError {
 }
 
 /// What a solve did.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct SolveReport {
     /// CG iterations run.
     pub iterations: usize,

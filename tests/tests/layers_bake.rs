@@ -6,6 +6,7 @@
 mod layers_bake {
     use std::fs;
     use std::path::{Path, PathBuf};
+    use std::sync::Arc;
 
     use glam::{DVec2, DVec3, Vec3};
     use lensmap::cubemap::CubeMap;
@@ -102,9 +103,14 @@ mod layers_bake {
         ];
         let mut lens = |name: &str, em_origin: DVec3, shells: Vec<LayerShell>| BakedLens {
             name: name.to_owned(),
-            em_origin,
+            em_origins: vec![em_origin; shells.len()],
             maps: (0..viewpoints.len())
-                .map(|_| shells.iter().map(|_| random_cube(&mut rng, size)).collect())
+                .map(|_| {
+                    shells
+                        .iter()
+                        .map(|_| Arc::new(random_cube(&mut rng, size)))
+                        .collect()
+                })
                 .collect(),
             shells,
         };
@@ -143,8 +149,8 @@ mod layers_bake {
         assert_eq!(read.viewpoints, written.viewpoints);
         for (r, w) in read.lenses.iter().zip(&written.lenses) {
             assert_eq!(
-                (&r.name, r.em_origin, &r.shells),
-                (&w.name, w.em_origin, &w.shells)
+                (&r.name, &r.em_origins, &r.shells),
+                (&w.name, &w.em_origins, &w.shells)
             );
         }
         assert!(read == written, "bakes differ");
@@ -270,7 +276,7 @@ mod layers_bake {
         // The very last map is bad, so the write fails after most files are on disk.
         let mut broken = sample_bake(7, 4);
         let last = broken.lenses.last_mut().unwrap().maps.last_mut().unwrap();
-        last.last_mut().unwrap().levels[1][5][3][2] = f32::NAN;
+        Arc::make_mut(last.last_mut().unwrap()).levels[1][5][3][2] = f32::NAN;
         let error = broken.write(&dir).expect_err("NaN must be refused");
         let message = error.to_string();
         assert!(matches!(error, BakeError::NonFinite { .. }), "{message}");
@@ -295,7 +301,7 @@ mod layers_bake {
         assert!(matches!(error, BakeError::InterruptedSwap { .. }));
         // A write whose data is bad still restores the old bake first.
         let mut broken = sample_bake(9, 2);
-        broken.lenses[0].maps[0][0].levels[0][0][0][3] = 2.0;
+        Arc::make_mut(&mut broken.lenses[0].maps[0][0]).levels[0][0][0][3] = 2.0;
         assert!(matches!(
             broken.write(&dir),
             Err(BakeError::AlphaOutOfRange { .. })
@@ -350,7 +356,7 @@ mod layers_bake {
             "{error}"
         );
         let mut bake = sample_bake(12, 2);
-        bake.lenses[2].maps[0][0] = CubeMap::uniform(4, [0.0; 4]);
+        bake.lenses[2].maps[0][0] = Arc::new(CubeMap::uniform(4, [0.0; 4]));
         let error = bake.write(&dir).unwrap_err();
         assert!(matches!(error, BakeError::WrongSize { .. }), "{error}");
         assert!(!dir.exists());
@@ -429,7 +435,7 @@ mod layers_bake {
             .iter_mut()
             .flat_map(|l| l.maps.iter_mut().flatten())
         {
-            *cube = CubeMap::uniform(6, [0.0; 4]);
+            *cube = Arc::new(CubeMap::uniform(6, [0.0; 4]));
         }
         let error = bake.write(&fresh("npot-write")).unwrap_err();
         assert!(

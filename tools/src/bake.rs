@@ -65,6 +65,10 @@ pub struct BakeArgs {
     /// The solver stops at this relative residual of the normal equations.
     #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true)]
     tolerance: f64,
+    /// Share the farthest layer between lens objects that see the same scene objects there:
+    /// one map on one shell, solved on every sharing lens object's equations.
+    #[arg(long, value_enum, default_value = "on")]
+    share_layers: OnOff,
     /// Direct images from the EM origin for the texels no lens view constrains.
     #[arg(long, value_enum, default_value = "off")]
     direct_images: OnOff,
@@ -320,6 +324,7 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
         em_size,
         layers,
         multi_view: args.multi_view,
+        share_layers: matches!(args.share_layers, OnOff::On),
         infer: InferOptions {
             hybrid: HybridOptions::with_t(args.t),
             theta_c: args.confidence_degrees.to_radians(),

@@ -35,8 +35,10 @@ use crate::{
 /// A lens object's layered EMs.
 #[derive(Clone, Debug)]
 pub struct LensLayers {
-    /// EM origin (the lens object's centroid), metres.
-    pub em_origin: DVec3,
+    /// Per layer, the EM origin its cube-map directions are taken from (shell hit − origin),
+    /// metres: the lens object's centroid, or for a layer shared with other lens objects the
+    /// shared map's origin (that of the lens object that owns it).
+    pub em_origins: Vec<DVec3>,
     /// Shells, nearest first.
     pub shells: Vec<LayerShell>,
     /// `maps[viewpoint sample][layer]`, one entry per sample of [`HybridScene::viewpoints`];
@@ -98,8 +100,8 @@ struct FrameKey {
     camera: Camera,
     options: HybridOptions,
     vertex_exact: bool,
-    /// Per lens object: EM origin, shells and the identity of every map (`Arc` address).
-    layers: Vec<(DVec3, Vec<LayerShell>, Vec<Vec<usize>>)>,
+    /// Per lens object: EM origins, shells and the identity of every map (`Arc` address).
+    layers: Vec<(Vec<DVec3>, Vec<LayerShell>, Vec<Vec<usize>>)>,
     /// The rest of the scene a frame draws: the environment meshes (`Arc` addresses), the sky
     /// dome (its identity), the viewpoint samples and which lens faces are drawn. Callers may
     /// change these public fields; a changed one is another frame.
@@ -129,7 +131,7 @@ impl FrameKey {
                         .iter()
                         .map(|v| v.iter().map(|m| Arc::as_ptr(m) as usize).collect())
                         .collect();
-                    (l.em_origin, l.shells.clone(), maps)
+                    (l.em_origins.clone(), l.shells.clone(), maps)
                 })
                 .collect(),
             environment: scene
@@ -354,7 +356,7 @@ impl HybridScene {
                 let (maps, cast) = project_layers(&trace, lens, origin, &shells, options);
                 rays += cast;
                 LensLayers {
-                    em_origin: origin,
+                    em_origins: vec![origin; shells.len()],
                     shells,
                     maps: vec![maps.into_iter().map(Arc::new).collect()],
                 }
@@ -424,13 +426,9 @@ impl HybridScene {
                 )));
             };
             lenses.push(LensLayers {
-                em_origin: found.em_origin,
+                em_origins: found.em_origins,
                 shells: found.shells,
-                maps: found
-                    .maps
-                    .into_iter()
-                    .map(|v| v.into_iter().map(Arc::new).collect())
-                    .collect(),
+                maps: found.maps,
             });
         }
         let viewpoints = bake.viewpoints.iter().map(|p| p.as_dvec3()).collect();
@@ -468,7 +466,7 @@ impl HybridScene {
             .iter()
             .map(|l| {
                 (
-                    l.em_origin,
+                    &l.em_origins,
                     &l.shells,
                     l.maps.first().and_then(|m| m.first()).map(|c| c.size),
                 )
@@ -502,13 +500,9 @@ impl HybridScene {
                 .zip(&self.trace.lenses)
                 .map(|(layers, lens)| crate::layers::BakedLens {
                     name: lens.name.clone(),
-                    em_origin: layers.em_origin,
+                    em_origins: layers.em_origins.clone(),
                     shells: layers.shells.clone(),
-                    maps: layers
-                        .maps
-                        .iter()
-                        .map(|v| v.iter().map(|m| CubeMap::clone(m)).collect())
-                        .collect(),
+                    maps: layers.maps.clone(),
                 })
                 .collect(),
             provenance: Some(provenance),
@@ -969,8 +963,9 @@ fn texgen(
         terms.push(Term::Refraction);
     }
     terms.push(Term::Reflection);
-    let fallback_direction =
-        |position: Vec3| (position.as_dvec3() - layers.em_origin).normalize_or(DVec3::Z);
+    let fallback_direction = |position: Vec3, em_origin: DVec3| {
+        (position.as_dvec3() - em_origin).normalize_or(DVec3::Z)
+    };
     let term_vertices = terms
         .iter()
         .map(|&term| {
@@ -991,7 +986,8 @@ fn texgen(
             let directions = layers
                 .shells
                 .iter()
-                .map(|shell| {
+                .zip(&layers.em_origins)
+                .map(|(shell, &em_origin)| {
                     (0..positions.len())
                         .into_par_iter()
                         .map(|v| match path(v) {
@@ -999,20 +995,20 @@ fn texgen(
                                 let (origin, direction) = (p.outgoing.origin, p.outgoing.direction);
                                 match precision {
                                     VertexPrecision::F64 => shell.texture_direction_for_ray(
-                                        layers.em_origin,
+                                        em_origin,
                                         origin,
                                         direction,
                                     ),
                                     VertexPrecision::F32 => shell
                                         .texture_direction_for_ray_in::<f32>(
-                                            layers.em_origin,
+                                            em_origin,
                                             origin,
                                             direction,
                                         ),
                                 }
                                 .as_vec3()
                             }
-                            None => fallback_direction(positions[v]).as_vec3(),
+                            None => fallback_direction(positions[v], em_origin).as_vec3(),
                         })
                         .collect()
                 })

@@ -32,7 +32,8 @@
 //! naming the file, the field (or EXR part and texel) and the fix. [`Bake::write`] applies the
 //! same checks before anything is written, so it never produces a bake that cannot be read.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+use std::sync::Arc;
 use std::fs::{self, File};
 use std::io::{BufReader, Cursor, Write};
 use std::path::{Component, Path, PathBuf};
@@ -99,7 +100,8 @@ pub struct Provenance {
 pub struct ManifestLens {
     /// The lens object's name in the scene.
     pub name: String,
-    /// The EM origin in world space, metres: cube-map directions are shell hit − this point.
+    /// The EM origin in world space, metres: cube-map directions are shell hit − this point, for
+    /// every layer that names no origin of its own.
     pub em_origin: DVec3,
     /// The layers, nearest shell first; at least one.
     pub layers: Vec<ManifestLayer>,
@@ -111,9 +113,25 @@ pub struct ManifestLens {
 pub struct ManifestLayer {
     /// The layer's shell (the same for every viewpoint sample).
     pub shell: LayerShell,
+    /// The layer's own EM origin, metres, where it differs from the lens object's: a distant
+    /// layer shared between lens objects is one map, parameterized about one origin.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub em_origin: Option<DVec3>,
     /// Per viewpoint sample, the cube-map file relative to the bake directory (plain relative
-    /// path, no `..`); as many as there are viewpoints.
+    /// path, no `..`); as many as there are viewpoints. A file may be listed by several lens
+    /// objects' layers (a shared layer) at the same viewpoint, when they have the same shell and
+    /// EM origin; it is stored and read once.
     pub maps: Vec<String>,
+}
+
+impl ManifestLens {
+    /// The EM origin of layer `layer`: its own, else the lens object's.
+    pub fn layer_origin(&self, layer: usize) -> DVec3 {
+        self.layers
+            .get(layer)
+            .and_then(|l| l.em_origin)
+            .unwrap_or(self.em_origin)
+    }
 }
 
 /// A bake in memory: the layered EMs of every lens object at every viewpoint sample.
@@ -136,13 +154,15 @@ pub struct Bake {
 pub struct BakedLens {
     /// The lens object's name in the scene (unique within the bake).
     pub name: String,
-    /// The EM origin in world space, metres.
-    pub em_origin: DVec3,
+    /// Per layer, the EM origin in world space, metres.
+    pub em_origins: Vec<DVec3>,
     /// The layer shells, nearest first.
     pub shells: Vec<LayerShell>,
     /// `maps[viewpoint][layer]`: premultiplied RGBA cube maps with full mip chains, all of the
-    /// bake's one size.
-    pub maps: Vec<Vec<CubeMap>>,
+    /// bake's one size. A layer whose maps are, at every viewpoint, the very maps (`Arc`
+    /// identity) of an earlier lens object's layer with the same shell and EM origin is shared:
+    /// written once and listed by both.
+    pub maps: Vec<Vec<Arc<CubeMap>>>,
 }
 
 /// Why a bake cannot be read or written. Every message is one line naming the file, the field
@@ -431,6 +451,17 @@ impl Bake {
                     fix: "give every lens object one list of maps per viewpoint sample",
                 });
             }
+            if lens.em_origins.len() != lens.shells.len() {
+                return Err(BakeError::InconsistentCount {
+                    path: dir.to_owned(),
+                    field: format!("lenses[{index}].em_origins"),
+                    found: lens.em_origins.len(),
+                    what: "origins",
+                    expected_from: format!("lenses[{index}].shells"),
+                    expected: lens.shells.len(),
+                    fix: "give every layer shell its EM origin",
+                });
+            }
             for (viewpoint, maps) in lens.maps.iter().enumerate() {
                 if maps.len() != lens.shells.len() {
                     return Err(BakeError::InconsistentCount {
@@ -445,32 +476,70 @@ impl Bake {
                 }
             }
         }
+        // A layer holding, at every viewpoint, the very maps of an earlier layer with the same
+        // shell and origin lists that layer's files.
+        let shared_with = |index: usize, layer: usize| -> Option<(usize, usize)> {
+            let lens = &self.lenses[index];
+            let same_maps = |other: &BakedLens, other_layer: usize| {
+                lens.maps
+                    .iter()
+                    .zip(&other.maps)
+                    .all(|(a, b)| Arc::ptr_eq(&a[layer], &b[other_layer]))
+            };
+            (0..=index).find_map(|earlier| {
+                let other = &self.lenses[earlier];
+                let layers = if earlier == index {
+                    layer
+                } else {
+                    other.shells.len()
+                };
+                (0..layers).find_map(|other_layer| {
+                    (other.shells[other_layer] == lens.shells[layer]
+                        && other.em_origins[other_layer] == lens.em_origins[layer]
+                        && same_maps(other, other_layer))
+                    .then_some((earlier, other_layer))
+                })
+            })
+        };
+        let lenses = self
+            .lenses
+            .iter()
+            .enumerate()
+            .map(|(index, lens)| {
+                let lens_origin = lens.em_origins.first().copied().unwrap_or(DVec3::ZERO);
+                ManifestLens {
+                    name: lens.name.clone(),
+                    em_origin: lens_origin,
+                    layers: lens
+                        .shells
+                        .iter()
+                        .zip(&lens.em_origins)
+                        .enumerate()
+                        .map(|(layer, (shell, &origin))| {
+                            let (owner, owner_layer) =
+                                shared_with(index, layer).unwrap_or((index, layer));
+                            let owner_name = &self.lenses[owner].name;
+                            ManifestLayer {
+                                shell: *shell,
+                                em_origin: (origin != lens_origin).then_some(origin),
+                                maps: (0..self.viewpoints.len())
+                                    .map(|viewpoint| {
+                                        map_file_name(owner, owner_name, viewpoint, owner_layer)
+                                    })
+                                    .collect(),
+                            }
+                        })
+                        .collect(),
+                }
+            })
+            .collect();
         let manifest = Manifest {
             format_version: FORMAT_VERSION,
             scene: self.scene.clone(),
             created_by: self.created_by.clone(),
             cube_map_size: self.cube_map_size().unwrap_or(0),
             viewpoints: self.viewpoints.clone(),
-            lenses: self
-                .lenses
-                .iter()
-                .enumerate()
-                .map(|(index, lens)| ManifestLens {
-                    name: lens.name.clone(),
-                    em_origin: lens.em_origin,
-                    layers: lens
-                        .shells
-                        .iter()
-                        .enumerate()
-                        .map(|(layer, shell)| ManifestLayer {
-                            shell: *shell,
-                            maps: (0..self.viewpoints.len())
-                                .map(|viewpoint| map_file_name(index, &lens.name, viewpoint, layer))
-                                .collect(),
-                        })
-                        .collect(),
-                })
-                .collect(),
+            lenses,
             provenance: self.provenance.clone(),
         };
         manifest.validate(dir)?;
@@ -513,12 +582,16 @@ impl Bake {
         final_dir: &Path,
         manifest: &Manifest,
     ) -> Result<(), BakeError> {
+        let mut written = HashSet::new();
         for (lens, listed) in self.lenses.iter().zip(&manifest.lenses) {
             for (viewpoint, maps) in lens.maps.iter().enumerate() {
                 for (cube, layer) in maps.iter().zip(&listed.layers) {
                     let file = &layer.maps[viewpoint];
-                    check_cube_map(cube, manifest.cube_map_size, &final_dir.join(file))?;
-                    write_cube_map_exr(cube, &staging.join(file))?;
+                    // A shared layer's file is written by the layer that owns it.
+                    if written.insert(file.as_str()) {
+                        check_cube_map(cube, manifest.cube_map_size, &final_dir.join(file))?;
+                        write_cube_map_exr(cube, &staging.join(file))?;
+                    }
                 }
             }
         }
@@ -531,13 +604,20 @@ impl Bake {
     pub fn read(dir: &Path) -> Result<Bake, BakeError> {
         let manifest = Manifest::read(dir)?;
         let size = manifest.cube_map_size;
+        // A file listed by several layers (a shared layer) is read once and shared.
+        let mut read: HashMap<&str, Arc<CubeMap>> = HashMap::new();
         let mut lenses = Vec::with_capacity(manifest.lenses.len());
         for (index, lens) in manifest.lenses.iter().enumerate() {
             let mut maps = Vec::with_capacity(manifest.viewpoints.len());
             for viewpoint in 0..manifest.viewpoints.len() {
                 let mut layers = Vec::with_capacity(lens.layers.len());
                 for (layer_index, layer) in lens.layers.iter().enumerate() {
-                    let path = dir.join(&layer.maps[viewpoint]);
+                    let file = layer.maps[viewpoint].as_str();
+                    if let Some(cube) = read.get(file) {
+                        layers.push(cube.clone());
+                        continue;
+                    }
+                    let path = dir.join(file);
                     if !path.is_file() {
                         return Err(BakeError::MissingMap {
                             path,
@@ -546,13 +626,17 @@ impl Bake {
                             ),
                         });
                     }
-                    layers.push(read_cube_map_exr(&path, size)?);
+                    let cube = Arc::new(read_cube_map_exr(&path, size)?);
+                    read.insert(file, cube.clone());
+                    layers.push(cube);
                 }
                 maps.push(layers);
             }
             lenses.push(BakedLens {
                 name: lens.name.clone(),
-                em_origin: lens.em_origin,
+                em_origins: (0..lens.layers.len())
+                    .map(|layer| lens.layer_origin(layer))
+                    .collect(),
                 shells: lens.layers.iter().map(|layer| layer.shell).collect(),
                 maps,
             });
@@ -829,6 +913,9 @@ impl Manifest {
             }
         }
         let mut names = HashSet::new();
+        // Every file listed so far: (viewpoint, shell, EM origin) and the field that listed it.
+        type Listed = (usize, LayerShell, DVec3);
+        let mut files: HashMap<&str, (Listed, String)> = HashMap::new();
         for (index, lens) in self.lenses.iter().enumerate() {
             if lens.name.is_empty() || !names.insert(lens.name.as_str()) {
                 return invalid(
@@ -858,6 +945,17 @@ impl Manifest {
             }
             for (layer_index, layer) in lens.layers.iter().enumerate() {
                 let field = format!("lenses[{index}].layers[{layer_index}]");
+                if let Some(origin) = layer.em_origin
+                    && (!origin.is_finite() || origin.abs().max_element() > MAX_EM_ORIGIN_METRES)
+                {
+                    return invalid(
+                        format!("{field}.em_origin"),
+                        format!(
+                            "is {origin} (not a finite point within {MAX_EM_ORIGIN_METRES:e} m of the origin)"
+                        ),
+                        "a layer's EM origin is a point in metres; bake the scene again",
+                    );
+                }
                 if let Err(error) = layer.shell.validate() {
                     return invalid(
                         format!("{field}.shell.{}", error.field),
@@ -877,6 +975,25 @@ impl Manifest {
                     });
                 }
                 for (viewpoint, file) in layer.maps.iter().enumerate() {
+                    // A file listed twice is a shared layer: one map, so one viewpoint, one
+                    // shell and one origin.
+                    let listed = (viewpoint, layer.shell, lens.layer_origin(layer_index));
+                    match files.get(file.as_str()) {
+                        None => {
+                            files.insert(file.as_str(), (listed, field.clone()));
+                        }
+                        Some((first, first_field)) if *first != listed => {
+                            return invalid(
+                                format!("{field}.maps[{viewpoint}]"),
+                                format!(
+                                    "'{file}' is also {first_field}.maps[{}], with another viewpoint, shell or EM origin",
+                                    first.0
+                                ),
+                                "a map file may be listed twice only by layers that share it (same viewpoint, shell and EM origin); bake the scene again",
+                            );
+                        }
+                        Some(_) => {}
+                    }
                     let inside = !file.is_empty()
                         && Path::new(file)
                             .components()

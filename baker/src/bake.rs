@@ -31,7 +31,7 @@
 //! resumed bake, a merged set of shards and a single-process bake give the same bytes.
 
 use std::{
-    collections::BTreeMap,
+    collections::{BTreeMap, BTreeSet},
     path::{Path, PathBuf},
     sync::Arc,
     time::Instant,
@@ -285,7 +285,7 @@ pub struct SharedLayer {
     /// `(lens, layer)` of every lens object holding it; the first owns the map (its file name
     /// and its EM origin, the first lens object's centroid).
     pub members: Vec<(usize, usize)>,
-    /// The scene objects in it.
+    /// The scene objects in it (those of every member's layer), sorted.
     pub objects: Vec<String>,
     /// Per member, the fit measure (RMS relative depth error) of the shared shell over the
     /// member's hits, seen from the shared EM origin.
@@ -367,13 +367,15 @@ impl PlannedLens {
 /// much RMS relative depth error.
 pub const SHARED_FIT_SLACK: f64 = 0.02;
 
-/// Shares the farthest layer between clustered lens objects whose farthest layers hold the same
-/// scene objects (the hybrid-rendering paper's shared distant layers): one shell fitted to every
-/// member's hits `far_hits[lens]` about the first member's EM origin, taken when it fits each
-/// member within [`SHARED_FIT_SLACK`] of the member's own shell. Rewrites the members' shells
-/// and fits.
+/// Shares the farthest layer between clustered lens objects that see the same distant scene
+/// objects there (the hybrid-rendering paper's shared distant layers): lens objects whose
+/// farthest layers' objects are one a subset of the other's (the lid of a teapot sees two of the
+/// walls its body sees) form a group; one shell is fitted to every member's hits
+/// `far_hits[lens]` about the first member's EM origin, and taken when it fits each member
+/// within [`SHARED_FIT_SLACK`] of the member's own shell. Rewrites the members' shells and fits.
 fn share_far_layers(lenses: &mut [PlannedLens], far_hits: &[Vec<DVec3>]) -> Vec<SharedLayer> {
-    let mut groups: Vec<Vec<usize>> = Vec::new();
+    // (members, the union of their far objects)
+    let mut groups: Vec<(Vec<usize>, BTreeSet<String>)> = Vec::new();
     for (lens, planned) in lenses.iter().enumerate() {
         let Some(objects) = planned.objects.last() else {
             continue;
@@ -381,16 +383,20 @@ fn share_far_layers(lenses: &mut [PlannedLens], far_hits: &[Vec<DVec3>]) -> Vec<
         if objects.is_empty() || far_hits[lens].is_empty() {
             continue;
         }
+        let objects: BTreeSet<String> = objects.iter().cloned().collect();
         match groups
             .iter_mut()
-            .find(|g| lenses[g[0]].objects.last() == Some(objects))
+            .find(|(_, union)| objects.is_subset(union) || union.is_subset(&objects))
         {
-            Some(group) => group.push(lens),
-            None => groups.push(vec![lens]),
+            Some((members, union)) => {
+                members.push(lens);
+                union.extend(objects);
+            }
+            None => groups.push((vec![lens], objects)),
         }
     }
     let mut shared = Vec::new();
-    for group in groups.into_iter().filter(|g| g.len() >= 2) {
+    for (group, objects) in groups.into_iter().filter(|(g, _)| g.len() >= 2) {
         let origin = lenses[group[0]].em_origin;
         let relative =
             |lens: usize| -> Vec<DVec3> { far_hits[lens].iter().map(|p| *p - origin).collect() };
@@ -420,7 +426,7 @@ fn share_far_layers(lenses: &mut [PlannedLens], far_hits: &[Vec<DVec3>]) -> Vec<
             lenses[lens].fit_rms[layer] = rms;
         }
         shared.push(SharedLayer {
-            objects: lenses[group[0]].objects.last().cloned().unwrap_or_default(),
+            objects: objects.into_iter().collect(),
             members,
             fit_rms,
             separate_fit_rms,
@@ -1035,7 +1041,12 @@ pub fn bake_sample(
     let stages: Vec<(String, String)> = plan
         .lenses
         .iter()
-        .map(|l| (format!("matrices \"{}\"", l.name), format!("solve \"{}\"", l.name)))
+        .map(|l| {
+            (
+                format!("matrices \"{}\"", l.name),
+                format!("solve \"{}\"", l.name),
+            )
+        })
         .collect();
     let solved = {
         let mut renderer = DeviceRenderer::new(runner, infer.variant);
@@ -1594,6 +1605,118 @@ mod tests {
         let all: Vec<usize> = (0..7).collect();
         let shards: Vec<Vec<usize>> = (1..=3).map(|i| shard_samples(&all, (i, 3))).collect();
         assert_eq!(shards, vec![vec![0, 3, 6], vec![1, 4], vec![2, 5]]);
+    }
+
+    /// Points of a room (an axis-aligned box about the world origin, half extents 10, 4, 10)
+    /// seen from `origin` along a Fibonacci sphere of directions.
+    fn room_hits(origin: DVec3, half_extents: DVec3) -> Vec<DVec3> {
+        let room = LayerShell::Box {
+            centre: DVec3::ZERO,
+            half_extents,
+        };
+        let n = 800;
+        (0..n)
+            .filter_map(|i| {
+                let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let r = (1.0 - y * y).sqrt();
+                let a = i as f64 * 2.399_963_229_728_653;
+                let d = DVec3::new(r * a.cos(), y, r * a.sin());
+                room.intersect(origin, d).map(|hit| hit.point)
+            })
+            .collect()
+    }
+
+    /// A clustered lens object at `origin` whose farthest layer holds `objects` and `hits`.
+    fn planned(name: &str, origin: DVec3, objects: &[&str], hits: &[DVec3]) -> PlannedLens {
+        let relative: Vec<DVec3> = hits.iter().map(|p| *p - origin).collect();
+        let (shell, rms, _) = crate::placement::fit_shell(origin, &relative);
+        PlannedLens {
+            name: name.into(),
+            em_origin: origin,
+            shells: vec![
+                LayerShell::Sphere {
+                    centre: origin,
+                    radius: 0.5,
+                },
+                shell,
+            ],
+            source: "clustered".into(),
+            objects: vec![
+                vec!["near".into()],
+                objects.iter().map(|o| o.to_string()).collect(),
+            ],
+            fit_rms: vec![0.1, rms],
+            auto_psnr_db: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn lens_objects_seeing_the_same_far_objects_share_one_far_layer() {
+        let half = DVec3::new(10.0, 4.0, 10.0);
+        let walls = ["ceiling", "wall-left", "wall-right"];
+        let (a, b, c, d) = (
+            DVec3::new(0.0, 0.3, 0.0),
+            DVec3::new(1.3, 0.2, 0.5),
+            DVec3::new(-2.0, 0.5, 1.0),
+            DVec3::new(0.0, 0.8, 0.0),
+        );
+        let hits = [
+            room_hits(a, half),
+            room_hits(b, half),
+            room_hits(c, half),
+            room_hits(d, half),
+        ];
+        let mut lenses = vec![
+            planned("teapot", a, &walls, &hits[0]),
+            planned("cup", b, &walls, &hits[1]),
+            planned("vase", c, &["ceiling", "wall-back"], &hits[2]),
+            planned("lid", d, &["wall-left", "wall-right"], &hits[3]),
+        ];
+        let own_cup_shell = lenses[1].shells[1];
+        let shared = share_far_layers(&mut lenses, &hits);
+        // The teapot and the cup see the same walls, the lid two of them; the vase sees one that
+        // they do not (and they see walls it does not): neither set holds the other.
+        assert_eq!(shared.len(), 1, "{shared:?}");
+        assert_eq!(shared[0].members, vec![(0, 1), (1, 1), (3, 1)]);
+        assert_eq!(shared[0].objects, walls);
+        assert_eq!(lenses[0].shells[1], lenses[1].shells[1], "one shell");
+        assert_ne!(lenses[1].shells[1], own_cup_shell);
+        assert_ne!(
+            lenses[2].shells[1], lenses[0].shells[1],
+            "the vase keeps its own"
+        );
+        // Both about the teapot's centroid; each member's fit within the slack of its own.
+        for (shared_rms, own) in shared[0].fit_rms.iter().zip(&shared[0].separate_fit_rms) {
+            assert!(*shared_rms <= own + SHARED_FIT_SLACK, "{shared:?}");
+        }
+        assert_eq!(lenses[1].fit_rms[1], shared[0].fit_rms[1]);
+        let plan = Plan {
+            scene: "s".into(),
+            scene_hash: String::new(),
+            options_hash: String::new(),
+            em_size: 16,
+            lenses: lenses.clone(),
+            shared: shared.clone(),
+        };
+        assert_eq!(plan.map_owner(1, 1), (0, 1));
+        assert_eq!(plan.map_owner(1, 0), (1, 0));
+        assert_eq!(plan.layer_origins(1), vec![b, a]);
+        assert_eq!(plan.map_name(1, 1, 7), map_file_name(0, "teapot", 7, 1));
+        assert_eq!(plan.map_name(1, 0, 7), map_file_name(1, "cup", 7, 0));
+        // The same objects, but one member's hits lie where no shell about the owner's origin
+        // fits them (a sphere of 1 m about the cup, 1.4 m from the teapot): not shared.
+        let small: Vec<DVec3> = room_hits(b, half)
+            .iter()
+            .map(|p| b + (*p - b).normalize())
+            .collect();
+        let hits = [hits[0].clone(), small];
+        let mut lenses = vec![
+            planned("teapot", a, &walls, &hits[0]),
+            planned("cup", b, &walls, &hits[1]),
+        ];
+        let before = lenses.clone();
+        assert!(share_far_layers(&mut lenses, &hits).is_empty());
+        assert_eq!(lenses, before, "nothing rewritten");
     }
 
     #[test]

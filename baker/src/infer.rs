@@ -626,8 +626,7 @@ pub fn solve_layers(
                     .map(|current| layout.from_cube(current))
                     .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
                 observe(lens, InferStep::Solve { layer, layers: n });
-                let (x, report) =
-                    solve(&equations, &layout, &smoothness, &start, &options.solve)?;
+                let (x, report) = solve(&equations, &layout, &smoothness, &start, &options.solve)?;
                 solve_report = report;
                 map = Some(layout.to_cube(&x));
             }

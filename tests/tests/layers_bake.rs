@@ -217,6 +217,89 @@ mod layers_bake {
         assert_same_bake(&Bake::read(&dir).unwrap(), &tiny);
     }
 
+    /// `sample_bake` whose cup shares the teapot's farthest layer: same shell, the teapot's EM
+    /// origin, the very same maps.
+    fn shared_bake(seed: u64, size: u32) -> Bake {
+        let mut bake = sample_bake(seed, size);
+        let (teapot, cup) = (bake.lenses[0].clone(), &mut bake.lenses[1]);
+        cup.shells[1] = teapot.shells[2];
+        cup.em_origins[1] = teapot.em_origins[2];
+        for (cup_maps, teapot_maps) in cup.maps.iter_mut().zip(&teapot.maps) {
+            cup_maps[1] = teapot_maps[2].clone();
+        }
+        bake
+    }
+
+    #[test]
+    fn a_shared_layer_is_stored_once_and_read_as_one_map() {
+        let dir = fresh("shared");
+        let bake = shared_bake(31, 4);
+        bake.write(&dir).unwrap();
+        // 6 layers × 3 viewpoints, less the cup's shared layer's 3 files, plus the manifest.
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 6 * 3 - 3 + 1);
+        let manifest = Manifest::read(&dir).unwrap();
+        let (teapot, cup) = (&manifest.lenses[0], &manifest.lenses[1]);
+        assert_eq!(cup.layers[1].maps, teapot.layers[2].maps);
+        assert_eq!(cup.layers[1].em_origin, Some(teapot.em_origin));
+        assert_eq!(
+            cup.layers[0].em_origin, None,
+            "its own origin is the lens's"
+        );
+        assert_eq!(cup.layer_origin(1), teapot.em_origin);
+        let read = Bake::read(&dir).unwrap();
+        assert_same_bake(&read, &bake);
+        for v in 0..3 {
+            assert!(
+                Arc::ptr_eq(&read.lenses[1].maps[v][1], &read.lenses[0].maps[v][2]),
+                "viewpoint {v}: the shared file is read once, as one map"
+            );
+        }
+        // Equal texels alone do not share: a copy (another Arc) is written as its own file.
+        let mut copied = shared_bake(31, 4);
+        for maps in &mut copied.lenses[1].maps {
+            maps[1] = Arc::new(CubeMap::clone(&maps[1]));
+        }
+        let dir = fresh("shared-copy");
+        copied.write(&dir).unwrap();
+        assert_eq!(fs::read_dir(&dir).unwrap().count(), 6 * 3 + 1);
+    }
+
+    #[test]
+    fn a_file_listed_by_layers_that_do_not_share_it_is_refused() {
+        let dir = fresh("shared-mismatch");
+        shared_bake(32, 2).write(&dir).unwrap();
+        // The cup's layer moves its origin: it would read the teapot's map from elsewhere.
+        edit_manifest(&dir, |m| {
+            m.lenses[1].layers[1].em_origin = Some(DVec3::ZERO)
+        });
+        read_error(
+            &dir,
+            &[
+                "lenses[1].layers[1].maps[0]",
+                "lens0-teapot.v000.layer2.exr",
+                "lenses[0].layers[2].maps[0]",
+                "same viewpoint, shell and EM origin",
+            ],
+        );
+        // Another viewpoint's file.
+        let dir = fresh("shared-viewpoint");
+        sample_bake(33, 2).write(&dir).unwrap();
+        edit_manifest(&dir, |m| {
+            m.lenses[0].layers[0].maps[1] = m.lenses[0].layers[0].maps[0].clone()
+        });
+        read_error(&dir, &["lenses[0].layers[0].maps[1]", "another viewpoint"]);
+        // A layer origin that is not finite.
+        let dir = fresh("shared-origin");
+        shared_bake(34, 2).write(&dir).unwrap();
+        edit_manifest(&dir, |m| {
+            m.lenses[1].layers[1].em_origin = Some(DVec3::new(1e300, 0.0, 0.0))
+        });
+        read_error(
+            &dir,
+            &["lenses[1].layers[1].em_origin", "bake the scene again"],
+        );
+    }
+
     #[test]
     fn an_independent_exr_reader_sees_the_documented_layout() {
         // The `image` crate reads the first part of a file: it must be level 0 of +X, rows top to

@@ -267,3 +267,106 @@ fn bad_input_exits_2_with_one_line_naming_the_fix() {
     assert!(!out.exists(), "nothing written for bad input");
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// The names of the map files lens object `lens`'s layer `layer` lists, and its own EM origin.
+fn layer_maps(dir: &Path, lens: usize, layer: usize) -> (Vec<String>, serde_json::Value) {
+    let text = std::fs::read_to_string(dir.join("manifest.json")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let listed = &json["lenses"][lens]["layers"][layer];
+    let maps = listed["maps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m.as_str().unwrap().to_owned())
+        .collect();
+    (maps, listed["em_origin"].clone())
+}
+
+#[test]
+fn lens_objects_sharing_a_far_layer_store_it_once_through_shards_and_resume() {
+    // mirror-teapot's body and lid see the same room in their farthest layer.
+    let root = temp_dir("shared");
+    let whole = root.join("whole");
+    let output = bake("mirror-teapot", "0..2", &whole, &[]);
+    succeeded(&output);
+    let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let plan = &summary["summary"]["plan"];
+    let shared = plan["shared"]
+        .as_array()
+        .expect("the plan lists shared layers");
+    assert_eq!(shared.len(), 1, "{plan}");
+    let members: Vec<(usize, usize)> = shared[0]["members"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            (
+                m[0].as_u64().unwrap() as usize,
+                m[1].as_u64().unwrap() as usize,
+            )
+        })
+        .collect();
+    assert_eq!(members.len(), 2);
+    let [(owner, owner_layer), (member, member_layer)] = [members[0], members[1]];
+    let (owner_maps, owner_origin) = layer_maps(&whole, owner, owner_layer);
+    let (member_maps, member_origin) = layer_maps(&whole, member, member_layer);
+    assert_eq!(member_maps, owner_maps, "one file per sample for both");
+    assert!(
+        owner_origin.is_null(),
+        "the owner's layer uses its own origin"
+    );
+    assert_eq!(
+        member_origin, plan["lenses"][owner]["em_origin"],
+        "the member reads the map about the owner's origin"
+    );
+    // Every listed file exists once: (layers of both lens objects − 1 shared) × 2 samples.
+    let layers: usize = plan["lenses"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|l| l["shells"].as_array().unwrap().len())
+        .sum();
+    assert_eq!(
+        files(&whole).len(),
+        (layers - 1) * 2 + 1,
+        "and the manifest"
+    );
+
+    // Shards merged give the same bytes; the runtime renders the bake.
+    let (one, two, merged) = (root.join("s1"), root.join("s2"), root.join("merged"));
+    succeeded(&bake("mirror-teapot", "0..2", &one, &["--shard", "1/2"]));
+    succeeded(&bake("mirror-teapot", "0..2", &two, &["--shard", "2/2"]));
+    succeeded(&lensmap(&[
+        "bake",
+        "--merge",
+        one.to_str().unwrap(),
+        two.to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]));
+    same_bytes(&merged, &whole);
+    let frame = root.join("frame.png");
+    succeeded(&lensmap(&[
+        "render",
+        "--scene",
+        "mirror-teapot",
+        "--bake",
+        whole.to_str().unwrap(),
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--out",
+        frame.to_str().unwrap(),
+    ]));
+    // Resuming into a larger sample range keeps the shared files of the finished samples.
+    let before = files(&whole);
+    succeeded(&bake("mirror-teapot", "0..3", &whole, &["--resume"]));
+    assert_eq!(manifest_samples(&whole), vec![0, 1, 2]);
+    let after = files(&whole);
+    for (name, bytes) in before.iter().filter(|(n, _)| *n != "manifest.json") {
+        assert!(after.get(name) == Some(bytes), "{name} changed on resume");
+    }
+    assert_eq!(after.len(), (layers - 1) * 3 + 1);
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -963,9 +963,8 @@ fn texgen(
         terms.push(Term::Refraction);
     }
     terms.push(Term::Reflection);
-    let fallback_direction = |position: Vec3, em_origin: DVec3| {
-        (position.as_dvec3() - em_origin).normalize_or(DVec3::Z)
-    };
+    let fallback_direction =
+        |position: Vec3, em_origin: DVec3| (position.as_dvec3() - em_origin).normalize_or(DVec3::Z);
     let term_vertices = terms
         .iter()
         .map(|&term| {
@@ -994,16 +993,11 @@ fn texgen(
                             Some(p) => {
                                 let (origin, direction) = (p.outgoing.origin, p.outgoing.direction);
                                 match precision {
-                                    VertexPrecision::F64 => shell.texture_direction_for_ray(
-                                        em_origin,
-                                        origin,
-                                        direction,
-                                    ),
+                                    VertexPrecision::F64 => shell
+                                        .texture_direction_for_ray(em_origin, origin, direction),
                                     VertexPrecision::F32 => shell
                                         .texture_direction_for_ray_in::<f32>(
-                                            em_origin,
-                                            origin,
-                                            direction,
+                                            em_origin, origin, direction,
                                         ),
                                 }
                                 .as_vec3()

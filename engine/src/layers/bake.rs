@@ -33,10 +33,10 @@
 //! same checks before anything is written, so it never produces a bake that cannot be read.
 
 use std::collections::{HashMap, HashSet};
-use std::sync::Arc;
 use std::fs::{self, File};
 use std::io::{BufReader, Cursor, Write};
 use std::path::{Component, Path, PathBuf};
+use std::sync::Arc;
 
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};

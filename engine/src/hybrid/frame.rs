@@ -101,7 +101,7 @@ struct FrameKey {
     options: HybridOptions,
     vertex_exact: bool,
     /// Per lens object: EM origins, shells and the identity of every map (`Arc` address).
-    layers: Vec<(Vec<DVec3>, Vec<LayerShell>, Vec<Vec<usize>>)>,
+    layers: Vec<LayersKey>,
     /// The rest of the scene a frame draws: the environment meshes (`Arc` addresses), the sky
     /// dome (its identity), the viewpoint samples and which lens faces are drawn. Callers may
     /// change these public fields; a changed one is another frame.
@@ -110,6 +110,10 @@ struct FrameKey {
     viewpoints: Vec<DVec3>,
     faces: Vec<LensFaces>,
 }
+
+/// What identifies one lens object's layered EMs in a [`FrameKey`]: per layer its EM origin,
+/// the shells, and per viewpoint sample the address of every map.
+type LayersKey = (Vec<DVec3>, Vec<LayerShell>, Vec<Vec<usize>>);
 
 impl FrameKey {
     fn new(

@@ -775,7 +775,7 @@ pub fn make_plan(
         let origin = em_origin(scene, lens);
         (origin, lens_shells(&trace, scene, lens, origin))
     };
-    for lens in 0..lens_count {
+    for (lens, far) in far_hits.iter_mut().enumerate() {
         let name = trace.lenses[lens].name.clone();
         let origin = em_origin(scene, lens);
         let named = !scene.lenses[lens].layers.is_empty();
@@ -815,7 +815,7 @@ pub fn make_plan(
         };
         match count {
             Some(k) => {
-                far_hits[lens] = planned.adopt(&place(k)?);
+                *far = planned.adopt(&place(k)?);
             }
             None => {
                 // Grow while a layer helps this lens object's pixels at sample 0.
@@ -834,7 +834,7 @@ pub fn make_plan(
                     // Sample 0 does not see this lens object: nothing to judge a layer count
                     // by, so one layer (a PSNR over no pixel is an error, not a figure).
                     planned.source = "clustered (unseen at sample 0: one layer)".into();
-                    far_hits[lens] = planned.adopt(&place(1)?);
+                    *far = planned.adopt(&place(1)?);
                     lenses.push(planned);
                     continue;
                 }
@@ -877,7 +877,7 @@ pub fn make_plan(
                 let Some((_, placement)) = best else {
                     unreachable!("k = 1 always places a layer")
                 };
-                far_hits[lens] = planned.adopt(&placement);
+                *far = planned.adopt(&placement);
             }
         }
         lenses.push(planned);

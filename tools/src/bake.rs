@@ -66,8 +66,9 @@ pub struct BakeArgs {
     #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true)]
     tolerance: f64,
     /// Share the farthest layer between lens objects that see the same scene objects there:
-    /// one map on one shell, solved on every sharing lens object's equations.
-    #[arg(long, value_enum, default_value = "on")]
+    /// one map on one shell, solved on every sharing lens object's equations (fewer maps to
+    /// store; measured less accurate on teapot-room, so off by default).
+    #[arg(long, value_enum, default_value = "off")]
     share_layers: OnOff,
     /// Direct images from the EM origin for the texels no lens view constrains.
     #[arg(long, value_enum, default_value = "off")]

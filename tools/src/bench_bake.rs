@@ -14,15 +14,19 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{HybridOptions, HybridScene},
     layers::{Bake, projected::ProjectedOptions},
-    metrics::Encoding,
+    metrics::{self, Channels, Coverage, Encoding, Mask},
     render::{TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, camera_between, lens_error, load_hybrid_scene,
         non_lens_error,
     },
     scene::{Camera, Scene},
-    trace::{TraceOptions, render_reference},
+    trace::{
+        ReferenceImage, TraceCounters, TraceOptions, TraceScene, image::camera_ray,
+        render_reference, world::Part,
+    },
 };
+use rayon::prelude::*;
 use serde_json::json;
 
 use crate::common::{BadUsage, JudgeArgs, report};
@@ -52,6 +56,43 @@ pub struct BenchBakeArgs {
     /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
+}
+
+/// Per lens object (when the scene has more than one): its name and the pixels that are lens
+/// pixels of `reference` (covered entirely) whose centre ray meets that lens object first.
+fn lens_object_masks(
+    trace: &TraceScene,
+    camera: &Camera,
+    reference: &ReferenceImage,
+) -> Vec<(String, Mask)> {
+    if trace.lenses.len() < 2 {
+        return Vec::new();
+    }
+    let lens_pixels = Mask::from_coverage(&reference.lens_mask, Coverage::Full);
+    let first_lens: Vec<Option<usize>> = (0..camera.width * camera.height)
+        .into_par_iter()
+        .map(|i| {
+            if !lens_pixels.contains(i as usize) {
+                return None;
+            }
+            let (x, y) = (i % camera.width, i / camera.width);
+            let ray = camera_ray(camera, f64::from(x) + 0.5, f64::from(y) + 0.5);
+            let mut counters = TraceCounters::default();
+            match trace.closest_hit(&ray, None, None, &mut counters)?.part {
+                Part::Lens(lens) => Some(lens),
+                Part::Environment => None,
+            }
+        })
+        .collect();
+    trace
+        .lenses
+        .iter()
+        .enumerate()
+        .map(|(lens, object)| {
+            let flags = first_lens.iter().map(|&l| l == Some(lens)).collect();
+            (object.name.clone(), Mask::from_flags(flags))
+        })
+        .collect()
 }
 
 /// The three cameras, `base` moved: on sample A, halfway to A+1, 15° above A.
@@ -140,12 +181,32 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         )?;
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
+        let per_lens = lens_object_masks(&contenders[0].1.trace, &reference_camera, &reference);
         for (label, hybrid) in &contenders {
             let frame = runner.frame(hybrid, &camera, &options)?;
             let lens = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
             let other = non_lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
             line.push_str(&format!("  {label}: {lens:.2} | {other:.2}"));
-            cells.push(json!({"ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other}));
+            // Per lens object, where there is more than one (null where it covers no pixel).
+            let objects: Vec<_> = per_lens
+                .iter()
+                .map(|(object, mask)| {
+                    let psnr = metrics::compare(
+                        &frame.image.pixels,
+                        &reference.radiance,
+                        mask,
+                        Encoding::DisplaySrgb,
+                        Channels::Rgb,
+                    )
+                    .ok()
+                    .map(|e| e.psnr_db);
+                    json!({"lens": object, "lens_psnr_db": psnr})
+                })
+                .collect();
+            cells.push(json!({
+                "ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other,
+                "lens_objects": objects,
+            }));
         }
         // The error budget's tessellation share: the same tessellation with the exact radiance
         // at every vertex, interpolated (no EM, no shell, no filtering).

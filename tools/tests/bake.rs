@@ -284,10 +284,11 @@ fn layer_maps(dir: &Path, lens: usize, layer: usize) -> (Vec<String>, serde_json
 
 #[test]
 fn lens_objects_sharing_a_far_layer_store_it_once_through_shards_and_resume() {
-    // mirror-teapot's body and lid see the same room in their farthest layer.
+    // mirror-teapot at two layers each: the lid's farthest layer holds walls its body's holds.
     let root = temp_dir("shared");
     let whole = root.join("whole");
-    let output = bake("mirror-teapot", "0..2", &whole, &[]);
+    let share = ["--share-layers", "on"];
+    let output = bake("mirror-teapot", "0..2", &whole, &share);
     succeeded(&output);
     let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     let plan = &summary["summary"]["plan"];
@@ -334,8 +335,18 @@ fn lens_objects_sharing_a_far_layer_store_it_once_through_shards_and_resume() {
 
     // Shards merged give the same bytes; the runtime renders the bake.
     let (one, two, merged) = (root.join("s1"), root.join("s2"), root.join("merged"));
-    succeeded(&bake("mirror-teapot", "0..2", &one, &["--shard", "1/2"]));
-    succeeded(&bake("mirror-teapot", "0..2", &two, &["--shard", "2/2"]));
+    succeeded(&bake(
+        "mirror-teapot",
+        "0..2",
+        &one,
+        &["--shard", "1/2", "--share-layers", "on"],
+    ));
+    succeeded(&bake(
+        "mirror-teapot",
+        "0..2",
+        &two,
+        &["--shard", "2/2", "--share-layers", "on"],
+    ));
     succeeded(&lensmap(&[
         "bake",
         "--merge",
@@ -361,7 +372,12 @@ fn lens_objects_sharing_a_far_layer_store_it_once_through_shards_and_resume() {
     ]));
     // Resuming into a larger sample range keeps the shared files of the finished samples.
     let before = files(&whole);
-    succeeded(&bake("mirror-teapot", "0..3", &whole, &["--resume"]));
+    succeeded(&bake(
+        "mirror-teapot",
+        "0..3",
+        &whole,
+        &["--resume", "--share-layers", "on"],
+    ));
     assert_eq!(manifest_samples(&whole), vec![0, 1, 2]);
     let after = files(&whole);
     for (name, bytes) in before.iter().filter(|(n, _)| *n != "manifest.json") {

@@ -9,6 +9,11 @@
 //!   …
 //! ```
 //!
+//! **Shared layers.** A distant layer shared between lens objects is one map: the sharing lens
+//! objects' layers list the same files (one per viewpoint), with the same shell and the same EM
+//! origin (a layer's own `em_origin` where it differs from its lens object's). It is written and
+//! read once, and in memory both layers hold the same `Arc<CubeMap>`.
+//!
 //! **Cube-map files.** Each EXR is a multi-part OpenEXR file holding one part per (mip level,
 //! face): `6·(log2(size) + 1)` parts named `level{l}/{face}` (`face` one of `+X -X +Y -Y +Z -Z`,
 //! Vulkan's layer order), written level by level and face by face in that order. Part

@@ -336,17 +336,19 @@ pub fn infer_lens_views_observed(
     };
     let name = prepared.name.clone();
     let frame_ms = prepared.frame_ms;
-    let mut solved = solve_layers(
+    let mut one: Vec<Option<Prepared<'_>>> = (0..hybrid.lenses.len()).map(|_| None).collect();
+    one[lens] = Some(prepared);
+    let solved = solve_layers(
         &mut renderer,
         hybrid,
-        vec![Some(prepared)],
+        one,
         &[],
         size,
         options,
         &mut |_, step| observe(step),
     )?;
-    let Some(Some(solved)) = solved.pop() else {
-        unreachable!("one prepared lens object in, one out")
+    let Some(Some(solved)) = solved.into_iter().nth(lens) else {
+        unreachable!("lens {lens} was prepared, so it is solved")
     };
     // A layer no pixel reads: nothing of the lens object to fit (the one-lens API's contract).
     let Some(maps) = solved.maps.into_iter().collect::<Option<Vec<_>>>() else {
@@ -471,7 +473,8 @@ pub struct SolvedLens {
     pub layers: Vec<LayerReport>,
 }
 
-/// Infers the layered EMs of every lens object of `prepared` (`None`: not inferred) at face size
+/// Infers the layered EMs of every lens object of `prepared` (`prepared[lens]`, one entry per
+/// lens object of `hybrid`; `None`: not inferred) at face size
 /// `size`, one solve per layer on that lens object's equations (all its views, both terms), except
 /// each layer of `shared` — a group of (lens, layer) with one shell and one EM origin, the
 /// hybrid-rendering paper's "more equations … simultaneously solving for a single EM" — which is
@@ -490,6 +493,17 @@ pub fn solve_layers(
     if !size.is_power_of_two() {
         return Err(InferError::BadOption(format!(
             "EM size {size} is not a power of two; give e.g. 128"
+        )));
+    }
+    let misplaced = prepared
+        .iter()
+        .enumerate()
+        .any(|(i, p)| p.as_ref().is_some_and(|p| p.lens != i));
+    if prepared.len() != hybrid.lenses.len() || misplaced {
+        return Err(InferError::BadOption(format!(
+            "{} prepared lens objects for a scene of {}; give prepared[lens] for each lens object",
+            prepared.len(),
+            hybrid.lenses.len()
         )));
     }
     let layout = TexelLayout::new(size);

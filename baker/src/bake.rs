@@ -140,7 +140,7 @@ pub struct BakeOptions {
     pub multi_view: usize,
     /// Share the farthest layer between lens objects that see the same scene objects there
     /// (module docs): one map, solved on every sharing lens object's equations. Off by default:
-    /// on teapot-room it stores 4 maps per sample instead of 5 but costs the cup 1.0–2.1 dB
+    /// on teapot-room it stores 4 maps per sample instead of 5 but costs the cup 0.8–2.1 dB
     /// (README).
     pub share_layers: bool,
     /// Inference options (θc, solver, tessellation, compositor variant); its `em_size` is

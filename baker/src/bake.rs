@@ -334,6 +334,35 @@ impl Plan {
         map_file_name(owner, &self.lenses[owner].name, sample, owner_layer)
     }
 
+    /// Whether the plan holds together: every lens object has one fit and one object list per
+    /// shell (where clustered), and every shared layer names two or more distinct lens objects'
+    /// existing layers, all with one shell. A staged plan that does not (edited by hand) is not
+    /// resumed.
+    pub fn is_consistent(&self) -> bool {
+        let lenses_ok = self.lenses.iter().all(|l| {
+            !l.shells.is_empty()
+                && (l.objects.is_empty() || l.objects.len() == l.shells.len())
+                && (l.fit_rms.is_empty() || l.fit_rms.len() == l.shells.len())
+        });
+        let shared_ok = self.shared.iter().all(|s| {
+            let shell = |&(lens, layer): &(usize, usize)| {
+                self.lenses.get(lens).and_then(|l| l.shells.get(layer))
+            };
+            let distinct: BTreeSet<usize> = s.members.iter().map(|m| m.0).collect();
+            s.members.len() >= 2
+                && distinct.len() == s.members.len()
+                && shell(&s.members[0]).is_some()
+                && s.members.iter().all(|m| shell(m) == shell(&s.members[0]))
+        });
+        let mut owned = BTreeSet::new();
+        let disjoint = self
+            .shared
+            .iter()
+            .flat_map(|s| &s.members)
+            .all(|m| owned.insert(*m));
+        lenses_ok && shared_ok && disjoint
+    }
+
     /// The shared layers as groups of (lens, layer), for [`crate::infer::solve_layers`].
     pub fn shared_groups(&self) -> Vec<Vec<(usize, usize)>> {
         self.shared.iter().map(|s| s.members.clone()).collect()
@@ -384,15 +413,21 @@ impl PlannedLens {
 pub const SHARED_FIT_SLACK: f64 = 0.02;
 
 /// Shares the farthest layer between clustered lens objects that see the same distant scene
-/// objects there (the hybrid-rendering paper's shared distant layers): lens objects whose
-/// farthest layers' objects are one a subset of the other's (the lid of a teapot sees two of the
-/// walls its body sees) form a group; one shell is fitted to every member's hits
+/// objects there (the hybrid-rendering paper's shared distant layers): lens objects of two or
+/// more layers whose farthest layer's objects are a subset or a superset of the first such lens
+/// object's (the lid of a teapot sees two of the walls its body sees) form a group with it; one
+/// shell is fitted to every member's hits
 /// `far_hits[lens]` about the first member's EM origin, and taken when it fits each member
 /// within [`SHARED_FIT_SLACK`] of the member's own shell. Rewrites the members' shells and fits.
 fn share_far_layers(lenses: &mut [PlannedLens], far_hits: &[Vec<DVec3>]) -> Vec<SharedLayer> {
-    // (members, the union of their far objects)
-    let mut groups: Vec<(Vec<usize>, BTreeSet<String>)> = Vec::new();
+    // (members, the first member's far objects, the union of their far objects)
+    let mut groups: Vec<(Vec<usize>, BTreeSet<String>, BTreeSet<String>)> = Vec::new();
     for (lens, planned) in lenses.iter().enumerate() {
+        // A lens object with one layer has no distant layer of its own to share: its only
+        // layer holds what is near it too.
+        if planned.objects.len() < 2 || planned.shells.len() != planned.objects.len() {
+            continue;
+        }
         let Some(objects) = planned.objects.last() else {
             continue;
         };
@@ -402,17 +437,17 @@ fn share_far_layers(lenses: &mut [PlannedLens], far_hits: &[Vec<DVec3>]) -> Vec<
         let objects: BTreeSet<String> = objects.iter().cloned().collect();
         match groups
             .iter_mut()
-            .find(|(_, union)| objects.is_subset(union) || union.is_subset(&objects))
+            .find(|(_, owner, _)| objects.is_subset(owner) || owner.is_subset(&objects))
         {
-            Some((members, union)) => {
+            Some((members, _, union)) => {
                 members.push(lens);
                 union.extend(objects);
             }
-            None => groups.push((vec![lens], objects)),
+            None => groups.push((vec![lens], objects.clone(), objects)),
         }
     }
     let mut shared = Vec::new();
-    for (group, objects) in groups.into_iter().filter(|(g, _)| g.len() >= 2) {
+    for (group, _, objects) in groups.into_iter().filter(|(g, _, _)| g.len() >= 2) {
         let origin = lenses[group[0]].em_origin;
         let relative =
             |lens: usize| -> Vec<DVec3> { far_hits[lens].iter().map(|p| *p - origin).collect() };
@@ -1095,16 +1130,16 @@ pub fn bake_sample(
     let mut inferred: Vec<Vec<bool>> = Vec::new();
     let mut lenses = Vec::new();
     for (lens, (planned, solved)) in plan.lenses.iter().zip(solved).enumerate() {
-        // Unseen from this sample: the projected maps stand in (a layer no pixel reads keeps
-        // its projected map).
+        // Unseen from this sample, or a layer no pixel reads (nothing of the lens object to
+        // fit, as a one-lens inference says): the projected maps stand in.
         let projected = |layer: usize| CubeMap::clone(&hybrid.lenses[lens].maps[0][layer]);
-        let Some(solved) = solved else {
+        let Some(solved) = solved.filter(|s| s.maps.iter().all(Option::is_some)) else {
             maps.push((0..planned.shells.len()).map(projected).collect());
             inferred.push(vec![false; planned.shells.len()]);
             lenses.push(LensReport::unseen(planned));
             continue;
         };
-        inferred.push(solved.maps.iter().map(Option::is_some).collect());
+        inferred.push(vec![true; planned.shells.len()]);
         for layer in &solved.layers {
             seconds.matrices += layer.matrix_ms / 1e3;
             seconds.targets += layer.targets_ms / 1e3;
@@ -1126,14 +1161,7 @@ pub fn bake_sample(
                 .collect(),
             views: view_lists[lens].len(),
         });
-        maps.push(
-            solved
-                .maps
-                .into_iter()
-                .enumerate()
-                .map(|(layer, map)| map.unwrap_or_else(|| projected(layer)))
-                .collect(),
-        );
+        maps.push(solved.maps.into_iter().flatten().collect());
     }
     // A shared layer is one file: every member holds the inferred map, also a member whose lens
     // object this sample does not see.
@@ -1280,9 +1308,9 @@ pub fn bake(
             action: "read",
             source,
         })?;
-        serde_json::from_str::<Plan>(&text)
-            .ok()
-            .filter(|p| p.scene_hash == scene_hash && p.options_hash == options_hash)
+        serde_json::from_str::<Plan>(&text).ok().filter(|p| {
+            p.scene_hash == scene_hash && p.options_hash == options_hash && p.is_consistent()
+        })
     } else {
         None
     };
@@ -1719,6 +1747,27 @@ mod tests {
         assert_eq!(plan.layer_origins(1), vec![b, a]);
         assert_eq!(plan.map_name(1, 1, 7), map_file_name(0, "teapot", 7, 1));
         assert_eq!(plan.map_name(1, 0, 7), map_file_name(1, "cup", 7, 0));
+        assert!(plan.is_consistent());
+        // A hand-edited staged plan: one lens object twice, a layer that does not exist, one
+        // member, another shell: none is resumed.
+        for members in [
+            vec![(0, 1), (0, 1)],
+            vec![(0, 1), (1, 5)],
+            vec![(0, 1)],
+            vec![(0, 1), (1, 0)],
+        ] {
+            let mut edited = plan.clone();
+            edited.shared[0].members = members.clone();
+            assert!(!edited.is_consistent(), "{members:?}");
+        }
+        // A lens object of one layer: that layer holds what is near it too, so it is not shared.
+        let mut one_layer = lenses.clone();
+        for l in &mut one_layer {
+            l.shells.remove(0);
+            l.objects.remove(0);
+            l.fit_rms.remove(0);
+        }
+        assert!(share_far_layers(&mut one_layer, &hits).is_empty());
         // The same objects, but one member's hits lie where no shell about the owner's origin
         // fits them (a sphere of 1 m about the cup, 1.4 m from the teapot): not shared.
         let small: Vec<DVec3> = room_hits(b, half)

@@ -506,6 +506,21 @@ pub fn solve_layers(
             hybrid.lenses.len()
         )));
     }
+    for group in shared {
+        let layer_of = |&(lens, layer): &(usize, usize)| {
+            hybrid
+                .lenses
+                .get(lens)
+                .filter(|l| layer < l.shells.len() && layer < l.em_origins.len())
+                .map(|l| (l.shells[layer], l.em_origins[layer]))
+        };
+        let first = group.first().and_then(layer_of);
+        if first.is_none() || group.iter().any(|m| layer_of(m) != first) {
+            return Err(InferError::BadOption(format!(
+                "shared layer {group:?}: give (lens, layer) pairs of the scene with one shell and one EM origin"
+            )));
+        }
+    }
     let layout = TexelLayout::new(size);
     let smoothness = Smoothness::new(&layout);
     let group_of = |lens: usize, layer: usize| -> Vec<(usize, usize)> {
@@ -528,7 +543,9 @@ pub fn solve_layers(
             })
         })
         .collect();
-    let mut encoding = DigitEncoding::Integers;
+    // Per lens object: a device that needed power-of-two digits once keeps them for that lens
+    // object's remaining matrices.
+    let mut encodings = vec![DigitEncoding::Integers; prepared.len()];
     for (lens, lens_prepared) in prepared.iter().enumerate() {
         if lens_prepared.is_none() {
             continue;
@@ -560,15 +577,15 @@ pub fn solve_layers(
                             .terms()
                             .iter()
                             .map(|&term| {
-                                // A device that needed power-of-two digits once keeps them.
+                                let encoding = &mut encodings[member_lens];
                                 let matrix = RenderingMatrix::measure_from(
                                     renderer,
                                     &mut frames.layer(term, member_layer)?,
                                     size,
                                     k,
-                                    encoding,
+                                    *encoding,
                                 )?;
-                                encoding = matrix.encoding;
+                                *encoding = matrix.encoding;
                                 Ok::<_, InferError>(matrix)
                             })
                             .collect::<Result<_, _>>()?,
@@ -593,18 +610,23 @@ pub fn solve_layers(
                     .first()
                     .and_then(|maps| maps.get(layer))
                     .map(|current| resampled(current, size));
-                // Direct images from the map's own origin, the first member's view of it.
+                // Direct images from the map's own origin: the owner's (the group's first
+                // member's) view, with every member's records telling which texels the lens
+                // images already constrain.
                 let direct = match (&current, options.direct_images) {
                     (Some(projected), true) => {
-                        let (p, _, _) = &members[0];
-                        let records: Vec<&LensRecords> =
-                            p.seen.iter().map(|(v, _)| v.records).collect();
+                        let records: Vec<&LensRecords> = members
+                            .iter()
+                            .flat_map(|(p, _, _)| p.seen.iter().map(|(v, _)| v.records))
+                            .collect();
+                        let (owner, owner_layer) = group[0];
+                        let owner_layers = &hybrid.lenses[owner];
                         let at = crate::direct::DirectLayer {
                             trace: &hybrid.trace,
-                            lens,
-                            origin: layers.em_origins[layer],
-                            shells: &layers.shells,
-                            layer,
+                            lens: owner,
+                            origin: owner_layers.em_origins[owner_layer],
+                            shells: &owner_layers.shells,
+                            layer: owner_layer,
                         };
                         Some(crate::direct::direct_equations(
                             &at, &layout, projected, &records,

@@ -278,16 +278,28 @@ mod layers_bake {
                 "lenses[1].layers[1].maps[0]",
                 "lens0-teapot.v000.layer2.exr",
                 "lenses[0].layers[2].maps[0]",
-                "same viewpoint, shell and EM origin",
+                "same shell and EM origin",
             ],
         );
-        // Another viewpoint's file.
+        // One map for two viewpoints of one layer (the same shell and origin) is fine, read once;
+        // the same file for a layer with another shell is not.
         let dir = fresh("shared-viewpoint");
         sample_bake(33, 2).write(&dir).unwrap();
         edit_manifest(&dir, |m| {
             m.lenses[0].layers[0].maps[1] = m.lenses[0].layers[0].maps[0].clone()
         });
-        read_error(&dir, &["lenses[0].layers[0].maps[1]", "another viewpoint"]);
+        let read = Bake::read(&dir).unwrap();
+        assert!(Arc::ptr_eq(
+            &read.lenses[0].maps[0][0],
+            &read.lenses[0].maps[1][0]
+        ));
+        edit_manifest(&dir, |m| {
+            m.lenses[0].layers[1].maps[0] = m.lenses[0].layers[0].maps[0].clone()
+        });
+        read_error(
+            &dir,
+            &["lenses[0].layers[1].maps[0]", "lenses[0].layers[0].maps[0]"],
+        );
         // A layer origin that is not finite.
         let dir = fresh("shared-origin");
         shared_bake(34, 2).write(&dir).unwrap();

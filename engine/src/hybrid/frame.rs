@@ -429,6 +429,15 @@ impl HybridScene {
                     lens.name, scene.name
                 )));
             };
+            let layers = found.shells.len();
+            if found.em_origins.len() != layers || found.maps.iter().any(|v| v.len() != layers) {
+                return Err(HybridError::BakeMismatch(format!(
+                    "lens object \"{}\": {layers} shells but {} EM origins and {:?} maps per viewpoint; give one origin and one map per shell",
+                    lens.name,
+                    found.em_origins.len(),
+                    found.maps.iter().map(Vec::len).collect::<Vec<_>>()
+                )));
+            }
             lenses.push(LensLayers {
                 em_origins: found.em_origins,
                 shells: found.shells,

@@ -123,9 +123,9 @@ pub struct ManifestLayer {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub em_origin: Option<DVec3>,
     /// Per viewpoint sample, the cube-map file relative to the bake directory (plain relative
-    /// path, no `..`); as many as there are viewpoints. A file may be listed by several lens
-    /// objects' layers (a shared layer) at the same viewpoint, when they have the same shell and
-    /// EM origin; it is stored and read once.
+    /// path, no `..`); as many as there are viewpoints. A file may be listed more than once (a
+    /// layer shared between lens objects, or one map for several viewpoints) when every listing
+    /// has the same shell and EM origin; it is stored and read once.
     pub maps: Vec<String>,
 }
 
@@ -165,8 +165,8 @@ pub struct BakedLens {
     pub shells: Vec<LayerShell>,
     /// `maps[viewpoint][layer]`: premultiplied RGBA cube maps with full mip chains, all of the
     /// bake's one size. A layer whose maps are, at every viewpoint, the very maps (`Arc`
-    /// identity) of an earlier lens object's layer with the same shell and EM origin is shared:
-    /// written once and listed by both.
+    /// identity) of an earlier layer (of this or an earlier lens object) with the same shell and
+    /// EM origin is shared: written once and listed by both.
     pub maps: Vec<Vec<Arc<CubeMap>>>,
 }
 
@@ -610,19 +610,19 @@ impl Bake {
         let manifest = Manifest::read(dir)?;
         let size = manifest.cube_map_size;
         // A file listed by several layers (a shared layer) is read once and shared.
-        let mut read: HashMap<&str, Arc<CubeMap>> = HashMap::new();
+        let mut read: HashMap<PathBuf, Arc<CubeMap>> = HashMap::new();
         let mut lenses = Vec::with_capacity(manifest.lenses.len());
         for (index, lens) in manifest.lenses.iter().enumerate() {
             let mut maps = Vec::with_capacity(manifest.viewpoints.len());
             for viewpoint in 0..manifest.viewpoints.len() {
                 let mut layers = Vec::with_capacity(lens.layers.len());
                 for (layer_index, layer) in lens.layers.iter().enumerate() {
-                    let file = layer.maps[viewpoint].as_str();
-                    if let Some(cube) = read.get(file) {
+                    let file: PathBuf = Path::new(&layer.maps[viewpoint]).components().collect();
+                    if let Some(cube) = read.get(&file) {
                         layers.push(cube.clone());
                         continue;
                     }
-                    let path = dir.join(file);
+                    let path = dir.join(&file);
                     if !path.is_file() {
                         return Err(BakeError::MissingMap {
                             path,
@@ -918,9 +918,9 @@ impl Manifest {
             }
         }
         let mut names = HashSet::new();
-        // Every file listed so far: (viewpoint, shell, EM origin) and the field that listed it.
-        type Listed = (usize, LayerShell, DVec3);
-        let mut files: HashMap<&str, (Listed, String)> = HashMap::new();
+        // Every file listed so far (its path's components): (shell, EM origin) and the field
+        // that listed it.
+        let mut files: HashMap<PathBuf, ((LayerShell, DVec3), String)> = HashMap::new();
         for (index, lens) in self.lenses.iter().enumerate() {
             if lens.name.is_empty() || !names.insert(lens.name.as_str()) {
                 return invalid(
@@ -980,21 +980,21 @@ impl Manifest {
                     });
                 }
                 for (viewpoint, file) in layer.maps.iter().enumerate() {
-                    // A file listed twice is a shared layer: one map, so one viewpoint, one
-                    // shell and one origin.
-                    let listed = (viewpoint, layer.shell, lens.layer_origin(layer_index));
-                    match files.get(file.as_str()) {
+                    // A file listed twice is one map (a shared layer, or one map for several
+                    // viewpoints): one shell and one origin parameterize it.
+                    let listed = (layer.shell, lens.layer_origin(layer_index));
+                    let key: PathBuf = Path::new(file).components().collect();
+                    match files.get(&key) {
                         None => {
-                            files.insert(file.as_str(), (listed, field.clone()));
+                            files.insert(key, (listed, format!("{field}.maps[{viewpoint}]")));
                         }
                         Some((first, first_field)) if *first != listed => {
                             return invalid(
                                 format!("{field}.maps[{viewpoint}]"),
                                 format!(
-                                    "'{file}' is also {first_field}.maps[{}], with another viewpoint, shell or EM origin",
-                                    first.0
+                                    "'{file}' is also {first_field}, with another shell or EM origin"
                                 ),
-                                "a map file may be listed twice only by layers that share it (same viewpoint, shell and EM origin); bake the scene again",
+                                "a map file may be listed twice only by layers that share it (same shell and EM origin); bake the scene again",
                             );
                         }
                         Some(_) => {}

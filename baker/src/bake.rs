@@ -1658,16 +1658,7 @@ mod tests {
             centre: DVec3::ZERO,
             half_extents,
         };
-        let n = 800;
-        (0..n)
-            .filter_map(|i| {
-                let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-                let r = (1.0 - y * y).sqrt();
-                let a = i as f64 * 2.399_963_229_728_653;
-                let d = DVec3::new(r * a.cos(), y, r * a.sin());
-                room.intersect(origin, d).map(|hit| hit.point)
-            })
-            .collect()
+        crate::placement::shell_points(&room, origin, 800)
     }
 
     /// A clustered lens object at `origin` whose farthest layer holds `objects` and `hits`.

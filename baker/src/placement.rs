@@ -296,22 +296,26 @@ fn fit_box(points: &[DVec3], start: f64) -> DVec3 {
     half
 }
 
+/// Where `n` rays from `origin` along a Fibonacci sphere of directions meet `shell` (tests' hits).
+#[cfg(test)]
+pub(crate) fn shell_points(shell: &LayerShell, origin: DVec3, n: usize) -> Vec<DVec3> {
+    (0..n)
+        .filter_map(|i| {
+            let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - y * y).sqrt();
+            let a = i as f64 * 2.399_963_229_728_653;
+            let d = DVec3::new(r * a.cos(), y, r * a.sin());
+            shell.intersect(origin, d).map(|hit| hit.point)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn on_shell(shell: &LayerShell) -> Vec<DVec3> {
-        // A Fibonacci sphere of directions, projected onto the shell.
-        let n = 2000;
-        (0..n)
-            .filter_map(|i| {
-                let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-                let r = (1.0 - y * y).sqrt();
-                let a = i as f64 * 2.399_963_229_728_653;
-                let d = DVec3::new(r * a.cos(), y, r * a.sin());
-                shell.intersect(DVec3::ZERO, d).map(|hit| hit.point)
-            })
-            .collect()
+        shell_points(shell, DVec3::ZERO, 2000)
     }
 
     #[test]

@@ -36,6 +36,18 @@ fn bake(scene: &str, samples: &str, out: &Path, extra: &[&str]) -> Output {
     lensmap(&args)
 }
 
+/// `lensmap bake --merge A B --out OUT`.
+fn merge(a: &Path, b: &Path, out: &Path) -> Output {
+    lensmap(&[
+        "bake",
+        "--merge",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ])
+}
+
 fn succeeded(output: &Output) {
     assert!(
         output.status.success(),
@@ -113,14 +125,7 @@ fn shards_and_a_killed_resumed_bake_equal_one_uninterrupted_bake() {
     succeeded(&bake("glass-sphere", "0..3", &two, &["--shard", "2/2"]));
     assert_eq!(manifest_samples(&one), vec![0, 2]);
     assert_eq!(manifest_samples(&two), vec![1]);
-    succeeded(&lensmap(&[
-        "bake",
-        "--merge",
-        one.to_str().unwrap(),
-        two.to_str().unwrap(),
-        "--out",
-        merged.to_str().unwrap(),
-    ]));
+    succeeded(&merge(&one, &two, &merged));
     same_bytes(&merged, &whole);
 
     // A previous bake (sample 0), then a fresh bake of four samples killed after its first.
@@ -238,18 +243,8 @@ fn bad_input_exits_2_with_one_line_naming_the_fix() {
     let (glass, mirror) = (root.join("glass"), root.join("mirror"));
     succeeded(&bake("glass-sphere", "0", &glass, &[]));
     succeeded(&bake("mirror-teapot", "0", &mirror, &[]));
-    let merge = |a: &Path, b: &Path| {
-        lensmap(&[
-            "bake",
-            "--merge",
-            a.to_str().unwrap(),
-            b.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-    };
-    fails_with_2(&merge(&glass, &mirror), "the scenes differ");
-    fails_with_2(&merge(&glass, &glass), "both hold sample 0");
+    fails_with_2(&merge(&glass, &mirror, &out), "the scenes differ");
+    fails_with_2(&merge(&glass, &glass, &out), "both hold sample 0");
     let render = lensmap(&[
         "render",
         "--scene",
@@ -347,14 +342,7 @@ fn lens_objects_sharing_a_far_layer_store_it_once_through_shards_and_resume() {
         &two,
         &["--shard", "2/2", "--share-layers", "on"],
     ));
-    succeeded(&lensmap(&[
-        "bake",
-        "--merge",
-        one.to_str().unwrap(),
-        two.to_str().unwrap(),
-        "--out",
-        merged.to_str().unwrap(),
-    ]));
+    succeeded(&merge(&one, &two, &merged));
     same_bytes(&merged, &whole);
     let frame = root.join("frame.png");
     succeeded(&lensmap(&[

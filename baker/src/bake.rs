@@ -28,7 +28,10 @@
 //! **Multi-view.** Sample i's EMs are solved against K views spread uniformly over its share of
 //! the view space: rotations of the sample about the vertical through the look-at point by
 //! `s·((j + ½)/K − ½)`, j = 0…K−1, s the angle to the nearest other sample (so K = 1 is the
-//! sample alone, and odd K include it).
+//! sample alone, and odd K include it). With `--view-elevation-degrees E` > 0, one more view:
+//! the sample rotated up by E about the horizontal axis through the look-at point perpendicular to
+//! the direction to it, for cameras that leave the view space's circle (the view space then
+//! reaches E above it).
 //!
 //! **Staging, resume, shards.** Work goes into `Staging` (`.NAME.baking` beside the bake): the
 //! plan (`plan.json`), then per sample its cube maps and last its report `sample-NNN.json`,
@@ -138,6 +141,9 @@ pub struct BakeOptions {
     pub layers: LayerCount,
     /// K: views per sample.
     pub multi_view: usize,
+    /// When > 0, one more view per sample, raised this many degrees above it (module docs):
+    /// for cameras that leave the view space's circle. 0: none.
+    pub view_elevation_degrees: f64,
     /// Share the farthest layer between lens objects that see the same scene objects there
     /// (module docs): one map, solved on every sharing lens object's equations. Off by default:
     /// on teapot-room it stores 4 maps per sample instead of 5 but costs the cup 0.8–2.1 dB
@@ -162,6 +168,7 @@ impl Default for BakeOptions {
             },
             layers: LayerCount::Auto,
             multi_view: DEFAULT_MULTI_VIEW,
+            view_elevation_degrees: 0.0,
             share_layers: false,
             infer: InferOptions::default(),
             judge: true,
@@ -184,8 +191,13 @@ impl BakeOptions {
             (infer.hybrid, infer.variant, infer.theta_c, infer.solve),
             infer.direct_images,
         ));
-        if self.share_layers {
+        let hash = if self.share_layers {
             debug_hash(&(hash, "shared far layers"))
+        } else {
+            hash
+        };
+        if self.view_elevation_degrees > 0.0 {
+            debug_hash(&(hash, "raised view", self.view_elevation_degrees.to_bits()))
         } else {
             hash
         }
@@ -225,6 +237,12 @@ impl BakeOptions {
         if !(theta.is_finite() && theta > 0.0 && theta < 180.0) {
             return bad(format!(
                 "--confidence-degrees {theta}: give an angle in (0, 180), e.g. 30"
+            ));
+        }
+        let elevation = self.view_elevation_degrees;
+        if !(elevation.is_finite() && (0.0..90.0).contains(&elevation)) {
+            return bad(format!(
+                "--view-elevation-degrees {elevation}: give an angle in [0, 90), e.g. 15 (0: no raised view)"
             ));
         }
         if !(1..=9).contains(&self.multi_view) {
@@ -666,13 +684,30 @@ pub fn view_cameras(scene: &Scene, sample: usize, options: &BakeOptions) -> Vec<
         SINGLE_SAMPLE_SPREAD_DEGREES.to_radians()
     };
     let k = options.multi_view.max(1);
-    (0..k)
+    let mut cameras: Vec<Camera> = (0..k)
         .map(|j| {
             let offset = spacing * ((j as f64 + 0.5) / k as f64 - 0.5);
             let position = look_at + DQuat::from_rotation_y(offset) * own;
             sample_camera(scene, position.as_vec3(), options)
         })
-        .collect()
+        .collect();
+    let elevation = options.view_elevation_degrees.to_radians();
+    if elevation > 0.0 {
+        // Up about the horizontal axis perpendicular to the direction to the look-at point (a
+        // sample straight above or below it has none: then no raised view).
+        let axis = own.cross(DVec3::Y);
+        if axis.length() > 1e-9 * own.length() {
+            let axis = axis.normalize();
+            let raised = [-elevation, elevation]
+                .map(|angle| look_at + DQuat::from_axis_angle(axis, angle) * own)
+                .into_iter()
+                .find(|p| p.y > look_at.y + own.y);
+            if let Some(position) = raised {
+                cameras.push(sample_camera(scene, position.as_vec3(), options));
+            }
+        }
+    }
+    cameras
 }
 
 /// The reference's pixels that are all lens object `lens` (every supersample's first hit), from
@@ -1810,5 +1845,32 @@ mod tests {
         };
         let single = view_cameras(&scene, 5, &one);
         assert!(single[0].position.distance(samples[5]) < 1e-5);
+        // A raised view: the sample, 15° up about the horizontal axis, at the same distance.
+        let raised = BakeOptions {
+            view_elevation_degrees: 15.0,
+            ..options
+        };
+        let with_raised = view_cameras(&scene, 5, &raised);
+        assert_eq!(with_raised.len(), 4);
+        assert_eq!(with_raised[..3], cameras[..]);
+        let up = from(with_raised[3].position);
+        assert!((angle(up, own).to_degrees() - 15.0).abs() < 1e-4);
+        assert!((up.length() - own.length()).abs() < 1e-4);
+        assert!(with_raised[3].position.y > samples[5].y);
+        assert!(
+            angle(up - own, glam::DVec3::Y) < angle(own, glam::DVec3::Y),
+            "up, not sideways"
+        );
+        assert_ne!(raised.hash(), options.hash());
+        for bad in [-1.0, 90.0, f64::NAN] {
+            let e = BakeOptions {
+                view_elevation_degrees: bad,
+                ..options
+            }
+            .validate()
+            .unwrap_err()
+            .to_string();
+            assert!(e.starts_with("--view-elevation-degrees"), "{e}");
+        }
     }
 }

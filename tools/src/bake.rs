@@ -47,6 +47,10 @@ pub struct BakeArgs {
     /// Views per sample, spread over its share of the view space (1: the sample alone).
     #[arg(long, default_value_t = lensmap_baker::bake::DEFAULT_MULTI_VIEW)]
     multi_view: usize,
+    /// One more view per sample, raised this many degrees above it, for cameras that leave the
+    /// view space's circle (0: none).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    view_elevation_degrees: f64,
     /// Target views' width in pixels.
     #[arg(long, default_value_t = 640)]
     width: u32,
@@ -325,6 +329,7 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
         em_size,
         layers,
         multi_view: args.multi_view,
+        view_elevation_degrees: args.view_elevation_degrees,
         share_layers: matches!(args.share_layers, OnOff::On),
         infer: InferOptions {
             hybrid: HybridOptions::with_t(args.t),

@@ -1161,8 +1161,8 @@ pub fn bake_sample(
         )?
     };
     let mut maps: Vec<Vec<CubeMap>> = Vec::new();
-    // Which (lens, layer) maps were inferred (the rest are projected).
-    let mut inferred: Vec<Vec<bool>> = Vec::new();
+    // Which lens objects' maps were inferred (the rest are projected, every layer).
+    let mut inferred: Vec<bool> = Vec::new();
     let mut lenses = Vec::new();
     for (lens, (planned, solved)) in plan.lenses.iter().zip(solved).enumerate() {
         // Unseen from this sample, or a layer no pixel reads (nothing of the lens object to
@@ -1170,11 +1170,11 @@ pub fn bake_sample(
         let projected = |layer: usize| CubeMap::clone(&hybrid.lenses[lens].maps[0][layer]);
         let Some(solved) = solved.filter(|s| s.maps.iter().all(Option::is_some)) else {
             maps.push((0..planned.shells.len()).map(projected).collect());
-            inferred.push(vec![false; planned.shells.len()]);
+            inferred.push(false);
             lenses.push(LensReport::unseen(planned));
             continue;
         };
-        inferred.push(vec![true; planned.shells.len()]);
+        inferred.push(true);
         for layer in &solved.layers {
             seconds.matrices += layer.matrix_ms / 1e3;
             seconds.targets += layer.targets_ms / 1e3;
@@ -1201,7 +1201,7 @@ pub fn bake_sample(
     // A shared layer is one file: every member holds the inferred map, also a member whose lens
     // object this sample does not see.
     for shared in &plan.shared {
-        if let Some(&(lens, layer)) = shared.members.iter().find(|&&(l, j)| inferred[l][j]) {
+        if let Some(&(lens, layer)) = shared.members.iter().find(|&&(l, _)| inferred[l]) {
             let map = maps[lens][layer].clone();
             for &(l, j) in &shared.members {
                 maps[l][j] = map.clone();

@@ -12,7 +12,7 @@ use anyhow::Context;
 use clap::ValueEnum;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use lensmap::options::OptionError;
+use lensmap::options::{OptionError, Worded};
 use lensmap::render::{BlendScheme, TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
 use lensmap::trace::image::validate_camera;
@@ -131,12 +131,7 @@ pub struct BadUsage(pub String);
 /// A library option error as the command line says it: the flag (the option's name with `_`
 /// written `-`), the value and the fix.
 pub fn flag_error(error: OptionError) -> BadUsage {
-    BadUsage(format!(
-        "--{} {}: {}",
-        error.option.replace('_', "-"),
-        error.value,
-        error.fix
-    ))
+    BadUsage(error.worded(&crate::words::Flags))
 }
 
 /// `--variant`.

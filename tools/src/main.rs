@@ -16,6 +16,7 @@ mod pareto;
 mod passes;
 mod reference;
 mod render;
+mod words;
 
 use std::process::ExitCode;
 
@@ -242,24 +243,11 @@ fn main() -> ExitCode {
         Ok(()) => common::exit_status(),
         Err(error) => {
             // One line: the outermost context and its causes, each said once.
-            let line = error_line(&error);
+            let line = words::error_line(&error);
             let code = if is_bad_input(&error) { 2 } else { 1 };
             fail(&format!("error: {line}"), code, cli.json)
         }
     }
-}
-
-/// The error chain in one line: each cause once (a cause whose text its outer message already
-/// holds, as a `#[error(transparent)]` or a `{0}` wrapper repeats it, is not said again).
-fn error_line(error: &anyhow::Error) -> String {
-    let mut parts: Vec<String> = Vec::new();
-    for cause in error.chain() {
-        let text = cause.to_string();
-        if !parts.iter().any(|outer| outer.contains(&text)) {
-            parts.push(text);
-        }
-    }
-    parts.join(": ")
 }
 
 /// Says a failure on stderr, one line (one JSON object under `--json`), and gives its exit code.

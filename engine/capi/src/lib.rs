@@ -29,6 +29,7 @@ use std::sync::{Mutex, TryLockError};
 use lensmap::gpu::{Gpu, GpuError, GpuOptions, HostDevice, HostFeatures, vk};
 use lensmap::hybrid::{HybridOptions, HybridScene};
 use lensmap::layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions};
+use lensmap::options::{OptionWords, Worded};
 use lensmap::render::{
     BlendScheme, FrameShape, RenderError, TargetFormat, Variant,
     plan::{Output, frame_graph_blended},
@@ -414,6 +415,19 @@ fn unregister(pointer: usize, kind: Kind) -> bool {
 }
 
 /// A failed call: its code and the message [`lensmap_last_error`] gives.
+/// Options as the C ABI names them: the fields of the options struct a call was given.
+struct StructFields;
+
+impl OptionWords for StructFields {
+    fn option(&self, field: &str) -> String {
+        format!("options->{field}")
+    }
+
+    fn setting(&self, field: &str, value: &str) -> String {
+        format!("options->{field} {value}")
+    }
+}
+
 struct Failure {
     code: LensmapResult,
     message: String,
@@ -915,11 +929,8 @@ pub unsafe extern "C" fn lensmap_scene_load(
                     options.em_size
                 };
                 let projected = ProjectedOptions::with_size(size);
-                projected.validate().map_err(|e| {
-                    Failure::new(
-                        LensmapResult::InvalidArgument,
-                        format!("options->em_size {}: {}", e.value, e.fix),
-                    )
+                projected.validate().map_err(|error| {
+                    Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
                 })?;
                 EmSource::Projected(projected)
             }
@@ -983,10 +994,7 @@ fn frame_settings(options: &LensmapFrameOptions) -> Result<(Camera, FrameOptions
         format: format(options.format, "options->format")?,
     };
     frame_options.validate().map_err(|error| {
-        Failure::new(
-            LensmapResult::InvalidArgument,
-            format!("options->{} {}: {}", error.option, error.value, error.fix),
-        )
+        Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
     })?;
     Ok((camera, frame_options))
 }

@@ -1,0 +1,48 @@
+//! How the command line says the library's errors: options as flags (`em_size` is `--em-size`),
+//! and an error chain as one line in which every library error that names options is worded so.
+
+use lensmap::options::{OptionWords, Worded};
+
+/// Options as the command line's flags: the field name with `_` written `-`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Flags;
+
+impl OptionWords for Flags {
+    fn option(&self, field: &str) -> String {
+        format!("--{}", field.replace('_', "-"))
+    }
+
+    fn setting(&self, field: &str, value: &str) -> String {
+        format!("{} {value}", self.option(field))
+    }
+}
+
+/// `cause` in the command line's words, where it is a library error that names options.
+fn worded(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
+    let as_worded: Option<&dyn Worded> = None.or_else(|| {
+        cause
+            .downcast_ref::<lensmap::options::OptionError>()
+            .map(|e| e as &dyn Worded)
+    });
+    as_worded.map(|error| error.worded(&Flags))
+}
+
+/// The error chain in one line, in the command line's words: each cause once (a cause whose text
+/// its outer message already holds, as a `#[error(transparent)]` or a `{0}` wrapper repeats it, is
+/// not said again; where the outer message holds it in the library's words, those are replaced).
+pub fn error_line(error: &anyhow::Error) -> String {
+    let mut parts: Vec<String> = Vec::new();
+    for cause in error.chain() {
+        let text = cause.to_string();
+        let said = worded(cause).unwrap_or_else(|| text.clone());
+        match parts.iter_mut().find(|outer| outer.contains(&text)) {
+            Some(outer) => *outer = outer.replace(&text, &said),
+            None => {
+                if !parts.iter().any(|outer| outer.contains(&said)) {
+                    parts.push(said);
+                }
+            }
+        }
+    }
+    parts.join(": ")
+}

@@ -1,0 +1,188 @@
+//! The library stands without the command line: no text of `engine/src` or `baker/src` names a
+//! command-line flag (front ends word the library's option errors themselves, see
+//! `lensmap::options`), and no source or manifest in `engine/`, `baker/` or `shaders/` reads a
+//! file from `tools/` (`include_str!`, `include_bytes!`, a path from `CARGO_MANIFEST_DIR`, a
+//! dependency), so the library builds with `tools/` absent.
+
+use std::path::{Path, PathBuf};
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("tests/ has a parent")
+        .to_path_buf()
+}
+
+/// Every `.rs` file under `dir`.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).expect("readable source folder") {
+            let path = entry.expect("readable entry").path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// The source without its `#[cfg(test)]` items: the text up to the first `#[cfg(test)]` line
+/// that opens a test module (test modules sit at the end of a file in this codebase), and whole
+/// files that are test modules (`tests.rs`, `…/tests/…`).
+fn non_test_source(path: &Path) -> Option<String> {
+    if path.file_name().is_some_and(|n| n == "tests.rs")
+        || path.components().any(|c| c.as_os_str() == "tests")
+    {
+        return None;
+    }
+    let text = std::fs::read_to_string(path).expect("readable source");
+    let end = text
+        .match_indices("#[cfg(test)]")
+        .map(|(i, _)| i)
+        .find(|&i| text[i..].lines().nth(1).is_some_and(|l| l.contains("mod ")))
+        .unwrap_or(text.len());
+    Some(text[..end].to_owned())
+}
+
+/// The string literals of `source` (ordinary and raw), with their line numbers; comments are
+/// skipped.
+fn string_literals(source: &str) -> Vec<(usize, String)> {
+    let bytes = source.as_bytes();
+    let (mut i, mut line) = (0, 1);
+    let mut found = Vec::new();
+    while i < bytes.len() {
+        match bytes[i] {
+            b'\n' => line += 1,
+            b'/' if bytes.get(i + 1) == Some(&b'/') => {
+                while i < bytes.len() && bytes[i] != b'\n' {
+                    i += 1;
+                }
+                continue;
+            }
+            b'\'' => {
+                // A char literal ('"', '\'', 'x') or a lifetime: step over a quoted char.
+                if bytes.get(i + 2) == Some(&b'\'') {
+                    i += 3;
+                    continue;
+                }
+                if bytes.get(i + 1) == Some(&b'\\') && bytes.get(i + 3) == Some(&b'\'') {
+                    i += 4;
+                    continue;
+                }
+            }
+            b'r' if matches!(bytes.get(i + 1), Some(b'#') | Some(b'"'))
+                && (i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_')) =>
+            {
+                let hashes = bytes[i + 1..].iter().take_while(|&&b| b == b'#').count();
+                if bytes.get(i + 1 + hashes) == Some(&b'"') {
+                    let start = i + 2 + hashes;
+                    let close = format!("\"{}", "#".repeat(hashes));
+                    let end = source[start..]
+                        .find(&close)
+                        .map_or(source.len(), |e| start + e);
+                    found.push((line, source[start..end].to_owned()));
+                    line += source[start..end].matches('\n').count();
+                    i = end + close.len();
+                    continue;
+                }
+            }
+            b'"' => {
+                let start = i + 1;
+                let mut j = start;
+                while j < bytes.len() && bytes[j] != b'"' {
+                    j += if bytes[j] == b'\\' { 2 } else { 1 };
+                }
+                let end = j.min(bytes.len());
+                found.push((line, source[start..end].to_owned()));
+                line += source[start..end].matches('\n').count();
+                i = end + 1;
+                continue;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    found
+}
+
+/// `--` followed by a letter: a command-line flag.
+fn names_a_flag(text: &str) -> bool {
+    text.match_indices("--")
+        .any(|(i, _)| text[i + 2..].starts_with(|c: char| c.is_ascii_lowercase()))
+}
+
+#[test]
+fn the_finder_sees_flags_in_strings_and_not_in_comments() {
+    let source = "// a comment naming --resume\nlet a = \"give --em-size 7\";\nlet b = r#\"no flag -- here\"#;\nlet c = '\"'; let d = \"x --layers\";\n";
+    let flagged: Vec<usize> = string_literals(source)
+        .into_iter()
+        .filter(|(_, text)| names_a_flag(text))
+        .map(|(line, _)| line)
+        .collect();
+    assert_eq!(flagged, [2, 4]);
+}
+
+#[test]
+fn no_library_text_names_a_command_line_flag() {
+    let root = workspace();
+    let mut offenders = Vec::new();
+    for dir in ["engine/src", "baker/src"] {
+        for path in rust_files(&root.join(dir)) {
+            let Some(source) = non_test_source(&path) else {
+                continue;
+            };
+            for (line, text) in string_literals(&source) {
+                if names_a_flag(&text) {
+                    let place = path.strip_prefix(&root).unwrap_or(&path).display();
+                    offenders.push(format!("{place}:{line}: \"{text}\""));
+                }
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "library text naming command-line flags (word options through lensmap::options::OptionWords instead):\n{}",
+        offenders.join("\n")
+    );
+}
+
+#[test]
+fn nothing_in_the_library_reads_from_tools() {
+    let root = workspace();
+    let mut offenders = Vec::new();
+    for dir in ["engine", "baker", "shaders"] {
+        for path in rust_files(&root.join(dir)) {
+            let text = std::fs::read_to_string(&path).expect("readable source");
+            for (number, line) in text.lines().enumerate() {
+                let code = line.split("//").next().unwrap_or("");
+                let reads_a_file = ["include_str!", "include_bytes!", "CARGO_MANIFEST_DIR"]
+                    .iter()
+                    .any(|reader| code.contains(reader));
+                if reads_a_file && code.contains("tools") {
+                    let place = path.strip_prefix(&root).unwrap_or(&path).display();
+                    offenders.push(format!("{place}:{}: {}", number + 1, line.trim()));
+                }
+            }
+        }
+    }
+    for manifest in [
+        "engine/Cargo.toml",
+        "engine/capi/Cargo.toml",
+        "baker/Cargo.toml",
+    ] {
+        let text = std::fs::read_to_string(root.join(manifest)).expect("readable manifest");
+        if text.contains("tools") {
+            offenders.push(format!("{manifest} names tools"));
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "the library must build with tools/ absent:\n{}",
+        offenders.join("\n")
+    );
+}

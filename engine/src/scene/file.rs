@@ -1,9 +1,8 @@
 //! The scene file's serde schema, exactly as written in TOML: one struct per table, one field per
-//! key, each documented with its meaning, unit, range and default. `tools/scenes/README.md` (also
-//! the module documentation of [`super`]) is the user's copy of the same schema and the source of
-//! truth; keep the two in step. Values are checked and turned into a [`super::Scene`] by
-//! [`super::load`]; nothing here validates beyond types, so the ranges below are the loader's
-//! checks, not serde's.
+//! key, each documented with its meaning, unit, range and default. `tools/scenes/README.md` is the
+//! user's documentation of the same schema; a change to a field here changes it there. Values
+//! are checked and turned into a [`super::Scene`] by [`super::load`]; nothing here validates
+//! beyond types, so the ranges below are the loader's checks, not serde's.
 //!
 //! Every struct is `deny_unknown_fields`: a misspelt key is an error, not a silent default. Units
 //! are metres and degrees (the key says which), colours linear rgb, the world right-handed with

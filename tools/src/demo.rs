@@ -16,8 +16,10 @@ use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{HybridOptions, HybridScene},
-    layers::Bake,
-    layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    layers::{
+        Bake,
+        projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    },
     metrics::Encoding,
     render::{RenderedImage, SinglePassProgram, TargetFormat, Variant, synthetic},
     runner::{

@@ -379,7 +379,25 @@ struct ScaledOperator<'a> {
     fixed: &'a [[bool; 4]],
 }
 
-impl ScaledOperator<'_> {
+impl<'a> ScaledOperator<'a> {
+    /// The operator of `terms` and the smoothness pairs weighted by `lambda`, scaled by the
+    /// square roots of `preconditioner`, with the `fixed` entries held.
+    fn new(
+        terms: &'a [WeightedTerm],
+        smoothness: &'a Smoothness,
+        lambda: f64,
+        preconditioner: &[f64],
+        fixed: &'a [[bool; 4]],
+    ) -> ScaledOperator<'a> {
+        ScaledOperator {
+            terms,
+            smoothness,
+            root_lambda: lambda.sqrt(),
+            scale: preconditioner.iter().map(|p| p.sqrt()).collect(),
+            fixed,
+        }
+    }
+
     /// M S v, per row block.
     fn forward(&self, v: &[[f64; 4]]) -> Vec<Vec<[f64; 4]>> {
         let scaled: Vec<[f64; 4]> = v
@@ -463,29 +481,18 @@ fn inverse(v: [f64; 4]) -> [f64; 4] {
     v.map(|e| if e > 0.0 { 1.0 / e } else { 0.0 })
 }
 
-/// LSQR (Paige & Saunders 1982) on min ‖M δ − d‖ with M = [C₁A₁; …; √λ G] scaled by columns
-/// S = diag(Σ AᵀC²A + λGᵀG)^(−½) (the same Jacobi scaling CG uses), d the residual at `x`, the
-/// `fixed` entries held; per channel, the four channels at once. Stops when its estimate of
-/// ‖(MS)ᵀ r‖ falls below `tolerance` × its start. Returns the iterations.
-#[allow(clippy::too_many_arguments)]
+/// LSQR (Paige & Saunders 1982) on min ‖M δ − d‖ with `operator` M S (M = [C₁A₁; …; √λ G], S =
+/// diag(Σ AᵀC²A + λGᵀG)^(−½), the same Jacobi scaling CG uses), d the residual at `x`, the
+/// operator's fixed entries held; per channel, the four channels at once. Stops when its
+/// estimate of ‖(MS)ᵀ r‖ falls below `tolerance` × its start. Returns the iterations.
 fn lsqr(
-    terms: &[WeightedTerm],
-    smoothness: &Smoothness,
-    lambda: f64,
-    preconditioner: &[f64],
-    fixed: &[[bool; 4]],
+    operator: &ScaledOperator<'_>,
     x: &mut [[f64; 4]],
     tolerance: f64,
     max_iterations: usize,
 ) -> usize {
     let n = x.len();
-    let operator = ScaledOperator {
-        terms,
-        smoothness,
-        root_lambda: lambda.sqrt(),
-        scale: preconditioner.iter().map(|p| p.sqrt()).collect(),
-        fixed,
-    };
+    let terms = operator.terms;
     // d = [C b − C A x; −√λ G x].
     let at_x = operator.forward(&operator.unscaled(x));
     let mut u: Vec<Vec<[f64; 4]>> = terms
@@ -700,16 +707,9 @@ pub fn solve(
                 budget,
             ),
             SolveMethod::Lsqr => {
-                let used = lsqr(
-                    &weighted,
-                    smoothness,
-                    lambda,
-                    &preconditioner,
-                    &fixed,
-                    &mut x,
-                    options.tolerance,
-                    budget,
-                );
+                let operator =
+                    ScaledOperator::new(&weighted, smoothness, lambda, &preconditioner, &fixed);
+                let used = lsqr(&operator, &mut x, options.tolerance, budget);
                 (used, normal_residual(&normal, &rhs, &fixed, &x))
             }
         };

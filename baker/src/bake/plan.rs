@@ -306,7 +306,6 @@ impl<'s> Judge<'s> {
     /// Lens PSNR at the judging camera over `mask` with lens object `lens` on `shells` about
     /// `origin` (projected EMs at [`JUDGE_EM_SIZE`]); the lens object keeps those layers in the
     /// judging scene. `mask` comes from [`Judge::lens_pixels`].
-    #[allow(clippy::too_many_arguments)]
     fn psnr_on(
         &mut self,
         runner: &mut FrameRunner,
@@ -390,7 +389,6 @@ fn plan_lens(
 /// its pixels at sample 0 by more than [`AUTO_LAYER_GAIN_DB`], up to [`MAX_AUTO_LAYERS`];
 /// records each count's PSNR in `planned` and adopts the best placement. Returns its farthest
 /// layer's hits.
-#[allow(clippy::too_many_arguments)]
 fn grow_layers(
     runner: &mut FrameRunner,
     judge: &mut Judge<'_>,

@@ -1,6 +1,6 @@
 //! Distant layers shared between lens objects (module docs of [`super`]): which clustered lens
-//! objects share their farthest layer and on which shell ([`share_far_layers`]), and one map for
-//! all of them in a hybrid scene ([`share_maps`]).
+//! objects share their farthest layer and on which shell (`share_far_layers`), and one map for
+//! all of them in a hybrid scene (`share_maps`).
 
 use std::collections::BTreeSet;
 

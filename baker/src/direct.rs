@@ -205,50 +205,18 @@ pub fn direct_equations(
 mod tests {
     use super::*;
     use lensmap::{
-        layers::projected::{ProjectedOptions, em_origin, lens_shells, project_layers},
+        layers::{
+            fixtures::BALL_BEFORE_PANEL,
+            projected::{ProjectedOptions, em_origin, lens_shells, project_layers},
+        },
         scene::Scene,
         trace::{EnvironmentHit, IntersectionRecord, Term},
     };
 
-    const ROOM: &str = r#"
-[camera]
-position = [0.0, 0.0, 3.0]
-look_at = [0.0, 0.0, 0.0]
-vfov_degrees = 40.0
-width = 16
-height = 16
-
-[environment]
-constant = [0.2, 0.4, 0.6]
-
-[[materials]]
-name = "glass"
-glass = { ior = 1.5 }
-
-[[materials]]
-name = "white"
-diffuse = { colour = [1.0, 1.0, 1.0] }
-
-[[objects]]
-name = "ball"
-material = "glass"
-sphere = { radius = 0.5 }
-
-[[objects]]
-name = "panel"
-material = "white"
-plane = { size = [2.2, 2.2] }
-transform = { rotate_degrees = [90, 0, 0], translate = [0.0, 0.0, -2.0] }
-
-[[lenses]]
-name = "ball"
-objects = ["ball"]
-layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
-"#;
-
     #[test]
     fn texels_near_a_record_get_no_direct_equation_and_the_rest_the_projected_value() {
-        let scene = Scene::from_toml_str(ROOM, std::path::Path::new("room.toml")).unwrap();
+        let scene =
+            Scene::from_toml_str(BALL_BEFORE_PANEL, std::path::Path::new("room.toml")).unwrap();
         let trace = TraceScene::new(&scene).unwrap();
         let origin = em_origin(&scene, 0);
         let shells = lens_shells(&trace, &scene, 0, origin);

@@ -16,8 +16,8 @@ use lensmap::{
 
 use crate::{
     matrix::{
-        DigitEncoding, LayerFrame, LayerFrames, MatrixError, RenderingMatrix, TestRenderer,
-        TexelLayout,
+        DigitEncoding, Digits, LayerFrame, LayerFrames, MatrixError, MeasureOptions,
+        RenderingMatrix, TestRenderer, TexelLayout,
     },
     solve::{Equations, Smoothness, SolveError, SolveOptions, SolveReport, solve},
     targets::{DEFAULT_CONFIDENCE_DEGREES, TargetError, term_targets},
@@ -251,34 +251,6 @@ pub struct View<'a> {
     pub records: &'a LensRecords,
 }
 
-/// Infers the layered EM of lens object `lens` of `hybrid` at `camera` to match `records` (the
-/// reference ray tracer's intersection records of that lens at that camera), on the shells the
-/// hybrid scene already has.
-pub fn infer_lens(
-    runner: &mut FrameRunner,
-    hybrid: &HybridScene,
-    lens: usize,
-    camera: &Camera,
-    records: &LensRecords,
-    options: &InferOptions,
-) -> Result<Inference, InferError> {
-    infer_lens_views(runner, hybrid, lens, &[View { camera, records }], options)
-}
-
-/// Infers one layered EM of lens object `lens` that matches every view of `views` at once (the
-/// paper's simultaneous inference over multiple viewpoints: one solve, the equations of every
-/// view stacked). The EM size is searched on the first view. A view that sees none of the lens
-/// object adds no equations; all of them seeing none is an error.
-pub fn infer_lens_views(
-    runner: &mut FrameRunner,
-    hybrid: &HybridScene,
-    lens: usize,
-    views: &[View<'_>],
-    options: &InferOptions,
-) -> Result<Inference, InferError> {
-    infer_lens_views_observed(runner, hybrid, lens, views, options, &mut |_| {})
-}
-
 /// Which step of an inference is starting, for progress displays.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum InferStep {
@@ -298,8 +270,13 @@ pub enum InferStep {
     },
 }
 
-/// [`infer_lens_views`], telling `observe` as each step starts.
-pub fn infer_lens_views_observed(
+/// Infers one layered EM of lens object `lens` of `hybrid` (on the shells it already has) that
+/// matches every view of `views` at once: each a camera and the reference ray tracer's
+/// intersection records of the lens object there (the paper's simultaneous inference over
+/// multiple viewpoints: one solve, the equations of every view stacked). The EM size is searched
+/// on the first view. A view that sees none of the lens object adds no equations; all of them
+/// seeing none is [`InferError::NoLensPixels`]. `observe` hears each step as it starts.
+pub fn infer_lens(
     runner: &mut FrameRunner,
     hybrid: &HybridScene,
     lens: usize,
@@ -490,6 +467,96 @@ pub fn solve_layers(
     options: &InferOptions,
     observe: &mut dyn FnMut(usize, InferStep),
 ) -> Result<Vec<Option<SolvedLens>>, InferError> {
+    check_solve_inputs(hybrid, &prepared, shared, size)?;
+    let layout = TexelLayout::new(size);
+    let smoothness = Smoothness::new(&layout);
+    let mut out: Vec<Option<SolvedLens>> = prepared
+        .iter()
+        .enumerate()
+        .map(|(lens, p)| {
+            p.as_ref().map(|_| {
+                let n = hybrid.lenses[lens].shells.len();
+                SolvedLens {
+                    maps: vec![None; n],
+                    layers: Vec::with_capacity(n),
+                }
+            })
+        })
+        .collect();
+    // Per lens object: a device that needed power-of-two digits once keeps them for that lens
+    // object's remaining matrices.
+    let mut encodings = vec![DigitEncoding::Integers; prepared.len()];
+    for (lens, lens_prepared) in prepared.iter().enumerate() {
+        if lens_prepared.is_none() {
+            continue;
+        }
+        let n = hybrid.lenses[lens].shells.len();
+        for layer in 0..n {
+            let group = shared
+                .iter()
+                .find(|group| group.contains(&(lens, layer)))
+                .cloned()
+                .unwrap_or_else(|| vec![(lens, layer)]);
+            // A shared layer is solved at its first inferred member.
+            let first = group
+                .iter()
+                .copied()
+                .find(|&(l, _)| prepared.get(l).is_some_and(Option::is_some));
+            if first != Some((lens, layer)) {
+                continue;
+            }
+            observe(lens, InferStep::Matrices { layer, layers: n });
+            let matrix_start = Instant::now();
+            let members = measure_group(renderer, &prepared, &group, size, &mut encodings)?;
+            let matrix_ms = matrix_start.elapsed().as_secs_f64() * 1e3;
+            let seen = members
+                .iter()
+                .any(|m| m.matrices.iter().flatten().any(|m| m.nnz() > 0));
+            let solved = if seen {
+                let group = Group {
+                    members: &members,
+                    owner: group[0],
+                    solver: (lens, layer),
+                };
+                let observe_solve = &mut || observe(lens, InferStep::Solve { layer, layers: n });
+                Some(solve_group(
+                    hybrid,
+                    &group,
+                    &layout,
+                    &smoothness,
+                    options,
+                    observe_solve,
+                )?)
+            } else {
+                None
+            };
+            for member in &members {
+                let Some(Some(solved_lens)) = out.get_mut(member.prepared.lens) else {
+                    unreachable!("every member with matrices was prepared")
+                };
+                solved_lens.maps[member.layer] = solved.as_ref().map(|s| s.map.clone());
+                solved_lens.layers.push(member.report(
+                    member.prepared.lens == lens,
+                    matrix_ms,
+                    solved.as_ref(),
+                ));
+            }
+        }
+    }
+    for solved in out.iter_mut().flatten() {
+        solved.layers.sort_by_key(|l| l.layer);
+    }
+    Ok(out)
+}
+
+/// Checks the inputs of [`solve_layers`]: a power-of-two size, `prepared[lens]` for each lens
+/// object, and shared groups of existing layers with one shell and one EM origin.
+fn check_solve_inputs(
+    hybrid: &HybridScene,
+    prepared: &[Option<Prepared<'_>>],
+    shared: &[Vec<(usize, usize)>],
+    size: u32,
+) -> Result<(), InferError> {
     if !size.is_power_of_two() {
         return Err(InferError::BadOption(format!(
             "EM size {size} is not a power of two; give e.g. 128"
@@ -521,180 +588,188 @@ pub fn solve_layers(
             )));
         }
     }
-    let layout = TexelLayout::new(size);
-    let smoothness = Smoothness::new(&layout);
-    let group_of = |lens: usize, layer: usize| -> Vec<(usize, usize)> {
-        shared
-            .iter()
-            .find(|group| group.contains(&(lens, layer)))
-            .cloned()
-            .unwrap_or_else(|| vec![(lens, layer)])
+    Ok(())
+}
+
+/// One inferred member of a layer group (a layer alone, or a shared layer's members) and its
+/// rendering matrices, `matrices[view][term]`.
+struct MemberMatrices<'p, 'v> {
+    prepared: &'p Prepared<'v>,
+    layer: usize,
+    matrices: Vec<Vec<RenderingMatrix>>,
+}
+
+impl MemberMatrices<'_, '_> {
+    /// The member's layer report: the solve's figures, its time and the group's matrix time
+    /// and direct rows only at the member that solved it (`solver`).
+    fn report(&self, solver: bool, matrix_ms: f64, solved: Option<&SolvedMap>) -> LayerReport {
+        let solve = solved.map_or_else(SolveReport::default, |s| s.report.clone());
+        LayerReport {
+            layer: self.layer,
+            renders: self.matrices.iter().flatten().map(|m| m.renders).sum(),
+            direct_rows: match solved {
+                Some(s) if solver => s.direct_rows,
+                _ => 0,
+            },
+            nonzeros: self
+                .matrices
+                .iter()
+                .flatten()
+                .map(RenderingMatrix::nnz)
+                .collect(),
+            matrix_ms: if solver { matrix_ms } else { 0.0 },
+            targets_ms: self.prepared.targets_ms,
+            solve: SolveReport {
+                ms: if solver { solve.ms } else { 0.0 },
+                ..solve
+            },
+        }
+    }
+}
+
+/// The rendering matrices of every inferred member of `group` (`(lens, layer)` pairs), at every
+/// view and term; `encodings[lens]` is the digit encoding each lens object's next matrix tries
+/// first, updated as matrices are measured.
+fn measure_group<'p, 'v>(
+    renderer: &mut DeviceRenderer<'_>,
+    prepared: &'p [Option<Prepared<'v>>],
+    group: &[(usize, usize)],
+    size: u32,
+    encodings: &mut [DigitEncoding],
+) -> Result<Vec<MemberMatrices<'p, 'v>>, InferError> {
+    let mut members = Vec::new();
+    for &(member_lens, member_layer) in group {
+        let Some(Some(p)) = prepared.get(member_lens) else {
+            continue;
+        };
+        let mut matrices: Vec<Vec<RenderingMatrix>> = Vec::new();
+        for (view, frames) in &p.seen {
+            let k = view.camera.supersampling.max(1);
+            matrices.push(
+                frames
+                    .terms()
+                    .iter()
+                    .map(|&term| {
+                        let encoding = &mut encodings[member_lens];
+                        let options = MeasureOptions {
+                            digits: Digits::Starting(*encoding),
+                            ..MeasureOptions::new(size, k)
+                        };
+                        let matrix = RenderingMatrix::measure(
+                            renderer,
+                            &mut frames.layer(term, member_layer)?,
+                            &options,
+                        )?;
+                        *encoding = matrix.encoding;
+                        Ok::<_, InferError>(matrix)
+                    })
+                    .collect::<Result<_, _>>()?,
+            );
+        }
+        members.push(MemberMatrices {
+            prepared: p,
+            layer: member_layer,
+            matrices,
+        });
+    }
+    Ok(members)
+}
+
+/// A layer group to solve: its members' matrices, the (lens, layer) whose map and EM origin the
+/// group uses (the first member), and the one solved at (the first inferred member).
+struct Group<'g, 'p, 'v> {
+    members: &'g [MemberMatrices<'p, 'v>],
+    owner: (usize, usize),
+    solver: (usize, usize),
+}
+
+/// A layer group's solution.
+struct SolvedMap {
+    map: CubeMap,
+    report: SolveReport,
+    direct_rows: usize,
+}
+
+/// Solves one layer group on every member's equations (all views and terms), with direct-image
+/// equations when asked; `observe` hears the solve start.
+fn solve_group(
+    hybrid: &HybridScene,
+    group: &Group<'_, '_, '_>,
+    layout: &TexelLayout,
+    smoothness: &Smoothness,
+    options: &InferOptions,
+    observe: &mut dyn FnMut(),
+) -> Result<SolvedMap, InferError> {
+    let (lens, layer) = group.solver;
+    // The layer's current (projected) EM at this size: CG's start (where no pixel constrains a
+    // texel, few iterations move it, and the projection is a better guess there than zero) and
+    // the direct images' values.
+    let current = hybrid.lenses[lens]
+        .maps
+        .first()
+        .and_then(|maps| maps.get(layer))
+        .map(|current| resampled(current, layout.size));
+    // Direct images from the map's own origin: the owner's view, with every member's records
+    // telling which texels the lens images already constrain.
+    let direct = match (&current, options.direct_images) {
+        (Some(projected), true) => {
+            let records: Vec<&LensRecords> = group
+                .members
+                .iter()
+                .flat_map(|m| m.prepared.seen.iter().map(|(v, _)| v.records))
+                .collect();
+            let (owner, owner_layer) = group.owner;
+            let owner_layers = &hybrid.lenses[owner];
+            let at = crate::direct::DirectLayer {
+                trace: &hybrid.trace,
+                lens: owner,
+                origin: owner_layers.em_origins[owner_layer],
+                shells: &owner_layers.shells,
+                layer: owner_layer,
+            };
+            Some(crate::direct::direct_equations(
+                &at, layout, projected, &records,
+            ))
+        }
+        _ => None,
     };
-    let mut out: Vec<Option<SolvedLens>> = prepared
+    let mut equations: Vec<Equations<'_>> = group
+        .members
         .iter()
-        .enumerate()
-        .map(|(lens, p)| {
-            p.as_ref().map(|_| {
-                let n = hybrid.lenses[lens].shells.len();
-                SolvedLens {
-                    maps: vec![None; n],
-                    layers: Vec::with_capacity(n),
-                }
-            })
+        .flat_map(|member| {
+            member
+                .matrices
+                .iter()
+                .zip(&member.prepared.targets)
+                .flat_map(move |(matrices, targets)| {
+                    matrices.iter().zip(targets).map(move |(m, t)| Equations {
+                        a: &m.a,
+                        b: &t.layers[member.layer],
+                        confidence: &t.confidence,
+                    })
+                })
         })
         .collect();
-    // Per lens object: a device that needed power-of-two digits once keeps them for that lens
-    // object's remaining matrices.
-    let mut encodings = vec![DigitEncoding::Integers; prepared.len()];
-    for (lens, lens_prepared) in prepared.iter().enumerate() {
-        if lens_prepared.is_none() {
-            continue;
-        }
-        let n = hybrid.lenses[lens].shells.len();
-        for layer in 0..n {
-            let group = group_of(lens, layer);
-            // A shared layer is solved at its first inferred member.
-            let first = group
-                .iter()
-                .copied()
-                .find(|&(l, _)| prepared.get(l).is_some_and(Option::is_some));
-            if first != Some((lens, layer)) {
-                continue;
-            }
-            observe(lens, InferStep::Matrices { layer, layers: n });
-            let matrix_start = Instant::now();
-            // Per inferred member: matrices[view][term].
-            let mut members = Vec::new();
-            for &(member_lens, member_layer) in &group {
-                let Some(Some(p)) = prepared.get(member_lens) else {
-                    continue;
-                };
-                let mut matrices: Vec<Vec<RenderingMatrix>> = Vec::new();
-                for (view, frames) in &p.seen {
-                    let k = view.camera.supersampling.max(1);
-                    matrices.push(
-                        frames
-                            .terms()
-                            .iter()
-                            .map(|&term| {
-                                let encoding = &mut encodings[member_lens];
-                                let matrix = RenderingMatrix::measure_from(
-                                    renderer,
-                                    &mut frames.layer(term, member_layer)?,
-                                    size,
-                                    k,
-                                    *encoding,
-                                )?;
-                                *encoding = matrix.encoding;
-                                Ok::<_, InferError>(matrix)
-                            })
-                            .collect::<Result<_, _>>()?,
-                    );
-                }
-                members.push((p, member_layer, matrices));
-            }
-            let matrix_ms = matrix_start.elapsed().as_secs_f64() * 1e3;
-            let seen = members
-                .iter()
-                .any(|(_, _, m)| m.iter().flatten().any(|m| m.nnz() > 0));
-            let mut solve_report = SolveReport::default();
-            let mut map = None;
-            let mut direct_rows = 0;
-            if seen {
-                // The layer's current (projected) EM at this size: CG's start (where no pixel
-                // constrains a texel, few iterations move it, and the projection is a better
-                // guess there than zero) and the direct images' values.
-                let layers = &hybrid.lenses[lens];
-                let current = layers
-                    .maps
-                    .first()
-                    .and_then(|maps| maps.get(layer))
-                    .map(|current| resampled(current, size));
-                // Direct images from the map's own origin: the owner's (the group's first
-                // member's) view, with every member's records telling which texels the lens
-                // images already constrain.
-                let direct = match (&current, options.direct_images) {
-                    (Some(projected), true) => {
-                        let records: Vec<&LensRecords> = members
-                            .iter()
-                            .flat_map(|(p, _, _)| p.seen.iter().map(|(v, _)| v.records))
-                            .collect();
-                        let (owner, owner_layer) = group[0];
-                        let owner_layers = &hybrid.lenses[owner];
-                        let at = crate::direct::DirectLayer {
-                            trace: &hybrid.trace,
-                            lens: owner,
-                            origin: owner_layers.em_origins[owner_layer],
-                            shells: &owner_layers.shells,
-                            layer: owner_layer,
-                        };
-                        Some(crate::direct::direct_equations(
-                            &at, &layout, projected, &records,
-                        ))
-                    }
-                    _ => None,
-                };
-                let mut equations: Vec<Equations<'_>> = members
-                    .iter()
-                    .flat_map(|(p, member_layer, matrices)| {
-                        matrices
-                            .iter()
-                            .zip(&p.targets)
-                            .flat_map(move |(matrices, targets)| {
-                                matrices.iter().zip(targets).map(move |(m, t)| Equations {
-                                    a: &m.a,
-                                    b: &t.layers[*member_layer],
-                                    confidence: &t.confidence,
-                                })
-                            })
-                    })
-                    .collect();
-                if let Some(direct) = &direct {
-                    equations.push(Equations {
-                        a: &direct.a,
-                        b: &direct.b,
-                        confidence: &direct.confidence,
-                    });
-                    direct_rows = direct.b.len();
-                }
-                let start = current
-                    .as_ref()
-                    .map(|current| layout.from_cube(current))
-                    .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
-                observe(lens, InferStep::Solve { layer, layers: n });
-                let (x, report) = solve(&equations, &layout, &smoothness, &start, &options.solve)?;
-                solve_report = report;
-                map = Some(layout.to_cube(&x));
-            }
-            for (p, member_layer, matrices) in &members {
-                let Some(Some(solved)) = out.get_mut(p.lens) else {
-                    unreachable!("every member with matrices was prepared")
-                };
-                solved.maps[*member_layer] = map.clone();
-                let solver = p.lens == lens;
-                solved.layers.push(LayerReport {
-                    layer: *member_layer,
-                    renders: matrices.iter().flatten().map(|m| m.renders).sum(),
-                    direct_rows: if solver { direct_rows } else { 0 },
-                    nonzeros: matrices
-                        .iter()
-                        .flatten()
-                        .map(RenderingMatrix::nnz)
-                        .collect(),
-                    matrix_ms: if solver { matrix_ms } else { 0.0 },
-                    targets_ms: p.targets_ms,
-                    solve: SolveReport {
-                        ms: if solver { solve_report.ms } else { 0.0 },
-                        ..solve_report.clone()
-                    },
-                });
-            }
-        }
+    let mut direct_rows = 0;
+    if let Some(direct) = &direct {
+        equations.push(Equations {
+            a: &direct.a,
+            b: &direct.b,
+            confidence: &direct.confidence,
+        });
+        direct_rows = direct.b.len();
     }
-    for solved in out.iter_mut().flatten() {
-        solved.layers.sort_by_key(|l| l.layer);
-    }
-    Ok(out)
+    let start = current
+        .as_ref()
+        .map(|current| layout.from_cube(current))
+        .unwrap_or_else(|| vec![[0.0; 4]; layout.len()]);
+    observe();
+    let (x, report) = solve(&equations, layout, smoothness, &start, &options.solve)?;
+    Ok(SolvedMap {
+        map: layout.to_cube(&x),
+        report,
+        direct_rows,
+    })
 }
 
 /// `cube` at face size `size`: itself when the sizes agree, else level 0 sampled bilinearly at

@@ -55,7 +55,7 @@
 //!     and sum of the filter exactly, so value / w is exactly a power of two and the digit is read
 //!     without rounding ambiguity on any linear filter (decoding still accepts a relative error
 //!     of 1e-3 and reports anything else); D = ⌈log₃₂ L⌉, 3 at 128². Once a device needed it,
-//!     the baker keeps it for the rest of the inference ([`RenderingMatrix::measure_from`]).
+//!     the baker keeps it for the rest of the inference ([`Digits::Starting`]).
 //!
 //! Renders per layer frame: 1 (the base, all-zero EM) + 6 × (1 + D): 13 with integer digits up
 //! to 256² maps (19 at 512²); with powers of two 25 at 128² and 31 at 512². Groups with no texels
@@ -682,42 +682,65 @@ pub struct RenderingMatrix {
     pub encoding: DigitEncoding,
 }
 
+/// How [`RenderingMatrix::measure`] measures a matrix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeasureOptions {
+    /// Face size of the test cube maps, texels: a power of two.
+    pub size: u32,
+    /// k: the framebuffer is k× the display resolution per axis, box-filtered (0 reads as 1).
+    pub supersampling: u32,
+    /// How the digit renders write the texel indices.
+    pub digits: Digits,
+}
+
+impl MeasureOptions {
+    /// Face size `size`, supersampling `supersampling`, digits starting as integers.
+    pub fn new(size: u32, supersampling: u32) -> MeasureOptions {
+        MeasureOptions {
+            size,
+            supersampling,
+            digits: Digits::Starting(DigitEncoding::Integers),
+        }
+    }
+}
+
+/// Which digit encodings [`RenderingMatrix::measure`] uses (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Digits {
+    /// This encoding first; integers the device's filtering is too coarse to decode are measured
+    /// again as powers of two. A caller measuring many matrices on one device passes the previous
+    /// matrix's [`RenderingMatrix::encoding`], so that a device too coarse for integers pays the
+    /// failed attempt once, not per matrix.
+    Starting(DigitEncoding),
+    /// This encoding only: a failed decode is an error.
+    Only(DigitEncoding),
+}
+
 impl RenderingMatrix {
-    /// Measures A of `layer` with cube maps of face size `size` through `renderer`; the
-    /// framebuffer is `k`× the display resolution per axis (supersampling), box-filtered. Digits
-    /// are written as integers, and as powers of two when the device's filtering is too coarse
-    /// for integers (see the module documentation).
+    /// Measures A of `layer` through `renderer` as `options` say: test cube maps of face size
+    /// `options.size`, a framebuffer `options.supersampling`× the display resolution per axis,
+    /// box-filtered, and the digits in `options.digits`.
     pub fn measure(
         renderer: &mut dyn TestRenderer,
         layer: &mut LayerFrame,
-        size: u32,
-        k: u32,
+        options: &MeasureOptions,
     ) -> Result<RenderingMatrix, MatrixError> {
-        Self::measure_from(renderer, layer, size, k, DigitEncoding::Integers)
-    }
-
-    /// [`RenderingMatrix::measure`] trying `first` first: a caller measuring many matrices on
-    /// one device passes the previous matrix's [`RenderingMatrix::encoding`], so that a device
-    /// too coarse for integers pays the failed attempt once, not per matrix.
-    pub fn measure_from(
-        renderer: &mut dyn TestRenderer,
-        layer: &mut LayerFrame,
-        size: u32,
-        k: u32,
-        first: DigitEncoding,
-    ) -> Result<RenderingMatrix, MatrixError> {
-        if first == DigitEncoding::PowersOfTwo {
-            return Self::measure_with(renderer, layer, size, k, first);
-        }
+        let (size, k) = (options.size, options.supersampling);
+        let first = match options.digits {
+            Digits::Only(encoding) | Digits::Starting(encoding @ DigitEncoding::PowersOfTwo) => {
+                return Self::measure_in(renderer, layer, size, k, encoding);
+            }
+            Digits::Starting(first) => first,
+        };
         let mut counted = Counted {
             inner: &mut *renderer,
             renders: 0,
         };
-        match Self::measure_with(&mut counted, layer, size, k, DigitEncoding::Integers) {
+        match Self::measure_in(&mut counted, layer, size, k, first) {
             Err(MatrixError::Decode { .. }) => {
                 let failed = counted.renders;
                 let mut matrix =
-                    Self::measure_with(renderer, layer, size, k, DigitEncoding::PowersOfTwo)?;
+                    Self::measure_in(renderer, layer, size, k, DigitEncoding::PowersOfTwo)?;
                 matrix.renders += failed;
                 Ok(matrix)
             }
@@ -726,7 +749,7 @@ impl RenderingMatrix {
     }
 
     /// [`RenderingMatrix::measure`] with the digits in `encoding` and no fallback.
-    pub fn measure_with(
+    fn measure_in(
         renderer: &mut dyn TestRenderer,
         layer: &mut LayerFrame,
         size: u32,
@@ -1032,22 +1055,21 @@ mod tests {
             .collect()
     }
 
-    /// Measures the crafted `footprints` (of a `width`×`height` display, supersampled `k`) with
-    /// `measure`, checks every decoded entry against the box-filtered taps to `relative`, and
+    /// Measures the crafted `footprints` (of a `width`×`height` display, supersampled `k`) as
+    /// `options` say, checks every decoded entry against the box-filtered taps to `relative`, and
     /// returns the matrix.
     fn check_crafted(
         device: &mut dyn TestRenderer,
         footprints: &[Vec<(usize, f32)>],
         (width, height, k): (u32, u32, u32),
-        size: u32,
+        options: &MeasureOptions,
         relative: f64,
-        measure: impl Fn(&mut dyn TestRenderer, &mut LayerFrame) -> Result<RenderingMatrix, MatrixError>,
     ) -> RenderingMatrix {
         let frames = LayerFrames::new(&crafted_frame(width * k, height * k), 0, k).unwrap();
         let mut layer = frames.layer(Term::Reflection, 0).unwrap();
         assert_eq!(layer.crop().width, width * k, "the crop is the whole frame");
-        let matrix = measure(device, &mut layer).unwrap();
-        assert_eq!(matrix.layout, TexelLayout::new(size));
+        let matrix = RenderingMatrix::measure(device, &mut layer, options).unwrap();
+        assert_eq!(matrix.layout, TexelLayout::new(options.size));
         // The truth: every tap of every framebuffer pixel, box-filtered.
         let mut truth =
             vec![std::collections::BTreeMap::<usize, f64>::new(); (width * height) as usize];
@@ -1094,9 +1116,8 @@ mod tests {
             &mut device,
             &footprints,
             (width, height, k),
-            size,
+            &MeasureOptions::new(size, k),
             0.0,
-            |device, layer| RenderingMatrix::measure(device, layer, size, k),
         );
         assert_eq!(matrix.encoding, DigitEncoding::Integers);
         assert_eq!(matrix.renders, 1 + 6 * 2);
@@ -1105,11 +1126,11 @@ mod tests {
             &mut device,
             &footprints,
             (width, height, k),
-            size,
-            0.0,
-            |device, layer| {
-                RenderingMatrix::measure_with(device, layer, size, k, DigitEncoding::PowersOfTwo)
+            &MeasureOptions {
+                digits: Digits::Only(DigitEncoding::PowersOfTwo),
+                ..MeasureOptions::new(size, k)
             },
+            0.0,
         );
         assert_eq!(powers.renders, 1 + 6 * 3);
         assert_eq!(powers.a, matrix.a);
@@ -1162,9 +1183,8 @@ mod tests {
             &mut device,
             &footprints,
             (width, height, k),
-            size,
+            &MeasureOptions::new(size, k),
             3e-4,
-            |device, layer| RenderingMatrix::measure(device, layer, size, k),
         );
         assert_eq!(matrix.encoding, DigitEncoding::PowersOfTwo);
         // The failed integer attempt's renders (it stops at the first group that fails) are
@@ -1177,9 +1197,11 @@ mod tests {
             &mut device,
             &footprints,
             (width, height, k),
-            size,
+            &MeasureOptions {
+                digits: Digits::Starting(matrix.encoding),
+                ..MeasureOptions::new(size, k)
+            },
             3e-4,
-            |device, layer| RenderingMatrix::measure_from(device, layer, size, k, matrix.encoding),
         );
         assert_eq!(again.renders, 1 + 6 * 4);
         assert_eq!(device.renders - before, 1 + 6 * 4);
@@ -1189,9 +1211,8 @@ mod tests {
             &mut device,
             &footprints,
             (width, height, k),
-            size,
+            &MeasureOptions::new(size, k),
             0.0,
-            |device, layer| RenderingMatrix::measure(device, layer, size, k),
         );
         assert_eq!(exact.encoding, DigitEncoding::Integers);
         assert_eq!(exact.renders, 1 + 6 * 2);
@@ -1273,11 +1294,16 @@ mod tests {
         let frames = LayerFrames::new(&crafted_frame(20, 20), 0, 1).unwrap();
         let mut layer = frames.layer(Term::Reflection, 0).unwrap();
         for encoding in [DigitEncoding::Integers, DigitEncoding::PowersOfTwo] {
-            let error = RenderingMatrix::measure_with(&mut device, &mut layer, size, 1, encoding)
-                .unwrap_err();
+            let only = MeasureOptions {
+                digits: Digits::Only(encoding),
+                ..MeasureOptions::new(size, 1)
+            };
+            let error = RenderingMatrix::measure(&mut device, &mut layer, &only).unwrap_err();
             assert!(matches!(error, MatrixError::Decode { .. }), "{error}");
         }
-        let error = RenderingMatrix::measure(&mut device, &mut layer, size, 1).unwrap_err();
+        let error =
+            RenderingMatrix::measure(&mut device, &mut layer, &MeasureOptions::new(size, 1))
+                .unwrap_err();
         assert!(matches!(error, MatrixError::Decode { .. }), "{error}");
     }
 }

@@ -368,94 +368,133 @@ fn normal_residual(
         .fold(0.0, f64::max)
 }
 
-/// LSQR (Paige & Saunders 1982) on min ‖M δ − d‖ with M = [C₁A₁; …; √λ G] scaled by columns
-/// S = diag(Σ AᵀC²A + λGᵀG)^(−½) (the same Jacobi scaling CG uses), d the residual at `x`, the
-/// `fixed` entries held; per channel, the four channels at once. Stops when its estimate of
-/// ‖(MS)ᵀ r‖ falls below `tolerance` × its start. Returns the iterations.
-#[allow(clippy::too_many_arguments)]
-fn lsqr(
-    terms: &[WeightedTerm],
-    smoothness: &Smoothness,
-    lambda: f64,
-    preconditioner: &[f64],
-    fixed: &[[bool; 4]],
-    x: &mut [[f64; 4]],
-    tolerance: f64,
-    max_iterations: usize,
-) -> usize {
-    let n = x.len();
-    let root_lambda = lambda.sqrt();
-    let scale: Vec<f64> = preconditioner.iter().map(|p| p.sqrt()).collect();
-    // Row space: each term's pixels, then the smoothness pairs.
-    let forward = |v: &[[f64; 4]]| -> Vec<Vec<[f64; 4]>> {
+/// The operator LSQR works on: M = [C₁A₁; …; √λ G] with its columns scaled by S (the Jacobi
+/// scaling CG uses), the `fixed` entries held (their columns zero in the adjoint). Its row space
+/// is each term's pixels, then the smoothness pairs.
+struct ScaledOperator<'a> {
+    terms: &'a [WeightedTerm],
+    smoothness: &'a Smoothness,
+    root_lambda: f64,
+    scale: Vec<f64>,
+    fixed: &'a [[bool; 4]],
+}
+
+impl<'a> ScaledOperator<'a> {
+    /// The operator of `terms` and the smoothness pairs weighted by `lambda`, scaled by the
+    /// square roots of `preconditioner`, with the `fixed` entries held.
+    fn new(
+        terms: &'a [WeightedTerm],
+        smoothness: &'a Smoothness,
+        lambda: f64,
+        preconditioner: &[f64],
+        fixed: &'a [[bool; 4]],
+    ) -> ScaledOperator<'a> {
+        ScaledOperator {
+            terms,
+            smoothness,
+            root_lambda: lambda.sqrt(),
+            scale: preconditioner.iter().map(|p| p.sqrt()).collect(),
+            fixed,
+        }
+    }
+
+    /// M S v, per row block.
+    fn forward(&self, v: &[[f64; 4]]) -> Vec<Vec<[f64; 4]>> {
         let scaled: Vec<[f64; 4]> = v
             .iter()
-            .zip(&scale)
+            .zip(&self.scale)
             .map(|(v, s)| v.map(|e| e * s))
             .collect();
-        let mut parts: Vec<Vec<[f64; 4]>> =
-            terms.iter().map(|t| multiply(&t.ca, &scaled)).collect();
+        let mut parts: Vec<Vec<[f64; 4]>> = self
+            .terms
+            .iter()
+            .map(|t| multiply(&t.ca, &scaled))
+            .collect();
         parts.push(
-            smoothness
+            self.smoothness
                 .pairs
                 .iter()
-                .map(|&(a, b)| std::array::from_fn(|c| root_lambda * (scaled[a][c] - scaled[b][c])))
+                .map(|&(a, b)| {
+                    std::array::from_fn(|c| self.root_lambda * (scaled[a][c] - scaled[b][c]))
+                })
                 .collect(),
         );
         parts
-    };
-    let adjoint = |u: &[Vec<[f64; 4]>]| -> Vec<[f64; 4]> {
-        let mut v = vec![[0.0; 4]; n];
-        for (t, part) in terms.iter().zip(u) {
+    }
+
+    /// (M S)ᵀ u, zero on the fixed entries.
+    fn adjoint(&self, u: &[Vec<[f64; 4]>]) -> Vec<[f64; 4]> {
+        let mut v = vec![[0.0; 4]; self.scale.len()];
+        for (t, part) in self.terms.iter().zip(u) {
             for (v, p) in v.iter_mut().zip(multiply(&t.at, part)) {
                 for c in 0..4 {
                     v[c] += p[c];
                 }
             }
         }
-        if let Some(pairs) = u.get(terms.len()) {
-            for (&(a, b), e) in smoothness.pairs.iter().zip(pairs) {
+        if let Some(pairs) = u.get(self.terms.len()) {
+            for (&(a, b), e) in self.smoothness.pairs.iter().zip(pairs) {
                 for c in 0..4 {
-                    v[a][c] += root_lambda * e[c];
-                    v[b][c] -= root_lambda * e[c];
+                    v[a][c] += self.root_lambda * e[c];
+                    v[b][c] -= self.root_lambda * e[c];
                 }
             }
         }
-        for ((v, s), f) in v.iter_mut().zip(&scale).zip(fixed) {
+        for ((v, s), f) in v.iter_mut().zip(&self.scale).zip(self.fixed) {
             for c in 0..4 {
                 v[c] = if f[c] { 0.0 } else { v[c] * s };
             }
         }
         v
-    };
-    let unit = |x: &[[f64; 4]]| -> Vec<[f64; 4]> {
+    }
+
+    /// S⁻¹ x: a point of texel space in the operator's scaled coordinates.
+    fn unscaled(&self, x: &[[f64; 4]]) -> Vec<[f64; 4]> {
         x.iter()
-            .zip(&scale)
+            .zip(&self.scale)
             .map(|(x, s)| x.map(|e| if *s > 0.0 { e / s } else { 0.0 }))
             .collect()
-    };
-    let norms = |parts: &[Vec<[f64; 4]>]| -> [f64; 4] {
-        let mut s = [0.0; 4];
-        for part in parts {
-            let d = dot(part, part);
-            for c in 0..4 {
-                s[c] += d[c];
-            }
+    }
+}
+
+/// Per channel, the norm of a vector of the row space (all blocks).
+fn parts_norm(parts: &[Vec<[f64; 4]>]) -> [f64; 4] {
+    let mut s = [0.0; 4];
+    for part in parts {
+        let d = dot(part, part);
+        for c in 0..4 {
+            s[c] += d[c];
         }
-        s.map(f64::sqrt)
-    };
-    let scale_parts = |parts: &mut [Vec<[f64; 4]>], by: [f64; 4]| {
-        for part in parts {
-            for e in part.iter_mut() {
-                for c in 0..4 {
-                    e[c] *= by[c];
-                }
-            }
-        }
-    };
-    let inverse = |v: [f64; 4]| v.map(|e| if e > 0.0 { 1.0 / e } else { 0.0 });
+    }
+    s.map(f64::sqrt)
+}
+
+/// Scales channel c of every entry of every block by `by[c]`.
+fn scale_parts(parts: &mut [Vec<[f64; 4]>], by: [f64; 4]) {
+    for part in parts {
+        normalize(part, by);
+    }
+}
+
+/// 1/v per channel, 0 where v is 0.
+fn inverse(v: [f64; 4]) -> [f64; 4] {
+    v.map(|e| if e > 0.0 { 1.0 / e } else { 0.0 })
+}
+
+/// LSQR (Paige & Saunders 1982) on min ‖M δ − d‖ with `operator` M S (M = [C₁A₁; …; √λ G], S =
+/// diag(Σ AᵀC²A + λGᵀG)^(−½), the same Jacobi scaling CG uses), d the residual at `x`, the
+/// operator's fixed entries held; per channel, the four channels at once. Stops when its
+/// estimate of ‖(MS)ᵀ r‖ falls below `tolerance` × its start. Returns the iterations.
+fn lsqr(
+    operator: &ScaledOperator<'_>,
+    x: &mut [[f64; 4]],
+    tolerance: f64,
+    max_iterations: usize,
+) -> usize {
+    let n = x.len();
+    let terms = operator.terms;
     // d = [C b − C A x; −√λ G x].
-    let at_x = forward(&unit(x));
+    let at_x = operator.forward(&operator.unscaled(x));
     let mut u: Vec<Vec<[f64; 4]>> = terms
         .iter()
         .zip(&at_x)
@@ -467,9 +506,9 @@ fn lsqr(
         })
         .collect();
     u.push(at_x[terms.len()].iter().map(|e| e.map(|v| -v)).collect());
-    let mut beta = norms(&u);
+    let mut beta = parts_norm(&u);
     scale_parts(&mut u, inverse(beta));
-    let mut v = adjoint(&u);
+    let mut v = operator.adjoint(&u);
     let mut alpha = dot(&v, &v).map(f64::sqrt);
     normalize(&mut v, inverse(alpha));
     let mut w = v.clone();
@@ -480,7 +519,7 @@ fn lsqr(
     let mut iterations = 0;
     while iterations < max_iterations {
         // β u ← M v − α u
-        let mv = forward(&v);
+        let mv = operator.forward(&v);
         for (part, m) in u.iter_mut().zip(&mv) {
             for (e, m) in part.iter_mut().zip(m) {
                 for c in 0..4 {
@@ -488,10 +527,10 @@ fn lsqr(
                 }
             }
         }
-        beta = norms(&u);
+        beta = parts_norm(&u);
         scale_parts(&mut u, inverse(beta));
         // α v ← Mᵀ u − β v
-        let mtu = adjoint(&u);
+        let mtu = operator.adjoint(&u);
         for (e, m) in v.iter_mut().zip(&mtu) {
             for c in 0..4 {
                 e[c] = m[c] - beta[c] * e[c];
@@ -523,7 +562,7 @@ fn lsqr(
             break;
         }
     }
-    for ((x, y), s) in x.iter_mut().zip(&y).zip(&scale) {
+    for ((x, y), s) in x.iter_mut().zip(&y).zip(&operator.scale) {
         for c in 0..4 {
             x[c] += y[c] * s;
         }
@@ -531,30 +570,10 @@ fn lsqr(
     iterations
 }
 
-/// Solves for one layer's texels (see the module documentation); `x0` is the starting guess (the
-/// projected EM, say), `layout` the columns.
-pub fn solve(
-    equations: &[Equations<'_>],
-    layout: &TexelLayout,
-    smoothness: &Smoothness,
-    x0: &[[f64; 4]],
-    options: &SolveOptions,
-) -> Result<(Vec<[f64; 4]>, SolveReport), SolveError> {
-    let start = Instant::now();
-    let n = layout.len();
-    if x0.len() != n {
-        return Err(SolveError::BadInput(format!(
-            "starting guess has {} texels, the layout {n}",
-            x0.len()
-        )));
-    }
-    if !(options.smoothness.is_finite() && options.smoothness >= 0.0) {
-        return Err(SolveError::BadInput(format!(
-            "smoothness {}; give a finite weight ≥ 0, e.g. {DEFAULT_SMOOTHNESS}",
-            options.smoothness
-        )));
-    }
-    // Each term's rows scaled by its confidence: C A and C b.
+/// Each term of `equations` with its rows scaled by its confidence (C A, C b) and C A
+/// transposed, after checking that its sizes agree with each other and with the `n` texels,
+/// that its target is finite and its confidence in [0, 1].
+fn weighted_terms(equations: &[Equations<'_>], n: usize) -> Result<Vec<WeightedTerm>, SolveError> {
     let mut weighted: Vec<WeightedTerm> = Vec::new();
     for (t, e) in equations.iter().enumerate() {
         let rows = e.a.rows();
@@ -592,6 +611,33 @@ pub fn solve(
             cb,
         });
     }
+    Ok(weighted)
+}
+
+/// Solves for one layer's texels (see the module documentation); `x0` is the starting guess (the
+/// projected EM, say), `layout` the columns.
+pub fn solve(
+    equations: &[Equations<'_>],
+    layout: &TexelLayout,
+    smoothness: &Smoothness,
+    x0: &[[f64; 4]],
+    options: &SolveOptions,
+) -> Result<(Vec<[f64; 4]>, SolveReport), SolveError> {
+    let start = Instant::now();
+    let n = layout.len();
+    if x0.len() != n {
+        return Err(SolveError::BadInput(format!(
+            "starting guess has {} texels, the layout {n}",
+            x0.len()
+        )));
+    }
+    if !(options.smoothness.is_finite() && options.smoothness >= 0.0) {
+        return Err(SolveError::BadInput(format!(
+            "smoothness {}; give a finite weight ≥ 0, e.g. {DEFAULT_SMOOTHNESS}",
+            options.smoothness
+        )));
+    }
+    let weighted = weighted_terms(equations, n)?;
     // Diagonal of Σ AᵀC²A: squared column norms.
     let mut data_diagonal = vec![0.0f64; n];
     for term in &weighted {
@@ -661,16 +707,9 @@ pub fn solve(
                 budget,
             ),
             SolveMethod::Lsqr => {
-                let used = lsqr(
-                    &weighted,
-                    smoothness,
-                    lambda,
-                    &preconditioner,
-                    &fixed,
-                    &mut x,
-                    options.tolerance,
-                    budget,
-                );
+                let operator =
+                    ScaledOperator::new(&weighted, smoothness, lambda, &preconditioner, &fixed);
+                let used = lsqr(&operator, &mut x, options.tolerance, budget);
                 (used, normal_residual(&normal, &rhs, &fixed, &x))
             }
         };

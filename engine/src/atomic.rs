@@ -1,6 +1,8 @@
-//! Atomic file writes: a file is written beside its target under a temporary name, fsynced and
+//! Atomic writes. A file is written beside its target under a temporary name, fsynced and
 //! renamed over the target, so a failed write (a full disk, a killed process) leaves any earlier
-//! file at that path intact, and a reader never sees half a file.
+//! file at that path intact, and a reader never sees half a file. A directory is built complete
+//! beside its target and swapped in by renames ([`DirectorySwap`]), with the same guarantee for
+//! the directory as a whole.
 
 use std::fs::{self, File};
 use std::io::Write;
@@ -47,18 +49,9 @@ pub fn stage(path: &Path, bytes: &[u8]) -> std::io::Result<Staged> {
         }
         _ => path,
     };
-    let parent = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    fs::create_dir_all(parent)?;
+    fs::create_dir_all(parent_of(path))?;
     let temporary = temporary_path(path);
-    let written = (|| {
-        let mut file = File::create(&temporary)?;
-        file.write_all(bytes)?;
-        file.sync_all()
-    })();
-    if let Err(error) = written {
+    if let Err(error) = write_synced(&temporary, bytes) {
         let _ = fs::remove_file(&temporary);
         return Err(error);
     }
@@ -79,13 +72,7 @@ impl Staged {
         }
         // The rename is durable once the folder is; a folder that cannot be opened to sync (some
         // file systems) still holds the new file.
-        let parent = target
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        if let Ok(folder) = File::open(parent) {
-            let _ = folder.sync_all();
-        }
+        let _ = sync_directory(parent_of(&target));
         Ok(())
     }
 }
@@ -104,6 +91,168 @@ fn temporary_path(path: &Path) -> PathBuf {
         .file_name()
         .map_or_else(|| "output".into(), |n| n.to_string_lossy().into_owned());
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// The `NAME` a temporary name this module gives stands for: `.NAME.PID.tmp` (a staged file)
+/// and `.NAME.previous` (a directory moved aside by [`DirectorySwap`]) are `NAME`; `None` for any
+/// other name.
+pub fn stands_for(name: &str) -> Option<&str> {
+    let rest = name.strip_prefix('.')?;
+    let public = match rest.strip_suffix(".tmp") {
+        Some(staged) => staged
+            .rsplit_once('.')
+            .filter(|(_, pid)| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
+            .map_or(staged, |(name, _)| name),
+        None => rest.strip_suffix(PREVIOUS_SUFFIX)?,
+    };
+    (!public.is_empty()).then_some(public)
+}
+
+/// The folder holding `path` (`.` for a bare name).
+fn parent_of(path: &Path) -> &Path {
+    path.parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+}
+
+/// Creates `path`, writes `bytes` and fsyncs the file: not atomic by itself, for the files of a
+/// directory that is swapped in whole ([`DirectorySwap`]) and for [`stage`]'s temporaries.
+pub fn write_synced(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut file = File::create(path)?;
+    file.write_all(bytes)?;
+    file.sync_all()
+}
+
+/// fsyncs a folder so that the names in it (a rename, a new file) are durable.
+pub fn sync_directory(dir: &Path) -> std::io::Result<()> {
+    File::open(dir).and_then(|folder| folder.sync_all())
+}
+
+/// The suffix of the name an old directory is moved aside to during a swap.
+const PREVIOUS_SUFFIX: &str = ".previous";
+
+/// A step of a directory swap that the file system refused: which path, doing what.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: cannot {action}: {source}", path.display())]
+pub struct StepError {
+    /// The file or folder.
+    pub path: PathBuf,
+    /// What was being done (`create`, `move aside`, `restore`, …).
+    pub action: &'static str,
+    /// The operating system's error.
+    pub source: std::io::Error,
+}
+
+impl StepError {
+    /// The error of `action` on `path`, for `map_err`.
+    pub fn of(path: &Path, action: &'static str) -> impl FnOnce(std::io::Error) -> StepError {
+        let path = path.to_owned();
+        move |source| StepError {
+            path,
+            action,
+            source,
+        }
+    }
+}
+
+/// What becomes of a built directory whose swap fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WhenSwapFails {
+    /// Removed (a temporary nobody resumes).
+    Remove,
+    /// Kept where it is (work that a later run resumes).
+    Keep,
+}
+
+/// A directory `NAME` replaced as a whole. The replacement is built complete under a hidden name
+/// beside it ([`DirectorySwap::beside`]), every file fsynced, then swapped in
+/// ([`DirectorySwap::swap_in`]): the old directory is renamed to `.NAME.previous`, the new one to
+/// `NAME`, and the old one removed. An interruption before the swap leaves the old directory
+/// untouched at `NAME`; one between the two renames leaves it at `.NAME.previous`, which
+/// [`DirectorySwap::prepare`] puts back (or, if the new one made it to `NAME`, removes) before
+/// the next swap starts. One writer per directory at a time.
+#[derive(Clone, Debug)]
+pub struct DirectorySwap {
+    target: PathBuf,
+    parent: PathBuf,
+    name: String,
+    previous: PathBuf,
+}
+
+impl DirectorySwap {
+    /// The swap of directory `target`; `None` when it has no final name in UTF-8 (`..`, `/`).
+    /// Touches nothing.
+    pub fn new(target: &Path) -> Option<DirectorySwap> {
+        let name = target.file_name()?.to_str()?.to_owned();
+        let parent = parent_of(target).to_owned();
+        Some(DirectorySwap {
+            target: target.to_owned(),
+            previous: parent.join(format!(".{name}{PREVIOUS_SUFFIX}")),
+            parent,
+            name,
+        })
+    }
+
+    /// The directory replaced.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// `.NAME{suffix}` beside the target: a hidden place to build the replacement in.
+    pub fn beside(&self, suffix: &str) -> PathBuf {
+        self.parent.join(format!(".{}{suffix}", self.name))
+    }
+
+    /// Where the old directory lies while a swap is under way, when a swap was interrupted
+    /// between its two renames (the target is missing and the old directory is there).
+    pub fn interrupted(&self) -> Option<&Path> {
+        (!self.target.is_dir() && self.previous.is_dir()).then_some(self.previous.as_path())
+    }
+
+    /// Creates the parent folders and finishes a swap an earlier run left half done: with the
+    /// target gone and the old directory at `.NAME.previous`, puts it back; with both present
+    /// (a crash after the swap), removes the old one.
+    pub fn prepare(&self) -> Result<(), StepError> {
+        fs::create_dir_all(&self.parent).map_err(StepError::of(&self.parent, "create"))?;
+        if !self.previous.exists() {
+            return Ok(());
+        }
+        if self.target.exists() {
+            fs::remove_dir_all(&self.previous).map_err(StepError::of(&self.previous, "remove"))
+        } else {
+            fs::rename(&self.previous, &self.target)
+                .map_err(StepError::of(&self.previous, "restore"))
+        }
+    }
+
+    /// Makes the complete directory `built` the target (see the type's documentation) and syncs
+    /// the parent folder. When a rename fails, the old directory is put back and `built` is
+    /// removed or kept as `when_fails` says.
+    pub fn swap_in(&self, built: &Path, when_fails: WhenSwapFails) -> Result<(), StepError> {
+        let had_old = self.target.exists();
+        if had_old {
+            fs::rename(&self.target, &self.previous)
+                .map_err(StepError::of(&self.target, "move aside"))?;
+        }
+        if let Err(error) = fs::rename(built, &self.target) {
+            if had_old {
+                let _ = fs::rename(&self.previous, &self.target);
+            }
+            if when_fails == WhenSwapFails::Remove {
+                let _ = fs::remove_dir_all(built);
+            }
+            return Err(StepError::of(
+                &self.target,
+                "rename the staging directory to",
+            )(error));
+        }
+        sync_directory(&self.parent).map_err(StepError::of(&self.parent, "fsync"))?;
+        if had_old {
+            // The new directory is in place; an old one left over is removed by the next prepare.
+            let _ = fs::remove_dir_all(&self.previous);
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -134,6 +283,55 @@ mod tests {
             "no temporary left behind"
         );
         fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn temporary_names_stand_for_their_targets() {
+        for (name, public) in [
+            (".a.exr.4242.tmp", Some("a.exr")),
+            (".a.exr.tmp", Some("a.exr")),
+            (".bake.previous", Some("bake")),
+            (".hidden", None),
+            ("..tmp", None),
+            ("a.exr", None),
+        ] {
+            assert_eq!(stands_for(name), public, "{name}");
+        }
+        let path = Path::new("/x/a.exr");
+        let temporary = temporary_path(path);
+        let name = temporary.file_name().unwrap().to_str().unwrap();
+        assert_eq!(stands_for(name), Some("a.exr"));
+    }
+
+    #[test]
+    fn a_directory_is_swapped_whole_and_an_interrupted_swap_recovers() {
+        let root = std::env::temp_dir().join(format!("lensmap-swap-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&root);
+        let target = root.join("sub").join("d");
+        let swap = DirectorySwap::new(&target).unwrap();
+        swap.prepare().unwrap();
+        let build = |text: &[u8]| {
+            let built = swap.beside(".building");
+            fs::create_dir_all(&built).unwrap();
+            write_synced(&built.join("f"), text).unwrap();
+            built
+        };
+        swap.swap_in(&build(b"one"), WhenSwapFails::Remove).unwrap();
+        swap.swap_in(&build(b"two"), WhenSwapFails::Remove).unwrap();
+        assert_eq!(fs::read(target.join("f")).unwrap(), b"two");
+        assert_eq!(fs::read_dir(root.join("sub")).unwrap().count(), 1);
+        // Killed between the renames: the old directory aside, the target missing.
+        fs::rename(&target, root.join("sub").join(".d.previous")).unwrap();
+        assert!(swap.interrupted().is_some());
+        swap.prepare().unwrap();
+        assert!(swap.interrupted().is_none());
+        assert_eq!(fs::read(target.join("f")).unwrap(), b"two");
+        // A swap whose rename fails (the built directory is missing) puts the old one back.
+        let missing = swap.beside(".missing");
+        assert!(swap.swap_in(&missing, WhenSwapFails::Keep).is_err());
+        assert_eq!(fs::read(target.join("f")).unwrap(), b"two");
+        assert!(DirectorySwap::new(Path::new("/")).is_none());
+        fs::remove_dir_all(&root).unwrap();
     }
 
     #[test]

@@ -17,6 +17,13 @@ pub trait OptionWords {
     fn setting(&self, field: &str, value: &str) -> String {
         format!("{} = {value}", self.option(field))
     }
+
+    /// The library's entry point `call` (a function such as `bake`), for messages that say
+    /// what to run: by default the function's name in backquotes; the command line names its
+    /// command.
+    fn call(&self, call: &str) -> String {
+        format!("`{call}`")
+    }
 }
 
 /// The library's own words: options by their field names, in backquotes (`` `em_size` ``).

@@ -12,7 +12,7 @@ use lensmap::{
     scene::Scene,
     trace::{TraceOptions, compile_records, render_reference},
 };
-use lensmap_baker::infer::{EmSize, InferError, InferOptions, infer_lens};
+use lensmap_baker::infer::{EmSize, InferError, InferOptions, View, infer_lens};
 use lensmap_tests::{assert_clean, gpu};
 
 #[test]
@@ -54,15 +54,12 @@ fn inferred_ems_beat_projected_ones() {
         };
         let mut inferred_maps = Vec::new();
         for (lens, lens_records) in records.lenses.iter().enumerate() {
-            let inference = infer_lens(
-                &mut runner,
-                &hybrid,
-                lens,
-                &targets_camera,
-                lens_records,
-                &infer,
-            )
-            .unwrap();
+            let view = View {
+                camera: &targets_camera,
+                records: lens_records,
+            };
+            let inference =
+                infer_lens(&mut runner, &hybrid, lens, &[view], &infer, &mut |_| {}).unwrap();
             for layer in &inference.layers {
                 println!(
                     "{name} lens {lens} layer {}: {} renders, non-zeros {:?}, {} iterations",
@@ -94,13 +91,17 @@ fn a_camera_that_sees_no_lens_pixel_is_an_error() {
     let (hybrid, _) =
         load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(8))).unwrap();
     let records = compile_records(&hybrid.trace, &away, &TraceOptions::default()).unwrap();
+    let view = View {
+        camera: &away,
+        records: &records.lenses[0],
+    };
     let result = infer_lens(
         &mut runner,
         &hybrid,
         0,
-        &away,
-        &records.lenses[0],
+        &[view],
         &InferOptions::default(),
+        &mut |_| {},
     );
     match result {
         Err(error @ InferError::NoLensPixels { .. }) => println!("{error}"),

@@ -16,7 +16,9 @@ use lensmap::{
 };
 use lensmap_baker::{
     infer::DeviceRenderer,
-    matrix::{LayerFrames, MatrixError, RenderingMatrix, TestRenderer, TexelLayout},
+    matrix::{
+        LayerFrames, MatrixError, MeasureOptions, RenderingMatrix, TestRenderer, TexelLayout,
+    },
     solve::{Equations, Smoothness, SolveError, SolveMethod, SolveOptions, solve},
 };
 use lensmap_tests::{assert_clean, gpu};
@@ -86,9 +88,12 @@ fn the_matrix_is_the_hardware() {
                 for layer in if n > 1 { vec![0, n - 1] } else { vec![0] } {
                     let mut layer_frame = frames.layer(term, layer).unwrap();
                     let mut device = DeviceRenderer::new(&mut runner, variant);
-                    let matrix =
-                        RenderingMatrix::measure(&mut device, &mut layer_frame, EM_SIZE, 2)
-                            .unwrap();
+                    let matrix = RenderingMatrix::measure(
+                        &mut device,
+                        &mut layer_frame,
+                        &MeasureOptions::new(EM_SIZE, 2),
+                    )
+                    .unwrap();
                     let case = format!("{name} {variant:?} {term:?} layer {layer}");
                     let lens_pixels = matrix.coverage().iter().filter(|c| **c > 0.0).count();
                     assert!(lens_pixels > 100, "{case}: {lens_pixels} lens pixels");
@@ -139,10 +144,18 @@ fn the_matrix_agrees_with_the_f64_model() {
     let frames = LayerFrames::new(&frame, 0, 1).unwrap();
     let mut layer_frame = frames.layer(frames.terms()[0], 0).unwrap();
     let mut device = DeviceRenderer::new(&mut runner, Variant::Multipass);
-    let hardware = RenderingMatrix::measure(&mut device, &mut layer_frame, EM_SIZE, 1).unwrap();
-    let model =
-        RenderingMatrix::measure(&mut ModelRenderer::default(), &mut layer_frame, EM_SIZE, 1)
-            .unwrap();
+    let hardware = RenderingMatrix::measure(
+        &mut device,
+        &mut layer_frame,
+        &MeasureOptions::new(EM_SIZE, 1),
+    )
+    .unwrap();
+    let model = RenderingMatrix::measure(
+        &mut ModelRenderer::default(),
+        &mut layer_frame,
+        &MeasureOptions::new(EM_SIZE, 1),
+    )
+    .unwrap();
     let exclusion = render_model_with(
         layer_frame.with_em(Arc::new(CubeMap::uniform(EM_SIZE, [0.5; 4]))),
         &ModelOptions::lavapipe(),
@@ -222,8 +235,12 @@ fn the_solver_inverts_the_matrix() {
     let matrices: Vec<RenderingMatrix> = terms
         .iter()
         .map(|&t| {
-            RenderingMatrix::measure(&mut device, &mut frames.layer(t, 1).unwrap(), size, 2)
-                .unwrap()
+            RenderingMatrix::measure(
+                &mut device,
+                &mut frames.layer(t, 1).unwrap(),
+                &MeasureOptions::new(size, 2),
+            )
+            .unwrap()
         })
         .collect();
     let layout = matrices[0].layout.clone();

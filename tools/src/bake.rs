@@ -13,7 +13,8 @@ use lensmap::{
 };
 use lensmap_baker::{
     bake::{
-        BakeOptions, LayerCount, Progress, bake, merge, parse_samples, parse_shard, shard_samples,
+        BakeJob, BakeOptions, LayerCount, Progress, bake, merge, parse_samples, parse_shard,
+        shard_samples,
     },
     infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions},
 };
@@ -149,15 +150,15 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     )?;
     let device = runner.gpu().device_name().to_string();
     let bars = BakeBars::new(samples.len());
-    let summary = bake(
-        &mut runner,
-        &scene,
-        &args.out,
-        &samples,
-        &options,
-        args.resume,
-        &mut |progress| bars.show(progress),
-    )?;
+    let job = BakeJob {
+        dir: &args.out,
+        samples: &samples,
+        options: &options,
+        resume: args.resume,
+    };
+    let summary = bake(&mut runner, &scene, &job, &mut |progress| {
+        bars.show(progress)
+    })?;
     bars.finish();
     let validation = runner.gpu().validation_report();
     if let Some(first) = validation.messages.first() {

@@ -18,7 +18,7 @@ use lensmap::{
     scene::Scene,
     trace::{TraceOptions, compile_records, render_reference},
 };
-use lensmap_baker::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions, infer_lens};
+use lensmap_baker::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions, View, infer_lens};
 use serde_json::json;
 
 use crate::common::{BadUsage, JudgeArgs, flag_error, report};
@@ -157,8 +157,11 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..args.runs.max(1) {
-            let inference =
-                infer_lens(&mut runner, &hybrid, lens, &camera, lens_records, &options)?;
+            let view = View {
+                camera: &camera,
+                records: lens_records,
+            };
+            let inference = infer_lens(&mut runner, &hybrid, lens, &[view], &options, &mut |_| {})?;
             times.push(inference.total_ms);
             last = Some(inference);
             bar.inc(1);

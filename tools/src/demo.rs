@@ -16,8 +16,10 @@ use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{HybridOptions, HybridScene},
-    layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
-    layers::{Bake, Manifest},
+    layers::{
+        Bake,
+        projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    },
     metrics::Encoding,
     render::{RenderedImage, SinglePassProgram, TargetFormat, Variant, synthetic},
     runner::{
@@ -27,7 +29,7 @@ use lensmap::{
     scene::Scene,
     trace::{TraceOptions, render_reference},
 };
-use lensmap_baker::bake::{BakeOptions, bake};
+use lensmap_baker::bake::{BakeJob, BakeOptions, bake, reuse};
 use serde_json::json;
 
 use crate::common::{BadUsage, Steps, flag_error, report};
@@ -322,14 +324,7 @@ fn inferred_scene(
         judge: false,
         ..BakeOptions::default()
     };
-    let cached = Manifest::read(dir)
-        .ok()
-        .and_then(|m| m.provenance)
-        .is_some_and(|p| {
-            p.scene_hash == scene.content_hash()
-                && p.options_hash == options.hash()
-                && samples.iter().all(|s| p.samples.contains(s))
-        });
+    let cached = reuse::check(dir, scene, &options, &samples).is_ok();
     let start = Instant::now();
     if cached {
         say!(
@@ -348,15 +343,13 @@ fn inferred_scene(
             dir.display()
         );
         let bars = crate::bake::BakeBars::new(samples.len());
-        bake(
-            runner,
-            scene,
+        let job = BakeJob {
             dir,
-            &samples,
-            &options,
-            true,
-            &mut |progress| bars.show(progress),
-        )?;
+            samples: &samples,
+            options: &options,
+            resume: true,
+        };
+        bake(runner, scene, &job, &mut |progress| bars.show(progress))?;
         bars.finish();
         step.finish_and_clear();
     }

@@ -171,7 +171,7 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
         use lensmap_baker::bake::BakeFailure;
         return match failure {
             BakeFailure::Bake(error) => bake_input(error),
-            BakeFailure::BadInput(_) | BakeFailure::Staged { .. } => true,
+            BakeFailure::Option(_) | BakeFailure::Input(_) | BakeFailure::Merge(_) => true,
             // A scene the ray tracer refuses, as everywhere else.
             BakeFailure::Hybrid(_) | BakeFailure::Trace(_) => true,
             BakeFailure::Run(run) => run_input(run),

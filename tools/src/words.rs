@@ -15,15 +15,30 @@ impl OptionWords for Flags {
     fn setting(&self, field: &str, value: &str) -> String {
         format!("{} {value}", self.option(field))
     }
+
+    fn call(&self, call: &str) -> String {
+        format!("lensmap {call}")
+    }
 }
 
 /// `cause` in the command line's words, where it is a library error that names options.
 fn worded(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
-    let as_worded: Option<&dyn Worded> = None.or_else(|| {
-        cause
-            .downcast_ref::<lensmap::options::OptionError>()
-            .map(|e| e as &dyn Worded)
-    });
+    let as_worded: Option<&dyn Worded> = None
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::options::OptionError>()
+                .map(|e| e as &dyn Worded)
+        })
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap_baker::bake::BakeInputError>()
+                .map(|e| e as &dyn Worded)
+        })
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap_baker::bake::MergeError>()
+                .map(|e| e as &dyn Worded)
+        });
     as_worded.map(|error| error.worded(&Flags))
 }
 

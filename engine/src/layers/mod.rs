@@ -3,6 +3,8 @@
 //! for a layer), and the bake directory the baker writes and the runtime reads ([`bake`]).
 
 pub mod bake;
+#[cfg(any(test, feature = "fixtures"))]
+pub mod fixtures;
 pub mod projected;
 pub mod shell;
 

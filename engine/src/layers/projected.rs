@@ -294,6 +294,7 @@ pub fn project_layers(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::layers::fixtures::BALL_BEFORE_PANEL;
 
     fn scene(text: &str) -> (Scene, TraceScene) {
         let scene = Scene::from_toml_str(text, std::path::Path::new("test.toml")).unwrap();
@@ -301,45 +302,9 @@ mod tests {
         (scene, trace)
     }
 
-    const ROOM: &str = r#"
-[camera]
-position = [0.0, 0.0, 3.0]
-look_at = [0.0, 0.0, 0.0]
-vfov_degrees = 40.0
-width = 16
-height = 16
-
-[environment]
-constant = [0.2, 0.4, 0.6]
-
-[[materials]]
-name = "glass"
-glass = { ior = 1.5 }
-
-[[materials]]
-name = "white"
-diffuse = { colour = [1.0, 1.0, 1.0] }
-
-[[objects]]
-name = "ball"
-material = "glass"
-sphere = { radius = 0.5 }
-
-[[objects]]
-name = "panel"
-material = "white"
-plane = { size = [2.2, 2.2] }
-transform = { rotate_degrees = [90, 0, 0], translate = [0.0, 0.0, -2.0] }
-
-[[lenses]]
-name = "ball"
-objects = ["ball"]
-layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
-"#;
-
     #[test]
     fn inner_layer_holds_the_near_panel_and_the_outer_layer_the_sky() {
-        let (scene, trace) = scene(ROOM);
+        let (scene, trace) = scene(BALL_BEFORE_PANEL);
         let origin = em_origin(&scene, 0);
         assert!(origin.length() < 1e-3, "{origin}");
         let shells = lens_shells(&trace, &scene, 0, origin);
@@ -375,7 +340,7 @@ layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
 
     #[test]
     fn panel_edge_texels_have_fractional_coverage() {
-        let (scene, trace) = scene(ROOM);
+        let (scene, trace) = scene(BALL_BEFORE_PANEL);
         let origin = em_origin(&scene, 0);
         let shells = lens_shells(&trace, &scene, 0, origin);
         let (maps, _) = project_layers(
@@ -406,7 +371,7 @@ layers = [{ sphere = 2.0 }, { sphere = 50.0 }]
 
     #[test]
     fn no_layer_specs_place_one_sphere_at_the_mean_distance() {
-        let text = ROOM.replace("layers = [{ sphere = 2.0 }, { sphere = 50.0 }]", "");
+        let text = BALL_BEFORE_PANEL.replace("layers = [{ sphere = 2.0 }, { sphere = 50.0 }]", "");
         let (scene, trace) = scene(&text);
         let shells = lens_shells(&trace, &scene, 0, DVec3::ZERO);
         match shells.as_slice() {

@@ -1,0 +1,114 @@
+//! What the baker judges EMs with: hybrid scenes with projected EMs on given shells, the lens
+//! object's pixels at a camera, and the lens PSNR of a hybrid frame against the reference.
+
+use std::sync::Arc;
+
+use glam::{DVec3, Vec3};
+use lensmap::{
+    hybrid::{HybridScene, LensLayers},
+    layers::{
+        LayerShell,
+        projected::{ProjectedOptions, project_layers},
+    },
+    metrics::{self, Channels, Encoding, Mask},
+    render::TargetFormat,
+    runner::{FrameOptions, FrameRunner},
+    scene::{Camera, Scene},
+    trace::{LensRecords, world::TraceScene},
+};
+
+use super::{failure::BakeFailure, options::BakeOptions};
+
+/// The reference's pixels that are all lens object `lens` (every supersample's first hit), from
+/// its records at that camera.
+pub(super) fn lens_pixels(records: &LensRecords, camera: &Camera) -> Mask {
+    let k = camera.supersampling.max(1);
+    let mut counts = vec![0u32; (camera.width * camera.height) as usize];
+    for record in records.records.iter().filter(|r| r.visible) {
+        let (x, y) = (
+            record.image_position.x.floor() as usize,
+            record.image_position.y.floor() as usize,
+        );
+        if let Some(count) = counts.get_mut(y * camera.width as usize + x) {
+            *count += 1;
+        }
+    }
+    // Records come one per term: a pixel of a glass lens has 2k² of them.
+    let terms = records
+        .records
+        .iter()
+        .map(|r| r.term)
+        .collect::<std::collections::BTreeSet<_>>()
+        .len()
+        .max(1) as u32;
+    Mask::from_flags(counts.iter().map(|&c| c == terms * k * k).collect())
+}
+
+/// Lens PSNR (sRGB) of `hybrid` at `camera` over `mask` against the reference radiance.
+pub(super) fn masked_psnr(
+    runner: &mut FrameRunner,
+    hybrid: &HybridScene,
+    camera: &Camera,
+    reference: &[Vec3],
+    mask: &Mask,
+    options: &BakeOptions,
+) -> Result<f64, BakeFailure> {
+    let frame = runner.frame(
+        hybrid,
+        camera,
+        &FrameOptions {
+            hybrid: options.infer.hybrid,
+            variant: options.infer.variant,
+            blend: lensmap::render::BlendScheme::FrontToBack,
+            format: TargetFormat::Rgba32f,
+        },
+    )?;
+    Ok(metrics::compare(
+        &frame.image.pixels,
+        reference,
+        mask,
+        Encoding::DisplaySrgb,
+        Channels::Rgb,
+    )?
+    .psnr_db)
+}
+
+/// Projected EMs of every lens object on `shells` (per lens: origin and shells), at `size`.
+pub(super) fn projected_scene(
+    scene: &Scene,
+    shells: Vec<(DVec3, Vec<LayerShell>)>,
+    size: u32,
+) -> Result<HybridScene, BakeFailure> {
+    let trace = TraceScene::new(scene)?;
+    Ok(HybridScene::projected_on(
+        scene.clone(),
+        trace,
+        shells,
+        &ProjectedOptions::with_size(size),
+        &lensmap::lightmap::LightMapOptions::default(),
+    )?
+    .0)
+}
+
+/// Replaces lens object `lens`'s layered EMs in `hybrid` by projected ones on `shells` (EM
+/// origin `origin`) at face size `size`.
+pub(super) fn project_into(
+    hybrid: &mut HybridScene,
+    lens: usize,
+    origin: DVec3,
+    shells: Vec<LayerShell>,
+    size: u32,
+) {
+    let (maps, _) = project_layers(
+        &hybrid.trace,
+        lens,
+        origin,
+        &shells,
+        &ProjectedOptions::with_size(size),
+    );
+    hybrid.lenses[lens] = LensLayers {
+        em_origins: vec![origin; shells.len()],
+        shells,
+        maps: vec![maps.into_iter().map(Arc::new).collect()],
+    };
+}

@@ -1,0 +1,155 @@
+//! The cameras a bake looks through: the K views of a sample (module docs of [`super`]), the
+//! sample itself at the bake's resolution, and the viewpoints that place the layers.
+
+use glam::{DQuat, DVec3, Vec3};
+use lensmap::{
+    hybrid::viewpoints::angle,
+    scene::{Camera, Scene},
+};
+
+use super::options::{
+    BakeOptions, PLACEMENT_SAMPLES, PLACEMENT_SCALE, SINGLE_SAMPLE_SPREAD_DEGREES,
+};
+
+/// The camera at view-space sample position `position`: the scene camera moved there, at the
+/// bake's resolution.
+pub(super) fn sample_camera(scene: &Scene, position: Vec3, options: &BakeOptions) -> Camera {
+    scene.camera.with_position(position).with_resolution(
+        options.width,
+        options.height,
+        options.supersampling,
+    )
+}
+
+/// The K views of sample `sample` (module docs).
+pub fn view_cameras(scene: &Scene, sample: usize, options: &BakeOptions) -> Vec<Camera> {
+    let positions = scene.view_space.samples();
+    let look_at = scene.camera.look_at.as_dvec3();
+    let own = positions[sample].as_dvec3() - look_at;
+    let spacing = positions
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != sample)
+        .map(|(_, p)| angle(own, p.as_dvec3() - look_at))
+        .filter(|a| *a > 1e-9)
+        .fold(f64::INFINITY, f64::min);
+    let spacing = if spacing.is_finite() {
+        spacing
+    } else {
+        SINGLE_SAMPLE_SPREAD_DEGREES.to_radians()
+    };
+    let k = options.multi_view.max(1);
+    let mut cameras: Vec<Camera> = (0..k)
+        .map(|j| {
+            let offset = spacing * ((j as f64 + 0.5) / k as f64 - 0.5);
+            let position = look_at + DQuat::from_rotation_y(offset) * own;
+            sample_camera(scene, position.as_vec3(), options)
+        })
+        .collect();
+    let elevation = options.view_elevation_degrees.to_radians();
+    if elevation > 0.0 {
+        // Up about the horizontal axis perpendicular to the direction to the look-at point (a
+        // sample straight above or below it has none: then no raised view).
+        let axis = own.cross(DVec3::Y);
+        if axis.length() > 1e-9 * own.length() {
+            let axis = axis.normalize();
+            let raised = [-elevation, elevation]
+                .map(|angle| look_at + DQuat::from_axis_angle(axis, angle) * own)
+                .into_iter()
+                .find(|p| p.y > look_at.y + own.y);
+            if let Some(position) = raised {
+                cameras.push(sample_camera(scene, position.as_vec3(), options));
+            }
+        }
+    }
+    cameras
+}
+
+/// The viewpoints whose records place the layers: [`PLACEMENT_SAMPLES`] spread evenly over the
+/// view space, at 1/[`PLACEMENT_SCALE`] of the bake's resolution, one sample per pixel.
+pub fn placement_cameras(scene: &Scene, options: &BakeOptions) -> Vec<Camera> {
+    let positions = scene.view_space.samples();
+    let count = positions.len().min(PLACEMENT_SAMPLES);
+    (0..count)
+        .map(|i| positions[i * positions.len() / count])
+        .map(|p| {
+            scene.camera.with_position(p).with_resolution(
+                (options.width / PLACEMENT_SCALE).max(1),
+                (options.height / PLACEMENT_SCALE).max(1),
+                1,
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bake::BakeFailure;
+
+    #[test]
+    fn views_spread_over_the_samples_share_of_the_circle() {
+        let scene = Scene::load_named("glass-sphere").unwrap();
+        let options = BakeOptions {
+            multi_view: 3,
+            ..BakeOptions::default()
+        };
+        let look_at = scene.camera.look_at.as_dvec3();
+        let samples = scene.view_space.samples();
+        let cameras = view_cameras(&scene, 5, &options);
+        assert_eq!(cameras.len(), 3);
+        // The middle view is the sample; the others rotated about the vertical through the
+        // look-at point by ±1/3 of the angle s between neighbouring samples (as seen from the
+        // look-at point), one on each side.
+        assert!(cameras[1].position.distance(samples[5]) < 1e-5);
+        let from = |p: Vec3| p.as_dvec3() - look_at;
+        let s = angle(from(samples[5]), from(samples[6]));
+        let own = from(samples[5]);
+        for (camera, side) in [(&cameras[0], -1.0), (&cameras[2], 1.0)] {
+            let want = look_at + DQuat::from_rotation_y(side * s / 3.0) * own;
+            assert!(camera.position.as_dvec3().distance(want) < 1e-5);
+            assert_eq!(camera.look_at, scene.camera.look_at);
+        }
+        // On opposite sides: towards sample 4 and towards sample 6.
+        let towards =
+            |camera: &Camera, p: Vec3| angle(from(camera.position), from(p)) < angle(own, from(p));
+        assert!(towards(&cameras[0], samples[4]) != towards(&cameras[0], samples[6]));
+        assert!(towards(&cameras[2], samples[4]) != towards(&cameras[2], samples[6]));
+        assert!(towards(&cameras[0], samples[4]) != towards(&cameras[2], samples[4]));
+        let one = BakeOptions {
+            multi_view: 1,
+            ..BakeOptions::default()
+        };
+        let single = view_cameras(&scene, 5, &one);
+        assert!(single[0].position.distance(samples[5]) < 1e-5);
+        // A raised view: the sample, 15° up about the horizontal axis, at the same distance.
+        let raised = BakeOptions {
+            view_elevation_degrees: 15.0,
+            ..options
+        };
+        let with_raised = view_cameras(&scene, 5, &raised);
+        assert_eq!(with_raised.len(), 4);
+        assert_eq!(with_raised[..3], cameras[..]);
+        let up = from(with_raised[3].position);
+        assert!((angle(up, own).to_degrees() - 15.0).abs() < 1e-4);
+        assert!((up.length() - own.length()).abs() < 1e-4);
+        assert!(with_raised[3].position.y > samples[5].y);
+        assert!(
+            angle(up - own, glam::DVec3::Y) < angle(own, glam::DVec3::Y),
+            "up, not sideways"
+        );
+        assert_ne!(raised.hash(), options.hash());
+        for bad in [-1.0, 90.0, f64::NAN] {
+            let e = BakeOptions {
+                view_elevation_degrees: bad,
+                ..options
+            }
+            .validate()
+            .unwrap_err();
+            assert!(
+                matches!(&e, BakeFailure::Option(o) if o.option == "view_elevation_degrees"),
+                "{e}"
+            );
+        }
+    }
+}

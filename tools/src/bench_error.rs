@@ -35,7 +35,7 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, Steps, report};
+use crate::common::{BadUsage, Steps, reference_frame, report};
 
 #[derive(Args)]
 #[command(after_help = "Example:
@@ -753,12 +753,7 @@ fn measure_ray_tracer(
         times.push(one.stats.seconds * 1e3);
         image = Some(one);
     }
-    let one = image.context("at least one frame")?;
-    let as_frame = RenderedImage {
-        width: one.width,
-        height: one.height,
-        pixels: one.radiance.iter().map(|c| [c.x, c.y, c.z, 1.0]).collect(),
-    };
+    let as_frame = reference_frame(&image.context("at least one frame")?);
     let error = lens_error(&as_frame, reference, Encoding::DisplaySrgb)?;
     Ok(Measured {
         frame_ms: lensmap::runner::median(&mut times),

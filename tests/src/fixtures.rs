@@ -1,6 +1,7 @@
 //! Inputs the end-to-end tests share: a small scene file that a test breaks one field at a time,
 //! scratch folders, built-in scenes at test sizes with projected layered EMs, a smooth sky with a
-//! closed form, and an exact glass sphere for the tracer's path kernel.
+//! closed form, and an exact glass sphere for the tracer's path kernel with the angle measure
+//! its closed forms are compared in.
 
 use std::path::{Path, PathBuf};
 
@@ -109,6 +110,12 @@ pub fn write_smooth_sky(path: &Path) {
     image::DynamicImage::ImageRgb32F(image)
         .save(path)
         .expect("the sky is written");
+}
+
+/// The angle between two directions, radians; accurate for tiny angles (`acos` of a dot
+/// product is not: it bottoms out near 1.5e-8 rad).
+pub fn angle_between(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
 }
 
 /// An exact sphere of glass for the tracer's path kernel: f64 intersections and exact normals

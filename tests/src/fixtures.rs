@@ -1,18 +1,23 @@
 //! Inputs the end-to-end tests share: a small scene file that a test breaks one field at a time,
-//! scratch folders, built-in scenes at test sizes with projected layered EMs, a smooth sky with a
+//! scratch folders, built-in scenes at test sizes with projected layered EMs, a compositor test's
+//! GPU, renderer and seeded random source, a smooth sky with a
 //! closed form, and an exact glass sphere for the tracer's path kernel with the angle measure
 //! its closed forms are compared in.
 
 use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3, Vec2, Vec3};
+use lensmap::gpu::Gpu;
 use lensmap::hybrid::HybridScene;
 use lensmap::layers::projected::ProjectedOptions;
+use lensmap::render::Renderer;
 use lensmap::runner::{EmSource, load_hybrid_scene};
 use lensmap::scene::Scene;
 use lensmap::trace::bvh::SurfaceHit;
 use lensmap::trace::path::{Interface, LensGeometry};
 use lensmap::trace::{Ray, TraceCounters};
+use rand::SeedableRng;
+use rand_pcg::Pcg64;
 
 /// A small valid scene file: a 16×12 camera at 1×1 supersampling (its `width` on line 8), a
 /// constant environment, one point light, a glass ball over a grey floor plane; no lens objects
@@ -86,6 +91,14 @@ pub fn with_projected_ems(scene: Scene, size: u32) -> HybridScene {
         supersampling: 1,
     });
     load_hybrid_scene(scene, &ems).expect("the scene loads").0
+}
+
+/// What a compositor test starts from: a GPU with the validation layer on ([`crate::gpu`]), a
+/// renderer on it, and a random source seeded with `seed`.
+pub fn compositor(seed: u64) -> (Gpu, Renderer, Pcg64) {
+    let gpu = crate::gpu();
+    let renderer = Renderer::new(&gpu).expect("a renderer");
+    (gpu, renderer, Pcg64::seed_from_u64(seed))
 }
 
 /// The radiance of a smooth sky along `direction`: a low-order function of the direction (no

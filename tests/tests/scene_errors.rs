@@ -461,7 +461,7 @@ objects = ["ball"]
     }
 
     /// One number must not exhaust memory: sizes past the documented limits are refused at load,
-    /// before anything is built, naming the field (issue 11).
+    /// before anything is built, naming the field.
     #[test]
     fn sizes_past_the_limits_are_refused_before_building() {
         let dir = temp_folder("limits");

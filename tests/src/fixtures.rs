@@ -12,7 +12,9 @@ use lensmap::hybrid::HybridScene;
 use lensmap::layers::projected::ProjectedOptions;
 use lensmap::render::Renderer;
 use lensmap::runner::{EmSource, load_hybrid_scene};
-use lensmap::scene::Scene;
+use lensmap::scene::{
+    Camera, Environment, LensObject, Material, Scene, SceneObject, TriangleMesh, ViewSpace,
+};
 use lensmap::trace::bvh::SurfaceHit;
 use lensmap::trace::path::{Interface, LensGeometry};
 use lensmap::trace::{Ray, TraceCounters};
@@ -91,6 +93,36 @@ pub fn with_projected_ems(scene: Scene, size: u32) -> HybridScene {
         supersampling: 1,
     });
     load_hybrid_scene(scene, &ems).expect("the scene loads").0
+}
+
+/// A scene of one lens object alone in a constant environment of radiance `sky` (no lights, no
+/// view space, the object's layer shells left to the defaults): the object `name`, made of
+/// `mesh` and `material`, seen by `camera`.
+pub fn lens_alone(
+    name: &str,
+    mesh: TriangleMesh,
+    material: Material,
+    sky: Vec3,
+    camera: Camera,
+) -> Scene {
+    Scene {
+        name: name.to_owned(),
+        objects: vec![SceneObject {
+            name: name.to_owned(),
+            mesh,
+            material: 0,
+        }],
+        materials: vec![material],
+        lights: Vec::new(),
+        environment: Environment::Constant(sky),
+        lenses: vec![LensObject {
+            name: name.to_owned(),
+            objects: vec![0],
+            layers: Vec::new(),
+        }],
+        camera,
+        view_space: ViewSpace::List(Vec::new()),
+    }
 }
 
 /// What a compositor test starts from: a GPU with the validation layer on ([`crate::gpu`]), a

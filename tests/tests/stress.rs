@@ -27,9 +27,7 @@ use lensmap::render::{
     self, EnvironmentMesh, FrameInput, LensFaces, RenderedImage, Renderer, TargetFormat,
     TermVertices, Variant,
 };
-use lensmap::scene::{
-    Camera, Environment, LensObject, Material, Scene, SceneObject, TriangleMesh, ViewSpace, shapes,
-};
+use lensmap::scene::{Camera, Material, Scene, TriangleMesh, shapes};
 use lensmap::trace::bvh::SurfaceHit;
 use lensmap::trace::fresnel;
 use lensmap::trace::image::camera_ray;
@@ -37,7 +35,7 @@ use lensmap::trace::path::{GreedyOptions, Interface, LensGeometry, scatter, trac
 use lensmap::trace::{Ray, Term, TraceCounters, TraceOptions, TraceScene, render_reference};
 use lensmap_baker::matrix::TexelLayout;
 use lensmap_baker::solve::{Equations, Smoothness, SolveMethod, SolveOptions, solve};
-use lensmap_tests::fixtures::{AnalyticSphere, angle_between, built_in_scene};
+use lensmap_tests::fixtures::{AnalyticSphere, angle_between, built_in_scene, lens_alone};
 use lensmap_tests::{assert_clean, gpu};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -526,24 +524,13 @@ const SKY: Vec3 = Vec3::new(0.3, 0.5, 0.8);
 fn slab_scene(ior: f32, absorption: Vec3, width: f32, camera: Camera) -> Scene {
     let mut slab = shapes::cuboid(Vec3::new(width, width, 1.0));
     slab.transform(&Affine3A::from_translation(Vec3::new(0.0, 0.0, -0.5)));
-    Scene {
-        name: "slab".to_owned(),
-        objects: vec![SceneObject {
-            name: "slab".to_owned(),
-            mesh: slab,
-            material: 0,
-        }],
-        materials: vec![Material::Glass { ior, absorption }],
-        lights: Vec::new(),
-        environment: Environment::Constant(SKY),
-        lenses: vec![LensObject {
-            name: "slab".to_owned(),
-            objects: vec![0],
-            layers: Vec::new(),
-        }],
+    lens_alone(
+        "slab",
+        slab,
+        Material::Glass { ior, absorption },
+        SKY,
         camera,
-        view_space: ViewSpace::List(Vec::new()),
-    }
+    )
 }
 
 /// A 16×12 camera at `position` looking along `forward` with a vertical field of view of
@@ -735,24 +722,13 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
         mesh.check().is_err(),
         "the mesh does hold degenerate triangles"
     );
-    let scene = Scene {
-        name: "sliver-mirror".to_owned(),
-        objects: vec![SceneObject {
-            name: "mirror".to_owned(),
-            mesh: mesh.clone(),
-            material: 0,
-        }],
-        materials: vec![Material::Mirror { reflectance }],
-        lights: Vec::new(),
-        environment: Environment::Constant(SKY),
-        lenses: vec![LensObject {
-            name: "mirror".to_owned(),
-            objects: vec![0],
-            layers: Vec::new(),
-        }],
+    let scene = lens_alone(
+        "mirror",
+        mesh.clone(),
+        Material::Mirror { reflectance },
+        SKY,
         camera,
-        view_space: ViewSpace::List(Vec::new()),
-    };
+    );
     let schlick = |direction: DVec3| {
         let cos = -direction.y;
         let r0 = reflectance.as_dvec3();

@@ -10,7 +10,7 @@ use lensmap::scene::{
 use lensmap::trace::fresnel;
 use lensmap::trace::path::{GreedyOptions, LensGeometry, trace_greedy_paths};
 use lensmap::trace::{PathModel, Ray, Term, TraceCounters, TraceOptions, TraceScene};
-use lensmap_tests::fixtures::{AnalyticSphere, angle_between};
+use lensmap_tests::fixtures::{AnalyticSphere, angle_between, lens_alone};
 
 /// Closed form for a ray parallel to −z at height `b` (along +x) through a sphere of radius `r`
 /// centred at the origin: refraction in at θi = asin(b/r), a chord of length 2r·cos θt, refraction
@@ -364,27 +364,12 @@ fn mesh_sphere_in_a_scene_approaches_the_closed_form() {
     // with margin. The analytic-sphere test above holds the 1e-6 rad claim.
     let radius = 1.0f32;
     let sphere = shapes::sphere(radius, 384, 192);
-    let scene = Scene {
-        name: "sphere".to_owned(),
-        objects: vec![SceneObject {
-            name: "sphere".to_owned(),
-            mesh: sphere,
-            material: 0,
-        }],
-        materials: vec![Material::Glass {
-            ior: 1.5,
-            absorption: Vec3::ONE,
-        }],
-        lights: Vec::new(),
-        environment: Environment::Constant(Vec3::ONE),
-        lenses: vec![LensObject {
-            name: "sphere".to_owned(),
-            objects: vec![0],
-            layers: Vec::new(),
-        }],
-        camera: mirror_scene(Vec3::ONE).camera,
-        view_space: ViewSpace::List(Vec::new()),
+    let glass = Material::Glass {
+        ior: 1.5,
+        absorption: Vec3::ONE,
     };
+    let camera = mirror_scene(Vec3::ONE).camera;
+    let scene = lens_alone("sphere", sphere, glass, Vec3::ONE, camera);
     let world = TraceScene::new(&scene).unwrap();
     let mut counters = TraceCounters::default();
     let mut worst = 0.0f64;

@@ -1033,6 +1033,21 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
     }
 }
 
+/// Layered EMs of uniform cube maps of `size`² texels per face: `texels[viewpoint][layer]` is
+/// the texel of every face of that layer's map.
+fn uniform_layers<L: AsRef<[[f32; 4]]>>(texels: &[L], size: u32) -> Vec<Vec<Arc<CubeMap>>> {
+    texels
+        .iter()
+        .map(|layers| {
+            layers
+                .as_ref()
+                .iter()
+                .map(|&t| Arc::new(CubeMap::uniform(size, t)))
+                .collect()
+        })
+        .collect()
+}
+
 /// Framebuffer of the synthetic compositor cases.
 const SHEET_FRAME: (u32, u32) = (32, 24);
 
@@ -1259,15 +1274,7 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
     ];
     let uniform = sheet_frame(
         &terms,
-        uniform_texels
-            .iter()
-            .map(|layers| {
-                layers
-                    .iter()
-                    .map(|&t| Arc::new(CubeMap::uniform(8, t)))
-                    .collect()
-            })
-            .collect(),
+        uniform_layers(&uniform_texels, 8),
         vec![0.3, 0.7],
         [Vec3::ONE; 3],
         &linear_directions(0xa1fc),
@@ -1403,15 +1410,7 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let weights = [0.4f32, 0.6];
     let uniform = sheet_frame(
         &terms,
-        uniform_texels
-            .iter()
-            .map(|layers| {
-                layers
-                    .iter()
-                    .map(|&t| Arc::new(CubeMap::uniform(1, t)))
-                    .collect()
-            })
-            .collect(),
+        uniform_layers(&uniform_texels, 1),
         weights.to_vec(),
         [Vec3::ONE; 3],
         &linear_directions(0x0de1),

@@ -1,5 +1,9 @@
 //! Shared helpers for the end-to-end tests: a GPU with the Khronos validation layer on, and the
-//! check that it reported nothing.
+//! check that it reported nothing; the inputs several tests share ([`fixtures`]) and builds of C
+//! and C++ hosts against the C ABI ([`c_abi`]).
+
+pub mod c_abi;
+pub mod fixtures;
 
 use lensmap::gpu::{Gpu, GpuOptions};
 

@@ -9,6 +9,7 @@ use std::sync::Arc;
 use lensmap::cubemap::CubeMap;
 use lensmap::render::{BlendScheme, Renderer, TargetFormat, Variant};
 use lensmap::trace::Term;
+use lensmap_tests::fixtures::compositor;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -24,9 +25,7 @@ fn largest_difference(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
 
 #[test]
 fn every_scheme_equals_front_to_back_in_rgba32f() {
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(0xb1e4d);
+    let (gpu, mut renderer, mut rng) = compositor(0xb1e4d);
     let both = [Term::Refraction, Term::Reflection];
     let mut worst = [0f32; 4];
     for layers in 1..=4 {
@@ -74,9 +73,7 @@ fn every_scheme_equals_front_to_back_in_rgba32f() {
 /// front-to-back frame.
 #[test]
 fn schemes_agree_when_layers_groups_and_viewpoints_are_skipped() {
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(0x5c1f);
+    let (gpu, mut renderer, mut rng) = compositor(0x5c1f);
     let both = [Term::Refraction, Term::Reflection];
     let base = random_compositor_frame(&mut rng, SIZE, 3, 2, &both);
     let zero = Arc::new(CubeMap::uniform(16, [0.0; 4]));
@@ -181,9 +178,7 @@ fn schemes_agree_with_two_overlapping_lens_objects() {
 /// The single pass does not blend: asking it for another scheme is an error naming the fix.
 #[test]
 fn the_single_pass_refuses_other_schemes() {
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(9);
+    let (gpu, mut renderer, mut rng) = compositor(9);
     let frame = random_compositor_frame(&mut rng, 16, 1, 1, &[Term::Reflection]);
     let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
     for blend in BlendScheme::ALL.into_iter().skip(1) {

@@ -19,6 +19,7 @@ use lensmap::render::{
     model::{FilterPrecision, ModelImage, ModelOptions, render_model_with},
 };
 use lensmap::trace::Term;
+use lensmap_tests::fixtures::compositor;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -217,10 +218,8 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
 /// glass and mirror, one and two viewpoints, n = 1 and 3.
 #[test]
 fn every_blending_scheme_matches_its_f64_model() {
-    let gpu = gpu();
+    let (gpu, mut renderer, mut rng) = compositor(0x05c4_e3e5);
     let tolerance = Tolerance::of(&gpu);
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(0x05c4_e3e5);
     let both = [Term::Refraction, Term::Reflection];
     let mut worst = [0f64; 4];
     for layers in [1, 3] {
@@ -290,10 +289,8 @@ fn every_blending_scheme_matches_its_f64_model() {
 /// bits grow, so the share only rises).
 #[test]
 fn the_bound_check_rejects_wrong_frames() {
-    let gpu = gpu();
+    let (gpu, mut renderer, mut rng) = compositor(0x0b0_04d5);
     let tolerance = Tolerance::of(&gpu);
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(0x0b0_04d5);
     let mut frame = random_frame(&mut rng, 3, 2, &[Term::Refraction, Term::Reflection]);
     frame.viewpoint_weights = vec![0.15, 0.85];
     let mut swapped_weights = frame.clone();
@@ -368,9 +365,7 @@ fn the_bound_check_rejects_wrong_frames() {
 
 #[test]
 fn zero_weight_viewpoint_renders_like_one_viewpoint() {
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(7);
+    let (gpu, mut renderer, mut rng) = compositor(7);
     let both = random_frame(&mut rng, 2, 2, &[Term::Refraction, Term::Reflection]);
     // Either viewpoint may be the one with weight 0.
     for zero in [1, 0] {
@@ -408,9 +403,7 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
 
 #[test]
 fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(5);
+    let (gpu, mut renderer, mut rng) = compositor(5);
     // Two lens objects with one name would give two passes one name.
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
     frame.lenses.push(frame.lenses[0].clone());
@@ -451,9 +444,7 @@ fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
 
 #[test]
 fn bad_frame_input_is_an_error_not_a_panic() {
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(3);
+    let (gpu, mut renderer, mut rng) = compositor(3);
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
     frame.lenses[0].terms[0].fg[0] = Vec3::NAN;
     let message = renderer
@@ -480,9 +471,7 @@ fn bad_frame_input_is_an_error_not_a_panic() {
 
 #[test]
 fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() {
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).unwrap();
-    let mut rng = Pcg64::seed_from_u64(0x7e91ace);
+    let (gpu, mut renderer, mut rng) = compositor(0x7e91ace);
     let first = random_frame(&mut rng, 2, 2, &[Term::Refraction, Term::Reflection]);
     let second = random_frame(&mut rng, 2, 2, &[Term::Refraction, Term::Reflection]);
     let mut replaced = first.clone();

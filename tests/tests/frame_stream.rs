@@ -4,9 +4,9 @@
 //! scratch: a second, independent path through the same stages.
 
 use lensmap::{
-    hybrid::HybridOptions,
+    hybrid::{HybridOptions, HybridScene},
     render::{TargetFormat, Variant},
-    runner::{FrameOptions, FrameRunner},
+    runner::{FrameOptions, FrameRunner, HybridFrame},
     scene::Camera,
 };
 use lensmap_tests::{assert_clean, gpu, small_teapot_room};
@@ -18,6 +18,13 @@ fn options(variant: Variant) -> FrameOptions {
         blend: lensmap::render::BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     }
+}
+
+/// `camera`'s single-pass frame of `hybrid` ([`options`]).
+fn single_pass(runner: &mut FrameRunner, hybrid: &HybridScene, camera: &Camera) -> HybridFrame {
+    runner
+        .frame(hybrid, camera, &options(Variant::SinglePass))
+        .unwrap()
 }
 
 /// Frames in flight over a moving camera (with a repeated camera in the middle: a still frame)
@@ -69,12 +76,8 @@ fn a_still_camera_renders_the_same_frame_without_cpu_work() {
     let hybrid = small_teapot_room(48, 36);
     let camera = hybrid.scene.camera;
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    let first = runner
-        .frame(&hybrid, &camera, &options(Variant::SinglePass))
-        .unwrap();
-    let second = runner
-        .frame(&hybrid, &camera, &options(Variant::SinglePass))
-        .unwrap();
+    let first = single_pass(&mut runner, &hybrid, &camera);
+    let second = single_pass(&mut runner, &hybrid, &camera);
     assert!(!first.stats.reused && second.stats.reused);
     assert!(first.stats.vertices_traced > 0);
     assert_eq!(second.stats.vertices_traced, 0);
@@ -103,16 +106,12 @@ fn lens_objects_outside_the_view_are_skipped() {
         ..base
     };
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    let frame = runner
-        .frame(&hybrid, &away, &options(Variant::SinglePass))
-        .unwrap();
+    let frame = single_pass(&mut runner, &hybrid, &away);
     assert_eq!(frame.stats.lenses_outside_view, hybrid.trace.lenses.len());
     assert_eq!(frame.stats.vertices_traced, 0);
     assert_eq!(frame.stats.triangles_out, 0);
     // A camera that sees them skips none.
-    let seen = runner
-        .frame(&hybrid, &base, &options(Variant::SinglePass))
-        .unwrap();
+    let seen = single_pass(&mut runner, &hybrid, &base);
     assert_eq!(seen.stats.lenses_outside_view, 0);
     assert!(seen.stats.vertices_traced > 0);
 
@@ -132,11 +131,7 @@ fn frames_do_not_depend_on_the_thread_count() {
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| {
-                runner
-                    .frame(&hybrid, &camera, &options(Variant::SinglePass))
-                    .unwrap()
-            })
+            .install(|| single_pass(&mut runner, &hybrid, &camera))
     };
     let one = render(1);
     for threads in [2, 5] {
@@ -161,9 +156,7 @@ fn small_footprints_get_a_coarser_t_only_when_asked() {
         ..base
     };
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    let exact = runner
-        .frame(&hybrid, &far, &options(Variant::SinglePass))
-        .unwrap();
+    let exact = single_pass(&mut runner, &hybrid, &far);
     assert_eq!(exact.stats.lenses_coarsened, 0);
     let coarse_options = FrameOptions {
         hybrid: HybridOptions::with_t(3.0).with_footprint(1000.0),

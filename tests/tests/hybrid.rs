@@ -14,40 +14,16 @@ use lensmap::{
     scene::Scene,
     trace::{TraceOptions, render_reference},
 };
-use lensmap_tests::{assert_clean, gpu};
+use lensmap_tests::{assert_clean, fixtures, gpu};
 
 fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensmap-hybrid-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-/// A smooth sky (no seam at u = 0): radiance is a low-order function of the direction.
-fn write_sky(path: &std::path::Path) {
-    let (w, h) = (256u32, 128u32);
-    let mut data = Vec::with_capacity((w * h * 3) as usize);
-    for j in 0..h {
-        for i in 0..w {
-            let (u, v) = ((i as f32 + 0.5) / w as f32, (j as f32 + 0.5) / h as f32);
-            let phi = 2.0 * std::f32::consts::PI * (u - 0.5);
-            let theta = std::f32::consts::PI * v;
-            let d = Vec3::new(
-                theta.sin() * phi.sin(),
-                theta.cos(),
-                -theta.sin() * phi.cos(),
-            );
-            data.extend([0.45 + 0.35 * d.y, 0.5 + 0.3 * d.x, 0.55 + 0.25 * d.z]);
-        }
-    }
-    let image = image::Rgb32FImage::from_raw(w, h, data).unwrap();
-    image::DynamicImage::ImageRgb32F(image).save(path).unwrap();
+    fixtures::temp_dir("hybrid", name)
 }
 
 #[test]
 fn flat_mirror_under_a_distant_shell_matches_the_reflection_term() {
     let dir = temp_dir("mirror");
-    write_sky(&dir.join("sky.exr"));
+    fixtures::write_smooth_sky(&dir.join("sky.exr"));
     let text = r#"
 name = "mirror-plane"
 [camera]
@@ -121,16 +97,9 @@ layers = [{ sphere = 1000.0 }]
 
 #[test]
 fn awkward_cameras_render_without_error_or_nan() {
-    let mut scene = Scene::load_named("glass-sphere").unwrap();
-    scene.camera.width = 48;
-    scene.camera.height = 36;
-    scene.camera.supersampling = 1;
+    let scene = fixtures::built_in_scene("glass-sphere", 48, 36, 1);
     let base = scene.camera;
-    let ems = EmSource::Projected(ProjectedOptions {
-        size: 16,
-        supersampling: 1,
-    });
-    let (hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+    let hybrid = fixtures::with_projected_ems(scene, 16);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let sphere_centre = Vec3::new(0.0, 1.2, 0.0);
     let cameras = [
@@ -183,10 +152,7 @@ fn awkward_cameras_render_without_error_or_nan() {
 
 #[test]
 fn a_written_bake_reads_back_into_the_same_frame() {
-    let mut scene = Scene::load_named("glass-sphere").unwrap();
-    scene.camera.width = 40;
-    scene.camera.height = 30;
-    scene.camera.supersampling = 1;
+    let scene = fixtures::built_in_scene("glass-sphere", 40, 30, 1);
     let camera = scene.camera;
     let (projected, _) = HybridScene::projected(
         scene.clone(),
@@ -216,16 +182,9 @@ fn a_written_bake_reads_back_into_the_same_frame() {
 /// for bit, the counters too.
 #[test]
 fn the_frame_runner_equals_the_frame_done_by_hand() {
-    let mut scene = Scene::load_named("glass-sphere").unwrap();
-    scene.camera.width = 40;
-    scene.camera.height = 30;
-    scene.camera.supersampling = 2;
+    let scene = fixtures::built_in_scene("glass-sphere", 40, 30, 2);
     let camera = scene.camera;
-    let options = ProjectedOptions {
-        size: 16,
-        supersampling: 1,
-    };
-    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(options)).unwrap();
+    let hybrid = fixtures::with_projected_ems(scene, 16);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let by_hand_gpu = gpu();
     let mut renderer = Renderer::new(&by_hand_gpu).unwrap();

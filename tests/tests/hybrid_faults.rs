@@ -4,48 +4,22 @@
 //! left unshaded where the lens mesh is open and the camera sees its inside (the glass teapot
 //! between lid and rim). GPU work runs with validation on.
 
-use std::path::PathBuf;
-
 use glam::Vec3;
 use lensmap::{
     hybrid::{HybridOptions, HybridScene},
     layers::projected::ProjectedOptions,
     render::{LensFaces, RenderedImage, TargetFormat, Variant},
-    runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
+    runner::{FrameOptions, FrameRunner},
     scene::Scene,
     trace::{TraceOptions, image::camera_ray, render_reference, stats::TraceCounters},
 };
+use lensmap_tests::fixtures::{
+    built_in_scene, smooth_sky, temp_dir, with_projected_ems, write_smooth_sky,
+};
 use lensmap_tests::{assert_clean, gpu};
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensmap-faults-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// The closed-form radiance of a test sky along a direction.
 type SkyRadiance = dyn Fn(Vec3) -> Vec3;
-
-/// A smooth sky (no seam at u = 0), as in `hybrid.rs`: radiance is a low-order function of the
-/// direction, so the dome's linear interpolation between its vertices is close to exact.
-fn smooth_sky(direction: Vec3) -> Vec3 {
-    let d = direction.normalize();
-    Vec3::new(0.45 + 0.35 * d.y, 0.5 + 0.3 * d.x, 0.55 + 0.25 * d.z)
-}
-
-fn write_sky(path: &std::path::Path) {
-    let (w, h) = (256u32, 128u32);
-    let mut data = Vec::with_capacity((w * h * 3) as usize);
-    for j in 0..h {
-        for i in 0..w {
-            let uv = glam::Vec2::new((i as f32 + 0.5) / w as f32, (j as f32 + 0.5) / h as f32);
-            data.extend(smooth_sky(lensmap::scene::lat_long_to_direction(uv)).to_array());
-        }
-    }
-    let image = image::Rgb32FImage::from_raw(w, h, data).unwrap();
-    image::DynamicImage::ImageRgb32F(image).save(path).unwrap();
-}
 
 /// A glass sphere floating over a small floor quad, nothing else: most camera rays leave the
 /// scene.
@@ -105,8 +79,8 @@ layers = [{{ sphere = 50.0 }}]
 /// sky.
 #[test]
 fn the_environment_shows_where_camera_rays_escape() {
-    let dir = temp_dir("sky");
-    write_sky(&dir.join("sky.exr"));
+    let dir = temp_dir("faults", "sky");
+    write_smooth_sky(&dir.join("sky.exr"));
     let constant = Vec3::new(0.3, 0.5, 0.8);
     let cases: [(&str, &SkyRadiance, f32); 2] = [
         ("constant = [0.3, 0.5, 0.8]", &move |_| constant, 1e-6),
@@ -116,11 +90,7 @@ fn the_environment_shows_where_camera_rays_escape() {
     for (environment, sky, tolerance) in cases {
         let scene = open_scene(&dir, environment);
         let camera = scene.camera;
-        let ems = EmSource::Projected(ProjectedOptions {
-            size: 16,
-            supersampling: 1,
-        });
-        let (mut hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+        let mut hybrid = with_projected_ems(scene, 16);
         assert!(hybrid.sky.is_some(), "{environment}: a lit sky has a dome");
         let (w, h) = (camera.width as i64, camera.height as i64);
         let escapes: Vec<bool> = (0..w * h)
@@ -227,22 +197,15 @@ fn the_environment_shows_where_camera_rays_escape() {
 /// inside of the body, i.e. back faces, which the reference shades. A lens pixel is *unshaded*
 /// when the reference sees only lens in it (coverage 1) and the hybrid frame's value there is
 /// bit for bit what the same frame without its lens objects has (no lens pass wrote it). No
-/// lens pixel may be unshaded. The camera is the scene's, narrowed onto the lid (before the fix
-/// 44 pixels of this view were unshaded).
+/// lens pixel may be unshaded. The camera is the scene's, narrowed onto the lid (drawing front
+/// faces only leaves 44 pixels of this view unshaded).
 #[test]
 fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
-    let mut scene = Scene::load_named("teapot-room").unwrap();
-    scene.camera.width = 160;
-    scene.camera.height = 120;
-    scene.camera.supersampling = 2;
+    let mut scene = built_in_scene("teapot-room", 160, 120, 2);
     scene.camera.vfov_radians = 15f32.to_radians();
     scene.camera.look_at = Vec3::new(0.0, 0.55, 0.0);
     let camera = scene.camera;
-    let ems = EmSource::Projected(ProjectedOptions {
-        size: 16,
-        supersampling: 1,
-    });
-    let (hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+    let hybrid = with_projected_ems(scene, 16);
     // The teapot is open (the cup's cylinder and torus are closed).
     assert_eq!(hybrid.faces, vec![LensFaces::Both, LensFaces::Front]);
     let reference =

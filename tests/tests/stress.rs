@@ -27,9 +27,7 @@ use lensmap::render::{
     self, EnvironmentMesh, FrameInput, LensFaces, RenderedImage, Renderer, TargetFormat,
     TermVertices, Variant,
 };
-use lensmap::scene::{
-    Camera, Environment, LensObject, Material, Scene, SceneObject, TriangleMesh, ViewSpace, shapes,
-};
+use lensmap::scene::{Camera, Material, Scene, TriangleMesh, shapes};
 use lensmap::trace::bvh::SurfaceHit;
 use lensmap::trace::fresnel;
 use lensmap::trace::image::camera_ray;
@@ -37,6 +35,7 @@ use lensmap::trace::path::{GreedyOptions, Interface, LensGeometry, scatter, trac
 use lensmap::trace::{Ray, Term, TraceCounters, TraceOptions, TraceScene, render_reference};
 use lensmap_baker::matrix::TexelLayout;
 use lensmap_baker::solve::{Equations, Smoothness, SolveMethod, SolveOptions, solve};
+use lensmap_tests::fixtures::{AnalyticSphere, angle_between, built_in_scene, lens_alone};
 use lensmap_tests::{assert_clean, gpu};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -44,11 +43,6 @@ use sprs::TriMat;
 
 /// f64's machine epsilon, 2⁻⁵².
 const EPS: f64 = f64::EPSILON;
-
-/// Angle between two directions, accurate for tiny angles (`acos` of a dot product is not).
-fn angle_between(a: DVec3, b: DVec3) -> f64 {
-    a.cross(b).length().atan2(a.dot(b))
-}
 
 /// Unpolarized reflectance from Fresnel's equations in cosine form, with the transmitted cosine
 /// given by the caller (derived independently of the engine's `cos_incident → cos_transmitted`).
@@ -79,56 +73,6 @@ fn plane_hit(normal: DVec3) -> SurfaceHit {
         uv: DVec2::ZERO,
         object: 0,
         primitive: 0,
-    }
-}
-
-/// An exact glass sphere for the tracer's path kernel: f64 hits and exact normals, so that the
-/// tracer's own arithmetic is all that differs from a closed form.
-struct AnalyticSphere {
-    radius: f64,
-    ior: f64,
-}
-
-impl LensGeometry for AnalyticSphere {
-    fn closest_hit(
-        &self,
-        ray: &Ray,
-        _exclude: Option<u32>,
-        _counters: &mut TraceCounters,
-    ) -> Option<SurfaceHit> {
-        // |o + t d|² = r² in the stable form: the product of the roots is c.
-        let b = ray.origin.dot(ray.direction);
-        let c = ray.origin.length_squared() - self.radius * self.radius;
-        let discriminant = b * b - c;
-        if discriminant < 0.0 {
-            return None;
-        }
-        let q = -b - b.signum() * discriminant.sqrt();
-        let (near, far) = if q == 0.0 {
-            (0.0, 0.0)
-        } else {
-            let (x, y) = (q, c / q);
-            (x.min(y), x.max(y))
-        };
-        let t = [near, far].into_iter().find(|t| *t > 1e-9 * self.radius)?;
-        let position = ray.at(t);
-        let normal = position.normalize();
-        Some(SurfaceHit {
-            distance: t,
-            position,
-            geometric_normal: normal,
-            shading_normal: normal,
-            uv: DVec2::ZERO,
-            object: 0,
-            primitive: 0,
-        })
-    }
-
-    fn interface(&self, _object: usize) -> Interface {
-        Interface::Dielectric {
-            ior: self.ior,
-            absorption: DVec3::ONE,
-        }
     }
 }
 
@@ -374,10 +318,7 @@ fn an_index_of_refraction_a_hair_from_one_refracts_as_a_near_identity() {
         }
     }
     // Through an exact sphere: in at θ, a chord, out at θ again, turned by 2δ towards the axis.
-    let sphere = AnalyticSphere {
-        radius: 1.0,
-        ior: 1.0 + 1e-6,
-    };
+    let sphere = AnalyticSphere::clear(1.0, 1.0 + 1e-6);
     let e = sphere.ior - 1.0;
     for k in 0..=20 {
         let b = 0.95 * f64::from(k) / 20.0;
@@ -444,10 +385,7 @@ fn a_very_large_index_of_refraction_stays_finite_and_exact() {
             assert!(inside.total_internal_reflection && inside.reflectance == 1.0);
         }
     }
-    let sphere = AnalyticSphere {
-        radius: 1.0,
-        ior: n,
-    };
+    let sphere = AnalyticSphere::clear(1.0, n);
     let mut worst_relative = 0.0f64;
     for k in 0..=19 {
         let b = 0.95 * f64::from(k) / 19.0;
@@ -483,10 +421,7 @@ fn a_very_large_index_of_refraction_stays_finite_and_exact() {
 /// F and 1e-6 rad on the direction. Measured: F 1.2e-9, direction 4.0e-10 rad.
 #[test]
 fn rays_grazing_a_glass_sphere_keep_finite_closed_form_weights() {
-    let sphere = AnalyticSphere {
-        radius: 1.0,
-        ior: 1.5,
-    };
+    let sphere = AnalyticSphere::clear(1.0, 1.5);
     let (mut worst_f, mut worst_direction) = (0.0f64, 0.0f64);
     for k in 2..=12 {
         let gap = 10f64.powi(-k);
@@ -548,8 +483,7 @@ fn scaled(scene: &Scene, s: f32) -> Scene {
 /// fix in `trace/bvh.rs`, debug builds panicked in obvhs's own checks from 2⁸ on).
 #[test]
 fn the_reference_image_does_not_depend_on_the_scene_scale() {
-    let mut scene = Scene::load_named("glass-sphere").expect("built-in scene");
-    scene.camera = scene.camera.with_resolution(32, 24, 1);
+    let scene = built_in_scene("glass-sphere", 32, 24, 1);
     let render = |scene: &Scene| {
         let world = TraceScene::new(scene).expect("the scene traces");
         render_reference(&world, &scene.camera, &TraceOptions::default(), &|_| {})
@@ -590,24 +524,13 @@ const SKY: Vec3 = Vec3::new(0.3, 0.5, 0.8);
 fn slab_scene(ior: f32, absorption: Vec3, width: f32, camera: Camera) -> Scene {
     let mut slab = shapes::cuboid(Vec3::new(width, width, 1.0));
     slab.transform(&Affine3A::from_translation(Vec3::new(0.0, 0.0, -0.5)));
-    Scene {
-        name: "slab".to_owned(),
-        objects: vec![SceneObject {
-            name: "slab".to_owned(),
-            mesh: slab,
-            material: 0,
-        }],
-        materials: vec![Material::Glass { ior, absorption }],
-        lights: Vec::new(),
-        environment: Environment::Constant(SKY),
-        lenses: vec![LensObject {
-            name: "slab".to_owned(),
-            objects: vec![0],
-            layers: Vec::new(),
-        }],
+    lens_alone(
+        "slab",
+        slab,
+        Material::Glass { ior, absorption },
+        SKY,
         camera,
-        view_space: ViewSpace::List(Vec::new()),
-    }
+    )
 }
 
 /// A 16×12 camera at `position` looking along `forward` with a vertical field of view of
@@ -799,24 +722,13 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
         mesh.check().is_err(),
         "the mesh does hold degenerate triangles"
     );
-    let scene = Scene {
-        name: "sliver-mirror".to_owned(),
-        objects: vec![SceneObject {
-            name: "mirror".to_owned(),
-            mesh: mesh.clone(),
-            material: 0,
-        }],
-        materials: vec![Material::Mirror { reflectance }],
-        lights: Vec::new(),
-        environment: Environment::Constant(SKY),
-        lenses: vec![LensObject {
-            name: "mirror".to_owned(),
-            objects: vec![0],
-            layers: Vec::new(),
-        }],
+    let scene = lens_alone(
+        "mirror",
+        mesh.clone(),
+        Material::Mirror { reflectance },
+        SKY,
         camera,
-        view_space: ViewSpace::List(Vec::new()),
-    };
+    );
     let schlick = |direction: DVec3| {
         let cos = -direction.y;
         let r0 = reflectance.as_dvec3();
@@ -895,15 +807,7 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
         "slivers, hybrid: {} → {} triangles, worst F·G {worst_fg:e}",
         stats.triangles_in, stats.triangles_out
     );
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
-    let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
-    for variant in [Variant::Multipass, Variant::SinglePass] {
-        let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
-            .expect("the frame renders");
-        let (difference, compared) = model_difference(&image, &model);
+    for (variant, difference, compared) in gpu_against_model(&frame) {
         println!("slivers, {variant:?}: {compared} pixels, worst |GPU − model| {difference:e}");
         assert!(
             compared > 200,
@@ -914,7 +818,28 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
             "{variant:?}: GPU differs from the model by {difference:e}"
         );
     }
+}
+
+/// `frame` rendered on the GPU in RGBA32F with each variant and compared with the f64 model
+/// (lavapipe's LOD choices): per variant the largest |GPU − model| over the comparable pixels
+/// and how many were compared ([`model_difference`]). The validation layer must stay silent.
+fn gpu_against_model(frame: &FrameInput) -> Vec<(Variant, f64, usize)> {
+    let gpu = gpu();
+    let mut renderer = Renderer::new(&gpu).expect("renderer");
+    let model = render_model_with(frame, &ModelOptions::lavapipe());
+    let mut uploaded = renderer.upload(&gpu, frame).expect("the frame uploads");
+    let differences = [Variant::Multipass, Variant::SinglePass]
+        .into_iter()
+        .map(|variant| {
+            let (image, _) = renderer
+                .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+                .expect("the frame renders");
+            let (difference, compared) = model_difference(&image, &model);
+            (variant, difference, compared)
+        })
+        .collect();
     assert_clean(&gpu);
+    differences
 }
 
 /// The largest |GPU − model| over the model's comparable pixels (every channel) and how many
@@ -937,13 +862,6 @@ fn model_difference(image: &RenderedImage, model: &ModelImage) -> (f64, usize) {
         }
     }
     (worst, compared)
-}
-
-/// The glass-sphere scene with a 16×12 camera (light maps and projections sized for it).
-fn small_glass_sphere() -> Scene {
-    let mut scene = Scene::load_named("glass-sphere").expect("built-in scene");
-    scene.camera = scene.camera.with_resolution(16, 12, 1);
-    scene
 }
 
 /// Two sphere shells of radii r and r(1 + e), e = 1e-6 … 1e-15 and 0. Rays from random points
@@ -997,7 +915,7 @@ fn nearly_coincident_layer_shells_split_rays_without_gaps() {
             assert!(first.0 <= first.1 && second.0.is_finite());
         }
     }
-    let scene = small_glass_sphere();
+    let scene = built_in_scene("glass-sphere", 16, 12, 1);
     let trace = TraceScene::new(&scene).expect("the scene traces");
     let origin = em_origin(&scene, 0);
     let options = ProjectedOptions {
@@ -1057,7 +975,7 @@ fn nearly_coincident_layer_shells_split_rays_without_gaps() {
 /// 2.4e-7.
 #[test]
 fn nearly_coincident_layer_shells_render_like_the_model() {
-    let scene = small_glass_sphere();
+    let scene = built_in_scene("glass-sphere", 16, 12, 1);
     let camera = scene.camera;
     let trace = TraceScene::new(&scene).expect("the scene traces");
     let origin = em_origin(&scene, 0);
@@ -1100,15 +1018,7 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
             );
         }
     }
-    let gpu = gpu();
-    let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
-    let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
-    for variant in [Variant::Multipass, Variant::SinglePass] {
-        let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
-            .expect("the frame renders");
-        let (difference, compared) = model_difference(&image, &model);
+    for (variant, difference, compared) in gpu_against_model(&frame) {
         println!(
             "coincident shells, {variant:?}: direction gap {worst_gap:e}, {compared} pixels, worst |GPU − model| {difference:e}"
         );
@@ -1121,7 +1031,21 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
             "{variant:?}: GPU differs from the model by {difference:e}"
         );
     }
-    assert_clean(&gpu);
+}
+
+/// Layered EMs of uniform cube maps of `size`² texels per face: `texels[viewpoint][layer]` is
+/// the texel of every face of that layer's map.
+fn uniform_layers<L: AsRef<[[f32; 4]]>>(texels: &[L], size: u32) -> Vec<Vec<Arc<CubeMap>>> {
+    texels
+        .iter()
+        .map(|layers| {
+            layers
+                .as_ref()
+                .iter()
+                .map(|&t| Arc::new(CubeMap::uniform(size, t)))
+                .collect()
+        })
+        .collect()
 }
 
 /// Framebuffer of the synthetic compositor cases.
@@ -1350,15 +1274,7 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
     ];
     let uniform = sheet_frame(
         &terms,
-        uniform_texels
-            .iter()
-            .map(|layers| {
-                layers
-                    .iter()
-                    .map(|&t| Arc::new(CubeMap::uniform(8, t)))
-                    .collect()
-            })
-            .collect(),
+        uniform_layers(&uniform_texels, 8),
         vec![0.3, 0.7],
         [Vec3::ONE; 3],
         &linear_directions(0xa1fc),
@@ -1494,15 +1410,7 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let weights = [0.4f32, 0.6];
     let uniform = sheet_frame(
         &terms,
-        uniform_texels
-            .iter()
-            .map(|layers| {
-                layers
-                    .iter()
-                    .map(|&t| Arc::new(CubeMap::uniform(1, t)))
-                    .collect()
-            })
-            .collect(),
+        uniform_layers(&uniform_texels, 1),
         weights.to_vec(),
         [Vec3::ONE; 3],
         &linear_directions(0x0de1),

@@ -7,79 +7,10 @@ use lensmap::scene::{
     Camera, Environment, LensObject, Material, PointLight, Scene, SceneObject, Texture,
     TriangleMesh, ViewSpace, shapes,
 };
-use lensmap::trace::bvh::SurfaceHit;
 use lensmap::trace::fresnel;
-use lensmap::trace::path::{GreedyOptions, Interface, LensGeometry, trace_greedy_paths};
+use lensmap::trace::path::{GreedyOptions, LensGeometry, trace_greedy_paths};
 use lensmap::trace::{PathModel, Ray, Term, TraceCounters, TraceOptions, TraceScene};
-
-/// Angle between two directions, accurate for tiny angles (acos is not: ~1.5e-8 rad floor).
-trait ExactAngle {
-    fn exact_angle(self, other: DVec3) -> f64;
-}
-
-impl ExactAngle for DVec3 {
-    fn exact_angle(self, other: DVec3) -> f64 {
-        self.cross(other).length().atan2(self.dot(other))
-    }
-}
-
-/// An exact sphere of glass: the lens-geometry interface the tracer's path kernel runs on, with
-/// f64 intersections and exact normals (no tessellation).
-struct AnalyticSphere {
-    centre: DVec3,
-    radius: f64,
-    ior: f64,
-    absorption: DVec3,
-}
-
-impl LensGeometry for AnalyticSphere {
-    fn closest_hit(
-        &self,
-        ray: &Ray,
-        _exclude: Option<u32>,
-        _counters: &mut TraceCounters,
-    ) -> Option<SurfaceHit> {
-        // |o + t d − c|² = r², solved in the numerically stable form.
-        let oc = ray.origin - self.centre;
-        let b = oc.dot(ray.direction);
-        let c = oc.length_squared() - self.radius * self.radius;
-        let discriminant = b * b - c;
-        if discriminant < 0.0 {
-            return None;
-        }
-        let root = discriminant.sqrt();
-        let q = if b > 0.0 { -b - root } else { -b + root };
-        let (t0, t1) = {
-            let (a, b) = (q, if q != 0.0 { c / q } else { q });
-            (a.min(b), a.max(b))
-        };
-        let t = if t0 > 1e-9 {
-            t0
-        } else if t1 > 1e-9 {
-            t1
-        } else {
-            return None;
-        };
-        let position = ray.at(t);
-        let normal = (position - self.centre).normalize();
-        Some(SurfaceHit {
-            distance: t,
-            position,
-            geometric_normal: normal,
-            shading_normal: normal,
-            uv: DVec2::ZERO,
-            object: 0,
-            primitive: 0,
-        })
-    }
-
-    fn interface(&self, _object: usize) -> Interface {
-        Interface::Dielectric {
-            ior: self.ior,
-            absorption: self.absorption,
-        }
-    }
-}
+use lensmap_tests::fixtures::{AnalyticSphere, angle_between, lens_alone};
 
 /// Closed form for a ray parallel to −z at height `b` (along +x) through a sphere of radius `r`
 /// centred at the origin: refraction in at θi = asin(b/r), a chord of length 2r·cos θt, refraction
@@ -160,10 +91,7 @@ fn greedy_refraction_through_an_analytic_sphere_matches_the_closed_form() {
             "b = {b}: one chord, two interfaces"
         );
         assert!(!refraction.truncated);
-        let angle = refraction
-            .outgoing_ray
-            .direction
-            .exact_angle(expected.exit_direction);
+        let angle = angle_between(refraction.outgoing_ray.direction, expected.exit_direction);
         worst_angle = worst_angle.max(angle);
         assert!(angle < 1e-6, "b = {b}: exit direction off by {angle} rad");
         let exit_error = refraction.outgoing_ray.origin.distance(expected.exit_point);
@@ -197,11 +125,10 @@ fn greedy_refraction_through_an_analytic_sphere_matches_the_closed_form() {
         let reflection = paths.reflection;
         assert_eq!(reflection.interfaces, 1, "a convex object is left at once");
         assert!(
-            reflection
-                .outgoing_ray
-                .direction
-                .exact_angle(expected.reflection_direction)
-                < 1e-6
+            angle_between(
+                reflection.outgoing_ray.direction,
+                expected.reflection_direction
+            ) < 1e-6
         );
         assert!((reflection.fresnel.x - expected.reflectance).abs() < 1e-12);
         assert_eq!(reflection.attenuation, DVec3::ONE);
@@ -437,27 +364,12 @@ fn mesh_sphere_in_a_scene_approaches_the_closed_form() {
     // with margin. The analytic-sphere test above holds the 1e-6 rad claim.
     let radius = 1.0f32;
     let sphere = shapes::sphere(radius, 384, 192);
-    let scene = Scene {
-        name: "sphere".to_owned(),
-        objects: vec![SceneObject {
-            name: "sphere".to_owned(),
-            mesh: sphere,
-            material: 0,
-        }],
-        materials: vec![Material::Glass {
-            ior: 1.5,
-            absorption: Vec3::ONE,
-        }],
-        lights: Vec::new(),
-        environment: Environment::Constant(Vec3::ONE),
-        lenses: vec![LensObject {
-            name: "sphere".to_owned(),
-            objects: vec![0],
-            layers: Vec::new(),
-        }],
-        camera: mirror_scene(Vec3::ONE).camera,
-        view_space: ViewSpace::List(Vec::new()),
+    let glass = Material::Glass {
+        ior: 1.5,
+        absorption: Vec3::ONE,
     };
+    let camera = mirror_scene(Vec3::ONE).camera;
+    let scene = lens_alone("sphere", sphere, glass, Vec3::ONE, camera);
     let world = TraceScene::new(&scene).unwrap();
     let mut counters = TraceCounters::default();
     let mut worst = 0.0f64;
@@ -480,12 +392,8 @@ fn mesh_sphere_in_a_scene_approaches_the_closed_form() {
         let expected = sphere_closed_form(b, f64::from(radius), 1.5);
         let e = expected.exit_direction;
         let expected_direction = DVec3::new(e.x * c, e.x * s, e.z);
-        let angle = paths
-            .refraction
-            .unwrap()
-            .outgoing_ray
-            .direction
-            .exact_angle(expected_direction);
+        let refracted = paths.refraction.unwrap().outgoing_ray.direction;
+        let angle = angle_between(refracted, expected_direction);
         worst = worst.max(angle);
     }
     eprintln!("mesh sphere: worst exit-direction error {worst:e} rad");

@@ -14,6 +14,7 @@
 //! error single precision would add.
 
 use std::collections::HashMap;
+use std::collections::hash_map::Entry;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -26,15 +27,15 @@ use lensmap::{
         Bake,
         projected::{DEFAULT_EM_SIZE, ProjectedOptions, em_origin},
     },
-    metrics::{Channels, Coverage, Encoding, Mask},
+    metrics::{Channels, Coverage, Encoding, ImageError, Mask},
     render::{RenderedImage, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error, load_hybrid_scene},
-    scene::{LayerSpec, Scene},
-    trace::{ReferenceImage, TraceOptions, image::srgb8, render_reference},
+    scene::{Camera, LayerSpec, Scene},
+    trace::{ReferenceImage, TraceOptions, TraceScene, image::srgb8, render_reference},
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, report};
+use crate::common::{BadUsage, Steps, reference_frame, report};
 
 #[derive(Args)]
 #[command(after_help = "Example:
@@ -211,7 +212,7 @@ impl Setting {
     }
 
     /// The key of the hybrid scene this setting renders (its EMs).
-    fn scene_key(&self) -> (Ems, u32, Option<usize>) {
+    fn scene_key(&self) -> SceneKey {
         match self.ems {
             Ems::Projected => (self.ems, self.em_size, self.layers),
             Ems::Inferred => (self.ems, 0, None),
@@ -219,6 +220,10 @@ impl Setting {
         }
     }
 }
+
+/// What tells the hybrid scenes of the settings apart: where the EMs come from, their size and
+/// how many shells are kept.
+type SceneKey = (Ems, u32, Option<usize>);
 
 /// The sweep: the default; each knob moved alone; a t × EM-size grid; supersampling with t; t
 /// with the angle threshold (on teapot-room 42 settings besides the default, 45 with a bake);
@@ -367,6 +372,28 @@ struct Point {
     f32_vs_f64: Option<(f64, f64)>,
 }
 
+impl Point {
+    /// The point of `values` (one per camera): their means, and the values themselves.
+    fn averaged(
+        family: &'static str,
+        label: String,
+        values: &[Measured],
+        f32_vs_f64: Option<(f64, f64)>,
+    ) -> Point {
+        let mean =
+            |pick: fn(&Measured) -> f64| values.iter().map(pick).sum::<f64>() / values.len() as f64;
+        Point {
+            family,
+            label,
+            frame_ms: mean(|v| v.frame_ms),
+            psnr_db: mean(|v| v.psnr_db),
+            ssim: mean(|v| v.ssim),
+            per_camera: values.to_vec(),
+            f32_vs_f64,
+        }
+    }
+}
+
 /// SSIM over the lens pixels: image-compare's SSIM of the two images in display sRGB (8 bits,
 /// per channel, over 8×8 windows, its map holding each window's value at its pixels; a negative
 /// window counts as 0), averaged over the reference's fully covered lens pixels and the three
@@ -425,6 +452,55 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     if let (Some(report), Some(dir)) = (&args.replot, &args.plot) {
         return replot(report, dir);
     }
+    let scene = checked_scene(&args)?;
+    let sweep = Sweep::new(&scene, &args);
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let device = runner.gpu().device_name().to_string();
+    let base = scene.camera.with_resolution(args.width, args.height, 1);
+    let cameras = crate::bench_bake::cameras(&scene, args.sample, base);
+
+    let mut steps = Steps::new(3);
+    let scenes = hybrid_scenes(&scene, &sweep.settings, args.bake.as_deref(), &mut steps)?;
+    say!(
+        "{}: {}×{}, cameras around sample {} (on it, halfway, 15° above), reference {r}×{r}, {} timed frames per setting and camera, device {device}",
+        scene.name,
+        args.width,
+        args.height,
+        args.sample,
+        args.frames,
+        r = args.reference_supersampling
+    );
+    let measured = measure(&mut runner, &args, &sweep, &scenes, &cameras, &mut steps)?;
+    let results = Results::new(measured.points(&sweep.settings));
+    results.print();
+    if let Some(path) = &args.csv {
+        lensmap::atomic::write_atomically(path, results.csv().as_bytes())
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(dir) = &args.plot {
+        crate::pareto::write(
+            dir,
+            &points_for_plot(&results.points, &results.on_frontier),
+            &scene.name,
+            &device,
+        )?;
+    }
+    report(
+        &json!({
+            "scene": scene.name, "device": device, "width": args.width, "height": args.height,
+            "reference_supersampling": args.reference_supersampling, "frames": args.frames,
+            "cameras": cameras.iter().map(|(name, c)| json!({"camera": name, "position": c.position})).collect::<Vec<_>>(),
+            "encoding": "display sRGB, lens pixels of the reference; SSIM: image-compare's 8×8-window SSIM averaged over them",
+            "default_gap_to_frontier_db": results.gap_db, "points": results.json_points(),
+        }),
+        args.report.as_deref(),
+    )?;
+    Ok(())
+}
+
+/// The scene, once the options are checked: a frame of at least 1×1 pixels, at least one frame,
+/// a reference of at least 2×2 supersamples, and samples A and A+1 in the scene's view space.
+fn checked_scene(args: &BenchErrorArgs) -> anyhow::Result<Scene> {
     if args.width == 0 || args.height == 0 || args.reference_supersampling < 2 || args.frames == 0 {
         return Err(BadUsage(format!(
             "--width {} --height {} --reference-supersampling {} --frames {}: give a frame of at least 1×1 pixels, at least one frame, and a reference of at least 2×2 supersamples (the 1-sample ray tracer is a baseline judged against it)",
@@ -442,78 +518,149 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let layer_count = scene
-        .lenses
-        .iter()
-        .map(|l| l.layers.len())
-        .max()
-        .unwrap_or(1);
-    let mut all = settings(layer_count, args.bake.is_some());
-    if let Some(text) = &args.only {
-        all.retain(|s| {
-            s.family == "default"
-                || s.family.starts_with("baseline")
-                || s.label().contains(text.as_str())
-        });
-    }
-    // Every f32 setting is compared with its f64 twin: measure the twin too.
-    for twin in all
-        .iter()
-        .filter(|s| s.precision != VertexPrecision::F64)
-        .map(Setting::f64_twin)
-        .collect::<Vec<_>>()
-    {
-        if !all.iter().any(|s| s.same_knobs(&twin)) {
-            all.push(Setting {
-                family: "format",
-                ..twin
+    Ok(scene)
+}
+
+/// The settings a run measures.
+struct Sweep {
+    /// The settings `--only` keeps, then the f64 twins of its f32 settings that it left out.
+    settings: Vec<Setting>,
+    /// Per setting: where its f64 twin stands in `settings`, for an f32 setting.
+    twins: Vec<Option<usize>>,
+}
+
+impl Sweep {
+    /// The sweep of [`settings`] for `scene`, cut by `--only` (the default and the baselines
+    /// always stay), with every f32 setting's f64 twin measured too.
+    fn new(scene: &Scene, args: &BenchErrorArgs) -> Sweep {
+        let layer_count = scene
+            .lenses
+            .iter()
+            .map(|l| l.layers.len())
+            .max()
+            .unwrap_or(1);
+        let mut all = settings(layer_count, args.bake.is_some());
+        if let Some(text) = &args.only {
+            all.retain(|s| {
+                s.family == "default"
+                    || s.family.starts_with("baseline")
+                    || s.label().contains(text.as_str())
             });
         }
+        for twin in all
+            .iter()
+            .filter(|s| s.precision != VertexPrecision::F64)
+            .map(Setting::f64_twin)
+            .collect::<Vec<_>>()
+        {
+            if !all.iter().any(|s| s.same_knobs(&twin)) {
+                all.push(Setting {
+                    family: "format",
+                    ..twin
+                });
+            }
+        }
+        let twins = all
+            .iter()
+            .map(|s| {
+                (s.precision != VertexPrecision::F64)
+                    .then(|| all.iter().position(|t| t.same_knobs(&s.f64_twin())))
+                    .flatten()
+            })
+            .collect();
+        Sweep {
+            settings: all,
+            twins,
+        }
     }
-    let twins: Vec<Option<usize>> = all
-        .iter()
-        .map(|s| {
-            (s.precision != VertexPrecision::F64)
-                .then(|| all.iter().position(|t| t.same_knobs(&s.f64_twin())))
-                .flatten()
-        })
-        .collect();
-    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    let device = runner.gpu().device_name().to_string();
-    let base = scene.camera.with_resolution(args.width, args.height, 1);
-    let cameras = crate::bench_bake::cameras(&scene, args.sample, base);
+}
 
-    let mut steps = crate::common::Steps::new(3);
-    let mut scenes: HashMap<(Ems, u32, Option<usize>), HybridScene> = HashMap::new();
-    let step = steps.counted("layered EMs and light maps", all.len() as u64, "settings");
-    for setting in &all {
-        if let std::collections::hash_map::Entry::Vacant(slot) = scenes.entry(setting.scene_key()) {
-            slot.insert(hybrid_scene(&scene, setting, args.bake.as_deref())?);
+/// The hybrid scene of every setting, one per [`SceneKey`] (settings that differ only in how
+/// they render share it).
+fn hybrid_scenes(
+    scene: &Scene,
+    settings: &[Setting],
+    bake: Option<&Path>,
+    steps: &mut Steps,
+) -> anyhow::Result<HashMap<SceneKey, HybridScene>> {
+    let mut scenes = HashMap::new();
+    let step = steps.counted(
+        "layered EMs and light maps",
+        settings.len() as u64,
+        "settings",
+    );
+    for setting in settings {
+        if let Entry::Vacant(slot) = scenes.entry(setting.scene_key()) {
+            slot.insert(hybrid_scene(scene, setting, bake)?);
         }
         step.inc(1);
     }
     step.finish_and_clear();
-    let trace = &scenes[&Setting::default_setting().scene_key()].trace;
+    Ok(scenes)
+}
 
-    say!(
-        "{}: {}×{}, cameras around sample {} (on it, halfway, 15° above), reference {r}×{r}, {} timed frames per setting and camera, device {device}",
-        scene.name,
-        args.width,
-        args.height,
-        args.sample,
-        args.frames,
-        r = args.reference_supersampling
-    );
+/// What the sweep measured, camera by camera.
+struct Measurements {
+    /// Per setting, then last the 1-spp ray tracer: one value per camera.
+    per_setting: Vec<Vec<Measured>>,
+    /// Per f32 setting, one per camera: its frame against its f64 twin's over the lens pixels.
+    against_f64: Vec<Vec<ImageError>>,
+}
+
+impl Measurements {
+    /// The points: each setting's values averaged over the cameras, then the ray tracer's.
+    fn points(&self, settings: &[Setting]) -> Vec<Point> {
+        let mut points: Vec<Point> = settings
+            .iter()
+            .zip(&self.per_setting)
+            .zip(&self.against_f64)
+            .map(|((setting, values), errors)| {
+                Point::averaged(setting.family, setting.label(), values, pooled(errors))
+            })
+            .collect();
+        points.push(Point::averaged(
+            "baseline: ray tracer, 1 spp",
+            "reference ray tracer, 1 sample per pixel".into(),
+            &self.per_setting[settings.len()],
+            None,
+        ));
+        points
+    }
+}
+
+/// The linear RMS over the pooled squared differences of `errors` and the largest difference
+/// of all; `None` for no errors.
+fn pooled(errors: &[ImageError]) -> Option<(f64, f64)> {
+    let pixels: usize = errors.iter().map(|e| e.pixels).sum();
+    (!errors.is_empty()).then(|| {
+        let mse = errors.iter().map(|e| e.mse * e.pixels as f64).sum::<f64>() / pixels as f64;
+        let max = errors.iter().map(|e| e.max_abs).fold(0.0, f64::max);
+        (mse.sqrt(), max)
+    })
+}
+
+/// Every setting and the 1-spp ray tracer at every camera, each judged against that camera's
+/// reference; and each f32 setting's frame against its f64 twin's.
+fn measure(
+    runner: &mut FrameRunner,
+    args: &BenchErrorArgs,
+    sweep: &Sweep,
+    scenes: &HashMap<SceneKey, HybridScene>,
+    cameras: &[(&str, Camera)],
+    steps: &mut Steps,
+) -> anyhow::Result<Measurements> {
+    let count = sweep.settings.len();
+    let trace = &scenes[&Setting::default_setting().scene_key()].trace;
     let bar = steps.counted(
         "references and frames",
-        (cameras.len() * (all.len() + 2)) as u64,
+        (cameras.len() * (count + 2)) as u64,
         "renders",
     );
-    let mut per_setting: Vec<Vec<Measured>> = vec![Vec::new(); all.len() + 1];
-    // Per f32 setting, per camera: its frame against its f64 twin's over the lens pixels.
-    let mut against_f64: Vec<Vec<lensmap::metrics::ImageError>> = vec![Vec::new(); all.len()];
-    for (_, camera) in &cameras {
-        let mut images: Vec<Option<RenderedImage>> = vec![None; all.len()];
+    let mut measured = Measurements {
+        per_setting: vec![Vec::new(); count + 1],
+        against_f64: vec![Vec::new(); count],
+    };
+    for (_, camera) in cameras {
         let reference = render_reference(
             trace,
             &camera.with_resolution(args.width, args.height, args.reference_supersampling),
@@ -521,161 +668,176 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
             &|_| {},
         )?;
         bar.inc(1);
-        for (i, setting) in all.iter().enumerate() {
-            let camera = camera.with_resolution(args.width, args.height, setting.supersampling);
-            let options = FrameOptions {
-                hybrid: HybridOptions::with_t_and_angle(setting.t, setting.angle_degrees)
-                    .with_precision(setting.precision),
-                variant: setting.variant,
-                blend: lensmap::render::BlendScheme::FrontToBack,
-                format: setting.format,
-            };
-            runner.check_framebuffer(&camera, options.format)?;
-            let frames = runner.timed_frames(
-                &scenes[&setting.scene_key()],
-                &camera,
-                &options,
-                Repetitions {
-                    warmup: 1,
-                    timed: args.frames,
-                },
-            )?;
-            let image = &frames.last().image;
-            let error = lens_error(image, &reference, Encoding::DisplaySrgb)?;
-            per_setting[i].push(Measured {
-                frame_ms: frames.median(|f| f.total_ms),
-                psnr_db: error.psnr_db,
-                ssim: lens_ssim(image, &reference)?,
-            });
-            images[i] = Some(image.clone());
+        let mut images = Vec::with_capacity(count);
+        for (i, setting) in sweep.settings.iter().enumerate() {
+            let (values, image) =
+                measure_setting(runner, args, setting, scenes, camera, &reference)?;
+            measured.per_setting[i].push(values);
+            images.push(image);
             bar.inc(1);
         }
         let lens_pixels = Mask::from_coverage(&reference.lens_mask, Coverage::Full);
-        for (i, twin) in twins.iter().enumerate() {
-            if let (Some(twin), Some(image)) = (twin, &images[i])
-                && let Some(exact) = &images[*twin]
-            {
-                against_f64[i].push(lensmap::metrics::compare(
-                    &image.pixels,
-                    &exact.pixels,
+        for (i, twin) in sweep.twins.iter().enumerate() {
+            if let Some(twin) = twin {
+                measured.against_f64[i].push(lensmap::metrics::compare(
+                    &images[i].pixels,
+                    &images[*twin].pixels,
                     &lens_pixels,
                     Encoding::Linear,
                     Channels::Rgb,
                 )?);
             }
         }
-        // Baseline: the reference ray tracer at one sample per pixel.
-        let mut times = Vec::new();
-        let mut image = None;
-        for _ in 0..args.frames {
-            let one = render_reference(
-                trace,
-                &camera.with_resolution(args.width, args.height, 1),
-                &TraceOptions::default(),
-                &|_| {},
-            )?;
-            times.push(one.stats.seconds * 1e3);
-            image = Some(one);
-        }
-        let one = image.context("at least one frame")?;
-        let as_frame = RenderedImage {
-            width: one.width,
-            height: one.height,
-            pixels: one.radiance.iter().map(|c| [c.x, c.y, c.z, 1.0]).collect(),
-        };
-        let error = lens_error(&as_frame, &reference, Encoding::DisplaySrgb)?;
-        per_setting[all.len()].push(Measured {
-            frame_ms: lensmap::runner::median(&mut times),
-            psnr_db: error.psnr_db,
-            ssim: lens_ssim(&as_frame, &reference)?,
-        });
+        measured.per_setting[count].push(measure_ray_tracer(trace, args, camera, &reference)?);
         bar.inc(1);
     }
     bar.finish_and_clear();
+    Ok(measured)
+}
 
-    let mean = |values: &[Measured], pick: fn(&Measured) -> f64| {
-        values.iter().map(pick).sum::<f64>() / values.len() as f64
+/// One setting at one camera: its median frame time over `--frames` timed frames (after one
+/// warm-up), and its last frame's lens PSNR and SSIM against `reference`; with that frame.
+fn measure_setting(
+    runner: &mut FrameRunner,
+    args: &BenchErrorArgs,
+    setting: &Setting,
+    scenes: &HashMap<SceneKey, HybridScene>,
+    camera: &Camera,
+    reference: &ReferenceImage,
+) -> anyhow::Result<(Measured, RenderedImage)> {
+    let camera = camera.with_resolution(args.width, args.height, setting.supersampling);
+    let options = FrameOptions {
+        hybrid: HybridOptions::with_t_and_angle(setting.t, setting.angle_degrees)
+            .with_precision(setting.precision),
+        variant: setting.variant,
+        blend: lensmap::render::BlendScheme::FrontToBack,
+        format: setting.format,
     };
-    let pooled = |errors: &[lensmap::metrics::ImageError]| {
-        let pixels: usize = errors.iter().map(|e| e.pixels).sum();
-        (!errors.is_empty()).then(|| {
-            let mse = errors.iter().map(|e| e.mse * e.pixels as f64).sum::<f64>() / pixels as f64;
-            let max = errors.iter().map(|e| e.max_abs).fold(0.0, f64::max);
-            (mse.sqrt(), max)
-        })
+    runner.check_framebuffer(&camera, options.format)?;
+    let frames = runner.timed_frames(
+        &scenes[&setting.scene_key()],
+        &camera,
+        &options,
+        Repetitions {
+            warmup: 1,
+            timed: args.frames,
+        },
+    )?;
+    let image = &frames.last().image;
+    let error = lens_error(image, reference, Encoding::DisplaySrgb)?;
+    let values = Measured {
+        frame_ms: frames.median(|f| f.total_ms),
+        psnr_db: error.psnr_db,
+        ssim: lens_ssim(image, reference)?,
     };
-    let mut points: Vec<Point> = all
-        .iter()
-        .zip(&per_setting)
-        .zip(&against_f64)
-        .map(|((setting, values), errors)| Point {
-            family: setting.family,
-            label: setting.label(),
-            frame_ms: mean(values, |v| v.frame_ms),
-            psnr_db: mean(values, |v| v.psnr_db),
-            ssim: mean(values, |v| v.ssim),
-            per_camera: values.clone(),
-            f32_vs_f64: pooled(errors),
-        })
-        .collect();
-    points.push(Point {
-        family: "baseline: ray tracer, 1 spp",
-        label: "reference ray tracer, 1 sample per pixel".into(),
-        frame_ms: mean(&per_setting[all.len()], |v| v.frame_ms),
-        psnr_db: mean(&per_setting[all.len()], |v| v.psnr_db),
-        ssim: mean(&per_setting[all.len()], |v| v.ssim),
-        per_camera: per_setting[all.len()].clone(),
-        f32_vs_f64: None,
-    });
-    let on_frontier = frontier(&points);
-    // The default against the frontier: the best PSNR any point reaches in no more time.
-    let default = &points[0];
-    let best_in_time = points
-        .iter()
-        .filter(|p| p.frame_ms <= default.frame_ms)
-        .map(|p| p.psnr_db)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let gap_db = best_in_time - default.psnr_db;
+    Ok((values, image.clone()))
+}
 
-    say!(
-        "{:<28} {:>9} {:>8} {:>7}  {}",
-        "series",
-        "frame ms",
-        "lens dB",
-        "SSIM",
-        "setting (per camera: ms / dB)"
-    );
-    for (i, point) in points.iter().enumerate() {
-        let cameras_text: Vec<String> = point
-            .per_camera
+/// Baseline: the reference ray tracer at one sample per pixel, `--frames` times at `camera`;
+/// its median time and its last image's lens PSNR and SSIM against `reference`.
+fn measure_ray_tracer(
+    trace: &TraceScene,
+    args: &BenchErrorArgs,
+    camera: &Camera,
+    reference: &ReferenceImage,
+) -> anyhow::Result<Measured> {
+    let mut times = Vec::new();
+    let mut image = None;
+    for _ in 0..args.frames {
+        let one = render_reference(
+            trace,
+            &camera.with_resolution(args.width, args.height, 1),
+            &TraceOptions::default(),
+            &|_| {},
+        )?;
+        times.push(one.stats.seconds * 1e3);
+        image = Some(one);
+    }
+    let as_frame = reference_frame(&image.context("at least one frame")?);
+    let error = lens_error(&as_frame, reference, Encoding::DisplaySrgb)?;
+    Ok(Measured {
+        frame_ms: lensmap::runner::median(&mut times),
+        psnr_db: error.psnr_db,
+        ssim: lens_ssim(&as_frame, reference)?,
+    })
+}
+
+/// The points with their Pareto frontier, and how far the default lies below it.
+struct Results {
+    /// The default first, then the sweep, then the 1-spp ray tracer.
+    points: Vec<Point>,
+    /// The points on the frontier ([`frontier`]).
+    on_frontier: Vec<usize>,
+    /// The best PSNR any point reaches in no more time than the default, less the default's,
+    /// dB.
+    gap_db: f64,
+}
+
+impl Results {
+    fn new(points: Vec<Point>) -> Results {
+        let on_frontier = frontier(&points);
+        let default = &points[0];
+        let best_in_time = points
             .iter()
-            .map(|m| format!("{:.0}/{:.2}", m.frame_ms, m.psnr_db))
-            .collect();
-        let against_f64 = point.f32_vs_f64.map_or_else(String::new, |(rms, max)| {
-            format!("  f32 − f64 frame over the lens: RMS {rms:.3e}, max {max:.3e}")
-        });
+            .filter(|p| p.frame_ms <= default.frame_ms)
+            .map(|p| p.psnr_db)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let gap_db = best_in_time - default.psnr_db;
+        Results {
+            points,
+            on_frontier,
+            gap_db,
+        }
+    }
+
+    /// The table: one line per point, `*` on the frontier, then the frontier's summary.
+    fn print(&self) {
         say!(
-            "{:<28} {:>9.1} {:>8.2}{} {:>6.4}  {}  [{}]{against_f64}",
-            point.family,
-            point.frame_ms,
-            point.psnr_db,
-            if on_frontier.contains(&i) { "*" } else { " " },
-            point.ssim,
-            point.label,
-            cameras_text.join(" ")
+            "{:<28} {:>9} {:>8} {:>7}  {}",
+            "series",
+            "frame ms",
+            "lens dB",
+            "SSIM",
+            "setting (per camera: ms / dB)"
+        );
+        for (i, point) in self.points.iter().enumerate() {
+            let cameras_text: Vec<String> = point
+                .per_camera
+                .iter()
+                .map(|m| format!("{:.0}/{:.2}", m.frame_ms, m.psnr_db))
+                .collect();
+            let against_f64 = point.f32_vs_f64.map_or_else(String::new, |(rms, max)| {
+                format!("  f32 − f64 frame over the lens: RMS {rms:.3e}, max {max:.3e}")
+            });
+            say!(
+                "{:<28} {:>9.1} {:>8.2}{} {:>6.4}  {}  [{}]{against_f64}",
+                point.family,
+                point.frame_ms,
+                point.psnr_db,
+                if self.on_frontier.contains(&i) {
+                    "*"
+                } else {
+                    " "
+                },
+                point.ssim,
+                point.label,
+                cameras_text.join(" ")
+            );
+        }
+        say!(
+            "* on the Pareto frontier ({} of {} points); the default is {:.2} dB below the best point at no more time",
+            self.on_frontier.len(),
+            self.points.len(),
+            self.gap_db
         );
     }
-    say!(
-        "* on the Pareto frontier ({} of {} points); the default is {gap_db:.2} dB below the best point at no more time",
-        on_frontier.len(),
-        points.len()
-    );
 
-    if let Some(path) = &args.csv {
+    /// One CSV row per point, after a header.
+    fn csv(&self) -> String {
         let mut csv = String::from(
             "series,setting,frame_ms,lens_psnr_db,lens_ssim,on_frontier,f32_vs_f64_rms,f32_vs_f64_max\n",
         );
-        for (i, point) in points.iter().enumerate() {
+        for (i, point) in self.points.iter().enumerate() {
             let (rms, max) = point.f32_vs_f64.map_or_else(
                 || (String::new(), String::new()),
                 |(rms, max)| (format!("{rms:.6e}"), format!("{max:.6e}")),
@@ -687,43 +849,27 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
                 point.frame_ms,
                 point.psnr_db,
                 point.ssim,
-                on_frontier.contains(&i)
+                self.on_frontier.contains(&i)
             ));
         }
-        lensmap::atomic::write_atomically(path, csv.as_bytes())
-            .with_context(|| format!("writing {}", path.display()))?;
+        csv
     }
-    if let Some(dir) = &args.plot {
-        crate::pareto::write(
-            dir,
-            &points_for_plot(&points, &on_frontier),
-            &scene.name,
-            &device,
-        )?;
-    }
-    let rows: Vec<_> = points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            json!({
-                "series": p.family, "setting": p.label, "frame_ms": p.frame_ms,
-                "lens_psnr_db": p.psnr_db, "lens_ssim": p.ssim, "on_frontier": on_frontier.contains(&i),
-                "f32_vs_f64": p.f32_vs_f64.map(|(rms, max)| json!({"linear_rms": rms, "linear_max": max})),
-                "per_camera": p.per_camera.iter().map(|m| json!({"frame_ms": m.frame_ms, "lens_psnr_db": m.psnr_db, "lens_ssim": m.ssim})).collect::<Vec<_>>(),
+
+    /// The points as the JSON report's rows.
+    fn json_points(&self) -> Vec<serde_json::Value> {
+        self.points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                json!({
+                    "series": p.family, "setting": p.label, "frame_ms": p.frame_ms,
+                    "lens_psnr_db": p.psnr_db, "lens_ssim": p.ssim, "on_frontier": self.on_frontier.contains(&i),
+                    "f32_vs_f64": p.f32_vs_f64.map(|(rms, max)| json!({"linear_rms": rms, "linear_max": max})),
+                    "per_camera": p.per_camera.iter().map(|m| json!({"frame_ms": m.frame_ms, "lens_psnr_db": m.psnr_db, "lens_ssim": m.ssim})).collect::<Vec<_>>(),
+                })
             })
-        })
-        .collect();
-    report(
-        &json!({
-            "scene": scene.name, "device": device, "width": args.width, "height": args.height,
-            "reference_supersampling": args.reference_supersampling, "frames": args.frames,
-            "cameras": cameras.iter().map(|(name, c)| json!({"camera": name, "position": c.position})).collect::<Vec<_>>(),
-            "encoding": "display sRGB, lens pixels of the reference; SSIM: image-compare's 8×8-window SSIM averaged over them",
-            "default_gap_to_frontier_db": gap_db, "points": rows,
-        }),
-        args.report.as_deref(),
-    )?;
-    Ok(())
+            .collect()
+    }
 }
 
 /// A CSV field: quoted, with quotes doubled (RFC 4180), as series names hold commas.

@@ -8,18 +8,18 @@ use std::path::PathBuf;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, tessellate::DEFAULT_T},
+    hybrid::{HybridOptions, HybridScene, tessellate::DEFAULT_T},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{TargetFormat, Variant},
     runner::{
-        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, load_hybrid_scene, median,
-        novel_camera,
+        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, TimedFrames,
+        load_hybrid_scene, median, novel_camera,
     },
     scene::{Camera, Scene},
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, FormatArg, flag_error, report};
+use crate::common::{BadUsage, FormatArg, Steps, flag_error, report};
 
 #[derive(Args)]
 #[command(
@@ -60,6 +60,63 @@ pub struct BenchHybridArgs {
 }
 
 pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
+    let (hybrid_options, projected, scene, camera) = checked(&args)?;
+    // The device and the framebuffer's fit first: refused before the scene's preparation.
+    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
+    let format = TargetFormat::from(args.format);
+    runner.check_framebuffer(&camera, format)?;
+    let mut steps = Steps::new(5);
+    let step = steps.step("projected layered EMs and light maps");
+    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    step.finish_and_clear();
+    say!(
+        "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
+        runner.gpu().device_name(),
+        hybrid.scene.name,
+        args.width,
+        args.height,
+        camera.supersampling,
+        camera.supersampling,
+        args.t,
+        format.name(),
+        rayon::current_num_threads(),
+        args.frames
+    );
+    let threads = rayon::current_num_threads();
+    let bench = Bench {
+        hybrid: &hybrid,
+        camera,
+        frames: args.frames,
+    };
+    let step = steps.step("per-stage medians, single pass and multipass");
+    let rows = bench.stages(&mut runner, hybrid_options, format)?;
+    // The rest is single pass, the runtime's default.
+    let options = FrameOptions {
+        hybrid: hybrid_options,
+        variant: Variant::SinglePass,
+        blend: lensmap::render::BlendScheme::FrontToBack,
+        format,
+    };
+    step.finish_and_clear();
+    let still = bench.still_camera(&mut runner, &options, &mut steps)?;
+    let moving = bench.moving_camera(&mut runner, &options, &mut steps)?;
+    let scaling = bench.thread_scaling(&mut runner, &options, threads, &mut steps)?;
+
+    let out = json!({
+        "device": runner.gpu().device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
+        "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
+        "threads": threads, "frames": args.frames, "rows": rows,
+        "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,
+    });
+    report(&out, args.report.as_deref())?;
+    Ok(())
+}
+
+/// The options checked, and the scene with the camera the frames are rendered from (its novel
+/// viewpoint at `--width` × `--height` and `--supersampling`).
+fn checked(
+    args: &BenchHybridArgs,
+) -> anyhow::Result<(HybridOptions, ProjectedOptions, Scene, Camera)> {
     let hybrid_options = HybridOptions::with_t(args.t).with_footprint(args.footprint);
     hybrid_options.validate().map_err(flag_error)?;
     let projected = ProjectedOptions::with_size(args.em_size);
@@ -85,200 +142,192 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let camera = novel_camera(&scene);
     lensmap::trace::image::validate_camera(&camera)
         .map_err(|e| BadUsage(format!("--width/--height/--supersampling: {e}")))?;
-    // The device and the framebuffer's fit first: refused before the scene's preparation.
-    let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    let format = TargetFormat::from(args.format);
-    runner.check_framebuffer(&camera, format)?;
-    let mut steps = crate::common::Steps::new(5);
-    let step = steps.step("projected layered EMs and light maps");
-    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
-    step.finish_and_clear();
-    say!(
-        "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
-        runner.gpu().device_name(),
-        hybrid.scene.name,
-        args.width,
-        args.height,
-        camera.supersampling,
-        camera.supersampling,
-        args.t,
-        format.name(),
-        rayon::current_num_threads(),
-        args.frames
-    );
-    let threads = rayon::current_num_threads();
-    say!(
-        "{:<12} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>8} {:>7} {:>7} {:>9}",
-        "variant",
-        "trace",
-        "texgen",
-        "tessel.",
-        "assemble",
-        "upload",
-        "record",
-        "execute",
-        "readback",
-        "filter",
-        "unacc.",
-        "total ms"
-    );
-    let mut rows = Vec::new();
-    let step = steps.step("per-stage medians, single pass and multipass");
-    for variant in [Variant::SinglePass, Variant::Multipass] {
-        let options = FrameOptions {
-            hybrid: hybrid_options,
-            variant,
-            blend: lensmap::render::BlendScheme::FrontToBack,
-            format,
-        };
-        let repetitions = Repetitions {
-            warmup: 2,
-            timed: args.frames,
-        };
-        let frames = runner.timed_frames(&hybrid, &camera, &options, repetitions)?;
-        let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
-        let row = StageMedians {
-            trace: stage(&|f| f.stats.trace_ms),
-            texgen: stage(&|f| f.stats.texgen_ms),
-            tessellation: stage(&|f| f.stats.tessellation_ms),
-            assemble: stage(&|f| f.stats.assemble_ms),
-            upload: stage(&|f| f.upload_ms),
-            record: stage(&|f| f.render.record_ms),
-            execute: stage(&|f| f.render.execute_ms),
-            readback: stage(&|f| f.render.readback_ms),
-            downsample: stage(&|f| f.downsample_ms),
-            unaccounted: stage(&|f| f.unaccounted_ms()),
-            total: stage(&|f| f.total_ms),
-        };
+    Ok((hybrid_options, projected, scene, camera))
+}
+
+/// The frames every part of the benchmark renders: one scene, from one camera, `frames` timed
+/// frames per measurement.
+struct Bench<'a> {
+    hybrid: &'a HybridScene,
+    camera: Camera,
+    frames: usize,
+}
+
+impl Bench<'_> {
+    /// Per variant (single pass, multipass), the median time of each stage, printed as a table;
+    /// the JSON rows with the last frame's counters.
+    fn stages(
+        &self,
+        runner: &mut FrameRunner,
+        hybrid_options: HybridOptions,
+        format: TargetFormat,
+    ) -> anyhow::Result<Vec<serde_json::Value>> {
         say!(
-            "{:<12} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>7.1} {:>7.1} {:>8.1} {:>8.1} {:>7.1} {:>7.1} {:>9.1}",
-            variant.name(),
-            row.trace,
-            row.texgen,
-            row.tessellation,
-            row.assemble,
-            row.upload,
-            row.record,
-            row.execute,
-            row.readback,
-            row.downsample,
-            row.unaccounted,
-            row.total
+            "{:<12} {:>7} {:>7} {:>7} {:>8} {:>7} {:>7} {:>8} {:>8} {:>7} {:>7} {:>9}",
+            "variant",
+            "trace",
+            "texgen",
+            "tessel.",
+            "assemble",
+            "upload",
+            "record",
+            "execute",
+            "readback",
+            "filter",
+            "unacc.",
+            "total ms"
         );
-        let last = frames.last();
-        rows.push(json!({
-            "variant": variant.name(),
-            "median_ms": row.to_json(),
-            "rays": last.stats.counters.all_rays(),
-            "triangle_tests": last.stats.counters.triangle_tests,
-            "lens_triangles_out": last.stats.triangles_out,
-            "vertices_traced": last.stats.vertices_traced,
-        }));
-    }
-
-    // The rest is single pass, the runtime's default.
-    let options = FrameOptions {
-        hybrid: hybrid_options,
-        variant: Variant::SinglePass,
-        blend: lensmap::render::BlendScheme::FrontToBack,
-        format,
-    };
-    let timed = args.frames;
-
-    step.finish_and_clear();
-    // A still camera: every frame after the first reuses its tessellation, texture coordinates
-    // and upload.
-    let step = steps.step("a still camera");
-    let mut first = Vec::new();
-    let mut still = Vec::new();
-    for _ in 0..timed {
-        hybrid.forget_frame();
-        first.push(runner.frame(&hybrid, &camera, &options)?.total_ms);
-        let again = runner.frame(&hybrid, &camera, &options)?;
-        if !again.stats.reused {
-            anyhow::bail!("a still camera's second frame was not reused");
+        let mut rows = Vec::new();
+        for variant in [Variant::SinglePass, Variant::Multipass] {
+            let options = FrameOptions {
+                hybrid: hybrid_options,
+                variant,
+                blend: lensmap::render::BlendScheme::FrontToBack,
+                format,
+            };
+            let repetitions = Repetitions {
+                warmup: 2,
+                timed: self.frames,
+            };
+            let frames = runner.timed_frames(self.hybrid, &self.camera, &options, repetitions)?;
+            let row = StageMedians::of(&frames);
+            say!(
+                "{:<12} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>7.1} {:>7.1} {:>8.1} {:>8.1} {:>7.1} {:>7.1} {:>9.1}",
+                variant.name(),
+                row.trace,
+                row.texgen,
+                row.tessellation,
+                row.assemble,
+                row.upload,
+                row.record,
+                row.execute,
+                row.readback,
+                row.downsample,
+                row.unaccounted,
+                row.total
+            );
+            let last = frames.last();
+            rows.push(json!({
+                "variant": variant.name(),
+                "median_ms": row.to_json(),
+                "rays": last.stats.counters.all_rays(),
+                "triangle_tests": last.stats.counters.triangle_tests,
+                "lens_triangles_out": last.stats.triangles_out,
+                "vertices_traced": last.stats.vertices_traced,
+            }));
         }
-        still.push(again.total_ms);
+        Ok(rows)
     }
-    let (first_ms, still_ms) = (median(&mut first), median(&mut still));
-    step.finish_and_clear();
-    say!(
-        "still camera: first frame {first_ms:.1} ms, each next frame {still_ms:.1} ms ({:.0}% of the first)",
-        100.0 * still_ms / first_ms
-    );
 
-    // A moving camera (a 0.5° step per frame around the look-at point): latency of frames
-    // rendered one at a time, and throughput with two frames in flight.
-    let step = steps.step("a moving camera, one at a time and in flight");
-    let path: Vec<Camera> = (0..timed + 2)
-        .map(|i| camera.orbited(0.5 * i as f32))
-        .collect();
-    runner.frames_in_flight(&hybrid, &path[..2], &options)?;
-    let one_at_a_time = std::time::Instant::now();
-    let mut latencies = Vec::new();
-    for camera in &path[2..] {
-        latencies.push(runner.frame(&hybrid, camera, &options)?.total_ms);
-    }
-    let sequential_ms = one_at_a_time.elapsed().as_secs_f64() * 1e3;
-    let (_, in_flight_ms) = runner.frames_in_flight(&hybrid, &path[2..], &options)?;
-    let latency_ms = median(&mut latencies);
-    step.finish_and_clear();
-    let fps = |wall_ms: f64| timed as f64 / (wall_ms / 1e3);
-    say!(
-        "moving camera, {timed} frames: latency {latency_ms:.1} ms (median); throughput {:.1} fps one at a time, {:.1} fps with two frames in flight ({:.2}×)",
-        fps(sequential_ms),
-        fps(in_flight_ms),
-        sequential_ms / in_flight_ms
-    );
-
-    // Thread scaling of the CPU stages (tracing, tessellation, texture coordinates, assembly).
-    let mut counts = vec![1, 2, threads];
-    counts.dedup();
-    counts.retain(|&n| n <= threads.max(2));
-    let mut scaling = Vec::new();
-    let bar = steps.counted("thread scaling", counts.len() as u64, "thread counts");
-    for &count in &counts {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(count).build()?;
-        let repetitions = Repetitions {
-            warmup: 1,
-            timed: args.frames,
-        };
-        let frames =
-            pool.install(|| runner.timed_frames(&hybrid, &camera, &options, repetitions))?;
-        let cpu = frames.median(|f| {
-            f.stats.trace_ms + f.stats.tessellation_ms + f.stats.texgen_ms + f.stats.assemble_ms
-        });
-        let tessellation = frames.median(|f| f.stats.tessellation_ms);
-        let total = frames.median(|f| f.total_ms);
-        scaling.push((count, cpu, tessellation, total));
-        bar.inc(1);
-    }
-    bar.finish_and_clear();
-    let (_, cpu_1, tessellation_1, _) = scaling[0];
-    for &(count, cpu, tessellation, total) in &scaling {
+    /// A still camera: every frame after the first reuses its tessellation, texture coordinates
+    /// and upload. The medians of first and next frames, printed and as JSON.
+    fn still_camera(
+        &self,
+        runner: &mut FrameRunner,
+        options: &FrameOptions,
+        steps: &mut Steps,
+    ) -> anyhow::Result<serde_json::Value> {
+        let step = steps.step("a still camera");
+        let mut first = Vec::new();
+        let mut still = Vec::new();
+        for _ in 0..self.frames {
+            self.hybrid.forget_frame();
+            first.push(runner.frame(self.hybrid, &self.camera, options)?.total_ms);
+            let again = runner.frame(self.hybrid, &self.camera, options)?;
+            if !again.stats.reused {
+                anyhow::bail!("a still camera's second frame was not reused");
+            }
+            still.push(again.total_ms);
+        }
+        let (first_ms, still_ms) = (median(&mut first), median(&mut still));
+        step.finish_and_clear();
         say!(
-            "{count:>2} threads: CPU stages {cpu:.1} ms ({:.2}× of 1 thread), tessellation {tessellation:.1} ms ({:.2}×), frame {total:.1} ms",
-            cpu_1 / cpu,
-            tessellation_1 / tessellation
+            "still camera: first frame {first_ms:.1} ms, each next frame {still_ms:.1} ms ({:.0}% of the first)",
+            100.0 * still_ms / first_ms
         );
+        Ok(json!({ "first_ms": first_ms, "next_ms": still_ms, "ratio": still_ms / first_ms }))
     }
 
-    let out = json!({
-        "device": runner.gpu().device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
-        "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
-        "threads": threads, "frames": timed, "rows": rows,
-        "still_camera": { "first_ms": first_ms, "next_ms": still_ms, "ratio": still_ms / first_ms },
-        "moving_camera": {
+    /// A moving camera (a 0.5° step per frame around the look-at point): latency of frames
+    /// rendered one at a time, and throughput with two frames in flight; printed and as JSON.
+    fn moving_camera(
+        &self,
+        runner: &mut FrameRunner,
+        options: &FrameOptions,
+        steps: &mut Steps,
+    ) -> anyhow::Result<serde_json::Value> {
+        let timed = self.frames;
+        let step = steps.step("a moving camera, one at a time and in flight");
+        let path: Vec<Camera> = (0..timed + 2)
+            .map(|i| self.camera.orbited(0.5 * i as f32))
+            .collect();
+        runner.frames_in_flight(self.hybrid, &path[..2], options)?;
+        let one_at_a_time = std::time::Instant::now();
+        let mut latencies = Vec::new();
+        for camera in &path[2..] {
+            latencies.push(runner.frame(self.hybrid, camera, options)?.total_ms);
+        }
+        let sequential_ms = one_at_a_time.elapsed().as_secs_f64() * 1e3;
+        let (_, in_flight_ms) = runner.frames_in_flight(self.hybrid, &path[2..], options)?;
+        let latency_ms = median(&mut latencies);
+        step.finish_and_clear();
+        let fps = |wall_ms: f64| timed as f64 / (wall_ms / 1e3);
+        say!(
+            "moving camera, {timed} frames: latency {latency_ms:.1} ms (median); throughput {:.1} fps one at a time, {:.1} fps with two frames in flight ({:.2}×)",
+            fps(sequential_ms),
+            fps(in_flight_ms),
+            sequential_ms / in_flight_ms
+        );
+        Ok(json!({
             "latency_ms": latency_ms, "fps_one_at_a_time": fps(sequential_ms),
             "fps_in_flight": fps(in_flight_ms), "frames_in_flight": lensmap::render::FRAMES_IN_FLIGHT,
-        },
-        "thread_scaling": scaling.iter().map(|&(threads, cpu, tessellation, total)| json!({
+        }))
+    }
+
+    /// Thread scaling of the CPU stages (tracing, tessellation, texture coordinates, assembly)
+    /// at 1, 2 and all `threads`: medians printed and as JSON, with speedups against 1 thread.
+    fn thread_scaling(
+        &self,
+        runner: &mut FrameRunner,
+        options: &FrameOptions,
+        threads: usize,
+        steps: &mut Steps,
+    ) -> anyhow::Result<Vec<serde_json::Value>> {
+        let mut counts = vec![1, 2, threads];
+        counts.dedup();
+        counts.retain(|&n| n <= threads.max(2));
+        let mut scaling = Vec::new();
+        let bar = steps.counted("thread scaling", counts.len() as u64, "thread counts");
+        for &count in &counts {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(count).build()?;
+            let repetitions = Repetitions {
+                warmup: 1,
+                timed: self.frames,
+            };
+            let frames = pool
+                .install(|| runner.timed_frames(self.hybrid, &self.camera, options, repetitions))?;
+            let cpu = frames.median(|f| {
+                f.stats.trace_ms + f.stats.tessellation_ms + f.stats.texgen_ms + f.stats.assemble_ms
+            });
+            let tessellation = frames.median(|f| f.stats.tessellation_ms);
+            let total = frames.median(|f| f.total_ms);
+            scaling.push((count, cpu, tessellation, total));
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        let (_, cpu_1, tessellation_1, _) = scaling[0];
+        for &(count, cpu, tessellation, total) in &scaling {
+            say!(
+                "{count:>2} threads: CPU stages {cpu:.1} ms ({:.2}× of 1 thread), tessellation {tessellation:.1} ms ({:.2}×), frame {total:.1} ms",
+                cpu_1 / cpu,
+                tessellation_1 / tessellation
+            );
+        }
+        Ok(scaling.iter().map(|&(threads, cpu, tessellation, total)| json!({
             "threads": threads, "cpu_stages_ms": cpu, "tessellation_ms": tessellation, "frame_ms": total,
             "cpu_speedup": cpu_1 / cpu, "tessellation_speedup": tessellation_1 / tessellation,
-        })).collect::<Vec<_>>(),
-    });
-    report(&out, args.report.as_deref())?;
-    Ok(())
+        })).collect())
+    }
 }
 
 /// Median stage times of one setting, ms.
@@ -297,6 +346,24 @@ struct StageMedians {
 }
 
 impl StageMedians {
+    /// The medians over `frames`.
+    fn of(frames: &TimedFrames) -> StageMedians {
+        let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
+        StageMedians {
+            trace: stage(&|f| f.stats.trace_ms),
+            texgen: stage(&|f| f.stats.texgen_ms),
+            tessellation: stage(&|f| f.stats.tessellation_ms),
+            assemble: stage(&|f| f.stats.assemble_ms),
+            upload: stage(&|f| f.upload_ms),
+            record: stage(&|f| f.render.record_ms),
+            execute: stage(&|f| f.render.execute_ms),
+            readback: stage(&|f| f.render.readback_ms),
+            downsample: stage(&|f| f.downsample_ms),
+            unaccounted: stage(&|f| f.unaccounted_ms()),
+            total: stage(&|f| f.total_ms),
+        }
+    }
+
     fn to_json(&self) -> serde_json::Value {
         json!({
             "ray_tracing_at_vertices": self.trace, "texture_coordinates": self.texgen,

@@ -10,18 +10,20 @@ use std::{path::PathBuf, sync::Arc, time::Instant};
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::HybridOptions,
+    hybrid::{HybridOptions, HybridScene},
     layers::projected::ProjectedOptions,
     metrics::Encoding,
     render::{TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene, median},
-    scene::Scene,
-    trace::{TraceOptions, compile_records, render_reference},
+    scene::{Camera, Scene},
+    trace::{ReferenceImage, TraceOptions, compile_records, render_reference},
 };
-use lensmap_baker::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions, View, infer_lens};
+use lensmap_baker::infer::{
+    DEFAULT_MAX_EM_SIZE, EmSize, InferOptions, Inference, View, infer_lens,
+};
 use serde_json::json;
 
-use crate::common::{BadUsage, JudgeArgs, flag_error, report};
+use crate::common::{BadUsage, JudgeArgs, Steps, flag_error, report};
 
 #[derive(Args)]
 #[command(
@@ -69,21 +71,12 @@ enum SolverArg {
 }
 
 pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
-    let projected = ProjectedOptions::with_size(args.em_size);
-    projected.validate().map_err(flag_error)?;
-    args.judge.validate()?;
-    if !args.max_em_size.is_power_of_two() {
-        return Err(BadUsage(format!(
-            "--max-em-size {}: give a power of two, e.g. 256",
-            args.max_em_size
-        ))
-        .into());
-    }
+    let projected = checked(&args)?;
     let scene = Scene::load_named(&args.scene)?;
     let camera = args.judge.frame_camera(&scene.camera);
     let reference_camera = args.judge.reference_camera(&camera);
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    let mut steps = crate::common::Steps::new(4);
+    let mut steps = Steps::new(4);
     let step = steps.step("projected layered EMs and light maps");
     let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
     step.finish_and_clear();
@@ -108,55 +101,29 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     say!("reference traced in {:.1} s", start.elapsed().as_secs_f64());
-    let frame_options = FrameOptions {
-        hybrid: HybridOptions::default(),
-        variant: Variant::SinglePass,
-        blend: lensmap::render::BlendScheme::FrontToBack,
-        format: TargetFormat::Rgba32f,
+    let judge = Judge {
+        camera: &camera,
+        reference: &reference,
     };
-    let judge = |runner: &mut FrameRunner,
-                 hybrid: &lensmap::hybrid::HybridScene|
-     -> anyhow::Result<(f64, f64)> {
-        let frame = runner.frame(hybrid, &camera, &frame_options)?;
-        Ok((
-            lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db,
-            lens_error(&frame.image, &reference, Encoding::Linear)?.psnr_db,
-        ))
-    };
-    let (projected_srgb, projected_linear) = judge(&mut runner, &hybrid)?;
+    let (projected_srgb, projected_linear) = judge.lens_psnr(&mut runner, &hybrid)?;
     let step = steps.step("intersection records");
     let records_start = Instant::now();
     let records = compile_records(&hybrid.trace, &camera, &trace_options)?;
     step.finish_and_clear();
     let records_ms = records_start.elapsed().as_secs_f64() * 1e3;
-    let options = InferOptions {
-        em_size: EmSize::Auto {
-            cap: args.max_em_size,
-        },
-        theta_c: args.confidence_degrees.to_radians(),
-        solve: lensmap_baker::solve::SolveOptions {
-            method: match args.solver {
-                SolverArg::Cg => lensmap_baker::solve::SolveMethod::ConjugateGradient,
-                SolverArg::Lsqr => lensmap_baker::solve::SolveMethod::Lsqr,
-            },
-            smoothness: args.smoothness,
-            tolerance: args.tolerance,
-            ..lensmap_baker::solve::SolveOptions::default()
-        },
-        ..InferOptions::default()
-    };
+    let options = infer_options(&args);
     let mut lenses = Vec::new();
     let mut inferred_maps = Vec::new();
+    let runs = args.runs.max(1);
     let bar = steps.counted(
         "inference",
-        (records.lenses.len() * args.runs.max(1)) as u64,
+        (records.lenses.len() * runs) as u64,
         "inferences",
     );
     for (lens, lens_records) in records.lenses.iter().enumerate() {
-        let name = lens_records.name.clone();
         let mut times = Vec::new();
         let mut last = None;
-        for _ in 0..args.runs.max(1) {
+        for _ in 0..runs {
             let view = View {
                 camera: &camera,
                 records: lens_records,
@@ -167,49 +134,19 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
             bar.inc(1);
         }
         let Some(inference) = last else { continue };
-        let total_ms = median(&mut times);
-        say!(
-            "lens \"{name}\": EM {s}² (finest level read at {cap}²: {:?}; {} search renders), inference median {:.1} s of {} runs (frame {:.0} ms)",
-            inference.finest_level_at_cap,
-            inference.search_renders,
-            total_ms / 1e3,
-            times.len(),
-            inference.frame_ms,
-            s = inference.size,
-            cap = args.max_em_size,
-        );
-        for layer in &inference.layers {
-            say!(
-                "  layer {}: {} test renders, non-zeros {:?}, matrices {:.0} ms, targets {:.0} ms, solve {:.0} ms ({} iterations, residual {:.1e}, {} seen texels, {} pinned to range)",
-                layer.layer,
-                layer.renders,
-                layer.nonzeros,
-                layer.matrix_ms,
-                layer.targets_ms,
-                layer.solve.ms,
-                layer.solve.iterations,
-                layer.solve.relative_residual,
-                layer.solve.seen_texels,
-                layer.solve.clamped_texels
-            );
-        }
-        lenses.push(json!({
-            "lens": name,
-            "em_size": inference.size,
-            "finest_level_at_cap": inference.finest_level_at_cap,
-            "search_renders": inference.search_renders,
-            "median_ms": total_ms,
-            "ms": times,
-            "frame_ms": inference.frame_ms,
-            "layers": inference.layers,
-        }));
+        lenses.push(say_inference(
+            &lens_records.name,
+            &inference,
+            times,
+            args.max_em_size,
+        ));
         inferred_maps.push((lens, inference.maps));
     }
     bar.finish_and_clear();
     for (lens, maps) in inferred_maps {
         hybrid.lenses[lens].maps = vec![maps.into_iter().map(Arc::new).collect()];
     }
-    let (inferred_srgb, inferred_linear) = judge(&mut runner, &hybrid)?;
+    let (inferred_srgb, inferred_linear) = judge.lens_psnr(&mut runner, &hybrid)?;
     say!(
         "lens PSNR vs the {r}×{r} reference: projected {projected_srgb:.2} dB sRGB / {projected_linear:.2} dB linear; inferred {inferred_srgb:.2} dB sRGB / {inferred_linear:.2} dB linear ({:+.2} / {:+.2} dB); records {:.1} s",
         inferred_srgb - projected_srgb,
@@ -235,4 +172,111 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         args.report.as_deref(),
     )?;
     Ok(())
+}
+
+/// The projected EMs' options, once every option is checked.
+fn checked(args: &BenchInferArgs) -> anyhow::Result<ProjectedOptions> {
+    let projected = ProjectedOptions::with_size(args.em_size);
+    projected.validate().map_err(flag_error)?;
+    args.judge.validate()?;
+    if !args.max_em_size.is_power_of_two() {
+        return Err(BadUsage(format!(
+            "--max-em-size {}: give a power of two, e.g. 256",
+            args.max_em_size
+        ))
+        .into());
+    }
+    Ok(projected)
+}
+
+/// The inference's options from the command line (the rest the baker's defaults).
+fn infer_options(args: &BenchInferArgs) -> InferOptions {
+    InferOptions {
+        em_size: EmSize::Auto {
+            cap: args.max_em_size,
+        },
+        theta_c: args.confidence_degrees.to_radians(),
+        solve: lensmap_baker::solve::SolveOptions {
+            method: match args.solver {
+                SolverArg::Cg => lensmap_baker::solve::SolveMethod::ConjugateGradient,
+                SolverArg::Lsqr => lensmap_baker::solve::SolveMethod::Lsqr,
+            },
+            smoothness: args.smoothness,
+            tolerance: args.tolerance,
+            ..lensmap_baker::solve::SolveOptions::default()
+        },
+        ..InferOptions::default()
+    }
+}
+
+/// The hybrid frame at the judged camera, against the reference over the lens pixels.
+struct Judge<'a> {
+    camera: &'a Camera,
+    reference: &'a ReferenceImage,
+}
+
+impl Judge<'_> {
+    /// Lens PSNR of `hybrid`'s single-pass RGBA32F frame in display sRGB and in linear, dB.
+    fn lens_psnr(
+        &self,
+        runner: &mut FrameRunner,
+        hybrid: &HybridScene,
+    ) -> anyhow::Result<(f64, f64)> {
+        let frame_options = FrameOptions {
+            hybrid: HybridOptions::default(),
+            variant: Variant::SinglePass,
+            blend: lensmap::render::BlendScheme::FrontToBack,
+            format: TargetFormat::Rgba32f,
+        };
+        let frame = runner.frame(hybrid, self.camera, &frame_options)?;
+        Ok((
+            lens_error(&frame.image, self.reference, Encoding::DisplaySrgb)?.psnr_db,
+            lens_error(&frame.image, self.reference, Encoding::Linear)?.psnr_db,
+        ))
+    }
+}
+
+/// Says what one lens object's inference found and took (its median time over the `times` of
+/// its runs, ms, which end sorted; `cap`: `--max-em-size`), layer by layer; its JSON.
+fn say_inference(
+    name: &str,
+    inference: &Inference,
+    mut times: Vec<f64>,
+    cap: u32,
+) -> serde_json::Value {
+    let total_ms = median(&mut times);
+    say!(
+        "lens \"{name}\": EM {s}² (finest level read at {cap}²: {:?}; {} search renders), inference median {:.1} s of {} runs (frame {:.0} ms)",
+        inference.finest_level_at_cap,
+        inference.search_renders,
+        total_ms / 1e3,
+        times.len(),
+        inference.frame_ms,
+        s = inference.size,
+    );
+    for layer in &inference.layers {
+        say!(
+            "  layer {}: {} test renders, non-zeros {:?}, matrices {:.0} ms, targets {:.0} ms, solve {:.0} ms ({} iterations, residual {:.1e}, {} seen texels, {} pinned to range)",
+            layer.layer,
+            layer.renders,
+            layer.nonzeros,
+            layer.matrix_ms,
+            layer.targets_ms,
+            layer.solve.ms,
+            layer.solve.iterations,
+            layer.solve.relative_residual,
+            layer.solve.seen_texels,
+            layer.solve.clamped_texels
+        );
+    }
+    json!({
+        "lens": name,
+        "em_size": inference.size,
+        "finest_level_at_cap": inference.finest_level_at_cap,
+        "search_renders": inference.search_renders,
+        "median_ms": total_ms,
+        "ms": times,
+        "frame_ms": inference.frame_ms,
+        "layers": inference.layers,
+    })
 }

@@ -10,6 +10,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 use glam::Vec3;
+use indicatif::ProgressBar;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::HybridOptions,
@@ -155,21 +156,7 @@ fn error(
 }
 
 pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
-    let most = lensmap::render::SinglePassProgram::MAX_LAYERS;
-    if !(1..=most).contains(&args.max_layers) {
-        return Err(crate::common::BadUsage(format!(
-            "--max-layers {}: give 1 to {most} (the single pass it is compared with composites at most {most})",
-            args.max_layers
-        ))
-        .into());
-    }
-    if args.frames == 0 || args.width == 0 || args.height == 0 {
-        return Err(crate::common::BadUsage(format!(
-            "--frames {} --width {} --height {}: give at least one frame of at least 1×1 pixels",
-            args.frames, args.width, args.height
-        ))
-        .into());
-    }
+    check(&args)?;
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let frames = frames(&args)?;
     say!(
@@ -212,76 +199,14 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         "settings",
     );
     for (layers, viewpoints, frame) in &frames {
-        let (layers, viewpoints) = (*layers, *viewpoints);
-        // The lens pixels, from the geometry: an empty set has no error to report, so the
-        // benchmark stops rather than print a figure that measures nothing.
-        let mask = runner.lens_coverage(frame)?;
-        if mask.selected() == 0 {
-            return Err(BadUsage(format!(
-                "the lens objects cover no pixel of the {}×{} frame (n = {layers}), so there are no lens pixels to measure the formats' error over: aim the camera at a lens object (--camera-position, --look-at)",
-                args.width, args.height
-            ))
-            .into());
-        }
-        let mut uploaded = runner.upload(frame)?;
-        // The reference of every row: the paper's scheme in RGBA32F.
-        let reference = runner
-            .timed_renders_blended(
-                &mut uploaded,
-                (Variant::Multipass, BlendScheme::FrontToBack),
-                TargetFormat::Rgba32f,
-                1,
-            )?
-            .image;
-        for &(variant, blend) in &compositings {
-            for format in TargetFormat::ALL {
-                let plan = Renderer::plan_blended(&uploaded, variant, blend, format)?;
-                let renders = runner.timed_renders_blended(
-                    &mut uploaded,
-                    (variant, blend),
-                    format,
-                    args.frames,
-                )?;
-                let (frame_ms, execute_ms) = (
-                    renders.median(|t| t.record_ms + t.execute_ms),
-                    renders.median(|t| t.execute_ms),
-                );
-                let error = error(&renders.image, &reference, &mask)?;
-                let (rms, max) = (error.rmse, error.max_abs);
-                let (passes, barriers, instances) = (
-                    plan.steps.len(),
-                    plan.barrier_count(),
-                    plan.rendering_instances(),
-                );
-                let blend_name = match variant {
-                    Variant::Multipass => blend.name(),
-                    Variant::SinglePass => "-",
-                };
-                say!(
-                    "{:>2} {:>2}  {:<12} {:<14} {:<8} {:>9.2} {:>9.2} {:>6} {:>5} {:>5}  {:>10} {:>10}",
-                    layers,
-                    viewpoints,
-                    variant.name(),
-                    blend_name,
-                    format.name(),
-                    frame_ms,
-                    execute_ms,
-                    passes,
-                    barriers,
-                    instances,
-                    format!("{rms:.3e}"),
-                    format!("{max:.3e}")
-                );
-                rows.push(json!({
-                    "layers": layers, "viewpoints": viewpoints, "variant": variant.name(),
-                    "blend": blend_name, "format": format.name(),
-                    "median_frame_ms": frame_ms, "median_execute_ms": execute_ms, "steps": passes,
-                    "barriers": barriers, "rendering_instances": instances,
-                    "rms_vs_reference": rms, "max_vs_reference": max, "lens_pixels": mask.selected(),
-                }));
-                bar.inc(1);
-            }
-        }
+        rows.extend(frame_rows(
+            &mut runner,
+            &args,
+            (*layers, *viewpoints),
+            frame,
+            &compositings,
+            &bar,
+        )?);
     }
     let out = json!({
         "device": runner.gpu().device_name(), "width": args.width, "height": args.height,
@@ -291,4 +216,107 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     report(&out, args.report.as_deref())?;
     Ok(())
+}
+
+/// The options a parser cannot check: a layer count the single pass composites, at least one
+/// frame of at least 1×1 pixels.
+fn check(args: &BenchPassesArgs) -> Result<(), BadUsage> {
+    let most = lensmap::render::SinglePassProgram::MAX_LAYERS;
+    if !(1..=most).contains(&args.max_layers) {
+        return Err(BadUsage(format!(
+            "--max-layers {}: give 1 to {most} (the single pass it is compared with composites at most {most})",
+            args.max_layers
+        )));
+    }
+    if args.frames == 0 || args.width == 0 || args.height == 0 {
+        return Err(BadUsage(format!(
+            "--frames {} --width {} --height {}: give at least one frame of at least 1×1 pixels",
+            args.frames, args.width, args.height
+        )));
+    }
+    Ok(())
+}
+
+/// The rows of one frame of `layers` layers and `viewpoints` viewpoint samples: each of
+/// `compositings` in each format, timed, planned and judged against the multipass
+/// front-to-back frame in RGBA32F over the lens pixels; printed, and as JSON.
+fn frame_rows(
+    runner: &mut FrameRunner,
+    args: &BenchPassesArgs,
+    (layers, viewpoints): (usize, usize),
+    frame: &FrameInput,
+    compositings: &[(Variant, BlendScheme)],
+    bar: &ProgressBar,
+) -> anyhow::Result<Vec<serde_json::Value>> {
+    // The lens pixels, from the geometry: an empty set has no error to report, so the
+    // benchmark stops rather than print a figure that measures nothing.
+    let mask = runner.lens_coverage(frame)?;
+    if mask.selected() == 0 {
+        return Err(BadUsage(format!(
+            "the lens objects cover no pixel of the {}×{} frame (n = {layers}), so there are no lens pixels to measure the formats' error over: aim the camera at a lens object (--camera-position, --look-at)",
+            args.width, args.height
+        ))
+        .into());
+    }
+    let mut uploaded = runner.upload(frame)?;
+    // The reference of every row: the paper's scheme in RGBA32F.
+    let reference = runner
+        .timed_renders_blended(
+            &mut uploaded,
+            (Variant::Multipass, BlendScheme::FrontToBack),
+            TargetFormat::Rgba32f,
+            1,
+        )?
+        .image;
+    let mut rows = Vec::new();
+    for &(variant, blend) in compositings {
+        for format in TargetFormat::ALL {
+            let plan = Renderer::plan_blended(&uploaded, variant, blend, format)?;
+            let renders = runner.timed_renders_blended(
+                &mut uploaded,
+                (variant, blend),
+                format,
+                args.frames,
+            )?;
+            let (frame_ms, execute_ms) = (
+                renders.median(|t| t.record_ms + t.execute_ms),
+                renders.median(|t| t.execute_ms),
+            );
+            let error = error(&renders.image, &reference, &mask)?;
+            let (rms, max) = (error.rmse, error.max_abs);
+            let (passes, barriers, instances) = (
+                plan.steps.len(),
+                plan.barrier_count(),
+                plan.rendering_instances(),
+            );
+            let blend_name = match variant {
+                Variant::Multipass => blend.name(),
+                Variant::SinglePass => "-",
+            };
+            say!(
+                "{:>2} {:>2}  {:<12} {:<14} {:<8} {:>9.2} {:>9.2} {:>6} {:>5} {:>5}  {:>10} {:>10}",
+                layers,
+                viewpoints,
+                variant.name(),
+                blend_name,
+                format.name(),
+                frame_ms,
+                execute_ms,
+                passes,
+                barriers,
+                instances,
+                format!("{rms:.3e}"),
+                format!("{max:.3e}")
+            );
+            rows.push(json!({
+                "layers": layers, "viewpoints": viewpoints, "variant": variant.name(),
+                "blend": blend_name, "format": format.name(),
+                "median_frame_ms": frame_ms, "median_execute_ms": execute_ms, "steps": passes,
+                "barriers": barriers, "rendering_instances": instances,
+                "rms_vs_reference": rms, "max_vs_reference": max, "lens_pixels": mask.selected(),
+            }));
+            bar.inc(1);
+        }
+    }
+    Ok(rows)
 }

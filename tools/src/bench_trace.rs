@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use indicatif::ProgressBar;
 
 use lensmap::metrics::{self, Channels, Coverage, Encoding, Mask, MetricsError};
 use lensmap::runner::median;
@@ -113,64 +114,27 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
         crate::common::Steps::new(1).counted("reference images", 4 * u64::from(runs) + 4, "images");
     for scene_name in ["teapot-room", "glass-sphere"] {
         let scene = Scene::load_named(scene_name)?;
-        let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;
-        let camera = Camera {
-            width: args.width,
-            height: args.height,
-            supersampling: args.supersampling,
-            ..scene.camera
+        let bench = SceneBench {
+            name: scene_name,
+            world: TraceScene::new(&scene).context("preparing the scene for ray tracing")?,
+            camera: Camera {
+                width: args.width,
+                height: args.height,
+                supersampling: args.supersampling,
+                ..scene.camera
+            },
+            bar: &bar,
         };
         // Speed on teapot-room; glass-sphere only joins the full-vs-greedy comparison.
-        let thread_counts: &[usize] = if scene_name == "teapot-room" {
-            &[1, 2]
+        let (thread_counts, timed_runs): (&[usize], u32) = if scene_name == "teapot-room" {
+            (&[1, 2], runs)
         } else {
-            &[2]
+            (&[2], 1)
         };
-        let timed_runs = if scene_name == "teapot-room" { runs } else { 1 };
         let mut images: Vec<(PathModel, ReferenceImage)> = Vec::new();
         for model in [PathModel::Greedy, PathModel::Full] {
-            let options = TraceOptions {
-                model,
-                ..TraceOptions::default()
-            };
             for &threads in thread_counts {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .context("creating the rayon thread pool")?;
-                let mut seconds = Vec::new();
-                let mut last = None;
-                for _ in 0..timed_runs {
-                    let image = pool
-                        .install(|| trace::render_reference(&world, &camera, &options, &|_| {}))?;
-                    bar.inc(1);
-                    seconds.push(image.stats.seconds);
-                    last = Some(image);
-                }
-                let Some(image) = last else { continue };
-                let median = median(&mut seconds.clone());
-                let counters = image.stats.counters;
-                let row = SpeedRow {
-                    scene: scene_name.to_owned(),
-                    tree: model,
-                    threads,
-                    median_seconds: median,
-                    seconds,
-                    mrays_per_second: counters.all_rays() as f64 / median.max(1e-12) / 1e6,
-                    rays_per_pixel: image.stats.rays_per_pixel(),
-                    triangle_tests_per_ray: counters.triangle_tests_per_ray(),
-                    counters,
-                };
-                say!(
-                    "{:<14} {:<7} {:>7} {:>9.3} {:>9.2} {:>11.1} {:>11.1}",
-                    row.scene,
-                    format!("{model:?}").to_lowercase(),
-                    threads,
-                    row.median_seconds,
-                    row.mrays_per_second,
-                    row.rays_per_pixel,
-                    row.triangle_tests_per_ray
-                );
+                let (row, image) = bench.speed(model, threads, timed_runs)?;
                 speed.push(row);
                 if threads == *thread_counts.last().unwrap_or(&threads) {
                     images.push((model, image));
@@ -178,31 +142,122 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
             }
         }
         if let [(PathModel::Greedy, greedy), (PathModel::Full, full)] = images.as_slice() {
-            let defaults = RayTreeOptions::default();
-            let label = format!("depth {}, cutoff {}", defaults.max_depth, defaults.cutoff);
-            comparisons.push(compare(scene_name, &label, greedy, full)?);
-            // The tree without a contribution cutoff, to depth 6: closer to a complete binary
-            // tree, the shape whose cost the paper compares against.
-            let uncut = TraceOptions {
-                model: PathModel::Full,
-                tree: RayTreeOptions {
-                    max_depth: 6,
-                    cutoff: 0.0,
-                },
-                ..TraceOptions::default()
-            };
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(2)
-                .build()
-                .context("creating the rayon thread pool")?;
-            let image =
-                pool.install(|| trace::render_reference(&world, &camera, &uncut, &|_| {}))?;
-            bar.inc(1);
-            comparisons.push(compare(scene_name, "depth 6, no cutoff", greedy, &image)?);
+            comparisons.extend(bench.full_vs_greedy(greedy, full)?);
         }
     }
 
     bar.finish_and_clear();
+    say_comparisons(&comparisons);
+
+    let report = BenchReport {
+        width: args.width,
+        height: args.height,
+        supersampling: args.supersampling,
+        runs,
+        cpu_threads_available: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        speed,
+        full_vs_greedy: comparisons,
+    };
+    crate::common::report(&report, args.report.as_deref())
+}
+
+/// The reference ray tracer on one scene, at the benchmark's image size and sampling.
+struct SceneBench<'a> {
+    name: &'static str,
+    world: TraceScene,
+    camera: Camera,
+    /// Counts every image rendered.
+    bar: &'a ProgressBar,
+}
+
+impl SceneBench<'_> {
+    /// `runs` timed renders with `model` on `threads` threads: the row (printed) and the last
+    /// image.
+    fn speed(
+        &self,
+        model: PathModel,
+        threads: usize,
+        runs: u32,
+    ) -> anyhow::Result<(SpeedRow, ReferenceImage)> {
+        let options = TraceOptions {
+            model,
+            ..TraceOptions::default()
+        };
+        let pool = thread_pool(threads)?;
+        let mut seconds = Vec::new();
+        let mut last = None;
+        for _ in 0..runs {
+            let image = pool.install(|| {
+                trace::render_reference(&self.world, &self.camera, &options, &|_| {})
+            })?;
+            self.bar.inc(1);
+            seconds.push(image.stats.seconds);
+            last = Some(image);
+        }
+        let image = last.context("at least one run")?;
+        let median = median(&mut seconds.clone());
+        let counters = image.stats.counters;
+        let row = SpeedRow {
+            scene: self.name.to_owned(),
+            tree: model,
+            threads,
+            median_seconds: median,
+            seconds,
+            mrays_per_second: counters.all_rays() as f64 / median.max(1e-12) / 1e6,
+            rays_per_pixel: image.stats.rays_per_pixel(),
+            triangle_tests_per_ray: counters.triangle_tests_per_ray(),
+            counters,
+        };
+        say!(
+            "{:<14} {:<7} {:>7} {:>9.3} {:>9.2} {:>11.1} {:>11.1}",
+            row.scene,
+            format!("{model:?}").to_lowercase(),
+            threads,
+            row.median_seconds,
+            row.mrays_per_second,
+            row.rays_per_pixel,
+            row.triangle_tests_per_ray
+        );
+        Ok((row, image))
+    }
+
+    /// The full tree with its default limits, and one without a contribution cutoff to depth 6,
+    /// each against the greedy paths. The uncut tree is closer to a complete binary tree, the
+    /// shape whose cost the paper compares against.
+    fn full_vs_greedy(
+        &self,
+        greedy: &ReferenceImage,
+        full: &ReferenceImage,
+    ) -> anyhow::Result<[ComparisonRow; 2]> {
+        let defaults = RayTreeOptions::default();
+        let label = format!("depth {}, cutoff {}", defaults.max_depth, defaults.cutoff);
+        let with_defaults = compare(self.name, &label, greedy, full)?;
+        let uncut = TraceOptions {
+            model: PathModel::Full,
+            tree: RayTreeOptions {
+                max_depth: 6,
+                cutoff: 0.0,
+            },
+            ..TraceOptions::default()
+        };
+        let image = thread_pool(2)?
+            .install(|| trace::render_reference(&self.world, &self.camera, &uncut, &|_| {}))?;
+        self.bar.inc(1);
+        let uncut = compare(self.name, "depth 6, no cutoff", greedy, &image)?;
+        Ok([with_defaults, uncut])
+    }
+}
+
+/// A rayon pool of `threads` threads.
+fn thread_pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("creating the rayon thread pool")
+}
+
+/// The full-vs-greedy table.
+fn say_comparisons(comparisons: &[ComparisonRow]) {
     say!();
     say!("full ray tree vs greedy two-term paths (same image size and sampling):");
     say!(
@@ -216,7 +271,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
         "all-ray ratio",
         "2nd-ray ratio"
     );
-    for c in &comparisons {
+    for c in comparisons {
         say!(
             "{:<14} {:<20} {:>10.4} {:>9.2} {:>14} {:>15.2} {:>14.2} {:>14.2}",
             c.scene,
@@ -231,17 +286,6 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
         );
     }
     say!("(the paper reports about 5× more ray queries for the full tree)");
-
-    let report = BenchReport {
-        width: args.width,
-        height: args.height,
-        supersampling: args.supersampling,
-        runs,
-        cpu_threads_available: std::thread::available_parallelism().map_or(1, |n| n.get()),
-        speed,
-        full_vs_greedy: comparisons,
-    };
-    crate::common::report(&report, args.report.as_deref())
 }
 
 /// The full tree's image against the greedy one: display-sRGB error over every pixel, linear

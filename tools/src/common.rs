@@ -13,8 +13,9 @@ use clap::ValueEnum;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lensmap::options::{OptionError, Worded};
-use lensmap::render::{BlendScheme, TargetFormat, Variant};
+use lensmap::render::{BlendScheme, RenderedImage, TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
+use lensmap::trace::ReferenceImage;
 use lensmap::trace::image::validate_camera;
 
 /// Prints a line of the human-readable result on stdout: nothing under `--json` (the JSON
@@ -207,6 +208,20 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<
     json.push('\n');
     lensmap::atomic::write_atomically(path, json.as_bytes())
         .with_context(|| format!("writing {}", path.display()))
+}
+
+/// The reference ray tracer's image as a frame (its radiance, alpha 1), to be judged or shown
+/// like one.
+pub fn reference_frame(reference: &ReferenceImage) -> RenderedImage {
+    RenderedImage {
+        width: reference.width,
+        height: reference.height,
+        pixels: reference
+            .radiance
+            .iter()
+            .map(|p| [p.x, p.y, p.z, 1.0])
+            .collect(),
+    }
 }
 
 /// The frames a benchmark judges and the independent reference it judges them against (`bench

@@ -8,7 +8,7 @@
 //! pixels. `--synthetic` runs the compositor
 //! alone on its synthetic sphere scene instead.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
@@ -23,16 +23,16 @@ use lensmap::{
     metrics::Encoding,
     render::{RenderedImage, SinglePassProgram, TargetFormat, Variant, synthetic},
     runner::{
-        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
+        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, TimedFrames, lens_error,
         load_hybrid_scene, novel_camera,
     },
-    scene::Scene,
-    trace::{TraceOptions, render_reference},
+    scene::{Camera, Scene},
+    trace::{ReferenceImage, TraceOptions, render_reference},
 };
 use lensmap_baker::bake::{BakeJob, BakeOptions, bake, reuse};
 use serde_json::json;
 
-use crate::common::{BadUsage, Steps, flag_error, report};
+use crate::common::{BadUsage, Steps, flag_error, reference_frame, report};
 
 #[derive(Args)]
 #[command(after_help = "Examples:
@@ -74,21 +74,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         return synthetic_demo(&args);
     }
     let started = Instant::now();
-    let mut scene = Scene::load_named("teapot-room")?;
-    if let Some(w) = args.width {
-        scene.camera.width = w;
-    }
-    if let Some(h) = args.height {
-        scene.camera.height = h;
-    }
-    if let Some(k) = args.supersampling {
-        scene.camera.supersampling = k;
-    }
-    let camera = novel_camera(&scene);
-    lensmap::trace::image::validate_camera(&camera)
-        .map_err(|e| BadUsage(format!("--width/--height/--supersampling: {e}")))?;
-    let projected = ProjectedOptions::with_size(args.em_size);
-    projected.validate().map_err(flag_error)?;
+    let (scene, camera, projected) = checked(&args)?;
     // The GPU first: without a driver the demo stops here with exit code 2.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     runner.check_framebuffer(&camera, TargetFormat::Rgba16f)?;
@@ -102,143 +88,21 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         &args.out.join("bake"),
         &mut steps,
     )?;
-    let step = steps.step("projected layered EMs and light maps");
-    let prepare = Instant::now();
-    let (hybrid, em_rays) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
-    step.finish_and_clear();
-    say!(
-        "projected layered EMs: {} lens objects, {}² texels per face, {} rays, {:.2} s",
-        hybrid.lenses.len(),
-        args.em_size,
-        em_rays,
-        prepare.elapsed().as_secs_f64()
-    );
-
-    let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
-    let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|rows| {
-        bar.set_position(u64::from(rows))
-    })?;
-    bar.finish_and_clear();
+    let hybrid = projected_scene(scene, projected, args.em_size, &mut steps)?;
+    let reference = reference(&hybrid, &camera, &args.out, &mut steps)?;
     let rc = reference.stats.counters;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    reference.write(&args.out.join("teapot-room-reference"))?;
-
-    say!(
-        "teapot-room, novel view between viewpoint samples 2 and 3, {}×{} with {k}×{k} supersampling (medians of 3 frames)",
-        camera.width,
-        camera.height,
-        k = camera.supersampling
-    );
-    say!(
-        "{:<10} {:<12} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>7} {:>7} {:>7} {:>8} {:>8}",
-        "EMs",
-        "variant",
-        "t",
-        "trace ms",
-        "texgen",
-        "tessel.",
-        "other",
-        "total",
-        "rays",
-        "tri tests",
-        "×time",
-        "×rays",
-        "×tests",
-        "PSNR dB",
-        "lin. dB"
-    );
-    let mut rows = Vec::new();
-    let mut side_by_side = Vec::new();
-    let bar = steps.counted("hybrid frames", 8, "settings");
-    for (ems, hybrid) in [("inferred", &inferred), ("projected", &hybrid)] {
-        for variant in [Variant::SinglePass, Variant::Multipass] {
-            for t in [3.0f32, 5.0] {
-                let options = FrameOptions {
-                    hybrid: HybridOptions::with_t(t),
-                    variant,
-                    blend: lensmap::render::BlendScheme::FrontToBack,
-                    format: TargetFormat::Rgba16f,
-                };
-                // The first frame compiles pipelines; then the median of three timed frames.
-                let repetitions = Repetitions {
-                    warmup: 1,
-                    timed: 3,
-                };
-                let frames = runner.timed_frames(hybrid, &camera, &options, repetitions)?;
-                let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
-                let (trace_ms, texgen_ms, tessellation_ms, other_ms, total_ms) = (
-                    stage(&|f| f.stats.trace_ms),
-                    stage(&|f| f.stats.texgen_ms),
-                    stage(&|f| f.stats.tessellation_ms),
-                    stage(&|f| f.other_ms()),
-                    stage(&|f| f.total_ms),
-                );
-                let frame = frames.last();
-                let c = frame.stats.counters;
-                // The figure printed since the first demo (display sRGB, clamped), and beside it the
-                // linear one that also counts errors in highlights above 1.
-                let psnr = |encoding| {
-                    lens_error(&frame.image, &reference, encoding).map_or(f64::NAN, |e| e.psnr_db)
-                };
-                let (psnr_display, psnr_linear) =
-                    (psnr(Encoding::DisplaySrgb), psnr(Encoding::Linear));
-                let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
-                let time_ratio = ratio(reference.stats.seconds * 1e3, total_ms);
-                let ray_ratio = ratio(rc.all_rays() as f64, c.all_rays() as f64);
-                let test_ratio = ratio(rc.triangle_tests as f64, c.triangle_tests as f64);
-                say!(
-                    "{:<10} {:<12} {:>3} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>10} {:>11} {:>7.1} {:>7.1} {:>7.1} {:>8.2} {:>8.2}",
-                    ems,
-                    variant.name(),
-                    t,
-                    trace_ms,
-                    texgen_ms,
-                    tessellation_ms,
-                    other_ms,
-                    total_ms,
-                    c.all_rays(),
-                    c.triangle_tests,
-                    time_ratio,
-                    ray_ratio,
-                    test_ratio,
-                    psnr_display,
-                    psnr_linear
-                );
-                let stem = format!("teapot-room-hybrid-{ems}-{}-t{t}", variant.name());
-                frame
-                    .image
-                    .write_png_and_exr(&args.out.join(format!("{stem}.png")))?;
-                if variant == Variant::SinglePass && t == 3.0 {
-                    side_by_side.push(frame.image.clone());
-                }
-                rows.push(json!({
-                "ems": ems, "variant": variant.name(), "t": t,
-                "median_of": 3,
-                "ray_tracing_at_vertices_ms": trace_ms, "texture_coordinates_ms": texgen_ms,
-                "tessellation_ms": tessellation_ms, "other_ms": other_ms,
-                "total_ms": total_ms, "rays": c.all_rays(), "triangle_tests": c.triangle_tests,
-                "lens_triangles_out": frame.stats.triangles_out,
-                "reduction_time": time_ratio, "reduction_rays": ray_ratio, "reduction_triangle_tests": test_ratio,
-                "lens_psnr_db": psnr_display,
-                "lens_psnr_linear_db": psnr_linear,
-            }));
-                bar.inc(1);
-            }
-        }
-    }
-    bar.finish_and_clear();
-    let step = steps.step("side-by-side image");
-    let reference_image = RenderedImage {
-        width: camera.width,
-        height: camera.height,
-        pixels: reference
-            .radiance
-            .iter()
-            .map(|p| [p.x, p.y, p.z, 1.0])
-            .collect(),
+    let table = Table {
+        camera: &camera,
+        reference: &reference,
+        out: &args.out,
     };
-    side_by_side.push(reference_image);
+    let (rows, mut side_by_side) = table.rows(
+        &mut runner,
+        [("inferred", &inferred), ("projected", &hybrid)],
+        &mut steps,
+    )?;
+    let step = steps.step("side-by-side image");
+    side_by_side.push(reference_frame(&reference));
     beside(&side_by_side)?.write_png_and_exr(&args.out.join("teapot-room-side-by-side.png"))?;
     step.finish_and_clear();
     say!(
@@ -269,6 +133,204 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         "seconds": started.elapsed().as_secs_f64(),
     });
     report(&out, args.report.as_deref())
+}
+
+/// The options checked: teapot-room with the camera at its novel viewpoint (`--width`,
+/// `--height`, `--supersampling` applied), and the projected EMs' options.
+fn checked(args: &DemoArgs) -> anyhow::Result<(Scene, Camera, ProjectedOptions)> {
+    let mut scene = Scene::load_named("teapot-room")?;
+    if let Some(w) = args.width {
+        scene.camera.width = w;
+    }
+    if let Some(h) = args.height {
+        scene.camera.height = h;
+    }
+    if let Some(k) = args.supersampling {
+        scene.camera.supersampling = k;
+    }
+    let camera = novel_camera(&scene);
+    lensmap::trace::image::validate_camera(&camera)
+        .map_err(|e| BadUsage(format!("--width/--height/--supersampling: {e}")))?;
+    let projected = ProjectedOptions::with_size(args.em_size);
+    projected.validate().map_err(flag_error)?;
+    Ok((scene, camera, projected))
+}
+
+/// The hybrid scene with projected layered EMs of `em_size`² texels per face; says how many
+/// lens objects and rays they took.
+fn projected_scene(
+    scene: Scene,
+    projected: ProjectedOptions,
+    em_size: u32,
+    steps: &mut Steps,
+) -> anyhow::Result<HybridScene> {
+    let step = steps.step("projected layered EMs and light maps");
+    let prepare = Instant::now();
+    let (hybrid, em_rays) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    step.finish_and_clear();
+    say!(
+        "projected layered EMs: {} lens objects, {}² texels per face, {} rays, {:.2} s",
+        hybrid.lenses.len(),
+        em_size,
+        em_rays,
+        prepare.elapsed().as_secs_f64()
+    );
+    Ok(hybrid)
+}
+
+/// The reference ray tracer's image at `camera`, written into `out` (created).
+fn reference(
+    hybrid: &HybridScene,
+    camera: &Camera,
+    out: &Path,
+    steps: &mut Steps,
+) -> anyhow::Result<ReferenceImage> {
+    let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
+    let reference = render_reference(&hybrid.trace, camera, &TraceOptions::default(), &|rows| {
+        bar.set_position(u64::from(rows))
+    })?;
+    bar.finish_and_clear();
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    reference.write(&out.join("teapot-room-reference"))?;
+    Ok(reference)
+}
+
+/// The paper's table: hybrid frames judged against the reference ray tracer at one camera,
+/// their images written into `out`.
+struct Table<'a> {
+    camera: &'a Camera,
+    reference: &'a ReferenceImage,
+    out: &'a Path,
+}
+
+impl Table<'_> {
+    /// Every row: each scene's EMs with both variants at t = 3 and t = 5, printed after the
+    /// table's header; the JSON rows, and the single-pass t = 3 frames for the side-by-side.
+    fn rows(
+        &self,
+        runner: &mut FrameRunner,
+        scenes: [(&str, &HybridScene); 2],
+        steps: &mut Steps,
+    ) -> anyhow::Result<(Vec<serde_json::Value>, Vec<RenderedImage>)> {
+        say!(
+            "teapot-room, novel view between viewpoint samples 2 and 3, {}×{} with {k}×{k} supersampling (medians of 3 frames)",
+            self.camera.width,
+            self.camera.height,
+            k = self.camera.supersampling
+        );
+        say!(
+            "{:<10} {:<12} {:>3} {:>9} {:>9} {:>9} {:>9} {:>9} {:>10} {:>11} {:>7} {:>7} {:>7} {:>8} {:>8}",
+            "EMs",
+            "variant",
+            "t",
+            "trace ms",
+            "texgen",
+            "tessel.",
+            "other",
+            "total",
+            "rays",
+            "tri tests",
+            "×time",
+            "×rays",
+            "×tests",
+            "PSNR dB",
+            "lin. dB"
+        );
+        let mut rows = Vec::new();
+        let mut side_by_side = Vec::new();
+        let bar = steps.counted("hybrid frames", 8, "settings");
+        for (ems, hybrid) in scenes {
+            for variant in [Variant::SinglePass, Variant::Multipass] {
+                for t in [3.0f32, 5.0] {
+                    let options = FrameOptions {
+                        hybrid: HybridOptions::with_t(t),
+                        variant,
+                        blend: lensmap::render::BlendScheme::FrontToBack,
+                        format: TargetFormat::Rgba16f,
+                    };
+                    // The first frame compiles pipelines; then the median of three timed frames.
+                    let repetitions = Repetitions {
+                        warmup: 1,
+                        timed: 3,
+                    };
+                    let frames = runner.timed_frames(hybrid, self.camera, &options, repetitions)?;
+                    rows.push(self.row(&frames, ems, variant, t)?);
+                    if variant == Variant::SinglePass && t == 3.0 {
+                        side_by_side.push(frames.last().image.clone());
+                    }
+                    bar.inc(1);
+                }
+            }
+        }
+        bar.finish_and_clear();
+        Ok((rows, side_by_side))
+    }
+
+    /// One row: the median stage times of `frames`, the last frame's counters and lens PSNR,
+    /// and the reductions against the reference ray tracer; printed, the last image written
+    /// into `out`, and the JSON row.
+    fn row(
+        &self,
+        frames: &TimedFrames,
+        ems: &str,
+        variant: Variant,
+        t: f32,
+    ) -> anyhow::Result<serde_json::Value> {
+        let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
+        let (trace_ms, texgen_ms, tessellation_ms, other_ms, total_ms) = (
+            stage(&|f| f.stats.trace_ms),
+            stage(&|f| f.stats.texgen_ms),
+            stage(&|f| f.stats.tessellation_ms),
+            stage(&|f| f.other_ms()),
+            stage(&|f| f.total_ms),
+        );
+        let frame = frames.last();
+        let c = frame.stats.counters;
+        let rc = self.reference.stats.counters;
+        // Display sRGB, clamped, and beside it the linear figure that also counts errors in
+        // highlights above 1.
+        let psnr = |encoding| {
+            lens_error(&frame.image, self.reference, encoding).map_or(f64::NAN, |e| e.psnr_db)
+        };
+        let (psnr_display, psnr_linear) = (psnr(Encoding::DisplaySrgb), psnr(Encoding::Linear));
+        let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
+        let time_ratio = ratio(self.reference.stats.seconds * 1e3, total_ms);
+        let ray_ratio = ratio(rc.all_rays() as f64, c.all_rays() as f64);
+        let test_ratio = ratio(rc.triangle_tests as f64, c.triangle_tests as f64);
+        say!(
+            "{:<10} {:<12} {:>3} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>9.1} {:>10} {:>11} {:>7.1} {:>7.1} {:>7.1} {:>8.2} {:>8.2}",
+            ems,
+            variant.name(),
+            t,
+            trace_ms,
+            texgen_ms,
+            tessellation_ms,
+            other_ms,
+            total_ms,
+            c.all_rays(),
+            c.triangle_tests,
+            time_ratio,
+            ray_ratio,
+            test_ratio,
+            psnr_display,
+            psnr_linear
+        );
+        let stem = format!("teapot-room-hybrid-{ems}-{}-t{t}", variant.name());
+        frame
+            .image
+            .write_png_and_exr(&self.out.join(format!("{stem}.png")))?;
+        Ok(json!({
+            "ems": ems, "variant": variant.name(), "t": t,
+            "median_of": 3,
+            "ray_tracing_at_vertices_ms": trace_ms, "texture_coordinates_ms": texgen_ms,
+            "tessellation_ms": tessellation_ms, "other_ms": other_ms,
+            "total_ms": total_ms, "rays": c.all_rays(), "triangle_tests": c.triangle_tests,
+            "lens_triangles_out": frame.stats.triangles_out,
+            "reduction_time": time_ratio, "reduction_rays": ray_ratio, "reduction_triangle_tests": test_ratio,
+            "lens_psnr_db": psnr_display,
+            "lens_psnr_linear_db": psnr_linear,
+        }))
+    }
 }
 
 /// Images of one size side by side, left to right.

@@ -48,14 +48,9 @@ fn merge(a: &Path, b: &Path, out: &Path) -> Output {
     ])
 }
 
+/// The run succeeded ([`common::assert_success`]).
 fn succeeded(output: &Output) {
-    assert!(
-        output.status.success(),
-        "exit {:?}\nstdout: {}\nstderr: {}",
-        output.status.code(),
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
+    common::assert_success("lensmap bake", output);
 }
 
 /// Every file of a directory, name → bytes.

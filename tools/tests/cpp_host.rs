@@ -12,52 +12,17 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::{lensmap, temp_dir};
-
-/// The folder of this test binary, where cargo also puts `liblensmap_capi.so`.
-fn deps_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("the test binary's path");
-    exe.parent().expect("a folder").to_path_buf()
-}
-
-fn repository() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tools/ is in the repository")
-        .to_path_buf()
-}
+use lensmap_tests::c_abi;
 
 /// Builds the C++ host as its README section says (with the cdylib of this build).
 fn build_host(scratch: &Path) -> PathBuf {
-    let deps = deps_dir();
-    assert!(
-        deps.join("liblensmap_capi.so").is_file(),
-        "cargo builds the cdylib (a dev-dependency) beside the tests: {}",
-        deps.display()
-    );
     let program = scratch.join("cpp-host");
-    let root = repository();
-    let build = Command::new("c++")
-        .args([
-            "-std=c++17",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-ffp-contract=off",
-            "-I",
-        ])
-        .arg(root.join("engine/capi/include"))
-        .arg(root.join("tools/examples/cpp-host/host.cpp"))
-        .arg("-L")
-        .arg(&deps)
-        .args(["-llensmap_capi", "-lvulkan", "-o"])
-        .arg(&program)
-        .output()
-        .expect("the system C++ compiler (c++) runs");
-    assert!(
-        build.status.success(),
-        "c++ failed:\n{}",
-        String::from_utf8_lossy(&build.stderr)
+    c_abi::build_host(
+        "c++",
+        &["-std=c++17", "-O2", "-ffp-contract=off"],
+        &c_abi::repository().join("tools/examples/cpp-host/host.cpp"),
+        &["-lvulkan"],
+        &program,
     );
     program
 }
@@ -132,7 +97,7 @@ fn the_cpp_host_renders_what_lensmap_render_renders() {
             .arg("--pfm")
             .arg(&host_pfm)
             .args(size)
-            .env("LD_LIBRARY_PATH", deps_dir())
+            .env("LD_LIBRARY_PATH", c_abi::deps_dir())
             .output()
             .expect("the C++ host runs");
         let stderr = String::from_utf8_lossy(&run.stderr);

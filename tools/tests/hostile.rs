@@ -1,12 +1,12 @@
-//! Hostile input to the command line (issue 11): a closed stdout, sizes that would exhaust memory,
-//! output paths that cannot be honoured and a disk that fills mid-write. Each case asserts the
+//! Hostile input to the command line: a closed stdout, sizes that would exhaust memory, output
+//! paths that cannot be honoured and a disk that fills mid-write. Each case asserts the
 //! exit code, one line on stderr naming the option, no panic, and that earlier outputs survive.
 
 mod common;
-use common::{TINY_RENDER, lensmap, lensmap_command};
+use common::{TINY_FRAME, TINY_RENDER, lensmap, lensmap_command, read, succeeds};
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -134,12 +134,7 @@ fn out_paths_are_honoured_or_refused() {
     std::fs::create_dir_all(&folder).unwrap();
     let mut args = tiny.to_vec();
     args.extend(["--out", folder.to_str().unwrap()]);
-    let out = lensmap(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = succeeds(&args);
     let stdout = String::from_utf8_lossy(&out.stdout);
     for name in ["hybrid.png", "hybrid.exr"] {
         let path = folder.join(name);
@@ -174,12 +169,7 @@ fn a_failed_write_keeps_the_earlier_output() {
         "--out",
         frame.to_str().unwrap(),
     ];
-    let out = lensmap(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&args);
     let before = (read(&frame), read(&frame.with_extension("exr")));
     // 8 KiB per file: the EXR (64×48×12 bytes) cannot be written.
     let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
@@ -201,10 +191,6 @@ fn a_failed_write_keeps_the_earlier_output() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-fn read(path: &Path) -> Vec<u8> {
-    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
 /// A bake written by `render --write-bake` carries its scene's identity: another scene (whatever
 /// its lens objects are called) refuses it with one line naming the field and the fix.
 #[test]
@@ -220,12 +206,7 @@ fn a_written_bake_is_refused_by_another_scene() {
         "--out",
         frame.to_str().unwrap(),
     ]);
-    let out = lensmap(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&args);
     let other = dir.join("b.png");
     assert_bad_usage(
         &[
@@ -240,27 +221,13 @@ fn a_written_bake_is_refused_by_another_scene() {
         "provenance.scene_hash",
     );
     // The scene it was written from reads it back.
-    let again = [
-        "render",
-        "--scene",
-        "glass-sphere",
-        "--bake",
-        bake.to_str().unwrap(),
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--supersampling",
-        "1",
-        "--out",
-        other.to_str().unwrap(),
-    ];
-    let out = lensmap(&again);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let again: Vec<&str> = ["render", "--scene", "glass-sphere"]
+        .into_iter()
+        .chain(["--bake", bake.to_str().unwrap()])
+        .chain(TINY_FRAME)
+        .chain(["--out", other.to_str().unwrap()])
+        .collect();
+    succeeds(&again);
     // A manifest that says nothing of its scene is refused, unless any bake is accepted.
     let manifest = bake.join("manifest.json");
     let mut json: serde_json::Value = serde_json::from_slice(&read(&manifest)).unwrap();
@@ -270,14 +237,9 @@ fn a_written_bake_is_refused_by_another_scene() {
         .expect("a provenance");
     std::fs::write(&manifest, serde_json::to_vec_pretty(&json).unwrap()).unwrap();
     assert_bad_usage(&again, "--accept-any-bake");
-    let mut accepting = again.to_vec();
+    let mut accepting = again.clone();
     accepting.push("--accept-any-bake");
-    let out = lensmap(&accepting);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeds(&accepting);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -301,7 +263,7 @@ fn options_say_what_they_do() {
     );
     let dir = temp_dir("synthetic");
     let report = dir.join("report.json");
-    let out = lensmap(&[
+    succeeds(&[
         "demo",
         "--synthetic",
         "--width",
@@ -315,11 +277,6 @@ fn options_say_what_they_do() {
         "--report",
         report.to_str().unwrap(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let json: serde_json::Value = serde_json::from_slice(&read(&report)).unwrap();
     assert_eq!(json["variants"].as_array().map(Vec::len), Some(2), "{json}");
     std::fs::remove_dir_all(&dir).unwrap();

@@ -1,5 +1,5 @@
-//! The hostile-input corpus of issue 11, through the `lensmap` binary: scene files, OBJ and image
-//! assets, damaged bake directories, command-line options, a full disk, closed output streams
+//! The hostile-input corpus, through the `lensmap` binary: scene files, OBJ and image assets,
+//! damaged bake directories, command-line options, a full disk, closed output streams
 //! and sizes past every budget. Each refusal asserts the exit code (2 for bad input or usage, 1
 //! for a failure of the work such as a full disk), exactly one line on stderr naming the file,
 //! field or option concerned, no panic, that the earlier output at the same path is intact, and
@@ -7,10 +7,11 @@
 //! and their EXR checked for NaN and infinity. Every case says its name when it fails.
 //!
 //! (`tools/tests/hostile.rs`, `cli.rs`, `bake.rs` and `tests/tests/scene_errors.rs`,
-//! `layers_bake.rs` hold the first part of the corpus; the cases here are new ones.)
+//! `layers_bake.rs` hold more of it.)
 
 mod common;
-use common::{TINY_RENDER, lensmap, lensmap_command};
+use common::{TINY_FRAME, TINY_RENDER, assert_success, lensmap, lensmap_command, read};
+use lensmap_tests::fixtures::{SMALL_SCENE, edit_scene};
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
@@ -22,52 +23,12 @@ use lensmap::layers::bake::{read_cube_map_exr, write_cube_map_exr};
 /// The longest a refusal of an over-budget size may take.
 const OVER_BUDGET_LIMIT: Duration = Duration::from_secs(5);
 
-/// A small valid scene (16×12 at 1×1: it renders in a fraction of a second); each scene case
-/// breaks one thing in it.
-const BASE: &str = r#"
-name = "hostile"
-
-[camera]
-position = [0, 1, 5]
-look_at = [0, 1, 0]
-vfov_degrees = 45
-width = 16
-height = 12
-supersampling = 1
-
-[environment]
-constant = [0.1, 0.1, 0.1]
-
-[[lights]]
-position = [0, 5, 0]
-intensity = [10, 10, 10]
-
-[[materials]]
-name = "glass"
-glass = { ior = 1.5, absorption = [0.9, 0.9, 0.9] }
-
-[[materials]]
-name = "grey"
-diffuse = { colour = [0.5, 0.5, 0.5] }
-
-[[objects]]
-name = "ball"
-material = "glass"
-sphere = { radius = 1, segments = 16, rings = 8 }
-
-[[objects]]
-name = "floor"
-material = "grey"
-plane = { size = [4, 4] }
-"#;
-
-/// `BASE` with `from` replaced by `to` (which must occur).
+/// `SMALL_SCENE` with `from` replaced by `to` (which must occur).
 fn edit(from: &str, to: &str) -> String {
-    assert!(BASE.contains(from), "BASE lacks {from:?}");
-    BASE.replacen(from, to, 1)
+    edit_scene(SMALL_SCENE, from, to)
 }
 
-/// The floor of `BASE` made of the OBJ file `name`.
+/// The floor of `SMALL_SCENE` made of the OBJ file `name`.
 fn with_obj(name: &str) -> String {
     edit(
         "plane = { size = [4, 4] }",
@@ -75,7 +36,7 @@ fn with_obj(name: &str) -> String {
     )
 }
 
-/// The floor material of `BASE` textured with the image `name`.
+/// The floor material of `SMALL_SCENE` textured with the image `name`.
 fn with_texture(name: &str) -> String {
     edit(
         "diffuse = { colour = [0.5, 0.5, 0.5] }",
@@ -83,7 +44,7 @@ fn with_texture(name: &str) -> String {
     )
 }
 
-/// The environment of `BASE` a lat-long image `name` times `scale`.
+/// The environment of `SMALL_SCENE` a lat-long image `name` times `scale`.
 fn with_sky(name: &str, scale: &str) -> String {
     edit(
         "constant = [0.1, 0.1, 0.1]",
@@ -122,10 +83,6 @@ impl Drop for Scratch {
 
 fn text(path: &Path) -> &str {
     path.to_str().expect("UTF-8 temporary path")
-}
-
-fn read(path: &Path) -> Vec<u8> {
-    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// A refusal: exit `code`, exactly one line on stderr holding every one of `names`, no panic
@@ -169,16 +126,9 @@ fn refused(case: &str, args: &[&str], code: i32, names: &[&str], over_budget: bo
     }
 }
 
-/// Runs `lensmap args`, expecting success.
+/// Runs `lensmap args`, expecting success ([`assert_success`]).
 fn succeeds(case: &str, args: &[&str]) {
-    let output = lensmap(args);
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(
-        output.status.success(),
-        "{case}: exit {:?}: {stderr}",
-        output.status.code()
-    );
-    assert!(!stderr.contains("panicked"), "{case}: {stderr}");
+    assert_success(case, &lensmap(args));
 }
 
 /// Every value of the EXR at `path` is finite.
@@ -210,6 +160,13 @@ impl Earlier {
             })
             .collect();
         Earlier { files }
+    }
+
+    /// Runs `lensmap args`: refused with exit 2 and one line naming `names` ([`refused`]),
+    /// these files intact.
+    fn refused_intact(&self, case: &str, args: &[&str], names: &[&str], over_budget: bool) {
+        refused(case, args, 2, names, over_budget);
+        self.assert_intact(case);
     }
 
     fn assert_intact(&self, case: &str) {
@@ -306,8 +263,7 @@ fn assert_scene_cases(scratch: &Scratch, earlier: &Earlier, out: &Path, cases: V
         let path = scratch.write(&file_name, &scene);
         let mut all = vec![file_name.as_str()];
         all.extend_from_slice(names);
-        refused(case, &strs(&render_scene(&path, out)), 2, &all, over_budget);
-        earlier.assert_intact(case);
+        earlier.refused_intact(case, &strs(&render_scene(&path, out)), &all, over_budget);
     }
 }
 
@@ -316,7 +272,7 @@ fn assert_scene_cases(scratch: &Scratch, earlier: &Earlier, out: &Path, cases: V
 #[test]
 fn hostile_scene_files_are_refused_naming_the_field() {
     let scratch = Scratch::new("scene");
-    let base = scratch.write("base.toml", BASE);
+    let base = scratch.write("base.toml", SMALL_SCENE);
     let out = scratch.path("frames/frame.png");
     let earlier = control_render("the base scene", &base, &out);
 
@@ -377,7 +333,7 @@ fn hostile_scene_files_are_refused_naming_the_field() {
         // A string where a list of object names belongs.
         scene_case(
             "string-lens-objects",
-            format!("{BASE}\n[[lenses]]\nname = \"lens\"\nobjects = \"ball\"\n"),
+            format!("{SMALL_SCENE}\n[[lenses]]\nname = \"lens\"\nobjects = \"ball\"\n"),
             &["lenses[0].objects", "invalid type"],
         ),
         // A misspelt field of a light.
@@ -392,7 +348,7 @@ fn hostile_scene_files_are_refused_naming_the_field() {
         // An unknown top-level table.
         scene_case(
             "unknown-table",
-            format!("{BASE}\n[renderer]\nsamples = 4\n"),
+            format!("{SMALL_SCENE}\n[renderer]\nsamples = 4\n"),
             &["renderer", "unknown field"],
         ),
         // Two materials of one name.
@@ -410,7 +366,8 @@ fn hostile_scene_files_are_refused_naming_the_field() {
             ),
             &["environment", "exactly one"],
         ),
-        // A camera 1e30 m away (was: "camera.up … parallel to the view direction").
+        // A camera 1e30 m away (refused for its distance, not as "camera.up … parallel to the
+        // view direction").
         scene_case(
             "far-camera",
             edit("position = [0, 1, 5]", "position = [0, 1, 1e30]"),
@@ -419,16 +376,17 @@ fn hostile_scene_files_are_refused_naming_the_field() {
         // A viewpoint sample 1e30 m away.
         scene_case(
             "far-viewpoint",
-            format!("{BASE}\n[view_space]\nlist = [[0, 1, 1e30]]\n"),
+            format!("{SMALL_SCENE}\n[view_space]\nlist = [[0, 1, 1e30]]\n"),
             &["view_space sample 0", "1e6 m"],
         ),
-        // A sphere of radius 1e30 m (was: "181 degenerate (zero-area) triangles").
+        // A sphere of radius 1e30 m (refused for its size, not as "181 degenerate (zero-area)
+        // triangles").
         scene_case(
             "huge-sphere",
             edit("radius = 1,", "radius = 1e30,"),
             &["objects[0].sphere.radius", "1e6 m"],
         ),
-        // An object moved 1e30 m away (was: a panic in the BVH builder).
+        // An object moved 1e30 m away (refused before the BVH builder, which would panic on it).
         scene_case(
             "far-translate",
             edit(
@@ -437,7 +395,8 @@ fn hostile_scene_files_are_refused_naming_the_field() {
             ),
             &["objects[0].transform", "1e6 m"],
         ),
-        // An object moved 1e20 m away (was: "frame input: view_proj has NaN or infinite entries").
+        // An object moved 1e20 m away (refused at load, not as "frame input: view_proj has NaN or
+        // infinite entries").
         scene_case(
             "farther-translate",
             edit(
@@ -446,7 +405,8 @@ fn hostile_scene_files_are_refused_naming_the_field() {
             ),
             &["objects[0].transform", "1e6 m"],
         ),
-        // A floor 1e9 m wide (was: an arithmetic-overflow panic in the light-map atlas).
+        // A floor 1e9 m wide (refused before the light-map atlas, whose size arithmetic would
+        // overflow).
         scene_case(
             "huge-plane",
             edit("size = [4, 4]", "size = [1e9, 1e9]"),
@@ -461,7 +421,8 @@ fn hostile_scene_files_are_refused_naming_the_field() {
             ),
             &["objects[0].transform", "1e6 m"],
         ),
-        // An environment of 1e38 (was: "frame input: lenses[0] (ball).layers[0][0] … is inf").
+        // An environment of 1e38 (refused at load, not as "frame input: lenses[0] (ball).layers[0][0]
+        // … is inf").
         scene_case(
             "huge-environment",
             edit(
@@ -524,7 +485,10 @@ fn hostile_scene_files_are_refused_naming_the_field() {
         // 10001 viewpoint samples in a list.
         over_budget(scene_case(
             "view-list-past-the-budget",
-            format!("{BASE}\n[view_space]\nlist = [{}]\n", many_views.join(", ")),
+            format!(
+                "{SMALL_SCENE}\n[view_space]\nlist = [{}]\n",
+                many_views.join(", ")
+            ),
             &["view_space.list", "10001 viewpoint samples"],
         )),
     ];
@@ -537,14 +501,12 @@ fn hostile_scene_files_are_refused_naming_the_field() {
     ] {
         let folder = scratch.path(name);
         std::fs::create_dir_all(&folder).unwrap();
-        refused(
+        earlier.refused_intact(
             case,
             &strs(&render_scene(&folder, &out)),
-            2,
             &[text(&folder), "cannot read the scene file"],
             false,
         );
-        earlier.assert_intact(case);
     }
 }
 
@@ -681,7 +643,8 @@ fn hostile_obj_assets_are_refused_naming_the_object() {
             b"v 0 0 0\nv 1e39 0 0\nv 0 0 1\nf 1 2 3\n".to_vec(),
             &["NaN or infinite", "vertex 1"],
         ),
-        // Finite but enormous coordinates (was: "1 degenerate (zero-area) triangle").
+        // Finite but enormous coordinates (refused for their distance, not as "1 degenerate
+        // (zero-area) triangle").
         (
             "enormous-vertex",
             b"v 0 0 0\nv 1e30 0 0\nv 0 0 1e30\nf 1 2 3\n".to_vec(),
@@ -700,8 +663,7 @@ fn hostile_obj_assets_are_refused_naming_the_object() {
         let scene = scratch.write(&format!("{case}.toml"), with_obj(&obj));
         let mut all = vec!["objects[1].obj.path", obj.as_str()];
         all.extend_from_slice(names);
-        refused(case, &strs(&render_scene(&scene, &out)), 2, &all, false);
-        earlier.assert_intact(case);
+        earlier.refused_intact(case, &strs(&render_scene(&scene, &out)), &all, false);
     }
 
     // The OBJ path names a folder; a missing OBJ.
@@ -711,14 +673,12 @@ fn hostile_obj_assets_are_refused_naming_the_object() {
         ("obj-missing", "nowhere/mesh.obj", "cannot read"),
     ] {
         let scene = scratch.write(&format!("{case}.toml"), with_obj(obj));
-        refused(
+        earlier.refused_intact(
             case,
             &strs(&render_scene(&scene, &out)),
-            2,
             &["objects[1].obj.path", obj, what],
             false,
         );
-        earlier.assert_intact(case);
     }
 }
 
@@ -838,7 +798,7 @@ fn hostile_image_assets_are_refused_naming_the_field() {
             &[SKY, "NaN, infinite or negative"],
             false,
         ),
-        // An EXR sky brighter than any radiance (was: "frame input: … is inf").
+        // An EXR sky brighter than any radiance (refused at load, not as "frame input: … is inf").
         (
             "blinding-exr-sky",
             "sky.exr",
@@ -862,36 +822,25 @@ fn hostile_image_assets_are_refused_naming_the_field() {
         let scene = scratch.write(&format!("{case}/scene.toml"), scene(name));
         let mut all = vec![text(&asset)];
         all.extend_from_slice(names);
-        refused(
-            case,
-            &strs(&render_scene(&scene, &out)),
-            2,
-            &all,
-            over_budget,
-        );
-        earlier.assert_intact(case);
+        earlier.refused_intact(case, &strs(&render_scene(&scene, &out)), &all, over_budget);
     }
 
     // A good sky scaled past the radiance limit names the scale.
     let scene = scratch.write("scaled.toml", with_sky("good.exr", "1e38"));
-    refused(
+    earlier.refused_intact(
         "sky-scaled-past-the-limit",
         &strs(&render_scene(&scene, &out)),
-        2,
         &["environment.latlong.scale", "1e30"],
         false,
     );
-    earlier.assert_intact("sky-scaled-past-the-limit");
     // A sky that does not exist.
     let scene = scratch.write("missing.toml", with_sky("nowhere/sky.exr", "1"));
-    refused(
+    earlier.refused_intact(
         "missing-sky",
         &strs(&render_scene(&scene, &out)),
-        2,
         &[SKY, "nowhere/sky.exr", "No such file"],
         false,
     );
-    earlier.assert_intact("missing-sky");
 }
 
 /// Copies every file of `from` into a fresh `to`.
@@ -935,23 +884,12 @@ fn damaged_bakes_are_refused_naming_the_file_and_field() {
     args.extend(["--write-bake", text(&good), "--out", text(&out)]);
     succeeds("writing the bake", &args);
     let render_bake = |bake: &Path| -> Vec<String> {
-        [
-            "render",
-            "--scene",
-            "glass-sphere",
-            "--bake",
-            text(bake),
-            "--width",
-            "16",
-            "--height",
-            "12",
-            "--supersampling",
-            "1",
-            "--out",
-            text(&out),
-        ]
-        .map(String::from)
-        .to_vec()
+        ["render", "--scene", "glass-sphere", "--bake", text(bake)]
+            .into_iter()
+            .chain(TINY_FRAME)
+            .chain(["--out", text(&out)])
+            .map(String::from)
+            .collect()
     };
     // The bake as written renders, finite.
     succeeds("the good bake", &strs(&render_bake(&good)));
@@ -1153,19 +1091,16 @@ fn damaged_bakes_are_refused_naming_the_file_and_field() {
         let named = bake.join(file);
         let mut all = vec![text(&named)];
         all.extend_from_slice(names);
-        refused(case, &strs(&render_bake(&bake)), 2, &all, over_budget);
-        earlier.assert_intact(case);
+        earlier.refused_intact(case, &strs(&render_bake(&bake)), &all, over_budget);
     }
     // A regular file given as the bake.
     let file = scratch.write("not-a-bake.json", "{}");
-    refused(
+    earlier.refused_intact(
         "bake-is-a-file",
         &strs(&render_bake(&file)),
-        2,
         &[text(&file), "bake"],
         false,
     );
-    earlier.assert_intact("bake-is-a-file");
 }
 
 /// Command-line options: bad enums, numbers out of range or of the wrong type, NaN and
@@ -1353,8 +1288,7 @@ fn hostile_options_are_refused_naming_the_option() {
     ];
     for (case, extra, names, over_budget) in cases {
         let args: Vec<&str> = sized.iter().copied().chain(extra.iter().copied()).collect();
-        refused(case, &args, 2, names, over_budget);
-        earlier.assert_intact(case);
+        earlier.refused_intact(case, &args, names, over_budget);
     }
 
     // --write-bake at a regular file, and at a folder that holds something else.
@@ -1367,8 +1301,7 @@ fn hostile_options_are_refused_naming_the_option() {
     ] {
         let mut args = base.clone();
         args.extend(["--write-bake", text(target)]);
-        refused(case, &args, 2, &[text(target), "is not a bake"], false);
-        earlier.assert_intact(case);
+        earlier.refused_intact(case, &args, &[text(target), "is not a bake"], false);
     }
     assert_eq!(read(&file), b"not a bake", "the file survives");
     assert_eq!(
@@ -1441,7 +1374,7 @@ fn reference_and_bake_refuse_hostile_scenes() {
     let reference_out = scratch.path("reference");
     let bake_out = scratch.path("bake");
     for (case, args, names) in [
-        // `reference` on an object 1e25 m away (was: a panic building the BVH).
+        // `reference` on an object 1e25 m away (refused before the BVH is built, which would panic).
         (
             "reference-far-object",
             vec![
@@ -1476,9 +1409,9 @@ fn reference_and_bake_refuse_hostile_scenes() {
     );
 }
 
-/// A scene that is hostile but valid renders, finite: a light of 1e8 W/sr overflows RGBA16F
-/// light maps (was: "frame input: environment[0].light_map.map: light map has NaN or infinite
-/// texels"); one at the radiance limit; a sky of 1e5 (past RGBA16F's 65504).
+/// A scene that is hostile but valid renders, finite: a light of 1e8 W/sr, whose light maps
+/// overflow RGBA16F (clamped, not refused as "light map has NaN or infinite texels"); one at the
+/// radiance limit; a sky of 1e5 (past RGBA16F's 65504).
 #[test]
 fn bright_but_valid_scenes_render_finite() {
     let scratch = Scratch::new("bright");
@@ -1529,8 +1462,7 @@ fn with_full_disk(args: &[&str], blocks: u32) -> (Output, Duration) {
 }
 
 /// A full disk mid-write: a failure of the work (exit 1), one line naming the file, and the
-/// earlier PNG and EXR both as they were — not a new PNG beside an old EXR (was: the PNG replaced
-/// before the EXR failed).
+/// earlier PNG and EXR both as they were — not a new PNG beside an old EXR.
 #[test]
 fn a_full_disk_keeps_the_earlier_pair_and_bake() {
     let scratch = Scratch::new("full");
@@ -1569,28 +1501,12 @@ fn a_full_disk_keeps_the_earlier_pair_and_bake() {
 
     // `bake` on a full disk: exit 1, and the earlier bake at that path intact.
     let bake = scratch.path("bake");
-    let bake_args: Vec<&str> = vec![
-        "bake",
-        "--scene",
-        "glass-sphere",
-        "--samples",
-        "0",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--supersampling",
-        "1",
-        "--em-size",
-        "8",
-        "--layers",
-        "1",
-        "--multi-view",
-        "1",
-        "--no-judge",
-        "--out",
-        text(&bake),
-    ];
+    let bake_args: Vec<&str> = ["bake", "--scene", "glass-sphere", "--samples", "0"]
+        .into_iter()
+        .chain(TINY_FRAME)
+        .chain(["--em-size", "8", "--layers", "1", "--multi-view", "1"])
+        .chain(["--no-judge", "--out", text(&bake)])
+        .collect();
     succeeds("the earlier bake", &bake_args);
     let before: Vec<(PathBuf, Vec<u8>)> = std::fs::read_dir(&bake)
         .unwrap()
@@ -1617,8 +1533,8 @@ fn a_full_disk_keeps_the_earlier_pair_and_bake() {
     }
 }
 
-/// `render --write-bake` on a full disk is a failure of the work (exit 1), as for `bake` (was:
-/// exit 2, every bake error counted as bad input; fixed in bf4c196).
+/// `render --write-bake` on a full disk is a failure of the work (exit 1), as for `bake`: an
+/// error writing a bake is not bad input.
 #[test]
 fn a_full_disk_under_write_bake_exits_1() {
     let scratch = Scratch::new("full-write-bake");

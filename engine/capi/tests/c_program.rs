@@ -3,53 +3,30 @@
 //! test, then run (two create/render/free cycles and the misuse cases, validation on); and the
 //! header compiled as C++17 with the same warnings.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-/// The folder holding this test binary and the crate's `liblensmap_capi.so`.
-fn deps_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("the test binary's path");
-    exe.parent().expect("a folder").to_path_buf()
-}
+use lensmap_tests::c_abi;
+use lensmap_tests::fixtures::temp_dir;
 
 fn crate_dir() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn temp_dir() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lensmap-capi-c-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("a scratch folder");
-    dir
-}
-
 #[test]
 fn a_c_program_builds_without_warnings_and_passes() {
-    let deps = deps_dir();
-    assert!(
-        deps.join("liblensmap_capi.so").is_file(),
-        "cargo builds the cdylib beside the tests: {}",
-        deps.display()
-    );
-    let scratch = temp_dir();
+    let scratch = temp_dir("capi", "c-program");
     let program = scratch.join("abi_test");
-    let build = Command::new("cc")
-        .args(["-std=c11", "-Wall", "-Wextra", "-Werror", "-I"])
-        .arg(crate_dir().join("include"))
-        .arg(crate_dir().join("tests/c/abi_test.c"))
-        .arg("-L")
-        .arg(&deps)
-        .args(["-llensmap_capi", "-lm", "-o"])
-        .arg(&program)
-        .output()
-        .expect("the system C compiler (cc) runs");
-    assert!(
-        build.status.success(),
-        "cc failed:\n{}",
-        String::from_utf8_lossy(&build.stderr)
+    c_abi::build_host(
+        "cc",
+        &["-std=c11"],
+        &crate_dir().join("tests/c/abi_test.c"),
+        &["-lm"],
+        &program,
     );
     let run = Command::new(&program)
         .arg("2")
-        .env("LD_LIBRARY_PATH", &deps)
+        .env("LD_LIBRARY_PATH", c_abi::deps_dir())
         .env("LENSMAP_VALIDATION", "1")
         .output()
         .expect("the C program runs");
@@ -78,7 +55,7 @@ fn a_c_program_builds_without_warnings_and_passes() {
             "-fsyntax-only",
             "-I",
         ])
-        .arg(crate_dir().join("include"))
+        .arg(c_abi::include_dir())
         .arg(&cpp)
         .output()
         .expect("the system C++ compiler (c++) runs");

@@ -234,15 +234,15 @@ pub const BUILTIN_SCENES: [&str; 3] = ["teapot-room", "glass-sphere", "mirror-te
 const BUILTIN_SOURCES: [(&str, &str); 3] = [
     (
         "teapot-room",
-        include_str!("../../../tools/scenes/teapot-room.toml"),
+        include_str!("../../scenes/teapot-room.toml"),
     ),
     (
         "glass-sphere",
-        include_str!("../../../tools/scenes/glass-sphere.toml"),
+        include_str!("../../scenes/glass-sphere.toml"),
     ),
     (
         "mirror-teapot",
-        include_str!("../../../tools/scenes/mirror-teapot.toml"),
+        include_str!("../../scenes/mirror-teapot.toml"),
     ),
 ];
 
@@ -348,7 +348,7 @@ impl Scene {
     /// A built-in scene by name (see [`BUILTIN_SCENES`]), or `None` for an unknown name.
     pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
         let (name, text) = BUILTIN_SOURCES.iter().find(|(n, _)| *n == name)?;
-        let origin = PathBuf::from(format!("tools/scenes/{name}.toml"));
+        let origin = PathBuf::from(format!("engine/scenes/{name}.toml"));
         Some(Scene::from_toml_str(text, &origin))
     }
 

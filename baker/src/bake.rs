@@ -770,15 +770,14 @@ fn projected_scene(
     shells: Vec<(DVec3, Vec<LayerShell>)>,
     size: u32,
 ) -> Result<HybridScene, BakeFailure> {
-    let trace = TraceScene::new(scene)?;
-    Ok(HybridScene::projected_on(
-        scene.clone(),
-        trace,
-        shells,
-        &ProjectedOptions::with_size(size),
-        &lensmap::lightmap::LightMapOptions::default(),
-    )?
-    .0)
+    let options = lensmap::hybrid::HybridSceneOptions {
+        ems: lensmap::hybrid::LayeredEms::ProjectedOn {
+            shells,
+            options: ProjectedOptions::with_size(size),
+        },
+        ..Default::default()
+    };
+    Ok(HybridScene::new(scene.clone(), options)?.0)
 }
 
 /// Replaces lens object `lens`'s layered EMs in `hybrid` by projected ones on `shells` (EM

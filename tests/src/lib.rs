@@ -40,7 +40,7 @@ pub fn small_teapot_room(width: u32, height: u32) -> lensmap::hybrid::HybridScen
         size: 16,
         supersampling: 1,
     };
-    load_hybrid_scene(scene, &EmSource::Projected(options))
+    load_hybrid_scene(scene, &EmSource::Projected(options).into())
         .expect("teapot-room loads")
         .0
 }

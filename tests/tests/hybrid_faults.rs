@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 use lensmap::{
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
     render::{LensFaces, RenderedImage, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
@@ -120,7 +120,7 @@ fn the_environment_shows_where_camera_rays_escape() {
             size: 16,
             supersampling: 1,
         });
-        let (mut hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+        let (mut hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
         assert!(hybrid.sky.is_some(), "{environment}: a lit sky has a dome");
         let (w, h) = (camera.width as i64, camera.height as i64);
         let escapes: Vec<bool> = (0..w * h)
@@ -242,7 +242,7 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
         size: 16,
         supersampling: 1,
     });
-    let (hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+    let (hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
     // The teapot is open (the cup's cylinder and torus are closed).
     assert_eq!(hybrid.faces, vec![LensFaces::Both, LensFaces::Front]);
     let reference =
@@ -264,7 +264,7 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
         input.lenses.clear();
         let mut uploaded = runner.upload(&input).unwrap();
         let without_lenses = runner
-            .timed_renders(&mut uploaded, variant, TargetFormat::Rgba32f, 1)
+            .timed_renders(&mut uploaded, &options.compositing(), 1)
             .unwrap()
             .image
             .box_downsample(camera.supersampling);
@@ -293,12 +293,13 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
 #[test]
 fn open_lens_meshes_draw_both_faces_and_closed_ones_front_faces() {
     let scene = Scene::load_named("glass-sphere").unwrap();
-    let (hybrid, _) = HybridScene::projected(
+    let (hybrid, _) = HybridScene::new(
         scene,
-        &ProjectedOptions {
+        LayeredEms::Projected(ProjectedOptions {
             size: 4,
             supersampling: 1,
-        },
+        })
+        .into(),
     )
     .unwrap();
     assert_eq!(hybrid.faces, vec![LensFaces::Front]);

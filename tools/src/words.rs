@@ -15,15 +15,32 @@ impl OptionWords for Flags {
     fn setting(&self, field: &str, value: &str) -> String {
         format!("{} {value}", self.option(field))
     }
+
+    fn switch_on(&self, field: &str) -> String {
+        format!("pass {}", self.option(field))
+    }
+
+    fn bake_command(&self, scene: Option<&str>) -> Option<String> {
+        Some(format!(
+            "lensmap bake --scene {} --out DIR",
+            scene.unwrap_or("S")
+        ))
+    }
 }
 
 /// `cause` in the command line's words, where it is a library error that names options.
 fn worded(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
-    let as_worded: Option<&dyn Worded> = None.or_else(|| {
-        cause
-            .downcast_ref::<lensmap::options::OptionError>()
-            .map(|e| e as &dyn Worded)
-    });
+    let as_worded: Option<&dyn Worded> = None
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::options::OptionError>()
+                .map(|e| e as &dyn Worded)
+        })
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::hybrid::BakeIdentityError>()
+                .map(|e| e as &dyn Worded)
+        });
     as_worded.map(|error| error.worded(&Flags))
 }
 

@@ -151,9 +151,11 @@ fn validated_runner() -> FrameRunner {
 
 fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f32> {
     let scene = Scene::load_named("glass-sphere").expect("loads");
-    let (hybrid, _) =
-        load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(8)))
-            .expect("projected");
+    let (hybrid, _) = load_hybrid_scene(
+        scene,
+        &EmSource::Projected(ProjectedOptions::with_size(8)).into(),
+    )
+    .expect("projected");
     let camera = Camera {
         position: options.position.into(),
         look_at: options.look_at.into(),

@@ -232,10 +232,7 @@ pub const BUILTIN_SCENES: [&str; 3] = ["teapot-room", "glass-sphere", "mirror-te
 
 /// The built-in scene files' text, embedded at compile time.
 const BUILTIN_SOURCES: [(&str, &str); 3] = [
-    (
-        "teapot-room",
-        include_str!("../../scenes/teapot-room.toml"),
-    ),
+    ("teapot-room", include_str!("../../scenes/teapot-room.toml")),
     (
         "glass-sphere",
         include_str!("../../scenes/glass-sphere.toml"),

@@ -113,6 +113,28 @@ pub(crate) fn unregister(pointer: usize, kind: Kind) -> bool {
     }
 }
 
+/// The handle `pointer` of `kind` (`name` in messages), or a failure: NULL, or not live
+/// (`refusal` says why it is refused).
+///
+/// # Safety
+/// `pointer` must be NULL, a live handle of `kind` made by [`register`] as a `T`, or a pointer
+/// lensmap never gave out.
+unsafe fn live_ref<'a, T>(
+    pointer: *const T,
+    kind: Kind,
+    name: &str,
+    refusal: &str,
+) -> Result<&'a T, Failure> {
+    if pointer.is_null() {
+        return Err(null(name));
+    }
+    if !is_live(pointer as usize, kind) {
+        return Err(Failure::new(LensmapResult::InvalidHandle, refusal));
+    }
+    // SAFETY: a live handle points to its `T` until it is freed.
+    Ok(unsafe { &*pointer })
+}
+
 /// The context behind a handle, locked for this call.
 ///
 /// # Safety
@@ -120,17 +142,15 @@ pub(crate) fn unregister(pointer: usize, kind: Kind) -> bool {
 pub(crate) unsafe fn lock_context<'a>(
     context: *mut LensmapContext,
 ) -> Result<std::sync::MutexGuard<'a, FrameRunner>, Failure> {
-    if context.is_null() {
-        return Err(null("context"));
-    }
-    if !is_live(context as usize, Kind::Context) {
-        return Err(Failure::new(
-            LensmapResult::InvalidHandle,
+    // SAFETY: the caller's promise; a context is only ever registered as Kind::Context.
+    let context: &LensmapContext = unsafe {
+        live_ref(
+            context,
+            Kind::Context,
+            "context",
             "context is not a live LensmapContext (freed already, or not made by lensmap_context_new)",
-        ));
-    }
-    // SAFETY: a live handle points to a LensmapContext until it is freed.
-    let context = unsafe { &*context };
+        )
+    }?;
     match context.runner.try_lock() {
         Ok(runner) => Ok(runner),
         Err(TryLockError::WouldBlock) => Err(Failure::new(
@@ -153,15 +173,13 @@ pub(crate) unsafe fn lock_context<'a>(
 pub(crate) unsafe fn scene_ref<'a>(
     scene: *const LensmapScene,
 ) -> Result<&'a LensmapScene, Failure> {
-    if scene.is_null() {
-        return Err(null("scene"));
-    }
-    if !is_live(scene as usize, Kind::Scene) {
-        return Err(Failure::new(
-            LensmapResult::InvalidHandle,
+    // SAFETY: the caller's promise; a scene is only ever registered as Kind::Scene.
+    unsafe {
+        live_ref(
+            scene,
+            Kind::Scene,
+            "scene",
             "scene is not a live LensmapScene (freed already, or not made by lensmap_scene_load)",
-        ));
+        )
     }
-    // SAFETY: a live handle points to a LensmapScene until it is freed.
-    Ok(unsafe { &*scene })
 }

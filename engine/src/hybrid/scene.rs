@@ -462,3 +462,55 @@ fn baked_layers(
     }
     Ok(lenses)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A front end with flags and a bake command, as the command line words them.
+    struct Flags;
+
+    impl OptionWords for Flags {
+        fn option(&self, field: &str) -> String {
+            format!("--{}", field.replace('_', "-"))
+        }
+
+        fn switch_on(&self, field: &str) -> String {
+            format!("pass {}", self.option(field))
+        }
+
+        fn bake_command(&self, scene: Option<&str>) -> Option<String> {
+            Some(format!("bake --scene {}", scene.unwrap_or("S")))
+        }
+    }
+
+    #[test]
+    fn bake_identity_errors_name_options_only_through_the_front_ends_words() {
+        let other = BakeIdentityError::OtherScene {
+            bake: Some(PathBuf::from("out/bake")),
+            baked_scene: "glass-sphere".into(),
+            scene: "mirror-teapot".into(),
+        };
+        let said = "out/bake/manifest.json: provenance.scene_hash: the bake was made from scene \"glass-sphere\" with other content than scene \"mirror-teapot\"; bake this scene";
+        assert_eq!(
+            other.to_string(),
+            format!("{said} or pass the scene it was made from")
+        );
+        assert_eq!(
+            other.worded(&Flags),
+            format!("{said} (bake --scene mirror-teapot) or pass the scene it was made from")
+        );
+        let unnamed = BakeIdentityError::Unidentified {
+            bake: PathBuf::from("out/bake"),
+        };
+        let said = "manifest.json: provenance: the bake does not say which scene it was made from; bake this scene";
+        assert_eq!(
+            unnamed.to_string(),
+            format!("{said}, or set `accept_any_bake` to use it anyway")
+        );
+        assert_eq!(
+            unnamed.worded(&Flags),
+            format!("{said} (bake --scene S), or pass --accept-any-bake to use it anyway")
+        );
+    }
+}

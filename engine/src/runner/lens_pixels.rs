@@ -46,7 +46,7 @@ impl FrameRunner {
 
 /// The error of a hybrid frame against the reference ray tracer over the lens pixels: those the
 /// reference sees as entirely lens (coverage 1, no background mixed in), RGB, in `encoding`.
-/// [`Encoding::DisplaySrgb`] is the figure lensmap has always printed as "lens PSNR";
+/// [`Encoding::DisplaySrgb`] is the figure the command line prints as "lens PSNR";
 /// [`Encoding::Linear`] also counts errors in highlights above 1. An error when no pixel is all
 /// lens.
 pub fn lens_error(
@@ -54,13 +54,7 @@ pub fn lens_error(
     reference: &ReferenceImage,
     encoding: Encoding,
 ) -> Result<ImageError, MetricsError> {
-    metrics::compare(
-        &image.pixels,
-        &reference.radiance,
-        &Mask::from_coverage(&reference.lens_mask, Coverage::Full),
-        encoding,
-        Channels::Rgb,
-    )
+    error_where(image, reference, Coverage::Full, encoding)
 }
 
 /// The error of a hybrid frame against the reference ray tracer over the non-lens pixels: those
@@ -72,10 +66,21 @@ pub fn non_lens_error(
     reference: &ReferenceImage,
     encoding: Encoding,
 ) -> Result<ImageError, MetricsError> {
+    error_where(image, reference, Coverage::None, encoding)
+}
+
+/// The RGB error of `image` against the reference over the pixels whose reference lens coverage
+/// is `coverage`, in `encoding`.
+fn error_where(
+    image: &RenderedImage,
+    reference: &ReferenceImage,
+    coverage: Coverage,
+    encoding: Encoding,
+) -> Result<ImageError, MetricsError> {
     metrics::compare(
         &image.pixels,
         &reference.radiance,
-        &Mask::from_coverage(&reference.lens_mask, Coverage::None),
+        &Mask::from_coverage(&reference.lens_mask, coverage),
         encoding,
         Channels::Rgb,
     )

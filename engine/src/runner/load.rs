@@ -17,9 +17,10 @@ pub enum EmSource {
     /// A bake directory written by the baker (or `lensmap render --write-bake`) for this very
     /// scene: its manifest's provenance must name the scene's content hash.
     Bake(PathBuf),
-    /// A bake directory used whatever scene it was made for (the option `accept_any_bake` of
-    /// the front ends): for deliberate reuse, e.g. a hand-made bake or one made before the scene was edited. Lens
-    /// objects are still matched by name and every map is still validated.
+    /// A bake directory used whatever scene it was made for (the front ends' option
+    /// `accept_any_bake`): for deliberate reuse, e.g. a hand-made bake or one made before the
+    /// scene was edited. Lens objects are still matched by name and every map is still
+    /// validated.
     AnyBake(PathBuf),
     /// Projected from the scene onto the layer shells its file names.
     Projected(ProjectedOptions),

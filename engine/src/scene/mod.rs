@@ -502,16 +502,24 @@ mod tests {
         );
     }
 
-    #[test]
-    fn minimal_scene_with_defaults() {
-        let text = r#"
+    /// A camera table for the test scenes.
+    const CAMERA: &str = r#"
             [camera]
             position = [0, 1, 5]
             look_at = [0, 1, 0]
             vfov_degrees = 45
             width = 64
             height = 48
+    "#;
 
+    /// The scene of `text`, said to come from `origin`; a test failure if it does not load.
+    fn parse(text: &str, origin: &str) -> Scene {
+        Scene::from_toml_str(text, Path::new(origin)).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    #[test]
+    fn minimal_scene_with_defaults() {
+        let text = r#"
             [[materials]]
             name = "glass"
             glass = { ior = 1.33 }
@@ -522,10 +530,7 @@ mod tests {
             sphere = { radius = 0.5 }
             transform = { translate = [0, 1, 0], scale = [1, 2, 1] }
         "#;
-        let scene = match Scene::from_toml_str(text, Path::new("dir/minimal.toml")) {
-            Ok(scene) => scene,
-            Err(e) => panic!("{e}"),
-        };
+        let scene = parse(&format!("{CAMERA}{text}"), "dir/minimal.toml");
         assert_eq!(scene.name, "minimal");
         assert_eq!(scene.camera.up, Vec3::Y);
         assert_eq!(scene.camera.supersampling, 1);
@@ -555,12 +560,6 @@ mod tests {
     fn rotations_apply_x_then_y_then_z() {
         // A 1×1 plane (normal +y) turned 90° about x faces +z; then 90° about y faces +x.
         let text = r#"
-            [camera]
-            position = [0, 1, 5]
-            look_at = [0, 1, 0]
-            vfov_degrees = 45
-            width = 64
-            height = 48
             [[materials]]
             name = "grey"
             diffuse = { colour = [0.5, 0.5, 0.5] }
@@ -575,10 +574,7 @@ mod tests {
             plane = { size = [1, 1] }
             transform = { rotate_degrees = [90, 90, 0] }
         "#;
-        let scene = match Scene::from_toml_str(text, Path::new("rot.toml")) {
-            Ok(scene) => scene,
-            Err(e) => panic!("{e}"),
-        };
+        let scene = parse(&format!("{CAMERA}{text}"), "rot.toml");
         assert!(scene.objects[0].mesh.normals[0].distance(Vec3::Z) < 1e-6);
         assert!(scene.objects[1].mesh.normals[0].distance(Vec3::X) < 1e-6);
         assert!(scene.lenses.is_empty());

@@ -467,20 +467,20 @@ fn baked_layers(
 mod tests {
     use super::*;
 
-    /// A front end with flags and a bake command, as the command line words them.
-    struct Flags;
+    /// A front end that names options in capitals and bakes with a `BAKE(scene)` call.
+    struct Capitals;
 
-    impl OptionWords for Flags {
+    impl OptionWords for Capitals {
         fn option(&self, field: &str) -> String {
-            format!("--{}", field.replace('_', "-"))
+            field.to_uppercase()
         }
 
         fn switch_on(&self, field: &str) -> String {
-            format!("pass {}", self.option(field))
+            format!("turn on {}", self.option(field))
         }
 
         fn bake_command(&self, scene: Option<&str>) -> Option<String> {
-            Some(format!("bake --scene {}", scene.unwrap_or("S")))
+            Some(format!("BAKE({})", scene.unwrap_or("?")))
         }
     }
 
@@ -497,8 +497,8 @@ mod tests {
             format!("{said} or pass the scene it was made from")
         );
         assert_eq!(
-            other.worded(&Flags),
-            format!("{said} (bake --scene mirror-teapot) or pass the scene it was made from")
+            other.worded(&Capitals),
+            format!("{said} (BAKE(mirror-teapot)) or pass the scene it was made from")
         );
         let unnamed = BakeIdentityError::Unidentified {
             bake: PathBuf::from("out/bake"),
@@ -509,8 +509,8 @@ mod tests {
             format!("{said}, or set `accept_any_bake` to use it anyway")
         );
         assert_eq!(
-            unnamed.worded(&Flags),
-            format!("{said} (bake --scene S), or pass --accept-any-bake to use it anyway")
+            unnamed.worded(&Capitals),
+            format!("{said} (BAKE(?)), or turn on ACCEPT_ANY_BAKE to use it anyway")
         );
     }
 }

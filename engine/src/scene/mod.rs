@@ -502,15 +502,8 @@ mod tests {
         );
     }
 
-    /// A camera table for the test scenes.
-    const CAMERA: &str = r#"
-            [camera]
-            position = [0, 1, 5]
-            look_at = [0, 1, 0]
-            vfov_degrees = 45
-            width = 64
-            height = 48
-    "#;
+    /// The camera of the test scenes, an inline table before any other table.
+    const CAMERA: &str = "camera = { position = [0, 1, 5], look_at = [0, 1, 0], vfov_degrees = 45, width = 64, height = 48 }";
 
     /// The scene of `text`, said to come from `origin`; a test failure if it does not load.
     fn parse(text: &str, origin: &str) -> Scene {

@@ -3,6 +3,11 @@
 
 use std::ffi::{c_char, c_void};
 
+#[cfg(doc)]
+use crate::exports::{
+    lensmap_context_new, lensmap_context_new_on_host, lensmap_render_to_image, lensmap_scene_load,
+};
+
 /// The ABI version this header describes; raised when a struct grows or a function is added.
 pub const LENSMAP_ABI_VERSION: u32 = 3;
 

@@ -1,5 +1,5 @@
 //! One hybrid frame on the CPU: trace and tessellate every lens object from the real camera,
-//! generate the layered-EM texture coordinates ([`super::texgen`]), pick the viewpoint samples,
+//! generate the layered-EM texture coordinates (`texgen`), pick the viewpoint samples,
 //! and assemble the [`FrameInput`] the compositor renders. Timed per stage like the paper's
 //! table. A frame equal to the last one is reused whole.
 

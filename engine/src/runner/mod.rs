@@ -1,5 +1,5 @@
 //! The frame runner: what the command line, the tests and embedding hosts call to turn a scene
-//! and its layered EMs into timed frames. It loads a [`HybridScene`] with baked or projected EMs
+//! and its layered EMs into timed frames. It loads a [`HybridScene`](crate::hybrid::HybridScene) with baked or projected EMs
 //! ([`load_hybrid_scene`]), runs hybrid frames (per-vertex tracing and tessellation on the CPU,
 //! upload, compositing, read-back, the supersampled framebuffer box-filtered to pixels) with the
 //! paper's per-stage statistics ([`FrameRunner::frame`]), repeats them after warm-up frames for

@@ -60,7 +60,7 @@ impl HybridFrame {
     }
 }
 
-/// A hybrid frame submitted into a host's image ([`FrameRunner::frame_into`]): its costs up to
+/// A hybrid frame submitted into a host's image ([`FrameRunner::frame_into`](super::FrameRunner::frame_into)): its costs up to
 /// the submission (the GPU's part is the host's to time).
 #[derive(Clone, Debug)]
 pub struct HostFrame {
@@ -86,7 +86,7 @@ impl HostFrame {
 }
 
 /// Timed hybrid frames of one setting: at least one (made only by
-/// [`FrameRunner::timed_frames`]).
+/// [`FrameRunner::timed_frames`](super::FrameRunner::timed_frames)).
 #[derive(Clone, Debug)]
 pub struct TimedFrames {
     pub(super) frames: Vec<HybridFrame>,

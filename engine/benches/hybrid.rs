@@ -9,7 +9,7 @@ use criterion::{BatchSize, Criterion, criterion_main};
 use glam::{Vec2, Vec3};
 use lensmap::{
     hybrid::{
-        DEFAULT_ANGLE_DEGREES, HybridScene,
+        DEFAULT_ANGLE_DEGREES, HybridScene, LayeredEms,
         paths::{PathOracle, ScreenCamera, VertexPaths},
         tessellate::{
             SurfaceVertex, TessellationOptions, VertexEvaluation, VertexOracle, tessellate,
@@ -33,8 +33,11 @@ struct Setup {
 fn setup() -> Setup {
     let scene = Scene::load_named("teapot-room").expect("built-in scene");
     let camera = novel_camera(&scene);
-    let (hybrid, _) =
-        HybridScene::projected(scene, &ProjectedOptions::with_size(16)).expect("projected EMs");
+    let (hybrid, _) = HybridScene::new(
+        scene,
+        LayeredEms::Projected(ProjectedOptions::with_size(16)).into(),
+    )
+    .expect("projected EMs");
     // The lens object with the most triangles: the teapot.
     let (lens, object) = hybrid
         .trace

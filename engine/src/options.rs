@@ -24,6 +24,18 @@ pub trait OptionWords {
     fn call(&self, call: &str) -> String {
         format!("`{call}`")
     }
+
+    /// Advice to turn on the switch `field` (`accept_any_bake`): "set `accept_any_bake`".
+    fn switch_on(&self, field: &str) -> String {
+        format!("set {}", self.option(field))
+    }
+
+    /// The command that bakes scene `scene` (`None`: the scene being loaded, unnamed) where this
+    /// front end has one (the command line's); `None` where baking is a call of the library.
+    fn bake_command(&self, scene: Option<&str>) -> Option<String> {
+        let _ = scene;
+        None
+    }
 }
 
 /// The library's own words: options by their field names, in backquotes (`` `em_size` ``).

@@ -92,7 +92,9 @@ pub fn with_projected_ems(scene: Scene, size: u32) -> HybridScene {
         size,
         supersampling: 1,
     });
-    load_hybrid_scene(scene, &ems).expect("the scene loads").0
+    load_hybrid_scene(scene, &ems.into())
+        .expect("the scene loads")
+        .0
 }
 
 /// A scene of one lens object alone in a constant environment of radiance `sky` (no lights, no

@@ -44,7 +44,7 @@ pub fn small_teapot_room(width: u32, height: u32) -> lensmap::hybrid::HybridScen
         size: 16,
         supersampling: 1,
     };
-    load_hybrid_scene(scene, &EmSource::Projected(options))
+    load_hybrid_scene(scene, &EmSource::Projected(options).into())
         .expect("teapot-room loads")
         .0
 }
@@ -128,15 +128,16 @@ pub fn random_compositor_frame(
     };
     let terms = terms
         .iter()
-        .map(|&term| {
-            let fg = positions
+        .map(|&term| TermVertices {
+            term,
+            fg: positions
                 .iter()
                 .map(|_| Vec3::new(rng.r#gen(), rng.r#gen(), rng.r#gen()))
-                .collect();
-            let directions = (0..layers)
+                .collect(),
+            // Per layer, a random linear field of directions plus a little per-vertex noise:
+            // smooth enough that the implicit LOD spans several mip levels across the lens.
+            directions: (0..layers)
                 .map(|_| {
-                    // A random linear field of directions plus a little per-vertex noise: smooth
-                    // enough that the implicit LOD spans several mip levels across the lens.
                     let base = random_vector(rng, 1.0);
                     let gx = random_vector(rng, 2.0);
                     let gy = random_vector(rng, 2.0);
@@ -145,12 +146,7 @@ pub fn random_compositor_frame(
                         .map(|p| base + gx * p.x + gy * p.y + random_vector(rng, 0.05))
                         .collect()
                 })
-                .collect();
-            TermVertices {
-                term,
-                fg,
-                directions,
-            }
+                .collect(),
         })
         .collect();
     let weights: Vec<f32> = if viewpoints == 1 {

@@ -28,9 +28,11 @@ fn inferred_ems_beat_projected_ones() {
         let scene = Scene::load_named(name).unwrap();
         let targets_camera = scene.camera.with_resolution(size.0, size.1, 3);
         let judge_camera = scene.camera.with_resolution(size.0, size.1, 6);
-        let (mut hybrid, _) =
-            load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(64)))
-                .unwrap();
+        let (mut hybrid, _) = load_hybrid_scene(
+            scene,
+            &EmSource::Projected(ProjectedOptions::with_size(64)).into(),
+        )
+        .unwrap();
         let trace_options = TraceOptions::default();
         let reference =
             render_reference(&hybrid.trace, &judge_camera, &trace_options, &|_| {}).unwrap();
@@ -88,8 +90,11 @@ fn a_camera_that_sees_no_lens_pixel_is_an_error() {
     // Looking away from the sphere (it is at the look-at point; turn the camera around).
     let mut away = scene.camera.with_resolution(32, 24, 1);
     away.look_at = away.position + (away.position - scene.camera.look_at);
-    let (hybrid, _) =
-        load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(8))).unwrap();
+    let (hybrid, _) = load_hybrid_scene(
+        scene,
+        &EmSource::Projected(ProjectedOptions::with_size(8)).into(),
+    )
+    .unwrap();
     let records = compile_records(&hybrid.trace, &away, &TraceOptions::default()).unwrap();
     let view = View {
         camera: &away,

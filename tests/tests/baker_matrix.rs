@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use lensmap::{
     cubemap::CubeMap,
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
     render::{
         FrameInput, TargetFormat, Variant,
@@ -33,7 +33,11 @@ fn frame_of(name: &str, camera_size: (u32, u32, u32)) -> (HybridScene, FrameInpu
     let camera = scene
         .camera
         .with_resolution(camera_size.0, camera_size.1, camera_size.2);
-    let (hybrid, _) = HybridScene::projected(scene, &ProjectedOptions::with_size(EM_SIZE)).unwrap();
+    let (hybrid, _) = HybridScene::new(
+        scene,
+        LayeredEms::Projected(ProjectedOptions::with_size(EM_SIZE)).into(),
+    )
+    .unwrap();
     let (frame, _) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
     (hybrid, frame, camera)
 }

@@ -158,10 +158,13 @@ fn schemes_agree_with_two_overlapping_lens_objects() {
         .into_iter()
         .map(|blend| {
             runner
-                .timed_renders_blended(
+                .timed_renders(
                     &mut uploaded,
-                    (Variant::Multipass, blend),
-                    TargetFormat::Rgba32f,
+                    &lensmap::runner::Compositing {
+                        variant: Variant::Multipass,
+                        blend,
+                        format: TargetFormat::Rgba32f,
+                    },
                     1,
                 )
                 .unwrap()

@@ -159,7 +159,10 @@ fn small_footprints_get_a_coarser_t_only_when_asked() {
     let exact = single_pass(&mut runner, &hybrid, &far);
     assert_eq!(exact.stats.lenses_coarsened, 0);
     let coarse_options = FrameOptions {
-        hybrid: HybridOptions::with_t(3.0).with_footprint(1000.0),
+        hybrid: HybridOptions {
+            footprint_subpixels: 1000.0,
+            ..HybridOptions::with_t(3.0)
+        },
         ..options(Variant::SinglePass)
     };
     let coarse = runner.frame(&hybrid, &far, &coarse_options).unwrap();
@@ -171,7 +174,10 @@ fn small_footprints_get_a_coarser_t_only_when_asked() {
         exact.stats.vertices_traced
     );
     assert!(coarse.image.pixels.iter().flatten().all(|c| c.is_finite()));
-    let negative = HybridOptions::with_t(3.0).with_footprint(-1.0);
+    let negative = HybridOptions {
+        footprint_subpixels: -1.0,
+        ..HybridOptions::with_t(3.0)
+    };
     assert!(negative.validate().is_err());
     assert_clean(runner.gpu());
 }

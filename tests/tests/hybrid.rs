@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 use lensmap::{
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
     metrics::{self, Channels, Coverage, Encoding, Mask},
     render::{Renderer, TargetFormat, Variant},
@@ -58,7 +58,7 @@ layers = [{ sphere = 1000.0 }]
         size: 64,
         supersampling: 2,
     });
-    let (hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+    let (hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let reference =
         render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {}).unwrap();
@@ -154,17 +154,23 @@ fn awkward_cameras_render_without_error_or_nan() {
 fn a_written_bake_reads_back_into_the_same_frame() {
     let scene = fixtures::built_in_scene("glass-sphere", 40, 30, 1);
     let camera = scene.camera;
-    let (projected, _) = HybridScene::projected(
+    let (projected, _) = HybridScene::new(
         scene.clone(),
-        &ProjectedOptions {
+        LayeredEms::Projected(ProjectedOptions {
             size: 8,
             supersampling: 1,
-        },
+        })
+        .into(),
     )
     .unwrap();
     let dir = temp_dir("bake").join("bake");
     projected.to_bake().write(&dir).unwrap();
-    let baked = HybridScene::from_bake(scene, lensmap::layers::Bake::read(&dir).unwrap()).unwrap();
+    let baked = HybridScene::new(
+        scene,
+        LayeredEms::Baked(lensmap::layers::Bake::read(&dir).unwrap()).into(),
+    )
+    .unwrap()
+    .0;
     let (a, _) = projected.frame(&camera, &HybridOptions::default()).unwrap();
     let (b, _) = baked.frame(&camera, &HybridOptions::default()).unwrap();
     assert_eq!(a.lenses.len(), b.lenses.len());

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use lensmap::{
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
     render::{LensFaces, RenderedImage, TargetFormat, Variant},
     runner::{FrameOptions, FrameRunner},
@@ -227,7 +227,7 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
         input.lenses.clear();
         let mut uploaded = runner.upload(&input).unwrap();
         let without_lenses = runner
-            .timed_renders(&mut uploaded, variant, TargetFormat::Rgba32f, 1)
+            .timed_renders(&mut uploaded, &options.compositing(), 1)
             .unwrap()
             .image
             .box_downsample(camera.supersampling);
@@ -256,12 +256,13 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
 #[test]
 fn open_lens_meshes_draw_both_faces_and_closed_ones_front_faces() {
     let scene = Scene::load_named("glass-sphere").unwrap();
-    let (hybrid, _) = HybridScene::projected(
+    let (hybrid, _) = HybridScene::new(
         scene,
-        &ProjectedOptions {
+        LayeredEms::Projected(ProjectedOptions {
             size: 4,
             supersampling: 1,
-        },
+        })
+        .into(),
     )
     .unwrap();
     assert_eq!(hybrid.faces, vec![LensFaces::Front]);

@@ -27,7 +27,7 @@ fn non_lens_pixels_match_the_reference() {
         size: 16,
         supersampling: 1,
     });
-    let (hybrid, _) = load_hybrid_scene(scene, &ems).unwrap();
+    let (hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(6.0),

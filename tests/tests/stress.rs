@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 use glam::{Affine3A, DVec2, DVec3, Mat4, Vec3};
 use lensmap::cubemap::CubeMap;
-use lensmap::hybrid::{HybridOptions, HybridScene};
+use lensmap::hybrid::{HybridOptions, HybridScene, HybridSceneOptions, LayeredEms};
 use lensmap::layers::LayerShell;
 use lensmap::layers::projected::{ProjectedOptions, em_origin, layer_range, project_layers};
 use lensmap::lightmap::LightMapOptions;
@@ -773,8 +773,11 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
     }
     println!("slivers, tracer: {} rays, worst {worst:e}", rays.len());
 
-    let (hybrid, _) =
-        HybridScene::projected(scene, &ProjectedOptions::with_size(8)).expect("the scene loads");
+    let (hybrid, _) = HybridScene::new(
+        scene,
+        LayeredEms::Projected(ProjectedOptions::with_size(8)).into(),
+    )
+    .expect("the scene loads");
     let (frame, stats) = hybrid
         .frame(&camera, &HybridOptions::default())
         .expect("the slivers tessellate");
@@ -977,7 +980,6 @@ fn nearly_coincident_layer_shells_split_rays_without_gaps() {
 fn nearly_coincident_layer_shells_render_like_the_model() {
     let scene = built_in_scene("glass-sphere", 16, 12, 1);
     let camera = scene.camera;
-    let trace = TraceScene::new(&scene).expect("the scene traces");
     let origin = em_origin(&scene, 0);
     let shells = [3.0, 3.0 * (1.0 + 1e-9)]
         .map(|radius| LayerShell::Sphere {
@@ -995,9 +997,17 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
         size: 8,
         supersampling: 1,
     };
-    let (hybrid, _) =
-        HybridScene::projected_on(scene, trace, vec![(origin, shells)], &options, &light_maps)
-            .expect("the scene loads");
+    let (hybrid, _) = HybridScene::new(
+        scene,
+        HybridSceneOptions {
+            ems: LayeredEms::ProjectedOn {
+                shells: vec![(origin, shells)],
+                options,
+            },
+            light_maps,
+        },
+    )
+    .expect("the scene loads");
     let (frame, _) = hybrid
         .frame(&camera, &HybridOptions::default())
         .expect("the sphere tessellates");

@@ -158,7 +158,13 @@ fn teapot_room_vertex_data_in_f32_is_close_to_f64_but_not_equal() {
     let options = HybridOptions::default();
     let (exact, _) = hybrid.frame(&camera, &options).expect("f64 frame");
     let (single, _) = hybrid
-        .frame(&camera, &options.with_precision(VertexPrecision::F32))
+        .frame(
+            &camera,
+            &HybridOptions {
+                precision: VertexPrecision::F32,
+                ..options
+            },
+        )
         .expect("f32 frame");
     let mut differences = VertexDifferences::default();
     for (a, b) in exact.lenses.iter().zip(&single.lenses) {

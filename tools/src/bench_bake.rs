@@ -137,7 +137,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         "projected".into(),
         load_hybrid_scene(
             scene.clone(),
-            &EmSource::Projected(ProjectedOptions::with_size(args.em_size)),
+            &EmSource::Projected(ProjectedOptions::with_size(args.em_size)).into(),
         )?
         .0,
     )];
@@ -147,7 +147,8 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             || dir.display().to_string(),
             |n| n.to_string_lossy().into_owned(),
         );
-        contenders.push((label, HybridScene::from_bake(scene.clone(), bake)?));
+        let ems = lensmap::hybrid::LayeredEms::Baked(bake);
+        contenders.push((label, HybridScene::new(scene.clone(), ems.into())?.0));
     }
     step.finish_and_clear();
     let options = FrameOptions {

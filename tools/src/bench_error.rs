@@ -317,7 +317,8 @@ fn hybrid_scene(
 ) -> anyhow::Result<HybridScene> {
     if setting.ems == Ems::Inferred {
         let dir = bake.context("inferred EMs need --bake")?;
-        return Ok(HybridScene::from_bake(scene.clone(), Bake::read(dir)?)?);
+        let ems = lensmap::hybrid::LayeredEms::Baked(Bake::read(dir)?);
+        return Ok(HybridScene::new(scene.clone(), ems.into())?.0);
     }
     let mut scene = scene.clone();
     for lens in 0..scene.lenses.len() {
@@ -342,7 +343,7 @@ fn hybrid_scene(
         scene.lenses[lens].layers = shells;
     }
     let projected = ProjectedOptions::with_size(setting.em_size);
-    Ok(load_hybrid_scene(scene, &EmSource::Projected(projected))?.0)
+    Ok(load_hybrid_scene(scene, &EmSource::Projected(projected).into())?.0)
 }
 
 /// What one setting measured at one camera.
@@ -707,8 +708,11 @@ fn measure_setting(
 ) -> anyhow::Result<(Measured, RenderedImage)> {
     let camera = camera.with_resolution(args.width, args.height, setting.supersampling);
     let options = FrameOptions {
-        hybrid: HybridOptions::with_t_and_angle(setting.t, setting.angle_degrees)
-            .with_precision(setting.precision),
+        hybrid: HybridOptions {
+            angle_radians: setting.angle_degrees.to_radians(),
+            precision: setting.precision,
+            ..HybridOptions::with_t(setting.t)
+        },
         variant: setting.variant,
         blend: lensmap::render::BlendScheme::FrontToBack,
         format: setting.format,

@@ -67,7 +67,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     runner.check_framebuffer(&camera, format)?;
     let mut steps = Steps::new(5);
     let step = steps.step("projected layered EMs and light maps");
-    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
     say!(
         "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
@@ -117,7 +117,10 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
 fn checked(
     args: &BenchHybridArgs,
 ) -> anyhow::Result<(HybridOptions, ProjectedOptions, Scene, Camera)> {
-    let hybrid_options = HybridOptions::with_t(args.t).with_footprint(args.footprint);
+    let hybrid_options = HybridOptions {
+        footprint_subpixels: args.footprint,
+        ..HybridOptions::with_t(args.t)
+    };
     hybrid_options.validate().map_err(flag_error)?;
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;

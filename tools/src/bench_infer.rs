@@ -78,7 +78,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let mut steps = Steps::new(4);
     let step = steps.step("projected layered EMs and light maps");
-    let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
     let device = runner.gpu().device_name().to_string();
     say!(

@@ -20,7 +20,7 @@ use lensmap::{
         BlendScheme, FrameInput, RenderedImage, Renderer, TargetFormat, Variant,
         synthetic::{SyntheticOptions, sphere_frame},
     },
-    runner::{EmSource, FrameRunner, load_hybrid_scene},
+    runner::{Compositing, EmSource, FrameRunner, load_hybrid_scene},
     scene::Scene,
 };
 use serde_json::json;
@@ -121,7 +121,7 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, usize, FrameInpu
     })?;
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
-    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     let (frame, _) = hybrid.frame(&camera, &HybridOptions::default())?;
     let layers = frame
         .lenses
@@ -260,24 +260,22 @@ fn frame_rows(
     }
     let mut uploaded = runner.upload(frame)?;
     // The reference of every row: the paper's scheme in RGBA32F.
-    let reference = runner
-        .timed_renders_blended(
-            &mut uploaded,
-            (Variant::Multipass, BlendScheme::FrontToBack),
-            TargetFormat::Rgba32f,
-            1,
-        )?
-        .image;
+    let paper = Compositing {
+        variant: Variant::Multipass,
+        blend: BlendScheme::FrontToBack,
+        format: TargetFormat::Rgba32f,
+    };
+    let reference = runner.timed_renders(&mut uploaded, &paper, 1)?.image;
     let mut rows = Vec::new();
     for &(variant, blend) in compositings {
         for format in TargetFormat::ALL {
             let plan = Renderer::plan_blended(&uploaded, variant, blend, format)?;
-            let renders = runner.timed_renders_blended(
-                &mut uploaded,
-                (variant, blend),
+            let compositing = Compositing {
+                variant,
+                blend,
                 format,
-                args.frames,
-            )?;
+            };
+            let renders = runner.timed_renders(&mut uploaded, &compositing, args.frames)?;
             let (frame_ms, execute_ms) = (
                 renders.median(|t| t.record_ms + t.execute_ms),
                 renders.median(|t| t.execute_ms),

@@ -166,7 +166,7 @@ fn projected_scene(
 ) -> anyhow::Result<HybridScene> {
     let step = steps.step("projected layered EMs and light maps");
     let prepare = Instant::now();
-    let (hybrid, em_rays) = load_hybrid_scene(scene, &EmSource::Projected(projected))?;
+    let (hybrid, em_rays) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
     say!(
         "projected layered EMs: {} lens objects, {}² texels per face, {} rays, {:.2} s",
@@ -415,7 +415,8 @@ fn inferred_scene(
         bars.finish();
         step.finish_and_clear();
     }
-    let hybrid = HybridScene::from_bake(scene.clone(), Bake::read(dir)?)?;
+    let ems = lensmap::hybrid::LayeredEms::Baked(Bake::read(dir)?);
+    let (hybrid, _) = HybridScene::new(scene.clone(), ems.into())?;
     say!(
         "inferred layered EMs ready in {:.1} s",
         start.elapsed().as_secs_f64()
@@ -463,7 +464,12 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let step = steps.step(&format!("{} frames", variant.name()));
         let plan = lensmap::render::Renderer::plan(&uploaded, variant, format)?;
-        let renders = runner.timed_renders(&mut uploaded, variant, format, args.frames)?;
+        let compositing = lensmap::runner::Compositing {
+            variant,
+            blend: lensmap::render::BlendScheme::FrontToBack,
+            format,
+        };
+        let renders = runner.timed_renders(&mut uploaded, &compositing, args.frames)?;
         let stem = format!("demo-{}", variant.name());
         renders
             .image

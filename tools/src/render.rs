@@ -9,7 +9,10 @@ use std::time::Instant;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene, tessellate::DEFAULT_T},
+    hybrid::{
+        DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene,
+        tessellate::{DEFAULT_T, TessellationOptions},
+    },
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     lightmap::{
         DEFAULT_MAX_TEXELS, DEFAULT_MAX_TEXELS_PER_METRE, DEFAULT_MIN_TEXELS_PER_METRE,
@@ -18,8 +21,8 @@ use lensmap::{
     metrics::{Encoding, MetricsError},
     render::{BlendScheme, TargetFormat, Variant},
     runner::{
-        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, lens_error,
-        load_hybrid_scene_with_light_maps, non_lens_error,
+        EmSource, FrameOptions, FrameRunner, HybridFrame, LoadOptions, Repetitions, lens_error,
+        load_hybrid_scene, non_lens_error,
     },
     scene::{Camera, Scene},
     trace::{ReferenceImage, TraceOptions, render_reference},
@@ -123,9 +126,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = FrameOptions {
-        hybrid: HybridOptions::with_t_and_angle(args.t, args.angle_degrees)
-            .with_footprint(args.footprint)
-            .with_max_vertices(args.max_vertices),
+        hybrid: HybridOptions {
+            tessellation: TessellationOptions {
+                t: args.t,
+                max_vertices: args.max_vertices,
+                ..TessellationOptions::default()
+            },
+            angle_radians: args.angle_degrees.to_radians(),
+            footprint_subpixels: args.footprint,
+            ..HybridOptions::default()
+        },
         variant: Variant::from(args.variant),
         blend: BlendScheme::from(args.blend),
         format: TargetFormat::from(args.format),
@@ -152,7 +162,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         ..LightMapOptions::default()
     };
     light_maps.validate().map_err(flag_error)?;
-    let (hybrid, _) = load_hybrid_scene_with_light_maps(scene, &ems, &light_maps)?;
+    let (hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
     let prepare_s = prepare.elapsed().as_secs_f64();
     if let Some(dir) = &args.write_bake {
         hybrid.to_bake().write(dir)?;

@@ -19,6 +19,17 @@ impl OptionWords for Flags {
     fn call(&self, call: &str) -> String {
         format!("lensmap {call}")
     }
+
+    fn switch_on(&self, field: &str) -> String {
+        format!("pass {}", self.option(field))
+    }
+
+    fn bake_command(&self, scene: Option<&str>) -> Option<String> {
+        Some(format!(
+            "lensmap bake --scene {} --out DIR",
+            scene.unwrap_or("S")
+        ))
+    }
 }
 
 /// `cause` in the command line's words, where it is a library error that names options.
@@ -37,6 +48,11 @@ fn worded(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
         .or_else(|| {
             cause
                 .downcast_ref::<lensmap_baker::bake::MergeError>()
+                .map(|e| e as &dyn Worded)
+        })
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::hybrid::BakeIdentityError>()
                 .map(|e| e as &dyn Worded)
         });
     as_worded.map(|error| error.worded(&Flags))

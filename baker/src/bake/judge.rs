@@ -14,7 +14,7 @@ use lensmap::{
     render::TargetFormat,
     runner::{FrameOptions, FrameRunner},
     scene::{Camera, Scene},
-    trace::{LensRecords, world::TraceScene},
+    trace::LensRecords,
 };
 
 use super::{failure::BakeFailure, options::BakeOptions};
@@ -79,15 +79,14 @@ pub(super) fn projected_scene(
     shells: Vec<(DVec3, Vec<LayerShell>)>,
     size: u32,
 ) -> Result<HybridScene, BakeFailure> {
-    let trace = TraceScene::new(scene)?;
-    Ok(HybridScene::projected_on(
-        scene.clone(),
-        trace,
-        shells,
-        &ProjectedOptions::with_size(size),
-        &lensmap::lightmap::LightMapOptions::default(),
-    )?
-    .0)
+    let options = lensmap::hybrid::HybridSceneOptions {
+        ems: lensmap::hybrid::LayeredEms::ProjectedOn {
+            shells,
+            options: ProjectedOptions::with_size(size),
+        },
+        ..Default::default()
+    };
+    Ok(HybridScene::new(scene.clone(), options)?.0)
 }
 
 /// Replaces lens object `lens`'s layered EMs in `hybrid` by projected ones on `shells` (EM

@@ -97,7 +97,7 @@ fn overhead(c: &mut Criterion) {
         FrameRunner::new(Gpu::new(&GpuOptions::default()).expect("a device")).expect("a runner");
     let (hybrid, _) = load_hybrid_scene(
         Scene::load_named("glass-sphere").expect("built in"),
-        &EmSource::Projected(ProjectedOptions::default()),
+        &EmSource::Projected(ProjectedOptions::default()).into(),
     )
     .expect("projected EMs");
     let options = FrameOptions {

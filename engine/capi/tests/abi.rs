@@ -151,9 +151,11 @@ fn validated_runner() -> FrameRunner {
 
 fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f32> {
     let scene = Scene::load_named("glass-sphere").expect("loads");
-    let (hybrid, _) =
-        load_hybrid_scene(scene, &EmSource::Projected(ProjectedOptions::with_size(8)))
-            .expect("projected");
+    let (hybrid, _) = load_hybrid_scene(
+        scene,
+        &EmSource::Projected(ProjectedOptions::with_size(8)).into(),
+    )
+    .expect("projected");
     let camera = Camera {
         position: options.position.into(),
         look_at: options.look_at.into(),
@@ -468,6 +470,62 @@ fn a_frame_on_the_hosts_own_device_equals_one_on_lensmaps() {
         0,
         "the host's validation layer reported messages (see stderr)"
     );
+}
+
+/// A bake that says nothing of its scene, or was made from another scene, is refused with
+/// `LENSMAP_RESULT_BAKE` and a message that names the option as this ABI's struct field, never a
+/// command-line flag or command; `accept_any_bake` takes a bake that says nothing of its scene.
+#[test]
+fn bakes_of_other_or_unnamed_scenes_are_refused_in_the_abis_words() {
+    use LensmapResult as R;
+    let ems = EmSource::Projected(ProjectedOptions::with_size(8));
+    let (hybrid, _) = load_hybrid_scene(Scene::load_named("glass-sphere").unwrap(), &ems.into())
+        .expect("projected");
+    let root = std::env::temp_dir().join(format!("lensmap-capi-bakes-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let (made, unnamed) = (root.join("made"), root.join("unnamed"));
+    let bake = hybrid.to_bake();
+    bake.write(&made).unwrap();
+    let no_provenance = lensmap::layers::Bake {
+        provenance: None,
+        ..bake
+    };
+    no_provenance.write(&unnamed).unwrap();
+    let c_path = |path: &std::path::Path| CString::new(path.to_str().unwrap()).unwrap();
+    let (made, unnamed) = (c_path(&made), c_path(&unnamed));
+    let in_the_abis_words = || {
+        let message = last_error();
+        assert!(
+            !message.contains("--") && !message.contains("lensmap bake"),
+            "a command line in the C ABI's message: {message}"
+        );
+    };
+    let mut out = null_mut();
+    // SAFETY: valid options, strings and out-pointers.
+    unsafe {
+        assert_failure(
+            lensmap_scene_load(&scene_options(c"mirror-teapot", Some(&made)), &mut out),
+            R::Bake,
+            "provenance.scene_hash",
+        );
+        in_the_abis_words();
+        assert_failure(
+            lensmap_scene_load(&scene_options(SCENE, Some(&unnamed)), &mut out),
+            R::Bake,
+            "set options->accept_any_bake",
+        );
+        in_the_abis_words();
+        let mut accepting = scene_options(SCENE, Some(&unnamed));
+        accepting.accept_any_bake = 1;
+        assert_eq!(
+            lensmap_scene_load(&accepting, &mut out),
+            R::Ok,
+            "{}",
+            last_error()
+        );
+        assert_eq!(lensmap_scene_free(out), R::Ok);
+    }
+    std::fs::remove_dir_all(&root).unwrap();
 }
 
 /// The misuse corpus: every case returns its documented code, names the problem in

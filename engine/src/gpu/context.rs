@@ -382,69 +382,7 @@ impl Gpu {
         let entry = unsafe { ash::Entry::load() }
             .map_err(|e| GpuError::NoDriver(format!("cannot load libvulkan: {e}")))?;
 
-        let mut layers: Vec<*const i8> = Vec::new();
-        let mut extensions: Vec<*const i8> = Vec::new();
-        // SAFETY: plain queries on a loaded entry.
-        let available_layers = unsafe { entry.enumerate_instance_layer_properties() }
-            .vk("vkEnumerateInstanceLayerProperties")?;
-        let available_extensions = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .vk("vkEnumerateInstanceExtensionProperties")?;
-        let has_extension = |name: &CStr| {
-            available_extensions
-                .iter()
-                .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
-        };
-        if options.validation {
-            let present = available_layers
-                .iter()
-                .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
-            if !present {
-                return Err(GpuError::ValidationLayerMissing);
-            }
-            layers.push(VALIDATION_LAYER.as_ptr());
-        }
-        // debug_utils gives pass labels (always, when available) and the messenger.
-        let debug_utils = options.validation || has_extension(ash::ext::debug_utils::NAME);
-        if debug_utils {
-            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
-        }
-
-        let app_name = CString::from(c"lensmap");
-        let app = vk::ApplicationInfo::default()
-            .application_name(&app_name)
-            .engine_name(&app_name)
-            .api_version(vk::API_VERSION_1_3);
-        let enabled_validation = [
-            vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION,
-            vk::ValidationFeatureEnableEXT::BEST_PRACTICES,
-        ];
-        let mut validation_features = vk::ValidationFeaturesEXT::default()
-            .enabled_validation_features(&enabled_validation[..1]);
-        let mut create_info = vk::InstanceCreateInfo::default()
-            .application_info(&app)
-            .enabled_layer_names(&layers)
-            .enabled_extension_names(&extensions);
-        if options.validation {
-            create_info = create_info.push_next(&mut validation_features);
-        }
-        // SAFETY: create_info and everything it points to live until the call returns.
-        let instance = match unsafe { entry.create_instance(&create_info, None) } {
-            Ok(instance) => instance,
-            Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
-                return Err(GpuError::NoDriver(
-                    "vkCreateInstance: no driver supports Vulkan 1.3".into(),
-                ));
-            }
-            Err(vk::Result::ERROR_LAYER_NOT_PRESENT) => {
-                return Err(GpuError::ValidationLayerMissing);
-            }
-            Err(result) => {
-                return Err(GpuError::Vulkan {
-                    call: "vkCreateInstance",
-                    result,
-                });
-            }
-        };
+        let (instance, debug_utils) = create_instance(&entry, options)?;
 
         let messages: Box<Mutex<Vec<String>>> = Box::default();
         let (debug_instance, messenger) = if debug_utils {
@@ -492,24 +430,7 @@ impl Gpu {
         };
         let (physical_device, queue_family, properties) = chosen;
 
-        let priorities = [1.0f32];
-        let queues = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&priorities)];
-        let features = vk::PhysicalDeviceFeatures::default().image_cube_array(true);
-        let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
-            .dynamic_rendering(true)
-            .synchronization2(true);
-        // Timeline semaphores are required of every Vulkan 1.2 device: frames in flight are
-        // tracked by one counter instead of a fence per submission.
-        let mut features12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
-        let device_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queues)
-            .enabled_features(&features)
-            .push_next(&mut features13)
-            .push_next(&mut features12);
-        // SAFETY: physical_device comes from this instance; the create info lives until return.
-        let device = match unsafe { instance.create_device(physical_device, &device_info, None) } {
+        let device = match create_device(&instance, physical_device, queue_family) {
             Ok(device) => device,
             Err(result) => {
                 destroy_instance(&instance);
@@ -746,6 +667,99 @@ impl Drop for Gpu {
                 .destroy_command_pool(self.command_pool, None);
         }
     }
+}
+
+/// The Vulkan 1.3 instance lensmap runs on, with the validation layer (and synchronization
+/// validation) when `options` asks; also whether `debug_utils` is on (always when available:
+/// it gives pass labels, and the messenger).
+fn create_instance(
+    entry: &ash::Entry,
+    options: &GpuOptions,
+) -> Result<(ash::Instance, bool), GpuError> {
+    let mut layers: Vec<*const i8> = Vec::new();
+    let mut extensions: Vec<*const i8> = Vec::new();
+    // SAFETY: plain queries on a loaded entry.
+    let available_layers = unsafe { entry.enumerate_instance_layer_properties() }
+        .vk("vkEnumerateInstanceLayerProperties")?;
+    let available_extensions = unsafe { entry.enumerate_instance_extension_properties(None) }
+        .vk("vkEnumerateInstanceExtensionProperties")?;
+    let has_extension = |name: &CStr| {
+        available_extensions
+            .iter()
+            .any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == name))
+    };
+    if options.validation {
+        let present = available_layers
+            .iter()
+            .any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
+        if !present {
+            return Err(GpuError::ValidationLayerMissing);
+        }
+        layers.push(VALIDATION_LAYER.as_ptr());
+    }
+    // debug_utils gives pass labels (always, when available) and the messenger.
+    let debug_utils = options.validation || has_extension(ash::ext::debug_utils::NAME);
+    if debug_utils {
+        extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+    }
+
+    let app_name = CString::from(c"lensmap");
+    let app = vk::ApplicationInfo::default()
+        .application_name(&app_name)
+        .engine_name(&app_name)
+        .api_version(vk::API_VERSION_1_3);
+    let enabled_validation = [
+        vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION,
+        vk::ValidationFeatureEnableEXT::BEST_PRACTICES,
+    ];
+    let mut validation_features =
+        vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_validation[..1]);
+    let mut create_info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layers)
+        .enabled_extension_names(&extensions);
+    if options.validation {
+        create_info = create_info.push_next(&mut validation_features);
+    }
+    // SAFETY: create_info and everything it points to live until the call returns.
+    match unsafe { entry.create_instance(&create_info, None) } {
+        Ok(instance) => Ok((instance, debug_utils)),
+        Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => Err(GpuError::NoDriver(
+            "vkCreateInstance: no driver supports Vulkan 1.3".into(),
+        )),
+        Err(vk::Result::ERROR_LAYER_NOT_PRESENT) => Err(GpuError::ValidationLayerMissing),
+        Err(result) => Err(GpuError::Vulkan {
+            call: "vkCreateInstance",
+            result,
+        }),
+    }
+}
+
+/// A device on `physical_device` with one queue of `queue_family` and the features lensmap
+/// needs: cube-map arrays, dynamic rendering, synchronization2 and timeline semaphores.
+fn create_device(
+    instance: &ash::Instance,
+    physical_device: vk::PhysicalDevice,
+    queue_family: u32,
+) -> ash::prelude::VkResult<ash::Device> {
+    let priorities = [1.0f32];
+    let queues = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(queue_family)
+        .queue_priorities(&priorities)];
+    let features = vk::PhysicalDeviceFeatures::default().image_cube_array(true);
+    let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
+        .dynamic_rendering(true)
+        .synchronization2(true);
+    // Timeline semaphores are required of every Vulkan 1.2 device: frames in flight are
+    // tracked by one counter instead of a fence per submission.
+    let mut features12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
+    let device_info = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queues)
+        .enabled_features(&features)
+        .push_next(&mut features13)
+        .push_next(&mut features12);
+    // SAFETY: physical_device comes from this instance; the create info lives until return.
+    unsafe { instance.create_device(physical_device, &device_info, None) }
 }
 
 /// Picks a device with Vulkan 1.3, a graphics queue and cube-map arrays.

@@ -1,6 +1,7 @@
 //! One hybrid frame on the CPU: trace and tessellate every lens object from the real camera,
-//! generate the layered-EM texture coordinates, pick the viewpoint samples, and assemble the
-//! [`FrameInput`] the compositor renders. Timed per stage like the paper's table.
+//! generate the layered-EM texture coordinates (`texgen`), pick the viewpoint samples,
+//! and assemble the [`FrameInput`] the compositor renders. Timed per stage like the paper's
+//! table. A frame equal to the last one is reused whole.
 
 use std::{
     sync::{
@@ -10,88 +11,28 @@ use std::{
     time::Instant,
 };
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Mat4, Vec2, Vec3};
 use rayon::prelude::*;
 
 pub use super::paths::VertexPrecision;
 use super::{
     paths::{PathOracle, ScreenCamera, VertexPaths},
+    scene::HybridScene,
     sky::SkyDome,
     tessellate::{TessellationError, TessellationOptions, VertexEvaluation, tessellate},
-    viewpoints,
+    texgen::{LensMesh, texgen},
+    viewpoints::{self, ViewpointBlend},
 };
 use crate::{
-    cubemap::CubeMap,
     layers::LayerShell,
-    lightmap::{
-        LightMapOptions, LightMapStats, PlanError, Viewers, build_light_mapped_mesh, plan_atlases,
-    },
     options::OptionError,
-    render::{EnvironmentMesh, FrameInput, LensFaces, LensObject, MeshLightMap, TermVertices},
-    scene::{Camera, Scene},
-    trace::{Term, stats::TraceCounters, world::TraceScene},
-};
-
-/// A lens object's layered EMs.
-#[derive(Clone, Debug)]
-pub struct LensLayers {
-    /// Per layer, the EM origin its cube-map directions are taken from (shell hit − origin),
-    /// metres: the lens object's centroid, or for a layer shared with other lens objects the
-    /// shared map's origin (that of the lens object that owns it).
-    pub em_origins: Vec<DVec3>,
-    /// Shells, nearest first.
-    pub shells: Vec<LayerShell>,
-    /// `maps[viewpoint sample][layer]`, one entry per sample of [`HybridScene::viewpoints`];
-    /// projected EMs do not depend on the viewpoint, so they have a single entry that every
-    /// sample shares.
-    pub maps: Vec<Vec<Arc<CubeMap>>>,
-}
-
-/// Why a hybrid scene cannot be assembled.
-#[derive(Debug, thiserror::Error)]
-pub enum HybridError {
-    /// The ray tracer refused the scene.
-    #[error(transparent)]
-    Trace(#[from] crate::trace::TraceError),
-    /// A bake does not fit the scene; the message names the field and the fix.
-    #[error("{0}")]
-    BakeMismatch(String),
-    /// An environment object's light map cannot be made.
-    #[error("object \"{object}\": light map: {error}")]
-    LightMap {
-        /// The scene object.
-        object: String,
-        /// Why.
-        error: crate::lightmap::AtlasError,
+    render::{EnvironmentMesh, FrameInput, LensFaces},
+    scene::Camera,
+    trace::{
+        stats::TraceCounters,
+        world::{LensBvh, TraceScene},
     },
-    /// The light maps together pass their texel budget.
-    #[error("light maps: {0}")]
-    LightMapBudget(PlanError),
-}
-
-/// Everything a hybrid frame is made from that does not change with the camera.
-pub struct HybridScene {
-    /// The scene.
-    pub scene: Scene,
-    /// Its ray-tracing structures.
-    pub trace: TraceScene,
-    /// Viewpoint sample positions.
-    pub viewpoints: Vec<DVec3>,
-    /// Per lens object (TraceScene order).
-    pub lenses: Vec<LensLayers>,
-    /// Per lens object (TraceScene order), which faces are traced and drawn (see
-    /// [`HybridScene::lens_faces`]).
-    pub faces: Vec<LensFaces>,
-    /// The opaque environment for the GPU, light-mapped (see
-    /// [`HybridScene::light_mapped_environment`]).
-    pub environment: Vec<Arc<EnvironmentMesh>>,
-    /// What making the environment's light maps cost.
-    pub light_maps: LightMapStats,
-    /// The environment at infinity for the GPU, drawn behind everything; `None` when it is black.
-    pub sky: Option<SkyDome>,
-    /// The last frame built, reused while nothing it depends on changed.
-    cache: Mutex<Option<CachedFrame>>,
-}
+};
 
 /// Everything a hybrid frame depends on besides the (immutable) scene and trace structures: a
 /// frame with an equal key is the same frame.
@@ -149,6 +90,11 @@ impl FrameKey {
         }
     }
 }
+
+/// The last frame a [`HybridScene`] built (none at first), reused while nothing it depends on
+/// changed.
+#[derive(Default)]
+pub(super) struct FrameCache(Mutex<Option<CachedFrame>>);
 
 /// The last frame a [`HybridScene`] built, with the identity that tells a caller holding its
 /// upload that nothing changed.
@@ -220,34 +166,6 @@ impl HybridOptions {
         }
     }
 
-    /// The defaults with tessellation threshold `t` and the angle threshold in degrees.
-    pub fn with_t_and_angle(t: f32, angle_degrees: f64) -> HybridOptions {
-        HybridOptions {
-            angle_radians: angle_degrees.to_radians(),
-            ..HybridOptions::with_t(t)
-        }
-    }
-
-    /// These options with a frame budget of `vertices` lens vertices
-    /// ([`TessellationOptions::max_vertices`]).
-    pub fn with_max_vertices(mut self, vertices: usize) -> HybridOptions {
-        self.tessellation.max_vertices = vertices;
-        self
-    }
-
-    /// These options with footprint coarsening below `subpixels` (0: off).
-    pub fn with_footprint(self, subpixels: f32) -> HybridOptions {
-        HybridOptions {
-            footprint_subpixels: subpixels,
-            ..self
-        }
-    }
-
-    /// These options with the per-vertex stages in `precision`.
-    pub fn with_precision(self, precision: VertexPrecision) -> HybridOptions {
-        HybridOptions { precision, ..self }
-    }
-
     /// Checks every option: `t` ([`TessellationOptions::validate`]), the footprint (finite,
     /// ≥ 0) and the angle in (0°, 180°).
     pub fn validate(&self) -> Result<(), OptionError> {
@@ -306,295 +224,6 @@ pub struct HybridStats {
 }
 
 impl HybridScene {
-    /// A hybrid scene with projected layered EMs (see [`crate::layers::projected`]) and light
-    /// maps of the default options; also returns the rays the projection cast.
-    pub fn projected(
-        scene: Scene,
-        options: &crate::layers::projected::ProjectedOptions,
-    ) -> Result<(HybridScene, u64), HybridError> {
-        Self::projected_with_light_maps(scene, options, &LightMapOptions::default())
-    }
-
-    /// [`HybridScene::projected`] with light maps made with `light_maps`.
-    pub fn projected_with_light_maps(
-        scene: Scene,
-        options: &crate::layers::projected::ProjectedOptions,
-        light_maps: &LightMapOptions,
-    ) -> Result<(HybridScene, u64), HybridError> {
-        use crate::layers::projected::{em_origin, lens_shells};
-        let trace = TraceScene::new(&scene)?;
-        let shells = (0..trace.lenses.len())
-            .map(|lens| {
-                let origin = em_origin(&scene, lens);
-                (origin, lens_shells(&trace, &scene, lens, origin))
-            })
-            .collect();
-        Self::projected_on(scene, trace, shells, options, light_maps)
-    }
-
-    /// A hybrid scene with projected layered EMs on the given shells: `shells[lens]` is the EM
-    /// origin and the shells of lens object `lens` (TraceScene order), nearest first. Also
-    /// returns the rays the projection cast. The environment gets light maps made with
-    /// `light_maps`.
-    pub fn projected_on(
-        scene: Scene,
-        trace: TraceScene,
-        shells: Vec<(DVec3, Vec<LayerShell>)>,
-        options: &crate::layers::projected::ProjectedOptions,
-        light_maps: &LightMapOptions,
-    ) -> Result<(HybridScene, u64), HybridError> {
-        use crate::layers::projected::project_layers;
-        if shells.len() != trace.lenses.len() {
-            return Err(HybridError::BakeMismatch(format!(
-                "{} lens objects given shells, but scene \"{}\" has {}; give shells for every lens object",
-                shells.len(),
-                scene.name,
-                trace.lenses.len()
-            )));
-        }
-        let mut rays = 0;
-        let lenses = shells
-            .into_iter()
-            .enumerate()
-            .map(|(lens, (origin, shells))| {
-                let (maps, cast) = project_layers(&trace, lens, origin, &shells, options);
-                rays += cast;
-                LensLayers {
-                    em_origins: vec![origin; shells.len()],
-                    shells,
-                    maps: vec![maps.into_iter().map(Arc::new).collect()],
-                }
-            })
-            .collect();
-        let viewpoints = scene
-            .view_space
-            .samples()
-            .iter()
-            .map(|p| p.as_dvec3())
-            .collect();
-        let (environment, light_map_stats) =
-            Self::light_mapped_environment(&scene, &trace, light_maps)?;
-        let faces = Self::lens_faces(&scene, &trace);
-        let sky = SkyDome::new(&trace);
-        Ok((
-            HybridScene {
-                scene,
-                trace,
-                viewpoints,
-                lenses,
-                faces,
-                environment,
-                light_maps: light_map_stats,
-                sky,
-                cache: Mutex::new(None),
-            },
-            rays,
-        ))
-    }
-
-    /// A hybrid scene whose layered EMs come from a bake (matched to lens objects by name), with
-    /// light maps of the default options.
-    pub fn from_bake(scene: Scene, bake: crate::layers::Bake) -> Result<HybridScene, HybridError> {
-        Self::from_bake_with_light_maps(scene, bake, &LightMapOptions::default())
-    }
-
-    /// [`HybridScene::from_bake`] with light maps made with `light_maps`. A bake that carries
-    /// its scene's identity ([`crate::layers::Provenance`], written by `lensmap bake`) must have
-    /// been made from this very scene content.
-    pub fn from_bake_with_light_maps(
-        scene: Scene,
-        bake: crate::layers::Bake,
-        light_maps: &LightMapOptions,
-    ) -> Result<HybridScene, HybridError> {
-        if let Some(provenance) = &bake.provenance
-            && provenance.scene_hash != scene.content_hash()
-        {
-            return Err(HybridError::BakeMismatch(format!(
-                "manifest.json: provenance.scene_hash: the bake was made from scene \"{}\" with other content than scene \"{}\"; bake this scene (lensmap bake --scene {} --out DIR) or pass the scene it was made from",
-                bake.scene, scene.name, scene.name
-            )));
-        }
-        let trace = TraceScene::new(&scene)?;
-        let mut baked: Vec<Option<crate::layers::BakedLens>> =
-            bake.lenses.into_iter().map(Some).collect();
-        let mut lenses = Vec::new();
-        for lens in &trace.lenses {
-            let Some(found) = baked
-                .iter_mut()
-                .find(|b| b.as_ref().is_some_and(|b| b.name == lens.name))
-                .and_then(Option::take)
-            else {
-                return Err(HybridError::BakeMismatch(format!(
-                    "manifest.json: lenses: no entry for lens object \"{}\" of scene \"{}\"; bake this scene again",
-                    lens.name, scene.name
-                )));
-            };
-            let layers = found.shells.len();
-            if found.em_origins.len() != layers || found.maps.iter().any(|v| v.len() != layers) {
-                return Err(HybridError::BakeMismatch(format!(
-                    "lens object \"{}\": {layers} shells but {} EM origins and {:?} maps per viewpoint; give one origin and one map per shell",
-                    lens.name,
-                    found.em_origins.len(),
-                    found.maps.iter().map(Vec::len).collect::<Vec<_>>()
-                )));
-            }
-            lenses.push(LensLayers {
-                em_origins: found.em_origins,
-                shells: found.shells,
-                maps: found.maps,
-            });
-        }
-        let viewpoints = bake.viewpoints.iter().map(|p| p.as_dvec3()).collect();
-        let (environment, light_map_stats) =
-            Self::light_mapped_environment(&scene, &trace, light_maps)?;
-        let faces = Self::lens_faces(&scene, &trace);
-        let sky = SkyDome::new(&trace);
-        Ok(HybridScene {
-            scene,
-            trace,
-            viewpoints,
-            lenses,
-            faces,
-            environment,
-            light_maps: light_map_stats,
-            sky,
-            cache: Mutex::new(None),
-        })
-    }
-
-    /// These layered EMs as a bake: projected EMs become a bake with one viewpoint sample. The
-    /// bake carries this scene's identity ([`crate::layers::Provenance`]), so `render --bake`
-    /// refuses it for another scene, even one whose lens objects have the same names.
-    pub fn to_bake(&self) -> crate::layers::Bake {
-        let shared = self.lenses.iter().all(|l| l.maps.len() == 1);
-        let samples = if shared {
-            vec![0]
-        } else {
-            (0..self.viewpoints.len()).collect()
-        };
-        // What shaped the maps: their origins, shells and sizes (the maps themselves are in the
-        // bake).
-        let shaped_by: Vec<_> = self
-            .lenses
-            .iter()
-            .map(|l| {
-                (
-                    &l.em_origins,
-                    &l.shells,
-                    l.maps.first().and_then(|m| m.first()).map(|c| c.size),
-                )
-            })
-            .collect();
-        let provenance = crate::layers::Provenance {
-            scene_hash: self.scene.content_hash(),
-            options_hash: crate::layers::bake::debug_hash(&(
-                "written from a hybrid scene",
-                shaped_by,
-            )),
-            samples,
-        };
-        crate::layers::Bake {
-            scene: self.scene.name.clone(),
-            created_by: crate::layers::bake::default_created_by(),
-            viewpoints: if shared {
-                vec![
-                    self.viewpoints
-                        .first()
-                        .copied()
-                        .unwrap_or(DVec3::Z)
-                        .as_vec3(),
-                ]
-            } else {
-                self.viewpoints.iter().map(|p| p.as_vec3()).collect()
-            },
-            lenses: self
-                .lenses
-                .iter()
-                .zip(&self.trace.lenses)
-                .map(|(layers, lens)| crate::layers::BakedLens {
-                    name: lens.name.clone(),
-                    em_origins: layers.em_origins.clone(),
-                    shells: layers.shells.clone(),
-                    maps: layers.maps.clone(),
-                })
-                .collect(),
-            provenance: Some(provenance),
-        }
-    }
-
-    /// Which faces of each lens object (TraceScene order) are traced and drawn: both when any of
-    /// its meshes is open ([`crate::scene::TriangleMesh::is_closed`] says no), because the camera
-    /// can then see the inside of the surface (the Newell teapot between lid and rim), whose
-    /// back faces the reference tracer shades; front faces only for closed meshes, whose back
-    /// faces are hidden from any camera outside them, so they cost nothing.
-    pub fn lens_faces(scene: &Scene, trace: &TraceScene) -> Vec<LensFaces> {
-        trace
-            .lenses
-            .iter()
-            .map(|lens| {
-                let open = lens.objects.iter().any(|&object| {
-                    scene
-                        .objects
-                        .get(object)
-                        .is_some_and(|o| !o.mesh.is_closed())
-                });
-                if open {
-                    LensFaces::Both
-                } else {
-                    LensFaces::Front
-                }
-            })
-            .collect()
-    }
-
-    /// The opaque environment for the GPU: each environment object with its light map (see
-    /// [`crate::lightmap`]: the ray-traced radiance leaving its surface, texture and shadows
-    /// included, view independent, so made once per scene), drawn white × the map. Each chart's
-    /// texel density follows its distance to the scene's nearest viewpoint
-    /// ([`Viewers::of_scene`]). Objects in scene order; also returns what the maps cost.
-    pub fn light_mapped_environment(
-        scene: &Scene,
-        trace: &TraceScene,
-        options: &LightMapOptions,
-    ) -> Result<(Vec<Arc<EnvironmentMesh>>, LightMapStats), HybridError> {
-        let start = Instant::now();
-        let objects: Vec<usize> = (0..scene.objects.len())
-            .filter(|&object| trace.object_lens.get(object).is_some_and(|l| l.is_none()))
-            .collect();
-        let meshes: Vec<&crate::scene::TriangleMesh> =
-            objects.iter().map(|&o| &scene.objects[o].mesh).collect();
-        let light_map_error = |object: usize, error| HybridError::LightMap {
-            object: scene.objects[object].name.clone(),
-            error,
-        };
-        let atlases = plan_atlases(&meshes, &Viewers::of_scene(scene), options).map_err(
-            |error| match error {
-                PlanError::Mesh { mesh, error } => light_map_error(objects[mesh], error),
-                budget => HybridError::LightMapBudget(budget),
-            },
-        )?;
-        let mut stats = LightMapStats::default();
-        let mut environment = Vec::new();
-        for ((&object, mesh), atlas) in objects.iter().zip(meshes).zip(&atlases) {
-            let (mesh, object_stats) =
-                build_light_mapped_mesh(trace, mesh, object, atlas, options.supersampling)
-                    .map_err(|error| light_map_error(object, error))?;
-            stats += object_stats;
-            environment.push(Arc::new(EnvironmentMesh {
-                colours: vec![Vec3::ONE; mesh.positions.len()],
-                positions: mesh.positions,
-                triangles: mesh.triangles,
-                light_map: Some(MeshLightMap {
-                    uvs: mesh.uvs,
-                    map: mesh.map,
-                }),
-            }));
-        }
-        // Objects were mapped one after another: the sum of their times is the wall time.
-        stats.ms = start.elapsed().as_secs_f64() * 1e3;
-        Ok((environment, stats))
-    }
-
     /// Builds the frame for `camera` (its resolution × supersampling is the framebuffer size).
     /// A frame equal to the previous one (same camera, options and layered EMs) is copied from
     /// it rather than traced again (`stats.reused`).
@@ -614,7 +243,7 @@ impl HybridScene {
     /// Forgets the last frame, so that the next one is built from scratch even for the same
     /// camera: what timing a full frame needs.
     pub fn forget_frame(&self) {
-        if let Ok(mut cache) = self.cache.lock() {
+        if let Ok(mut cache) = self.cache.0.lock() {
             *cache = None;
         }
     }
@@ -636,7 +265,7 @@ impl HybridScene {
         held: u64,
     ) -> Result<BuiltFrame, TessellationError> {
         let key = FrameKey::new(self, camera, options, false);
-        if let Ok(cache) = self.cache.lock()
+        if let Ok(cache) = self.cache.0.lock()
             && let Some(cached) = cache.as_ref()
             && cached.key == key
         {
@@ -659,7 +288,7 @@ impl HybridScene {
         let (frame, stats) = self.build_frame(camera, options, false)?;
         let frame = Arc::new(frame);
         let identity = FRAME_IDENTITY.fetch_add(1, Ordering::Relaxed);
-        if let Ok(mut cache) = self.cache.lock() {
+        if let Ok(mut cache) = self.cache.0.lock() {
             *cache = Some(CachedFrame {
                 key,
                 frame: Arc::clone(&frame),
@@ -719,17 +348,12 @@ impl HybridScene {
         tessellation
     }
 
-    fn build_frame(
-        &self,
-        camera: &Camera,
-        options: &HybridOptions,
-        vertex_exact: bool,
-    ) -> Result<(FrameInput, HybridStats), TessellationError> {
-        let start = Instant::now();
+    /// What the camera fixes before any lens object is traced: the framebuffer, the projection
+    /// (its far plane just past the farthest scene point, so nothing the reference sees is
+    /// clipped, and past the sky dome beyond it when there is one) and the sky dome's mesh.
+    fn view(&self, camera: &Camera) -> FrameView {
         let k = camera.supersampling.max(1);
         let (width, height) = (camera.width * k, camera.height * k);
-        // The far plane just past the farthest scene point, so nothing the reference sees is
-        // clipped; and past the sky dome beyond it when there is one.
         let farthest = self
             .scene
             .objects
@@ -744,108 +368,157 @@ impl HybridScene {
         });
         let far = sky.as_ref().map_or(farthest, |(_, radius)| *radius);
         let view_proj = camera.view_proj(0.05, 1.01 * far + 1.0);
-        let screen = ScreenCamera {
-            eye: camera.position.as_dvec3(),
+        FrameView {
+            width,
+            height,
             view_proj,
-            subpixels: Vec2::new(width as f32, height as f32),
-        };
+            screen: ScreenCamera {
+                eye: camera.position.as_dvec3(),
+                view_proj,
+                subpixels: Vec2::new(width as f32, height as f32),
+            },
+            sky: sky.map(|(mesh, _)| mesh),
+        }
+    }
+
+    /// The viewpoint samples `camera` blends and their weights; EMs shared by every viewpoint
+    /// sample (projected ones) need no blending: one sample, weight 1, half the compositing
+    /// work.
+    fn viewpoint_blend(&self, camera: &Camera) -> ViewpointBlend {
         let blend = viewpoints::blend(
             &self.viewpoints,
             camera.look_at.as_dvec3(),
             camera.position.as_dvec3(),
         )
-        .unwrap_or(viewpoints::ViewpointBlend {
+        .unwrap_or(ViewpointBlend {
             samples: vec![(0, 1.0)],
         });
-        // EMs shared by every viewpoint sample (projected ones) need no blending: one sample,
-        // weight 1, half the compositing work.
-        let blend = if self.lenses.iter().all(|l| l.maps.len() == 1) {
-            viewpoints::ViewpointBlend {
+        if self.lenses.iter().all(|l| l.maps.len() == 1) {
+            ViewpointBlend {
                 samples: vec![(blend.samples[0].0, 1.0)],
             }
         } else {
             blend
-        };
+        }
+    }
+
+    /// Lens object `lens_index` (`lens`) tessellated from the frame's camera: each of its scene
+    /// objects inside the view, traced at every vertex, merged into one mesh. Takes its vertices
+    /// from `vertex_budget` (the frame's, shared by the lens objects in order) and adds its costs
+    /// to `stats`.
+    fn tessellate_lens(
+        &self,
+        (lens_index, lens): (usize, &LensBvh),
+        view: &FrameView,
+        options: &HybridOptions,
+        vertex_budget: &mut usize,
+        stats: &mut HybridStats,
+    ) -> Result<TessellatedLens, TessellationError> {
+        let mut positions: Vec<Vec3> = Vec::new();
+        let mut triangles: Vec<[u32; 3]> = Vec::new();
+        let mut samples: Vec<Option<VertexEvaluation<VertexPaths>>> = Vec::new();
+        let faces = self.faces.get(lens_index).copied().unwrap_or_default();
+        let visible_objects: Vec<usize> = lens
+            .objects
+            .iter()
+            .copied()
+            .filter(|&object| {
+                !self.scene.objects[object]
+                    .mesh
+                    .bounds()
+                    .is_some_and(|bounds| box_outside_view(bounds, &view.view_proj))
+            })
+            .collect();
+        // A lens object wholly outside the view keeps its (empty) place in the frame, so that
+        // frame lens i is still trace lens i; an empty lens object records no pass.
+        if visible_objects.is_empty() {
+            stats.lenses_outside_view += 1;
+        }
+        let mut tessellation_options = self.coarsened(&visible_objects, options, &view.screen);
+        if tessellation_options.t != options.tessellation.t {
+            stats.lenses_coarsened += 1;
+        }
+        for &object in &visible_objects {
+            let mesh = &self.scene.objects[object].mesh;
+            let oracle = PathOracle::new(
+                &self.trace,
+                lens_index,
+                object,
+                view.screen,
+                options.angle_radians,
+                faces,
+            )
+            .with_precision(options.precision);
+            let start = Instant::now();
+            tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
+            let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
+            *vertex_budget = vertex_budget.saturating_sub(tessellation.mesh.positions.len());
+            stats.stopped_by_budget += tessellation.stats.stopped_by_budget;
+            let elapsed = start.elapsed().as_secs_f64() * 1e3;
+            let counters = oracle.counters();
+            // The oracle's batches run inside tessellate(); their share is ray tracing.
+            let traced_ms = oracle.traced_ms();
+            stats.trace_ms += traced_ms;
+            stats.tessellation_ms += (elapsed - traced_ms).max(0.0);
+            stats.counters += counters;
+            stats.triangles_in += mesh.triangles.len();
+            stats.triangles_out += tessellation.mesh.triangles.len();
+            stats.vertices_traced += tessellation.stats.vertices_evaluated;
+            // Moved, not copied, for a lens object of one scene object (the common case).
+            if positions.is_empty() {
+                positions = tessellation.mesh.positions;
+                triangles = tessellation.mesh.triangles;
+                samples = tessellation.evaluations;
+            } else {
+                let base = positions.len() as u32;
+                positions.extend(&tessellation.mesh.positions);
+                triangles.extend(
+                    tessellation
+                        .mesh
+                        .triangles
+                        .iter()
+                        .map(|t| t.map(|i| i + base)),
+                );
+                samples.extend(tessellation.evaluations);
+            }
+        }
+        Ok(TessellatedLens {
+            mesh: LensMesh {
+                positions,
+                triangles,
+                faces,
+            },
+            samples,
+        })
+    }
+
+    fn build_frame(
+        &self,
+        camera: &Camera,
+        options: &HybridOptions,
+        vertex_exact: bool,
+    ) -> Result<(FrameInput, HybridStats), TessellationError> {
+        let start = Instant::now();
+        let view = self.view(camera);
+        let blend = self.viewpoint_blend(camera);
         let mut stats = HybridStats::default();
         // The vertex budget is the frame's: each lens object gets what the ones before left.
         let mut vertex_budget = options.tessellation.max_vertices;
         let mut lenses = Vec::new();
         let mut exact = Vec::new();
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
-            let mut positions: Vec<Vec3> = Vec::new();
-            let mut triangles: Vec<[u32; 3]> = Vec::new();
-            let mut samples: Vec<Option<VertexEvaluation<VertexPaths>>> = Vec::new();
-            let faces = self.faces.get(lens_index).copied().unwrap_or_default();
-            let visible_objects: Vec<usize> = lens
-                .objects
-                .iter()
-                .copied()
-                .filter(|&object| {
-                    !self.scene.objects[object]
-                        .mesh
-                        .bounds()
-                        .is_some_and(|bounds| box_outside_view(bounds, &view_proj))
-                })
-                .collect();
-            // A lens object wholly outside the view keeps its (empty) place in the frame, so
-            // that frame lens i is still trace lens i; an empty lens object records no pass.
-            if visible_objects.is_empty() {
-                stats.lenses_outside_view += 1;
-            }
-            let mut tessellation_options = self.coarsened(&visible_objects, options, &screen);
-            if tessellation_options.t != options.tessellation.t {
-                stats.lenses_coarsened += 1;
-            }
-            for &object in &visible_objects {
-                let mesh = &self.scene.objects[object].mesh;
-                let oracle = PathOracle::new(
-                    &self.trace,
-                    lens_index,
-                    object,
-                    screen,
-                    options.angle_radians,
-                    faces,
-                )
-                .with_precision(options.precision);
-                let start = Instant::now();
-                tessellation_options.max_vertices = vertex_budget.max(mesh.positions.len());
-                let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
-                vertex_budget = vertex_budget.saturating_sub(tessellation.mesh.positions.len());
-                stats.stopped_by_budget += tessellation.stats.stopped_by_budget;
-                let elapsed = start.elapsed().as_secs_f64() * 1e3;
-                let counters = oracle.counters();
-                // The oracle's batches run inside tessellate(); their share is ray tracing.
-                let traced_ms = oracle.traced_ms();
-                stats.trace_ms += traced_ms;
-                stats.tessellation_ms += (elapsed - traced_ms).max(0.0);
-                stats.counters += counters;
-                stats.triangles_in += mesh.triangles.len();
-                stats.triangles_out += tessellation.mesh.triangles.len();
-                stats.vertices_traced += tessellation.stats.vertices_evaluated;
-                // Moved, not copied, for a lens object of one scene object (the common case).
-                if positions.is_empty() {
-                    positions = tessellation.mesh.positions;
-                    triangles = tessellation.mesh.triangles;
-                    samples = tessellation.evaluations;
-                } else {
-                    let base = positions.len() as u32;
-                    positions.extend(&tessellation.mesh.positions);
-                    triangles.extend(
-                        tessellation
-                            .mesh
-                            .triangles
-                            .iter()
-                            .map(|t| t.map(|i| i + base)),
-                    );
-                    samples.extend(tessellation.evaluations);
-                }
-            }
+            let TessellatedLens { mesh, samples } = self.tessellate_lens(
+                (lens_index, lens),
+                &view,
+                options,
+                &mut vertex_budget,
+                &mut stats,
+            )?;
             if vertex_exact {
                 exact.push(Arc::new(vertex_radiance_mesh(
                     &self.trace,
                     lens_index,
-                    positions,
-                    triangles,
+                    mesh,
                     &samples,
                 )));
                 continue;
@@ -855,11 +528,7 @@ impl HybridScene {
                 &self.trace,
                 lens_index,
                 layers,
-                LensMesh {
-                    positions,
-                    triangles,
-                    faces,
-                },
+                mesh,
                 &samples,
                 &blend,
                 options.precision,
@@ -868,15 +537,15 @@ impl HybridScene {
             lenses.push(object);
         }
         let frame = FrameInput {
-            width,
-            height,
-            view_proj,
+            width: view.width,
+            height: view.height,
+            view_proj: view.view_proj,
             environment: self
                 .environment
                 .iter()
                 .cloned()
                 .chain(exact)
-                .chain(sky.map(|(mesh, _)| mesh))
+                .chain(view.sky)
                 .collect(),
             lenses,
             viewpoint_weights: blend.samples.iter().map(|(_, w)| *w as f32).collect(),
@@ -890,10 +559,31 @@ impl HybridScene {
     }
 }
 
+/// What the camera fixes for a frame before any lens object is traced.
+struct FrameView {
+    /// Framebuffer width, subpixels (pixels × supersampling).
+    width: u32,
+    /// Framebuffer height, subpixels.
+    height: u32,
+    /// World → Vulkan clip space.
+    view_proj: Mat4,
+    /// The same projection for the vertex oracles.
+    screen: ScreenCamera,
+    /// The sky dome around the camera, drawn behind everything; `None` when the sky is black.
+    sky: Option<Arc<EnvironmentMesh>>,
+}
+
+/// A lens object tessellated for a frame: its mesh and each vertex's evaluation.
+struct TessellatedLens {
+    mesh: LensMesh,
+    /// Per vertex of `mesh`, its ray paths (`None` where it was never evaluated).
+    samples: Vec<Option<VertexEvaluation<VertexPaths>>>,
+}
+
 /// Whether the axis-aligned box `(lo, hi)` lies wholly outside the view of `view_proj`: its eight
 /// corners outside the clip volume as the tessellation's triangle test decides
 /// ([`super::paths::outside_clip_volume`]).
-fn box_outside_view((lo, hi): (Vec3, Vec3), view_proj: &glam::Mat4) -> bool {
+fn box_outside_view((lo, hi): (Vec3, Vec3), view_proj: &Mat4) -> bool {
     super::paths::outside_clip_volume(&box_corners((lo, hi)).map(|p| *view_proj * p.extend(1.0)))
 }
 
@@ -913,8 +603,7 @@ fn box_corners((lo, hi): (Vec3, Vec3)) -> [Vec3; 8] {
 fn vertex_radiance_mesh(
     trace: &TraceScene,
     lens: usize,
-    positions: Vec<Vec3>,
-    triangles: Vec<[u32; 3]>,
+    mesh: LensMesh,
     samples: &[Option<VertexEvaluation<VertexPaths>>],
 ) -> EnvironmentMesh {
     let options = crate::trace::TraceOptions::default();
@@ -933,111 +622,10 @@ fn vertex_radiance_mesh(
         })
         .collect();
     EnvironmentMesh {
-        positions,
+        positions: mesh.positions,
         colours,
-        triangles,
+        triangles: mesh.triangles,
         light_map: None,
-    }
-}
-
-/// A lens object's tessellated mesh and the faces its passes draw.
-struct LensMesh {
-    positions: Vec<Vec3>,
-    triangles: Vec<[u32; 3]>,
-    faces: LensFaces,
-}
-
-/// Texture coordinates: each vertex's outgoing ray per term against each layer shell gives the
-/// cube-map direction `hit − EM origin` (computed in `precision`); F·G per term. Vertices with no
-/// path (back-facing only, or no refraction at the first interface) get F·G = 0 and their
-/// reflection's direction.
-fn texgen(
-    trace: &TraceScene,
-    lens: usize,
-    layers: &LensLayers,
-    mesh: LensMesh,
-    samples: &[Option<VertexEvaluation<VertexPaths>>],
-    blend: &viewpoints::ViewpointBlend,
-    precision: VertexPrecision,
-) -> LensObject {
-    let LensMesh {
-        positions,
-        triangles,
-        faces,
-    } = mesh;
-    let has = |wanted: fn(&crate::trace::Interface) -> bool| {
-        trace.lenses[lens]
-            .objects
-            .iter()
-            .any(|&o| trace.interface(o).is_some_and(|i| wanted(&i)))
-    };
-    let mut terms = Vec::new();
-    if has(|i| matches!(i, crate::trace::Interface::Dielectric { .. })) {
-        terms.push(Term::Refraction);
-    }
-    terms.push(Term::Reflection);
-    let fallback_direction =
-        |position: Vec3, em_origin: DVec3| (position.as_dvec3() - em_origin).normalize_or(DVec3::Z);
-    let term_vertices = terms
-        .iter()
-        .map(|&term| {
-            let path = |v: usize| {
-                samples[v].as_ref().map(|e| &e.sample).and_then(|s| {
-                    s.get(term)
-                        .copied()
-                        .or(s.get(Term::Reflection).copied().map(|mut p| {
-                            p.fg = DVec3::ZERO;
-                            p
-                        }))
-                })
-            };
-            let fg = (0..positions.len())
-                .map(|v| path(v).map_or(Vec3::ZERO, |p| p.fg.as_vec3()))
-                .collect();
-            // Every (vertex, shell) is independent: in parallel, collected in order.
-            let directions = layers
-                .shells
-                .iter()
-                .zip(&layers.em_origins)
-                .map(|(shell, &em_origin)| {
-                    (0..positions.len())
-                        .into_par_iter()
-                        .map(|v| match path(v) {
-                            Some(p) => {
-                                let (origin, direction) = (p.outgoing.origin, p.outgoing.direction);
-                                match precision {
-                                    VertexPrecision::F64 => shell
-                                        .texture_direction_for_ray(em_origin, origin, direction),
-                                    VertexPrecision::F32 => shell
-                                        .texture_direction_for_ray_in::<f32>(
-                                            em_origin, origin, direction,
-                                        ),
-                                }
-                                .as_vec3()
-                            }
-                            None => fallback_direction(positions[v], em_origin).as_vec3(),
-                        })
-                        .collect()
-                })
-                .collect();
-            TermVertices {
-                term,
-                fg,
-                directions,
-            }
-        })
-        .collect();
-    LensObject {
-        name: trace.lenses[lens].name.clone(),
-        positions,
-        triangles,
-        faces,
-        terms: term_vertices,
-        layers: blend
-            .samples
-            .iter()
-            .map(|(sample, _)| layers.maps[(*sample).min(layers.maps.len() - 1)].clone())
-            .collect(),
     }
 }
 

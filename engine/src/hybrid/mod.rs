@@ -5,10 +5,16 @@
 
 pub mod frame;
 pub mod paths;
+pub mod scene;
 pub mod sky;
 pub mod tessellate;
+mod texgen;
 pub mod viewpoints;
 
 pub use frame::{
-    DEFAULT_ANGLE_DEGREES, HybridError, HybridOptions, HybridScene, HybridStats, LensLayers,
+    BuiltFrame, DEFAULT_ANGLE_DEGREES, HybridOptions, HybridStats, MAX_FOOTPRINT_COARSENING,
+    VertexPrecision,
+};
+pub use scene::{
+    BakeIdentityError, HybridError, HybridScene, HybridSceneOptions, LayeredEms, LensLayers,
 };

@@ -994,6 +994,27 @@ mod tests {
         mesh
     }
 
+    /// The right triangle with unit legs along x and y, facing +z.
+    fn unit_triangle() -> TriangleMesh {
+        mesh(
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            &[[0, 1, 2]],
+        )
+    }
+
+    /// The unit triangle and a neighbour folded under it (facing −z), sharing edge 1–2.
+    fn folded_pair() -> TriangleMesh {
+        mesh(
+            &[
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.2, 0.2, -0.5],
+            ],
+            &[[0, 1, 2], [1, 3, 2]],
+        )
+    }
+
     fn area(mesh: &TriangleMesh) -> f64 {
         mesh.triangles
             .iter()
@@ -1015,10 +1036,7 @@ mod tests {
     fn always_differ_on_one_triangle_matches_the_closed_form() {
         // Right isosceles triangle with legs of 16 subpixels: the hypotenuse (22.6) needs
         // d = ⌈log2(22.6 / t)⌉ halvings; every split is 1-to-4 while all edges are long.
-        let input = mesh(
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            &[[0, 1, 2]],
-        );
+        let input = unit_triangle();
         // The split is uniform exactly when legs and hypotenuse fall below t at the same level.
         for (t, depth) in [(3.0f32, 3u32), (12.0, 1), (1.0, 5), (0.5, 6), (25.0, 0)] {
             let oracle = Flat::new(16.0, true);
@@ -1084,15 +1102,7 @@ mod tests {
     #[test]
     fn a_back_facing_neighbour_is_refanned_without_evaluating_its_own_vertex() {
         // Triangle 0 faces +z, triangle 1 is folded under and faces −z; they share edge 1–2.
-        let input = mesh(
-            &[
-                [0.0, 0.0, 0.0],
-                [1.0, 0.0, 0.0],
-                [0.0, 1.0, 0.0],
-                [0.2, 0.2, -0.5],
-            ],
-            &[[0, 1, 2], [1, 3, 2]],
-        );
+        let input = folded_pair();
         let oracle = Flat::new(8.0, true);
         let out = tessellate(&input, &oracle, &options(3.0)).unwrap();
         assert_eq!(out.stats.back_facing_triangles, 1);
@@ -1112,15 +1122,7 @@ mod tests {
         // The folded mesh of the test above, for an open surface: the back-facing triangle is
         // treated like a front-facing one (its own vertex evaluated, split where its vertices
         // differ), and still counted as back-facing.
-        let input = mesh(
-            &[
-                [0.0, 0.0, 0.0],
-                [1.0, 0.0, 0.0],
-                [0.0, 1.0, 0.0],
-                [0.2, 0.2, -0.5],
-            ],
-            &[[0, 1, 2], [1, 3, 2]],
-        );
+        let input = folded_pair();
         let oracle = Flat {
             back_faces: true,
             ..Flat::new(8.0, true)
@@ -1147,10 +1149,7 @@ mod tests {
 
     #[test]
     fn occluded_triangles_are_evaluated_but_not_split() {
-        let input = mesh(
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            &[[0, 1, 2]],
-        );
+        let input = unit_triangle();
         let mut oracle = Flat::new(100.0, true);
         oracle.visible = false;
         let out = tessellate(&input, &oracle, &options(3.0)).unwrap();
@@ -1161,10 +1160,7 @@ mod tests {
 
     #[test]
     fn max_depth_caps_subdivision() {
-        let input = mesh(
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            &[[0, 1, 2]],
-        );
+        let input = unit_triangle();
         let opts = TessellationOptions {
             t: 1.0,
             max_depth: 2,
@@ -1220,10 +1216,7 @@ mod tests {
 
     #[test]
     fn bad_input_is_an_error() {
-        let input = mesh(
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            &[[0, 1, 2]],
-        );
+        let input = unit_triangle();
         let oracle = Flat::new(1.0, true);
         for t in [0.0, -1.0, f32::NAN, f32::INFINITY] {
             assert!(matches!(
@@ -1274,10 +1267,7 @@ mod tests {
                 true
             }
         }
-        let input = mesh(
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            &[[0, 1, 2]],
-        );
+        let input = unit_triangle();
         assert_eq!(
             tessellate(&input, &Short, &options(3.0)).err(),
             Some(TessellationError::OracleBatchLength {
@@ -1303,10 +1293,7 @@ mod tests {
                 true
             }
         }
-        let input = mesh(
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            &[[0, 1, 2]],
-        );
+        let input = unit_triangle();
         let out = tessellate(&input, &Behind, &options(3.0)).unwrap();
         assert!(out.stats.max_depth_reached < DEFAULT_MAX_DEPTH);
         assert_eq!(out.stats.stopped_at_max_depth, 0);
@@ -1380,10 +1367,7 @@ mod tests {
 
     #[test]
     fn uvs_and_normals_are_interpolated() {
-        let mut input = mesh(
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
-            &[[0, 1, 2]],
-        );
+        let mut input = unit_triangle();
         input.normals = vec![Vec3::Z, Vec3::X, Vec3::Z];
         input.uvs = vec![Vec2::ZERO, Vec2::X, Vec2::Y];
         let out = tessellate(&input, &Flat::new(4.0, true), &options(3.0)).unwrap();

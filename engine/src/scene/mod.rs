@@ -34,17 +34,14 @@ pub const BUILTIN_SCENES: [&str; 3] = ["teapot-room", "glass-sphere", "mirror-te
 
 /// The built-in scene files' text, embedded at compile time.
 const BUILTIN_SOURCES: [(&str, &str); 3] = [
-    (
-        "teapot-room",
-        include_str!("../../../tools/scenes/teapot-room.toml"),
-    ),
+    ("teapot-room", include_str!("../../scenes/teapot-room.toml")),
     (
         "glass-sphere",
-        include_str!("../../../tools/scenes/glass-sphere.toml"),
+        include_str!("../../scenes/glass-sphere.toml"),
     ),
     (
         "mirror-teapot",
-        include_str!("../../../tools/scenes/mirror-teapot.toml"),
+        include_str!("../../scenes/mirror-teapot.toml"),
     ),
 ];
 
@@ -150,7 +147,7 @@ impl Scene {
     /// A built-in scene by name (see [`BUILTIN_SCENES`]), or `None` for an unknown name.
     pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
         let (name, text) = BUILTIN_SOURCES.iter().find(|(n, _)| *n == name)?;
-        let origin = PathBuf::from(format!("tools/scenes/{name}.toml"));
+        let origin = PathBuf::from(format!("engine/scenes/{name}.toml"));
         Some(Scene::from_toml_str(text, &origin))
     }
 
@@ -307,16 +304,17 @@ mod tests {
         );
     }
 
+    /// The camera of the test scenes, an inline table before any other table.
+    const CAMERA: &str = "camera = { position = [0, 1, 5], look_at = [0, 1, 0], vfov_degrees = 45, width = 64, height = 48 }";
+
+    /// The scene of `text`, said to come from `origin`; a test failure if it does not load.
+    fn parse(text: &str, origin: &str) -> Scene {
+        Scene::from_toml_str(text, Path::new(origin)).unwrap_or_else(|e| panic!("{e}"))
+    }
+
     #[test]
     fn minimal_scene_with_defaults() {
         let text = r#"
-            [camera]
-            position = [0, 1, 5]
-            look_at = [0, 1, 0]
-            vfov_degrees = 45
-            width = 64
-            height = 48
-
             [[materials]]
             name = "glass"
             glass = { ior = 1.33 }
@@ -327,10 +325,7 @@ mod tests {
             sphere = { radius = 0.5 }
             transform = { translate = [0, 1, 0], scale = [1, 2, 1] }
         "#;
-        let scene = match Scene::from_toml_str(text, Path::new("dir/minimal.toml")) {
-            Ok(scene) => scene,
-            Err(e) => panic!("{e}"),
-        };
+        let scene = parse(&format!("{CAMERA}{text}"), "dir/minimal.toml");
         assert_eq!(scene.name, "minimal");
         assert_eq!(scene.camera.up, Vec3::Y);
         assert_eq!(scene.camera.supersampling, 1);
@@ -360,12 +355,6 @@ mod tests {
     fn rotations_apply_x_then_y_then_z() {
         // A 1×1 plane (normal +y) turned 90° about x faces +z; then 90° about y faces +x.
         let text = r#"
-            [camera]
-            position = [0, 1, 5]
-            look_at = [0, 1, 0]
-            vfov_degrees = 45
-            width = 64
-            height = 48
             [[materials]]
             name = "grey"
             diffuse = { colour = [0.5, 0.5, 0.5] }
@@ -380,10 +369,7 @@ mod tests {
             plane = { size = [1, 1] }
             transform = { rotate_degrees = [90, 90, 0] }
         "#;
-        let scene = match Scene::from_toml_str(text, Path::new("rot.toml")) {
-            Ok(scene) => scene,
-            Err(e) => panic!("{e}"),
-        };
+        let scene = parse(&format!("{CAMERA}{text}"), "rot.toml");
         assert!(scene.objects[0].mesh.normals[0].distance(Vec3::Z) < 1e-6);
         assert!(scene.objects[1].mesh.normals[0].distance(Vec3::X) < 1e-6);
         assert!(scene.lenses.is_empty());

@@ -1,0 +1,134 @@
+//! The panic boundary every export goes through: a failure or a panic becomes a stable result
+//! code, and its message is kept as the thread's last error ([`crate::lensmap_last_error`]).
+//! Library errors that name options are worded with the C struct fields (`options->em_size`).
+
+use std::cell::RefCell;
+use std::ffi::CString;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+use lensmap::gpu::GpuError;
+use lensmap::hybrid::HybridError;
+use lensmap::options::{OptionWords, Worded};
+use lensmap::render::RenderError;
+use lensmap::runner::RunError;
+use lensmap::scene::SceneError;
+
+use crate::types::LensmapResult;
+
+/// Options as the C ABI names them: the fields of the options struct a call was given.
+pub(crate) struct StructFields;
+
+impl OptionWords for StructFields {
+    fn option(&self, field: &str) -> String {
+        format!("options->{field}")
+    }
+
+    fn setting(&self, field: &str, value: &str) -> String {
+        format!("options->{field} {value}")
+    }
+}
+
+/// A failed call: its code and the message [`crate::lensmap_last_error`] gives.
+pub(crate) struct Failure {
+    code: LensmapResult,
+    message: String,
+}
+
+impl Failure {
+    pub(crate) fn new(code: LensmapResult, message: impl Into<String>) -> Failure {
+        Failure {
+            code,
+            message: message.into(),
+        }
+    }
+}
+
+/// The failure of a required pointer argument `name` that is NULL.
+pub(crate) fn null(name: &str) -> Failure {
+    Failure::new(LensmapResult::NullArgument, format!("{name} is NULL"))
+}
+
+impl From<GpuError> for Failure {
+    fn from(error: GpuError) -> Failure {
+        let code = match error {
+            GpuError::NoDriver(_) => LensmapResult::NoDriver,
+            GpuError::NoSuitableDevice(_) | GpuError::ValidationLayerMissing => {
+                LensmapResult::Device
+            }
+            _ => LensmapResult::Render,
+        };
+        Failure::new(code, error.to_string())
+    }
+}
+
+impl From<RenderError> for Failure {
+    fn from(error: RenderError) -> Failure {
+        match error {
+            RenderError::Gpu(error) => error.into(),
+            RenderError::BadInput(_) | RenderError::Program(_) => {
+                Failure::new(LensmapResult::InvalidArgument, error.to_string())
+            }
+        }
+    }
+}
+
+impl From<RunError> for Failure {
+    fn from(error: RunError) -> Failure {
+        let code = match &error {
+            RunError::Render(_) => {
+                return match error {
+                    RunError::Render(render) => render.into(),
+                    other => Failure::new(LensmapResult::Render, other.to_string()),
+                };
+            }
+            RunError::Hybrid(HybridError::Identity(identity)) => {
+                return Failure::new(LensmapResult::Bake, identity.worded(&StructFields));
+            }
+            RunError::Option(_) => LensmapResult::InvalidArgument,
+            RunError::Bake(_) => LensmapResult::Bake,
+            RunError::Hybrid(HybridError::BakeMismatch(_)) => LensmapResult::Bake,
+            RunError::Hybrid(_) => LensmapResult::Scene,
+            RunError::Tessellation(_) => LensmapResult::Render,
+        };
+        Failure::new(code, error.to_string())
+    }
+}
+
+impl From<SceneError> for Failure {
+    fn from(error: SceneError) -> Failure {
+        Failure::new(LensmapResult::Scene, error.to_string())
+    }
+}
+
+thread_local! {
+    /// The message of the last failure on this thread.
+    pub(crate) static LAST_ERROR: RefCell<CString> = RefCell::new(CString::default());
+}
+
+fn remember(message: &str) {
+    // An interior NUL would end the C string early: it is replaced.
+    let text = CString::new(message.replace('\0', "\u{fffd}")).unwrap_or_default();
+    LAST_ERROR.with(|last| *last.borrow_mut() = text);
+}
+
+/// The panic boundary every export goes through: runs `body`, turns its failure or panic into a
+/// code and remembers the message.
+pub(crate) fn boundary(body: impl FnOnce() -> Result<(), Failure>) -> LensmapResult {
+    let failure = match catch_unwind(AssertUnwindSafe(body)) {
+        Ok(Ok(())) => return LensmapResult::Ok,
+        Ok(Err(failure)) => failure,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| (*s).to_owned())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "(no message)".to_owned());
+            Failure::new(
+                LensmapResult::Panic,
+                format!("lensmap panicked (a bug; please report it): {what}"),
+            )
+        }
+    };
+    remember(&failure.message);
+    failure.code
+}

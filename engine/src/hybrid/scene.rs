@@ -1,0 +1,516 @@
+//! Assembling a hybrid scene: everything a hybrid frame is made from that does not change with
+//! the camera. The scene's ray-tracing structures, each lens object's layered EMs (projected
+//! from the scene, or a bake's), the light-mapped opaque environment, the sky dome, and which
+//! faces of each lens object are drawn. [`HybridScene::new`] is the one way to make one.
+
+use std::{path::PathBuf, sync::Arc, time::Instant};
+
+use glam::{DVec3, Vec3};
+
+use super::{frame::FrameCache, sky::SkyDome};
+use crate::{
+    cubemap::CubeMap,
+    layers::{
+        Bake, BakedLens, LayerShell, Provenance,
+        bake::{debug_hash, default_created_by},
+        projected::{ProjectedOptions, em_origin, lens_shells, project_layers},
+    },
+    lightmap::{
+        LightMapOptions, LightMapStats, PlanError, Viewers, build_light_mapped_mesh, plan_atlases,
+    },
+    options::{LibraryWords, OptionWords, Worded},
+    render::{EnvironmentMesh, LensFaces, MeshLightMap},
+    scene::{Scene, TriangleMesh},
+    trace::world::TraceScene,
+};
+
+/// A lens object's layered EMs.
+#[derive(Clone, Debug)]
+pub struct LensLayers {
+    /// Per layer, the EM origin its cube-map directions are taken from (shell hit − origin),
+    /// metres: the lens object's centroid, or for a layer shared with other lens objects the
+    /// shared map's origin (that of the lens object that owns it).
+    pub em_origins: Vec<DVec3>,
+    /// Shells, nearest first.
+    pub shells: Vec<LayerShell>,
+    /// `maps[viewpoint sample][layer]`, one entry per sample of [`HybridScene::viewpoints`];
+    /// projected EMs do not depend on the viewpoint, so they have a single entry that every
+    /// sample shares.
+    pub maps: Vec<Vec<Arc<CubeMap>>>,
+}
+
+/// Why a hybrid scene cannot be assembled.
+#[derive(Debug, thiserror::Error)]
+pub enum HybridError {
+    /// The ray tracer refused the scene.
+    #[error(transparent)]
+    Trace(#[from] crate::trace::TraceError),
+    /// A bake that does not identify itself as made from this scene.
+    #[error("{0}")]
+    Identity(#[from] BakeIdentityError),
+    /// A bake does not fit the scene; the message names the field and the fix.
+    #[error("{0}")]
+    BakeMismatch(String),
+    /// An environment object's light map cannot be made.
+    #[error("object \"{object}\": light map: {error}")]
+    LightMap {
+        /// The scene object.
+        object: String,
+        /// Why.
+        error: crate::lightmap::AtlasError,
+    },
+    /// The light maps together pass their texel budget.
+    #[error("light maps: {0}")]
+    LightMapBudget(PlanError),
+}
+
+/// A bake used with a scene it does not name as its own (its [`Provenance`]). The message
+/// names the option that accepts any bake (`accept_any_bake`) and how to bake the scene, in
+/// each front end's words ([`Worded`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{}", self.worded(&LibraryWords))]
+pub enum BakeIdentityError {
+    /// The bake was made from other scene content: its provenance names another content hash.
+    OtherScene {
+        /// The bake's directory, where it was read from one (the message then names its
+        /// manifest by path).
+        bake: Option<PathBuf>,
+        /// The scene the bake was made from (its manifest's `scene`).
+        baked_scene: String,
+        /// The scene it was used with.
+        scene: String,
+    },
+    /// The bake says nothing of the scene it was made from (it has no provenance), and any bake
+    /// was not accepted.
+    Unidentified {
+        /// The bake's directory (the message names its manifest alone).
+        bake: PathBuf,
+    },
+}
+
+impl Worded for BakeIdentityError {
+    fn worded(&self, words: &dyn OptionWords) -> String {
+        let bake_command = |scene| {
+            words
+                .bake_command(scene)
+                .map_or_else(String::new, |command| format!(" ({command})"))
+        };
+        match self {
+            BakeIdentityError::OtherScene {
+                bake,
+                baked_scene,
+                scene,
+            } => format!(
+                "{}manifest.json: provenance.scene_hash: the bake was made from scene \"{baked_scene}\" with other content than scene \"{scene}\"; bake this scene{} or pass the scene it was made from",
+                bake.as_ref()
+                    .map_or_else(String::new, |dir| format!("{}/", dir.display())),
+                bake_command(Some(scene))
+            ),
+            BakeIdentityError::Unidentified { .. } => format!(
+                "manifest.json: provenance: the bake does not say which scene it was made from; bake this scene{}, or {} to use it anyway",
+                bake_command(None),
+                words.switch_on("accept_any_bake")
+            ),
+        }
+    }
+}
+
+/// Where a hybrid scene's layered EMs come from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LayeredEms {
+    /// Projected from the scene ([`crate::layers::projected`]) onto the layer shells its file
+    /// names for each lens object (one sphere where it names none).
+    Projected(ProjectedOptions),
+    /// Projected onto the given shells: `shells[lens]` is the EM origin and the shells of lens
+    /// object `lens` (TraceScene order), nearest first; one entry per lens object.
+    ProjectedOn {
+        /// Per lens object, its EM origin (metres) and shells.
+        shells: Vec<(DVec3, Vec<LayerShell>)>,
+        /// How the maps are projected.
+        options: ProjectedOptions,
+    },
+    /// A bake's, matched to lens objects by name. A bake that carries its scene's identity
+    /// ([`Provenance`]) must have been made from this very scene content.
+    Baked(Bake),
+}
+
+/// How a [`HybridScene`] is assembled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HybridSceneOptions {
+    /// Where the layered EMs come from.
+    pub ems: LayeredEms,
+    /// How the opaque environment's light maps are made.
+    pub light_maps: LightMapOptions,
+}
+
+impl Default for HybridSceneOptions {
+    /// EMs projected with the default options onto the scene's shells; default light maps.
+    fn default() -> Self {
+        HybridSceneOptions {
+            ems: LayeredEms::Projected(ProjectedOptions::default()),
+            light_maps: LightMapOptions::default(),
+        }
+    }
+}
+
+impl From<LayeredEms> for HybridSceneOptions {
+    /// These EMs with default light maps.
+    fn from(ems: LayeredEms) -> Self {
+        HybridSceneOptions {
+            ems,
+            ..HybridSceneOptions::default()
+        }
+    }
+}
+
+/// Everything a hybrid frame is made from that does not change with the camera.
+pub struct HybridScene {
+    /// The scene.
+    pub scene: Scene,
+    /// Its ray-tracing structures.
+    pub trace: TraceScene,
+    /// Viewpoint sample positions.
+    pub viewpoints: Vec<DVec3>,
+    /// Per lens object (TraceScene order).
+    pub lenses: Vec<LensLayers>,
+    /// Per lens object (TraceScene order), which faces are traced and drawn (see
+    /// [`HybridScene::lens_faces`]).
+    pub faces: Vec<LensFaces>,
+    /// The opaque environment for the GPU, light-mapped (see
+    /// [`HybridScene::light_mapped_environment`]).
+    pub environment: Vec<Arc<EnvironmentMesh>>,
+    /// What making the environment's light maps cost.
+    pub light_maps: LightMapStats,
+    /// The environment at infinity for the GPU, drawn behind everything; `None` when it is black.
+    pub sky: Option<SkyDome>,
+    /// The last frame built, reused while nothing it depends on changed.
+    pub(super) cache: FrameCache,
+}
+
+impl HybridScene {
+    /// Assembles the hybrid scene of `scene` with the layered EMs and light maps `options` asks
+    /// for; also returns the rays cast to project EMs (0 for a bake). Projected EMs do not
+    /// depend on the viewpoint: every viewpoint sample of the scene's view space shares them.
+    pub fn new(
+        scene: Scene,
+        options: HybridSceneOptions,
+    ) -> Result<(HybridScene, u64), HybridError> {
+        let HybridSceneOptions { ems, light_maps } = options;
+        if let LayeredEms::Baked(bake) = &ems {
+            check_provenance(&scene, bake)?;
+        }
+        let trace = TraceScene::new(&scene)?;
+        let scene_viewpoints = || {
+            scene
+                .view_space
+                .samples()
+                .iter()
+                .map(|p| p.as_dvec3())
+                .collect()
+        };
+        let (viewpoints, lenses, rays) = match ems {
+            LayeredEms::Projected(options) => {
+                let shells = (0..trace.lenses.len())
+                    .map(|lens| {
+                        let origin = em_origin(&scene, lens);
+                        (origin, lens_shells(&trace, &scene, lens, origin))
+                    })
+                    .collect();
+                let (lenses, rays) = projected_layers(&scene, &trace, shells, &options)?;
+                (scene_viewpoints(), lenses, rays)
+            }
+            LayeredEms::ProjectedOn { shells, options } => {
+                let (lenses, rays) = projected_layers(&scene, &trace, shells, &options)?;
+                (scene_viewpoints(), lenses, rays)
+            }
+            LayeredEms::Baked(bake) => {
+                let viewpoints = bake.viewpoints.iter().map(|p| p.as_dvec3()).collect();
+                (viewpoints, baked_layers(&scene, &trace, bake.lenses)?, 0)
+            }
+        };
+        let (environment, light_map_stats) =
+            Self::light_mapped_environment(&scene, &trace, &light_maps)?;
+        let faces = Self::lens_faces(&scene, &trace);
+        let sky = SkyDome::new(&trace);
+        Ok((
+            HybridScene {
+                scene,
+                trace,
+                viewpoints,
+                lenses,
+                faces,
+                environment,
+                light_maps: light_map_stats,
+                sky,
+                cache: FrameCache::default(),
+            },
+            rays,
+        ))
+    }
+
+    /// These layered EMs as a bake: projected EMs become a bake with one viewpoint sample. The
+    /// bake carries this scene's identity ([`Provenance`]), so a scene other than this one
+    /// refuses it, even one whose lens objects have the same names.
+    pub fn to_bake(&self) -> Bake {
+        let shared = self.lenses.iter().all(|l| l.maps.len() == 1);
+        let samples = if shared {
+            vec![0]
+        } else {
+            (0..self.viewpoints.len()).collect()
+        };
+        // What shaped the maps: their origins, shells and sizes (the maps themselves are in the
+        // bake).
+        let shaped_by: Vec<_> = self
+            .lenses
+            .iter()
+            .map(|l| {
+                (
+                    &l.em_origins,
+                    &l.shells,
+                    l.maps.first().and_then(|m| m.first()).map(|c| c.size),
+                )
+            })
+            .collect();
+        let provenance = Provenance {
+            scene_hash: self.scene.content_hash(),
+            options_hash: debug_hash(&("written from a hybrid scene", shaped_by)),
+            samples,
+        };
+        Bake {
+            scene: self.scene.name.clone(),
+            created_by: default_created_by(),
+            viewpoints: if shared {
+                vec![
+                    self.viewpoints
+                        .first()
+                        .copied()
+                        .unwrap_or(DVec3::Z)
+                        .as_vec3(),
+                ]
+            } else {
+                self.viewpoints.iter().map(|p| p.as_vec3()).collect()
+            },
+            lenses: self
+                .lenses
+                .iter()
+                .zip(&self.trace.lenses)
+                .map(|(layers, lens)| BakedLens {
+                    name: lens.name.clone(),
+                    em_origins: layers.em_origins.clone(),
+                    shells: layers.shells.clone(),
+                    maps: layers.maps.clone(),
+                })
+                .collect(),
+            provenance: Some(provenance),
+        }
+    }
+
+    /// Which faces of each lens object (TraceScene order) are traced and drawn: both when any of
+    /// its meshes is open ([`TriangleMesh::is_closed`] says no), because the camera can then see
+    /// the inside of the surface (the Newell teapot between lid and rim), whose back faces the
+    /// reference tracer shades; front faces only for closed meshes, whose back faces are hidden
+    /// from any camera outside them, so they cost nothing.
+    pub fn lens_faces(scene: &Scene, trace: &TraceScene) -> Vec<LensFaces> {
+        trace
+            .lenses
+            .iter()
+            .map(|lens| {
+                let open = lens.objects.iter().any(|&object| {
+                    scene
+                        .objects
+                        .get(object)
+                        .is_some_and(|o| !o.mesh.is_closed())
+                });
+                if open {
+                    LensFaces::Both
+                } else {
+                    LensFaces::Front
+                }
+            })
+            .collect()
+    }
+
+    /// The opaque environment for the GPU: each environment object with its light map (see
+    /// [`crate::lightmap`]: the ray-traced radiance leaving its surface, texture and shadows
+    /// included, view independent, so made once per scene), drawn white × the map. Each chart's
+    /// texel density follows its distance to the scene's nearest viewpoint
+    /// ([`Viewers::of_scene`]). Objects in scene order; also returns what the maps cost.
+    pub fn light_mapped_environment(
+        scene: &Scene,
+        trace: &TraceScene,
+        options: &LightMapOptions,
+    ) -> Result<(Vec<Arc<EnvironmentMesh>>, LightMapStats), HybridError> {
+        let start = Instant::now();
+        let objects: Vec<usize> = (0..scene.objects.len())
+            .filter(|&object| trace.object_lens.get(object).is_some_and(|l| l.is_none()))
+            .collect();
+        let meshes: Vec<&TriangleMesh> = objects.iter().map(|&o| &scene.objects[o].mesh).collect();
+        let light_map_error = |object: usize, error| HybridError::LightMap {
+            object: scene.objects[object].name.clone(),
+            error,
+        };
+        let atlases = plan_atlases(&meshes, &Viewers::of_scene(scene), options).map_err(
+            |error| match error {
+                PlanError::Mesh { mesh, error } => light_map_error(objects[mesh], error),
+                budget => HybridError::LightMapBudget(budget),
+            },
+        )?;
+        let mut stats = LightMapStats::default();
+        let mut environment = Vec::new();
+        for ((&object, mesh), atlas) in objects.iter().zip(meshes).zip(&atlases) {
+            let (mesh, object_stats) =
+                build_light_mapped_mesh(trace, mesh, object, atlas, options.supersampling)
+                    .map_err(|error| light_map_error(object, error))?;
+            stats += object_stats;
+            environment.push(Arc::new(EnvironmentMesh {
+                colours: vec![Vec3::ONE; mesh.positions.len()],
+                positions: mesh.positions,
+                triangles: mesh.triangles,
+                light_map: Some(MeshLightMap {
+                    uvs: mesh.uvs,
+                    map: mesh.map,
+                }),
+            }));
+        }
+        // Objects were mapped one after another: the sum of their times is the wall time.
+        stats.ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok((environment, stats))
+    }
+}
+
+/// A bake that names its scene's identity must name this scene's content.
+fn check_provenance(scene: &Scene, bake: &Bake) -> Result<(), BakeIdentityError> {
+    match &bake.provenance {
+        Some(provenance) if provenance.scene_hash != scene.content_hash() => {
+            Err(BakeIdentityError::OtherScene {
+                bake: None,
+                baked_scene: bake.scene.clone(),
+                scene: scene.name.clone(),
+            })
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Projected layered EMs on `shells` (one entry per lens object: its EM origin and shells),
+/// and the rays the projection cast.
+fn projected_layers(
+    scene: &Scene,
+    trace: &TraceScene,
+    shells: Vec<(DVec3, Vec<LayerShell>)>,
+    options: &ProjectedOptions,
+) -> Result<(Vec<LensLayers>, u64), HybridError> {
+    if shells.len() != trace.lenses.len() {
+        return Err(HybridError::BakeMismatch(format!(
+            "{} lens objects given shells, but scene \"{}\" has {}; give shells for every lens object",
+            shells.len(),
+            scene.name,
+            trace.lenses.len()
+        )));
+    }
+    let mut rays = 0;
+    let lenses = shells
+        .into_iter()
+        .enumerate()
+        .map(|(lens, (origin, shells))| {
+            let (maps, cast) = project_layers(trace, lens, origin, &shells, options);
+            rays += cast;
+            LensLayers {
+                em_origins: vec![origin; shells.len()],
+                shells,
+                maps: vec![maps.into_iter().map(Arc::new).collect()],
+            }
+        })
+        .collect();
+    Ok((lenses, rays))
+}
+
+/// A bake's layered EMs for each lens object of `trace`, matched by name; each must have one
+/// EM origin and one map per shell at every viewpoint sample.
+fn baked_layers(
+    scene: &Scene,
+    trace: &TraceScene,
+    baked: Vec<BakedLens>,
+) -> Result<Vec<LensLayers>, HybridError> {
+    let mut baked: Vec<Option<BakedLens>> = baked.into_iter().map(Some).collect();
+    let mut lenses = Vec::new();
+    for lens in &trace.lenses {
+        let Some(found) = baked
+            .iter_mut()
+            .find(|b| b.as_ref().is_some_and(|b| b.name == lens.name))
+            .and_then(Option::take)
+        else {
+            return Err(HybridError::BakeMismatch(format!(
+                "manifest.json: lenses: no entry for lens object \"{}\" of scene \"{}\"; bake this scene again",
+                lens.name, scene.name
+            )));
+        };
+        let layers = found.shells.len();
+        if found.em_origins.len() != layers || found.maps.iter().any(|v| v.len() != layers) {
+            return Err(HybridError::BakeMismatch(format!(
+                "lens object \"{}\": {layers} shells but {} EM origins and {:?} maps per viewpoint; give one origin and one map per shell",
+                lens.name,
+                found.em_origins.len(),
+                found.maps.iter().map(Vec::len).collect::<Vec<_>>()
+            )));
+        }
+        lenses.push(LensLayers {
+            em_origins: found.em_origins,
+            shells: found.shells,
+            maps: found.maps,
+        });
+    }
+    Ok(lenses)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A front end that names options in capitals and bakes with a `BAKE(scene)` call.
+    struct Capitals;
+
+    impl OptionWords for Capitals {
+        fn option(&self, field: &str) -> String {
+            field.to_uppercase()
+        }
+
+        fn switch_on(&self, field: &str) -> String {
+            format!("turn on {}", self.option(field))
+        }
+
+        fn bake_command(&self, scene: Option<&str>) -> Option<String> {
+            Some(format!("BAKE({})", scene.unwrap_or("?")))
+        }
+    }
+
+    #[test]
+    fn bake_identity_errors_name_options_only_through_the_front_ends_words() {
+        let other = BakeIdentityError::OtherScene {
+            bake: Some(PathBuf::from("out/bake")),
+            baked_scene: "glass-sphere".into(),
+            scene: "mirror-teapot".into(),
+        };
+        let said = "out/bake/manifest.json: provenance.scene_hash: the bake was made from scene \"glass-sphere\" with other content than scene \"mirror-teapot\"; bake this scene";
+        assert_eq!(
+            other.to_string(),
+            format!("{said} or pass the scene it was made from")
+        );
+        assert_eq!(
+            other.worded(&Capitals),
+            format!("{said} (BAKE(mirror-teapot)) or pass the scene it was made from")
+        );
+        let unnamed = BakeIdentityError::Unidentified {
+            bake: PathBuf::from("out/bake"),
+        };
+        let said = "manifest.json: provenance: the bake does not say which scene it was made from; bake this scene";
+        assert_eq!(
+            unnamed.to_string(),
+            format!("{said}, or set `accept_any_bake` to use it anyway")
+        );
+        assert_eq!(
+            unnamed.worded(&Capitals),
+            format!("{said} (BAKE(?)), or turn on ACCEPT_ANY_BAKE to use it anyway")
+        );
+    }
+}

@@ -1,0 +1,121 @@
+//! Texture coordinate generation (hybrid-rendering paper §5): each lens vertex's outgoing ray per
+//! shading term against each layer shell of its lens object gives the cube-map direction into
+//! that layer's EM, and the term's F·G weights it.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::{
+    paths::{VertexPaths, VertexPrecision},
+    scene::LensLayers,
+    tessellate::VertexEvaluation,
+    viewpoints::ViewpointBlend,
+};
+use crate::{
+    render::{LensFaces, LensObject, TermVertices},
+    trace::{Interface, Term, world::TraceScene},
+};
+
+/// A lens object's tessellated mesh and the faces its passes draw.
+pub(super) struct LensMesh {
+    /// Vertex positions, metres.
+    pub positions: Vec<Vec3>,
+    /// Triangles, indices into `positions`.
+    pub triangles: Vec<[u32; 3]>,
+    /// The faces its passes draw.
+    pub faces: LensFaces,
+}
+
+/// Texture coordinates: each vertex's outgoing ray per term against each layer shell gives the
+/// cube-map direction `hit − EM origin` (computed in `precision`); F·G per term. Vertices with no
+/// path (back-facing only, or no refraction at the first interface) get F·G = 0 and their
+/// reflection's direction.
+pub(super) fn texgen(
+    trace: &TraceScene,
+    lens: usize,
+    layers: &LensLayers,
+    mesh: LensMesh,
+    samples: &[Option<VertexEvaluation<VertexPaths>>],
+    blend: &ViewpointBlend,
+    precision: VertexPrecision,
+) -> LensObject {
+    let LensMesh {
+        positions,
+        triangles,
+        faces,
+    } = mesh;
+    let has = |wanted: fn(&Interface) -> bool| {
+        trace.lenses[lens]
+            .objects
+            .iter()
+            .any(|&o| trace.interface(o).is_some_and(|i| wanted(&i)))
+    };
+    let mut terms = Vec::new();
+    if has(|i| matches!(i, Interface::Dielectric { .. })) {
+        terms.push(Term::Refraction);
+    }
+    terms.push(Term::Reflection);
+    let fallback_direction =
+        |position: Vec3, em_origin: DVec3| (position.as_dvec3() - em_origin).normalize_or(DVec3::Z);
+    let term_vertices = terms
+        .iter()
+        .map(|&term| {
+            let path = |v: usize| {
+                samples[v].as_ref().map(|e| &e.sample).and_then(|s| {
+                    s.get(term)
+                        .copied()
+                        .or(s.get(Term::Reflection).copied().map(|mut p| {
+                            p.fg = DVec3::ZERO;
+                            p
+                        }))
+                })
+            };
+            let fg = (0..positions.len())
+                .map(|v| path(v).map_or(Vec3::ZERO, |p| p.fg.as_vec3()))
+                .collect();
+            // Every (vertex, shell) is independent: in parallel, collected in order.
+            let directions = layers
+                .shells
+                .iter()
+                .zip(&layers.em_origins)
+                .map(|(shell, &em_origin)| {
+                    (0..positions.len())
+                        .into_par_iter()
+                        .map(|v| match path(v) {
+                            Some(p) => {
+                                let (origin, direction) = (p.outgoing.origin, p.outgoing.direction);
+                                match precision {
+                                    VertexPrecision::F64 => shell
+                                        .texture_direction_for_ray(em_origin, origin, direction),
+                                    VertexPrecision::F32 => shell
+                                        .texture_direction_for_ray_in::<f32>(
+                                            em_origin, origin, direction,
+                                        ),
+                                }
+                                .as_vec3()
+                            }
+                            None => fallback_direction(positions[v], em_origin).as_vec3(),
+                        })
+                        .collect()
+                })
+                .collect();
+            TermVertices {
+                term,
+                fg,
+                directions,
+            }
+        })
+        .collect();
+    LensObject {
+        name: trace.lenses[lens].name.clone(),
+        positions,
+        triangles,
+        faces,
+        terms: term_vertices,
+        layers: blend
+            .samples
+            .iter()
+            .map(|(sample, _)| layers.maps[(*sample).min(layers.maps.len() - 1)].clone())
+            .collect(),
+    }
+}

@@ -1,0 +1,423 @@
+//! The frame runner: a device and the compositor on it, running hybrid frames of any hybrid
+//! scene. Frames are uploaded into reusable slots with up to [`FRAMES_IN_FLIGHT`] in flight,
+//! read back and box-filtered to pixels, or rendered into a host's image; compositor-only
+//! renders of an uploaded frame are timed for the benchmarks and the baker.
+
+use std::time::Instant;
+
+use super::{
+    RunError,
+    timing::{HostFrame, HybridFrame, Repetitions, TimedFrames, TimedRenders},
+};
+use crate::{
+    gpu::{Gpu, GpuError},
+    hybrid::{BuiltFrame, HybridOptions, HybridScene, HybridStats},
+    options::OptionError,
+    render::{
+        BlendScheme, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError, RenderedImage, Renderer,
+        Submission, TargetFormat, UploadedFrame, Variant,
+    },
+    scene::Camera,
+};
+
+/// What a hybrid frame is rendered with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameOptions {
+    /// Tessellation and the angle threshold.
+    pub hybrid: HybridOptions,
+    /// Compositor variant.
+    pub variant: Variant,
+    /// How the multipass variant combines layers and groups (the single pass takes only
+    /// [`BlendScheme::FrontToBack`]).
+    pub blend: BlendScheme,
+    /// Framebuffer format.
+    pub format: TargetFormat,
+}
+
+impl FrameOptions {
+    /// The compositor's part of these options.
+    pub fn compositing(&self) -> Compositing {
+        Compositing {
+            variant: self.variant,
+            blend: self.blend,
+            format: self.format,
+        }
+    }
+
+    /// Checks the options a frame cannot use before any work: the hybrid options, and a blending
+    /// scheme other than front-to-back asked of the single pass (which does not blend).
+    pub fn validate(&self) -> Result<(), OptionError> {
+        self.hybrid.validate()?;
+        OptionError::require(
+            self.variant == Variant::Multipass || self.blend == BlendScheme::FrontToBack,
+            "blend",
+            self.blend.name(),
+            "the single pass composites in registers and does not blend; give variant multipass, or blend front-to-back",
+        )
+    }
+}
+
+impl Default for FrameOptions {
+    fn default() -> Self {
+        FrameOptions {
+            hybrid: HybridOptions::default(),
+            variant: Variant::SinglePass,
+            blend: BlendScheme::FrontToBack,
+            format: TargetFormat::Rgba16f,
+        }
+    }
+}
+
+/// How the compositor draws a frame it is given (the compositor's part of [`FrameOptions`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Compositing {
+    /// Compositor variant.
+    pub variant: Variant,
+    /// How the multipass variant combines layers and groups (the single pass takes only
+    /// [`BlendScheme::FrontToBack`]).
+    pub blend: BlendScheme,
+    /// Framebuffer format.
+    pub format: TargetFormat,
+}
+
+/// A device and the compositor on it: runs frames of any hybrid scene.
+///
+/// Frames are uploaded into [`FRAMES_IN_FLIGHT`] reusable slots in turn (buffers, descriptor
+/// pool and targets kept from frame to frame), and a frame equal to the one the last slot holds
+/// (a still camera: [`HybridScene::frame_unless`]) is only rendered again, with no CPU stage and
+/// no upload.
+pub struct FrameRunner {
+    // Declared before `gpu` so that they are dropped first (their objects belong to that device).
+    slots: Vec<Slot>,
+    /// The slot the last frame went to.
+    last_slot: usize,
+    renderer: Renderer,
+    gpu: Gpu,
+}
+
+/// One reusable upload and the identity of the hybrid frame it holds (0: none).
+#[derive(Default)]
+struct Slot {
+    uploaded: Option<UploadedFrame>,
+    identity: u64,
+}
+
+/// A frame whose CPU stages and upload are done, in its slot.
+struct Staged {
+    slot: usize,
+    stats: HybridStats,
+    upload_ms: f64,
+    /// When its CPU stages began.
+    start: Instant,
+    /// When its upload began.
+    gpu_start: Instant,
+}
+
+/// A frame whose CPU stages and upload are done and whose GPU work was submitted.
+struct Pending {
+    slot: usize,
+    submission: Submission,
+    stats: HybridStats,
+    supersampling: u32,
+    upload_ms: f64,
+    start: Instant,
+    gpu_start: Instant,
+}
+
+impl FrameRunner {
+    /// A runner on `gpu`.
+    pub fn new(gpu: Gpu) -> Result<FrameRunner, GpuError> {
+        let renderer = Renderer::new(&gpu)?;
+        Ok(FrameRunner {
+            slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
+            last_slot: 0,
+            renderer,
+            gpu,
+        })
+    }
+
+    /// The device (its name, the validation report).
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// Checks that frames of `camera` (its subpixels) in `format` fit this device, before any
+    /// work: [`crate::render::check_framebuffer`].
+    pub fn check_framebuffer(
+        &self,
+        camera: &Camera,
+        format: TargetFormat,
+    ) -> Result<(), RenderError> {
+        let side = |pixels: u32| pixels.saturating_mul(camera.supersampling);
+        crate::render::check_framebuffer(&self.gpu, side(camera.width), side(camera.height), format)
+    }
+
+    /// Uploads a compositor frame (for compositor-only work such as [`Self::timed_renders`]).
+    pub fn upload(&mut self, frame: &FrameInput) -> Result<UploadedFrame, RenderError> {
+        self.renderer.upload(&self.gpu, frame)
+    }
+
+    /// Uploads and renders one compositor frame at its framebuffer resolution (no box filter):
+    /// the baker's test renderings go through here, so they use exactly the runtime's shaders,
+    /// passes, sampler and target format.
+    pub fn render(
+        &mut self,
+        frame: &FrameInput,
+        variant: Variant,
+        format: TargetFormat,
+    ) -> Result<RenderedImage, RenderError> {
+        let mut uploaded = self.renderer.upload(&self.gpu, frame)?;
+        Ok(self
+            .renderer
+            .render(&self.gpu, &mut uploaded, variant, format)?
+            .0)
+    }
+
+    /// Renders an uploaded frame at its framebuffer resolution (no box filter).
+    pub fn render_uploaded(
+        &mut self,
+        uploaded: &mut UploadedFrame,
+        variant: Variant,
+        format: TargetFormat,
+    ) -> Result<RenderedImage, RenderError> {
+        Ok(self
+            .renderer
+            .render(&self.gpu, uploaded, variant, format)?
+            .0)
+    }
+
+    /// Replaces the layered EMs of lens `lens` of an uploaded frame (see
+    /// [`Renderer::replace_layers`]): the baker's test renderings change only the maps.
+    pub fn replace_layers(
+        &mut self,
+        uploaded: &mut UploadedFrame,
+        lens: usize,
+        layers: &[Vec<std::sync::Arc<crate::cubemap::CubeMap>>],
+    ) -> Result<(), RenderError> {
+        self.renderer
+            .replace_layers(&self.gpu, uploaded, lens, layers)
+    }
+
+    /// Renders one hybrid frame of `hybrid` seen by `camera`, and reads it back.
+    pub fn frame(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+    ) -> Result<HybridFrame, RunError> {
+        let (frames, _) = self.frames_in_flight(hybrid, std::slice::from_ref(camera), options)?;
+        frames
+            .into_iter()
+            .next()
+            .ok_or_else(|| RenderError::BadInput("no frame was rendered".into()).into())
+    }
+
+    /// Renders `cameras` in order with up to [`FRAMES_IN_FLIGHT`] frames in flight: the CPU
+    /// stages of frame N + 1 run while the GPU renders frame N, and a frame is read back only
+    /// when its slot is needed again or at the end. Each frame's `total_ms` is its latency, from
+    /// the start of its CPU stages to its image on the host; the second value is the wall time
+    /// of the whole run, ms (throughput = frames / wall time).
+    pub fn frames_in_flight(
+        &mut self,
+        hybrid: &HybridScene,
+        cameras: &[Camera],
+        options: &FrameOptions,
+    ) -> Result<(Vec<HybridFrame>, f64), RunError> {
+        options.validate()?;
+        let start = Instant::now();
+        let mut frames = Vec::with_capacity(cameras.len());
+        let mut in_flight = std::collections::VecDeque::new();
+        for camera in cameras {
+            let staged = self.stage(hybrid, camera, options, |runner, slot| {
+                // The slot's previous frame is read back before the slot is written again.
+                while in_flight.iter().any(|p: &Pending| p.slot == slot) {
+                    if let Some(oldest) = in_flight.pop_front() {
+                        frames.push(runner.finish(oldest)?);
+                    }
+                }
+                Ok(())
+            })?;
+            let submission = self.submit(staged.slot, options, None)?;
+            in_flight.push_back(Pending {
+                slot: staged.slot,
+                submission,
+                stats: staged.stats,
+                supersampling: camera.supersampling,
+                upload_ms: staged.upload_ms,
+                start: staged.start,
+                gpu_start: staged.gpu_start,
+            });
+        }
+        while let Some(pending) = in_flight.pop_front() {
+            frames.push(self.finish(pending)?);
+        }
+        Ok((frames, start.elapsed().as_secs_f64() * 1e3))
+    }
+
+    /// Renders one hybrid frame of `hybrid` seen by `camera` into a host's image on this
+    /// runner's device (a runner made on the host's device: [`Gpu::from_host`]) and returns once
+    /// it is submitted, with no readback: the CPU stages and upload as for [`Self::frame`], the
+    /// frame's plan ending in the GPU box filter into `host` (whose size is the camera's width ×
+    /// height), submitted with the host's wait and signal semaphores. The host learns that the
+    /// frame is done from its signal semaphores (or from later work on the same queue).
+    pub fn frame_into(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+        host: &HostImage,
+    ) -> Result<HostFrame, RunError> {
+        options.validate()?;
+        if (host.width, host.height) != (camera.width, camera.height) {
+            return Err(RenderError::BadInput(format!(
+                "host image is {}×{}; the camera's frame is {}×{}: give an image of the camera's size",
+                host.width, host.height, camera.width, camera.height
+            ))
+            .into());
+        }
+        // Everything else about the image is checked before any CPU stage runs.
+        let k = camera.supersampling.max(1);
+        host.output(
+            camera.width.saturating_mul(k),
+            camera.height.saturating_mul(k),
+        )?;
+        let staged = self.stage(hybrid, camera, options, |_, _| Ok(()))?;
+        let submission = self.submit(staged.slot, options, Some(host))?;
+        Ok(HostFrame {
+            stats: staged.stats,
+            upload_ms: staged.upload_ms,
+            record_ms: submission.record_ms(),
+            passes: submission.passes(),
+            total_ms: staged.start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// A frame's CPU stages (unless the last slot holds it already: a still camera) and its
+    /// upload into the next slot, after `free_slot` made sure nothing pending still reads it.
+    fn stage(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+        mut free_slot: impl FnMut(&mut Self, usize) -> Result<(), RunError>,
+    ) -> Result<Staged, RunError> {
+        let start = Instant::now();
+        let held = self.slots[self.last_slot].identity;
+        let built = hybrid.frame_unless(camera, &options.hybrid, held)?;
+        let slot = match built {
+            BuiltFrame::Unchanged(_) => self.last_slot,
+            BuiltFrame::New(..) => (self.last_slot + 1) % self.slots.len(),
+        };
+        free_slot(self, slot)?;
+        let gpu_start = Instant::now();
+        let stats = match built {
+            BuiltFrame::Unchanged(stats) => stats,
+            BuiltFrame::New(frame, stats, identity) => {
+                let uploaded = match self.slots[slot].uploaded.take() {
+                    Some(previous) => self.renderer.upload_into(&self.gpu, &frame, previous)?,
+                    None => self.renderer.upload(&self.gpu, &frame)?,
+                };
+                self.slots[slot] = Slot {
+                    uploaded: Some(uploaded),
+                    identity,
+                };
+                stats
+            }
+        };
+        self.last_slot = slot;
+        Ok(Staged {
+            slot,
+            stats,
+            upload_ms: gpu_start.elapsed().as_secs_f64() * 1e3,
+            start,
+            gpu_start,
+        })
+    }
+
+    /// Submits the frame that [`Self::stage`] put in `slot`: into `host`, or rendered for
+    /// readback.
+    fn submit(
+        &mut self,
+        slot: usize,
+        options: &FrameOptions,
+        host: Option<&HostImage>,
+    ) -> Result<Submission, RunError> {
+        let Some(uploaded) = self.slots[slot].uploaded.as_mut() else {
+            // A held identity is only ever that of an uploaded slot.
+            return Err(RenderError::BadInput("a still frame has no upload".into()).into());
+        };
+        Ok(self.renderer.submit_blended(
+            &self.gpu,
+            uploaded,
+            (options.variant, options.blend),
+            options.format,
+            host,
+        )?)
+    }
+
+    /// Waits for a submitted frame, reads it back and box-filters it to pixels.
+    fn finish(&mut self, pending: Pending) -> Result<HybridFrame, RunError> {
+        let Some(uploaded) = self.slots[pending.slot].uploaded.as_ref() else {
+            return Err(RenderError::BadInput("a pending frame lost its upload".into()).into());
+        };
+        let (image, render) = self.renderer.finish(uploaded, pending.submission)?;
+        let downsample_start = Instant::now();
+        let image = image.box_downsample(pending.supersampling);
+        let downsample_ms = downsample_start.elapsed().as_secs_f64() * 1e3;
+        Ok(HybridFrame {
+            image,
+            stats: pending.stats,
+            gpu_ms: pending.gpu_start.elapsed().as_secs_f64() * 1e3,
+            upload_ms: pending.upload_ms,
+            render,
+            downsample_ms,
+            total_ms: pending.start.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// `repetitions.warmup` untimed frames, then `repetitions.timed` timed ones (at least one),
+    /// each built from scratch (the scene's frame cache is cleared first: a repeated camera is
+    /// timed as a moving one would be; [`FrameRunner::frame`] twice times a still one).
+    pub fn timed_frames(
+        &mut self,
+        hybrid: &HybridScene,
+        camera: &Camera,
+        options: &FrameOptions,
+        repetitions: Repetitions,
+    ) -> Result<TimedFrames, RunError> {
+        let full_frame = |runner: &mut Self| {
+            hybrid.forget_frame();
+            runner.frame(hybrid, camera, options)
+        };
+        for _ in 0..repetitions.warmup {
+            full_frame(self)?;
+        }
+        let frames = (0..repetitions.timed.max(1))
+            .map(|_| full_frame(self))
+            .collect::<Result<_, _>>()?;
+        Ok(TimedFrames { frames })
+    }
+
+    /// The compositor alone on an uploaded frame, drawn as `compositing` says: one warm-up
+    /// render (its image is returned), then `timed` timed renders (at least one).
+    pub fn timed_renders(
+        &mut self,
+        uploaded: &mut UploadedFrame,
+        compositing: &Compositing,
+        timed: usize,
+    ) -> Result<TimedRenders, RenderError> {
+        let scheme = (compositing.variant, compositing.blend);
+        let format = compositing.format;
+        let (image, _) = self
+            .renderer
+            .render_blended(&self.gpu, uploaded, scheme, format)?;
+        let timings = (0..timed.max(1))
+            .map(|_| {
+                self.renderer
+                    .render_blended(&self.gpu, uploaded, scheme, format)
+                    .map(|(_, timings)| timings)
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(TimedRenders { image, timings })
+    }
+}

@@ -1,0 +1,166 @@
+//! Loading the environment at infinity and the materials: radiance (constant or a lat-long
+//! EXR), glass, mirror and diffuse materials with their checker or image textures.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+
+use super::{Loader, MAX_RADIANCE, Result};
+use crate::scene::environment::{Environment, LatLongMap};
+use crate::scene::file::{DiffuseSpec, EnvironmentSpec, MaterialSpec};
+use crate::scene::image_file::load_linear_rgb;
+use crate::scene::material::{ImageTexture, Material, Texture};
+
+impl Loader<'_> {
+    pub(super) fn environment(&self, spec: &EnvironmentSpec) -> Result<Environment> {
+        match (&spec.constant, &spec.latlong) {
+            (Some(colour), None) => Ok(Environment::Constant(self.colour(
+                "environment.constant",
+                *colour,
+                None,
+            )?)),
+            (None, Some(latlong)) => {
+                let scale = spec_scale(self, latlong.scale)?;
+                let path = self.resolve(&latlong.path);
+                let image = load_linear_rgb(&path).map_err(|problem| {
+                    self.error("environment.latlong.path", format!("{}: {problem}", path.display()), "give a readable lat-long EXR with finite, non-negative radiance (relative paths start at the scene file's folder)")
+                })?;
+                let brightest = image
+                    .texels
+                    .iter()
+                    .map(|t| t.max_element())
+                    .fold(0.0, f32::max);
+                if brightest * scale > MAX_RADIANCE {
+                    let field = if brightest > MAX_RADIANCE {
+                        "environment.latlong.path"
+                    } else {
+                        "environment.latlong.scale"
+                    };
+                    return Err(self.error(
+                        field,
+                        format!(
+                            "{}: the brightest texel {brightest:e} times scale {scale} is beyond the {MAX_RADIANCE:e} a radiance may be",
+                            path.display()
+                        ),
+                        "give a smaller scale, or divide the image's texels",
+                    ));
+                }
+                Ok(Environment::LatLong(LatLongMap {
+                    width: image.width,
+                    height: image.height,
+                    texels: image.texels.into_iter().map(|t| t * scale).collect(),
+                }))
+            }
+            _ => Err(self.error(
+                "environment",
+                "needs exactly one of constant or latlong",
+                "write either constant = [r, g, b] or latlong = { path = \"sky.exr\" }",
+            )),
+        }
+    }
+
+    pub(super) fn materials(
+        &self,
+        specs: &[MaterialSpec],
+    ) -> Result<(Vec<Material>, HashMap<String, usize>)> {
+        let mut index = HashMap::new();
+        let mut materials = Vec::with_capacity(specs.len());
+        for (i, spec) in specs.iter().enumerate() {
+            let field = format!("materials[{i}]");
+            let used = index.insert(spec.name.clone(), i).is_some();
+            self.check_name(&field, &spec.name, used, "material")?;
+            let material = match (&spec.glass, &spec.mirror, &spec.diffuse) {
+                (Some(glass), None, None) => {
+                    let ior = glass.ior;
+                    if !(ior.is_finite() && ior > 0.0) {
+                        return Err(self.error(
+                            format!("{field}.glass.ior"),
+                            format!("index of refraction {ior} is not > 0"),
+                            "give the glass's index of refraction, e.g. 1.5",
+                        ));
+                    }
+                    let absorption = Vec3::from_array(glass.absorption);
+                    if !(absorption.is_finite()
+                        && absorption.min_element() > 0.0
+                        && absorption.max_element() <= 1.0)
+                    {
+                        return Err(self.error(format!("{field}.glass.absorption"), format!("{:?} is outside (0, 1]", glass.absorption), "give the transmittance per metre per channel in (0, 1] (1 = clear glass)"));
+                    }
+                    Material::Glass { ior, absorption }
+                }
+                (None, Some(mirror), None) => Material::Mirror {
+                    reflectance: self.colour(
+                        &format!("{field}.mirror.reflectance"),
+                        mirror.reflectance,
+                        Some(1.0),
+                    )?,
+                },
+                (None, None, Some(diffuse)) => {
+                    self.diffuse(&format!("{field}.diffuse"), diffuse)?
+                }
+                _ => {
+                    return Err(self.error(
+                        &field,
+                        format!(
+                            "material \"{}\" needs exactly one of glass, mirror or diffuse",
+                            spec.name
+                        ),
+                        "keep one of glass = { ... }, mirror = { ... }, diffuse = { ... }",
+                    ));
+                }
+            };
+            materials.push(material);
+        }
+        Ok((materials, index))
+    }
+
+    pub(super) fn diffuse(&self, field: &str, spec: &DiffuseSpec) -> Result<Material> {
+        let texture = match (&spec.checker, &spec.image) {
+            (Some(checker), None) => Some(Texture::Checker {
+                a: self.colour(&format!("{field}.checker.a"), checker.a, Some(1.0))?,
+                b: self.colour(&format!("{field}.checker.b"), checker.b, Some(1.0))?,
+                scale: self.positive(
+                    &format!("{field}.checker.scale"),
+                    checker.scale,
+                    "squares per uv unit",
+                )?,
+            }),
+            (None, Some(image)) => {
+                let path = self.resolve(image);
+                let image = load_linear_rgb(&path).map_err(|problem| {
+                    self.error(format!("{field}.image"), format!("{}: {problem}", path.display()), "give a readable PNG or EXR with finite, non-negative texels (relative paths start at the scene file's folder)")
+                })?;
+                Some(Texture::Image(ImageTexture {
+                    width: image.width,
+                    height: image.height,
+                    texels: image.texels,
+                }))
+            }
+            (None, None) => None,
+            (Some(_), Some(_)) => {
+                return Err(self.error(field, "has both checker and image", "keep one texture"));
+            }
+        };
+        let colour = match spec.colour {
+            Some(colour) => self.colour(&format!("{field}.colour"), colour, Some(1.0))?,
+            None if texture.is_some() => Vec3::ONE,
+            None => {
+                return Err(self.error(field, "has neither colour nor a texture", "add colour = [r, g, b] (albedo in [0, 1]), checker = { ... } or image = \"file.png\""));
+            }
+        };
+        Ok(Material::Diffuse { colour, texture })
+    }
+}
+
+/// Checks a lat-long scale factor.
+fn spec_scale(loader: &Loader<'_>, scale: f32) -> Result<f32> {
+    if scale.is_finite() && scale >= 0.0 {
+        Ok(scale)
+    } else {
+        Err(loader.error(
+            "environment.latlong.scale",
+            format!("{scale} is not a finite number ≥ 0"),
+            "give a radiance multiplier ≥ 0 (1 = as stored)",
+        ))
+    }
+}

@@ -46,8 +46,8 @@ use crate::{
     metrics::{self, Channels, Coverage, Encoding, ImageError, Mask, MetricsError},
     options::OptionError,
     render::{
-        BlendScheme, FRAMES_IN_FLIGHT, FrameTimings, RenderError, RenderedImage, Renderer,
-        Submission, TargetFormat, UploadedFrame, Variant,
+        BlendScheme, FRAMES_IN_FLIGHT, FrameTimings, RenderError, RenderOptions, RenderedImage,
+        Renderer, Submission, TargetFormat, UploadedFrame, Variant,
     },
     scene::{Camera, Scene},
     trace::ReferenceImage,
@@ -403,7 +403,15 @@ impl FrameRunner {
         let mut uploaded = self.renderer.upload(&self.gpu, frame)?;
         Ok(self
             .renderer
-            .render(&self.gpu, &mut uploaded, variant, format)?
+            .render(
+                &self.gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant,
+                    format,
+                    ..RenderOptions::default()
+                },
+            )?
             .0)
     }
 
@@ -416,7 +424,15 @@ impl FrameRunner {
     ) -> Result<RenderedImage, RenderError> {
         Ok(self
             .renderer
-            .render(&self.gpu, uploaded, variant, format)?
+            .render(
+                &self.gpu,
+                uploaded,
+                &RenderOptions {
+                    variant,
+                    format,
+                    ..RenderOptions::default()
+                },
+            )?
             .0)
     }
 
@@ -511,12 +527,15 @@ impl FrameRunner {
                 // A held identity is only ever that of an uploaded slot.
                 return Err(RenderError::BadInput("a still frame has no upload".into()).into());
             };
-            let submission = self.renderer.submit_blended(
+            let submission = self.renderer.submit(
                 &self.gpu,
                 uploaded,
-                (options.variant, options.blend),
-                options.format,
-                None,
+                &RenderOptions {
+                    variant: options.variant,
+                    blend: options.blend,
+                    format: options.format,
+                    host: None,
+                },
             )?;
             in_flight.push_back(Pending {
                 slot: staged.slot,
@@ -565,12 +584,15 @@ impl FrameRunner {
         let Some(uploaded) = self.slots[staged.slot].uploaded.as_mut() else {
             return Err(RenderError::BadInput("a still frame has no upload".into()).into());
         };
-        let submission = self.renderer.submit_blended(
+        let submission = self.renderer.submit(
             &self.gpu,
             uploaded,
-            (options.variant, options.blend),
-            options.format,
-            Some(host),
+            &RenderOptions {
+                variant: options.variant,
+                blend: options.blend,
+                format: options.format,
+                host: Some(host),
+            },
         )?;
         Ok(HostFrame {
             stats: staged.stats,
@@ -686,13 +708,17 @@ impl FrameRunner {
         format: TargetFormat,
         timed: usize,
     ) -> Result<TimedRenders, RenderError> {
-        let (image, _) = self
-            .renderer
-            .render_blended(&self.gpu, uploaded, compositing, format)?;
+        let options = RenderOptions {
+            variant: compositing.0,
+            blend: compositing.1,
+            format,
+            host: None,
+        };
+        let (image, _) = self.renderer.render(&self.gpu, uploaded, &options)?;
         let timings = (0..timed.max(1))
             .map(|_| {
                 self.renderer
-                    .render_blended(&self.gpu, uploaded, compositing, format)
+                    .render(&self.gpu, uploaded, &options)
                     .map(|(_, timings)| timings)
             })
             .collect::<Result<_, _>>()?;

@@ -7,7 +7,7 @@
 use std::sync::Arc;
 
 use lensmap::cubemap::CubeMap;
-use lensmap::render::{BlendScheme, Renderer, TargetFormat, Variant};
+use lensmap::render::{BlendScheme, RenderOptions, Renderer, TargetFormat, Variant};
 use lensmap::trace::Term;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
 use rand::SeedableRng;
@@ -36,11 +36,15 @@ fn every_scheme_equals_front_to_back_in_rgba32f() {
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
                 let render = |renderer: &mut Renderer, uploaded: &mut _, blend| {
                     renderer
-                        .render_blended(
+                        .render(
                             &gpu,
                             uploaded,
-                            (Variant::Multipass, blend),
-                            TargetFormat::Rgba32f,
+                            &RenderOptions {
+                                variant: Variant::Multipass,
+                                blend: blend,
+                                format: TargetFormat::Rgba32f,
+                                host: None,
+                            },
                         )
                         .unwrap()
                         .0
@@ -105,11 +109,15 @@ fn schemes_agree_when_layers_groups_and_viewpoints_are_skipped() {
         let mut images = Vec::new();
         for blend in BlendScheme::ALL {
             let (image, _) = renderer
-                .render_blended(
+                .render(
                     &gpu,
                     &mut uploaded,
-                    (Variant::Multipass, blend),
-                    TargetFormat::Rgba32f,
+                    &RenderOptions {
+                        variant: Variant::Multipass,
+                        blend: blend,
+                        format: TargetFormat::Rgba32f,
+                        host: None,
+                    },
                 )
                 .unwrap();
             images.push(image);
@@ -188,11 +196,15 @@ fn the_single_pass_refuses_other_schemes() {
     let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
     for blend in BlendScheme::ALL.into_iter().skip(1) {
         let error = renderer
-            .render_blended(
+            .render(
                 &gpu,
                 &mut uploaded,
-                (Variant::SinglePass, blend),
-                TargetFormat::Rgba32f,
+                &RenderOptions {
+                    variant: Variant::SinglePass,
+                    blend: blend,
+                    format: TargetFormat::Rgba32f,
+                    host: None,
+                },
             )
             .unwrap_err()
             .to_string();

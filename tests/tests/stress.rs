@@ -24,8 +24,8 @@ use lensmap::render::model::{
     CompositeGroup, ModelImage, ModelOptions, composite_by_blending, render_model_with,
 };
 use lensmap::render::{
-    self, EnvironmentMesh, FrameInput, LensFaces, RenderedImage, Renderer, TargetFormat,
-    TermVertices, Variant,
+    self, EnvironmentMesh, FrameInput, LensFaces, RenderOptions, RenderedImage, Renderer,
+    TargetFormat, TermVertices, Variant,
 };
 use lensmap::scene::{
     Camera, Environment, LensObject, Material, Scene, SceneObject, TriangleMesh, ViewSpace, shapes,
@@ -901,7 +901,15 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
     let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant: variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         let (difference, compared) = model_difference(&image, &model);
         println!("slivers, {variant:?}: {compared} pixels, worst |GPU − model| {difference:e}");
@@ -1106,7 +1114,15 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
     let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant: variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         let (difference, compared) = model_difference(&image, &model);
         println!(
@@ -1242,7 +1258,15 @@ fn radiance_past_half_float_range_is_clamped_not_infinite() {
     );
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, timings) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba16f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant: variant,
+                    format: TargetFormat::Rgba16f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         println!(
             "HDR {variant:?}: {} channels came back as ±Inf and were clamped",
@@ -1383,7 +1407,15 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
         let mut uploaded = renderer.upload(&gpu, frame).expect("the frame uploads");
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let (image, _) = renderer
-                .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+                .render(
+                    &gpu,
+                    &mut uploaded,
+                    &RenderOptions {
+                        variant: variant,
+                        format: TargetFormat::Rgba32f,
+                        ..Default::default()
+                    },
+                )
                 .expect("the frame renders");
             let (difference, compared) = model_difference(&image, &model);
             worst_model = worst_model.max(difference);
@@ -1541,7 +1573,15 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let mut uploaded = renderer.upload(&gpu, &uniform).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant: variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         assert!(image.pixels.iter().flatten().all(|v| v.is_finite()));
         for (pixel, _) in image
@@ -1567,7 +1607,15 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let mut worst_outside = 0.0f64;
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant: variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         for (pixel, _) in image
             .pixels

@@ -16,7 +16,7 @@ use lensmap::{
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     metrics::{self, Channels, Encoding, ImageError, Mask},
     render::{
-        BlendScheme, FrameInput, RenderedImage, Renderer, TargetFormat, Variant,
+        BlendScheme, FrameInput, RenderOptions, RenderedImage, Renderer, TargetFormat, Variant,
         synthetic::{SyntheticOptions, sphere_frame},
     },
     runner::{EmSource, FrameRunner, load_hybrid_scene},
@@ -235,7 +235,15 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
             .image;
         for &(variant, blend) in &compositings {
             for format in TargetFormat::ALL {
-                let plan = Renderer::plan_blended(&uploaded, variant, blend, format)?;
+                let plan = Renderer::plan(
+                    &uploaded,
+                    &RenderOptions {
+                        variant,
+                        blend,
+                        format,
+                        host: None,
+                    },
+                )?;
                 let renders = runner.timed_renders_blended(
                     &mut uploaded,
                     (variant, blend),

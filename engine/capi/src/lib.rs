@@ -32,7 +32,7 @@ use lensmap::layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions};
 use lensmap::options::{OptionWords, Worded};
 use lensmap::render::{
     BlendScheme, FrameShape, RenderError, TargetFormat, Variant,
-    plan::{Output, frame_graph_blended},
+    plan::{Output, PlanOptions, frame_graph},
 };
 use lensmap::runner::{EmSource, FrameOptions, FrameRunner, RunError, load_hybrid_scene};
 use lensmap::scene::{Camera, Scene, SceneError};
@@ -1403,12 +1403,14 @@ pub unsafe extern "C" fn lensmap_plan_text(
             terms,
         );
         let (variant, blend) = compositing(options.variant, options.blend)?;
-        let (graph, _) = frame_graph_blended(
+        let (graph, _) = frame_graph(
             &shape,
-            variant,
-            blend,
-            format(options.format, "options->format")?,
-            Output::Readback,
+            &PlanOptions {
+                variant,
+                blend,
+                format: format(options.format, "options->format")?,
+                output: Output::Readback,
+            },
         )
         .map_err(|error| Failure::new(LensmapResult::InvalidArgument, error.to_string()))?;
         let plan = graph

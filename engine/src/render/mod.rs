@@ -19,9 +19,11 @@ mod vulkan;
 pub use frame_input::*;
 pub use host_image::HostImage;
 pub use image::RenderedImage;
-pub use plan::{BlendScheme, FramePlan, FrameShape, Output, TargetFormat, Variant};
+pub use plan::{
+    BlendScheme, FramePlan, FrameShape, Output, PassCategory, PlanOptions, TargetFormat, Variant,
+};
 pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
-pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, Renderer, Submission};
+pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, RenderOptions, Renderer, Submission};
 pub use upload::{FRAMEBUFFER_HEAP_SHARE, UploadedFrame, check_framebuffer};
 
 /// Errors from uploading or rendering a frame.

@@ -618,15 +618,10 @@ impl UploadCache {
             _ => DescriptorPool::new(gpu, set_count)?,
         };
         let checked = &self.checked_cubes;
-        let shape = FrameShape::of_with(frame, |cubes| {
-            cubes
-                .iter()
-                .map(|cube| {
-                    checked
-                        .get(&(Arc::as_ptr(cube) as usize))
-                        .is_some_and(|c| c.empty)
-                })
-                .collect()
+        let shape = FrameShape::of(frame, |cube| {
+            checked
+                .get(&(Arc::as_ptr(cube) as usize))
+                .is_some_and(|c| c.empty)
         });
         let mut lenses = Vec::with_capacity(frame.lenses.len());
         let mut reusable = old_lenses.drain(..).map(Some).collect::<Vec<_>>();

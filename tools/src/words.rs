@@ -17,13 +17,46 @@ impl OptionWords for Flags {
     }
 }
 
+/// The error a `#[error(transparent)]` wrapper holds, through every such wrapper: a transparent
+/// variant's source is its inner error's source, so the chain never shows the inner error.
+fn unwrapped<'a>(
+    cause: &'a (dyn std::error::Error + 'static),
+) -> &'a (dyn std::error::Error + 'static) {
+    use lensmap::runner::RunError;
+    use lensmap_baker::bake::BakeFailure;
+    if let Some(BakeFailure::Run(run)) = cause.downcast_ref::<BakeFailure>() {
+        return unwrapped(run);
+    }
+    if let Some(RunError::Render(render)) = cause.downcast_ref::<RunError>() {
+        return render;
+    }
+    cause
+}
+
 /// `cause` in the command line's words, where it is a library error that names options.
 fn worded(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
-    let as_worded: Option<&dyn Worded> = None.or_else(|| {
-        cause
-            .downcast_ref::<lensmap::options::OptionError>()
-            .map(|e| e as &dyn Worded)
-    });
+    let cause = unwrapped(cause);
+    let as_worded: Option<&dyn Worded> = None
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::options::OptionError>()
+                .map(|e| e as &dyn Worded)
+        })
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::render::RenderError>()
+                .map(|e| e as &dyn Worded)
+        })
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::render::ProgramError>()
+                .map(|e| e as &dyn Worded)
+        })
+        .or_else(|| {
+            cause
+                .downcast_ref::<lensmap::render::FramebufferError>()
+                .map(|e| e as &dyn Worded)
+        });
     as_worded.map(|error| error.worded(&Flags))
 }
 

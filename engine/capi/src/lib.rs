@@ -459,7 +459,7 @@ impl From<RenderError> for Failure {
     fn from(error: RenderError) -> Failure {
         match error {
             RenderError::Gpu(error) => error.into(),
-            RenderError::BadInput(_) | RenderError::Program(_) => {
+            RenderError::BadInput(_) | RenderError::Program(_) | RenderError::Framebuffer(_) => {
                 Failure::new(LensmapResult::InvalidArgument, error.to_string())
             }
         }

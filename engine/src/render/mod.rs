@@ -3,6 +3,7 @@
 //! recording, the renderer that runs them, the graph's types in Vulkan's words), the read-back
 //! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 
+mod budget;
 mod frame_input;
 mod host_image;
 mod image;
@@ -16,6 +17,9 @@ pub mod synthetic;
 mod upload;
 mod vulkan;
 
+use crate::options::{OptionWords, Worded};
+
+pub use budget::{FRAMEBUFFER_HEAP_SHARE, FramebufferError, check_framebuffer};
 pub use frame_input::*;
 pub use host_image::HostImage;
 pub use image::RenderedImage;
@@ -24,7 +28,7 @@ pub use plan::{
 };
 pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, RenderOptions, Renderer, Submission};
-pub use upload::{FRAMEBUFFER_HEAP_SHARE, UploadedFrame, check_framebuffer};
+pub use upload::UploadedFrame;
 
 /// Errors from uploading or rendering a frame.
 #[derive(Debug, thiserror::Error)]
@@ -36,16 +40,36 @@ pub enum RenderError {
     /// single pass supports); the message names the lens and the fix.
     #[error("frame input: {0}")]
     Program(ProgramError),
+    /// The framebuffer does not fit the device; the message names the size, the limit and the
+    /// options that change it.
+    #[error("frame input: {0}")]
+    Framebuffer(FramebufferError),
     /// The GPU failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
 }
 
-// By hand rather than `#[from]`: a `#[from]` field is also the error's source, and the command
-// line, which prints an error with its sources, would then say the same sentence twice.
+// By hand rather than `#[from]`: a `#[from]` field is also the error's source, and a front end
+// that prints an error with its sources would then say the same sentence twice.
 impl From<ProgramError> for RenderError {
     fn from(error: ProgramError) -> RenderError {
         RenderError::Program(error)
+    }
+}
+
+impl From<FramebufferError> for RenderError {
+    fn from(error: FramebufferError) -> RenderError {
+        RenderError::Framebuffer(error)
+    }
+}
+
+impl Worded for RenderError {
+    fn worded(&self, words: &dyn OptionWords) -> String {
+        match self {
+            RenderError::Program(error) => format!("frame input: {}", error.worded(words)),
+            RenderError::Framebuffer(error) => format!("frame input: {}", error.worded(words)),
+            RenderError::BadInput(_) | RenderError::Gpu(_) => self.to_string(),
+        }
     }
 }
 

@@ -256,4 +256,30 @@ mod tests {
             );
         }
     }
+
+    /// The single pass asked to blend names the options by their field names; a front end
+    /// words them its own way.
+    #[test]
+    fn a_blend_for_the_single_pass_names_the_options() {
+        struct Flags;
+        impl OptionWords for Flags {
+            fn option(&self, field: &str) -> String {
+                format!("--{field}")
+            }
+            fn setting(&self, field: &str, value: &str) -> String {
+                format!("--{field} {value}")
+            }
+        }
+        let error = ProgramError::SinglePassBlend {
+            blend: BlendScheme::Programmable,
+        };
+        assert_eq!(
+            error.to_string(),
+            "`blend` = programmable applies to the multipass variant; the single pass composites in registers and does not blend: use `variant` = multipass"
+        );
+        assert_eq!(
+            error.worded(&Flags),
+            "--blend programmable applies to the multipass variant; the single pass composites in registers and does not blend: use --variant multipass"
+        );
+    }
 }

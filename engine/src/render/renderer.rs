@@ -233,7 +233,7 @@ impl Renderer {
         if let Some(targets) = frame.targets.get_mut(&format) {
             let needed = resources.scratch.len();
             if needed > 0 {
-                super::upload::check_scratch_budget(gpu, (width, height), format, needed)?;
+                super::budget::check_scratch_budget(gpu, (width, height), format, needed)?;
             }
             targets.ensure_scratch(gpu, &self.pipelines, needed)?;
         }

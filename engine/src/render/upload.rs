@@ -68,93 +68,6 @@ impl Drop for GpuMesh {
     }
 }
 
-/// Checks a framebuffer of `width × height` subpixels in `format` against the device, before any
-/// work: each side against `maxImageDimension2D`, and the colour, depth and readback targets of
-/// every frame in flight against [`FRAMEBUFFER_HEAP_SHARE`] of the largest device-local heap. A
-/// refusal is bad input naming the size, the limit and the fix.
-pub fn check_framebuffer(
-    gpu: &Gpu,
-    width: u32,
-    height: u32,
-    format: TargetFormat,
-) -> Result<(), RenderError> {
-    check_dimensions(gpu, width, height)?;
-    framebuffer_budget(width, height, format, 0, gpu.device_local_heap_bytes())
-        .map_err(RenderError::BadInput)
-}
-
-/// [`check_framebuffer`]'s budget with `scratch` more framebuffer-sized colour images per frame
-/// (a blending scheme's, [`Scratch`]), checked before they are made.
-pub(super) fn check_scratch_budget(
-    gpu: &Gpu,
-    (width, height): (u32, u32),
-    format: TargetFormat,
-    scratch: usize,
-) -> Result<(), RenderError> {
-    framebuffer_budget(
-        width,
-        height,
-        format,
-        Scratch::layers_for(scratch),
-        gpu.device_local_heap_bytes(),
-    )
-    .map_err(RenderError::BadInput)
-}
-
-/// The share of the largest device-local heap the framebuffer targets may take; the rest is
-/// for layered EMs, light maps, meshes and the driver.
-pub const FRAMEBUFFER_HEAP_SHARE: f64 = 0.75;
-
-fn check_dimensions(gpu: &Gpu, width: u32, height: u32) -> Result<(), RenderError> {
-    let most = gpu.properties().limits.max_image_dimension2_d;
-    if width > most || height > most {
-        return Err(RenderError::BadInput(format!(
-            "the framebuffer is {width}×{height} subpixels, past this device's limit of {most} a side (maxImageDimension2D); give a smaller image or less supersampling (--width/--height/--supersampling)"
-        )));
-    }
-    Ok(())
-}
-
-/// The device memory the targets of [`FRAMES_IN_FLIGHT`] frames of `width × height` subpixels in
-/// `format` take (colour, 32-bit depth, readback, and `scratch` colour images of a blending
-/// scheme), against [`FRAMEBUFFER_HEAP_SHARE`] of `heap_bytes`.
-fn framebuffer_budget(
-    width: u32,
-    height: u32,
-    format: TargetFormat,
-    scratch: u32,
-    heap_bytes: u64,
-) -> Result<(), String> {
-    let colour = u64::from(crate::gpu::format_bytes(super::vulkan::vk_format(
-        format.graph_format(),
-    )));
-    let per_frame = u64::from(width) * u64::from(height) * ((2 + u64::from(scratch)) * colour + 4);
-    let needed = per_frame * super::FRAMES_IN_FLIGHT as u64;
-    let budget = (heap_bytes as f64 * FRAMEBUFFER_HEAP_SHARE) as u64;
-    if needed > budget {
-        let mib = |bytes: u64| bytes as f64 / (1u64 << 20) as f64;
-        return Err(format!(
-            "the framebuffer is {width}×{height} subpixels in {}: its targets{} need {:.0} MiB of device memory ({} frames in flight), past this device's budget of {:.0} MiB ({:.0}% of its largest device-local heap); give a smaller image, less supersampling, a smaller --format{}",
-            format.name(),
-            if scratch > 0 {
-                format!(" and the blending scheme's {scratch} scratch images")
-            } else {
-                String::new()
-            },
-            mib(needed),
-            super::FRAMES_IN_FLIGHT,
-            mib(budget),
-            FRAMEBUFFER_HEAP_SHARE * 100.0,
-            if scratch > 0 {
-                " or --blend front-to-back"
-            } else {
-                ""
-            }
-        ));
-    }
-    Ok(())
-}
-
 /// The attachments and readback buffer of one framebuffer format, and the box filter's
 /// descriptor set of the colour target (for frames rendered into a host's image).
 pub(super) struct Targets {
@@ -563,7 +476,7 @@ impl UploadCache {
         frame: &FrameInput,
         previous: Option<UploadedFrame>,
     ) -> Result<UploadedFrame, RenderError> {
-        check_dimensions(gpu, frame.width, frame.height)?;
+        super::budget::check_dimensions(gpu, frame.width, frame.height)?;
         frame.validate_with(&|address| {
             self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
         })?;
@@ -1087,45 +1000,5 @@ fn write_lens_sets(
         ];
         // SAFETY: the set is not in use; the infos live until return.
         unsafe { device.update_descriptor_sets(&writes, &[]) };
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{FRAMEBUFFER_HEAP_SHARE, framebuffer_budget};
-    use crate::render::{FRAMES_IN_FLIGHT, TargetFormat};
-
-    /// The budget is the targets' bytes, counted independently here: RGBA32F colour (16 bytes),
-    /// its readback (16) and 32-bit depth (4) per subpixel, for every frame in flight.
-    #[test]
-    fn the_framebuffer_budget_counts_every_target_of_every_frame_in_flight() {
-        let (width, height) = (4000u32, 3000u32);
-        let needed = u64::from(width) * u64::from(height) * 36 * FRAMES_IN_FLIGHT as u64;
-        let heap_fitting = (needed as f64 / FRAMEBUFFER_HEAP_SHARE).ceil() as u64 + 1;
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba32f, 0, heap_fitting).is_ok());
-        let error =
-            framebuffer_budget(width, height, TargetFormat::Rgba32f, 0, heap_fitting - 1024)
-                .unwrap_err();
-        assert!(
-            error.contains("4000×3000") && error.contains("--format"),
-            "{error}"
-        );
-        // RGBA8 needs 4 + 4 + 4 bytes a subpixel: a third of RGBA32F's, so it fits there.
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba8, 0, needed / 2).is_ok());
-        assert!(
-            framebuffer_budget(1, 1, TargetFormat::Rgba8, 0, 0).is_err(),
-            "no heap"
-        );
-        // A blending scheme's scratch images count too: four more RGBA32F images (64 bytes a
-        // subpixel) take the frame past the heap that fits the targets alone, naming --blend.
-        let error =
-            framebuffer_budget(width, height, TargetFormat::Rgba32f, 4, heap_fitting).unwrap_err();
-        assert!(
-            error.contains("4 scratch images") && error.contains("--blend"),
-            "{error}"
-        );
-        let with_scratch = u64::from(width) * u64::from(height) * 100 * FRAMES_IN_FLIGHT as u64;
-        let fitting = (with_scratch as f64 / FRAMEBUFFER_HEAP_SHARE).ceil() as u64 + 1;
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba32f, 4, fitting).is_ok());
     }
 }

@@ -3,7 +3,7 @@
 //! blending scheme's scratch images) against a share of the largest device-local heap. A
 //! refusal is a [`FramebufferError`] carrying the sizes and limits, worded by each front end.
 
-use super::{FRAMES_IN_FLIGHT, RenderError, TargetFormat, upload::Scratch};
+use super::{FRAMES_IN_FLIGHT, RenderError, TargetFormat, targets::Scratch};
 use crate::{
     gpu::Gpu,
     options::{LibraryWords, OptionWords, Worded},

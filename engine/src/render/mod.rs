@@ -4,6 +4,7 @@
 //! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 
 mod budget;
+mod descriptors;
 mod frame_input;
 mod host_image;
 mod image;
@@ -14,6 +15,7 @@ pub mod program;
 mod record;
 mod renderer;
 pub mod synthetic;
+mod targets;
 mod upload;
 mod vulkan;
 

@@ -14,7 +14,8 @@ use super::{
     pipelines::Pipelines,
     plan::{BlendScheme, FrameResources, Output, PlanOptions, frame_graph},
     record::Recorder,
-    upload::{Targets, UploadCache, UploadedFrame},
+    targets::Targets,
+    upload::{UploadCache, UploadedFrame},
 };
 use crate::gpu::{Gpu, GpuError, Timeline};
 

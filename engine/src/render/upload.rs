@@ -11,11 +11,13 @@ use ash::vk;
 
 use super::{
     EnvironmentMesh, FrameInput, FrameShape, LensObject, RenderError, TargetFormat,
+    descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
+    targets::Targets,
 };
 use crate::{
     cubemap::CubeMap,
-    gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, Timeline, context::Shared},
+    gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, Timeline},
     trace::Term,
 };
 
@@ -48,185 +50,10 @@ pub(super) struct GpuMesh {
     pub(super) index_count: u32,
     /// Kept alive for the descriptor set.
     _light_map: Arc<Image>,
-    descriptor_pool: vk::DescriptorPool,
+    /// The pool of `set`: no submission using the set is pending when the mesh drops, as every
+    /// uploaded frame holds its meshes until its last submission completed.
+    _descriptor_pool: DescriptorPool,
     pub(super) set: vk::DescriptorSet,
-    shared: Arc<Shared>,
-}
-
-impl Drop for GpuMesh {
-    fn drop(&mut self) {
-        // SAFETY: no submission using the set is pending: every uploaded frame holds its meshes
-        // until its last submission completed (UploadedFrame waits for it before its fields
-        // drop), so the last owner drops the mesh only after that; the pool belongs to this
-        // device. (No idle wait: evicting a moving sky dome's mesh must not stall the frames in
-        // flight.)
-        unsafe {
-            self.shared
-                .device
-                .destroy_descriptor_pool(self.descriptor_pool, None);
-        }
-    }
-}
-
-/// The attachments and readback buffer of one framebuffer format, and the box filter's
-/// descriptor set of the colour target (for frames rendered into a host's image).
-pub(super) struct Targets {
-    pub(super) colour: Image,
-    pub(super) depth: Image,
-    pub(super) readback: Buffer,
-    /// Set 0 of the box filter: `colour`, sampled (a set may outlive the view it names as long as
-    /// it is not used after).
-    pub(super) box_filter_set: vk::DescriptorSet,
-    _box_filter_pool: DescriptorPool,
-    /// The blending schemes' scratch images, made when a plan first needs them.
-    pub(super) scratch: Option<Scratch>,
-}
-
-/// Framebuffer-sized scratch images (layers of one 2D-array image, in the framebuffer's format)
-/// and the sets that sample them. Each set's view covers exactly the layers a pass reads, so no
-/// view a draw samples overlaps an attachment or a layer the frame never wrote.
-pub(super) struct Scratch {
-    pub(super) image: Image,
-    /// `layer_sets[k]`: layer k alone (2D; the programmable layer's set 1).
-    pub(super) layer_sets: Vec<vk::DescriptorSet>,
-    /// `prefix_sets[c − 1]`: layers 0..c (2D array; the group sum's set 0 for c groups).
-    pub(super) prefix_sets: Vec<vk::DescriptorSet>,
-    /// The prefix views, destroyed with the scratch images.
-    prefix_views: Vec<vk::ImageView>,
-    _pool: DescriptorPool,
-    shared: Arc<Shared>,
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        // SAFETY: the owning frame waited for its last submission; the views are this image's.
-        unsafe {
-            for view in &self.prefix_views {
-                self.shared.device.destroy_image_view(*view, None);
-            }
-        }
-    }
-}
-
-impl Scratch {
-    /// The layers made for `needed` scratch images: at least two, so the image is an array with
-    /// a 2D view per layer.
-    pub(super) fn layers_for(needed: usize) -> u32 {
-        if needed == 0 { 0 } else { needed.max(2) as u32 }
-    }
-
-    fn new(
-        gpu: &Gpu,
-        pipelines: &Pipelines,
-        format: vk::Format,
-        (width, height): (u32, u32),
-        layers: u32,
-    ) -> Result<Scratch, GpuError> {
-        let layers = Self::layers_for(layers as usize);
-        let image = Image::new(
-            gpu,
-            ImageDesc::scratch_targets("scratch", format, width, height, layers),
-        )?;
-        let pool = DescriptorPool::with_sizes(
-            gpu,
-            2 * layers,
-            &[vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 2 * layers,
-            }],
-        )?;
-        let mut scratch = Scratch {
-            layer_sets: Vec::new(),
-            prefix_sets: Vec::new(),
-            prefix_views: Vec::new(),
-            image,
-            _pool: pool,
-            shared: gpu.shared.clone(),
-        };
-        for count in 1..=layers {
-            let range = vk::ImageSubresourceRange {
-                layer_count: count,
-                ..scratch.image.full_range()
-            };
-            let info = vk::ImageViewCreateInfo::default()
-                .image(scratch.image.handle)
-                .view_type(vk::ImageViewType::TYPE_2D_ARRAY)
-                .format(format)
-                .subresource_range(range);
-            // SAFETY: the view covers the image's own layers; destroyed in Drop.
-            let view =
-                unsafe { gpu.device().create_image_view(&info, None) }.map_err(|result| {
-                    GpuError::Vulkan {
-                        call: "vkCreateImageView",
-                        result,
-                    }
-                })?;
-            scratch.prefix_views.push(view);
-        }
-        for k in 0..layers as usize {
-            let view = scratch.image.layer_views[k];
-            let set = sampled_image_set_in(gpu, pipelines, &scratch._pool, view)?;
-            scratch.layer_sets.push(set);
-            let set =
-                sampled_image_set_in(gpu, pipelines, &scratch._pool, scratch.prefix_views[k])?;
-            scratch.prefix_sets.push(set);
-        }
-        Ok(scratch)
-    }
-}
-
-/// A pool of one set of the one-sampled-image layout (the box filter's), and the set, naming
-/// `view`.
-fn sampled_image_set(
-    gpu: &Gpu,
-    pipelines: &Pipelines,
-    view: vk::ImageView,
-) -> Result<(DescriptorPool, vk::DescriptorSet), GpuError> {
-    let pool = DescriptorPool::with_sizes(
-        gpu,
-        1,
-        &[vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::SAMPLED_IMAGE,
-            descriptor_count: 1,
-        }],
-    )?;
-    let set = sampled_image_set_in(gpu, pipelines, &pool, view)?;
-    Ok((pool, set))
-}
-
-/// A set of the one-sampled-image layout from `pool`, naming `view`.
-fn sampled_image_set_in(
-    gpu: &Gpu,
-    pipelines: &Pipelines,
-    pool: &DescriptorPool,
-    view: vk::ImageView,
-) -> Result<vk::DescriptorSet, GpuError> {
-    let layouts = [pipelines.box_filter_set_layout];
-    // SAFETY: the pool was sized for its sets; it is destroyed with its owner.
-    let set = unsafe {
-        gpu.device().allocate_descriptor_sets(
-            &vk::DescriptorSetAllocateInfo::default()
-                .descriptor_pool(pool.handle)
-                .set_layouts(&layouts),
-        )
-    }
-    .map_err(|result| GpuError::Vulkan {
-        call: "vkAllocateDescriptorSets",
-        result,
-    })?[0];
-    let image = [vk::DescriptorImageInfo {
-        sampler: vk::Sampler::null(),
-        image_view: view,
-        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-    }];
-    let write = vk::WriteDescriptorSet::default()
-        .dst_set(set)
-        .dst_binding(0)
-        .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-        .image_info(&image);
-    // SAFETY: the set is new and unused; the info lives until return.
-    unsafe { gpu.device().update_descriptor_sets(&[write], &[]) };
-    Ok(set)
 }
 
 /// A frame's data uploaded once and rendered any number of times, in any variant and format.
@@ -258,155 +85,10 @@ impl Drop for UploadedFrame {
     }
 }
 
-/// A descriptor pool that destroys itself; its sets are reset together when a frame is uploaded
-/// into it again.
-struct DescriptorPool {
-    shared: Arc<Shared>,
-    handle: vk::DescriptorPool,
-    /// Sets it was sized for.
-    capacity: u32,
-}
-
-impl DescriptorPool {
-    /// A pool for `sets` lens descriptor sets.
-    fn new(gpu: &Gpu, sets: u32) -> Result<DescriptorPool, GpuError> {
-        Self::with_sizes(
-            gpu,
-            sets,
-            &[
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::STORAGE_BUFFER,
-                    descriptor_count: sets,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::SAMPLED_IMAGE,
-                    descriptor_count: 2 * sets,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::SAMPLER,
-                    descriptor_count: sets,
-                },
-            ],
-        )
-    }
-
-    /// A pool for `sets` sets holding `pool_sizes` descriptors in all.
-    fn with_sizes(
-        gpu: &Gpu,
-        sets: u32,
-        pool_sizes: &[vk::DescriptorPoolSize],
-    ) -> Result<DescriptorPool, GpuError> {
-        // SAFETY: valid create info; destroyed by Drop.
-        let handle = unsafe {
-            gpu.device().create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(sets)
-                    .pool_sizes(pool_sizes),
-                None,
-            )
-        }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkCreateDescriptorPool",
-            result,
-        })?;
-        Ok(DescriptorPool {
-            shared: gpu.shared.clone(),
-            handle,
-            capacity: sets,
-        })
-    }
-
-    /// Frees every set of the pool at once. No submission that uses them may be pending.
-    fn reset(&self) -> Result<(), GpuError> {
-        // SAFETY: the caller waited for the sets' last use (UploadedFrame::last_submission).
-        unsafe {
-            self.shared
-                .device
-                .reset_descriptor_pool(self.handle, vk::DescriptorPoolResetFlags::empty())
-        }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkResetDescriptorPool",
-            result,
-        })
-    }
-}
-
-impl Drop for DescriptorPool {
-    fn drop(&mut self) {
-        // SAFETY: the owning frame waited for its last submission before dropping its fields.
-        unsafe {
-            self.shared
-                .device
-                .destroy_descriptor_pool(self.handle, None)
-        };
-    }
-}
-
 impl UploadedFrame {
     /// The frame's shape (what its plan depends on).
     pub fn shape(&self) -> &FrameShape {
         &self.shape
-    }
-}
-
-impl Targets {
-    /// Colour and depth attachments of `width × height`, a readback buffer for the colour and
-    /// the box filter's set reading it.
-    pub(super) fn new(
-        gpu: &Gpu,
-        pipelines: &Pipelines,
-        format: TargetFormat,
-        width: u32,
-        height: u32,
-    ) -> Result<Targets, GpuError> {
-        let colour_format = super::vulkan::vk_format(format.graph_format());
-        let colour = Image::new(
-            gpu,
-            ImageDesc::colour_target("colour", colour_format, width, height),
-        )?;
-        let (pool, set) = sampled_image_set(gpu, pipelines, colour.view)?;
-        Ok(Targets {
-            colour,
-            box_filter_set: set,
-            _box_filter_pool: pool,
-            scratch: None,
-            depth: Image::new(gpu, ImageDesc::depth_target("depth", width, height))?,
-            readback: Buffer::new(
-                gpu,
-                "readback",
-                u64::from(width)
-                    * u64::from(height)
-                    * u64::from(crate::gpu::format_bytes(colour_format)),
-                BufferUsage::Readback,
-            )?,
-        })
-    }
-}
-
-impl Targets {
-    /// Makes sure the targets hold at least `layers` scratch images (none needed: nothing made).
-    /// No submission using the previous scratch images may be pending.
-    pub(super) fn ensure_scratch(
-        &mut self,
-        gpu: &Gpu,
-        pipelines: &Pipelines,
-        layers: usize,
-    ) -> Result<(), GpuError> {
-        let have = self
-            .scratch
-            .as_ref()
-            .map_or(0, |s| s.image.desc.array_layers as usize);
-        if layers > have {
-            let extent = self.colour.desc.extent;
-            self.scratch = Some(Scratch::new(
-                gpu,
-                pipelines,
-                self.colour.desc.format,
-                (extent.width, extent.height),
-                layers as u32,
-            )?);
-        }
-        Ok(())
     }
 }
 
@@ -524,11 +206,11 @@ impl UploadCache {
             None => (None, HashMap::new(), Vec::new()),
         };
         let pool = match pool {
-            Some(pool) if pool.capacity >= set_count => {
+            Some(pool) if pool.capacity() >= set_count => {
                 pool.reset()?;
                 pool
             }
-            _ => DescriptorPool::new(gpu, set_count)?,
+            _ => DescriptorPool::new(gpu, LENS_SET, set_count)?,
         };
         let checked = &self.checked_cubes;
         let shape = FrameShape::of(frame, |cube| {
@@ -540,7 +222,7 @@ impl UploadCache {
         let mut reusable = old_lenses.drain(..).map(Some).collect::<Vec<_>>();
         for (index, lens) in frame.lenses.iter().enumerate() {
             let old = reusable.get_mut(index).and_then(Option::take);
-            lenses.push(self.upload_lens(gpu, pipelines, pool.handle, index, lens, old)?);
+            lenses.push(self.upload_lens(gpu, pipelines, &pool, index, lens, old)?);
         }
         let uploaded = UploadedFrame {
             shape,
@@ -673,7 +355,15 @@ impl UploadCache {
             .flat_map(|uv| uv.to_array())
             .flat_map(f32::to_le_bytes)
             .collect();
-        let (descriptor_pool, set) = light_map_set(gpu, pipelines, &light_map)?;
+        let descriptor_pool = DescriptorPool::new(gpu, ENVIRONMENT_SET, 1)?;
+        let set = descriptor_pool.allocate_one(
+            gpu,
+            (pipelines.environment_set_layout, ENVIRONMENT_SET),
+            &[
+                Resource::Image(light_map.view),
+                Resource::Sampler(pipelines.light_map_sampler),
+            ],
+        )?;
         let buffers = Arc::new(GpuMesh {
             positions: Buffer::with_data(
                 gpu,
@@ -691,9 +381,8 @@ impl UploadCache {
             indices: Buffer::with_data(gpu, "environment indices", &indices, BufferUsage::Index)?,
             index_count: (mesh.triangles.len() * 3) as u32,
             _light_map: light_map,
-            descriptor_pool,
+            _descriptor_pool: descriptor_pool,
             set,
-            shared: gpu.shared.clone(),
         });
         self.mesh_cache.insert(
             key,
@@ -772,7 +461,7 @@ impl UploadCache {
         &mut self,
         gpu: &Gpu,
         pipelines: &Pipelines,
-        pool: vk::DescriptorPool,
+        pool: &DescriptorPool,
         index: usize,
         lens: &LensObject,
         old: Option<GpuLens>,
@@ -814,20 +503,8 @@ impl UploadCache {
             layers.push(self.layer_image(gpu, &format!("lens{index}/em{viewpoint}"), cubes)?);
         }
 
-        let layouts = vec![pipelines.lens_set_layout; layers.len()];
-        let device = gpu.device();
-        // SAFETY: the pool was sized for one set per (lens, viewpoint).
-        let sets = unsafe {
-            device.allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default()
-                    .descriptor_pool(pool)
-                    .set_layouts(&layouts),
-            )
-        }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkAllocateDescriptorSets",
-            result,
-        })?;
+        // The pool was sized for one set per (lens, viewpoint).
+        let sets = pool.allocate(pipelines.lens_set_layout, layers.len())?;
         write_lens_sets(gpu, pipelines, &sets, &data, &layers);
         Ok(GpuLens {
             data,
@@ -864,83 +541,6 @@ fn reuse_or_new(
     Ok(buffer)
 }
 
-/// A descriptor pool of one environment set and that set, pointing at `light_map` and the
-/// light-map sampler.
-fn light_map_set(
-    gpu: &Gpu,
-    pipelines: &Pipelines,
-    light_map: &Image,
-) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
-    let device = gpu.device();
-    let sizes = [
-        vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::SAMPLED_IMAGE,
-            descriptor_count: 1,
-        },
-        vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::SAMPLER,
-            descriptor_count: 1,
-        },
-    ];
-    // SAFETY: valid create info; destroyed by GpuMesh::drop (or below on failure).
-    let pool = unsafe {
-        device.create_descriptor_pool(
-            &vk::DescriptorPoolCreateInfo::default()
-                .max_sets(1)
-                .pool_sizes(&sizes),
-            None,
-        )
-    }
-    .map_err(|result| GpuError::Vulkan {
-        call: "vkCreateDescriptorPool",
-        result,
-    })?;
-    let layouts = [pipelines.environment_set_layout];
-    // SAFETY: the pool was sized for this one set.
-    let sets = unsafe {
-        device.allocate_descriptor_sets(
-            &vk::DescriptorSetAllocateInfo::default()
-                .descriptor_pool(pool)
-                .set_layouts(&layouts),
-        )
-    };
-    let set = match sets {
-        Ok(sets) => sets[0],
-        Err(result) => {
-            // SAFETY: the pool is unused.
-            unsafe { device.destroy_descriptor_pool(pool, None) };
-            return Err(GpuError::Vulkan {
-                call: "vkAllocateDescriptorSets",
-                result,
-            });
-        }
-    };
-    let image = [vk::DescriptorImageInfo {
-        sampler: vk::Sampler::null(),
-        image_view: light_map.view,
-        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-    }];
-    let sampler = [vk::DescriptorImageInfo {
-        sampler: pipelines.light_map_sampler,
-        ..Default::default()
-    }];
-    let writes = [
-        vk::WriteDescriptorSet::default()
-            .dst_set(set)
-            .dst_binding(0)
-            .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-            .image_info(&image),
-        vk::WriteDescriptorSet::default()
-            .dst_set(set)
-            .dst_binding(1)
-            .descriptor_type(vk::DescriptorType::SAMPLER)
-            .image_info(&sampler),
-    ];
-    // SAFETY: the set is new and unused; the infos live until return.
-    unsafe { device.update_descriptor_sets(&writes, &[]) };
-    Ok((pool, set))
-}
-
 /// Points every descriptor set of a lens object (one per viewpoint) at its data buffer, its own
 /// viewpoint's cube-map array (binding 1), the other viewpoint's (binding 2) and the sampler.
 /// The sets must not be in use by a pending submission.
@@ -951,54 +551,18 @@ fn write_lens_sets(
     data: &Buffer,
     layers: &[Arc<Image>],
 ) {
-    let device = gpu.device();
     for (viewpoint, set) in sets.iter().enumerate() {
         let other = if layers.len() > 1 {
             1 - viewpoint.min(1)
         } else {
             viewpoint
         };
-        let buffer_info = [vk::DescriptorBufferInfo {
-            buffer: data.handle,
-            offset: 0,
-            range: vk::WHOLE_SIZE,
-        }];
-        let image_a = [vk::DescriptorImageInfo {
-            sampler: vk::Sampler::null(),
-            image_view: layers[viewpoint].view,
-            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        }];
-        let image_b = [vk::DescriptorImageInfo {
-            image_view: layers[other].view,
-            ..image_a[0]
-        }];
-        let sampler = [vk::DescriptorImageInfo {
-            sampler: pipelines.sampler,
-            ..Default::default()
-        }];
-        let writes = [
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(0)
-                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                .buffer_info(&buffer_info),
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(1)
-                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-                .image_info(&image_a),
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(2)
-                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-                .image_info(&image_b),
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(3)
-                .descriptor_type(vk::DescriptorType::SAMPLER)
-                .image_info(&sampler),
+        let resources = [
+            Resource::Buffer(data.handle),
+            Resource::Image(layers[viewpoint].view),
+            Resource::Image(layers[other].view),
+            Resource::Sampler(pipelines.sampler),
         ];
-        // SAFETY: the set is not in use; the infos live until return.
-        unsafe { device.update_descriptor_sets(&writes, &[]) };
+        write_set(gpu, *set, LENS_SET, &resources);
     }
 }

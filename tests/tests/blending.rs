@@ -230,13 +230,13 @@ fn the_single_pass_refuses_other_schemes() {
 /// two viewpoints: the schemes are one closed form.
 #[test]
 fn the_models_of_every_scheme_agree_to_f64_rounding() {
-    use lensmap::render::model::{ModelOptions, render_model_with};
+    use lensmap::render::model::{ModelOptions, render_model};
     let mut rng = Pcg64::seed_from_u64(0x40de1);
     let both = [Term::Refraction, Term::Reflection];
     for (layers, viewpoints, terms) in [(3, 2, &both[..]), (2, 1, &[Term::Reflection][..])] {
         let frame = random_compositor_frame(&mut rng, 48, layers, viewpoints, terms);
         let model = |blend| {
-            render_model_with(
+            render_model(
                 &frame,
                 &ModelOptions {
                     blend,

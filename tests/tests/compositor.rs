@@ -17,7 +17,7 @@ use lensmap::gpu::Gpu;
 use lensmap::render::{
     BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer, TargetFormat,
     Variant,
-    model::{FilterPrecision, ModelImage, ModelOptions, render_model_with},
+    model::{FilterPrecision, ModelImage, ModelOptions, render_model},
 };
 use lensmap::trace::Term;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
@@ -136,7 +136,7 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
                     )
                     .unwrap();
 
-                let model = render_model_with(&frame, &tolerance.model_options());
+                let model = render_model(&frame, &tolerance.model_options());
                 let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
                 let compared = model.comparable_lens_pixels();
                 let case = format!("n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}");
@@ -252,7 +252,7 @@ fn every_blending_scheme_matches_its_f64_model() {
                         blend,
                         ..tolerance.model_options()
                     };
-                    let model = render_model_with(&frame, &options);
+                    let model = render_model(&frame, &options);
                     let case = format!(
                         "{}: n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}",
                         blend.name()
@@ -341,7 +341,7 @@ fn the_bound_check_rejects_wrong_frames() {
             precision: Some(precision),
             ..ModelOptions::lavapipe()
         };
-        let model = render_model_with(&frame, &options);
+        let model = render_model(&frame, &options);
         let compared: Vec<usize> = (0..model.rgba.len())
             .filter(|&i| model.lens_mask[i] && model.exclusion[i].is_none())
             .collect();
@@ -589,7 +589,7 @@ fn the_geometric_lens_mask_is_the_models_lens_coverage() {
     let frame = random_frame(&mut rng, 2, 2, &both);
     let mut runner = lensmap::runner::FrameRunner::new(gpu()).unwrap();
     let mask = runner.lens_coverage(&frame).unwrap();
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
+    let model = render_model(&frame, &ModelOptions::lavapipe());
     let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
     assert!(lens_pixels > 1500, "the lens covers {lens_pixels} pixels");
     let mut compared = 0;

@@ -21,7 +21,7 @@ use lensmap::layers::LayerShell;
 use lensmap::layers::projected::{ProjectedOptions, em_origin, layer_range, project_layers};
 use lensmap::lightmap::LightMapOptions;
 use lensmap::render::model::{
-    CompositeGroup, ModelImage, ModelOptions, composite_by_blending, render_model_with,
+    CompositeGroup, ModelImage, ModelOptions, composite_by_blending, render_model,
 };
 use lensmap::render::{
     self, EnvironmentMesh, FrameInput, LensFaces, RenderOptions, RenderedImage, Renderer,
@@ -897,7 +897,7 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
     );
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
+    let model = render_model(&frame, &ModelOptions::lavapipe());
     let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
@@ -1110,7 +1110,7 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
     }
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
+    let model = render_model(&frame, &ModelOptions::lavapipe());
     let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
@@ -1244,7 +1244,7 @@ fn radiance_past_half_float_range_is_clamped_not_infinite() {
     );
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
+    let model = render_model(&frame, &ModelOptions::lavapipe());
     let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
     let over_range = model
         .rgba
@@ -1403,7 +1403,7 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
     let mut renderer = Renderer::new(&gpu).expect("renderer");
     let (mut worst_model, mut worst_closed) = (0.0f64, 0.0f64);
     for (name, frame) in [("random", &random), ("uniform", &uniform)] {
-        let model = render_model_with(frame, &ModelOptions::lavapipe());
+        let model = render_model(frame, &ModelOptions::lavapipe());
         let mut uploaded = renderer.upload(&gpu, frame).expect("the frame uploads");
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let (image, _) = renderer
@@ -1568,7 +1568,7 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     );
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let lens_mask = render_model_with(&uniform, &ModelOptions::lavapipe()).lens_mask;
+    let lens_mask = render_model(&uniform, &ModelOptions::lavapipe()).lens_mask;
     let mut worst_uniform = 0.0f64;
     let mut uploaded = renderer.upload(&gpu, &uniform).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {

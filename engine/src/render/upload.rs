@@ -159,7 +159,7 @@ impl UploadCache {
         previous: Option<UploadedFrame>,
     ) -> Result<UploadedFrame, RenderError> {
         super::budget::check_dimensions(gpu, frame.width, frame.height)?;
-        frame.validate_with(&|address| {
+        frame.validate_unless_checked(&|address| {
             self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
         })?;
         self.generation += 1;

@@ -33,31 +33,31 @@ fn unwrapped<'a>(
     cause
 }
 
+/// A look at whether an error is one of the library's errors that name options.
+type Downcast = for<'a> fn(&'a (dyn std::error::Error + 'static)) -> Option<&'a dyn Worded>;
+
+/// `cause` as a [`Worded`] error, when it is a `T`.
+fn downcast<'a, T: Worded + 'static>(
+    cause: &'a (dyn std::error::Error + 'static),
+) -> Option<&'a dyn Worded> {
+    cause.downcast_ref::<T>().map(|e| e as &dyn Worded)
+}
+
+/// The library's errors that name options.
+const WORDED_ERRORS: [Downcast; 4] = [
+    downcast::<lensmap::options::OptionError>,
+    downcast::<lensmap::render::RenderError>,
+    downcast::<lensmap::render::ProgramError>,
+    downcast::<lensmap::render::FramebufferError>,
+];
+
 /// `cause` in the command line's words, where it is a library error that names options.
 fn worded(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
     let cause = unwrapped(cause);
-    let as_worded: Option<&dyn Worded> = None
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap::options::OptionError>()
-                .map(|e| e as &dyn Worded)
-        })
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap::render::RenderError>()
-                .map(|e| e as &dyn Worded)
-        })
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap::render::ProgramError>()
-                .map(|e| e as &dyn Worded)
-        })
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap::render::FramebufferError>()
-                .map(|e| e as &dyn Worded)
-        });
-    as_worded.map(|error| error.worded(&Flags))
+    WORDED_ERRORS
+        .into_iter()
+        .find_map(|as_worded| as_worded(cause))
+        .map(|error| error.worded(&Flags))
 }
 
 /// The error chain in one line, in the command line's words: each cause once (a cause whose text

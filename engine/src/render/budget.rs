@@ -177,19 +177,8 @@ fn framebuffer_budget(
 #[cfg(test)]
 mod tests {
     use super::{FRAMEBUFFER_HEAP_SHARE, FramebufferError, framebuffer_budget};
-    use crate::options::{OptionWords, Worded};
-    use crate::render::{FRAMES_IN_FLIGHT, TargetFormat};
-
-    /// Options as a command line would name them.
-    struct Flags;
-    impl OptionWords for Flags {
-        fn option(&self, field: &str) -> String {
-            format!("--{field}")
-        }
-        fn setting(&self, field: &str, value: &str) -> String {
-            format!("--{field} {value}")
-        }
-    }
+    use crate::options::Worded;
+    use crate::render::{FRAMES_IN_FLIGHT, TargetFormat, tests::Flags};
 
     /// The budget is the targets' bytes, counted independently here: RGBA32F colour (16 bytes),
     /// its readback (16) and 32-bit depth (4) per subpixel, for every frame in flight.

@@ -79,6 +79,19 @@ impl Worded for RenderError {
 mod tests {
     use super::*;
 
+    /// Options as a command line would name them, for the tests of worded errors.
+    pub(super) struct Flags;
+
+    impl OptionWords for Flags {
+        fn option(&self, field: &str) -> String {
+            format!("--{field}")
+        }
+
+        fn setting(&self, field: &str, value: &str) -> String {
+            format!("--{field} {value}")
+        }
+    }
+
     #[test]
     fn a_program_error_is_said_once() {
         let error = RenderError::from(ProgramError::TooManyLayers {

@@ -261,15 +261,7 @@ mod tests {
     /// words them its own way.
     #[test]
     fn a_blend_for_the_single_pass_names_the_options() {
-        struct Flags;
-        impl OptionWords for Flags {
-            fn option(&self, field: &str) -> String {
-                format!("--{field}")
-            }
-            fn setting(&self, field: &str, value: &str) -> String {
-                format!("--{field} {value}")
-            }
-        }
+        use crate::render::tests::Flags;
         let error = ProgramError::SinglePassBlend {
             blend: BlendScheme::Programmable,
         };

@@ -405,20 +405,37 @@ impl Recorder<'_> {
         set: vk::DescriptorSet,
         constants: &[u8],
     ) {
+        self.bind(
+            cb,
+            layout,
+            &[set],
+            (vk::ShaderStageFlags::FRAGMENT, constants),
+        );
+        // SAFETY: recording inside a rendering instance with the matching pipeline bound.
+        unsafe { self.gpu.device().cmd_draw(cb, 3, 1, 0, 0) };
+    }
+
+    /// Binds `sets` as sets 0.. of `layout` and pushes `constants` to `stages`.
+    fn bind(
+        &self,
+        cb: vk::CommandBuffer,
+        layout: vk::PipelineLayout,
+        sets: &[vk::DescriptorSet],
+        (stages, constants): (vk::ShaderStageFlags, &[u8]),
+    ) {
         let device = self.gpu.device();
-        // SAFETY: recording inside a rendering instance with the matching pipeline bound; the
-        // set lives as long as the frame's targets.
+        // SAFETY: recording with a pipeline of `layout` bound; the sets live as long as the
+        // frame and its targets.
         unsafe {
             device.cmd_bind_descriptor_sets(
                 cb,
                 vk::PipelineBindPoint::GRAPHICS,
                 layout,
                 0,
-                &[set],
+                sets,
                 &[],
             );
-            device.cmd_push_constants(cb, layout, vk::ShaderStageFlags::FRAGMENT, 0, constants);
-            device.cmd_draw(cb, 3, 1, 0, 0);
+            device.cmd_push_constants(cb, layout, stages, 0, constants);
         }
     }
 
@@ -426,28 +443,18 @@ impl Recorder<'_> {
     fn environment(&self, cb: vk::CommandBuffer, mesh: usize) {
         let (device, frame) = (self.gpu.device(), self.frame);
         let mesh = &frame.environment[mesh];
-        let layout = self.pipelines.environment_layout;
         let constants = EnvironmentConstants {
             view_proj: frame.view_proj,
         };
+        self.bind(
+            cb,
+            self.pipelines.environment_layout,
+            &[mesh.set],
+            (vk::ShaderStageFlags::VERTEX, bytemuck::bytes_of(&constants)),
+        );
         // SAFETY: recording inside a rendering instance with the environment pipeline bound;
-        // buffers and sets live as long as `frame`.
+        // the buffers live as long as `frame`.
         unsafe {
-            device.cmd_push_constants(
-                cb,
-                layout,
-                vk::ShaderStageFlags::VERTEX,
-                0,
-                bytemuck::bytes_of(&constants),
-            );
-            device.cmd_bind_descriptor_sets(
-                cb,
-                vk::PipelineBindPoint::GRAPHICS,
-                layout,
-                0,
-                &[mesh.set],
-                &[],
-            );
             device.cmd_bind_vertex_buffers(
                 cb,
                 0,
@@ -524,25 +531,19 @@ impl Recorder<'_> {
                 )
             }
         };
+        self.bind(
+            cb,
+            layout,
+            &sets[..set_count],
+            (
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                bytemuck::bytes_of(&constants),
+            ),
+        );
         let device = self.gpu.device();
         // SAFETY: recording inside a rendering instance with the matching lens pipeline bound;
-        // buffers and sets live as long as the frame.
+        // the index buffer lives as long as the frame.
         unsafe {
-            device.cmd_bind_descriptor_sets(
-                cb,
-                vk::PipelineBindPoint::GRAPHICS,
-                layout,
-                0,
-                &sets[..set_count],
-                &[],
-            );
-            device.cmd_push_constants(
-                cb,
-                layout,
-                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                0,
-                bytemuck::bytes_of(&constants),
-            );
             device.cmd_bind_index_buffer(cb, gpu_lens.indices.handle, 0, vk::IndexType::UINT32);
             device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
         }

@@ -99,22 +99,20 @@ impl<'a> FrameSetup<'a> {
             clipped: vec![false; width * height],
             groups: Vec::new(),
         };
-        for (mesh, environment) in frame.environment.iter().enumerate() {
-            let clip: Vec<DVec4> = environment
-                .positions
+        let to_clip = |positions: &[glam::Vec3]| -> Vec<DVec4> {
+            positions
                 .iter()
                 .map(|p| view_proj * p.as_dvec3().extend(1.0))
-                .collect();
+                .collect()
+        };
+        for (mesh, environment) in frame.environment.iter().enumerate() {
+            let clip = to_clip(&environment.positions);
             for triangle in &environment.triangles {
                 setup.add_triangle(Source::Environment { mesh }, &clip, *triangle);
             }
         }
         for (object, lens) in frame.lenses.iter().enumerate() {
-            let clip: Vec<DVec4> = lens
-                .positions
-                .iter()
-                .map(|p| view_proj * p.as_dvec3().extend(1.0))
-                .collect();
+            let clip = to_clip(&lens.positions);
             for triangle in &lens.triangles {
                 setup.add_triangle(Source::Lens { object }, &clip, *triangle);
             }

@@ -41,7 +41,7 @@ fn every_scheme_equals_front_to_back_in_rgba32f() {
                             uploaded,
                             &RenderOptions {
                                 variant: Variant::Multipass,
-                                blend: blend,
+                                blend,
                                 format: TargetFormat::Rgba32f,
                                 host: None,
                             },
@@ -114,7 +114,7 @@ fn schemes_agree_when_layers_groups_and_viewpoints_are_skipped() {
                     &mut uploaded,
                     &RenderOptions {
                         variant: Variant::Multipass,
-                        blend: blend,
+                        blend,
                         format: TargetFormat::Rgba32f,
                         host: None,
                     },
@@ -201,7 +201,7 @@ fn the_single_pass_refuses_other_schemes() {
                 &mut uploaded,
                 &RenderOptions {
                     variant: Variant::SinglePass,
-                    blend: blend,
+                    blend,
                     format: TargetFormat::Rgba32f,
                     host: None,
                 },

@@ -242,7 +242,7 @@ fn every_blending_scheme_matches_its_f64_model() {
                             &mut uploaded,
                             &RenderOptions {
                                 variant: Variant::Multipass,
-                                blend: blend,
+                                blend,
                                 format: TargetFormat::Rgba32f,
                                 host: None,
                             },
@@ -424,7 +424,7 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
                     &gpu,
                     &mut a,
                     &RenderOptions {
-                        variant: variant,
+                        variant,
                         format: TargetFormat::Rgba32f,
                         ..Default::default()
                     },
@@ -435,7 +435,7 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
                     &gpu,
                     &mut b,
                     &RenderOptions {
-                        variant: variant,
+                        variant,
                         format: TargetFormat::Rgba32f,
                         ..Default::default()
                     },
@@ -550,7 +550,7 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
                 &gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba32f,
                     ..Default::default()
                 },
@@ -561,7 +561,7 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
                 &gpu,
                 &mut fresh,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba32f,
                     ..Default::default()
                 },

@@ -247,7 +247,7 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
                 &by_hand_gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba32f,
                     ..Default::default()
                 },

@@ -905,7 +905,7 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
                 &gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba32f,
                     ..Default::default()
                 },
@@ -1118,7 +1118,7 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
                 &gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba32f,
                     ..Default::default()
                 },
@@ -1262,7 +1262,7 @@ fn radiance_past_half_float_range_is_clamped_not_infinite() {
                 &gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba16f,
                     ..Default::default()
                 },
@@ -1411,7 +1411,7 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
                     &gpu,
                     &mut uploaded,
                     &RenderOptions {
-                        variant: variant,
+                        variant,
                         format: TargetFormat::Rgba32f,
                         ..Default::default()
                     },
@@ -1577,7 +1577,7 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
                 &gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba32f,
                     ..Default::default()
                 },
@@ -1611,7 +1611,7 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
                 &gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant: variant,
+                    variant,
                     format: TargetFormat::Rgba32f,
                     ..Default::default()
                 },

@@ -422,21 +422,32 @@ fn rendering_instance<D: Clone, P: Clone, C: Clone>(
     let PassKind::Draw { colour, depth, .. } = &group[0].kind else {
         return Vec::new();
     };
-    let store = |f: &dyn Fn(&Pass<D, P, C>) -> Option<StoreOp>| {
-        if group.iter().any(|p| f(p) == Some(StoreOp::Store)) {
+    // An attachment is stored when any pass of the instance stores it.
+    let store = |stores: Vec<StoreOp>| {
+        if stores.contains(&StoreOp::Store) {
             StoreOp::Store
         } else {
             StoreOp::DontCare
         }
     };
-    let colour_store = store(&|p| match &p.kind {
-        PassKind::Draw { colour, .. } => Some(colour.store),
-        _ => None,
-    });
-    let depth_store = store(&|p| match &p.kind {
-        PassKind::Draw { depth, .. } => depth.map(|d: DepthAttachment| d.store),
-        _ => None,
-    });
+    let colour_store = store(
+        group
+            .iter()
+            .filter_map(|p| match &p.kind {
+                PassKind::Draw { colour, .. } => Some(colour.store),
+                _ => None,
+            })
+            .collect(),
+    );
+    let depth_store = store(
+        group
+            .iter()
+            .filter_map(|p| match &p.kind {
+                PassKind::Draw { depth, .. } => depth.map(|d: DepthAttachment| d.store),
+                _ => None,
+            })
+            .collect(),
+    );
     let instance = RenderingInstance {
         colour: (colour.image, colour.load, colour_store),
         depth: depth.map(|d| (d.image, d.load, depth_store)),

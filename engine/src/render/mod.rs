@@ -1,5 +1,6 @@
 //! The compositor: what a frame is made of ([`FrameInput`]), its pass graph ([`plan`]) with typed
-//! shader programs ([`program`]), the GPU side in files of one job each (uploads, pipelines,
+//! shader programs ([`program`]), the GPU side in files of one job each (whether a framebuffer
+//! fits the device, uploads, descriptor-set layouts and sets, the framebuffer targets, pipelines,
 //! recording, the renderer that runs them, the graph's types in Vulkan's words), the read-back
 //! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 

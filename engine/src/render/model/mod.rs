@@ -39,7 +39,7 @@
 //! the interval; one on lavapipe can also check against the nominal value.
 
 //!
-//! The model lives in one file per job: [`blend`] (the blend arithmetic on values), `bounds`
+//! The model lives in one file per job: `blend` (the blend arithmetic on values), `bounds`
 //! (the same over intervals), `raster` (triangles to fragments) and `shading` (the passes at a
 //! pixel).
 

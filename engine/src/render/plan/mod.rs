@@ -4,9 +4,10 @@
 //! the readback or the box filter into a host's image.
 //!
 //! [`frame_graph`] is the one entry point. The lens passes are made by a small builder
-//! ([`lens::LensPasses`]: prime, layer passes, alpha clear, scratch clear, group sum), and each
-//! blending scheme is one short function of it ([`schemes`]), so a new scheme, or more viewpoint
-//! samples per group, is a new function rather than a new flag.
+//! (`lens::LensPasses`: prime, layer passes, alpha clear, scratch clear, group sum), and each
+//! blending scheme is one short function of it (`schemes`), so a new scheme is one new function
+//! rather than a new flag; more viewpoint samples per lens object are more groups, which every
+//! scheme takes as they come.
 
 mod lens;
 mod schemes;

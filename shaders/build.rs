@@ -1,4 +1,5 @@
-//! Compiles every `wgsl/*.wgsl` file to SPIR-V with naga, validating it on the way. A shader error
+//! Compiles every `wgsl/*.wgsl` file to SPIR-V with naga, validating it on the way, after pasting
+//! in the shared files it names with `// #include "NAME"` (from `wgsl/include/`). A shader error
 //! fails the build with the file, line and column (naga's own diagnostic), so a broken shader never
 //! reaches run time. Each entry point becomes its own SPIR-V blob in `$OUT_DIR/<file>.<entry>.spv`.
 //!
@@ -20,6 +21,43 @@ use std::{collections::BTreeMap, env, fmt::Write as _, fs, path::Path};
 
 /// The WGSL `const` in `lens.wgsl` that bounds the single pass's layer count.
 const MAX_LAYERS_CONSTANT: &str = "MAX_LAYERS";
+
+/// The folder, inside `wgsl/`, of the WGSL that files share: a line `// #include "NAME"` in a
+/// shader is replaced by the text of `wgsl/include/NAME` before naga sees the file (WGSL has no
+/// includes), so a piece several files need, such as the full-screen vertex stage, is written
+/// once. The folder's files are not compiled on their own.
+const INCLUDE_DIR: &str = "include";
+
+/// The directive that pastes a shared file in place.
+const INCLUDE_DIRECTIVE: &str = "// #include ";
+
+/// `source` with every `// #include "NAME"` line replaced by the text of `include_dir/NAME`.
+/// (Naga's diagnostics then count lines in the expanded text, and quote it.)
+fn expand_includes(source: &str, include_dir: &Path, shown: &str) -> Result<String, String> {
+    let mut expanded = String::with_capacity(source.len());
+    for (number, line) in source.lines().enumerate() {
+        let Some(name) = line.trim().strip_prefix(INCLUDE_DIRECTIVE) else {
+            expanded.push_str(line);
+            expanded.push('\n');
+            continue;
+        };
+        let name = name.trim().trim_matches('"');
+        let path = include_dir.join(name);
+        println!("cargo:rerun-if-changed={}", path.display());
+        let text = fs::read_to_string(&path).map_err(|error| {
+            format!(
+                "error: {shown}:{}: {INCLUDE_DIRECTIVE}\"{name}\": {}: {error}",
+                number + 1,
+                path.display()
+            )
+        })?;
+        expanded.push_str(&text);
+        if !text.ends_with('\n') {
+            expanded.push('\n');
+        }
+    }
+    Ok(expanded)
+}
 
 /// Override constants and the values each specialized entry point is compiled for: every layer
 /// count up to the shader's `MAX_LAYERS`, each non-empty term set (bit 0 refraction, bit 1
@@ -96,7 +134,9 @@ fn main() {
         let stem = path.file_stem().unwrap().to_string_lossy().to_string();
         let shown = format!("shaders/wgsl/{stem}.wgsl");
         let source = fs::read_to_string(path).expect("shader source is readable");
-        match compile(&source, &shown) {
+        let compiled = expand_includes(&source, &source_dir.join(INCLUDE_DIR), &shown)
+            .and_then(|source| compile(&source, &shown));
+        match compiled {
             Ok(compiled) => {
                 for (entry, overrides, words) in compiled.blobs {
                     let file = if overrides.is_empty() {

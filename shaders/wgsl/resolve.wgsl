@@ -16,12 +16,7 @@ var<immediate> constants: ResolveConstants;
 
 @group(0) @binding(0) var subpixels: texture_2d<f32>;
 
-// One triangle covering the viewport: vertices (-1,-1), (3,-1), (-1,3) in clip space.
-@vertex
-fn vs_full_screen(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
-    let corner = vec2<f32>(f32((index << 1u) & 2u), f32(index & 2u));
-    return vec4<f32>(corner * 2.0 - 1.0, 0.0, 1.0);
-}
+// #include "full_screen.wgsl"
 
 @fragment
 fn fs_box_filter(@builtin(position) pixel: vec4<f32>) -> @location(0) vec4<f32> {

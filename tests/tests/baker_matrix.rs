@@ -9,7 +9,7 @@ use lensmap::{
     layers::projected::ProjectedOptions,
     render::{
         FrameInput, TargetFormat, Variant,
-        model::{ModelOptions, render_model_with},
+        model::{ModelOptions, render_model},
     },
     runner::FrameRunner,
     scene::{Camera, Scene},
@@ -71,7 +71,7 @@ impl TestRenderer for ModelRenderer {
     fn render(&mut self, em: Arc<CubeMap>) -> Result<Vec<[f32; 4]>, MatrixError> {
         let frame = self.0.as_mut().expect("begun");
         frame.lenses[0].layers = vec![vec![em]];
-        Ok(render_model_with(frame, &ModelOptions::lavapipe())
+        Ok(render_model(frame, &ModelOptions::lavapipe())
             .rgba
             .iter()
             .map(|p| p.map(|v| v as f32))
@@ -160,7 +160,7 @@ fn the_matrix_agrees_with_the_f64_model() {
         &MeasureOptions::new(EM_SIZE, 1),
     )
     .unwrap();
-    let exclusion = render_model_with(
+    let exclusion = render_model(
         layer_frame.with_em(Arc::new(CubeMap::uniform(EM_SIZE, [0.5; 4]))),
         &ModelOptions::lavapipe(),
     )

@@ -7,7 +7,7 @@
 use std::sync::Arc;
 
 use lensmap::cubemap::CubeMap;
-use lensmap::render::{BlendScheme, Renderer, TargetFormat, Variant};
+use lensmap::render::{BlendScheme, RenderOptions, Renderer, TargetFormat, Variant};
 use lensmap::trace::Term;
 use lensmap_tests::fixtures::compositor;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
@@ -35,11 +35,15 @@ fn every_scheme_equals_front_to_back_in_rgba32f() {
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
                 let render = |renderer: &mut Renderer, uploaded: &mut _, blend| {
                     renderer
-                        .render_blended(
+                        .render(
                             &gpu,
                             uploaded,
-                            (Variant::Multipass, blend),
-                            TargetFormat::Rgba32f,
+                            &RenderOptions {
+                                variant: Variant::Multipass,
+                                blend,
+                                format: TargetFormat::Rgba32f,
+                                host: None,
+                            },
                         )
                         .unwrap()
                         .0
@@ -102,11 +106,15 @@ fn schemes_agree_when_layers_groups_and_viewpoints_are_skipped() {
         let mut images = Vec::new();
         for blend in BlendScheme::ALL {
             let (image, _) = renderer
-                .render_blended(
+                .render(
                     &gpu,
                     &mut uploaded,
-                    (Variant::Multipass, blend),
-                    TargetFormat::Rgba32f,
+                    &RenderOptions {
+                        variant: Variant::Multipass,
+                        blend,
+                        format: TargetFormat::Rgba32f,
+                        host: None,
+                    },
                 )
                 .unwrap();
             images.push(image);
@@ -160,10 +168,11 @@ fn schemes_agree_with_two_overlapping_lens_objects() {
             runner
                 .timed_renders(
                     &mut uploaded,
-                    &lensmap::runner::Compositing {
+                    &RenderOptions {
                         variant: Variant::Multipass,
                         blend,
                         format: TargetFormat::Rgba32f,
+                        host: None,
                     },
                     1,
                 )
@@ -186,11 +195,15 @@ fn the_single_pass_refuses_other_schemes() {
     let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
     for blend in BlendScheme::ALL.into_iter().skip(1) {
         let error = renderer
-            .render_blended(
+            .render(
                 &gpu,
                 &mut uploaded,
-                (Variant::SinglePass, blend),
-                TargetFormat::Rgba32f,
+                &RenderOptions {
+                    variant: Variant::SinglePass,
+                    blend,
+                    format: TargetFormat::Rgba32f,
+                    host: None,
+                },
             )
             .unwrap_err()
             .to_string();
@@ -216,13 +229,13 @@ fn the_single_pass_refuses_other_schemes() {
 /// two viewpoints: the schemes are one closed form.
 #[test]
 fn the_models_of_every_scheme_agree_to_f64_rounding() {
-    use lensmap::render::model::{ModelOptions, render_model_with};
+    use lensmap::render::model::{ModelOptions, render_model};
     let mut rng = Pcg64::seed_from_u64(0x40de1);
     let both = [Term::Refraction, Term::Reflection];
     for (layers, viewpoints, terms) in [(3, 2, &both[..]), (2, 1, &[Term::Reflection][..])] {
         let frame = random_compositor_frame(&mut rng, 48, layers, viewpoints, terms);
         let model = |blend| {
-            render_model_with(
+            render_model(
                 &frame,
                 &ModelOptions {
                     blend,

@@ -15,8 +15,9 @@ use glam::Vec3;
 use lensmap::cubemap::CubeMap;
 use lensmap::gpu::Gpu;
 use lensmap::render::{
-    BlendScheme, FrameInput, RenderedImage, Renderer, TargetFormat, Variant,
-    model::{FilterPrecision, ModelImage, ModelOptions, render_model_with},
+    BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer, TargetFormat,
+    Variant,
+    model::{FilterPrecision, ModelImage, ModelOptions, render_model},
 };
 use lensmap::trace::Term;
 use lensmap_tests::fixtures::compositor;
@@ -117,20 +118,26 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
                     .render(
                         &gpu,
                         &mut uploaded,
-                        Variant::Multipass,
-                        TargetFormat::Rgba32f,
+                        &RenderOptions {
+                            variant: Variant::Multipass,
+                            format: TargetFormat::Rgba32f,
+                            ..Default::default()
+                        },
                     )
                     .unwrap();
                 let (single, _) = renderer
                     .render(
                         &gpu,
                         &mut uploaded,
-                        Variant::SinglePass,
-                        TargetFormat::Rgba32f,
+                        &RenderOptions {
+                            variant: Variant::SinglePass,
+                            format: TargetFormat::Rgba32f,
+                            ..Default::default()
+                        },
                     )
                     .unwrap();
 
-                let model = render_model_with(&frame, &tolerance.model_options());
+                let model = render_model(&frame, &tolerance.model_options());
                 let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
                 let compared = model.comparable_lens_pixels();
                 let case = format!("n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}");
@@ -229,18 +236,22 @@ fn every_blending_scheme_matches_its_f64_model() {
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
                 for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
                     let (image, _) = renderer
-                        .render_blended(
+                        .render(
                             &gpu,
                             &mut uploaded,
-                            (Variant::Multipass, blend),
-                            TargetFormat::Rgba32f,
+                            &RenderOptions {
+                                variant: Variant::Multipass,
+                                blend,
+                                format: TargetFormat::Rgba32f,
+                                host: None,
+                            },
                         )
                         .unwrap();
                     let options = ModelOptions {
                         blend,
                         ..tolerance.model_options()
                     };
-                    let model = render_model_with(&frame, &options);
+                    let model = render_model(&frame, &options);
                     let case = format!(
                         "{}: n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}",
                         blend.name()
@@ -327,7 +338,7 @@ fn the_bound_check_rejects_wrong_frames() {
             precision: Some(precision),
             ..ModelOptions::lavapipe()
         };
-        let model = render_model_with(&frame, &options);
+        let model = render_model(&frame, &options);
         let compared: Vec<usize> = (0..model.rgba.len())
             .filter(|&i| model.lens_mask[i] && model.exclusion[i].is_none())
             .collect();
@@ -338,8 +349,11 @@ fn the_bound_check_rejects_wrong_frames() {
                 .render(
                     &gpu,
                     &mut uploaded,
-                    Variant::Multipass,
-                    TargetFormat::Rgba32f,
+                    &RenderOptions {
+                        variant: Variant::Multipass,
+                        format: TargetFormat::Rgba32f,
+                        ..Default::default()
+                    },
                 )
                 .unwrap();
             let rejected = compared
@@ -381,19 +395,46 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let mut a = renderer.upload(&gpu, &frame).unwrap();
             let mut b = renderer.upload(&gpu, &single).unwrap();
-            let plan = Renderer::plan(&a, variant, TargetFormat::Rgba32f).unwrap();
+            let plan = Renderer::plan(
+                &a,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             if variant == Variant::Multipass {
                 assert_eq!(
-                    (plan.count("layer"), plan.count("alpha-clear")),
+                    (
+                        plan.count(PassCategory::Layer),
+                        plan.count(PassCategory::AlphaClear)
+                    ),
                     (4, 1),
                     "{plan}"
                 );
             }
             let (x, _) = renderer
-                .render(&gpu, &mut a, variant, TargetFormat::Rgba32f)
+                .render(
+                    &gpu,
+                    &mut a,
+                    &RenderOptions {
+                        variant,
+                        format: TargetFormat::Rgba32f,
+                        ..Default::default()
+                    },
+                )
                 .unwrap();
             let (y, _) = renderer
-                .render(&gpu, &mut b, variant, TargetFormat::Rgba32f)
+                .render(
+                    &gpu,
+                    &mut b,
+                    &RenderOptions {
+                        variant,
+                        format: TargetFormat::Rgba32f,
+                        ..Default::default()
+                    },
+                )
                 .unwrap();
             assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
         }
@@ -430,14 +471,25 @@ fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
         .render(
             &gpu,
             &mut uploaded,
-            Variant::SinglePass,
-            TargetFormat::Rgba8,
+            &RenderOptions {
+                variant: Variant::SinglePass,
+                format: TargetFormat::Rgba8,
+                ..Default::default()
+            },
         )
         .expect_err("7 layers in the single pass is rejected")
         .to_string();
     assert!(message.contains("multipass"), "{message}");
     renderer
-        .render(&gpu, &mut uploaded, Variant::Multipass, TargetFormat::Rgba8)
+        .render(
+            &gpu,
+            &mut uploaded,
+            &RenderOptions {
+                variant: Variant::Multipass,
+                format: TargetFormat::Rgba8,
+                ..Default::default()
+            },
+        )
         .unwrap();
     assert_clean(&gpu);
 }
@@ -483,10 +535,26 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
     let mut fresh = renderer.upload(&gpu, &replaced).unwrap();
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (a, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .unwrap();
         let (b, _) = renderer
-            .render(&gpu, &mut fresh, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut fresh,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .unwrap();
         assert_eq!(a.pixels, b.pixels, "{variant:?}");
     }
@@ -510,7 +578,7 @@ fn the_geometric_lens_mask_is_the_models_lens_coverage() {
     let frame = random_frame(&mut rng, 2, 2, &both);
     let mut runner = lensmap::runner::FrameRunner::new(gpu()).unwrap();
     let mask = runner.lens_coverage(&frame).unwrap();
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
+    let model = render_model(&frame, &ModelOptions::lavapipe());
     let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
     assert!(lens_pixels > 1500, "the lens covers {lens_pixels} pixels");
     let mut compared = 0;

@@ -9,7 +9,7 @@ use lensmap::{
     hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
     metrics::{self, Channels, Coverage, Encoding, Mask},
-    render::{Renderer, TargetFormat, Variant},
+    render::{RenderOptions, Renderer, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
     scene::Scene,
     trace::{TraceOptions, render_reference},
@@ -208,7 +208,15 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
         let (input, stats) = hybrid.frame(&camera, &frame_options.hybrid).unwrap();
         let mut uploaded = renderer.upload(&by_hand_gpu, &input).unwrap();
         let (full, _) = renderer
-            .render(&by_hand_gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &by_hand_gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .unwrap();
         assert_eq!((full.width, full.height), (80, 60), "supersampled 2×2");
         let by_hand = full.box_downsample(2);

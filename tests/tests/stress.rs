@@ -21,11 +21,11 @@ use lensmap::layers::LayerShell;
 use lensmap::layers::projected::{ProjectedOptions, em_origin, layer_range, project_layers};
 use lensmap::lightmap::LightMapOptions;
 use lensmap::render::model::{
-    CompositeGroup, ModelImage, ModelOptions, composite_by_blending, render_model_with,
+    CompositeGroup, ModelImage, ModelOptions, composite_by_blending, render_model,
 };
 use lensmap::render::{
-    self, EnvironmentMesh, FrameInput, LensFaces, RenderedImage, Renderer, TargetFormat,
-    TermVertices, Variant,
+    self, EnvironmentMesh, FrameInput, LensFaces, RenderOptions, RenderedImage, Renderer,
+    TargetFormat, TermVertices, Variant,
 };
 use lensmap::scene::{Camera, Material, Scene, TriangleMesh, shapes};
 use lensmap::trace::bvh::SurfaceHit;
@@ -829,13 +829,18 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
 fn gpu_against_model(frame: &FrameInput) -> Vec<(Variant, f64, usize)> {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let model = render_model_with(frame, &ModelOptions::lavapipe());
+    let model = render_model(frame, &ModelOptions::lavapipe());
     let mut uploaded = renderer.upload(&gpu, frame).expect("the frame uploads");
     let differences = [Variant::Multipass, Variant::SinglePass]
         .into_iter()
         .map(|variant| {
+            let options = RenderOptions {
+                variant,
+                format: TargetFormat::Rgba32f,
+                ..Default::default()
+            };
             let (image, _) = renderer
-                .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+                .render(&gpu, &mut uploaded, &options)
                 .expect("the frame renders");
             let (difference, compared) = model_difference(&image, &model);
             (variant, difference, compared)
@@ -1162,7 +1167,7 @@ fn radiance_past_half_float_range_is_clamped_not_infinite() {
     );
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let model = render_model_with(&frame, &ModelOptions::lavapipe());
+    let model = render_model(&frame, &ModelOptions::lavapipe());
     let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
     let over_range = model
         .rgba
@@ -1176,7 +1181,15 @@ fn radiance_past_half_float_range_is_clamped_not_infinite() {
     );
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, timings) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba16f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba16f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         println!(
             "HDR {variant:?}: {} channels came back as ±Inf and were clamped",
@@ -1305,11 +1318,19 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
     let mut renderer = Renderer::new(&gpu).expect("renderer");
     let (mut worst_model, mut worst_closed) = (0.0f64, 0.0f64);
     for (name, frame) in [("random", &random), ("uniform", &uniform)] {
-        let model = render_model_with(frame, &ModelOptions::lavapipe());
+        let model = render_model(frame, &ModelOptions::lavapipe());
         let mut uploaded = renderer.upload(&gpu, frame).expect("the frame uploads");
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let (image, _) = renderer
-                .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+                .render(
+                    &gpu,
+                    &mut uploaded,
+                    &RenderOptions {
+                        variant,
+                        format: TargetFormat::Rgba32f,
+                        ..Default::default()
+                    },
+                )
                 .expect("the frame renders");
             let (difference, compared) = model_difference(&image, &model);
             worst_model = worst_model.max(difference);
@@ -1454,12 +1475,20 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     );
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("renderer");
-    let lens_mask = render_model_with(&uniform, &ModelOptions::lavapipe()).lens_mask;
+    let lens_mask = render_model(&uniform, &ModelOptions::lavapipe()).lens_mask;
     let mut worst_uniform = 0.0f64;
     let mut uploaded = renderer.upload(&gpu, &uniform).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         assert!(image.pixels.iter().flatten().all(|v| v.is_finite()));
         for (pixel, _) in image
@@ -1485,7 +1514,15 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let mut worst_outside = 0.0f64;
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let (image, _) = renderer
-            .render(&gpu, &mut uploaded, variant, TargetFormat::Rgba32f)
+            .render(
+                &gpu,
+                &mut uploaded,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
             .expect("the frame renders");
         for (pixel, _) in image
             .pixels

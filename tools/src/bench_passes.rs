@@ -17,10 +17,10 @@ use lensmap::{
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     metrics::{self, Channels, Encoding, ImageError, Mask},
     render::{
-        BlendScheme, FrameInput, RenderedImage, Renderer, TargetFormat, Variant,
+        BlendScheme, FrameInput, RenderOptions, RenderedImage, Renderer, TargetFormat, Variant,
         synthetic::{SyntheticOptions, sphere_frame},
     },
-    runner::{Compositing, EmSource, FrameRunner, load_hybrid_scene},
+    runner::{EmSource, FrameRunner, load_hybrid_scene},
     scene::Scene,
 };
 use serde_json::json;
@@ -260,21 +260,23 @@ fn frame_rows(
     }
     let mut uploaded = runner.upload(frame)?;
     // The reference of every row: the paper's scheme in RGBA32F.
-    let paper = Compositing {
+    let paper = RenderOptions {
         variant: Variant::Multipass,
         blend: BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
+        host: None,
     };
     let reference = runner.timed_renders(&mut uploaded, &paper, 1)?.image;
     let mut rows = Vec::new();
     for &(variant, blend) in compositings {
         for format in TargetFormat::ALL {
-            let plan = Renderer::plan_blended(&uploaded, variant, blend, format)?;
-            let compositing = Compositing {
+            let compositing = RenderOptions {
                 variant,
                 blend,
                 format,
+                host: None,
             };
+            let plan = Renderer::plan(&uploaded, &compositing)?;
             let renders = runner.timed_renders(&mut uploaded, &compositing, args.frames)?;
             let (frame_ms, execute_ms) = (
                 renders.median(|t| t.record_ms + t.execute_ms),

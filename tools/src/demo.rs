@@ -21,7 +21,7 @@ use lensmap::{
         projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     },
     metrics::Encoding,
-    render::{RenderedImage, SinglePassProgram, TargetFormat, Variant, synthetic},
+    render::{PassCategory, RenderedImage, SinglePassProgram, TargetFormat, Variant, synthetic},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, TimedFrames, lens_error,
         load_hybrid_scene, novel_camera,
@@ -463,12 +463,12 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
     let mut steps = Steps::new(2);
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let step = steps.step(&format!("{} frames", variant.name()));
-        let plan = lensmap::render::Renderer::plan(&uploaded, variant, format)?;
-        let compositing = lensmap::runner::Compositing {
+        let compositing = lensmap::render::RenderOptions {
             variant,
-            blend: lensmap::render::BlendScheme::FrontToBack,
             format,
+            ..Default::default()
         };
+        let plan = lensmap::render::Renderer::plan(&uploaded, &compositing)?;
         let renders = runner.timed_renders(&mut uploaded, &compositing, args.frames)?;
         let stem = format!("demo-{}", variant.name());
         renders
@@ -477,16 +477,16 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
         say!(
             "{:<12} {} prime + {} layer + {} alpha-clear + {} single-pass passes, median frame {:.2} ms → {}/{stem}.png, .exr",
             variant.name(),
-            plan.count("prime"),
-            plan.count("layer"),
-            plan.count("alpha-clear"),
-            plan.count("single-pass"),
+            plan.count(PassCategory::Prime),
+            plan.count(PassCategory::Layer),
+            plan.count(PassCategory::AlphaClear),
+            plan.count(PassCategory::SinglePass),
             renders.median(|t| t.record_ms + t.execute_ms),
             args.out.display()
         );
         rows.push(json!({
-            "variant": variant.name(), "prime": plan.count("prime"), "layer": plan.count("layer"),
-            "alpha_clear": plan.count("alpha-clear"), "single_pass": plan.count("single-pass"),
+            "variant": variant.name(), "prime": plan.count(PassCategory::Prime), "layer": plan.count(PassCategory::Layer),
+            "alpha_clear": plan.count(PassCategory::AlphaClear), "single_pass": plan.count(PassCategory::SinglePass),
             "median_frame_ms": renders.median(|t| t.record_ms + t.execute_ms),
             "png": args.out.join(format!("{stem}.png")), "exr": args.out.join(format!("{stem}.exr")),
         }));

@@ -2,14 +2,16 @@
 //! built from a frame's shape alone (no data, no GPU).
 
 use clap::Args;
+use lensmap::options::Worded;
 use lensmap::render::{
-    BlendScheme, FrameShape, ProgramError, TargetFormat, Variant,
-    plan::{Output, frame_graph_blended},
+    BlendScheme, FrameShape, Output, PassCategory, PlanOptions, ProgramError, TargetFormat,
+    Variant, plan::frame_graph,
 };
 use lensmap::trace::Term;
 use serde_json::json;
 
 use crate::common::{BadUsage, BlendArg, FormatArg, VariantArg, report, voice};
+use crate::words::Flags;
 
 #[derive(Args)]
 #[command(
@@ -55,20 +57,25 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     let variant = Variant::from(args.variant);
     let format = TargetFormat::from(args.format);
     let blend = BlendScheme::from(args.blend);
-    let (graph, _) = frame_graph_blended(&shape, variant, blend, format, Output::Readback)
-        .map_err(|error| match error {
-            ProgramError::SinglePassBlend { .. } => BadUsage(error.to_string()),
-            _ => BadUsage(format!("--layers {}: {error}", args.layers)),
-        })?;
+    let options = PlanOptions {
+        variant,
+        blend,
+        format,
+        output: Output::Readback,
+    };
+    let (graph, _) = frame_graph(&shape, &options).map_err(|error| match error {
+        ProgramError::SinglePassBlend { .. } => BadUsage(error.worded(&Flags)),
+        _ => BadUsage(format!("--layers {}: {error}", args.layers)),
+    })?;
     let plan = graph.compile()?;
     let counts = json!({
-        "prime": plan.count("prime"),
-        "layer": plan.count("layer"),
-        "alpha_clear": plan.count("alpha-clear"),
-        "scratch_clear": plan.count("scratch-clear"),
-        "group_sum": plan.count("group-sum"),
-        "single_pass": plan.count("single-pass"),
-        "environment": plan.count("environment"),
+        "prime": plan.count(PassCategory::Prime),
+        "layer": plan.count(PassCategory::Layer),
+        "alpha_clear": plan.count(PassCategory::AlphaClear),
+        "scratch_clear": plan.count(PassCategory::ScratchClear),
+        "group_sum": plan.count(PassCategory::GroupSum),
+        "single_pass": plan.count(PassCategory::SinglePass),
+        "environment": plan.count(PassCategory::Environment),
         "rendering_instances": plan.rendering_instances(),
         "barriers": plan.barrier_count(),
     });
@@ -80,7 +87,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
                 let key = s.pass.pipeline_key(&plan.images);
                 json!({
                     "pass": s.pass.name,
-                    "category": s.pass.category,
+                    "category": s.pass.category.name(),
                     "draws": s.pass.draw_count(),
                     "blend": key.map(|k| k.blend.to_string()),
                     "write_mask": key.map(|k| k.write_mask.to_string()),

@@ -32,30 +32,39 @@ impl OptionWords for Flags {
     }
 }
 
+/// A look at whether an error is one of the library's errors that name options.
+type Downcast = for<'a> fn(&'a (dyn std::error::Error + 'static)) -> Option<&'a dyn Worded>;
+
+/// `cause` as a [`Worded`] error, when it is a `T`.
+fn downcast<'a, T: Worded + 'static>(
+    cause: &'a (dyn std::error::Error + 'static),
+) -> Option<&'a dyn Worded> {
+    cause.downcast_ref::<T>().map(|e| e as &dyn Worded)
+}
+
+/// The library's errors that name options.
+/// The library's errors that name options, and those that wrap them: a `#[error(transparent)]`
+/// wrapper's source is its inner error's source, so the chain shows the wrapper, never the inner
+/// error, and the wrapper words it.
+const WORDED_ERRORS: [Downcast; 10] = [
+    downcast::<lensmap::options::OptionError>,
+    downcast::<lensmap::render::RenderError>,
+    downcast::<lensmap::render::ProgramError>,
+    downcast::<lensmap::render::FramebufferError>,
+    downcast::<lensmap::hybrid::BakeIdentityError>,
+    downcast::<lensmap::hybrid::HybridError>,
+    downcast::<lensmap::runner::RunError>,
+    downcast::<lensmap_baker::bake::BakeInputError>,
+    downcast::<lensmap_baker::bake::MergeError>,
+    downcast::<lensmap_baker::bake::BakeFailure>,
+];
+
 /// `cause` in the command line's words, where it is a library error that names options.
 fn worded(cause: &(dyn std::error::Error + 'static)) -> Option<String> {
-    let as_worded: Option<&dyn Worded> = None
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap::options::OptionError>()
-                .map(|e| e as &dyn Worded)
-        })
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap_baker::bake::BakeInputError>()
-                .map(|e| e as &dyn Worded)
-        })
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap_baker::bake::MergeError>()
-                .map(|e| e as &dyn Worded)
-        })
-        .or_else(|| {
-            cause
-                .downcast_ref::<lensmap::hybrid::BakeIdentityError>()
-                .map(|e| e as &dyn Worded)
-        });
-    as_worded.map(|error| error.worded(&Flags))
+    WORDED_ERRORS
+        .into_iter()
+        .find_map(|as_worded| as_worded(cause))
+        .map(|error| error.worded(&Flags))
 }
 
 /// The error chain in one line, in the command line's words: each cause once (a cause whose text

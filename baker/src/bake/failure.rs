@@ -51,6 +51,23 @@ pub enum BakeFailure {
     Metrics(#[from] metrics::MetricsError),
 }
 
+impl Worded for BakeFailure {
+    fn worded(&self, words: &dyn OptionWords) -> String {
+        match self {
+            BakeFailure::Option(error) => error.worded(words),
+            BakeFailure::Input(error) => error.worded(words),
+            BakeFailure::Merge(error) => error.worded(words),
+            BakeFailure::Hybrid(error) => error.worded(words),
+            BakeFailure::Run(error) => error.worded(words),
+            BakeFailure::Bake(_)
+            | BakeFailure::Infer(_)
+            | BakeFailure::Placement(_)
+            | BakeFailure::Trace(_)
+            | BakeFailure::Metrics(_) => self.to_string(),
+        }
+    }
+}
+
 /// Input a bake cannot use, beyond a single option out of range. Options are named by their
 /// fields in [`super::BakeOptions`] and [`super::BakeJob`] (`samples`, `resume`).
 #[derive(Debug, thiserror::Error)]

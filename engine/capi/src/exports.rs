@@ -10,7 +10,7 @@ use lensmap::layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions};
 use lensmap::options::Worded;
 use lensmap::render::{
     FrameShape,
-    plan::{Output, frame_graph_blended},
+    plan::{Output, PlanOptions, frame_graph},
 };
 use lensmap::runner::{EmSource, FrameRunner, load_hybrid_scene};
 use lensmap::scene::Scene;
@@ -534,14 +534,15 @@ pub unsafe extern "C" fn lensmap_plan_text(
             terms,
         );
         let (variant, blend) = compositing(options.variant, options.blend)?;
-        let (graph, _) = frame_graph_blended(
-            &shape,
+        let plan_options = PlanOptions {
             variant,
             blend,
-            format(options.format, "options->format")?,
-            Output::Readback,
-        )
-        .map_err(|error| Failure::new(LensmapResult::InvalidArgument, error.to_string()))?;
+            format: format(options.format, "options->format")?,
+            output: Output::Readback,
+        };
+        let (graph, _) = frame_graph(&shape, &plan_options).map_err(|error| {
+            Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
+        })?;
         let plan = graph
             .compile()
             .map_err(|error| Failure::new(LensmapResult::Render, error.to_string()))?;

@@ -65,8 +65,8 @@ impl From<RenderError> for Failure {
     fn from(error: RenderError) -> Failure {
         match error {
             RenderError::Gpu(error) => error.into(),
-            RenderError::BadInput(_) | RenderError::Program(_) => {
-                Failure::new(LensmapResult::InvalidArgument, error.to_string())
+            RenderError::BadInput(_) | RenderError::Program(_) | RenderError::Framebuffer(_) => {
+                Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
             }
         }
     }
@@ -81,16 +81,14 @@ impl From<RunError> for Failure {
                     other => Failure::new(LensmapResult::Render, other.to_string()),
                 };
             }
-            RunError::Hybrid(HybridError::Identity(identity)) => {
-                return Failure::new(LensmapResult::Bake, identity.worded(&StructFields));
-            }
+            RunError::Hybrid(HybridError::Identity(_)) => LensmapResult::Bake,
             RunError::Option(_) => LensmapResult::InvalidArgument,
             RunError::Bake(_) => LensmapResult::Bake,
             RunError::Hybrid(HybridError::BakeMismatch(_)) => LensmapResult::Bake,
             RunError::Hybrid(_) => LensmapResult::Scene,
             RunError::Tessellation(_) => LensmapResult::Render,
         };
-        Failure::new(code, error.to_string())
+        Failure::new(code, error.worded(&StructFields))
     }
 }
 

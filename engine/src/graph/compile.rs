@@ -54,9 +54,9 @@ pub struct RenderingInstance {
 
 /// One live pass of the plan, in execution order.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Step<D, P> {
+pub struct Step<D, P, C> {
     /// The pass.
-    pub pass: Pass<D, P>,
+    pub pass: Pass<D, P, C>,
     /// Barriers recorded before it (only on the first step of a rendering instance, or a readback).
     pub barriers: Vec<Barrier>,
     /// `Some` on the first step of a rendering instance: begin rendering before this step.
@@ -67,20 +67,20 @@ pub struct Step<D, P> {
 
 /// A compiled graph: what `render/` records, and what `lensmap passes` prints.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Plan<D, P> {
+pub struct Plan<D, P, C> {
     /// The images, indexed by [`ImageId`].
     pub images: Vec<ImageInfo>,
     /// The buffers, indexed by `BufferId`.
     pub buffers: Vec<BufferInfo>,
     /// Live passes in order.
-    pub steps: Vec<Step<D, P>>,
+    pub steps: Vec<Step<D, P, C>>,
     /// Passes dropped, with why.
     pub culled: Vec<(String, CullReason)>,
 }
 
-impl<D, P> Plan<D, P> {
+impl<D, P, C: PartialEq> Plan<D, P, C> {
     /// Live passes of a category.
-    pub fn count(&self, category: &str) -> usize {
+    pub fn count(&self, category: C) -> usize {
         self.steps
             .iter()
             .filter(|s| s.pass.category == category)
@@ -88,7 +88,7 @@ impl<D, P> Plan<D, P> {
     }
 
     /// Total draws of the live passes of a category.
-    pub fn draws(&self, category: &str) -> usize {
+    pub fn draws(&self, category: C) -> usize {
         self.steps
             .iter()
             .filter(|s| s.pass.category == category)
@@ -108,7 +108,7 @@ impl<D, P> Plan<D, P> {
 }
 
 /// Images a pass reads (their earlier contents matter to it) and writes.
-fn reads_and_writes<D, P>(pass: &Pass<D, P>) -> (Vec<ImageId>, Vec<ImageId>) {
+fn reads_and_writes<D, P, C>(pass: &Pass<D, P, C>) -> (Vec<ImageId>, Vec<ImageId>) {
     match &pass.kind {
         PassKind::Draw {
             colour,
@@ -136,7 +136,7 @@ fn reads_and_writes<D, P>(pass: &Pass<D, P>) -> (Vec<ImageId>, Vec<ImageId>) {
 }
 
 /// Whether the pass fully redefines `image` (so earlier writers are not needed by it).
-fn redefines<D, P>(pass: &Pass<D, P>, image: ImageId) -> bool {
+fn redefines<D, P, C>(pass: &Pass<D, P, C>, image: ImageId) -> bool {
     match &pass.kind {
         PassKind::Draw { colour, depth, .. } => {
             (colour.image == image && colour.load != LoadOp::Load)
@@ -153,16 +153,16 @@ type Culling = Vec<Option<CullReason>>;
 /// that access wrote.
 type ImageState = (Layout, Access, bool);
 
-impl<D: Clone, P: Clone> Graph<D, P> {
+impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
     /// Validates the declaration and compiles it into a plan, in four phases: empty draw lists
     /// are culled, then passes whose outputs nobody reads; the live passes are checked for reads
     /// before writes; then they are grouped into rendering instances with their barriers.
-    pub fn compile(&self) -> Result<Plan<D, P>, GraphError> {
+    pub fn compile(&self) -> Result<Plan<D, P, C>, GraphError> {
         self.validate()?;
         let mut culled = self.cull_empty_draw_lists();
         self.cull_unread_outputs(&mut culled);
         self.check_reads_before_writes(&culled)?;
-        let live: Vec<&Pass<D, P>> = self
+        let live: Vec<&Pass<D, P, C>> = self
             .passes
             .iter()
             .zip(&culled)
@@ -256,7 +256,7 @@ impl<D: Clone, P: Clone> Graph<D, P> {
 
     /// Phase 4: the live passes as steps: consecutive draw passes on the same attachments become
     /// one rendering instance, and each instance or readback gets the barriers its images need.
-    fn schedule(&self, live: &[&Pass<D, P>]) -> Vec<Step<D, P>> {
+    fn schedule(&self, live: &[&Pass<D, P, C>]) -> Vec<Step<D, P, C>> {
         let mut state: Vec<ImageState> = self
             .images
             .iter()
@@ -267,7 +267,7 @@ impl<D: Clone, P: Clone> Graph<D, P> {
                 Origin::External => (Layout::External, Access::External, true),
             })
             .collect();
-        let mut steps: Vec<Step<D, P>> = Vec::with_capacity(live.len());
+        let mut steps: Vec<Step<D, P, C>> = Vec::with_capacity(live.len());
         let mut index = 0;
         while index < live.len() {
             let pass = live[index];
@@ -388,7 +388,7 @@ impl<D: Clone, P: Clone> Graph<D, P> {
 
 /// The index of the last pass of the rendering instance that the draw pass `live[first]` begins:
 /// the instance extends while the next pass uses the same attachments and loads them.
-fn instance_end<D, P>(live: &[&Pass<D, P>], first: usize) -> usize {
+fn instance_end<D, P, C>(live: &[&Pass<D, P, C>], first: usize) -> usize {
     let PassKind::Draw { colour, depth, .. } = &live[first].kind else {
         return first;
     };
@@ -415,28 +415,39 @@ fn instance_end<D, P>(live: &[&Pass<D, P>], first: usize) -> usize {
 /// The steps of one rendering instance (`group`: consecutive draw passes on the same attachments):
 /// its load and store ops, and the barriers its attachments and sampled images need, all on the
 /// first step.
-fn rendering_instance<D: Clone, P: Clone>(
-    group: &[&Pass<D, P>],
+fn rendering_instance<D: Clone, P: Clone, C: Clone>(
+    group: &[&Pass<D, P, C>],
     state: &mut [ImageState],
-) -> Vec<Step<D, P>> {
+) -> Vec<Step<D, P, C>> {
     let PassKind::Draw { colour, depth, .. } = &group[0].kind else {
         return Vec::new();
     };
-    let store = |f: &dyn Fn(&Pass<D, P>) -> Option<StoreOp>| {
-        if group.iter().any(|p| f(p) == Some(StoreOp::Store)) {
+    // An attachment is stored when any pass of the instance stores it.
+    let store = |stores: Vec<StoreOp>| {
+        if stores.contains(&StoreOp::Store) {
             StoreOp::Store
         } else {
             StoreOp::DontCare
         }
     };
-    let colour_store = store(&|p| match &p.kind {
-        PassKind::Draw { colour, .. } => Some(colour.store),
-        _ => None,
-    });
-    let depth_store = store(&|p| match &p.kind {
-        PassKind::Draw { depth, .. } => depth.map(|d: DepthAttachment| d.store),
-        _ => None,
-    });
+    let colour_store = store(
+        group
+            .iter()
+            .filter_map(|p| match &p.kind {
+                PassKind::Draw { colour, .. } => Some(colour.store),
+                _ => None,
+            })
+            .collect(),
+    );
+    let depth_store = store(
+        group
+            .iter()
+            .filter_map(|p| match &p.kind {
+                PassKind::Draw { depth, .. } => depth.map(|d: DepthAttachment| d.store),
+                _ => None,
+            })
+            .collect(),
+    );
     let instance = RenderingInstance {
         colour: (colour.image, colour.load, colour_store),
         depth: depth.map(|d| (d.image, d.load, depth_store)),
@@ -533,7 +544,7 @@ fn transition(
     state[image.0 as usize] = (layout, access, writes);
 }
 
-impl<D, P> fmt::Display for Plan<D, P> {
+impl<D, P, C> fmt::Display for Plan<D, P, C> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,

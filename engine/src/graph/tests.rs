@@ -2,13 +2,16 @@
 
 use super::*;
 
+/// Draws are numbers, programs and categories names.
+type TestPass = Pass<u32, &'static str, &'static str>;
+
 fn draw(
     name: &str,
     colour: ImageId,
     load: LoadOp,
     depth: Option<(ImageId, LoadOp, bool)>,
     draws: usize,
-) -> Pass<u32, &'static str> {
+) -> TestPass {
     Pass {
         name: name.into(),
         category: "test",
@@ -37,7 +40,12 @@ fn draw(
     }
 }
 
-fn frame() -> (Graph<u32, &'static str>, ImageId, ImageId, BufferId) {
+fn frame() -> (
+    Graph<u32, &'static str, &'static str>,
+    ImageId,
+    ImageId,
+    BufferId,
+) {
     let mut g = Graph::new();
     let colour = g.image("colour", Format::Rgba32Float, 8, 8);
     let depth = g.image("depth", Format::Depth32Float, 8, 8);
@@ -45,7 +53,7 @@ fn frame() -> (Graph<u32, &'static str>, ImageId, ImageId, BufferId) {
     (g, colour, depth, readback)
 }
 
-fn readback(colour: ImageId, buffer: BufferId) -> Pass<u32, &'static str> {
+fn readback(colour: ImageId, buffer: BufferId) -> TestPass {
     Pass {
         name: "readback".into(),
         category: "readback",

@@ -310,20 +310,25 @@ pub enum PassKind<D, P> {
     },
 }
 
-/// A declared pass.
+/// A declared pass. `D` (draw payloads), `P` (shader programs) and `C` (categories) are types of
+/// the graph's user: the graph stores and compares them but never looks inside.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Pass<D, P> {
+pub struct Pass<D, P, C> {
     /// Unique name (debug label).
     pub name: String,
-    /// A category for counting (`prime`, `layer`, `alpha-clear`, …).
-    pub category: &'static str,
+    /// What kind of pass this is in the user's words (the compositor's prime, layer, alpha
+    /// clear, …), for counting with [`crate::graph::Plan::count`]. A type of the user's, like
+    /// `D` and `P`, so the graph knows no compositor concept; a parameter of its own rather than
+    /// derived from the draws, because passes without draws (a clear, a layer whose cube map is
+    /// all zeros, a readback) have a category too.
+    pub category: C,
     /// Kept even if nothing reads its outputs.
     pub side_effect: bool,
     /// What it does.
     pub kind: PassKind<D, P>,
 }
 
-impl<D, P> Pass<D, P> {
+impl<D, P, C> Pass<D, P, C> {
     /// The pipeline this pass needs (draw passes only).
     pub fn pipeline_key(&self, images: &[ImageInfo]) -> Option<PipelineKey<P>>
     where
@@ -362,15 +367,15 @@ impl<D, P> Pass<D, P> {
     }
 }
 
-/// A graph being declared. Passes run in declaration order.
+/// A graph being declared (its type parameters are [`Pass`]'s). Passes run in declaration order.
 #[derive(Clone, Debug)]
-pub struct Graph<D, P> {
+pub struct Graph<D, P, C> {
     pub(crate) images: Vec<ImageInfo>,
     pub(crate) buffers: Vec<BufferInfo>,
-    pub(crate) passes: Vec<Pass<D, P>>,
+    pub(crate) passes: Vec<Pass<D, P, C>>,
 }
 
-impl<D, P> Default for Graph<D, P> {
+impl<D, P, C> Default for Graph<D, P, C> {
     fn default() -> Self {
         Graph {
             images: Vec::new(),
@@ -380,7 +385,7 @@ impl<D, P> Default for Graph<D, P> {
     }
 }
 
-impl<D, P> Graph<D, P> {
+impl<D, P, C> Graph<D, P, C> {
     /// An empty graph.
     pub fn new() -> Self {
         Self::default()
@@ -434,12 +439,12 @@ impl<D, P> Graph<D, P> {
     }
 
     /// Adds a pass after the others.
-    pub fn add_pass(&mut self, pass: Pass<D, P>) {
+    pub fn add_pass(&mut self, pass: Pass<D, P, C>) {
         self.passes.push(pass);
     }
 
     /// The declared passes.
-    pub fn passes(&self) -> &[Pass<D, P>] {
+    pub fn passes(&self) -> &[Pass<D, P, C>] {
         &self.passes
     }
 

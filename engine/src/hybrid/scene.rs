@@ -64,6 +64,15 @@ pub enum HybridError {
     LightMapBudget(PlanError),
 }
 
+impl Worded for HybridError {
+    fn worded(&self, words: &dyn OptionWords) -> String {
+        match self {
+            HybridError::Identity(error) => error.worded(words),
+            _ => self.to_string(),
+        }
+    }
+}
+
 /// A bake used with a scene it does not name as its own (its [`Provenance`]). The message
 /// names the option that accepts any bake (`accept_any_bake`) and how to bake the scene, in
 /// each front end's words ([`Worded`]).

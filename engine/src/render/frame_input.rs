@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use glam::{Mat4, Vec2, Vec3};
 
+use super::RenderError;
 use crate::cubemap::CubeMap;
 use crate::lightmap::LightMap;
 use crate::trace::Term;
@@ -111,16 +112,40 @@ impl FrameInput {
     /// Checks sizes, indices and values before anything reaches the GPU: every mesh index in
     /// range, every value finite, every layered EM the same size with a full chain and valid texels
     /// ([`CubeMap::validate`]), one layered EM per viewpoint weight and unique lens names.
-    pub fn validate(&self) -> Result<(), super::RenderError> {
-        self.validate_with(&|_| false)
+    pub fn validate(&self) -> Result<(), RenderError> {
+        self.validate_unless_checked(&|_| false)
     }
 
     /// [`FrameInput::validate`], except that the contents of the environment meshes and cube maps
     /// that `checked` knows (by the address of their `Arc`) are not scanned again: the renderer's
     /// upload cache checked them when it first uploaded them, so a frame that hands over the same
     /// maps and meshes pays only for its lens objects. Sizes and counts are still checked.
-    pub fn validate_with(&self, checked: &dyn Fn(usize) -> bool) -> Result<(), super::RenderError> {
-        let bad = |s: String| Err(super::RenderError::BadInput(s));
+    pub(super) fn validate_unless_checked(
+        &self,
+        checked: &dyn Fn(usize) -> bool,
+    ) -> Result<(), RenderError> {
+        self.validate_frame()?;
+        for (m, mesh) in self.environment.iter().enumerate() {
+            if !checked(Arc::as_ptr(mesh) as usize) {
+                mesh.validate(m)?;
+            }
+        }
+        for (l, lens) in self.lenses.iter().enumerate() {
+            let at = format!("lenses[{l}] ({})", lens.name);
+            check_mesh(&at, &lens.positions, &lens.triangles)?;
+            // Pass names and debug labels are made from lens names.
+            if self.lenses[..l].iter().any(|other| other.name == lens.name) {
+                return bad(format!(
+                    "{at}.name is used by an earlier lens; give every lens object its own name"
+                ));
+            }
+            lens.validate(&at, self.viewpoint_weights.len(), checked)?;
+        }
+        Ok(())
+    }
+
+    /// The frame's size, viewpoint weights and view-projection.
+    fn validate_frame(&self) -> Result<(), RenderError> {
         if self.width == 0 || self.height == 0 {
             return bad(format!(
                 "width×height is {}×{}; both must be ≥ 1",
@@ -148,122 +173,141 @@ impl FrameInput {
                 "view_proj has NaN or infinite entries; build it from a valid camera".into(),
             );
         }
-        for (m, mesh) in self.environment.iter().enumerate() {
-            if checked(Arc::as_ptr(mesh) as usize) {
-                continue;
-            }
-            if mesh.colours.len() != mesh.positions.len() {
+        Ok(())
+    }
+}
+
+impl EnvironmentMesh {
+    /// Environment mesh `m`'s sizes, indices and values, and its light map's.
+    fn validate(&self, m: usize) -> Result<(), RenderError> {
+        if self.colours.len() != self.positions.len() {
+            return bad(format!(
+                "environment[{m}].colours has {} entries for {} positions; give one per vertex",
+                self.colours.len(),
+                self.positions.len()
+            ));
+        }
+        check_mesh(
+            &format!("environment[{m}]"),
+            &self.positions,
+            &self.triangles,
+        )?;
+        if self.colours.iter().any(|c| !c.is_finite()) {
+            return bad(format!(
+                "environment[{m}].colours has NaN or infinite values"
+            ));
+        }
+        if let Some(light_map) = &self.light_map {
+            if light_map.uvs.len() != self.positions.len()
+                || light_map.uvs.iter().any(|uv| !uv.is_finite())
+            {
                 return bad(format!(
-                    "environment[{m}].colours has {} entries for {} positions; give one per vertex",
-                    mesh.colours.len(),
-                    mesh.positions.len()
+                    "environment[{m}].light_map.uvs needs one finite uv per vertex ({} given for {})",
+                    light_map.uvs.len(),
+                    self.positions.len()
                 ));
             }
-            check_mesh(
-                &format!("environment[{m}]"),
-                &mesh.positions,
-                &mesh.triangles,
-            )?;
-            if mesh.colours.iter().any(|c| !c.is_finite()) {
+            if let Err(error) = light_map.map.validate() {
+                return bad(format!("environment[{m}].light_map.map: {error}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl LensObject {
+    /// The lens object named `at` in messages, its mesh checked: its layered EMs (one per
+    /// viewpoint weight, `viewpoints` of them; the contents of those `checked` knows are not
+    /// scanned) and its terms.
+    fn validate(
+        &self,
+        at: &str,
+        viewpoints: usize,
+        checked: &dyn Fn(usize) -> bool,
+    ) -> Result<(), RenderError> {
+        let n = self.layer_count();
+        if n == 0 {
+            return bad(format!(
+                "{at}.layers has no layers; give every viewpoint sample at least one layer (cube map)"
+            ));
+        }
+        if self.layers.len() != viewpoints {
+            return bad(format!(
+                "{at}.layers has {} viewpoints but viewpoint_weights has {viewpoints}; give one layered EM per viewpoint sample",
+                self.layers.len(),
+            ));
+        }
+        if self.terms.is_empty() || self.terms.len() > 2 {
+            return bad(format!(
+                "{at}.terms has {} entries; give refraction and/or reflection",
+                self.terms.len()
+            ));
+        }
+        if self.terms.len() == 2 && self.terms[0].term == self.terms[1].term {
+            return bad(format!("{at}.terms names {:?} twice", self.terms[0].term));
+        }
+        self.validate_layers(at, checked)?;
+        for term in &self.terms {
+            let t = format!("{at}.terms[{:?}]", term.term);
+            if term.fg.len() != self.positions.len() || term.fg.iter().any(|c| !c.is_finite()) {
                 return bad(format!(
-                    "environment[{m}].colours has NaN or infinite values"
+                    "{t}.fg needs one finite rgb per vertex ({} given for {})",
+                    term.fg.len(),
+                    self.positions.len()
                 ));
             }
-            if let Some(light_map) = &mesh.light_map {
-                if light_map.uvs.len() != mesh.positions.len()
-                    || light_map.uvs.iter().any(|uv| !uv.is_finite())
-                {
+            if term.directions.len() != n {
+                return bad(format!(
+                    "{t}.directions has {} layers, the EMs have {n}",
+                    term.directions.len()
+                ));
+            }
+            for (i, d) in term.directions.iter().enumerate() {
+                if d.len() != self.positions.len() || d.iter().any(|v| !v.is_finite()) {
                     return bad(format!(
-                        "environment[{m}].light_map.uvs needs one finite uv per vertex ({} given for {})",
-                        light_map.uvs.len(),
-                        mesh.positions.len()
+                        "{t}.directions[{i}] needs one finite direction per vertex"
                     ));
-                }
-                if let Err(error) = light_map.map.validate() {
-                    return bad(format!("environment[{m}].light_map.map: {error}"));
                 }
             }
         }
-        for (l, lens) in self.lenses.iter().enumerate() {
-            let at = format!("lenses[{l}] ({})", lens.name);
-            check_mesh(&at, &lens.positions, &lens.triangles)?;
-            // Pass names and debug labels are made from lens names.
-            if self.lenses[..l].iter().any(|other| other.name == lens.name) {
+        Ok(())
+    }
+
+    /// Every viewpoint's layered EM: n layers each, every cube map the size of the first, and
+    /// valid texels (not scanned again for the maps `checked` knows).
+    fn validate_layers(
+        &self,
+        at: &str,
+        checked: &dyn Fn(usize) -> bool,
+    ) -> Result<(), RenderError> {
+        let n = self.layer_count();
+        let size = self
+            .layers
+            .first()
+            .and_then(|v| v.first())
+            .map_or(1, |c| c.size);
+        for (v, cubes) in self.layers.iter().enumerate() {
+            if cubes.len() != n {
                 return bad(format!(
-                    "{at}.name is used by an earlier lens; give every lens object its own name"
+                    "{at}.layers[{v}] has {} layers, viewpoint 0 has {n}; every viewpoint needs the same n",
+                    cubes.len()
                 ));
             }
-            let n = lens.layer_count();
-            if n == 0 {
-                return bad(format!(
-                    "{at}.layers has no layers; give every viewpoint sample at least one layer (cube map)"
-                ));
-            }
-            if lens.layers.len() != self.viewpoint_weights.len() {
-                return bad(format!(
-                    "{at}.layers has {} viewpoints but viewpoint_weights has {}; give one layered EM per viewpoint sample",
-                    lens.layers.len(),
-                    self.viewpoint_weights.len()
-                ));
-            }
-            if lens.terms.is_empty() || lens.terms.len() > 2 {
-                return bad(format!(
-                    "{at}.terms has {} entries; give refraction and/or reflection",
-                    lens.terms.len()
-                ));
-            }
-            if lens.terms.len() == 2 && lens.terms[0].term == lens.terms[1].term {
-                return bad(format!("{at}.terms names {:?} twice", lens.terms[0].term));
-            }
-            let size = lens
-                .layers
-                .first()
-                .and_then(|v| v.first())
-                .map_or(1, |c| c.size);
-            for (v, cubes) in lens.layers.iter().enumerate() {
-                if cubes.len() != n {
-                    return bad(format!(
-                        "{at}.layers[{v}] has {} layers, viewpoint 0 has {n}; every viewpoint needs the same n",
-                        cubes.len()
-                    ));
-                }
-                for (i, cube) in cubes.iter().enumerate() {
-                    if checked(Arc::as_ptr(cube) as usize) {
-                        if cube.size != size {
-                            let error = crate::cubemap::CubeMapError::WrongSize {
-                                found: cube.size,
-                                expected: size,
-                            };
-                            return bad(format!("{at}.layers[{v}][{i}]: {error}"));
-                        }
-                        continue;
+            for (i, cube) in cubes.iter().enumerate() {
+                let result = if checked(Arc::as_ptr(cube) as usize) {
+                    if cube.size == size {
+                        Ok(())
+                    } else {
+                        Err(crate::cubemap::CubeMapError::WrongSize {
+                            found: cube.size,
+                            expected: size,
+                        })
                     }
-                    if let Err(error) = cube.validate(Some(size)) {
-                        return bad(format!("{at}.layers[{v}][{i}]: {error}"));
-                    }
-                }
-            }
-            for term in &lens.terms {
-                let t = format!("{at}.terms[{:?}]", term.term);
-                if term.fg.len() != lens.positions.len() || term.fg.iter().any(|c| !c.is_finite()) {
-                    return bad(format!(
-                        "{t}.fg needs one finite rgb per vertex ({} given for {})",
-                        term.fg.len(),
-                        lens.positions.len()
-                    ));
-                }
-                if term.directions.len() != n {
-                    return bad(format!(
-                        "{t}.directions has {} layers, the EMs have {n}",
-                        term.directions.len()
-                    ));
-                }
-                for (i, d) in term.directions.iter().enumerate() {
-                    if d.len() != lens.positions.len() || d.iter().any(|v| !v.is_finite()) {
-                        return bad(format!(
-                            "{t}.directions[{i}] needs one finite direction per vertex"
-                        ));
-                    }
+                } else {
+                    cube.validate(Some(size))
+                };
+                if let Err(error) = result {
+                    return bad(format!("{at}.layers[{v}][{i}]: {error}"));
                 }
             }
         }
@@ -271,24 +315,24 @@ impl FrameInput {
     }
 }
 
-fn check_mesh(
-    at: &str,
-    positions: &[glam::Vec3],
-    triangles: &[[u32; 3]],
-) -> Result<(), super::RenderError> {
+/// A refusal of bad frame input, `message` naming the field and the fix.
+fn bad(message: String) -> Result<(), RenderError> {
+    Err(RenderError::BadInput(message))
+}
+
+/// A mesh's positions are finite and its triangles index them.
+fn check_mesh(at: &str, positions: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), RenderError> {
     if positions.iter().any(|p| !p.is_finite()) {
-        return Err(super::RenderError::BadInput(format!(
-            "{at}.positions has NaN or infinite values"
-        )));
+        return bad(format!("{at}.positions has NaN or infinite values"));
     }
     if let Some(t) = triangles
         .iter()
         .position(|t| t.iter().any(|&i| i as usize >= positions.len()))
     {
-        return Err(super::RenderError::BadInput(format!(
+        return bad(format!(
             "{at}.triangles[{t}] indexes past the {} positions",
             positions.len()
-        )));
+        ));
     }
     Ok(())
 }

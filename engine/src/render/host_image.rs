@@ -7,8 +7,8 @@ use super::{RenderError, plan::Output, vulkan};
 use crate::graph::Format;
 
 /// A host's `VkImage` to render a frame into, on the host's own device and queue
-/// ([`super::Renderer::submit_to`]). Lensmap renders the frame into its own framebuffer as
-/// always, then box-filters it into this image with a full-screen draw (the supersampling filter
+/// ([`super::Renderer::submit`] with [`super::RenderOptions::host`]). Lensmap renders the frame
+/// into its own framebuffer as always, then box-filters it into this image with a full-screen draw (the supersampling filter
 /// on the GPU: no readback), with the barriers that take the image from `current_layout` to a
 /// colour attachment and on to `final_layout`. The submission waits for `wait` and signals
 /// `signal`; it is on the queue lensmap was given, so the host's later work on that queue is

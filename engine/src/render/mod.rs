@@ -1,8 +1,11 @@
 //! The compositor: what a frame is made of ([`FrameInput`]), its pass graph ([`plan`]) with typed
-//! shader programs ([`program`]), the GPU side in files of one job each (uploads, pipelines,
+//! shader programs ([`program`]), the GPU side in files of one job each (whether a framebuffer
+//! fits the device, uploads, descriptor-set layouts and sets, the framebuffer targets, pipelines,
 //! recording, the renderer that runs them, the graph's types in Vulkan's words), the read-back
 //! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 
+mod budget;
+mod descriptors;
 mod frame_input;
 mod host_image;
 mod image;
@@ -13,16 +16,22 @@ pub mod program;
 mod record;
 mod renderer;
 pub mod synthetic;
+mod targets;
 mod upload;
 mod vulkan;
 
+use crate::options::{OptionWords, Worded};
+
+pub use budget::{FRAMEBUFFER_HEAP_SHARE, FramebufferError, check_framebuffer};
 pub use frame_input::*;
 pub use host_image::HostImage;
 pub use image::RenderedImage;
-pub use plan::{BlendScheme, FramePlan, FrameShape, Output, TargetFormat, Variant};
+pub use plan::{
+    BlendScheme, FramePlan, FrameShape, Output, PassCategory, PlanOptions, TargetFormat, Variant,
+};
 pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
-pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, Renderer, Submission};
-pub use upload::{FRAMEBUFFER_HEAP_SHARE, UploadedFrame, check_framebuffer};
+pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, RenderOptions, Renderer, Submission};
+pub use upload::UploadedFrame;
 
 /// Errors from uploading or rendering a frame.
 #[derive(Debug, thiserror::Error)]
@@ -34,22 +43,55 @@ pub enum RenderError {
     /// single pass supports); the message names the lens and the fix.
     #[error("frame input: {0}")]
     Program(ProgramError),
+    /// The framebuffer does not fit the device; the message names the size, the limit and the
+    /// options that change it.
+    #[error("frame input: {0}")]
+    Framebuffer(FramebufferError),
     /// The GPU failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
 }
 
-// By hand rather than `#[from]`: a `#[from]` field is also the error's source, and the command
-// line, which prints an error with its sources, would then say the same sentence twice.
+// By hand rather than `#[from]`: a `#[from]` field is also the error's source, and a front end
+// that prints an error with its sources would then say the same sentence twice.
 impl From<ProgramError> for RenderError {
     fn from(error: ProgramError) -> RenderError {
         RenderError::Program(error)
     }
 }
 
+impl From<FramebufferError> for RenderError {
+    fn from(error: FramebufferError) -> RenderError {
+        RenderError::Framebuffer(error)
+    }
+}
+
+impl Worded for RenderError {
+    fn worded(&self, words: &dyn OptionWords) -> String {
+        match self {
+            RenderError::Program(error) => format!("frame input: {}", error.worded(words)),
+            RenderError::Framebuffer(error) => format!("frame input: {}", error.worded(words)),
+            RenderError::BadInput(_) | RenderError::Gpu(_) => self.to_string(),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Options as a command line would name them, for the tests of worded errors.
+    pub(super) struct Flags;
+
+    impl OptionWords for Flags {
+        fn option(&self, field: &str) -> String {
+            format!("--{field}")
+        }
+
+        fn setting(&self, field: &str, value: &str) -> String {
+            format!("--{field} {value}")
+        }
+    }
 
     #[test]
     fn a_program_error_is_said_once() {

@@ -1,8 +1,8 @@
-//! What every frame's pipelines share, and the pipelines themselves: the lens and environment
-//! descriptor-set layouts, the pipeline layouts (lens, environment, box filter) (their push-constant ranges sized by the
-//! structs generated from the WGSL), the trilinear sampler of the layered EMs and the bilinear one
-//! of the light maps, and one pipeline per [`PipelineKey`], created on first use from the pass's
-//! declaration.
+//! What every frame's pipelines share, and the pipelines themselves: the descriptor-set layouts
+//! (created from their descriptions in [`super::descriptors`]), the pipeline layouts (their
+//! push-constant ranges sized by the structs generated from the WGSL), the trilinear sampler of
+//! the layered EMs and the bilinear one of the light maps, and one pipeline per [`PipelineKey`],
+//! created on first use from the pass's declaration.
 
 use std::{collections::HashMap, sync::Arc};
 
@@ -11,34 +11,35 @@ use lensmap_shaders::{EnvironmentConstants, GroupSumConstants, LensConstants, Re
 
 use super::{
     ShaderProgram,
+    descriptors::{ENVIRONMENT_SET, LENS_SET, SAMPLED_IMAGE_SET, create_set_layout},
     vulkan::{blend_state, vk_compare, vk_format},
 };
 use crate::{
-    gpu::{Gpu, GpuError, GraphicsPipelineDesc, context::Shared},
+    gpu::{Gpu, GpuError, GraphicsPipelineDesc, VkContext, context::Shared},
     graph::{Cull, PipelineKey},
 };
 
 /// Layouts, the sampler and the pipelines created so far, all on one device.
 pub(super) struct Pipelines {
     shared: Arc<Shared>,
-    /// Set 0 of the lens programs: the lens data (storage buffer), the two viewpoints' cube-map
-    /// arrays and the sampler.
+    /// Set 0 of the lens programs ([`LENS_SET`]).
     pub(super) lens_set_layout: vk::DescriptorSetLayout,
     /// The lens programs' layout: set 0 and [`LensConstants`].
     pub(super) lens_layout: vk::PipelineLayout,
-    /// Set 0 of the environment program: the mesh's light map and its sampler.
+    /// Set 0 of the environment program ([`ENVIRONMENT_SET`]).
     pub(super) environment_set_layout: vk::DescriptorSetLayout,
     /// The environment program's layout: set 0 and [`EnvironmentConstants`].
     pub(super) environment_layout: vk::PipelineLayout,
-    /// Set 0 of the box filter: the colour target it averages (read with texel fetches).
-    pub(super) box_filter_set_layout: vk::DescriptorSetLayout,
-    /// The box filter's layout: set 0 and [`ResolveConstants`].
+    /// One sampled image ([`SAMPLED_IMAGE_SET`]): set 0 of the box filter (the colour target)
+    /// and of the group sum (the scratch images' array view), set 1 of the programmable layer
+    /// (one scratch image).
+    pub(super) sampled_image_set_layout: vk::DescriptorSetLayout,
+    /// The box filter's layout: the sampled image and [`ResolveConstants`].
     pub(super) box_filter_layout: vk::PipelineLayout,
-    /// The group sum's layout: set 0 (one sampled image, as the box filter's: the scratch
-    /// images' array view) and [`GroupSumConstants`].
+    /// The group sum's layout: the sampled image and [`GroupSumConstants`].
     pub(super) group_sum_layout: vk::PipelineLayout,
-    /// The programmable layer's layout: the lens programs' set 0, set 1 the scratch images'
-    /// array view (the box filter's set layout), and [`LensConstants`].
+    /// The programmable layer's layout: the lens programs' set 0, the sampled image as set 1,
+    /// and [`LensConstants`].
     pub(super) programmable_layout: vk::PipelineLayout,
     /// Trilinear, clamp to edge, every level.
     pub(super) sampler: vk::Sampler,
@@ -58,65 +59,87 @@ impl Drop for Pipelines {
             for pipeline in self.pipelines.values() {
                 device.destroy_pipeline(*pipeline, None);
             }
-            device.destroy_pipeline_layout(self.lens_layout, None);
-            device.destroy_pipeline_layout(self.environment_layout, None);
-            device.destroy_pipeline_layout(self.box_filter_layout, None);
-            device.destroy_pipeline_layout(self.group_sum_layout, None);
-            device.destroy_pipeline_layout(self.programmable_layout, None);
-            device.destroy_descriptor_set_layout(self.lens_set_layout, None);
-            device.destroy_descriptor_set_layout(self.environment_set_layout, None);
-            device.destroy_descriptor_set_layout(self.box_filter_set_layout, None);
+            for layout in [
+                self.lens_layout,
+                self.environment_layout,
+                self.box_filter_layout,
+                self.group_sum_layout,
+                self.programmable_layout,
+            ] {
+                device.destroy_pipeline_layout(layout, None);
+            }
+            for layout in [
+                self.lens_set_layout,
+                self.environment_set_layout,
+                self.sampled_image_set_layout,
+            ] {
+                device.destroy_descriptor_set_layout(layout, None);
+            }
             device.destroy_sampler(self.sampler, None);
             device.destroy_sampler(self.light_map_sampler, None);
         }
     }
 }
 
-/// The size of a push-constant struct as Vulkan wants it.
-fn push_size<T>() -> u32 {
-    std::mem::size_of::<T>() as u32
+/// The push constants `T` of a pipeline layout, read by `stages`.
+fn push_constants<T>(stages: vk::ShaderStageFlags) -> vk::PushConstantRange {
+    vk::PushConstantRange {
+        stage_flags: stages,
+        offset: 0,
+        size: std::mem::size_of::<T>() as u32,
+    }
+}
+
+/// Creates the pipeline layout of `sets` (set i is `sets[i]`) and one push-constant range.
+fn create_layout(
+    gpu: &Gpu,
+    sets: &[vk::DescriptorSetLayout],
+    push: vk::PushConstantRange,
+) -> Result<vk::PipelineLayout, GpuError> {
+    let push = [push];
+    // SAFETY: the create info lives until the call returns; Pipelines::drop destroys the layout.
+    unsafe {
+        gpu.device().create_pipeline_layout(
+            &vk::PipelineLayoutCreateInfo::default()
+                .set_layouts(sets)
+                .push_constant_ranges(&push),
+            None,
+        )
+    }
+    .vk("vkCreatePipelineLayout")
+}
+
+/// Creates a linear sampler clamping to the edge, with `mipmap_mode` between levels
+/// `0..=max_lod`. Cube maps filter seamlessly (Vulkan's default).
+fn create_sampler(
+    gpu: &Gpu,
+    mipmap_mode: vk::SamplerMipmapMode,
+    max_lod: f32,
+) -> Result<vk::Sampler, GpuError> {
+    let info = vk::SamplerCreateInfo::default()
+        .mag_filter(vk::Filter::LINEAR)
+        .min_filter(vk::Filter::LINEAR)
+        .mipmap_mode(mipmap_mode)
+        .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+        .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+        .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+        .min_lod(0.0)
+        .max_lod(max_lod);
+    // SAFETY: valid create info; Pipelines::drop destroys the sampler.
+    unsafe { gpu.device().create_sampler(&info, None) }.vk("vkCreateSampler")
 }
 
 impl Pipelines {
-    /// Creates the layouts and the sampler; pipelines are created on first use.
+    /// Creates the layouts and the samplers; pipelines are created on first use.
     pub(super) fn new(gpu: &Gpu) -> Result<Pipelines, GpuError> {
-        let device = gpu.device();
-        let binding = |binding: u32, ty: vk::DescriptorType, stage: vk::ShaderStageFlags| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(binding)
-                .descriptor_type(ty)
-                .descriptor_count(1)
-                .stage_flags(stage)
-        };
-        let bindings = [
-            binding(
-                0,
-                vk::DescriptorType::STORAGE_BUFFER,
-                vk::ShaderStageFlags::VERTEX,
-            ),
-            binding(
-                1,
-                vk::DescriptorType::SAMPLED_IMAGE,
-                vk::ShaderStageFlags::FRAGMENT,
-            ),
-            binding(
-                2,
-                vk::DescriptorType::SAMPLED_IMAGE,
-                vk::ShaderStageFlags::FRAGMENT,
-            ),
-            binding(
-                3,
-                vk::DescriptorType::SAMPLER,
-                vk::ShaderStageFlags::FRAGMENT,
-            ),
-        ];
+        // Every handle starts null, so that Drop after a failure destroys what was created.
         let mut pipelines = Pipelines {
             shared: gpu.shared.clone(),
             lens_set_layout: vk::DescriptorSetLayout::null(),
             lens_layout: vk::PipelineLayout::null(),
             environment_set_layout: vk::DescriptorSetLayout::null(),
             environment_layout: vk::PipelineLayout::null(),
-            box_filter_set_layout: vk::DescriptorSetLayout::null(),
+            sampled_image_set_layout: vk::DescriptorSetLayout::null(),
             box_filter_layout: vk::PipelineLayout::null(),
             group_sum_layout: vk::PipelineLayout::null(),
             programmable_layout: vk::PipelineLayout::null(),
@@ -124,134 +147,35 @@ impl Pipelines {
             light_map_sampler: vk::Sampler::null(),
             pipelines: HashMap::new(),
         };
-        let vk_err = |call| move |result| GpuError::Vulkan { call, result };
-        // SAFETY: create infos live until each call returns; Drop destroys what was created.
-        unsafe {
-            pipelines.lens_set_layout = device
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
-            let lens_push = [vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                offset: 0,
-                size: push_size::<LensConstants>(),
-            }];
-            let set_layouts = [pipelines.lens_set_layout];
-            pipelines.lens_layout = device
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&set_layouts)
-                        .push_constant_ranges(&lens_push),
-                    None,
-                )
-                .map_err(vk_err("vkCreatePipelineLayout"))?;
-            let environment_push = [vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::VERTEX,
-                offset: 0,
-                size: push_size::<EnvironmentConstants>(),
-            }];
-            let environment_bindings = [
-                binding(
-                    0,
-                    vk::DescriptorType::SAMPLED_IMAGE,
-                    vk::ShaderStageFlags::FRAGMENT,
-                ),
-                binding(
-                    1,
-                    vk::DescriptorType::SAMPLER,
-                    vk::ShaderStageFlags::FRAGMENT,
-                ),
-            ];
-            pipelines.environment_set_layout = device
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&environment_bindings),
-                    None,
-                )
-                .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
-            let environment_sets = [pipelines.environment_set_layout];
-            pipelines.environment_layout = device
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&environment_sets)
-                        .push_constant_ranges(&environment_push),
-                    None,
-                )
-                .map_err(vk_err("vkCreatePipelineLayout"))?;
-            let box_filter_bindings = [binding(
-                0,
-                vk::DescriptorType::SAMPLED_IMAGE,
-                vk::ShaderStageFlags::FRAGMENT,
-            )];
-            pipelines.box_filter_set_layout = device
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&box_filter_bindings),
-                    None,
-                )
-                .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
-            let box_filter_sets = [pipelines.box_filter_set_layout];
-            let box_filter_push = [vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::FRAGMENT,
-                offset: 0,
-                size: push_size::<ResolveConstants>(),
-            }];
-            pipelines.box_filter_layout = device
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&box_filter_sets)
-                        .push_constant_ranges(&box_filter_push),
-                    None,
-                )
-                .map_err(vk_err("vkCreatePipelineLayout"))?;
-            let group_sum_push = [vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::FRAGMENT,
-                offset: 0,
-                size: push_size::<GroupSumConstants>(),
-            }];
-            pipelines.group_sum_layout = device
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&box_filter_sets)
-                        .push_constant_ranges(&group_sum_push),
-                    None,
-                )
-                .map_err(vk_err("vkCreatePipelineLayout"))?;
-            let programmable_sets = [pipelines.lens_set_layout, pipelines.box_filter_set_layout];
-            pipelines.programmable_layout = device
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&programmable_sets)
-                        .push_constant_ranges(&lens_push),
-                    None,
-                )
-                .map_err(vk_err("vkCreatePipelineLayout"))?;
-            // Trilinear, clamp to edge, every level; cube maps filter seamlessly (Vulkan default).
-            let sampler = vk::SamplerCreateInfo::default()
-                .mag_filter(vk::Filter::LINEAR)
-                .min_filter(vk::Filter::LINEAR)
-                .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
-                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .min_lod(0.0)
-                .max_lod(vk::LOD_CLAMP_NONE);
-            pipelines.sampler = device
-                .create_sampler(&sampler, None)
-                .map_err(vk_err("vkCreateSampler"))?;
-            let light_map_sampler = vk::SamplerCreateInfo::default()
-                .mag_filter(vk::Filter::LINEAR)
-                .min_filter(vk::Filter::LINEAR)
-                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
-                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
-                .min_lod(0.0)
-                .max_lod(0.0);
-            pipelines.light_map_sampler = device
-                .create_sampler(&light_map_sampler, None)
-                .map_err(vk_err("vkCreateSampler"))?;
-        }
+        let p = &mut pipelines;
+        p.lens_set_layout = create_set_layout(gpu, LENS_SET)?;
+        p.environment_set_layout = create_set_layout(gpu, ENVIRONMENT_SET)?;
+        p.sampled_image_set_layout = create_set_layout(gpu, SAMPLED_IMAGE_SET)?;
+        let (vertex, fragment) = (vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT);
+        let lens_push = push_constants::<LensConstants>(vertex | fragment);
+        p.lens_layout = create_layout(gpu, &[p.lens_set_layout], lens_push)?;
+        p.environment_layout = create_layout(
+            gpu,
+            &[p.environment_set_layout],
+            push_constants::<EnvironmentConstants>(vertex),
+        )?;
+        p.box_filter_layout = create_layout(
+            gpu,
+            &[p.sampled_image_set_layout],
+            push_constants::<ResolveConstants>(fragment),
+        )?;
+        p.group_sum_layout = create_layout(
+            gpu,
+            &[p.sampled_image_set_layout],
+            push_constants::<GroupSumConstants>(fragment),
+        )?;
+        p.programmable_layout = create_layout(
+            gpu,
+            &[p.lens_set_layout, p.sampled_image_set_layout],
+            lens_push,
+        )?;
+        p.sampler = create_sampler(gpu, vk::SamplerMipmapMode::LINEAR, vk::LOD_CLAMP_NONE)?;
+        p.light_map_sampler = create_sampler(gpu, vk::SamplerMipmapMode::NEAREST, 0.0)?;
         Ok(pipelines)
     }
 

@@ -5,7 +5,12 @@
 
 use lensmap_shaders::{Overrides, Shader};
 
-use crate::{gpu::VertexInput, trace::Term};
+use super::{BlendScheme, Variant};
+use crate::{
+    gpu::VertexInput,
+    options::{LibraryWords, OptionWords, Worded},
+    trace::Term,
+};
 
 /// The single-pass fragment shader's specialization: what its constant loop bounds and branches
 /// are compiled for. Built only through [`SinglePassProgram::new`], so every value names a blob
@@ -32,12 +37,10 @@ pub enum ProgramError {
         max: usize,
     },
     /// A blending scheme other than front-to-back asked of the single pass, which does not blend.
-    #[error(
-        "--blend {blend} applies to the multipass variant; the single pass composites in registers and does not blend: use --variant multipass"
-    )]
+    #[error("{}", single_pass_blend(*.blend, &LibraryWords))]
     SinglePassBlend {
         /// The scheme asked for.
-        blend: &'static str,
+        blend: BlendScheme,
     },
     /// A lens object with no layers, no terms, or not one or two viewpoint samples.
     #[error(
@@ -55,6 +58,26 @@ pub enum ProgramError {
         /// [`SinglePassProgram::MAX_LAYERS`].
         max: usize,
     },
+}
+
+/// The message of [`ProgramError::SinglePassBlend`], naming the options by `words`.
+fn single_pass_blend(blend: BlendScheme, words: &dyn OptionWords) -> String {
+    format!(
+        "{} applies to the multipass variant; the single pass composites in registers and does not blend: use {}",
+        words.setting("blend", blend.name()),
+        words.setting("variant", Variant::Multipass.name())
+    )
+}
+
+impl Worded for ProgramError {
+    fn worded(&self, words: &dyn OptionWords) -> String {
+        match self {
+            ProgramError::SinglePassBlend { blend } => single_pass_blend(*blend, words),
+            ProgramError::TooManyLayers { .. } | ProgramError::Unsupported { .. } => {
+                self.to_string()
+            }
+        }
+    }
 }
 
 impl SinglePassProgram {
@@ -232,5 +255,23 @@ mod tests {
                 "{layers} {terms:?} {viewpoints}"
             );
         }
+    }
+
+    /// The single pass asked to blend names the options by their field names; a front end
+    /// words them its own way.
+    #[test]
+    fn a_blend_for_the_single_pass_names_the_options() {
+        use crate::render::tests::Flags;
+        let error = ProgramError::SinglePassBlend {
+            blend: BlendScheme::Programmable,
+        };
+        assert_eq!(
+            error.to_string(),
+            "`blend` = programmable applies to the multipass variant; the single pass composites in registers and does not blend: use `variant` = multipass"
+        );
+        assert_eq!(
+            error.worded(&Flags),
+            "--blend programmable applies to the multipass variant; the single pass composites in registers and does not blend: use --variant multipass"
+        );
     }
 }

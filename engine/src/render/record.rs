@@ -11,12 +11,13 @@ use super::{
     HostImage, TargetFormat,
     pipelines::Pipelines,
     plan::{Draw, FramePlan, FrameResources},
-    upload::{GpuLens, Targets, UploadedFrame},
+    targets::Targets,
+    upload::{GpuLens, UploadedFrame},
     vulkan::{vk_access, vk_layout},
 };
 use crate::{
     gpu::Gpu,
-    graph::{self, Layout, LoadOp, PassKind, StoreOp},
+    graph::{self, Barrier, Layout, LoadOp, PassKind, RenderingInstance, StoreOp},
     trace::Term,
 };
 
@@ -32,6 +33,123 @@ pub(super) struct Recorder<'a> {
     pub(super) host: Option<&'a HostImage>,
 }
 
+/// The frame's Vulkan images behind the plan's image handles.
+struct FrameImages<'a> {
+    frame: &'a UploadedFrame,
+    resources: &'a FrameResources,
+    targets: &'a Targets,
+    /// The host's image, when the plan has an external image.
+    host: Option<&'a HostImage>,
+}
+
+impl FrameImages<'_> {
+    /// The Vulkan image of `id` and the subresources its barriers cover: every level and layer
+    /// of lensmap's own images (one layer of the scratch array for a scratch image), the one
+    /// level and layer of a host image that its view shows. Imported cube arrays never need
+    /// barriers within a frame (uploads leave them SHADER_READ_ONLY), but are mapped all the
+    /// same.
+    fn image(&self, id: graph::ImageId) -> (vk::Image, vk::ImageSubresourceRange) {
+        let all = |aspect_mask, layer_count| vk::ImageSubresourceRange {
+            aspect_mask,
+            base_mip_level: 0,
+            level_count: vk::REMAINING_MIP_LEVELS,
+            base_array_layer: 0,
+            layer_count,
+        };
+        if let (Some(host), true) = (self.host, Some(id) == self.resources.external) {
+            let range = vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                base_mip_level: host.mip_level,
+                level_count: 1,
+                base_array_layer: host.array_layer,
+                layer_count: 1,
+            };
+            return (host.image, range);
+        }
+        if id == self.resources.colour {
+            return (
+                self.targets.colour.handle,
+                all(vk::ImageAspectFlags::COLOR, 1),
+            );
+        }
+        if id == self.resources.depth {
+            return (
+                self.targets.depth.handle,
+                all(vk::ImageAspectFlags::DEPTH, 1),
+            );
+        }
+        if let (Some(k), Some(scratch)) = (self.scratch_index(id), self.targets.scratch.as_ref()) {
+            let range = vk::ImageSubresourceRange {
+                base_array_layer: k as u32,
+                ..all(vk::ImageAspectFlags::COLOR, 1)
+            };
+            return (scratch.image.handle, range);
+        }
+        self.resources
+            .layers
+            .iter()
+            .zip(&self.frame.lenses)
+            .flat_map(|(ids, lens)| ids.iter().zip(&lens.layers))
+            .find(|(layer_id, _)| **layer_id == id)
+            .map_or(
+                (vk::Image::null(), all(vk::ImageAspectFlags::COLOR, 1)),
+                |(_, image)| {
+                    (
+                        image.handle,
+                        all(vk::ImageAspectFlags::COLOR, image.desc.array_layers),
+                    )
+                },
+            )
+    }
+
+    /// The position of `id` among the scratch images.
+    fn scratch_index(&self, id: graph::ImageId) -> Option<usize> {
+        self.resources.scratch.iter().position(|s| *s == id)
+    }
+
+    /// The Vulkan layout of a barrier's `old_layout`: the host's layout before the frame stands
+    /// in for the graph's External.
+    fn layout_before(&self, layout: Layout) -> vk::ImageLayout {
+        match (layout, self.host) {
+            (Layout::External, Some(host)) => host.current_layout,
+            _ => vk_layout(layout),
+        }
+    }
+
+    /// The Vulkan layout of a barrier's `new_layout`: the layout the host wants after the frame
+    /// stands in for the graph's External.
+    fn layout_after(&self, layout: Layout) -> vk::ImageLayout {
+        match (layout, self.host) {
+            (Layout::External, Some(host)) => host.final_layout,
+            _ => vk_layout(layout),
+        }
+    }
+
+    /// The view and extent of a colour attachment: the framebuffer's (or a scratch image's,
+    /// the framebuffer's size), or the host's image (the framebuffer's size over the
+    /// supersampling factor).
+    fn attachment(&self, id: graph::ImageId) -> (vk::ImageView, u32, u32) {
+        if let Some(host) = self.host.filter(|_| Some(id) == self.resources.external) {
+            return (host.view, host.width, host.height);
+        }
+        let scratch_view = self.scratch_index(id).map(|k| {
+            let view = self
+                .targets
+                .scratch
+                .as_ref()
+                .and_then(|scratch| scratch.image.layer_views.get(k).copied());
+            debug_assert!(view.is_some(), "scratch image {k} was not made");
+            view.unwrap_or(self.targets.colour.view)
+        });
+        let shape = &self.frame.shape;
+        (
+            scratch_view.unwrap_or(self.targets.colour.view),
+            shape.width,
+            shape.height,
+        )
+    }
+}
+
 impl Recorder<'_> {
     /// Records `plan` into `cb`: per step its barriers, the rendering instance it begins, a debug
     /// label, its draws or its copy, the end of its instance. `pipelines` holds each step's
@@ -44,177 +162,17 @@ impl Recorder<'_> {
         pipelines: &[Option<vk::Pipeline>],
     ) {
         let (gpu, frame) = (self.gpu, self.frame);
-        let device = gpu.device();
         let targets = &frame.targets[&format];
-        let (width, height) = (frame.shape.width, frame.shape.height);
-        let host = self.host.filter(|_| resources.external.is_some());
-        // The graph's image handles → the frame's Vulkan images (imported cube arrays never need
-        // barriers within a frame: uploads leave them SHADER_READ_ONLY; mapped all the same).
-        // Each image with the subresources its barriers cover: every level and layer of lensmap's
-        // own images, the one level and layer of a host image that its view shows.
-        let image_of = |id: graph::ImageId| -> (vk::Image, vk::ImageSubresourceRange) {
-            let all = |aspect_mask, layer_count| vk::ImageSubresourceRange {
-                aspect_mask,
-                base_mip_level: 0,
-                level_count: vk::REMAINING_MIP_LEVELS,
-                base_array_layer: 0,
-                layer_count,
-            };
-            if let (Some(host), true) = (host, Some(id) == resources.external) {
-                let range = vk::ImageSubresourceRange {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    base_mip_level: host.mip_level,
-                    level_count: 1,
-                    base_array_layer: host.array_layer,
-                    layer_count: 1,
-                };
-                return (host.image, range);
-            }
-            if id == resources.colour {
-                return (targets.colour.handle, all(vk::ImageAspectFlags::COLOR, 1));
-            }
-            if id == resources.depth {
-                return (targets.depth.handle, all(vk::ImageAspectFlags::DEPTH, 1));
-            }
-            // A scratch image is one layer of the scratch array.
-            if let (Some(k), Some(scratch)) = (
-                resources.scratch.iter().position(|s| *s == id),
-                targets.scratch.as_ref(),
-            ) {
-                let range = vk::ImageSubresourceRange {
-                    base_array_layer: k as u32,
-                    ..all(vk::ImageAspectFlags::COLOR, 1)
-                };
-                return (scratch.image.handle, range);
-            }
-            resources
-                .layers
-                .iter()
-                .zip(&frame.lenses)
-                .flat_map(|(ids, lens)| ids.iter().zip(&lens.layers))
-                .find(|(layer_id, _)| **layer_id == id)
-                .map_or(
-                    (vk::Image::null(), all(vk::ImageAspectFlags::COLOR, 1)),
-                    |(_, image)| {
-                        (
-                            image.handle,
-                            all(vk::ImageAspectFlags::COLOR, image.desc.array_layers),
-                        )
-                    },
-                )
+        let images = FrameImages {
+            frame,
+            resources,
+            targets,
+            host: self.host.filter(|_| resources.external.is_some()),
         };
-        // The host's layouts stand in for the graph's External (before the frame, then after).
-        let layout = |graph_layout: Layout, before: bool| match (graph_layout, host) {
-            (Layout::External, Some(host)) if before => host.current_layout,
-            (Layout::External, Some(host)) => host.final_layout,
-            _ => vk_layout(graph_layout),
-        };
-        // A rendering instance covers its colour attachment: the framebuffer, or the host's
-        // image (the framebuffer's size over the supersampling factor).
-        let attachment = |id: graph::ImageId| match host {
-            Some(host) if Some(id) == resources.external => (host.view, host.width, host.height),
-            _ => {
-                let scratch_view = resources.scratch.iter().position(|s| *s == id).map(|k| {
-                    let view = targets
-                        .scratch
-                        .as_ref()
-                        .and_then(|scratch| scratch.image.layer_views.get(k).copied());
-                    debug_assert!(view.is_some(), "scratch image {k} was not made");
-                    view.unwrap_or(targets.colour.view)
-                });
-                (scratch_view.unwrap_or(targets.colour.view), width, height)
-            }
-        };
-
         for (step, pipeline) in plan.steps.iter().zip(pipelines) {
-            if !step.barriers.is_empty() {
-                let barriers: Vec<vk::ImageMemoryBarrier2> = step
-                    .barriers
-                    .iter()
-                    .map(|b| {
-                        let (image, range) = image_of(b.image);
-                        let (src_stage, src_access) = vk_access(b.src);
-                        let (dst_stage, dst_access) = vk_access(b.dst);
-                        vk::ImageMemoryBarrier2::default()
-                            .src_stage_mask(src_stage)
-                            .src_access_mask(src_access)
-                            .dst_stage_mask(dst_stage)
-                            .dst_access_mask(dst_access)
-                            .old_layout(layout(b.old_layout, true))
-                            .new_layout(layout(b.new_layout, false))
-                            .image(image)
-                            .subresource_range(range)
-                    })
-                    .collect();
-                // SAFETY: recording; the barriers describe images alive for the submission.
-                unsafe {
-                    device.cmd_pipeline_barrier2(
-                        cb,
-                        &vk::DependencyInfo::default().image_memory_barriers(&barriers),
-                    )
-                };
-            }
+            self.barriers(cb, &images, &step.barriers);
             if let Some(instance) = &step.begin {
-                let clear = |load: LoadOp| match load {
-                    LoadOp::Clear(c) => (vk::AttachmentLoadOp::CLEAR, c),
-                    LoadOp::Load => (vk::AttachmentLoadOp::LOAD, [0.0; 4]),
-                    LoadOp::DontCare => (vk::AttachmentLoadOp::DONT_CARE, [0.0; 4]),
-                };
-                let store = |s: StoreOp| match s {
-                    StoreOp::Store => vk::AttachmentStoreOp::STORE,
-                    StoreOp::DontCare => vk::AttachmentStoreOp::DONT_CARE,
-                };
-                let (colour_load, colour_clear) = clear(instance.colour.1);
-                let (view, width, height) = attachment(instance.colour.0);
-                let colour = [vk::RenderingAttachmentInfo::default()
-                    .image_view(view)
-                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                    .load_op(colour_load)
-                    .store_op(store(instance.colour.2))
-                    .clear_value(vk::ClearValue {
-                        color: vk::ClearColorValue {
-                            float32: colour_clear,
-                        },
-                    })];
-                let depth = instance.depth.map(|(_, load, s)| {
-                    let (depth_load, depth_clear) = clear(load);
-                    vk::RenderingAttachmentInfo::default()
-                        .image_view(targets.depth.view)
-                        .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-                        .load_op(depth_load)
-                        .store_op(store(s))
-                        .clear_value(vk::ClearValue {
-                            depth_stencil: vk::ClearDepthStencilValue {
-                                depth: depth_clear[0],
-                                stencil: 0,
-                            },
-                        })
-                });
-                let viewport = vk::Viewport {
-                    x: 0.0,
-                    y: 0.0,
-                    width: width as f32,
-                    height: height as f32,
-                    min_depth: 0.0,
-                    max_depth: 1.0,
-                };
-                let scissor = vk::Rect2D {
-                    offset: vk::Offset2D::default(),
-                    extent: vk::Extent2D { width, height },
-                };
-                let mut rendering = vk::RenderingInfo::default()
-                    .render_area(scissor)
-                    .layer_count(1)
-                    .color_attachments(&colour);
-                if let Some(depth) = depth.as_ref() {
-                    rendering = rendering.depth_attachment(depth);
-                }
-                // SAFETY: recording; attachments are in the layouts the plan's barriers set.
-                unsafe {
-                    device.cmd_begin_rendering(cb, &rendering);
-                    device.cmd_set_viewport(cb, 0, &[viewport]);
-                    device.cmd_set_scissor(cb, 0, &[scissor]);
-                }
+                self.begin_rendering(cb, &images, instance);
             }
             gpu.begin_label(cb, &step.pass.name);
             match &step.pass.kind {
@@ -223,267 +181,405 @@ impl Recorder<'_> {
                     if let Some(pipeline) = *pipeline {
                         // SAFETY: recording inside a rendering instance with a compatible pipeline.
                         unsafe {
-                            device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::GRAPHICS, pipeline)
+                            gpu.device().cmd_bind_pipeline(
+                                cb,
+                                vk::PipelineBindPoint::GRAPHICS,
+                                pipeline,
+                            )
                         };
                         for draw in draws {
                             self.record_draw(cb, *draw, targets);
                         }
                     }
                 }
-                PassKind::Readback { .. } => {
-                    let region = vk::BufferImageCopy::default()
-                        .image_subresource(vk::ImageSubresourceLayers {
-                            aspect_mask: vk::ImageAspectFlags::COLOR,
-                            mip_level: 0,
-                            base_array_layer: 0,
-                            layer_count: 1,
-                        })
-                        .image_extent(vk::Extent3D {
-                            width,
-                            height,
-                            depth: 1,
-                        });
-                    let to_host = [vk::MemoryBarrier2::default()
-                        .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                        .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-                    // SAFETY: the colour target is TRANSFER_SRC after this step's barrier.
-                    unsafe {
-                        device.cmd_copy_image_to_buffer(
-                            cb,
-                            targets.colour.handle,
-                            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                            targets.readback.handle,
-                            &[region],
-                        );
-                        device.cmd_pipeline_barrier2(
-                            cb,
-                            &vk::DependencyInfo::default().memory_barriers(&to_host),
-                        );
-                    }
-                }
+                PassKind::Readback { .. } => self.copy_to_readback(cb, targets),
                 // The hand-back is this step's barrier (to the host's final layout): no command.
                 PassKind::Export { .. } => {}
             }
             gpu.end_label(cb);
             if step.end {
                 // SAFETY: closes the instance begun by this run's first step.
-                unsafe { device.cmd_end_rendering(cb) };
+                unsafe { gpu.device().cmd_end_rendering(cb) };
             }
         }
     }
 
-    /// Records one draw with its push constants and descriptor set; the pipeline is bound.
-    /// `targets` are the framebuffer's (the box filter reads their colour).
+    /// Records a step's barriers (nothing for none).
+    fn barriers(&self, cb: vk::CommandBuffer, images: &FrameImages, barriers: &[Barrier]) {
+        if barriers.is_empty() {
+            return;
+        }
+        let barriers: Vec<vk::ImageMemoryBarrier2> = barriers
+            .iter()
+            .map(|b| {
+                let (image, range) = images.image(b.image);
+                let (src_stage, src_access) = vk_access(b.src);
+                let (dst_stage, dst_access) = vk_access(b.dst);
+                vk::ImageMemoryBarrier2::default()
+                    .src_stage_mask(src_stage)
+                    .src_access_mask(src_access)
+                    .dst_stage_mask(dst_stage)
+                    .dst_access_mask(dst_access)
+                    .old_layout(images.layout_before(b.old_layout))
+                    .new_layout(images.layout_after(b.new_layout))
+                    .image(image)
+                    .subresource_range(range)
+            })
+            .collect();
+        // SAFETY: recording; the barriers describe images alive for the submission.
+        unsafe {
+            self.gpu.device().cmd_pipeline_barrier2(
+                cb,
+                &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+            )
+        };
+    }
+
+    /// Begins a rendering instance on its attachments, with a viewport and scissor covering the
+    /// colour attachment.
+    fn begin_rendering(
+        &self,
+        cb: vk::CommandBuffer,
+        images: &FrameImages,
+        instance: &RenderingInstance,
+    ) {
+        let load_op = |load: LoadOp| match load {
+            LoadOp::Clear(c) => (vk::AttachmentLoadOp::CLEAR, c),
+            LoadOp::Load => (vk::AttachmentLoadOp::LOAD, [0.0; 4]),
+            LoadOp::DontCare => (vk::AttachmentLoadOp::DONT_CARE, [0.0; 4]),
+        };
+        let store_op = |s: StoreOp| match s {
+            StoreOp::Store => vk::AttachmentStoreOp::STORE,
+            StoreOp::DontCare => vk::AttachmentStoreOp::DONT_CARE,
+        };
+        let (colour_load, colour_clear) = load_op(instance.colour.1);
+        let (view, width, height) = images.attachment(instance.colour.0);
+        let colour = [vk::RenderingAttachmentInfo::default()
+            .image_view(view)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(colour_load)
+            .store_op(store_op(instance.colour.2))
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: colour_clear,
+                },
+            })];
+        let depth = instance.depth.map(|(_, load, store)| {
+            let (depth_load, depth_clear) = load_op(load);
+            vk::RenderingAttachmentInfo::default()
+                .image_view(images.targets.depth.view)
+                .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+                .load_op(depth_load)
+                .store_op(store_op(store))
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: depth_clear[0],
+                        stencil: 0,
+                    },
+                })
+        });
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: width as f32,
+            height: height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let scissor = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: vk::Extent2D { width, height },
+        };
+        let mut rendering = vk::RenderingInfo::default()
+            .render_area(scissor)
+            .layer_count(1)
+            .color_attachments(&colour);
+        if let Some(depth) = depth.as_ref() {
+            rendering = rendering.depth_attachment(depth);
+        }
+        let device = self.gpu.device();
+        // SAFETY: recording; attachments are in the layouts the plan's barriers set.
+        unsafe {
+            device.cmd_begin_rendering(cb, &rendering);
+            device.cmd_set_viewport(cb, 0, &[viewport]);
+            device.cmd_set_scissor(cb, 0, &[scissor]);
+        }
+    }
+
+    /// The copy of the colour target into the readback buffer, made visible to the host.
+    fn copy_to_readback(&self, cb: vk::CommandBuffer, targets: &Targets) {
+        let shape = &self.frame.shape;
+        let region = vk::BufferImageCopy::default()
+            .image_subresource(vk::ImageSubresourceLayers {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+            .image_extent(vk::Extent3D {
+                width: shape.width,
+                height: shape.height,
+                depth: 1,
+            });
+        let to_host = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COPY)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+        let device = self.gpu.device();
+        // SAFETY: the colour target is TRANSFER_SRC after this step's barrier.
+        unsafe {
+            device.cmd_copy_image_to_buffer(
+                cb,
+                targets.colour.handle,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                targets.readback.handle,
+                &[region],
+            );
+            device.cmd_pipeline_barrier2(
+                cb,
+                &vk::DependencyInfo::default().memory_barriers(&to_host),
+            );
+        }
+    }
+
+    /// Records one draw with its push constants and descriptor sets; the pipeline is bound.
+    /// `targets` are the framebuffer's (the box filter reads their colour, the group sum and
+    /// the programmable layer their scratch images).
     fn record_draw(&self, cb: vk::CommandBuffer, draw: Draw, targets: &Targets) {
+        match draw {
+            Draw::BoxFilter {
+                supersampling,
+                half,
+            } => {
+                let k = supersampling.max(1);
+                // The CPU filter's scale, computed the same way (RenderedImage::box_downsample),
+                // and the readback's clamp of overflowed RGBA16F texels.
+                let constants = ResolveConstants {
+                    supersampling: k,
+                    scale: 1.0 / (k * k) as f32,
+                    limit: if half {
+                        super::image::HALF_MAX
+                    } else {
+                        f32::INFINITY
+                    },
+                };
+                self.full_screen(
+                    cb,
+                    self.pipelines.box_filter_layout,
+                    targets.box_filter_set,
+                    bytemuck::bytes_of(&constants),
+                );
+            }
+            Draw::GroupSum { groups } => {
+                // The renderer made the scratch images the plan names before recording.
+                let Some(set) = targets
+                    .scratch
+                    .as_ref()
+                    .and_then(|s| s.prefix_sets.get((groups as usize).checked_sub(1)?))
+                else {
+                    debug_assert!(false, "a group sum without its scratch images");
+                    return;
+                };
+                self.full_screen(
+                    cb,
+                    self.pipelines.group_sum_layout,
+                    *set,
+                    bytemuck::bytes_of(&GroupSumConstants { groups }),
+                );
+            }
+            Draw::Environment { mesh } => self.environment(cb, mesh),
+            Draw::LensZero { lens }
+            | Draw::SinglePass { lens }
+            | Draw::Layer { lens, .. }
+            | Draw::ProgrammableLayer { lens, .. } => self.lens(cb, draw, lens, targets),
+        }
+    }
+
+    /// A full-screen triangle with `set` bound as set 0 of `layout` and `constants` pushed to
+    /// the fragment stage.
+    fn full_screen(
+        &self,
+        cb: vk::CommandBuffer,
+        layout: vk::PipelineLayout,
+        set: vk::DescriptorSet,
+        constants: &[u8],
+    ) {
+        self.bind(
+            cb,
+            layout,
+            &[set],
+            (vk::ShaderStageFlags::FRAGMENT, constants),
+        );
+        // SAFETY: recording inside a rendering instance with the matching pipeline bound.
+        unsafe { self.gpu.device().cmd_draw(cb, 3, 1, 0, 0) };
+    }
+
+    /// Binds `sets` as sets 0.. of `layout` and pushes `constants` to `stages`.
+    fn bind(
+        &self,
+        cb: vk::CommandBuffer,
+        layout: vk::PipelineLayout,
+        sets: &[vk::DescriptorSet],
+        (stages, constants): (vk::ShaderStageFlags, &[u8]),
+    ) {
+        let device = self.gpu.device();
+        // SAFETY: recording with a pipeline of `layout` bound; the sets live as long as the
+        // frame and its targets.
+        unsafe {
+            device.cmd_bind_descriptor_sets(
+                cb,
+                vk::PipelineBindPoint::GRAPHICS,
+                layout,
+                0,
+                sets,
+                &[],
+            );
+            device.cmd_push_constants(cb, layout, stages, 0, constants);
+        }
+    }
+
+    /// Environment mesh `mesh`: its light-map set, vertex and index buffers.
+    fn environment(&self, cb: vk::CommandBuffer, mesh: usize) {
         let (device, frame) = (self.gpu.device(), self.frame);
-        let lens_constants = |lens: &GpuLens| LensConstants {
+        let mesh = &frame.environment[mesh];
+        let constants = EnvironmentConstants {
             view_proj: frame.view_proj,
+        };
+        self.bind(
+            cb,
+            self.pipelines.environment_layout,
+            &[mesh.set],
+            (vk::ShaderStageFlags::VERTEX, bytemuck::bytes_of(&constants)),
+        );
+        // SAFETY: recording inside a rendering instance with the environment pipeline bound;
+        // the buffers live as long as `frame`.
+        unsafe {
+            device.cmd_bind_vertex_buffers(
+                cb,
+                0,
+                &[mesh.positions.handle, mesh.colours.handle, mesh.uvs.handle],
+                &[0, 0, 0],
+            );
+            device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
+            device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);
+        }
+    }
+
+    /// One draw of lens object `lens` (the prime or alpha clear, a layer, a programmable layer,
+    /// the single pass): its descriptor sets and push constants, then its triangles.
+    fn lens(&self, cb: vk::CommandBuffer, draw: Draw, lens: usize, targets: &Targets) {
+        let gpu_lens = &self.frame.lenses[lens];
+        let mut constants = self.lens_constants(gpu_lens);
+        let weight = |v: usize| self.viewpoint_weight(v);
+        // One layer of one (viewpoint, term) group: its weight, F·G and directions.
+        let mut one_layer = |viewpoint: usize, term: Term, layer: usize| {
+            constants.weight_a = weight(viewpoint);
+            constants.fg_offset_t = gpu_lens.fg_offset[&term];
+            constants.direction_offset_t =
+                gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
+            constants.layer = layer as u32;
+            gpu_lens.sets[viewpoint]
+        };
+        // Set 0, and set 1 for the programmable layer (no allocation per draw).
+        let (layout, sets, set_count) = match draw {
+            Draw::Layer {
+                viewpoint,
+                term,
+                layer,
+                ..
+            } => (
+                self.pipelines.lens_layout,
+                [one_layer(viewpoint, term, layer), vk::DescriptorSet::null()],
+                1,
+            ),
+            Draw::ProgrammableLayer {
+                viewpoint,
+                term,
+                layer,
+                read,
+                reset_alpha,
+                ..
+            } => {
+                let Some(scratch) = &targets.scratch else {
+                    debug_assert!(false, "a programmable layer without its scratch");
+                    return;
+                };
+                let set = one_layer(viewpoint, term, layer);
+                constants.read_current = 1;
+                constants.reset_alpha = u32::from(reset_alpha);
+                (
+                    self.pipelines.programmable_layout,
+                    [set, scratch.layer_sets[read as usize]],
+                    2,
+                )
+            }
+            _ => {
+                // The single pass blends the viewpoints with weight > 0 in order, as the plan's
+                // specialization counts them: binding 1 and weight_a are the first active
+                // viewpoint's, binding 2 and weight_b the second's.
+                let active: Vec<usize> = (0..gpu_lens.sets.len())
+                    .filter(|&v| weight(v) > 0.0)
+                    .collect();
+                let first = active.first().copied().unwrap_or(0);
+                constants.weight_a = weight(first);
+                constants.weight_b = active.get(1).map_or(0.0, |&v| weight(v));
+                (
+                    self.pipelines.lens_layout,
+                    [gpu_lens.sets[first], vk::DescriptorSet::null()],
+                    1,
+                )
+            }
+        };
+        self.bind(
+            cb,
+            layout,
+            &sets[..set_count],
+            (
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                bytemuck::bytes_of(&constants),
+            ),
+        );
+        let device = self.gpu.device();
+        // SAFETY: recording inside a rendering instance with the matching lens pipeline bound;
+        // the index buffer lives as long as the frame.
+        unsafe {
+            device.cmd_bind_index_buffer(cb, gpu_lens.indices.handle, 0, vk::IndexType::UINT32);
+            device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
+        }
+    }
+
+    /// The weight of viewpoint sample `v` (0 for one the frame does not have).
+    fn viewpoint_weight(&self, v: usize) -> f32 {
+        self.frame
+            .shape
+            .viewpoint_weights
+            .get(v)
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// A lens object's push constants before a draw picks its group and layer: both terms'
+    /// offsets, the layer count and term mask, no weights.
+    fn lens_constants(&self, lens: &GpuLens) -> LensConstants {
+        let offset = |offsets: &std::collections::HashMap<Term, u32>, term| {
+            offsets.get(&term).copied().unwrap_or(0)
+        };
+        LensConstants {
+            view_proj: self.frame.view_proj,
             weight_a: 0.0,
             weight_b: 0.0,
             layer_count: lens.layer_count,
             term_mask: u32::from(lens.fg_offset.contains_key(&Term::Refraction))
                 | (u32::from(lens.fg_offset.contains_key(&Term::Reflection)) << 1),
             position_offset: 0,
-            fg_offset_t: lens.fg_offset.get(&Term::Refraction).copied().unwrap_or(0),
-            fg_offset_r: lens.fg_offset.get(&Term::Reflection).copied().unwrap_or(0),
-            direction_offset_t: lens
-                .direction_offset
-                .get(&Term::Refraction)
-                .copied()
-                .unwrap_or(0),
-            direction_offset_r: lens
-                .direction_offset
-                .get(&Term::Reflection)
-                .copied()
-                .unwrap_or(0),
+            fg_offset_t: offset(&lens.fg_offset, Term::Refraction),
+            fg_offset_r: offset(&lens.fg_offset, Term::Reflection),
+            direction_offset_t: offset(&lens.direction_offset, Term::Refraction),
+            direction_offset_r: offset(&lens.direction_offset, Term::Reflection),
             vertex_count: lens.vertex_count,
             layer: 0,
             ..Zeroable::zeroed()
-        };
-        let weight = |v: usize| frame.shape.viewpoint_weights.get(v).copied().unwrap_or(0.0);
-        // SAFETY (all arms): recording inside a rendering instance with the matching pipeline bound;
-        // buffers and sets live as long as `frame`.
-        unsafe {
-            match draw {
-                Draw::BoxFilter {
-                    supersampling,
-                    half,
-                } => {
-                    let k = supersampling.max(1);
-                    // The CPU filter's scale, computed the same way (RenderedImage::box_downsample),
-                    // and the readback's clamp of overflowed RGBA16F texels.
-                    let constants = ResolveConstants {
-                        supersampling: k,
-                        scale: 1.0 / (k * k) as f32,
-                        limit: if half {
-                            super::image::HALF_MAX
-                        } else {
-                            f32::INFINITY
-                        },
-                    };
-                    device.cmd_bind_descriptor_sets(
-                        cb,
-                        vk::PipelineBindPoint::GRAPHICS,
-                        self.pipelines.box_filter_layout,
-                        0,
-                        &[targets.box_filter_set],
-                        &[],
-                    );
-                    device.cmd_push_constants(
-                        cb,
-                        self.pipelines.box_filter_layout,
-                        vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        bytemuck::bytes_of(&constants),
-                    );
-                    device.cmd_draw(cb, 3, 1, 0, 0);
-                }
-                Draw::GroupSum { groups } => {
-                    // The renderer made the scratch images the plan names before recording.
-                    let Some(set) = targets
-                        .scratch
-                        .as_ref()
-                        .and_then(|s| s.prefix_sets.get((groups as usize).checked_sub(1)?))
-                    else {
-                        debug_assert!(false, "a group sum without its scratch images");
-                        return;
-                    };
-                    device.cmd_bind_descriptor_sets(
-                        cb,
-                        vk::PipelineBindPoint::GRAPHICS,
-                        self.pipelines.group_sum_layout,
-                        0,
-                        &[*set],
-                        &[],
-                    );
-                    device.cmd_push_constants(
-                        cb,
-                        self.pipelines.group_sum_layout,
-                        vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        bytemuck::bytes_of(&GroupSumConstants { groups }),
-                    );
-                    device.cmd_draw(cb, 3, 1, 0, 0);
-                }
-                Draw::Environment { mesh } => {
-                    let mesh = &frame.environment[mesh];
-                    device.cmd_push_constants(
-                        cb,
-                        self.pipelines.environment_layout,
-                        vk::ShaderStageFlags::VERTEX,
-                        0,
-                        bytemuck::bytes_of(&EnvironmentConstants {
-                            view_proj: frame.view_proj,
-                        }),
-                    );
-                    device.cmd_bind_descriptor_sets(
-                        cb,
-                        vk::PipelineBindPoint::GRAPHICS,
-                        self.pipelines.environment_layout,
-                        0,
-                        &[mesh.set],
-                        &[],
-                    );
-                    device.cmd_bind_vertex_buffers(
-                        cb,
-                        0,
-                        &[mesh.positions.handle, mesh.colours.handle, mesh.uvs.handle],
-                        &[0, 0, 0],
-                    );
-                    device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
-                    device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);
-                }
-                Draw::LensZero { lens }
-                | Draw::SinglePass { lens }
-                | Draw::Layer { lens, .. }
-                | Draw::ProgrammableLayer { lens, .. } => {
-                    let gpu_lens = &frame.lenses[lens];
-                    let mut constants = lens_constants(gpu_lens);
-                    // One layer of one (viewpoint, term) group: its weight, F·G and directions.
-                    let mut one_layer = |viewpoint: usize, term: Term, layer: usize| {
-                        constants.weight_a = weight(viewpoint);
-                        constants.fg_offset_t = gpu_lens.fg_offset[&term];
-                        constants.direction_offset_t =
-                            gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
-                        constants.layer = layer as u32;
-                        gpu_lens.sets[viewpoint]
-                    };
-                    // Set 0, and set 1 for the programmable layer (no allocation per draw).
-                    let (layout, sets, set_count) = match draw {
-                        Draw::Layer {
-                            viewpoint,
-                            term,
-                            layer,
-                            ..
-                        } => (
-                            self.pipelines.lens_layout,
-                            [one_layer(viewpoint, term, layer), vk::DescriptorSet::null()],
-                            1,
-                        ),
-                        Draw::ProgrammableLayer {
-                            viewpoint,
-                            term,
-                            layer,
-                            read,
-                            reset_alpha,
-                            ..
-                        } => {
-                            let Some(scratch) = &targets.scratch else {
-                                debug_assert!(false, "a programmable layer without its scratch");
-                                return;
-                            };
-                            let set = one_layer(viewpoint, term, layer);
-                            constants.read_current = 1;
-                            constants.reset_alpha = u32::from(reset_alpha);
-                            (
-                                self.pipelines.programmable_layout,
-                                [set, scratch.layer_sets[read as usize]],
-                                2,
-                            )
-                        }
-                        _ => {
-                            // The single pass blends the viewpoints with weight > 0 in order, as
-                            // the plan's specialization counts them: binding 1 and weight_a are
-                            // the first active viewpoint's, binding 2 and weight_b the second's.
-                            let active: Vec<usize> = (0..gpu_lens.sets.len())
-                                .filter(|&v| weight(v) > 0.0)
-                                .collect();
-                            let first = active.first().copied().unwrap_or(0);
-                            constants.weight_a = weight(first);
-                            constants.weight_b = active.get(1).map_or(0.0, |&v| weight(v));
-                            (
-                                self.pipelines.lens_layout,
-                                [gpu_lens.sets[first], vk::DescriptorSet::null()],
-                                1,
-                            )
-                        }
-                    };
-                    device.cmd_bind_descriptor_sets(
-                        cb,
-                        vk::PipelineBindPoint::GRAPHICS,
-                        layout,
-                        0,
-                        &sets[..set_count],
-                        &[],
-                    );
-                    device.cmd_push_constants(
-                        cb,
-                        layout,
-                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        bytemuck::bytes_of(&constants),
-                    );
-                    device.cmd_bind_index_buffer(
-                        cb,
-                        gpu_lens.indices.handle,
-                        0,
-                        vk::IndexType::UINT32,
-                    );
-                    device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
-                }
-            }
         }
     }
 }

@@ -12,9 +12,10 @@ use super::{
     FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat, Variant,
     image::decode,
     pipelines::Pipelines,
-    plan::{BlendScheme, FrameResources, Output, frame_graph_blended},
+    plan::{BlendScheme, FrameResources, Output, PlanOptions, frame_graph},
     record::Recorder,
-    upload::{Targets, UploadCache, UploadedFrame},
+    targets::Targets,
+    upload::{UploadCache, UploadedFrame},
 };
 use crate::gpu::{Gpu, GpuError, Timeline};
 
@@ -38,6 +39,34 @@ pub struct FrameTimings {
     /// ±65504 on readback (0 for other formats, and for frames into a host's image, whose box
     /// filter clamps them on the GPU).
     pub saturated: usize,
+}
+
+/// How [`Renderer::render`], [`Renderer::submit`] and [`Renderer::plan`] composite a frame and
+/// where its pixels go. The default is the runner's (`runner::FrameOptions`): the single pass
+/// into RGBA16F, read back.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderOptions<'a> {
+    /// The compositor variant.
+    pub variant: Variant,
+    /// How the multipass variant combines layers and groups (the single pass takes only
+    /// [`BlendScheme::FrontToBack`]).
+    pub blend: BlendScheme,
+    /// The framebuffer's format.
+    pub format: TargetFormat,
+    /// A host's image to box-filter the frame into on the GPU, or `None` to read the
+    /// framebuffer back.
+    pub host: Option<&'a HostImage>,
+}
+
+impl Default for RenderOptions<'_> {
+    fn default() -> Self {
+        RenderOptions {
+            variant: Variant::SinglePass,
+            blend: BlendScheme::FrontToBack,
+            format: TargetFormat::Rgba16f,
+            host: None,
+        }
+    }
 }
 
 /// Pipelines, layouts and the sampler shared by every frame, the uploads frames share, the
@@ -125,37 +154,34 @@ impl Renderer {
             .replace_layers(gpu, &self.pipelines, frame, lens, layers)
     }
 
-    /// The plan a frame would record; an error where a lens object needs a program that does
-    /// not exist (more layers than the single pass supports).
-    pub fn plan(
-        frame: &UploadedFrame,
-        variant: Variant,
-        format: TargetFormat,
-    ) -> Result<FramePlan, RenderError> {
-        Self::plan_blended(frame, variant, BlendScheme::FrontToBack, format)
+    /// The plan [`Renderer::submit`] records for `frame` with `options`; an error where a lens
+    /// object needs a program that does not exist (more layers than the single pass supports),
+    /// or the single pass is asked to blend.
+    pub fn plan(frame: &UploadedFrame, options: &RenderOptions) -> Result<FramePlan, RenderError> {
+        Ok(Self::plan_with_resources(frame, options)?.0)
     }
 
-    /// [`Renderer::plan`] with the multipass variant's layers combined by `blend`.
-    pub fn plan_blended(
-        frame: &UploadedFrame,
-        variant: Variant,
-        blend: BlendScheme,
-        format: TargetFormat,
-    ) -> Result<FramePlan, RenderError> {
-        Ok(Self::plan_with_resources(frame, (variant, blend), format, Output::Readback)?.0)
-    }
-
-    /// The plan ending in `output` and the graph's handles of the frame's images.
+    /// The plan and the graph's handles of the frame's images.
     fn plan_with_resources(
         frame: &UploadedFrame,
-        (variant, blend): (Variant, BlendScheme),
-        format: TargetFormat,
-        output: Output,
+        options: &RenderOptions,
     ) -> Result<(FramePlan, FrameResources), RenderError> {
-        let (graph, resources) =
-            frame_graph_blended(frame.shape(), variant, blend, format, output)?;
+        let (width, height) = (frame.shape().width, frame.shape().height);
+        let output = match options.host {
+            Some(image) => image.output(width, height)?,
+            None => Output::Readback,
+        };
+        let (graph, resources) = frame_graph(
+            frame.shape(),
+            &PlanOptions {
+                variant: options.variant,
+                blend: options.blend,
+                format: options.format,
+                output,
+            },
+        )?;
         // The frame graph is well-formed by construction (lens names are unique, checked by
-        // FrameInput::validate); a failure here is a bug in plan.rs.
+        // FrameInput::validate); a failure here is a bug in plan/.
         let plan = graph.compile().expect("frame graphs always compile");
         Ok((plan, resources))
     }
@@ -165,76 +191,29 @@ impl Renderer {
         &mut self,
         gpu: &Gpu,
         frame: &mut UploadedFrame,
-        variant: Variant,
-        format: TargetFormat,
+        options: &RenderOptions,
     ) -> Result<(RenderedImage, FrameTimings), RenderError> {
-        let submission = self.submit(gpu, frame, variant, format)?;
+        let submission = self.submit(gpu, frame, options)?;
         self.finish(frame, submission)
     }
 
-    /// [`Renderer::render`] with the multipass variant's layers combined by `blend`.
-    pub fn render_blended(
-        &mut self,
-        gpu: &Gpu,
-        frame: &mut UploadedFrame,
-        (variant, blend): (Variant, BlendScheme),
-        format: TargetFormat,
-    ) -> Result<(RenderedImage, FrameTimings), RenderError> {
-        let submission = self.submit_blended(gpu, frame, (variant, blend), format, None)?;
-        self.finish(frame, submission)
-    }
-
-    /// Records the frame's plan (its passes and the readback copy) and submits it without
-    /// waiting. At most [`FRAMES_IN_FLIGHT`] frames execute at once: a command buffer is reused
-    /// only after its previous submission completed.
+    /// Records the frame's plan and submits it without waiting. Without a host image the plan
+    /// ends in the readback copy; with one (on this device, its size the frame's divided by the
+    /// supersampling factor) the frame is box-filtered into it on the GPU, with the host's
+    /// semaphores on the submission and no readback, and is complete when its `signal`
+    /// semaphores are (or [`Renderer::finish`] returns, which also waits). At most
+    /// [`FRAMES_IN_FLIGHT`] frames execute at once: a command buffer is reused only after its
+    /// previous submission completed.
     pub fn submit(
         &mut self,
         gpu: &Gpu,
         frame: &mut UploadedFrame,
-        variant: Variant,
-        format: TargetFormat,
-    ) -> Result<Submission, RenderError> {
-        self.submit_to(gpu, frame, variant, format, None)
-    }
-
-    /// [`Renderer::submit`] with a choice of destination: `host` (a host's image on this
-    /// device, whose size is the frame's divided by the supersampling factor) gets the frame
-    /// box-filtered on the GPU, with the host's semaphores on the submission and no readback;
-    /// `None` reads the framebuffer back. A host frame is complete when its `signal` semaphores
-    /// are (or [`Renderer::finish`] returns, which also waits).
-    pub fn submit_to(
-        &mut self,
-        gpu: &Gpu,
-        frame: &mut UploadedFrame,
-        variant: Variant,
-        format: TargetFormat,
-        host: Option<&HostImage>,
-    ) -> Result<Submission, RenderError> {
-        self.submit_blended(
-            gpu,
-            frame,
-            (variant, BlendScheme::FrontToBack),
-            format,
-            host,
-        )
-    }
-
-    /// [`Renderer::submit_to`] with the multipass variant's layers combined by `blend`.
-    pub fn submit_blended(
-        &mut self,
-        gpu: &Gpu,
-        frame: &mut UploadedFrame,
-        (variant, blend): (Variant, BlendScheme),
-        format: TargetFormat,
-        host: Option<&HostImage>,
+        options: &RenderOptions,
     ) -> Result<Submission, RenderError> {
         let start = Instant::now();
+        let RenderOptions { format, host, .. } = *options;
         let (width, height) = (frame.shape().width, frame.shape().height);
-        let output = match host {
-            Some(image) => image.output(width, height)?,
-            None => Output::Readback,
-        };
-        let (plan, resources) = Self::plan_with_resources(frame, (variant, blend), format, output)?;
+        let (plan, resources) = Self::plan_with_resources(frame, options)?;
         if let std::collections::hash_map::Entry::Vacant(slot) = frame.targets.entry(format) {
             slot.insert(Targets::new(gpu, &self.pipelines, format, width, height)?);
         }
@@ -255,7 +234,7 @@ impl Renderer {
         if let Some(targets) = frame.targets.get_mut(&format) {
             let needed = resources.scratch.len();
             if needed > 0 {
-                super::upload::check_scratch_budget(gpu, (width, height), format, needed)?;
+                super::budget::check_scratch_budget(gpu, (width, height), format, needed)?;
             }
             targets.ensure_scratch(gpu, &self.pipelines, needed)?;
         }

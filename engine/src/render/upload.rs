@@ -11,11 +11,13 @@ use ash::vk;
 
 use super::{
     EnvironmentMesh, FrameInput, FrameShape, LensObject, RenderError, TargetFormat,
+    descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
+    targets::Targets,
 };
 use crate::{
     cubemap::CubeMap,
-    gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, Timeline, context::Shared},
+    gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, Timeline},
     trace::Term,
 };
 
@@ -48,272 +50,10 @@ pub(super) struct GpuMesh {
     pub(super) index_count: u32,
     /// Kept alive for the descriptor set.
     _light_map: Arc<Image>,
-    descriptor_pool: vk::DescriptorPool,
+    /// The pool of `set`: no submission using the set is pending when the mesh drops, as every
+    /// uploaded frame holds its meshes until its last submission completed.
+    _descriptor_pool: DescriptorPool,
     pub(super) set: vk::DescriptorSet,
-    shared: Arc<Shared>,
-}
-
-impl Drop for GpuMesh {
-    fn drop(&mut self) {
-        // SAFETY: no submission using the set is pending: every uploaded frame holds its meshes
-        // until its last submission completed (UploadedFrame waits for it before its fields
-        // drop), so the last owner drops the mesh only after that; the pool belongs to this
-        // device. (No idle wait: evicting a moving sky dome's mesh must not stall the frames in
-        // flight.)
-        unsafe {
-            self.shared
-                .device
-                .destroy_descriptor_pool(self.descriptor_pool, None);
-        }
-    }
-}
-
-/// Checks a framebuffer of `width × height` subpixels in `format` against the device, before any
-/// work: each side against `maxImageDimension2D`, and the colour, depth and readback targets of
-/// every frame in flight against [`FRAMEBUFFER_HEAP_SHARE`] of the largest device-local heap. A
-/// refusal is bad input naming the size, the limit and the fix.
-pub fn check_framebuffer(
-    gpu: &Gpu,
-    width: u32,
-    height: u32,
-    format: TargetFormat,
-) -> Result<(), RenderError> {
-    check_dimensions(gpu, width, height)?;
-    framebuffer_budget(width, height, format, 0, gpu.device_local_heap_bytes())
-        .map_err(RenderError::BadInput)
-}
-
-/// [`check_framebuffer`]'s budget with `scratch` more framebuffer-sized colour images per frame
-/// (a blending scheme's, [`Scratch`]), checked before they are made.
-pub(super) fn check_scratch_budget(
-    gpu: &Gpu,
-    (width, height): (u32, u32),
-    format: TargetFormat,
-    scratch: usize,
-) -> Result<(), RenderError> {
-    framebuffer_budget(
-        width,
-        height,
-        format,
-        Scratch::layers_for(scratch),
-        gpu.device_local_heap_bytes(),
-    )
-    .map_err(RenderError::BadInput)
-}
-
-/// The share of the largest device-local heap the framebuffer targets may take; the rest is
-/// for layered EMs, light maps, meshes and the driver.
-pub const FRAMEBUFFER_HEAP_SHARE: f64 = 0.75;
-
-fn check_dimensions(gpu: &Gpu, width: u32, height: u32) -> Result<(), RenderError> {
-    let most = gpu.properties().limits.max_image_dimension2_d;
-    if width > most || height > most {
-        return Err(RenderError::BadInput(format!(
-            "the framebuffer is {width}×{height} subpixels, past this device's limit of {most} a side (maxImageDimension2D); give a smaller image or less supersampling (--width/--height/--supersampling)"
-        )));
-    }
-    Ok(())
-}
-
-/// The device memory the targets of [`FRAMES_IN_FLIGHT`] frames of `width × height` subpixels in
-/// `format` take (colour, 32-bit depth, readback, and `scratch` colour images of a blending
-/// scheme), against [`FRAMEBUFFER_HEAP_SHARE`] of `heap_bytes`.
-fn framebuffer_budget(
-    width: u32,
-    height: u32,
-    format: TargetFormat,
-    scratch: u32,
-    heap_bytes: u64,
-) -> Result<(), String> {
-    let colour = u64::from(crate::gpu::format_bytes(super::vulkan::vk_format(
-        format.graph_format(),
-    )));
-    let per_frame = u64::from(width) * u64::from(height) * ((2 + u64::from(scratch)) * colour + 4);
-    let needed = per_frame * super::FRAMES_IN_FLIGHT as u64;
-    let budget = (heap_bytes as f64 * FRAMEBUFFER_HEAP_SHARE) as u64;
-    if needed > budget {
-        let mib = |bytes: u64| bytes as f64 / (1u64 << 20) as f64;
-        return Err(format!(
-            "the framebuffer is {width}×{height} subpixels in {}: its targets{} need {:.0} MiB of device memory ({} frames in flight), past this device's budget of {:.0} MiB ({:.0}% of its largest device-local heap); give a smaller image, less supersampling, a smaller --format{}",
-            format.name(),
-            if scratch > 0 {
-                format!(" and the blending scheme's {scratch} scratch images")
-            } else {
-                String::new()
-            },
-            mib(needed),
-            super::FRAMES_IN_FLIGHT,
-            mib(budget),
-            FRAMEBUFFER_HEAP_SHARE * 100.0,
-            if scratch > 0 {
-                " or --blend front-to-back"
-            } else {
-                ""
-            }
-        ));
-    }
-    Ok(())
-}
-
-/// The attachments and readback buffer of one framebuffer format, and the box filter's
-/// descriptor set of the colour target (for frames rendered into a host's image).
-pub(super) struct Targets {
-    pub(super) colour: Image,
-    pub(super) depth: Image,
-    pub(super) readback: Buffer,
-    /// Set 0 of the box filter: `colour`, sampled (a set may outlive the view it names as long as
-    /// it is not used after).
-    pub(super) box_filter_set: vk::DescriptorSet,
-    _box_filter_pool: DescriptorPool,
-    /// The blending schemes' scratch images, made when a plan first needs them.
-    pub(super) scratch: Option<Scratch>,
-}
-
-/// Framebuffer-sized scratch images (layers of one 2D-array image, in the framebuffer's format)
-/// and the sets that sample them. Each set's view covers exactly the layers a pass reads, so no
-/// view a draw samples overlaps an attachment or a layer the frame never wrote.
-pub(super) struct Scratch {
-    pub(super) image: Image,
-    /// `layer_sets[k]`: layer k alone (2D; the programmable layer's set 1).
-    pub(super) layer_sets: Vec<vk::DescriptorSet>,
-    /// `prefix_sets[c − 1]`: layers 0..c (2D array; the group sum's set 0 for c groups).
-    pub(super) prefix_sets: Vec<vk::DescriptorSet>,
-    /// The prefix views, destroyed with the scratch images.
-    prefix_views: Vec<vk::ImageView>,
-    _pool: DescriptorPool,
-    shared: Arc<Shared>,
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        // SAFETY: the owning frame waited for its last submission; the views are this image's.
-        unsafe {
-            for view in &self.prefix_views {
-                self.shared.device.destroy_image_view(*view, None);
-            }
-        }
-    }
-}
-
-impl Scratch {
-    /// The layers made for `needed` scratch images: at least two, so the image is an array with
-    /// a 2D view per layer.
-    pub(super) fn layers_for(needed: usize) -> u32 {
-        if needed == 0 { 0 } else { needed.max(2) as u32 }
-    }
-
-    fn new(
-        gpu: &Gpu,
-        pipelines: &Pipelines,
-        format: vk::Format,
-        (width, height): (u32, u32),
-        layers: u32,
-    ) -> Result<Scratch, GpuError> {
-        let layers = Self::layers_for(layers as usize);
-        let image = Image::new(
-            gpu,
-            ImageDesc::scratch_targets("scratch", format, width, height, layers),
-        )?;
-        let pool = DescriptorPool::with_sizes(
-            gpu,
-            2 * layers,
-            &[vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::SAMPLED_IMAGE,
-                descriptor_count: 2 * layers,
-            }],
-        )?;
-        let mut scratch = Scratch {
-            layer_sets: Vec::new(),
-            prefix_sets: Vec::new(),
-            prefix_views: Vec::new(),
-            image,
-            _pool: pool,
-            shared: gpu.shared.clone(),
-        };
-        for count in 1..=layers {
-            let range = vk::ImageSubresourceRange {
-                layer_count: count,
-                ..scratch.image.full_range()
-            };
-            let info = vk::ImageViewCreateInfo::default()
-                .image(scratch.image.handle)
-                .view_type(vk::ImageViewType::TYPE_2D_ARRAY)
-                .format(format)
-                .subresource_range(range);
-            // SAFETY: the view covers the image's own layers; destroyed in Drop.
-            let view =
-                unsafe { gpu.device().create_image_view(&info, None) }.map_err(|result| {
-                    GpuError::Vulkan {
-                        call: "vkCreateImageView",
-                        result,
-                    }
-                })?;
-            scratch.prefix_views.push(view);
-        }
-        for k in 0..layers as usize {
-            let view = scratch.image.layer_views[k];
-            let set = sampled_image_set_in(gpu, pipelines, &scratch._pool, view)?;
-            scratch.layer_sets.push(set);
-            let set =
-                sampled_image_set_in(gpu, pipelines, &scratch._pool, scratch.prefix_views[k])?;
-            scratch.prefix_sets.push(set);
-        }
-        Ok(scratch)
-    }
-}
-
-/// A pool of one set of the one-sampled-image layout (the box filter's), and the set, naming
-/// `view`.
-fn sampled_image_set(
-    gpu: &Gpu,
-    pipelines: &Pipelines,
-    view: vk::ImageView,
-) -> Result<(DescriptorPool, vk::DescriptorSet), GpuError> {
-    let pool = DescriptorPool::with_sizes(
-        gpu,
-        1,
-        &[vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::SAMPLED_IMAGE,
-            descriptor_count: 1,
-        }],
-    )?;
-    let set = sampled_image_set_in(gpu, pipelines, &pool, view)?;
-    Ok((pool, set))
-}
-
-/// A set of the one-sampled-image layout from `pool`, naming `view`.
-fn sampled_image_set_in(
-    gpu: &Gpu,
-    pipelines: &Pipelines,
-    pool: &DescriptorPool,
-    view: vk::ImageView,
-) -> Result<vk::DescriptorSet, GpuError> {
-    let layouts = [pipelines.box_filter_set_layout];
-    // SAFETY: the pool was sized for its sets; it is destroyed with its owner.
-    let set = unsafe {
-        gpu.device().allocate_descriptor_sets(
-            &vk::DescriptorSetAllocateInfo::default()
-                .descriptor_pool(pool.handle)
-                .set_layouts(&layouts),
-        )
-    }
-    .map_err(|result| GpuError::Vulkan {
-        call: "vkAllocateDescriptorSets",
-        result,
-    })?[0];
-    let image = [vk::DescriptorImageInfo {
-        sampler: vk::Sampler::null(),
-        image_view: view,
-        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-    }];
-    let write = vk::WriteDescriptorSet::default()
-        .dst_set(set)
-        .dst_binding(0)
-        .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-        .image_info(&image);
-    // SAFETY: the set is new and unused; the info lives until return.
-    unsafe { gpu.device().update_descriptor_sets(&[write], &[]) };
-    Ok(set)
 }
 
 /// A frame's data uploaded once and rendered any number of times, in any variant and format.
@@ -345,155 +85,10 @@ impl Drop for UploadedFrame {
     }
 }
 
-/// A descriptor pool that destroys itself; its sets are reset together when a frame is uploaded
-/// into it again.
-struct DescriptorPool {
-    shared: Arc<Shared>,
-    handle: vk::DescriptorPool,
-    /// Sets it was sized for.
-    capacity: u32,
-}
-
-impl DescriptorPool {
-    /// A pool for `sets` lens descriptor sets.
-    fn new(gpu: &Gpu, sets: u32) -> Result<DescriptorPool, GpuError> {
-        Self::with_sizes(
-            gpu,
-            sets,
-            &[
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::STORAGE_BUFFER,
-                    descriptor_count: sets,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::SAMPLED_IMAGE,
-                    descriptor_count: 2 * sets,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::SAMPLER,
-                    descriptor_count: sets,
-                },
-            ],
-        )
-    }
-
-    /// A pool for `sets` sets holding `pool_sizes` descriptors in all.
-    fn with_sizes(
-        gpu: &Gpu,
-        sets: u32,
-        pool_sizes: &[vk::DescriptorPoolSize],
-    ) -> Result<DescriptorPool, GpuError> {
-        // SAFETY: valid create info; destroyed by Drop.
-        let handle = unsafe {
-            gpu.device().create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(sets)
-                    .pool_sizes(pool_sizes),
-                None,
-            )
-        }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkCreateDescriptorPool",
-            result,
-        })?;
-        Ok(DescriptorPool {
-            shared: gpu.shared.clone(),
-            handle,
-            capacity: sets,
-        })
-    }
-
-    /// Frees every set of the pool at once. No submission that uses them may be pending.
-    fn reset(&self) -> Result<(), GpuError> {
-        // SAFETY: the caller waited for the sets' last use (UploadedFrame::last_submission).
-        unsafe {
-            self.shared
-                .device
-                .reset_descriptor_pool(self.handle, vk::DescriptorPoolResetFlags::empty())
-        }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkResetDescriptorPool",
-            result,
-        })
-    }
-}
-
-impl Drop for DescriptorPool {
-    fn drop(&mut self) {
-        // SAFETY: the owning frame waited for its last submission before dropping its fields.
-        unsafe {
-            self.shared
-                .device
-                .destroy_descriptor_pool(self.handle, None)
-        };
-    }
-}
-
 impl UploadedFrame {
     /// The frame's shape (what its plan depends on).
     pub fn shape(&self) -> &FrameShape {
         &self.shape
-    }
-}
-
-impl Targets {
-    /// Colour and depth attachments of `width × height`, a readback buffer for the colour and
-    /// the box filter's set reading it.
-    pub(super) fn new(
-        gpu: &Gpu,
-        pipelines: &Pipelines,
-        format: TargetFormat,
-        width: u32,
-        height: u32,
-    ) -> Result<Targets, GpuError> {
-        let colour_format = super::vulkan::vk_format(format.graph_format());
-        let colour = Image::new(
-            gpu,
-            ImageDesc::colour_target("colour", colour_format, width, height),
-        )?;
-        let (pool, set) = sampled_image_set(gpu, pipelines, colour.view)?;
-        Ok(Targets {
-            colour,
-            box_filter_set: set,
-            _box_filter_pool: pool,
-            scratch: None,
-            depth: Image::new(gpu, ImageDesc::depth_target("depth", width, height))?,
-            readback: Buffer::new(
-                gpu,
-                "readback",
-                u64::from(width)
-                    * u64::from(height)
-                    * u64::from(crate::gpu::format_bytes(colour_format)),
-                BufferUsage::Readback,
-            )?,
-        })
-    }
-}
-
-impl Targets {
-    /// Makes sure the targets hold at least `layers` scratch images (none needed: nothing made).
-    /// No submission using the previous scratch images may be pending.
-    pub(super) fn ensure_scratch(
-        &mut self,
-        gpu: &Gpu,
-        pipelines: &Pipelines,
-        layers: usize,
-    ) -> Result<(), GpuError> {
-        let have = self
-            .scratch
-            .as_ref()
-            .map_or(0, |s| s.image.desc.array_layers as usize);
-        if layers > have {
-            let extent = self.colour.desc.extent;
-            self.scratch = Some(Scratch::new(
-                gpu,
-                pipelines,
-                self.colour.desc.format,
-                (extent.width, extent.height),
-                layers as u32,
-            )?);
-        }
-        Ok(())
     }
 }
 
@@ -563,8 +158,8 @@ impl UploadCache {
         frame: &FrameInput,
         previous: Option<UploadedFrame>,
     ) -> Result<UploadedFrame, RenderError> {
-        check_dimensions(gpu, frame.width, frame.height)?;
-        frame.validate_with(&|address| {
+        super::budget::check_dimensions(gpu, frame.width, frame.height)?;
+        frame.validate_unless_checked(&|address| {
             self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
         })?;
         self.generation += 1;
@@ -611,28 +206,23 @@ impl UploadCache {
             None => (None, HashMap::new(), Vec::new()),
         };
         let pool = match pool {
-            Some(pool) if pool.capacity >= set_count => {
+            Some(pool) if pool.capacity() >= set_count => {
                 pool.reset()?;
                 pool
             }
-            _ => DescriptorPool::new(gpu, set_count)?,
+            _ => DescriptorPool::new(gpu, LENS_SET, set_count)?,
         };
         let checked = &self.checked_cubes;
-        let shape = FrameShape::of_with(frame, |cubes| {
-            cubes
-                .iter()
-                .map(|cube| {
-                    checked
-                        .get(&(Arc::as_ptr(cube) as usize))
-                        .is_some_and(|c| c.empty)
-                })
-                .collect()
+        let shape = FrameShape::of(frame, |cube| {
+            checked
+                .get(&(Arc::as_ptr(cube) as usize))
+                .is_some_and(|c| c.empty)
         });
         let mut lenses = Vec::with_capacity(frame.lenses.len());
         let mut reusable = old_lenses.drain(..).map(Some).collect::<Vec<_>>();
         for (index, lens) in frame.lenses.iter().enumerate() {
             let old = reusable.get_mut(index).and_then(Option::take);
-            lenses.push(self.upload_lens(gpu, pipelines, pool.handle, index, lens, old)?);
+            lenses.push(self.upload_lens(gpu, pipelines, &pool, index, lens, old)?);
         }
         let uploaded = UploadedFrame {
             shape,
@@ -765,7 +355,15 @@ impl UploadCache {
             .flat_map(|uv| uv.to_array())
             .flat_map(f32::to_le_bytes)
             .collect();
-        let (descriptor_pool, set) = light_map_set(gpu, pipelines, &light_map)?;
+        let descriptor_pool = DescriptorPool::new(gpu, ENVIRONMENT_SET, 1)?;
+        let set = descriptor_pool.allocate_one(
+            gpu,
+            (pipelines.environment_set_layout, ENVIRONMENT_SET),
+            &[
+                Resource::Image(light_map.view),
+                Resource::Sampler(pipelines.light_map_sampler),
+            ],
+        )?;
         let buffers = Arc::new(GpuMesh {
             positions: Buffer::with_data(
                 gpu,
@@ -783,9 +381,8 @@ impl UploadCache {
             indices: Buffer::with_data(gpu, "environment indices", &indices, BufferUsage::Index)?,
             index_count: (mesh.triangles.len() * 3) as u32,
             _light_map: light_map,
-            descriptor_pool,
+            _descriptor_pool: descriptor_pool,
             set,
-            shared: gpu.shared.clone(),
         });
         self.mesh_cache.insert(
             key,
@@ -864,7 +461,7 @@ impl UploadCache {
         &mut self,
         gpu: &Gpu,
         pipelines: &Pipelines,
-        pool: vk::DescriptorPool,
+        pool: &DescriptorPool,
         index: usize,
         lens: &LensObject,
         old: Option<GpuLens>,
@@ -906,20 +503,8 @@ impl UploadCache {
             layers.push(self.layer_image(gpu, &format!("lens{index}/em{viewpoint}"), cubes)?);
         }
 
-        let layouts = vec![pipelines.lens_set_layout; layers.len()];
-        let device = gpu.device();
-        // SAFETY: the pool was sized for one set per (lens, viewpoint).
-        let sets = unsafe {
-            device.allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default()
-                    .descriptor_pool(pool)
-                    .set_layouts(&layouts),
-            )
-        }
-        .map_err(|result| GpuError::Vulkan {
-            call: "vkAllocateDescriptorSets",
-            result,
-        })?;
+        // The pool was sized for one set per (lens, viewpoint).
+        let sets = pool.allocate(pipelines.lens_set_layout, layers.len())?;
         write_lens_sets(gpu, pipelines, &sets, &data, &layers);
         Ok(GpuLens {
             data,
@@ -956,83 +541,6 @@ fn reuse_or_new(
     Ok(buffer)
 }
 
-/// A descriptor pool of one environment set and that set, pointing at `light_map` and the
-/// light-map sampler.
-fn light_map_set(
-    gpu: &Gpu,
-    pipelines: &Pipelines,
-    light_map: &Image,
-) -> Result<(vk::DescriptorPool, vk::DescriptorSet), GpuError> {
-    let device = gpu.device();
-    let sizes = [
-        vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::SAMPLED_IMAGE,
-            descriptor_count: 1,
-        },
-        vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::SAMPLER,
-            descriptor_count: 1,
-        },
-    ];
-    // SAFETY: valid create info; destroyed by GpuMesh::drop (or below on failure).
-    let pool = unsafe {
-        device.create_descriptor_pool(
-            &vk::DescriptorPoolCreateInfo::default()
-                .max_sets(1)
-                .pool_sizes(&sizes),
-            None,
-        )
-    }
-    .map_err(|result| GpuError::Vulkan {
-        call: "vkCreateDescriptorPool",
-        result,
-    })?;
-    let layouts = [pipelines.environment_set_layout];
-    // SAFETY: the pool was sized for this one set.
-    let sets = unsafe {
-        device.allocate_descriptor_sets(
-            &vk::DescriptorSetAllocateInfo::default()
-                .descriptor_pool(pool)
-                .set_layouts(&layouts),
-        )
-    };
-    let set = match sets {
-        Ok(sets) => sets[0],
-        Err(result) => {
-            // SAFETY: the pool is unused.
-            unsafe { device.destroy_descriptor_pool(pool, None) };
-            return Err(GpuError::Vulkan {
-                call: "vkAllocateDescriptorSets",
-                result,
-            });
-        }
-    };
-    let image = [vk::DescriptorImageInfo {
-        sampler: vk::Sampler::null(),
-        image_view: light_map.view,
-        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-    }];
-    let sampler = [vk::DescriptorImageInfo {
-        sampler: pipelines.light_map_sampler,
-        ..Default::default()
-    }];
-    let writes = [
-        vk::WriteDescriptorSet::default()
-            .dst_set(set)
-            .dst_binding(0)
-            .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-            .image_info(&image),
-        vk::WriteDescriptorSet::default()
-            .dst_set(set)
-            .dst_binding(1)
-            .descriptor_type(vk::DescriptorType::SAMPLER)
-            .image_info(&sampler),
-    ];
-    // SAFETY: the set is new and unused; the infos live until return.
-    unsafe { device.update_descriptor_sets(&writes, &[]) };
-    Ok((pool, set))
-}
-
 /// Points every descriptor set of a lens object (one per viewpoint) at its data buffer, its own
 /// viewpoint's cube-map array (binding 1), the other viewpoint's (binding 2) and the sampler.
 /// The sets must not be in use by a pending submission.
@@ -1043,94 +551,18 @@ fn write_lens_sets(
     data: &Buffer,
     layers: &[Arc<Image>],
 ) {
-    let device = gpu.device();
     for (viewpoint, set) in sets.iter().enumerate() {
         let other = if layers.len() > 1 {
             1 - viewpoint.min(1)
         } else {
             viewpoint
         };
-        let buffer_info = [vk::DescriptorBufferInfo {
-            buffer: data.handle,
-            offset: 0,
-            range: vk::WHOLE_SIZE,
-        }];
-        let image_a = [vk::DescriptorImageInfo {
-            sampler: vk::Sampler::null(),
-            image_view: layers[viewpoint].view,
-            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        }];
-        let image_b = [vk::DescriptorImageInfo {
-            image_view: layers[other].view,
-            ..image_a[0]
-        }];
-        let sampler = [vk::DescriptorImageInfo {
-            sampler: pipelines.sampler,
-            ..Default::default()
-        }];
-        let writes = [
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(0)
-                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                .buffer_info(&buffer_info),
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(1)
-                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-                .image_info(&image_a),
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(2)
-                .descriptor_type(vk::DescriptorType::SAMPLED_IMAGE)
-                .image_info(&image_b),
-            vk::WriteDescriptorSet::default()
-                .dst_set(*set)
-                .dst_binding(3)
-                .descriptor_type(vk::DescriptorType::SAMPLER)
-                .image_info(&sampler),
+        let resources = [
+            Resource::Buffer(data.handle),
+            Resource::Image(layers[viewpoint].view),
+            Resource::Image(layers[other].view),
+            Resource::Sampler(pipelines.sampler),
         ];
-        // SAFETY: the set is not in use; the infos live until return.
-        unsafe { device.update_descriptor_sets(&writes, &[]) };
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::{FRAMEBUFFER_HEAP_SHARE, framebuffer_budget};
-    use crate::render::{FRAMES_IN_FLIGHT, TargetFormat};
-
-    /// The budget is the targets' bytes, counted independently here: RGBA32F colour (16 bytes),
-    /// its readback (16) and 32-bit depth (4) per subpixel, for every frame in flight.
-    #[test]
-    fn the_framebuffer_budget_counts_every_target_of_every_frame_in_flight() {
-        let (width, height) = (4000u32, 3000u32);
-        let needed = u64::from(width) * u64::from(height) * 36 * FRAMES_IN_FLIGHT as u64;
-        let heap_fitting = (needed as f64 / FRAMEBUFFER_HEAP_SHARE).ceil() as u64 + 1;
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba32f, 0, heap_fitting).is_ok());
-        let error =
-            framebuffer_budget(width, height, TargetFormat::Rgba32f, 0, heap_fitting - 1024)
-                .unwrap_err();
-        assert!(
-            error.contains("4000×3000") && error.contains("--format"),
-            "{error}"
-        );
-        // RGBA8 needs 4 + 4 + 4 bytes a subpixel: a third of RGBA32F's, so it fits there.
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba8, 0, needed / 2).is_ok());
-        assert!(
-            framebuffer_budget(1, 1, TargetFormat::Rgba8, 0, 0).is_err(),
-            "no heap"
-        );
-        // A blending scheme's scratch images count too: four more RGBA32F images (64 bytes a
-        // subpixel) take the frame past the heap that fits the targets alone, naming --blend.
-        let error =
-            framebuffer_budget(width, height, TargetFormat::Rgba32f, 4, heap_fitting).unwrap_err();
-        assert!(
-            error.contains("4 scratch images") && error.contains("--blend"),
-            "{error}"
-        );
-        let with_scratch = u64::from(width) * u64::from(height) * 100 * FRAMES_IN_FLIGHT as u64;
-        let fitting = (with_scratch as f64 / FRAMEBUFFER_HEAP_SHARE).ceil() as u64 + 1;
-        assert!(framebuffer_budget(width, height, TargetFormat::Rgba32f, 4, fitting).is_ok());
+        write_set(gpu, *set, LENS_SET, &resources);
     }
 }

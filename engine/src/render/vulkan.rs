@@ -106,35 +106,23 @@ pub(super) fn blend_state(
 ) -> vk::PipelineColorBlendAttachmentState {
     let state = vk::PipelineColorBlendAttachmentState::default()
         .color_write_mask(vk::ColorComponentFlags::from_raw(u32::from(mask.0)));
-    match blend {
-        Blend::Replace => state.blend_enable(false),
-        // Front-to-back "over" (README, "How a frame is composited"): src·(1 − dstα) + dst·1 on
-        // colour and alpha.
-        Blend::FrontToBackOver => state
-            .blend_enable(true)
-            .src_color_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
-            .dst_color_blend_factor(vk::BlendFactor::ONE)
-            .color_blend_op(vk::BlendOp::ADD)
-            .src_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_DST_ALPHA)
-            .dst_alpha_blend_factor(vk::BlendFactor::ONE)
-            .alpha_blend_op(vk::BlendOp::ADD),
-        // Back-to-front "over": src·1 + dst·(1 − srcα) on colour and alpha.
-        Blend::BackToFrontOver => state
-            .blend_enable(true)
-            .src_color_blend_factor(vk::BlendFactor::ONE)
-            .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
-            .color_blend_op(vk::BlendOp::ADD)
-            .src_alpha_blend_factor(vk::BlendFactor::ONE)
-            .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
-            .alpha_blend_op(vk::BlendOp::ADD),
+    // Every blend adds `src·source_factor + dst·destination_factor`, the same on colour and
+    // alpha.
+    let (source_factor, destination_factor) = match blend {
+        Blend::Replace => return state.blend_enable(false),
+        // Front-to-back "over": src·(1 − dstα) + dst·1.
+        Blend::FrontToBackOver => (vk::BlendFactor::ONE_MINUS_DST_ALPHA, vk::BlendFactor::ONE),
+        // Back-to-front "over": src·1 + dst·(1 − srcα).
+        Blend::BackToFrontOver => (vk::BlendFactor::ONE, vk::BlendFactor::ONE_MINUS_SRC_ALPHA),
         // Sum: src·1 + dst·1.
-        Blend::Add => state
-            .blend_enable(true)
-            .src_color_blend_factor(vk::BlendFactor::ONE)
-            .dst_color_blend_factor(vk::BlendFactor::ONE)
-            .color_blend_op(vk::BlendOp::ADD)
-            .src_alpha_blend_factor(vk::BlendFactor::ONE)
-            .dst_alpha_blend_factor(vk::BlendFactor::ONE)
-            .alpha_blend_op(vk::BlendOp::ADD),
-    }
+        Blend::Add => (vk::BlendFactor::ONE, vk::BlendFactor::ONE),
+    };
+    state
+        .blend_enable(true)
+        .src_color_blend_factor(source_factor)
+        .dst_color_blend_factor(destination_factor)
+        .color_blend_op(vk::BlendOp::ADD)
+        .src_alpha_blend_factor(source_factor)
+        .dst_alpha_blend_factor(destination_factor)
+        .alpha_blend_op(vk::BlendOp::ADD)
 }

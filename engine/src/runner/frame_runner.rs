@@ -14,8 +14,8 @@ use crate::{
     hybrid::{BuiltFrame, HybridOptions, HybridScene, HybridStats},
     options::OptionError,
     render::{
-        BlendScheme, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError, RenderedImage, Renderer,
-        Submission, TargetFormat, UploadedFrame, Variant,
+        BlendScheme, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError, RenderOptions,
+        RenderedImage, Renderer, Submission, TargetFormat, UploadedFrame, Variant,
     },
     scene::Camera,
 };
@@ -35,12 +35,13 @@ pub struct FrameOptions {
 }
 
 impl FrameOptions {
-    /// The compositor's part of these options.
-    pub fn compositing(&self) -> Compositing {
-        Compositing {
+    /// The compositor's part of these options, for a frame read back.
+    pub fn compositing(&self) -> RenderOptions<'static> {
+        RenderOptions {
             variant: self.variant,
             blend: self.blend,
             format: self.format,
+            host: None,
         }
     }
 
@@ -66,18 +67,6 @@ impl Default for FrameOptions {
             format: TargetFormat::Rgba16f,
         }
     }
-}
-
-/// How the compositor draws a frame it is given (the compositor's part of [`FrameOptions`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Compositing {
-    /// Compositor variant.
-    pub variant: Variant,
-    /// How the multipass variant combines layers and groups (the single pass takes only
-    /// [`BlendScheme::FrontToBack`]).
-    pub blend: BlendScheme,
-    /// Framebuffer format.
-    pub format: TargetFormat,
 }
 
 /// A device and the compositor on it: runs frames of any hybrid scene.
@@ -167,10 +156,7 @@ impl FrameRunner {
         format: TargetFormat,
     ) -> Result<RenderedImage, RenderError> {
         let mut uploaded = self.renderer.upload(&self.gpu, frame)?;
-        Ok(self
-            .renderer
-            .render(&self.gpu, &mut uploaded, variant, format)?
-            .0)
+        self.render_uploaded(&mut uploaded, variant, format)
     }
 
     /// Renders an uploaded frame at its framebuffer resolution (no box filter).
@@ -180,10 +166,12 @@ impl FrameRunner {
         variant: Variant,
         format: TargetFormat,
     ) -> Result<RenderedImage, RenderError> {
-        Ok(self
-            .renderer
-            .render(&self.gpu, uploaded, variant, format)?
-            .0)
+        let compositing = RenderOptions {
+            variant,
+            format,
+            ..RenderOptions::default()
+        };
+        Ok(self.renderer.render(&self.gpu, uploaded, &compositing)?.0)
     }
 
     /// Replaces the layered EMs of lens `lens` of an uploaded frame (see
@@ -346,13 +334,11 @@ impl FrameRunner {
             // A held identity is only ever that of an uploaded slot.
             return Err(RenderError::BadInput("a still frame has no upload".into()).into());
         };
-        Ok(self.renderer.submit_blended(
-            &self.gpu,
-            uploaded,
-            (options.variant, options.blend),
-            options.format,
+        let compositing = RenderOptions {
             host,
-        )?)
+            ..options.compositing()
+        };
+        Ok(self.renderer.submit(&self.gpu, uploaded, &compositing)?)
     }
 
     /// Waits for a submitted frame, reads it back and box-filters it to pixels.
@@ -403,18 +389,14 @@ impl FrameRunner {
     pub fn timed_renders(
         &mut self,
         uploaded: &mut UploadedFrame,
-        compositing: &Compositing,
+        compositing: &RenderOptions,
         timed: usize,
     ) -> Result<TimedRenders, RenderError> {
-        let scheme = (compositing.variant, compositing.blend);
-        let format = compositing.format;
-        let (image, _) = self
-            .renderer
-            .render_blended(&self.gpu, uploaded, scheme, format)?;
+        let (image, _) = self.renderer.render(&self.gpu, uploaded, compositing)?;
         let timings = (0..timed.max(1))
             .map(|_| {
                 self.renderer
-                    .render_blended(&self.gpu, uploaded, scheme, format)
+                    .render(&self.gpu, uploaded, compositing)
                     .map(|(_, timings)| timings)
             })
             .collect::<Result<_, _>>()?;

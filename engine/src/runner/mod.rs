@@ -43,7 +43,7 @@ mod load;
 mod timing;
 
 pub use camera::{camera_between, novel_camera};
-pub use frame_runner::{Compositing, FrameOptions, FrameRunner};
+pub use frame_runner::{FrameOptions, FrameRunner};
 pub use lens_pixels::{lens_error, non_lens_error};
 pub use load::{EmSource, LoadOptions, load_hybrid_scene};
 pub use timing::{HostFrame, HybridFrame, Repetitions, TimedFrames, TimedRenders, median};
@@ -51,7 +51,7 @@ pub use timing::{HostFrame, HybridFrame, Repetitions, TimedFrames, TimedRenders,
 use crate::{
     hybrid::{HybridError, tessellate::TessellationError},
     layers::BakeError,
-    options::OptionError,
+    options::{OptionError, OptionWords, Worded},
     render::RenderError,
 };
 
@@ -73,4 +73,15 @@ pub enum RunError {
     /// Uploading or rendering failed.
     #[error(transparent)]
     Render(#[from] RenderError),
+}
+
+impl Worded for RunError {
+    fn worded(&self, words: &dyn OptionWords) -> String {
+        match self {
+            RunError::Option(error) => error.worded(words),
+            RunError::Hybrid(error) => error.worded(words),
+            RunError::Render(error) => error.worded(words),
+            RunError::Bake(_) | RunError::Tessellation(_) => self.to_string(),
+        }
+    }
 }

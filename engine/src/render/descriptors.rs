@@ -1,0 +1,259 @@
+//! The compositor's descriptor-set layouts as data, and the one place sets are pooled, allocated
+//! and written. A layout is a list of [`Binding`]s (binding i is the list's entry i); the
+//! pipelines create their set layouts from these lists, pools are sized from them, and a set is
+//! written from one [`Resource`] per binding, with the descriptor types the list gives, so a
+//! layout, its pool and its writes cannot disagree.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use crate::gpu::{Gpu, GpuError, VkContext, context::Shared};
+
+/// One binding of a descriptor-set layout: one descriptor of `ty`, read by `stage`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Binding {
+    /// The descriptor type.
+    pub(super) ty: vk::DescriptorType,
+    /// The shader stage that reads it.
+    pub(super) stage: vk::ShaderStageFlags,
+}
+
+const fn binding(ty: vk::DescriptorType, stage: vk::ShaderStageFlags) -> Binding {
+    Binding { ty, stage }
+}
+
+/// Set 0 of the lens programs: the lens data (storage buffer, read by the vertex stage), the
+/// set's own viewpoint's cube-map array, the other viewpoint's, and the sampler.
+pub(super) const LENS_SET: &[Binding] = &[
+    binding(
+        vk::DescriptorType::STORAGE_BUFFER,
+        vk::ShaderStageFlags::VERTEX,
+    ),
+    binding(
+        vk::DescriptorType::SAMPLED_IMAGE,
+        vk::ShaderStageFlags::FRAGMENT,
+    ),
+    binding(
+        vk::DescriptorType::SAMPLED_IMAGE,
+        vk::ShaderStageFlags::FRAGMENT,
+    ),
+    binding(vk::DescriptorType::SAMPLER, vk::ShaderStageFlags::FRAGMENT),
+];
+
+/// Set 0 of the environment program: the mesh's light map and its sampler.
+pub(super) const ENVIRONMENT_SET: &[Binding] = &[
+    binding(
+        vk::DescriptorType::SAMPLED_IMAGE,
+        vk::ShaderStageFlags::FRAGMENT,
+    ),
+    binding(vk::DescriptorType::SAMPLER, vk::ShaderStageFlags::FRAGMENT),
+];
+
+/// One image read with texel fetches: the box filter's colour target, the scratch images the
+/// group sum adds and the programmable layer reads.
+pub(super) const SAMPLED_IMAGE_SET: &[Binding] = &[binding(
+    vk::DescriptorType::SAMPLED_IMAGE,
+    vk::ShaderStageFlags::FRAGMENT,
+)];
+
+/// Creates the set layout of `bindings`.
+pub(super) fn create_set_layout(
+    gpu: &Gpu,
+    bindings: &[Binding],
+) -> Result<vk::DescriptorSetLayout, GpuError> {
+    let bindings: Vec<vk::DescriptorSetLayoutBinding> = bindings
+        .iter()
+        .enumerate()
+        .map(|(index, b)| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(index as u32)
+                .descriptor_type(b.ty)
+                .descriptor_count(1)
+                .stage_flags(b.stage)
+        })
+        .collect();
+    // SAFETY: the create info lives until the call returns; the caller destroys the layout.
+    unsafe {
+        gpu.device().create_descriptor_set_layout(
+            &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+            None,
+        )
+    }
+    .vk("vkCreateDescriptorSetLayout")
+}
+
+/// What one binding of a set is pointed at.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Resource {
+    /// A whole buffer.
+    Buffer(vk::Buffer),
+    /// An image view, in `SHADER_READ_ONLY_OPTIMAL`.
+    Image(vk::ImageView),
+    /// A sampler.
+    Sampler(vk::Sampler),
+}
+
+/// Points binding i of `set` (of the layout `bindings`) at `resources[i]`. The set must not be
+/// in use by a pending submission.
+pub(super) fn write_set(
+    gpu: &Gpu,
+    set: vk::DescriptorSet,
+    bindings: &[Binding],
+    resources: &[Resource],
+) {
+    debug_assert_eq!(bindings.len(), resources.len(), "one resource per binding");
+    let buffers: Vec<[vk::DescriptorBufferInfo; 1]> = resources
+        .iter()
+        .map(|resource| match *resource {
+            Resource::Buffer(buffer) => [vk::DescriptorBufferInfo {
+                buffer,
+                offset: 0,
+                range: vk::WHOLE_SIZE,
+            }],
+            Resource::Image(_) | Resource::Sampler(_) => Default::default(),
+        })
+        .collect();
+    let images: Vec<[vk::DescriptorImageInfo; 1]> = resources
+        .iter()
+        .map(|resource| match *resource {
+            Resource::Image(image_view) => [vk::DescriptorImageInfo {
+                sampler: vk::Sampler::null(),
+                image_view,
+                image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            }],
+            Resource::Sampler(sampler) => [vk::DescriptorImageInfo {
+                sampler,
+                ..Default::default()
+            }],
+            Resource::Buffer(_) => Default::default(),
+        })
+        .collect();
+    let writes: Vec<vk::WriteDescriptorSet> = bindings
+        .iter()
+        .zip(resources)
+        .enumerate()
+        .map(|(index, (binding, resource))| {
+            let write = vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(index as u32)
+                .descriptor_type(binding.ty);
+            match resource {
+                Resource::Buffer(_) => write.buffer_info(&buffers[index]),
+                Resource::Image(_) | Resource::Sampler(_) => write.image_info(&images[index]),
+            }
+        })
+        .collect();
+    // SAFETY: the caller says the set is not in use; the infos live until return.
+    unsafe { gpu.device().update_descriptor_sets(&writes, &[]) };
+}
+
+/// A descriptor pool that destroys itself; its sets are freed with it, or reset together when a
+/// frame is uploaded into it again.
+pub(super) struct DescriptorPool {
+    shared: Arc<Shared>,
+    handle: vk::DescriptorPool,
+    /// Sets it was sized for.
+    capacity: u32,
+}
+
+impl DescriptorPool {
+    /// A pool for `sets` sets of the layout `bindings`.
+    pub(super) fn new(
+        gpu: &Gpu,
+        bindings: &[Binding],
+        sets: u32,
+    ) -> Result<DescriptorPool, GpuError> {
+        // Per descriptor type, in the order the layout first names it: its count per set × sets.
+        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+        for binding in bindings {
+            match sizes.iter_mut().find(|size| size.ty == binding.ty) {
+                Some(size) => size.descriptor_count += sets,
+                None => sizes.push(vk::DescriptorPoolSize {
+                    ty: binding.ty,
+                    descriptor_count: sets,
+                }),
+            }
+        }
+        // SAFETY: valid create info; destroyed by Drop.
+        let handle = unsafe {
+            gpu.device().create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(sets)
+                    .pool_sizes(&sizes),
+                None,
+            )
+        }
+        .vk("vkCreateDescriptorPool")?;
+        Ok(DescriptorPool {
+            shared: gpu.shared.clone(),
+            handle,
+            capacity: sets,
+        })
+    }
+
+    /// Sets it was sized for.
+    pub(super) fn capacity(&self) -> u32 {
+        self.capacity
+    }
+
+    /// Allocates `count` sets of `layout` (which must be one of the layouts the pool was sized
+    /// for, with room left for them).
+    pub(super) fn allocate(
+        &self,
+        layout: vk::DescriptorSetLayout,
+        count: usize,
+    ) -> Result<Vec<vk::DescriptorSet>, GpuError> {
+        let layouts = vec![layout; count];
+        // SAFETY: the pool was sized for its sets; it is destroyed with its owner, after the
+        // sets' last use.
+        unsafe {
+            self.shared.device.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(self.handle)
+                    .set_layouts(&layouts),
+            )
+        }
+        .vk("vkAllocateDescriptorSets")
+    }
+
+    /// Allocates one set of `layout` and points its bindings (the layout `bindings`) at
+    /// `resources`.
+    pub(super) fn allocate_one(
+        &self,
+        gpu: &Gpu,
+        (layout, bindings): (vk::DescriptorSetLayout, &[Binding]),
+        resources: &[Resource],
+    ) -> Result<vk::DescriptorSet, GpuError> {
+        let set = self.allocate(layout, 1)?.pop().ok_or(GpuError::Vulkan {
+            call: "vkAllocateDescriptorSets",
+            result: vk::Result::ERROR_OUT_OF_POOL_MEMORY,
+        })?;
+        write_set(gpu, set, bindings, resources);
+        Ok(set)
+    }
+
+    /// Frees every set of the pool at once. No submission that uses them may be pending.
+    pub(super) fn reset(&self) -> Result<(), GpuError> {
+        // SAFETY: the caller waited for the sets' last use (UploadedFrame::last_submission).
+        unsafe {
+            self.shared
+                .device
+                .reset_descriptor_pool(self.handle, vk::DescriptorPoolResetFlags::empty())
+        }
+        .vk("vkResetDescriptorPool")
+    }
+}
+
+impl Drop for DescriptorPool {
+    fn drop(&mut self) {
+        // SAFETY: the owner waited for the sets' last use before dropping the pool (an uploaded
+        // frame waits for its last submission; a cached mesh is dropped by its last owner after
+        // that). No idle wait: evicting a moving sky dome's mesh must not stall frames in flight.
+        unsafe {
+            self.shared
+                .device
+                .destroy_descriptor_pool(self.handle, None)
+        };
+    }
+}

@@ -1,0 +1,541 @@
+//! The compositor frame as a pass graph, built from the frame's shape alone (so `lensmap passes`
+//! prints plans without any data or GPU): the environment; then per lens object the single pass,
+//! or the multipass variant's prime and its layer passes composited by one blending scheme; then
+//! the readback or the box filter into a host's image.
+//!
+//! [`frame_graph`] is the one entry point. The lens passes are made by a small builder
+//! (`lens::LensPasses`: prime, layer passes, alpha clear, scratch clear, group sum), and each
+//! blending scheme is one short function of it (`schemes`), so a new scheme is one new function
+//! rather than a new flag; more viewpoint samples per lens object are more groups, which every
+//! scheme takes as they come.
+
+mod lens;
+mod schemes;
+mod shape;
+
+use crate::graph::{
+    Blend, ColourAttachment, ColourMask, CompareOp, Cull, DepthAttachment, Format, Graph, ImageId,
+    LoadOp, Pass, PassKind, Plan, StoreOp,
+};
+
+use super::program::{ProgramError, ShaderProgram};
+use crate::trace::Term;
+use lens::{Group, LensPasses};
+pub use shape::{FrameShape, LensShape};
+
+/// How lens objects are composited.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Variant {
+    /// The paper's scheme: one pass per (viewpoint, term, layer), alpha clears between groups.
+    Multipass,
+    /// One draw per lens object sampling the four (viewpoint, term) textures per layer at once.
+    SinglePass,
+}
+
+impl Variant {
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Multipass => "multipass",
+            Variant::SinglePass => "single-pass",
+        }
+    }
+}
+
+/// How the multipass variant combines the layers of a (viewpoint, term) group and the groups of
+/// a lens object (`--blend`). Every scheme computes the paper's closed form
+/// `Σ_groups w·FG ⊙ (L1 over … over Ln).rgb`, α = the last group's `(L1 over … over Ln).α`; they
+/// differ in the passes, attachments and barriers it takes, and in where rounding happens. (Where
+/// two lens objects lie at exactly the same depth, the later one's prime fails its `<` test but
+/// its layers pass `<=`, and each scheme then mixes the two objects its own way; the f64 model
+/// marks such pixels as depth ties and leaves them out.)
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BlendScheme {
+    /// The paper's scheme: per group, layers nearest first with `src·(1 − dstα) + dst` straight
+    /// into the framebuffer, an alpha clear between groups. One rendering instance, no barriers.
+    #[default]
+    FrontToBack,
+    /// Layers farthest first with the classic `src + dst·(1 − srcα)`. "Over" from the back needs
+    /// a clear destination, so each group composites into a cleared scratch image, and a
+    /// full-screen pass adds it to the framebuffer (colour only, but α too for the last group):
+    /// per group two more passes (the clear and the add) and two more rendering instances, with
+    /// three or four barriers.
+    BackToFront,
+    /// Each group composited front to back into its own cleared image (no alpha clears), then one
+    /// full-screen resolve adds the groups' colour and takes the last group's α.
+    GroupTargets,
+    /// Blending in the fragment shader: each layer pass reads the pixel's current value and
+    /// writes `src·(1 − dstα) + dst` (and the alpha clear) with shader arithmetic, so the result
+    /// does not depend on fixed-function blend precision. The current value comes from the
+    /// previous pass's image (passes alternate between two scratch images and end in the
+    /// framebuffer): a rendering instance and two barriers per pass, no device feature needed.
+    Programmable,
+}
+
+impl BlendScheme {
+    /// Every scheme, the default first.
+    pub const ALL: [BlendScheme; 4] = [
+        BlendScheme::FrontToBack,
+        BlendScheme::BackToFront,
+        BlendScheme::GroupTargets,
+        BlendScheme::Programmable,
+    ];
+
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            BlendScheme::FrontToBack => "front-to-back",
+            BlendScheme::BackToFront => "back-to-front",
+            BlendScheme::GroupTargets => "group-targets",
+            BlendScheme::Programmable => "programmable",
+        }
+    }
+
+    /// The scheme named `name` on the command line.
+    pub fn from_name(name: &str) -> Option<BlendScheme> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// Scratch images (framebuffer-sized, the framebuffer's format) a frame of `shape` needs.
+    pub fn scratch_images(self, shape: &FrameShape) -> usize {
+        match self {
+            BlendScheme::FrontToBack => 0,
+            BlendScheme::BackToFront => 1,
+            BlendScheme::Programmable => 2,
+            BlendScheme::GroupTargets => shape
+                .lenses
+                .iter()
+                .map(|lens| shape.active_viewpoints(lens).len() * lens.terms.len())
+                .max()
+                .unwrap_or(0),
+        }
+    }
+}
+
+/// Framebuffer colour format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TargetFormat {
+    /// 8-bit unorm (fixed-point blending, like the paper's hardware).
+    Rgba8,
+    /// 16-bit float.
+    Rgba16f,
+    /// 32-bit float (the exact reference for the f64 model).
+    Rgba32f,
+}
+
+impl TargetFormat {
+    /// The graph's format.
+    pub fn graph_format(self) -> Format {
+        match self {
+            TargetFormat::Rgba8 => Format::Rgba8Unorm,
+            TargetFormat::Rgba16f => Format::Rgba16Float,
+            TargetFormat::Rgba32f => Format::Rgba32Float,
+        }
+    }
+
+    /// Name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            TargetFormat::Rgba8 => "rgba8",
+            TargetFormat::Rgba16f => "rgba16f",
+            TargetFormat::Rgba32f => "rgba32f",
+        }
+    }
+
+    /// All formats, narrowest first.
+    pub const ALL: [TargetFormat; 3] = [
+        TargetFormat::Rgba8,
+        TargetFormat::Rgba16f,
+        TargetFormat::Rgba32f,
+    ];
+}
+
+/// One draw of a frame, as `render/` records it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Draw {
+    /// Environment mesh `mesh`.
+    Environment {
+        /// Index into `FrameInput::environment`.
+        mesh: usize,
+    },
+    /// The lens object's triangles with the zero shader (prime and alpha clear).
+    LensZero {
+        /// Lens index.
+        lens: usize,
+    },
+    /// One layer of one (viewpoint, term) group.
+    Layer {
+        /// Lens index.
+        lens: usize,
+        /// Viewpoint sample index.
+        viewpoint: usize,
+        /// The term.
+        term: Term,
+        /// Layer index, 0 = nearest.
+        layer: usize,
+    },
+    /// One layer of the programmable scheme: the layer's source blended in the shader over the
+    /// pixel's current value.
+    ProgrammableLayer {
+        /// Lens index.
+        lens: usize,
+        /// Viewpoint sample index.
+        viewpoint: usize,
+        /// The term.
+        term: Term,
+        /// Layer index, 0 = nearest.
+        layer: usize,
+        /// The scratch image holding the pixel's current value (the lens object's first layer
+        /// pass, over the prime's zero, is a plain [`Draw::Layer`]).
+        read: u32,
+        /// A group boundary lies between the previous layer pass and this one: the alpha clear,
+        /// done in the shader (α of the current value taken as 0).
+        reset_alpha: bool,
+    },
+    /// A full-screen pass adding scratch images `0..groups` into the framebuffer: colour summed,
+    /// α the last image's.
+    GroupSum {
+        /// Scratch images summed.
+        groups: u32,
+    },
+    /// The single-pass draw of a lens object.
+    SinglePass {
+        /// Lens index.
+        lens: usize,
+    },
+    /// A full-screen triangle averaging `supersampling`² subpixels of the colour target into
+    /// each pixel of an external image.
+    BoxFilter {
+        /// k for k×k subpixels per pixel.
+        supersampling: u32,
+        /// The framebuffer or the image is RGBA16F: subpixels are clamped to ±65504 (an
+        /// overflowed framebuffer texel is ±Inf; the image would make a larger value ±Inf).
+        half: bool,
+    },
+}
+
+/// Where a frame's pixels go.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// Copied into a host-visible buffer at the framebuffer's resolution (the box filter of
+    /// supersampling runs on the CPU after the readback).
+    Readback,
+    /// Box-filtered on the GPU into an image its owner lent (a host's `VkImage`) and handed back
+    /// to it: no readback.
+    External {
+        /// The image's format.
+        format: Format,
+        /// k for k×k framebuffer subpixels per image pixel (the framebuffer's sides divided by
+        /// k are the image's).
+        supersampling: u32,
+    },
+}
+
+/// Images and buffers of a frame graph.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameResources {
+    /// The colour target.
+    pub colour: ImageId,
+    /// The depth target.
+    pub depth: ImageId,
+    /// `layers[lens][viewpoint]`: the imported cube-map array.
+    pub layers: Vec<Vec<ImageId>>,
+    /// The external image of an [`Output::External`] frame.
+    pub external: Option<ImageId>,
+    /// The blending scheme's scratch images, in the order of their layers in the scratch array.
+    pub scratch: Vec<ImageId>,
+}
+
+/// What a pass of a frame is, for counting (`lensmap passes`, the renderer's statistics): the
+/// category of every [`FrameGraph`] pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum PassCategory {
+    /// The opaque environment meshes.
+    Environment,
+    /// A lens object's prime: its pixels set to (0, 0, 0, 0) with its depth.
+    Prime,
+    /// One layer of one (viewpoint, term) group.
+    Layer,
+    /// The alpha clear between two groups (rgb × 1, α × 0).
+    AlphaClear,
+    /// The clear of a scratch image a group is composited into.
+    ScratchClear,
+    /// A full-screen sum of scratch images into the framebuffer.
+    GroupSum,
+    /// A lens object's single-pass draw.
+    SinglePass,
+    /// The copy of the framebuffer into host-visible memory.
+    Readback,
+    /// The box filter of supersampling into a host's image.
+    BoxFilter,
+    /// The hand-back of a host's image.
+    Export,
+}
+
+impl PassCategory {
+    /// Every category, in the order a frame's passes run.
+    pub const ALL: [PassCategory; 10] = [
+        PassCategory::Environment,
+        PassCategory::Prime,
+        PassCategory::Layer,
+        PassCategory::AlphaClear,
+        PassCategory::ScratchClear,
+        PassCategory::GroupSum,
+        PassCategory::SinglePass,
+        PassCategory::Readback,
+        PassCategory::BoxFilter,
+        PassCategory::Export,
+    ];
+
+    /// The category's name in `lensmap passes --json` and the benchmarks' JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            PassCategory::Environment => "environment",
+            PassCategory::Prime => "prime",
+            PassCategory::Layer => "layer",
+            PassCategory::AlphaClear => "alpha-clear",
+            PassCategory::ScratchClear => "scratch-clear",
+            PassCategory::GroupSum => "group-sum",
+            PassCategory::SinglePass => "single-pass",
+            PassCategory::Readback => "readback",
+            PassCategory::BoxFilter => "box-filter",
+            PassCategory::Export => "export",
+        }
+    }
+}
+
+impl std::fmt::Display for PassCategory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A frame's declared pass graph: draws of [`Draw`] with [`ShaderProgram`]s, in
+/// [`PassCategory`]s.
+pub type FrameGraph = Graph<Draw, ShaderProgram, PassCategory>;
+
+/// A frame's compiled plan.
+pub type FramePlan = Plan<Draw, ShaderProgram, PassCategory>;
+
+/// How a frame is composited and where its pixels go: the options of [`frame_graph`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlanOptions {
+    /// The compositor variant.
+    pub variant: Variant,
+    /// How the multipass variant combines layers and groups; the single pass takes only
+    /// [`BlendScheme::FrontToBack`] (it does not blend).
+    pub blend: BlendScheme,
+    /// The framebuffer's format.
+    pub format: TargetFormat,
+    /// Where the pixels go.
+    pub output: Output,
+}
+
+/// Declares a frame's passes: the environment, each lens object's passes in `options.variant`
+/// and `options.blend`, and `options.output`. Fails where a lens object needs a program that
+/// does not exist (more layers than the single pass supports), or the single pass is asked to
+/// blend.
+pub fn frame_graph(
+    shape: &FrameShape,
+    options: &PlanOptions,
+) -> Result<(FrameGraph, FrameResources), ProgramError> {
+    let PlanOptions {
+        variant,
+        blend,
+        format,
+        output,
+    } = *options;
+    if variant == Variant::SinglePass && blend != BlendScheme::FrontToBack {
+        return Err(ProgramError::SinglePassBlend { blend });
+    }
+    let mut graph = Graph::new();
+    let mut resources = declare_images(&mut graph, shape, blend, format);
+    environment(&mut graph, shape, &resources);
+    for (index, lens) in shape.lenses.iter().enumerate() {
+        let viewpoints = shape.active_viewpoints(lens);
+        if lens.triangles == 0
+            || lens.layer_count() == 0
+            || lens.terms.is_empty()
+            || viewpoints.is_empty()
+        {
+            continue;
+        }
+        let mut passes = LensPasses::new(&mut graph, &resources, lens, index);
+        let groups = Group::all(&viewpoints, &lens.terms);
+        match (variant, blend) {
+            (Variant::SinglePass, _) => schemes::single_pass(&mut passes, viewpoints.len())?,
+            (Variant::Multipass, BlendScheme::FrontToBack) => {
+                schemes::front_to_back(&mut passes, &groups)
+            }
+            (Variant::Multipass, BlendScheme::BackToFront) => {
+                schemes::back_to_front(&mut passes, &groups)
+            }
+            (Variant::Multipass, BlendScheme::GroupTargets) => {
+                schemes::group_targets(&mut passes, &groups)
+            }
+            (Variant::Multipass, BlendScheme::Programmable) => {
+                schemes::programmable(&mut passes, &groups)
+            }
+        }
+    }
+    resources.external = match output {
+        Output::Readback => {
+            readback(&mut graph, shape, resources.colour);
+            None
+        }
+        Output::External {
+            format: image_format,
+            supersampling,
+        } => Some(box_filter(
+            &mut graph,
+            shape,
+            resources.colour,
+            format,
+            (image_format, supersampling),
+        )),
+    };
+    Ok((graph, resources))
+}
+
+/// The frame's images, in the order the plan's barriers list them: colour, depth, the blending
+/// scheme's scratch images, then per lens object and viewpoint its layered EM (imported).
+fn declare_images(
+    graph: &mut FrameGraph,
+    shape: &FrameShape,
+    blend: BlendScheme,
+    format: TargetFormat,
+) -> FrameResources {
+    let colour = graph.image("colour", format.graph_format(), shape.width, shape.height);
+    let depth = graph.image("depth", Format::Depth32Float, shape.width, shape.height);
+    let scratch = (0..blend.scratch_images(shape))
+        .map(|k| {
+            graph.image(
+                &format!("scratch{k}"),
+                format.graph_format(),
+                shape.width,
+                shape.height,
+            )
+        })
+        .collect();
+    let layers = shape
+        .lenses
+        .iter()
+        .enumerate()
+        .map(|(i, lens)| {
+            (0..lens.empty.len())
+                .map(|v| graph.import_image(&format!("lens{i}/em{v}"), Format::Rgba32Float, 1, 1))
+                .collect()
+        })
+        .collect();
+    FrameResources {
+        colour,
+        depth,
+        layers,
+        external: None,
+        scratch,
+    }
+}
+
+/// The environment pass: colour cleared to zero and depth to 1, every mesh drawn opaque with
+/// depth test and write.
+fn environment(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources) {
+    graph.add_pass(Pass {
+        name: "environment".into(),
+        category: PassCategory::Environment,
+        side_effect: false,
+        kind: PassKind::Draw {
+            program: ShaderProgram::Environment,
+            colour: ColourAttachment {
+                image: resources.colour,
+                load: LoadOp::Clear([0.0; 4]),
+                store: StoreOp::Store,
+                blend: Blend::Replace,
+                write_mask: ColourMask::RGBA,
+            },
+            depth: Some(DepthAttachment {
+                image: resources.depth,
+                load: LoadOp::Clear([1.0; 4]),
+                store: StoreOp::DontCare,
+                test: Some(CompareOp::Less),
+                write: true,
+            }),
+            cull: Cull::None,
+            sampled: Vec::new(),
+            storage: Vec::new(),
+            draws: (0..shape.environment_meshes)
+                .map(|mesh| Draw::Environment { mesh })
+                .collect(),
+        },
+    });
+}
+
+/// The copy of the colour target into a host-visible buffer (a side effect: it keeps every pass
+/// that wrote the colour).
+fn readback(graph: &mut FrameGraph, shape: &FrameShape, colour: ImageId) {
+    let buffer = graph.buffer(
+        "readback",
+        u64::from(shape.width) * u64::from(shape.height) * 16,
+    );
+    graph.add_pass(Pass {
+        name: "readback".into(),
+        category: PassCategory::Readback,
+        side_effect: true,
+        kind: PassKind::Readback {
+            image: colour,
+            buffer,
+        },
+    });
+}
+
+/// The box filter of `supersampling`² subpixels of the colour target into a host's image of
+/// `image_format`, and the hand-back of that image; returns the image.
+fn box_filter(
+    graph: &mut FrameGraph,
+    shape: &FrameShape,
+    colour: ImageId,
+    format: TargetFormat,
+    (image_format, supersampling): (Format, u32),
+) -> ImageId {
+    let k = supersampling.max(1);
+    let image = graph.external_image(
+        "host-image",
+        image_format,
+        shape.width / k,
+        shape.height / k,
+    );
+    graph.add_pass(Pass {
+        name: "box-filter".into(),
+        category: PassCategory::BoxFilter,
+        side_effect: false,
+        kind: PassKind::Draw {
+            program: ShaderProgram::BoxFilter,
+            colour: ColourAttachment {
+                image,
+                load: LoadOp::DontCare,
+                store: StoreOp::Store,
+                blend: Blend::Replace,
+                write_mask: ColourMask::RGBA,
+            },
+            depth: None,
+            cull: Cull::None,
+            sampled: vec![colour],
+            storage: Vec::new(),
+            draws: vec![Draw::BoxFilter {
+                supersampling: k,
+                // A half-float framebuffer may hold ±Inf; a half-float image would turn
+                // larger values into ±Inf.
+                half: format == TargetFormat::Rgba16f || image_format == Format::Rgba16Float,
+            }],
+        },
+    });
+    graph.add_pass(Pass {
+        name: "export".into(),
+        category: PassCategory::Export,
+        side_effect: true,
+        kind: PassKind::Export { image },
+    });
+    image
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,376 @@
+//! The compositor's plans checked without a GPU: pass counts per scheme derived by hand, and every
+//! plan `lensmap passes` prints against its golden text.
+
+use super::*;
+use crate::render::LensFaces;
+
+/// Options of a plan ending in a readback.
+fn readback(variant: Variant, blend: BlendScheme, format: TargetFormat) -> PlanOptions {
+    PlanOptions {
+        variant,
+        blend,
+        format,
+        output: Output::Readback,
+    }
+}
+
+fn plan(layers: usize, viewpoints: usize, terms: &[Term], variant: Variant) -> FramePlan {
+    let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
+    frame_graph(
+        &shape,
+        &readback(variant, BlendScheme::FrontToBack, TargetFormat::Rgba32f),
+    )
+    .unwrap()
+    .0
+    .compile()
+    .unwrap()
+}
+
+const BOTH: [Term; 2] = [Term::Refraction, Term::Reflection];
+
+#[test]
+fn two_viewpoints_two_terms_is_the_papers_4n_passes_and_three_alpha_clears() {
+    for n in 1..=4 {
+        let p = plan(n, 2, &BOTH, Variant::Multipass);
+        assert_eq!(
+            (
+                p.count(PassCategory::Prime),
+                p.count(PassCategory::Layer),
+                p.count(PassCategory::AlphaClear)
+            ),
+            (1, 4 * n, 3),
+            "{p}"
+        );
+        // One rendering instance holds the environment and every lens pass: no barriers
+        // between blending passes.
+        assert_eq!(p.rendering_instances(), 1, "{p}");
+    }
+}
+
+#[test]
+fn one_viewpoint_is_2n_passes_and_one_clear() {
+    for n in 1..=4 {
+        let p = plan(n, 1, &BOTH, Variant::Multipass);
+        assert_eq!(
+            (
+                p.count(PassCategory::Prime),
+                p.count(PassCategory::Layer),
+                p.count(PassCategory::AlphaClear)
+            ),
+            (1, 2 * n, 1)
+        );
+    }
+}
+
+#[test]
+fn a_mirror_at_a_sample_is_n_passes_and_no_clear() {
+    for n in 1..=4 {
+        let p = plan(n, 1, &[Term::Reflection], Variant::Multipass);
+        assert_eq!(
+            (
+                p.count(PassCategory::Prime),
+                p.count(PassCategory::Layer),
+                p.count(PassCategory::AlphaClear)
+            ),
+            (1, n, 0)
+        );
+    }
+}
+
+#[test]
+fn single_pass_is_one_lens_draw() {
+    for viewpoints in 1..=2 {
+        let p = plan(3, viewpoints, &BOTH, Variant::SinglePass);
+        assert_eq!(p.count(PassCategory::SinglePass), 1);
+        assert_eq!(p.draws(PassCategory::SinglePass), 1);
+        assert_eq!(
+            p.count(PassCategory::Layer)
+                + p.count(PassCategory::AlphaClear)
+                + p.count(PassCategory::Prime),
+            0
+        );
+    }
+}
+
+#[test]
+fn a_zero_weight_viewpoint_and_empty_layers_are_skipped() {
+    let mut shape = FrameShape::synthetic(64, 64, 3, 2, &BOTH);
+    shape.viewpoint_weights = vec![1.0, 0.0];
+    shape.lenses[0].empty[0][1] = true;
+    let p = frame_graph(
+        &shape,
+        &readback(
+            Variant::Multipass,
+            BlendScheme::FrontToBack,
+            TargetFormat::Rgba8,
+        ),
+    )
+    .unwrap()
+    .0
+    .compile()
+    .unwrap();
+    // One viewpoint × two terms × (3 − 1 empty) layers, one clear between the two groups.
+    assert_eq!(
+        (
+            p.count(PassCategory::Layer),
+            p.count(PassCategory::AlphaClear)
+        ),
+        (4, 1),
+        "{p}"
+    );
+    assert_eq!(p.culled.len(), 2, "{p}");
+}
+
+#[test]
+fn a_lens_with_both_faces_culls_nothing_in_any_pass() {
+    for variant in [Variant::Multipass, Variant::SinglePass] {
+        for faces in [LensFaces::Front, LensFaces::Both] {
+            let mut shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
+            shape.lenses[0].faces = faces;
+            let options = readback(variant, BlendScheme::FrontToBack, TargetFormat::Rgba8);
+            let (graph, _) = frame_graph(&shape, &options).unwrap();
+            let lens_culls: Vec<(String, Cull)> = graph
+                .passes()
+                .iter()
+                .filter_map(|pass| match &pass.kind {
+                    PassKind::Draw { cull, .. } if pass.category != PassCategory::Environment => {
+                        Some((pass.name.clone(), *cull))
+                    }
+                    _ => None,
+                })
+                .collect();
+            let expected = match faces {
+                LensFaces::Front => Cull::Back,
+                LensFaces::Both => Cull::None,
+            };
+            assert!(!lens_culls.is_empty());
+            assert!(
+                lens_culls.iter().all(|(_, cull)| *cull == expected),
+                "{variant:?} {faces:?}: {lens_culls:?}"
+            );
+        }
+    }
+}
+
+fn plan_blended(layers: usize, viewpoints: usize, terms: &[Term], blend: BlendScheme) -> FramePlan {
+    let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
+    frame_graph(
+        &shape,
+        &readback(Variant::Multipass, blend, TargetFormat::Rgba32f),
+    )
+    .unwrap()
+    .0
+    .compile()
+    .unwrap()
+}
+
+/// Each scheme's pass, barrier and rendering-instance counts for n = 1…4 layers and G =
+/// viewpoints × terms groups, derived by hand from the scheme's description.
+#[test]
+fn each_scheme_has_the_passes_it_is_described_with() {
+    for n in 1..=4 {
+        for viewpoints in 1..=2 {
+            for terms in [&BOTH[..], &[Term::Reflection][..]] {
+                let g = viewpoints * terms.len();
+                let count = |p: &FramePlan| {
+                    (
+                        p.count(PassCategory::Layer),
+                        p.count(PassCategory::AlphaClear),
+                        p.count(PassCategory::ScratchClear),
+                        p.count(PassCategory::GroupSum),
+                    )
+                };
+                let front = plan_blended(n, viewpoints, terms, BlendScheme::FrontToBack);
+                assert_eq!(count(&front), (g * n, g - 1, 0, 0), "{front}");
+                assert_eq!((front.rendering_instances(), front.barrier_count()), (1, 3));
+                // Per group a clear of the scratch image, its layers and an accumulate pass.
+                let back = plan_blended(n, viewpoints, terms, BlendScheme::BackToFront);
+                assert_eq!(count(&back), (g * n, 0, g, g), "{back}");
+                assert_eq!(back.rendering_instances(), 1 + 2 * g, "{back}");
+                // Per group its own cleared image; one sum of all of them.
+                let targets = plan_blended(n, viewpoints, terms, BlendScheme::GroupTargets);
+                assert_eq!(count(&targets), (g * n, 0, g, 1), "{targets}");
+                assert_eq!(targets.rendering_instances(), 2 + g, "{targets}");
+                // One rendering instance per layer pass, alternating images (a lone layer
+                // pass renders straight into the framebuffer, in the prime's instance).
+                let shader = plan_blended(n, viewpoints, terms, BlendScheme::Programmable);
+                assert_eq!(count(&shader), (g * n, 0, 0, 0), "{shader}");
+                let instances = if g * n == 1 { 1 } else { 1 + g * n };
+                assert_eq!(shader.rendering_instances(), instances, "{shader}");
+                // No pass samples the image it renders into.
+                for step in &shader.steps {
+                    if let PassKind::Draw {
+                        colour, sampled, ..
+                    } = &step.pass.kind
+                    {
+                        assert!(!sampled.contains(&colour.image), "{shader}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Back-to-front composites each group's layers farthest first; the others nearest first.
+#[test]
+fn back_to_front_reverses_the_layer_order() {
+    let layer_order = |blend| -> Vec<String> {
+        plan_blended(3, 1, &[Term::Reflection], blend)
+            .steps
+            .iter()
+            .filter(|s| s.pass.category == PassCategory::Layer)
+            .map(|s| s.pass.name.rsplit('/').next().unwrap_or("").to_owned())
+            .collect()
+    };
+    assert_eq!(
+        layer_order(BlendScheme::BackToFront),
+        ["layer2", "layer1", "layer0"]
+    );
+    for blend in [
+        BlendScheme::FrontToBack,
+        BlendScheme::GroupTargets,
+        BlendScheme::Programmable,
+    ] {
+        assert_eq!(
+            layer_order(blend),
+            ["layer0", "layer1", "layer2"],
+            "{blend:?}"
+        );
+    }
+}
+
+/// The programmable scheme resets α (the alpha clear) exactly where a group begins, and a
+/// last group whose layers are all zero still ends in an alpha clear.
+#[test]
+fn programmable_resets_alpha_at_group_boundaries() {
+    let mut shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
+    let resets = |shape: &FrameShape| -> Vec<(String, bool)> {
+        let plan = frame_graph(
+            shape,
+            &readback(
+                Variant::Multipass,
+                BlendScheme::Programmable,
+                TargetFormat::Rgba32f,
+            ),
+        )
+        .unwrap()
+        .0
+        .compile()
+        .unwrap();
+        plan.steps
+            .iter()
+            .filter_map(|s| match &s.pass.kind {
+                PassKind::Draw { draws, .. } => draws.first().and_then(|d| match d {
+                    Draw::ProgrammableLayer { reset_alpha, .. } => {
+                        Some((s.pass.name.clone(), *reset_alpha))
+                    }
+                    Draw::LensZero { .. } if s.pass.category == PassCategory::AlphaClear => {
+                        Some((s.pass.name.clone(), true))
+                    }
+                    _ => None,
+                }),
+                _ => None,
+            })
+            .collect()
+    };
+    let all = resets(&shape);
+    let reset: Vec<&str> = all
+        .iter()
+        .filter(|(_, r)| *r)
+        .map(|(n, _)| n.as_str())
+        .collect();
+    assert_eq!(
+        reset,
+        ["lens/v0/R/layer0", "lens/v1/T/layer0", "lens/v1/R/layer0"],
+        "{all:?}"
+    );
+    // Viewpoint 1's layers all zero: its two groups draw nothing, and α still ends cleared.
+    shape.lenses[0].empty[1] = vec![true, true];
+    let all = resets(&shape);
+    assert_eq!(
+        all.last().map(|(n, _)| n.as_str()),
+        Some("lens/v1/T/alpha-clear"),
+        "{all:?}"
+    );
+}
+
+#[test]
+fn the_single_pass_takes_only_front_to_back() {
+    let shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
+    for blend in BlendScheme::ALL {
+        let result = frame_graph(
+            &shape,
+            &readback(Variant::SinglePass, blend, TargetFormat::Rgba8),
+        );
+        assert_eq!(
+            result.is_ok(),
+            blend == BlendScheme::FrontToBack,
+            "{blend:?}"
+        );
+    }
+}
+
+/// The plans `lensmap passes` prints (its defaults: 640×480, RGBA8), n = 1…4, for one and two
+/// viewpoints, a glass (both terms) and a mirror (reflection only) lens, both variants and
+/// every blending scheme, as
+/// text against the golden files in `render/golden/` (read and checked by hand when written;
+/// the counts above check the same plans independently). Trailing spaces are not compared.
+/// `LENSMAP_BLESS=1` rewrites the files after a deliberate change, to be read before
+/// committing.
+#[test]
+fn plans_match_the_golden_text() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/render/golden");
+    let bless = std::env::var("LENSMAP_BLESS").is_ok_and(|v| v == "1");
+    let trimmed = |text: &str| -> String {
+        text.lines()
+            .map(|l| format!("{}\n", l.trim_end()))
+            .collect()
+    };
+    let mut mismatches = Vec::new();
+    let compositings = [
+        (Variant::Multipass, BlendScheme::FrontToBack),
+        (Variant::SinglePass, BlendScheme::FrontToBack),
+        (Variant::Multipass, BlendScheme::BackToFront),
+        (Variant::Multipass, BlendScheme::GroupTargets),
+        (Variant::Multipass, BlendScheme::Programmable),
+    ];
+    for (variant, blend) in compositings {
+        for viewpoints in 1..=2 {
+            for (material, terms) in [("glass", &BOTH[..]), ("mirror", &[Term::Reflection][..])] {
+                let mut text = String::new();
+                for n in 1..=4 {
+                    let shape = FrameShape::synthetic(640, 480, n, viewpoints, terms);
+                    let plan = frame_graph(&shape, &readback(variant, blend, TargetFormat::Rgba8))
+                        .unwrap()
+                        .0
+                        .compile()
+                        .unwrap();
+                    text.push_str(&format!("# n = {n}\n{plan}"));
+                }
+                // The paper's scheme keeps its files' names; the others add theirs.
+                let scheme = match blend {
+                    BlendScheme::FrontToBack => String::new(),
+                    other => format!("-{}", other.name()),
+                };
+                let name = format!(
+                    "{}{scheme}-{viewpoints}-viewpoint-{material}.txt",
+                    variant.name()
+                );
+                let path = dir.join(&name);
+                if bless {
+                    std::fs::create_dir_all(&dir).unwrap();
+                    std::fs::write(&path, trimmed(&text)).unwrap();
+                }
+                let golden = std::fs::read_to_string(&path).unwrap_or_default();
+                if trimmed(&golden) != trimmed(&text) {
+                    mismatches.push(format!("{name}:\n{text}"));
+                }
+            }
+        }
+    }
+    assert!(
+        mismatches.is_empty(),
+        "plans differ from their golden text (LENSMAP_BLESS=1 rewrites them):\n{}",
+        mismatches.join("\n")
+    );
+}

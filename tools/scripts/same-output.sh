@@ -45,6 +45,11 @@
 #                        `extended (expected): LABEL` with the extended and inserted lines.
 #                        A LABEL that names no text output is a problem (a typo would otherwise
 #                        go unnoticed).
+#   --changed-field NAME (repeatable) the value of a JSON key NAME, at any depth, may differ (a
+#                        figure whose definition changed on purpose): each difference is printed
+#                        as `changed (expected): $.path a vs b`, so the change is measured.
+#   --changed-text LABEL (repeatable) the text output with this LABEL may differ in any line;
+#                        the differing lines are printed.
 # Declared changes that do not occur are noted in the summary but are not problems, so the
 # self-check below also passes with options.
 #
@@ -58,7 +63,8 @@
 set -uo pipefail
 
 usage() {
-    echo "usage: $0 [--added-field NAME]... [--rtol X] [--text-change LABEL]..." \
+    echo "usage: $0 [--added-field NAME]... [--changed-field NAME]... [--rtol X]" \
+        "[--text-change LABEL]... [--changed-text LABEL]..." \
         "BEFORE_BINARY AFTER_BINARY [WORKDIR]" >&2
     exit 2
 }
@@ -67,7 +73,7 @@ RTOL=0
 declare -a DECLARED=()
 while [ $# -gt 0 ]; do
     case $1 in
-        --added-field | --text-change)
+        --added-field | --changed-field | --text-change | --changed-text)
             [ $# -ge 2 ] && [ -n "$2" ] || { echo "error: $1 needs a value" >&2; usage; }
             DECLARED+=("${1#--}" "$2")
             shift 2
@@ -223,8 +229,10 @@ work = sys.argv[1]
 RTOL = float(sys.argv[2])
 declared = list(zip(sys.argv[3::2], sys.argv[4::2]))
 ADDED_FIELDS = {v for k, v in declared if k == "added-field"}
+CHANGED_FIELDS = {v for k, v in declared if k == "changed-field"}
 TEXT_CHANGES = {v for k, v in declared if k == "text-change"}
-seen = {"added": set(), "rtol": 0, "extended": set(), "not_extended": set(), "text_labels": set()}
+CHANGED_TEXTS = {v for k, v in declared if k == "changed-text"}
+seen = {"added": set(), "changed": set(), "changed_text": set(), "rtol": 0, "extended": set(), "not_extended": set(), "text_labels": set()}
 
 problems = []
 counts = {"images": 0, "images_same": 0, "exr_reordered": 0, "json": 0, "json_same": 0, "json_declared": 0,
@@ -289,7 +297,11 @@ def json_diff(a, b, path, timing, ignored, out, expected):
         if not (isinstance(a, number) and isinstance(b, number)) and type(a) is not type(b):
             out.append(f"{path}: timing of type {type(a).__name__} vs {type(b).__name__}")
     elif type(a) is not type(b) or a != b:
-        if within_rtol(a, b):
+        keys = re.findall(r"\.([A-Za-z0-9_]+)", path)
+        if keys and keys[-1] in CHANGED_FIELDS:
+            seen["changed"].add(keys[-1])
+            expected.append(f"changed (expected): {path}: {json.dumps(a)} vs {json.dumps(b)}")
+        elif within_rtol(a, b):
             seen["rtol"] += 1
             expected.append(f"equal within rtol: {path} {json.dumps(a)} vs {json.dumps(b)}"
                             f" (relative {abs(a - b) / max(abs(a), abs(b)):.1e})")
@@ -368,6 +380,17 @@ def compare_text(label, text_a, text_b, exact):
         print(f"  same       text   {label}{' (exact)' if exact else ''}")
         return
     how = " (exact comparison)" if exact else " (numbers masked)"
+    if label in CHANGED_TEXTS:
+        seen["changed_text"].add(label)
+        counts["text_declared"] += 1
+        print(f"  declared   text   {label}")
+        for i in range(max(len(la), len(lb))):
+            x = la[i] if i < len(la) else "<missing>"
+            y = lb[i] if i < len(lb) else "<missing>"
+            if x != y:
+                print(f"      changed (expected): line {i + 1}: before: {x}")
+                print(f"      {' ' * len(str(i + 1))}                          after:  {y}")
+        return
     if label in TEXT_CHANGES:
         pairs, inserted, unmatched = match_extension(la, lb)
         if unmatched is None:
@@ -629,8 +652,8 @@ for rel in sorted(fa & fb):
 
 if counts["images"] == 0:
     problem("no images were written: nothing rendered (is a Vulkan driver installed?)")
-for label in sorted(TEXT_CHANGES - seen["text_labels"]):
-    problem(f"--text-change {label!r}: no text output has this label")
+for label in sorted((TEXT_CHANGES | CHANGED_TEXTS) - seen["text_labels"]):
+    problem(f"--text-change/--changed-text {label!r}: no text output has this label")
 if validation_counts == 0:
     problem("no 'validation messages: N' line seen: was the validation layer on?")
 
@@ -652,6 +675,10 @@ if declared or RTOL:
     print("  declared changes:")
     for name in sorted(ADDED_FIELDS):
         print(f"    --added-field {name}: {seen_or_not(name in seen['added'])}")
+    for name in sorted(CHANGED_FIELDS):
+        print(f"    --changed-field {name}: {seen_or_not(name in seen['changed'])}")
+    for label in sorted(CHANGED_TEXTS):
+        print(f"    --changed-text {label!r}: {seen_or_not(label in seen['changed_text'])}")
     if RTOL:
         print(f"    --rtol {RTOL:g}: {seen['rtol']} value(s) equal within it")
     for label in sorted(TEXT_CHANGES):

@@ -13,6 +13,7 @@
 use glam::Vec3;
 
 use crate::trace::image::srgb_encode;
+use crate::trace::{LensPixels, LensSelection};
 
 /// How values are compared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -90,17 +91,6 @@ pub struct Mask {
     pixels: Vec<bool>,
 }
 
-/// How a per-pixel coverage in [0, 1] (such as the reference's lens mask) becomes a mask.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Coverage {
-    /// Pixels covered entirely (coverage ≥ 1): no background mixed in.
-    Full,
-    /// Pixels covered at all (coverage > 0).
-    Any,
-    /// Pixels not covered at all (coverage = 0): nothing of the covering object mixed in.
-    None,
-}
-
 impl Mask {
     /// Every one of `len` pixels.
     pub fn all(len: usize) -> Mask {
@@ -109,17 +99,18 @@ impl Mask {
         }
     }
 
-    /// The pixels whose `coverage` passes `rule`.
-    pub fn from_coverage(coverage: &[f32], rule: Coverage) -> Mask {
+    /// The lens pixels of `selection` (every lens object, or one), by the rule every lens-error
+    /// figure uses ([`crate::trace::lens_pixels`]).
+    pub fn lens(pixels: &LensPixels, selection: LensSelection) -> Mask {
         Mask {
-            pixels: coverage
-                .iter()
-                .map(|&c| match rule {
-                    Coverage::Full => c >= 1.0,
-                    Coverage::Any => c > 0.0,
-                    Coverage::None => c == 0.0,
-                })
-                .collect(),
+            pixels: pixels.flags(selection),
+        }
+    }
+
+    /// The environment pixels: no subpixel sees a lens object ([`crate::trace::lens_pixels`]).
+    pub fn environment(pixels: &LensPixels) -> Mask {
+        Mask {
+            pixels: pixels.environment_flags(),
         }
     }
 
@@ -271,6 +262,7 @@ pub fn compare<A: Pixel, B: Pixel>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::trace::PixelCover;
 
     #[test]
     fn linear_error_against_a_hand_computation() {
@@ -365,17 +357,23 @@ mod tests {
     }
 
     #[test]
-    fn coverage_rules_and_union() {
-        let coverage = [0.0, 0.5, 1.0];
-        let full = Mask::from_coverage(&coverage, Coverage::Full);
-        let any = Mask::from_coverage(&coverage, Coverage::Any);
-        let none = Mask::from_coverage(&coverage, Coverage::None);
-        assert_eq!(
-            (full.selected(), any.selected(), none.selected()),
-            (1, 2, 1)
-        );
+    fn lens_and_environment_masks_and_union() {
+        let pixels = LensPixels {
+            width: 3,
+            height: 1,
+            covers: vec![
+                PixelCover::Environment,
+                PixelCover::Mixed,
+                PixelCover::Lens(0),
+            ],
+        };
+        let lens = Mask::lens(&pixels, LensSelection::All);
+        let environment = Mask::environment(&pixels);
+        assert_eq!((lens.selected(), environment.selected()), (1, 1));
+        assert!(lens.contains(2) && environment.contains(0));
+        assert_eq!(Mask::lens(&pixels, LensSelection::Object(1)).selected(), 0);
         let other = Mask::from_flags(vec![true, false, false]);
-        assert_eq!(full.union(&other).selected(), 2);
-        assert_eq!(full.pixel_count(), 3);
+        assert_eq!(lens.union(&other).selected(), 2);
+        assert_eq!(lens.pixel_count(), 3);
     }
 }

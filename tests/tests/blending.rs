@@ -7,8 +7,11 @@
 use std::sync::Arc;
 
 use lensmap::cubemap::CubeMap;
-use lensmap::render::{BlendScheme, RenderOptions, Renderer, TargetFormat, Variant};
-use lensmap::trace::Term;
+use lensmap::metrics::Mask;
+use lensmap::render::{
+    BlendScheme, RenderOptions, Renderer, TargetFormat, Variant, frame_lens_pixels,
+};
+use lensmap::trace::{LensSelection, Term};
 use lensmap_tests::fixtures::compositor;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
 use rand::SeedableRng;
@@ -151,7 +154,7 @@ fn schemes_agree_with_two_overlapping_lens_objects() {
     glass_only.lenses.truncate(1);
     let mut mirror_only = frame.clone();
     mirror_only.lenses.remove(0);
-    let mut coverage = |f| runner.lens_coverage(f).unwrap().selected();
+    let coverage = |f| Mask::lens(&frame_lens_pixels(f), LensSelection::All).selected();
     let (all, glass, mirror) = (
         coverage(&frame),
         coverage(&glass_only),

@@ -14,12 +14,13 @@ use std::sync::Arc;
 use glam::Vec3;
 use lensmap::cubemap::CubeMap;
 use lensmap::gpu::Gpu;
+use lensmap::metrics::Mask;
 use lensmap::render::{
     BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer, TargetFormat,
-    Variant,
+    Variant, frame_lens_pixels,
     model::{FilterPrecision, ModelImage, ModelOptions, render_model},
 };
-use lensmap::trace::Term;
+use lensmap::trace::{LensSelection, Term};
 use lensmap_tests::fixtures::compositor;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
 use rand::SeedableRng;
@@ -567,17 +568,17 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
     assert_clean(&gpu);
 }
 
-/// The lens mask from the geometry (`FrameRunner::lens_coverage`: the frame rendered with
-/// all-zero layered EMs, a lens pixel's α exactly 0) against the f64 model's own rasterization
-/// of the same frame (its front-most surface is a lens object): they agree on every pixel the
-/// model does not mark ill-defined (coverage ties on triangle edges), which must be most of them.
+/// The lens pixels of a frame by the engine's rule on the frame's geometry
+/// (`render::frame_lens_pixels`: each pixel centre's ray through the view-projection, its first
+/// drawn surface) against the f64 model's own rasterization of the same frame (its front-most
+/// surface is a lens object): two algorithms agree on every pixel the model does not mark
+/// ill-defined (coverage ties on triangle edges), which must be most of them.
 #[test]
-fn the_geometric_lens_mask_is_the_models_lens_coverage() {
+fn the_frames_lens_pixels_are_the_models_lens_coverage() {
     let mut rng = Pcg64::seed_from_u64(0x6e0_3a5c);
     let both = [Term::Refraction, Term::Reflection];
     let frame = random_frame(&mut rng, 2, 2, &both);
-    let mut runner = lensmap::runner::FrameRunner::new(gpu()).unwrap();
-    let mask = runner.lens_coverage(&frame).unwrap();
+    let mask = Mask::lens(&frame_lens_pixels(&frame), LensSelection::All);
     let model = render_model(&frame, &ModelOptions::lavapipe());
     let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
     assert!(lens_pixels > 1500, "the lens covers {lens_pixels} pixels");
@@ -590,7 +591,7 @@ fn the_geometric_lens_mask_is_the_models_lens_coverage() {
         assert_eq!(
             mask.contains(i),
             *model_lens,
-            "pixel ({}, {}): geometric mask vs the model's coverage",
+            "pixel ({}, {}): the frame's lens pixels vs the model's coverage",
             i as u32 % SIZE,
             i as u32 / SIZE
         );
@@ -599,5 +600,4 @@ fn the_geometric_lens_mask_is_the_models_lens_coverage() {
         compared * 10 >= (SIZE * SIZE) as usize * 9,
         "{compared} pixels compared"
     );
-    assert_clean(runner.gpu());
 }

@@ -8,11 +8,11 @@ use glam::Vec3;
 use lensmap::{
     hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
-    metrics::{self, Channels, Coverage, Encoding, Mask},
+    metrics::{self, Channels, Encoding, Mask},
     render::{RenderOptions, Renderer, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
     scene::Scene,
-    trace::{TraceOptions, render_reference},
+    trace::{LensSelection, TraceOptions, render_reference},
 };
 use lensmap_tests::{assert_clean, fixtures, gpu};
 
@@ -79,7 +79,7 @@ layers = [{ sphere = 1000.0 }]
         let error = metrics::compare(
             &frame.image.pixels,
             &reference.reflection,
-            &Mask::from_coverage(&reference.lens_mask, Coverage::Full),
+            &Mask::lens(&reference.lens_pixels, LensSelection::All),
             Encoding::Linear,
             Channels::Rgb,
         )

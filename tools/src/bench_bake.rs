@@ -14,19 +14,15 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{HybridOptions, HybridScene},
     layers::{Bake, projected::ProjectedOptions},
-    metrics::{self, Channels, Coverage, Encoding, Mask},
+    metrics::{self, Channels, Encoding, Mask},
     render::{TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, camera_between, lens_error, load_hybrid_scene,
         non_lens_error,
     },
     scene::{Camera, Scene},
-    trace::{
-        ReferenceImage, TraceCounters, TraceOptions, TraceScene, image::camera_ray,
-        render_reference, world::Part,
-    },
+    trace::{LensSelection, ReferenceImage, TraceOptions, TraceScene, render_reference},
 };
-use rayon::prelude::*;
 use serde_json::json;
 
 use crate::common::{BadUsage, JudgeArgs, report};
@@ -58,39 +54,19 @@ pub struct BenchBakeArgs {
     report: Option<PathBuf>,
 }
 
-/// Per lens object (when the scene has more than one): its name and the pixels that are lens
-/// pixels of `reference` (covered entirely) whose centre ray meets that lens object first.
-fn lens_object_masks(
-    trace: &TraceScene,
-    camera: &Camera,
-    reference: &ReferenceImage,
-) -> Vec<(String, Mask)> {
+/// Per lens object (when the scene has more than one): its name and its pixels in `reference`
+/// (the engine's rule, [`lensmap::trace::lens_pixels`]).
+fn lens_object_masks(trace: &TraceScene, reference: &ReferenceImage) -> Vec<(String, Mask)> {
     if trace.lenses.len() < 2 {
         return Vec::new();
     }
-    let lens_pixels = Mask::from_coverage(&reference.lens_mask, Coverage::Full);
-    let first_lens: Vec<Option<usize>> = (0..camera.width * camera.height)
-        .into_par_iter()
-        .map(|i| {
-            if !lens_pixels.contains(i as usize) {
-                return None;
-            }
-            let (x, y) = (i % camera.width, i / camera.width);
-            let ray = camera_ray(camera, f64::from(x) + 0.5, f64::from(y) + 0.5);
-            let mut counters = TraceCounters::default();
-            match trace.closest_hit(&ray, None, None, &mut counters)?.part {
-                Part::Lens(lens) => Some(lens),
-                Part::Environment => None,
-            }
-        })
-        .collect();
     trace
         .lenses
         .iter()
         .enumerate()
         .map(|(lens, object)| {
-            let flags = first_lens.iter().map(|&l| l == Some(lens)).collect();
-            (object.name.clone(), Mask::from_flags(flags))
+            let mask = Mask::lens(&reference.lens_pixels, LensSelection::Object(lens));
+            (object.name.clone(), mask)
         })
         .collect()
 }
@@ -182,7 +158,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         )?;
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
-        let per_lens = lens_object_masks(&contenders[0].1.trace, &reference_camera, &reference);
+        let per_lens = lens_object_masks(&contenders[0].1.trace, &reference);
         for (label, hybrid) in &contenders {
             let frame = runner.frame(hybrid, &camera, &options)?;
             let lens = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;

@@ -27,11 +27,13 @@ use lensmap::{
         Bake,
         projected::{DEFAULT_EM_SIZE, ProjectedOptions, em_origin},
     },
-    metrics::{Channels, Coverage, Encoding, ImageError, Mask},
+    metrics::{Channels, Encoding, ImageError, Mask},
     render::{RenderedImage, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error, load_hybrid_scene},
     scene::{Camera, LayerSpec, Scene},
-    trace::{ReferenceImage, TraceOptions, TraceScene, image::srgb8, render_reference},
+    trace::{
+        LensSelection, ReferenceImage, TraceOptions, TraceScene, image::srgb8, render_reference,
+    },
 };
 use serde_json::json;
 
@@ -416,7 +418,7 @@ fn lens_ssim(image: &RenderedImage, reference: &ReferenceImage) -> anyhow::Resul
     // The crate names its map's type only through this 8-bit rendering of it (values clamped to
     // [0, 1] and truncated to 1/255): the mean below is within 1/255 of the map's.
     let map = similarity.image.to_color_map().to_rgb8();
-    let mask = Mask::from_coverage(&reference.lens_mask, Coverage::Full);
+    let mask = Mask::lens(&reference.lens_pixels, LensSelection::All);
     let (sum, count) = map
         .pixels()
         .enumerate()
@@ -677,7 +679,7 @@ fn measure(
             images.push(image);
             bar.inc(1);
         }
-        let lens_pixels = Mask::from_coverage(&reference.lens_mask, Coverage::Full);
+        let lens_pixels = Mask::lens(&reference.lens_pixels, LensSelection::All);
         for (i, twin) in sweep.twins.iter().enumerate() {
             if let Some(twin) = twin {
                 measured.against_f64[i].push(lensmap::metrics::compare(

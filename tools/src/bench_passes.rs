@@ -3,7 +3,7 @@
 //! framebuffer format, on the synthetic scene (or on one hybrid frame of a scene, at its own
 //! layer count); passes, barriers and rendering instances from each frame's plan; and the error
 //! of every row against the multipass front-to-back frame in RGBA32F over the lens pixels, which
-//! come from the geometry ([`FrameRunner::lens_coverage`]). Medians of repeated frames, all
+//! come from the frame's geometry ([`lensmap::render::frame_lens_pixels`]). Medians of repeated frames, all
 //! measured in one run.
 
 use std::path::PathBuf;
@@ -18,10 +18,12 @@ use lensmap::{
     metrics::{self, Channels, Encoding, ImageError, Mask},
     render::{
         BlendScheme, FrameInput, RenderOptions, RenderedImage, Renderer, TargetFormat, Variant,
+        frame_lens_pixels,
         synthetic::{SyntheticOptions, sphere_frame},
     },
     runner::{EmSource, FrameRunner, load_hybrid_scene},
     scene::Scene,
+    trace::LensSelection,
 };
 use serde_json::json;
 
@@ -248,9 +250,9 @@ fn frame_rows(
     compositings: &[(Variant, BlendScheme)],
     bar: &ProgressBar,
 ) -> anyhow::Result<Vec<serde_json::Value>> {
-    // The lens pixels, from the geometry: an empty set has no error to report, so the
-    // benchmark stops rather than print a figure that measures nothing.
-    let mask = runner.lens_coverage(frame)?;
+    // The lens pixels, from the frame's geometry (the engine's rule): an empty set has no error
+    // to report, so the benchmark stops rather than print a figure that measures nothing.
+    let mask = Mask::lens(&frame_lens_pixels(frame), LensSelection::All);
     if mask.selected() == 0 {
         return Err(BadUsage(format!(
             "the lens objects cover no pixel of the {}×{} frame (n = {layers}), so there are no lens pixels to measure the formats' error over: aim the camera at a lens object (--camera-position, --look-at)",

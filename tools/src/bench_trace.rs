@@ -7,11 +7,12 @@ use std::path::PathBuf;
 use anyhow::Context;
 use indicatif::ProgressBar;
 
-use lensmap::metrics::{self, Channels, Coverage, Encoding, Mask, MetricsError};
+use lensmap::metrics::{self, Channels, Encoding, Mask, MetricsError};
 use lensmap::runner::median;
 use lensmap::scene::{Camera, Scene};
 use lensmap::trace::{
-    self, PathModel, RayTreeOptions, ReferenceImage, TraceCounters, TraceOptions, TraceScene,
+    self, LensSelection, PathModel, RayTreeOptions, ReferenceImage, TraceCounters, TraceOptions,
+    TraceScene,
 };
 
 /// Arguments of `lensmap bench trace`.
@@ -304,8 +305,8 @@ fn compare(
         Encoding::DisplaySrgb,
         Channels::Rgb,
     )?;
-    let lens = Mask::from_coverage(&greedy.lens_mask, Coverage::Any)
-        .union(&Mask::from_coverage(&full.lens_mask, Coverage::Any));
+    // Both images see the same first hits, so their lens pixels are one set.
+    let lens = Mask::lens(&greedy.lens_pixels, LensSelection::All);
     // No lens pixel at all (a tiny image): no figure, never a zero.
     let linear = match metrics::compare(
         &full.radiance,

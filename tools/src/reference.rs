@@ -5,8 +5,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+use lensmap::metrics::Mask;
 use lensmap::scene::Scene;
-use lensmap::trace::{self, PathModel, ReferenceImage, RenderStats, TraceOptions, TraceScene};
+use lensmap::trace::{
+    self, LensSelection, PathModel, ReferenceImage, RenderStats, TraceOptions, TraceScene,
+};
 
 use crate::common::{CameraArgs, Steps, choose_camera, write_json};
 
@@ -68,7 +71,7 @@ struct Report<'a> {
     mrays_per_second: f64,
     rays_per_pixel: f64,
     triangle_tests_per_ray: f64,
-    lens_pixels: f64,
+    lens_pixels: usize,
     files: Vec<PathBuf>,
 }
 
@@ -115,7 +118,7 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
         mrays_per_second: image.stats.mrays_per_second(),
         rays_per_pixel: image.stats.rays_per_pixel(),
         triangle_tests_per_ray: image.stats.counters.triangle_tests_per_ray(),
-        lens_pixels: lens_coverage(&image),
+        lens_pixels: lens_pixel_count(&image),
         files: Vec::new(),
     };
     let stats_path = args.out.join("stats.json");
@@ -128,8 +131,9 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn lens_coverage(image: &ReferenceImage) -> f64 {
-    image.lens_mask.iter().map(|&m| f64::from(m)).sum()
+/// The number of lens pixels, by the engine's rule ([`lensmap::trace::lens_pixels`]).
+fn lens_pixel_count(image: &ReferenceImage) -> usize {
+    Mask::lens(&image.lens_pixels, LensSelection::All).selected()
 }
 
 fn print_summary(
@@ -156,10 +160,10 @@ fn print_summary(
         stats.mrays_per_second(),
     );
     say!(
-        "  triangle tests: {} ({:.1} per ray); lens objects cover {:.0} pixels",
+        "  triangle tests: {} ({:.1} per ray); {} lens pixels",
         stats.counters.triangle_tests,
         stats.counters.triangle_tests_per_ray(),
-        lens_coverage(image),
+        lens_pixel_count(image),
     );
     say!(
         "  wrote {}/{{reference,refraction,reflection,lens_mask}}.{{exr,png}} and stats.json",

@@ -1,5 +1,5 @@
-//! What the baker judges EMs with: hybrid scenes with projected EMs on given shells, the lens
-//! object's pixels at a camera, and the lens PSNR of a hybrid frame against the reference.
+//! What the baker judges EMs with: hybrid scenes with projected EMs on given shells, and the lens
+//! PSNR of a hybrid frame against the reference over given pixels.
 
 use std::sync::Arc;
 
@@ -14,35 +14,9 @@ use lensmap::{
     render::TargetFormat,
     runner::{FrameOptions, FrameRunner},
     scene::{Camera, Scene},
-    trace::LensRecords,
 };
 
 use super::{failure::BakeFailure, options::BakeOptions};
-
-/// The reference's pixels that are all lens object `lens` (every supersample's first hit), from
-/// its records at that camera.
-pub(super) fn lens_pixels(records: &LensRecords, camera: &Camera) -> Mask {
-    let k = camera.supersampling.max(1);
-    let mut counts = vec![0u32; (camera.width * camera.height) as usize];
-    for record in records.records.iter().filter(|r| r.visible) {
-        let (x, y) = (
-            record.image_position.x.floor() as usize,
-            record.image_position.y.floor() as usize,
-        );
-        if let Some(count) = counts.get_mut(y * camera.width as usize + x) {
-            *count += 1;
-        }
-    }
-    // Records come one per term: a pixel of a glass lens has 2k² of them.
-    let terms = records
-        .records
-        .iter()
-        .map(|r| r.term)
-        .collect::<std::collections::BTreeSet<_>>()
-        .len()
-        .max(1) as u32;
-    Mask::from_flags(counts.iter().map(|&c| c == terms * k * k).collect())
-}
 
 /// Lens PSNR (sRGB) of `hybrid` at `camera` over `mask` against the reference radiance.
 pub(super) fn masked_psnr(

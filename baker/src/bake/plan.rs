@@ -15,15 +15,14 @@ use lensmap::{
     runner::FrameRunner,
     scene::{Camera, Scene},
     trace::{
-        RecordSet, TraceOptions, compile_records, image::ReferenceImage, render_reference,
-        world::TraceScene,
+        LensSelection, TraceOptions, image::ReferenceImage, render_reference, world::TraceScene,
     },
 };
 use serde::{Deserialize, Serialize};
 
 use super::{
     failure::{BakeFailure, BakeInputError},
-    judge::{lens_pixels, masked_psnr, project_into, projected_scene},
+    judge::{masked_psnr, project_into, projected_scene},
     options::{
         AUTO_LAYER_GAIN_DB, BakeOptions, FAR_SHELL_METRES, LayerCount, MAX_AUTO_LAYERS,
         PLACEMENT_SCALE,
@@ -232,7 +231,7 @@ pub fn make_plan(
 }
 
 /// What the plan judges layer counts and searches the EM size with, each made when first needed:
-/// the reference and the records at sample 0 (at a fraction of the bake's resolution), and one
+/// the reference at sample 0 (at a fraction of the bake's resolution), and one
 /// hybrid scene with every lens object on its default shells at [`JUDGE_EM_SIZE`] (its
 /// environment and light maps do not depend on the shells, so only a lens object's projected
 /// layers change between candidates).
@@ -240,7 +239,7 @@ struct Judge<'s> {
     scene: &'s Scene,
     trace: &'s TraceScene,
     camera: Camera,
-    reference: Option<(ReferenceImage, RecordSet)>,
+    reference: Option<ReferenceImage>,
     hybrid: Option<HybridScene>,
 }
 
@@ -266,18 +265,19 @@ impl<'s> Judge<'s> {
         lens: usize,
         progress: &mut dyn FnMut(&str),
     ) -> Result<Mask, BakeFailure> {
-        let (_, records) = match self.reference.take() {
+        let reference = match self.reference.take() {
             Some(traced) => self.reference.insert(traced),
             None => {
                 progress("tracing the reference that judges layer counts");
-                let trace_options = TraceOptions::default();
                 let reference =
-                    render_reference(self.trace, &self.camera, &trace_options, &|_| {})?;
-                let records = compile_records(self.trace, &self.camera, &trace_options)?;
-                self.reference.insert((reference, records))
+                    render_reference(self.trace, &self.camera, &TraceOptions::default(), &|_| {})?;
+                self.reference.insert(reference)
             }
         };
-        Ok(lens_pixels(&records.lenses[lens], &self.camera))
+        Ok(Mask::lens(
+            &reference.lens_pixels,
+            LensSelection::Object(lens),
+        ))
     }
 
     /// The judging hybrid scene, made on the default shells if needed.
@@ -316,7 +316,7 @@ impl<'s> Judge<'s> {
         options: &BakeOptions,
     ) -> Result<f64, BakeFailure> {
         let hybrid = Self::hybrid_in(&mut self.hybrid, self.scene, self.trace)?;
-        let Some((reference, _)) = &self.reference else {
+        let Some(reference) = &self.reference else {
             unreachable!("the mask was taken from the reference")
         };
         project_into(hybrid, lens, origin, shells, JUDGE_EM_SIZE);

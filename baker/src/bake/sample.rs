@@ -9,10 +9,10 @@ use glam::Vec3;
 use lensmap::{
     cubemap::CubeMap,
     hybrid::HybridScene,
-    metrics::{self, Mask},
+    metrics::Mask,
     runner::FrameRunner,
     scene::{Camera, Scene},
-    trace::{RecordSet, TraceOptions, compile_records, render_reference},
+    trace::{LensSelection, RecordSet, TraceOptions, compile_records, render_reference},
 };
 use serde::{Deserialize, Serialize};
 
@@ -350,7 +350,7 @@ fn judge_sample(
 ) -> Result<(Option<f64>, Option<f64>), BakeFailure> {
     let camera = sample_camera(scene, scene.view_space.samples()[sample], options);
     let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {})?;
-    let mask = Mask::from_coverage(&reference.lens_mask, metrics::Coverage::Full);
+    let mask = Mask::lens(&reference.lens_pixels, LensSelection::All);
     if mask.selected() == 0 {
         return Ok((None, None));
     }

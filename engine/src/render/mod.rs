@@ -9,6 +9,7 @@ mod descriptors;
 mod frame_input;
 mod host_image;
 mod image;
+mod lens_pixels;
 pub mod model;
 mod pipelines;
 pub mod plan;
@@ -26,6 +27,7 @@ pub use budget::{FRAMEBUFFER_HEAP_SHARE, FramebufferError, check_framebuffer};
 pub use frame_input::*;
 pub use host_image::HostImage;
 pub use image::RenderedImage;
+pub use lens_pixels::frame_lens_pixels;
 pub use plan::{
     BlendScheme, FramePlan, FrameShape, Output, PassCategory, PlanOptions, TargetFormat, Variant,
 };

@@ -12,6 +12,7 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::lens_pixels::{LensPixels, PixelCover};
 use super::shade::TraceOptions;
 use super::stats::{RenderStats, TraceCounters};
 use super::world::TraceScene;
@@ -35,6 +36,9 @@ pub struct ReferenceImage {
     pub reflection: Vec<Vec3>,
     /// Fraction of each pixel's supersamples whose camera ray hits a lens object first, in [0, 1].
     pub lens_mask: Vec<f32>,
+    /// Which lens object each pixel shows, by the rule every lens-error figure uses (see
+    /// [`super::lens_pixels`]).
+    pub lens_pixels: LensPixels,
     /// Work and time of the render.
     pub stats: RenderStats,
 }
@@ -45,6 +49,7 @@ struct Row {
     refraction: Vec<Vec3>,
     reflection: Vec<Vec3>,
     lens_mask: Vec<f32>,
+    covers: Vec<PixelCover>,
     counters: TraceCounters,
 }
 
@@ -158,6 +163,11 @@ pub fn render_reference(
         refraction: Vec::with_capacity(pixels),
         reflection: Vec::with_capacity(pixels),
         lens_mask: Vec::with_capacity(pixels),
+        lens_pixels: LensPixels {
+            width: camera.width,
+            height: camera.height,
+            covers: Vec::with_capacity(pixels),
+        },
         stats: RenderStats {
             width: camera.width,
             height: camera.height,
@@ -171,6 +181,7 @@ pub fn render_reference(
         image.refraction.extend(row.refraction);
         image.reflection.extend(row.reflection);
         image.lens_mask.extend(row.lens_mask);
+        image.lens_pixels.covers.extend(row.covers);
         image.stats.counters += row.counters;
     }
     Ok(image)
@@ -185,8 +196,10 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
         refraction: Vec::with_capacity(width),
         reflection: Vec::with_capacity(width),
         lens_mask: Vec::with_capacity(width),
+        covers: Vec::with_capacity(width),
         counters: TraceCounters::default(),
     };
+    let mut first_hits = Vec::with_capacity((k * k) as usize);
     for x in 0..camera.width {
         let mut sums = [DVec3::ZERO; 3];
         let mut lens_hits = 0u32;
@@ -199,8 +212,10 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
                 sums[1] += sample.refraction;
                 sums[2] += sample.reflection;
                 lens_hits += u32::from(sample.lens.is_some());
+                first_hits.push(sample.lens);
             }
         }
+        row.covers.push(PixelCover::of(first_hits.drain(..)));
         row.radiance.push((sums[0] * scale).as_vec3());
         row.refraction.push((sums[1] * scale).as_vec3());
         row.reflection.push((sums[2] * scale).as_vec3());

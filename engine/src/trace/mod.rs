@@ -21,6 +21,7 @@
 pub mod bvh;
 pub mod fresnel;
 pub mod image;
+pub mod lens_pixels;
 pub mod path;
 pub mod records;
 pub mod shade;
@@ -32,6 +33,7 @@ use std::path::PathBuf;
 use glam::DVec3;
 
 pub use self::image::{ReferenceImage, render_reference};
+pub use self::lens_pixels::{LensPixels, LensSelection, PixelCover};
 pub use self::path::{GreedyOptions, GreedyRayPath, Interface, RayTreeOptions, Term};
 pub use self::records::{
     EnvironmentHit, IntersectionRecord, LensRecords, RecordSet, compile_records,

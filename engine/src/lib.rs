@@ -15,6 +15,7 @@ pub mod cubemap;
 pub mod gpu;
 pub mod graph;
 pub mod hybrid;
+pub mod identity;
 pub mod layers;
 pub mod lightmap;
 pub mod metrics;

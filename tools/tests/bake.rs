@@ -258,6 +258,57 @@ fn bad_input_exits_2_with_one_line_naming_the_fix() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// A bake written before lensmap had a canonical bake identity: its provenance has no
+/// `identity_version` (read as 0) and hashes of another encoding. Rendering it, resuming into it
+/// and merging it are each refused with one line naming the version and the fix; accepting any
+/// bake still renders it.
+#[test]
+fn a_bake_of_an_older_identity_is_refused_with_the_version_and_the_fix() {
+    let root = temp_dir("older-identity");
+    let (older, other) = (root.join("older"), root.join("other"));
+    succeeded(&bake("glass-sphere", "0", &older, &[]));
+    succeeded(&bake("glass-sphere", "1", &other, &[]));
+    let manifest_path = older.join("manifest.json");
+    let mut manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&manifest_path).unwrap()).unwrap();
+    let provenance = manifest["provenance"]
+        .as_object_mut()
+        .expect("a provenance");
+    assert_eq!(provenance.remove("identity_version"), Some(1.into()));
+    // What the earlier encoding wrote (SHA-256 of `Debug` text): other hex digits.
+    provenance.insert("scene_hash".into(), "ab".repeat(32).into());
+    provenance.insert("options_hash".into(), "cd".repeat(32).into());
+    std::fs::write(
+        &manifest_path,
+        serde_json::to_string_pretty(&manifest).unwrap(),
+    )
+    .unwrap();
+
+    let render = |extra: &[&str]| {
+        let out = root.join("render.png");
+        let mut args = vec!["render", "--scene", "glass-sphere", "--bake"];
+        args.push(older.to_str().unwrap());
+        args.extend_from_slice(&["--width", "32", "--height", "24"]);
+        args.extend_from_slice(&["--out", out.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        lensmap(&args)
+    };
+    let refused = render(&[]);
+    fails_with_2(&refused, "provenance.identity_version");
+    fails_with_2(&refused, "identity version 0, this lensmap in version 1");
+    fails_with_2(&refused, "or pass --accept-any-bake to use it anyway");
+    succeeded(&render(&["--accept-any-bake"]));
+    let resumed = bake("glass-sphere", "0,1", &older, &["--resume"]);
+    fails_with_2(
+        &resumed,
+        "so its samples cannot be resumed; bake again without --resume",
+    );
+    let merged = merge(&older, &other, &root.join("merged"));
+    fails_with_2(&merged, "so it cannot be merged");
+    assert!(!root.join("merged").exists(), "nothing written");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
 /// The names of the map files lens object `lens`'s layer `layer` lists, and its own EM origin.
 fn layer_maps(dir: &Path, lens: usize, layer: usize) -> (Vec<String>, serde_json::Value) {
     let text = std::fs::read_to_string(dir.join("manifest.json")).unwrap();

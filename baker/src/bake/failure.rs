@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use lensmap::{
     hybrid::HybridError,
+    identity::IDENTITY_VERSION,
     layers::bake::BakeError,
     metrics,
     options::{LibraryWords, OptionError, OptionWords, Worded},
@@ -109,6 +110,14 @@ pub enum BakeInputError {
         /// The scene's name.
         scene: String,
     },
+    /// The bake to resume names its scene and options in another identity version than this
+    /// lensmap's, so its samples cannot be matched to this scene and these options.
+    OtherIdentityVersion {
+        /// Its manifest.
+        manifest: PathBuf,
+        /// The version it names (0: before lensmap had one).
+        version: u32,
+    },
     /// A staged file is not what this code wrote.
     Staged {
         /// The file.
@@ -151,6 +160,11 @@ impl Worded for BakeInputError {
             BakeInputError::NoSamples => "no samples to bake (the shard or the sample list is empty); give more samples or fewer shards".into(),
             BakeInputError::NoLensObjects { scene } => format!(
                 "scene \"{scene}\" has no lens objects, so there is nothing to bake; add a glass or mirror object"
+            ),
+            BakeInputError::OtherIdentityVersion { manifest, version } => format!(
+                "{}: provenance.identity_version: the bake names its scene and options in identity version {version}, this lensmap in version {IDENTITY_VERSION}, so its samples cannot be resumed; bake again without {}",
+                manifest.display(),
+                words.option("resume")
             ),
             BakeInputError::Staged { path, message } => format!(
                 "{}: {message}; delete it (or bake without {})",

@@ -8,6 +8,7 @@ use std::{
 
 use glam::DVec3;
 use lensmap::{
+    identity::IDENTITY_VERSION,
     layers::{LayerShell, Manifest, Provenance, Staging, bake::MANIFEST_FILE_NAME},
     options::{LibraryWords, OptionWords, Worded},
 };
@@ -25,6 +26,14 @@ pub enum MergeError {
     NoProvenance {
         /// Its manifest.
         manifest: PathBuf,
+    },
+    /// A bake whose provenance is of another identity version than this lensmap's: what it was
+    /// made from cannot be compared.
+    OtherIdentityVersion {
+        /// Its manifest.
+        manifest: PathBuf,
+        /// The version it names.
+        version: u32,
     },
     /// Two bakes made from other scenes or with other options.
     NotShards {
@@ -58,6 +67,12 @@ impl Worded for MergeError {
                 "{}: has no provenance (not written by {}), so it cannot be merged; bake it with {} {}",
                 manifest.display(),
                 words.call("bake"),
+                words.call("bake"),
+                words.option("shard")
+            ),
+            MergeError::OtherIdentityVersion { manifest, version } => format!(
+                "{}: provenance.identity_version: the shard names its scene and options in identity version {version}, this lensmap in version {IDENTITY_VERSION}, so it cannot be merged; bake it again with {} {}",
+                manifest.display(),
                 words.call("bake"),
                 words.option("shard")
             ),
@@ -95,6 +110,13 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<Manifest, BakeFailure> {
             }
             .into());
         };
+        if !provenance.is_current() {
+            return Err(MergeError::OtherIdentityVersion {
+                manifest: dir.join(MANIFEST_FILE_NAME),
+                version: provenance.identity_version,
+            }
+            .into());
+        }
         // Every map readable and valid.
         lensmap::layers::Bake::read(dir)?;
         manifests.push((dir, manifest, provenance));

@@ -2,12 +2,16 @@
 //! identity) and the constants of the baker's method.
 
 use lensmap::{
-    layers::{bake::debug_hash, projected::MAX_EM_SIZE},
+    hybrid::{HybridOptions, paths::VertexPrecision, tessellate::TessellationOptions},
+    identity::{Canonical, Encoder, identity},
+    layers::projected::MAX_EM_SIZE,
     options::OptionError,
+    render::Variant,
 };
 
 use super::failure::{BakeFailure, BakeInputError};
 use crate::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions};
+use crate::solve::{SolveMethod, SolveOptions};
 
 /// Viewpoints (spread evenly over the view space) whose records place the layers.
 pub const PLACEMENT_SAMPLES: usize = 8;
@@ -101,31 +105,12 @@ impl Default for BakeOptions {
 }
 
 impl BakeOptions {
-    /// The identity of everything that changes the maps (not `judge`). Without shared layers it
-    /// is the hash bakes had before the option existed (their maps are the same), so those bakes
-    /// are still resumed, merged and reused.
+    /// The identity of everything that changes the maps (not `judge`): the canonical encoding
+    /// of [`lensmap::identity`] of every field and the [`BAKER_REVISION`].
     pub fn hash(&self) -> String {
-        let infer = &self.infer;
-        let hash = debug_hash(&(
-            BAKER_REVISION,
-            (self.width, self.height, self.supersampling),
-            self.em_size,
-            self.layers,
-            self.multi_view,
-            (infer.hybrid, infer.variant, infer.theta_c, infer.solve),
-            infer.direct_images,
-        ));
-        let hash = if self.share_layers {
-            debug_hash(&(hash, "shared far layers"))
-        } else {
-            hash
-        };
-        if self.view_elevation_degrees > 0.0 {
-            debug_hash(&(hash, "raised view", self.view_elevation_degrees.to_bits()))
-        } else {
-            hash
-        }
+        identity("bake options", self)
     }
+
     /// Checks the options: each out of range is an [`OptionError`] naming the option by its
     /// field (`em_size`; `confidence_degrees` for [`InferOptions::theta_c`] in degrees,
     /// `tolerance` for the solver's), the target views' size a [`BakeInputError::Resolution`].
@@ -184,5 +169,187 @@ impl BakeOptions {
             "give a view count from 1 to 9 (1 turns multi-view off)",
         )?;
         Ok(self.infer.hybrid.validate()?)
+    }
+}
+
+/// Every field that changes the maps, in a fixed order (each struct destructured whole, so a new
+/// field cannot be left out unnoticed); `judge` does not change them and is left out, as is the
+/// inference's `em_size`, which the plan replaces.
+impl Canonical for BakeOptions {
+    fn encode(&self, encoder: &mut Encoder) {
+        let BakeOptions {
+            width,
+            height,
+            supersampling,
+            em_size,
+            layers,
+            multi_view,
+            view_elevation_degrees,
+            share_layers,
+            infer,
+            judge: _,
+        } = self;
+        encoder
+            .value(&BAKER_REVISION)
+            .value(width)
+            .value(height)
+            .value(supersampling);
+        match em_size {
+            EmSize::Auto { cap } => encoder.tag(0).value(cap),
+            EmSize::Fixed(size) => encoder.tag(1).value(size),
+        };
+        match layers {
+            LayerCount::Auto => encoder.tag(0),
+            LayerCount::Scene => encoder.tag(1),
+            LayerCount::Count(count) => encoder.tag(2).value(count),
+        };
+        encoder
+            .value(multi_view)
+            .value(view_elevation_degrees)
+            .value(share_layers);
+        let InferOptions {
+            hybrid,
+            variant,
+            em_size: _,
+            theta_c,
+            direct_images,
+            solve,
+        } = infer;
+        encode_hybrid(encoder, hybrid);
+        encoder.tag(match variant {
+            Variant::Multipass => 0,
+            Variant::SinglePass => 1,
+        });
+        encoder.value(theta_c).value(direct_images);
+        let SolveOptions {
+            method,
+            smoothness,
+            tolerance,
+            max_iterations,
+        } = solve;
+        encoder
+            .tag(match method {
+                SolveMethod::ConjugateGradient => 0,
+                SolveMethod::Lsqr => 1,
+            })
+            .value(smoothness)
+            .value(tolerance)
+            .value(max_iterations);
+    }
+}
+
+/// The hybrid frame's options as the inference's test renderings use them.
+fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
+    let HybridOptions {
+        tessellation,
+        angle_radians,
+        footprint_subpixels,
+        precision,
+    } = hybrid;
+    let TessellationOptions {
+        t,
+        max_depth,
+        max_vertices,
+    } = tessellation;
+    encoder
+        .value(t)
+        .value(max_depth)
+        .value(max_vertices)
+        .value(angle_radians)
+        .value(footprint_subpixels)
+        .tag(match precision {
+            VertexPrecision::F64 => 0,
+            VertexPrecision::F32 => 1,
+        });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Options with every field set (none left to a default that may move).
+    fn fixed() -> BakeOptions {
+        BakeOptions {
+            width: 320,
+            height: 240,
+            supersampling: 2,
+            em_size: EmSize::Fixed(64),
+            layers: LayerCount::Count(3),
+            multi_view: 3,
+            view_elevation_degrees: 7.5,
+            share_layers: true,
+            infer: InferOptions {
+                hybrid: HybridOptions {
+                    tessellation: TessellationOptions {
+                        t: 3.0,
+                        max_depth: 12,
+                        max_vertices: 1_000_000,
+                    },
+                    angle_radians: 3f64.to_radians(),
+                    footprint_subpixels: 0.0,
+                    precision: VertexPrecision::F64,
+                },
+                variant: Variant::SinglePass,
+                em_size: EmSize::Fixed(64),
+                theta_c: 30f64.to_radians(),
+                direct_images: false,
+                solve: SolveOptions {
+                    method: SolveMethod::ConjugateGradient,
+                    smoothness: 0.01,
+                    tolerance: 1e-4,
+                    max_iterations: 400,
+                },
+            },
+            judge: true,
+        }
+    }
+
+    /// The identity of fixed options, pinned: a change here means every bake's options identity
+    /// moved, which needs a new `lensmap::identity::IDENTITY_VERSION` (or a new
+    /// [`BAKER_REVISION`], when the maps change).
+    #[test]
+    fn the_identity_of_fixed_options_is_pinned() {
+        assert_eq!(
+            fixed().hash(),
+            "9d643eb099a4f548f7df7f39ff03f48d9c372d2497510c1a6a288521b3e6ee67"
+        );
+    }
+
+    /// Every option that changes the maps changes the identity; judging does not.
+    #[test]
+    fn the_identity_covers_what_changes_the_maps() {
+        let base = fixed().hash();
+        let unjudged = BakeOptions {
+            judge: false,
+            ..fixed()
+        };
+        assert_eq!(unjudged.hash(), base);
+        let mut variants = vec![
+            BakeOptions {
+                width: 321,
+                ..fixed()
+            },
+            BakeOptions {
+                layers: LayerCount::Auto,
+                ..fixed()
+            },
+            BakeOptions {
+                share_layers: false,
+                ..fixed()
+            },
+            BakeOptions {
+                view_elevation_degrees: 0.0,
+                ..fixed()
+            },
+        ];
+        let mut tolerance = fixed();
+        tolerance.infer.solve.tolerance = 1e-5;
+        variants.push(tolerance);
+        let mut precision = fixed();
+        precision.infer.hybrid.precision = VertexPrecision::F32;
+        variants.push(precision);
+        for (i, options) in variants.iter().enumerate() {
+            assert_ne!(options.hash(), base, "variant {i}");
+        }
     }
 }

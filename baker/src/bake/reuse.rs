@@ -23,6 +23,10 @@ pub enum NotReusable {
     /// from is unknown.
     #[error("the bake has no provenance, so what it was made from is unknown")]
     NoProvenance,
+    /// The bake names what it was made from in another identity version than this lensmap's
+    /// (0: before lensmap had one), so it cannot be compared.
+    #[error("the bake's identity is of version {0}, not this lensmap's")]
+    OtherIdentityVersion(u32),
     /// The bake was made from another scene (or another version of it).
     #[error("the bake was made from another scene")]
     OtherScene,
@@ -48,6 +52,11 @@ pub fn check(
         .provenance
         .as_ref()
         .ok_or(NotReusable::NoProvenance)?;
+    if !provenance.is_current() {
+        return Err(NotReusable::OtherIdentityVersion(
+            provenance.identity_version,
+        ));
+    }
     if provenance.scene_hash != scene.content_hash() {
         return Err(NotReusable::OtherScene);
     }
@@ -100,15 +109,21 @@ mod tests {
             bake.lenses[0].maps = vec![vec![map.clone()], vec![map]];
             bake.write(&dir).unwrap();
         };
-        let provenance = |scene_hash: String, options_hash: String| Provenance {
-            scene_hash,
-            options_hash,
-            samples: vec![1, 3],
+        let provenance = |scene_hash: String, options_hash: String| {
+            Provenance::new(scene_hash, options_hash, vec![1, 3])
         };
         write(None);
         assert!(matches!(
             check(&dir, &scene, &options, &[1]),
             Err(NotReusable::NoProvenance)
+        ));
+        // A bake whose hashes were computed by an older identity encoding.
+        let mut older = provenance(scene.content_hash(), options.hash());
+        older.identity_version = 0;
+        write(Some(older));
+        assert!(matches!(
+            check(&dir, &scene, &options, &[1]),
+            Err(NotReusable::OtherIdentityVersion(0))
         ));
         write(Some(provenance("other".into(), options.hash())));
         assert!(matches!(

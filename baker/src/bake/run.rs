@@ -12,7 +12,7 @@ use glam::Vec3;
 use lensmap::{
     layers::{
         Manifest, Provenance, Staging,
-        bake::{BakeError, ManifestLayer, ManifestLens, default_created_by},
+        bake::{BakeError, MANIFEST_FILE_NAME, ManifestLayer, ManifestLens, default_created_by},
     },
     runner::FrameRunner,
     scene::Scene,
@@ -253,6 +253,13 @@ fn resume_from_bake(
     let Ok(manifest) = Manifest::read(dir) else {
         return Ok(Vec::new());
     };
+    if let Some(provenance) = manifest.provenance.as_ref().filter(|p| !p.is_current()) {
+        return Err(BakeInputError::OtherIdentityVersion {
+            manifest: dir.join(MANIFEST_FILE_NAME),
+            version: provenance.identity_version,
+        }
+        .into());
+    }
     let Some(provenance) = manifest.provenance.as_ref().filter(|p| {
         p.scene_hash == plan.scene_hash
             && p.options_hash == plan.options_hash
@@ -362,10 +369,10 @@ fn plan_manifest(plan: &Plan, samples: &[usize], positions: &[Vec3]) -> Manifest
                     .collect(),
             })
             .collect(),
-        provenance: Some(Provenance {
-            scene_hash: plan.scene_hash.clone(),
-            options_hash: plan.options_hash.clone(),
-            samples: samples.to_vec(),
-        }),
+        provenance: Some(Provenance::new(
+            plan.scene_hash.clone(),
+            plan.options_hash.clone(),
+            samples.to_vec(),
+        )),
     }
 }

@@ -10,9 +10,10 @@ use glam::{DVec3, Vec3};
 use super::{frame::FrameCache, sky::SkyDome};
 use crate::{
     cubemap::CubeMap,
+    identity::{Encoder, IDENTITY_VERSION},
     layers::{
         Bake, BakedLens, LayerShell, Provenance,
-        bake::{debug_hash, default_created_by},
+        bake::default_created_by,
         projected::{ProjectedOptions, em_origin, lens_shells, project_layers},
     },
     lightmap::{
@@ -95,6 +96,14 @@ pub enum BakeIdentityError {
         /// The bake's directory (the message names its manifest alone).
         bake: PathBuf,
     },
+    /// The bake's provenance was written with another identity version than this lensmap's
+    /// ([`Provenance::is_current`]), so what it was made from cannot be compared.
+    OtherIdentityVersion {
+        /// The bake's directory, where it was read from one.
+        bake: Option<PathBuf>,
+        /// The version the bake names (0: before lensmap had one).
+        version: u32,
+    },
 }
 
 impl Worded for BakeIdentityError {
@@ -117,6 +126,13 @@ impl Worded for BakeIdentityError {
             ),
             BakeIdentityError::Unidentified { .. } => format!(
                 "manifest.json: provenance: the bake does not say which scene it was made from; bake this scene{}, or {} to use it anyway",
+                bake_command(None),
+                words.switch_on("accept_any_bake")
+            ),
+            BakeIdentityError::OtherIdentityVersion { bake, version } => format!(
+                "{}manifest.json: provenance.identity_version: the bake names its scene and options in identity version {version}, this lensmap in version {IDENTITY_VERSION}, so it cannot tell what the bake was made from; bake the scene again{}, or {} to use it anyway",
+                bake.as_ref()
+                    .map_or_else(String::new, |dir| format!("{}/", dir.display())),
                 bake_command(None),
                 words.switch_on("accept_any_bake")
             ),
@@ -269,22 +285,16 @@ impl HybridScene {
         };
         // What shaped the maps: their origins, shells and sizes (the maps themselves are in the
         // bake).
-        let shaped_by: Vec<_> = self
-            .lenses
-            .iter()
-            .map(|l| {
-                (
-                    &l.em_origins,
-                    &l.shells,
-                    l.maps.first().and_then(|m| m.first()).map(|c| c.size),
-                )
-            })
-            .collect();
-        let provenance = Provenance {
-            scene_hash: self.scene.content_hash(),
-            options_hash: debug_hash(&("written from a hybrid scene", shaped_by)),
-            samples,
-        };
+        let mut shaped_by = Encoder::new("maps written from a hybrid scene");
+        shaped_by.tag(self.lenses.len());
+        for lens in &self.lenses {
+            let size = lens.maps.first().and_then(|m| m.first()).map(|c| c.size);
+            shaped_by
+                .value(&lens.em_origins)
+                .value(&lens.shells)
+                .value(&size);
+        }
+        let provenance = Provenance::new(self.scene.content_hash(), shaped_by.finish(), samples);
         Bake {
             scene: self.scene.name.clone(),
             created_by: default_created_by(),
@@ -390,6 +400,12 @@ impl HybridScene {
 /// A bake that names its scene's identity must name this scene's content.
 fn check_provenance(scene: &Scene, bake: &Bake) -> Result<(), BakeIdentityError> {
     match &bake.provenance {
+        Some(provenance) if !provenance.is_current() => {
+            Err(BakeIdentityError::OtherIdentityVersion {
+                bake: None,
+                version: provenance.identity_version,
+            })
+        }
         Some(provenance) if provenance.scene_hash != scene.content_hash() => {
             Err(BakeIdentityError::OtherScene {
                 bake: None,

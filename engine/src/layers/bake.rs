@@ -100,32 +100,6 @@ pub struct BakedLens {
     pub maps: Vec<Vec<Arc<CubeMap>>>,
 }
 
-/// SHA-256 of `value`'s `Debug` text, as 64 hex digits: the identity of a scene or of a bake's
-/// options in a bake's [`Provenance`]. The text is streamed into the hasher, never held whole.
-/// Stable for the same lensmap build; a change to any value changes it.
-pub fn debug_hash(value: &impl std::fmt::Debug) -> String {
-    use sha2::Digest;
-    use std::fmt::Write as _;
-    struct Hasher(sha2::Sha256);
-    impl std::fmt::Write for Hasher {
-        fn write_str(&mut self, text: &str) -> std::fmt::Result {
-            self.0.update(text.as_bytes());
-            Ok(())
-        }
-    }
-    let mut hasher = Hasher(sha2::Sha256::new());
-    // Writing into a hasher cannot fail.
-    let _ = write!(hasher, "{value:?}");
-    hasher
-        .0
-        .finalize()
-        .iter()
-        .fold(String::with_capacity(64), |mut hex, byte| {
-            let _ = write!(hex, "{byte:02x}");
-            hex
-        })
-}
-
 /// `"lensmap <version>"`, the usual [`Bake::created_by`].
 pub fn default_created_by() -> String {
     concat!("lensmap ", env!("CARGO_PKG_VERSION")).to_owned()

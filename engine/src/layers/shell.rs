@@ -27,6 +27,7 @@
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
+use crate::identity::{Canonical, Encoder};
 use crate::trace::fresnel::{Real, Vector3};
 
 /// "Very far from the impostor center" (§4.2): a forced quad hit lies at this multiple of the
@@ -112,6 +113,43 @@ pub enum LayerShell {
         /// Half the rectangle's extents along `u_axis` and `v_axis` in metres, each > 0.
         half_extents: DVec2,
     },
+}
+
+impl Canonical for LayerShell {
+    fn encode(&self, encoder: &mut Encoder) {
+        match self {
+            LayerShell::Sphere { centre, radius } => encoder.tag(0).value(centre).value(radius),
+            LayerShell::Cylinder {
+                centre,
+                axis,
+                radius,
+                half_height,
+            } => encoder
+                .tag(1)
+                .value(centre)
+                .value(axis)
+                .value(radius)
+                .value(half_height),
+            LayerShell::Box {
+                centre,
+                half_extents,
+            } => encoder.tag(2).value(centre).value(half_extents),
+            LayerShell::Ellipsoid { centre, radii } => encoder.tag(3).value(centre).value(radii),
+            LayerShell::Quad {
+                centre,
+                normal,
+                u_axis,
+                v_axis,
+                half_extents,
+            } => encoder
+                .tag(4)
+                .value(centre)
+                .value(normal)
+                .value(u_axis)
+                .value(v_axis)
+                .value(half_extents),
+        };
+    }
 }
 
 /// Where a ray meets a shell.

@@ -88,6 +88,13 @@ fn in_directory(error: HybridError, dir: &Path) -> HybridError {
             baked_scene,
             scene,
         }),
+        HybridError::Identity(BakeIdentityError::OtherIdentityVersion {
+            bake: None,
+            version,
+        }) => HybridError::Identity(BakeIdentityError::OtherIdentityVersion {
+            bake: Some(dir.to_path_buf()),
+            version,
+        }),
         other => other,
     }
 }

@@ -11,6 +11,7 @@ mod camera;
 mod environment;
 mod error;
 mod file;
+mod identity;
 mod image_file;
 mod load;
 mod material;
@@ -125,23 +126,32 @@ impl Scene {
         load::scene_from_toml(text, origin)
     }
 
-    /// A hash of everything a bake depends on: the objects (names, world-space meshes,
-    /// materials), the lights, the environment, the lens objects (with their layer specs), the
-    /// view space and the camera's aim (look-at, up, field of view: the viewpoint samples look
-    /// where the camera looks). Not the camera's position, resolution or supersampling, and not
-    /// the name. [`crate::layers::bake::debug_hash`] of those values: the same scene loaded by the
-    /// same lensmap always gives the same hash, and any change to what is hashed changes it.
+    /// The scene's bake identity: a hash of everything a bake depends on, the objects (names,
+    /// world-space meshes, materials), the lights, the environment, the lens objects (with their
+    /// layer specs), the view space and the camera's aim (look-at, up, field of view: the
+    /// viewpoint samples look where the camera looks). Not the camera's position, resolution or
+    /// supersampling, and not the name. The canonical encoding of [`crate::identity`] (values as
+    /// bits, in a fixed order), so the same scene content gives the same hash on any build of the
+    /// same [`crate::identity::IDENTITY_VERSION`].
     pub fn content_hash(&self) -> String {
-        let camera = &self.camera;
-        crate::layers::bake::debug_hash(&(
-            &self.objects,
-            &self.materials,
-            &self.lights,
-            &self.environment,
-            &self.lenses,
-            &self.view_space,
-            (camera.look_at, camera.up, camera.vfov_radians),
-        ))
+        let Camera {
+            look_at,
+            up,
+            vfov_radians,
+            ..
+        } = &self.camera;
+        let mut encoder = crate::identity::Encoder::new("scene");
+        encoder
+            .value(&self.objects)
+            .value(&self.materials)
+            .value(&self.lights)
+            .value(&self.environment)
+            .value(&self.lenses)
+            .value(&self.view_space)
+            .value(look_at)
+            .value(up)
+            .value(vfov_radians);
+        encoder.finish()
     }
 
     /// A built-in scene by name (see [`BUILTIN_SCENES`]), or `None` for an unknown name.

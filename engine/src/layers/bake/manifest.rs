@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::{BakeError, CountCheck, io_error};
 use crate::atomic::DirectorySwap;
+use crate::identity::IDENTITY_VERSION;
 use crate::layers::shell::LayerShell;
 
 /// The manifest format this code writes and reads.
@@ -51,6 +52,12 @@ pub struct Manifest {
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Provenance {
+    /// The version of the canonical encoding the two hashes were computed with
+    /// ([`crate::identity::IDENTITY_VERSION`]). A bake written before lensmap had one reads as 0:
+    /// its hashes (of `Debug` text) cannot be compared with this lensmap's, see
+    /// [`Provenance::is_current`].
+    #[serde(default)]
+    pub identity_version: u32,
     /// The scene's content hash (`Scene::content_hash`): geometry, materials, lights, the
     /// environment, the lens objects, the view space and the camera's aim.
     pub scene_hash: String,
@@ -58,6 +65,25 @@ pub struct Provenance {
     pub options_hash: String,
     /// The view-space index of each viewpoint, in the order of `viewpoints`: strictly increasing.
     pub samples: Vec<usize>,
+}
+
+impl Provenance {
+    /// The provenance of a bake of `samples`, made from the scene with content hash `scene_hash`
+    /// with the options hashed `options_hash`, in this lensmap's identity version.
+    pub fn new(scene_hash: String, options_hash: String, samples: Vec<usize>) -> Provenance {
+        Provenance {
+            identity_version: IDENTITY_VERSION,
+            scene_hash,
+            options_hash,
+            samples,
+        }
+    }
+
+    /// Whether the hashes were computed with this lensmap's [`IDENTITY_VERSION`], so that they can
+    /// be compared with a scene's and options' hashes at all.
+    pub fn is_current(&self) -> bool {
+        self.identity_version == IDENTITY_VERSION
+    }
 }
 
 /// One lens object in the manifest.

@@ -7,9 +7,10 @@
 //! **Plan** ([`plan`]). Each lens object's EM origin is its centroid. Its layers come from LBG
 //! clustering of intersection distances over [`PLACEMENT_SAMPLES`] viewpoints spread over the
 //! whole view space, shells fitted per layer ([`crate::placement`]); [`LayerCount::Scene`] takes
-//! the scene file's named shells as they are instead. Fitted shells measured better on
-//! teapot-room than the scene's (README: 25.1 against 21.5 dB halfway between samples), so
-//! [`LayerCount::Auto`] only takes the scene's layer *count* where it names layers. With `Auto`
+//! the scene file's named shells as they are instead. Fitted shells render teapot-room better
+//! than the scene's named ones, most of all away from the samples (halfway between samples,
+//! K = 3: 26.20 against 22.25 dB; `docs/results.md#bake-error-budget`, "Shells on teapot-room"),
+//! so [`LayerCount::Auto`] only takes the scene's layer *count* where it names layers. With `Auto`
 //! and no named layers, the layer count grows from 1 while one more layer raises the lens
 //! object's PSNR (projected EMs on the placed shells, at view-space sample 0, against the
 //! reference) by more than [`AUTO_LAYER_GAIN_DB`], up to [`MAX_AUTO_LAYERS`]; a lens object whose

@@ -3,7 +3,10 @@
 //! places layer shells (LBG); [`matrix`] measures rendering matrices from test renderings read
 //! back from the device; [`targets`] turns intersection records into per-layer targets and
 //! confidence; [`solve`] finds the EM over all MIP levels by confidence-weighted, regularized
-//! least squares; [`infer`] runs them for one lens object at one camera.
+//! least squares; [`direct`] adds direct images from the EM origin for texels no lens view
+//! constrains; [`infer`] runs them for one lens object at one camera. Over a whole view space,
+//! [`placement`] clusters the records of many viewpoints into layers and fits each a shell, and
+//! [`bake`] plans, bakes sample by sample, resumes and merges shards.
 
 pub mod bake;
 pub mod clustering;

@@ -1,5 +1,5 @@
-//! The baker's rendering matrices against the hardware and the CPU f64 model, and the solver
-//! against known EMs (the baker issue's "the matrix is the hardware" and "the solver inverts it").
+//! The baker's rendering matrices against the hardware and the CPU f64 model (the matrix is what
+//! the hardware renders), and the solver against known EMs (the solver inverts the matrix).
 
 use std::sync::Arc;
 

@@ -1,7 +1,7 @@
-//! A stream of hybrid frames (issue 10): frames in flight, reused uploads, a still camera and
-//! lens objects outside the view change no image. Each frame of a stream is compared bit for bit
-//! (RGBA32F) with the same frame rendered alone by a fresh runner, which builds everything from
-//! scratch: a second, independent path through the same stages.
+//! A stream of hybrid frames: frames in flight, reused uploads, a still camera and lens objects
+//! outside the view change no image. Each frame of a stream is compared bit for bit (RGBA32F) with
+//! the same frame rendered alone by a fresh runner, which builds everything from scratch: a second,
+//! independent path through the same stages.
 
 use lensmap::{
     hybrid::{HybridOptions, HybridScene},

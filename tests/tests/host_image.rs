@@ -1,10 +1,10 @@
-//! Frames rendered into a host's image (issue 12): the frame's plan ends in the GPU box filter
-//! into an image lensmap does not own, with no readback. Each is compared with the same frame
-//! read back and box-filtered on the CPU by a fresh runner (a second path through the same
-//! framebuffer): bit for bit in RGBA32F at k = 1, 2 and 3 and in RGBA8 at k = 1; a BGRA sRGB
-//! image holds the CPU frame's sRGB encoding with its channels swapped, within the one 8-bit step
-//! the specification allows an sRGB conversion. The host's signal semaphore is signalled, and a
-//! frame waits for the host's wait semaphore.
+//! Frames rendered into a host's image: the frame's plan ends in the GPU box filter into an image
+//! lensmap does not own, with no readback. Each is compared with the same frame read back and
+//! box-filtered on the CPU by a fresh runner (a second path through the same framebuffer): bit for
+//! bit in RGBA32F at k = 1, 2 and 3 and in RGBA8 at k = 1; a BGRA sRGB image holds the CPU frame's
+//! sRGB encoding with its channels swapped, within the one 8-bit step the specification allows an
+//! sRGB conversion. The host's signal semaphore is signalled, and a frame waits for the host's wait
+//! semaphore.
 
 use lensmap::{
     gpu::{Buffer, BufferUsage, Gpu, Image, ImageDesc, vk},

@@ -1,15 +1,15 @@
-//! Numerical stress (issue 13, item 2): the optics, the reference tracer, the layer shells, the
-//! compositor and the baker's solver on inputs at the edge of their range — grazing and critical
-//! incidence, indices of refraction a hair from 1 and of a thousand, one scene from a millimetre
-//! to ten kilometres, a camera a hair from a lens and inside one, sliver and zero-area triangles,
-//! layer shells that nearly coincide, radiance past half-float range, α a hair from 0 and 1, cube
-//! maps of one texel per face, ill-conditioned least squares.
+//! Numerical stress: the optics, the reference tracer, the layer shells, the compositor and the
+//! baker's solver on inputs at the edge of their range — grazing and critical incidence, indices of
+//! refraction a hair from 1 and of a thousand, one scene from a millimetre to ten kilometres, a
+//! camera a hair from a lens and inside one, sliver and zero-area triangles, layer shells that
+//! nearly coincide, radiance past half-float range, α a hair from 0 and 1, cube maps of one texel
+//! per face, ill-conditioned least squares.
 //!
 //! Every case asserts that nothing is NaN or infinite and compares against an independent answer
 //! (an f64 closed form, the CPU f64 model of the compositor, a dense direct solve); each test's
-//! documentation states the bound and the error measured on lavapipe when it was written. Seeds
-//! are fixed; images are tiny (16×12 to 32×24 pixels, cube maps of 8² texels or fewer), so the
-//! whole file runs in seconds. ε below is f64's machine epsilon, 2⁻⁵².
+//! documentation states the bound and the error measured on lavapipe. Seeds are fixed; images are
+//! tiny (16×12 to 32×24 pixels, cube maps of 8² texels or fewer), so the whole file runs in
+//! seconds. ε below is f64's machine epsilon, 2⁻⁵².
 
 use std::f64::consts::FRAC_PI_2;
 use std::sync::Arc;
@@ -479,8 +479,9 @@ fn scaled(scene: &Scene, s: f32) -> Scene {
 /// is tested is the tracer's own scale dependence; decimal scales would also move every vertex by
 /// f32 rounding and flip pixels on edges. The bound is the tracer's 1 nm floor on ray offsets
 /// (`offset_origin`), which is 1e-9/s of a scene scaled by s < 1. Measured: 5.9e-5 at 2⁻¹⁴ (bound
-/// 2.6e-4), 3.7e-6 at 2⁻¹⁰, 2.6e-8 at 2⁻³, and bit-identical images at 2³, 2⁷ and 2⁹ (before the
-/// fix in `trace/bvh.rs`, debug builds panicked in obvhs's own checks from 2⁸ on).
+/// 2.6e-4), 3.7e-6 at 2⁻¹⁰, 2.6e-8 at 2⁻³, and bit-identical images at 2³, 2⁷ and 2⁹ (without
+/// the power-of-two scale of `MeshBvh` in `trace/bvh.rs`, debug builds would panic in obvhs's own
+/// checks from 2⁸ on).
 #[test]
 fn the_reference_image_does_not_depend_on_the_scene_scale() {
     let scene = built_in_scene("glass-sphere", 32, 24, 1);
@@ -580,8 +581,8 @@ fn worst_relative_error(pixels: &[(Ray, DVec3)], closed_form: impl Fn(&Ray) -> D
 /// the closed form (1 − R)²·a^(1/cos θt)·L + R·L (in and out of the 1 m slab, reflection off the
 /// face; R from Fresnel with Snell's cos θt), within 1e-8 of the sky's radiance: the tracer starts
 /// each new ray 1e-9 m off the surface, which changes the glass chord by as much. Measured:
-/// 2.4e-10. (Before the fix in `trace/bvh.rs`, a camera 1e-5 m from the 1 m slab saw through its
-/// face: error 0.33.)
+/// 2.4e-10. (Without `TRAVERSAL_BACK_OFF` in `trace/bvh.rs`, a camera 1e-5 m from the 1 m slab
+/// would see through its face: error 0.33.)
 #[test]
 fn a_camera_a_hair_from_a_glass_face_sees_the_closed_form() {
     let n = 1.5;

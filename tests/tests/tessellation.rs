@@ -1,8 +1,7 @@
-//! Adaptive tessellation invariants (issue 4, "Tessellation invariants"; hybrid-rendering paper
-//! §5, Figures 5 and 6) on random jittered grids, random closed meshes and the Newell teapot, for
-//! t ∈ {0.5, 1, 3, 5} and several oracles: always-differ, never-differ, hash-based differ, a
-//! reflected-direction field with a 3° threshold and a topology flag, and always-differ with part
-//! of the mesh occluded.
+//! Adaptive tessellation invariants (hybrid-rendering paper §5, Figures 5 and 6) on random jittered
+//! grids, random closed meshes and the Newell teapot, for t ∈ {0.5, 1, 3, 5} and several oracles:
+//! always-differ, never-differ, hash-based differ, a reflected-direction field with a 3° threshold
+//! and a topology flag, and always-differ with part of the mesh occluded.
 //!
 //! Every invariant is checked geometrically, independently of the tessellator's bookkeeping:
 //! watertight (interior edges shared by exactly two oppositely wound triangles; the output's
@@ -24,7 +23,7 @@ use lensmap::scene::{Camera as SceneCamera, TriangleMesh};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
-/// The thresholds the issue names, in subpixels.
+/// The tessellation thresholds t tested, in subpixels.
 const THRESHOLDS: [f32; 4] = [0.5, 1.0, 3.0, 5.0];
 
 /// The scene's pinhole camera and its Vulkan view-projection, projecting to subpixels.

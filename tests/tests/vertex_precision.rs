@@ -242,8 +242,8 @@ fn teapot_room_vertex_data_in_f32_is_close_to_f64_but_not_equal() {
     );
     // Measured at 96×72: 3735 of 4432 vertices shared; 570 of 5951 F·G values (9.6%) and 3268
     // of 16334 directions (20%) flipped; elsewhere F·G within 1e-3, directions 1.1e-5 rad
-    // (median) and 1.1e-3 (p90). Which perturbation flips the most (the surface offset, the f32
-    // triangle test, the shell test) is not yet broken down; the bounds hold what was measured.
+    // (median) and 1.1e-3 (p90). This test does not tell which perturbation flips the most (the
+    // surface offset, the f32 triangle test, the shell test); the bounds sit above these figures.
     assert!(
         flip_fraction < 0.15,
         "{flipped_fg} of {samples} F·G values flipped"

@@ -288,8 +288,8 @@ fn report(
             "rays": ratio(rc.all_rays() as f64, c.all_rays() as f64),
             "triangle_tests": ratio(rc.triangle_tests as f64, c.triangle_tests as f64),
         });
-        // The figure printed since the first release (display sRGB, clamped), and beside it the
-        // linear one that also counts errors in highlights above 1. No pixel all lens: no figure.
+        // The headline figure in display sRGB (clamped, what a viewer sees), and beside it the
+        // linear one that also counts errors in highlights above 1. No lens pixel: no figure.
         match (
             lens_error(&frame.image, reference, Encoding::DisplaySrgb),
             lens_error(&frame.image, reference, Encoding::Linear),

@@ -1,7 +1,7 @@
-//! The command-line conventions every command keeps (issue 11): `--json` means the same
-//! everywhere (one JSON document on stdout and nothing else there; an error as one JSON line on
-//! stderr), `--quiet` silences all but errors and warnings, every `--help` carries an example,
-//! the exit codes and the environment variables, and progress shows the stages on a terminal.
+//! The command-line conventions every command keeps: `--json` means the same everywhere (one JSON
+//! document on stdout and nothing else there; an error as one JSON line on stderr), `--quiet`
+//! silences all but errors and warnings, every `--help` carries an example, the exit codes and the
+//! environment variables, and progress shows the stages on a terminal.
 
 mod common;
 use common::{TINY_RENDER, lensmap};

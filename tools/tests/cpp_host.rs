@@ -1,10 +1,10 @@
-//! The C++ host example (`tools/examples/cpp-host/host.cpp`, issue 12), built with the system
-//! C++ compiler (C++17, warnings as errors) against `lensmap.h` and the cdylib cargo built: on
-//! its own Vulkan instance and device, with the validation layer and synchronization validation
-//! on, it renders teapot-room into its own `VkImage` through `lensmap_render_to_image`, reads the
-//! image back itself and writes a PNG and a PFM. Its frame must equal `lensmap render` of the
-//! same camera and options: the PNGs byte for byte, the linear values bit for bit in RGBA8 and
-//! within 1e-6 (relative above 1) in RGBA32F.
+//! The C++ host example (`tools/examples/cpp-host/host.cpp`), built with the system C++ compiler
+//! (C++17, warnings as errors) against `lensmap.h` and the cdylib cargo built: on its own Vulkan
+//! instance and device, with the validation layer and synchronization validation on, it renders
+//! teapot-room into its own `VkImage` through `lensmap_render_to_image`, reads the image back
+//! itself and writes a PNG and a PFM. Its frame must equal `lensmap render` of the same camera and
+//! options: the PNGs byte for byte, the linear values bit for bit in RGBA8 and within 1e-6
+//! (relative above 1) in RGBA32F.
 
 mod common;
 
@@ -14,7 +14,7 @@ use std::process::Command;
 use common::{lensmap, temp_dir};
 use lensmap_tests::c_abi;
 
-/// Builds the C++ host as its README section says (with the cdylib of this build).
+/// Builds the C++ host as `docs/capi.md` says (with the cdylib of this build).
 fn build_host(scratch: &Path) -> PathBuf {
     let program = scratch.join("cpp-host");
     c_abi::build_host(

@@ -28,8 +28,9 @@ pub const MAX_AUTO_LAYERS: usize = 4;
 /// The default number of views per sample. Measured with `lensmap bench bake` (640×480, 3×3
 /// targets, lens PSNR against a 6×6 reference; on sample 0, halfway to sample 1, 15° above):
 /// K = 3 against K = 1 is +0.18 / +0.59 / −0.35 dB on teapot-room, +0.94 / +1.01 / +0.06 dB on
-/// mirror-teapot and −0.03 / +0.10 / +0.23 dB on glass-sphere: better in 7 of 9 cases, for 2.4×
-/// the bake time (teapot-room: 65 s per sample against 27 s on 2 cores).
+/// mirror-teapot and −0.03 / +0.10 / +0.23 dB on glass-sphere (`docs/results.md#bake-judged`):
+/// better in 7 of 9 cases, for 2.4× the bake time (teapot-room: 65 s per sample against 27 s on
+/// 2 cores).
 pub const DEFAULT_MULTI_VIEW: usize = 3;
 
 /// The spread of the views around a sample when the view space has a single sample, degrees.
@@ -75,7 +76,7 @@ pub struct BakeOptions {
     /// Share the farthest layer between lens objects that see the same scene objects there
     /// (module docs): one map, solved on every sharing lens object's equations. Off by default:
     /// on teapot-room it stores 4 maps per sample instead of 5 but costs the cup 0.8–2.1 dB
-    /// (README).
+    /// (`docs/results.md#bake-shared-layers`).
     pub share_layers: bool,
     /// Inference options (θc, solver, tessellation, compositor variant); its `em_size` is
     /// replaced by the plan's.

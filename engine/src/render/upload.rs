@@ -137,7 +137,7 @@ fn vec4_bytes<'a>(faces: impl IntoIterator<Item = &'a [[f32; 4]]> + Clone) -> Ve
     for face in faces {
         if cfg!(target_endian = "little") {
             // The same bytes as the per-value conversion below, copied at once (a test rendering
-            // uploads a 2 MiB map, and the per-value path took most of its upload).
+            // uploads a 2 MiB map, and the per-value path would take most of its upload time).
             bytes.extend_from_slice(bytemuck::cast_slice(face));
         } else {
             bytes.extend(face.iter().flatten().flat_map(|v| v.to_le_bytes()));

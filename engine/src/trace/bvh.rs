@@ -23,9 +23,10 @@ const BARYCENTRIC_SLACK: f64 = 1e-10;
 
 /// How far behind the real origin, in the BVH's scaled units, the f32 traversal ray starts.
 /// obvhs's node test raises every box's entry distance to at least 1e-4 whatever the ray's own
-/// start, so a box the ray leaves within 1e-4 of its origin was skipped: a camera 1e-5 m from a
-/// 1 m glass cube saw through its face. Starting 1.5e-4 back, every box in front of the real
-/// origin is left beyond that floor; the f64 triangle test still measures from the real origin.
+/// start, so a ray starting at its origin would skip a box it leaves within 1e-4 of it: a camera
+/// 1e-5 m from a 1 m glass cube would see through its face. Starting 1.5e-4 back, every box in
+/// front of the real origin is left beyond that floor; the f64 triangle test still measures from
+/// the real origin.
 const TRAVERSAL_BACK_OFF: f64 = 1.5e-4;
 
 /// One triangle handed to [`MeshBvh::build`], in world space.
@@ -96,7 +97,8 @@ pub struct MeshBvh {
     /// The power of two that obvhs's f32 coordinates are world coordinates times, chosen to bring
     /// the largest coordinate into (16, 32] (scaling by a power of two commutes with rounding):
     /// obvhs's own checks (debug builds) allow an absolute 1e-5 of slack on node bounds, which the
-    /// f32 rounding of a scene a few kilometres across overran, a panic in `TraceScene::new`.
+    /// f32 rounding of an unscaled scene a few kilometres across overruns, a panic in
+    /// `TraceScene::new`.
     scale: f64,
 }
 

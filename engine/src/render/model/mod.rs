@@ -22,10 +22,10 @@
 //!
 //! The spec leaves the LOD's derivatives (coarse or fine) and its logarithm's precision to the
 //! implementation. [`ModelOptions::default`] is the spec's arithmetic with coarse derivatives;
-//! [`ModelOptions::lavapipe`] is what Mesa's lavapipe (22.3) was measured to do: fine
+//! [`ModelOptions::lavapipe`] is what Mesa's lavapipe (22.3) does, as measured: fine
 //! derivatives and a piecewise-linear log2 ([`LodLog2::PiecewiseLinearOfSquare`]). With it, a
 //! random 128×128 sphere frame (n = 1…4, one and two viewpoints, random texels in every level)
-//! matched lavapipe's RGBA32F multipass frame to < 9e-6 on every lens pixel not excluded, while
+//! matches lavapipe's RGBA32F multipass frame to < 9e-6 on every lens pixel not excluded, while
 //! the default options differ by up to 5e-2 wherever λ is not clamped.
 //!
 //! Where a GPU may legitimately differ (coverage at an edge, a depth tie, a cube-face tie, a cube

@@ -164,7 +164,7 @@ impl FrameSetup<'_> {
                 pixel.visible = Some(fragment.triangle);
             }
         }
-        // The primed depth no longer changes.
+        // The depth is final after the prime: layer passes test against it without writing it.
         let passing: Vec<LensFragment> = object_fragments
             .iter()
             .filter(|f| f.depth <= pixel.depth)

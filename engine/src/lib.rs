@@ -3,7 +3,8 @@
 //! The local lens object is ray traced per vertex; the rest of the world is approximated by layered
 //! environment maps composited on the GPU (Hakura & Snyder, EGWR 2001). The rooms, bottom up:
 //! [`scene`] (scene files and meshes), [`graph`] (the pass graph, no Vulkan calls), [`cubemap`]
-//! (cube maps, their faces, f64 sampling and the one validator), [`options`] (option errors);
+//! (cube maps, their faces, f64 sampling and the one validator), [`options`] (option errors),
+//! [`index`] (typed lens-object and layer indices);
 //! [`trace`] (the CPU reference ray tracer), [`lightmap`] (the opaque environment's light maps:
 //! charts, atlases, ray-traced radiance), [`gpu`] (ash: devices, memory, images); [`metrics`]
 //! (masked image errors); [`render`] (the compositor and its CPU f64 model); [`layers`] (shells,
@@ -16,6 +17,7 @@ pub mod gpu;
 pub mod graph;
 pub mod hybrid;
 pub mod identity;
+pub mod index;
 pub mod layers;
 pub mod lightmap;
 pub mod metrics;

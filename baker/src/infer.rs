@@ -8,6 +8,7 @@ use std::{sync::Arc, time::Instant};
 use lensmap::{
     cubemap::{CubeMap, sampling::sample_cube_trilinear},
     hybrid::{HybridOptions, HybridScene},
+    index::LensIndex,
     render::{FrameInput, TargetFormat, UploadedFrame, Variant},
     runner::FrameRunner,
     scene::Camera,
@@ -64,8 +65,9 @@ impl TestRenderer for DeviceRenderer<'_> {
             ));
         };
         let failed = |e: lensmap::render::RenderError| MatrixError::Render(e.to_string());
+        // A layer frame holds one lens object.
         self.runner
-            .replace_layers(uploaded, 0, &[vec![em]])
+            .replace_layers(uploaded, LensIndex::new(0), &[vec![em]])
             .map_err(failed)?;
         Ok(self
             .runner

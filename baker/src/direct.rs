@@ -20,6 +20,7 @@
 use glam::DVec3;
 use lensmap::{
     cubemap::{CubeFace, CubeMap, face::select_face},
+    index::{LayerIndex, LensIndex},
     layers::{LayerShell, projected::layer_range},
     trace::{LensRecords, Ray, stats::TraceCounters, world::TraceScene},
 };
@@ -83,13 +84,13 @@ pub struct DirectLayer<'a> {
     /// The scene's ray-tracing structures.
     pub trace: &'a TraceScene,
     /// The lens object (skipped by the direct rays).
-    pub lens: usize,
+    pub lens: LensIndex,
     /// Its EM origin.
     pub origin: DVec3,
     /// Its shells, nearest first.
     pub shells: &'a [LayerShell],
     /// The layer.
-    pub layer: usize,
+    pub layer: LayerIndex,
 }
 
 /// The direct equations of `at` for cube maps of `layout`, with direct values from `projected`
@@ -107,6 +108,7 @@ pub fn direct_equations(
         shells,
         layer,
     } = *at;
+    let (lens, layer) = (lens.index(), layer.index());
     let size = layout.size;
     let n = size as usize;
     let buckets = record_buckets(origin, size, records);
@@ -257,10 +259,10 @@ mod tests {
         };
         let at = DirectLayer {
             trace: &trace,
-            lens: 0,
+            lens: LensIndex::new(0),
             origin,
             shells: &shells,
-            layer: 0,
+            layer: LayerIndex::new(0),
         };
         let none = direct_equations(&at, &layout, &maps[0], &[]);
         let some = direct_equations(&at, &layout, &maps[0], &[&records]);

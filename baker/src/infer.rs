@@ -8,6 +8,7 @@ use std::{sync::Arc, time::Instant};
 use lensmap::{
     cubemap::{CubeMap, sampling::sample_cube_trilinear},
     hybrid::{HybridOptions, HybridScene},
+    index::{LayerIndex, LayerRef, LensIndex},
     render::{FrameInput, TargetFormat, UploadedFrame, Variant},
     runner::FrameRunner,
     scene::Camera,
@@ -64,8 +65,9 @@ impl TestRenderer for DeviceRenderer<'_> {
             ));
         };
         let failed = |e: lensmap::render::RenderError| MatrixError::Render(e.to_string());
+        // A layer frame holds one lens object.
         self.runner
-            .replace_layers(uploaded, 0, &[vec![em]])
+            .replace_layers(uploaded, LensIndex::new(0), &[vec![em]])
             .map_err(failed)?;
         Ok(self
             .runner
@@ -152,8 +154,8 @@ pub enum InferError {
 /// What inferring one layer took.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct LayerReport {
-    /// Layer index (nearest first).
-    pub layer: usize,
+    /// The layer.
+    pub layer: LayerIndex,
     /// Test renderings (all terms).
     pub renders: usize,
     /// Direct-image equations added (0 when off).
@@ -230,7 +232,7 @@ pub fn finest_level_of_frames(
     let mut finest: Option<usize> = None;
     let mut renders = 0;
     for &term in &frames.terms() {
-        for layer in 0..layers {
+        for layer in LayerIndex::all(layers) {
             let (level, made) = finest_level_read(renderer, &mut frames.layer(term, layer)?, cap)?;
             renders += made;
             if let Some(level) = level {
@@ -256,15 +258,15 @@ pub struct View<'a> {
 pub enum InferStep {
     /// Measuring the rendering matrices of layer `layer` of `layers`.
     Matrices {
-        /// The layer (0-based).
-        layer: usize,
+        /// The layer.
+        layer: LayerIndex,
         /// Layers in all.
         layers: usize,
     },
     /// Solving layer `layer` of `layers`.
     Solve {
-        /// The layer (0-based).
-        layer: usize,
+        /// The layer.
+        layer: LayerIndex,
         /// Layers in all.
         layers: usize,
     },
@@ -279,7 +281,7 @@ pub enum InferStep {
 pub fn infer_lens(
     runner: &mut FrameRunner,
     hybrid: &HybridScene,
-    lens: usize,
+    lens: LensIndex,
     views: &[View<'_>],
     options: &InferOptions,
     observe: &mut dyn FnMut(InferStep),
@@ -314,7 +316,7 @@ pub fn infer_lens(
     let name = prepared.name.clone();
     let frame_ms = prepared.frame_ms;
     let mut one: Vec<Option<Prepared<'_>>> = (0..hybrid.lenses.len()).map(|_| None).collect();
-    one[lens] = Some(prepared);
+    one[lens.index()] = Some(prepared);
     let solved = solve_layers(
         &mut renderer,
         hybrid,
@@ -324,7 +326,7 @@ pub fn infer_lens(
         options,
         &mut |_, step| observe(step),
     )?;
-    let Some(Some(solved)) = solved.into_iter().nth(lens) else {
+    let Some(Some(solved)) = solved.into_iter().nth(lens.index()) else {
         unreachable!("lens {lens} was prepared, so it is solved")
     };
     // A layer no pixel reads: nothing of the lens object to fit (the one-lens API's contract).
@@ -344,8 +346,8 @@ pub fn infer_lens(
 
 /// One lens object's inference made ready at any EM size: its test frames and targets per view.
 pub struct Prepared<'v> {
-    /// The lens object (TraceScene index).
-    lens: usize,
+    /// The lens object.
+    lens: LensIndex,
     /// Its name.
     name: String,
     /// Per view that sees it: the view and its test frames.
@@ -361,7 +363,7 @@ pub struct Prepared<'v> {
 impl Prepared<'_> {
     /// Its layer count in `hybrid`.
     fn layers(&self, hybrid: &HybridScene) -> usize {
-        hybrid.lenses[self.lens].shells.len()
+        hybrid.lenses[self.lens.index()].shells.len()
     }
 
     /// Building its frames, ms.
@@ -374,7 +376,7 @@ impl Prepared<'_> {
 /// `hybrid` has). No view, or no record in any view's targets, is [`InferError::NoLensPixels`].
 pub fn prepare<'v>(
     hybrid: &HybridScene,
-    lens: usize,
+    lens: LensIndex,
     views: &[View<'v>],
     options: &InferOptions,
 ) -> Result<Prepared<'v>, InferError> {
@@ -383,13 +385,13 @@ pub fn prepare<'v>(
         .hybrid
         .validate()
         .map_err(|e| InferError::BadOption(e.to_string()))?;
-    let Some(layers) = hybrid.lenses.get(lens) else {
+    let Some(layers) = hybrid.lenses.get(lens.index()) else {
         return Err(InferError::BadOption(format!(
             "lens {lens} does not exist; the scene has {} lens objects",
             hybrid.lenses.len()
         )));
     };
-    let name = hybrid.trace.lenses[lens].name.clone();
+    let name = hybrid.trace.lenses[lens.index()].name.clone();
     let n = layers.shells.len();
     // Per view: its test frames.
     let mut seen = Vec::new();
@@ -462,10 +464,10 @@ pub fn solve_layers(
     renderer: &mut DeviceRenderer<'_>,
     hybrid: &HybridScene,
     prepared: Vec<Option<Prepared<'_>>>,
-    shared: &[Vec<(usize, usize)>],
+    shared: &[Vec<LayerRef>],
     size: u32,
     options: &InferOptions,
-    observe: &mut dyn FnMut(usize, InferStep),
+    observe: &mut dyn FnMut(LensIndex, InferStep),
 ) -> Result<Vec<Option<SolvedLens>>, InferError> {
     check_solve_inputs(hybrid, &prepared, shared, size)?;
     let layout = TexelLayout::new(size);
@@ -486,23 +488,24 @@ pub fn solve_layers(
     // Per lens object: a device that needed power-of-two digits once keeps them for that lens
     // object's remaining matrices.
     let mut encodings = vec![DigitEncoding::Integers; prepared.len()];
-    for (lens, lens_prepared) in prepared.iter().enumerate() {
+    for (lens, lens_prepared) in LensIndex::all(prepared.len()).zip(&prepared) {
         if lens_prepared.is_none() {
             continue;
         }
-        let n = hybrid.lenses[lens].shells.len();
-        for layer in 0..n {
+        let n = hybrid.lenses[lens.index()].shells.len();
+        for layer in LayerIndex::all(n) {
+            let at = lens.layer(layer);
             let group = shared
                 .iter()
-                .find(|group| group.contains(&(lens, layer)))
+                .find(|group| group.contains(&at))
                 .cloned()
-                .unwrap_or_else(|| vec![(lens, layer)]);
+                .unwrap_or_else(|| vec![at]);
             // A shared layer is solved at its first inferred member.
             let first = group
                 .iter()
                 .copied()
-                .find(|&(l, _)| prepared.get(l).is_some_and(Option::is_some));
-            if first != Some((lens, layer)) {
+                .find(|m| prepared.get(m.lens.index()).is_some_and(Option::is_some));
+            if first != Some(at) {
                 continue;
             }
             observe(lens, InferStep::Matrices { layer, layers: n });
@@ -516,7 +519,7 @@ pub fn solve_layers(
                 let group = Group {
                     members: &members,
                     owner: group[0],
-                    solver: (lens, layer),
+                    solver: at,
                 };
                 let observe_solve = &mut || observe(lens, InferStep::Solve { layer, layers: n });
                 Some(solve_group(
@@ -531,10 +534,10 @@ pub fn solve_layers(
                 None
             };
             for member in &members {
-                let Some(Some(solved_lens)) = out.get_mut(member.prepared.lens) else {
+                let Some(Some(solved_lens)) = out.get_mut(member.prepared.lens.index()) else {
                     unreachable!("every member with matrices was prepared")
                 };
-                solved_lens.maps[member.layer] = solved.as_ref().map(|s| s.map.clone());
+                solved_lens.maps[member.layer.index()] = solved.as_ref().map(|s| s.map.clone());
                 solved_lens.layers.push(member.report(
                     member.prepared.lens == lens,
                     matrix_ms,
@@ -554,7 +557,7 @@ pub fn solve_layers(
 fn check_solve_inputs(
     hybrid: &HybridScene,
     prepared: &[Option<Prepared<'_>>],
-    shared: &[Vec<(usize, usize)>],
+    shared: &[Vec<LayerRef>],
     size: u32,
 ) -> Result<(), InferError> {
     if !size.is_power_of_two() {
@@ -565,7 +568,7 @@ fn check_solve_inputs(
     let misplaced = prepared
         .iter()
         .enumerate()
-        .any(|(i, p)| p.as_ref().is_some_and(|p| p.lens != i));
+        .any(|(i, p)| p.as_ref().is_some_and(|p| p.lens.index() != i));
     if prepared.len() != hybrid.lenses.len() || misplaced {
         return Err(InferError::BadOption(format!(
             "{} prepared lens objects for a scene of {}; give prepared[lens] for each lens object",
@@ -574,10 +577,11 @@ fn check_solve_inputs(
         )));
     }
     for group in shared {
-        let layer_of = |&(lens, layer): &(usize, usize)| {
+        let layer_of = |&LayerRef { lens, layer }: &LayerRef| {
+            let layer = layer.index();
             hybrid
                 .lenses
-                .get(lens)
+                .get(lens.index())
                 .filter(|l| layer < l.shells.len() && layer < l.em_origins.len())
                 .map(|l| (l.shells[layer], l.em_origins[layer]))
         };
@@ -595,7 +599,7 @@ fn check_solve_inputs(
 /// rendering matrices, `matrices[view][term]`.
 struct MemberMatrices<'p, 'v> {
     prepared: &'p Prepared<'v>,
-    layer: usize,
+    layer: LayerIndex,
     matrices: Vec<Vec<RenderingMatrix>>,
 }
 
@@ -627,19 +631,22 @@ impl MemberMatrices<'_, '_> {
     }
 }
 
-/// The rendering matrices of every inferred member of `group` (`(lens, layer)` pairs), at every
-/// view and term; `encodings[lens]` is the digit encoding each lens object's next matrix tries
+/// The rendering matrices of every inferred member of `group`, at every view and term; `encodings[lens]` is the digit encoding each lens object's next matrix tries
 /// first, updated as matrices are measured.
 fn measure_group<'p, 'v>(
     renderer: &mut DeviceRenderer<'_>,
     prepared: &'p [Option<Prepared<'v>>],
-    group: &[(usize, usize)],
+    group: &[LayerRef],
     size: u32,
     encodings: &mut [DigitEncoding],
 ) -> Result<Vec<MemberMatrices<'p, 'v>>, InferError> {
     let mut members = Vec::new();
-    for &(member_lens, member_layer) in group {
-        let Some(Some(p)) = prepared.get(member_lens) else {
+    for &LayerRef {
+        lens: member_lens,
+        layer: member_layer,
+    } in group
+    {
+        let Some(Some(p)) = prepared.get(member_lens.index()) else {
             continue;
         };
         let mut matrices: Vec<Vec<RenderingMatrix>> = Vec::new();
@@ -650,7 +657,7 @@ fn measure_group<'p, 'v>(
                     .terms()
                     .iter()
                     .map(|&term| {
-                        let encoding = &mut encodings[member_lens];
+                        let encoding = &mut encodings[member_lens.index()];
                         let options = MeasureOptions {
                             digits: Digits::Starting(*encoding),
                             ..MeasureOptions::new(size, k)
@@ -675,12 +682,12 @@ fn measure_group<'p, 'v>(
     Ok(members)
 }
 
-/// A layer group to solve: its members' matrices, the (lens, layer) whose map and EM origin the
-/// group uses (the first member), and the one solved at (the first inferred member).
+/// A layer group to solve: its members' matrices, the layer whose map and EM origin the group
+/// uses (the first member), and the one solved at (the first inferred member).
 struct Group<'g, 'p, 'v> {
     members: &'g [MemberMatrices<'p, 'v>],
-    owner: (usize, usize),
-    solver: (usize, usize),
+    owner: LayerRef,
+    solver: LayerRef,
 }
 
 /// A layer group's solution.
@@ -700,14 +707,14 @@ fn solve_group(
     options: &InferOptions,
     observe: &mut dyn FnMut(),
 ) -> Result<SolvedMap, InferError> {
-    let (lens, layer) = group.solver;
+    let LayerRef { lens, layer } = group.solver;
     // The layer's current (projected) EM at this size: CG's start (where no pixel constrains a
     // texel, few iterations move it, and the projection is a better guess there than zero) and
     // the direct images' values.
-    let current = hybrid.lenses[lens]
+    let current = hybrid.lenses[lens.index()]
         .maps
         .first()
-        .and_then(|maps| maps.get(layer))
+        .and_then(|maps| maps.get(layer.index()))
         .map(|current| resampled(current, layout.size));
     // Direct images from the map's own origin: the owner's view, with every member's records
     // telling which texels the lens images already constrain.
@@ -718,14 +725,14 @@ fn solve_group(
                 .iter()
                 .flat_map(|m| m.prepared.seen.iter().map(|(v, _)| v.records))
                 .collect();
-            let (owner, owner_layer) = group.owner;
-            let owner_layers = &hybrid.lenses[owner];
+            let owner = group.owner;
+            let owner_layers = &hybrid.lenses[owner.lens.index()];
             let at = crate::direct::DirectLayer {
                 trace: &hybrid.trace,
-                lens: owner,
-                origin: owner_layers.em_origins[owner_layer],
+                lens: owner.lens,
+                origin: owner_layers.em_origins[owner.layer.index()],
                 shells: &owner_layers.shells,
-                layer: owner_layer,
+                layer: owner.layer,
             };
             Some(crate::direct::direct_equations(
                 &at, layout, projected, &records,
@@ -744,7 +751,7 @@ fn solve_group(
                 .flat_map(move |(matrices, targets)| {
                     matrices.iter().zip(targets).map(move |(m, t)| Equations {
                         a: &m.a,
-                        b: &t.layers[member.layer],
+                        b: &t.layers[member.layer.index()],
                         confidence: &t.confidence,
                     })
                 })

@@ -69,6 +69,7 @@ use std::sync::Arc;
 
 use lensmap::{
     cubemap::{CubeFace, CubeMap},
+    index::{LayerIndex, LensIndex},
     render::{EnvironmentMesh, FrameInput, LensObject, TermVertices},
     trace::Term,
 };
@@ -389,7 +390,7 @@ pub struct LayerFrame {
     /// The term.
     pub term: Term,
     /// The layer.
-    pub layer: usize,
+    pub layer: LayerIndex,
 }
 
 impl LayerFrame {
@@ -521,8 +522,8 @@ impl LayerFrames {
     /// From a runtime frame (as [`lensmap::hybrid::HybridScene::frame`] builds it, supersampled
     /// `k`×`k`) and the index of the lens object in it. Other lens objects become black
     /// occluders; the framebuffer is cropped to the lens object's screen box ([`Crop`]).
-    pub fn new(frame: &FrameInput, lens: usize, k: u32) -> Result<LayerFrames, MatrixError> {
-        let Some(object) = frame.lenses.get(lens) else {
+    pub fn new(frame: &FrameInput, lens: LensIndex, k: u32) -> Result<LayerFrames, MatrixError> {
+        let Some(object) = frame.lenses.get(lens.index()) else {
             return Err(MatrixError::BadInput(format!(
                 "lens {lens} does not exist; the frame has {} lens objects",
                 frame.lenses.len()
@@ -567,7 +568,7 @@ impl LayerFrames {
                 .lenses
                 .iter()
                 .enumerate()
-                .filter(|(i, _)| *i != lens)
+                .filter(|(i, _)| *i != lens.index())
                 .map(|(_, other)| {
                     black(&other.positions, &keep(&other.positions, &other.triangles))
                 }),
@@ -605,14 +606,14 @@ impl LayerFrames {
     }
 
     /// The layer frame of (`term`, `layer`).
-    pub fn layer(&self, term: Term, layer: usize) -> Result<LayerFrame, MatrixError> {
+    pub fn layer(&self, term: Term, layer: LayerIndex) -> Result<LayerFrame, MatrixError> {
         let Some(vertices) = self.lens.terms.iter().find(|t| t.term == term) else {
             return Err(MatrixError::BadInput(format!(
                 "lens \"{}\" has no {term:?} term",
                 self.lens.name
             )));
         };
-        let Some(directions) = vertices.directions.get(layer) else {
+        let Some(directions) = vertices.directions.get(layer.index()) else {
             return Err(MatrixError::BadInput(format!(
                 "lens \"{}\" has {} layers; layer {layer} does not exist",
                 self.lens.name,
@@ -1065,8 +1066,9 @@ mod tests {
         options: &MeasureOptions,
         relative: f64,
     ) -> RenderingMatrix {
-        let frames = LayerFrames::new(&crafted_frame(width * k, height * k), 0, k).unwrap();
-        let mut layer = frames.layer(Term::Reflection, 0).unwrap();
+        let frames =
+            LayerFrames::new(&crafted_frame(width * k, height * k), LensIndex::new(0), k).unwrap();
+        let mut layer = frames.layer(Term::Reflection, LayerIndex::new(0)).unwrap();
         assert_eq!(layer.crop().width, width * k, "the crop is the whole frame");
         let matrix = RenderingMatrix::measure(device, &mut layer, options).unwrap();
         assert_eq!(matrix.layout, TexelLayout::new(options.size));
@@ -1291,8 +1293,8 @@ mod tests {
             layout: layout.clone(),
             footprints,
         };
-        let frames = LayerFrames::new(&crafted_frame(20, 20), 0, 1).unwrap();
-        let mut layer = frames.layer(Term::Reflection, 0).unwrap();
+        let frames = LayerFrames::new(&crafted_frame(20, 20), LensIndex::new(0), 1).unwrap();
+        let mut layer = frames.layer(Term::Reflection, LayerIndex::new(0)).unwrap();
         for encoding in [DigitEncoding::Integers, DigitEncoding::PowersOfTwo] {
             let only = MeasureOptions {
                 digits: Digits::Only(encoding),

@@ -5,12 +5,12 @@
 //! [`scene`] (scene files and meshes), [`graph`] (the pass graph, no Vulkan calls), [`cubemap`]
 //! (cube maps, their faces, f64 sampling and the one validator), [`options`] (option errors),
 //! [`identity`] (bake identity: SHA-256 of a canonical, versioned encoding), [`atomic`] (atomic
-//! file writes and directory swaps); [`trace`] (the CPU reference ray tracer), [`lightmap`] (the
-//! opaque environment's light maps: charts, atlases, ray-traced radiance), [`gpu`] (ash: devices,
-//! memory, images); [`metrics`] (masked image errors); [`render`] (the compositor and its CPU f64
-//! model); [`layers`] (shells, projected EMs, the bake format); [`hybrid`] (per-frame vertex
-//! tracing, tessellation, texgen); and on top [`runner`], the frame runner the command line, the
-//! tests and hosts call.
+//! file writes and directory swaps), [`index`] (typed lens-object and layer indices); [`trace`]
+//! (the CPU reference ray tracer), [`lightmap`] (the opaque environment's light maps: charts,
+//! atlases, ray-traced radiance), [`gpu`] (ash: devices, memory, images); [`metrics`] (masked
+//! image errors); [`render`] (the compositor and its CPU f64 model); [`layers`] (shells, projected
+//! EMs, the bake format); [`hybrid`] (per-frame vertex tracing, tessellation, texgen); and on top
+//! [`runner`], the frame runner the command line, the tests and hosts call.
 
 pub mod atomic;
 pub mod cubemap;
@@ -18,6 +18,7 @@ pub mod gpu;
 pub mod graph;
 pub mod hybrid;
 pub mod identity;
+pub mod index;
 pub mod layers;
 pub mod lightmap;
 pub mod metrics;

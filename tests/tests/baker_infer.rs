@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use lensmap::{
     hybrid::HybridOptions,
+    index::LensIndex,
     layers::projected::ProjectedOptions,
     metrics::Encoding,
     render::{TargetFormat, Variant},
@@ -56,7 +57,7 @@ fn inferred_ems_beat_projected_ones() {
             ..InferOptions::default()
         };
         let mut inferred_maps = Vec::new();
-        for (lens, lens_records) in records.lenses.iter().enumerate() {
+        for (lens, lens_records) in LensIndex::all(records.lenses.len()).zip(&records.lenses) {
             let view = View {
                 camera: &targets_camera,
                 records: lens_records,
@@ -104,7 +105,7 @@ fn a_camera_that_sees_no_lens_pixel_is_an_error() {
     let result = infer_lens(
         &mut runner,
         &hybrid,
-        0,
+        LensIndex::new(0),
         &[view],
         &InferOptions::default(),
         &mut |_| {},

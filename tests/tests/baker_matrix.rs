@@ -6,6 +6,7 @@ use std::sync::Arc;
 use lensmap::{
     cubemap::CubeMap,
     hybrid::{HybridOptions, HybridScene, LayeredEms},
+    index::{LayerIndex, LensIndex},
     layers::projected::ProjectedOptions,
     render::{
         FrameInput, TargetFormat, Variant,
@@ -85,12 +86,12 @@ fn the_matrix_is_the_hardware() {
     let mut rng = Pcg64::seed_from_u64(0x0a11_ce55);
     for name in ["glass-sphere", "teapot-room"] {
         let (_, frame, _) = frame_of(name, (64, 48, 2));
-        let frames = LayerFrames::new(&frame, 0, 2).unwrap();
+        let frames = LayerFrames::new(&frame, LensIndex::new(0), 2).unwrap();
         let n = frames.layer_count();
         for variant in [Variant::Multipass, Variant::SinglePass] {
             for term in frames.terms() {
                 for layer in if n > 1 { vec![0, n - 1] } else { vec![0] } {
-                    let mut layer_frame = frames.layer(term, layer).unwrap();
+                    let mut layer_frame = frames.layer(term, LayerIndex::new(layer)).unwrap();
                     let mut device = DeviceRenderer::new(&mut runner, variant);
                     let matrix = RenderingMatrix::measure(
                         &mut device,
@@ -145,8 +146,8 @@ fn the_matrix_is_the_hardware() {
 fn the_matrix_agrees_with_the_f64_model() {
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let (_, frame, _) = frame_of("teapot-room", (96, 72, 1));
-    let frames = LayerFrames::new(&frame, 0, 1).unwrap();
-    let mut layer_frame = frames.layer(frames.terms()[0], 0).unwrap();
+    let frames = LayerFrames::new(&frame, LensIndex::new(0), 1).unwrap();
+    let mut layer_frame = frames.layer(frames.terms()[0], LayerIndex::new(0)).unwrap();
     let mut device = DeviceRenderer::new(&mut runner, Variant::Multipass);
     let hardware = RenderingMatrix::measure(
         &mut device,
@@ -233,7 +234,7 @@ fn the_solver_inverts_the_matrix() {
     // they see; the re-render holds whatever the size.
     let size = 8;
     let (_, frame, _) = frame_of("teapot-room", (128, 96, 2));
-    let frames = LayerFrames::new(&frame, 0, 2).unwrap();
+    let frames = LayerFrames::new(&frame, LensIndex::new(0), 2).unwrap();
     let terms = frames.terms();
     let mut device = DeviceRenderer::new(&mut runner, Variant::SinglePass);
     let matrices: Vec<RenderingMatrix> = terms
@@ -241,7 +242,7 @@ fn the_solver_inverts_the_matrix() {
         .map(|&t| {
             RenderingMatrix::measure(
                 &mut device,
-                &mut frames.layer(t, 1).unwrap(),
+                &mut frames.layer(t, LayerIndex::new(1)).unwrap(),
                 &MeasureOptions::new(size, 2),
             )
             .unwrap()

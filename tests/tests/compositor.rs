@@ -14,6 +14,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use lensmap::cubemap::CubeMap;
 use lensmap::gpu::Gpu;
+use lensmap::index::LensIndex;
 use lensmap::metrics::Mask;
 use lensmap::render::{
     BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer, TargetFormat,
@@ -531,7 +532,12 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
     replaced.lenses[0].layers = second.lenses[0].layers.clone();
     let mut uploaded = renderer.upload(&gpu, &first).unwrap();
     renderer
-        .replace_layers(&gpu, &mut uploaded, 0, &replaced.lenses[0].layers)
+        .replace_layers(
+            &gpu,
+            &mut uploaded,
+            LensIndex::new(0),
+            &replaced.lenses[0].layers,
+        )
         .unwrap();
     let mut fresh = renderer.upload(&gpu, &replaced).unwrap();
     for variant in [Variant::Multipass, Variant::SinglePass] {
@@ -562,7 +568,7 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
     // A replacement that does not fit the uploaded frame is an error naming the lens.
     let wrong = vec![vec![Arc::new(CubeMap::uniform(4, [0.0; 4]))]];
     let error = renderer
-        .replace_layers(&gpu, &mut uploaded, 0, &wrong)
+        .replace_layers(&gpu, &mut uploaded, LensIndex::new(0), &wrong)
         .unwrap_err();
     assert!(error.to_string().contains("lenses[0]"), "{error}");
     assert_clean(&gpu);

@@ -10,6 +10,7 @@ mod layers_bake {
 
     use glam::{DVec2, DVec3, Vec3};
     use lensmap::cubemap::CubeMap;
+    use lensmap::index::{LayerIndex, LensIndex};
     use lensmap::layers::bake::{
         ALPHA_TOLERANCE, MANIFEST_FILE_NAME, map_file_name, read_cube_map_exr, write_cube_map_exr,
     };
@@ -158,7 +159,8 @@ mod layers_bake {
 
     /// The file of lens 0, viewpoint `v`, layer `k` of a written bake.
     fn map_path(dir: &Path, v: usize, k: usize) -> PathBuf {
-        dir.join(map_file_name(0, "teapot", v, k))
+        let at = LensIndex::new(0).layer(LayerIndex::new(k));
+        dir.join(map_file_name(at, "teapot", v))
     }
 
     /// Reads `dir`, expecting a failure whose one-line message mentions every one of `needles`.

@@ -11,6 +11,7 @@ use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{HybridOptions, HybridScene},
+    index::LensIndex,
     layers::projected::ProjectedOptions,
     metrics::Encoding,
     render::{TargetFormat, Variant},
@@ -120,7 +121,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         (records.lenses.len() * runs) as u64,
         "inferences",
     );
-    for (lens, lens_records) in records.lenses.iter().enumerate() {
+    for (lens, lens_records) in LensIndex::all(records.lenses.len()).zip(&records.lenses) {
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..runs {
@@ -144,7 +145,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     for (lens, maps) in inferred_maps {
-        hybrid.lenses[lens].maps = vec![maps.into_iter().map(Arc::new).collect()];
+        hybrid.lenses[lens.index()].maps = vec![maps.into_iter().map(Arc::new).collect()];
     }
     let (inferred_srgb, inferred_linear) = judge.lens_psnr(&mut runner, &hybrid)?;
     say!(

@@ -6,6 +6,7 @@ use std::sync::Arc;
 use glam::{DVec3, Vec3};
 use lensmap::{
     hybrid::{HybridScene, LensLayers},
+    index::LensIndex,
     layers::{
         LayerShell,
         projected::{ProjectedOptions, project_layers},
@@ -67,19 +68,19 @@ pub(super) fn projected_scene(
 /// origin `origin`) at face size `size`.
 pub(super) fn project_into(
     hybrid: &mut HybridScene,
-    lens: usize,
+    lens: LensIndex,
     origin: DVec3,
     shells: Vec<LayerShell>,
     size: u32,
 ) {
     let (maps, _) = project_layers(
         &hybrid.trace,
-        lens,
+        lens.index(),
         origin,
         &shells,
         &ProjectedOptions::with_size(size),
     );
-    hybrid.lenses[lens] = LensLayers {
+    hybrid.lenses[lens.index()] = LensLayers {
         em_origins: vec![origin; shells.len()],
         shells,
         maps: vec![maps.into_iter().map(Arc::new).collect()],

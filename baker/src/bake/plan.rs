@@ -6,6 +6,7 @@ use std::collections::BTreeSet;
 use glam::DVec3;
 use lensmap::{
     hybrid::HybridScene,
+    index::{LayerIndex, LayerRef, LensIndex},
     layers::{
         LayerShell,
         bake::map_file_name,
@@ -62,27 +63,25 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// The (lens, layer) whose map lens object `lens`'s layer `layer` uses: its own, or a
-    /// shared layer's owner.
-    pub fn map_owner(&self, lens: usize, layer: usize) -> (usize, usize) {
+    /// The layer whose map layer `at` uses: its own, or a shared layer's owner.
+    pub fn map_owner(&self, at: LayerRef) -> LayerRef {
         self.shared
             .iter()
-            .find(|s| s.members.contains(&(lens, layer)))
-            .map_or((lens, layer), |s| s.members[0])
+            .find(|s| s.members.contains(&at))
+            .map_or(at, |s| s.members[0])
     }
 
     /// The EM origin of every layer of lens object `lens`: the owner's centroid.
-    pub fn layer_origins(&self, lens: usize) -> Vec<DVec3> {
-        (0..self.lenses[lens].shells.len())
-            .map(|layer| self.lenses[self.map_owner(lens, layer).0].em_origin)
+    pub fn layer_origins(&self, lens: LensIndex) -> Vec<DVec3> {
+        LayerIndex::all(self.lenses[lens.index()].shells.len())
+            .map(|layer| self.lenses[self.map_owner(lens.layer(layer)).lens.index()].em_origin)
             .collect()
     }
 
-    /// The file of lens object `lens`'s layer `layer` at view-space sample `sample` (a shared
-    /// layer's is its owner's).
-    pub fn map_name(&self, lens: usize, layer: usize, sample: usize) -> String {
-        let (owner, owner_layer) = self.map_owner(lens, layer);
-        map_file_name(owner, &self.lenses[owner].name, sample, owner_layer)
+    /// The file of layer `at` at view-space sample `sample` (a shared layer's is its owner's).
+    pub fn map_name(&self, at: LayerRef, sample: usize) -> String {
+        let owner = self.map_owner(at);
+        map_file_name(owner, &self.lenses[owner.lens.index()].name, sample)
     }
 
     /// Whether the plan holds together: every lens object has one fit and one object list per
@@ -96,10 +95,12 @@ impl Plan {
                 && (l.fit_rms.is_empty() || l.fit_rms.len() == l.shells.len())
         });
         let shared_ok = self.shared.iter().all(|s| {
-            let shell = |&(lens, layer): &(usize, usize)| {
-                self.lenses.get(lens).and_then(|l| l.shells.get(layer))
+            let shell = |&LayerRef { lens, layer }: &LayerRef| {
+                self.lenses
+                    .get(lens.index())
+                    .and_then(|l| l.shells.get(layer.index()))
             };
-            let distinct: BTreeSet<usize> = s.members.iter().map(|m| m.0).collect();
+            let distinct: BTreeSet<LensIndex> = s.members.iter().map(|m| m.lens).collect();
             s.members.len() >= 2
                 && distinct.len() == s.members.len()
                 && shell(&s.members[0]).is_some()
@@ -117,19 +118,18 @@ impl Plan {
     /// The files of every lens object's layers at view-space sample `sample`
     /// (`names[lens][layer]`; a shared layer's are its owner's).
     pub fn map_names(&self, sample: usize) -> Vec<Vec<String>> {
-        self.lenses
-            .iter()
-            .enumerate()
+        LensIndex::all(self.lenses.len())
+            .zip(&self.lenses)
             .map(|(lens, planned)| {
-                (0..planned.shells.len())
-                    .map(|layer| self.map_name(lens, layer, sample))
+                LayerIndex::all(planned.shells.len())
+                    .map(|layer| self.map_name(lens.layer(layer), sample))
                     .collect()
             })
             .collect()
     }
 
-    /// The shared layers as groups of (lens, layer), for [`crate::infer::solve_layers`].
-    pub fn shared_groups(&self) -> Vec<Vec<(usize, usize)>> {
+    /// The shared layers as groups of layers, for [`crate::infer::solve_layers`].
+    pub fn shared_groups(&self) -> Vec<Vec<LayerRef>> {
         self.shared.iter().map(|s| s.members.clone()).collect()
     }
 }
@@ -195,7 +195,7 @@ pub fn make_plan(
     let mut lenses = Vec::with_capacity(lens_count);
     // Per lens object, its farthest clustered layer's hits (empty otherwise).
     let mut far_hits: Vec<Vec<DVec3>> = Vec::with_capacity(lens_count);
-    for lens in 0..lens_count {
+    for lens in LensIndex::all(lens_count) {
         let (planned, far) = plan_lens(
             runner,
             &mut judge,
@@ -262,7 +262,7 @@ impl<'s> Judge<'s> {
     /// Lens object `lens`'s pixels at the judging camera (the reference traced first if needed).
     fn lens_pixels(
         &mut self,
-        lens: usize,
+        lens: LensIndex,
         progress: &mut dyn FnMut(&str),
     ) -> Result<Mask, BakeFailure> {
         let reference = match self.reference.take() {
@@ -276,7 +276,7 @@ impl<'s> Judge<'s> {
         };
         Ok(Mask::lens(
             &reference.lens_pixels,
-            LensSelection::Object(lens),
+            LensSelection::Object(lens.index()),
         ))
     }
 
@@ -309,7 +309,7 @@ impl<'s> Judge<'s> {
     fn psnr_on(
         &mut self,
         runner: &mut FrameRunner,
-        lens: usize,
+        lens: LensIndex,
         origin: DVec3,
         shells: Vec<LayerShell>,
         mask: &Mask,
@@ -337,15 +337,16 @@ impl<'s> Judge<'s> {
 fn plan_lens(
     runner: &mut FrameRunner,
     judge: &mut Judge<'_>,
-    lens: usize,
+    lens: LensIndex,
     placement_views: &[Camera],
     options: &BakeOptions,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(PlannedLens, Vec<DVec3>), BakeFailure> {
     let (scene, trace) = (judge.scene, judge.trace);
-    let name = trace.lenses[lens].name.clone();
-    let origin = em_origin(scene, lens);
-    let named = !scene.lenses[lens].layers.is_empty();
+    let position = lens.index();
+    let name = trace.lenses[position].name.clone();
+    let origin = em_origin(scene, position);
+    let named = !scene.lenses[position].layers.is_empty();
     let mut planned = PlannedLens {
         name: name.clone(),
         em_origin: origin,
@@ -356,11 +357,11 @@ fn plan_lens(
         auto_psnr_db: Vec::new(),
     };
     if options.layers == LayerCount::Scene && named {
-        planned.shells = lens_shells(trace, scene, lens, origin);
+        planned.shells = lens_shells(trace, scene, position, origin);
         return Ok((planned, Vec::new()));
     }
     progress(&format!("placing layers of \"{name}\""));
-    let hits = lens_hits(trace, lens, placement_views, &TraceOptions::default())?;
+    let hits = lens_hits(trace, position, placement_views, &TraceOptions::default())?;
     if hits.is_empty() {
         // Nothing around it: one shell far away holds the environment at infinity.
         planned.source = "clustered (nothing around it: one far layer)".into();
@@ -375,7 +376,7 @@ fn plan_lens(
     let place = |k: usize| place_layers(scene, &name, origin, &hits, k);
     let count = match options.layers {
         LayerCount::Count(k) => Some(k),
-        _ if named => Some(scene.lenses[lens].layers.len()),
+        _ if named => Some(scene.lenses[position].layers.len()),
         _ => None,
     };
     let far = match count {
@@ -392,7 +393,7 @@ fn plan_lens(
 fn grow_layers(
     runner: &mut FrameRunner,
     judge: &mut Judge<'_>,
-    lens: usize,
+    lens: LensIndex,
     planned: &mut PlannedLens,
     place: &dyn Fn(usize) -> Result<Placement, PlacementError>,
     options: &BakeOptions,
@@ -405,7 +406,7 @@ fn grow_layers(
         planned.source = "clustered (unseen at sample 0: one layer)".into();
         return Ok(planned.adopt(&place(1)?));
     }
-    let default_layers = judge.hybrid()?.lenses[lens].clone();
+    let default_layers = judge.hybrid()?.lenses[lens.index()].clone();
     let mut best: Option<(f64, Placement)> = None;
     for k in 1..=MAX_AUTO_LAYERS {
         let placement = place(k)?;
@@ -424,7 +425,7 @@ fn grow_layers(
             _ => best = Some((psnr, placement)),
         }
     }
-    judge.hybrid()?.lenses[lens] = default_layers;
+    judge.hybrid()?.lenses[lens.index()] = default_layers;
     let Some((_, placement)) = best else {
         unreachable!("k = 1 always places a layer")
     };
@@ -450,7 +451,7 @@ fn search_em_size(
         .collect::<Vec<_>>();
     let hybrid = match judge.hybrid.as_mut() {
         Some(hybrid) => {
-            for (lens, (origin, shells)) in planned_shells.into_iter().enumerate() {
+            for (lens, (origin, shells)) in LensIndex::all(plan.lenses.len()).zip(planned_shells) {
                 project_into(hybrid, lens, origin, shells, judge_size);
             }
             hybrid
@@ -466,7 +467,7 @@ fn search_em_size(
         .map_err(|e| InferError::Frame(e.to_string()))?;
     let mut renderer = DeviceRenderer::new(runner, options.infer.variant);
     let mut finest: Option<usize> = None;
-    for (lens, planned) in plan.lenses.iter().enumerate() {
+    for (lens, planned) in LensIndex::all(plan.lenses.len()).zip(&plan.lenses) {
         let frames = LayerFrames::new(&frame, lens, camera.supersampling.max(1))
             .map_err(InferError::from)?;
         let (level, _) = finest_level_of_frames(&mut renderer, &frames, planned.shells.len(), cap)

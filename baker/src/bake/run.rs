@@ -10,6 +10,7 @@ use std::{
 
 use glam::Vec3;
 use lensmap::{
+    index::{LayerIndex, LensIndex},
     layers::{
         Manifest, Provenance, Staging,
         bake::{BakeError, MANIFEST_FILE_NAME, ManifestLayer, ManifestLens, default_created_by},
@@ -346,24 +347,19 @@ fn plan_manifest(plan: &Plan, samples: &[usize], positions: &[Vec3]) -> Manifest
         created_by: default_created_by(),
         cube_map_size: plan.em_size,
         viewpoints: samples.iter().map(|&s| positions[s]).collect(),
-        lenses: plan
-            .lenses
-            .iter()
-            .enumerate()
+        lenses: LensIndex::all(plan.lenses.len())
+            .zip(&plan.lenses)
             .map(|(lens, planned)| ManifestLens {
                 name: planned.name.clone(),
                 em_origin: planned.em_origin,
-                layers: planned
-                    .shells
-                    .iter()
-                    .zip(plan.layer_origins(lens))
-                    .enumerate()
+                layers: LayerIndex::all(planned.shells.len())
+                    .zip(planned.shells.iter().zip(plan.layer_origins(lens)))
                     .map(|(layer, (shell, origin))| ManifestLayer {
                         shell: *shell,
                         em_origin: (origin != planned.em_origin).then_some(origin),
                         maps: samples
                             .iter()
-                            .map(|&s| plan.map_name(lens, layer, s))
+                            .map(|&s| plan.map_name(lens.layer(layer), s))
                             .collect(),
                     })
                     .collect(),

@@ -9,6 +9,7 @@ use glam::Vec3;
 use lensmap::{
     cubemap::CubeMap,
     hybrid::HybridScene,
+    index::{LayerRef, LensIndex},
     metrics::Mask,
     runner::FrameRunner,
     scene::{Camera, Scene},
@@ -219,7 +220,7 @@ fn prepare_lenses<'v>(
     infer: &InferOptions,
 ) -> Result<Vec<Option<Prepared<'v>>>, BakeFailure> {
     let mut prepared = Vec::with_capacity(view_lists.len());
-    for (lens, views) in view_lists.iter().enumerate() {
+    for (lens, views) in LensIndex::all(view_lists.len()).zip(view_lists) {
         prepared.push(if views.is_empty() {
             None
         } else {
@@ -262,16 +263,16 @@ fn solve_lenses(
         plan.em_size,
         infer,
         &mut |lens, step| {
-            let (matrices, solving) = &stages[lens];
+            let (matrices, solving) = &stages[lens.index()];
             progress(match step {
                 InferStep::Matrices { layer, layers } => Step {
                     stage: matrices,
-                    position: layer,
+                    position: layer.index(),
                     of: layers,
                 },
                 InferStep::Solve { layer, layers } => Step {
                     stage: solving,
-                    position: layer,
+                    position: layer.index(),
                     of: layers,
                 },
             })
@@ -327,10 +328,11 @@ fn sample_maps(
         maps.push(solved.maps.into_iter().flatten().collect());
     }
     for shared in &plan.shared {
-        if let Some(&(lens, layer)) = shared.members.iter().find(|&&(l, _)| inferred[l]) {
-            let map = maps[lens][layer].clone();
-            for &(l, j) in &shared.members {
-                maps[l][j] = map.clone();
+        let inferred_member = shared.members.iter().find(|m| inferred[m.lens.index()]);
+        if let Some(&LayerRef { lens, layer }) = inferred_member {
+            let map = maps[lens.index()][layer.index()].clone();
+            for &LayerRef { lens, layer } in &shared.members {
+                maps[lens.index()][layer.index()] = map.clone();
             }
         }
     }

@@ -6,6 +6,7 @@ use std::collections::BTreeSet;
 
 use glam::DVec3;
 use lensmap::hybrid::HybridScene;
+use lensmap::index::{LayerIndex, LayerRef, LensIndex};
 use serde::{Deserialize, Serialize};
 
 use super::plan::{Plan, PlannedLens};
@@ -13,9 +14,9 @@ use super::plan::{Plan, PlannedLens};
 /// One layer shared by several lens objects: one shell, one EM origin, one map per sample.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SharedLayer {
-    /// `(lens, layer)` of every lens object holding it; the first owns the map (its file name
-    /// and its EM origin, the first lens object's centroid).
-    pub members: Vec<(usize, usize)>,
+    /// The layer of every lens object holding it (stored as `[lens, layer]`); the first owns
+    /// the map (its file name and its EM origin, the first lens object's centroid).
+    pub members: Vec<LayerRef>,
     /// The scene objects in it (those of every member's layer), sorted.
     pub objects: Vec<String>,
     /// Per member, the fit measure (RMS relative depth error) of the shared shell over the
@@ -88,13 +89,17 @@ pub(super) fn share_far_layers(
         {
             continue;
         }
-        let members: Vec<(usize, usize)> = group
+        let members: Vec<LayerRef> = group
             .iter()
-            .map(|&lens| (lens, lenses[lens].shells.len() - 1))
+            .map(|&lens| {
+                let farthest = LayerIndex::new(lenses[lens].shells.len() - 1);
+                LensIndex::new(lens).layer(farthest)
+            })
             .collect();
-        for (&(lens, layer), &rms) in members.iter().zip(&fit_rms) {
-            lenses[lens].shells[layer] = shell;
-            lenses[lens].fit_rms[layer] = rms;
+        for (&LayerRef { lens, layer }, &rms) in members.iter().zip(&fit_rms) {
+            let planned = &mut lenses[lens.index()];
+            planned.shells[layer.index()] = shell;
+            planned.fit_rms[layer.index()] = rms;
         }
         shared.push(SharedLayer {
             objects: objects.into_iter().collect(),
@@ -110,15 +115,17 @@ pub(super) fn share_far_layers(
 /// as the bake will hold them: the owner projected that layer from its own origin.
 pub(super) fn share_maps(hybrid: &mut HybridScene, plan: &Plan) {
     for shared in &plan.shared {
-        let (owner, owner_layer) = shared.members[0];
-        let origin = hybrid.lenses[owner].em_origins[owner_layer];
-        let maps: Vec<_> = hybrid.lenses[owner]
+        let owner = shared.members[0];
+        let owner_layers = &hybrid.lenses[owner.lens.index()];
+        let owner_layer = owner.layer.index();
+        let origin = owner_layers.em_origins[owner_layer];
+        let maps: Vec<_> = owner_layers
             .maps
             .iter()
             .map(|v| v[owner_layer].clone())
             .collect();
-        for &(lens, layer) in &shared.members[1..] {
-            let layers = &mut hybrid.lenses[lens];
+        for &LayerRef { lens, layer } in &shared.members[1..] {
+            let (layers, layer) = (&mut hybrid.lenses[lens.index()], layer.index());
             layers.em_origins[layer] = origin;
             for (v, map) in layers.maps.iter_mut().zip(&maps) {
                 v[layer] = map.clone();
@@ -131,6 +138,11 @@ pub(super) fn share_maps(hybrid: &mut HybridScene, plan: &Plan) {
 mod tests {
     use super::*;
     use lensmap::layers::{LayerShell, bake::map_file_name};
+
+    /// Lens object `lens`'s layer `layer`.
+    fn at(lens: usize, layer: usize) -> LayerRef {
+        LensIndex::new(lens).layer(LayerIndex::new(layer))
+    }
 
     /// Points of a room (an axis-aligned box about the world origin, half extents 10, 4, 10)
     /// seen from `origin` along a Fibonacci sphere of directions.
@@ -193,7 +205,7 @@ mod tests {
         // The teapot and the cup see the same walls, the lid two of them; the vase sees one that
         // they do not (and they see walls it does not): neither set holds the other.
         assert_eq!(shared.len(), 1, "{shared:?}");
-        assert_eq!(shared[0].members, vec![(0, 1), (1, 1), (3, 1)]);
+        assert_eq!(shared[0].members, vec![at(0, 1), at(1, 1), at(3, 1)]);
         assert_eq!(shared[0].objects, walls);
         assert_eq!(lenses[0].shells[1], lenses[1].shells[1], "one shell");
         assert_ne!(lenses[1].shells[1], own_cup_shell);
@@ -214,19 +226,25 @@ mod tests {
             lenses: lenses.clone(),
             shared: shared.clone(),
         };
-        assert_eq!(plan.map_owner(1, 1), (0, 1));
-        assert_eq!(plan.map_owner(1, 0), (1, 0));
-        assert_eq!(plan.layer_origins(1), vec![b, a]);
-        assert_eq!(plan.map_name(1, 1, 7), map_file_name(0, "teapot", 7, 1));
-        assert_eq!(plan.map_name(1, 0, 7), map_file_name(1, "cup", 7, 0));
+        assert_eq!(plan.map_owner(at(1, 1)), at(0, 1));
+        assert_eq!(plan.map_owner(at(1, 0)), at(1, 0));
+        assert_eq!(plan.layer_origins(LensIndex::new(1)), vec![b, a]);
+        assert_eq!(
+            plan.map_name(at(1, 1), 7),
+            map_file_name(at(0, 1), "teapot", 7)
+        );
+        assert_eq!(
+            plan.map_name(at(1, 0), 7),
+            map_file_name(at(1, 0), "cup", 7)
+        );
         assert!(plan.is_consistent());
         // A hand-edited staged plan: one lens object twice, a layer that does not exist, one
         // member, another shell: none is resumed.
         for members in [
-            vec![(0, 1), (0, 1)],
-            vec![(0, 1), (1, 5)],
-            vec![(0, 1)],
-            vec![(0, 1), (1, 0)],
+            vec![at(0, 1), at(0, 1)],
+            vec![at(0, 1), at(1, 5)],
+            vec![at(0, 1)],
+            vec![at(0, 1), at(1, 0)],
         ] {
             let mut edited = plan.clone();
             edited.shared[0].members = members.clone();

@@ -57,6 +57,7 @@ use super::shell::LayerShell;
 use crate::atomic::{self, DirectorySwap, WhenSwapFails};
 pub use crate::cubemap::ALPHA_TOLERANCE;
 use crate::cubemap::CubeMap;
+use crate::index::{LayerIndex, LayerRef, LensIndex};
 pub use error::BakeError;
 use error::{CountCheck, io_error};
 pub use exr::{
@@ -105,10 +106,10 @@ pub fn default_created_by() -> String {
     concat!("lensmap ", env!("CARGO_PKG_VERSION")).to_owned()
 }
 
-/// The file name [`Bake::write`] gives the cube map of a lens object (by index and name), viewpoint
-/// sample and layer: `lens{i}-{name}.v{viewpoint:03}.layer{layer}.exr`, the name reduced to
-/// ASCII letters, digits, `-` and `_`.
-pub fn map_file_name(lens_index: usize, lens_name: &str, viewpoint: usize, layer: usize) -> String {
+/// The file name [`Bake::write`] gives the cube map of layer `at` (its lens object named
+/// `lens_name`) at viewpoint sample `viewpoint`: `lens{i}-{name}.v{viewpoint:03}.layer{layer}.exr`,
+/// the name reduced to ASCII letters, digits, `-` and `_`.
+pub fn map_file_name(at: LayerRef, lens_name: &str, viewpoint: usize) -> String {
     let name: String = lens_name
         .chars()
         .map(|c| {
@@ -119,7 +120,8 @@ pub fn map_file_name(lens_index: usize, lens_name: &str, viewpoint: usize, layer
             }
         })
         .collect();
-    format!("lens{lens_index}-{name}.v{viewpoint:03}.layer{layer}.exr")
+    let LayerRef { lens, layer } = at;
+    format!("lens{lens}-{name}.v{viewpoint:03}.layer{layer}.exr")
 }
 
 impl Bake {
@@ -169,54 +171,48 @@ impl Bake {
         }
         // A layer holding, at every viewpoint, the very maps of an earlier layer with the same
         // shell and origin lists that layer's files.
-        let shared_with = |index: usize, layer: usize| -> Option<(usize, usize)> {
-            let lens = &self.lenses[index];
+        let shared_with = |at: LayerRef| -> Option<LayerRef> {
+            let (lens, layer) = (&self.lenses[at.lens.index()], at.layer.index());
             let same_maps = |other: &BakedLens, other_layer: usize| {
                 lens.maps
                     .iter()
                     .zip(&other.maps)
                     .all(|(a, b)| Arc::ptr_eq(&a[layer], &b[other_layer]))
             };
-            (0..=index).find_map(|earlier| {
-                let other = &self.lenses[earlier];
-                let layers = if earlier == index {
+            LensIndex::all(at.lens.index() + 1).find_map(|earlier| {
+                let other = &self.lenses[earlier.index()];
+                let layers = if earlier == at.lens {
                     layer
                 } else {
                     other.shells.len()
                 };
-                (0..layers).find_map(|other_layer| {
-                    (other.shells[other_layer] == lens.shells[layer]
-                        && other.em_origins[other_layer] == lens.em_origins[layer]
-                        && same_maps(other, other_layer))
-                    .then_some((earlier, other_layer))
+                LayerIndex::all(layers).find_map(|other_layer| {
+                    let j = other_layer.index();
+                    (other.shells[j] == lens.shells[layer]
+                        && other.em_origins[j] == lens.em_origins[layer]
+                        && same_maps(other, j))
+                    .then_some(earlier.layer(other_layer))
                 })
             })
         };
-        let lenses = self
-            .lenses
-            .iter()
-            .enumerate()
+        let lenses = LensIndex::all(self.lenses.len())
+            .zip(&self.lenses)
             .map(|(index, lens)| {
                 let lens_origin = lens.em_origins.first().copied().unwrap_or(DVec3::ZERO);
                 ManifestLens {
                     name: lens.name.clone(),
                     em_origin: lens_origin,
-                    layers: lens
-                        .shells
-                        .iter()
-                        .zip(&lens.em_origins)
-                        .enumerate()
+                    layers: LayerIndex::all(lens.shells.len())
+                        .zip(lens.shells.iter().zip(&lens.em_origins))
                         .map(|(layer, (shell, &origin))| {
-                            let (owner, owner_layer) =
-                                shared_with(index, layer).unwrap_or((index, layer));
-                            let owner_name = &self.lenses[owner].name;
+                            let at = index.layer(layer);
+                            let owner = shared_with(at).unwrap_or(at);
+                            let owner_name = &self.lenses[owner.lens.index()].name;
                             ManifestLayer {
                                 shell: *shell,
                                 em_origin: (origin != lens_origin).then_some(origin),
                                 maps: (0..self.viewpoints.len())
-                                    .map(|viewpoint| {
-                                        map_file_name(owner, owner_name, viewpoint, owner_layer)
-                                    })
+                                    .map(|viewpoint| map_file_name(owner, owner_name, viewpoint))
                                     .collect(),
                             }
                         })

@@ -18,6 +18,7 @@ use super::{
 use crate::{
     gpu::Gpu,
     graph::{self, Barrier, Layout, LoadOp, PassKind, RenderingInstance, StoreOp},
+    index::{LayerIndex, LensIndex},
     trace::Term,
 };
 
@@ -468,17 +469,18 @@ impl Recorder<'_> {
 
     /// One draw of lens object `lens` (the prime or alpha clear, a layer, a programmable layer,
     /// the single pass): its descriptor sets and push constants, then its triangles.
-    fn lens(&self, cb: vk::CommandBuffer, draw: Draw, lens: usize, targets: &Targets) {
-        let gpu_lens = &self.frame.lenses[lens];
+    fn lens(&self, cb: vk::CommandBuffer, draw: Draw, lens: LensIndex, targets: &Targets) {
+        let gpu_lens = &self.frame.lenses[lens.index()];
         let mut constants = self.lens_constants(gpu_lens);
         let weight = |v: usize| self.viewpoint_weight(v);
         // One layer of one (viewpoint, term) group: its weight, F·G and directions.
-        let mut one_layer = |viewpoint: usize, term: Term, layer: usize| {
+        let mut one_layer = |viewpoint: usize, term: Term, layer: LayerIndex| {
+            let layer = layer.index() as u32;
             constants.weight_a = weight(viewpoint);
             constants.fg_offset_t = gpu_lens.fg_offset[&term];
             constants.direction_offset_t =
-                gpu_lens.direction_offset[&term] + layer as u32 * gpu_lens.vertex_count;
-            constants.layer = layer as u32;
+                gpu_lens.direction_offset[&term] + layer * gpu_lens.vertex_count;
+            constants.layer = layer;
             gpu_lens.sets[viewpoint]
         };
         // Set 0, and set 1 for the programmable layer (no allocation per draw).

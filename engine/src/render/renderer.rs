@@ -18,6 +18,7 @@ use super::{
     upload::{UploadCache, UploadedFrame},
 };
 use crate::gpu::{Gpu, GpuError, Timeline};
+use crate::index::LensIndex;
 
 /// Frames that may be recorded and executing at once: the CPU prepares frame N + 1 while the GPU
 /// renders frame N.
@@ -147,7 +148,7 @@ impl Renderer {
         &mut self,
         gpu: &Gpu,
         frame: &mut UploadedFrame,
-        lens: usize,
+        lens: LensIndex,
         layers: &[Vec<std::sync::Arc<crate::cubemap::CubeMap>>],
     ) -> Result<(), RenderError> {
         self.cache

@@ -18,6 +18,7 @@ use super::{
 use crate::{
     cubemap::CubeMap,
     gpu::{Buffer, BufferUsage, Gpu, GpuError, Image, ImageDesc, Timeline},
+    index::LensIndex,
     trace::Term,
 };
 
@@ -251,7 +252,7 @@ impl UploadCache {
         gpu: &Gpu,
         pipelines: &Pipelines,
         frame: &mut UploadedFrame,
-        lens: usize,
+        lens: LensIndex,
         layers: &[Vec<Arc<CubeMap>>],
     ) -> Result<(), RenderError> {
         let bad = |s: String| Err(RenderError::BadInput(s));
@@ -259,10 +260,10 @@ impl UploadCache {
         if let Some((timeline, value)) = &frame.last_submission {
             timeline.wait(*value)?;
         }
-        let Some(gpu_lens) = frame.lenses.get_mut(lens) else {
+        let Some(gpu_lens) = frame.lenses.get_mut(lens.index()) else {
             return bad(format!("lens {lens} is not in the uploaded frame"));
         };
-        let Some(shape) = frame.shape.lenses.get_mut(lens) else {
+        let Some(shape) = frame.shape.lenses.get_mut(lens.index()) else {
             return bad(format!("lens {lens} is not in the uploaded frame"));
         };
         if layers.len() != gpu_lens.layers.len()

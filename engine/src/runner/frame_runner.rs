@@ -12,6 +12,7 @@ use super::{
 use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{BuiltFrame, HybridOptions, HybridScene, HybridStats},
+    index::LensIndex,
     options::OptionError,
     render::{
         BlendScheme, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError, RenderOptions,
@@ -179,7 +180,7 @@ impl FrameRunner {
     pub fn replace_layers(
         &mut self,
         uploaded: &mut UploadedFrame,
-        lens: usize,
+        lens: LensIndex,
         layers: &[Vec<std::sync::Arc<crate::cubemap::CubeMap>>],
     ) -> Result<(), RenderError> {
         self.renderer

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::error::{BakeError, CountCheck, io_error};
 use crate::atomic::DirectorySwap;
 use crate::identity::IDENTITY_VERSION;
+use crate::index::{LayerIndex, LayerRef, LensIndex};
 use crate::layers::shell::LayerShell;
 
 /// The manifest format this code writes and reads.
@@ -223,8 +224,9 @@ impl Manifest {
                     "a lens object needs at least one layer",
                 );
             }
-            for layer_index in 0..lens.layers.len() {
-                self.validate_layer(path, lens, (index, layer_index), &mut files)?;
+            for layer in LayerIndex::all(lens.layers.len()) {
+                let at = LensIndex::new(index).layer(layer);
+                self.validate_layer(path, lens, at, &mut files)?;
             }
         }
         Ok(())
@@ -298,17 +300,17 @@ impl Manifest {
         }
     }
 
-    /// The checks of [`Manifest::validate`] on layer `layer_index` of lens object `index` (`lens`): its
-    /// EM origin, its shell and its files, which `files` collects across layers.
+    /// The checks of [`Manifest::validate`] on layer `at` (of lens object `lens`): its EM
+    /// origin, its shell and its files, which `files` collects across layers.
     fn validate_layer(
         &self,
         path: &Path,
         lens: &ManifestLens,
-        (index, layer_index): (usize, usize),
+        at: LayerRef,
         files: &mut ListedFiles,
     ) -> Result<(), BakeError> {
-        let layer = &lens.layers[layer_index];
-        let field = format!("lenses[{index}].layers[{layer_index}]");
+        let layer = &lens.layers[at.layer.index()];
+        let field = format!("lenses[{}].layers[{}]", at.lens, at.layer);
         if let Some(origin) = layer.em_origin
             && !within_reach(origin)
         {
@@ -338,7 +340,7 @@ impl Manifest {
         for (viewpoint, file) in layer.maps.iter().enumerate() {
             // A file listed twice is one map (a shared layer, or one map for several
             // viewpoints): one shell and one origin parameterize it.
-            let listed = (layer.shell, lens.layer_origin(layer_index));
+            let listed = (layer.shell, lens.layer_origin(at.layer.index()));
             let key: PathBuf = Path::new(file).components().collect();
             match files.get(&key) {
                 None => {

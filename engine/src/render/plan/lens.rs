@@ -7,6 +7,7 @@ use crate::graph::{
     Blend, ColourAttachment, ColourMask, CompareOp, Cull, DepthAttachment, ImageId, LoadOp, Pass,
     PassKind, StoreOp,
 };
+use crate::index::{LayerIndex, LensIndex};
 use crate::render::LensFaces;
 use crate::render::program::{ShaderProgram, SinglePassProgram};
 use crate::trace::Term;
@@ -83,7 +84,7 @@ pub(super) struct LensPasses<'a> {
     graph: &'a mut FrameGraph,
     resources: &'a FrameResources,
     lens: &'a LensShape,
-    index: usize,
+    index: LensIndex,
     cull: Cull,
 }
 
@@ -94,7 +95,7 @@ impl<'a> LensPasses<'a> {
         graph: &'a mut FrameGraph,
         resources: &'a FrameResources,
         lens: &'a LensShape,
-        index: usize,
+        index: LensIndex,
     ) -> LensPasses<'a> {
         let cull = match lens.faces {
             LensFaces::Front => Cull::Back,
@@ -135,7 +136,7 @@ impl<'a> LensPasses<'a> {
             program: ShaderProgram::LensSinglePass(program),
             colour: self.attach(Target::Framebuffer, LoadOp::Load, Blend::Replace),
             depth: LensDepth::Write,
-            sampled: self.resources.layers[self.index].clone(),
+            sampled: self.resources.layers[self.index.index()].clone(),
             draws: vec![Draw::SinglePass { lens: self.index }],
         });
     }
@@ -144,12 +145,12 @@ impl<'a> LensPasses<'a> {
     /// them: nearest first, except farthest first for back-to-front "over". A layer whose cube
     /// map is all zeros gets a pass without draws (the identity, culled by the graph).
     pub(super) fn layers(&mut self, group: Group, target: Target, blend: Blend) {
-        let mut order: Vec<usize> = (0..self.lens.layer_count()).collect();
+        let mut order: Vec<LayerIndex> = LayerIndex::all(self.lens.layer_count()).collect();
         if blend == Blend::BackToFrontOver {
             order.reverse();
         }
         for layer in order {
-            let draws = if self.lens.empty[group.viewpoint][layer] {
+            let draws = if self.lens.empty[group.viewpoint][layer.index()] {
                 Vec::new()
             } else {
                 vec![self.layer_draw(group, layer)]
@@ -160,7 +161,7 @@ impl<'a> LensPasses<'a> {
                 program: ShaderProgram::LensLayer,
                 colour: self.attach(target, LoadOp::Load, blend),
                 depth: LensDepth::Test,
-                sampled: vec![self.resources.layers[self.index][group.viewpoint]],
+                sampled: vec![self.sampled_layers(group)],
                 draws,
             });
         }
@@ -172,7 +173,7 @@ impl<'a> LensPasses<'a> {
     pub(super) fn programmable_layer(
         &mut self,
         group: Group,
-        layer: usize,
+        layer: LayerIndex,
         target: Target,
         current: Current,
     ) {
@@ -205,7 +206,7 @@ impl<'a> LensPasses<'a> {
             program,
             colour: self.attach(target, load, Blend::Replace),
             depth: LensDepth::Test,
-            sampled: std::iter::once(self.resources.layers[self.index][group.viewpoint])
+            sampled: std::iter::once(self.sampled_layers(group))
                 .chain(read)
                 .collect(),
             draws: vec![draw],
@@ -294,13 +295,18 @@ impl<'a> LensPasses<'a> {
     }
 
     /// The draw of one layer of `group`.
-    fn layer_draw(&self, group: Group, layer: usize) -> Draw {
+    fn layer_draw(&self, group: Group, layer: LayerIndex) -> Draw {
         Draw::Layer {
             lens: self.index,
             viewpoint: group.viewpoint,
             term: group.term,
             layer,
         }
+    }
+
+    /// The layered EM `group` samples: its viewpoint's cube-map array of this lens object.
+    fn sampled_layers(&self, group: Group) -> ImageId {
+        self.resources.layers[self.index.index()][group.viewpoint]
     }
 
     /// `target` as a stored colour attachment, all channels written.

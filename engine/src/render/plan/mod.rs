@@ -19,6 +19,7 @@ use crate::graph::{
 };
 
 use super::program::{ProgramError, ShaderProgram};
+use crate::index::{LayerIndex, LensIndex};
 use crate::trace::Term;
 use lens::{Group, LensPasses};
 pub use shape::{FrameShape, LensShape};
@@ -160,31 +161,31 @@ pub enum Draw {
     },
     /// The lens object's triangles with the zero shader (prime and alpha clear).
     LensZero {
-        /// Lens index.
-        lens: usize,
+        /// The lens object.
+        lens: LensIndex,
     },
     /// One layer of one (viewpoint, term) group.
     Layer {
-        /// Lens index.
-        lens: usize,
+        /// The lens object.
+        lens: LensIndex,
         /// Viewpoint sample index.
         viewpoint: usize,
         /// The term.
         term: Term,
-        /// Layer index, 0 = nearest.
-        layer: usize,
+        /// The layer (0 = nearest).
+        layer: LayerIndex,
     },
     /// One layer of the programmable scheme: the layer's source blended in the shader over the
     /// pixel's current value.
     ProgrammableLayer {
-        /// Lens index.
-        lens: usize,
+        /// The lens object.
+        lens: LensIndex,
         /// Viewpoint sample index.
         viewpoint: usize,
         /// The term.
         term: Term,
-        /// Layer index, 0 = nearest.
-        layer: usize,
+        /// The layer (0 = nearest).
+        layer: LayerIndex,
         /// The scratch image holding the pixel's current value (the lens object's first layer
         /// pass, over the prime's zero, is a plain [`Draw::Layer`]).
         read: u32,
@@ -200,8 +201,8 @@ pub enum Draw {
     },
     /// The single-pass draw of a lens object.
     SinglePass {
-        /// Lens index.
-        lens: usize,
+        /// The lens object.
+        lens: LensIndex,
     },
     /// A full-screen triangle averaging `supersampling`² subpixels of the colour target into
     /// each pixel of an external image.
@@ -351,7 +352,7 @@ pub fn frame_graph(
     let mut graph = Graph::new();
     let mut resources = declare_images(&mut graph, shape, blend, format);
     environment(&mut graph, shape, &resources);
-    for (index, lens) in shape.lenses.iter().enumerate() {
+    for (index, lens) in LensIndex::all(shape.lenses.len()).zip(&shape.lenses) {
         let viewpoints = shape.active_viewpoints(lens);
         if lens.triangles == 0
             || lens.layer_count() == 0

@@ -4,6 +4,7 @@
 //! is the frame's).
 
 use crate::graph::{Blend, ColourMask};
+use crate::index::LayerIndex;
 use crate::render::program::{ProgramError, SinglePassProgram};
 
 use super::lens::{Current, Group, LensPasses, Target};
@@ -54,12 +55,12 @@ pub(super) fn programmable(passes: &mut LensPasses, groups: &[Group]) {
     passes.prime();
     let lens = passes.lens();
     // The drawn layers in front-to-back order, each with its group's index.
-    let drawn: Vec<(usize, Group, usize)> = groups
+    let drawn: Vec<(usize, Group, LayerIndex)> = groups
         .iter()
         .enumerate()
         .flat_map(|(index, &group)| {
-            (0..lens.layer_count())
-                .filter(move |&layer| !lens.empty[group.viewpoint][layer])
+            LayerIndex::all(lens.layer_count())
+                .filter(move |&layer| !lens.empty[group.viewpoint][layer.index()])
                 .map(move |layer| (index, group, layer))
         })
         .collect();

@@ -106,7 +106,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     beside(&side_by_side)?.write_png_and_exr(&args.out.join("teapot-room-side-by-side.png"))?;
     step.finish_and_clear();
     say!(
-        "PSNR dB: display sRGB clamped to [0, 1] over the pixels the reference sees as all lens; lin. dB: linear HDR, unclamped"
+        "PSNR dB: display sRGB clamped to [0, 1] over the lens pixels (every subpixel's camera ray hits the same lens object first); lin. dB: linear HDR, unclamped"
     );
     say!(
         "reference ray tracer: {:.1} ms, {} rays, {} triangle tests ({} threads)",

@@ -10,11 +10,13 @@
 //! `layers_bake.rs` hold more of it.)
 
 mod common;
-use common::{TINY_FRAME, TINY_RENDER, assert_success, lensmap, lensmap_command, read};
+use common::{
+    TINY_FRAME, TINY_RENDER, assert_success, lensmap, lensmap_command, on_full_disk, read,
+};
 use lensmap_tests::fixtures::{SMALL_SCENE, edit_scene};
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 use std::time::{Duration, Instant};
 
 use lensmap::cubemap::CubeMap;
@@ -1443,24 +1445,6 @@ fn bright_but_valid_scenes_render_finite() {
     }
 }
 
-/// Runs `args` under `sh` with the file-size limit at `blocks` (512-byte blocks) and SIGXFSZ
-/// ignored, so that a write past it fails with EFBIG as on a full disk.
-fn with_full_disk(args: &[&str], blocks: u32) -> (Output, Duration) {
-    let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
-    let script = format!(
-        "trap '' XFSZ; ulimit -f {blocks}; exec '{}' {}",
-        env!("CARGO_BIN_EXE_lensmap"),
-        quoted.join(" ")
-    );
-    let start = Instant::now();
-    let output = Command::new("sh")
-        .args(["-c", &script])
-        .env("LENSMAP_VALIDATION", "1")
-        .output()
-        .unwrap();
-    (output, start.elapsed())
-}
-
 /// A full disk mid-write: a failure of the work (exit 1), one line naming the file, and the
 /// earlier PNG and EXR both as they were — not a new PNG beside an old EXR.
 #[test]
@@ -1488,14 +1472,15 @@ fn a_full_disk_keeps_the_earlier_pair_and_bake() {
     };
     succeeds("the earlier frame", &frame("32", "24"));
     let earlier = Earlier::of(&out);
-    let (output, elapsed) = with_full_disk(&frame("64", "48"), 16);
+    // 16 KiB free: the new PNG (4 KB) fits, its EXR (37 KB) does not.
+    let (output, elapsed) = on_full_disk(&scratch.0, 16, &frame("64", "48"));
     let exr = out.with_extension("exr");
     assert_refused(
         "full-disk-frame",
         &output,
         elapsed,
         1,
-        &[text(&exr), "File too large"],
+        &[text(&exr), "No space left on device"],
     );
     earlier.assert_intact("full-disk-frame");
 
@@ -1516,13 +1501,13 @@ fn a_full_disk_keeps_the_earlier_pair_and_bake() {
             (path, bytes)
         })
         .collect();
-    let (output, elapsed) = with_full_disk(&bake_args, 4);
+    let (output, elapsed) = on_full_disk(&scratch.0, 0, &bake_args);
     assert_refused(
         "full-disk-bake",
         &output,
         elapsed,
         1,
-        &[text(&bake), "File too large"],
+        &[text(&bake), "No space left on device"],
     );
     for (path, bytes) in &before {
         assert!(
@@ -1543,13 +1528,14 @@ fn a_full_disk_under_write_bake_exits_1() {
     let mut args = vec!["render", "--scene", "glass-sphere"];
     args.extend(TINY_RENDER);
     args.extend(["--write-bake", text(&bake), "--out", text(&out)]);
-    let (output, elapsed) = with_full_disk(&args, 8);
+    // 4 KiB free: the 16×12 frame would fit, the bake does not.
+    let (output, elapsed) = on_full_disk(&scratch.0, 4, &args);
     assert_refused(
         "full-disk-write-bake",
         &output,
         elapsed,
         1,
-        &[text(&bake), "File too large"],
+        &[text(&bake), "No space left on device"],
     );
     assert!(!bake.exists(), "no bake half written");
 }

@@ -70,3 +70,64 @@ pub fn succeeds(args: &[&str]) -> Output {
 pub fn read(path: &Path) -> Vec<u8> {
     std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
+
+/// Runs `lensmap args` (validation layer on) as if the disk holding `dir` were full but for
+/// `free_kib` KiB: in a mount namespace of the run's own (`unshare`), `dir` becomes a tmpfs
+/// holding a copy of what it held and filled to `free_kib` KiB free, so lensmap's writes there
+/// fail with ENOSPC. Afterwards `dir` holds what the tmpfs held (without the filler): what a
+/// full disk left. Returns the run's output (a death by a signal as exit 128 + n) and how long
+/// it took.
+///
+/// Why not `ulimit -f`: a file-size limit also caps the files a driver keeps for itself. Mesa
+/// 25.0's lavapipe backs device memory with memfd files; under `ulimit -f 64` its `ftruncate` of
+/// a 64 MiB block fails with EFBIG, `vkAllocateMemory` still succeeds, and lensmap's first copy
+/// into the mapped memory dies by SIGBUS inside the driver (measured with gdb). A full disk
+/// leaves the driver's memory alone: this one is only `dir`.
+pub fn on_full_disk(dir: &Path, free_kib: u32, args: &[&str]) -> (Output, std::time::Duration) {
+    const SCRIPT: &str = r#"
+dir=$1 stage=$2 free_kib=$3 lensmap=$4
+shift 4
+mkdir -p "$stage" && cp -a "$dir/." "$stage/" &&
+mount -t tmpfs -o size=64m lensmap-full-disk "$dir" &&
+cp -a "$stage/." "$dir/" &&
+{ dd if=/dev/zero of="$dir/.filler" bs=4096 >/dev/null 2>&1; true; } &&
+truncate -s "-${free_kib}K" "$dir/.filler" || { echo "cannot make a full disk at $dir" >&2; exit 125; }
+"$lensmap" "$@"
+status=$?
+rm -f "$dir/.filler"
+find "$stage" -mindepth 1 -delete && cp -a "$dir/." "$stage/" && umount "$dir" &&
+find "$dir" -mindepth 1 -delete && cp -a "$stage/." "$dir/" && rm -rf "$stage" ||
+    { echo "cannot copy back from the full disk at $dir" >&2; exit 125; }
+exit $status
+"#;
+    // Root makes a mount namespace directly; anyone else through a user namespace.
+    let namespace: &[&str] = if Command::new("unshare")
+        .args(["-m", "true"])
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        &["-m"]
+    } else {
+        &["-r", "-m"]
+    };
+    let stage = dir.with_extension("full-disk-stage");
+    let start = std::time::Instant::now();
+    let output = Command::new("unshare")
+        .args(namespace)
+        .args(["sh", "-c", SCRIPT, "sh"])
+        .arg(dir)
+        .arg(&stage)
+        .arg(free_kib.to_string())
+        .arg(env!("CARGO_BIN_EXE_lensmap"))
+        .args(args)
+        .env("LENSMAP_VALIDATION", "1")
+        .output()
+        .expect("unshare runs (util-linux)");
+    assert_ne!(
+        output.status.code(),
+        Some(125),
+        "no full disk could be made here (a mount namespace is needed: root, or user namespaces): {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    (output, start.elapsed())
+}

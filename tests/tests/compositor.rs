@@ -5,7 +5,8 @@
 //! path runs with the validation layer on.
 //!
 //! On any driver the GPU frames must lie in the model's bounds ([`ModelImage::bounds`]), derived
-//! from the device's own reported `subTexelPrecisionBits` and `mipmapPrecisionBits` and the LOD
+//! from the spec's minimum `subTexelPrecisionBits` and `mipmapPrecisionBits` (4 and 4, what
+//! conformance holds every driver to: [`FilterPrecision::SPEC_MINIMUM`]) and the LOD
 //! approximation the spec allows, plus [`F32_SLACK`]. On lavapipe they must also equal the
 //! model's nominal value (lavapipe's measured LOD choices, [`ModelOptions::lavapipe`]) to 1e-5.
 
@@ -43,25 +44,40 @@ const F32_SLACK: f64 = 1e-5;
 
 /// What a comparison on this device checks.
 struct Tolerance {
-    /// The device's filtering precision, from `gpu.properties().limits`.
+    /// The filtering precision the bounds assume: [`FilterPrecision::SPEC_MINIMUM`], the
+    /// precision every conformant driver is held to (see there: a driver's reported
+    /// `subTexelPrecisionBits` and `mipmapPrecisionBits` are not checked by conformance, and
+    /// Mesa 25.0's lavapipe exceeds its reported 6 mipmap bits).
     precision: FilterPrecision,
+    /// The precision the device reports, from `gpu.properties().limits`: pixels outside the
+    /// bounds it would give are counted and printed, not failed.
+    reported: FilterPrecision,
     /// The device is lavapipe, whose LOD arithmetic the model's nominal value reproduces: the
-    /// exact 1e-5 comparison applies as well.
+    /// exact 1e-5 comparison applies as well (measured on Mesa 22.3 and 25.0).
     exact: bool,
 }
 
 impl Tolerance {
     fn of(gpu: &Gpu) -> Tolerance {
         Tolerance {
-            precision: FilterPrecision::from_limits(&gpu.properties().limits),
+            precision: FilterPrecision::SPEC_MINIMUM,
+            reported: FilterPrecision::from_limits(&gpu.properties().limits),
             exact: gpu.device_name().starts_with("llvmpipe"),
         }
     }
 
-    /// The model with this device's bounds around lavapipe's nominal values.
+    /// The model with the conformance bounds around lavapipe's nominal values.
     fn model_options(&self) -> ModelOptions {
         ModelOptions {
             precision: Some(self.precision),
+            ..ModelOptions::lavapipe()
+        }
+    }
+
+    /// The model with the bounds of the device's reported precision.
+    fn reported_model_options(&self) -> ModelOptions {
+        ModelOptions {
+            precision: Some(self.reported),
             ..ModelOptions::lavapipe()
         }
     }
@@ -89,21 +105,26 @@ fn random_frame(rng: &mut Pcg64, layers: usize, viewpoints: usize, terms: &[Term
 fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
     let gpu = gpu();
     let tolerance = Tolerance::of(&gpu);
-    let precision = tolerance.precision;
+    let (precision, reported) = (tolerance.precision, tolerance.reported);
     println!(
-        "{}: bounds from subTexelPrecisionBits = {}, mipmapPrecisionBits = {} (LOD within the \
-         spec's scale-factor approximation, coarse or fine derivatives, ± 2·2^-{}) plus {F32_SLACK:e} \
-         for f32; exact 1e-5 check against lavapipe's LOD choices: {}",
+        "{}: bounds from the spec's minimum precision, subTexelPrecisionBits = {}, \
+         mipmapPrecisionBits = {} (LOD within the spec's scale-factor approximation, coarse or \
+         fine derivatives, ± 2·2^-{}) plus {F32_SLACK:e} for f32; the device reports {} and {}; \
+         exact 1e-5 check against lavapipe's LOD choices: {}",
         gpu.device_name(),
         precision.sub_texel_bits,
         precision.mipmap_bits,
         precision.mipmap_bits,
+        reported.sub_texel_bits,
+        reported.mipmap_bits,
         if tolerance.exact {
             "yes"
         } else {
             "no (not lavapipe)"
         }
     );
+    let mut outside_reported = 0;
+    let mut compared_total = 0;
     let mut renderer = Renderer::new(&gpu).unwrap();
     let mut rng = Pcg64::seed_from_u64(0x01e4_53a9);
     let both = [Term::Refraction, Term::Reflection];
@@ -140,6 +161,7 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
                     .unwrap();
 
                 let model = render_model(&frame, &tolerance.model_options());
+                let reported_model = render_model(&frame, &tolerance.reported_model_options());
                 let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
                 let compared = model.comparable_lens_pixels();
                 let case = format!("n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}");
@@ -179,6 +201,13 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
                             model.lens_mask[i]
                         );
                     }
+                    compared_total += 1;
+                    if reported_model.exclusion[i].is_none()
+                        && reported_model.distance_outside_bounds(i, pixel(&multipass, i))
+                            > F32_SLACK
+                    {
+                        outside_reported += 1;
+                    }
                     let (gpu_pixel, model_pixel) = (pixel(&multipass, i), model.rgba[i]);
                     for c in 0..4 {
                         let d = (gpu_pixel[c] - model_pixel[c]).abs();
@@ -209,6 +238,12 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
             }
         }
     }
+    println!(
+        "with the device's reported precision ({} and {} bits) instead: {outside_reported} of \
+         {compared_total} compared pixels outside the bounds (not a failure: conformance holds a \
+         driver to the spec's minimum)",
+        reported.sub_texel_bits, reported.mipmap_bits
+    );
     widths.sort_by(f64::total_cmp);
     println!(
         "over {} compared lens pixels: bound width (largest channel) median {:.3e}, 90th percentile {:.3e}, largest {:.3e}; \
@@ -296,7 +331,7 @@ fn every_blending_scheme_matches_its_f64_model() {
 /// The bound check can fail: GPU frames of deliberately wrong inputs (the two viewpoints' weights
 /// swapped, the two terms' F·G swapped, the layers in reverse order) are compared against the
 /// model of the right input; each mistake must put a large share of the compared lens pixels
-/// outside the bounds: ≥ 75 % with lavapipe's precision (8 sub-texel, 4 mipmap bits; measured
+/// outside the bounds: ≥ 75 % with Mesa 22.3 lavapipe's reported precision (8 sub-texel, 4 mipmap bits; measured
 /// 84–99 %), ≥ 25 % with the loosest the spec allows (4 and 4; measured 33–94 %), and the device's
 /// own as much as the looser of the two it is at least as precise as (the bounds shrink as the
 /// bits grow, so the share only rises).
@@ -325,7 +360,7 @@ fn the_bound_check_rejects_wrong_frames() {
         sub_texel_bits: 8,
         mipmap_bits: 4,
     };
-    let device = tolerance.precision;
+    let device = tolerance.reported;
     let device_share = if device.sub_texel_bits >= 8 && device.mipmap_bits >= 4 {
         0.75
     } else {

@@ -5,16 +5,56 @@
 pub mod c_abi;
 pub mod fixtures;
 
-use lensmap::gpu::{Gpu, GpuOptions};
+use std::sync::OnceLock;
+
+use lensmap::gpu::{DeviceId, Gpu, GpuOptions};
 
 /// A GPU for tests, with validation on. The validation layer is required (CI installs
 /// `vulkan-validationlayers`); set `LENSMAP_TEST_NO_VALIDATION=1` to run without it locally.
+/// From then on every failure in this test process names the device and its driver
+/// ([`name_the_driver_on_failure`]).
 pub fn gpu() -> Gpu {
     let mut options = GpuOptions::from_env();
     options.validation = std::env::var("LENSMAP_TEST_NO_VALIDATION").map_or(true, |v| v != "1");
     match Gpu::new(&options) {
-        Ok(gpu) => gpu,
+        Ok(gpu) => {
+            name_the_driver_on_failure(gpu.device_id());
+            gpu
+        }
         Err(e) => panic!("no GPU for tests: {e}"),
+    }
+}
+
+/// The device a failure is reported against, once known.
+static FAILING_ON: OnceLock<String> = OnceLock::new();
+
+/// Makes every later panic of this test process (a failed assertion, in any test thread) end
+/// with a line naming `device` and its driver with its version: two drivers can share a device
+/// name (Mesa 22.3's and 25.0's lavapipe), and a failure on one says nothing of the other.
+pub fn name_the_driver_on_failure(device: &DeviceId) {
+    if FAILING_ON.set(device.to_string()).is_ok() {
+        let report = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            report(info);
+            if let Some(device) = FAILING_ON.get() {
+                eprintln!("on device: {device}");
+            }
+        }));
+    }
+}
+
+/// For tests that drive the `lensmap` binary: the device and driver the binary will pick (the
+/// same `GpuOptions::from_env` choice, without validation), named on failure as
+/// [`name_the_driver_on_failure`] does. Without a device it does nothing: the test's own run
+/// then says what is missing.
+pub fn name_the_binarys_driver_on_failure() {
+    if FAILING_ON.get().is_none()
+        && let Ok(gpu) = Gpu::new(&GpuOptions {
+            validation: false,
+            ..GpuOptions::from_env()
+        })
+    {
+        name_the_driver_on_failure(gpu.device_id());
     }
 }
 

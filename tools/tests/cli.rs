@@ -6,6 +6,7 @@ use std::process::Command;
 mod common;
 
 fn lensmap(args: &[&str]) -> std::process::Output {
+    lensmap_tests::name_the_binarys_driver_on_failure();
     Command::new(env!("CARGO_BIN_EXE_lensmap"))
         .args(args)
         .output()

@@ -251,6 +251,7 @@ fn progress_names_each_step_on_a_terminal() {
             .join(" ")
     };
     let args = tiny_render(&["--out", frame.to_str().unwrap(), "--compare"]);
+    lensmap_tests::name_the_binarys_driver_on_failure();
     let line = format!(
         "LENSMAP_VALIDATION=1 '{}' {}",
         env!("CARGO_BIN_EXE_lensmap"),

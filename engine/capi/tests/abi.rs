@@ -139,14 +139,13 @@ fn assert_no_validation_messages(context: *mut LensmapContext) {
 /// The Rust API's frame for the same scene, camera and options.
 /// lensmap's Rust API on its own device, validation on: what ABI frames are compared with.
 fn validated_runner() -> FrameRunner {
-    FrameRunner::new(
-        Gpu::new(&GpuOptions {
-            validation: true,
-            ..GpuOptions::default()
-        })
-        .expect("a device"),
-    )
-    .expect("a runner")
+    let gpu = Gpu::new(&GpuOptions {
+        validation: true,
+        ..GpuOptions::default()
+    })
+    .expect("a device");
+    lensmap_tests::name_the_driver_on_failure(gpu.device_id());
+    FrameRunner::new(gpu).expect("a runner")
 }
 
 fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f32> {

@@ -106,6 +106,40 @@ pub struct Gpu {
     /// against before any work starts.
     device_local_heap_bytes: u64,
     name: String,
+    /// The device and the driver behind it.
+    device: DeviceId,
+}
+
+/// A device and its driver, as `VkPhysicalDeviceProperties` and `VkPhysicalDeviceDriverProperties`
+/// name them. The device name alone does not tell drivers apart: Mesa 22.3's and Mesa 25.0's
+/// lavapipe are both `llvmpipe (LLVM 15.0.6, 256 bits)`; their `driverInfo` differs.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
+pub struct DeviceId {
+    /// `deviceName`.
+    pub device: String,
+    /// `driverName`, e.g. `llvmpipe`.
+    pub driver: String,
+    /// `driverInfo`, the driver's version: `Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)`.
+    pub driver_info: String,
+}
+
+impl DeviceId {
+    /// The driver and its version: `llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)`.
+    pub fn driver_description(&self) -> String {
+        match (self.driver.is_empty(), self.driver_info.is_empty()) {
+            (false, false) => format!("{}, {}", self.driver, self.driver_info),
+            (false, true) => self.driver.clone(),
+            (true, false) => self.driver_info.clone(),
+            (true, true) => String::from("(driver not named)"),
+        }
+    }
+}
+
+impl std::fmt::Display for DeviceId {
+    /// `llvmpipe (LLVM 15.0.6, 256 bits), driver llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}, driver {}", self.device, self.driver_description())
+    }
 }
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
@@ -365,6 +399,23 @@ impl Gpu {
             .device_name_as_c_str()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|_| String::from("(unnamed device)"));
+        let mut driver_properties = vk::PhysicalDeviceDriverProperties::default();
+        let mut properties2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_properties);
+        // SAFETY: the physical device comes from this instance, which is Vulkan 1.3 (the driver
+        // properties are core since 1.2); the chain lives until the call returns.
+        unsafe {
+            shared
+                .instance
+                .get_physical_device_properties2(parts.physical_device, &mut properties2)
+        };
+        let text = |chars: Result<&CStr, _>| {
+            chars.map_or_else(|_| String::new(), |c: &CStr| c.to_string_lossy().into_owned())
+        };
+        let device = DeviceId {
+            device: name.clone(),
+            driver: text(driver_properties.driver_name_as_c_str()),
+            driver_info: text(driver_properties.driver_info_as_c_str()),
+        };
         Ok(Gpu {
             shared,
             queue,
@@ -372,6 +423,7 @@ impl Gpu {
             properties,
             device_local_heap_bytes,
             name,
+            device,
         })
     }
 
@@ -474,6 +526,12 @@ impl Gpu {
     /// The device's name as the driver reports it (`llvmpipe (LLVM 15.0.6, 256 bits)` on lavapipe).
     pub fn device_name(&self) -> &str {
         &self.name
+    }
+
+    /// The device and its driver (name and version): what a report should name, since two
+    /// drivers can give one device name.
+    pub fn device_id(&self) -> &DeviceId {
+        &self.device
     }
 
     /// The physical device's properties.

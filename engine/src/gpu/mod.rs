@@ -9,7 +9,7 @@ pub(crate) mod resources;
 
 pub use ash::vk;
 pub use context::{
-    DeviceChoice, Gpu, GpuOptions, HostDevice, HostFeatures, Timeline, ValidationReport,
+    DeviceChoice, DeviceId, Gpu, GpuOptions, HostDevice, HostFeatures, Timeline, ValidationReport,
 };
 pub use pipeline::{GraphicsPipelineDesc, VertexInput};
 pub use resources::{Buffer, BufferUsage, Image, ImageDesc, format_bytes};

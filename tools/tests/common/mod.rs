@@ -33,8 +33,10 @@ pub fn temp_dir(group: &str, name: &str) -> PathBuf {
     dir
 }
 
-/// The `lensmap` binary with `args`, the Khronos validation layer on.
+/// The `lensmap` binary with `args`, the Khronos validation layer on. A failure of the test from
+/// then on names the device and driver the binary runs on.
 pub fn lensmap_command(args: &[&str]) -> Command {
+    lensmap_tests::name_the_binarys_driver_on_failure();
     let mut command = Command::new(env!("CARGO_BIN_EXE_lensmap"));
     command.args(args).env("LENSMAP_VALIDATION", "1");
     command
@@ -110,6 +112,7 @@ exit $status
     } else {
         &["-r", "-m"]
     };
+    lensmap_tests::name_the_binarys_driver_on_failure();
     let stage = dir.with_extension("full-disk-stage");
     let start = std::time::Instant::now();
     let output = Command::new("unshare")

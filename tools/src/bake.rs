@@ -148,7 +148,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
             .with_resolution(args.width, args.height, args.supersampling),
         lensmap::render::TargetFormat::Rgba32f,
     )?;
-    let device = runner.gpu().device_name().to_string();
+    let device = runner.gpu().device_id().clone();
     let bars = BakeBars::new(samples.len());
     let job = BakeJob {
         dir: &args.out,
@@ -171,7 +171,8 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         &json!({
             "scene": scene.name,
             "out": args.out,
-            "device": device,
+            "device": device.device,
+            "driver": device.driver_description(),
             "summary": summary,
         }),
         None,

@@ -106,7 +106,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         .into());
     }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    let device = runner.gpu().device_name().to_string();
+    let device = runner.gpu().device_id().clone();
     let mut steps = crate::common::Steps::new(4);
     let step = steps.step("projected layered EMs, light maps and the bakes");
     let mut contenders: Vec<(String, HybridScene)> = vec![(
@@ -202,7 +202,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     }
     report(
         &json!({
-            "scene": scene.name, "device": device, "width": args.judge.width, "height": args.judge.height,
+            "scene": scene.name, "device": device.device, "driver": device.driver_description(), "width": args.judge.width, "height": args.judge.height,
             "supersampling": args.judge.supersampling, "reference_supersampling": args.judge.reference_supersampling,
             "t": args.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
         }),

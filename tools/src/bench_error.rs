@@ -115,7 +115,12 @@ fn replot(report: &Path, dir: &Path) -> anyhow::Result<()> {
         .into());
     }
     let text = |name: &str| json[name].as_str().unwrap_or("?").to_owned();
-    crate::pareto::write(dir, &points, &text("scene"), &text("device"))
+    // Reports written before the driver was recorded name the device alone.
+    let device = match json["driver"].as_str() {
+        Some(driver) => format!("{}, driver {driver}", text("device")),
+        None => text("device"),
+    };
+    crate::pareto::write(dir, &points, &text("scene"), &device)
 }
 
 /// Where a setting's layered EMs come from.
@@ -458,7 +463,7 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     let scene = checked_scene(&args)?;
     let sweep = Sweep::new(&scene, &args);
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    let device = runner.gpu().device_name().to_string();
+    let device = runner.gpu().device_id().clone();
     let base = scene.camera.with_resolution(args.width, args.height, 1);
     let cameras = crate::bench_bake::cameras(&scene, args.sample, base);
 
@@ -485,12 +490,12 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
             dir,
             &points_for_plot(&results.points, &results.on_frontier),
             &scene.name,
-            &device,
+            &device.to_string(),
         )?;
     }
     report(
         &json!({
-            "scene": scene.name, "device": device, "width": args.width, "height": args.height,
+            "scene": scene.name, "device": device.device, "driver": device.driver_description(), "width": args.width, "height": args.height,
             "reference_supersampling": args.reference_supersampling, "frames": args.frames,
             "cameras": cameras.iter().map(|(name, c)| json!({"camera": name, "position": c.position})).collect::<Vec<_>>(),
             "encoding": "display sRGB, lens pixels of the reference; SSIM: image-compare's 8×8-window SSIM averaged over them",

@@ -71,7 +71,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     step.finish_and_clear();
     say!(
         "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
-        runner.gpu().device_name(),
+        runner.gpu().device_id(),
         hybrid.scene.name,
         args.width,
         args.height,
@@ -103,7 +103,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let scaling = bench.thread_scaling(&mut runner, &options, threads, &mut steps)?;
 
     let out = json!({
-        "device": runner.gpu().device_name(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
+        "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
         "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
         "threads": threads, "frames": args.frames, "rows": rows,
         "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,

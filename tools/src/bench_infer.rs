@@ -81,7 +81,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let step = steps.step("projected layered EMs and light maps");
     let (mut hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
-    let device = runner.gpu().device_name().to_string();
+    let device = runner.gpu().device_id().clone();
     say!(
         "{}: {}×{}, targets {k}×{k}, reference {r}×{r}, device {device}",
         args.scene,
@@ -158,7 +158,8 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     report(
         &json!({
             "scene": args.scene,
-            "device": device,
+            "device": device.device,
+            "driver": device.driver_description(),
             "width": args.judge.width,
             "height": args.judge.height,
             "supersampling": args.judge.supersampling,

@@ -163,7 +163,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
     let frames = frames(&args)?;
     say!(
         "device: {}  ({}×{}, {} timed frames per row, median)",
-        runner.gpu().device_name(),
+        runner.gpu().device_id(),
         args.width,
         args.height,
         args.frames
@@ -211,7 +211,7 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         )?);
     }
     let out = json!({
-        "device": runner.gpu().device_name(), "width": args.width, "height": args.height,
+        "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "width": args.width, "height": args.height,
         "frames": args.frames,
         "reference": "multipass, front-to-back, rgba32f", "rows": rows,
     });

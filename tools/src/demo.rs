@@ -78,7 +78,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     // The GPU first: without a driver the demo stops here with exit code 2.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     runner.check_framebuffer(&camera, TargetFormat::Rgba16f)?;
-    say!("device: {}", runner.gpu().device_name());
+    say!("device: {}", runner.gpu().device_id());
 
     let mut steps = Steps::new(5);
     let inferred = inferred_scene(
@@ -125,7 +125,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     say!("total {:.1} s", started.elapsed().as_secs_f64());
     let out = json!({
-        "device": runner.gpu().device_name(), "width": camera.width, "height": camera.height,
+        "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "width": camera.width, "height": camera.height,
         "supersampling": camera.supersampling, "em_size": args.em_size,
         "reference": {"ms": reference.stats.seconds * 1e3, "rays": rc.all_rays(), "triangle_tests": rc.triangle_tests},
         "rows": rows,
@@ -447,7 +447,7 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
     }
     let started = Instant::now();
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    say!("device: {}", runner.gpu().device_name());
+    say!("device: {}", runner.gpu().device_id());
     let frame = synthetic::sphere_frame(&synthetic::SyntheticOptions {
         width,
         height,
@@ -504,7 +504,7 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
     }
     say!("total {:.2} s", started.elapsed().as_secs_f64());
     let out = json!({
-        "device": runner.gpu().device_name(), "width": width, "height": height,
+        "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "width": width, "height": height,
         "layers": args.layers, "frames": args.frames, "format": format.name(),
         "variants": rows, "single_pass_vs_multipass_max_difference": difference,
     });

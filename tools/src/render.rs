@@ -204,7 +204,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         reference.as_ref(),
         Run {
             prepare_s,
-            device: runner.gpu().device_name(),
+            device: runner.gpu().device_id(),
             written: &out,
         },
     )?;
@@ -217,7 +217,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 /// and the files written.
 struct Run<'a> {
     prepare_s: f64,
-    device: &'a str,
+    device: &'a lensmap::gpu::DeviceId,
     written: &'a ImageOut,
 }
 
@@ -236,7 +236,7 @@ fn report(
     } = run;
     let c = frame.stats.counters;
     let mut out = json!({
-        "scene": hybrid.scene.name, "device": device,
+        "scene": hybrid.scene.name, "device": device.device, "driver": device.driver_description(),
         "width": camera.width, "height": camera.height, "supersampling": camera.supersampling,
         "t": args.t, "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
@@ -319,7 +319,7 @@ fn print_table(r: &serde_json::Value) {
     let h = &r["hybrid"];
     let ms = |v: &serde_json::Value| v.as_f64().unwrap_or(0.0);
     say!(
-        "{} {}×{} ({}×{} supersampling), t = {}, {} {} on {}, {} layered EMs",
+        "{} {}×{} ({}×{} supersampling), t = {}, {} {} on {} (driver {}), {} layered EMs",
         r["scene"].as_str().unwrap_or(""),
         r["width"],
         r["height"],
@@ -329,6 +329,7 @@ fn print_table(r: &serde_json::Value) {
         r["variant"].as_str().unwrap_or(""),
         r["format"].as_str().unwrap_or(""),
         r["device"].as_str().unwrap_or(""),
+        r["driver"].as_str().unwrap_or(""),
         r["layered_ems"].as_str().unwrap_or("")
     );
     let l = &r["light_maps"];

@@ -113,11 +113,30 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
             .as_ref()
             .map(|p| p.samples.clone())
             .unwrap_or_default();
+        let baked_on = manifest
+            .provenance
+            .as_ref()
+            .map(|p| p.baked_on.clone())
+            .unwrap_or_default();
+        if baked_on.len() > 1 {
+            let each: Vec<String> = baked_on
+                .iter()
+                .map(|g| format!("{} (samples {:?})", g.device, g.samples))
+                .collect();
+            warn!(
+                "the shards were baked on {} devices or drivers: {}; the merged bake holds maps \
+                 from each (how far two drivers' maps of one sample differ: \
+                 docs/results.md#bake-drivers)",
+                baked_on.len(),
+                each.join("; ")
+            );
+        }
         report(
             &json!({
                 "out": args.out,
                 "merged": args.merge,
                 "samples": samples,
+                "baked_on": baked_on,
             }),
             None,
         )?;

@@ -420,3 +420,58 @@ fn lens_objects_sharing_a_far_layer_store_it_once_through_shards_and_resume() {
     assert_eq!(after.len(), (layers - 1) * 3 + 1);
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// A bake records the device and driver that baked each sample (provenance, not identity: the
+/// driver `bake --json` names), and `--merge` of shards baked on different drivers succeeds with
+/// one warning naming both. The second driver is written into a shard's manifest: one machine
+/// has one driver per process.
+#[test]
+fn a_bake_records_its_driver_and_a_merge_across_drivers_warns_naming_them() {
+    let root = temp_dir("drivers");
+    let (one, two, merged) = (root.join("s1"), root.join("s2"), root.join("merged"));
+    let output = bake("glass-sphere", "0..2", &one, &["--shard", "1/2"]);
+    succeeded(&output);
+    succeeded(&bake("glass-sphere", "0..2", &two, &["--shard", "2/2"]));
+    let said: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let driver = said["driver"]
+        .as_str()
+        .expect("bake --json names the driver");
+    assert!(!driver.is_empty(), "{said}");
+    let manifest_of = |dir: &Path| -> serde_json::Value {
+        serde_json::from_slice(&common::read(&dir.join("manifest.json"))).unwrap()
+    };
+    let recorded = &manifest_of(&one)["provenance"]["baked_on"];
+    assert_eq!(recorded.as_array().map(Vec::len), Some(1), "{recorded}");
+    let device = &recorded[0]["device"];
+    assert_eq!(
+        format!(
+            "{}, {}",
+            device["driver"].as_str().unwrap(),
+            device["driver_info"].as_str().unwrap()
+        ),
+        driver
+    );
+    assert_eq!(recorded[0]["samples"], serde_json::json!([0]));
+
+    let mut other = manifest_of(&two);
+    other["provenance"]["baked_on"][0]["device"]["driver_info"] =
+        "Mesa 99.0 (a second driver)".into();
+    std::fs::write(
+        two.join("manifest.json"),
+        serde_json::to_vec_pretty(&other).unwrap(),
+    )
+    .unwrap();
+    let output = merge(&one, &two, &merged);
+    succeeded(&output);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with("warning: ")
+            && stderr.contains(device["driver_info"].as_str().unwrap())
+            && stderr.contains("Mesa 99.0 (a second driver)"),
+        "{stderr}"
+    );
+    let baked_on = &manifest_of(&merged)["provenance"]["baked_on"];
+    assert_eq!(baked_on.as_array().map(Vec::len), Some(2), "{baked_on}");
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -9,7 +9,10 @@ use std::{
 use glam::DVec3;
 use lensmap::{
     identity::IDENTITY_VERSION,
-    layers::{LayerShell, Manifest, Provenance, Staging, bake::MANIFEST_FILE_NAME},
+    layers::{
+        LayerShell, Manifest, Provenance, Staging,
+        bake::{BakedOn, MANIFEST_FILE_NAME},
+    },
     options::{LibraryWords, OptionWords, Worded},
 };
 
@@ -173,6 +176,15 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<Manifest, BakeFailure> {
         viewpoints: Vec::new(),
         provenance: Some(Provenance {
             samples: Vec::new(),
+            // Every shard's record of who baked its samples.
+            baked_on: BakedOn::group(manifests.iter().flat_map(|(_, _, provenance)| {
+                provenance.baked_on.iter().flat_map(|group| {
+                    group
+                        .samples
+                        .iter()
+                        .map(|&sample| (sample, Some(group.device.clone())))
+                })
+            })),
             ..first_provenance.clone()
         }),
         ..first.clone()

@@ -10,10 +10,13 @@ use std::{
 
 use glam::Vec3;
 use lensmap::{
+    gpu::DeviceId,
     index::{LayerIndex, LensIndex},
     layers::{
         Manifest, Provenance, Staging,
-        bake::{BakeError, MANIFEST_FILE_NAME, ManifestLayer, ManifestLens, default_created_by},
+        bake::{
+            BakeError, BakedOn, MANIFEST_FILE_NAME, ManifestLayer, ManifestLens, default_created_by,
+        },
     },
     runner::FrameRunner,
     scene::Scene,
@@ -111,14 +114,15 @@ pub fn bake(
     // Complete samples: staged ones, then (resuming) those of the previous bake at `dir`.
     let mut complete = staged_samples(&staging, &plan, positions.len())?;
     let mut resumed: Vec<usize> = complete.keys().copied().collect();
+    // Who baked the samples taken from the bake at `dir`, as its provenance says.
+    let mut resumed_on = BTreeMap::new();
     if job.resume {
-        resumed.extend(resume_from_bake(
-            &staging,
-            job.dir,
-            &plan,
-            &positions,
-            &mut complete,
-        )?);
+        for (sample, device) in
+            resume_from_bake(&staging, job.dir, &plan, &positions, &mut complete)?
+        {
+            resumed.push(sample);
+            resumed_on.extend(device.map(|d| (sample, d)));
+        }
     }
     resumed.sort_unstable();
     let todo: Vec<usize> = job
@@ -161,7 +165,13 @@ pub fn bake(
     }
     reports.sort_by_key(|r| r.sample);
     let in_bake: Vec<usize> = complete.keys().copied().collect();
-    let manifest = plan_manifest(&plan, &in_bake, &positions);
+    let mut manifest = plan_manifest(&plan, &in_bake, &positions);
+    if let Some(provenance) = manifest.provenance.as_mut() {
+        provenance.baked_on = BakedOn::group(complete.iter().map(|(&sample, report)| {
+            let device = report.as_ref().and_then(|r| r.baked_on.clone());
+            (sample, device.or_else(|| resumed_on.get(&sample).cloned()))
+        }));
+    }
     staging.commit(&manifest)?;
     Ok(BakeSummary {
         plan,
@@ -243,14 +253,15 @@ fn staged_samples(
 
 /// Copies into `staging` every sample of the bake at `dir` that `complete` lacks, when that bake
 /// was made with `plan`'s scene, options and EM size and lists the plan's files for the sample;
-/// marks each complete (with a report that holds no figures). Returns the samples taken.
+/// marks each complete (with a report that holds no figures). Returns the samples taken, each
+/// with the device that baked it if that bake recorded one.
 fn resume_from_bake(
     staging: &Staging,
     dir: &Path,
     plan: &Plan,
     positions: &[Vec3],
     complete: &mut BTreeMap<usize, Option<SampleReport>>,
-) -> Result<Vec<usize>, BakeFailure> {
+) -> Result<Vec<(usize, Option<DeviceId>)>, BakeFailure> {
     let Ok(manifest) = Manifest::read(dir) else {
         return Ok(Vec::new());
     };
@@ -300,10 +311,11 @@ fn resume_from_bake(
             psnr_db: None,
             projected_psnr_db: None,
             seconds: StageSeconds::default(),
+            baked_on: BakedOn::device_of(&provenance.baked_on, sample).cloned(),
         };
         stage_report(staging, &marker)?;
         complete.insert(sample, None);
-        taken.push(sample);
+        taken.push((sample, marker.baked_on));
     }
     Ok(taken)
 }

@@ -47,6 +47,10 @@ pub struct SampleReport {
     pub projected_psnr_db: Option<f64>,
     /// Seconds per stage.
     pub seconds: StageSeconds,
+    /// The device and driver that baked the sample (absent in reports of lensmap builds that
+    /// did not record it, and for a sample taken from an earlier bake that did not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baked_on: Option<lensmap::gpu::DeviceId>,
 }
 
 /// One lens object at one sample.
@@ -162,6 +166,7 @@ pub fn bake_sample(
             psnr_db,
             projected_psnr_db,
             seconds,
+            baked_on: Some(runner.gpu().device_id().clone()),
         },
     ))
 }

@@ -113,7 +113,9 @@ pub struct Gpu {
 /// A device and its driver, as `VkPhysicalDeviceProperties` and `VkPhysicalDeviceDriverProperties`
 /// name them. The device name alone does not tell drivers apart: Mesa 22.3's and Mesa 25.0's
 /// lavapipe are both `llvmpipe (LLVM 15.0.6, 256 bits)`; their `driverInfo` differs.
-#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct DeviceId {
     /// `deviceName`.
     pub device: String,
@@ -400,7 +402,8 @@ impl Gpu {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|_| String::from("(unnamed device)"));
         let mut driver_properties = vk::PhysicalDeviceDriverProperties::default();
-        let mut properties2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_properties);
+        let mut properties2 =
+            vk::PhysicalDeviceProperties2::default().push_next(&mut driver_properties);
         // SAFETY: the physical device comes from this instance, which is Vulkan 1.3 (the driver
         // properties are core since 1.2); the chain lives until the call returns.
         unsafe {
@@ -409,7 +412,10 @@ impl Gpu {
                 .get_physical_device_properties2(parts.physical_device, &mut properties2)
         };
         let text = |chars: Result<&CStr, _>| {
-            chars.map_or_else(|_| String::new(), |c: &CStr| c.to_string_lossy().into_owned())
+            chars.map_or_else(
+                |_| String::new(),
+                |c: &CStr| c.to_string_lossy().into_owned(),
+            )
         };
         let device = DeviceId {
             device: name.clone(),

@@ -65,7 +65,7 @@ pub use exr::{
     write_cube_map_exr,
 };
 pub use manifest::{
-    FORMAT_VERSION, MANIFEST_FILE_NAME, MAX_EM_ORIGIN_METRES, Manifest, ManifestLayer,
+    BakedOn, FORMAT_VERSION, MANIFEST_FILE_NAME, MAX_EM_ORIGIN_METRES, Manifest, ManifestLayer,
     ManifestLens, Provenance,
 };
 pub use staging::Staging;

@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::error::{BakeError, CountCheck, io_error};
 use crate::atomic::DirectorySwap;
+use crate::gpu::DeviceId;
 use crate::identity::IDENTITY_VERSION;
 use crate::index::{LayerIndex, LayerRef, LensIndex};
 use crate::layers::shell::LayerShell;
@@ -66,6 +67,54 @@ pub struct Provenance {
     pub options_hash: String,
     /// The view-space index of each viewpoint, in the order of `viewpoints`: strictly increasing.
     pub samples: Vec<usize>,
+    /// Which device and driver baked which samples (absent in bakes made before lensmap
+    /// recorded it). Provenance, not identity: resuming, merging and rendering do not compare
+    /// it, since the rendering matrices come from the device and two conformant drivers' maps
+    /// of one sample differ only by what their rasterization may differ by.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub baked_on: Vec<BakedOn>,
+}
+
+/// Samples of a bake made on one device and driver.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BakedOn {
+    /// The device and its driver.
+    pub device: DeviceId,
+    /// The view-space indices it baked, increasing.
+    pub samples: Vec<usize>,
+}
+
+impl BakedOn {
+    /// `(sample, device)` pairs grouped by device, in the order devices first appear, each
+    /// group's samples increasing; pairs without a device (samples whose baker is not known)
+    /// are left out.
+    pub fn group(pairs: impl IntoIterator<Item = (usize, Option<DeviceId>)>) -> Vec<BakedOn> {
+        let mut groups: Vec<BakedOn> = Vec::new();
+        for (sample, device) in pairs {
+            let Some(device) = device else { continue };
+            match groups.iter_mut().find(|g| g.device == device) {
+                Some(group) => group.samples.push(sample),
+                None => groups.push(BakedOn {
+                    device,
+                    samples: vec![sample],
+                }),
+            }
+        }
+        for group in &mut groups {
+            group.samples.sort_unstable();
+            group.samples.dedup();
+        }
+        groups
+    }
+
+    /// The device that baked `sample` according to `baked_on`, if recorded.
+    pub fn device_of(baked_on: &[BakedOn], sample: usize) -> Option<&DeviceId> {
+        baked_on
+            .iter()
+            .find(|g| g.samples.contains(&sample))
+            .map(|g| &g.device)
+    }
 }
 
 impl Provenance {
@@ -77,6 +126,7 @@ impl Provenance {
             scene_hash,
             options_hash,
             samples,
+            baked_on: Vec::new(),
         }
     }
 

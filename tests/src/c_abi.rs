@@ -11,6 +11,18 @@ pub fn deps_dir() -> PathBuf {
     exe.parent().expect("a folder").to_path_buf()
 }
 
+/// `LD_LIBRARY_PATH` for a host program: [`deps_dir`] (for `liblensmap_capi.so`) before the
+/// test's own, so that a driver chosen through the environment (a privately installed one,
+/// whose libraries `LD_LIBRARY_PATH` names) is still the one the host loads.
+pub fn library_path() -> std::ffi::OsString {
+    let mut path = deps_dir().into_os_string();
+    if let Some(own) = std::env::var_os("LD_LIBRARY_PATH").filter(|p| !p.is_empty()) {
+        path.push(":");
+        path.push(own);
+    }
+    path
+}
+
 /// The repository's root folder.
 pub fn repository() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -48,14 +48,18 @@ pub fn name_the_driver_on_failure(device: &DeviceId) {
 /// [`name_the_driver_on_failure`] does. Without a device it does nothing: the test's own run
 /// then says what is missing.
 pub fn name_the_binarys_driver_on_failure() {
-    if FAILING_ON.get().is_none()
-        && let Ok(gpu) = Gpu::new(&GpuOptions {
-            validation: false,
-            ..GpuOptions::from_env()
-        })
-    {
-        name_the_driver_on_failure(gpu.device_id());
-    }
+    // Once per process, whatever the outcome: test threads calling at once wait for the one probe.
+    static PROBED: OnceLock<()> = OnceLock::new();
+    PROBED.get_or_init(|| {
+        if FAILING_ON.get().is_none()
+            && let Ok(gpu) = Gpu::new(&GpuOptions {
+                validation: false,
+                ..GpuOptions::from_env()
+            })
+        {
+            name_the_driver_on_failure(gpu.device_id());
+        }
+    });
 }
 
 /// Fails the test if the validation layer reported anything.

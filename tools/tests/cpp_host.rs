@@ -59,6 +59,7 @@ fn read_pfm(path: &Path) -> (u32, u32, Vec<[f32; 3]>) {
 
 #[test]
 fn the_cpp_host_renders_what_lensmap_render_renders() {
+    lensmap_tests::name_the_binarys_driver_on_failure();
     let scratch = temp_dir("cpp-host", "render");
     let host = build_host(&scratch);
     // (framebuffer and image format, supersampling, exact): RGBA8 compares bit for bit; RGBA32F
@@ -97,7 +98,7 @@ fn the_cpp_host_renders_what_lensmap_render_renders() {
             .arg("--pfm")
             .arg(&host_pfm)
             .args(size)
-            .env("LD_LIBRARY_PATH", c_abi::deps_dir())
+            .env("LD_LIBRARY_PATH", c_abi::library_path())
             .output()
             .expect("the C++ host runs");
         let stderr = String::from_utf8_lossy(&run.stderr);

@@ -176,15 +176,21 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<Manifest, BakeFailure> {
         viewpoints: Vec::new(),
         provenance: Some(Provenance {
             samples: Vec::new(),
-            // Every shard's record of who baked its samples.
-            baked_on: BakedOn::group(manifests.iter().flat_map(|(_, _, provenance)| {
-                provenance.baked_on.iter().flat_map(|group| {
-                    group
-                        .samples
-                        .iter()
-                        .map(|&sample| (sample, Some(group.device.clone())))
-                })
-            })),
+            // Every shard's record of who baked its samples, in sample order (as one bake of
+            // them all records it), whatever the order of the shards.
+            baked_on: BakedOn::group(
+                manifests
+                    .iter()
+                    .flat_map(|(_, _, provenance)| {
+                        provenance.baked_on.iter().flat_map(|group| {
+                            group
+                                .samples
+                                .iter()
+                                .map(|&sample| (sample, Some(group.device.clone())))
+                        })
+                    })
+                    .collect::<BTreeMap<_, _>>(),
+            ),
             ..first_provenance.clone()
         }),
         ..first.clone()

@@ -15,6 +15,7 @@ fn crate_dir() -> &'static Path {
 
 #[test]
 fn a_c_program_builds_without_warnings_and_passes() {
+    lensmap_tests::name_the_binarys_driver_on_failure();
     let scratch = temp_dir("capi", "c-program");
     let program = scratch.join("abi_test");
     c_abi::build_host(
@@ -26,7 +27,7 @@ fn a_c_program_builds_without_warnings_and_passes() {
     );
     let run = Command::new(&program)
         .arg("2")
-        .env("LD_LIBRARY_PATH", c_abi::deps_dir())
+        .env("LD_LIBRARY_PATH", c_abi::library_path())
         .env("LENSMAP_VALIDATION", "1")
         .output()
         .expect("the C program runs");

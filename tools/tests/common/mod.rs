@@ -89,11 +89,12 @@ pub fn on_full_disk(dir: &Path, free_kib: u32, args: &[&str]) -> (Output, std::t
     const SCRIPT: &str = r#"
 dir=$1 stage=$2 free_kib=$3 lensmap=$4
 shift 4
-mkdir -p "$stage" && cp -a "$dir/." "$stage/" &&
-mount -t tmpfs -o size=64m lensmap-full-disk "$dir" &&
+mode=$(stat -c %a "$dir") && rm -rf "$stage" && mkdir "$stage" && cp -a "$dir/." "$stage/" &&
+mount -t tmpfs -o "size=64m,mode=$mode" lensmap-full-disk "$dir" &&
 cp -a "$stage/." "$dir/" &&
 { dd if=/dev/zero of="$dir/.filler" bs=4096 >/dev/null 2>&1; true; } &&
-truncate -s "-${free_kib}K" "$dir/.filler" || { echo "cannot make a full disk at $dir" >&2; exit 125; }
+truncate -s "-${free_kib}K" "$dir/.filler" ||
+    { rm -rf "$stage"; echo "cannot make a full disk at $dir" >&2; exit 125; }
 "$lensmap" "$@"
 status=$?
 rm -f "$dir/.filler"
@@ -103,17 +104,22 @@ find "$dir" -mindepth 1 -delete && cp -a "$stage/." "$dir/" && rm -rf "$stage" |
 exit $status
 "#;
     // Root makes a mount namespace directly; anyone else through a user namespace.
-    let namespace: &[&str] = if Command::new("unshare")
-        .args(["-m", "true"])
-        .output()
-        .is_ok_and(|o| o.status.success())
-    {
-        &["-m"]
-    } else {
-        &["-r", "-m"]
-    };
+    let namespace: &[&str] = [&["-m"][..], &["-r", "-m"][..]]
+        .into_iter()
+        .find(|flags| {
+            Command::new("unshare")
+                .args(*flags)
+                .arg("true")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+        .expect(
+            "no full disk can be made here: `unshare -m` (root) or `unshare -r -m` (user \
+             namespaces) is needed",
+        );
     lensmap_tests::name_the_binarys_driver_on_failure();
-    let stage = dir.with_extension("full-disk-stage");
+    let mut stage = dir.as_os_str().to_owned();
+    stage.push(".full-disk-stage");
     let start = std::time::Instant::now();
     let output = Command::new("unshare")
         .args(namespace)
@@ -129,7 +135,7 @@ exit $status
     assert_ne!(
         output.status.code(),
         Some(125),
-        "no full disk could be made here (a mount namespace is needed: root, or user namespaces): {}",
+        "no full disk could be made here: {}",
         String::from_utf8_lossy(&output.stderr)
     );
     (output, start.elapsed())

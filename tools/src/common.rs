@@ -491,3 +491,28 @@ impl ImageOut {
         }
     }
 }
+
+/// Warns when the process runs under a file-size limit (`ulimit -f`), read from
+/// `/proc/self/limits` (nothing is said where that file does not exist). lensmap's own writes
+/// past the limit fail with an error and leave earlier outputs intact, but a driver that backs
+/// device memory with files is capped too and cannot be warned: Mesa 25.0's lavapipe allocates
+/// memory past the limit without an error and the process dies by SIGBUS at its first use
+/// (docs/testing.md#full-disk).
+pub fn warn_of_file_size_limit() {
+    let Ok(limits) = std::fs::read_to_string("/proc/self/limits") else {
+        return;
+    };
+    // "Max file size   <soft>   <hard>   bytes"
+    let soft = limits
+        .lines()
+        .find_map(|line| line.strip_prefix("Max file size"))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|soft| soft.parse::<u64>().ok());
+    if let Some(bytes) = soft {
+        warn!(
+            "a file-size limit of {} KiB is set (ulimit -f): a driver that backs GPU memory with \
+             files (Mesa 24 and later's lavapipe) dies by SIGBUS past it; raise or remove the limit",
+            bytes / 1024
+        );
+    }
+}

@@ -226,6 +226,7 @@ fn main() -> ExitCode {
         json: cli.json,
         quiet: cli.quiet,
     });
+    common::warn_of_file_size_limit();
     let result = match cli.command {
         Command::Demo(args) => demo::run(args),
         Command::Passes(args) => passes::run(args),

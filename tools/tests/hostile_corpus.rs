@@ -1577,3 +1577,36 @@ fn a_closed_stderr_keeps_the_exit_code() {
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(2), "closed-stderr");
 }
+
+/// Under a file-size limit (`ulimit -f`) every run says so in one warning before any work: past
+/// it, a driver that backs GPU memory with files dies by SIGBUS, which lensmap cannot catch. A
+/// run without a limit says nothing.
+#[test]
+fn a_file_size_limit_is_named_in_one_warning() {
+    let run = |limit: &str| {
+        let script = format!(
+            "{limit} exec '{}' passes --layers 1",
+            env!("CARGO_BIN_EXE_lensmap")
+        );
+        std::process::Command::new("sh")
+            .args(["-c", &script])
+            .output()
+            .unwrap()
+    };
+    let limited = run("ulimit -f 2097152;");
+    assert_success("under a limit", &limited);
+    let stderr = String::from_utf8_lossy(&limited.stderr);
+    assert!(
+        stderr.lines().count() == 1
+            && stderr.starts_with("warning: a file-size limit of ")
+            && stderr.contains("SIGBUS"),
+        "{stderr}"
+    );
+    let unlimited = run("ulimit -f unlimited;");
+    assert_success("without a limit", &unlimited);
+    assert!(
+        unlimited.stderr.is_empty(),
+        "{:?}",
+        String::from_utf8_lossy(&unlimited.stderr)
+    );
+}

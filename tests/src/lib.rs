@@ -8,6 +8,9 @@ pub mod fixtures;
 use std::sync::OnceLock;
 
 use lensmap::gpu::{DeviceId, Gpu, GpuOptions};
+use lensmap::render::{
+    RenderOptions, RenderedImage, Renderer, TargetFormat, UploadedFrame, Variant,
+};
 
 /// A GPU for tests, with validation on. The validation layer is required (CI installs
 /// `vulkan-validationlayers`); set `LENSMAP_TEST_NO_VALIDATION=1` to run without it locally.
@@ -60,6 +63,25 @@ pub fn name_the_binarys_driver_on_failure() {
             name_the_driver_on_failure(gpu.device_id());
         }
     });
+}
+
+/// `frame` rendered by `renderer` with `variant` into RGBA32F, the format the exact comparisons
+/// use (front to back, read back).
+pub fn render_rgba32f(
+    renderer: &mut Renderer,
+    gpu: &Gpu,
+    frame: &mut UploadedFrame,
+    variant: Variant,
+) -> RenderedImage {
+    let options = RenderOptions {
+        variant,
+        format: TargetFormat::Rgba32f,
+        ..Default::default()
+    };
+    renderer
+        .render(gpu, frame, &options)
+        .expect("the frame renders")
+        .0
 }
 
 /// Fails the test if the validation layer reported anything.

@@ -24,6 +24,7 @@ use lensmap::render::{
 };
 use lensmap::trace::{LensSelection, Term};
 use lensmap_tests::fixtures::compositor;
+use lensmap_tests::render_rgba32f;
 use lensmap_tests::{assert_clean, gpu, random_compositor_frame};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
@@ -65,21 +66,13 @@ impl Tolerance {
             exact: gpu.device_name().starts_with("llvmpipe"),
         }
     }
+}
 
-    /// The model with the conformance bounds around lavapipe's nominal values.
-    fn model_options(&self) -> ModelOptions {
-        ModelOptions {
-            precision: Some(self.precision),
-            ..ModelOptions::lavapipe()
-        }
-    }
-
-    /// The model with the bounds of the device's reported precision.
-    fn reported_model_options(&self) -> ModelOptions {
-        ModelOptions {
-            precision: Some(self.reported),
-            ..ModelOptions::lavapipe()
-        }
+/// The model of lavapipe's nominal values with the bounds of `precision`.
+fn model_options(precision: FilterPrecision) -> ModelOptions {
+    ModelOptions {
+        precision: Some(precision),
+        ..ModelOptions::lavapipe()
     }
 }
 
@@ -137,31 +130,13 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
             for terms in [&both[..], &[Term::Reflection][..]] {
                 let frame = random_frame(&mut rng, layers, viewpoints, terms);
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
-                let (multipass, _) = renderer
-                    .render(
-                        &gpu,
-                        &mut uploaded,
-                        &RenderOptions {
-                            variant: Variant::Multipass,
-                            format: TargetFormat::Rgba32f,
-                            ..Default::default()
-                        },
-                    )
-                    .unwrap();
-                let (single, _) = renderer
-                    .render(
-                        &gpu,
-                        &mut uploaded,
-                        &RenderOptions {
-                            variant: Variant::SinglePass,
-                            format: TargetFormat::Rgba32f,
-                            ..Default::default()
-                        },
-                    )
-                    .unwrap();
+                let multipass =
+                    render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::Multipass);
+                let single =
+                    render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::SinglePass);
 
-                let model = render_model(&frame, &tolerance.model_options());
-                let reported_model = render_model(&frame, &tolerance.reported_model_options());
+                let model = render_model(&frame, &model_options(tolerance.precision));
+                let reported_model = render_model(&frame, &model_options(tolerance.reported));
                 let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
                 let compared = model.comparable_lens_pixels();
                 let case = format!("n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}");
@@ -286,7 +261,7 @@ fn every_blending_scheme_matches_its_f64_model() {
                         .unwrap();
                     let options = ModelOptions {
                         blend,
-                        ..tolerance.model_options()
+                        ..model_options(tolerance.precision)
                     };
                     let model = render_model(&frame, &options);
                     let case = format!(
@@ -371,10 +346,7 @@ fn the_bound_check_rejects_wrong_frames() {
         (lavapipe_precision, 0.75),
         (device, device_share),
     ] {
-        let options = ModelOptions {
-            precision: Some(precision),
-            ..ModelOptions::lavapipe()
-        };
+        let options = model_options(precision);
         let model = render_model(&frame, &options);
         let compared: Vec<usize> = (0..model.rgba.len())
             .filter(|&i| model.lens_mask[i] && model.exclusion[i].is_none())
@@ -382,17 +354,7 @@ fn the_bound_check_rejects_wrong_frames() {
         assert!(compared.len() > 1500, "{} pixels compared", compared.len());
         for (mistake, wrong) in &mistakes {
             let mut uploaded = renderer.upload(&gpu, wrong).unwrap();
-            let (image, _) = renderer
-                .render(
-                    &gpu,
-                    &mut uploaded,
-                    &RenderOptions {
-                        variant: Variant::Multipass,
-                        format: TargetFormat::Rgba32f,
-                        ..Default::default()
-                    },
-                )
-                .unwrap();
+            let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::Multipass);
             let rejected = compared
                 .iter()
                 .filter(|&&i| model.distance_outside_bounds(i, pixel(&image, i)) > F32_SLACK)
@@ -451,28 +413,8 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
                     "{plan}"
                 );
             }
-            let (x, _) = renderer
-                .render(
-                    &gpu,
-                    &mut a,
-                    &RenderOptions {
-                        variant,
-                        format: TargetFormat::Rgba32f,
-                        ..Default::default()
-                    },
-                )
-                .unwrap();
-            let (y, _) = renderer
-                .render(
-                    &gpu,
-                    &mut b,
-                    &RenderOptions {
-                        variant,
-                        format: TargetFormat::Rgba32f,
-                        ..Default::default()
-                    },
-                )
-                .unwrap();
+            let x = render_rgba32f(&mut renderer, &gpu, &mut a, variant);
+            let y = render_rgba32f(&mut renderer, &gpu, &mut b, variant);
             assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
         }
     }
@@ -576,28 +518,8 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
         .unwrap();
     let mut fresh = renderer.upload(&gpu, &replaced).unwrap();
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let (a, _) = renderer
-            .render(
-                &gpu,
-                &mut uploaded,
-                &RenderOptions {
-                    variant,
-                    format: TargetFormat::Rgba32f,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-        let (b, _) = renderer
-            .render(
-                &gpu,
-                &mut fresh,
-                &RenderOptions {
-                    variant,
-                    format: TargetFormat::Rgba32f,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+        let a = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
+        let b = render_rgba32f(&mut renderer, &gpu, &mut fresh, variant);
         assert_eq!(a.pixels, b.pixels, "{variant:?}");
     }
     // A replacement that does not fit the uploaded frame is an error naming the lens.

@@ -9,11 +9,12 @@ use lensmap::{
     hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
     metrics::{self, Channels, Encoding, Mask},
-    render::{RenderOptions, Renderer, TargetFormat, Variant},
+    render::{Renderer, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
     scene::Scene,
     trace::{LensSelection, TraceOptions, render_reference},
 };
+use lensmap_tests::render_rgba32f;
 use lensmap_tests::{assert_clean, fixtures, gpu};
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -207,17 +208,7 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
         hybrid.forget_frame();
         let (input, stats) = hybrid.frame(&camera, &frame_options.hybrid).unwrap();
         let mut uploaded = renderer.upload(&by_hand_gpu, &input).unwrap();
-        let (full, _) = renderer
-            .render(
-                &by_hand_gpu,
-                &mut uploaded,
-                &RenderOptions {
-                    variant,
-                    format: TargetFormat::Rgba32f,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+        let full = render_rgba32f(&mut renderer, &by_hand_gpu, &mut uploaded, variant);
         assert_eq!((full.width, full.height), (80, 60), "supersampled 2×2");
         let by_hand = full.box_downsample(2);
         assert_eq!((run.image.width, run.image.height), (40, 30));

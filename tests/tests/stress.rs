@@ -36,6 +36,7 @@ use lensmap::trace::{Ray, Term, TraceCounters, TraceOptions, TraceScene, render_
 use lensmap_baker::matrix::TexelLayout;
 use lensmap_baker::solve::{Equations, Smoothness, SolveMethod, SolveOptions, solve};
 use lensmap_tests::fixtures::{AnalyticSphere, angle_between, built_in_scene, lens_alone};
+use lensmap_tests::render_rgba32f;
 use lensmap_tests::{assert_clean, gpu};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
@@ -1322,17 +1323,7 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
         let model = render_model(frame, &ModelOptions::lavapipe());
         let mut uploaded = renderer.upload(&gpu, frame).expect("the frame uploads");
         for variant in [Variant::Multipass, Variant::SinglePass] {
-            let (image, _) = renderer
-                .render(
-                    &gpu,
-                    &mut uploaded,
-                    &RenderOptions {
-                        variant,
-                        format: TargetFormat::Rgba32f,
-                        ..Default::default()
-                    },
-                )
-                .expect("the frame renders");
+            let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
             let (difference, compared) = model_difference(&image, &model);
             worst_model = worst_model.max(difference);
             assert!(
@@ -1480,17 +1471,7 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let mut worst_uniform = 0.0f64;
     let mut uploaded = renderer.upload(&gpu, &uniform).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let (image, _) = renderer
-            .render(
-                &gpu,
-                &mut uploaded,
-                &RenderOptions {
-                    variant,
-                    format: TargetFormat::Rgba32f,
-                    ..Default::default()
-                },
-            )
-            .expect("the frame renders");
+        let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
         assert!(image.pixels.iter().flatten().all(|v| v.is_finite()));
         for (pixel, _) in image
             .pixels
@@ -1514,17 +1495,7 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let mut images = Vec::new();
     let mut worst_outside = 0.0f64;
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let (image, _) = renderer
-            .render(
-                &gpu,
-                &mut uploaded,
-                &RenderOptions {
-                    variant,
-                    format: TargetFormat::Rgba32f,
-                    ..Default::default()
-                },
-            )
-            .expect("the frame renders");
+        let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
         for (pixel, _) in image
             .pixels
             .iter()

@@ -113,9 +113,7 @@ pub struct Gpu {
 /// A device and its driver, as `VkPhysicalDeviceProperties` and `VkPhysicalDeviceDriverProperties`
 /// name them. The device name alone does not tell drivers apart: Mesa 22.3's and Mesa 25.0's
 /// lavapipe are both `llvmpipe (LLVM 15.0.6, 256 bits)`; their `driverInfo` differs.
-#[derive(
-    Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
-)]
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct DeviceId {
     /// `deviceName`.
     pub device: String,

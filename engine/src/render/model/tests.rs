@@ -200,14 +200,12 @@ fn two_viewpoints_sum_and_alpha_clear() {
     }
 }
 
-#[test]
-fn perspective_interpolation_matches_ray_plane_intersection() {
-    // A tilted environment triangle seen in perspective; its colour is its world position,
-    // so at every pixel the model's colour must be where the pixel's ray meets the plane.
-    // Right-handed view space looking down −z, projected to Vulkan clip space (y down,
-    // depth 0 at the near plane, 1 at the far plane), written out by hand.
+/// The tests' perspective projection: right-handed view space looking down −z to Vulkan clip
+/// space (y down, depth 0 at the near plane 0.1, 1 at the far plane 100), focal length 1.5,
+/// written out by hand.
+fn test_projection() -> Mat4 {
     let (near, far, focal) = (0.1f32, 100.0f32, 1.5f32);
-    let projection = Mat4::from_cols_array(&[
+    Mat4::from_cols_array(&[
         focal,
         0.0,
         0.0,
@@ -224,7 +222,14 @@ fn perspective_interpolation_matches_ray_plane_intersection() {
         0.0,
         near * far / (near - far),
         0.0,
-    ]);
+    ])
+}
+
+#[test]
+fn perspective_interpolation_matches_ray_plane_intersection() {
+    // A tilted environment triangle seen in perspective; its colour is its world position,
+    // so at every pixel the model's colour must be where the pixel's ray meets the plane.
+    let projection = test_projection();
     let view = Mat4::from_rotation_y(0.15)
         * Mat4::from_rotation_x(-0.1)
         * Mat4::from_translation(Vec3::new(-0.3, -0.2, -3.0));
@@ -368,25 +373,7 @@ fn random_sphere_frame(
     layer_count: usize,
     viewpoints: usize,
 ) -> FrameInput {
-    let (near, far, focal) = (0.1f32, 100.0f32, 1.5f32);
-    let projection = Mat4::from_cols_array(&[
-        focal,
-        0.0,
-        0.0,
-        0.0, //
-        0.0,
-        -focal,
-        0.0,
-        0.0, //
-        0.0,
-        0.0,
-        far / (near - far),
-        -1.0, //
-        0.0,
-        0.0,
-        near * far / (near - far),
-        0.0,
-    ]);
+    let projection = test_projection();
     let view_proj = projection * Mat4::from_translation(Vec3::new(0.05, -0.03, -3.0));
     let environment = EnvironmentMesh {
         positions: vec![

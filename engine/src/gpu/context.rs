@@ -105,7 +105,6 @@ pub struct Gpu {
     /// The largest device-local memory heap, bytes: what budgets of GPU memory are checked
     /// against before any work starts.
     device_local_heap_bytes: u64,
-    name: String,
     /// The device and the driver behind it.
     device: DeviceId,
 }
@@ -416,7 +415,7 @@ impl Gpu {
             )
         };
         let device = DeviceId {
-            device: name.clone(),
+            device: name,
             driver: text(driver_properties.driver_name_as_c_str()),
             driver_info: text(driver_properties.driver_info_as_c_str()),
         };
@@ -426,7 +425,6 @@ impl Gpu {
             command_pool,
             properties,
             device_local_heap_bytes,
-            name,
             device,
         })
     }
@@ -529,7 +527,7 @@ impl Gpu {
 
     /// The device's name as the driver reports it (`llvmpipe (LLVM 15.0.6, 256 bits)` on lavapipe).
     pub fn device_name(&self) -> &str {
-        &self.name
+        &self.device.device
     }
 
     /// The device and its driver (name and version): what a report should name, since two

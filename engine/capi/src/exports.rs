@@ -223,7 +223,12 @@ pub unsafe extern "C" fn lensmap_scene_load(
             }
         };
         let (hybrid, _) = load_hybrid_scene(scene, &ems.into())?;
-        let handle = register(Box::new(LensmapScene { hybrid }), Kind::Scene);
+        let handle = register(
+            Box::new(LensmapScene {
+                hybrid: Box::new(hybrid),
+            }),
+            Kind::Scene,
+        );
         // SAFETY: checked non-null; writable by the caller's promise.
         unsafe { *out = handle };
         Ok(())

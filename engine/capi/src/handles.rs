@@ -1,6 +1,13 @@
-//! Opaque handles: every context and scene lensmap gives out is registered by address until it is
-//! freed, so a freed or foreign pointer is refused with `LENSMAP_RESULT_INVALID_HANDLE` instead
-//! of being dereferenced, and a context is used by one call at a time.
+//! Opaque handles: every context and scene lensmap gives out is registered by address, so a freed
+//! or foreign pointer is refused with `LENSMAP_RESULT_INVALID_HANDLE` instead of being
+//! dereferenced, and a context is used by one call at a time.
+//!
+//! A freed handle's contents are dropped, but its allocation is kept as a tombstone for the life
+//! of the process. Returned to the allocator, its address could go to the next handle made on any
+//! thread, and a second free of the old pointer would then free that handle under its user: the
+//! C ABI tests' misuse corpus did this to a context another test thread was rendering with (a
+//! crash inside the validation layer, "Invalid VkDevice", in about one run in 50 on Mesa 25.0).
+//! A handle's contents are boxed, so a tombstone is 16 bytes.
 
 use std::collections::HashMap;
 use std::sync::{Mutex, TryLockError};
@@ -13,14 +20,16 @@ use crate::types::LensmapResult;
 
 /// A Vulkan device with lensmap's pipelines and per-frame buffers.
 pub struct LensmapContext {
-    pub(crate) runner: Mutex<FrameRunner>,
+    /// Boxed, so that the handle's tombstone is small (see the module documentation).
+    pub(crate) runner: Box<Mutex<FrameRunner>>,
     /// Made on a host's device (host images can be rendered into), not lensmap's own.
     pub(crate) on_host: bool,
 }
 
 /// A scene with its layered EMs and light maps, ready to render.
 pub struct LensmapScene {
-    pub(crate) hybrid: HybridScene,
+    /// Boxed, so that the handle's tombstone is small (see the module documentation).
+    pub(crate) hybrid: Box<HybridScene>,
 }
 
 /// Which kind of handle an address is registered as.
@@ -30,10 +39,11 @@ pub(crate) enum Kind {
     Scene,
 }
 
-/// Every live handle, by address: a pointer not here is never dereferenced.
-static LIVE: Mutex<Option<HashMap<usize, Kind>>> = Mutex::new(None);
+/// Every handle ever given out, by address, with whether it is still live: a pointer not live
+/// here is never dereferenced, and a freed one stays (its address is never given out again).
+static LIVE: Mutex<Option<HashMap<usize, (Kind, bool)>>> = Mutex::new(None);
 
-fn live() -> std::sync::MutexGuard<'static, Option<HashMap<usize, Kind>>> {
+fn live() -> std::sync::MutexGuard<'static, Option<HashMap<usize, (Kind, bool)>>> {
     // A panic while the lock was held left the map consistent (inserts and removes are single
     // operations), so a poisoned lock is taken over.
     LIVE.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
@@ -43,14 +53,14 @@ pub(crate) fn register<T>(handle: Box<T>, kind: Kind) -> *mut T {
     let pointer = Box::into_raw(handle);
     live()
         .get_or_insert_with(HashMap::new)
-        .insert(pointer as usize, kind);
+        .insert(pointer as usize, (kind, true));
     pointer
 }
 
 pub(crate) fn is_live(pointer: usize, kind: Kind) -> bool {
     live()
         .as_ref()
-        .is_some_and(|map| map.get(&pointer) == Some(&kind))
+        .is_some_and(|map| map.get(&pointer) == Some(&(kind, true)))
 }
 
 /// Registers a new context for `runner` and writes it to `*out`.
@@ -63,7 +73,7 @@ pub(crate) unsafe fn hand_out_context(
     out: *mut *mut LensmapContext,
 ) {
     let context = LensmapContext {
-        runner: Mutex::new(runner),
+        runner: Box::new(Mutex::new(runner)),
         on_host,
     };
     // SAFETY: the caller's promise.
@@ -89,27 +99,21 @@ pub(crate) unsafe fn free_handle<T>(
             format!("{refusal} (freed twice?); nothing freed"),
         ));
     }
-    // SAFETY: it was live, made by Box::into_raw as a T, and is unregistered now: freed once.
-    drop(unsafe { Box::from_raw(pointer) });
+    // SAFETY: it was live, made by Box::into_raw as a T, and is marked freed now: its contents
+    // are dropped once. The allocation stays as a tombstone (see the module documentation).
+    unsafe { std::ptr::drop_in_place(pointer) };
     Ok(())
 }
 
-/// Removes `pointer` from the live handles; false when it was not one of `kind`.
+/// Marks `pointer` freed; false when it was not a live handle of `kind`.
 pub(crate) fn unregister(pointer: usize, kind: Kind) -> bool {
     let mut guard = live();
-    let Some(map) = guard.as_mut() else {
-        return false;
-    };
-    if map.get(&pointer) == Some(&kind) {
-        map.remove(&pointer);
-        if map.is_empty() {
-            // No handle is live: the table itself goes too, so that a host that freed
-            // everything holds nothing of lensmap's (what leak checkers look for at exit).
-            *guard = None;
+    match guard.as_mut().and_then(|map| map.get_mut(&pointer)) {
+        Some(entry) if *entry == (kind, true) => {
+            entry.1 = false;
+            true
         }
-        true
-    } else {
-        false
+        _ => false,
     }
 }
 

@@ -17,6 +17,7 @@ mod load;
 mod material;
 mod mesh;
 mod obj;
+mod path;
 pub mod shapes;
 pub mod teapot;
 
@@ -29,6 +30,7 @@ pub use environment::{
 pub use error::SceneError;
 pub use material::{ImageTexture, Material, Texture};
 pub use mesh::{MeshProblem, TriangleMesh};
+pub use path::{CameraPath, CameraPose};
 
 /// The names of the built-in scenes, in the order `lensmap` lists them.
 pub const BUILTIN_SCENES: [&str; 3] = ["teapot-room", "glass-sphere", "mirror-teapot"];

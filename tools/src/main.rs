@@ -16,6 +16,7 @@ mod pareto;
 mod passes;
 mod reference;
 mod render;
+mod view;
 mod words;
 
 use std::process::ExitCode;
@@ -93,6 +94,11 @@ enum Command {
     ///
     /// Example: lensmap bake --scene teapot-room --samples 0,1 --out out/bake
     Bake(bake::BakeArgs),
+    /// The hybrid frame along a camera path; --record DIR renders it headless into frames and a
+    /// stats CSV.
+    ///
+    /// Example: lensmap view --scene glass-sphere --projected --record out/orbit --frames 60
+    View(view::ViewArgs),
     /// Benchmarks (medians of repeated runs, ratios measured in the same run).
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -233,6 +239,7 @@ fn main() -> ExitCode {
         Command::Reference(args) => reference::run(args),
         Command::Render(args) => render::run(args),
         Command::Bake(args) => bake::run(args),
+        Command::View(args) => view::run(args),
         Command::Bench(BenchCommand::Passes(args)) => bench_passes::run(args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(args),
         Command::Bench(BenchCommand::Hybrid(args)) => bench_hybrid::run(args),

@@ -85,7 +85,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         &mut runner,
         &scene,
         &camera,
-        &args.out.join("bake"),
+        &args.out.join(BAKE_CACHE),
         &mut steps,
     )?;
     let hybrid = projected_scene(scene, projected, args.em_size, &mut steps)?;
@@ -379,13 +379,7 @@ fn inferred_scene(
     .map_or_else(|| vec![0], |b| b.samples.iter().map(|(i, _)| *i).collect());
     let mut samples = blend;
     samples.sort_unstable();
-    let options = BakeOptions {
-        width: camera.width,
-        height: camera.height,
-        supersampling: camera.supersampling,
-        judge: false,
-        ..BakeOptions::default()
-    };
+    let options = bake_options(camera);
     let cached = reuse::check(dir, scene, &options, &samples).is_ok();
     let start = Instant::now();
     if cached {
@@ -509,4 +503,20 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
         "variants": rows, "single_pass_vs_multipass_max_difference": difference,
     });
     report(&out, args.report.as_deref())
+}
+
+/// Where the demo caches its inferred layered EMs, under its `--out` folder (`out/bake` by
+/// default): `lensmap view` looks for a reusable bake there too.
+pub const BAKE_CACHE: &str = "bake";
+
+/// The bake options of the demo's cached bake for `camera`: its size and supersampling, no
+/// judge. A bake is reused only when its provenance names exactly these.
+pub fn bake_options(camera: &lensmap::scene::Camera) -> BakeOptions {
+    BakeOptions {
+        width: camera.width,
+        height: camera.height,
+        supersampling: camera.supersampling,
+        judge: false,
+        ..BakeOptions::default()
+    }
 }

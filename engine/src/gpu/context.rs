@@ -29,6 +29,11 @@ pub struct GpuOptions {
     pub device: DeviceChoice,
     /// Enable the Khronos validation layer (with synchronization validation) and count its messages.
     pub validation: bool,
+    /// The instance extensions a window system needs to present (`VK_KHR_surface` and the
+    /// platform's, as `ash_window::enumerate_required_extensions` lists them). When given, the
+    /// device is chosen among those with `VK_KHR_swapchain` and created with it; empty (the
+    /// default) for a GPU that renders headless.
+    pub surface_extensions: Vec<&'static CStr>,
 }
 
 impl GpuOptions {
@@ -39,7 +44,11 @@ impl GpuOptions {
             _ => DeviceChoice::Best,
         };
         let validation = std::env::var("LENSMAP_VALIDATION").is_ok_and(|v| v == "1");
-        GpuOptions { device, validation }
+        GpuOptions {
+            device,
+            validation,
+            surface_extensions: Vec::new(),
+        }
     }
 }
 
@@ -56,7 +65,6 @@ pub struct ValidationReport {
 /// instance are destroyed only after the last buffer and image.
 pub(crate) struct Shared {
     /// The Vulkan loader; held so that the library stays loaded while the instance lives.
-    #[expect(dead_code, reason = "held, never read: it keeps libvulkan loaded")]
     pub(crate) entry: ash::Entry,
     /// The Vulkan instance, destroyed last.
     pub(crate) instance: ash::Instance,
@@ -98,6 +106,10 @@ pub struct Gpu {
     pub(crate) shared: Arc<Shared>,
     /// The graphics queue (queue 0 of the chosen family) every submission goes to.
     pub(crate) queue: vk::Queue,
+    /// The queue's family.
+    queue_family: u32,
+    /// The physical device the device was made from.
+    physical_device: vk::PhysicalDevice,
     /// The pool of that family's command buffers, resettable one by one.
     pub(crate) command_pool: vk::CommandPool,
     /// The chosen physical device's properties (limits, API version, name).
@@ -225,6 +237,23 @@ impl HostFeatures {
         .map(|(_, name)| name)
         .collect()
     }
+}
+
+/// The Vulkan objects under a [`Gpu`] ([`Gpu::vulkan`]), borrowed from it.
+#[derive(Clone, Copy)]
+pub struct VulkanHandles<'a> {
+    /// The loader.
+    pub entry: &'a ash::Entry,
+    /// The instance.
+    pub instance: &'a ash::Instance,
+    /// The physical device.
+    pub physical_device: vk::PhysicalDevice,
+    /// The device.
+    pub device: &'a ash::Device,
+    /// The family of `queue`.
+    pub queue_family: u32,
+    /// The graphics queue every submission of the GPU goes to.
+    pub queue: vk::Queue,
 }
 
 /// A host's Vulkan objects lent to lensmap ([`Gpu::from_host`]).
@@ -371,7 +400,9 @@ impl Gpu {
         let Parts {
             entry,
             instance,
+            physical_device,
             device,
+            queue_family,
             queue,
             properties,
             debug_instance,
@@ -406,7 +437,7 @@ impl Gpu {
         unsafe {
             shared
                 .instance
-                .get_physical_device_properties2(parts.physical_device, &mut properties2)
+                .get_physical_device_properties2(physical_device, &mut properties2)
         };
         let text = |chars: Result<&CStr, _>| {
             chars.map_or_else(
@@ -422,6 +453,8 @@ impl Gpu {
         Ok(Gpu {
             shared,
             queue,
+            queue_family,
+            physical_device,
             command_pool,
             properties,
             device_local_heap_bytes,
@@ -475,7 +508,8 @@ impl Gpu {
             }
         };
 
-        let chosen = match choose_device(&instance, &options.device) {
+        let presents = !options.surface_extensions.is_empty();
+        let chosen = match choose_device(&instance, &options.device, presents) {
             Ok(chosen) => chosen,
             Err(e) => {
                 destroy_instance(&instance);
@@ -484,7 +518,7 @@ impl Gpu {
         };
         let (physical_device, queue_family, properties) = chosen;
 
-        let device = match create_device(&instance, physical_device, queue_family) {
+        let device = match create_device(&instance, physical_device, queue_family, presents) {
             Ok(device) => device,
             Err(result) => {
                 destroy_instance(&instance);
@@ -522,6 +556,22 @@ impl Gpu {
                 }
                 Err(error)
             }
+        }
+    }
+
+    /// The Vulkan objects under this GPU, for a front end that presents its frames itself (a
+    /// window's surface and swapchain on the same device and queue, the way a host lends its
+    /// image to [`crate::runner::FrameRunner::frame_into`]). The caller submits to the queue only
+    /// from the thread that renders with this GPU, and destroys what it makes on these
+    /// handles before the `Gpu` is dropped.
+    pub fn vulkan(&self) -> VulkanHandles<'_> {
+        VulkanHandles {
+            entry: &self.shared.entry,
+            instance: &self.shared.instance,
+            physical_device: self.physical_device,
+            device: &self.shared.device,
+            queue_family: self.queue_family,
+            queue: self.queue,
         }
     }
 
@@ -762,6 +812,15 @@ fn create_instance(
     if debug_utils {
         extensions.push(ash::ext::debug_utils::NAME.as_ptr());
     }
+    for &name in &options.surface_extensions {
+        if !has_extension(name) {
+            return Err(GpuError::NoDriver(format!(
+                "the Vulkan loader offers no {} instance extension: this window system cannot be presented to (render headless instead)",
+                name.to_string_lossy()
+            )));
+        }
+        extensions.push(name.as_ptr());
+    }
 
     let app_name = CString::from(c"lensmap");
     let app = vk::ApplicationInfo::default()
@@ -796,12 +855,16 @@ fn create_instance(
 }
 
 /// A device on `physical_device` with one queue of `queue_family` and the features lensmap
-/// needs: cube-map arrays, dynamic rendering, synchronization2 and timeline semaphores.
+/// needs: cube-map arrays, dynamic rendering, synchronization2 and timeline semaphores; with
+/// `VK_KHR_swapchain` when it `presents`.
 fn create_device(
     instance: &ash::Instance,
     physical_device: vk::PhysicalDevice,
     queue_family: u32,
+    presents: bool,
 ) -> ash::prelude::VkResult<ash::Device> {
+    let extensions = [ash::khr::swapchain::NAME.as_ptr()];
+    let extensions = if presents { &extensions[..] } else { &[] };
     let priorities = [1.0f32];
     let queues = [vk::DeviceQueueCreateInfo::default()
         .queue_family_index(queue_family)
@@ -815,6 +878,7 @@ fn create_device(
     let mut features12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
     let device_info = vk::DeviceCreateInfo::default()
         .queue_create_infos(&queues)
+        .enabled_extension_names(extensions)
         .enabled_features(&features)
         .push_next(&mut features13)
         .push_next(&mut features12);
@@ -822,10 +886,12 @@ fn create_device(
     unsafe { instance.create_device(physical_device, &device_info, None) }
 }
 
-/// Picks a device with Vulkan 1.3, a graphics queue and cube-map arrays.
+/// Picks a device with Vulkan 1.3, a graphics queue and cube-map arrays (and `VK_KHR_swapchain`
+/// when it must present).
 fn choose_device(
     instance: &ash::Instance,
     choice: &DeviceChoice,
+    presents: bool,
 ) -> Result<(vk::PhysicalDevice, u32, vk::PhysicalDeviceProperties), GpuError> {
     // SAFETY: plain queries on a live instance.
     let devices =
@@ -850,8 +916,15 @@ fn choose_device(
             .iter()
             .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS));
         let too_old = properties.api_version < vk::API_VERSION_1_3;
+        let swapchain = !presents || {
+            // SAFETY: `device` comes from this instance.
+            unsafe { instance.enumerate_device_extension_properties(device) }
+                .unwrap_or_default()
+                .iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::swapchain::NAME))
+        };
         match graphics {
-            Some(family) if !too_old && features.image_cube_array == vk::TRUE => {
+            Some(family) if !too_old && swapchain && features.image_cube_array == vk::TRUE => {
                 candidates.push((device, family as u32, properties, name));
             }
             _ => rejected.push(name),
@@ -884,7 +957,12 @@ fn choose_device(
     };
     picked.map(|(d, f, p, _)| (d, f, p)).ok_or_else(|| {
         GpuError::NoSuitableDevice(format!(
-            "none offers Vulkan 1.3, a graphics queue and cube-map arrays (found {rejected:?})"
+            "none offers Vulkan 1.3, a graphics queue and cube-map arrays{} (found {rejected:?})",
+            if presents {
+                " and VK_KHR_swapchain"
+            } else {
+                ""
+            }
         ))
     })
 }

@@ -21,7 +21,7 @@ use super::{
     sky::SkyDome,
     tessellate::{TessellationError, TessellationOptions, VertexEvaluation, tessellate},
     texgen::{LensMesh, texgen},
-    viewpoints::{self, ViewpointBlend},
+    viewpoints::{self, ViewSpaceFit, ViewpointBlend},
 };
 use crate::{
     layers::LayerShell,
@@ -102,6 +102,9 @@ struct CachedFrame {
     key: FrameKey,
     /// Shared with the caller that uploads it: caching a frame copies nothing.
     frame: Arc<FrameInput>,
+    /// Per lens object of `frame`, each triangle's subdivision depth (parallel to its
+    /// `triangles`).
+    depths: Vec<Vec<u8>>,
     stats: HybridStats,
     identity: u64,
 }
@@ -285,13 +288,14 @@ impl HybridScene {
                 BuiltFrame::New(Arc::clone(&cached.frame), stats, cached.identity)
             });
         }
-        let (frame, stats) = self.build_frame(camera, options, false)?;
+        let (frame, stats, depths) = self.build_frame(camera, options, false)?;
         let frame = Arc::new(frame);
         let identity = FRAME_IDENTITY.fetch_add(1, Ordering::Relaxed);
         if let Ok(mut cache) = self.cache.0.lock() {
             *cache = Some(CachedFrame {
                 key,
                 frame: Arc::clone(&frame),
+                depths,
                 stats,
                 identity,
             });
@@ -310,7 +314,63 @@ impl HybridScene {
         camera: &Camera,
         options: &HybridOptions,
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
-        self.build_frame(camera, options, true)
+        let (frame, stats, _) = self.build_frame(camera, options, true)?;
+        Ok((frame, stats))
+    }
+
+    /// The tessellation wireframe of the last frame [`HybridScene::frame`] or
+    /// [`HybridScene::frame_unless`] built or reused: per lens object (TraceScene order) its
+    /// tessellated mesh as drawn and each triangle's subdivision depth, what the hybrid-rendering
+    /// paper's Figure 5 colours. `None` before any frame, after [`HybridScene::forget_frame`],
+    /// or when the frame cache is unusable (a thread panicked holding it).
+    /// [`HybridScene::vertex_exact_frame`] neither keeps nor replaces it.
+    pub fn last_wireframe(&self) -> Option<Wireframe> {
+        let cache = self.cache.0.lock().ok()?;
+        let cached = cache.as_ref()?;
+        Some(Wireframe {
+            lenses: cached
+                .frame
+                .lenses
+                .iter()
+                .zip(&cached.depths)
+                .map(|(lens, depths)| WireframeLens {
+                    name: lens.name.clone(),
+                    positions: lens.positions.clone(),
+                    triangles: lens.triangles.clone(),
+                    depths: depths.clone(),
+                })
+                .collect(),
+        })
+    }
+
+    /// How `camera` sits in the view space of [`HybridScene::viewpoints`] about its look-at
+    /// point ([`viewpoints::view_space_fit`]): its nearest sample and whether it has left the
+    /// space the samples cover. `None` without viewpoint samples, or for a camera at its look-at
+    /// point or not finite.
+    pub fn view_space_fit(&self, camera: &Camera) -> Option<ViewSpaceFit> {
+        viewpoints::view_space_fit(
+            &self.viewpoints,
+            camera.look_at.as_dvec3(),
+            camera.position.as_dvec3(),
+        )
+    }
+
+    /// Per lens object (TraceScene order), its name and the axis-aligned bounds `(min, max)` of
+    /// all its scene objects' meshes, metres: where a viewer stops a camera short of a lens
+    /// object. A lens object none of whose meshes has a vertex has no bounds and is left out.
+    pub fn lens_bounds(&self) -> Vec<(String, Vec3, Vec3)> {
+        self.trace
+            .lenses
+            .iter()
+            .filter_map(|lens| {
+                let (lo, hi) = lens
+                    .objects
+                    .iter()
+                    .filter_map(|&object| self.scene.objects.get(object)?.mesh.bounds())
+                    .reduce(|(lo, hi), (a, b)| (lo.min(a), hi.max(b)))?;
+                Some((lens.name.clone(), lo, hi))
+            })
+            .collect()
     }
 
     /// The tessellation options of a lens object made of `objects`: `t` scaled up by footprint
@@ -381,10 +441,12 @@ impl HybridScene {
         }
     }
 
-    /// The viewpoint samples `camera` blends and their weights; EMs shared by every viewpoint
-    /// sample (projected ones) need no blending: one sample, weight 1, half the compositing
-    /// work.
-    fn viewpoint_blend(&self, camera: &Camera) -> ViewpointBlend {
+    /// The viewpoint samples (indices into [`HybridScene::viewpoints`]) a frame seen by
+    /// `camera` blends and their weights, summing to 1, nearest first ([`viewpoints::blend`]).
+    /// EMs shared by every viewpoint sample (projected ones) need no blending: one sample,
+    /// weight 1, half the compositing work. Sample 0 with weight 1 when there is no sample or
+    /// the camera sits at its look-at point.
+    pub fn viewpoint_blend(&self, camera: &Camera) -> ViewpointBlend {
         let blend = viewpoints::blend(
             &self.viewpoints,
             camera.look_at.as_dvec3(),
@@ -417,6 +479,7 @@ impl HybridScene {
         let mut positions: Vec<Vec3> = Vec::new();
         let mut triangles: Vec<[u32; 3]> = Vec::new();
         let mut samples: Vec<Option<VertexEvaluation<VertexPaths>>> = Vec::new();
+        let mut depths: Vec<u8> = Vec::new();
         let faces = self.faces.get(lens_index).copied().unwrap_or_default();
         let visible_objects: Vec<usize> = lens
             .objects
@@ -464,6 +527,12 @@ impl HybridScene {
             stats.triangles_in += mesh.triangles.len();
             stats.triangles_out += tessellation.mesh.triangles.len();
             stats.vertices_traced += tessellation.stats.vertices_evaluated;
+            depths.extend(
+                tessellation
+                    .triangles
+                    .iter()
+                    .map(|record| u8::try_from(record.depth).unwrap_or(u8::MAX)),
+            );
             // Moved, not copied, for a lens object of one scene object (the common case).
             if positions.is_empty() {
                 positions = tessellation.mesh.positions;
@@ -489,15 +558,18 @@ impl HybridScene {
                 faces,
             },
             samples,
+            depths,
         })
     }
 
+    /// The frame for `camera`, its costs and, per lens object of a frame that is not
+    /// `vertex_exact`, each triangle's subdivision depth (empty for a vertex-exact frame).
     fn build_frame(
         &self,
         camera: &Camera,
         options: &HybridOptions,
         vertex_exact: bool,
-    ) -> Result<(FrameInput, HybridStats), TessellationError> {
+    ) -> Result<(FrameInput, HybridStats, Vec<Vec<u8>>), TessellationError> {
         let start = Instant::now();
         let view = self.view(camera);
         let blend = self.viewpoint_blend(camera);
@@ -506,8 +578,13 @@ impl HybridScene {
         let mut vertex_budget = options.tessellation.max_vertices;
         let mut lenses = Vec::new();
         let mut exact = Vec::new();
+        let mut depths = Vec::new();
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
-            let TessellatedLens { mesh, samples } = self.tessellate_lens(
+            let TessellatedLens {
+                mesh,
+                samples,
+                depths: lens_depths,
+            } = self.tessellate_lens(
                 (lens_index, lens),
                 &view,
                 options,
@@ -535,6 +612,7 @@ impl HybridScene {
             );
             stats.texgen_ms += start.elapsed().as_secs_f64() * 1e3;
             lenses.push(object);
+            depths.push(lens_depths);
         }
         let frame = FrameInput {
             width: view.width,
@@ -555,7 +633,7 @@ impl HybridScene {
             - stats.tessellation_ms
             - stats.texgen_ms)
             .max(0.0);
-        Ok((frame, stats))
+        Ok((frame, stats, depths))
     }
 }
 
@@ -578,6 +656,33 @@ struct TessellatedLens {
     mesh: LensMesh,
     /// Per vertex of `mesh`, its ray paths (`None` where it was never evaluated).
     samples: Vec<Option<VertexEvaluation<VertexPaths>>>,
+    /// Per triangle of `mesh`, its subdivision depth (saturated at 255).
+    depths: Vec<u8>,
+}
+
+/// The tessellation of a frame's lens objects, for drawing as a wireframe coloured by
+/// subdivision depth (the hybrid-rendering paper's Figure 5); see
+/// [`HybridScene::last_wireframe`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Wireframe {
+    /// One entry per lens object of the frame, TraceScene order (a lens object outside the view
+    /// has no triangles).
+    pub lenses: Vec<WireframeLens>,
+}
+
+/// One lens object's tessellated mesh in a [`Wireframe`]: the mesh the frame draws.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WireframeLens {
+    /// The lens object's name.
+    pub name: String,
+    /// World-space vertex positions, metres.
+    pub positions: Vec<Vec3>,
+    /// Triangles, indices into `positions`, counter-clockwise seen from their front side.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per triangle (same order as `triangles`), the subdivision depth of the tessellation leaf
+    /// it belongs to: 0 for an input triangle left whole, one more per level of splitting
+    /// (each level halves the split edges), saturated at 255.
+    pub depths: Vec<u8>,
 }
 
 /// Whether the axis-aligned box `(lo, hi)` lies wholly outside the view of `view_proj`: its eight
@@ -632,7 +737,196 @@ fn vertex_radiance_mesh(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{
+        hybrid::{HybridSceneOptions, LayeredEms},
+        layers::projected::ProjectedOptions,
+        lightmap::LightMapOptions,
+        scene::Scene,
+    };
     use rand::{Rng, SeedableRng};
+
+    /// Built-in scene `name` as a hybrid scene made cheaply (8² texel projected EMs at one ray a
+    /// texel, light maps of 1 texel a metre), and its camera at `width × height`, 1×1.
+    fn small_hybrid(name: &str, width: u32, height: u32) -> (HybridScene, Camera) {
+        let scene = Scene::load_named(name).expect("a built-in scene");
+        let camera = scene.camera.with_resolution(width, height, 1);
+        let options = HybridSceneOptions {
+            ems: LayeredEms::Projected(ProjectedOptions {
+                size: 8,
+                supersampling: 1,
+            }),
+            light_maps: LightMapOptions {
+                supersampling: 1,
+                ..LightMapOptions::uniform(1.0)
+            },
+        };
+        let (hybrid, _) = HybridScene::new(scene, options).expect("a hybrid scene");
+        (hybrid, camera)
+    }
+
+    fn max_depth(wireframe: &Wireframe) -> u8 {
+        wireframe
+            .lenses
+            .iter()
+            .flat_map(|l| l.depths.iter().copied())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The last frame's wireframe is its lens meshes, triangle for triangle, with one depth per
+    /// triangle; a finer `t` splits deeper; a reused frame keeps it, forgetting drops it.
+    #[test]
+    fn wireframe_is_the_last_frames_tessellation() {
+        let (hybrid, camera) = small_hybrid("teapot-room", 160, 120);
+        assert!(hybrid.last_wireframe().is_none(), "no frame yet");
+        let mut max_depths = Vec::new();
+        for t in [20.0, 2.0] {
+            let (frame, stats) = hybrid.frame(&camera, &HybridOptions::with_t(t)).unwrap();
+            let wireframe = hybrid.last_wireframe().expect("a frame was built");
+            assert_eq!(wireframe.lenses.len(), hybrid.trace.lenses.len());
+            assert_eq!(frame.lenses.len(), wireframe.lenses.len());
+            let mut triangles = 0;
+            for (lens, drawn) in wireframe.lenses.iter().zip(&frame.lenses) {
+                assert_eq!(lens.name, drawn.name);
+                assert_eq!(lens.positions, drawn.positions);
+                assert_eq!(lens.triangles, drawn.triangles);
+                assert_eq!(lens.depths.len(), lens.triangles.len(), "{}", lens.name);
+                triangles += lens.triangles.len();
+            }
+            assert_eq!(triangles, stats.triangles_out, "t = {t}");
+            // No split at all leaves every triangle an input one at depth 0, and any split adds
+            // triangles.
+            assert_eq!(
+                max_depth(&wireframe) == 0,
+                stats.triangles_out == stats.triangles_in,
+                "t = {t}: {stats:?}"
+            );
+            // A leaf at depth d holds at most 1/2^d of its input triangle's area (each split
+            // child holds 1/4 or 1/2 of its parent's), and the pieces T-junction removal cuts
+            // a leaf into hold less.
+            for (lens, trace_lens) in wireframe.lenses.iter().zip(&hybrid.trace.lenses) {
+                let largest_input = trace_lens
+                    .objects
+                    .iter()
+                    .flat_map(|&o| {
+                        let mesh = &hybrid.scene.objects[o].mesh;
+                        (0..mesh.triangles.len()).map(|t| 0.5 * mesh.triangle_normal(t).length())
+                    })
+                    .fold(0.0f32, f32::max);
+                for (triangle, &depth) in lens.triangles.iter().zip(&lens.depths) {
+                    let [a, b, c] = triangle.map(|i| lens.positions[i as usize]);
+                    let area = 0.5 * (b - a).cross(c - a).length();
+                    let bound = largest_input / 2f32.powi(i32::from(depth));
+                    assert!(
+                        area <= bound * 1.001 + 1e-9,
+                        "{}: area {area} at depth {depth} over {bound}",
+                        lens.name
+                    );
+                }
+            }
+            max_depths.push(max_depth(&wireframe));
+        }
+        assert!(
+            max_depths[1] > max_depths[0],
+            "t = 2 splits deeper: {max_depths:?}"
+        );
+
+        let before = hybrid.last_wireframe();
+        let (_, stats) = hybrid.frame(&camera, &HybridOptions::with_t(2.0)).unwrap();
+        assert!(stats.reused);
+        assert_eq!(
+            hybrid.last_wireframe(),
+            before,
+            "a reused frame keeps its wireframe"
+        );
+        hybrid
+            .vertex_exact_frame(&camera, &HybridOptions::with_t(20.0))
+            .unwrap();
+        assert_eq!(
+            hybrid.last_wireframe(),
+            before,
+            "a vertex-exact frame is not cached"
+        );
+        hybrid.forget_frame();
+        assert!(hybrid.last_wireframe().is_none());
+    }
+
+    /// Each lens object's bounds are the union of its meshes' vertices, here found by scanning
+    /// them; the glass sphere's are its closed form.
+    #[test]
+    fn lens_bounds_enclose_every_vertex_of_each_lens_object() {
+        let (hybrid, _) = small_hybrid("teapot-room", 16, 12);
+        let bounds = hybrid.lens_bounds();
+        let names: Vec<&str> = bounds.iter().map(|(name, _, _)| name.as_str()).collect();
+        assert_eq!(names, ["teapot", "cup"]);
+        for ((name, lo, hi), lens) in bounds.iter().zip(&hybrid.trace.lenses) {
+            let mut expected = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for &object in &lens.objects {
+                for &p in &hybrid.scene.objects[object].mesh.positions {
+                    expected = (expected.0.min(p), expected.1.max(p));
+                }
+            }
+            assert_eq!((*lo, *hi), expected, "{name}");
+        }
+        // The cup is two objects: its bounds are wider than either alone.
+        let cup = &hybrid.trace.lenses[1];
+        assert_eq!(cup.objects.len(), 2);
+        let volume = |(lo, hi): (Vec3, Vec3)| (hi - lo).element_product();
+        for &object in &cup.objects {
+            let alone = hybrid.scene.objects[object].mesh.bounds().unwrap();
+            assert!(volume((bounds[1].1, bounds[1].2)) > volume(alone));
+        }
+
+        let (sphere, _) = small_hybrid("glass-sphere", 16, 12);
+        let bounds = sphere.lens_bounds();
+        assert_eq!(bounds.len(), 1);
+        let (name, lo, hi) = &bounds[0];
+        assert_eq!(name, "sphere");
+        // Radius 1 m about (0, 1.2, 0): poles and the equator's quarter points are vertices.
+        assert!(
+            (*lo - Vec3::new(-1.0, 0.2, -1.0)).abs().max_element() < 1e-5,
+            "{lo}"
+        );
+        assert!(
+            (*hi - Vec3::new(1.0, 2.2, 1.0)).abs().max_element() < 1e-5,
+            "{hi}"
+        );
+    }
+
+    /// The scene's camera sits on viewpoint sample 0; far above the circle it has left the view
+    /// space; the frame's blend is the one `viewpoint_blend` reports.
+    #[test]
+    fn view_space_fit_and_blend_of_the_scene_camera() {
+        let (hybrid, camera) = small_hybrid("glass-sphere", 16, 12);
+        let fit = hybrid.view_space_fit(&camera).expect("a view space");
+        assert_eq!(fit.nearest, 0);
+        assert!(fit.nearest_radians < 1e-3, "{fit:?}");
+        // Neighbouring samples are 8° apart round a circle 1.5 m above the look-at point at
+        // 5 m: seen from it at elevation e = atan(1.5 / 5), cos θ = cos²e·cos 8° + sin²e.
+        let e = (1.5f64 / 5.0).atan();
+        let spacing = (e.cos().powi(2) * 8f64.to_radians().cos() + e.sin().powi(2)).acos();
+        assert!(
+            (fit.spacing_radians - spacing).abs() < 1e-6,
+            "{fit:?} {spacing}"
+        );
+        assert!(!fit.outside);
+        let above = Camera {
+            position: camera.look_at + Vec3::new(0.0, 5.0, 0.5),
+            ..camera
+        };
+        assert!(hybrid.view_space_fit(&above).unwrap().outside);
+        let at_look_at = Camera {
+            position: camera.look_at,
+            ..camera
+        };
+        assert!(hybrid.view_space_fit(&at_look_at).is_none());
+
+        let blend = hybrid.viewpoint_blend(&camera);
+        assert_eq!(blend.samples, vec![(0, 1.0)], "projected EMs: one sample");
+        let (frame, _) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
+        let weights: Vec<f32> = blend.samples.iter().map(|(_, w)| *w as f32).collect();
+        assert_eq!(frame.viewpoint_weights, weights);
+    }
 
     /// The box test against brute force: a box reported outside has no sampled point inside the
     /// clip volume, and boxes with a point inside are never reported outside.

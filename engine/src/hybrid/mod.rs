@@ -13,8 +13,9 @@ pub mod viewpoints;
 
 pub use frame::{
     BuiltFrame, DEFAULT_ANGLE_DEGREES, HybridOptions, HybridStats, MAX_FOOTPRINT_COARSENING,
-    VertexPrecision,
+    VertexPrecision, Wireframe, WireframeLens,
 };
 pub use scene::{
     BakeIdentityError, HybridError, HybridScene, HybridSceneOptions, LayeredEms, LensLayers,
 };
+pub use viewpoints::{ViewSpaceFit, ViewpointBlend};

@@ -51,6 +51,67 @@ pub fn blend(samples: &[DVec3], look_at: DVec3, camera: DVec3) -> Option<Viewpoi
     }
 }
 
+/// Whether a camera is still inside the view space its samples cover: how far it is from the
+/// nearest sample compared with how far the samples are from each other, all as angles about the
+/// look-at point (the metric of [`blend`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewSpaceFit {
+    /// Index of the sample nearest to the camera (the first of [`blend`]'s samples; ties go to
+    /// the lower index).
+    pub nearest: usize,
+    /// The camera's angle to the nearest sample, radians in [0, π].
+    pub nearest_radians: f64,
+    /// The view space's sampling density: the largest, over samples, of each sample's angle to
+    /// its nearest other sample, radians in [0, π]; 0 for a single sample.
+    pub spacing_radians: f64,
+    /// Whether the camera has left the view space: `nearest_radians > spacing_radians` (it is
+    /// farther from every sample than neighbouring samples are from each other, so a blend mixes
+    /// distant samples), or `nearest_radians >` [`ON_SAMPLE_RADIANS`] when the spacing is 0 (a
+    /// single sample).
+    pub outside: bool,
+}
+
+/// How `camera` sits in the view space of `samples` about `look_at` (positions in metres; see
+/// [`ViewSpaceFit`]). Samples whose angle is undefined (not finite) are left out, as in
+/// [`blend`]. Costs one angle per pair of samples.
+///
+/// Returns `None` for no usable sample, a camera at the look-at point, or a camera or look-at
+/// point that is not finite.
+pub fn view_space_fit(samples: &[DVec3], look_at: DVec3, camera: DVec3) -> Option<ViewSpaceFit> {
+    let view = camera - look_at;
+    if samples.is_empty() || view.length_squared() == 0.0 || !view.is_finite() {
+        return None;
+    }
+    let directions: Vec<(usize, DVec3)> = samples
+        .iter()
+        .map(|s| *s - look_at)
+        .enumerate()
+        .filter(|(_, d)| d.is_finite())
+        .collect();
+    let (nearest, nearest_radians) = directions
+        .iter()
+        .map(|&(i, d)| (i, angle(view, d)))
+        .filter(|(_, a)| a.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))?;
+    let spacing_radians = directions
+        .iter()
+        .filter_map(|&(i, d)| {
+            directions
+                .iter()
+                .filter(|&&(j, _)| j != i)
+                .map(|&(_, e)| angle(d, e))
+                .filter(|a| a.is_finite())
+                .min_by(f64::total_cmp)
+        })
+        .fold(0.0, f64::max);
+    Some(ViewSpaceFit {
+        nearest,
+        nearest_radians,
+        spacing_radians,
+        outside: nearest_radians > spacing_radians.max(ON_SAMPLE_RADIANS),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,6 +161,129 @@ mod tests {
         )
         .unwrap();
         assert_eq!(near.samples[0].0, far.samples[0].0);
+    }
+
+    /// The point at `azimuth` degrees round the circle of [`circle`] and `elevation` degrees
+    /// above its plane, 4 m from the centre.
+    fn on_sphere(azimuth: f64, elevation: f64) -> DVec3 {
+        let (a, e) = (azimuth.to_radians(), elevation.to_radians());
+        4.0 * DVec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin())
+    }
+
+    #[test]
+    fn between_samples_on_the_circle_is_inside() {
+        let samples = circle(45, 8.0);
+        // Halfway between two samples (4° from both) is the farthest a camera on the circle gets.
+        for azimuth in [4.0, 356.0] {
+            let fit = view_space_fit(&samples, DVec3::ZERO, on_sphere(azimuth, 0.0)).unwrap();
+            assert!(
+                (fit.nearest_radians - 4f64.to_radians()).abs() < 1e-9,
+                "{fit:?}"
+            );
+            assert!(!fit.outside, "{azimuth}°: {fit:?}");
+        }
+        for azimuth in [0.0, 3.0, 4.5, 42.0, 181.5, 357.0] {
+            let fit = view_space_fit(&samples, DVec3::ZERO, on_sphere(azimuth, 0.0)).unwrap();
+            assert!(
+                (fit.spacing_radians - 8f64.to_radians()).abs() < 1e-9,
+                "{fit:?}"
+            );
+            let nearest = (azimuth / 8.0).round() as usize % 45;
+            assert_eq!(fit.nearest, nearest, "{azimuth}°");
+            let blended = blend(&samples, DVec3::ZERO, on_sphere(azimuth, 0.0)).unwrap();
+            assert_eq!(fit.nearest, blended.samples[0].0, "the blend's nearest");
+            let expected = (azimuth - 8.0 * (azimuth / 8.0).round()).abs().to_radians();
+            assert!((fit.nearest_radians - expected).abs() < 1e-9, "{fit:?}");
+            assert!(!fit.outside, "{azimuth}°: {fit:?}");
+        }
+    }
+
+    #[test]
+    fn above_the_circle_is_outside() {
+        let samples = circle(45, 8.0);
+        // 15° above sample 5: 15° from it, more from every other sample, spacing 8°.
+        let fit = view_space_fit(&samples, DVec3::ZERO, on_sphere(40.0, 15.0)).unwrap();
+        assert_eq!(fit.nearest, 5);
+        assert!(
+            (fit.nearest_radians - 15f64.to_radians()).abs() < 1e-9,
+            "{fit:?}"
+        );
+        assert!(fit.outside, "{fit:?}");
+        // 7° above it is still inside; the distance from the centre does not matter.
+        let fit = view_space_fit(&samples, DVec3::ZERO, 3.0 * on_sphere(40.0, 7.0)).unwrap();
+        assert!(!fit.outside, "{fit:?}");
+        // Straight above the circle's centre: 90° from every sample.
+        let fit = view_space_fit(&samples, DVec3::ZERO, DVec3::new(0.0, 2.0, 0.0)).unwrap();
+        assert!((fit.nearest_radians - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!(fit.outside);
+    }
+
+    #[test]
+    fn spacing_is_the_sparsest_samples_gap() {
+        // Samples at 0°, 10°, 20° and 50°: the sample at 50° is 30° from its nearest.
+        let samples: Vec<DVec3> = [0.0, 10.0, 20.0, 50.0]
+            .iter()
+            .map(|&a| on_sphere(a, 0.0))
+            .collect();
+        let look_at = DVec3::ZERO;
+        // In the gap: 13° from the sample at 20°, inside the 30° spacing.
+        let fit = view_space_fit(&samples, look_at, on_sphere(33.0, 0.0)).unwrap();
+        assert!(
+            (fit.spacing_radians - 30f64.to_radians()).abs() < 1e-9,
+            "{fit:?}"
+        );
+        assert_eq!(fit.nearest, 2);
+        assert!(
+            (fit.nearest_radians - 13f64.to_radians()).abs() < 1e-9,
+            "{fit:?}"
+        );
+        assert!(!fit.outside);
+        // 40° past the last sample, beyond the sparsest gap.
+        let fit = view_space_fit(&samples, look_at, on_sphere(90.0, 0.0)).unwrap();
+        assert_eq!(fit.nearest, 3);
+        assert!(fit.outside, "{fit:?}");
+    }
+
+    #[test]
+    fn a_single_sample_fits_only_a_camera_on_it() {
+        let look_at = DVec3::new(0.0, 1.0, 0.0);
+        let sample = [DVec3::new(0.0, 2.5, 5.0)];
+        let on = view_space_fit(&sample, look_at, look_at + 2.0 * (sample[0] - look_at)).unwrap();
+        assert_eq!((on.nearest, on.spacing_radians), (0, 0.0));
+        assert!(on.nearest_radians <= ON_SAMPLE_RADIANS, "{on:?}");
+        assert!(!on.outside);
+        let off = view_space_fit(&sample, look_at, DVec3::new(0.5, 2.5, 5.0)).unwrap();
+        assert_eq!(off.spacing_radians, 0.0);
+        assert!(off.nearest_radians > 0.05);
+        assert!(off.outside, "{off:?}");
+    }
+
+    #[test]
+    fn degenerate_view_space_fits_are_none() {
+        let samples = circle(45, 8.0);
+        assert!(view_space_fit(&[], DVec3::ZERO, DVec3::X).is_none());
+        assert!(view_space_fit(&samples, DVec3::ZERO, DVec3::ZERO).is_none());
+        assert!(view_space_fit(&samples, DVec3::ZERO, DVec3::new(f64::NAN, 0.0, 1.0)).is_none());
+        assert!(view_space_fit(&samples, DVec3::splat(f64::INFINITY), DVec3::X).is_none());
+        assert!(view_space_fit(&[DVec3::splat(f64::NAN)], DVec3::ZERO, DVec3::X).is_none());
+        // A sample that is not finite is left out; the rest still fit.
+        let mut broken = samples.clone();
+        broken[1] = DVec3::new(f64::INFINITY, 0.0, 0.0);
+        // Samples 0 and 2 are 16° apart but each still has a neighbour 8° away: the spacing is
+        // the nearest-neighbour angle, which a single gap does not change.
+        let fit = view_space_fit(&broken, DVec3::ZERO, on_sphere(6.0, 0.0)).unwrap();
+        assert!(
+            (fit.spacing_radians - 8f64.to_radians()).abs() < 1e-9,
+            "{fit:?}"
+        );
+        assert_eq!(fit.nearest, 0);
+        assert!(
+            (fit.nearest_radians - 6f64.to_radians()).abs() < 1e-9,
+            "{fit:?}"
+        );
+        assert!(!fit.outside);
+        let fit = view_space_fit(&broken, DVec3::ZERO, on_sphere(10.0, 0.0)).unwrap();
+        assert_eq!(fit.nearest, 2, "sample 1 is left out");
     }
 
     #[test]

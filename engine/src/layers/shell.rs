@@ -250,6 +250,45 @@ impl LayerShell {
         }
     }
 
+    /// Whether `point` (metres) lies strictly inside the shell's solid: for a sphere its distance
+    /// to the centre is below the radius; for a cylinder its distance to the axis is below the
+    /// radius and, when capped, its distance along the axis from the centre below `half_height`;
+    /// for a box each coordinate's distance from the centre is below its half extent; for an
+    /// ellipsoid `Σ ((p − centre)ᵢ / radiiᵢ)² < 1`. A point on the surface is not inside.
+    ///
+    /// A quad is open (a plane with no inside): always `false`. A point that is not finite is
+    /// never inside.
+    pub fn contains(&self, point: DVec3) -> bool {
+        if !point.is_finite() {
+            return false;
+        }
+        match *self {
+            LayerShell::Sphere { centre, radius } => {
+                point.distance_squared(centre) < radius * radius
+            }
+            LayerShell::Cylinder {
+                centre,
+                axis,
+                radius,
+                half_height,
+            } => {
+                let offset = point - centre;
+                let along = offset.dot(axis);
+                let radial = offset - axis * along;
+                radial.length_squared() < radius * radius
+                    && half_height.is_none_or(|h| along.abs() < h)
+            }
+            LayerShell::Box {
+                centre,
+                half_extents,
+            } => (point - centre).abs().cmplt(half_extents).all(),
+            LayerShell::Ellipsoid { centre, radii } => {
+                ((point - centre) / radii).length_squared() < 1.0
+            }
+            LayerShell::Quad { .. } => false,
+        }
+    }
+
     /// Where the ray `origin + t·direction` meets the shell: for a closed shell the exit point
     /// when the origin is inside or on it, else the first hit in front; for a quad the plane hit
     /// or the forced point (see the module docs and [`LayerShell::Quad`]).
@@ -555,3 +594,124 @@ fn check_orthogonal(
 
 #[cfg(test)]
 mod tests;
+
+/// [`LayerShell::contains`] against each shell's defining inequality, with points chosen on
+/// either side of every bound.
+#[cfg(test)]
+mod contains_tests {
+    use glam::{DVec2, DVec3};
+
+    use super::LayerShell;
+
+    #[test]
+    fn sphere_contains_points_closer_than_its_radius() {
+        let shell = LayerShell::Sphere {
+            centre: DVec3::new(1.0, -2.0, 0.5),
+            radius: 3.0,
+        };
+        let centre = shell.centre();
+        assert!(shell.contains(centre));
+        assert!(shell.contains(centre + DVec3::new(2.9, 0.0, 0.0)));
+        assert!(shell.contains(centre + DVec3::new(1.7, 1.7, 1.7))); // |·| ≈ 2.94
+        assert!(!shell.contains(centre + DVec3::new(1.8, 1.8, 1.8))); // |·| ≈ 3.12
+        assert!(
+            !shell.contains(centre + DVec3::new(0.0, 0.0, -3.0)),
+            "on the surface"
+        );
+        assert!(!shell.contains(centre + DVec3::new(0.0, 3.1, 0.0)));
+    }
+
+    #[test]
+    fn capped_cylinder_bounds_radius_and_height() {
+        // Axis along (1, 1, 0)/√2 through (0, 1, 0), radius 2, half height 1.5.
+        let axis = DVec3::new(1.0, 1.0, 0.0).normalize();
+        let radial = DVec3::new(1.0, -1.0, 0.0).normalize();
+        let centre = DVec3::new(0.0, 1.0, 0.0);
+        let shell = LayerShell::Cylinder {
+            centre,
+            axis,
+            radius: 2.0,
+            half_height: Some(1.5),
+        };
+        let at = |along: f64, out: f64, z: f64| centre + axis * along + radial * out + DVec3::Z * z;
+        assert!(shell.contains(centre));
+        assert!(shell.contains(at(1.4, 1.9, 0.0)));
+        assert!(shell.contains(at(-1.4, 0.0, -1.9)));
+        assert!(!shell.contains(at(1.6, 0.0, 0.0)), "past the cap");
+        assert!(!shell.contains(at(-1.6, 0.0, 0.0)), "past the other cap");
+        assert!(!shell.contains(at(0.0, 2.1, 0.0)), "outside the radius");
+        assert!(!shell.contains(at(0.0, 1.5, 1.5)), "radial distance 2.12");
+    }
+
+    #[test]
+    fn uncapped_cylinder_bounds_only_the_radius() {
+        let shell = LayerShell::Cylinder {
+            centre: DVec3::new(0.0, 0.0, 2.0),
+            axis: DVec3::Y,
+            radius: 1.0,
+            half_height: None,
+        };
+        assert!(shell.contains(DVec3::new(0.5, 1e6, 2.5)));
+        assert!(shell.contains(DVec3::new(-0.7, -3e3, 2.7)));
+        assert!(
+            !shell.contains(DVec3::new(0.8, 0.0, 2.8)),
+            "radial distance 1.13"
+        );
+        assert!(!shell.contains(DVec3::new(0.0, 5.0, 3.0)), "on the surface");
+    }
+
+    #[test]
+    fn box_bounds_each_axis() {
+        let shell = LayerShell::Box {
+            centre: DVec3::new(1.0, 2.0, 3.0),
+            half_extents: DVec3::new(1.0, 2.0, 3.0),
+        };
+        assert!(shell.contains(DVec3::new(1.9, 3.9, 5.9)));
+        assert!(shell.contains(DVec3::new(0.1, 0.1, 0.1)));
+        assert!(!shell.contains(DVec3::new(2.1, 2.0, 3.0)));
+        assert!(!shell.contains(DVec3::new(1.0, -0.1, 3.0)));
+        assert!(!shell.contains(DVec3::new(1.0, 2.0, 6.1)));
+        assert!(!shell.contains(DVec3::new(2.0, 2.0, 3.0)), "on a face");
+    }
+
+    #[test]
+    fn ellipsoid_is_the_scaled_unit_ball() {
+        let shell = LayerShell::Ellipsoid {
+            centre: DVec3::new(0.0, 1.0, 0.0),
+            radii: DVec3::new(4.0, 1.0, 2.0),
+        };
+        assert!(shell.contains(DVec3::new(3.9, 1.0, 0.0)));
+        assert!(!shell.contains(DVec3::new(0.0, 2.1, 0.0)));
+        // (2/4)² + (0.7/1)² + (1/2)² = 0.99 inside; (0.75)² + 0 + (1.4/2)² = 1.0525 outside.
+        assert!(shell.contains(DVec3::new(2.0, 1.7, 1.0)));
+        assert!(!shell.contains(DVec3::new(3.0, 1.0, 1.4)));
+        // Inside the sphere of the largest radius but outside the ellipsoid.
+        assert!(!shell.contains(DVec3::new(0.0, 1.0, 3.0)));
+    }
+
+    #[test]
+    fn quad_is_open_and_contains_nothing() {
+        let shell = LayerShell::quad_facing(DVec3::ZERO, DVec3::Z, DVec2::new(2.0, 2.0));
+        assert!(!shell.contains(DVec3::ZERO), "its centre, on the plane");
+        assert!(!shell.contains(DVec3::new(0.5, 0.5, -0.1)), "behind it");
+        assert!(!shell.contains(DVec3::new(0.5, 0.5, 0.1)), "in front of it");
+    }
+
+    #[test]
+    fn points_that_are_not_finite_are_outside() {
+        let infinite = LayerShell::Cylinder {
+            centre: DVec3::ZERO,
+            axis: DVec3::Y,
+            radius: 1.0,
+            half_height: None,
+        };
+        let sphere = LayerShell::Sphere {
+            centre: DVec3::ZERO,
+            radius: 1.0,
+        };
+        for shell in [infinite, sphere] {
+            assert!(!shell.contains(DVec3::new(0.0, f64::NAN, 0.0)));
+            assert!(!shell.contains(DVec3::new(0.0, f64::INFINITY, 0.0)));
+        }
+    }
+}

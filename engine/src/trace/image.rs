@@ -6,7 +6,7 @@
 //! but its own samples, so the output is bit-identical whatever the thread count.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::Instant;
 
 use glam::{DVec3, Vec3};
@@ -142,17 +142,47 @@ pub fn render_reference(
     options: &TraceOptions,
     progress: &(dyn Fn(u32) + Sync),
 ) -> Result<ReferenceImage, TraceError> {
+    let never = AtomicBool::new(false);
+    render_reference_cancellable(scene, camera, options, progress, &never)?.ok_or_else(|| {
+        // Unreachable: nothing sets `never`.
+        TraceError::InvalidImage("the render was cancelled".to_owned())
+    })
+}
+
+/// [`render_reference`] that an interactive caller can stop: `cancel` is read at the start of
+/// every row, and once it is set the rows not yet begun are skipped (a row already begun runs to
+/// its end). Returns `Ok(None)` when `cancel` was set at any point before the last row finished
+/// (then no image is assembled), `Ok(Some(image))`, equal to [`render_reference`]'s, otherwise.
+/// `progress` counts only the rows rendered. The camera is checked first: an invalid camera is an
+/// error even when `cancel` is already set.
+pub fn render_reference_cancellable(
+    scene: &TraceScene,
+    camera: &Camera,
+    options: &TraceOptions,
+    progress: &(dyn Fn(u32) + Sync),
+    cancel: &AtomicBool,
+) -> Result<Option<ReferenceImage>, TraceError> {
     validate_camera(camera)?;
     let start = Instant::now();
     let finished = AtomicU32::new(0);
-    let rows: Vec<Row> = (0..camera.height)
+    let rows: Vec<Option<Row>> = (0..camera.height)
         .into_par_iter()
         .map(|y| {
+            if cancel.load(Ordering::Relaxed) {
+                return None;
+            }
             let row = render_row(scene, camera, options, y);
             progress(finished.fetch_add(1, Ordering::Relaxed) + 1);
-            row
+            Some(row)
         })
         .collect();
+    // A flag set after the last row began still cancels: the caller asked for no image.
+    if cancel.load(Ordering::Relaxed) {
+        return Ok(None);
+    }
+    let Some(rows) = rows.into_iter().collect::<Option<Vec<Row>>>() else {
+        return Ok(None);
+    };
     let seconds = start.elapsed().as_secs_f64();
 
     let pixels = camera.width as usize * camera.height as usize;
@@ -184,7 +214,7 @@ pub fn render_reference(
         image.lens_pixels.covers.extend(row.covers);
         image.stats.counters += row.counters;
     }
-    Ok(image)
+    Ok(Some(image))
 }
 
 fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u32) -> Row {
@@ -431,6 +461,104 @@ mod tests {
         let (one, two) = (records(1), records(2));
         assert!(one.lenses.iter().any(|l| !l.records.is_empty()));
         assert_eq!(one, two);
+    }
+
+    fn small_glass_sphere() -> (TraceScene, Camera) {
+        let scene = Scene::load_named("glass-sphere").expect("built-in scene");
+        let world = TraceScene::new(&scene).expect("traceable");
+        let camera = scene.camera.with_resolution(16, 12, 1);
+        (world, camera)
+    }
+
+    #[test]
+    fn uncancelled_render_equals_render_reference() {
+        let (world, camera) = small_glass_sphere();
+        let options = TraceOptions::default();
+        let never = AtomicBool::new(false);
+        let rows = AtomicU32::new(0);
+        let mut cancellable = render_reference_cancellable(
+            &world,
+            &camera,
+            &options,
+            &|_| {
+                rows.fetch_add(1, Ordering::Relaxed);
+            },
+            &never,
+        )
+        .unwrap()
+        .expect("not cancelled");
+        let mut plain = render_reference(&world, &camera, &options, &|_| {}).unwrap();
+        cancellable.stats.seconds = 0.0;
+        plain.stats.seconds = 0.0;
+        assert_eq!(cancellable, plain);
+        assert_eq!((plain.width, plain.height), (16, 12));
+        assert!(
+            plain.lens_mask.iter().any(|&m| m > 0.0),
+            "the sphere is seen"
+        );
+        assert_eq!(
+            rows.load(Ordering::Relaxed),
+            12,
+            "one progress call per row"
+        );
+    }
+
+    #[test]
+    fn cancel_set_before_the_call_renders_no_row() {
+        let (world, camera) = small_glass_sphere();
+        // The scene's full 640×480 at 3×3: millions of rays had any row been begun.
+        let camera = camera.with_resolution(640, 480, 3);
+        let cancel = AtomicBool::new(true);
+        let rows = AtomicU32::new(0);
+        let start = Instant::now();
+        let result = render_reference_cancellable(
+            &world,
+            &camera,
+            &TraceOptions::default(),
+            &|_| {
+                rows.fetch_add(1, Ordering::Relaxed);
+            },
+            &cancel,
+        )
+        .unwrap();
+        assert!(result.is_none());
+        assert_eq!(rows.load(Ordering::Relaxed), 0);
+        assert!(start.elapsed().as_secs_f64() < 1.0, "{:?}", start.elapsed());
+        // The camera is still checked: an invalid one is an error, not a cancellation.
+        let empty = Camera { width: 0, ..camera };
+        assert!(
+            render_reference_cancellable(
+                &world,
+                &empty,
+                &TraceOptions::default(),
+                &|_| {},
+                &cancel
+            )
+            .is_err()
+        );
+    }
+
+    #[test]
+    fn cancel_set_during_the_render_skips_the_remaining_rows() {
+        let (world, camera) = small_glass_sphere();
+        let cancel = AtomicBool::new(false);
+        let rows = AtomicU32::new(0);
+        // One thread renders the rows in order: the flag set after the first row stops the rest.
+        let result = in_pool(1, || {
+            render_reference_cancellable(
+                &world,
+                &camera,
+                &TraceOptions::default(),
+                &|_| {
+                    rows.fetch_add(1, Ordering::Relaxed);
+                    cancel.store(true, Ordering::Relaxed);
+                },
+                &cancel,
+            )
+        })
+        .unwrap();
+        assert!(result.is_none());
+        assert_eq!(rows.load(Ordering::Relaxed), 1);
     }
 
     #[test]

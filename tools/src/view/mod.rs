@@ -1,0 +1,225 @@
+//! `lensmap view`: the hybrid frame in a window (winit, ash-window, a swapchain) with live
+//! experiments on keys, the camera's place in the view space, the paper's per-frame table and
+//! the reference ray tracer on demand; or, with `--record DIR`, a camera path rendered headless.
+
+mod camera;
+mod keys;
+mod overlay;
+mod present;
+mod record;
+mod reference;
+mod script;
+mod window;
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use clap::{Args, ValueEnum};
+use lensmap::{
+    hybrid::{HybridOptions, HybridScene, tessellate::DEFAULT_T, tessellate::TessellationOptions},
+    layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
+    lightmap::LightMapOptions,
+    render::{BlendScheme, TargetFormat, Variant},
+    runner::{EmSource, FrameOptions, LoadOptions, load_hybrid_scene},
+    scene::{Camera, Scene},
+};
+
+use crate::common::{BlendArg, CameraArgs, FormatArg, VariantArg, choose_camera, flag_error};
+
+#[derive(Args)]
+#[command(after_help = after_help())]
+pub struct ViewArgs {
+    /// Built-in scene name (teapot-room, glass-sphere, mirror-teapot) or path to a scene .toml.
+    #[arg(long)]
+    pub scene: String,
+    /// Read the inferred layered EMs from this bake directory. Without --bake or --projected,
+    /// the demo's cache (out/bake) is used when it holds a bake of this scene, else projected
+    /// EMs.
+    #[arg(long, value_name = "DIR", conflicts_with = "projected")]
+    pub bake: Option<PathBuf>,
+    /// Use projected layered EMs (layer shells from the scene file), even where a bake exists.
+    #[arg(long)]
+    pub projected: bool,
+    /// Render the camera path headless into DIR (no window, no display needed):
+    /// frame-NNNN.png and .exr per frame and stats.csv.
+    #[arg(long, value_name = "DIR", conflicts_with = "script")]
+    pub record: Option<PathBuf>,
+    /// The camera path of --record: `orbit` (a full turn around the camera's look-at point in
+    /// --frames frames, starting at the camera) or a path file (TOML `[[poses]]` with position
+    /// and look_at; docs/viewer.md).
+    #[arg(long, default_value = "orbit", value_name = "orbit|FILE")]
+    pub path: String,
+    /// Frames of an orbit.
+    #[arg(long, default_value_t = 60)]
+    pub frames: usize,
+    /// Replay a script in the window: timed camera moves, key presses, resizes and screenshots,
+    /// one step per frame number (docs/viewer.md#scripts); the viewer closes after its last step.
+    #[arg(long, value_name = "FILE")]
+    pub script: Option<PathBuf>,
+    /// How frames reach the screen: fifo (vsync, never tears), mailbox or immediate (fall back
+    /// to fifo, saying so, where the surface lacks them).
+    #[arg(long, value_enum, default_value = "fifo")]
+    pub present: PresentArg,
+    /// Where `P` writes screenshots (shot-NNNN.png, .exr, -window.png, .json).
+    #[arg(long, value_name = "DIR", default_value = "out/view")]
+    pub screenshots: PathBuf,
+    /// The starting camera (size, supersampling, position, look-at; the window opens at its
+    /// size).
+    #[command(flatten)]
+    pub camera: CameraArgs,
+    /// Tessellation threshold in subpixels (keys `]` and `[` step it).
+    #[arg(long, default_value_t = DEFAULT_T, allow_negative_numbers = true)]
+    pub t: f32,
+    /// The angle threshold in degrees: outgoing rays further apart split a triangle (keys `.`
+    /// and `,`).
+    #[arg(long, default_value_t = lensmap::hybrid::DEFAULT_ANGLE_DEGREES, allow_negative_numbers = true)]
+    pub angle_degrees: f64,
+    /// Compositor variant (key `v`).
+    #[arg(long, value_enum, default_value = "single-pass")]
+    pub variant: VariantArg,
+    /// Blending scheme of the multipass variant (key `b`).
+    #[arg(long, value_enum, default_value = "front-to-back")]
+    pub blend: BlendArg,
+    /// Framebuffer format (key `f`).
+    #[arg(long, value_enum, default_value = "rgba16f")]
+    pub format: FormatArg,
+    /// Projected EM face size, texels.
+    #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
+    pub em_size: u32,
+}
+
+/// `--present`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PresentArg {
+    /// Wait for the display's vertical blank; every device has it.
+    Fifo,
+    /// Replace the queued frame with the newest one: no tearing, no waiting.
+    Mailbox,
+    /// Present at once; may tear.
+    Immediate,
+}
+
+/// `--help`'s text after the options: an example and the keys.
+fn after_help() -> String {
+    format!(
+        "Examples:\n  lensmap view --scene teapot-room\n  lensmap view --scene glass-sphere --projected --record out/orbit --frames 60\n\n{}",
+        keys::help_text()
+    )
+}
+
+/// Where the layered EMs come from, as the user asked or the cache offered.
+#[derive(Clone, Debug)]
+pub(crate) struct EmChoice {
+    /// A bake to read (given, or the demo's cache), if any.
+    bake: Option<PathBuf>,
+    /// Whether the viewer starts with the bake's inferred EMs (else projected ones).
+    inferred_first: bool,
+    /// Projected EMs' options.
+    projected: ProjectedOptions,
+}
+
+impl EmChoice {
+    /// The user's choice, or the demo's cache when it holds a bake this scene can reuse, said
+    /// in one line either way.
+    fn choose(args: &ViewArgs, scene: &Scene, camera: &Camera) -> anyhow::Result<EmChoice> {
+        let projected = ProjectedOptions::with_size(args.em_size);
+        projected.validate().map_err(flag_error)?;
+        if let Some(dir) = &args.bake {
+            return Ok(EmChoice {
+                bake: Some(dir.clone()),
+                inferred_first: true,
+                projected,
+            });
+        }
+        let cache = Path::new("out").join(crate::demo::BAKE_CACHE);
+        let offered = if args.projected {
+            None
+        } else {
+            match lensmap_baker::bake::reuse::check(
+                &cache,
+                scene,
+                &crate::demo::bake_options(camera),
+                &[],
+            ) {
+                Ok(_) => {
+                    say!(
+                        "inferred layered EMs: the demo's bake in {} (key e: projected ones)",
+                        cache.display()
+                    );
+                    Some(cache)
+                }
+                Err(why) => {
+                    say!(
+                        "projected layered EMs: no reusable bake in {} ({why}; `lensmap demo` or `lensmap bake` makes one)",
+                        cache.display()
+                    );
+                    None
+                }
+            }
+        };
+        Ok(EmChoice {
+            inferred_first: offered.is_some(),
+            bake: offered,
+            projected,
+        })
+    }
+
+    /// The hybrid scene with inferred (`true`) or projected EMs.
+    fn load(&self, scene: &Scene, inferred: bool) -> anyhow::Result<Arc<HybridScene>> {
+        let ems = match (&self.bake, inferred) {
+            (Some(dir), true) => EmSource::Bake(dir.clone()),
+            _ => EmSource::Projected(self.projected),
+        };
+        let (hybrid, _) = load_hybrid_scene(
+            scene.clone(),
+            &LoadOptions {
+                ems,
+                light_maps: LightMapOptions::default(),
+            },
+        )?;
+        Ok(Arc::new(hybrid))
+    }
+}
+
+/// The frame options the flags ask for, checked.
+fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
+    let options = FrameOptions {
+        hybrid: HybridOptions {
+            tessellation: TessellationOptions {
+                t: args.t,
+                ..TessellationOptions::default()
+            },
+            angle_radians: args.angle_degrees.to_radians(),
+            ..HybridOptions::default()
+        },
+        variant: Variant::from(args.variant),
+        blend: BlendScheme::from(args.blend),
+        format: TargetFormat::from(args.format),
+    };
+    options.validate().map_err(flag_error)?;
+    Ok(options)
+}
+
+pub fn run(args: ViewArgs) -> anyhow::Result<()> {
+    let scene = Scene::load_named(&args.scene)?;
+    let camera = choose_camera(&scene, &args.scene, &args.camera)?;
+    let options = frame_options(&args)?;
+    let script = match &args.script {
+        Some(file) => Some(script::Script::load(file)?),
+        None => None,
+    };
+    let ems = EmChoice::choose(&args, &scene, &camera)?;
+    match &args.record {
+        Some(dir) => record::run(&args, dir, scene, camera, &options, &ems),
+        None => window::run(
+            &args,
+            window::Start {
+                scene,
+                camera,
+                options,
+                ems,
+                script,
+            },
+        ),
+    }
+}

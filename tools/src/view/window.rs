@@ -1,0 +1,1128 @@
+//! The viewer's window: winit's event loop, the camera controls, the keys, scripts, and per
+//! frame the hybrid frame rendered into the swapchain image, the overlay over it and the
+//! presentation.
+
+use std::collections::{HashMap, HashSet, VecDeque};
+use std::ffi::CStr;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context as _, anyhow};
+use egui::Pos2;
+use glam::{Vec3, Vec4Swizzles};
+use lensmap::{
+    cubemap::CubeMap,
+    gpu::{Gpu, GpuOptions},
+    hybrid::HybridScene,
+    metrics::Encoding,
+    runner::{FrameOptions, FrameRunner, HostFrame, lens_error},
+    scene::{Camera, CameraPath, Scene},
+    trace::{image::ReferenceImage, image::srgb8, world::TraceScene},
+};
+use raw_window_handle::HasDisplayHandle;
+use winit::{
+    application::ApplicationHandler,
+    dpi::PhysicalSize,
+    event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent},
+    event_loop::{ActiveEventLoop, EventLoop},
+    keyboard::Key,
+    window::{Window, WindowId},
+};
+
+use super::{
+    EmChoice, PresentArg, ViewArgs, camera,
+    keys::{Action, Experiment, ReferenceView},
+    overlay::{Overlay, OverlayView, texture},
+    present::{Acquired, Presenter},
+    reference::ReferenceWorker,
+    script::Script,
+};
+
+/// What the window starts with.
+pub struct Start {
+    /// The scene.
+    pub scene: Scene,
+    /// The starting camera (its size is the window's).
+    pub camera: Camera,
+    /// The starting frame options.
+    pub options: FrameOptions,
+    /// Where the EMs come from.
+    pub ems: EmChoice,
+    /// A script to replay, if any.
+    pub script: Option<Script>,
+}
+
+/// How many notes the overlay keeps, and for how long, seconds.
+const NOTES: usize = 4;
+const NOTE_SECONDS: f32 = 4.0;
+/// Wireframes with more edges than this are not drawn (said on screen): egui's tessellation of
+/// that many lines would cost more than the frame.
+const MAX_WIREFRAME_EDGES: usize = 300_000;
+
+pub fn run(args: &ViewArgs, start: Start) -> anyhow::Result<()> {
+    let event_loop = EventLoop::new().map_err(|e| {
+        anyhow!(
+            "view: cannot open a window ({e}); set DISPLAY to an X server (or run under Xvfb), or render headless with --record DIR"
+        )
+    })?;
+    let display = event_loop
+        .display_handle()
+        .context("the display's handle")?;
+    let surface_extensions: Vec<&'static CStr> =
+        ash_window::enumerate_required_extensions(display.as_raw())
+            .context("the window system's Vulkan extensions")?
+            .iter()
+            // SAFETY: ash-window's names are 'static NUL-terminated strings.
+            .map(|&name| unsafe { CStr::from_ptr(name) })
+            .collect();
+    let gpu = Gpu::new(&GpuOptions {
+        surface_extensions,
+        ..GpuOptions::from_env()
+    })?;
+    let validation = gpu.validation_report().enabled;
+    let runner = FrameRunner::new(gpu)?;
+    runner.check_framebuffer(&start.camera, start.options.format)?;
+    say!("device: {}", runner.gpu().device_id());
+    let inferred = start.ems.inferred_first;
+    let first = start.ems.load(&start.scene, inferred)?;
+    let path = match start.script.as_ref().and_then(|s| s.path.as_ref()) {
+        Some(path) if path == "orbit" => {
+            let frames = start.script.as_ref().map_or(60, |s| s.frames);
+            let mut centred = start.scene.clone();
+            centred.camera = start.camera;
+            Some(CameraPath::orbit(&centred, frames))
+        }
+        Some(file) => Some(CameraPath::load(Path::new(file), &start.camera)?),
+        None => None,
+    };
+    let mut app = App {
+        overlay: None,
+        presenter: None,
+        reference: None,
+        runner,
+        window: None,
+        present: args.present,
+        screenshots: args.screenshots.clone(),
+        shots: 0,
+        screenshot_next: None,
+        scene: start.scene,
+        scene_arg: args.scene.clone(),
+        ems: start.ems,
+        hybrids: [None, None],
+        originals: [None, None],
+        transparent: HashMap::new(),
+        applied_layers: Vec::new(),
+        trace: None,
+        experiment: Experiment {
+            options: start.options,
+            layers_off: Vec::new(),
+            inferred,
+            wireframe: false,
+            reference: ReferenceView::Off,
+            help: false,
+        },
+        camera: start.camera,
+        script: start.script,
+        path,
+        frame: 0,
+        notes: VecDeque::new(),
+        inside: Vec::new(),
+        start_inside: Vec::new(),
+        input: Input::default(),
+        stats: Smoothed::default(),
+        last_frame_end: None,
+        recreate: false,
+        minimized: false,
+        frame_error: None,
+        compared: None,
+        error: None,
+    };
+    app.set_hybrid(inferred, first);
+    let (_, inside) = camera::guard(app.hybrid(), app.camera);
+    app.start_inside = inside.clone();
+    app.inside = inside;
+    event_loop.run_app(&mut app)?;
+    let App {
+        error,
+        overlay,
+        presenter,
+        reference,
+        runner,
+        window,
+        frame,
+        ..
+    } = app;
+    // Everything made on the device goes before the device; the surface before the window.
+    drop((overlay, presenter, reference));
+    drop(window);
+    let report = runner.gpu().validation_report();
+    if let Some(error) = error {
+        return Err(error);
+    }
+    if validation {
+        if !report.messages.is_empty() {
+            for message in &report.messages {
+                eprintln!("validation: {message}");
+            }
+            anyhow::bail!(
+                "the validation layer reported {} messages in {frame} frames (listed above)",
+                report.messages.len()
+            );
+        }
+        say!("validation layer: no message in {frame} frames");
+    }
+    Ok(())
+}
+
+/// The mouse and the fly keys.
+#[derive(Default)]
+struct Input {
+    cursor: Option<Pos2>,
+    orbiting: bool,
+    looking: bool,
+    /// W, A, S, D held.
+    fly: HashSet<char>,
+}
+
+/// The per-frame figures, smoothed (exponential moving average, a tenth of each new frame).
+#[derive(Default)]
+struct Smoothed {
+    values: HashMap<&'static str, f64>,
+}
+
+impl Smoothed {
+    const WEIGHT: f64 = 0.1;
+
+    fn add(&mut self, name: &'static str, value: f64) {
+        let v = self.values.entry(name).or_insert(value);
+        *v += Self::WEIGHT * (value - *v);
+    }
+
+    fn get(&self, name: &str) -> f64 {
+        self.values.get(name).copied().unwrap_or(0.0)
+    }
+}
+
+/// The lens PSNR and the images of the reference shown against the frame it was compared with.
+struct Compared {
+    /// The camera and experiment the hybrid frame had.
+    key: (Camera, FrameOptions, bool, Vec<bool>),
+    reference: Arc<ReferenceImage>,
+    psnr: Result<f64, String>,
+    reference_texture: egui::TextureHandle,
+    difference_texture: egui::TextureHandle,
+}
+
+struct App {
+    // Dropped in this order: what lives on the device, then the device, then the window.
+    overlay: Option<Overlay>,
+    presenter: Option<Presenter>,
+    reference: Option<ReferenceWorker>,
+    runner: FrameRunner,
+    window: Option<Window>,
+    present: PresentArg,
+    screenshots: PathBuf,
+    shots: usize,
+    /// Where the next frame's screenshot goes (without extension), if one was asked for.
+    screenshot_next: Option<PathBuf>,
+    scene: Scene,
+    /// The scene as `lensmap render --scene` takes it (its name or its file).
+    scene_arg: String,
+    ems: EmChoice,
+    /// The hybrid scene with projected EMs (0) and inferred ones (1), loaded when first shown.
+    hybrids: [Option<HybridScene>; 2],
+    /// Their maps as loaded, `[lens][viewpoint][layer]`, for turning layers back on.
+    originals: [Option<Vec<Vec<Vec<Arc<CubeMap>>>>>; 2],
+    /// One transparent map per size, standing in for layers turned off (kept, so that frames
+    /// with the same layers off are the same frame).
+    transparent: HashMap<u32, Arc<CubeMap>>,
+    /// The layers off in the maps the shown hybrid scene holds.
+    applied_layers: Vec<bool>,
+    /// The reference's trace scene, built when the reference is first asked for.
+    trace: Option<Arc<TraceScene>>,
+    experiment: Experiment,
+    camera: Camera,
+    script: Option<Script>,
+    path: Option<CameraPath>,
+    /// Frames drawn (the script's clock).
+    frame: usize,
+    notes: VecDeque<(String, Instant)>,
+    /// The layer shells the camera is inside.
+    inside: Vec<String>,
+    /// Those the starting camera is inside (rooms around the scene): being inside them is normal.
+    start_inside: Vec<String>,
+    input: Input,
+    stats: Smoothed,
+    last_frame_end: Option<Instant>,
+    recreate: bool,
+    minimized: bool,
+    /// Why the last frame could not be rendered, if it could not.
+    frame_error: Option<String>,
+    compared: Option<Compared>,
+    error: Option<anyhow::Error>,
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.window.is_some() {
+            return;
+        }
+        if let Err(e) = self.open(event_loop) {
+            self.error = Some(e);
+            event_loop.exit();
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _: WindowId, event: WindowEvent) {
+        let result = match event {
+            WindowEvent::CloseRequested => {
+                event_loop.exit();
+                Ok(())
+            }
+            WindowEvent::Resized(size) => {
+                self.minimized = size.width == 0 || size.height == 0;
+                self.recreate = true;
+                Ok(())
+            }
+            WindowEvent::KeyboardInput { event, .. } => {
+                let name = match &event.logical_key {
+                    Key::Character(c) => c.to_lowercase(),
+                    Key::Named(named) => format!("{named:?}").to_lowercase(),
+                    _ => String::new(),
+                };
+                let pressed = event.state == ElementState::Pressed;
+                if let Some(c @ ('w' | 'a' | 's' | 'd')) =
+                    name.chars().next().filter(|_| name.len() == 1)
+                {
+                    if pressed {
+                        self.input.fly.insert(c);
+                    } else {
+                        self.input.fly.remove(&c);
+                    }
+                    Ok(())
+                } else if pressed && !event.repeat {
+                    match super::keys::action(&name) {
+                        Some(Action::Quit) => {
+                            event_loop.exit();
+                            Ok(())
+                        }
+                        Some(action) => self.act(action, None),
+                        None => Ok(()),
+                    }
+                } else {
+                    Ok(())
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let down = state == ElementState::Pressed;
+                match button {
+                    MouseButton::Left => self.input.orbiting = down,
+                    MouseButton::Right => self.input.looking = down,
+                    _ => {}
+                }
+                Ok(())
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let now = Pos2::new(position.x as f32, position.y as f32);
+                if let Some(before) = self.input.cursor {
+                    let d = now - before;
+                    if self.input.orbiting {
+                        self.move_camera(camera::orbit(&self.camera, -0.3 * d.x, 0.3 * d.y));
+                    } else if self.input.looking {
+                        self.move_camera(camera::look(&self.camera, -0.15 * d.x, -0.15 * d.y));
+                    }
+                }
+                self.input.cursor = Some(now);
+                Ok(())
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let steps = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 40.0,
+                };
+                self.move_camera(camera::zoom(&self.camera, 0.9f32.powf(steps)));
+                Ok(())
+            }
+            WindowEvent::RedrawRequested => self.redraw(event_loop),
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            self.error = Some(e);
+            event_loop.exit();
+        }
+    }
+
+    fn about_to_wait(&mut self, _: &ActiveEventLoop) {
+        if let Some(window) = &self.window {
+            window.request_redraw();
+        }
+    }
+}
+
+impl App {
+    /// The window, its swapchain and the overlay.
+    fn open(&mut self, event_loop: &ActiveEventLoop) -> anyhow::Result<()> {
+        let attributes = Window::default_attributes()
+            .with_title(format!("lensmap view · {}", self.scene.name))
+            .with_inner_size(PhysicalSize::new(self.camera.width, self.camera.height));
+        let window = event_loop.create_window(attributes)?;
+        let gpu = self.runner.gpu();
+        let presenter = Presenter::new(gpu, &window, self.present)?;
+        say!(
+            "window {}×{}, swapchain {:?}, present mode {:?}",
+            presenter.extent.width,
+            presenter.extent.height,
+            presenter.format.format,
+            presenter.mode
+        );
+        self.overlay = Some(Overlay::new(gpu, presenter.format.format)?);
+        self.presenter = Some(presenter);
+        self.window = Some(window);
+        Ok(())
+    }
+
+    /// A note on screen for a few seconds.
+    fn note(&mut self, text: String) {
+        self.notes.push_back((text, Instant::now()));
+        while self.notes.len() > NOTES {
+            self.notes.pop_front();
+        }
+    }
+
+    /// The hybrid scene shown.
+    fn hybrid(&self) -> &HybridScene {
+        self.hybrids[usize::from(self.experiment.inferred)]
+            .as_ref()
+            .or(self.hybrids[usize::from(!self.experiment.inferred)].as_ref())
+            .expect("a hybrid scene is loaded before the window opens")
+    }
+
+    /// Keeps `hybrid` as the scene with inferred (or projected) EMs, with its maps as loaded.
+    fn set_hybrid(&mut self, inferred: bool, hybrid: Arc<HybridScene>) {
+        let hybrid = Arc::into_inner(hybrid).expect("a freshly loaded scene has one owner");
+        let maps = hybrid.lenses.iter().map(|l| l.maps.clone()).collect();
+        self.originals[usize::from(inferred)] = Some(maps);
+        self.hybrids[usize::from(inferred)] = Some(hybrid);
+        // Its maps are the originals: layers off are applied before its first frame.
+        self.applied_layers = Vec::new();
+    }
+
+    /// The camera moved, unless the guard stops it (said on screen).
+    fn move_camera(&mut self, to: Camera) {
+        let (moved, inside) = camera::guard(self.hybrid(), to);
+        match moved {
+            camera::Moved::To(camera) => {
+                let entered: Vec<&String> =
+                    inside.iter().filter(|s| !self.inside.contains(s)).collect();
+                let left: Vec<&String> =
+                    self.inside.iter().filter(|s| !inside.contains(s)).collect();
+                let said = match (entered.is_empty(), left.is_empty()) {
+                    (true, true) => None,
+                    (false, _) => Some(format!(
+                        "the camera entered layer shell {}: the environment there is drawn on the shell, so parallax inside it is wrong",
+                        join(&entered)
+                    )),
+                    (true, false) => Some(format!("the camera left layer shell {}", join(&left))),
+                };
+                if let Some(said) = said {
+                    self.note(said);
+                }
+                self.inside = inside;
+                self.camera = camera;
+            }
+            camera::Moved::Stopped(why) => {
+                if self.notes.back().is_none_or(|(n, _)| *n != why) {
+                    self.note(why);
+                }
+            }
+        }
+    }
+
+    /// A key's action; `screenshot` names a script's screenshot.
+    fn act(&mut self, action: Action, screenshot: Option<&Path>) -> anyhow::Result<()> {
+        match action {
+            Action::Ems => {
+                let inferred = !self.experiment.inferred;
+                if inferred && self.ems.bake.is_none() {
+                    self.note("no bake: only projected EMs (give --bake DIR)".into());
+                    return Ok(());
+                }
+                if self.hybrids[usize::from(inferred)].is_none() {
+                    let hybrid = self.ems.load(&self.scene, inferred)?;
+                    self.set_hybrid(inferred, hybrid);
+                }
+                self.experiment.inferred = inferred;
+                self.applied_layers = Vec::new();
+                self.note(format!(
+                    "{} layered EMs",
+                    if inferred { "inferred" } else { "projected" }
+                ));
+            }
+            Action::Snap | Action::NextSample | Action::PreviousSample => {
+                let samples = self.hybrid().viewpoints.clone();
+                let Some(fit) = self.hybrid().view_space_fit(&self.camera) else {
+                    self.note("no viewpoint sample to go to".into());
+                    return Ok(());
+                };
+                let n = samples.len();
+                let index = match action {
+                    Action::NextSample => (fit.nearest + 1) % n,
+                    Action::PreviousSample => (fit.nearest + n - 1) % n,
+                    _ => fit.nearest,
+                };
+                let to = self.camera.with_position(samples[index].as_vec3());
+                self.move_camera(to);
+                self.note(format!("viewpoint sample {index}"));
+            }
+            Action::Screenshot => {
+                self.screenshot_next = Some(match screenshot {
+                    Some(path) => path.to_path_buf(),
+                    None => {
+                        self.shots += 1;
+                        self.screenshots.join(format!("shot-{:04}", self.shots))
+                    }
+                })
+            }
+            Action::Quit => {}
+            other => {
+                if let Some(said) = self.experiment.apply(other) {
+                    self.experiment.options.validate()?;
+                    self.note(said);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl App {
+    /// One frame: the script's steps and the fly keys, the hybrid frame into the swapchain
+    /// image, the overlay, the presentation, then screenshots, the reference and the stats.
+    fn redraw(&mut self, event_loop: &ActiveEventLoop) -> anyhow::Result<()> {
+        let start = Instant::now();
+        if self.minimized || self.window.is_none() {
+            return Ok(());
+        }
+        self.run_script_steps()?;
+        self.fly(start);
+        self.apply_layers();
+        if self.recreate {
+            self.recreate_swapchain()?;
+            if self.minimized {
+                return Ok(());
+            }
+        }
+        let Some(presenter) = &mut self.presenter else {
+            return Ok(());
+        };
+        let index = match presenter.acquire()? {
+            Acquired::Image(index) => index,
+            Acquired::OutOfDate => {
+                self.recreate = true;
+                return Ok(());
+            }
+        };
+        self.camera.width = presenter.extent.width;
+        self.camera.height = presenter.extent.height;
+        let host = presenter.host_image(index);
+        let hybrid = self.hybrids[usize::from(self.experiment.inferred)]
+            .as_ref()
+            .expect("the shown scene is loaded");
+        let rendered =
+            match self
+                .runner
+                .frame_into(hybrid, &self.camera, &self.experiment.options, &host)
+            {
+                Ok(frame) => {
+                    self.frame_error = None;
+                    Some(frame)
+                }
+                Err(e) => {
+                    self.frame_error = Some(crate::words::error_line(&anyhow::Error::from(e)));
+                    None
+                }
+            };
+        let submitted = Instant::now();
+        let view = self.overlay_view(rendered.as_ref());
+        let (presenter, overlay) = match (&mut self.presenter, &mut self.overlay) {
+            (Some(p), Some(o)) => (p, o),
+            _ => return Ok(()),
+        };
+        let primitives = overlay.prepare(presenter.extent, &view)?;
+        let shot = self.screenshot_next.take();
+        let copies = match &shot {
+            Some(_) => Some(presenter.copies(self.runner.gpu())?),
+            None => None,
+        };
+        let fits = presenter.finish(
+            self.runner.gpu(),
+            index,
+            rendered.is_some(),
+            copies.as_ref(),
+            |cb, extent| overlay.record(cb, extent, &primitives),
+        )?;
+        self.recreate |= !fits;
+        presenter.wait()?;
+        overlay.frame_done()?;
+        let done = Instant::now();
+        if let (Some(path), Some(copies)) = (shot, &copies) {
+            self.write_screenshot(&path, copies)?;
+        }
+        if let Some(frame) = &rendered {
+            self.count(frame, start, submitted, done);
+        }
+        self.update_reference()?;
+        self.frame += 1;
+        if let Some(script) = &self.script
+            && self.frame > script.last_frame()
+        {
+            event_loop.exit();
+        }
+        Ok(())
+    }
+
+    /// The script's steps for this frame, and its path's pose.
+    fn run_script_steps(&mut self) -> anyhow::Result<()> {
+        let Some(script) = self.script.clone() else {
+            return Ok(());
+        };
+        if let Some(path) = &self.path
+            && let Some(pose) = path.poses.get(self.frame % path.poses.len().max(1))
+        {
+            let to = Camera {
+                position: pose.position,
+                look_at: pose.look_at,
+                ..self.camera
+            };
+            self.move_camera(to);
+        }
+        for step in script.steps_at(self.frame) {
+            if let Some((position, look_at)) = step.camera {
+                self.move_camera(Camera {
+                    position,
+                    look_at,
+                    ..self.camera
+                });
+            }
+            if let Some((yaw, pitch)) = step.orbit {
+                self.move_camera(camera::orbit(&self.camera, yaw, pitch));
+            }
+            if let Some(factor) = step.zoom {
+                self.move_camera(camera::zoom(&self.camera, factor));
+            }
+            for &action in &step.keys {
+                self.act(action, None)?;
+            }
+            if let Some((width, height)) = step.resize
+                && let Some(window) = &self.window
+            {
+                let _ = window.request_inner_size(PhysicalSize::new(width, height));
+                self.recreate = true;
+            }
+            if let Some(path) = &step.screenshot {
+                self.act(Action::Screenshot, Some(path))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// WASD: fly at a tenth of the distance to the look-at point per second.
+    fn fly(&mut self, now: Instant) {
+        let dt = self
+            .last_frame_end
+            .map_or(0.0, |t| now.duration_since(t).as_secs_f32().min(0.25));
+        if self.input.fly.is_empty() || dt == 0.0 {
+            return;
+        }
+        let speed = 0.5 * (self.camera.look_at - self.camera.position).length() * dt;
+        let held = |c| f32::from(u8::from(self.input.fly.contains(&c)));
+        let forward = (held('w') - held('s')) * speed;
+        let right = (held('d') - held('a')) * speed;
+        self.move_camera(camera::fly(&self.camera, forward, right));
+    }
+
+    /// The layers off replaced by transparent maps in the shown scene (and back on).
+    fn apply_layers(&mut self) {
+        let which = usize::from(self.experiment.inferred);
+        if self.applied_layers == self.experiment.layers_off {
+            return;
+        }
+        let off = self.experiment.layers_off.clone();
+        let (Some(hybrid), Some(originals)) = (&mut self.hybrids[which], &self.originals[which])
+        else {
+            return;
+        };
+        for (lens, original) in hybrid.lenses.iter_mut().zip(originals) {
+            lens.maps = original
+                .iter()
+                .map(|layers| {
+                    layers
+                        .iter()
+                        .enumerate()
+                        .map(|(i, map)| {
+                            if off.get(i).copied().unwrap_or(false) {
+                                Arc::clone(self.transparent.entry(map.size).or_insert_with(|| {
+                                    Arc::new(CubeMap::uniform(map.size, [0.0; 4]))
+                                }))
+                            } else {
+                                Arc::clone(map)
+                            }
+                        })
+                        .collect()
+                })
+                .collect();
+        }
+        self.applied_layers = off;
+    }
+
+    fn recreate_swapchain(&mut self) -> anyhow::Result<()> {
+        let (Some(window), Some(presenter), Some(overlay)) =
+            (&self.window, &mut self.presenter, &mut self.overlay)
+        else {
+            return Ok(());
+        };
+        let size = window.inner_size();
+        self.minimized = !presenter.recreate(size.width, size.height)?;
+        overlay.set_format(presenter.format.format)?;
+        self.recreate = false;
+        Ok(())
+    }
+
+    /// Adds a frame's figures to the smoothed stats and mirrors them in the title bar.
+    fn count(&mut self, frame: &HostFrame, start: Instant, submitted: Instant, done: Instant) {
+        let s = &frame.stats;
+        let stats = &mut self.stats;
+        if let Some(last) = self.last_frame_end {
+            stats.add("frame", done.duration_since(last).as_secs_f64() * 1e3);
+        }
+        self.last_frame_end = Some(done);
+        stats.add("latency", done.duration_since(start).as_secs_f64() * 1e3);
+        stats.add("total", frame.total_ms);
+        stats.add("trace", s.trace_ms);
+        stats.add("tessellation", s.tessellation_ms);
+        stats.add("texgen", s.texgen_ms);
+        stats.add("assemble", s.assemble_ms);
+        stats.add("upload", frame.upload_ms);
+        stats.add("record", frame.record_ms);
+        stats.add("gpu", done.duration_since(submitted).as_secs_f64() * 1e3);
+        let c = s.counters;
+        stats.add(
+            "rays",
+            (c.primary_rays + c.secondary_rays + c.shadow_rays) as f64,
+        );
+        stats.add("triangle tests", c.triangle_tests as f64);
+        stats.add("passes", frame.passes as f64);
+        stats.add("vertices", s.vertices_traced as f64);
+        stats.add("triangles", s.triangles_out as f64);
+        if let Some(window) = &self.window {
+            let fps = 1e3 / stats.get("frame").max(1e-9);
+            window.set_title(&format!(
+                "lensmap view · {} · {fps:.1} fps · {:.0} ms: trace {:.0}, tessellation {:.0}, texgen {:.0}, GPU {:.0}",
+                self.scene.name,
+                stats.get("total") + stats.get("gpu"),
+                stats.get("trace"),
+                stats.get("tessellation"),
+                stats.get("texgen"),
+                stats.get("gpu"),
+            ));
+        }
+    }
+
+    /// What the overlay shows this frame.
+    fn overlay_view(&mut self, frame: Option<&HostFrame>) -> OverlayView {
+        let now = Instant::now();
+        self.notes
+            .retain(|(_, at)| now.duration_since(*at).as_secs_f32() < NOTE_SECONDS);
+        let e = &self.experiment;
+        let o = &e.options;
+        let hybrid = self.hybrid();
+        let layers = hybrid
+            .lenses
+            .iter()
+            .map(|l| l.shells.len())
+            .max()
+            .unwrap_or(0);
+        let layer_marks: String = (0..layers)
+            .map(|i| {
+                if e.layer_on(i) {
+                    format!("{} ", i + 1)
+                } else {
+                    "- ".into()
+                }
+            })
+            .collect();
+        let ems = match (&self.ems.bake, e.inferred) {
+            (Some(dir), true) => format!("inferred EMs ({})", dir.display()),
+            _ => "projected EMs".to_owned(),
+        };
+        let settings = vec![
+            format!("{} · {}", self.scene.name, self.runner.gpu().device_id()),
+            format!(
+                "{ems} · {} · {} · {}",
+                o.variant.name(),
+                o.blend.name(),
+                o.format.name()
+            ),
+            format!(
+                "t = {} · angle {:.1}° · layers {layer_marks}· wireframe {}",
+                o.hybrid.tessellation.t,
+                o.hybrid.angle_radians.to_degrees(),
+                if e.wireframe { "on" } else { "off" }
+            ),
+            format!(
+                "camera ({:.2}, {:.2}, {:.2}) → ({:.2}, {:.2}, {:.2}), {}×{}×{}²",
+                self.camera.position.x,
+                self.camera.position.y,
+                self.camera.position.z,
+                self.camera.look_at.x,
+                self.camera.look_at.y,
+                self.camera.look_at.z,
+                self.camera.width,
+                self.camera.height,
+                self.camera.supersampling
+            ),
+        ];
+        let blend = hybrid.viewpoint_blend(&self.camera);
+        let weights: Vec<String> = blend
+            .samples
+            .iter()
+            .map(|(i, w)| format!("{i} ×{w:.2}"))
+            .collect();
+        let shared = hybrid.lenses.iter().all(|l| l.maps.len() == 1);
+        let viewpoints = if shared {
+            "viewpoints: projected EMs are the same at every sample".to_owned()
+        } else {
+            format!("viewpoint samples: {}", weights.join(", "))
+        };
+        let outside = hybrid.view_space_fit(&self.camera).and_then(|fit| {
+            (fit.outside && !shared).then(|| {
+                format!(
+                    "OUTSIDE THE VIEW SPACE: {:.1}° from sample {}, samples are {:.1}° apart",
+                    fit.nearest_radians.to_degrees(),
+                    fit.nearest,
+                    fit.spacing_radians.to_degrees()
+                )
+            })
+        });
+        let st = &self.stats;
+        let ms = |name: &str| format!("{:.1} ms", st.get(name));
+        let count = |name: &str| format!("{:.0}", st.get(name));
+        let mut table = vec![
+            (
+                "frame rate".to_owned(),
+                format!("{:.1} fps", 1e3 / st.get("frame").max(1e-9)),
+            ),
+            ("latency".to_owned(), ms("latency")),
+            ("trace".to_owned(), ms("trace")),
+            ("tessellation".to_owned(), ms("tessellation")),
+            ("texgen".to_owned(), ms("texgen")),
+            ("assemble".to_owned(), ms("assemble")),
+            ("upload".to_owned(), ms("upload")),
+            ("record".to_owned(), ms("record")),
+            ("GPU".to_owned(), ms("gpu")),
+            ("CPU total".to_owned(), ms("total")),
+            ("rays".to_owned(), count("rays")),
+            ("triangle tests".to_owned(), count("triangle tests")),
+            ("vertices traced".to_owned(), count("vertices")),
+            ("lens triangles".to_owned(), count("triangles")),
+            ("passes".to_owned(), count("passes")),
+        ];
+        if frame.is_some_and(|f| f.stats.reused) {
+            table.push(("frame".to_owned(), "reused (still camera)".to_owned()));
+        }
+        let mut notes: Vec<String> = self.notes.iter().map(|(n, _)| n.clone()).collect();
+        if let Some(error) = &self.frame_error {
+            notes.push(format!("frame not rendered: {error}"));
+        }
+        let entered: Vec<&String> = self
+            .inside
+            .iter()
+            .filter(|s| !self.start_inside.contains(s))
+            .collect();
+        if !entered.is_empty() {
+            notes.push(format!(
+                "inside layer shell {} (the start camera is not)",
+                join(&entered)
+            ));
+        }
+        let wireframe = if e.wireframe {
+            self.wireframe_edges(&mut notes)
+        } else {
+            Vec::new()
+        };
+        let (reference, image) = self.reference_view();
+        OverlayView {
+            settings,
+            table,
+            viewpoints,
+            outside,
+            notes,
+            reference,
+            help: self.experiment.help,
+            wireframe,
+            image,
+        }
+    }
+
+    /// The last frame's tessellation as window-pixel edges with their subdivision depth (each
+    /// edge once; edges with an end behind the eye left out).
+    fn wireframe_edges(&self, notes: &mut Vec<String>) -> Vec<([Pos2; 2], u8)> {
+        let Some(wireframe) = self.hybrid().last_wireframe() else {
+            return Vec::new();
+        };
+        let view_proj = self.camera.view_proj(0.05, 1000.0);
+        let (w, h) = (self.camera.width as f32, self.camera.height as f32);
+        let mut edges = Vec::new();
+        let mut seen = HashSet::new();
+        for lens in &wireframe.lenses {
+            let screen: Vec<Option<Pos2>> = lens
+                .positions
+                .iter()
+                .map(|p| {
+                    let clip = view_proj * p.extend(1.0);
+                    (clip.w > 1e-6).then(|| {
+                        let ndc = clip.xy() / clip.w;
+                        Pos2::new((ndc.x * 0.5 + 0.5) * w, (ndc.y * 0.5 + 0.5) * h)
+                    })
+                })
+                .collect();
+            seen.clear();
+            for (triangle, &depth) in lens.triangles.iter().zip(&lens.depths) {
+                for k in 0..3 {
+                    let (a, b) = (triangle[k], triangle[(k + 1) % 3]);
+                    if !seen.insert((a.min(b), a.max(b))) {
+                        continue;
+                    }
+                    if let (Some(Some(pa)), Some(Some(pb))) =
+                        (screen.get(a as usize), screen.get(b as usize))
+                    {
+                        edges.push(([*pa, *pb], depth));
+                    }
+                }
+            }
+        }
+        if edges.len() > MAX_WIREFRAME_EDGES {
+            notes.push(format!(
+                "wireframe not drawn: {} edges (more than {MAX_WIREFRAME_EDGES}); raise t",
+                edges.len()
+            ));
+            return Vec::new();
+        }
+        edges
+    }
+
+    /// The reference's state line and image.
+    fn reference_view(&self) -> (Option<String>, Option<(ReferenceView, egui::TextureHandle)>) {
+        let mode = self.experiment.reference;
+        if mode == ReferenceView::Off {
+            return (None, None);
+        }
+        if let Some(compared) = &self.compared
+            && compared.key.0 == self.camera
+        {
+            let line = match &compared.psnr {
+                Ok(db) => format!("reference ready: lens PSNR {db:.2} dB"),
+                Err(why) => format!("reference ready: no lens PSNR ({why})"),
+            };
+            let texture = match mode {
+                ReferenceView::Difference => compared.difference_texture.clone(),
+                _ => compared.reference_texture.clone(),
+            };
+            return (Some(line), Some((mode, texture)));
+        }
+        let progress = self
+            .reference
+            .as_ref()
+            .and_then(ReferenceWorker::progress)
+            .unwrap_or(0.0);
+        (
+            Some(format!(
+                "reference: ray tracing this camera, {:.0}% (moving the camera cancels it)",
+                100.0 * progress
+            )),
+            None,
+        )
+    }
+
+    /// Asks for the reference of the current camera when it is shown, and compares a finished
+    /// one with the frame.
+    fn update_reference(&mut self) -> anyhow::Result<()> {
+        if self.experiment.reference == ReferenceView::Off {
+            if let Some(worker) = &mut self.reference {
+                worker.cancel();
+            }
+            return Ok(());
+        }
+        let key = (
+            self.camera,
+            self.experiment.options,
+            self.experiment.inferred,
+            self.experiment.layers_off.clone(),
+        );
+        if self.compared.as_ref().is_some_and(|c| c.key == key) {
+            return Ok(());
+        }
+        // The same camera with other options: the reference stands, the comparison is redone.
+        if let Some(compared) = self.compared.take()
+            && compared.key.0 == self.camera
+        {
+            return self.compare(key, compared.reference);
+        }
+        if self.trace.is_none() {
+            self.trace = Some(Arc::new(TraceScene::new(&self.scene)?));
+        }
+        if self.reference.is_none() {
+            self.reference = Some(ReferenceWorker::new()?);
+        }
+        let (Some(worker), Some(trace)) = (&mut self.reference, &self.trace) else {
+            return Ok(());
+        };
+        worker.want(trace, &self.camera);
+        if let Some(finished) = worker.poll() {
+            let image = finished.image.map_err(|e| anyhow!("reference: {e}"))?;
+            self.compare(key, Arc::new(image))?;
+        }
+        Ok(())
+    }
+
+    /// The frame of `key` read back and compared with the reference over the lens pixels.
+    fn compare(
+        &mut self,
+        key: (Camera, FrameOptions, bool, Vec<bool>),
+        reference: Arc<ReferenceImage>,
+    ) -> anyhow::Result<()> {
+        let hybrid = self.hybrids[usize::from(self.experiment.inferred)]
+            .as_ref()
+            .expect("the shown scene is loaded");
+        let frame = self
+            .runner
+            .frame(hybrid, &self.camera, &self.experiment.options)?;
+        let psnr = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)
+            .map(|e| e.psnr_db)
+            .map_err(|e| e.to_string());
+        let difference: Vec<Vec3> = frame
+            .image
+            .pixels
+            .iter()
+            .zip(&reference.radiance)
+            .map(|(h, r)| (Vec3::new(h[0], h[1], h[2]) - *r).abs() * 4.0)
+            .collect();
+        let ctx = self
+            .overlay
+            .as_ref()
+            .context("the overlay exists while the window does")?
+            .context()
+            .clone();
+        let (w, h) = (reference.width, reference.height);
+        self.compared = Some(Compared {
+            key,
+            psnr,
+            reference_texture: texture(&ctx, "reference", w, h, &srgb8(&reference.radiance)),
+            difference_texture: texture(&ctx, "difference", w, h, &srgb8(&difference)),
+            reference,
+        });
+        Ok(())
+    }
+
+    /// Writes a screenshot: the frame through the swapchain (PNG), the same frame read back as
+    /// floats (EXR), the window with its overlay (PNG), and what makes it (JSON).
+    fn write_screenshot(
+        &mut self,
+        path: &Path,
+        copies: &super::present::Copies,
+    ) -> anyhow::Result<()> {
+        let presenter = self
+            .presenter
+            .as_ref()
+            .context("the swapchain exists while the window does")?;
+        let (w, h) = (presenter.extent.width, presenter.extent.height);
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
+        let with = |suffix: &str| {
+            let mut name = path.as_os_str().to_owned();
+            name.push(suffix);
+            PathBuf::from(name)
+        };
+        let png = with(".png");
+        let window_png = with("-window.png");
+        for (file, buffer) in [(&png, &copies.frame), (&window_png, &copies.window)] {
+            image::save_buffer(file, &presenter.rgb8(buffer), w, h, image::ColorType::Rgb8)
+                .with_context(|| format!("writing {}", file.display()))?;
+        }
+        let hybrid = self.hybrids[usize::from(self.experiment.inferred)]
+            .as_ref()
+            .expect("the shown scene is loaded");
+        let frame = self
+            .runner
+            .frame(hybrid, &self.camera, &self.experiment.options)?;
+        let exr = with(".exr");
+        lensmap::trace::image::stage_exr(
+            &exr,
+            frame.image.width,
+            frame.image.height,
+            &frame.image.rgb(),
+        )?
+        .commit()?;
+        let c = &self.camera;
+        let o = &self.experiment.options;
+        let v3 = |v: Vec3| format!("{},{},{}", v.x, v.y, v.z);
+        let ems = match (&self.ems.bake, self.experiment.inferred) {
+            (Some(dir), true) => format!("--bake {}", dir.display()),
+            _ => format!("--projected --em-size {}", self.ems.projected.size),
+        };
+        let layers_off = self.experiment.layers_off.iter().any(|&off| off);
+        let render = (!layers_off).then(|| {
+            format!(
+                "lensmap render --scene {} {ems} --camera-position={} --look-at={} --width {} --height {} --supersampling {} --t {} --angle-degrees {} --variant {} --blend {} --format {}",
+                self.scene_arg,
+                v3(c.position),
+                v3(c.look_at),
+                c.width,
+                c.height,
+                c.supersampling,
+                o.hybrid.tessellation.t,
+                // At f32 precision: the trip through radians does not show (3, not
+                // 3.0000000000000004), and the radians it gives back are the same.
+                o.hybrid.angle_radians.to_degrees() as f32,
+                o.variant.name(),
+                o.blend.name(),
+                o.format.name()
+            )
+        });
+        let json = serde_json::json!({
+            "frame": self.frame,
+            "device": self.runner.gpu().device_name(),
+            "driver": self.runner.gpu().device_id().driver_description(),
+            "swapchain_format": format!("{:?}", presenter.format.format),
+            "camera": {
+                "position": c.position.to_array(),
+                "look_at": c.look_at.to_array(),
+                "width": c.width, "height": c.height, "supersampling": c.supersampling,
+            },
+            "t": o.hybrid.tessellation.t,
+            "angle_degrees": o.hybrid.angle_radians.to_degrees() as f32,
+            "variant": o.variant.name(),
+            "blend": o.blend.name(),
+            "format": o.format.name(),
+            "inferred": self.experiment.inferred,
+            "layers_off": self.experiment.layers_off,
+            "render": render,
+            "files": [png, exr.clone(), window_png],
+        });
+        crate::common::write_json(&with(".json"), &json)?;
+        self.note(format!("screenshot {}", png.display()));
+        say!("screenshot: {} (.exr, -window.png, .json)", png.display());
+        Ok(())
+    }
+}
+
+/// Names joined for a line: `a, b`.
+fn join(names: &[&String]) -> String {
+    names
+        .iter()
+        .map(|s| s.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}

@@ -990,6 +990,12 @@ impl Timeline {
         })
     }
 
+    /// The semaphore, for a submission to signal or wait for (a host image's
+    /// [`crate::render::HostImage::signal`]).
+    pub fn handle(&self) -> vk::Semaphore {
+        self.semaphore
+    }
+
     /// Blocks until the counter reaches `value` (at once for 0).
     pub fn wait(&self, value: u64) -> Result<(), GpuError> {
         if value == 0 {

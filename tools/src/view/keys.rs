@@ -140,6 +140,9 @@ pub enum ReferenceView {
 pub struct Experiment {
     /// The frame's options.
     pub options: FrameOptions,
+    /// The multipass variant's blending scheme while the single pass (front to back only) is
+    /// shown.
+    pub multipass_blend: BlendScheme,
     /// Layers turned off (index 0 = nearest shell).
     pub layers_off: Vec<bool>,
     /// Whether the inferred EMs are shown (else projected).
@@ -159,21 +162,30 @@ impl Experiment {
         let options = &mut self.options;
         let said = match action {
             Action::Variant => {
-                options.variant = match options.variant {
-                    Variant::SinglePass => Variant::Multipass,
-                    Variant::Multipass => Variant::SinglePass,
-                };
+                // The single pass blends front to back only: the multipass scheme waits aside.
+                match options.variant {
+                    Variant::SinglePass => {
+                        options.variant = Variant::Multipass;
+                        options.blend = self.multipass_blend;
+                    }
+                    Variant::Multipass => {
+                        options.variant = Variant::SinglePass;
+                        self.multipass_blend = options.blend;
+                        options.blend = BlendScheme::FrontToBack;
+                    }
+                }
                 format!("variant: {}", options.variant.name())
             }
             Action::Blend => {
+                if options.variant == Variant::SinglePass {
+                    return Some(
+                        "the single pass blends front to back only: key v for multipass".into(),
+                    );
+                }
                 let all = BlendScheme::ALL;
                 let at = all.iter().position(|b| *b == options.blend).unwrap_or(0);
                 options.blend = all[(at + 1) % all.len()];
-                let note = match options.variant {
-                    Variant::Multipass => "",
-                    Variant::SinglePass => " (applies to multipass: key v)",
-                };
-                format!("blending: {}{note}", options.blend.name())
+                format!("blending: {}", options.blend.name())
             }
             Action::TUp | Action::TDown => {
                 let t = options.hybrid.tessellation.t;
@@ -257,6 +269,7 @@ mod tests {
     fn experiment() -> Experiment {
         Experiment {
             options: FrameOptions::default(),
+            multipass_blend: BlendScheme::default(),
             layers_off: Vec::new(),
             inferred: false,
             wireframe: false,
@@ -325,13 +338,27 @@ mod tests {
         e.apply(Action::Variant);
         assert_ne!(e.options.variant, start.variant);
         e.apply(Action::Variant);
-        for _ in 0..BlendScheme::ALL.len() {
-            e.apply(Action::Blend);
-        }
         for _ in 0..3 {
             e.apply(Action::Format);
         }
         assert_eq!(e.options, start);
+        // Blending schemes cycle in the multipass variant, wait aside in the single pass, and
+        // every state is one the frame accepts.
+        e.options.variant = Variant::Multipass;
+        for _ in 0..BlendScheme::ALL.len() {
+            e.apply(Action::Blend);
+            e.options.validate().expect("a valid scheme");
+        }
+        assert_eq!(e.options.blend, start.blend);
+        e.apply(Action::Blend);
+        let chosen = e.options.blend;
+        e.apply(Action::Variant);
+        assert_eq!(e.options.blend, BlendScheme::FrontToBack);
+        e.options.validate().expect("the single pass's scheme");
+        assert!(e.apply(Action::Blend).is_some_and(|s| s.contains("key v")));
+        assert_eq!(e.options.blend, BlendScheme::FrontToBack);
+        e.apply(Action::Variant);
+        assert_eq!(e.options.blend, chosen);
         e.apply(Action::Layer(2));
         assert!(e.layer_on(0) && !e.layer_on(2) && e.layer_on(7));
         e.apply(Action::Layer(2));

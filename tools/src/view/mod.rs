@@ -12,7 +12,6 @@ mod script;
 mod window;
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use clap::{Args, ValueEnum};
 use lensmap::{
@@ -56,6 +55,10 @@ pub struct ViewArgs {
     /// one step per frame number (docs/viewer.md#scripts); the viewer closes after its last step.
     #[arg(long, value_name = "FILE")]
     pub script: Option<PathBuf>,
+    /// Write every windowed frame's figures (unsmoothed) to this CSV when the viewer closes:
+    /// frame and latency times, the CPU stages, GPU, rays, triangle tests, passes.
+    #[arg(long, value_name = "FILE", conflicts_with = "record")]
+    pub stats: Option<PathBuf>,
     /// How frames reach the screen: fifo (vsync, never tears), mailbox or immediate (fall back
     /// to fifo, saying so, where the surface lacks them).
     #[arg(long, value_enum, default_value = "fifo")]
@@ -165,7 +168,7 @@ impl EmChoice {
     }
 
     /// The hybrid scene with inferred (`true`) or projected EMs.
-    fn load(&self, scene: &Scene, inferred: bool) -> anyhow::Result<Arc<HybridScene>> {
+    fn load(&self, scene: &Scene, inferred: bool) -> anyhow::Result<HybridScene> {
         let ems = match (&self.bake, inferred) {
             (Some(dir), true) => EmSource::Bake(dir.clone()),
             _ => EmSource::Projected(self.projected),
@@ -177,7 +180,7 @@ impl EmChoice {
                 light_maps: LightMapOptions::default(),
             },
         )?;
-        Ok(Arc::new(hybrid))
+        Ok(hybrid)
     }
 }
 

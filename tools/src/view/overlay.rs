@@ -223,6 +223,7 @@ fn draw(ctx: &egui::Context, size: vk::Extent2D, view: &OverlayView) {
         .anchor(Align2::LEFT_TOP, Vec2::new(6.0, 6.0))
         .show(ctx, |ui| {
             frame.show(ui, |ui| {
+                ui.set_max_width(w - 24.0);
                 for line in &view.settings {
                     ui.label(small(line));
                 }
@@ -250,7 +251,7 @@ fn draw(ctx: &egui::Context, size: vk::Extent2D, view: &OverlayView) {
             });
         });
     egui::Area::new(egui::Id::new("table"))
-        .anchor(Align2::RIGHT_TOP, Vec2::new(-6.0, 6.0))
+        .anchor(Align2::RIGHT_BOTTOM, Vec2::new(-6.0, -6.0))
         .show(ctx, |ui| {
             frame.show(ui, |ui| {
                 egui::Grid::new("stats")

@@ -6,7 +6,7 @@
 use anyhow::{Context as _, bail};
 use ash::vk;
 use lensmap::{
-    gpu::{Buffer, BufferUsage, Gpu},
+    gpu::{Buffer, BufferUsage, Gpu, Timeline},
     render::HostImage,
 };
 use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
@@ -40,6 +40,11 @@ pub struct Presenter {
     acquired: vk::Semaphore,
     /// Signalled when lensmap's frame is in the image.
     rendered: vk::Semaphore,
+    /// Raised to [`Self::frames`] by lensmap's frame when it is done: the host's way to time
+    /// the GPU's part of a frame without a readback.
+    timeline: Timeline,
+    /// Frames submitted into host images.
+    frames: u64,
     /// Signalled when the frame's last submission is done.
     done: vk::Fence,
     pool: vk::CommandPool,
@@ -147,6 +152,8 @@ impl Presenter {
             presentable: Vec::new(),
             acquired,
             rendered,
+            timeline: Timeline::new(gpu)?,
+            frames: 0,
             done,
             pool,
             command_buffer,
@@ -320,8 +327,10 @@ impl Presenter {
     }
 
     /// Image `index` as a host image for lensmap's frame: written after the acquisition, left
-    /// as a colour attachment for the overlay, signalling [`Self::finish`]'s wait.
-    pub fn host_image(&self, index: u32) -> HostImage {
+    /// as a colour attachment for the overlay, signalling [`Self::finish`]'s wait and the
+    /// timeline [`Self::wait_for_frame`] waits on.
+    pub fn host_image(&mut self, index: u32) -> HostImage {
+        self.frames += 1;
         HostImage {
             image: self.images[index as usize],
             view: self.views[index as usize],
@@ -333,8 +342,14 @@ impl Presenter {
             current_layout: vk::ImageLayout::UNDEFINED,
             final_layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
             wait: vec![(self.acquired, 0)],
-            signal: vec![(self.rendered, 0)],
+            signal: vec![(self.rendered, 0), (self.timeline.handle(), self.frames)],
         }
+    }
+
+    /// Waits until the frame of the last [`Self::host_image`] is rendered.
+    pub fn wait_for_frame(&self) -> anyhow::Result<()> {
+        self.timeline.wait(self.frames)?;
+        Ok(())
     }
 
     /// The frame's last submission into image `index`: after lensmap's frame (`rendered`: it

@@ -4,6 +4,7 @@
 
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::ffi::CStr;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -39,6 +40,9 @@ use super::{
     script::Script,
 };
 
+/// One lens object's maps, `[viewpoint sample][layer]`.
+type LensMaps = Vec<Vec<Arc<CubeMap>>>;
+
 /// What the window starts with.
 pub struct Start {
     /// The scene.
@@ -53,12 +57,20 @@ pub struct Start {
     pub script: Option<Script>,
 }
 
+/// The columns of `--stats`: one row per frame drawn, times in ms. `frame_ms` is the time since
+/// the previous frame was done (empty for the first), `latency_ms` from the start of the frame's
+/// work (input read) to its last submission done, `gpu_ms` from lensmap's submission of the frame
+/// to its end on the GPU, `overlay_ms` the overlay's layout, recording, presentation and wait.
+const STATS_HEADER: &str = "frame,width,height,frame_ms,latency_ms,total_ms,trace_ms,\
+tessellation_ms,texgen_ms,assemble_ms,upload_ms,record_ms,gpu_ms,overlay_ms,rays,triangle_tests,passes,\
+vertices_traced,lens_triangles,reused";
+
 /// How many notes the overlay keeps, and for how long, seconds.
 const NOTES: usize = 4;
 const NOTE_SECONDS: f32 = 4.0;
 /// Wireframes with more edges than this are not drawn (said on screen): egui's tessellation of
 /// that many lines would cost more than the frame.
-const MAX_WIREFRAME_EDGES: usize = 300_000;
+const MAX_WIREFRAME_EDGES: usize = 1_000_000;
 
 pub fn run(args: &ViewArgs, start: Start) -> anyhow::Result<()> {
     let event_loop = EventLoop::new().map_err(|e| {
@@ -116,6 +128,7 @@ pub fn run(args: &ViewArgs, start: Start) -> anyhow::Result<()> {
         trace: None,
         experiment: Experiment {
             options: start.options,
+            multipass_blend: start.options.blend,
             layers_off: Vec::new(),
             inferred,
             wireframe: false,
@@ -131,9 +144,14 @@ pub fn run(args: &ViewArgs, start: Start) -> anyhow::Result<()> {
         start_inside: Vec::new(),
         input: Input::default(),
         stats: Smoothed::default(),
+        csv: args
+            .stats
+            .clone()
+            .map(|file| (file, format!("{STATS_HEADER}\n"))),
         last_frame_end: None,
         recreate: false,
         minimized: false,
+        quit: false,
         frame_error: None,
         compared: None,
         error: None,
@@ -143,6 +161,10 @@ pub fn run(args: &ViewArgs, start: Start) -> anyhow::Result<()> {
     app.start_inside = inside.clone();
     app.inside = inside;
     event_loop.run_app(&mut app)?;
+    if let Some((file, csv)) = &app.csv {
+        lensmap::atomic::write_atomically(file, csv.as_bytes())
+            .with_context(|| format!("writing {}", file.display()))?;
+    }
     let App {
         error,
         overlay,
@@ -233,7 +255,7 @@ struct App {
     /// The hybrid scene with projected EMs (0) and inferred ones (1), loaded when first shown.
     hybrids: [Option<HybridScene>; 2],
     /// Their maps as loaded, `[lens][viewpoint][layer]`, for turning layers back on.
-    originals: [Option<Vec<Vec<Vec<Arc<CubeMap>>>>>; 2],
+    originals: [Option<Vec<LensMaps>>; 2],
     /// One transparent map per size, standing in for layers turned off (kept, so that frames
     /// with the same layers off are the same frame).
     transparent: HashMap<u32, Arc<CubeMap>>,
@@ -254,9 +276,13 @@ struct App {
     start_inside: Vec<String>,
     input: Input,
     stats: Smoothed,
+    /// `--stats`: the file and its rows so far.
+    csv: Option<(PathBuf, String)>,
     last_frame_end: Option<Instant>,
     recreate: bool,
     minimized: bool,
+    /// A script pressed a quit key: close after this frame.
+    quit: bool,
     /// Why the last frame could not be rendered, if it could not.
     frame_error: Option<String>,
     compared: Option<Compared>,
@@ -399,8 +425,7 @@ impl App {
     }
 
     /// Keeps `hybrid` as the scene with inferred (or projected) EMs, with its maps as loaded.
-    fn set_hybrid(&mut self, inferred: bool, hybrid: Arc<HybridScene>) {
-        let hybrid = Arc::into_inner(hybrid).expect("a freshly loaded scene has one owner");
+    fn set_hybrid(&mut self, inferred: bool, hybrid: HybridScene) {
         let maps = hybrid.lenses.iter().map(|l| l.maps.clone()).collect();
         self.originals[usize::from(inferred)] = Some(maps);
         self.hybrids[usize::from(inferred)] = Some(hybrid);
@@ -486,9 +511,15 @@ impl App {
             }
             Action::Quit => {}
             other => {
+                let before = self.experiment.clone();
                 if let Some(said) = self.experiment.apply(other) {
-                    self.experiment.options.validate()?;
-                    self.note(said);
+                    match self.experiment.options.validate() {
+                        Ok(()) => self.note(said),
+                        Err(e) => {
+                            self.experiment = before;
+                            self.note(format!("refused: {}", crate::common::flag_error(e).0));
+                        }
+                    }
                 }
             }
         }
@@ -543,7 +574,17 @@ impl App {
                     None
                 }
             };
+        // The GPU's part, timed alone: the overlay is laid out once the frame is done (on
+        // lavapipe the two would share the same cores anyway).
         let submitted = Instant::now();
+        let gpu_ms = match (&rendered, &self.presenter) {
+            (Some(_), Some(presenter)) => {
+                presenter.wait_for_frame()?;
+                submitted.elapsed().as_secs_f64() * 1e3
+            }
+            _ => 0.0,
+        };
+        let overlay_start = Instant::now();
         let view = self.overlay_view(rendered.as_ref());
         let (presenter, overlay) = match (&mut self.presenter, &mut self.overlay) {
             (Some(p), Some(o)) => (p, o),
@@ -551,8 +592,12 @@ impl App {
         };
         let primitives = overlay.prepare(presenter.extent, &view)?;
         let shot = self.screenshot_next.take();
-        let copies = match &shot {
-            Some(_) => Some(presenter.copies(self.runner.gpu())?),
+        let copies = match shot.as_ref().map(|_| presenter.copies(self.runner.gpu())) {
+            Some(Ok(copies)) => Some(copies),
+            Some(Err(why)) => {
+                self.notes.push_back((format!("{why:#}"), Instant::now()));
+                None
+            }
             None => None,
         };
         let fits = presenter.finish(
@@ -570,12 +615,16 @@ impl App {
             self.write_screenshot(&path, copies)?;
         }
         if let Some(frame) = &rendered {
-            self.count(frame, start, submitted, done);
+            let overlay_ms = done.duration_since(overlay_start).as_secs_f64() * 1e3;
+            self.count(frame, start, gpu_ms, overlay_ms, done);
         }
         self.update_reference()?;
         self.frame += 1;
-        if let Some(script) = &self.script
-            && self.frame > script.last_frame()
+        if self.quit
+            || self
+                .script
+                .as_ref()
+                .is_some_and(|script| self.frame > script.last_frame())
         {
             event_loop.exit();
         }
@@ -612,6 +661,9 @@ impl App {
                 self.move_camera(camera::zoom(&self.camera, factor));
             }
             for &action in &step.keys {
+                if action == Action::Quit {
+                    self.quit = true;
+                }
                 self.act(action, None)?;
             }
             if let Some((width, height)) = step.resize
@@ -690,31 +742,66 @@ impl App {
     }
 
     /// Adds a frame's figures to the smoothed stats and mirrors them in the title bar.
-    fn count(&mut self, frame: &HostFrame, start: Instant, submitted: Instant, done: Instant) {
+    fn count(
+        &mut self,
+        frame: &HostFrame,
+        start: Instant,
+        gpu_ms: f64,
+        overlay_ms: f64,
+        done: Instant,
+    ) {
         let s = &frame.stats;
-        let stats = &mut self.stats;
-        if let Some(last) = self.last_frame_end {
-            stats.add("frame", done.duration_since(last).as_secs_f64() * 1e3);
-        }
-        self.last_frame_end = Some(done);
-        stats.add("latency", done.duration_since(start).as_secs_f64() * 1e3);
-        stats.add("total", frame.total_ms);
-        stats.add("trace", s.trace_ms);
-        stats.add("tessellation", s.tessellation_ms);
-        stats.add("texgen", s.texgen_ms);
-        stats.add("assemble", s.assemble_ms);
-        stats.add("upload", frame.upload_ms);
-        stats.add("record", frame.record_ms);
-        stats.add("gpu", done.duration_since(submitted).as_secs_f64() * 1e3);
         let c = s.counters;
-        stats.add(
-            "rays",
-            (c.primary_rays + c.secondary_rays + c.shadow_rays) as f64,
-        );
-        stats.add("triangle tests", c.triangle_tests as f64);
-        stats.add("passes", frame.passes as f64);
-        stats.add("vertices", s.vertices_traced as f64);
-        stats.add("triangles", s.triangles_out as f64);
+        let interval = self
+            .last_frame_end
+            .map(|last| done.duration_since(last).as_secs_f64() * 1e3);
+        self.last_frame_end = Some(done);
+        let figures: [(&'static str, f64); 16] = [
+            ("latency", done.duration_since(start).as_secs_f64() * 1e3),
+            ("total", frame.total_ms),
+            ("trace", s.trace_ms),
+            ("tessellation", s.tessellation_ms),
+            ("texgen", s.texgen_ms),
+            ("assemble", s.assemble_ms),
+            ("upload", frame.upload_ms),
+            ("record", frame.record_ms),
+            ("gpu", gpu_ms),
+            ("overlay", overlay_ms),
+            (
+                "rays",
+                (c.primary_rays + c.secondary_rays + c.shadow_rays) as f64,
+            ),
+            ("triangle tests", c.triangle_tests as f64),
+            ("passes", frame.passes as f64),
+            ("vertices", s.vertices_traced as f64),
+            ("triangles", s.triangles_out as f64),
+            ("frame", interval.unwrap_or(f64::NAN)),
+        ];
+        for (name, value) in figures {
+            if value.is_finite() {
+                self.stats.add(name, value);
+            }
+        }
+        if let Some((_, csv)) = &mut self.csv {
+            let _ = write!(
+                csv,
+                "{},{},{},{}",
+                self.frame,
+                self.camera.width,
+                self.camera.height,
+                interval.map_or_else(String::new, |ms| format!("{ms:.3}"))
+            );
+            for (name, value) in &figures[..15] {
+                let _ = match *name {
+                    "rays" | "triangle tests" | "passes" | "vertices" | "triangles" => {
+                        write!(csv, ",{value}")
+                    }
+                    _ => write!(csv, ",{value:.3}"),
+                };
+            }
+            let _ = writeln!(csv, ",{}", s.reused);
+        }
+        let stats = &self.stats;
         if let Some(window) = &self.window {
             let fps = 1e3 / stats.get("frame").max(1e-9);
             window.set_title(&format!(
@@ -821,6 +908,7 @@ impl App {
             ("upload".to_owned(), ms("upload")),
             ("record".to_owned(), ms("record")),
             ("GPU".to_owned(), ms("gpu")),
+            ("overlay + present".to_owned(), ms("overlay")),
             ("CPU total".to_owned(), ms("total")),
             ("rays".to_owned(), count("rays")),
             ("triangle tests".to_owned(), count("triangle tests")),

@@ -183,7 +183,10 @@ fn options(format: vk::Format) -> Options {
 /// The overlay's layout.
 fn draw(ctx: &egui::Context, size: vk::Extent2D, view: &OverlayView) {
     let (w, h) = (size.width as f32, size.height as f32);
-    let painter = ctx.layer_painter(egui::LayerId::background());
+    let painter = ctx.layer_painter(egui::LayerId::new(
+        egui::Order::Background,
+        egui::Id::new("lensmap images"),
+    ));
     if let Some((mode, texture)) = &view.image {
         let full = Rect::from_min_size(Pos2::ZERO, Vec2::new(w, h));
         match mode {

@@ -111,7 +111,7 @@ impl Script {
             let message = e.message().trim().to_owned();
             let line = e
                 .span()
-                .map(|span| text[..span.start.min(text.len())].lines().count().max(1));
+                .map(|span| text[..span.start.min(text.len())].matches('\n').count() + 1);
             BadUsage(format!(
                 "{}{}: {message}; a script has optional `path` and `frames` and [[step]] tables with frame, keys, resize, camera, orbit, zoom, screenshot (docs/viewer.md#scripts)",
                 file.display(),

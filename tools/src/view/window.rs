@@ -17,7 +17,7 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::HybridScene,
     metrics::Encoding,
-    runner::{FrameOptions, FrameRunner, HostFrame, lens_error},
+    runner::{FrameOptions, FrameRunner, HostFrame, HybridFrame, lens_error},
     scene::{Camera, CameraPath, Scene},
     trace::{image::ReferenceImage, image::srgb8, world::TraceScene},
 };
@@ -37,7 +37,7 @@ use super::{
     overlay::{Overlay, OverlayView, texture},
     present::{Acquired, Presenter},
     reference::ReferenceWorker,
-    script::Script,
+    script::{Script, Step},
 };
 
 /// One lens object's maps, `[viewpoint sample][layer]`.
@@ -420,8 +420,18 @@ impl App {
     fn hybrid(&self) -> &HybridScene {
         self.hybrids[usize::from(self.experiment.inferred)]
             .as_ref()
-            .or(self.hybrids[usize::from(!self.experiment.inferred)].as_ref())
-            .expect("a hybrid scene is loaded before the window opens")
+            .expect("the shown scene is loaded before it is shown (run, act)")
+    }
+
+    /// The current frame rendered again and read back in float (screenshots' EXR, the
+    /// reference's comparison): the shown scene, camera and options.
+    fn read_back(&mut self) -> anyhow::Result<HybridFrame> {
+        let hybrid = self.hybrids[usize::from(self.experiment.inferred)]
+            .as_ref()
+            .expect("the shown scene is loaded before it is shown (run, act)");
+        Ok(self
+            .runner
+            .frame(hybrid, &self.camera, &self.experiment.options)?)
     }
 
     /// Keeps `hybrid` as the scene with inferred (or projected) EMs, with its maps as loaded.
@@ -633,9 +643,10 @@ impl App {
 
     /// The script's steps for this frame, and its path's pose.
     fn run_script_steps(&mut self) -> anyhow::Result<()> {
-        let Some(script) = self.script.clone() else {
+        let Some(script) = &self.script else {
             return Ok(());
         };
+        let steps: Vec<Step> = script.steps_at(self.frame).cloned().collect();
         if let Some(path) = &self.path
             && let Some(pose) = path.poses.get(self.frame % path.poses.len().max(1))
         {
@@ -646,7 +657,7 @@ impl App {
             };
             self.move_camera(to);
         }
-        for step in script.steps_at(self.frame) {
+        for step in &steps {
             if let Some((position, look_at)) = step.camera {
                 self.move_camera(Camera {
                     position,
@@ -1080,12 +1091,7 @@ impl App {
         key: (Camera, FrameOptions, bool, Vec<bool>),
         reference: Arc<ReferenceImage>,
     ) -> anyhow::Result<()> {
-        let hybrid = self.hybrids[usize::from(self.experiment.inferred)]
-            .as_ref()
-            .expect("the shown scene is loaded");
-        let frame = self
-            .runner
-            .frame(hybrid, &self.camera, &self.experiment.options)?;
+        let frame = self.read_back()?;
         let psnr = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)
             .map(|e| e.psnr_db)
             .map_err(|e| e.to_string());
@@ -1120,6 +1126,8 @@ impl App {
         path: &Path,
         copies: &super::present::Copies,
     ) -> anyhow::Result<()> {
+        // Rendered first: the swapchain's figures below borrow the presenter.
+        let frame = self.read_back()?;
         let presenter = self
             .presenter
             .as_ref()
@@ -1139,12 +1147,6 @@ impl App {
             image::save_buffer(file, &presenter.rgb8(buffer), w, h, image::ColorType::Rgb8)
                 .with_context(|| format!("writing {}", file.display()))?;
         }
-        let hybrid = self.hybrids[usize::from(self.experiment.inferred)]
-            .as_ref()
-            .expect("the shown scene is loaded");
-        let frame = self
-            .runner
-            .frame(hybrid, &self.camera, &self.experiment.options)?;
         let exr = with(".exr");
         lensmap::trace::image::stage_exr(
             &exr,

@@ -218,7 +218,8 @@ fn swapping_scene_parts_is_not_a_still_frame() {
             .stats
             .reused
     );
-    hybrid.viewpoints.reverse();
+    let reversed = hybrid.viewpoints().iter().rev().copied().collect();
+    hybrid.set_viewpoints(reversed);
     assert!(
         !runner
             .frame(&hybrid, &camera, &options)

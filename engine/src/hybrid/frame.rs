@@ -21,7 +21,7 @@ use super::{
     sky::SkyDome,
     tessellate::{TessellationError, TessellationOptions, VertexEvaluation, tessellate},
     texgen::{LensMesh, texgen},
-    viewpoints::{self, ViewSpaceFit, ViewpointBlend},
+    viewpoints::{ViewSpaceFit, ViewpointBlend},
 };
 use crate::{
     layers::LayerShell,
@@ -85,7 +85,7 @@ impl FrameKey {
                 .map(|m| Arc::as_ptr(m) as usize)
                 .collect(),
             sky: scene.sky.as_ref().map(SkyDome::identity),
-            viewpoints: scene.viewpoints.clone(),
+            viewpoints: scene.viewpoints().to_vec(),
             faces: scene.faces.clone(),
         }
     }
@@ -221,6 +221,10 @@ pub struct HybridStats {
     /// Lens objects tessellated with a coarser `t` because their screen footprint is smaller
     /// than [`HybridOptions::footprint_subpixels`].
     pub lenses_coarsened: usize,
+    /// Whether the camera's direction lies outside the view space the samples cover (2D: in no
+    /// triangle of its triangulation; see [`ViewSpaceFit::outside`]); the frame then blends the
+    /// samples of the nearest point of the region.
+    pub outside_view_space: bool,
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
     pub reused: bool,
@@ -343,16 +347,12 @@ impl HybridScene {
         })
     }
 
-    /// How `camera` sits in the view space of [`HybridScene::viewpoints`] about its look-at
-    /// point ([`viewpoints::view_space_fit`]): its nearest sample and whether it has left the
-    /// space the samples cover. `None` without viewpoint samples, or for a camera at its look-at
-    /// point or not finite.
+    /// How `camera` sits in the view space of [`HybridScene::viewpoints`] about its centre
+    /// ([`fit`](crate::hybrid::ViewSpaceBlender::fit)): its nearest sample and whether it has left the space the
+    /// samples cover (2D: its direction is in no triangle). `None` without viewpoint samples, or
+    /// for a camera at the centre or not finite.
     pub fn view_space_fit(&self, camera: &Camera) -> Option<ViewSpaceFit> {
-        viewpoints::view_space_fit(
-            &self.viewpoints,
-            camera.look_at.as_dvec3(),
-            camera.position.as_dvec3(),
-        )
+        self.view_space.fit(camera.position.as_dvec3())
     }
 
     /// Per lens object (TraceScene order), its name and the axis-aligned bounds `(min, max)` of
@@ -442,17 +442,17 @@ impl HybridScene {
     }
 
     /// The viewpoint samples (indices into [`HybridScene::viewpoints`]) a frame seen by
-    /// `camera` blends and their weights, summing to 1, nearest first ([`viewpoints::blend`]).
+    /// `camera` blends and their weights, summing to 1, largest first
+    /// ([`blend`](crate::hybrid::ViewSpaceBlender::blend): two along a 1D view space, up to three in a 2D one, the
+    /// nearest point of the region for a camera outside it).
     /// EMs shared by every viewpoint sample (projected ones) need no blending: one sample,
     /// weight 1, half the compositing work. Sample 0 with weight 1 when there is no sample or
     /// the camera sits at its look-at point.
     pub fn viewpoint_blend(&self, camera: &Camera) -> ViewpointBlend {
-        let blend = viewpoints::blend(
-            &self.viewpoints,
-            camera.look_at.as_dvec3(),
-            camera.position.as_dvec3(),
-        )
-        .unwrap_or(ViewpointBlend {
+        let blend = self
+            .view_space
+            .blend(camera.position.as_dvec3())
+            .unwrap_or(ViewpointBlend {
             samples: vec![(0, 1.0)],
         });
         if self.lenses.iter().all(|l| l.maps.len() == 1) {
@@ -573,7 +573,10 @@ impl HybridScene {
         let start = Instant::now();
         let view = self.view(camera);
         let blend = self.viewpoint_blend(camera);
-        let mut stats = HybridStats::default();
+        let mut stats = HybridStats {
+            outside_view_space: self.view_space_fit(camera).is_some_and(|fit| fit.outside),
+            ..HybridStats::default()
+        };
         // The vertex budget is the frame's: each lens object gets what the ones before left.
         let mut vertex_budget = options.tessellation.max_vertices;
         let mut lenses = Vec::new();

@@ -7,7 +7,7 @@ use std::{path::PathBuf, sync::Arc, time::Instant};
 
 use glam::{DVec3, Vec3};
 
-use super::{frame::FrameCache, sky::SkyDome};
+use super::{frame::FrameCache, sky::SkyDome, viewpoints::ViewSpaceBlender};
 use crate::{
     cubemap::CubeMap,
     identity::{Encoder, IDENTITY_VERSION},
@@ -194,8 +194,8 @@ pub struct HybridScene {
     pub scene: Scene,
     /// Its ray-tracing structures.
     pub trace: TraceScene,
-    /// Viewpoint sample positions.
-    pub viewpoints: Vec<DVec3>,
+    /// The viewpoint samples and how a frame blends them (1D or triangulated 2D).
+    pub(super) view_space: ViewSpaceBlender,
     /// Per lens object (TraceScene order).
     pub lenses: Vec<LensLayers>,
     /// Per lens object (TraceScene order), which faces are traced and drawn (see
@@ -259,9 +259,16 @@ impl HybridScene {
         let sky = SkyDome::new(&trace);
         Ok((
             HybridScene {
+                view_space: ViewSpaceBlender::new(
+                    viewpoints,
+                    scene
+                        .view_space
+                        .centre(scene.camera.look_at)
+                        .as_dvec3(),
+                    scene.view_space.is_surface(),
+                ),
                 scene,
                 trace,
-                viewpoints,
                 lenses,
                 faces,
                 environment,
@@ -273,6 +280,27 @@ impl HybridScene {
         ))
     }
 
+    /// The viewpoint sample positions, metres: the bake's samples, or the scene's view space
+    /// for projected EMs.
+    pub fn viewpoints(&self) -> &[DVec3] {
+        self.view_space.positions()
+    }
+
+    /// The viewpoint samples and how a frame blends them.
+    pub fn view_space(&self) -> &ViewSpaceBlender {
+        &self.view_space
+    }
+
+    /// Moves the viewpoint samples to `positions` (one per sample of the layered EMs, same
+    /// order), triangulated again when the scene's view space is 2D.
+    pub fn set_viewpoints(&mut self, positions: Vec<DVec3>) {
+        self.view_space = ViewSpaceBlender::new(
+            positions,
+            self.view_space.centre(),
+            self.scene.view_space.is_surface(),
+        );
+    }
+
     /// These layered EMs as a bake: projected EMs become a bake with one viewpoint sample. The
     /// bake carries this scene's identity ([`Provenance`]), so a scene other than this one
     /// refuses it, even one whose lens objects have the same names.
@@ -281,7 +309,7 @@ impl HybridScene {
         let samples = if shared {
             vec![0]
         } else {
-            (0..self.viewpoints.len()).collect()
+            (0..self.viewpoints().len()).collect()
         };
         // What shaped the maps: their origins, shells and sizes (the maps themselves are in the
         // bake).
@@ -300,14 +328,14 @@ impl HybridScene {
             created_by: default_created_by(),
             viewpoints: if shared {
                 vec![
-                    self.viewpoints
+                    self.viewpoints()
                         .first()
                         .copied()
                         .unwrap_or(DVec3::Z)
                         .as_vec3(),
                 ]
             } else {
-                self.viewpoints.iter().map(|p| p.as_vec3()).collect()
+                self.viewpoints().iter().map(|p| p.as_vec3()).collect()
             },
             lenses: self
                 .lenses

@@ -1,9 +1,14 @@
-//! Viewpoint blending (hybrid-rendering paper §5): a frame away from a pre-rendered viewpoint
-//! sample blends the layered EMs of the two closest samples, weighted by their relative distance
-//! to the actual viewpoint. Distance here is the angle between the directions from the look-at
-//! point to the camera and to the sample, the natural metric of a view space circling an object.
+//! Viewpoint blending. Along a 1D view space (hybrid-rendering paper §5) a frame away from a
+//! pre-rendered viewpoint sample blends the layered EMs of the two closest samples, weighted by
+//! their relative distance to the actual viewpoint. Distance here is the angle between the
+//! directions from the view space's centre to the camera and to the sample, the natural metric
+//! of a view space circling an object. In a 2D view space (reflection-space IBR §3.4) the
+//! samples are triangulated on the sphere of directions ([`super::sphere`]) and a frame blends
+//! the three samples of the triangle holding the camera by spherical barycentric weights.
 
 use glam::DVec3;
+
+use super::sphere::SphereTriangulation;
 
 /// Angles below this (radians) mean the camera sits on a sample: one viewpoint, weight 1.
 pub const ON_SAMPLE_RADIANS: f64 = 1e-6;
@@ -51,9 +56,10 @@ pub fn blend(samples: &[DVec3], look_at: DVec3, camera: DVec3) -> Option<Viewpoi
     }
 }
 
-/// Whether a camera is still inside the view space its samples cover: how far it is from the
-/// nearest sample compared with how far the samples are from each other, all as angles about the
-/// look-at point (the metric of [`blend`]).
+/// Whether a camera is still inside the view space its samples cover. In a 1D view space: how
+/// far it is from the nearest sample compared with how far the samples are from each other, all
+/// as angles about the centre (the metric of [`blend`]). In a 2D one: whether a triangle holds
+/// its direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewSpaceFit {
     /// Index of the sample nearest to the camera (the first of [`blend`]'s samples; ties go to
@@ -67,8 +73,13 @@ pub struct ViewSpaceFit {
     /// Whether the camera has left the view space: `nearest_radians > spacing_radians` (it is
     /// farther from every sample than neighbouring samples are from each other, so a blend mixes
     /// distant samples), or `nearest_radians >` [`ON_SAMPLE_RADIANS`] when the spacing is 0 (a
-    /// single sample).
+    /// single sample). In a 2D view space: its direction lies in no triangle.
     pub outside: bool,
+    /// How far outside, radians: in a 2D view space the angle to the nearest point of the
+    /// triangulated region, in a 1D one `nearest_radians − spacing_radians`; 0 inside.
+    pub outside_radians: f64,
+    /// Whether the view space is 2D (triangulated).
+    pub surface: bool,
 }
 
 /// How `camera` sits in the view space of `samples` about `look_at` (positions in metres; see
@@ -78,38 +89,140 @@ pub struct ViewSpaceFit {
 /// Returns `None` for no usable sample, a camera at the look-at point, or a camera or look-at
 /// point that is not finite.
 pub fn view_space_fit(samples: &[DVec3], look_at: DVec3, camera: DVec3) -> Option<ViewSpaceFit> {
+    fit_with_spacing(samples, look_at, camera, spacing(samples, look_at))
+}
+
+/// The largest, over samples, of each sample's angle to its nearest other sample about
+/// `centre` (see [`ViewSpaceFit::spacing_radians`]); samples whose angle is undefined are left
+/// out. Costs one angle per pair of samples.
+fn spacing(samples: &[DVec3], centre: DVec3) -> f64 {
+    let directions: Vec<DVec3> = samples
+        .iter()
+        .map(|s| *s - centre)
+        .filter(|d| d.is_finite())
+        .collect();
+    directions
+        .iter()
+        .enumerate()
+        .filter_map(|(i, &d)| {
+            directions
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, &e)| angle(d, e))
+                .filter(|a| a.is_finite())
+                .min_by(f64::total_cmp)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// [`view_space_fit`] with the view space's spacing already known.
+fn fit_with_spacing(
+    samples: &[DVec3],
+    look_at: DVec3,
+    camera: DVec3,
+    spacing_radians: f64,
+) -> Option<ViewSpaceFit> {
     let view = camera - look_at;
     if samples.is_empty() || view.length_squared() == 0.0 || !view.is_finite() {
         return None;
     }
-    let directions: Vec<(usize, DVec3)> = samples
+    let (nearest, nearest_radians) = samples
         .iter()
         .map(|s| *s - look_at)
         .enumerate()
         .filter(|(_, d)| d.is_finite())
-        .collect();
-    let (nearest, nearest_radians) = directions
-        .iter()
-        .map(|&(i, d)| (i, angle(view, d)))
+        .map(|(i, d)| (i, angle(view, d)))
         .filter(|(_, a)| a.is_finite())
         .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))?;
-    let spacing_radians = directions
-        .iter()
-        .filter_map(|&(i, d)| {
-            directions
-                .iter()
-                .filter(|&&(j, _)| j != i)
-                .map(|&(_, e)| angle(d, e))
-                .filter(|a| a.is_finite())
-                .min_by(f64::total_cmp)
-        })
-        .fold(0.0, f64::max);
+    let outside = nearest_radians > spacing_radians.max(ON_SAMPLE_RADIANS);
     Some(ViewSpaceFit {
         nearest,
         nearest_radians,
         spacing_radians,
-        outside: nearest_radians > spacing_radians.max(ON_SAMPLE_RADIANS),
+        outside,
+        outside_radians: if outside {
+            nearest_radians - spacing_radians
+        } else {
+            0.0
+        },
+        surface: false,
     })
+}
+
+/// The viewpoint samples of a scene with the shape a frame blends them by: a 1D view space
+/// (two samples at a time, [`blend`]) or a triangulated 2D one (three, [`SphereTriangulation`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewSpaceBlender {
+    positions: Vec<DVec3>,
+    centre: DVec3,
+    /// [`ViewSpaceFit::spacing_radians`], computed once.
+    spacing_radians: f64,
+    triangulation: Option<SphereTriangulation>,
+}
+
+impl ViewSpaceBlender {
+    /// The samples at `positions` about `centre`, triangulated when `surface` asks for a 2D
+    /// view space and they span a spherical triangle. Otherwise (a circle; or fewer than three
+    /// samples, or all on one great circle: the documented fallback) they are blended as a 1D
+    /// view space.
+    pub fn new(positions: Vec<DVec3>, centre: DVec3, surface: bool) -> ViewSpaceBlender {
+        let triangulation = if surface {
+            SphereTriangulation::new(&positions, centre)
+        } else {
+            None
+        };
+        ViewSpaceBlender {
+            spacing_radians: spacing(&positions, centre),
+            positions,
+            centre,
+            triangulation,
+        }
+    }
+
+    /// The triangulation of a 2D view space, `None` for a 1D one.
+    pub fn triangulation(&self) -> Option<&SphereTriangulation> {
+        self.triangulation.as_ref()
+    }
+
+    /// The sample positions, metres.
+    pub fn positions(&self) -> &[DVec3] {
+        &self.positions
+    }
+
+    /// The view space's centre, metres.
+    pub fn centre(&self) -> DVec3 {
+        self.centre
+    }
+
+    /// The samples a frame seen from `camera` blends and their weights, summing to 1, largest
+    /// first: in a 2D view space the triangle holding the camera's direction (three samples;
+    /// two on an edge, one at a sample), outside every triangle the nearest point of the
+    /// region; in a 1D one the two nearest samples ([`blend`]). `None` without samples or for a
+    /// camera at the centre or not finite.
+    pub fn blend(&self, camera: DVec3) -> Option<ViewpointBlend> {
+        match &self.triangulation {
+            Some(t) => Some(ViewpointBlend {
+                samples: t.locate(camera - self.centre)?.weights,
+            }),
+            None => blend(&self.positions, self.centre, camera),
+        }
+    }
+
+    /// How `camera` sits in the view space (see [`ViewSpaceFit`]).
+    pub fn fit(&self, camera: DVec3) -> Option<ViewSpaceFit> {
+        let fit = fit_with_spacing(&self.positions, self.centre, camera, self.spacing_radians)?;
+        let Some(t) = &self.triangulation else {
+            return Some(fit);
+        };
+        let location = t.locate(camera - self.centre)?;
+        Some(ViewSpaceFit {
+            outside: location.outside,
+            outside_radians: location.outside_radians,
+            surface: true,
+            ..fit
+        })
+    }
 }
 
 #[cfg(test)]

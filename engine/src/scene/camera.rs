@@ -112,8 +112,45 @@ pub enum ViewSpace {
         /// Number of samples, ≥ 1.
         count: u32,
     },
-    /// Explicit positions (metres), at least one.
+    /// Explicit positions (metres), at least one. Triangulated on the sphere of directions
+    /// from the camera's look-at point when they span a spherical triangle (a 2D view space);
+    /// blended two at a time like a circle when they all lie on one great circle or are fewer
+    /// than three.
     List(Vec<Vec3>),
+    /// A 2D patch on the sphere of radius `radius` about `centre`: `elevation_count` rows ×
+    /// `azimuth_count` columns, evenly spaced from the first to the last angle of each range
+    /// (both included). Sample `row·azimuth_count + column` is at azimuth a (about +y, from +z
+    /// towards +x) and elevation e (above the horizontal): position
+    /// `centre + radius·(cos e·sin a, sin e, cos e·cos a)`.
+    Patch {
+        /// Centre of the sphere (metres): the scene point the view space surrounds.
+        centre: Vec3,
+        /// Sphere radius in metres, > 0.
+        radius: f32,
+        /// First and last azimuth, radians, first < last, span ≤ 2π.
+        azimuth_radians: [f32; 2],
+        /// Columns, ≥ 2.
+        azimuth_count: u32,
+        /// First and last elevation, radians, in [−π/2, π/2], first < last.
+        elevation_radians: [f32; 2],
+        /// Rows, ≥ 2.
+        elevation_count: u32,
+    },
+    /// A 2D cap on the sphere of radius `radius` about `centre`: `count` samples of a Fibonacci
+    /// (golden-angle) spiral within `half_angle_radians` of `axis`, sample i at polar angle
+    /// acos(1 − (1 − cos θ)·(i + ½)/count) and azimuth i·π(3 − √5) about the axis.
+    Cap {
+        /// Centre of the sphere (metres).
+        centre: Vec3,
+        /// Sphere radius in metres, > 0.
+        radius: f32,
+        /// The cap's axis, unit length.
+        axis: Vec3,
+        /// The cap's angular radius θ, radians, in (0, π] (π: the whole sphere).
+        half_angle_radians: f32,
+        /// Number of samples, ≥ 3.
+        count: u32,
+    },
 }
 
 impl ViewSpace {
@@ -134,6 +171,65 @@ impl ViewSpace {
                 })
                 .collect(),
             ViewSpace::List(positions) => positions.clone(),
+            ViewSpace::Patch {
+                centre,
+                radius,
+                azimuth_radians: [a0, a1],
+                azimuth_count,
+                elevation_radians: [e0, e1],
+                elevation_count,
+            } => {
+                let along = |first: f32, last: f32, count: u32, i: u32| {
+                    first + (last - first) * i as f32 / (count - 1).max(1) as f32
+                };
+                (0..*elevation_count)
+                    .flat_map(|row| {
+                        let e = along(*e0, *e1, *elevation_count, row);
+                        (0..*azimuth_count).map(move |column| {
+                            let a = along(*a0, *a1, *azimuth_count, column);
+                            *centre
+                                + *radius
+                                    * Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos())
+                        })
+                    })
+                    .collect()
+            }
+            ViewSpace::Cap {
+                centre,
+                radius,
+                axis,
+                half_angle_radians,
+                count,
+            } => {
+                // An orthonormal frame about the axis, the same for every load.
+                let (u, v) = axis.any_orthonormal_pair();
+                let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+                let drop = 1.0 - half_angle_radians.cos();
+                (0..*count)
+                    .map(|i| {
+                        let z = 1.0 - drop * (i as f32 + 0.5) / *count as f32;
+                        let r = (1.0 - z * z).max(0.0).sqrt();
+                        let phi = i as f32 * golden;
+                        *centre + *radius * (z * *axis + r * (phi.cos() * u + phi.sin() * v))
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// Whether the view space is 2D: its samples are triangulated on the sphere of directions
+    /// about [`ViewSpace::centre`] and a frame blends the three of the triangle holding the
+    /// camera. A circle is 1D: its samples are blended two at a time along it.
+    pub fn is_surface(&self) -> bool {
+        !matches!(self, ViewSpace::Circle { .. })
+    }
+
+    /// The scene point whose sphere of directions the view space lies on: a patch's or cap's
+    /// centre, else `look_at` (the camera's).
+    pub fn centre(&self, look_at: Vec3) -> Vec3 {
+        match self {
+            ViewSpace::Patch { centre, .. } | ViewSpace::Cap { centre, .. } => *centre,
+            ViewSpace::Circle { .. } | ViewSpace::List(_) => look_at,
         }
     }
 
@@ -142,6 +238,12 @@ impl ViewSpace {
         match self {
             ViewSpace::Circle { count, .. } => *count as usize,
             ViewSpace::List(positions) => positions.len(),
+            ViewSpace::Patch {
+                azimuth_count,
+                elevation_count,
+                ..
+            } => (*azimuth_count as usize) * (*elevation_count as usize),
+            ViewSpace::Cap { count, .. } => *count as usize,
         }
     }
 

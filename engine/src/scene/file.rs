@@ -477,7 +477,7 @@ pub(crate) struct LayerSpecFile {
 }
 
 /// `[view_space]`: the viewpoint samples at which layered environment maps are baked. Exactly one
-/// of `circle` and `list`. Each sample is a camera at that position with the `[camera]`'s
+/// of `circle`, `list`, `patch` and `cap`. Each sample is a camera at that position with the `[camera]`'s
 /// look-at point, up, field of view and resolution; a sample may not sit on the look-at point.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -486,6 +486,48 @@ pub(crate) struct ViewSpaceSpec {
     pub circle: Option<CircleSpec>,
     /// `list = [[x, y, z], …]`: explicit sample positions in metres, finite, at least one.
     pub list: Option<Vec<[f32; 3]>>,
+    /// `[view_space.patch]`: an azimuth × elevation grid on a sphere.
+    pub patch: Option<PatchSpec>,
+    /// `[view_space.cap]`: a Fibonacci set within a cone about an axis.
+    pub cap: Option<CapSpec>,
+}
+
+/// `[view_space.patch]`: rows of elevation × columns of azimuth on the sphere of `radius` about
+/// `centre`; azimuth about +y from +z towards +x, elevation above the horizontal: position =
+/// centre + radius·(cos e·sin a, sin e, cos e·cos a). Row-major, sample 0 at the first azimuth
+/// and elevation.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct PatchSpec {
+    /// `centre = [x, y, z]`, default the camera's `look_at`: the sphere's centre, metres.
+    pub centre: Option<[f32; 3]>,
+    /// `radius`, required: metres, > 0.
+    pub radius: f32,
+    /// `azimuth_degrees = [first, last]`, required: first < last, last − first ≤ 360.
+    pub azimuth_degrees: [f32; 2],
+    /// `azimuth_count`, required: columns, ≥ 2.
+    pub azimuth_count: u32,
+    /// `elevation_degrees = [first, last]`, required: in [−90, 90], first < last.
+    pub elevation_degrees: [f32; 2],
+    /// `elevation_count`, required: rows, ≥ 2.
+    pub elevation_count: u32,
+}
+
+/// `[view_space.cap]`: `count` samples of a Fibonacci spiral within `half_angle_degrees` of
+/// `axis`, on the sphere of `radius` about `centre`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CapSpec {
+    /// `centre = [x, y, z]`, default the camera's `look_at`: the sphere's centre, metres.
+    pub centre: Option<[f32; 3]>,
+    /// `radius`, required: metres, > 0.
+    pub radius: f32,
+    /// `axis = [x, y, z]`, default from the centre towards the camera: the cap's middle.
+    pub axis: Option<[f32; 3]>,
+    /// `half_angle_degrees`, required: the cap's angular radius, in (0, 180] (180: the sphere).
+    pub half_angle_degrees: f32,
+    /// `count`, required: samples, ≥ 3.
+    pub count: u32,
 }
 
 /// `[view_space.circle]`: sample i is at angle a = start + i·step about +y, measured from +z

@@ -137,6 +137,34 @@ impl Canonical for ViewSpace {
                 .value(step_radians)
                 .value(count),
             ViewSpace::List(positions) => encoder.tag(1).value(positions),
+            ViewSpace::Patch {
+                centre,
+                radius,
+                azimuth_radians,
+                azimuth_count,
+                elevation_radians,
+                elevation_count,
+            } => encoder
+                .tag(2)
+                .value(centre)
+                .value(radius)
+                .value(azimuth_radians)
+                .value(azimuth_count)
+                .value(elevation_radians)
+                .value(elevation_count),
+            ViewSpace::Cap {
+                centre,
+                radius,
+                axis,
+                half_angle_radians,
+                count,
+            } => encoder
+                .tag(3)
+                .value(centre)
+                .value(radius)
+                .value(axis)
+                .value(half_angle_radians)
+                .value(count),
         };
     }
 }

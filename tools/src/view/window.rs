@@ -495,7 +495,7 @@ impl App {
                 ));
             }
             Action::Snap | Action::NextSample | Action::PreviousSample => {
-                let samples = self.hybrid().viewpoints.clone();
+                let samples = self.hybrid().viewpoints().to_vec();
                 let Some(fit) = self.hybrid().view_space_fit(&self.camera) else {
                     self.note("no viewpoint sample to go to".into());
                     return Ok(());

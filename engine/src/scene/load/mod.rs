@@ -136,7 +136,7 @@ impl Loader<'_> {
         let objects = self.objects(&file.objects, &materials, &material_index)?;
         let lenses = self.lenses(&file, &objects, &materials)?;
         let view_space = match &file.view_space {
-            Some(spec) => self.view_space(spec)?,
+            Some(spec) => self.view_space(spec, &camera)?,
             None => ViewSpace::List(vec![camera.position]),
         };
         for (i, sample) in view_space.samples().into_iter().enumerate() {

@@ -1,9 +1,13 @@
 //! Loading the camera and the view space: a camera that looks somewhere with a usable up
-//! direction, and viewpoint samples on a circle or in a list.
+//! direction, and viewpoint samples on a circle, in a list, on a patch or a cap of a sphere.
 
 use super::{CAMERA_EPSILON, Loader, MAX_VIEWPOINT_SAMPLES, Result};
+
+/// Two samples of a 2D view space whose directions from its centre are closer than this
+/// (radians, about 0.006°) are the same direction.
+pub const SAME_DIRECTION_RADIANS: f64 = 1e-4;
 use crate::scene::camera::{Camera, ViewSpace};
-use crate::scene::file::{CameraSpec, CircleSpec, ViewSpaceSpec};
+use crate::scene::file::{CameraSpec, CapSpec, CircleSpec, PatchSpec, ViewSpaceSpec};
 
 impl Loader<'_> {
     pub(super) fn camera(&self, spec: &CameraSpec) -> Result<Camera> {
@@ -78,10 +82,12 @@ impl Loader<'_> {
         Ok(())
     }
 
-    pub(super) fn view_space(&self, spec: &ViewSpaceSpec) -> Result<ViewSpace> {
-        match (&spec.circle, &spec.list) {
-            (Some(circle), None) => self.circle(circle),
-            (None, Some(list)) => {
+    pub(super) fn view_space(&self, spec: &ViewSpaceSpec, camera: &Camera) -> Result<ViewSpace> {
+        let view_space = match (&spec.circle, &spec.list, &spec.patch, &spec.cap) {
+            (Some(circle), None, None, None) => self.circle(circle)?,
+            (None, None, Some(patch), None) => self.patch(patch, camera)?,
+            (None, None, None, Some(cap)) => self.cap(cap, camera)?,
+            (None, Some(list), None, None) => {
                 if list.is_empty() {
                     return Err(self.error("view_space.list", "the list of viewpoints is empty", "give at least one position [x, y, z]"));
                 }
@@ -93,10 +99,119 @@ impl Loader<'_> {
                     .enumerate()
                     .map(|(i, p)| self.finite_vec3(&format!("view_space.list[{i}]"), *p))
                     .collect::<Result<Vec<_>>>()?;
-                Ok(ViewSpace::List(positions))
+                ViewSpace::List(positions)
             }
-            _ => Err(self.error("view_space", "needs exactly one of circle or list", "write circle = { centre, radius, height, start_degrees, step_degrees, count } or list = [[x, y, z], ...]")),
+            _ => return Err(self.error("view_space", "needs exactly one of circle, list, patch or cap", "write one of [view_space.circle], list = [[x, y, z], ...], [view_space.patch] or [view_space.cap] (tools/scenes/README.md)")),
+        };
+        if view_space.is_surface() {
+            self.distinct_directions(&view_space, camera)?;
         }
+        Ok(view_space)
+    }
+
+    /// No two samples of a 2D view space in the same direction from its centre: the
+    /// triangulation could give one of them no weight. Directions closer than
+    /// [`SAME_DIRECTION_RADIANS`] count as one. Costs one dot product per pair.
+    fn distinct_directions(&self, view_space: &ViewSpace, camera: &Camera) -> Result<()> {
+        let centre = view_space.centre(camera.look_at);
+        let directions: Vec<glam::DVec3> = view_space
+            .samples()
+            .iter()
+            .map(|p| (*p - centre).as_dvec3().normalize_or_zero())
+            .collect();
+        let cos_limit = SAME_DIRECTION_RADIANS.cos();
+        for (i, a) in directions.iter().enumerate() {
+            if let Some(j) = (i + 1..directions.len()).find(|&j| a.dot(directions[j]) >= cos_limit) {
+                return Err(self.error(
+                    "view_space",
+                    format!("samples {i} and {j} lie in the same direction from the centre {centre}"),
+                    "give distinct samples (a patch reaching ±90° of elevation puts a whole row on the pole; a patch spanning 360° of azimuth repeats its first column)",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn patch(&self, spec: &PatchSpec, camera: &Camera) -> Result<ViewSpace> {
+        let f = "view_space.patch";
+        let centre = match spec.centre {
+            Some(c) => self.finite_vec3(&format!("{f}.centre"), c)?,
+            None => camera.look_at,
+        };
+        let radius = self.positive(&format!("{f}.radius"), spec.radius, "metres")?;
+        let range = |field: &str, [first, last]: [f32; 2], count: u32| {
+            let field = format!("{f}.{field}_degrees");
+            let first = self.finite(&field, first)?;
+            let last = self.finite(&field, last)?;
+            if first >= last {
+                return Err(self.error(&field, format!("[{first}, {last}] is empty"), "give [first, last] with first < last, e.g. [-10, 10]"));
+            }
+            if count < 2 {
+                let count_field = field.replace("_degrees", "_count");
+                return Err(self.error(count_field, format!("{count} sample(s) across; a patch needs at least 2 × 2"), "give a count ≥ 2 (for one row of samples use [view_space.circle])"));
+            }
+            if count > MAX_VIEWPOINT_SAMPLES {
+                let count_field = field.replace("_degrees", "_count");
+                return Err(self.error(count_field, format!("{count} samples across, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have"), "give fewer samples"));
+            }
+            Ok((first.to_radians(), last.to_radians()))
+        };
+        let (a0, a1) = range("azimuth", spec.azimuth_degrees, spec.azimuth_count)?;
+        let (e0, e1) = range("elevation", spec.elevation_degrees, spec.elevation_count)?;
+        let [first, last] = spec.azimuth_degrees;
+        if last - first > 360.0 {
+            return Err(self.error(format!("{f}.azimuth_degrees"), format!("[{first}, {last}] spans {}°, more than the circle", last - first), "give a span of at most 360° (a closed ring of n columns spans 360·(n − 1)/n°)"));
+        }
+        let [bottom, top] = spec.elevation_degrees;
+        if bottom < -90.0 || top > 90.0 {
+            return Err(self.error(format!("{f}.elevation_degrees"), format!("[{bottom}, {top}] leaves [−90, 90]"), "give elevations in [-90, 90] (90 is straight above the centre)"));
+        }
+        let samples = u64::from(spec.azimuth_count) * u64::from(spec.elevation_count);
+        if samples > u64::from(MAX_VIEWPOINT_SAMPLES) {
+            return Err(self.error(f, format!("{} × {} = {samples} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", spec.azimuth_count, spec.elevation_count), "give fewer samples"));
+        }
+        Ok(ViewSpace::Patch {
+            centre,
+            radius,
+            azimuth_radians: [a0, a1],
+            azimuth_count: spec.azimuth_count,
+            elevation_radians: [e0, e1],
+            elevation_count: spec.elevation_count,
+        })
+    }
+
+    pub(super) fn cap(&self, spec: &CapSpec, camera: &Camera) -> Result<ViewSpace> {
+        let f = "view_space.cap";
+        let centre = match spec.centre {
+            Some(c) => self.finite_vec3(&format!("{f}.centre"), c)?,
+            None => camera.look_at,
+        };
+        let radius = self.positive(&format!("{f}.radius"), spec.radius, "metres")?;
+        let axis = match spec.axis {
+            Some(a) => self.finite_vec3(&format!("{f}.axis"), a)?,
+            None => camera.position - centre,
+        };
+        if axis.length() <= CAMERA_EPSILON {
+            let field = if spec.axis.is_some() { format!("{f}.axis") } else { format!("{f}.centre") };
+            return Err(self.error(field, "the cap's axis is zero (the camera sits on the centre when no axis is given)", "give a non-zero axis [x, y, z], or a centre away from the camera"));
+        }
+        let half_angle = self.finite(&format!("{f}.half_angle_degrees"), spec.half_angle_degrees)?;
+        if !(half_angle > 0.0 && half_angle <= 180.0) {
+            return Err(self.error(format!("{f}.half_angle_degrees"), format!("{half_angle}° is not a cap's angular radius"), "give degrees in (0, 180] (180 covers the whole sphere)"));
+        }
+        if spec.count < 3 {
+            return Err(self.error(format!("{f}.count"), format!("{} sample(s) span no spherical triangle", spec.count), "give count ≥ 3"));
+        }
+        if spec.count > MAX_VIEWPOINT_SAMPLES {
+            return Err(self.error(format!("{f}.count"), format!("{} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", spec.count), "give fewer samples"));
+        }
+        Ok(ViewSpace::Cap {
+            centre,
+            radius,
+            axis: axis.normalize(),
+            half_angle_radians: half_angle.to_radians(),
+            count: spec.count,
+        })
     }
 
     pub(super) fn circle(&self, spec: &CircleSpec) -> Result<ViewSpace> {

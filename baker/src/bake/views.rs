@@ -3,7 +3,7 @@
 
 use glam::{DQuat, DVec3, Vec3};
 use lensmap::{
-    hybrid::viewpoints::angle,
+    hybrid::{sphere::SphereTriangulation, viewpoints::angle},
     scene::{Camera, Scene},
 };
 
@@ -21,9 +21,81 @@ pub(super) fn sample_camera(scene: &Scene, position: Vec3, options: &BakeOptions
     )
 }
 
-/// The K views of sample `sample` (module docs).
+/// The K views of sample `sample` (module docs): spread along the view space's circle, or in a
+/// 2D view space towards the sample's neighbours in its triangulation.
 pub fn view_cameras(scene: &Scene, sample: usize, options: &BakeOptions) -> Vec<Camera> {
     let positions = scene.view_space.samples();
+    let look_at = scene.camera.look_at.as_dvec3();
+    let mut cameras = match surface_views(scene, &positions, sample, options) {
+        Some(cameras) => cameras,
+        None => line_views(scene, &positions, sample, options),
+    };
+    cameras.extend(raised_view(scene, positions[sample].as_dvec3() - look_at, options));
+    cameras
+}
+
+/// In a 2D view space, the K views of sample `sample`: the sample itself, then K − 1 views a
+/// third of the way (in angle about the view space's centre) towards neighbours in the
+/// triangulation, chosen evenly round the sample by their bearing from it (measured from the
+/// world's up, as seen from outside), so the views spread over the triangles the sample's maps
+/// serve. `None` for a 1D view space or one that spans no triangle.
+fn surface_views(
+    scene: &Scene,
+    positions: &[Vec3],
+    sample: usize,
+    options: &BakeOptions,
+) -> Option<Vec<Camera>> {
+    if !scene.view_space.is_surface() {
+        return None;
+    }
+    let centre = scene.view_space.centre(scene.camera.look_at).as_dvec3();
+    let points: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
+    let triangulation = SphereTriangulation::new(&points, centre)?;
+    let own = points[sample] - centre;
+    let unit = own.normalize();
+    // Bearings in the tangent plane at the sample, from the projection of +y (else +x).
+    let reference = [DVec3::Y, DVec3::X]
+        .into_iter()
+        .map(|axis| axis - axis.dot(unit) * unit)
+        .find(|r| r.length() > 1e-6)?
+        .normalize();
+    let side = unit.cross(reference);
+    let mut neighbours: Vec<(f64, usize)> = triangulation
+        .neighbours(sample)
+        .into_iter()
+        .map(|n| {
+            let d = points[n] - centre;
+            let t = d - d.dot(unit) * unit;
+            (t.dot(side).atan2(t.dot(reference)), n)
+        })
+        .collect();
+    neighbours.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let k = options.multi_view.max(1);
+    let mut cameras = vec![sample_camera(scene, positions[sample], options)];
+    if neighbours.is_empty() {
+        return Some(cameras);
+    }
+    for j in 0..k - 1 {
+        let n = neighbours[j * neighbours.len() / (k - 1)].1;
+        let towards = points[n] - centre;
+        let axis = own.cross(towards).normalize_or_zero();
+        if axis == DVec3::ZERO {
+            continue;
+        }
+        let position = centre + DQuat::from_axis_angle(axis, angle(own, towards) / 3.0) * own;
+        cameras.push(sample_camera(scene, position.as_vec3(), options));
+    }
+    Some(cameras)
+}
+
+/// Along a 1D view space, the K views of sample `sample`: rotated about the vertical through the
+/// look-at point, evenly over ±½ of the angle to the nearest other sample.
+fn line_views(
+    scene: &Scene,
+    positions: &[Vec3],
+    sample: usize,
+    options: &BakeOptions,
+) -> Vec<Camera> {
     let look_at = scene.camera.look_at.as_dvec3();
     let own = positions[sample].as_dvec3() - look_at;
     let spacing = positions
@@ -39,30 +111,34 @@ pub fn view_cameras(scene: &Scene, sample: usize, options: &BakeOptions) -> Vec<
         SINGLE_SAMPLE_SPREAD_DEGREES.to_radians()
     };
     let k = options.multi_view.max(1);
-    let mut cameras: Vec<Camera> = (0..k)
+    (0..k)
         .map(|j| {
             let offset = spacing * ((j as f64 + 0.5) / k as f64 - 0.5);
             let position = look_at + DQuat::from_rotation_y(offset) * own;
             sample_camera(scene, position.as_vec3(), options)
         })
-        .collect();
+        .collect()
+}
+
+/// The raised view of a sample `own` away from the look-at point, when the options ask for one:
+/// up by `view_elevation_degrees` about the horizontal axis perpendicular to the direction to
+/// the look-at point (a sample straight above or below it has none: then no raised view).
+fn raised_view(scene: &Scene, own: DVec3, options: &BakeOptions) -> Option<Camera> {
     let elevation = options.view_elevation_degrees.to_radians();
-    if elevation > 0.0 {
-        // Up about the horizontal axis perpendicular to the direction to the look-at point (a
-        // sample straight above or below it has none: then no raised view).
-        let axis = own.cross(DVec3::Y);
-        if axis.length() > 1e-9 * own.length() {
-            let axis = axis.normalize();
-            let raised = [-elevation, elevation]
-                .map(|angle| look_at + DQuat::from_axis_angle(axis, angle) * own)
-                .into_iter()
-                .find(|p| p.y > look_at.y + own.y);
-            if let Some(position) = raised {
-                cameras.push(sample_camera(scene, position.as_vec3(), options));
-            }
-        }
+    if elevation <= 0.0 {
+        return None;
     }
-    cameras
+    let look_at = scene.camera.look_at.as_dvec3();
+    let axis = own.cross(DVec3::Y);
+    if axis.length() <= 1e-9 * own.length() {
+        return None;
+    }
+    let axis = axis.normalize();
+    [-elevation, elevation]
+        .map(|angle| look_at + DQuat::from_axis_angle(axis, angle) * own)
+        .into_iter()
+        .find(|p| p.y > look_at.y + own.y)
+        .map(|position| sample_camera(scene, position.as_vec3(), options))
 }
 
 /// The viewpoints whose records place the layers: [`PLACEMENT_SAMPLES`] spread evenly over the

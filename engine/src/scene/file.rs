@@ -10,16 +10,22 @@
 
 use serde::Deserialize;
 
-/// The whole file: the top-level keys and tables. Only `[camera]` is required.
-#[derive(Debug, Deserialize)]
+/// The whole file: the top-level keys and tables. Only `[camera]` is required, unless the file
+/// `extends` a built-in scene.
+#[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct SceneFile {
+    /// `extends = "teapot-room"`: a built-in scene this file starts from. Each top-level key or
+    /// table the file gives replaces the built-in's whole (`[view_space]` for another view
+    /// space); `name` is not inherited (it defaults to the file stem).
+    pub extends: Option<String>,
     /// `name`: the scene's name, not blank. `None`: the file stem (`scene` for a path without
     /// one).
     pub name: Option<String>,
-    /// `[camera]`, required: the default camera; every viewpoint sample of the view space
-    /// shares its look-at point, up, field of view and resolution.
-    pub camera: CameraSpec,
+    /// `[camera]`, required (unless inherited through `extends`): the default camera; every
+    /// viewpoint sample of the view space shares its look-at point, up, field of view and
+    /// resolution.
+    pub camera: Option<CameraSpec>,
     /// `[environment]`: the radiance at infinity. `None`: constant black.
     pub environment: Option<EnvironmentSpec>,
     /// `[[lights]]`: point lights. Default: none.

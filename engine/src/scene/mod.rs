@@ -48,6 +48,14 @@ const BUILTIN_SOURCES: [(&str, &str); 3] = [
     ),
 ];
 
+/// The text of built-in scene `name`, or `None` for an unknown name.
+pub(crate) fn builtin_source(name: &str) -> Option<&'static str> {
+    BUILTIN_SOURCES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, source)| *source)
+}
+
 /// A loaded scene: world-space meshes, materials, lights, the environment at infinity, the lens
 /// objects, the camera and the view space.
 #[derive(Clone, Debug, PartialEq)]
@@ -158,7 +166,7 @@ impl Scene {
 
     /// A built-in scene by name (see [`BUILTIN_SCENES`]), or `None` for an unknown name.
     pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
-        let (name, text) = BUILTIN_SOURCES.iter().find(|(n, _)| *n == name)?;
+        let text = builtin_source(name)?;
         let origin = PathBuf::from(format!("engine/scenes/{name}.toml"));
         Some(Scene::from_toml_str(text, &origin))
     }

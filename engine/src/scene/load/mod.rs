@@ -57,6 +57,13 @@ pub(crate) fn scene_from_toml(text: &str, origin: &Path) -> Result<Scene> {
         toml::from_str(text).map_err(|e| SceneError::from_toml(origin, text, &e))?;
     let base = origin.parent().map_or_else(PathBuf::new, Path::to_path_buf);
     let loader = Loader { file: origin, base };
+    let parsed = match &parsed.extends {
+        Some(name) => {
+            let name = name.clone();
+            loader.extended(&name, parsed, text)?
+        }
+        None => parsed,
+    };
     loader.scene(parsed)
 }
 
@@ -100,6 +107,41 @@ impl Loader<'_> {
         }
     }
 
+    /// The built-in scene `name` with every top-level key `file` (whose text is `text`) gives
+    /// replacing the built-in's. The built-in scenes name no asset files, so no relative path
+    /// changes meaning when a file in another folder extends one.
+    fn extended(
+        &self,
+        name: &str,
+        file: SceneFile,
+        text: &str,
+    ) -> Result<SceneFile> {
+        let Some(source) = super::builtin_source(name) else {
+            return Err(self.error(
+                "extends",
+                format!("\"{name}\" is not a built-in scene"),
+                format!("give one of {}", super::BUILTIN_SCENES.join(", ")),
+            ));
+        };
+        let builtin: SceneFile = toml::from_str(source).map_err(|e| {
+            SceneError::from_toml(Path::new(&format!("built-in scene {name}")), source, &e)
+        })?;
+        // The keys the file gives (it parsed as a scene file, so it parses as a table).
+        let keys: toml::Table = toml::from_str(text).unwrap_or_default();
+        let has = |key: &str| keys.contains_key(key);
+        Ok(SceneFile {
+            extends: None,
+            name: file.name,
+            camera: if has("camera") { file.camera } else { builtin.camera },
+            environment: if has("environment") { file.environment } else { builtin.environment },
+            lights: if has("lights") { file.lights } else { builtin.lights },
+            materials: if has("materials") { file.materials } else { builtin.materials },
+            objects: if has("objects") { file.objects } else { builtin.objects },
+            lenses: if has("lenses") { file.lenses } else { builtin.lenses },
+            view_space: if has("view_space") { file.view_space } else { builtin.view_space },
+        })
+    }
+
     fn scene(&self, file: SceneFile) -> Result<Scene> {
         let name = match file.name.clone() {
             Some(name) if name.trim().is_empty() => {
@@ -115,7 +157,14 @@ impl Loader<'_> {
                 .file_stem()
                 .map_or_else(|| "scene".to_owned(), |s| s.to_string_lossy().into_owned()),
         };
-        let camera = self.camera(&file.camera)?;
+        let Some(camera) = &file.camera else {
+            return Err(self.error(
+                "camera",
+                "missing field `camera`",
+                "add a [camera] table (the schema is in tools/scenes/README.md), or extend a built-in scene with extends = \"teapot-room\"",
+            ));
+        };
+        let camera = self.camera(camera)?;
         let environment = match &file.environment {
             Some(spec) => self.environment(spec)?,
             None => Environment::Constant(Vec3::ZERO),

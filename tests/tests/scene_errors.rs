@@ -499,6 +499,100 @@ objects = ["ball"]
         }
     }
 
+    /// The circle of [`VIEWS_AND_LENS`], to be replaced by another view space.
+    const CIRCLE: &str =
+        "[view_space.circle]\ncentre = [0, 1, 0]\nradius = 5\nheight = 0.5\nstep_degrees = 8\ncount = 4";
+
+    /// A 3 × 3 patch about the look-at point, with `changes` (key = value lines) replacing its
+    /// lines of the same key.
+    fn patch(changes: &[&str]) -> String {
+        let mut lines = vec![
+            "radius = 5",
+            "azimuth_degrees = [-10, 10]",
+            "azimuth_count = 3",
+            "elevation_degrees = [0, 20]",
+            "elevation_count = 3",
+        ];
+        for change in changes {
+            let key = change.split(" =").next().unwrap_or_default();
+            lines.retain(|l| !l.starts_with(&format!("{key} =")));
+            lines.push(change);
+        }
+        format!("[view_space.patch]\n{}", lines.join("\n"))
+    }
+
+    #[test]
+    fn two_dimensional_view_spaces_load() {
+        let dir = temp_folder("view-2d");
+        let path = dir.join("scene.toml");
+        let cap = "[view_space.cap]\nradius = 5\nhalf_angle_degrees = 30\ncount = 12";
+        let list = "[view_space]\nlist = [[0, 1, 5], [1, 1, 5], [0, 2, 5], [1, 2, 4.5]]";
+        for (view_space, count) in [(patch(&[]), 9), (cap.to_owned(), 12), (list.to_owned(), 4)] {
+            std::fs::write(&path, edit(CIRCLE, &view_space)).expect("write the scene");
+            let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(scene.view_space.len(), count, "{view_space}");
+            assert!(scene.view_space.is_surface());
+            // Every sample at the radius from the centre (the look-at point by default).
+            if !view_space.contains("list") {
+                for p in scene.view_space.samples() {
+                    assert!((p.distance(scene.camera.look_at) - 5.0).abs() < 1e-4, "{p}");
+                }
+            }
+        }
+        // The patch's sample 0 is at its first azimuth and elevation; row-major.
+        std::fs::write(&path, edit(CIRCLE, &patch(&[]))).expect("write the scene");
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let samples = scene.view_space.samples();
+        let (a, e) = (-10f32.to_radians(), 0f32);
+        let want = scene.camera.look_at + 5.0 * glam::Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
+        assert!(samples[0].distance(want) < 1e-5, "{}", samples[0]);
+        assert!(samples[1].x.abs() < 1e-5 && samples[3].y > samples[0].y);
+    }
+
+    /// Degenerate 2D view spaces are refused in one line naming the field: an empty patch, one
+    /// row, a span past the circle, elevations past the poles, samples sharing a direction (a
+    /// patch's row on the pole, a list's two samples on one ray from the look-at point), a cap
+    /// over 180° or of fewer than three samples, two kinds of view space at once.
+    #[test]
+    fn degenerate_two_dimensional_view_spaces_are_refused() {
+        let dir = temp_folder("view-2d-bad");
+        let cap = |changes: &str| format!("[view_space.cap]\nradius = 5\n{changes}");
+        let cases = [
+            (patch(&["azimuth_degrees = [10, 10]"]), "view_space.patch.azimuth_degrees", "is empty", "first < last"),
+            (patch(&["elevation_count = 1"]), "view_space.patch.elevation_count", "at least 2 × 2", "[view_space.circle]"),
+            (patch(&["azimuth_count = 0"]), "view_space.patch.azimuth_count", "at least 2 × 2", "count ≥ 2"),
+            (patch(&["azimuth_degrees = [0, 400]"]), "view_space.patch.azimuth_degrees", "more than the circle", "at most 360°"),
+            (patch(&["elevation_degrees = [0, 95]"]), "view_space.patch.elevation_degrees", "leaves [−90, 90]", "[-90, 90]"),
+            (patch(&["elevation_degrees = [0, 90]"]), "view_space", "samples 6 and 7 lie in the same direction", "distinct samples"),
+            (patch(&["radius = 0"]), "view_space.patch.radius", "", ""),
+            (cap("half_angle_degrees = 190\ncount = 12"), "view_space.cap.half_angle_degrees", "190°", "(0, 180]"),
+            (cap("half_angle_degrees = 30\ncount = 2"), "view_space.cap.count", "2 sample(s)", "count ≥ 3"),
+            ("[view_space]\nlist = [[0, 1, 5], [0, 1, 10], [1, 1, 5]]".to_owned(), "view_space", "samples 0 and 1 lie in the same direction", "distinct samples"),
+            (format!("[view_space]\nlist = [[0, 1, 5]]\n{}", patch(&[])), "view_space", "exactly one of circle, list, patch or cap", "[view_space.patch]"),
+        ];
+        for (view_space, field, what, fix) in cases {
+            let (file, error) = load_error(&dir, &edit(CIRCLE, &view_space));
+            assert_message(&error, &file, field, what, fix);
+        }
+    }
+
+    #[test]
+    fn a_scene_extends_a_built_in_one() {
+        let dir = temp_folder("extends");
+        let path = dir.join("room-patch.toml");
+        std::fs::write(&path, format!("extends = \"teapot-room\"\n\n{}", patch(&["radius = 2.8"])))
+            .expect("write the scene");
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let room = Scene::load_named("teapot-room").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.name, "room-patch");
+        assert_eq!(scene.view_space.len(), 9);
+        assert_eq!((scene.objects.len(), scene.lenses.len()), (room.objects.len(), room.lenses.len()));
+        assert_eq!(scene.camera, room.camera);
+        assert_ne!(scene.content_hash(), room.content_hash());
+        let (file, error) = load_error(&dir, "extends = \"teapot-rooom\"\n");
+        assert_message(&error, &file, "extends", "not a built-in scene", "teapot-room");
+    }
+
     #[test]
     fn view_sample_at_the_look_at_point() {
         let dir = temp_folder("view-list");

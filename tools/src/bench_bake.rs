@@ -1,6 +1,9 @@
 //! `lensmap bench bake`: how well baked (inferred) layered EMs render a scene away from where
-//! they were fitted. Three cameras around viewpoint sample A: on the sample, halfway (in angle)
-//! between samples A and A+1, and 15° above the circle at sample A. Each is judged against an
+//! they were fitted. Cameras around viewpoint sample A: on the sample, halfway (in angle)
+//! between samples A and A+1, and 15° above the circle at sample A; in a 2D view space, on the
+//! sample, in the middle of a spherical triangle of A, in the middle of an edge from A, and 15°
+//! above A, each also drawn blending the two nearest samples and the nearest alone, to measure
+//! what the three-sample blend is worth. Each is judged against an
 //! independent reference traced with more supersamples than the bake's targets had, for
 //! projected EMs (the scene's shells) and for every bake given, over the lens pixels and the
 //! non-lens pixels; and, for the error budget, the frame with perfect information at each vertex
@@ -9,10 +12,10 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use glam::{DQuat, Vec3};
+use glam::{DQuat, DVec3, Vec3};
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::{HybridOptions, HybridScene, ViewpointBlending, sphere::SphereTriangulation},
     layers::{Bake, projected::ProjectedOptions},
     metrics::{self, Channels, Encoding, Mask},
     render::{TargetFormat, Variant},
@@ -35,7 +38,8 @@ pub struct BenchBakeArgs {
     /// Built-in scene name or path.
     #[arg(long, default_value = "teapot-room")]
     scene: String,
-    /// Bake directories to judge (each must hold samples A and A+1), labelled by their names.
+    /// Bake directories to judge (each must hold samples A and A+1; in a 2D view space the
+    /// samples round A), labelled by their names.
     #[arg(long, num_args = 1.., required = true)]
     bake: Vec<PathBuf>,
     /// Viewpoint sample A.
@@ -71,11 +75,39 @@ fn lens_object_masks(trace: &TraceScene, reference: &ReferenceImage) -> Vec<(Str
         .collect()
 }
 
-/// The three cameras, `base` moved: on sample A, halfway to A+1, 15° above A.
+/// The triangulation of the scene's view space when it is 2D.
+fn triangulation(scene: &Scene) -> Option<SphereTriangulation> {
+    if !scene.view_space.is_surface() {
+        return None;
+    }
+    let centre = scene.view_space.centre(scene.camera.look_at).as_dvec3();
+    let samples: Vec<DVec3> = scene
+        .view_space
+        .samples()
+        .iter()
+        .map(|p| p.as_dvec3())
+        .collect();
+    SphereTriangulation::new(&samples, centre)
+}
+
+/// The judged cameras, `base` moved: on sample A, halfway to A+1, 15° above A; in a 2D view
+/// space on sample A, at the centroid of the first triangle holding A, at the middle of the arc
+/// to A's lowest-numbered neighbour, and 15° above A (all at A's distance from the centre).
 pub fn cameras(scene: &Scene, a: usize, base: Camera) -> Vec<(&'static str, Camera)> {
     let samples = scene.view_space.samples();
     let look_at = scene.camera.look_at;
     let pa = samples[a] - look_at;
+    let in_2d = triangulation(scene).and_then(|t| {
+        let centre = scene.view_space.centre(look_at).as_dvec3();
+        let own = samples[a].as_dvec3() - centre;
+        let at = |direction: DVec3| (centre + direction.normalize() * own.length()).as_vec3();
+        let unit = |i: usize| (samples[i].as_dvec3() - centre).normalize();
+        let triangle = t.triangles().iter().find(|tri| tri.contains(&a))?;
+        let middle = at(triangle.iter().map(|&i| unit(i)).sum());
+        let neighbour = *t.neighbours(a).first()?;
+        let edge = at(unit(a) + unit(neighbour));
+        Some((middle, edge))
+    });
     let halfway = camera_between(scene, a, a + 1).map_or(samples[a], |c| c.position);
     // Up by 15° about the horizontal axis perpendicular to the view direction.
     let axis = pa.cross(Vec3::Y).normalize_or(Vec3::X).as_dvec3();
@@ -86,17 +118,35 @@ pub fn cameras(scene: &Scene, a: usize, base: Camera) -> Vec<(&'static str, Came
     } else {
         look_at + (DQuat::from_axis_angle(axis, 15f64.to_radians()) * pa.as_dvec3()).as_vec3()
     };
-    vec![
-        ("on sample", base.with_position(samples[a])),
-        ("halfway", base.with_position(halfway)),
-        ("15° above", base.with_position(above)),
-    ]
+    match in_2d {
+        Some((middle, edge)) => vec![
+            ("on sample", base.with_position(samples[a])),
+            ("triangle", base.with_position(middle)),
+            ("edge", base.with_position(edge)),
+            ("15° above", base.with_position(above)),
+        ],
+        None => vec![
+            ("on sample", base.with_position(samples[a])),
+            ("halfway", base.with_position(halfway)),
+            ("15° above", base.with_position(above)),
+        ],
+    }
 }
 
 pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     args.judge.validate()?;
     let scene = Scene::load_named(&args.scene)?;
-    if args.sample >= scene.view_space.len().saturating_sub(1) {
+    let surface = triangulation(&scene).is_some();
+    if surface && args.sample >= scene.view_space.len() {
+        return Err(BadUsage(format!(
+            "--sample {}: scene \"{}\" has samples 0..{}",
+            args.sample,
+            scene.name,
+            scene.view_space.len()
+        ))
+        .into());
+    }
+    if !surface && args.sample >= scene.view_space.len().saturating_sub(1) {
         return Err(BadUsage(format!(
             "--sample {}: needs samples A and A+1; scene \"{}\" has samples 0..{}",
             args.sample,
@@ -126,6 +176,16 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         let ems = lensmap::hybrid::LayeredEms::Baked(bake);
         contenders.push((label, HybridScene::new(scene.clone(), ems.into())?.0));
     }
+    // In a 2D view space every bake is also drawn with fewer samples blended.
+    let blendings: &[(ViewpointBlending, &str)] = if surface {
+        &[
+            (ViewpointBlending::ViewSpace, ""),
+            (ViewpointBlending::TwoNearest, " (2 nearest)"),
+            (ViewpointBlending::Nearest, " (nearest)"),
+        ]
+    } else {
+        &[(ViewpointBlending::ViewSpace, "")]
+    };
     step.finish_and_clear();
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(args.t),
@@ -159,7 +219,21 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
         let per_lens = lens_object_masks(&contenders[0].1.trace, &reference);
-        for (label, hybrid) in &contenders {
+        let drawn = contenders.iter().enumerate().flat_map(|(i, (label, hybrid))| {
+            // Projected EMs are the same at every sample: one blending says all.
+            let blendings = if i == 0 { &blendings[..1] } else { blendings };
+            blendings
+                .iter()
+                .map(move |&(blending, suffix)| (format!("{label}{suffix}"), hybrid, blending))
+        });
+        for (label, hybrid, blending) in drawn {
+            let options = FrameOptions {
+                hybrid: HybridOptions {
+                    viewpoint_blending: blending,
+                    ..options.hybrid
+                },
+                ..options
+            };
             let frame = runner.frame(hybrid, &camera, &options)?;
             let lens = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
             let other = non_lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
@@ -180,9 +254,15 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
                     json!({"lens": object, "lens_psnr_db": psnr})
                 })
                 .collect();
+            let samples: Vec<_> = hybrid
+                .viewpoint_blend(&camera, blending)
+                .samples
+                .iter()
+                .map(|(i, w)| json!({"sample": i, "weight": w}))
+                .collect();
             cells.push(json!({
                 "ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other,
-                "lens_objects": objects,
+                "lens_objects": objects, "viewpoints": samples,
             }));
         }
         // The error budget's tessellation share: the same tessellation with the exact radiance

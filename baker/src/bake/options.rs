@@ -246,6 +246,9 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         angle_radians,
         footprint_subpixels,
         precision,
+        // The test renderings are drawn at the samples with each sample's own maps: one
+        // viewpoint, whatever the blending.
+        viewpoint_blending: _,
     } = hybrid;
     let TessellationOptions {
         t,

@@ -21,7 +21,7 @@ use super::{
     sky::SkyDome,
     tessellate::{TessellationError, TessellationOptions, VertexEvaluation, tessellate},
     texgen::{LensMesh, texgen},
-    viewpoints::{ViewSpaceFit, ViewpointBlend},
+    viewpoints::{self, ViewSpaceFit, ViewpointBlend},
 };
 use crate::{
     layers::LayerShell,
@@ -141,6 +141,23 @@ pub struct HybridOptions {
     /// The float type of the per-vertex stages (vertex paths, texgen): f64 (the default), or
     /// f32 to measure what single precision would cost.
     pub precision: VertexPrecision,
+    /// Which viewpoint samples a frame blends: the view space's own rule (the default), or
+    /// fewer, to measure what the blend is worth.
+    pub viewpoint_blending: ViewpointBlending,
+}
+
+/// Which viewpoint samples a frame blends.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ViewpointBlending {
+    /// The view space's rule: the two nearest samples along a 1D view space, the three of the
+    /// triangle holding the camera in a 2D one ([`ViewSpaceBlender::blend`](crate::hybrid::ViewSpaceBlender::blend)).
+    #[default]
+    ViewSpace,
+    /// The two samples nearest in angle, weighted by relative angle ([`viewpoints::blend`]),
+    /// in any view space.
+    TwoNearest,
+    /// The nearest sample alone.
+    Nearest,
 }
 
 impl Default for HybridOptions {
@@ -150,6 +167,7 @@ impl Default for HybridOptions {
             angle_radians: DEFAULT_ANGLE_DEGREES.to_radians(),
             footprint_subpixels: 0.0,
             precision: VertexPrecision::F64,
+            viewpoint_blending: ViewpointBlending::ViewSpace,
         }
     }
 }
@@ -348,7 +366,7 @@ impl HybridScene {
     }
 
     /// How `camera` sits in the view space of [`HybridScene::viewpoints`] about its centre
-    /// ([`fit`](crate::hybrid::ViewSpaceBlender::fit)): its nearest sample and whether it has left the space the
+    /// ([`ViewSpaceBlender::fit`](crate::hybrid::ViewSpaceBlender::fit)): its nearest sample and whether it has left the space the
     /// samples cover (2D: its direction is in no triangle). `None` without viewpoint samples, or
     /// for a camera at the centre or not finite.
     pub fn view_space_fit(&self, camera: &Camera) -> Option<ViewSpaceFit> {
@@ -442,20 +460,25 @@ impl HybridScene {
     }
 
     /// The viewpoint samples (indices into [`HybridScene::viewpoints`]) a frame seen by
-    /// `camera` blends and their weights, summing to 1, largest first
-    /// ([`blend`](crate::hybrid::ViewSpaceBlender::blend): two along a 1D view space, up to three in a 2D one, the
+    /// `camera` blends by `blending` and their weights, summing to 1, largest first
+    /// ([`ViewSpaceBlender::blend`](crate::hybrid::ViewSpaceBlender::blend): two along a 1D view space, up to three in a 2D one, the
     /// nearest point of the region for a camera outside it).
     /// EMs shared by every viewpoint sample (projected ones) need no blending: one sample,
     /// weight 1, half the compositing work. Sample 0 with weight 1 when there is no sample or
     /// the camera sits at its look-at point.
-    pub fn viewpoint_blend(&self, camera: &Camera) -> ViewpointBlend {
-        let blend = self
-            .view_space
-            .blend(camera.position.as_dvec3())
-            .unwrap_or(ViewpointBlend {
+    pub fn viewpoint_blend(&self, camera: &Camera, blending: ViewpointBlending) -> ViewpointBlend {
+        let position = camera.position.as_dvec3();
+        let view_space = &self.view_space;
+        let blend = match blending {
+            ViewpointBlending::ViewSpace => view_space.blend(position),
+            ViewpointBlending::TwoNearest | ViewpointBlending::Nearest => {
+                viewpoints::blend(view_space.positions(), view_space.centre(), position)
+            }
+        };
+        let blend = blend.unwrap_or(ViewpointBlend {
             samples: vec![(0, 1.0)],
         });
-        if self.lenses.iter().all(|l| l.maps.len() == 1) {
+        if self.lenses.iter().all(|l| l.maps.len() == 1) || blending == ViewpointBlending::Nearest {
             ViewpointBlend {
                 samples: vec![(blend.samples[0].0, 1.0)],
             }
@@ -572,7 +595,7 @@ impl HybridScene {
     ) -> Result<(FrameInput, HybridStats, Vec<Vec<u8>>), TessellationError> {
         let start = Instant::now();
         let view = self.view(camera);
-        let blend = self.viewpoint_blend(camera);
+        let blend = self.viewpoint_blend(camera, options.viewpoint_blending);
         let mut stats = HybridStats {
             outside_view_space: self.view_space_fit(camera).is_some_and(|fit| fit.outside),
             ..HybridStats::default()
@@ -924,7 +947,7 @@ mod tests {
         };
         assert!(hybrid.view_space_fit(&at_look_at).is_none());
 
-        let blend = hybrid.viewpoint_blend(&camera);
+        let blend = hybrid.viewpoint_blend(&camera, ViewpointBlending::ViewSpace);
         assert_eq!(blend.samples, vec![(0, 1.0)], "projected EMs: one sample");
         let (frame, _) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
         let weights: Vec<f32> = blend.samples.iter().map(|(_, w)| *w as f32).collect();

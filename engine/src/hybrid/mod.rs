@@ -15,7 +15,7 @@ pub mod viewpoints;
 
 pub use frame::{
     BuiltFrame, DEFAULT_ANGLE_DEGREES, HybridOptions, HybridStats, MAX_FOOTPRINT_COARSENING,
-    VertexPrecision, Wireframe, WireframeLens,
+    VertexPrecision, ViewpointBlending, Wireframe, WireframeLens,
 };
 pub use scene::{
     BakeIdentityError, HybridError, HybridScene, HybridSceneOptions, LayeredEms, LensLayers,

@@ -881,7 +881,7 @@ impl App {
                 self.camera.supersampling
             ),
         ];
-        let blend = hybrid.viewpoint_blend(&self.camera);
+        let blend = hybrid.viewpoint_blend(&self.camera, self.experiment.options.hybrid.viewpoint_blending);
         let weights: Vec<String> = blend
             .samples
             .iter()
@@ -895,12 +895,19 @@ impl App {
         };
         let outside = hybrid.view_space_fit(&self.camera).and_then(|fit| {
             (fit.outside && !shared).then(|| {
-                format!(
-                    "OUTSIDE THE VIEW SPACE: {:.1}° from sample {}, samples are {:.1}° apart",
-                    fit.nearest_radians.to_degrees(),
-                    fit.nearest,
-                    fit.spacing_radians.to_degrees()
-                )
+                if fit.surface {
+                    format!(
+                        "OUTSIDE THE VIEW SPACE: {:.1}° from its triangles, blending their nearest point",
+                        fit.outside_radians.to_degrees()
+                    )
+                } else {
+                    format!(
+                        "OUTSIDE THE VIEW SPACE: {:.1}° from sample {}, samples are {:.1}° apart",
+                        fit.nearest_radians.to_degrees(),
+                        fit.nearest,
+                        fit.spacing_radians.to_degrees()
+                    )
+                }
             })
         });
         let st = &self.stats;

@@ -292,6 +292,7 @@ mod tests {
                     angle_radians: 3f64.to_radians(),
                     footprint_subpixels: 0.0,
                     precision: VertexPrecision::F64,
+                    viewpoint_blending: lensmap::hybrid::ViewpointBlending::ViewSpace,
                 },
                 variant: Variant::SinglePass,
                 em_size: EmSize::Fixed(64),

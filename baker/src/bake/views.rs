@@ -164,6 +164,49 @@ mod tests {
     use crate::bake::BakeFailure;
 
     #[test]
+    fn views_in_a_patch_go_towards_triangulation_neighbours() {
+        let scene = Scene::load_named(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../tools/scenes/glass-sphere-patch.toml"
+        ))
+        .unwrap();
+        let centre = scene.view_space.centre(scene.camera.look_at).as_dvec3();
+        let samples = scene.view_space.samples();
+        let from = |p: Vec3| p.as_dvec3() - centre;
+        let points: Vec<DVec3> = samples.iter().map(|p| p.as_dvec3()).collect();
+        let triangulation = SphereTriangulation::new(&points, centre).unwrap();
+        for k in [1, 3, 5] {
+            let options = BakeOptions {
+                multi_view: k,
+                ..BakeOptions::default()
+            };
+            // The middle sample 4 has neighbours all round.
+            let cameras = view_cameras(&scene, 4, &options);
+            assert_eq!(cameras.len(), k);
+            assert!(cameras[0].position.distance(samples[4]) < 1e-5);
+            let neighbours = triangulation.neighbours(4);
+            for camera in &cameras[1..] {
+                // A third of the way to one neighbour, on the sphere, looking at the look-at point.
+                let view = from(camera.position);
+                assert!((view.length() - from(samples[4]).length()).abs() < 1e-4);
+                let own = from(samples[4]);
+                let towards = neighbours
+                    .iter()
+                    .find(|&&n| (angle(own, view) - angle(own, from(samples[n])) / 3.0).abs() < 1e-5
+                        && (angle(view, from(samples[n])) - 2.0 * angle(own, from(samples[n])) / 3.0).abs() < 1e-5);
+                assert!(towards.is_some(), "K = {k}: {view} is a third of the way to no neighbour");
+                assert_eq!(camera.look_at, scene.camera.look_at);
+            }
+            // Distinct views.
+            for (i, a) in cameras.iter().enumerate() {
+                for b in &cameras[i + 1..] {
+                    assert!(a.position.distance(b.position) > 1e-3);
+                }
+            }
+        }
+    }
+
+    #[test]
     fn views_spread_over_the_samples_share_of_the_circle() {
         let scene = Scene::load_named("glass-sphere").unwrap();
         let options = BakeOptions {

@@ -399,6 +399,57 @@ mod tests {
         assert_eq!(fit.nearest, 2, "sample 1 is left out");
     }
 
+    /// A 3 × 3 patch of samples 10° apart about the origin, 4 m out, from azimuth −10° and
+    /// elevation 0°.
+    fn patch() -> Vec<DVec3> {
+        (0..3)
+            .flat_map(|row| (0..3).map(move |col| on_sphere(-10.0 + 10.0 * col as f64, 10.0 * row as f64)))
+            .collect()
+    }
+
+    #[test]
+    fn a_surface_blends_three_samples_a_circle_two() {
+        let samples = patch();
+        let surface = ViewSpaceBlender::new(samples.clone(), DVec3::ZERO, true);
+        assert!(surface.triangulation().is_some());
+        let inside = on_sphere(-4.0, 3.0);
+        let blend = surface.blend(inside).unwrap();
+        assert_eq!(blend.samples.len(), 3, "{blend:?}");
+        let fit = surface.fit(inside).unwrap();
+        assert!(fit.surface && !fit.outside && fit.outside_radians == 0.0, "{fit:?}");
+        // At a sample, one; the weights sum to 1 and come largest first.
+        assert_eq!(surface.blend(samples[4]).unwrap().samples, vec![(4, 1.0)]);
+        let total: f64 = blend.samples.iter().map(|s| s.1).sum();
+        assert!((total - 1.0).abs() < 1e-12);
+        assert!(blend.samples.windows(2).all(|w| w[0].1 >= w[1].1));
+        // 15° above the top row (elevation 20°): outside, blending the nearest point of the
+        // region. That is on the great circle through the top row's ends (6 and 8), which runs
+        // 0.28° poleward of the middle sample 7: halfway between 6 and 8.
+        let above = on_sphere(0.0, 35.0);
+        let fit = surface.fit(above).unwrap();
+        assert!(fit.outside, "{fit:?}");
+        assert!((fit.outside_radians.to_degrees() - 14.72).abs() < 0.1, "{}", fit.outside_radians.to_degrees());
+        let top = surface.blend(above).unwrap().samples;
+        assert_eq!((top[0].0, top[1].0), (6, 8), "{top:?}");
+        assert!((top[0].1 - 0.5).abs() < 1e-6, "{top:?}");
+        // The same samples as a 1D view space: the two nearest.
+        let line = ViewSpaceBlender::new(samples.clone(), DVec3::ZERO, false);
+        assert!(line.triangulation().is_none());
+        assert_eq!(line.blend(inside).unwrap().samples.len(), 2);
+        assert!(!line.fit(inside).unwrap().surface);
+    }
+
+    #[test]
+    fn samples_on_a_great_circle_fall_back_to_the_line() {
+        // A 2D view space whose samples all lie on the equator: blended two at a time.
+        let samples = circle(8, 10.0);
+        let blender = ViewSpaceBlender::new(samples.clone(), DVec3::ZERO, true);
+        assert!(blender.triangulation().is_none());
+        let camera = on_sphere(15.0, 0.0);
+        assert_eq!(blender.blend(camera), blend(&samples, DVec3::ZERO, camera));
+        assert_eq!(blender.fit(camera), view_space_fit(&samples, DVec3::ZERO, camera));
+    }
+
     #[test]
     fn degenerate_inputs_are_none() {
         assert!(blend(&[], DVec3::ZERO, DVec3::X).is_none());

@@ -10,7 +10,7 @@ use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{
-        DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene,
+        DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene, ViewpointBlending,
         tessellate::{DEFAULT_T, TessellationOptions},
     },
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
@@ -179,6 +179,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let frame = frames.last();
     frame.image.write_files(&out.png, &out.exr)?;
     step.finish_and_clear();
+    // Projected EMs are the same at every sample: only a bake's samples can be left.
+    if frame.stats.outside_view_space && args.bake.is_some() {
+        let how_far = hybrid
+            .view_space_fit(&camera)
+            .map_or(0.0, |fit| fit.outside_radians.to_degrees());
+        warn!(
+            "the camera is {how_far:.1}° outside the view space the samples cover; the frame blends the samples of its nearest point"
+        );
+    }
     if frame.render.saturated > 0 {
         warn!(
             "{} channel values passed RGBA16F's range (65504) and were clamped to it; use --format rgba32f for radiance that bright",
@@ -271,6 +280,13 @@ fn report(
             "lens_triangles_out": frame.stats.triangles_out,
             "vertices_traced": frame.stats.vertices_traced,
             "leaves_stopped_by_vertex_budget": frame.stats.stopped_by_budget,
+            "outside_view_space": frame.stats.outside_view_space,
+            "viewpoints": hybrid
+                .viewpoint_blend(camera, ViewpointBlending::ViewSpace)
+                .samples
+                .iter()
+                .map(|(i, w)| json!({"sample": i, "weight": w}))
+                .collect::<Vec<_>>(),
         },
         "out": written.png,
         "out_exr": written.exr,

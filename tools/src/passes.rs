@@ -4,8 +4,8 @@
 use clap::Args;
 use lensmap::options::Worded;
 use lensmap::render::{
-    BlendScheme, FrameShape, Output, PassCategory, PlanOptions, ProgramError, TargetFormat,
-    Variant, plan::frame_graph,
+    BlendScheme, FrameShape, Output, PassCategory, PlanOptions, ProgramError, SinglePassLimits,
+    TargetFormat, Variant, plan::frame_graph,
 };
 use lensmap::trace::Term;
 use serde_json::json;
@@ -62,6 +62,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         blend,
         format,
         output: Output::Readback,
+        single_pass: SinglePassLimits::COMPILED,
     };
     let (graph, _) = frame_graph(&shape, &options).map_err(|error| match error {
         ProgramError::SinglePassBlend { .. } => BadUsage(error.worded(&Flags)),

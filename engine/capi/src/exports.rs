@@ -9,7 +9,7 @@ use lensmap::gpu::{Gpu, GpuOptions, HostDevice, HostFeatures, vk};
 use lensmap::layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions};
 use lensmap::options::Worded;
 use lensmap::render::{
-    FrameShape,
+    FrameShape, MAX_VIEWPOINTS, SinglePassLimits,
     plan::{Output, PlanOptions, frame_graph},
 };
 use lensmap::runner::{EmSource, FrameRunner, load_hybrid_scene};
@@ -525,10 +525,13 @@ pub unsafe extern "C" fn lensmap_plan_text(
                 ));
             }
         };
-        if !(1..=2).contains(&options.viewpoints) {
+        if !(1..=MAX_VIEWPOINTS).contains(&(options.viewpoints as usize)) {
             return Err(Failure::new(
                 LensmapResult::InvalidArgument,
-                format!("options->viewpoints is {}; give 1 or 2", options.viewpoints),
+                format!(
+                    "options->viewpoints is {}; give 1 to {MAX_VIEWPOINTS}",
+                    options.viewpoints
+                ),
             ));
         }
         let shape = FrameShape::synthetic(
@@ -544,6 +547,7 @@ pub unsafe extern "C" fn lensmap_plan_text(
             blend,
             format: format(options.format, "options->format")?,
             output: Output::Readback,
+            single_pass: SinglePassLimits::COMPILED,
         };
         let (graph, _) = frame_graph(&shape, &plan_options).map_err(|error| {
             Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))

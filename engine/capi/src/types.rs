@@ -278,7 +278,7 @@ pub struct LensmapPlanOptions {
     pub struct_size: u32,
     /// Layers per viewpoint sample (1 … 256).
     pub layers: u32,
-    /// Viewpoint samples blended (1 or 2).
+    /// Viewpoint samples blended (1 to 3: 3 inside a spherical triangle of a 2D view space).
     pub viewpoints: u32,
     /// Shading terms: 2 (glass: refraction and reflection) or 1 (mirror).
     pub terms: u32,

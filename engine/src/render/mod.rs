@@ -31,7 +31,7 @@ pub use lens_pixels::frame_lens_pixels;
 pub use plan::{
     BlendScheme, FramePlan, FrameShape, Output, PassCategory, PlanOptions, TargetFormat, Variant,
 };
-pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
+pub use program::{LimitSource, ProgramError, ShaderProgram, SinglePassLimits, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, RenderOptions, Renderer, Submission};
 pub use upload::UploadedFrame;
 
@@ -101,6 +101,7 @@ mod tests {
             lens: "teapot".into(),
             layers: 7,
             max: 6,
+            bound: LimitSource::Shader,
         });
         assert!(std::error::Error::source(&error).is_none());
         assert_eq!(error.to_string().matches("7 layers").count(), 1, "{error}");

@@ -11,6 +11,7 @@ fn readback(variant: Variant, blend: BlendScheme, format: TargetFormat) -> PlanO
         blend,
         format,
         output: Output::Readback,
+        single_pass: SinglePassLimits::COMPILED,
     }
 }
 

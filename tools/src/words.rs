@@ -46,11 +46,12 @@ fn downcast<'a, T: Worded + 'static>(
 /// The library's errors that name options, and those that wrap them: a `#[error(transparent)]`
 /// wrapper's source is its inner error's source, so the chain shows the wrapper, never the inner
 /// error, and the wrapper words it.
-const WORDED_ERRORS: [Downcast; 10] = [
+const WORDED_ERRORS: [Downcast; 11] = [
     downcast::<lensmap::options::OptionError>,
     downcast::<lensmap::render::RenderError>,
     downcast::<lensmap::render::ProgramError>,
     downcast::<lensmap::render::FramebufferError>,
+    downcast::<lensmap::render::MapBudgetError>,
     downcast::<lensmap::hybrid::BakeIdentityError>,
     downcast::<lensmap::hybrid::HybridError>,
     downcast::<lensmap::runner::RunError>,

@@ -65,7 +65,10 @@ impl From<RenderError> for Failure {
     fn from(error: RenderError) -> Failure {
         match error {
             RenderError::Gpu(error) => error.into(),
-            RenderError::BadInput(_) | RenderError::Program(_) | RenderError::Framebuffer(_) => {
+            RenderError::BadInput(_)
+            | RenderError::Program(_)
+            | RenderError::Framebuffer(_)
+            | RenderError::Maps(_) => {
                 Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
             }
         }

@@ -11,7 +11,7 @@ use std::{collections::HashMap, sync::Arc};
 use ash::vk;
 
 use super::{
-    EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, RenderError,
+    EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes, RenderError,
     SinglePassLimits, TargetFormat,
     descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
@@ -171,6 +171,10 @@ impl UploadCache {
         frame.validate_unless_checked(&|address| {
             self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
         })?;
+        // Before anything is allocated: the frame's maps, each once (those already resident from
+        // a recent frame included, as this frame needs them resident too). A recent frame's maps
+        // that this one does not reuse are released with that frame and are not counted.
+        super::budget::check_map_budget(gpu, &MapBytes::of_frame(frame))?;
         self.generation += 1;
         let generation = self.generation;
         for cube in frame.lenses.iter().flat_map(|l| l.layers.iter().flatten()) {
@@ -267,6 +271,8 @@ impl UploadCache {
         layers: &[Vec<Arc<CubeMap>>],
     ) -> Result<(), RenderError> {
         let bad = |s: String| Err(RenderError::BadInput(s));
+        // No map budget to check: the new maps are as many and as large as the ones they replace,
+        // which the frame's upload checked.
         // The descriptor sets and maps change: nothing submitted may still read them.
         if let Some((timeline, value)) = &frame.last_submission {
             timeline.wait(*value)?;

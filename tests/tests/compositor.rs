@@ -18,8 +18,8 @@ use lensmap::gpu::Gpu;
 use lensmap::index::LensIndex;
 use lensmap::metrics::Mask;
 use lensmap::render::{
-    BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer, TargetFormat,
-    Variant, frame_lens_pixels,
+    BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer,
+    SinglePassLimits, TargetFormat, Variant, frame_lens_pixels,
     model::{FilterPrecision, ModelImage, ModelOptions, render_model},
 };
 use lensmap::trace::{LensSelection, Term};
@@ -489,6 +489,18 @@ fn a_zero_weight_among_three_viewpoints_renders_like_two() {
 #[test]
 fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
     let (gpu, mut renderer, mut rng) = compositor(5);
+    // The spec's minimum limits fit what the single pass is compiled for (see
+    // SinglePassLimits), so on a conformant device its limits are the shader's.
+    let limits = SinglePassLimits::of_device(&gpu.properties().limits);
+    println!(
+        "{}: the single pass composites at most {} layers ({}) and {} viewpoints ({})",
+        gpu.device_id().driver_description(),
+        limits.max_layers,
+        limits.layers_bound,
+        limits.max_viewpoints,
+        limits.viewpoints_bound
+    );
+    assert_eq!(limits, SinglePassLimits::COMPILED);
     // Two lens objects with one name would give two passes one name.
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
     frame.lenses.push(frame.lenses[0].clone());

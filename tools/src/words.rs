@@ -87,3 +87,37 @@ pub fn error_line(error: &anyhow::Error) -> String {
     }
     parts.join(": ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::error_line;
+    use lensmap::render::{MapBudgetError, MapBytes, RenderError};
+
+    /// Maps over the device's budget, in the command line's words: the flags that shrink them.
+    #[test]
+    fn maps_over_the_budget_name_the_flags() {
+        let error = anyhow::Error::from(RenderError::from(MapBudgetError {
+            maps: MapBytes {
+                cube_maps: 9,
+                largest_em_size: 512,
+                layered_em_bytes: 9 * 6 * 16 * 349_525,
+                light_maps: 1,
+                light_map_texels: 1 << 22,
+                light_map_bytes: 8 << 22,
+            },
+            budget: 200 << 20,
+        }))
+        .context("rendering teapot-room");
+        let line = error_line(&error);
+        assert!(
+            line.starts_with("rendering teapot-room: frame input: the frame's maps need 320.0 MiB")
+                && line.contains(
+                    "budget for maps of 200.0 MiB (20% of its largest device-local heap)"
+                )
+                && line.contains("a smaller --em-size")
+                && line.contains("a smaller --light-map-max-texels")
+                && !line.contains('`'),
+            "{line}"
+        );
+    }
+}

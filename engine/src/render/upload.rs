@@ -2,9 +2,10 @@
 //! EMs into cube-map arrays, the environment meshes into vertex buffers and their light maps into
 //! RGBA16F textures (each mesh with its own descriptor set), one descriptor set per (lens,
 //! viewpoint) and one for each lens object's single pass, and the targets of each framebuffer
-//! format on first use. Layered EMs and
-//! environment meshes (light maps included) are cached by the identity of their `Arc`s, so
-//! frames that hand over the same maps and meshes upload them once.
+//! format on first use. Layered EMs and environment meshes (light maps included) are cached by
+//! the identity of their `Arc`s, so frames that hand over the same maps and meshes upload them
+//! once. Before anything is uploaded, the frame's maps are checked against the device's budget
+//! for maps ([`super::budget`]).
 
 use std::{collections::HashMap, sync::Arc};
 
@@ -536,12 +537,12 @@ impl UploadCache {
             fg_offset,
             direction_offset,
             layer_count: lens.layer_count() as u32,
-            layers: Vec::new(),
+            layers,
             sets,
             single_pass_set,
         };
-        write_lens_sets(gpu, pipelines, &gpu_lens, (&layers, active));
-        Ok(GpuLens { layers, ..gpu_lens })
+        write_lens_sets(gpu, pipelines, &gpu_lens, (&gpu_lens.layers, active));
+        Ok(gpu_lens)
     }
 }
 

@@ -498,7 +498,7 @@ mod tests {
             "the frame's maps need 336.7 KiB of device memory (4 layered-EM cube maps of up to 32² texels a face with their mip chains: 319.9 KiB; 2 light map(s) of 2148 texels: 16.8 KiB), past this device's budget for maps of 335.7 KiB (20% of its largest device-local heap); give a smaller `em_size` (of the projected EMs, or bake with a smaller one) or a smaller `light_map_max_texels` (it lowers every light-map chart's density)"
         );
         assert!(
-            flags.contains("a smaller --em-size") && flags.contains("--light-map-max-texels"),
+            flags.contains("a smaller --em_size") && flags.contains("--light_map_max_texels"),
             "{flags}"
         );
     }

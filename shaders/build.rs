@@ -12,8 +12,10 @@
 //! from the shaders themselves so the two cannot drift apart:
 //! - the table of specialized blobs, keyed by a typed `Overrides` value (`src/lib.rs`) whose
 //!   field names are the WGSL override names (a renamed override fails to compile);
-//! - the single-pass layer limit (`const MAX_LAYERS` in `lens.wgsl`, next to the varyings that
-//!   set it; checked against the number of varyings `vs_single_pass` writes);
+//! - the single pass's limits: its layers (`const MAX_LAYERS` in `lens.wgsl`, next to the
+//!   varyings that set it; checked against the number of varyings `vs_single_pass` writes) and
+//!   its viewpoint samples (`const MAX_VIEWPOINTS`, checked against the cube-map arrays the file
+//!   binds);
 //! - every push-constant (`var<immediate>`) struct as a `#[repr(C)]` Rust struct with naga's
 //!   offsets, explicit padding, and compile-time assertions of its size and every field's offset.
 
@@ -21,6 +23,17 @@ use std::{collections::BTreeMap, env, fmt::Write as _, fs, path::Path};
 
 /// The WGSL `const` in `lens.wgsl` that bounds the single pass's layer count.
 const MAX_LAYERS_CONSTANT: &str = "MAX_LAYERS";
+
+/// The WGSL `const` in `lens.wgsl` that bounds the viewpoint samples the single pass blends.
+const MAX_VIEWPOINTS_CONSTANT: &str = "MAX_VIEWPOINTS";
+
+/// What the single pass is compiled for: its file's `const MAX_LAYERS` and `const
+/// MAX_VIEWPOINTS`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct SinglePassBounds {
+    max_layers: u32,
+    max_viewpoints: u32,
+}
 
 /// The folder, inside `wgsl/`, of the WGSL that files share: a line `// #include "NAME"` in a
 /// shader is replaced by the text of `wgsl/include/NAME` before naga sees the file (WGSL has no
@@ -61,12 +74,12 @@ fn expand_includes(source: &str, include_dir: &Path, shown: &str) -> Result<Stri
 
 /// Override constants and the values each specialized entry point is compiled for: every layer
 /// count up to the shader's `MAX_LAYERS`, each non-empty term set (bit 0 refraction, bit 1
-/// reflection), one or two viewpoint samples.
-fn specializations(max_layers: u32) -> Vec<(&'static str, Vec<u32>)> {
+/// reflection), every viewpoint count up to its `MAX_VIEWPOINTS`.
+fn specializations(bounds: SinglePassBounds) -> Vec<(&'static str, Vec<u32>)> {
     vec![
-        ("LAYER_COUNT", (1..=max_layers).collect()),
+        ("LAYER_COUNT", (1..=bounds.max_layers).collect()),
         ("TERM_MASK", vec![1, 2, 3]),
-        ("VIEWPOINTS", vec![1, 2]),
+        ("VIEWPOINTS", (1..=bounds.max_viewpoints).collect()),
     ]
 }
 
@@ -106,8 +119,8 @@ struct Compiled {
     blobs: Vec<(String, Combination, Vec<u32>)>,
     /// Rust source of the file's push-constant structs.
     push_constants: String,
-    /// The file's `const MAX_LAYERS`, if it declares one.
-    max_layers: Option<u32>,
+    /// The file's single-pass limits, if it declares them.
+    single_pass: Option<SinglePassBounds>,
 }
 
 fn main() {
@@ -127,7 +140,7 @@ fn main() {
     let mut specialized =
         String::from("pub(crate) const SPECIALIZED: &[(&str, &str, Overrides, &[u8])] = &[\n");
     let mut push_constants = String::new();
-    let mut max_layers = None;
+    let mut single_pass = None;
     let mut failed = false;
     for path in &entries {
         println!("cargo:rerun-if-changed={}", path.display());
@@ -166,14 +179,14 @@ fn main() {
                     }
                 }
                 push_constants.push_str(&compiled.push_constants);
-                if let Some(found) = compiled.max_layers {
-                    if max_layers.is_some() {
+                if let Some(found) = compiled.single_pass {
+                    if single_pass.is_some() {
                         eprintln!(
                             "error: {shown}: a second `const {MAX_LAYERS_CONSTANT}`; declare it once, in lens.wgsl"
                         );
                         failed = true;
                     }
-                    max_layers = Some(found);
+                    single_pass = Some(found);
                 }
             }
             Err(message) => {
@@ -189,7 +202,11 @@ fn main() {
     if failed {
         std::process::exit(1);
     }
-    let Some(max_layers) = max_layers else {
+    let Some(SinglePassBounds {
+        max_layers,
+        max_viewpoints,
+    }) = single_pass
+    else {
         eprintln!("error: shaders/wgsl/lens.wgsl: `const {MAX_LAYERS_CONSTANT}: u32` is missing");
         std::process::exit(1);
     };
@@ -201,7 +218,10 @@ fn main() {
         generated,
         "/// Most layers the single-pass fragment shader composites (`const {MAX_LAYERS_CONSTANT}` in \
          `lens.wgsl`, which has one interpolated direction per layer and term).\n\
-         pub const {MAX_LAYERS_CONSTANT}: u32 = {max_layers};\n"
+         pub const {MAX_LAYERS_CONSTANT}: u32 = {max_layers};\n\n\
+         /// Most viewpoint samples the single-pass fragment shader blends (`const \
+         {MAX_VIEWPOINTS_CONSTANT}` in `lens.wgsl`, which binds one cube-map array per sample).\n\
+         pub const {MAX_VIEWPOINTS_CONSTANT}: u32 = {max_viewpoints};\n"
     );
     generated.push_str(&modules);
     generated.push('\n');
@@ -211,7 +231,7 @@ fn main() {
 }
 
 /// Parses and validates one file; writes one SPIR-V module per entry point (and per
-/// specialization); reads its `MAX_LAYERS` and push-constant structs.
+/// specialization); reads its single-pass limits and push-constant structs.
 fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
     let module = naga::front::wgsl::parse_str(source)
         .map_err(|e| e.emit_to_string_with_path(source, shown))?;
@@ -222,12 +242,8 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
     let info = validator
         .validate(&module)
         .map_err(|e| e.emit_to_string_with_path(source, shown))?;
-    let max_layers = u32_constant(&module, MAX_LAYERS_CONSTANT)
-        .map_err(|problem| format!("error: {shown}: {problem}"))?;
-    if let Some(max_layers) = max_layers {
-        check_single_pass_varyings(&module, max_layers)
-            .map_err(|problem| format!("error: {shown}: {problem}"))?;
-    }
+    let single_pass =
+        single_pass_bounds(&module).map_err(|problem| format!("error: {shown}: {problem}"))?;
     // Vulkan conventions throughout (y down in clip space, depth 0..1): no coordinate flip.
     let options = naga::back::spv::Options {
         lang_version: (1, 3),
@@ -243,14 +259,14 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
             entry_point: ep.name.clone(),
         };
         let specializations = if ep.name.ends_with("_specialized") {
-            let Some(max_layers) = max_layers else {
+            let Some(bounds) = single_pass else {
                 return Err(format!(
                     "error: {shown}: entry point `{}` is specialized per layer count, but the file \
                      declares no `const {MAX_LAYERS_CONSTANT}: u32`",
                     ep.name
                 ));
             };
-            combinations(&specializations(max_layers))
+            combinations(&specializations(bounds))
         } else {
             vec![Vec::new()]
         };
@@ -281,8 +297,55 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
     Ok(Compiled {
         blobs,
         push_constants: push_constant_structs(&module, shown)?,
-        max_layers,
+        single_pass,
     })
+}
+
+/// The module's single-pass limits, checked against what its single pass declares: none if it
+/// declares no `const MAX_LAYERS`; with it, `const MAX_VIEWPOINTS` is required.
+fn single_pass_bounds(module: &naga::Module) -> Result<Option<SinglePassBounds>, String> {
+    let Some(max_layers) = u32_constant(module, MAX_LAYERS_CONSTANT)? else {
+        return Ok(None);
+    };
+    let max_viewpoints = u32_constant(module, MAX_VIEWPOINTS_CONSTANT)?.ok_or_else(|| {
+        format!(
+            "`const {MAX_LAYERS_CONSTANT}` needs `const {MAX_VIEWPOINTS_CONSTANT}: u32` beside it"
+        )
+    })?;
+    check_single_pass_varyings(module, max_layers)?;
+    check_single_pass_layers(module, max_viewpoints)?;
+    Ok(Some(SinglePassBounds {
+        max_layers,
+        max_viewpoints,
+    }))
+}
+
+/// The single pass samples one cube-map array per viewpoint sample: the module must bind exactly
+/// `MAX_VIEWPOINTS` of them, or raising the constant without a binding (and the fragment code
+/// that samples it) would compile a shader that silently blends fewer viewpoints.
+fn check_single_pass_layers(module: &naga::Module, max_viewpoints: u32) -> Result<(), String> {
+    let arrays = module
+        .global_variables
+        .iter()
+        .filter(|(_, global)| {
+            matches!(
+                module.types[global.ty].inner,
+                naga::TypeInner::Image {
+                    dim: naga::ImageDimension::Cube,
+                    arrayed: true,
+                    ..
+                }
+            )
+        })
+        .count();
+    if arrays == max_viewpoints as usize {
+        Ok(())
+    } else {
+        Err(format!(
+            "the file binds {arrays} cube-map arrays but `const {MAX_VIEWPOINTS_CONSTANT} = \
+             {max_viewpoints}` needs one per viewpoint sample: change both together"
+        ))
+    }
 }
 
 /// The single pass carries one interpolated direction per layer and term plus the two F·G: its

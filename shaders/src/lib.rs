@@ -5,8 +5,8 @@
 //!
 //! What Rust must agree on with the shaders is generated from them by `build.rs`: the push-constant
 //! structs ([`LensConstants`], [`EnvironmentConstants`]) with compile-time checks of their layout,
-//! the single-pass layer limit [`MAX_LAYERS`], and the table of specialized entry points keyed by
-//! [`Overrides`].
+//! the single pass's limits [`MAX_LAYERS`] and [`MAX_VIEWPOINTS`], and the table of specialized
+//! entry points keyed by [`Overrides`].
 
 include!(concat!(env!("OUT_DIR"), "/modules.rs"));
 
@@ -19,7 +19,7 @@ pub struct Overrides {
     pub layer_count: u32,
     /// `TERM_MASK`: bit 0 the refraction term, bit 1 the reflection term (1, 2 or 3).
     pub term_mask: u32,
-    /// `VIEWPOINTS`: viewpoint samples blended, 1 or 2.
+    /// `VIEWPOINTS`: viewpoint samples blended, 1 ..= [`MAX_VIEWPOINTS`].
     pub viewpoints: u32,
 }
 
@@ -99,7 +99,7 @@ mod tests {
         }
         for layer_count in 1..=MAX_LAYERS {
             for term_mask in 1..=3 {
-                for viewpoints in 1..=2 {
+                for viewpoints in 1..=MAX_VIEWPOINTS {
                     let overrides = Overrides {
                         layer_count,
                         term_mask,
@@ -112,7 +112,14 @@ mod tests {
                 }
             }
         }
-        assert_eq!(SPECIALIZED.len(), MAX_LAYERS as usize * 3 * 2);
+        assert_eq!(
+            SPECIALIZED.len(),
+            MAX_LAYERS as usize * 3 * MAX_VIEWPOINTS as usize
+        );
+        assert_eq!(
+            MAX_VIEWPOINTS, 3,
+            "the three samples of a spherical triangle"
+        );
         for shader in all() {
             let words = shader.words();
             assert_eq!(words[0], 0x0723_0203, "{}: SPIR-V magic", shader.entry);

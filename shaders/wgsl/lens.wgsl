@@ -8,17 +8,19 @@
 // Multipass: the prime writes (0,0,0,0) to the lens pixels; each layer pass emits
 // (texel.rgb·FG·w, texel.α) under the fixed-function blend src·(1−dstα) + dst (front-to-back
 // "over"); the alpha clear reuses fs_zero with a colour write mask of A only.
-// Single pass: one draw samples the four (viewpoint, term) textures per layer and does the same
-// arithmetic in registers, in the same order, so it matches the multipass frame.
+// Single pass: one draw samples the 2·V (viewpoint, term) textures per layer (V ≤ MAX_VIEWPOINTS
+// viewpoint samples, each with its own cube-map array; the directions are shared) and does the
+// same arithmetic in registers, in the same order, so it matches the multipass frame.
 //
 // Every lens vertex shader computes the clip position the same way and marks it invariant, so the
 // depth test LESS_OR_EQUAL after the prime passes exactly the primed fragments.
 
 struct LensConstants {
     view_proj: mat4x4<f32>,
-    // Weight of viewpoint sample a (multipass: this pass's weight) and b (single pass only).
+    // Weight of viewpoint sample a (multipass: this pass's weight), b and c (single pass only).
     weight_a: f32,
     weight_b: f32,
+    weight_c: f32,
     // Multipass: unused. Single pass: number of layers n (≤ MAX_LAYERS).
     layer_count: u32,
     // Single pass: bit 0 = refraction term present, bit 1 = reflection term present.
@@ -47,10 +49,19 @@ struct LensConstants {
 
 var<immediate> constants: LensConstants;
 
+// The most viewpoint samples the single pass blends: one cube-map array each (layers_a, _b, _c
+// below; shaders/build.rs checks the count against this constant, compiles the single pass for
+// 1 ..= MAX_VIEWPOINTS and hands the limit to Rust as lensmap_shaders::MAX_VIEWPOINTS). Three
+// are the samples of the spherical triangle that holds the camera direction.
+const MAX_VIEWPOINTS: u32 = 3u;
+
+// Set 0: the lens data, one cube-map array per blended viewpoint sample (the multipass layer
+// passes read layers_a, which their set points at the pass's viewpoint), and the sampler.
 @group(0) @binding(0) var<storage, read> lens_data: array<vec4<f32>>;
 @group(0) @binding(1) var layers_a: texture_cube_array<f32>;
 @group(0) @binding(2) var layers_b: texture_cube_array<f32>;
-@group(0) @binding(3) var layer_sampler: sampler;
+@group(0) @binding(3) var layers_c: texture_cube_array<f32>;
+@group(0) @binding(4) var layer_sampler: sampler;
 
 fn clip_position(vertex: u32) -> vec4<f32> {
     let position = lens_data[constants.position_offset + vertex].xyz;
@@ -213,25 +224,34 @@ fn composite_group(
     return result;
 }
 
-// The single-pass variant: groups in the multipass order (viewpoint a then b; refraction then
-// reflection), so the arithmetic matches the multipass frame. With one viewpoint, `layers_a` and
-// `weight_a` are that viewpoint's.
-@fragment
-fn fs_single_pass_specialized(in: SinglePassVertex) -> @location(0) vec4<f32> {
-    var result = vec4<f32>(0.0);
+// One viewpoint sample's groups (refraction then reflection) onto the running colour.
+fn composite_viewpoint(
+    running: vec4<f32>,
+    in: SinglePassVertex,
+    layers: texture_cube_array<f32>,
+    weight: f32,
+) -> vec4<f32> {
+    var result = running;
     if (TERM_MASK & 1u) != 0u {
-        result = composite_group(result.rgb, layers_a, in.t0, in.t1, in.t2, in.t3, in.t4, in.t5, in.fg_t, constants.weight_a);
+        result = composite_group(result.rgb, layers, in.t0, in.t1, in.t2, in.t3, in.t4, in.t5, in.fg_t, weight);
     }
     if (TERM_MASK & 2u) != 0u {
-        result = composite_group(result.rgb, layers_a, in.r0, in.r1, in.r2, in.r3, in.r4, in.r5, in.fg_r, constants.weight_a);
+        result = composite_group(result.rgb, layers, in.r0, in.r1, in.r2, in.r3, in.r4, in.r5, in.fg_r, weight);
     }
+    return result;
+}
+
+// The single-pass variant: groups in the multipass order (viewpoint a, b, c; refraction then
+// reflection), so the arithmetic matches the multipass frame. With fewer viewpoints, the first
+// ones (`layers_a` and `weight_a`, then b) are theirs.
+@fragment
+fn fs_single_pass_specialized(in: SinglePassVertex) -> @location(0) vec4<f32> {
+    var result = composite_viewpoint(vec4<f32>(0.0), in, layers_a, constants.weight_a);
     if VIEWPOINTS > 1u {
-        if (TERM_MASK & 1u) != 0u {
-            result = composite_group(result.rgb, layers_b, in.t0, in.t1, in.t2, in.t3, in.t4, in.t5, in.fg_t, constants.weight_b);
-        }
-        if (TERM_MASK & 2u) != 0u {
-            result = composite_group(result.rgb, layers_b, in.r0, in.r1, in.r2, in.r3, in.r4, in.r5, in.fg_r, constants.weight_b);
-        }
+        result = composite_viewpoint(result, in, layers_b, constants.weight_b);
+    }
+    if VIEWPOINTS > 2u {
+        result = composite_viewpoint(result, in, layers_c, constants.weight_c);
     }
     return result;
 }

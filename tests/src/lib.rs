@@ -17,8 +17,15 @@ use lensmap::render::{
 /// From then on every failure in this test process names the device and its driver
 /// ([`name_the_driver_on_failure`]).
 pub fn gpu() -> Gpu {
+    gpu_with_heap_limit(None)
+}
+
+/// [`gpu`] whose largest device-local heap counts as at most `heap_limit_bytes`
+/// ([`GpuOptions::heap_limit_bytes`]): the memory budgets refuse early without allocating.
+pub fn gpu_with_heap_limit(heap_limit_bytes: Option<u64>) -> Gpu {
     let mut options = GpuOptions::from_env();
     options.validation = std::env::var("LENSMAP_TEST_NO_VALIDATION").map_or(true, |v| v != "1");
+    options.heap_limit_bytes = heap_limit_bytes;
     match Gpu::new(&options) {
         Ok(gpu) => {
             name_the_driver_on_failure(gpu.device_id());
@@ -171,7 +178,7 @@ pub fn random_cube(rng: &mut rand_pcg::Pcg64, size: u32) -> lensmap::cubemap::Cu
 
 /// A random compositor frame of `size × size` pixels: a grid lens (a tilted, slightly bent sheet
 /// seen in perspective) whose vertices carry random F·G and smoothly varying random directions
-/// for each (term, layer), over a background triangle; `viewpoints` (1 or 2) samples with random
+/// for each (term, layer), over a background triangle; `viewpoints` (1 to 3) samples with random
 /// weights summing to 1, each with `layers` random 16² cube maps.
 pub fn random_compositor_frame(
     rng: &mut rand_pcg::Pcg64,
@@ -215,11 +222,18 @@ pub fn random_compositor_frame(
                 .collect(),
         })
         .collect();
-    let weights: Vec<f32> = if viewpoints == 1 {
-        vec![1.0]
-    } else {
-        let w: f32 = rng.gen_range(0.05..0.95);
-        vec![w, 1.0 - w]
+    let weights: Vec<f32> = match viewpoints {
+        1 => vec![1.0],
+        2 => {
+            let w: f32 = rng.gen_range(0.05..0.95);
+            vec![w, 1.0 - w]
+        }
+        _ => {
+            // A point inside a spherical triangle: three positive weights summing to 1.
+            let raw: Vec<f32> = (0..viewpoints).map(|_| rng.gen_range(0.05..1.0)).collect();
+            let total: f32 = raw.iter().sum();
+            raw.iter().map(|w| w / total).collect()
+        }
     };
     let layer_maps = (0..viewpoints)
         .map(|_| {

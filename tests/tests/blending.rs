@@ -1,7 +1,7 @@
 //! The multipass variant's blending schemes (`--blend`) against each other: every scheme's
 //! RGBA32F frame equals the paper's front-to-back scheme within 1e-5 on random inputs (random
-//! cube maps with every level non-zero, random F·G and weights, glass and mirror, n = 1…4, one and
-//! two viewpoints), including frames with all-zero layers and a zero-weight viewpoint, whose
+//! cube maps with every level non-zero, random F·G and weights, glass and mirror, n = 1…4, one to
+//! three viewpoints), including frames with all-zero layers and a zero-weight viewpoint, whose
 //! passes the plans skip. Every GPU path runs with the validation layer on.
 
 use std::sync::Arc;
@@ -32,7 +32,7 @@ fn every_scheme_equals_front_to_back_in_rgba32f() {
     let both = [Term::Refraction, Term::Reflection];
     let mut worst = [0f32; 4];
     for layers in 1..=4 {
-        for viewpoints in 1..=2 {
+        for viewpoints in 1..=3 {
             for terms in [&both[..], &[Term::Reflection][..]] {
                 let frame = random_compositor_frame(&mut rng, SIZE, layers, viewpoints, terms);
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
@@ -104,6 +104,18 @@ fn schemes_agree_when_layers_groups_and_viewpoints_are_skipped() {
     let mut frame = base.clone();
     frame.lenses[0].layers = vec![vec![zero.clone(); 3]; 2];
     cases.push(("every layer empty".into(), frame));
+    // Three viewpoints: the middle one's layers all empty, then its weight 0, then the last
+    // one's first layer empty.
+    let three = random_compositor_frame(&mut rng, SIZE, 3, 3, &both);
+    let mut frame = three.clone();
+    frame.lenses[0].layers[1] = vec![zero.clone(); 3];
+    cases.push(("of three, viewpoint 1's layers all empty".into(), frame));
+    let mut frame = three.clone();
+    frame.viewpoint_weights = vec![0.4, 0.0, 0.6];
+    cases.push(("of three, viewpoint 1 weight 0".into(), frame));
+    let mut frame = three;
+    frame.lenses[0].layers[2][0] = zero.clone();
+    cases.push(("of three, layer 0 of viewpoint 2 empty".into(), frame));
     for (case, frame) in cases {
         let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
         let mut images = Vec::new();
@@ -228,14 +240,18 @@ fn the_single_pass_refuses_other_schemes() {
 
 /// The f64 model of each scheme (its own passes and arithmetic order: back-to-front "over" into
 /// a cleared scratch image and an add per group, the groups' images summed, the shader's blend)
-/// gives the same frame as the paper's scheme to f64 rounding, on glass and mirror with one and
-/// two viewpoints: the schemes are one closed form.
+/// gives the same frame as the paper's scheme to f64 rounding, on glass and mirror with one, two
+/// and three viewpoints: the schemes are one closed form.
 #[test]
 fn the_models_of_every_scheme_agree_to_f64_rounding() {
     use lensmap::render::model::{ModelOptions, render_model};
     let mut rng = Pcg64::seed_from_u64(0x40de1);
     let both = [Term::Refraction, Term::Reflection];
-    for (layers, viewpoints, terms) in [(3, 2, &both[..]), (2, 1, &[Term::Reflection][..])] {
+    for (layers, viewpoints, terms) in [
+        (3, 2, &both[..]),
+        (2, 1, &[Term::Reflection][..]),
+        (2, 3, &both[..]),
+    ] {
         let frame = random_compositor_frame(&mut rng, 48, layers, viewpoints, terms);
         let model = |blend| {
             render_model(

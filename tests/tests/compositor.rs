@@ -1,8 +1,8 @@
 //! The compositor against independent answers: the multipass frame in RGBA32F equals the CPU f64
 //! model (which evaluates the blend sequence and samples cube maps the way the Vulkan spec
 //! describes), with every blending scheme, and the single-pass frame equals the multipass frame,
-//! on random inputs. Every GPU
-//! path runs with the validation layer on.
+//! on random inputs with one, two and three viewpoint samples. Every GPU path runs with the
+//! validation layer on.
 //!
 //! On any driver the GPU frames must lie in the model's bounds ([`ModelImage::bounds`]), derived
 //! from the spec's minimum `subTexelPrecisionBits` and `mipmapPrecisionBits` (4 and 4, what
@@ -18,8 +18,8 @@ use lensmap::gpu::Gpu;
 use lensmap::index::LensIndex;
 use lensmap::metrics::Mask;
 use lensmap::render::{
-    BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer, TargetFormat,
-    Variant, frame_lens_pixels,
+    BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer,
+    SinglePassLimits, TargetFormat, Variant, frame_lens_pixels,
     model::{FilterPrecision, ModelImage, ModelOptions, render_model},
 };
 use lensmap::trace::{LensSelection, Term};
@@ -124,9 +124,11 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
     let mut worst_model: f64 = 0.0;
     let mut worst_outside: f64 = 0.0;
     let mut worst_single: f64 = 0.0;
+    // Per viewpoint count, the largest |GPU − model| of the multipass and the single pass.
+    let mut worst_by_viewpoints = [[0f64; 2]; 3];
     let mut widths = Vec::new();
     for layers in 1..=4 {
-        for viewpoints in 1..=2 {
+        for viewpoints in 1..=3 {
             for terms in [&both[..], &[Term::Reflection][..]] {
                 let frame = random_frame(&mut rng, layers, viewpoints, terms);
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
@@ -185,7 +187,10 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
                     }
                     let (gpu_pixel, model_pixel) = (pixel(&multipass, i), model.rgba[i]);
                     for c in 0..4 {
+                        let worst = &mut worst_by_viewpoints[viewpoints - 1];
+                        worst[1] = worst[1].max((pixel(&single, i)[c] - model_pixel[c]).abs());
                         let d = (gpu_pixel[c] - model_pixel[c]).abs();
+                        worst[0] = worst[0].max(d);
                         worst_model = worst_model.max(d);
                         assert!(
                             !tolerance.exact || d <= 1e-5,
@@ -229,20 +234,27 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
         widths[widths.len() * 9 / 10],
         widths.last().unwrap()
     );
+    for (v, [multipass, single]) in worst_by_viewpoints.iter().enumerate() {
+        println!(
+            "{} viewpoint(s): largest |GPU − model| multipass {multipass:.3e}, single pass {single:.3e}",
+            v + 1
+        );
+    }
     assert_clean(&gpu);
 }
 
 /// Every blending scheme's RGBA32F frame against the f64 model of that scheme's passes (its own
 /// arithmetic order): within 1e-5 on lavapipe and inside the device-derived bounds on any driver;
-/// glass and mirror, one and two viewpoints, n = 1 and 3.
+/// glass and mirror, one, two and three viewpoints, n = 1 and 3.
 #[test]
 fn every_blending_scheme_matches_its_f64_model() {
     let (gpu, mut renderer, mut rng) = compositor(0x05c4_e3e5);
     let tolerance = Tolerance::of(&gpu);
     let both = [Term::Refraction, Term::Reflection];
-    let mut worst = [0f64; 4];
+    // Per viewpoint count and scheme, the largest |GPU − model|.
+    let mut worst = [[0f64; 4]; 3];
     for layers in [1, 3] {
-        for viewpoints in 1..=2 {
+        for viewpoints in 1..=3 {
             for terms in [&both[..], &[Term::Reflection][..]] {
                 let frame = random_frame(&mut rng, layers, viewpoints, terms);
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
@@ -284,7 +296,7 @@ fn every_blending_scheme_matches_its_f64_model() {
                         );
                         for c in 0..4 {
                             let d = (pixel(&image, i)[c] - model.rgba[i][c]).abs();
-                            worst[k] = worst[k].max(d);
+                            worst[viewpoints - 1][k] = worst[viewpoints - 1][k].max(d);
                             assert!(
                                 !tolerance.exact || d <= EXACT,
                                 "{case}: pixel {i} channel {c}: GPU {} vs model {}",
@@ -297,8 +309,15 @@ fn every_blending_scheme_matches_its_f64_model() {
             }
         }
     }
-    for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
-        println!("{}: largest |GPU − model| {:.3e}", blend.name(), worst[k]);
+    for (v, worst) in worst.iter().enumerate() {
+        for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
+            println!(
+                "{}, {} viewpoint(s): largest |GPU − model| {:.3e}",
+                blend.name(),
+                v + 1,
+                worst[k]
+            );
+        }
     }
     assert_clean(&gpu);
 }
@@ -421,9 +440,67 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
     assert_clean(&gpu);
 }
 
+/// Three viewpoint samples with one at weight 0 (a camera on an edge of a spherical triangle)
+/// render exactly like the frame of the other two: the plan leaves the zero-weight viewpoint's
+/// groups out, and the single pass binds the remaining two in order, whichever position the
+/// zero takes.
+#[test]
+fn a_zero_weight_among_three_viewpoints_renders_like_two() {
+    let (gpu, mut renderer, mut rng) = compositor(0x3_0e4d);
+    let three = random_frame(&mut rng, 2, 3, &[Term::Refraction, Term::Reflection]);
+    for zero in 0..3 {
+        let mut frame = three.clone();
+        frame.viewpoint_weights = vec![0.3; 3];
+        frame.viewpoint_weights[zero] = 0.0;
+        frame.viewpoint_weights[(zero + 1) % 3] = 0.7;
+        let mut two = frame.clone();
+        two.viewpoint_weights.remove(zero);
+        two.lenses[0].layers.remove(zero);
+        for variant in [Variant::Multipass, Variant::SinglePass] {
+            let mut a = renderer.upload(&gpu, &frame).unwrap();
+            let mut b = renderer.upload(&gpu, &two).unwrap();
+            let plan = Renderer::plan(
+                &a,
+                &RenderOptions {
+                    variant,
+                    format: TargetFormat::Rgba32f,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            if variant == Variant::Multipass {
+                assert_eq!(
+                    (
+                        plan.count(PassCategory::Layer),
+                        plan.count(PassCategory::AlphaClear)
+                    ),
+                    (8, 3),
+                    "{plan}"
+                );
+            }
+            let x = render_rgba32f(&mut renderer, &gpu, &mut a, variant);
+            let y = render_rgba32f(&mut renderer, &gpu, &mut b, variant);
+            assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
+        }
+    }
+    assert_clean(&gpu);
+}
+
 #[test]
 fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
     let (gpu, mut renderer, mut rng) = compositor(5);
+    // The spec's minimum limits fit what the single pass is compiled for (see
+    // SinglePassLimits), so on a conformant device its limits are the shader's.
+    let limits = SinglePassLimits::of_device(&gpu.properties().limits);
+    println!(
+        "{}: the single pass composites at most {} layers ({}) and {} viewpoints ({})",
+        gpu.device_id().driver_description(),
+        limits.max_layers,
+        limits.layers_bound,
+        limits.max_viewpoints,
+        limits.viewpoints_bound
+    );
+    assert_eq!(limits, SinglePassLimits::COMPILED);
     // Two lens objects with one name would give two passes one name.
     let mut frame = random_frame(&mut rng, 1, 1, &[Term::Reflection]);
     frame.lenses.push(frame.lenses[0].clone());
@@ -470,6 +547,68 @@ fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
             },
         )
         .unwrap();
+    assert_clean(&gpu);
+}
+
+/// Maps over the device's budget for maps (the heap made 1 MiB through the GPU's heap limit, so
+/// the budget is 20 % of it): the upload is refused with one error naming the size, the budget
+/// and the options that shrink them, before anything is uploaded; the frame uploaded before it
+/// and a smaller frame uploaded after it render exactly as on a renderer that never saw the
+/// refusal.
+#[test]
+fn maps_over_the_budget_are_refused_before_upload_and_lose_nothing() {
+    let heap = 1u64 << 20;
+    let gpu = lensmap_tests::gpu_with_heap_limit(Some(heap));
+    assert_eq!(gpu.device_local_heap_bytes(), heap);
+    let mut renderer = Renderer::new(&gpu).unwrap();
+    let mut rng = Pcg64::seed_from_u64(0xb0d6e7);
+    let both = [Term::Refraction, Term::Reflection];
+    // One viewpoint of two 16² cube maps: 64 KiB, within the 205 KiB budget.
+    let small = random_compositor_frame(&mut rng, 32, 2, 1, &both);
+    // Three viewpoints of three: nine cube maps, 288 KiB.
+    let large = random_compositor_frame(&mut rng, 32, 3, 3, &both);
+    let before = lensmap::render::MapBytes::of_frame(&small);
+    assert_eq!(before.total(), 2 * 32736);
+    let mut uploaded = renderer.upload(&gpu, &small).unwrap();
+    let first = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::SinglePass);
+
+    let error = renderer
+        .upload(&gpu, &large)
+        .err()
+        .expect("nine cube maps are over the budget");
+    let lensmap::render::RenderError::Maps(refusal) = &error else {
+        panic!("not a map-budget refusal: {error}");
+    };
+    assert_eq!(refusal.maps.cube_maps, 9);
+    assert_eq!(refusal.maps.total(), 9 * 32736);
+    assert_eq!(
+        refusal.budget,
+        (heap as f64 * lensmap::render::MAP_HEAP_SHARE) as u64
+    );
+    let message = error.to_string();
+    assert_eq!(message.lines().count(), 1, "{message}");
+    for words in [
+        "287.7 KiB",
+        "204.8 KiB",
+        "`em_size`",
+        "`light_map_max_texels`",
+    ] {
+        assert!(message.contains(words), "{words}: {message}");
+    }
+
+    // The frame uploaded before renders as before, and a smaller frame after the refusal
+    // renders as it does on a fresh renderer.
+    let again = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::SinglePass);
+    assert_eq!(again, first);
+    let smaller = random_compositor_frame(&mut rng, 32, 1, 3, &both);
+    let mut after = renderer.upload(&gpu, &smaller).unwrap();
+    let mut fresh_renderer = Renderer::new(&gpu).unwrap();
+    let mut fresh = fresh_renderer.upload(&gpu, &smaller).unwrap();
+    for variant in [Variant::Multipass, Variant::SinglePass] {
+        let image = render_rgba32f(&mut renderer, &gpu, &mut after, variant);
+        let expected = render_rgba32f(&mut fresh_renderer, &gpu, &mut fresh, variant);
+        assert_eq!(image, expected, "{variant:?}");
+    }
     assert_clean(&gpu);
 }
 

@@ -1,4 +1,4 @@
-//! `lensmap bench passes`: compositor frame time for n = 1…4 layers and one or two viewpoint
+//! `lensmap bench passes`: compositor frame time for n = 1…4 layers and one to three viewpoint
 //! samples, multipass (with each blending scheme `--blend` asks for) vs single pass, in every
 //! framebuffer format, on the synthetic scene (or on one hybrid frame of a scene, at its own
 //! layer count); passes, barriers and rendering instances from each frame's plan; and the error
@@ -49,9 +49,10 @@ pub struct BenchPassesArgs {
     /// Blending schemes of the multipass rows: one scheme, or "all".
     #[arg(long, default_value = "front-to-back", value_parser = parse_blend)]
     blend: BlendChoice,
-    /// Viewpoint samples of the synthetic sphere: 1, 2, or "both" (each layer count twice); a
-    /// --scene frame has its own.
-    #[arg(long, default_value = "2", value_parser = ["1", "2", "both"], conflicts_with = "scene")]
+    /// Viewpoint samples of the synthetic sphere: 1, 2, 3 (inside a spherical triangle of a 2D
+    /// view space), "both" (1 and 2: each layer count twice) or "all" (1, 2 and 3); a --scene
+    /// frame has its own.
+    #[arg(long, default_value = "2", value_parser = ["1", "2", "3", "both", "all"], conflicts_with = "scene")]
     viewpoints: String,
     /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]
@@ -94,7 +95,9 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, usize, FrameInpu
     let Some(name) = &args.scene else {
         let viewpoints: Vec<usize> = match args.viewpoints.as_str() {
             "1" => vec![1],
+            "3" => vec![3],
             "both" => vec![1, 2],
+            "all" => vec![1, 2, 3],
             _ => vec![2],
         };
         return Ok((1..=args.max_layers)

@@ -160,7 +160,10 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
         )
     };
     let render_input = |error: &RenderError| match error {
-        RenderError::BadInput(_) | RenderError::Program(_) | RenderError::Framebuffer(_) => true,
+        RenderError::BadInput(_)
+        | RenderError::Program(_)
+        | RenderError::Framebuffer(_)
+        | RenderError::Maps(_) => true,
         RenderError::Gpu(error) => matches!(error, GpuError::NoDriver(_)),
     };
     let run_input = |run: &RunError| match run {

@@ -4,8 +4,8 @@
 use clap::Args;
 use lensmap::options::Worded;
 use lensmap::render::{
-    BlendScheme, FrameShape, Output, PassCategory, PlanOptions, ProgramError, TargetFormat,
-    Variant, plan::frame_graph,
+    BlendScheme, FrameShape, Output, PassCategory, PlanOptions, ProgramError, SinglePassLimits,
+    TargetFormat, Variant, plan::frame_graph,
 };
 use lensmap::trace::Term;
 use serde_json::json;
@@ -21,8 +21,9 @@ pub struct PassesArgs {
     /// Layers n per viewpoint sample.
     #[arg(long, default_value_t = 3)]
     layers: usize,
-    /// Viewpoint samples blended (1 when the camera sits on a sample, else 2).
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
+    /// Viewpoint samples blended: 1 when the camera sits on a sample, 2 between two (on a circle,
+    /// or on an edge of a 2D view space's triangle), 3 inside a spherical triangle.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
     viewpoints: u8,
     /// Shading terms: 2 (glass: refraction and reflection) or 1 (mirror: reflection only).
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
@@ -62,6 +63,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         blend,
         format,
         output: Output::Readback,
+        single_pass: SinglePassLimits::COMPILED,
     };
     let (graph, _) = frame_graph(&shape, &options).map_err(|error| match error {
         ProgramError::SinglePassBlend { .. } => BadUsage(error.worded(&Flags)),

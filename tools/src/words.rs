@@ -46,11 +46,12 @@ fn downcast<'a, T: Worded + 'static>(
 /// The library's errors that name options, and those that wrap them: a `#[error(transparent)]`
 /// wrapper's source is its inner error's source, so the chain shows the wrapper, never the inner
 /// error, and the wrapper words it.
-const WORDED_ERRORS: [Downcast; 10] = [
+const WORDED_ERRORS: [Downcast; 11] = [
     downcast::<lensmap::options::OptionError>,
     downcast::<lensmap::render::RenderError>,
     downcast::<lensmap::render::ProgramError>,
     downcast::<lensmap::render::FramebufferError>,
+    downcast::<lensmap::render::MapBudgetError>,
     downcast::<lensmap::hybrid::BakeIdentityError>,
     downcast::<lensmap::hybrid::HybridError>,
     downcast::<lensmap::runner::RunError>,
@@ -85,4 +86,38 @@ pub fn error_line(error: &anyhow::Error) -> String {
         }
     }
     parts.join(": ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_line;
+    use lensmap::render::{MapBudgetError, MapBytes, RenderError};
+
+    /// Maps over the device's budget, in the command line's words: the flags that shrink them.
+    #[test]
+    fn maps_over_the_budget_name_the_flags() {
+        let error = anyhow::Error::from(RenderError::from(MapBudgetError {
+            maps: MapBytes {
+                cube_maps: 9,
+                largest_em_size: 512,
+                layered_em_bytes: 9 * 6 * 16 * 349_525,
+                light_maps: 1,
+                light_map_texels: 1 << 22,
+                light_map_bytes: 8 << 22,
+            },
+            budget: 200 << 20,
+        }))
+        .context("rendering teapot-room");
+        let line = error_line(&error);
+        assert!(
+            line.starts_with("rendering teapot-room: frame input: the frame's maps need 320.0 MiB")
+                && line.contains(
+                    "budget for maps of 200.0 MiB (20% of its largest device-local heap)"
+                )
+                && line.contains("a smaller --em-size")
+                && line.contains("a smaller --light-map-max-texels")
+                && !line.contains('`'),
+            "{line}"
+        );
+    }
 }

@@ -45,6 +45,12 @@ fn passes_prints_the_papers_counts() {
             (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
             (Some(2 * n), Some(1))
         );
+        // Three viewpoints (inside a spherical triangle): 2·3·n layer passes, five clears.
+        let c = passes_counts(&["--layers", &layers, "--viewpoints", "3", "--terms", "2"]);
+        assert_eq!(
+            (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
+            (Some(6 * n), Some(5))
+        );
         let c = passes_counts(&["--layers", &layers, "--viewpoints", "1", "--terms", "1"]);
         assert_eq!(
             (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
@@ -70,6 +76,14 @@ fn passes_prints_the_papers_counts() {
         "{text}"
     );
     assert!(text.contains("1 prime + 8 layer + 3 alpha clear"), "{text}");
+    // Four viewpoints is bad usage, naming the range.
+    let four = lensmap(&["passes", "--viewpoints", "4"]);
+    assert_eq!(four.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&four.stderr);
+    assert!(
+        stderr.contains("1..=3") || stderr.contains("1..4"),
+        "{stderr}"
+    );
     // The other blending schemes: the same layer passes, arranged as each describes.
     let blended = |blend: &str| passes_counts(&["--layers", "3", "--blend", blend]);
     let c = blended("back-to-front");
@@ -214,7 +228,7 @@ fn passes_prints_the_golden_plans() {
     let trimmed =
         |text: &str| -> Vec<String> { text.lines().map(|l| l.trim_end().to_owned()).collect() };
     for variant in ["multipass", "single-pass"] {
-        for viewpoints in ["1", "2"] {
+        for viewpoints in ["1", "2", "3"] {
             for (material, terms) in [("glass", "2"), ("mirror", "1")] {
                 let golden = std::fs::read_to_string(
                     golden_dir.join(format!("{variant}-{viewpoints}-viewpoint-{material}.txt")),
@@ -275,7 +289,7 @@ fn out_of_range_options_exit_2_naming_the_flag() {
 }
 
 /// `bench passes` measures the formats' error over the lens pixels found from the geometry: on
-/// the synthetic sphere, for every blending scheme and the single pass, with one and two
+/// the synthetic sphere, for every blending scheme and the single pass, with one, two and three
 /// viewpoints, RGBA8 and RGBA16F differ from the multipass front-to-back RGBA32F frame there
 /// (non-zero, and RGBA8 more), and every RGBA32F row is within 1e-5 of it; a camera that sees no lens object is exit 2 naming
 /// the fix, never a table of zeros.
@@ -298,15 +312,15 @@ fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_ref
         "--blend",
         "all",
         "--viewpoints",
-        "both",
+        "all",
     ]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(!stderr.contains("validation"), "{stderr}");
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
     let rows = report["rows"].as_array().expect("rows");
-    // n = 1 with one and two viewpoints, four schemes and the single pass, three formats.
-    assert_eq!(rows.len(), 2 * 5 * 3);
+    // n = 1 with one, two and three viewpoints, four schemes and the single pass, three formats.
+    assert_eq!(rows.len(), 3 * 5 * 3);
     let rms = |viewpoints: u64, variant: &str, blend: &str, format: &str| {
         rows.iter()
             .find(|r| {
@@ -325,7 +339,7 @@ fn bench_passes_errors_are_over_the_geometric_lens_mask_and_an_empty_mask_is_ref
         ("multipass", "programmable"),
         ("single-pass", "-"),
     ];
-    for viewpoints in [1, 2] {
+    for viewpoints in [1, 2, 3] {
         for (variant, blend) in compositings {
             let (rgba8, rgba16f) = (
                 rms(viewpoints, variant, blend, "rgba8"),

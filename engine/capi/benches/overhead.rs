@@ -40,6 +40,7 @@ fn overhead(c: &mut Criterion) {
         bake_dir: std::ptr::null(),
         em_size: 0,
         accept_any_bake: 0,
+        light_map_max_texels: 0,
     };
     // SAFETY: valid options and out-pointers.
     unsafe {

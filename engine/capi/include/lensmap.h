@@ -8,7 +8,7 @@
 #include <vulkan/vulkan.h>
 
 // The ABI version this header describes; raised when a struct grows or a function is added.
-#define LENSMAP_ABI_VERSION 3
+#define LENSMAP_ABI_VERSION 4
 
 // `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 #define LENSMAP_VARIANT_SINGLE_PASS 0
@@ -149,6 +149,11 @@ typedef struct LensmapSceneOptions {
   uint32_t em_size;
   // Non-zero: use `bake_dir` even if it was made for another scene (deliberate reuse).
   uint32_t accept_any_bake;
+  // Light maps: texels of all the scene's atlases together (8 bytes each on the GPU), in
+  // [65536, 4294967296]; over it, every chart's density is lowered by one factor (0: the
+  // default, 4194304). The field to lower when a frame's maps are over the device's budget
+  // (ABI 4; a struct of ABI 3's size, which ends before this field, means the default).
+  uint64_t light_map_max_texels;
 } LensmapSceneOptions;
 
 // One frame: the camera, the tessellation threshold, the compositor and the framebuffer.
@@ -255,7 +260,7 @@ typedef struct LensmapPlanOptions {
   uint32_t struct_size;
   // Layers per viewpoint sample (1 … 256).
   uint32_t layers;
-  // Viewpoint samples blended (1 or 2).
+  // Viewpoint samples blended (1 to 3: 3 inside a spherical triangle of a 2D view space).
   uint32_t viewpoints;
   // Shading terms: 2 (glass: refraction and reflection) or 1 (mirror).
   uint32_t terms;

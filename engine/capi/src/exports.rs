@@ -7,12 +7,13 @@ use std::ffi::c_char;
 
 use lensmap::gpu::{Gpu, GpuOptions, HostDevice, HostFeatures, vk};
 use lensmap::layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions};
+use lensmap::lightmap::{DEFAULT_MAX_TEXELS, LightMapOptions};
 use lensmap::options::Worded;
 use lensmap::render::{
-    FrameShape,
+    FrameShape, MAX_VIEWPOINTS, SinglePassLimits,
     plan::{Output, PlanOptions, frame_graph},
 };
-use lensmap::runner::{EmSource, FrameRunner, load_hybrid_scene};
+use lensmap::runner::{EmSource, FrameRunner, LoadOptions, load_hybrid_scene};
 use lensmap::scene::Scene;
 
 use crate::failure::{Failure, LAST_ERROR, StructFields, boundary, null};
@@ -21,8 +22,9 @@ use crate::handles::{
     scene_ref,
 };
 use crate::structs::{
-    FRAME_OPTIONS_ABI2, PLAN_OPTIONS_ABI2, compositing, degrees_of, format, frame_settings,
-    frame_stats, read_struct, read_text, read_versioned, semaphores, stats_size, write_stats,
+    FRAME_OPTIONS_ABI2, PLAN_OPTIONS_ABI2, SCENE_OPTIONS_ABI3, compositing, degrees_of, format,
+    frame_settings, frame_stats, read_struct, read_text, read_versioned, semaphores, stats_size,
+    write_stats,
 };
 use crate::types::*;
 
@@ -197,8 +199,8 @@ pub unsafe extern "C" fn lensmap_scene_load(
         if out.is_null() {
             return Err(null("out"));
         }
-        // SAFETY: the caller's promise.
-        let options = unsafe { read_struct(options, "options") }?;
+        // SAFETY: the caller's promise (LensmapSceneOptions is integers and pointers).
+        let options = unsafe { read_versioned(options, "options", SCENE_OPTIONS_ABI3) }?;
         // SAFETY: the caller's promise.
         let Some(name) = (unsafe { read_text(options.scene, "options->scene") })? else {
             return Err(null("options->scene"));
@@ -222,7 +224,14 @@ pub unsafe extern "C" fn lensmap_scene_load(
                 EmSource::Projected(projected)
             }
         };
-        let (hybrid, _) = load_hybrid_scene(scene, &ems.into())?;
+        let light_maps = LightMapOptions {
+            max_texels: match options.light_map_max_texels {
+                0 => DEFAULT_MAX_TEXELS,
+                texels => texels,
+            },
+            ..LightMapOptions::default()
+        };
+        let (hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
         let handle = register(
             Box::new(LensmapScene {
                 hybrid: Box::new(hybrid),
@@ -525,10 +534,13 @@ pub unsafe extern "C" fn lensmap_plan_text(
                 ));
             }
         };
-        if !(1..=2).contains(&options.viewpoints) {
+        if !(1..=MAX_VIEWPOINTS).contains(&(options.viewpoints as usize)) {
             return Err(Failure::new(
                 LensmapResult::InvalidArgument,
-                format!("options->viewpoints is {}; give 1 or 2", options.viewpoints),
+                format!(
+                    "options->viewpoints is {}; give 1 to {MAX_VIEWPOINTS}",
+                    options.viewpoints
+                ),
             ));
         }
         let shape = FrameShape::synthetic(
@@ -544,6 +556,7 @@ pub unsafe extern "C" fn lensmap_plan_text(
             blend,
             format: format(options.format, "options->format")?,
             output: Output::Readback,
+            single_pass: SinglePassLimits::COMPILED,
         };
         let (graph, _) = frame_graph(&shape, &plan_options).map_err(|error| {
             Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))

@@ -65,7 +65,10 @@ impl From<RenderError> for Failure {
     fn from(error: RenderError) -> Failure {
         match error {
             RenderError::Gpu(error) => error.into(),
-            RenderError::BadInput(_) | RenderError::Program(_) | RenderError::Framebuffer(_) => {
+            RenderError::BadInput(_)
+            | RenderError::Program(_)
+            | RenderError::Framebuffer(_)
+            | RenderError::Maps(_) => {
                 Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
             }
         }
@@ -129,4 +132,37 @@ pub(crate) fn boundary(body: impl FnOnce() -> Result<(), Failure>) -> LensmapRes
     };
     remember(&failure.message);
     failure.code
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lensmap::render::{MapBudgetError, MapBytes};
+
+    /// Maps over the device's budget are an invalid argument whose message names the struct
+    /// fields that shrink them.
+    #[test]
+    fn maps_over_the_budget_name_the_struct_fields() {
+        let error = RenderError::from(MapBudgetError {
+            maps: MapBytes {
+                cube_maps: 18,
+                largest_em_size: 1024,
+                layered_em_bytes: 18 * 6 * 16 * 1_398_101,
+                ..MapBytes::default()
+            },
+            budget: 1 << 30,
+        });
+        let failure = Failure::from(error);
+        assert_eq!(failure.code, LensmapResult::InvalidArgument);
+        assert!(
+            failure.message.contains("a smaller options->em_size")
+                && failure
+                    .message
+                    .contains("a smaller options->light_map_max_texels")
+                && failure.message.contains("2.25 GiB")
+                && failure.message.contains("1.00 GiB"),
+            "{}",
+            failure.message
+        );
+    }
 }

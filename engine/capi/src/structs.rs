@@ -47,7 +47,8 @@ pub(crate) unsafe fn read_struct<T: Copy>(pointer: *const T, name: &str) -> Resu
 ///
 /// # Safety
 /// A non-null `pointer` must point to a readable struct of the size its first field says, and
-/// `T` must be a `repr(C)` struct of integers and floats (all-zero bytes are a valid `T`).
+/// `T` must be a `repr(C)` struct of integers, floats and raw pointers (all-zero bytes are a
+/// valid `T`: a zero pointer is NULL).
 pub(crate) unsafe fn read_versioned<T: Copy>(
     pointer: *const T,
     name: &str,
@@ -90,10 +91,18 @@ pub(crate) const FRAME_OPTIONS_ABI2: usize = 68;
 /// ABI 2's `sizeof(LensmapPlanOptions)`: everything before `blend`.
 pub(crate) const PLAN_OPTIONS_ABI2: usize = 24;
 
+/// ABI 3's `sizeof(LensmapSceneOptions)`: everything before `light_map_max_texels` (ABI 3's
+/// struct ended on two `uint32_t` after two pointers, without trailing padding).
+pub(crate) const SCENE_OPTIONS_ABI3: usize = 32;
+
 const _: () = assert!(
     FRAME_OPTIONS_ABI2 == std::mem::offset_of!(LensmapFrameOptions, blend)
         && PLAN_OPTIONS_ABI2 == std::mem::offset_of!(LensmapPlanOptions, blend),
     "ABI 2's structs end where `blend` begins"
+);
+const _: () = assert!(
+    SCENE_OPTIONS_ABI3 == std::mem::offset_of!(LensmapSceneOptions, light_map_max_texels),
+    "ABI 3's scene options end where `light_map_max_texels` begins"
 );
 
 /// A UTF-8 C string, or a failure naming the field.

@@ -9,7 +9,7 @@ use crate::exports::{
 };
 
 /// The ABI version this header describes; raised when a struct grows or a function is added.
-pub const LENSMAP_ABI_VERSION: u32 = 3;
+pub const LENSMAP_ABI_VERSION: u32 = 4;
 
 /// `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 pub const LENSMAP_VARIANT_SINGLE_PASS: u32 = 0;
@@ -164,6 +164,11 @@ pub struct LensmapSceneOptions {
     pub em_size: u32,
     /// Non-zero: use `bake_dir` even if it was made for another scene (deliberate reuse).
     pub accept_any_bake: u32,
+    /// Light maps: texels of all the scene's atlases together (8 bytes each on the GPU), in
+    /// [65536, 4294967296]; over it, every chart's density is lowered by one factor (0: the
+    /// default, 4194304). The field to lower when a frame's maps are over the device's budget
+    /// (ABI 4; a struct of ABI 3's size, which ends before this field, means the default).
+    pub light_map_max_texels: u64,
 }
 
 /// One frame: the camera, the tessellation threshold, the compositor and the framebuffer.
@@ -278,7 +283,7 @@ pub struct LensmapPlanOptions {
     pub struct_size: u32,
     /// Layers per viewpoint sample (1 … 256).
     pub layers: u32,
-    /// Viewpoint samples blended (1 or 2).
+    /// Viewpoint samples blended (1 to 3: 3 inside a spherical triangle of a 2D view space).
     pub viewpoints: u32,
     /// Shading terms: 2 (glass: refraction and reflection) or 1 (mirror).
     pub terms: u32,

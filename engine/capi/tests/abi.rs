@@ -58,6 +58,7 @@ fn scene_options(scene: &CStr, bake: Option<&CStr>) -> LensmapSceneOptions {
         bake_dir: bake.map_or(null(), CStr::as_ptr),
         em_size: 8,
         accept_any_bake: 0,
+        light_map_max_texels: 0,
     }
 }
 
@@ -431,6 +432,84 @@ impl Drop for HostVulkan {
                 .destroy_debug_utils_messenger(self.messenger, None);
             self.instance.destroy_instance(None);
         }
+    }
+}
+
+/// ABI 4: plans of three viewpoint samples (2·3·n layer passes, five alpha clears), four
+/// refused naming the range; the scene options' `light_map_max_texels`, out of range refused in
+/// the ABI's words, and an ABI 3 struct (which ends before it) loading the scene with the
+/// default, whose frame equals the current struct's with 0 there.
+#[test]
+fn three_viewpoint_plans_and_abi_3_scene_options() {
+    let mut plan = LensmapPlanOptions {
+        struct_size: size_of::<LensmapPlanOptions>() as u32,
+        layers: 3,
+        viewpoints: 3,
+        terms: 2,
+        variant: LENSMAP_VARIANT_MULTIPASS,
+        format: LENSMAP_FORMAT_RGBA8,
+        blend: LENSMAP_BLEND_FRONT_TO_BACK,
+    };
+    let mut length = 0usize;
+    // SAFETY: valid pointers; a size query writes only `length`.
+    let code = unsafe { lensmap_plan_text(&plan, null_mut(), 0, &mut length) };
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    let mut text = vec![1 as c_char; length + 1];
+    // SAFETY: writable for length + 1 bytes.
+    let code = unsafe { lensmap_plan_text(&plan, text.as_mut_ptr(), text.len(), &mut length) };
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    // SAFETY: NUL-terminated by lensmap_plan_text.
+    let printed = unsafe { CStr::from_ptr(text.as_ptr()) }.to_string_lossy();
+    assert_eq!(printed.matches("alpha-clear").count(), 5, "{printed}");
+    assert_eq!(printed.matches("/layer").count(), 18, "{printed}");
+    assert!(printed.contains("lens/v2/R/layer2"), "{printed}");
+    plan.viewpoints = 4;
+    // SAFETY: as above.
+    assert_failure(
+        unsafe { lensmap_plan_text(&plan, null_mut(), 0, &mut length) },
+        LensmapResult::InvalidArgument,
+        "options->viewpoints is 4; give 1 to 3",
+    );
+
+    let mut bad = scene_options(SCENE, None);
+    bad.light_map_max_texels = 5;
+    let mut scene = null_mut();
+    // SAFETY: valid options and out-pointer.
+    assert_failure(
+        unsafe { lensmap_scene_load(&bad, &mut scene) },
+        LensmapResult::InvalidArgument,
+        "options->light_map_max_texels 5",
+    );
+    assert!(scene.is_null(), "out untouched on failure");
+    // An ABI 3 struct: its size ends before `light_map_max_texels`, whatever lies past it.
+    let mut old = scene_options(SCENE, None);
+    old.struct_size = 32;
+    old.light_map_max_texels = 5;
+    // SAFETY: valid options and out-pointer.
+    let code = unsafe { lensmap_scene_load(&old, &mut scene) };
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    let current = load_scene();
+    let context = new_context();
+    let options = frame_options(LENSMAP_FORMAT_RGBA32F);
+    let mut frames = [vec![0f32; 4 * 40 * 30], vec![0f32; 4 * 40 * 30]];
+    for (scene, pixels) in [scene, current].into_iter().zip(&mut frames) {
+        assert_eq!(
+            render(context, scene, &options, pixels),
+            LensmapResult::Ok,
+            "{}",
+            last_error()
+        );
+    }
+    assert_eq!(
+        frames[0], frames[1],
+        "an ABI 3 struct loads default light maps"
+    );
+    assert_no_validation_messages(context);
+    // SAFETY: live handles, freed once.
+    unsafe {
+        assert_eq!(lensmap_scene_free(scene), LensmapResult::Ok);
+        assert_eq!(lensmap_scene_free(current), LensmapResult::Ok);
+        assert_eq!(lensmap_context_free(context), LensmapResult::Ok);
     }
 }
 

@@ -34,6 +34,11 @@ pub struct GpuOptions {
     /// device is chosen among those with `VK_KHR_swapchain` and created with it; empty (the
     /// default) for a GPU that renders headless.
     pub surface_extensions: Vec<&'static CStr>,
+    /// Take the largest device-local heap as at most this many bytes (`None`, the default: its
+    /// real size). The memory budgets checked before any allocation (framebuffer targets,
+    /// maps) are shares of that heap, so a host sharing the device with other work keeps
+    /// lensmap within less, and a test reaches a refusal without allocating gigabytes.
+    pub heap_limit_bytes: Option<u64>,
 }
 
 impl GpuOptions {
@@ -48,6 +53,7 @@ impl GpuOptions {
             device,
             validation,
             surface_extensions: Vec::new(),
+            heap_limit_bytes: None,
         }
     }
 }
@@ -543,7 +549,12 @@ impl Gpu {
             messages,
         };
         match Gpu::assemble(parts, true) {
-            Ok(gpu) => Ok(gpu),
+            Ok(mut gpu) => {
+                if let Some(limit) = options.heap_limit_bytes {
+                    gpu.device_local_heap_bytes = gpu.device_local_heap_bytes.min(limit);
+                }
+                Ok(gpu)
+            }
             Err((error, parts)) => {
                 // SAFETY: the device has no children (the allocator and pool were not made or
                 // are gone); the messenger goes before its instance.
@@ -591,7 +602,8 @@ impl Gpu {
         &self.properties
     }
 
-    /// The size of the device's largest device-local memory heap, bytes.
+    /// The size of the device's largest device-local memory heap, bytes (at most
+    /// [`GpuOptions::heap_limit_bytes`]).
     pub fn device_local_heap_bytes(&self) -> u64 {
         self.device_local_heap_bytes
     }

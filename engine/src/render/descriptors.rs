@@ -8,6 +8,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
+use super::MAX_VIEWPOINTS;
 use crate::gpu::{Gpu, GpuError, VkContext, context::Shared};
 
 /// One binding of a descriptor-set layout: one descriptor of `ty`, read by `stage`.
@@ -23,8 +24,10 @@ const fn binding(ty: vk::DescriptorType, stage: vk::ShaderStageFlags) -> Binding
     Binding { ty, stage }
 }
 
-/// Set 0 of the lens programs: the lens data (storage buffer, read by the vertex stage), the
-/// set's own viewpoint's cube-map array, the other viewpoint's, and the sampler.
+/// Set 0 of the lens programs: the lens data (storage buffer, read by the vertex stage), one
+/// cube-map array per viewpoint sample the single pass blends (bindings 1 ..=
+/// [`MAX_VIEWPOINTS`]: `layers_a`, `_b`, `_c` of `lens.wgsl`; a layer pass reads binding 1),
+/// and the sampler.
 pub(super) const LENS_SET: &[Binding] = &[
     binding(
         vk::DescriptorType::STORAGE_BUFFER,
@@ -38,8 +41,15 @@ pub(super) const LENS_SET: &[Binding] = &[
         vk::DescriptorType::SAMPLED_IMAGE,
         vk::ShaderStageFlags::FRAGMENT,
     ),
+    binding(
+        vk::DescriptorType::SAMPLED_IMAGE,
+        vk::ShaderStageFlags::FRAGMENT,
+    ),
     binding(vk::DescriptorType::SAMPLER, vk::ShaderStageFlags::FRAGMENT),
 ];
+
+// The data, a cube-map array per viewpoint, the sampler.
+const _: () = assert!(LENS_SET.len() == MAX_VIEWPOINTS + 2);
 
 /// Set 0 of the environment program: the mesh's light map and its sampler.
 pub(super) const ENVIRONMENT_SET: &[Binding] = &[

@@ -12,8 +12,13 @@ use crate::cubemap::CubeMap;
 use crate::lightmap::LightMap;
 use crate::trace::Term;
 
-/// Maximum number of viewpoint samples blended in one frame (the paper blends the two nearest).
-pub const MAX_VIEWPOINTS: usize = 2;
+/// Maximum number of viewpoint samples blended in one frame: the three samples of the spherical
+/// triangle that holds the camera direction (two on an edge, or along a circle, one at a sample).
+/// The single pass samples that many cube-map arrays at once (`const MAX_VIEWPOINTS` in
+/// `shaders/wgsl/lens.wgsl`, checked equal at compile time).
+pub const MAX_VIEWPOINTS: usize = 3;
+
+const _: () = assert!(MAX_VIEWPOINTS == lensmap_shaders::MAX_VIEWPOINTS as usize);
 
 /// Per-vertex data of one shading term of a lens object.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,8 +108,8 @@ pub struct FrameInput {
     pub environment: Vec<Arc<EnvironmentMesh>>,
     /// Lens objects.
     pub lenses: Vec<LensObject>,
-    /// Weight of each viewpoint sample (one or two entries, summing to 1). A zero weight skips
-    /// that viewpoint's passes.
+    /// Weight of each viewpoint sample (1 to [`MAX_VIEWPOINTS`] entries, summing to 1). A zero
+    /// weight skips that viewpoint's passes.
     pub viewpoint_weights: Vec<f32>,
 }
 
@@ -154,7 +159,7 @@ impl FrameInput {
         }
         if self.viewpoint_weights.is_empty() || self.viewpoint_weights.len() > MAX_VIEWPOINTS {
             return bad(format!(
-                "viewpoint_weights has {} entries; give 1 or {MAX_VIEWPOINTS}",
+                "viewpoint_weights has {} entries; give 1 to {MAX_VIEWPOINTS}, one per blended viewpoint sample",
                 self.viewpoint_weights.len()
             ));
         }

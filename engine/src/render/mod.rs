@@ -23,7 +23,10 @@ mod vulkan;
 
 use crate::options::{OptionWords, Worded};
 
-pub use budget::{FRAMEBUFFER_HEAP_SHARE, FramebufferError, check_framebuffer};
+pub use budget::{
+    FRAMEBUFFER_HEAP_SHARE, FramebufferError, MAP_HEAP_SHARE, MapBudgetError, MapBytes,
+    check_framebuffer,
+};
 pub use frame_input::*;
 pub use host_image::HostImage;
 pub use image::RenderedImage;
@@ -31,7 +34,7 @@ pub use lens_pixels::frame_lens_pixels;
 pub use plan::{
     BlendScheme, FramePlan, FrameShape, Output, PassCategory, PlanOptions, TargetFormat, Variant,
 };
-pub use program::{ProgramError, ShaderProgram, SinglePassProgram};
+pub use program::{LimitSource, ProgramError, ShaderProgram, SinglePassLimits, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, RenderOptions, Renderer, Submission};
 pub use upload::UploadedFrame;
 
@@ -49,6 +52,10 @@ pub enum RenderError {
     /// options that change it.
     #[error("frame input: {0}")]
     Framebuffer(FramebufferError),
+    /// The frame's maps do not fit the device's budget for them; refused before any upload, the
+    /// message names the size, the budget and the options that shrink them.
+    #[error("frame input: {0}")]
+    Maps(MapBudgetError),
     /// The GPU failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
@@ -68,11 +75,18 @@ impl From<FramebufferError> for RenderError {
     }
 }
 
+impl From<MapBudgetError> for RenderError {
+    fn from(error: MapBudgetError) -> RenderError {
+        RenderError::Maps(error)
+    }
+}
+
 impl Worded for RenderError {
     fn worded(&self, words: &dyn OptionWords) -> String {
         match self {
             RenderError::Program(error) => format!("frame input: {}", error.worded(words)),
             RenderError::Framebuffer(error) => format!("frame input: {}", error.worded(words)),
+            RenderError::Maps(error) => format!("frame input: {}", error.worded(words)),
             RenderError::BadInput(_) | RenderError::Gpu(_) => self.to_string(),
         }
     }
@@ -101,6 +115,7 @@ mod tests {
             lens: "teapot".into(),
             layers: 7,
             max: 6,
+            bound: LimitSource::Shader,
         });
         assert!(std::error::Error::source(&error).is_none());
         assert_eq!(error.to_string().matches("7 layers").count(), 1, "{error}");

@@ -516,21 +516,28 @@ impl Recorder<'_> {
                     2,
                 )
             }
-            _ => {
+            Draw::SinglePass { .. } => {
                 // The single pass blends the viewpoints with weight > 0 in order, as the plan's
-                // specialization counts them: binding 1 and weight_a are the first active
-                // viewpoint's, binding 2 and weight_b the second's.
-                let active: Vec<usize> = (0..gpu_lens.sets.len())
-                    .filter(|&v| weight(v) > 0.0)
-                    .collect();
-                let first = active.first().copied().unwrap_or(0);
-                constants.weight_a = weight(first);
-                constants.weight_b = active.get(1).map_or(0.0, |&v| weight(v));
+                // specialization counts them and its set binds their arrays: binding 1 and
+                // weight_a are the first active viewpoint's, then b, then c.
+                let mut active = (0..gpu_lens.sets.len()).map(weight).filter(|&w| w > 0.0);
+                constants.weight_a = active.next().unwrap_or(0.0);
+                constants.weight_b = active.next().unwrap_or(0.0);
+                constants.weight_c = active.next().unwrap_or(0.0);
                 (
                     self.pipelines.lens_layout,
-                    [gpu_lens.sets[first], vk::DescriptorSet::null()],
+                    [gpu_lens.single_pass_set, vk::DescriptorSet::null()],
                     1,
                 )
+            }
+            Draw::LensZero { .. } => (
+                self.pipelines.lens_layout,
+                [gpu_lens.single_pass_set, vk::DescriptorSet::null()],
+                1,
+            ),
+            Draw::Environment { .. } | Draw::GroupSum { .. } | Draw::BoxFilter { .. } => {
+                debug_assert!(false, "not a lens draw: {draw:?}");
+                return;
             }
         };
         self.bind(
@@ -571,6 +578,7 @@ impl Recorder<'_> {
             view_proj: self.frame.view_proj,
             weight_a: 0.0,
             weight_b: 0.0,
+            weight_c: 0.0,
             layer_count: lens.layer_count,
             term_mask: u32::from(lens.fg_offset.contains_key(&Term::Refraction))
                 | (u32::from(lens.fg_offset.contains_key(&Term::Reflection)) << 1),

@@ -179,6 +179,7 @@ impl Renderer {
                 blend: options.blend,
                 format: options.format,
                 output,
+                single_pass: frame.single_pass,
             },
         )?;
         // The frame graph is well-formed by construction (lens names are unique, checked by

@@ -1,7 +1,8 @@
 //! The built-in synthetic compositor scene: a glass sphere lens with analytic per-vertex ray
 //! paths (exact dielectric Fresnel, absorption along the chord) over a vertex-coloured room, with
-//! procedurally made layered cube maps for two viewpoint samples. It exercises every pass of the
-//! frame without the ray tracer or the baker, so `lensmap demo` and the benches have a scene.
+//! procedurally made layered cube maps for up to three viewpoint samples. It exercises every pass
+//! of the frame without the ray tracer or the baker, so `lensmap demo` and the benches have a
+//! scene.
 
 use std::f64::consts::PI;
 
@@ -25,7 +26,7 @@ pub struct SyntheticOptions {
     /// Layers n per viewpoint (1 ..= [`super::SinglePassProgram::MAX_LAYERS`] for the
     /// single-pass variant).
     pub layers: usize,
-    /// Viewpoint samples blended (1 or 2).
+    /// Viewpoint samples blended (1 to [`super::MAX_VIEWPOINTS`]; more are clamped).
     pub viewpoints: usize,
     /// Terms: both for glass, reflection only for a mirror.
     pub terms: Vec<Term>,
@@ -138,11 +139,11 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
             Term::Reflection => reflection.clone(),
         })
         .collect();
-    let viewpoints = options.viewpoints.clamp(1, 2);
-    let weights = if viewpoints == 1 {
-        vec![1.0]
-    } else {
-        vec![0.6, 0.4]
+    let viewpoints = options.viewpoints.clamp(1, super::MAX_VIEWPOINTS);
+    let weights = match viewpoints {
+        1 => vec![1.0],
+        2 => vec![0.6, 0.4],
+        _ => vec![0.5, 0.3, 0.2],
     };
     let layers = (0..viewpoints)
         .map(|v| {
@@ -172,7 +173,7 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
 /// Layer `layer` of `count` as seen from viewpoint sample `viewpoint`: inner layers are sparse
 /// (coloured bands and columns with transparent gaps), the outermost is an opaque sky and ground.
 fn layer_map(size: u32, layer: usize, count: usize, viewpoint: usize) -> CubeMap {
-    // Each viewpoint sample sees the world turned slightly, so blending the two is visible.
+    // Each viewpoint sample sees the world turned slightly, so blending them is visible.
     let turn = 0.06 * viewpoint as f64;
     CubeMap::from_fn(size, |d| {
         let d = d.normalize();

@@ -1,16 +1,19 @@
 //! Uploading a frame: the lens objects' per-vertex data and indices into buffers, their layered
 //! EMs into cube-map arrays, the environment meshes into vertex buffers and their light maps into
 //! RGBA16F textures (each mesh with its own descriptor set), one descriptor set per (lens,
-//! viewpoint), and the targets of each framebuffer format on first use. Layered EMs and
-//! environment meshes (light maps included) are cached by the identity of their `Arc`s, so
-//! frames that hand over the same maps and meshes upload them once.
+//! viewpoint) and one for each lens object's single pass, and the targets of each framebuffer
+//! format on first use. Layered EMs and environment meshes (light maps included) are cached by
+//! the identity of their `Arc`s, so frames that hand over the same maps and meshes upload them
+//! once. Before anything is uploaded, the frame's maps are checked against the device's budget
+//! for maps ([`super::budget`]).
 
 use std::{collections::HashMap, sync::Arc};
 
 use ash::vk;
 
 use super::{
-    EnvironmentMesh, FrameInput, FrameShape, LensObject, RenderError, TargetFormat,
+    EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes, RenderError,
+    SinglePassLimits, TargetFormat,
     descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
     targets::Targets,
@@ -36,8 +39,12 @@ pub(super) struct GpuLens {
     pub(super) layer_count: u32,
     /// One cube-map array per viewpoint sample (shared with the renderer's cache).
     pub(super) layers: Vec<Arc<Image>>,
-    /// One descriptor set per viewpoint (binding 1 = that viewpoint, binding 2 = the other).
+    /// One descriptor set per viewpoint, for its layer passes (every cube-map binding that
+    /// viewpoint's).
     pub(super) sets: Vec<vk::DescriptorSet>,
+    /// The single pass's set: bindings 1, 2, … the viewpoints with a weight above zero, in order
+    /// (the last one repeated in bindings past them).
+    pub(super) single_pass_set: vk::DescriptorSet,
 }
 
 /// An environment mesh's vertex and index buffers, its light map (a shared white 1×1 map for a
@@ -66,6 +73,8 @@ pub(super) struct GpuMesh {
 /// nothing.
 pub struct UploadedFrame {
     pub(super) shape: FrameShape,
+    /// What the single pass composites on the device the frame was uploaded to.
+    pub(super) single_pass: SinglePassLimits,
     pub(super) view_proj: [[f32; 4]; 4],
     pub(super) environment: Vec<Arc<GpuMesh>>,
     pub(super) lenses: Vec<GpuLens>,
@@ -163,6 +172,10 @@ impl UploadCache {
         frame.validate_unless_checked(&|address| {
             self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
         })?;
+        // Before anything is allocated: the frame's maps, each once (those already resident from
+        // a recent frame included, as this frame needs them resident too). A recent frame's maps
+        // that this one does not reuse are released with that frame and are not counted.
+        super::budget::check_map_budget(gpu, &MapBytes::of_frame(frame))?;
         self.generation += 1;
         let generation = self.generation;
         for cube in frame.lenses.iter().flat_map(|l| l.layers.iter().flatten()) {
@@ -182,10 +195,11 @@ impl UploadCache {
             .map(|mesh| self.environment_mesh(gpu, pipelines, mesh))
             .collect::<Result<Vec<_>, GpuError>>()?;
 
+        // Per lens object a set per viewpoint and the single pass's.
         let set_count = frame
             .lenses
             .iter()
-            .map(|l| l.layers.len())
+            .map(|l| l.layers.len() + 1)
             .sum::<usize>()
             .max(1) as u32;
         let (width, height) = (frame.width, frame.height);
@@ -221,12 +235,14 @@ impl UploadCache {
         });
         let mut lenses = Vec::with_capacity(frame.lenses.len());
         let mut reusable = old_lenses.drain(..).map(Some).collect::<Vec<_>>();
-        for (index, lens) in frame.lenses.iter().enumerate() {
+        for (index, (lens, lens_shape)) in frame.lenses.iter().zip(&shape.lenses).enumerate() {
             let old = reusable.get_mut(index).and_then(Option::take);
-            lenses.push(self.upload_lens(gpu, pipelines, &pool, index, lens, old)?);
+            let active = shape.active_viewpoints(lens_shape);
+            lenses.push(self.upload_lens(gpu, pipelines, &pool, (index, lens, &active), old)?);
         }
         let uploaded = UploadedFrame {
             shape,
+            single_pass: SinglePassLimits::of_device(&gpu.properties().limits),
             view_proj: frame.view_proj.to_cols_array_2d(),
             environment,
             lenses,
@@ -256,6 +272,8 @@ impl UploadCache {
         layers: &[Vec<Arc<CubeMap>>],
     ) -> Result<(), RenderError> {
         let bad = |s: String| Err(RenderError::BadInput(s));
+        // No map budget to check: the new maps are as many and as large as the ones they replace,
+        // which the frame's upload checked.
         // The descriptor sets and maps change: nothing submitted may still read them.
         if let Some((timeline, value)) = &frame.last_submission {
             timeline.wait(*value)?;
@@ -263,9 +281,10 @@ impl UploadCache {
         let Some(gpu_lens) = frame.lenses.get_mut(lens.index()) else {
             return bad(format!("lens {lens} is not in the uploaded frame"));
         };
-        let Some(shape) = frame.shape.lenses.get_mut(lens.index()) else {
+        let Some(shape) = frame.shape.lenses.get(lens.index()) else {
             return bad(format!("lens {lens} is not in the uploaded frame"));
         };
+        let active = frame.shape.active_viewpoints(shape);
         if layers.len() != gpu_lens.layers.len()
             || layers
                 .iter()
@@ -301,9 +320,9 @@ impl UploadCache {
         let generation = self.generation;
         self.layer_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
-        write_lens_sets(gpu, pipelines, &gpu_lens.sets, &gpu_lens.data, &images);
+        write_lens_sets(gpu, pipelines, &*gpu_lens, (&images, &active));
         gpu_lens.layers = images;
-        shape.empty = FrameShape::empty_layers(layers);
+        frame.shape.lenses[lens.index()].empty = FrameShape::empty_layers(layers);
         Ok(())
     }
 
@@ -456,15 +475,15 @@ impl UploadCache {
         Ok(image)
     }
 
-    /// Uploads a lens object's vertex data and indices, into `old`'s buffers where they are
-    /// large enough, and allocates and writes its descriptor sets from `pool`.
+    /// Uploads lens object `index`'s vertex data and indices, into `old`'s buffers where they
+    /// are large enough, and allocates and writes its descriptor sets from `pool`; its single
+    /// pass blends the viewpoints `active`.
     fn upload_lens(
         &mut self,
         gpu: &Gpu,
         pipelines: &Pipelines,
         pool: &DescriptorPool,
-        index: usize,
-        lens: &LensObject,
+        (index, lens, active): (usize, &LensObject, &[usize]),
         old: Option<GpuLens>,
     ) -> Result<GpuLens, GpuError> {
         let vertex_count = lens.positions.len() as u32;
@@ -504,10 +523,13 @@ impl UploadCache {
             layers.push(self.layer_image(gpu, &format!("lens{index}/em{viewpoint}"), cubes)?);
         }
 
-        // The pool was sized for one set per (lens, viewpoint).
-        let sets = pool.allocate(pipelines.lens_set_layout, layers.len())?;
-        write_lens_sets(gpu, pipelines, &sets, &data, &layers);
-        Ok(GpuLens {
+        // The pool was sized for one set per (lens, viewpoint) and one per lens.
+        let mut sets = pool.allocate(pipelines.lens_set_layout, layers.len() + 1)?;
+        let single_pass_set = sets.pop().ok_or(GpuError::Vulkan {
+            call: "vkAllocateDescriptorSets",
+            result: vk::Result::ERROR_OUT_OF_POOL_MEMORY,
+        })?;
+        let gpu_lens = GpuLens {
             data,
             indices,
             index_count: (lens.triangles.len() * 3) as u32,
@@ -517,7 +539,10 @@ impl UploadCache {
             layer_count: lens.layer_count() as u32,
             layers,
             sets,
-        })
+            single_pass_set,
+        };
+        write_lens_sets(gpu, pipelines, &gpu_lens, (&gpu_lens.layers, active));
+        Ok(gpu_lens)
     }
 }
 
@@ -542,28 +567,30 @@ fn reuse_or_new(
     Ok(buffer)
 }
 
-/// Points every descriptor set of a lens object (one per viewpoint) at its data buffer, its own
-/// viewpoint's cube-map array (binding 1), the other viewpoint's (binding 2) and the sampler.
-/// The sets must not be in use by a pending submission.
+/// Points the descriptor sets of `lens` at its data buffer, cube-map arrays `layers` (one per
+/// viewpoint) and the sampler: each viewpoint's set at that viewpoint's array in every binding,
+/// the single pass's at the `active` viewpoints' arrays in order (the last one repeated where
+/// fewer than [`MAX_VIEWPOINTS`] are active). The sets must not be in use by a pending
+/// submission.
 fn write_lens_sets(
     gpu: &Gpu,
     pipelines: &Pipelines,
-    sets: &[vk::DescriptorSet],
-    data: &Buffer,
-    layers: &[Arc<Image>],
+    lens: &GpuLens,
+    (layers, active): (&[Arc<Image>], &[usize]),
 ) {
-    for (viewpoint, set) in sets.iter().enumerate() {
-        let other = if layers.len() > 1 {
-            1 - viewpoint.min(1)
-        } else {
-            viewpoint
-        };
-        let resources = [
-            Resource::Buffer(data.handle),
-            Resource::Image(layers[viewpoint].view),
-            Resource::Image(layers[other].view),
-            Resource::Sampler(pipelines.sampler),
-        ];
-        write_set(gpu, *set, LENS_SET, &resources);
+    let write = |set: vk::DescriptorSet, viewpoint_in_binding: &dyn Fn(usize) -> usize| {
+        let mut resources = vec![Resource::Buffer(lens.data.handle)];
+        resources.extend(
+            (0..MAX_VIEWPOINTS).map(|k| Resource::Image(layers[viewpoint_in_binding(k)].view)),
+        );
+        resources.push(Resource::Sampler(pipelines.sampler));
+        write_set(gpu, set, LENS_SET, &resources);
+    };
+    for (viewpoint, set) in lens.sets.iter().enumerate() {
+        write(*set, &|_| viewpoint);
     }
+    // A lens with no active viewpoint has no single pass; its set still points at valid arrays.
+    write(lens.single_pass_set, &|k| {
+        active.get(k).or(active.last()).copied().unwrap_or(0)
+    });
 }

@@ -150,6 +150,20 @@ static void misuse(void) {
           "group-targets plan");
     CHECK(text != NULL && strstr(text, "group-sum") != NULL, "group-targets plan text");
     free(text);
+    /* Three viewpoint samples (ABI 4): six groups, the last viewpoint's reflection last. */
+    plan.blend = LENSMAP_BLEND_FRONT_TO_BACK;
+    plan.viewpoints = 3;
+    CHECK(lensmap_plan_text(&plan, NULL, 0, &length) == LENSMAP_RESULT_OK && length > 0,
+          "three-viewpoint plan size query");
+    text = malloc(length + 1);
+    CHECK(lensmap_plan_text(&plan, text, length + 1, &length) == LENSMAP_RESULT_OK,
+          "three-viewpoint plan");
+    CHECK(text != NULL && strstr(text, "lens/v2/R/alpha-clear") != NULL,
+          "three-viewpoint plan text");
+    free(text);
+    plan.viewpoints = 4;
+    CHECK(lensmap_plan_text(&plan, NULL, 0, &length) == LENSMAP_RESULT_INVALID_ARGUMENT,
+          "four viewpoints refused");
 
     CHECK(lensmap_scene_free(scene) == LENSMAP_RESULT_OK, "scene_free");
     CHECK(lensmap_scene_free(scene) == LENSMAP_RESULT_INVALID_HANDLE, "double free detected");

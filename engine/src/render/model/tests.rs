@@ -200,6 +200,49 @@ fn two_viewpoints_sum_and_alpha_clear() {
     }
 }
 
+/// Three viewpoint samples (a camera inside a spherical triangle): the lens pixel's colour is
+/// the weighted sum of the six groups' composites, computed by hand, its α the last group's, for
+/// every blending scheme.
+#[test]
+fn three_viewpoints_sum_and_alpha_clear() {
+    let texels = [
+        [[0.1f32, 0.2, 0.3, 0.5], [0.2, 0.2, 0.2, 0.25]],
+        [[0.4, 0.1, 0.0, 0.5], [0.6, 0.3, 0.9, 1.0]],
+        [[0.05, 0.3, 0.2, 0.75], [0.1, 0.1, 0.4, 0.5]],
+    ];
+    let cubes = |texels: [[f32; 4]; 2]| texels.map(|t| CubeMap::uniform(2, t)).to_vec();
+    let weights = [0.2f32, 0.3, 0.5];
+    let frame = small_frame(weights.to_vec(), texels.map(cubes).to_vec());
+    // L1 over L2 per viewpoint, by hand: rgb = L1 + (1 − α1)·L2.
+    let composites = texels.map(|[front, back]| {
+        let front = front.map(f64::from);
+        let back = back.map(f64::from);
+        std::array::from_fn::<f64, 4, _>(|c| front[c] + (1.0 - front[3]) * back[c])
+    });
+    let fg = [0.5, 0.75, 1.0];
+    for blend in BlendScheme::ALL {
+        let image = render_model(
+            &frame,
+            &ModelOptions {
+                blend,
+                ..ModelOptions::default()
+            },
+        );
+        let lens_pixel = image.rgba[image.index(3, 4)];
+        for k in 0..3 {
+            let expected: f64 = (0..3)
+                .map(|v| fg[k] * f64::from(weights[v]) * composites[v][k])
+                .sum();
+            assert!(
+                (lens_pixel[k] - expected).abs() < 1e-7,
+                "{blend:?} channel {k}: {} vs {expected}",
+                lens_pixel[k]
+            );
+        }
+        assert!((lens_pixel[3] - composites[2][3]).abs() < 1e-7, "{blend:?}");
+    }
+}
+
 /// The tests' perspective projection: right-handed view space looking down −z to Vulkan clip
 /// space (y down, depth 0 at the near plane 0.1, 1 at the far plane 100), focal length 1.5,
 /// written out by hand.
@@ -365,7 +408,7 @@ fn edge_pixels_and_ties_are_excluded() {
 
 /// A perspective frame like the GPU comparison uses: a tessellated sphere lens with both
 /// terms, random F·G, smooth directions, random texels in every level of every cube map,
-/// two viewpoints, in front of a coloured environment quad.
+/// `viewpoints` samples with random weights summing to 1, in front of a coloured environment quad.
 fn random_sphere_frame(
     rng: &mut Pcg64,
     size: u32,
@@ -484,16 +527,10 @@ fn random_sphere_frame(
                 .collect()
         })
         .collect();
-    let first: f32 = if viewpoints == 2 {
-        rng.gen_range(0.05..0.95)
-    } else {
-        1.0
-    };
-    let viewpoint_weights = if viewpoints == 2 {
-        vec![first, 1.0 - first]
-    } else {
-        vec![1.0]
-    };
+    // Random positive weights summing to 1 (a point of a segment or a spherical triangle).
+    let raw: Vec<f32> = (0..viewpoints).map(|_| rng.gen_range(0.05..1.0)).collect();
+    let total: f32 = raw.iter().sum();
+    let viewpoint_weights = raw.iter().map(|w| w / total).collect();
     FrameInput {
         width: size,
         height: size,
@@ -514,7 +551,7 @@ fn random_sphere_frame(
 #[test]
 fn bounds_are_points_without_precision_and_hold_the_nominal_value_with_it() {
     let mut rng = Pcg64::seed_from_u64(13);
-    let frame = random_sphere_frame(&mut rng, 64, 16, 3, 2);
+    let frame = random_sphere_frame(&mut rng, 64, 16, 3, 3);
     // The exact logarithm lies in the bounds at any precision; lavapipe's (≤ 0.043 low) where
     // the mip precision is as coarse as lavapipe reports (4 bits).
     let precise = FilterPrecision {
@@ -655,7 +692,7 @@ fn interval_blend_contains_every_blend_of_its_members() {
 #[test]
 fn random_sphere_frame_keeps_most_lens_pixels_comparable() {
     let mut rng = Pcg64::seed_from_u64(12);
-    for (layer_count, viewpoints) in [(1, 1), (4, 2)] {
+    for (layer_count, viewpoints) in [(1, 1), (4, 2), (2, 3)] {
         let frame = random_sphere_frame(&mut rng, 128, 16, layer_count, viewpoints);
         for options in [ModelOptions::default(), ModelOptions::lavapipe()] {
             let image = render_model(&frame, &options);

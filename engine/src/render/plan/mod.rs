@@ -18,7 +18,7 @@ use crate::graph::{
     LoadOp, Pass, PassKind, Plan, StoreOp,
 };
 
-use super::program::{ProgramError, ShaderProgram};
+use super::program::{ProgramError, ShaderProgram, SinglePassLimits};
 use crate::index::{LayerIndex, LensIndex};
 use crate::trace::Term;
 use lens::{Group, LensPasses};
@@ -27,9 +27,10 @@ pub use shape::{FrameShape, LensShape};
 /// How lens objects are composited.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Variant {
-    /// The paper's scheme: one pass per (viewpoint, term, layer), alpha clears between groups.
+    /// The paper's scheme: one pass per (viewpoint, term, layer), alpha clears between groups
+    /// (2·V·n layer passes for V viewpoint samples, n layers and both terms).
     Multipass,
-    /// One draw per lens object sampling the four (viewpoint, term) textures per layer at once.
+    /// One draw per lens object sampling the 2·V (viewpoint, term) textures per layer at once.
     SinglePass,
 }
 
@@ -330,6 +331,10 @@ pub struct PlanOptions {
     pub format: TargetFormat,
     /// Where the pixels go.
     pub output: Output,
+    /// What the single pass composites on the device the plan is for
+    /// ([`SinglePassLimits::of_device`]; [`SinglePassLimits::COMPILED`] for a plan without a
+    /// device).
+    pub single_pass: SinglePassLimits,
 }
 
 /// Declares a frame's passes: the environment, each lens object's passes in `options.variant`
@@ -345,6 +350,7 @@ pub fn frame_graph(
         blend,
         format,
         output,
+        single_pass,
     } = *options;
     if variant == Variant::SinglePass && blend != BlendScheme::FrontToBack {
         return Err(ProgramError::SinglePassBlend { blend });
@@ -364,7 +370,9 @@ pub fn frame_graph(
         let mut passes = LensPasses::new(&mut graph, &resources, lens, index);
         let groups = Group::all(&viewpoints, &lens.terms);
         match (variant, blend) {
-            (Variant::SinglePass, _) => schemes::single_pass(&mut passes, viewpoints.len())?,
+            (Variant::SinglePass, _) => {
+                schemes::single_pass(&mut passes, viewpoints.len(), &single_pass)?
+            }
             (Variant::Multipass, BlendScheme::FrontToBack) => {
                 schemes::front_to_back(&mut passes, &groups)
             }

@@ -5,12 +5,13 @@
 
 use crate::graph::{Blend, ColourMask};
 use crate::index::LayerIndex;
-use crate::render::program::{ProgramError, SinglePassProgram};
+use crate::render::program::{ProgramError, SinglePassLimits, SinglePassProgram};
 
 use super::lens::{Current, Group, LensPasses, Target};
 
-/// The paper's 4n-pass scheme: per group its layers nearest first with front-to-back "over"
-/// straight into the framebuffer, an alpha clear between groups.
+/// The paper's scheme, 2·V·n layer passes for V viewpoints and both terms (4n for two): per group
+/// its layers nearest first with front-to-back "over" straight into the framebuffer, an alpha
+/// clear between groups.
 pub(super) fn front_to_back(passes: &mut LensPasses, groups: &[Group]) {
     passes.prime();
     for (index, &group) in groups.iter().enumerate() {
@@ -88,10 +89,19 @@ pub(super) fn programmable(passes: &mut LensPasses, groups: &[Group]) {
     }
 }
 
-/// The single-pass variant: one draw sampling the `viewpoints` active viewpoints' layers at once.
-pub(super) fn single_pass(passes: &mut LensPasses, viewpoints: usize) -> Result<(), ProgramError> {
+/// The single-pass variant: one draw sampling the `viewpoints` active viewpoints' layers at once,
+/// within `limits`.
+pub(super) fn single_pass(
+    passes: &mut LensPasses,
+    viewpoints: usize,
+    limits: &SinglePassLimits,
+) -> Result<(), ProgramError> {
     let lens = passes.lens();
-    let program = SinglePassProgram::new(&lens.name, lens.layer_count(), &lens.terms, viewpoints)?;
+    let program = SinglePassProgram::new(
+        &lens.name,
+        (lens.layer_count(), &lens.terms, viewpoints),
+        limits,
+    )?;
     passes.single_pass(program);
     Ok(())
 }

@@ -101,8 +101,9 @@ impl FrameShape {
     }
 
     /// The most layers a pass-count experiment may ask for: the multipass variant has no shader
-    /// limit, but its plan grows as 4n passes per viewpoint, so the bound keeps a plan printable
-    /// (256 layers: about 2,000 passes) instead of letting one number exhaust memory.
+    /// limit, but its plan grows as 2n passes per viewpoint, so the bound keeps a plan printable
+    /// (256 layers, three viewpoints: about 1,500 passes) instead of letting one number exhaust
+    /// memory.
     pub const MAX_EXPERIMENT_LAYERS: usize = 256;
 
     /// A synthetic shape for experiments (`lensmap passes`): one lens object with `layers` layers,

@@ -11,6 +11,7 @@ fn readback(variant: Variant, blend: BlendScheme, format: TargetFormat) -> PlanO
         blend,
         format,
         output: Output::Readback,
+        single_pass: SinglePassLimits::COMPILED,
     }
 }
 
@@ -47,6 +48,42 @@ fn two_viewpoints_two_terms_is_the_papers_4n_passes_and_three_alpha_clears() {
     }
 }
 
+/// Three viewpoint samples (inside a spherical triangle of a 2D view space): 2·3·n layer passes
+/// in six groups, five alpha clears between them, still one rendering instance.
+#[test]
+fn three_viewpoints_two_terms_is_6n_passes_and_five_alpha_clears() {
+    for n in 1..=4 {
+        let p = plan(n, 3, &BOTH, Variant::Multipass);
+        assert_eq!(
+            (
+                p.count(PassCategory::Prime),
+                p.count(PassCategory::Layer),
+                p.count(PassCategory::AlphaClear)
+            ),
+            (1, 6 * n, 5),
+            "{p}"
+        );
+        assert_eq!(p.rendering_instances(), 1, "{p}");
+        // The groups in order: v0 T, v0 R, v1 T, v1 R, v2 T, v2 R.
+        let clears: Vec<&str> = p
+            .steps
+            .iter()
+            .filter(|s| s.pass.category == PassCategory::AlphaClear)
+            .map(|s| s.pass.name.as_str())
+            .collect();
+        assert_eq!(
+            clears,
+            [
+                "lens/v0/R/alpha-clear",
+                "lens/v1/T/alpha-clear",
+                "lens/v1/R/alpha-clear",
+                "lens/v2/T/alpha-clear",
+                "lens/v2/R/alpha-clear"
+            ]
+        );
+    }
+}
+
 #[test]
 fn one_viewpoint_is_2n_passes_and_one_clear() {
     for n in 1..=4 {
@@ -79,7 +116,7 @@ fn a_mirror_at_a_sample_is_n_passes_and_no_clear() {
 
 #[test]
 fn single_pass_is_one_lens_draw() {
-    for viewpoints in 1..=2 {
+    for viewpoints in 1..=3 {
         let p = plan(3, viewpoints, &BOTH, Variant::SinglePass);
         assert_eq!(p.count(PassCategory::SinglePass), 1);
         assert_eq!(p.draws(PassCategory::SinglePass), 1);
@@ -119,6 +156,31 @@ fn a_zero_weight_viewpoint_and_empty_layers_are_skipped() {
         "{p}"
     );
     assert_eq!(p.culled.len(), 2, "{p}");
+    // Three viewpoints, the middle one at weight 0 (the camera on an edge of a spherical
+    // triangle): its groups are not declared, the other two keep theirs.
+    let mut shape = FrameShape::synthetic(64, 64, 2, 3, &BOTH);
+    shape.viewpoint_weights = vec![0.5, 0.0, 0.5];
+    let p = frame_graph(
+        &shape,
+        &readback(
+            Variant::Multipass,
+            BlendScheme::FrontToBack,
+            TargetFormat::Rgba8,
+        ),
+    )
+    .unwrap()
+    .0
+    .compile()
+    .unwrap();
+    assert_eq!(
+        (
+            p.count(PassCategory::Layer),
+            p.count(PassCategory::AlphaClear)
+        ),
+        (8, 3),
+        "{p}"
+    );
+    assert!(p.steps.iter().all(|s| !s.pass.name.contains("/v1/")), "{p}");
 }
 
 #[test]
@@ -169,7 +231,7 @@ fn plan_blended(layers: usize, viewpoints: usize, terms: &[Term], blend: BlendSc
 #[test]
 fn each_scheme_has_the_passes_it_is_described_with() {
     for n in 1..=4 {
-        for viewpoints in 1..=2 {
+        for viewpoints in 1..=3 {
             for terms in [&BOTH[..], &[Term::Reflection][..]] {
                 let g = viewpoints * terms.len();
                 let count = |p: &FramePlan| {
@@ -310,8 +372,8 @@ fn the_single_pass_takes_only_front_to_back() {
     }
 }
 
-/// The plans `lensmap passes` prints (its defaults: 640×480, RGBA8), n = 1…4, for one and two
-/// viewpoints, a glass (both terms) and a mirror (reflection only) lens, both variants and
+/// The plans `lensmap passes` prints (its defaults: 640×480, RGBA8), n = 1…4, for one, two and
+/// three viewpoints, a glass (both terms) and a mirror (reflection only) lens, both variants and
 /// every blending scheme, as
 /// text against the golden files in `render/golden/` (read and checked by hand when written;
 /// the counts above check the same plans independently). Trailing spaces are not compared.
@@ -335,7 +397,7 @@ fn plans_match_the_golden_text() {
         (Variant::Multipass, BlendScheme::Programmable),
     ];
     for (variant, blend) in compositings {
-        for viewpoints in 1..=2 {
+        for viewpoints in 1..=3 {
             for (material, terms) in [("glass", &BOTH[..]), ("mirror", &[Term::Reflection][..])] {
                 let mut text = String::new();
                 for n in 1..=4 {
@@ -373,4 +435,34 @@ fn plans_match_the_golden_text() {
         "plans differ from their golden text (LENSMAP_BLESS=1 rewrites them):\n{}",
         mismatches.join("\n")
     );
+}
+
+/// A device that interpolates fewer varyings than the shader is compiled for lowers the single
+/// pass's layer limit: the plan refuses a lens past it, naming the device limit, and the
+/// multipass plan of the same frame is unaffected.
+#[test]
+fn the_single_pass_plan_follows_the_devices_limits() {
+    let limits = SinglePassLimits {
+        max_layers: 2,
+        layers_bound: crate::render::LimitSource::Device {
+            limit: "maxFragmentInputComponents",
+            value: 24,
+        },
+        ..SinglePassLimits::COMPILED
+    };
+    let shape = FrameShape::synthetic(64, 64, 3, 3, &BOTH);
+    let options = |variant| PlanOptions {
+        single_pass: limits,
+        ..readback(variant, BlendScheme::FrontToBack, TargetFormat::Rgba8)
+    };
+    let error = frame_graph(&shape, &options(Variant::SinglePass)).unwrap_err();
+    assert!(
+        error
+            .to_string()
+            .contains("at most 2 on this device (maxFragmentInputComponents = 24)"),
+        "{error}"
+    );
+    assert!(frame_graph(&shape, &options(Variant::Multipass)).is_ok());
+    let two_layers = FrameShape::synthetic(64, 64, 2, 3, &BOTH);
+    assert!(frame_graph(&two_layers, &options(Variant::SinglePass)).is_ok());
 }

@@ -188,6 +188,37 @@ fn shards_and_a_killed_resumed_bake_equal_one_uninterrupted_bake() {
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// A 2D view space bakes as a 1D one does: sample by sample, its views taken from the
+/// triangulation; two shards merged are the bytes of one bake, and the bake renders a camera
+/// inside a triangle blending three samples.
+#[test]
+fn a_patch_bakes_in_shards_that_merge_into_one_bake() {
+    let root = temp_dir("patch");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/glass-sphere-patch.toml");
+    let whole = root.join("whole");
+    succeeded(&bake(scene, "0,1,3,4", &whole, &[]));
+    assert_eq!(manifest_samples(&whole), vec![0, 1, 3, 4]);
+    let (one, two, merged) = (root.join("s1"), root.join("s2"), root.join("merged"));
+    succeeded(&bake(scene, "0,1,3,4", &one, &["--shard", "1/2"]));
+    succeeded(&bake(scene, "0,1,3,4", &two, &["--shard", "2/2"]));
+    succeeded(&merge(&one, &two, &merged));
+    same_bytes(&merged, &whole);
+    // Azimuth −4°, elevation 20° about the look-at point: inside the lower-left cell (samples
+    // 0, 1, 3, 4), off its diagonal, so three samples.
+    let image = root.join("frame.png");
+    let output = lensmap(&[
+        "render", "--scene", scene, "--bake", whole.to_str().unwrap(), "--width", "32", "--height",
+        "24", "--supersampling", "1", "--camera-position", "-0.342,2.785,4.893", "--out",
+        image.to_str().unwrap(), "--json",
+    ]);
+    common::assert_success("lensmap render", &output);
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let viewpoints = json["hybrid"]["viewpoints"].as_array().unwrap();
+    assert_eq!(viewpoints.len(), 3, "{json}");
+    assert_eq!(json["hybrid"]["outside_view_space"], false, "{json}");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
 fn fails_with_2(output: &Output, wanted: &str) {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{stderr}");

@@ -636,6 +636,20 @@ fn bad_frame_input_is_an_error_not_a_panic() {
         .expect("a short mip chain is rejected")
         .to_string();
     assert!(message.contains("mip levels"), "{message}");
+    // Four viewpoint samples: the most a frame blends is three (a spherical triangle's).
+    let mut frame = random_frame(&mut rng, 1, 3, &[Term::Reflection]);
+    frame.viewpoint_weights.push(0.0);
+    let fourth = frame.lenses[0].layers[0].clone();
+    frame.lenses[0].layers.push(fourth);
+    let message = renderer
+        .upload(&gpu, &frame)
+        .err()
+        .expect("four viewpoints are rejected")
+        .to_string();
+    assert!(
+        message.contains("viewpoint_weights has 4 entries; give 1 to 3"),
+        "{message}"
+    );
     assert_clean(&gpu);
 }
 

@@ -500,8 +500,7 @@ objects = ["ball"]
     }
 
     /// The circle of [`VIEWS_AND_LENS`], to be replaced by another view space.
-    const CIRCLE: &str =
-        "[view_space.circle]\ncentre = [0, 1, 0]\nradius = 5\nheight = 0.5\nstep_degrees = 8\ncount = 4";
+    const CIRCLE: &str = "[view_space.circle]\ncentre = [0, 1, 0]\nradius = 5\nheight = 0.5\nstep_degrees = 8\ncount = 4";
 
     /// A 3 × 3 patch about the look-at point, with `changes` (key = value lines) replacing its
     /// lines of the same key.
@@ -544,7 +543,8 @@ objects = ["ball"]
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         let samples = scene.view_space.samples();
         let (a, e) = (-10f32.to_radians(), 0f32);
-        let want = scene.camera.look_at + 5.0 * glam::Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
+        let want = scene.camera.look_at
+            + 5.0 * glam::Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos());
         assert!(samples[0].distance(want) < 1e-5, "{}", samples[0]);
         assert!(samples[1].x.abs() < 1e-5 && samples[3].y > samples[0].y);
     }
@@ -558,17 +558,67 @@ objects = ["ball"]
         let dir = temp_folder("view-2d-bad");
         let cap = |changes: &str| format!("[view_space.cap]\nradius = 5\n{changes}");
         let cases = [
-            (patch(&["azimuth_degrees = [10, 10]"]), "view_space.patch.azimuth_degrees", "is empty", "first < last"),
-            (patch(&["elevation_count = 1"]), "view_space.patch.elevation_count", "at least 2 × 2", "[view_space.circle]"),
-            (patch(&["azimuth_count = 0"]), "view_space.patch.azimuth_count", "at least 2 × 2", "count ≥ 2"),
-            (patch(&["azimuth_degrees = [0, 400]"]), "view_space.patch.azimuth_degrees", "more than the circle", "at most 360°"),
-            (patch(&["elevation_degrees = [0, 95]"]), "view_space.patch.elevation_degrees", "leaves [−90, 90]", "[-90, 90]"),
-            (patch(&["elevation_degrees = [0, 90]"]), "view_space", "samples 6 and 7 lie in the same direction", "distinct samples"),
+            (
+                patch(&["azimuth_degrees = [10, 10]"]),
+                "view_space.patch.azimuth_degrees",
+                "is empty",
+                "first < last",
+            ),
+            (
+                patch(&["elevation_count = 1"]),
+                "view_space.patch.elevation_count",
+                "at least 2 × 2",
+                "[view_space.circle]",
+            ),
+            (
+                patch(&["azimuth_count = 0"]),
+                "view_space.patch.azimuth_count",
+                "at least 2 × 2",
+                "count ≥ 2",
+            ),
+            (
+                patch(&["azimuth_degrees = [0, 400]"]),
+                "view_space.patch.azimuth_degrees",
+                "more than the circle",
+                "at most 360°",
+            ),
+            (
+                patch(&["elevation_degrees = [0, 95]"]),
+                "view_space.patch.elevation_degrees",
+                "leaves [−90, 90]",
+                "[-90, 90]",
+            ),
+            (
+                patch(&["elevation_degrees = [0, 90]"]),
+                "view_space",
+                "samples 6 and 7 lie in the same direction",
+                "distinct samples",
+            ),
             (patch(&["radius = 0"]), "view_space.patch.radius", "", ""),
-            (cap("half_angle_degrees = 190\ncount = 12"), "view_space.cap.half_angle_degrees", "190°", "(0, 180]"),
-            (cap("half_angle_degrees = 30\ncount = 2"), "view_space.cap.count", "2 sample(s)", "count ≥ 3"),
-            ("[view_space]\nlist = [[0, 1, 5], [0, 1, 10], [1, 1, 5]]".to_owned(), "view_space", "samples 0 and 1 lie in the same direction", "distinct samples"),
-            (format!("[view_space]\nlist = [[0, 1, 5]]\n{}", patch(&[])), "view_space", "exactly one of circle, list, patch or cap", "[view_space.patch]"),
+            (
+                cap("half_angle_degrees = 190\ncount = 12"),
+                "view_space.cap.half_angle_degrees",
+                "190°",
+                "(0, 180]",
+            ),
+            (
+                cap("half_angle_degrees = 30\ncount = 2"),
+                "view_space.cap.count",
+                "2 sample(s)",
+                "count ≥ 3",
+            ),
+            (
+                "[view_space]\nlist = [[0, 1, 5], [0, 1, 10], [1, 1, 5]]".to_owned(),
+                "view_space",
+                "samples 0 and 1 lie in the same direction",
+                "distinct samples",
+            ),
+            (
+                format!("[view_space]\nlist = [[0, 1, 5]]\n{}", patch(&[])),
+                "view_space",
+                "exactly one of circle, list, patch or cap",
+                "[view_space.patch]",
+            ),
         ];
         for (view_space, field, what, fix) in cases {
             let (file, error) = load_error(&dir, &edit(CIRCLE, &view_space));
@@ -580,17 +630,29 @@ objects = ["ball"]
     fn a_scene_extends_a_built_in_one() {
         let dir = temp_folder("extends");
         let path = dir.join("room-patch.toml");
-        std::fs::write(&path, format!("extends = \"teapot-room\"\n\n{}", patch(&["radius = 2.8"])))
-            .expect("write the scene");
+        std::fs::write(
+            &path,
+            format!("extends = \"teapot-room\"\n\n{}", patch(&["radius = 2.8"])),
+        )
+        .expect("write the scene");
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
         let room = Scene::load_named("teapot-room").unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(scene.name, "room-patch");
         assert_eq!(scene.view_space.len(), 9);
-        assert_eq!((scene.objects.len(), scene.lenses.len()), (room.objects.len(), room.lenses.len()));
+        assert_eq!(
+            (scene.objects.len(), scene.lenses.len()),
+            (room.objects.len(), room.lenses.len())
+        );
         assert_eq!(scene.camera, room.camera);
         assert_ne!(scene.content_hash(), room.content_hash());
         let (file, error) = load_error(&dir, "extends = \"teapot-rooom\"\n");
-        assert_message(&error, &file, "extends", "not a built-in scene", "teapot-room");
+        assert_message(
+            &error,
+            &file,
+            "extends",
+            "not a built-in scene",
+            "teapot-room",
+        );
     }
 
     #[test]

@@ -133,6 +133,29 @@ pub fn cameras(scene: &Scene, a: usize, base: Camera) -> Vec<(&'static str, Came
     }
 }
 
+/// What is judged: the scene's projected EMs (first), then every bake given, labelled by its
+/// directory's name.
+fn contenders(scene: &Scene, args: &BenchBakeArgs) -> anyhow::Result<Vec<(String, HybridScene)>> {
+    let mut contenders: Vec<(String, HybridScene)> = vec![(
+        "projected".into(),
+        load_hybrid_scene(
+            scene.clone(),
+            &EmSource::Projected(ProjectedOptions::with_size(args.em_size)).into(),
+        )?
+        .0,
+    )];
+    for dir in &args.bake {
+        let bake = Bake::read(dir)?;
+        let label = dir.file_name().map_or_else(
+            || dir.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        let ems = lensmap::hybrid::LayeredEms::Baked(bake);
+        contenders.push((label, HybridScene::new(scene.clone(), ems.into())?.0));
+    }
+    Ok(contenders)
+}
+
 pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     args.judge.validate()?;
     let scene = Scene::load_named(&args.scene)?;
@@ -159,23 +182,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     let device = runner.gpu().device_id().clone();
     let mut steps = crate::common::Steps::new(4);
     let step = steps.step("projected layered EMs, light maps and the bakes");
-    let mut contenders: Vec<(String, HybridScene)> = vec![(
-        "projected".into(),
-        load_hybrid_scene(
-            scene.clone(),
-            &EmSource::Projected(ProjectedOptions::with_size(args.em_size)).into(),
-        )?
-        .0,
-    )];
-    for dir in &args.bake {
-        let bake = Bake::read(dir)?;
-        let label = dir.file_name().map_or_else(
-            || dir.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
-        let ems = lensmap::hybrid::LayeredEms::Baked(bake);
-        contenders.push((label, HybridScene::new(scene.clone(), ems.into())?.0));
-    }
+    let contenders = contenders(&scene, &args)?;
     // In a 2D view space every bake is also drawn with fewer samples blended.
     let blendings: &[(ViewpointBlending, &str)] = if surface {
         &[
@@ -219,13 +226,16 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
         let per_lens = lens_object_masks(&contenders[0].1.trace, &reference);
-        let drawn = contenders.iter().enumerate().flat_map(|(i, (label, hybrid))| {
-            // Projected EMs are the same at every sample: one blending says all.
-            let blendings = if i == 0 { &blendings[..1] } else { blendings };
-            blendings
-                .iter()
-                .map(move |&(blending, suffix)| (format!("{label}{suffix}"), hybrid, blending))
-        });
+        let drawn = contenders
+            .iter()
+            .enumerate()
+            .flat_map(|(i, (label, hybrid))| {
+                // Projected EMs are the same at every sample: one blending says all.
+                let blendings = if i == 0 { &blendings[..1] } else { blendings };
+                blendings
+                    .iter()
+                    .map(move |&(blending, suffix)| (format!("{label}{suffix}"), hybrid, blending))
+            });
         for (label, hybrid, blending) in drawn {
             let options = FrameOptions {
                 hybrid: HybridOptions {

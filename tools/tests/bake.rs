@@ -194,7 +194,10 @@ fn shards_and_a_killed_resumed_bake_equal_one_uninterrupted_bake() {
 #[test]
 fn a_patch_bakes_in_shards_that_merge_into_one_bake() {
     let root = temp_dir("patch");
-    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/glass-sphere-patch.toml");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/glass-sphere-patch.toml"
+    );
     let whole = root.join("whole");
     succeeded(&bake(scene, "0,1,3,4", &whole, &[]));
     assert_eq!(manifest_samples(&whole), vec![0, 1, 3, 4]);
@@ -207,9 +210,22 @@ fn a_patch_bakes_in_shards_that_merge_into_one_bake() {
     // 0, 1, 3, 4), off its diagonal, so three samples.
     let image = root.join("frame.png");
     let output = lensmap(&[
-        "render", "--scene", scene, "--bake", whole.to_str().unwrap(), "--width", "32", "--height",
-        "24", "--supersampling", "1", "--camera-position", "-0.342,2.785,4.893", "--out",
-        image.to_str().unwrap(), "--json",
+        "render",
+        "--scene",
+        scene,
+        "--bake",
+        whole.to_str().unwrap(),
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--supersampling",
+        "1",
+        "--camera-position",
+        "-0.342,2.785,4.893",
+        "--out",
+        image.to_str().unwrap(),
+        "--json",
     ]);
     common::assert_success("lensmap render", &output);
     let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();

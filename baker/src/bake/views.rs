@@ -30,7 +30,11 @@ pub fn view_cameras(scene: &Scene, sample: usize, options: &BakeOptions) -> Vec<
         Some(cameras) => cameras,
         None => line_views(scene, &positions, sample, options),
     };
-    cameras.extend(raised_view(scene, positions[sample].as_dvec3() - look_at, options));
+    cameras.extend(raised_view(
+        scene,
+        positions[sample].as_dvec3() - look_at,
+        options,
+    ));
     cameras
 }
 
@@ -190,11 +194,17 @@ mod tests {
                 let view = from(camera.position);
                 assert!((view.length() - from(samples[4]).length()).abs() < 1e-4);
                 let own = from(samples[4]);
-                let towards = neighbours
-                    .iter()
-                    .find(|&&n| (angle(own, view) - angle(own, from(samples[n])) / 3.0).abs() < 1e-5
-                        && (angle(view, from(samples[n])) - 2.0 * angle(own, from(samples[n])) / 3.0).abs() < 1e-5);
-                assert!(towards.is_some(), "K = {k}: {view} is a third of the way to no neighbour");
+                let towards = neighbours.iter().find(|&&n| {
+                    (angle(own, view) - angle(own, from(samples[n])) / 3.0).abs() < 1e-5
+                        && (angle(view, from(samples[n]))
+                            - 2.0 * angle(own, from(samples[n])) / 3.0)
+                            .abs()
+                            < 1e-5
+                });
+                assert!(
+                    towards.is_some(),
+                    "K = {k}: {view} is a third of the way to no neighbour"
+                );
                 assert_eq!(camera.look_at, scene.camera.look_at);
             }
             // Distinct views.

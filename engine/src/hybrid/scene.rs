@@ -261,10 +261,7 @@ impl HybridScene {
             HybridScene {
                 view_space: ViewSpaceBlender::new(
                     viewpoints,
-                    scene
-                        .view_space
-                        .centre(scene.camera.look_at)
-                        .as_dvec3(),
+                    scene.view_space.centre(scene.camera.look_at).as_dvec3(),
                     scene.view_space.is_surface(),
                 ),
                 scene,

@@ -87,7 +87,10 @@ impl SphereTriangulation {
             .iter()
             .map(|p| (*p - centre).normalize_or_zero())
             .collect();
-        if directions.len() < 3 || directions.iter().any(|d| *d == DVec3::ZERO || !d.is_finite())
+        if directions.len() < 3
+            || directions
+                .iter()
+                .any(|d| *d == DVec3::ZERO || !d.is_finite())
         {
             return None;
         }
@@ -158,7 +161,13 @@ impl SphereTriangulation {
     pub fn area(&self) -> f64 {
         self.triangles
             .iter()
-            .map(|t| signed_area(self.directions[t[0]], self.directions[t[1]], self.directions[t[2]]))
+            .map(|t| {
+                signed_area(
+                    self.directions[t[0]],
+                    self.directions[t[1]],
+                    self.directions[t[2]],
+                )
+            })
             .sum()
     }
 
@@ -275,7 +284,8 @@ impl Hull {
                 .length_squared()
                 > 0.0
         })?;
-        let i3 = (2..n).find(|&k| k != i2 && orient(points[i0], points[i1], points[i2], points[k]) != 0.0)?;
+        let i3 = (2..n)
+            .find(|&k| k != i2 && orient(points[i0], points[i1], points[i2], points[k]) != 0.0)?;
         // Counter-clockwise from outside: the fourth point below each face.
         let (b, c) = if orient(points[i0], points[i1], points[i2], points[i3]) > 0.0 {
             (i1, i2)
@@ -376,7 +386,11 @@ mod tests {
         let corners = [samples[0], samples[2], samples[8], samples[6]];
         let hull_area = signed_area(corners[0], corners[1], corners[2])
             + signed_area(corners[0], corners[2], corners[3]);
-        assert!((t.area() - hull_area).abs() < 1e-12, "{} vs {hull_area}", t.area());
+        assert!(
+            (t.area() - hull_area).abs() < 1e-12,
+            "{} vs {hull_area}",
+            t.area()
+        );
         // 7 boundary edges round the outside (the top row's middle sample is inside), every
         // sample on a triangle.
         assert_eq!(t.boundary().len(), 7, "{:?}", t.boundary());
@@ -420,7 +434,13 @@ mod tests {
         let mid = (samples[0] + samples[1]).normalize();
         let at = t.locate(mid).unwrap();
         assert_eq!(at.weights.len(), 2, "{at:?}");
-        assert_eq!([at.weights[0].0.min(at.weights[1].0), at.weights[0].0.max(at.weights[1].0)], [0, 1]);
+        assert_eq!(
+            [
+                at.weights[0].0.min(at.weights[1].0),
+                at.weights[0].0.max(at.weights[1].0)
+            ],
+            [0, 1]
+        );
         assert!((at.weights[0].1 - 0.5).abs() < 0.02, "{at:?}");
         assert!(!at.outside);
         // Inside a triangle: three samples whose weighted sum points near the direction, and
@@ -431,16 +451,22 @@ mod tests {
         let total: f64 = at.weights.iter().map(|w| w.1).sum();
         assert!((total - 1.0).abs() < 1e-12);
         let mix: DVec3 = at.weights.iter().map(|&(i, w)| w * samples[i]).sum();
-        assert!(angle(mix, inside) < 0.3f64.to_radians(), "{}", angle(mix, inside).to_degrees());
+        assert!(
+            angle(mix, inside) < 0.3f64.to_radians(),
+            "{}",
+            angle(mix, inside).to_degrees()
+        );
         // Continuity across an interior edge: both sides give nearly the same weights (area
         // ratios of the two triangles agree on their shared edge to second order in its size).
         let left = t.locate(direction(-5.0, 10.0 - 1e-7)).unwrap();
         let right = t.locate(direction(-5.0, 10.0 + 1e-7)).unwrap();
-        let weight_of = |l: &Location, s: usize| {
-            l.weights.iter().find(|w| w.0 == s).map_or(0.0, |w| w.1)
-        };
+        let weight_of =
+            |l: &Location, s: usize| l.weights.iter().find(|w| w.0 == s).map_or(0.0, |w| w.1);
         for s in 0..9 {
-            assert!((weight_of(&left, s) - weight_of(&right, s)).abs() < 2e-3, "{left:?} {right:?}");
+            assert!(
+                (weight_of(&left, s) - weight_of(&right, s)).abs() < 2e-3,
+                "{left:?} {right:?}"
+            );
         }
     }
 
@@ -451,7 +477,10 @@ mod tests {
         // 5° below the bottom row, between samples 0 and 1: their great circle is the equator.
         let at = t.locate(direction(-5.0, -5.0)).unwrap();
         assert!(at.outside);
-        assert!((at.outside_radians - 5f64.to_radians()).abs() < 1e-9, "{at:?}");
+        assert!(
+            (at.outside_radians - 5f64.to_radians()).abs() < 1e-9,
+            "{at:?}"
+        );
         assert_eq!(at.weights.len(), 2);
         assert!((at.weights[0].1 - 0.5).abs() < 1e-9, "{at:?}");
         // Far beyond a corner: the corner sample alone.
@@ -472,7 +501,9 @@ mod tests {
         let ring = patch(&[0.0, 90.0, 180.0, 270.0], &[30.0]);
         let t = SphereTriangulation::new(&ring, DVec3::ZERO).unwrap();
         assert_eq!(t.triangles().len(), 2);
-        assert!(SphereTriangulation::new(&[DVec3::X, DVec3::Y, DVec3::ZERO], DVec3::ZERO).is_none());
+        assert!(
+            SphereTriangulation::new(&[DVec3::X, DVec3::Y, DVec3::ZERO], DVec3::ZERO).is_none()
+        );
     }
 
     #[test]
@@ -494,7 +525,10 @@ mod tests {
             let [p, q, r] = t.map(|i| samples[i]);
             for (k, s) in samples.iter().enumerate() {
                 if !t.contains(&k) {
-                    assert!(orient(p, q, r, *s) >= 0.0, "sample {k} inside the circumcircle of {t:?}");
+                    assert!(
+                        orient(p, q, r, *s) >= 0.0,
+                        "sample {k} inside the circumcircle of {t:?}"
+                    );
                 }
             }
         }

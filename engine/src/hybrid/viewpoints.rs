@@ -403,7 +403,9 @@ mod tests {
     /// elevation 0°.
     fn patch() -> Vec<DVec3> {
         (0..3)
-            .flat_map(|row| (0..3).map(move |col| on_sphere(-10.0 + 10.0 * col as f64, 10.0 * row as f64)))
+            .flat_map(|row| {
+                (0..3).map(move |col| on_sphere(-10.0 + 10.0 * col as f64, 10.0 * row as f64))
+            })
             .collect()
     }
 
@@ -416,7 +418,10 @@ mod tests {
         let blend = surface.blend(inside).unwrap();
         assert_eq!(blend.samples.len(), 3, "{blend:?}");
         let fit = surface.fit(inside).unwrap();
-        assert!(fit.surface && !fit.outside && fit.outside_radians == 0.0, "{fit:?}");
+        assert!(
+            fit.surface && !fit.outside && fit.outside_radians == 0.0,
+            "{fit:?}"
+        );
         // At a sample, one; the weights sum to 1 and come largest first.
         assert_eq!(surface.blend(samples[4]).unwrap().samples, vec![(4, 1.0)]);
         let total: f64 = blend.samples.iter().map(|s| s.1).sum();
@@ -428,7 +433,11 @@ mod tests {
         let above = on_sphere(0.0, 35.0);
         let fit = surface.fit(above).unwrap();
         assert!(fit.outside, "{fit:?}");
-        assert!((fit.outside_radians.to_degrees() - 14.72).abs() < 0.1, "{}", fit.outside_radians.to_degrees());
+        assert!(
+            (fit.outside_radians.to_degrees() - 14.72).abs() < 0.1,
+            "{}",
+            fit.outside_radians.to_degrees()
+        );
         let top = surface.blend(above).unwrap().samples;
         assert_eq!((top[0].0, top[1].0), (6, 8), "{top:?}");
         assert!((top[0].1 - 0.5).abs() < 1e-6, "{top:?}");
@@ -447,7 +456,10 @@ mod tests {
         assert!(blender.triangulation().is_none());
         let camera = on_sphere(15.0, 0.0);
         assert_eq!(blender.blend(camera), blend(&samples, DVec3::ZERO, camera));
-        assert_eq!(blender.fit(camera), view_space_fit(&samples, DVec3::ZERO, camera));
+        assert_eq!(
+            blender.fit(camera),
+            view_space_fit(&samples, DVec3::ZERO, camera)
+        );
     }
 
     #[test]

@@ -188,8 +188,7 @@ impl ViewSpace {
                         (0..*azimuth_count).map(move |column| {
                             let a = along(*a0, *a1, *azimuth_count, column);
                             *centre
-                                + *radius
-                                    * Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos())
+                                + *radius * Vec3::new(e.cos() * a.sin(), e.sin(), e.cos() * a.cos())
                         })
                     })
                     .collect()

@@ -110,12 +110,7 @@ impl Loader<'_> {
     /// The built-in scene `name` with every top-level key `file` (whose text is `text`) gives
     /// replacing the built-in's. The built-in scenes name no asset files, so no relative path
     /// changes meaning when a file in another folder extends one.
-    fn extended(
-        &self,
-        name: &str,
-        file: SceneFile,
-        text: &str,
-    ) -> Result<SceneFile> {
+    fn extended(&self, name: &str, file: SceneFile, text: &str) -> Result<SceneFile> {
         let Some(source) = super::builtin_source(name) else {
             return Err(self.error(
                 "extends",
@@ -132,13 +127,41 @@ impl Loader<'_> {
         Ok(SceneFile {
             extends: None,
             name: file.name,
-            camera: if has("camera") { file.camera } else { builtin.camera },
-            environment: if has("environment") { file.environment } else { builtin.environment },
-            lights: if has("lights") { file.lights } else { builtin.lights },
-            materials: if has("materials") { file.materials } else { builtin.materials },
-            objects: if has("objects") { file.objects } else { builtin.objects },
-            lenses: if has("lenses") { file.lenses } else { builtin.lenses },
-            view_space: if has("view_space") { file.view_space } else { builtin.view_space },
+            camera: if has("camera") {
+                file.camera
+            } else {
+                builtin.camera
+            },
+            environment: if has("environment") {
+                file.environment
+            } else {
+                builtin.environment
+            },
+            lights: if has("lights") {
+                file.lights
+            } else {
+                builtin.lights
+            },
+            materials: if has("materials") {
+                file.materials
+            } else {
+                builtin.materials
+            },
+            objects: if has("objects") {
+                file.objects
+            } else {
+                builtin.objects
+            },
+            lenses: if has("lenses") {
+                file.lenses
+            } else {
+                builtin.lenses
+            },
+            view_space: if has("view_space") {
+                file.view_space
+            } else {
+                builtin.view_space
+            },
         })
     }
 

@@ -121,7 +121,8 @@ impl Loader<'_> {
             .collect();
         let cos_limit = SAME_DIRECTION_RADIANS.cos();
         for (i, a) in directions.iter().enumerate() {
-            if let Some(j) = (i + 1..directions.len()).find(|&j| a.dot(directions[j]) >= cos_limit) {
+            if let Some(j) = (i + 1..directions.len()).find(|&j| a.dot(directions[j]) >= cos_limit)
+            {
                 return Err(self.error(
                     "view_space",
                     format!("samples {i} and {j} lie in the same direction from the centre {centre}"),
@@ -144,11 +145,19 @@ impl Loader<'_> {
             let first = self.finite(&field, first)?;
             let last = self.finite(&field, last)?;
             if first >= last {
-                return Err(self.error(&field, format!("[{first}, {last}] is empty"), "give [first, last] with first < last, e.g. [-10, 10]"));
+                return Err(self.error(
+                    &field,
+                    format!("[{first}, {last}] is empty"),
+                    "give [first, last] with first < last, e.g. [-10, 10]",
+                ));
             }
             if count < 2 {
                 let count_field = field.replace("_degrees", "_count");
-                return Err(self.error(count_field, format!("{count} sample(s) across; a patch needs at least 2 × 2"), "give a count ≥ 2 (for one row of samples use [view_space.circle])"));
+                return Err(self.error(
+                    count_field,
+                    format!("{count} sample(s) across; a patch needs at least 2 × 2"),
+                    "give a count ≥ 2 (for one row of samples use [view_space.circle])",
+                ));
             }
             if count > MAX_VIEWPOINT_SAMPLES {
                 let count_field = field.replace("_degrees", "_count");
@@ -160,11 +169,22 @@ impl Loader<'_> {
         let (e0, e1) = range("elevation", spec.elevation_degrees, spec.elevation_count)?;
         let [first, last] = spec.azimuth_degrees;
         if last - first > 360.0 {
-            return Err(self.error(format!("{f}.azimuth_degrees"), format!("[{first}, {last}] spans {}°, more than the circle", last - first), "give a span of at most 360° (a closed ring of n columns spans 360·(n − 1)/n°)"));
+            return Err(self.error(
+                format!("{f}.azimuth_degrees"),
+                format!(
+                    "[{first}, {last}] spans {}°, more than the circle",
+                    last - first
+                ),
+                "give a span of at most 360° (a closed ring of n columns spans 360·(n − 1)/n°)",
+            ));
         }
         let [bottom, top] = spec.elevation_degrees;
         if bottom < -90.0 || top > 90.0 {
-            return Err(self.error(format!("{f}.elevation_degrees"), format!("[{bottom}, {top}] leaves [−90, 90]"), "give elevations in [-90, 90] (90 is straight above the centre)"));
+            return Err(self.error(
+                format!("{f}.elevation_degrees"),
+                format!("[{bottom}, {top}] leaves [−90, 90]"),
+                "give elevations in [-90, 90] (90 is straight above the centre)",
+            ));
         }
         let samples = u64::from(spec.azimuth_count) * u64::from(spec.elevation_count);
         if samples > u64::from(MAX_VIEWPOINT_SAMPLES) {
@@ -192,15 +212,32 @@ impl Loader<'_> {
             None => camera.position - centre,
         };
         if axis.length() <= CAMERA_EPSILON {
-            let field = if spec.axis.is_some() { format!("{f}.axis") } else { format!("{f}.centre") };
-            return Err(self.error(field, "the cap's axis is zero (the camera sits on the centre when no axis is given)", "give a non-zero axis [x, y, z], or a centre away from the camera"));
+            let field = if spec.axis.is_some() {
+                format!("{f}.axis")
+            } else {
+                format!("{f}.centre")
+            };
+            return Err(self.error(
+                field,
+                "the cap's axis is zero (the camera sits on the centre when no axis is given)",
+                "give a non-zero axis [x, y, z], or a centre away from the camera",
+            ));
         }
-        let half_angle = self.finite(&format!("{f}.half_angle_degrees"), spec.half_angle_degrees)?;
+        let half_angle =
+            self.finite(&format!("{f}.half_angle_degrees"), spec.half_angle_degrees)?;
         if !(half_angle > 0.0 && half_angle <= 180.0) {
-            return Err(self.error(format!("{f}.half_angle_degrees"), format!("{half_angle}° is not a cap's angular radius"), "give degrees in (0, 180] (180 covers the whole sphere)"));
+            return Err(self.error(
+                format!("{f}.half_angle_degrees"),
+                format!("{half_angle}° is not a cap's angular radius"),
+                "give degrees in (0, 180] (180 covers the whole sphere)",
+            ));
         }
         if spec.count < 3 {
-            return Err(self.error(format!("{f}.count"), format!("{} sample(s) span no spherical triangle", spec.count), "give count ≥ 3"));
+            return Err(self.error(
+                format!("{f}.count"),
+                format!("{} sample(s) span no spherical triangle", spec.count),
+                "give count ≥ 3",
+            ));
         }
         if spec.count > MAX_VIEWPOINT_SAMPLES {
             return Err(self.error(format!("{f}.count"), format!("{} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", spec.count), "give fewer samples"));

@@ -268,7 +268,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
                 .viewpoint_blend(&camera, blending)
                 .samples
                 .iter()
-                .map(|(i, w)| json!({"sample": i, "weight": w}))
+                .map(|(i, w)| json!({"viewpoint": i, "weight": w}))
                 .collect();
             cells.push(json!({
                 "ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other,

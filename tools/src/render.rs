@@ -285,7 +285,7 @@ fn report(
                 .viewpoint_blend(camera, ViewpointBlending::ViewSpace)
                 .samples
                 .iter()
-                .map(|(i, w)| json!({"sample": i, "weight": w}))
+                .map(|(i, w)| json!({"viewpoint": i, "weight": w}))
                 .collect::<Vec<_>>(),
         },
         "out": written.png,

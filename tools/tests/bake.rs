@@ -232,6 +232,50 @@ fn a_patch_bakes_in_shards_that_merge_into_one_bake() {
     let viewpoints = json["hybrid"]["viewpoints"].as_array().unwrap();
     assert_eq!(viewpoints.len(), 3, "{json}");
     assert_eq!(json["hybrid"]["outside_view_space"], false, "{json}");
+    // Straight above the look-at point, far outside the patch: still a frame, blending the
+    // nearest point of the region (on its top edge, samples 3 and 4: the bake's viewpoints 2
+    // and 3), said in one warning line, with every value finite.
+    let output = lensmap(&[
+        "render",
+        "--scene",
+        scene,
+        "--bake",
+        whole.to_str().unwrap(),
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--supersampling",
+        "1",
+        "--camera-position",
+        "0.01,6.0,0.2",
+        "--out",
+        image.to_str().unwrap(),
+        "--json",
+    ]);
+    common::assert_success("lensmap render", &output);
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(json["hybrid"]["outside_view_space"], true, "{json}");
+    let samples: Vec<u64> = json["hybrid"]["viewpoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["viewpoint"].as_u64().unwrap())
+        .collect();
+    assert!(
+        !samples.is_empty() && samples.iter().all(|s| [2, 3].contains(s)),
+        "{json}"
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.contains("outside the view space"))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    let exr = image::open(image.with_extension("exr"))
+        .expect("the frame's EXR")
+        .into_rgba32f();
+    assert!(exr.pixels().all(|p| p.0.iter().all(|v| v.is_finite())));
     let _ = std::fs::remove_dir_all(&root);
 }
 

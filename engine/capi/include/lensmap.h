@@ -214,6 +214,13 @@ typedef struct LensmapFrameStats {
   uint64_t lens_triangles;
   // Lens vertices ray traced.
   uint64_t vertices_traced;
+  // Viewpoint samples the frame blended: 1 to 3 (ABI 4; a struct of ABI 3's size ends before
+  // this field).
+  uint32_t viewpoints;
+  // 1 when the camera's direction lies outside the region the view space's samples cover (a
+  // 2D view space: in no triangle; the frame then blends the region's nearest point), else 0
+  // (ABI 4).
+  uint32_t outside_view_space;
 } LensmapFrameStats;
 
 // A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a

@@ -332,6 +332,8 @@ pub(crate) fn frame_stats(
         triangle_tests: counters.triangle_tests,
         lens_triangles: stats.triangles_out as u64,
         vertices_traced: stats.vertices_traced as u64,
+        viewpoints: stats.viewpoints_blended as u32,
+        outside_view_space: u32::from(stats.outside_view_space),
     }
 }
 

@@ -273,6 +273,13 @@ pub struct LensmapFrameStats {
     pub lens_triangles: u64,
     /// Lens vertices ray traced.
     pub vertices_traced: u64,
+    /// Viewpoint samples the frame blended: 1 to 3 (ABI 4; a struct of ABI 3's size ends before
+    /// this field).
+    pub viewpoints: u32,
+    /// 1 when the camera's direction lies outside the region the view space's samples cover (a
+    /// 2D view space: in no triangle; the frame then blends the region's nearest point), else 0
+    /// (ABI 4).
+    pub outside_view_space: u32,
 }
 
 /// A plan to print: the compositor's passes for one lens object's frame of this shape.

@@ -125,6 +125,8 @@ fn render(
             stats.total_ms > 0.0 && stats.total_ms.is_finite(),
             "{stats:?}"
         );
+        assert!((1..=3).contains(&stats.viewpoints), "{stats:?}");
+        assert!(stats.outside_view_space <= 1, "{stats:?}");
     }
     code
 }

@@ -243,6 +243,8 @@ pub struct HybridStats {
     /// triangle of its triangulation; see [`ViewSpaceFit::outside`]); the frame then blends the
     /// samples of the nearest point of the region.
     pub outside_view_space: bool,
+    /// Viewpoint samples the frame blends (1 to 3), each with its own layered EMs.
+    pub viewpoints_blended: usize,
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
     pub reused: bool,
@@ -598,6 +600,7 @@ impl HybridScene {
         let blend = self.viewpoint_blend(camera, options.viewpoint_blending);
         let mut stats = HybridStats {
             outside_view_space: self.view_space_fit(camera).is_some_and(|fit| fit.outside),
+            viewpoints_blended: blend.samples.len(),
             ..HybridStats::default()
         };
         // The vertex budget is the frame's: each lens object gets what the ones before left.

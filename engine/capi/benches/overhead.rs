@@ -72,6 +72,7 @@ fn overhead(c: &mut Criterion) {
                 variant: LENSMAP_VARIANT_SINGLE_PASS,
                 format: LENSMAP_FORMAT_RGBA16F,
                 blend: LENSMAP_BLEND_FRONT_TO_BACK,
+                viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
             };
             // SAFETY: live handles, a buffer of the frame's size.
             let code = unsafe {

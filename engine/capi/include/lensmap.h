@@ -29,6 +29,18 @@
 // `LensmapFrameOptions::blend`: the blend done in the fragment shader.
 #define LENSMAP_BLEND_PROGRAMMABLE 3
 
+// `LensmapFrameOptions::viewpoint_blending`: the view space's rule: the two nearest samples
+// along a circle, the three of the spherical triangle holding the camera in a 2D view space
+// (the nearest point of the region outside it).
+#define LENSMAP_VIEWPOINTS_VIEW_SPACE 0
+
+// `LensmapFrameOptions::viewpoint_blending`: the two samples nearest the camera in angle, in any
+// view space.
+#define LENSMAP_VIEWPOINTS_TWO_NEAREST 1
+
+// `LensmapFrameOptions::viewpoint_blending`: the nearest sample alone.
+#define LENSMAP_VIEWPOINTS_NEAREST 2
+
 // `LensmapFrameOptions::format`: an 8-bit unorm framebuffer.
 #define LENSMAP_FORMAT_RGBA8 0
 
@@ -184,6 +196,9 @@ typedef struct LensmapFrameOptions {
   // `LENSMAP_BLEND_*`: how the multipass compositor combines layers and groups (ABI 3; a
   // struct of ABI 2's size, which ends before this field, means front-to-back).
   uint32_t blend;
+  // `LENSMAP_VIEWPOINTS_*`: which viewpoint samples the frame blends (ABI 4; a struct of an
+  // earlier ABI's size, which ends before this field, means the view space's own rule).
+  uint32_t viewpoint_blending;
 } LensmapFrameOptions;
 
 // Where a frame's time went and what it cost (the paper's table). Set `struct_size`; lensmap

@@ -22,9 +22,9 @@ use crate::handles::{
     scene_ref,
 };
 use crate::structs::{
-    FRAME_OPTIONS_ABI2, PLAN_OPTIONS_ABI2, SCENE_OPTIONS_ABI3, compositing, degrees_of, format,
+    FRAME_OPTIONS_OLDER, PLAN_OPTIONS_ABI2, SCENE_OPTIONS_ABI3, compositing, degrees_of, format,
     frame_settings, frame_stats, read_struct, read_text, read_versioned, semaphores, stats_size,
-    write_stats,
+    struct_size_failure, write_stats,
 };
 use crate::types::*;
 
@@ -200,7 +200,7 @@ pub unsafe extern "C" fn lensmap_scene_load(
             return Err(null("out"));
         }
         // SAFETY: the caller's promise (LensmapSceneOptions is integers and pointers).
-        let options = unsafe { read_versioned(options, "options", SCENE_OPTIONS_ABI3) }?;
+        let options = unsafe { read_versioned(options, "options", &[SCENE_OPTIONS_ABI3]) }?;
         // SAFETY: the caller's promise.
         let Some(name) = (unsafe { read_text(options.scene, "options->scene") })? else {
             return Err(null("options->scene"));
@@ -282,7 +282,7 @@ pub unsafe extern "C" fn lensmap_render_to_memory(
 ) -> LensmapResult {
     boundary(|| {
         // SAFETY: the caller's promise.
-        let options = unsafe { read_versioned(options, "options", FRAME_OPTIONS_ABI2) }?;
+        let options = unsafe { read_versioned(options, "options", &FRAME_OPTIONS_OLDER) }?;
         if rgba.is_null() {
             return Err(null("rgba"));
         }
@@ -355,7 +355,7 @@ pub unsafe extern "C" fn lensmap_render_to_image(
 ) -> LensmapResult {
     boundary(|| {
         // SAFETY: the caller's promise.
-        let options = unsafe { read_versioned(options, "options", FRAME_OPTIONS_ABI2) }?;
+        let options = unsafe { read_versioned(options, "options", &FRAME_OPTIONS_OLDER) }?;
         // SAFETY: the caller's promise.
         let lent = unsafe { read_struct(image, "image") }?;
         // SAFETY: the caller's promise.
@@ -454,12 +454,12 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
         // first field, the size, is read: the rest may be unset.
         let size = unsafe { *(options as *const u32) } as usize;
         let current = std::mem::size_of::<LensmapFrameOptions>();
-        if size != current && size != FRAME_OPTIONS_ABI2 {
-            return Err(Failure::new(
-                LensmapResult::StructSize,
-                format!(
-                    "options->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {current} bytes (or {FRAME_OPTIONS_ABI2} from ABI 2); set it to sizeof(LensmapFrameOptions)"
-                ),
+        if size != current && !FRAME_OPTIONS_OLDER.contains(&size) {
+            return Err(struct_size_failure(
+                "options",
+                size,
+                current,
+                &FRAME_OPTIONS_OLDER,
             ));
         }
         // SAFETY: the caller's promise.
@@ -478,6 +478,7 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
             variant: LENSMAP_VARIANT_SINGLE_PASS,
             format: LENSMAP_FORMAT_RGBA16F,
             blend: LENSMAP_BLEND_FRONT_TO_BACK,
+            viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
         };
         // SAFETY: writable for `size` bytes by the caller's promise (a struct of that ABI's
         // size, checked above): only those are written.
@@ -510,7 +511,7 @@ pub unsafe extern "C" fn lensmap_plan_text(
 ) -> LensmapResult {
     boundary(|| {
         // SAFETY: the caller's promise.
-        let options = unsafe { read_versioned(options, "options", PLAN_OPTIONS_ABI2) }?;
+        let options = unsafe { read_versioned(options, "options", &[PLAN_OPTIONS_ABI2]) }?;
         if length.is_null() {
             return Err(null("length"));
         }

@@ -6,7 +6,7 @@
 use std::ffi::{CStr, c_char};
 
 use lensmap::gpu::vk;
-use lensmap::hybrid::HybridOptions;
+use lensmap::hybrid::{HybridOptions, ViewpointBlending};
 use lensmap::options::Worded;
 use lensmap::render::{BlendScheme, TargetFormat, Variant};
 use lensmap::runner::FrameOptions;
@@ -42,7 +42,7 @@ pub(crate) unsafe fn read_struct<T: Copy>(pointer: *const T, name: &str) -> Resu
 }
 
 /// `*pointer` of a struct that grew at its end: its `struct_size` may be this library's size or
-/// `older`, an earlier ABI's (the struct up to the first field that version lacked); the
+/// one of `older`, earlier ABIs' (the struct up to the first field that version lacked); the
 /// missing fields read as zero (each one's zero is the earlier behaviour).
 ///
 /// # Safety
@@ -52,7 +52,7 @@ pub(crate) unsafe fn read_struct<T: Copy>(pointer: *const T, name: &str) -> Resu
 pub(crate) unsafe fn read_versioned<T: Copy>(
     pointer: *const T,
     name: &str,
-    older: usize,
+    older: &[usize],
 ) -> Result<T, Failure> {
     if pointer.is_null() {
         return Err(Failure::new(
@@ -64,16 +64,11 @@ pub(crate) unsafe fn read_versioned<T: Copy>(
     let size = unsafe { *(pointer as *const u32) } as usize;
     let current = std::mem::size_of::<T>();
     debug_assert!(
-        older < current,
+        older.iter().all(|&o| o < current),
         "an earlier ABI's struct is a prefix of this one"
     );
-    if size != current && size != older {
-        return Err(Failure::new(
-            LensmapResult::StructSize,
-            format!(
-                "{name}->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {current} bytes (or {older} from an earlier ABI); set it to sizeof the struct from the lensmap.h this library ships"
-            ),
-        ));
+    if size != current && !older.contains(&size) {
+        return Err(struct_size_failure(name, size, current, older));
     }
     // SAFETY: all-zero bytes are a valid T (the caller's promise); the caller's struct holds
     // `size` ≤ size_of::<T>() readable bytes, copied over the zeros.
@@ -84,9 +79,32 @@ pub(crate) unsafe fn read_versioned<T: Copy>(
     Ok(value)
 }
 
+/// The refusal of a `struct_size` that is neither `current` nor one of `older`.
+pub(crate) fn struct_size_failure(
+    name: &str,
+    size: usize,
+    current: usize,
+    older: &[usize],
+) -> Failure {
+    let older: Vec<String> = older.iter().map(usize::to_string).collect();
+    Failure::new(
+        LensmapResult::StructSize,
+        format!(
+            "{name}->struct_size is {size}, but this lensmap (ABI {LENSMAP_ABI_VERSION}) knows {current} bytes (or {} from an earlier ABI); set it to sizeof the struct from the lensmap.h this library ships",
+            older.join(" or ")
+        ),
+    )
+}
+
 /// ABI 2's `sizeof(LensmapFrameOptions)`: everything before `blend` (ABI 2 had no trailing
 /// padding, so its size is the new field's offset; pinned, so a reordering cannot move it).
 pub(crate) const FRAME_OPTIONS_ABI2: usize = 68;
+
+/// ABI 3's `sizeof(LensmapFrameOptions)`: everything before `viewpoint_blending`.
+pub(crate) const FRAME_OPTIONS_ABI3: usize = 72;
+
+/// The sizes of `LensmapFrameOptions` earlier ABIs had, all accepted.
+pub(crate) const FRAME_OPTIONS_OLDER: [usize; 2] = [FRAME_OPTIONS_ABI2, FRAME_OPTIONS_ABI3];
 
 /// ABI 2's `sizeof(LensmapPlanOptions)`: everything before `blend`.
 pub(crate) const PLAN_OPTIONS_ABI2: usize = 24;
@@ -99,6 +117,10 @@ const _: () = assert!(
     FRAME_OPTIONS_ABI2 == std::mem::offset_of!(LensmapFrameOptions, blend)
         && PLAN_OPTIONS_ABI2 == std::mem::offset_of!(LensmapPlanOptions, blend),
     "ABI 2's structs end where `blend` begins"
+);
+const _: () = assert!(
+    FRAME_OPTIONS_ABI3 == std::mem::offset_of!(LensmapFrameOptions, viewpoint_blending),
+    "ABI 3's frame options end where `viewpoint_blending` begins"
 );
 const _: () = assert!(
     SCENE_OPTIONS_ABI3 == std::mem::offset_of!(LensmapSceneOptions, light_map_max_texels),
@@ -214,8 +236,24 @@ pub(crate) fn frame_settings(
         options.t
     };
     let (variant, blend) = compositing(options.variant, options.blend)?;
+    let viewpoint_blending = match options.viewpoint_blending {
+        LENSMAP_VIEWPOINTS_VIEW_SPACE => ViewpointBlending::ViewSpace,
+        LENSMAP_VIEWPOINTS_TWO_NEAREST => ViewpointBlending::TwoNearest,
+        LENSMAP_VIEWPOINTS_NEAREST => ViewpointBlending::Nearest,
+        other => {
+            return Err(Failure::new(
+                LensmapResult::InvalidArgument,
+                format!(
+                    "options->viewpoint_blending is {other}; give LENSMAP_VIEWPOINTS_VIEW_SPACE (0), LENSMAP_VIEWPOINTS_TWO_NEAREST (1) or LENSMAP_VIEWPOINTS_NEAREST (2)"
+                ),
+            ));
+        }
+    };
     let frame_options = FrameOptions {
-        hybrid: HybridOptions::with_t(t),
+        hybrid: HybridOptions {
+            viewpoint_blending,
+            ..HybridOptions::with_t(t)
+        },
         variant,
         blend,
         format: format(options.format, "options->format")?,

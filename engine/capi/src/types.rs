@@ -24,6 +24,15 @@ pub const LENSMAP_BLEND_BACK_TO_FRONT: u32 = 1;
 pub const LENSMAP_BLEND_GROUP_TARGETS: u32 = 2;
 /// `LensmapFrameOptions::blend`: the blend done in the fragment shader.
 pub const LENSMAP_BLEND_PROGRAMMABLE: u32 = 3;
+/// `LensmapFrameOptions::viewpoint_blending`: the view space's rule: the two nearest samples
+/// along a circle, the three of the spherical triangle holding the camera in a 2D view space
+/// (the nearest point of the region outside it).
+pub const LENSMAP_VIEWPOINTS_VIEW_SPACE: u32 = 0;
+/// `LensmapFrameOptions::viewpoint_blending`: the two samples nearest the camera in angle, in any
+/// view space.
+pub const LENSMAP_VIEWPOINTS_TWO_NEAREST: u32 = 1;
+/// `LensmapFrameOptions::viewpoint_blending`: the nearest sample alone.
+pub const LENSMAP_VIEWPOINTS_NEAREST: u32 = 2;
 /// `LensmapFrameOptions::format`: an 8-bit unorm framebuffer.
 pub const LENSMAP_FORMAT_RGBA8: u32 = 0;
 /// `LensmapFrameOptions::format`: a 16-bit float framebuffer.
@@ -201,6 +210,9 @@ pub struct LensmapFrameOptions {
     /// `LENSMAP_BLEND_*`: how the multipass compositor combines layers and groups (ABI 3; a
     /// struct of ABI 2's size, which ends before this field, means front-to-back).
     pub blend: u32,
+    /// `LENSMAP_VIEWPOINTS_*`: which viewpoint samples the frame blends (ABI 4; a struct of an
+    /// earlier ABI's size, which ends before this field, means the view space's own rule).
+    pub viewpoint_blending: u32,
 }
 
 /// A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a

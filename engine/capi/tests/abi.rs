@@ -89,6 +89,7 @@ fn frame_options(format: u32) -> LensmapFrameOptions {
         variant: LENSMAP_VARIANT_SINGLE_PASS,
         format,
         blend: LENSMAP_BLEND_FRONT_TO_BACK,
+        viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
     }
 }
 
@@ -209,6 +210,69 @@ fn a_frame_through_the_abi_equals_the_rust_apis() {
     }
 }
 
+/// ABI 4's viewpoint blending: every value renders (the scene's projected EMs are shared by its
+/// samples, so all three give the same frame), a value past the three is refused naming the
+/// field, and an ABI 3 caller's struct (no such field) renders with the view space's rule.
+#[test]
+fn viewpoint_blending_through_the_abi_and_abi_3_structs() {
+    let context = new_context();
+    let scene = load_scene();
+    let mut frames = Vec::new();
+    for blending in [
+        LENSMAP_VIEWPOINTS_VIEW_SPACE,
+        LENSMAP_VIEWPOINTS_TWO_NEAREST,
+        LENSMAP_VIEWPOINTS_NEAREST,
+    ] {
+        let mut options = frame_options(LENSMAP_FORMAT_RGBA32F);
+        options.viewpoint_blending = blending;
+        let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+        assert_eq!(
+            render(context, scene, &options, &mut pixels),
+            LensmapResult::Ok,
+            "{}",
+            last_error()
+        );
+        frames.push(pixels);
+    }
+    assert!(frames.iter().all(|f| *f == frames[0]));
+    let mut bad = frame_options(LENSMAP_FORMAT_RGBA32F);
+    bad.viewpoint_blending = 3;
+    let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+    assert_eq!(
+        render(context, scene, &bad, &mut pixels),
+        LensmapResult::InvalidArgument
+    );
+    let error = last_error();
+    assert!(
+        error.contains("options->viewpoint_blending is 3") && !error.contains('\n'),
+        "{error}"
+    );
+    // An ABI 3 struct: 72 bytes, ending before `viewpoint_blending` (not read).
+    let mut old = frame_options(LENSMAP_FORMAT_RGBA32F);
+    old.viewpoint_blending = 0xdead;
+    old.struct_size = 72;
+    let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+    assert_eq!(render(context, scene, &old, &mut pixels), LensmapResult::Ok);
+    assert_eq!(
+        pixels, frames[0],
+        "an ABI 3 struct blends by the view space's rule"
+    );
+    // Neither 72 nor 68 nor the current size: refused, naming every size it knows.
+    old.struct_size = 70;
+    assert_eq!(
+        render(context, scene, &old, &mut pixels),
+        LensmapResult::StructSize
+    );
+    let error = last_error();
+    assert!(error.contains("68 or 72"), "{error}");
+    assert_no_validation_messages(context);
+    // SAFETY: handles from this library, freed once.
+    unsafe {
+        lensmap_scene_free(scene);
+        lensmap_context_free(context);
+    }
+}
+
 /// ABI 3's blend field: each scheme of the multipass compositor through the ABI is bit-identical
 /// to the Rust API's frame with the same scheme; the schemes agree within 1e-5; and an ABI 2
 /// caller's smaller struct (no blend field) still renders, as front-to-back.
@@ -256,7 +320,7 @@ fn blending_schemes_through_the_abi_equal_the_rust_apis_and_abi_2_structs_still_
     assert_eq!(render(context, scene, &old, &mut pixels), LensmapResult::Ok);
     assert_eq!(pixels, frames[0], "an ABI 2 struct renders front-to-back");
     // lensmap_scene_frame_options fills an ABI 2 struct without writing past it: 17 aligned
-    // words of a struct's 18, the last one a marker.
+    // words of a struct's 19, the rest markers.
     let mut filled = [0xabab_abab_u32; size_of::<LensmapFrameOptions>() / 4];
     filled[0] = 68;
     // SAFETY: `filled` is 4-aligned and as large as the struct, so any write is in bounds.
@@ -738,7 +802,7 @@ fn misuse_returns_documented_codes_and_useful_messages() {
             "options->blend is 3 (programmable)",
         );
         // 13b. Options struct sizes of no ABI, on a render and on a plan: refused.
-        for size in [0, 64, 76, u32::MAX] {
+        for size in [0, 64, 80, u32::MAX] {
             let mut sized = frame_options(LENSMAP_FORMAT_RGBA8);
             sized.struct_size = size;
             assert_failure(

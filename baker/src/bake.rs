@@ -35,7 +35,8 @@
 //! perpendicular to the direction to it, for cameras that leave the view space's circle (the view
 //! space then reaches E above it). In a 2D view space (triangulated on the sphere,
 //! [`lensmap::hybrid::sphere`]) the views are the sample and K − 1 views a third of the way
-//! towards its triangulation neighbours, chosen evenly round it by bearing.
+//! towards its triangulation neighbours, chosen evenly round it by bearing (one per neighbour
+//! when it has fewer).
 //!
 //! **Staging, resume, shards** ([`run`], [`merge`](mod@merge)). Work goes into `Staging`
 //! (`.NAME.baking` beside the bake): the plan ([`PLAN_FILE`]), then per sample its cube maps

@@ -42,7 +42,8 @@ pub fn view_cameras(scene: &Scene, sample: usize, options: &BakeOptions) -> Vec<
 /// third of the way (in angle about the view space's centre) towards neighbours in the
 /// triangulation, chosen evenly round the sample by their bearing from it (measured from the
 /// world's up, as seen from outside), so the views spread over the triangles the sample's maps
-/// serve. `None` for a 1D view space or one that spans no triangle.
+/// serve; one view per neighbour when the sample has fewer than K − 1. `None` for a 1D view
+/// space or one that spans no triangle.
 fn surface_views(
     scene: &Scene,
     positions: &[Vec3],
@@ -79,8 +80,10 @@ fn surface_views(
     if neighbours.is_empty() {
         return Some(cameras);
     }
-    for j in 0..k - 1 {
-        let n = neighbours[j * neighbours.len() / (k - 1)].1;
+    // Distinct neighbours only: a sample with fewer neighbours than K − 1 gets one view each.
+    let views = (k - 1).min(neighbours.len());
+    for j in 0..views {
+        let n = neighbours[j * neighbours.len() / views].1;
         let towards = points[n] - centre;
         let axis = own.cross(towards).normalize_or_zero();
         if axis == DVec3::ZERO {

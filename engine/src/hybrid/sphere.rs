@@ -9,10 +9,13 @@
 //! directions alone would close the region with faces "across the hole", whose circumcircles
 //! hold more than a hemisphere. Adding the centre to the hull removes exactly those: the faces
 //! of hull(directions ∪ {centre}) not incident to the centre are the Delaunay triangles of the
-//! region the samples span (their spherical convex hull), and for samples surrounding the
-//! centre they are the whole hull. Written here rather than taken from a crate because the
-//! hull must keep this centre rule and be deterministic; the predicates are the `robust`
-//! crate's exact ones, so co-circular samples (the four corners of every cell of an
+//! region the samples span (within their spherical convex hull), and for samples surrounding the
+//! centre they are the whole hull. Faces whose circumcircle is more than
+//! [`MAX_CIRCUMRADIUS_SPACINGS`] times the samples' spacing are left out too: they would close a
+//! hole the samples surround (above a ring, behind a cap past a hemisphere) or add a sliver
+//! along a row that curves away from its great circle. Written here rather than taken from a
+//! crate because the hull must keep these rules and be deterministic; the predicates are the
+//! `robust` crate's exact ones, so co-circular samples (the four corners of every cell of an
 //! azimuth × elevation patch) never disagree with themselves: each cell gets one diagonal,
 //! chosen by insertion order.
 
@@ -25,6 +28,13 @@ use super::viewpoints::angle;
 /// Triangles smaller than this (steradians) are left out: three samples on one great circle up
 /// to rounding (the samples of a patch's meridian), a face that spans no region.
 pub const MIN_TRIANGLE_AREA: f64 = 1e-12;
+
+/// Triangles whose circumcircle's angular radius is more than this many times the view space's
+/// spacing (the largest angle from a sample to its nearest other sample) are left out: they span
+/// a hole the samples surround (above a ring of samples, behind a cap past a hemisphere) or a
+/// sliver along a row that curves away from its great circle, not the region the samples cover.
+/// A cell of a patch or a Fibonacci cap has a circumradius under one spacing.
+pub const MAX_CIRCUMRADIUS_SPACINGS: f64 = 2.0;
 
 /// A weight below this (of 1) is dropped and the rest renormalized: a direction this close to an
 /// edge blends its two samples, this close to a sample that sample alone.
@@ -40,6 +50,8 @@ pub struct SphereTriangulation {
     triangles: Vec<[usize; 3]>,
     /// The region's boundary: edges on one triangle only, `(a, b)` in that triangle's order.
     boundary: Vec<[usize; 2]>,
+    /// The largest, over samples, of each sample's angle to its nearest other sample, radians.
+    spacing_radians: f64,
 }
 
 /// Where a direction falls in a [`SphereTriangulation`].
@@ -94,11 +106,15 @@ impl SphereTriangulation {
         {
             return None;
         }
-        let faces = Hull::new(&directions)?.faces;
-        let origin = directions.len();
-        let triangles: Vec<[usize; 3]> = faces
+        let faces: Vec<[usize; 3]> = Hull::new(&directions)?
+            .faces
             .into_iter()
             .flatten()
+            .collect();
+        let origin = directions.len();
+        let spacing_radians = nearest_neighbour_spacing(&directions, &faces);
+        let triangles: Vec<[usize; 3]> = faces
+            .into_iter()
             .filter(|f| {
                 !f.contains(&origin)
                     && orient(
@@ -109,6 +125,8 @@ impl SphereTriangulation {
                     ) > 0.0
                     && signed_area(directions[f[0]], directions[f[1]], directions[f[2]])
                         > MIN_TRIANGLE_AREA
+                    && circumradius(directions[f[0]], directions[f[1]], directions[f[2]])
+                        <= MAX_CIRCUMRADIUS_SPACINGS * spacing_radians
             })
             .collect();
         if triangles.is_empty() {
@@ -126,6 +144,7 @@ impl SphereTriangulation {
             .filter(|[a, b]| !edges.contains_key(&(*b, *a)))
             .collect();
         Some(SphereTriangulation {
+            spacing_radians,
             directions,
             triangles,
             boundary,
@@ -155,6 +174,11 @@ impl SphereTriangulation {
         out.sort_unstable();
         out.dedup();
         out
+    }
+
+    /// The largest, over samples, of each sample's angle to its nearest other sample, radians.
+    pub fn spacing_radians(&self) -> f64 {
+        self.spacing_radians
     }
 
     /// The total area of the region, steradians.
@@ -217,11 +241,19 @@ impl SphereTriangulation {
             let (a, b) = (self.directions[i], self.directions[j]);
             let span = angle(a, b);
             let normal = a.cross(b).normalize_or_zero();
-            let projected = (v - v.dot(normal) * normal).normalize_or_zero();
-            // The projection lies on the arc when it is within the arc's span of both ends.
+            // The nearest point of the great circle; none when v is (up to rounding) its pole,
+            // where every point of it is 90° away and the ends decide.
+            let residual = v - v.dot(normal) * normal;
+            let projected = if residual.length() > 1e-9 {
+                residual.normalize()
+            } else {
+                DVec3::ZERO
+            };
+            // The projection lies on the arc (shorter than π) when it is on the inner side of
+            // both ends: a → p and p → b turn the same way as a → b.
             let on_arc = projected != DVec3::ZERO
-                && angle(a, projected) <= span
-                && angle(projected, b) <= span;
+                && normal.dot(a.cross(projected)) >= 0.0
+                && normal.dot(projected.cross(b)) >= 0.0;
             let (point, weights) = if on_arc {
                 let to_b = angle(projected, b) / span;
                 (projected, vec![(i, to_b), (j, 1.0 - to_b)])
@@ -242,6 +274,34 @@ impl SphereTriangulation {
             None => (vec![(self.triangles[0][0], 1.0)], 0.0),
         }
     }
+}
+
+/// The angular radius of the circumcircle of the unit directions a, b, c: the angle from the
+/// normal of their plane to any of them.
+fn circumradius(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let normal = (b - a).cross(c - a).normalize_or_zero();
+    angle(normal, a).min(angle(-normal, a))
+}
+
+/// The largest, over samples, of each sample's angle to its nearest other sample. A sample's
+/// nearest neighbour is always joined to it by a Delaunay edge, so the hull's edges (the centre's
+/// left out) hold every nearest pair: O(faces), not O(samples²).
+fn nearest_neighbour_spacing(directions: &[DVec3], faces: &[[usize; 3]]) -> f64 {
+    let mut nearest = vec![f64::INFINITY; directions.len()];
+    for f in faces {
+        for k in 0..3 {
+            let (i, j) = (f[k], f[(k + 1) % 3]);
+            if i < directions.len() && j < directions.len() {
+                let a = angle(directions[i], directions[j]);
+                nearest[i] = nearest[i].min(a);
+                nearest[j] = nearest[j].min(a);
+            }
+        }
+    }
+    nearest
+        .into_iter()
+        .filter(|a| a.is_finite())
+        .fold(0.0, f64::max)
 }
 
 /// Weights divided by their sum, negligible ones dropped, largest first (ties by index).
@@ -274,11 +334,12 @@ impl Hull {
         let mut points = directions.to_vec();
         points.push(DVec3::ZERO);
         let n = points.len();
-        // The first tetrahedron: points 0, 1, the first not on their line, the first not on
-        // their plane (the line test is exact too: a zero orientation against every other point
-        // would follow from it).
-        let (i0, i1) = (0, 1);
-        let i2 = (2..n).find(|&k| {
+        // The first tetrahedron: point 0, the first point other than it, the first not on their
+        // line (by a non-zero cross product; a near-collinear pick still gives an exact
+        // orientation below), the first not on their plane (exactly).
+        let i0 = 0;
+        let i1 = (1..n).find(|&k| points[k] != points[i0])?;
+        let i2 = (i1 + 1..n).find(|&k| {
             (points[k] - points[i0])
                 .cross(points[i1] - points[i0])
                 .length_squared()
@@ -378,22 +439,25 @@ mod tests {
     fn a_patch_is_covered_once_with_no_face_across_the_hole() {
         let samples = patch(&[-10.0, 0.0, 10.0], &[0.0, 10.0, 20.0]);
         let t = SphereTriangulation::new(&samples, DVec3::ZERO).unwrap();
-        // A 3 × 3 grid: 4 cells of 2 triangles, and a sliver along the top row: the great
-        // circle through its ends runs poleward of its middle sample (by 0.28°), so that sample
-        // is inside the region. The bottom row lies on the equator, a great circle: no sliver.
-        assert_eq!(t.triangles().len(), 9, "{:?}", t.triangles());
-        // The region is the spherical convex hull of the samples: the quad of the corners.
+        // A 3 × 3 grid: 4 cells of 2 triangles. The great circle through the top row's ends
+        // runs poleward of its middle sample (by 0.28°): the hull has a sliver face there, whose
+        // circumcircle (the 20° latitude circle, 70° in radius) is far past twice the 10°
+        // spacing, so it is left out, and the bottom row lies on the equator (no face).
+        assert_eq!(t.triangles().len(), 8, "{:?}", t.triangles());
+        assert!((t.spacing_radians() - 10f64.to_radians()).abs() < 1e-9);
+        // The region: the spherical quad of the corners less the top row's sliver.
         let corners = [samples[0], samples[2], samples[8], samples[6]];
         let hull_area = signed_area(corners[0], corners[1], corners[2])
             + signed_area(corners[0], corners[2], corners[3]);
+        let sliver = signed_area(samples[6], samples[7], samples[8]).abs();
+        assert!(sliver > 0.0);
         assert!(
-            (t.area() - hull_area).abs() < 1e-12,
-            "{} vs {hull_area}",
+            (t.area() - (hull_area - sliver)).abs() < 1e-12,
+            "{} vs {hull_area} − {sliver}",
             t.area()
         );
-        // 7 boundary edges round the outside (the top row's middle sample is inside), every
-        // sample on a triangle.
-        assert_eq!(t.boundary().len(), 7, "{:?}", t.boundary());
+        // 8 boundary edges round the outside, every sample on a triangle.
+        assert_eq!(t.boundary().len(), 8, "{:?}", t.boundary());
         for s in 0..9 {
             assert!(!t.neighbours(s).is_empty(), "sample {s}");
         }
@@ -489,7 +553,47 @@ mod tests {
         assert_eq!(at.weights, vec![(2, 1.0)]);
         // Straight up, above the top row.
         let at = t.locate(DVec3::Y).unwrap();
-        assert!(at.outside && at.outside_radians > 60f64.to_radians());
+        assert!(
+            at.outside && at.outside_radians > 60f64.to_radians(),
+            "{at:?}"
+        );
+    }
+
+    #[test]
+    fn a_ring_leaves_its_hole_open() {
+        // 12 columns all round, 0–30° of elevation: the band, not the cap above it.
+        let azimuths: Vec<f64> = (0..12).map(|i| i as f64 * 30.0).collect();
+        let samples = patch(&azimuths, &[0.0, 15.0, 30.0]);
+        let t = SphereTriangulation::new(&samples, DVec3::ZERO).unwrap();
+        let up = t.locate(DVec3::Y).unwrap();
+        assert!(up.outside, "{up:?}");
+        assert!(
+            (up.outside_radians.to_degrees() - 60.0).abs() < 1.0,
+            "{up:?}"
+        );
+        let band = t.locate(direction(5.0, 10.0)).unwrap();
+        assert!(!band.outside && band.weights.len() == 3, "{band:?}");
+        // The band is 24 cells of two triangles.
+        assert_eq!(t.triangles().len(), 48);
+    }
+
+    #[test]
+    fn an_edge_longer_than_a_third_of_the_circle_keeps_far_points_outside() {
+        // Three samples far apart: a direction beyond one end of the long edge is nearest to
+        // that end, not "on" the edge.
+        let samples = [
+            direction(-75.0, 0.0),
+            direction(75.0, 0.0),
+            direction(0.0, 30.0),
+        ];
+        let t = SphereTriangulation::new(&samples, DVec3::ZERO).unwrap();
+        let far = t.locate(direction(-165.0, 0.0)).unwrap();
+        assert!(far.outside);
+        assert!(
+            (far.outside_radians.to_degrees() - 90.0).abs() < 1e-6,
+            "{far:?}"
+        );
+        assert_eq!(far.weights, vec![(0, 1.0)]);
     }
 
     #[test]

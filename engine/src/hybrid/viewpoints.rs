@@ -13,10 +13,11 @@ use super::sphere::SphereTriangulation;
 /// Angles below this (radians) mean the camera sits on a sample: one viewpoint, weight 1.
 pub const ON_SAMPLE_RADIANS: f64 = 1e-6;
 
-/// The samples a frame blends and their weights (summing to 1, nearest first).
+/// The samples a frame blends and their weights (summing to 1, largest first; along a circle the
+/// larger weight is the nearer sample's).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewpointBlend {
-    /// `(sample index, weight)`, one or two entries.
+    /// `(sample index, weight)`, one to three entries.
     pub samples: Vec<(usize, f64)>,
 }
 
@@ -62,8 +63,8 @@ pub fn blend(samples: &[DVec3], look_at: DVec3, camera: DVec3) -> Option<Viewpoi
 /// its direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewSpaceFit {
-    /// Index of the sample nearest to the camera (the first of [`blend`]'s samples; ties go to
-    /// the lower index).
+    /// Index of the sample nearest to the camera in angle (ties go to the lower index); along a
+    /// circle the first of [`blend`]'s samples.
     pub nearest: usize,
     /// The camera's angle to the nearest sample, radians in [0, π].
     pub nearest_radians: f64,
@@ -172,8 +173,14 @@ impl ViewSpaceBlender {
         } else {
             None
         };
+        // A 2D view space has its spacing from the triangulation's edges (O(faces)); a 1D one
+        // costs one angle per pair of samples, once.
+        let spacing_radians = match &triangulation {
+            Some(t) => t.spacing_radians(),
+            None => spacing(&positions, centre),
+        };
         ViewSpaceBlender {
-            spacing_radians: spacing(&positions, centre),
+            spacing_radians,
             positions,
             centre,
             triangulation,
@@ -428,19 +435,15 @@ mod tests {
         assert!((total - 1.0).abs() < 1e-12);
         assert!(blend.samples.windows(2).all(|w| w[0].1 >= w[1].1));
         // 15° above the top row (elevation 20°): outside, blending the nearest point of the
-        // region. That is on the great circle through the top row's ends (6 and 8), which runs
-        // 0.28° poleward of the middle sample 7: halfway between 6 and 8.
+        // region, on an arc next to the top row's middle sample 7 (the arcs bulge poleward, so
+        // it is a little nearer than 7 itself, 15°).
         let above = on_sphere(0.0, 35.0);
         let fit = surface.fit(above).unwrap();
         assert!(fit.outside, "{fit:?}");
-        assert!(
-            (fit.outside_radians.to_degrees() - 14.72).abs() < 0.1,
-            "{}",
-            fit.outside_radians.to_degrees()
-        );
+        let degrees = fit.outside_radians.to_degrees();
+        assert!(degrees < 15.0 && degrees > 14.99, "{degrees}");
         let top = surface.blend(above).unwrap().samples;
-        assert_eq!((top[0].0, top[1].0), (6, 8), "{top:?}");
-        assert!((top[0].1 - 0.5).abs() < 1e-6, "{top:?}");
+        assert!(top[0].0 == 7 && top[0].1 > 0.9, "{top:?}");
         // The same samples as a 1D view space: the two nearest.
         let line = ViewSpaceBlender::new(samples.clone(), DVec3::ZERO, false);
         assert!(line.triangulation().is_none());

@@ -217,6 +217,18 @@ mod tests {
                 }
             }
         }
+        // A corner sample has fewer neighbours than K − 1 = 8: one view each, none repeated.
+        let nine = BakeOptions {
+            multi_view: 9,
+            ..BakeOptions::default()
+        };
+        let corner = view_cameras(&scene, 0, &nine);
+        assert_eq!(corner.len(), 1 + triangulation.neighbours(0).len());
+        for (i, a) in corner.iter().enumerate() {
+            for b in &corner[i + 1..] {
+                assert!(a.position.distance(b.position) > 1e-3);
+            }
+        }
     }
 
     #[test]

@@ -57,11 +57,8 @@ pub(crate) fn scene_from_toml(text: &str, origin: &Path) -> Result<Scene> {
         toml::from_str(text).map_err(|e| SceneError::from_toml(origin, text, &e))?;
     let base = origin.parent().map_or_else(PathBuf::new, Path::to_path_buf);
     let loader = Loader { file: origin, base };
-    let parsed = match &parsed.extends {
-        Some(name) => {
-            let name = name.clone();
-            loader.extended(&name, parsed, text)?
-        }
+    let parsed = match parsed.extends.clone() {
+        Some(name) => loader.extended(&name, parsed, text)?,
         None => parsed,
     };
     loader.scene(parsed)

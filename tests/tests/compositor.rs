@@ -410,34 +410,47 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
         let mut single = frame.clone();
         single.viewpoint_weights = vec![1.0];
         single.lenses[0].layers.remove(zero);
-        for variant in [Variant::Multipass, Variant::SinglePass] {
-            let mut a = renderer.upload(&gpu, &frame).unwrap();
-            let mut b = renderer.upload(&gpu, &single).unwrap();
-            let plan = Renderer::plan(
-                &a,
-                &RenderOptions {
-                    variant,
-                    format: TargetFormat::Rgba32f,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            if variant == Variant::Multipass {
-                assert_eq!(
-                    (
-                        plan.count(PassCategory::Layer),
-                        plan.count(PassCategory::AlphaClear)
-                    ),
-                    (4, 1),
-                    "{plan}"
-                );
-            }
-            let x = render_rgba32f(&mut renderer, &gpu, &mut a, variant);
-            let y = render_rgba32f(&mut renderer, &gpu, &mut b, variant);
-            assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
-        }
+        renders_like(&gpu, &mut renderer, (&frame, &single), (4, 1), zero);
     }
     assert_clean(&gpu);
+}
+
+/// `frame`, whose viewpoint `zero` has weight 0, renders bit for bit like `without` (the same
+/// frame without that viewpoint) in both variants, and its multipass plan has `counts` (layer
+/// passes, alpha clears): the zero-weight viewpoint's groups are left out.
+fn renders_like(
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    (frame, without): (&FrameInput, &FrameInput),
+    counts: (usize, usize),
+    zero: usize,
+) {
+    for variant in [Variant::Multipass, Variant::SinglePass] {
+        let mut a = renderer.upload(gpu, frame).unwrap();
+        let mut b = renderer.upload(gpu, without).unwrap();
+        let plan = Renderer::plan(
+            &a,
+            &RenderOptions {
+                variant,
+                format: TargetFormat::Rgba32f,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        if variant == Variant::Multipass {
+            assert_eq!(
+                (
+                    plan.count(PassCategory::Layer),
+                    plan.count(PassCategory::AlphaClear)
+                ),
+                counts,
+                "{plan}"
+            );
+        }
+        let x = render_rgba32f(renderer, gpu, &mut a, variant);
+        let y = render_rgba32f(renderer, gpu, &mut b, variant);
+        assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
+    }
 }
 
 /// Three viewpoint samples with one at weight 0 (a camera on an edge of a spherical triangle)
@@ -456,32 +469,7 @@ fn a_zero_weight_among_three_viewpoints_renders_like_two() {
         let mut two = frame.clone();
         two.viewpoint_weights.remove(zero);
         two.lenses[0].layers.remove(zero);
-        for variant in [Variant::Multipass, Variant::SinglePass] {
-            let mut a = renderer.upload(&gpu, &frame).unwrap();
-            let mut b = renderer.upload(&gpu, &two).unwrap();
-            let plan = Renderer::plan(
-                &a,
-                &RenderOptions {
-                    variant,
-                    format: TargetFormat::Rgba32f,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            if variant == Variant::Multipass {
-                assert_eq!(
-                    (
-                        plan.count(PassCategory::Layer),
-                        plan.count(PassCategory::AlphaClear)
-                    ),
-                    (8, 3),
-                    "{plan}"
-                );
-            }
-            let x = render_rgba32f(&mut renderer, &gpu, &mut a, variant);
-            let y = render_rgba32f(&mut renderer, &gpu, &mut b, variant);
-            assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
-        }
+        renders_like(&gpu, &mut renderer, (&frame, &two), (8, 3), zero);
     }
     assert_clean(&gpu);
 }

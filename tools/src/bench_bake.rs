@@ -75,21 +75,6 @@ fn lens_object_masks(trace: &TraceScene, reference: &ReferenceImage) -> Vec<(Str
         .collect()
 }
 
-/// The triangulation of the scene's view space when it is 2D.
-fn triangulation(scene: &Scene) -> Option<SphereTriangulation> {
-    if !scene.view_space.is_surface() {
-        return None;
-    }
-    let centre = scene.view_space.centre(scene.camera.look_at).as_dvec3();
-    let samples: Vec<DVec3> = scene
-        .view_space
-        .samples()
-        .iter()
-        .map(|p| p.as_dvec3())
-        .collect();
-    SphereTriangulation::new(&samples, centre)
-}
-
 /// The judged cameras, `base` moved: on sample A, halfway to A+1, 15° above A; in a 2D view
 /// space on sample A, at the centroid of the first triangle holding A, at the middle of the arc
 /// to A's lowest-numbered neighbour, and 15° above A (all at A's distance from the centre).
@@ -97,7 +82,7 @@ pub fn cameras(scene: &Scene, a: usize, base: Camera) -> Vec<(&'static str, Came
     let samples = scene.view_space.samples();
     let look_at = scene.camera.look_at;
     let pa = samples[a] - look_at;
-    let in_2d = triangulation(scene).and_then(|t| {
+    let in_2d = SphereTriangulation::of_scene(scene).and_then(|t| {
         let centre = scene.view_space.centre(look_at).as_dvec3();
         let own = samples[a].as_dvec3() - centre;
         let at = |direction: DVec3| (centre + direction.normalize() * own.length()).as_vec3();
@@ -159,7 +144,7 @@ fn contenders(scene: &Scene, args: &BenchBakeArgs) -> anyhow::Result<Vec<(String
 pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     args.judge.validate()?;
     let scene = Scene::load_named(&args.scene)?;
-    let surface = triangulation(&scene).is_some();
+    let surface = SphereTriangulation::of_scene(&scene).is_some();
     if surface && args.sample >= scene.view_space.len() {
         return Err(BadUsage(format!(
             "--sample {}: scene \"{}\" has samples 0..{}",

@@ -209,52 +209,38 @@ fn a_patch_bakes_in_shards_that_merge_into_one_bake() {
     // Azimuth −4°, elevation 20° about the look-at point: inside the lower-left cell (samples
     // 0, 1, 3, 4), off its diagonal, so three samples.
     let image = root.join("frame.png");
-    let output = lensmap(&[
-        "render",
-        "--scene",
-        scene,
-        "--bake",
-        whole.to_str().unwrap(),
-        "--width",
-        "32",
-        "--height",
-        "24",
-        "--supersampling",
-        "1",
-        "--camera-position",
-        "-0.342,2.785,4.893",
-        "--out",
-        image.to_str().unwrap(),
-        "--json",
-    ]);
-    common::assert_success("lensmap render", &output);
-    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    // A 32×24 frame of the bake from `position`: its JSON report and its stderr.
+    let render_at = |position: &str| {
+        let output = lensmap(&[
+            "render",
+            "--scene",
+            scene,
+            "--bake",
+            whole.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--supersampling",
+            "1",
+            "--camera-position",
+            position,
+            "--out",
+            image.to_str().unwrap(),
+            "--json",
+        ]);
+        common::assert_success("lensmap render", &output);
+        let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+        (json, String::from_utf8_lossy(&output.stderr).into_owned())
+    };
+    let (json, _) = render_at("-0.342,2.785,4.893");
     let viewpoints = json["hybrid"]["viewpoints"].as_array().unwrap();
     assert_eq!(viewpoints.len(), 3, "{json}");
     assert_eq!(json["hybrid"]["outside_view_space"], false, "{json}");
     // Straight above the look-at point, far outside the patch: still a frame, blending the
     // nearest point of the region (on its top edge, samples 3 and 4: the bake's viewpoints 2
     // and 3), said in one warning line, with every value finite.
-    let output = lensmap(&[
-        "render",
-        "--scene",
-        scene,
-        "--bake",
-        whole.to_str().unwrap(),
-        "--width",
-        "32",
-        "--height",
-        "24",
-        "--supersampling",
-        "1",
-        "--camera-position",
-        "0.01,6.0,0.2",
-        "--out",
-        image.to_str().unwrap(),
-        "--json",
-    ]);
-    common::assert_success("lensmap render", &output);
-    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let (json, stderr) = render_at("0.01,6.0,0.2");
     assert_eq!(json["hybrid"]["outside_view_space"], true, "{json}");
     let samples: Vec<u64> = json["hybrid"]["viewpoints"]
         .as_array()
@@ -266,7 +252,6 @@ fn a_patch_bakes_in_shards_that_merge_into_one_bake() {
         !samples.is_empty() && samples.iter().all(|s| [2, 3].contains(s)),
         "{json}"
     );
-    let stderr = String::from_utf8_lossy(&output.stderr);
     let warnings: Vec<&str> = stderr
         .lines()
         .filter(|l| l.contains("outside the view space"))

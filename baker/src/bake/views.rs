@@ -50,12 +50,9 @@ fn surface_views(
     sample: usize,
     options: &BakeOptions,
 ) -> Option<Vec<Camera>> {
-    if !scene.view_space.is_surface() {
-        return None;
-    }
+    let triangulation = SphereTriangulation::of_scene(scene)?;
     let centre = scene.view_space.centre(scene.camera.look_at).as_dvec3();
     let points: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
-    let triangulation = SphereTriangulation::new(&points, centre)?;
     let own = points[sample] - centre;
     let unit = own.normalize();
     // Bearings in the tangent plane at the sample, from the projection of +y (else +x).

@@ -469,10 +469,18 @@ impl HybridScene {
     /// weight 1, half the compositing work. Sample 0 with weight 1 when there is no sample or
     /// the camera sits at its look-at point.
     pub fn viewpoint_blend(&self, camera: &Camera, blending: ViewpointBlending) -> ViewpointBlend {
+        self.placed(camera, blending).0
+    }
+
+    /// [`HybridScene::viewpoint_blend`] and whether the camera is outside the view space, with
+    /// one point location for the view space's own blending.
+    fn placed(&self, camera: &Camera, blending: ViewpointBlending) -> (ViewpointBlend, bool) {
         let position = camera.position.as_dvec3();
         let view_space = &self.view_space;
+        let placed = view_space.place(position);
+        let outside = placed.as_ref().is_some_and(|(_, outside)| *outside);
         let blend = match blending {
-            ViewpointBlending::ViewSpace => view_space.blend(position),
+            ViewpointBlending::ViewSpace => placed.map(|(blend, _)| blend),
             ViewpointBlending::TwoNearest | ViewpointBlending::Nearest => {
                 viewpoints::blend(view_space.positions(), view_space.centre(), position)
             }
@@ -480,13 +488,16 @@ impl HybridScene {
         let blend = blend.unwrap_or(ViewpointBlend {
             samples: vec![(0, 1.0)],
         });
-        if self.lenses.iter().all(|l| l.maps.len() == 1) || blending == ViewpointBlending::Nearest {
+        let blend = if self.lenses.iter().all(|l| l.maps.len() == 1)
+            || blending == ViewpointBlending::Nearest
+        {
             ViewpointBlend {
                 samples: vec![(blend.samples[0].0, 1.0)],
             }
         } else {
             blend
-        }
+        };
+        (blend, outside)
     }
 
     /// Lens object `lens_index` (`lens`) tessellated from the frame's camera: each of its scene
@@ -597,9 +608,9 @@ impl HybridScene {
     ) -> Result<(FrameInput, HybridStats, Vec<Vec<u8>>), TessellationError> {
         let start = Instant::now();
         let view = self.view(camera);
-        let blend = self.viewpoint_blend(camera, options.viewpoint_blending);
+        let (blend, outside_view_space) = self.placed(camera, options.viewpoint_blending);
         let mut stats = HybridStats {
-            outside_view_space: self.view_space_fit(camera).is_some_and(|fit| fit.outside),
+            outside_view_space,
             viewpoints_blended: blend.samples.len(),
             ..HybridStats::default()
         };

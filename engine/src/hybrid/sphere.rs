@@ -24,6 +24,7 @@ use robust::{Coord3D, orient3d};
 use rustc_hash::FxHashMap;
 
 use super::viewpoints::angle;
+use crate::scene::Scene;
 
 /// Triangles smaller than this (steradians) are left out: three samples on one great circle up
 /// to rounding (the samples of a patch's meridian), a face that spans no region.
@@ -149,6 +150,22 @@ impl SphereTriangulation {
             triangles,
             boundary,
         })
+    }
+
+    /// The triangulation of `scene`'s view space (all its samples about its centre), `None` for
+    /// a 1D view space (a circle) or one that spans no spherical triangle.
+    pub fn of_scene(scene: &Scene) -> Option<SphereTriangulation> {
+        if !scene.view_space.is_surface() {
+            return None;
+        }
+        let centre = scene.view_space.centre(scene.camera.look_at).as_dvec3();
+        let samples: Vec<DVec3> = scene
+            .view_space
+            .samples()
+            .iter()
+            .map(|p| p.as_dvec3())
+            .collect();
+        SphereTriangulation::new(&samples, centre)
     }
 
     /// The triangles, as sample indices counter-clockwise seen from outside the sphere.

@@ -208,11 +208,27 @@ impl ViewSpaceBlender {
     /// region; in a 1D one the two nearest samples ([`blend`]). `None` without samples or for a
     /// camera at the centre or not finite.
     pub fn blend(&self, camera: DVec3) -> Option<ViewpointBlend> {
+        self.place(camera).map(|(blend, _)| blend)
+    }
+
+    /// [`ViewSpaceBlender::blend`] and whether the camera is outside the view space
+    /// ([`ViewSpaceFit::outside`]), from one point location: what a frame needs of the view
+    /// space.
+    pub fn place(&self, camera: DVec3) -> Option<(ViewpointBlend, bool)> {
         match &self.triangulation {
-            Some(t) => Some(ViewpointBlend {
-                samples: t.locate(camera - self.centre)?.weights,
-            }),
-            None => blend(&self.positions, self.centre, camera),
+            Some(t) => {
+                let location = t.locate(camera - self.centre)?;
+                let blend = ViewpointBlend {
+                    samples: location.weights,
+                };
+                Some((blend, location.outside))
+            }
+            None => {
+                let blend = blend(&self.positions, self.centre, camera)?;
+                let fit =
+                    fit_with_spacing(&self.positions, self.centre, camera, self.spacing_radians)?;
+                Some((blend, fit.outside))
+            }
         }
     }
 

@@ -15,16 +15,17 @@ fn readback(variant: Variant, blend: BlendScheme, format: TargetFormat) -> PlanO
     }
 }
 
+/// The compiled plan of `shape` with `options`.
+fn compiled(shape: &FrameShape, options: &PlanOptions) -> FramePlan {
+    frame_graph(shape, options).unwrap().0.compile().unwrap()
+}
+
 fn plan(layers: usize, viewpoints: usize, terms: &[Term], variant: Variant) -> FramePlan {
     let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
-    frame_graph(
+    compiled(
         &shape,
         &readback(variant, BlendScheme::FrontToBack, TargetFormat::Rgba32f),
     )
-    .unwrap()
-    .0
-    .compile()
-    .unwrap()
 }
 
 const BOTH: [Term; 2] = [Term::Refraction, Term::Reflection];
@@ -134,18 +135,14 @@ fn a_zero_weight_viewpoint_and_empty_layers_are_skipped() {
     let mut shape = FrameShape::synthetic(64, 64, 3, 2, &BOTH);
     shape.viewpoint_weights = vec![1.0, 0.0];
     shape.lenses[0].empty[0][1] = true;
-    let p = frame_graph(
+    let p = compiled(
         &shape,
         &readback(
             Variant::Multipass,
             BlendScheme::FrontToBack,
             TargetFormat::Rgba8,
         ),
-    )
-    .unwrap()
-    .0
-    .compile()
-    .unwrap();
+    );
     // One viewpoint × two terms × (3 − 1 empty) layers, one clear between the two groups.
     assert_eq!(
         (
@@ -160,18 +157,14 @@ fn a_zero_weight_viewpoint_and_empty_layers_are_skipped() {
     // triangle): its groups are not declared, the other two keep theirs.
     let mut shape = FrameShape::synthetic(64, 64, 2, 3, &BOTH);
     shape.viewpoint_weights = vec![0.5, 0.0, 0.5];
-    let p = frame_graph(
+    let p = compiled(
         &shape,
         &readback(
             Variant::Multipass,
             BlendScheme::FrontToBack,
             TargetFormat::Rgba8,
         ),
-    )
-    .unwrap()
-    .0
-    .compile()
-    .unwrap();
+    );
     assert_eq!(
         (
             p.count(PassCategory::Layer),
@@ -216,14 +209,10 @@ fn a_lens_with_both_faces_culls_nothing_in_any_pass() {
 
 fn plan_blended(layers: usize, viewpoints: usize, terms: &[Term], blend: BlendScheme) -> FramePlan {
     let shape = FrameShape::synthetic(64, 64, layers, viewpoints, terms);
-    frame_graph(
+    compiled(
         &shape,
         &readback(Variant::Multipass, blend, TargetFormat::Rgba32f),
     )
-    .unwrap()
-    .0
-    .compile()
-    .unwrap()
 }
 
 /// Each scheme's pass, barrier and rendering-instance counts for n = 1…4 layers and G =
@@ -307,18 +296,14 @@ fn back_to_front_reverses_the_layer_order() {
 fn programmable_resets_alpha_at_group_boundaries() {
     let mut shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
     let resets = |shape: &FrameShape| -> Vec<(String, bool)> {
-        let plan = frame_graph(
+        let plan = compiled(
             shape,
             &readback(
                 Variant::Multipass,
                 BlendScheme::Programmable,
                 TargetFormat::Rgba32f,
             ),
-        )
-        .unwrap()
-        .0
-        .compile()
-        .unwrap();
+        );
         plan.steps
             .iter()
             .filter_map(|s| match &s.pass.kind {
@@ -402,11 +387,7 @@ fn plans_match_the_golden_text() {
                 let mut text = String::new();
                 for n in 1..=4 {
                     let shape = FrameShape::synthetic(640, 480, n, viewpoints, terms);
-                    let plan = frame_graph(&shape, &readback(variant, blend, TargetFormat::Rgba8))
-                        .unwrap()
-                        .0
-                        .compile()
-                        .unwrap();
+                    let plan = compiled(&shape, &readback(variant, blend, TargetFormat::Rgba8));
                     text.push_str(&format!("# n = {n}\n{plan}"));
                 }
                 // The paper's scheme keeps its files' names; the others add theirs.

@@ -121,44 +121,20 @@ impl Loader<'_> {
         // The keys the file gives (it parsed as a scene file, so it parses as a table).
         let keys: toml::Table = toml::from_str(text).unwrap_or_default();
         let has = |key: &str| keys.contains_key(key);
+        // Each top-level key the file gives replaces the built-in's whole.
+        fn pick<T>(given: bool, file: T, builtin: T) -> T {
+            if given { file } else { builtin }
+        }
         Ok(SceneFile {
             extends: None,
             name: file.name,
-            camera: if has("camera") {
-                file.camera
-            } else {
-                builtin.camera
-            },
-            environment: if has("environment") {
-                file.environment
-            } else {
-                builtin.environment
-            },
-            lights: if has("lights") {
-                file.lights
-            } else {
-                builtin.lights
-            },
-            materials: if has("materials") {
-                file.materials
-            } else {
-                builtin.materials
-            },
-            objects: if has("objects") {
-                file.objects
-            } else {
-                builtin.objects
-            },
-            lenses: if has("lenses") {
-                file.lenses
-            } else {
-                builtin.lenses
-            },
-            view_space: if has("view_space") {
-                file.view_space
-            } else {
-                builtin.view_space
-            },
+            camera: pick(has("camera"), file.camera, builtin.camera),
+            environment: pick(has("environment"), file.environment, builtin.environment),
+            lights: pick(has("lights"), file.lights, builtin.lights),
+            materials: pick(has("materials"), file.materials, builtin.materials),
+            objects: pick(has("objects"), file.objects, builtin.objects),
+            lenses: pick(has("lenses"), file.lenses, builtin.lenses),
+            view_space: pick(has("view_space"), file.view_space, builtin.view_space),
         })
     }
 

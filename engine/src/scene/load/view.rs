@@ -91,9 +91,7 @@ impl Loader<'_> {
                 if list.is_empty() {
                     return Err(self.error("view_space.list", "the list of viewpoints is empty", "give at least one position [x, y, z]"));
                 }
-                if list.len() > MAX_VIEWPOINT_SAMPLES as usize {
-                    return Err(self.error("view_space.list", format!("{} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", list.len()), "give fewer samples"));
-                }
+                self.within_sample_limit("view_space.list", list.len() as u64, format!("{} viewpoint samples", list.len()), "give fewer samples")?;
                 let positions = list
                     .iter()
                     .enumerate()
@@ -133,6 +131,25 @@ impl Loader<'_> {
         Ok(())
     }
 
+    /// `count` samples (`what` says how they were counted) within [`MAX_VIEWPOINT_SAMPLES`],
+    /// else an error naming `field` with `fix`.
+    fn within_sample_limit(
+        &self,
+        field: impl std::fmt::Display,
+        count: u64,
+        what: String,
+        fix: &str,
+    ) -> Result<()> {
+        if count > u64::from(MAX_VIEWPOINT_SAMPLES) {
+            return Err(self.error(
+                field,
+                format!("{what}, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have"),
+                fix,
+            ));
+        }
+        Ok(())
+    }
+
     pub(super) fn patch(&self, spec: &PatchSpec, camera: &Camera) -> Result<ViewSpace> {
         let f = "view_space.patch";
         let centre = match spec.centre {
@@ -159,10 +176,12 @@ impl Loader<'_> {
                     "give a count ≥ 2 (for one row of samples use [view_space.circle])",
                 ));
             }
-            if count > MAX_VIEWPOINT_SAMPLES {
-                let count_field = field.replace("_degrees", "_count");
-                return Err(self.error(count_field, format!("{count} samples across, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have"), "give fewer samples"));
-            }
+            self.within_sample_limit(
+                field.replace("_degrees", "_count"),
+                u64::from(count),
+                format!("{count} samples across"),
+                "give fewer samples",
+            )?;
             Ok((first.to_radians(), last.to_radians()))
         };
         let (a0, a1) = range("azimuth", spec.azimuth_degrees, spec.azimuth_count)?;
@@ -187,9 +206,15 @@ impl Loader<'_> {
             ));
         }
         let samples = u64::from(spec.azimuth_count) * u64::from(spec.elevation_count);
-        if samples > u64::from(MAX_VIEWPOINT_SAMPLES) {
-            return Err(self.error(f, format!("{} × {} = {samples} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", spec.azimuth_count, spec.elevation_count), "give fewer samples"));
-        }
+        self.within_sample_limit(
+            f,
+            samples,
+            format!(
+                "{} × {} = {samples} viewpoint samples",
+                spec.azimuth_count, spec.elevation_count
+            ),
+            "give fewer samples",
+        )?;
         Ok(ViewSpace::Patch {
             centre,
             radius,
@@ -239,9 +264,12 @@ impl Loader<'_> {
                 "give count ≥ 3",
             ));
         }
-        if spec.count > MAX_VIEWPOINT_SAMPLES {
-            return Err(self.error(format!("{f}.count"), format!("{} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", spec.count), "give fewer samples"));
-        }
+        self.within_sample_limit(
+            format!("{f}.count"),
+            u64::from(spec.count),
+            format!("{} viewpoint samples", spec.count),
+            "give fewer samples",
+        )?;
         Ok(ViewSpace::Cap {
             centre,
             radius,
@@ -260,13 +288,12 @@ impl Loader<'_> {
                 "give count ≥ 1 (e.g. 45 samples 8° apart close the circle)",
             ));
         }
-        if spec.count > MAX_VIEWPOINT_SAMPLES {
-            return Err(self.error(
-                format!("{f}.count"),
-                format!("{} viewpoint samples, more than the {MAX_VIEWPOINT_SAMPLES} a view space may have", spec.count),
-                "give fewer samples (45 samples 8° apart close the circle)",
-            ));
-        }
+        self.within_sample_limit(
+            format!("{f}.count"),
+            u64::from(spec.count),
+            format!("{} viewpoint samples", spec.count),
+            "give fewer samples (45 samples 8° apart close the circle)",
+        )?;
         let step = self.finite(&format!("{f}.step_degrees"), spec.step_degrees)?;
         if step == 0.0 && spec.count > 1 {
             return Err(self.error(

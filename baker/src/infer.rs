@@ -9,6 +9,7 @@ use lensmap::{
     cubemap::{CubeMap, sampling::sample_cube_trilinear},
     hybrid::{HybridOptions, HybridScene},
     index::{LayerIndex, LayerRef, LensIndex},
+    layers::Layering,
     render::{FrameInput, TargetFormat, UploadedFrame, Variant},
     runner::FrameRunner,
     scene::Camera,
@@ -21,7 +22,7 @@ use crate::{
         RenderingMatrix, TestRenderer, TexelLayout,
     },
     solve::{Equations, Smoothness, SolveError, SolveOptions, SolveReport, solve},
-    targets::{DEFAULT_CONFIDENCE_DEGREES, TargetError, term_targets},
+    targets::{DEFAULT_CONFIDENCE_DEGREES, TargetError, bounce_targets, term_targets},
 };
 
 /// The default largest EM face size the resolution search considers, texels.
@@ -416,14 +417,21 @@ pub fn prepare<'v>(
             .terms()
             .iter()
             .map(|&term| {
-                term_targets(
-                    view.records,
-                    term,
-                    &layers.shells,
-                    (camera.width, camera.height),
-                    camera.supersampling.max(1),
-                    options.theta_c,
-                )
+                let size = (camera.width, camera.height);
+                let k = camera.supersampling.max(1);
+                match layers.layering {
+                    Layering::Distance => term_targets(
+                        view.records,
+                        term,
+                        &layers.shells,
+                        size,
+                        k,
+                        options.theta_c,
+                    ),
+                    Layering::Bounce => {
+                        bounce_targets(view.records, term, size, k, options.theta_c)
+                    }
+                }
             })
             .collect::<Result<Vec<_>, _>>()?;
         targets.push(per_term);

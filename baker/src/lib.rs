@@ -9,6 +9,7 @@
 //! [`bake`] plans, bakes sample by sample, resumes and merges shards.
 
 pub mod bake;
+pub mod bounce;
 pub mod clustering;
 pub mod direct;
 pub mod infer;

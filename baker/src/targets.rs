@@ -73,12 +73,7 @@ pub fn term_targets(
             "no layer shells; give at least one".into(),
         ));
     }
-    if !(theta_c.is_finite() && theta_c > 0.0) {
-        return Err(TargetError::BadInput(format!(
-            "confidence angle {} degrees; give an angle > 0, e.g. 5",
-            theta_c.to_degrees()
-        )));
-    }
+    check_theta(theta_c)?;
     let pixels = (width as usize) * (height as usize);
     let n = shells.len();
     let mut layers = vec![vec![[0.0f64; 4]; pixels]; n];
@@ -89,17 +84,7 @@ pub fn term_targets(
         .iter()
         .filter(|r| r.term == term && r.visible)
     {
-        let (x, y) = (
-            record.image_position.x.floor(),
-            record.image_position.y.floor(),
-        );
-        if x < 0.0 || y < 0.0 || x >= width as f32 || y >= height as f32 {
-            return Err(TargetError::BadInput(format!(
-                "a record at image position {} lies outside the {width}×{height} image; compile the records with the same camera",
-                record.image_position
-            )));
-        }
-        let pixel = y as usize * width as usize + x as usize;
+        let pixel = pixel_of(record.image_position, (width, height))?;
         let ray = record.outgoing_ray;
         directions[pixel].push(ray.direction.normalize_or_zero());
         let distances: Vec<f64> = shells
@@ -128,6 +113,81 @@ pub fn term_targets(
             target[3] += scale;
         }
     }
+    Ok(finish_targets(term, layers, &directions, theta_c))
+}
+
+/// The targets of `term` for records of first-bounce paths ([`lensmap::trace::Bounces::First`]),
+/// layered by bounce (the PEM paper §4): layer 0, the local layer, holds what a first bounce sees
+/// of the lens objects (α = the fraction of the pixel's supersamples that see one); layer 1,
+/// the distant one, the environment seen through them (the first environment hit, else the
+/// environment at infinity: α = 1 wherever the term has records). Arguments as
+/// [`term_targets`].
+pub fn bounce_targets(
+    records: &LensRecords,
+    term: Term,
+    (width, height): (u32, u32),
+    k: u32,
+    theta_c: f64,
+) -> Result<TermTargets, TargetError> {
+    check_theta(theta_c)?;
+    let pixels = (width as usize) * (height as usize);
+    let mut layers = vec![vec![[0.0f64; 4]; pixels]; 2];
+    let mut directions: Vec<Vec<DVec3>> = vec![Vec::new(); pixels];
+    let scale = 1.0 / f64::from(k.max(1) * k.max(1));
+    for record in records
+        .records
+        .iter()
+        .filter(|r| r.term == term && r.visible)
+    {
+        let pixel = pixel_of(record.image_position, (width, height))?;
+        directions[pixel].push(record.outgoing_ray.direction.normalize_or_zero());
+        let distant = records
+            .hits_of(record)
+            .first()
+            .map_or(record.background, |h| h.radiance);
+        let local = record.local.map(|l| l.radiance);
+        for (layer, radiance) in [(0, local), (1, Some(distant))] {
+            if let Some(radiance) = radiance {
+                let target = &mut layers[layer][pixel];
+                target[0] += radiance.x * scale;
+                target[1] += radiance.y * scale;
+                target[2] += radiance.z * scale;
+                target[3] += scale;
+            }
+        }
+    }
+    Ok(finish_targets(term, layers, &directions, theta_c))
+}
+
+/// The display pixel of a record's image position, or the error of a record outside the image.
+fn pixel_of(position: glam::Vec2, (width, height): (u32, u32)) -> Result<usize, TargetError> {
+    let (x, y) = (position.x.floor(), position.y.floor());
+    if x < 0.0 || y < 0.0 || x >= width as f32 || y >= height as f32 {
+        return Err(TargetError::BadInput(format!(
+            "a record at image position {position} lies outside the {width}×{height} image; compile the records with the same camera"
+        )));
+    }
+    Ok(y as usize * width as usize + x as usize)
+}
+
+fn check_theta(theta_c: f64) -> Result<(), TargetError> {
+    if !(theta_c.is_finite() && theta_c > 0.0) {
+        return Err(TargetError::BadInput(format!(
+            "confidence angle {} degrees; give an angle > 0, e.g. 5",
+            theta_c.to_degrees()
+        )));
+    }
+    Ok(())
+}
+
+/// The targets of `term` from its layer images and each pixel's outgoing directions: the
+/// confidence of each pixel from its widest pair of directions.
+fn finish_targets(
+    term: Term,
+    layers: Vec<Vec<[f64; 4]>>,
+    directions: &[Vec<DVec3>],
+    theta_c: f64,
+) -> TermTargets {
     let confidence: Vec<f64> = directions
         .iter()
         .map(|rays| {
@@ -143,12 +203,12 @@ pub fn term_targets(
             confidence(widest, theta_c)
         })
         .collect();
-    Ok(TermTargets {
+    TermTargets {
         term,
         layers,
         pixels_with_records: directions.iter().filter(|d| !d.is_empty()).count(),
         confidence,
-    })
+    }
 }
 
 #[cfg(test)]

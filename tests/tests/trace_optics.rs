@@ -155,7 +155,10 @@ fn near_grazing_the_greedy_path_follows_the_stronger_internal_reflection() {
         &sphere,
         &incoming,
         &first,
-        GreedyOptions { max_interfaces: 64 },
+        GreedyOptions {
+            max_interfaces: 64,
+            ..GreedyOptions::default()
+        },
         &mut counters,
     );
     let refraction = paths.refraction.unwrap();

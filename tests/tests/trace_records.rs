@@ -7,7 +7,7 @@ use lensmap::scene::{
     Camera, Environment, LensObject, Material, PointLight, Scene, SceneObject, TriangleMesh,
     ViewSpace,
 };
-use lensmap::trace::{Term, TraceOptions, TraceScene, compile_records};
+use lensmap::trace::{Bounces, GreedyOptions, Term, TraceOptions, TraceScene, compile_records};
 
 /// An axis-aligned rectangle at depth `z` facing `facing` (+1: +z, −1: −z), x ∈ [x0, x1],
 /// y ∈ [y0, y1].
@@ -240,4 +240,100 @@ fn incoming_rays_continue_through_a_lens_object_to_one_it_occludes() {
     // The back mirror's reflections meet the front mirror from behind (back-facing: skipped) or
     // nothing; a visible record whose ray goes through the front mirror's square records nothing.
     assert!(set.counters.primary_rays == 400);
+}
+
+#[test]
+fn first_bounce_records_see_the_mirror_itself_where_the_corner_predicts() {
+    // A corner reflector: mirror A in the plane x = 0 (facing +x, z ∈ [0, 2]) and mirror B in
+    // the plane z = 0 (facing +z, x ∈ [0, 2]), both y ∈ [−1, 1], one lens object. A first
+    // bounce off one meets the other exactly where the plane crossing of its ray lies inside
+    // that mirror: its record's local hit, at that distance (the PEM paper's local layer). Traced
+    // until it leaves, no record has a local hit.
+    let quad = |corners: [Vec3; 4], normal: Vec3| TriangleMesh {
+        positions: corners.to_vec(),
+        normals: vec![normal; 4],
+        uvs: vec![Vec2::ZERO; 4],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let a = quad(
+        [
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 2.0),
+            Vec3::new(0.0, -1.0, 2.0),
+        ],
+        Vec3::X,
+    );
+    let b = quad(
+        [
+            Vec3::new(0.0, -1.0, 0.0),
+            Vec3::new(2.0, -1.0, 0.0),
+            Vec3::new(2.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ],
+        Vec3::Z,
+    );
+    let objects = vec![object("a", a, 0), object("b", b, 0)];
+    let lenses = vec![LensObject {
+        name: "corner".to_owned(),
+        objects: vec![0, 1],
+        layers: Vec::new(),
+    }];
+    let camera = Camera {
+        position: Vec3::new(3.0, 0.3, 3.5),
+        look_at: Vec3::new(0.6, 0.0, 0.8),
+        up: Vec3::Y,
+        vfov_radians: 50f32.to_radians(),
+        width: 24,
+        height: 18,
+        supersampling: 1,
+    };
+    let scene = scene(objects, lenses, camera);
+    let world = TraceScene::new(&scene).unwrap();
+    let first = TraceOptions {
+        greedy: GreedyOptions {
+            bounces: Bounces::First,
+            ..GreedyOptions::default()
+        },
+        ..TraceOptions::default()
+    };
+    let set = compile_records(&world, &camera, &first).unwrap();
+    let (mut local, mut distant_only) = (0, 0);
+    for record in set.lenses[0].records.iter().filter(|r| r.visible) {
+        let ray = record.outgoing_ray;
+        // The other mirror's plane crossing: (its coordinate along the ray, inside, near an edge).
+        let crossing = |plane: usize, span: usize| {
+            let t = -ray.origin[plane] / ray.direction[plane];
+            let p = ray.origin + t * ray.direction;
+            let inside = t > 0.0 && (0.0..=2.0).contains(&p[span]) && p.y.abs() <= 1.0;
+            let edge = (p[span].min(2.0 - p[span].abs())).abs() < 1e-3 || (1.0 - p.y.abs()) < 1e-3;
+            (t, inside, edge)
+        };
+        let (t, inside, edge) = if ray.origin.x.abs() < 1e-6 {
+            crossing(2, 0) // off A towards B
+        } else {
+            assert!(ray.origin.z.abs() < 1e-6, "starts on a mirror: {:?}", ray.origin);
+            crossing(0, 2) // off B towards A
+        };
+        if edge {
+            continue;
+        }
+        assert!(set.lenses[0].hits_of(record).is_empty(), "no environment");
+        match record.local {
+            Some(hit) => {
+                assert!(inside, "a local hit where the corner predicts none: {record:?}");
+                assert!((hit.distance - t).abs() < 1e-6 * t.max(1.0), "{} vs {t}", hit.distance);
+                // Perfect mirrors (R₀ = 1) pass the environment at infinity on unchanged.
+                assert!((hit.radiance - DVec3::new(0.1, 0.2, 0.3)).abs().max_element() < 1e-6);
+                local += 1;
+            }
+            None => {
+                assert!(!inside, "no local hit where the corner predicts one: {record:?}");
+                distant_only += 1;
+            }
+        }
+    }
+    assert!(local > 20 && distant_only > 20, "{local} local, {distant_only} distant");
+    let traced = compile_records(&world, &camera, &TraceOptions::default()).unwrap();
+    assert!(traced.lenses[0].records.iter().all(|r| r.local.is_none()));
 }

@@ -39,7 +39,7 @@ pub struct BakeArgs {
     samples: String,
     /// Layers per lens object, placed by clustering with fitted shells: auto (as many as the
     /// scene names, else as many as help) or a count; or scene (the scene's named shells as
-    /// they are).
+    /// they are); or bounce (reflectors: a local ellipsoid over a distant box, the PEM paper's).
     #[arg(long, default_value = "auto")]
     layers: String,
     /// EM face size: auto (the finest level read at sample 0, up to 128) or a power of two.
@@ -337,9 +337,10 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
     let layers = match args.layers.as_str() {
         "auto" => LayerCount::Auto,
         "scene" => LayerCount::Scene,
+        "bounce" => LayerCount::Bounce,
         text => LayerCount::Count(text.parse().map_err(|_| {
             BadUsage(format!(
-                "--layers {text}: give auto, scene or a count such as 3"
+                "--layers {text}: give auto, scene, bounce or a count such as 3"
             ))
         })?),
     };

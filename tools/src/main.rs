@@ -183,6 +183,9 @@ fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
             BakeFailure::Option(_) | BakeFailure::Input(_) | BakeFailure::Merge(_) => true,
             // A scene the ray tracer refuses, as everywhere else.
             BakeFailure::Hybrid(_) | BakeFailure::Trace(_) => true,
+            // A glass or degenerate lens object given layers by bounce: the scene's or the
+            // option's to change.
+            BakeFailure::Bounce(_) => true,
             BakeFailure::Run(run) => run_input(run),
             BakeFailure::Infer(_) | BakeFailure::Placement(_) | BakeFailure::Metrics(_) => false,
         };

@@ -38,6 +38,9 @@ pub enum BakeFailure {
     /// Layer placement.
     #[error(transparent)]
     Placement(#[from] PlacementError),
+    /// Layers by bounce.
+    #[error(transparent)]
+    Bounce(#[from] crate::bounce::BounceError),
     /// The ray tracer.
     #[error(transparent)]
     Trace(#[from] TraceError),
@@ -63,6 +66,7 @@ impl Worded for BakeFailure {
             BakeFailure::Bake(_)
             | BakeFailure::Infer(_)
             | BakeFailure::Placement(_)
+            | BakeFailure::Bounce(_)
             | BakeFailure::Trace(_)
             | BakeFailure::Metrics(_) => self.to_string(),
         }

@@ -81,6 +81,7 @@ pub(super) fn project_into(
         &ProjectedOptions::with_size(size),
     );
     hybrid.lenses[lens.index()] = LensLayers {
+        layering: hybrid.lenses[lens.index()].layering,
         em_origins: vec![origin; shells.len()],
         shells,
         maps: vec![maps.into_iter().map(Arc::new).collect()],

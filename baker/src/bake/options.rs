@@ -53,6 +53,9 @@ pub enum LayerCount {
     Scene,
     /// This many, placed by clustering (at most; empty clusters are dropped).
     Count(usize),
+    /// By bounce for every lens object (the PEM paper's, [`crate::bounce`]): a local ellipsoid
+    /// and a distant box; a lens object with a glass surface is refused.
+    Bounce,
 }
 
 /// Everything that decides a bake's maps (and so its options hash), and whether to judge it.
@@ -203,6 +206,7 @@ impl Canonical for BakeOptions {
             LayerCount::Auto => encoder.tag(0),
             LayerCount::Scene => encoder.tag(1),
             LayerCount::Count(count) => encoder.tag(2).value(count),
+            LayerCount::Bounce => encoder.tag(3),
         };
         encoder
             .value(multi_view)

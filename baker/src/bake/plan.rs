@@ -8,7 +8,7 @@ use lensmap::{
     hybrid::HybridScene,
     index::{LayerIndex, LayerRef, LensIndex},
     layers::{
-        LayerShell,
+        LayerShell, Layering,
         bake::map_file_name,
         projected::{em_origin, lens_shells},
     },
@@ -32,6 +32,7 @@ use super::{
     views::{placement_cameras, sample_camera},
 };
 use crate::{
+    bounce::place_by_bounce,
     infer::{DeviceRenderer, EmSize, InferError, finest_level_of_frames},
     matrix::LayerFrames,
     placement::{Placement, PlacementError, lens_hits, place_layers},
@@ -152,6 +153,9 @@ pub struct PlannedLens {
     pub fit_rms: Vec<f64>,
     /// [`LayerCount::Auto`] without named layers: lens PSNR (dB) with 1, 2, … layers as tried.
     pub auto_psnr_db: Vec<f64>,
+    /// How rays are split between the layers.
+    #[serde(default)]
+    pub layering: Layering,
 }
 
 impl PlannedLens {
@@ -355,7 +359,16 @@ fn plan_lens(
         objects: Vec::new(),
         fit_rms: Vec::new(),
         auto_psnr_db: Vec::new(),
+        layering: Layering::Distance,
     };
+    if options.layers == LayerCount::Bounce {
+        progress(&format!("fitting layers by bounce for \"{name}\""));
+        planned.shells = place_by_bounce(scene, trace, position, origin, placement_views)?.to_vec();
+        planned.source = "bounce".into();
+        planned.objects = vec![Vec::new(); 2];
+        planned.layering = Layering::Bounce;
+        return Ok((planned, Vec::new()));
+    }
     if options.layers == LayerCount::Scene && named {
         planned.shells = lens_shells(trace, scene, position, origin);
         return Ok((planned, Vec::new()));
@@ -461,6 +474,7 @@ fn search_em_size(
             .insert(projected_scene(scene, planned_shells, judge_size)?),
     };
     share_maps(hybrid, plan);
+    adopt_layering(hybrid, plan);
     let camera = sample_camera(scene, scene.view_space.samples()[0], options);
     let (frame, _) = hybrid
         .frame(&camera, &options.infer.hybrid)
@@ -492,5 +506,13 @@ pub fn working_scene(scene: &Scene, plan: &Plan) -> Result<HybridScene, BakeFail
         plan.em_size,
     )?;
     share_maps(&mut hybrid, plan);
+    adopt_layering(&mut hybrid, plan);
     Ok(hybrid)
+}
+
+/// Gives each lens object of `hybrid` its layering in `plan`.
+fn adopt_layering(hybrid: &mut HybridScene, plan: &Plan) {
+    for (layers, planned) in hybrid.lenses.iter_mut().zip(&plan.lenses) {
+        layers.layering = planned.layering;
+    }
 }

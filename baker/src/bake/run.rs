@@ -364,6 +364,7 @@ fn plan_manifest(plan: &Plan, samples: &[usize], positions: &[Vec3]) -> Manifest
             .map(|(lens, planned)| ManifestLens {
                 name: planned.name.clone(),
                 em_origin: planned.em_origin,
+                layering: planned.layering,
                 layers: LayerIndex::all(planned.shells.len())
                     .zip(planned.shells.iter().zip(plan.layer_origins(lens)))
                     .map(|(layer, (shell, origin))| ManifestLayer {

@@ -13,7 +13,10 @@ use lensmap::{
     metrics::Mask,
     runner::FrameRunner,
     scene::{Camera, Scene},
-    trace::{LensSelection, RecordSet, TraceOptions, compile_records, render_reference},
+    layers::Layering,
+    trace::{
+        GreedyOptions, LensSelection, RecordSet, TraceOptions, compile_records, render_reference,
+    },
 };
 use serde::{Deserialize, Serialize};
 
@@ -132,7 +135,13 @@ pub fn bake_sample(
     let start = Instant::now();
     let mut seconds = StageSeconds::default();
     let cameras = view_cameras(scene, sample, options);
-    let records = trace_views(hybrid, &cameras, &mut seconds, progress)?;
+    // Each layering's records, traced only where a lens object has it.
+    let mut records = [Vec::new(), Vec::new()];
+    for (slot, layering) in [Layering::Distance, Layering::Bounce].into_iter().enumerate() {
+        if hybrid.lenses.iter().any(|l| l.layering == layering) {
+            records[slot] = trace_views(hybrid, &cameras, layering, &mut seconds, progress)?;
+        }
+    }
     let infer = InferOptions {
         em_size: EmSize::Fixed(plan.em_size),
         ..options.infer
@@ -171,10 +180,12 @@ pub fn bake_sample(
     ))
 }
 
-/// The intersection records of every view of `cameras`, timed into `seconds.tracing`.
+/// The intersection records of every view of `cameras` for lens objects layered by `layering`,
+/// timed into `seconds.tracing`.
 fn trace_views(
     hybrid: &HybridScene,
     cameras: &[Camera],
+    layering: Layering,
     seconds: &mut StageSeconds,
     progress: &mut dyn FnMut(Step<'_>),
 ) -> Result<Vec<RecordSet>, BakeFailure> {
@@ -186,27 +197,32 @@ fn trace_views(
             of: cameras.len(),
         });
         let t = Instant::now();
-        records.push(compile_records(
-            &hybrid.trace,
-            camera,
-            &TraceOptions::default(),
-        )?);
+        let options = TraceOptions {
+            greedy: GreedyOptions {
+                bounces: layering.bounces(),
+                ..GreedyOptions::default()
+            },
+            ..TraceOptions::default()
+        };
+        records.push(compile_records(&hybrid.trace, camera, &options)?);
         seconds.tracing += t.elapsed().as_secs_f64();
     }
     Ok(records)
 }
 
-/// Per lens object of `plan`, the views that see it (any visible record).
+/// Per lens object of `plan`, the views that see it (any visible record), with the records of
+/// its layering (`records[0]` by distance, `records[1]` by bounce).
 fn lens_views<'v>(
     plan: &Plan,
     cameras: &'v [Camera],
-    records: &'v [RecordSet],
+    records: &'v [Vec<RecordSet>; 2],
 ) -> Vec<Vec<View<'v>>> {
     (0..plan.lenses.len())
         .map(|lens| {
+            let slot = usize::from(plan.lenses[lens].layering == Layering::Bounce);
             cameras
                 .iter()
-                .zip(records)
+                .zip(&records[slot])
                 .filter(|(_, set)| set.lenses[lens].records.iter().any(|r| r.visible))
                 .map(|(camera, set)| View {
                     camera,

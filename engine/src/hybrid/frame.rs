@@ -547,7 +547,8 @@ impl HybridScene {
                 options.angle_radians,
                 faces,
             )
-            .with_precision(options.precision);
+            .with_precision(options.precision)
+            .with_bounces(self.lenses[lens_index].layering.bounces());
             let start = Instant::now();
             tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
             let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;

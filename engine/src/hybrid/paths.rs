@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use super::tessellate::{SurfaceVertex, VertexEvaluation, VertexOracle, faces_eye};
 use crate::render::LensFaces;
 use crate::trace::{
-    GreedyOptions, GreedyRayPath, Ray, Term,
+    Bounces, GreedyOptions, GreedyRayPath, Ray, Term,
     bvh::SurfaceHit,
     fresnel::{Real, Vector3},
     path::trace_greedy_paths_in,
@@ -140,6 +140,18 @@ impl<'a> PathOracle<'a> {
     /// This oracle computing its paths in `precision` (f64 unless told).
     pub fn with_precision(self, precision: VertexPrecision) -> Self {
         PathOracle { precision, ..self }
+    }
+
+    /// This oracle's paths stopping where `bounces` says (until they leave the lens object
+    /// unless told; at the first bounce for a lens object layered by bounce).
+    pub fn with_bounces(self, bounces: Bounces) -> Self {
+        PathOracle {
+            greedy: GreedyOptions {
+                bounces,
+                ..self.greedy
+            },
+            ..self
+        }
     }
 
     /// Rays and triangle tests spent so far.

@@ -12,6 +12,7 @@ use crate::{
     cubemap::CubeMap,
     identity::{Encoder, IDENTITY_VERSION},
     layers::{
+        Layering,
         Bake, BakedLens, LayerShell, Provenance,
         bake::default_created_by,
         projected::{ProjectedOptions, em_origin, lens_shells, project_layers},
@@ -34,6 +35,9 @@ pub struct LensLayers {
     pub em_origins: Vec<DVec3>,
     /// Shells, nearest first.
     pub shells: Vec<LayerShell>,
+    /// How rays are split between the layers; by bounce, the runtime's paths stop at their first
+    /// bounce.
+    pub layering: Layering,
     /// `maps[viewpoint sample][layer]`, one entry per sample of [`HybridScene::viewpoints`];
     /// projected EMs do not depend on the viewpoint, so they have a single entry that every
     /// sample shares.
@@ -343,6 +347,7 @@ impl HybridScene {
                     em_origins: layers.em_origins.clone(),
                     shells: layers.shells.clone(),
                     maps: layers.maps.clone(),
+                    layering: layers.layering,
                 })
                 .collect(),
             provenance: Some(provenance),
@@ -467,6 +472,7 @@ fn projected_layers(
             rays += cast;
             LensLayers {
                 em_origins: vec![origin; shells.len()],
+                layering: Layering::Distance,
                 shells,
                 maps: vec![maps.into_iter().map(Arc::new).collect()],
             }
@@ -505,6 +511,7 @@ fn baked_layers(
             )));
         }
         lenses.push(LensLayers {
+            layering: found.layering,
             em_origins: found.em_origins,
             shells: found.shells,
             maps: found.maps,

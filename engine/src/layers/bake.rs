@@ -46,6 +46,7 @@ pub mod exr;
 pub mod manifest;
 pub mod staging;
 
+use crate::layers::Layering;
 use std::collections::{HashMap, HashSet};
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -94,6 +95,8 @@ pub struct BakedLens {
     pub em_origins: Vec<DVec3>,
     /// The layer shells, nearest first.
     pub shells: Vec<LayerShell>,
+    /// How rays are split between the layers.
+    pub layering: Layering,
     /// `maps[viewpoint][layer]`: premultiplied RGBA cube maps with full mip chains, all of the
     /// bake's one size. A layer whose maps are, at every viewpoint, the very maps (`Arc`
     /// identity) of an earlier layer (of this or an earlier lens object) with the same shell and
@@ -202,6 +205,7 @@ impl Bake {
                 ManifestLens {
                     name: lens.name.clone(),
                     em_origin: lens_origin,
+                    layering: lens.layering,
                     layers: LayerIndex::all(lens.shells.len())
                         .zip(lens.shells.iter().zip(&lens.em_origins))
                         .map(|(layer, (shell, &origin))| {
@@ -319,6 +323,7 @@ impl Bake {
                     .collect(),
                 shells: lens.layers.iter().map(|layer| layer.shell).collect(),
                 maps,
+                layering: lens.layering,
             });
         }
         Ok(Bake {

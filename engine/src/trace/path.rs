@@ -77,12 +77,29 @@ pub struct GreedyOptions {
     /// Most interfaces one path may meet, the first hit included (≥ 1). A path that reaches the
     /// cap is truncated: its weight becomes 0.
     pub max_interfaces: u32,
+    /// Where a path stops.
+    pub bounces: Bounces,
 }
 
 impl Default for GreedyOptions {
     fn default() -> Self {
-        GreedyOptions { max_interfaces: 16 }
+        GreedyOptions {
+            max_interfaces: 16,
+            bounces: Bounces::UntilLeaving,
+        }
     }
+}
+
+/// Where a greedy path stops.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Bounces {
+    /// Where its ray leaves the lens object: what the object shows of itself is traced (the
+    /// hybrid-rendering paper's model).
+    #[default]
+    UntilLeaving,
+    /// At the first interface, whatever its ray meets next: a reflector's first bounce. What it
+    /// shows of itself is then its local layer's to hold (the PEM paper's layers by bounce).
+    First,
 }
 
 /// One greedy ray path from the first lens hit to where it leaves the lens object.
@@ -309,7 +326,9 @@ pub fn trace_greedy_paths_in<R: Real>(
             truncated: false,
             reflections: 0,
         };
-        propagate_greedy::<R>(lens, &mut path, first_hit.primitive, options, counters);
+        if options.bounces == Bounces::UntilLeaving {
+            propagate_greedy::<R>(lens, &mut path, first_hit.primitive, options, counters);
+        }
         path
     };
     let reflection = start(Term::Reflection, scattering.reflection);

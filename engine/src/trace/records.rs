@@ -16,10 +16,11 @@ use glam::{DVec3, Vec2};
 use rayon::prelude::*;
 
 use super::image::{camera_ray, subsample_position, validate_camera};
-use super::path::{GreedyRayPath, Term};
+use super::path::{Bounces, GreedyRayPath, Term};
 use super::shade::TraceOptions;
 use super::stats::TraceCounters;
-use super::world::{Part, TraceScene};
+use super::path::GreedyOptions;
+use super::world::{Part, SurfaceId, TraceScene};
 use super::{Ray, TraceError};
 use crate::scene::Camera;
 
@@ -60,6 +61,22 @@ pub struct IntersectionRecord {
     pub visible: bool,
     /// True when the path hit the interface cap (its `F·G` counts as 0).
     pub truncated: bool,
+    /// Records of first-bounce paths ([`Bounces::First`]) only: the lens object (this one or
+    /// another) when one is the nearest thing along the outgoing ray, with the radiance it sends
+    /// back along it (its greedy two-term value): the PEM paper's local layer. The ray's `hits`
+    /// then hold the environment alone, seen through every lens object (its distant layer).
+    pub local: Option<LocalHit>,
+}
+
+/// A lens object seen along a first-bounce ray (see [`IntersectionRecord::local`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct LocalHit {
+    /// Lens object index in [`TraceScene::lenses`].
+    pub lens: usize,
+    /// Distance from the outgoing ray's origin, metres (> 0).
+    pub distance: f64,
+    /// Radiance leaving it back along the ray, linear, ≥ 0.
+    pub radiance: DVec3,
 }
 
 impl IntersectionRecord {
@@ -187,17 +204,13 @@ fn record_row(
                     let paths = scene.greedy_paths(lens, &ray, &hit, options.greedy, &mut counters);
                     for term in [Term::Refraction, Term::Reflection] {
                         if let Some(path) = paths.get(term) {
-                            let position = Vec2::new(sx as f32, sy as f32);
-                            push_record(
-                                scene,
-                                options,
+                            let start = RecordStart {
                                 lens,
-                                path,
-                                position,
+                                primitive: hit.primitive,
+                                image_position: Vec2::new(sx as f32, sy as f32),
                                 visible,
-                                out,
-                                &mut counters,
-                            );
+                            };
+                            push_record(scene, options, &start, path, out, &mut counters);
                         }
                     }
                 }
@@ -207,20 +220,33 @@ fn record_row(
     (lenses, counters)
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Where a record's path starts: its lens object, the triangle the camera ray hit, the
+/// supersample's image position and whether the lens object is what the camera sees there.
+struct RecordStart {
+    lens: usize,
+    primitive: u32,
+    image_position: Vec2,
+    visible: bool,
+}
+
 fn push_record(
     scene: &TraceScene,
     options: &TraceOptions,
-    lens: usize,
+    start: &RecordStart,
     path: &GreedyRayPath,
-    image_position: Vec2,
-    visible: bool,
     out: &mut LensRecords,
     counters: &mut TraceCounters,
 ) {
-    let start = out.hits.len();
+    let first = out.hits.len();
     let ray = path.outgoing_ray;
-    for hit in outgoing_hits(scene, &ray, lens, counters) {
+    let (local, seen_lenses): (_, Vec<usize>) = match options.greedy.bounces {
+        Bounces::UntilLeaving => (
+            None,
+            (0..scene.lenses.len()).filter(|&i| i != start.lens).collect(),
+        ),
+        Bounces::First => (local_hit(scene, options, start, &ray, counters), Vec::new()),
+    };
+    for hit in outgoing_hits(scene, &ray, &seen_lenses, counters) {
         let radiance = match hit.1 {
             Part::Environment => scene.shade_diffuse(&ray, &hit.0, counters),
             Part::Lens(other) => {
@@ -239,32 +265,63 @@ fn push_record(
         });
     }
     out.records.push(IntersectionRecord {
-        image_position,
+        image_position: start.image_position,
         term: path.term,
         fresnel: path.fresnel,
         attenuation: path.attenuation,
         outgoing_ray: ray,
-        hits: start..out.hits.len(),
+        hits: first..out.hits.len(),
         background: scene.background_radiance(ray.direction),
-        visible,
+        visible: start.visible,
         truncated: path.truncated,
+        local,
     });
 }
 
-/// Every front-facing hit of `ray` on the environment and on lens objects other than `from`,
+/// The lens object a first-bounce ray `ray` (leaving `start`'s triangle) meets before any
+/// environment surface, with the radiance it sends back: its greedy two-term value, traced
+/// until the paths leave it.
+fn local_hit(
+    scene: &TraceScene,
+    options: &TraceOptions,
+    start: &RecordStart,
+    ray: &Ray,
+    counters: &mut TraceCounters,
+) -> Option<LocalHit> {
+    counters.secondary_rays += 1;
+    let exclude = SurfaceId {
+        part: Part::Lens(start.lens),
+        primitive: start.primitive,
+    };
+    let hit = scene.closest_hit(ray, Some(exclude), None, counters)?;
+    let Part::Lens(lens) = hit.part else {
+        return None;
+    };
+    let continued = TraceOptions {
+        greedy: GreedyOptions {
+            bounces: Bounces::UntilLeaving,
+            ..options.greedy
+        },
+        ..*options
+    };
+    let [t, r] = scene.greedy_terms(lens, ray, &hit.hit, 2, &continued, counters);
+    Some(LocalHit {
+        lens,
+        distance: hit.hit.distance,
+        radiance: t + r,
+    })
+}
+
+/// Every front-facing hit of `ray` on the environment and on the lens objects `lenses`,
 /// nearest first; coincident hits on one object (a shared edge) are kept once.
 fn outgoing_hits(
     scene: &TraceScene,
     ray: &Ray,
-    from: usize,
+    lenses: &[usize],
     counters: &mut TraceCounters,
 ) -> Vec<(super::bvh::SurfaceHit, Part)> {
     counters.secondary_rays += 1;
-    let parts = std::iter::once(Part::Environment).chain(
-        (0..scene.lenses.len())
-            .filter(|&i| i != from)
-            .map(Part::Lens),
-    );
+    let parts = std::iter::once(Part::Environment).chain(lenses.iter().map(|&i| Part::Lens(i)));
     let mut hits = Vec::new();
     for part in parts {
         for hit in

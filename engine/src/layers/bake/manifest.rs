@@ -13,7 +13,7 @@ use crate::atomic::DirectorySwap;
 use crate::gpu::DeviceId;
 use crate::identity::IDENTITY_VERSION;
 use crate::index::{LayerIndex, LayerRef, LensIndex};
-use crate::layers::shell::LayerShell;
+use crate::layers::{Layering, shell::LayerShell};
 
 /// The manifest format this code writes and reads.
 pub const FORMAT_VERSION: u32 = 1;
@@ -148,6 +148,10 @@ pub struct ManifestLens {
     pub em_origin: DVec3,
     /// The layers, nearest shell first; at least one.
     pub layers: Vec<ManifestLayer>,
+    /// How rays are split between the layers (absent: by distance). By bounce, there are two
+    /// layers: local, then distant.
+    #[serde(default, skip_serializing_if = "Layering::is_distance")]
+    pub layering: Layering,
 }
 
 /// One layer of a lens object's layered EM in the manifest.

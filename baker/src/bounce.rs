@@ -21,7 +21,10 @@ use glam::DVec3;
 use lensmap::{
     layers::LayerShell,
     scene::{Camera, Scene},
-    trace::{Bounces, GreedyOptions, Interface, TraceError, TraceOptions, compile_records, world::TraceScene},
+    trace::{
+        Bounces, GreedyOptions, Interface, TraceError, TraceOptions, compile_records,
+        world::TraceScene,
+    },
 };
 
 /// A lens object whose extent along an axis is below this fraction of its largest is flat: it
@@ -250,7 +253,10 @@ mod tests {
         let radii = DVec3::new(0.8, 0.3, 0.5);
         let fitted = bounding_ellipsoid(&on_ellipsoid(radii, 4000)).unwrap();
         // Containment is exact; the volume is within the grid's resolution of the truth.
-        assert!((fitted / radii - DVec3::ONE).abs().max_element() < 2e-3, "{fitted}");
+        assert!(
+            (fitted / radii - DVec3::ONE).abs().max_element() < 2e-3,
+            "{fitted}"
+        );
     }
 
     #[test]
@@ -272,7 +278,10 @@ mod tests {
             assert!((*c / radii).length_squared() <= 1.0 + 1e-12);
         }
         let expected = half * 3f64.sqrt();
-        assert!((radii / expected - DVec3::ONE).abs().max_element() < 2e-3, "{radii}");
+        assert!(
+            (radii / expected - DVec3::ONE).abs().max_element() < 2e-3,
+            "{radii}"
+        );
     }
 
     #[test]
@@ -304,8 +313,14 @@ mod tests {
             }
         }
         let (offset, half) = room_box(&points);
-        assert!((offset - (high + low) * 0.5).abs().max_element() < 1e-9, "{offset}");
-        assert!((half - (high - low) * 0.5).abs().max_element() < 1e-9, "{half}");
+        assert!(
+            (offset - (high + low) * 0.5).abs().max_element() < 1e-9,
+            "{offset}"
+        );
+        assert!(
+            (half - (high - low) * 0.5).abs().max_element() < 1e-9,
+            "{half}"
+        );
         assert_eq!(room_box(&[]).1, DVec3::splat(FAR_BOX_METRES));
     }
 }

@@ -249,6 +249,7 @@ mod tests {
                 background: DVec3::ZERO,
                 visible: true,
                 truncated: false,
+                local: None,
             }],
             hits: vec![EnvironmentHit {
                 object: 1,

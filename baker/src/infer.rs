@@ -420,14 +420,9 @@ pub fn prepare<'v>(
                 let size = (camera.width, camera.height);
                 let k = camera.supersampling.max(1);
                 match layers.layering {
-                    Layering::Distance => term_targets(
-                        view.records,
-                        term,
-                        &layers.shells,
-                        size,
-                        k,
-                        options.theta_c,
-                    ),
+                    Layering::Distance => {
+                        term_targets(view.records, term, &layers.shells, size, k, options.theta_c)
+                    }
                     Layering::Bounce => {
                         bounce_targets(view.records, term, size, k, options.theta_c)
                     }

@@ -14,7 +14,7 @@ mod layers_bake {
     use lensmap::layers::bake::{
         ALPHA_TOLERANCE, MANIFEST_FILE_NAME, map_file_name, read_cube_map_exr, write_cube_map_exr,
     };
-    use lensmap::layers::{Bake, BakeError, BakedLens, LayerShell, Manifest};
+    use lensmap::layers::{Bake, BakeError, BakedLens, LayerShell, Layering, Manifest};
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64;
 
@@ -114,6 +114,12 @@ mod layers_bake {
                 })
                 .collect(),
             shells,
+            // The mirror's two layers by bounce: the manifest must carry the layering.
+            layering: if name == "cup (mirror)" {
+                Layering::Bounce
+            } else {
+                Layering::Distance
+            },
         };
         let lenses = vec![
             lens("teapot", DVec3::new(0.0, 0.7, 0.1), teapot_shells),

@@ -312,7 +312,11 @@ fn first_bounce_records_see_the_mirror_itself_where_the_corner_predicts() {
         let (t, inside, edge) = if ray.origin.x.abs() < 1e-6 {
             crossing(2, 0) // off A towards B
         } else {
-            assert!(ray.origin.z.abs() < 1e-6, "starts on a mirror: {:?}", ray.origin);
+            assert!(
+                ray.origin.z.abs() < 1e-6,
+                "starts on a mirror: {:?}",
+                ray.origin
+            );
             crossing(0, 2) // off B towards A
         };
         if edge {
@@ -321,19 +325,37 @@ fn first_bounce_records_see_the_mirror_itself_where_the_corner_predicts() {
         assert!(set.lenses[0].hits_of(record).is_empty(), "no environment");
         match record.local {
             Some(hit) => {
-                assert!(inside, "a local hit where the corner predicts none: {record:?}");
-                assert!((hit.distance - t).abs() < 1e-6 * t.max(1.0), "{} vs {t}", hit.distance);
+                assert!(
+                    inside,
+                    "a local hit where the corner predicts none: {record:?}"
+                );
+                assert!(
+                    (hit.distance - t).abs() < 1e-6 * t.max(1.0),
+                    "{} vs {t}",
+                    hit.distance
+                );
                 // Perfect mirrors (R₀ = 1) pass the environment at infinity on unchanged.
-                assert!((hit.radiance - DVec3::new(0.1, 0.2, 0.3)).abs().max_element() < 1e-6);
+                assert!(
+                    (hit.radiance - DVec3::new(0.1, 0.2, 0.3))
+                        .abs()
+                        .max_element()
+                        < 1e-6
+                );
                 local += 1;
             }
             None => {
-                assert!(!inside, "no local hit where the corner predicts one: {record:?}");
+                assert!(
+                    !inside,
+                    "no local hit where the corner predicts one: {record:?}"
+                );
                 distant_only += 1;
             }
         }
     }
-    assert!(local > 20 && distant_only > 20, "{local} local, {distant_only} distant");
+    assert!(
+        local > 20 && distant_only > 20,
+        "{local} local, {distant_only} distant"
+    );
     let traced = compile_records(&world, &camera, &TraceOptions::default()).unwrap();
     assert!(traced.lenses[0].records.iter().all(|r| r.local.is_none()));
 }

@@ -102,6 +102,7 @@ mod tests {
                         radius: 5.0,
                     }],
                     maps: Vec::new(),
+                    layering: lensmap::layers::Layering::Distance,
                 }],
                 provenance,
             };

@@ -10,10 +10,10 @@ use lensmap::{
     cubemap::CubeMap,
     hybrid::HybridScene,
     index::{LayerRef, LensIndex},
+    layers::Layering,
     metrics::Mask,
     runner::FrameRunner,
     scene::{Camera, Scene},
-    layers::Layering,
     trace::{
         GreedyOptions, LensSelection, RecordSet, TraceOptions, compile_records, render_reference,
     },
@@ -137,7 +137,10 @@ pub fn bake_sample(
     let cameras = view_cameras(scene, sample, options);
     // Each layering's records, traced only where a lens object has it.
     let mut records = [Vec::new(), Vec::new()];
-    for (slot, layering) in [Layering::Distance, Layering::Bounce].into_iter().enumerate() {
+    for (slot, layering) in [Layering::Distance, Layering::Bounce]
+        .into_iter()
+        .enumerate()
+    {
         if hybrid.lenses.iter().any(|l| l.layering == layering) {
             records[slot] = trace_views(hybrid, &cameras, layering, &mut seconds, progress)?;
         }

@@ -159,6 +159,7 @@ mod tests {
         let relative: Vec<DVec3> = hits.iter().map(|p| *p - origin).collect();
         let (shell, rms, _) = crate::placement::fit_shell(origin, &relative);
         PlannedLens {
+            layering: lensmap::layers::Layering::Distance,
             name: name.into(),
             em_origin: origin,
             shells: vec![

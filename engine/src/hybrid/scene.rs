@@ -12,8 +12,7 @@ use crate::{
     cubemap::CubeMap,
     identity::{Encoder, IDENTITY_VERSION},
     layers::{
-        Layering,
-        Bake, BakedLens, LayerShell, Provenance,
+        Bake, BakedLens, LayerShell, Layering, Provenance,
         bake::default_created_by,
         projected::{ProjectedOptions, em_origin, lens_shells, project_layers},
     },

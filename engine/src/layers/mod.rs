@@ -9,7 +9,9 @@ pub mod projected;
 pub mod shell;
 
 /// How a lens object's outgoing rays are split between its layers.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Layering {
     /// By distance (the hybrid-rendering paper §4.2): a ray's paths are traced until they leave

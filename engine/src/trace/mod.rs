@@ -35,8 +35,8 @@ use glam::DVec3;
 pub use self::image::{ReferenceImage, render_reference};
 pub use self::lens_pixels::{LensPixels, LensSelection, PixelCover};
 pub use self::path::{Bounces, GreedyOptions, GreedyRayPath, Interface, RayTreeOptions, Term};
-pub use self::records::{LocalHit, 
-    EnvironmentHit, IntersectionRecord, LensRecords, RecordSet, compile_records,
+pub use self::records::{
+    EnvironmentHit, IntersectionRecord, LensRecords, LocalHit, RecordSet, compile_records,
 };
 pub use self::shade::{CameraSample, PathModel, TraceOptions};
 pub use self::stats::{RenderStats, TraceCounters};

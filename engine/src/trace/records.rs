@@ -16,10 +16,10 @@ use glam::{DVec3, Vec2};
 use rayon::prelude::*;
 
 use super::image::{camera_ray, subsample_position, validate_camera};
+use super::path::GreedyOptions;
 use super::path::{Bounces, GreedyRayPath, Term};
 use super::shade::TraceOptions;
 use super::stats::TraceCounters;
-use super::path::GreedyOptions;
 use super::world::{Part, SurfaceId, TraceScene};
 use super::{Ray, TraceError};
 use crate::scene::Camera;
@@ -242,7 +242,9 @@ fn push_record(
     let (local, seen_lenses): (_, Vec<usize>) = match options.greedy.bounces {
         Bounces::UntilLeaving => (
             None,
-            (0..scene.lenses.len()).filter(|&i| i != start.lens).collect(),
+            (0..scene.lenses.len())
+                .filter(|&i| i != start.lens)
+                .collect(),
         ),
         Bounces::First => (local_hit(scene, options, start, &ray, counters), Vec::new()),
     };

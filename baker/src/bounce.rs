@@ -136,6 +136,9 @@ pub fn place_by_bounce(
 /// The radii of the least-volume axis-aligned ellipsoid centred on the origin that holds every
 /// point (module docs); the problem, in words, for points too flat, too small or too large.
 pub fn bounding_ellipsoid(points: &[DVec3]) -> Result<DVec3, String> {
+    if let Some(bad) = points.iter().find(|p| !p.is_finite()) {
+        return Err(format!("a vertex lies at {bad}, not a finite point"));
+    }
     let extent = points.iter().fold(DVec3::ZERO, |m, p| m.max(p.abs()));
     let largest = extent.max_element();
     if !largest.is_finite() || largest > MAX_EXTENT_METRES {

@@ -8,5 +8,5 @@ pub mod fixtures;
 pub mod projected;
 pub mod shell;
 
-pub use bake::{Bake, BakeError, BakedLens, Manifest, Provenance, Staging};
+pub use bake::{Bake, BakeError, BakedLens, Manifest, MapReader, Provenance, Staging};
 pub use shell::{LayerShell, ShellError, ShellHit};

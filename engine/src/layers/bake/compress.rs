@@ -572,3 +572,279 @@ impl Compression {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::codec::tests::{bits, drifting_cube};
+    use super::*;
+    use crate::layers::bake::{Bake, BakedLens, MANIFEST_FILE_NAME, Provenance};
+    use crate::layers::shell::LayerShell;
+    use glam::{DVec3, Vec3};
+    use rand::SeedableRng;
+    use rand_pcg::Pcg64;
+    use std::path::PathBuf;
+    use std::sync::Arc;
+
+    /// A fresh folder for `test`, removed first.
+    fn scratch(test: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("lensmap-compress-{}-{test}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A bake of `samples` viewpoints, two layers whose maps drift from sample to sample, of
+    /// scene `scene` (provenance hash `scene` too).
+    fn sequence_bake(samples: usize, scene: &str, seed: u64) -> Bake {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let shell = |radius| LayerShell::Sphere {
+            centre: DVec3::ZERO,
+            radius,
+        };
+        Bake {
+            scene: scene.into(),
+            created_by: "test".into(),
+            viewpoints: (0..samples)
+                .map(|i| Vec3::new(i as f32, 1.0, 5.0))
+                .collect(),
+            lenses: vec![BakedLens {
+                name: "ball".into(),
+                em_origins: vec![DVec3::ZERO; 2],
+                shells: vec![shell(2.0), shell(9.0)],
+                maps: (0..samples)
+                    .map(|i| {
+                        (0..2)
+                            .map(|layer| {
+                                Arc::new(drifting_cube(&mut rng, 8, i as f32 + 10.0 * layer as f32))
+                            })
+                            .collect()
+                    })
+                    .collect(),
+            }],
+            provenance: Some(Provenance::new(
+                format!("{scene}-hash"),
+                "options".into(),
+                (0..samples).collect(),
+            )),
+        }
+    }
+
+    /// The bits of every map of `bake`, sample by sample, layer by layer.
+    fn all_bits(bake: &Bake) -> Vec<Vec<u32>> {
+        bake.lenses[0]
+            .maps
+            .iter()
+            .flatten()
+            .map(|m| bits(m))
+            .collect()
+    }
+
+    fn options(keyframe_interval: u32, dropped_mantissa_bits: u32) -> CompressOptions {
+        CompressOptions {
+            keyframe_interval,
+            dropped_mantissa_bits,
+        }
+    }
+
+    #[test]
+    fn a_compressed_bake_reads_back_bit_exactly() {
+        let dir = scratch("round-trip");
+        let (plain, packed) = (dir.join("plain"), dir.join("packed"));
+        let bake = sequence_bake(10, "drift", 1);
+        bake.write(&plain).unwrap();
+        let summary = compress(&plain, &packed, &options(4, 0)).unwrap();
+        assert_eq!((summary.files, summary.keyframes), (20, 6));
+        assert_eq!((summary.max_abs_error, summary.map_psnr_db), (0.0, None));
+        let read = Bake::read(&packed).unwrap();
+        assert_eq!(all_bits(&read), all_bits(&bake));
+        assert_eq!(read.provenance, bake.provenance);
+        let manifest = Manifest::read(&packed).unwrap();
+        assert!(manifest.lenses[0].layers[0].maps[3].ends_with(".lmz"));
+        // Compressing it again (in place, from the compressed bake) changes nothing read.
+        compress(&packed, &packed, &options(3, 0)).unwrap();
+        assert_eq!(all_bits(&Bake::read(&packed).unwrap()), all_bits(&bake));
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn one_sample_decodes_from_its_keyframe_alone() {
+        let dir = scratch("keyframe");
+        let (plain, packed) = (dir.join("plain"), dir.join("packed"));
+        let bake = sequence_bake(10, "drift", 2);
+        bake.write(&plain).unwrap();
+        compress(&plain, &packed, &options(4, 0)).unwrap();
+        let manifest = Manifest::read(&packed).unwrap();
+        // Keyframes at samples 0, 4, 8: sample 6 needs the files of 4, 5 and 6 only.
+        for lens in &manifest.lenses {
+            for layer in &lens.layers {
+                for (sample, file) in layer.maps.iter().enumerate() {
+                    if !(4..=6).contains(&sample) {
+                        fs::remove_file(packed.join(file)).unwrap();
+                    }
+                }
+            }
+        }
+        let mut reader = MapReader::new(&packed, &manifest);
+        for layer in 0..2 {
+            let cube = reader
+                .read(&manifest.lenses[0].layers[layer].maps[6])
+                .unwrap();
+            assert_eq!(bits(&cube), bits(&bake.lenses[0].maps[6][layer]));
+        }
+        // Sample 3's chain starts at the removed keyframe 0.
+        let error = reader
+            .read(&manifest.lenses[0].layers[0].maps[3])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("v000") || error.contains("cannot read"),
+            "{error}"
+        );
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn dropped_bits_cost_what_the_summary_says() {
+        let dir = scratch("lossy");
+        let (plain, packed) = (dir.join("plain"), dir.join("packed"));
+        let bake = sequence_bake(4, "drift", 3);
+        bake.write(&plain).unwrap();
+        let lossless = compress(&plain, &packed, &options(4, 0)).unwrap();
+        let summary = compress(&plain, &packed, &options(4, 12)).unwrap();
+        assert!(summary.bytes_after < lossless.bytes_after);
+        let read = Bake::read(&packed).unwrap();
+        // Every value is its source rounded; the PSNR is that of those differences.
+        let (mut squared, mut count) = (0.0f64, 0u64);
+        for (source, decoded) in all_bits(&bake).iter().zip(&all_bits(&read)) {
+            for (&a, &b) in source.iter().zip(decoded) {
+                let (a, b) = (f32::from_bits(a), f32::from_bits(b));
+                assert_eq!(b.to_bits(), codec::lossy_value(a, 12).to_bits());
+                squared += (f64::from(a) - f64::from(b)).powi(2);
+                count += 1;
+            }
+        }
+        let psnr = -10.0 * (squared / count as f64).log10();
+        let reported = summary.map_psnr_db.unwrap();
+        assert!((psnr - reported).abs() < 1e-9, "{psnr} vs {reported}");
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    /// The one-line error of reading the bake at `dir`.
+    fn read_error(dir: &Path) -> String {
+        let error = Bake::read(dir).unwrap_err().to_string();
+        assert_eq!(error.lines().count(), 1, "{error}");
+        error
+    }
+
+    #[test]
+    fn truncated_changed_and_foreign_files_are_refused_in_one_line() {
+        let dir = scratch("damage");
+        let (plain, packed) = (dir.join("plain"), dir.join("packed"));
+        sequence_bake(3, "drift", 4).write(&plain).unwrap();
+        compress(&plain, &packed, &options(8, 0)).unwrap();
+        let other = dir.join("other");
+        let other_plain = dir.join("other-plain");
+        sequence_bake(3, "elsewhere", 4)
+            .write(&other_plain)
+            .unwrap();
+        compress(&other_plain, &other, &options(8, 0)).unwrap();
+        let manifest = Manifest::read(&packed).unwrap();
+        let file = manifest.lenses[0].layers[1].maps[1].clone();
+        let original = fs::read(packed.join(&file)).unwrap();
+        let named = packed.join(&file).display().to_string();
+        let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+            (
+                "truncated",
+                original[..original.len() - 9].to_vec(),
+                "is truncated",
+            ),
+            (
+                "header only",
+                original[..40].to_vec(),
+                "shorter than the 88-byte header",
+            ),
+            ("empty", Vec::new(), "is truncated: 0 bytes"),
+            (
+                "an EXR file",
+                fs::read(plain.join(uncompressed_name(&file))).unwrap(),
+                "no LMZC header",
+            ),
+            (
+                "a flipped payload bit",
+                {
+                    let mut bytes = original.clone();
+                    let at = bytes.len() - 20;
+                    bytes[at] ^= 4;
+                    bytes
+                },
+                "changed or damaged",
+            ),
+            (
+                "bytes appended",
+                [original.as_slice(), b"xx"].concat(),
+                "changed or damaged",
+            ),
+            (
+                "another scene's file",
+                fs::read(other.join(&file)).unwrap(),
+                "another scene",
+            ),
+        ];
+        for (case, bytes, words) in cases {
+            fs::write(packed.join(&file), &bytes).unwrap();
+            let error = read_error(&packed);
+            assert!(
+                error.contains(&named) && error.contains(words),
+                "{case}: {error}"
+            );
+        }
+        fs::write(packed.join(&file), &original).unwrap();
+        Bake::read(&packed).unwrap();
+        // A manifest whose file checksum was changed, or whose chain is longer than its
+        // interval, is refused naming the manifest.
+        let manifest_path = packed.join(MANIFEST_FILE_NAME);
+        let text = fs::read_to_string(&manifest_path).unwrap();
+        fs::write(
+            &manifest_path,
+            text.replace("\"keyframe_interval\": 8", "\"keyframe_interval\": 2"),
+        )
+        .unwrap();
+        let error = read_error(&packed);
+        assert!(
+            error.contains("manifest.json") && error.contains("chain of more than 1"),
+            "{error}"
+        );
+        let _ = fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_failed_compression_leaves_the_bake_as_it_was() {
+        let dir = scratch("atomic");
+        let plain = dir.join("plain");
+        let bake = sequence_bake(3, "drift", 5);
+        bake.write(&plain).unwrap();
+        let manifest = Manifest::read(&plain).unwrap();
+        let last = plain.join(&manifest.lenses[0].layers[1].maps[2]);
+        let good = fs::read(&last).unwrap();
+        fs::write(&last, &good[..good.len() / 2]).unwrap();
+        let error = compress(&plain, &plain, &options(8, 0))
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("v002.layer1.exr"), "{error}");
+        fs::write(&last, &good).unwrap();
+        // Still the uncompressed bake, every file in place.
+        assert_eq!(Manifest::read(&plain).unwrap(), manifest);
+        assert_eq!(all_bits(&Bake::read(&plain).unwrap()), all_bits(&bake));
+        let names: Vec<_> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(names, ["plain"]);
+        let error = compress(&plain, &plain, &options(0, 0))
+            .unwrap_err()
+            .to_string();
+        assert!(error.contains("keyframe interval 0"), "{error}");
+        let _ = fs::remove_dir_all(&dir);
+    }
+}

@@ -53,15 +53,19 @@ pub fn compress(
     crate::layers::bake::write_directory(out, |staging| {
         for chain in chains(&manifest) {
             let mut previous = None;
-            for (position, file) in chain.iter().enumerate() {
+            // Files in the current chain, its keyframe included.
+            let mut chain_length = 0;
+            for file in &chain {
                 let cube = reader.read(file)?;
                 coder.summary.bytes_before += fs::metadata(source.join(file))
                     .map_err(io_error(&source.join(file), "read"))?
                     .len();
                 let name = compressed_name(file);
-                let keyframe = position % options.keyframe_interval as usize == 0;
-                let reference = previous.as_ref().filter(|_| !keyframe);
+                let reference = previous
+                    .as_ref()
+                    .filter(|_| chain_length < options.keyframe_interval);
                 let coded = coder.code(&cube, &name, reference, out)?;
+                chain_length = if coded.keyframe { 1 } else { chain_length + 1 };
                 let path = staging.join(&name);
                 atomic::write_synced(&path, &coded.bytes)
                     .map_err(io_error(&out.join(&name), "write"))?;
@@ -147,9 +151,10 @@ struct ChainLink {
     planes: Planes,
 }
 
-/// A coded file: its bytes and its link.
+/// A coded file: its bytes, whether it is a keyframe, and its link.
 struct Coded {
     bytes: Vec<u8>,
+    keyframe: bool,
     chain_link: ChainLink,
 }
 
@@ -166,9 +171,9 @@ struct ChainCoder<'a> {
 }
 
 impl ChainCoder<'_> {
-    /// Codes `cube` as file `name` (a keyframe when `reference` is `None`), decodes the bytes
-    /// again and compares them with `cube` after the lossy rounding; `out` names the bake in
-    /// errors.
+    /// Codes `cube` as file `name`: as its difference from `reference` where that is smaller,
+    /// else as a keyframe; decodes the bytes again and compares them with `cube` after the
+    /// lossy rounding; `out` names the bake in errors.
     fn code(
         &mut self,
         cube: &CubeMap,
@@ -179,13 +184,7 @@ impl ChainCoder<'_> {
         let path = out.join(name);
         let dropped = self.options.dropped_mantissa_bits;
         let planes = Planes::intra(cube, dropped);
-        let coded_values = match reference {
-            Some(link) => planes
-                .delta_from(&link.planes)
-                .ok_or_else(|| damaged(&path, "differs in size from the map before it".into()))?,
-            None => planes.clone(),
-        };
-        let header = Header {
+        let header = |reference: Option<&ChainLink>| Header {
             size: self.size,
             dropped,
             keyframe: reference.is_none(),
@@ -193,7 +192,23 @@ impl ChainCoder<'_> {
             reference: reference.map_or([0; 32], |link| link.sha256),
             payload_len: 0,
         };
-        let bytes = encode_file(header, &coded_values.values, &path)?;
+        let keyframe = encode_file(header(None), &planes.values, &path)?;
+        // A difference is kept only where it is smaller than the map on its own: a map far
+        // from the one before it starts a new chain.
+        let (bytes, reference) = match reference {
+            Some(link) => {
+                let delta = planes.delta_from(&link.planes).ok_or_else(|| {
+                    damaged(&path, "differs in size from the map before it".into())
+                })?;
+                let difference = encode_file(header(Some(link)), &delta.values, &path)?;
+                if difference.len() < keyframe.len() {
+                    (difference, Some(link))
+                } else {
+                    (keyframe, None)
+                }
+            }
+            None => (keyframe, None),
+        };
         let sha256: [u8; 32] = Sha256::digest(&bytes).into();
         let sha_hex = hex(&sha256);
         let reference_hex = reference.map(|link| hex(&link.sha256));
@@ -229,6 +244,7 @@ impl ChainCoder<'_> {
         );
         Ok(Coded {
             bytes,
+            keyframe: reference.is_none(),
             chain_link: ChainLink {
                 name: name.to_owned(),
                 sha256,

@@ -136,45 +136,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         .into());
     };
     if !args.merge.is_empty() {
-        let manifest = merge(&args.merge, out)?;
-        let samples = manifest
-            .provenance
-            .as_ref()
-            .map(|p| p.samples.clone())
-            .unwrap_or_default();
-        let baked_on = manifest
-            .provenance
-            .as_ref()
-            .map(|p| p.baked_on.clone())
-            .unwrap_or_default();
-        if baked_on.len() > 1 {
-            let each: Vec<String> = baked_on
-                .iter()
-                .map(|g| format!("{} (samples {:?})", g.device, g.samples))
-                .collect();
-            warn!(
-                "the shards were baked on {} devices or drivers: {}; the merged bake holds maps \
-                 from each (how far two drivers' maps of one sample differ: \
-                 docs/results.md#bake-drivers)",
-                baked_on.len(),
-                each.join("; ")
-            );
-        }
-        report(
-            &json!({
-                "out": out,
-                "merged": args.merge,
-                "samples": samples,
-                "baked_on": baked_on,
-            }),
-            None,
-        )?;
-        say!(
-            "merged {} shards into {}: samples {samples:?}",
-            args.merge.len(),
-            out.display()
-        );
-        return Ok(());
+        return run_merge(&args, out);
     }
     let Some(scene_name) = &args.scene else {
         return Err(
@@ -279,6 +241,49 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
             }
         );
     }
+    Ok(())
+}
+
+/// `lensmap bake --merge DIR… --out OUT`: joins shards into `out` and reports the samples.
+fn run_merge(args: &BakeArgs, out: &std::path::Path) -> anyhow::Result<()> {
+    let manifest = merge(&args.merge, out)?;
+    let samples = manifest
+        .provenance
+        .as_ref()
+        .map(|p| p.samples.clone())
+        .unwrap_or_default();
+    let baked_on = manifest
+        .provenance
+        .as_ref()
+        .map(|p| p.baked_on.clone())
+        .unwrap_or_default();
+    if baked_on.len() > 1 {
+        let each: Vec<String> = baked_on
+            .iter()
+            .map(|g| format!("{} (samples {:?})", g.device, g.samples))
+            .collect();
+        warn!(
+            "the shards were baked on {} devices or drivers: {}; the merged bake holds maps \
+             from each (how far two drivers' maps of one sample differ: \
+             docs/results.md#bake-drivers)",
+            baked_on.len(),
+            each.join("; ")
+        );
+    }
+    report(
+        &json!({
+            "out": out,
+            "merged": args.merge,
+            "samples": samples,
+            "baked_on": baked_on,
+        }),
+        None,
+    )?;
+    say!(
+        "merged {} shards into {}: samples {samples:?}",
+        args.merge.len(),
+        out.display()
+    );
     Ok(())
 }
 

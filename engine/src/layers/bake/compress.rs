@@ -502,6 +502,7 @@ impl Compression {
     /// keyframe within `keyframe_interval − 1` references (so no chain loops). `path` names
     /// the manifest in errors.
     pub fn validate(&self, path: &Path, listed: &[&str]) -> Result<(), BakeError> {
+        let listed: std::collections::HashSet<&str> = listed.iter().copied().collect();
         let invalid = |field: String, problem: String| BakeError::Invalid {
             path: path.to_owned(),
             field,
@@ -534,7 +535,7 @@ impl Compression {
         }
         for (name, entry) in &self.files {
             let field = format!("compression.files[\"{name}\"]");
-            if !listed.contains(&name.as_str()) {
+            if !listed.contains(name.as_str()) {
                 return Err(invalid(field, "is not a map any layer lists".into()));
             }
             let is_hex = |c: char| c.is_ascii_digit() || ('a'..='f').contains(&c);

@@ -26,14 +26,17 @@ use crate::common::{BadUsage, progress_shown, report};
 #[command(after_help = "Examples:
   lensmap bake --scene teapot-room --samples 0,1 --out out/bake
   lensmap bake --scene teapot-room --shard 2/8 --out out/shard-2     (one job of an array)
-  lensmap bake --merge out/shard-1 out/shard-2 --out out/bake")]
+  lensmap bake --merge out/shard-1 out/shard-2 --out out/bake
+  lensmap bake --compress out/bake                                   (in place, lossless)
+  lensmap bake --compress out/bake --drop-mantissa-bits 12 --out out/bake-small")]
 pub struct BakeArgs {
-    /// Built-in scene name or path (not with --merge).
-    #[arg(long, required_unless_present = "merge")]
+    /// Built-in scene name or path (not with --merge or --compress).
+    #[arg(long, required_unless_present_any = ["merge", "compress"])]
     scene: Option<String>,
-    /// The bake directory to write (replaced atomically when the bake is complete).
-    #[arg(long)]
-    out: PathBuf,
+    /// The bake directory to write (replaced atomically when the bake is complete); with
+    /// --compress, where to write the compressed bake (default: the bake itself).
+    #[arg(long, required_unless_present = "compress")]
+    out: Option<PathBuf>,
     /// Viewpoint samples: all, I,J,K, A..B (B excluded) or A..=B.
     #[arg(long, default_value = "all")]
     samples: String,
@@ -93,6 +96,23 @@ pub struct BakeArgs {
     /// Join these shard directories into --out instead of baking.
     #[arg(long, num_args = 1.., value_name = "DIR", conflicts_with_all = ["scene", "shard", "resume"])]
     merge: Vec<PathBuf>,
+    /// Compress this complete (or merged) bake instead of baking: MIP levels as residuals from
+    /// the finest level, each sample coded against the one before, zstd; lossless unless
+    /// --drop-mantissa-bits. Everything that reads bakes reads it unchanged.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["scene", "shard", "resume", "merge"])]
+    compress: Option<PathBuf>,
+    /// With --compress: a keyframe every this many samples of a layer (1: no coding across
+    /// samples); one sample decodes from at most this many files.
+    #[arg(long, default_value_t = lensmap::layers::bake::compress::DEFAULT_KEYFRAME_INTERVAL,
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(lensmap::layers::bake::compress::MAX_KEYFRAME_INTERVAL)),
+          requires = "compress")]
+    keyframe_interval: u32,
+    /// With --compress: round away this many of the 23 low mantissa bits of every value
+    /// first (lossy; relative error at most 2^(bits − 24)); 0 is lossless.
+    #[arg(long, default_value_t = 0,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(lensmap::layers::bake::compress::codec::MAX_DROPPED_MANTISSA_BITS)),
+          requires = "compress")]
+    drop_mantissa_bits: u32,
 }
 
 /// `on` or `off`.
@@ -106,46 +126,17 @@ enum OnOff {
 
 /// Runs `lensmap bake`.
 pub fn run(args: BakeArgs) -> anyhow::Result<()> {
+    if let Some(source) = &args.compress {
+        return run_compress(&args, source);
+    }
+    let Some(out) = &args.out else {
+        return Err(BadUsage(
+            "--out: name the bake directory to write, e.g. --out out/bake".into(),
+        )
+        .into());
+    };
     if !args.merge.is_empty() {
-        let manifest = merge(&args.merge, &args.out)?;
-        let samples = manifest
-            .provenance
-            .as_ref()
-            .map(|p| p.samples.clone())
-            .unwrap_or_default();
-        let baked_on = manifest
-            .provenance
-            .as_ref()
-            .map(|p| p.baked_on.clone())
-            .unwrap_or_default();
-        if baked_on.len() > 1 {
-            let each: Vec<String> = baked_on
-                .iter()
-                .map(|g| format!("{} (samples {:?})", g.device, g.samples))
-                .collect();
-            warn!(
-                "the shards were baked on {} devices or drivers: {}; the merged bake holds maps \
-                 from each (how far two drivers' maps of one sample differ: \
-                 docs/results.md#bake-drivers)",
-                baked_on.len(),
-                each.join("; ")
-            );
-        }
-        report(
-            &json!({
-                "out": args.out,
-                "merged": args.merge,
-                "samples": samples,
-                "baked_on": baked_on,
-            }),
-            None,
-        )?;
-        say!(
-            "merged {} shards into {}: samples {samples:?}",
-            args.merge.len(),
-            args.out.display()
-        );
-        return Ok(());
+        return run_merge(&args, out);
     }
     let Some(scene_name) = &args.scene else {
         return Err(
@@ -170,7 +161,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     let device = runner.gpu().device_id().clone();
     let bars = BakeBars::new(samples.len());
     let job = BakeJob {
-        dir: &args.out,
+        dir: out,
         samples: &samples,
         options: &options,
         resume: args.resume,
@@ -189,7 +180,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
     report(
         &json!({
             "scene": scene.name,
-            "out": args.out,
+            "out": out,
             "device": device.device,
             "driver": device.driver_description(),
             "summary": summary,
@@ -200,7 +191,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         "{}: {} sample(s) in {} ({} baked now, {} resumed), EM {}², plan {:.1} s, device {device}",
         scene.name,
         summary.samples.len(),
-        args.out.display(),
+        out.display(),
         summary.baked.len(),
         summary.resumed.len(),
         summary.plan.em_size,
@@ -250,6 +241,93 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
             }
         );
     }
+    Ok(())
+}
+
+/// `lensmap bake --merge DIR… --out OUT`: joins shards into `out` and reports the samples.
+fn run_merge(args: &BakeArgs, out: &std::path::Path) -> anyhow::Result<()> {
+    let manifest = merge(&args.merge, out)?;
+    let samples = manifest
+        .provenance
+        .as_ref()
+        .map(|p| p.samples.clone())
+        .unwrap_or_default();
+    let baked_on = manifest
+        .provenance
+        .as_ref()
+        .map(|p| p.baked_on.clone())
+        .unwrap_or_default();
+    if baked_on.len() > 1 {
+        let each: Vec<String> = baked_on
+            .iter()
+            .map(|g| format!("{} (samples {:?})", g.device, g.samples))
+            .collect();
+        warn!(
+            "the shards were baked on {} devices or drivers: {}; the merged bake holds maps \
+             from each (how far two drivers' maps of one sample differ: \
+             docs/results.md#bake-drivers)",
+            baked_on.len(),
+            each.join("; ")
+        );
+    }
+    report(
+        &json!({
+            "out": out,
+            "merged": args.merge,
+            "samples": samples,
+            "baked_on": baked_on,
+        }),
+        None,
+    )?;
+    say!(
+        "merged {} shards into {}: samples {samples:?}",
+        args.merge.len(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// `lensmap bake --compress DIR`: compresses the bake at `source` into `--out` (default: in
+/// place), atomically, and reports the sizes.
+fn run_compress(args: &BakeArgs, source: &std::path::Path) -> anyhow::Result<()> {
+    let out = args.out.as_deref().unwrap_or(source);
+    let options = lensmap::layers::bake::CompressOptions {
+        keyframe_interval: args.keyframe_interval,
+        dropped_mantissa_bits: args.drop_mantissa_bits,
+    };
+    let summary = lensmap::layers::bake::compress(source, out, &options)?;
+    let mut decode = summary.decode_seconds.clone();
+    decode.sort_by(f64::total_cmp);
+    let median_ms = decode.get(decode.len() / 2).map_or(0.0, |s| s * 1e3);
+    let ratio = summary.bytes_before as f64 / summary.bytes_after.max(1) as f64;
+    report(
+        &json!({
+            "source": source,
+            "out": out,
+            "keyframe_interval": options.keyframe_interval,
+            "dropped_mantissa_bits": options.dropped_mantissa_bits,
+            "summary": summary,
+            "ratio": ratio,
+            "median_decode_ms": median_ms,
+        }),
+        None,
+    )?;
+    say!(
+        "compressed {} maps ({} keyframes) of {} into {}: {} → {} bytes ({ratio:.2}×), {}; decoding {median_ms:.1} ms per map (median)",
+        summary.files,
+        summary.keyframes,
+        source.display(),
+        out.display(),
+        summary.bytes_before,
+        summary.bytes_after,
+        match summary.map_psnr_db {
+            None => "lossless (bit-exact)".to_owned(),
+            Some(psnr) => format!(
+                "lossy: map PSNR {psnr:.1} dB, largest error {:.2e}",
+                summary.max_abs_error
+            ),
+        }
+    );
     Ok(())
 }
 

@@ -1105,6 +1105,117 @@ fn damaged_bakes_are_refused_naming_the_file_and_field() {
     );
 }
 
+/// The compressed map of the bake `render --write-bake` writes for glass-sphere, once
+/// `bake --compress` has run.
+const COMPRESSED_MAP: &str = "lens0-sphere.v000.layer0.lmz";
+
+/// Compressed bakes given to `render --bake`: a map truncated, cut to its header, emptied, with
+/// a bit flipped or bytes appended, replaced by another scene's compressed map, or by the EXR it
+/// came from; and a manifest whose checksum or chain was edited. Each refused in one line
+/// naming the file, the earlier frame intact; and `bake --compress` over a damaged bake leaves
+/// it as it was.
+#[test]
+fn damaged_compressed_bakes_are_refused_naming_the_file() {
+    let scratch = Scratch::new("compressed");
+    let (plain, good, other) = (
+        scratch.path("plain-bake"),
+        scratch.path("good-bake"),
+        scratch.path("other-bake"),
+    );
+    let out = scratch.path("frames/frame.png");
+    let patch = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/glass-sphere-patch.toml"
+    );
+    for (scene, dir) in [("glass-sphere", &plain), (patch, &other)] {
+        let mut args = vec!["render", "--scene", scene];
+        args.extend(TINY_RENDER);
+        args.extend(["--write-bake", text(dir), "--out", text(&out)]);
+        succeeds("writing the bake", &args);
+    }
+    succeeds(
+        "compressing",
+        &["bake", "--compress", text(&plain), "--out", text(&good)],
+    );
+    succeeds(
+        "compressing the other",
+        &["bake", "--compress", text(&other)],
+    );
+    let render_bake = |bake: &Path| -> Vec<String> {
+        ["render", "--scene", "glass-sphere", "--bake", text(bake)]
+            .into_iter()
+            .chain(TINY_FRAME)
+            .chain(["--out", text(&out)])
+            .map(String::from)
+            .collect()
+    };
+    succeeds("the compressed bake", &strs(&render_bake(&good)));
+    assert_finite_exr("the compressed bake", &out.with_extension("exr"));
+    let earlier = Earlier::of(&out);
+    let original = read(&good.join(COMPRESSED_MAP));
+    let exr = read(&plain.join(MAP));
+    let foreign = read(&other.join(COMPRESSED_MAP));
+    let flipped = {
+        let mut bytes = original.clone();
+        let at = bytes.len() - 10;
+        bytes[at] ^= 0x10;
+        bytes
+    };
+    let cases: Vec<(&str, Vec<u8>, &[&str])> = vec![
+        (
+            "truncated",
+            original[..original.len() - 7].to_vec(),
+            &["is truncated"],
+        ),
+        ("header-only", original[..50].to_vec(), &["88-byte header"]),
+        ("empty", Vec::new(), &["is truncated: 0 bytes"]),
+        ("bit-flipped", flipped, &["SHA-256", "changed or damaged"]),
+        (
+            "bytes-appended",
+            [original.as_slice(), b"extra"].concat(),
+            &["changed or damaged"],
+        ),
+        ("other-scene", foreign, &["another scene"]),
+        ("an-exr", exr, &["no LMZC header"]),
+    ];
+    for (case, bytes, names) in cases {
+        let bake = scratch.path(case);
+        copy_dir(&good, &bake);
+        std::fs::write(bake.join(COMPRESSED_MAP), bytes).unwrap();
+        let named = bake.join(COMPRESSED_MAP);
+        let mut all = vec![text(&named)];
+        all.extend_from_slice(names);
+        earlier.refused_intact(case, &strs(&render_bake(&bake)), &all, false);
+    }
+    // The manifest's record of the file changed.
+    let bake = scratch.path("manifest-checksum");
+    copy_dir(&good, &bake);
+    edit_manifest(&bake, |t| {
+        t.replacen("\"sha256\": \"", "\"sha256\": \"0", 1)
+    });
+    earlier.refused_intact(
+        "manifest-checksum",
+        &strs(&render_bake(&bake)),
+        &["manifest.json", "compression.files", "sha256"],
+        false,
+    );
+    // Compressing a damaged bake in place refuses and leaves it as it was.
+    let damaged = scratch.path("damaged-plain");
+    copy_dir(&plain, &damaged);
+    let half = read(&plain.join(MAP));
+    std::fs::write(damaged.join(MAP), &half[..half.len() / 2]).unwrap();
+    let output = lensmap(&["bake", "--compress", text(&damaged)]);
+    assert_refused(
+        "compress-damaged",
+        &output,
+        Duration::ZERO,
+        2,
+        &[text(&damaged.join(MAP)), "not a readable OpenEXR file"],
+    );
+    assert_eq!(read(&damaged.join(MAP)), half[..half.len() / 2]);
+    assert!(damaged.join("manifest.json").is_file());
+}
+
 /// Command-line options: bad enums, numbers out of range or of the wrong type, NaN and
 /// infinity, conflicting options, and the paths `--write-bake` cannot use.
 #[test]

@@ -2,7 +2,7 @@
 //! one set of options, as the jobs of a scheduler's array make them.
 
 use std::{
-    collections::{BTreeMap, HashSet},
+    collections::{BTreeMap, HashMap},
     path::{Path, PathBuf},
 };
 
@@ -10,7 +10,7 @@ use glam::DVec3;
 use lensmap::{
     identity::IDENTITY_VERSION,
     layers::{
-        LayerShell, Manifest, Provenance, Staging,
+        LayerShell, Manifest, MapReader, Provenance, Staging,
         bake::{BakedOn, MANIFEST_FILE_NAME},
     },
     options::{LibraryWords, OptionWords, Worded},
@@ -193,28 +193,39 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<Manifest, BakeFailure> {
             ),
             ..first_provenance.clone()
         }),
+        // Compressed shards are merged as EXR maps: compress the merged bake again.
+        compression: None,
         ..first.clone()
     };
+    let mut readers: Vec<MapReader<'_>> = manifests
+        .iter()
+        .map(|(dir, manifest, _)| MapReader::new(dir, manifest))
+        .collect();
     for lens in &mut merged.lenses {
         for layer in &mut lens.layers {
             layer.maps.clear();
         }
     }
     for (&sample, &(index, position)) in &by_sample {
-        let (dir, manifest, _) = &manifests[index];
+        let (_, manifest, _) = &manifests[index];
         merged.viewpoints.push(manifest.viewpoints[position]);
         if let Some(p) = merged.provenance.as_mut() {
             p.samples.push(sample);
         }
-        let mut copied = HashSet::new();
+        let mut copied: HashMap<&String, String> = HashMap::new();
         for (lens, source) in merged.lenses.iter_mut().zip(&manifest.lenses) {
             for (layer, source) in lens.layers.iter_mut().zip(&source.layers) {
                 let name = &source.maps[position];
                 // A shared layer's file once.
-                if copied.insert(name) {
-                    staging.copy_in(&dir.join(name), name)?;
-                }
-                layer.maps.push(name.clone());
+                let staged = match copied.get(name) {
+                    Some(staged) => staged.clone(),
+                    None => {
+                        let staged = staging.copy_map(&mut readers[index], name)?;
+                        copied.insert(name, staged.clone());
+                        staged
+                    }
+                };
+                layer.maps.push(staged);
             }
         }
     }

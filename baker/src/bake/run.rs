@@ -13,9 +13,10 @@ use lensmap::{
     gpu::DeviceId,
     index::{LayerIndex, LensIndex},
     layers::{
-        Manifest, Provenance, Staging,
+        Manifest, MapReader, Provenance, Staging,
         bake::{
-            BakeError, BakedOn, MANIFEST_FILE_NAME, ManifestLayer, ManifestLens, default_created_by,
+            BakeError, BakedOn, MANIFEST_FILE_NAME, ManifestLayer, ManifestLens,
+            compress::uncompressed_name, default_created_by,
         },
     },
     runner::FrameRunner,
@@ -280,6 +281,12 @@ fn resume_from_bake(
         return Ok(Vec::new());
     };
     let mut taken = Vec::new();
+    let mut reader = MapReader::new(dir, &manifest);
+    // The name a listed map is staged under: a compressed map is staged decoded, as an EXR.
+    let staged_name = |listed: &String| match manifest.compression {
+        Some(_) => uncompressed_name(listed),
+        None => listed.clone(),
+    };
     for (position, &sample) in provenance.samples.iter().enumerate() {
         if complete.contains_key(&sample) {
             continue;
@@ -287,20 +294,20 @@ fn resume_from_bake(
         let names = plan.map_names(sample);
         let listed = manifest.lenses.iter().zip(&names).all(|(lens, names)| {
             lens.layers.len() == names.len()
-                && lens
-                    .layers
-                    .iter()
-                    .zip(names)
-                    .all(|(layer, name)| layer.maps.get(position) == Some(name))
+                && lens.layers.iter().zip(names).all(|(layer, name)| {
+                    layer.maps.get(position).map(staged_name).as_ref() == Some(name)
+                })
         });
         if !listed {
             continue;
         }
         let mut copied = HashSet::new();
-        for name in names.iter().flatten() {
-            // A shared layer's file once.
-            if copied.insert(name) {
-                staging.copy_in(&dir.join(name), name)?;
+        for (lens, names) in manifest.lenses.iter().zip(&names) {
+            for (layer, name) in lens.layers.iter().zip(names) {
+                // A shared layer's file once.
+                if copied.insert(name) {
+                    staging.copy_map(&mut reader, &layer.maps[position])?;
+                }
             }
         }
         let marker = SampleReport {
@@ -383,5 +390,6 @@ fn plan_manifest(plan: &Plan, samples: &[usize], positions: &[Vec3]) -> Manifest
             plan.options_hash.clone(),
             samples.to_vec(),
         )),
+        compression: None,
     }
 }

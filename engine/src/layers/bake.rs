@@ -41,6 +41,7 @@
 //! naming the file, the field (or EXR part and texel) and the fix. [`Bake::write`] applies the
 //! same checks before anything is written, so it never produces a bake that cannot be read.
 
+pub mod compress;
 pub mod error;
 pub mod exr;
 pub mod manifest;
@@ -59,6 +60,7 @@ use crate::atomic::{self, DirectorySwap, WhenSwapFails};
 pub use crate::cubemap::ALPHA_TOLERANCE;
 use crate::cubemap::CubeMap;
 use crate::index::{LayerIndex, LayerRef, LensIndex};
+pub use compress::{CompressOptions, CompressSummary, Compression, MapReader, compress};
 pub use error::BakeError;
 use error::{CountCheck, io_error};
 pub use exr::{
@@ -232,6 +234,7 @@ impl Bake {
             viewpoints: self.viewpoints.clone(),
             lenses,
             provenance: self.provenance.clone(),
+            compression: None,
         };
         manifest.validate(dir)?;
         Ok(manifest)
@@ -243,18 +246,7 @@ impl Bake {
     /// complete on disk. Parent directories are created.
     pub fn write(&self, dir: &Path) -> Result<(), BakeError> {
         let manifest = self.manifest(dir)?;
-        let swap = prepare_destination(dir)?;
-        let staging = swap.beside(&format!("{WRITING_SUFFIX}{}", std::process::id()));
-        if staging.exists() {
-            fs::remove_dir_all(&staging).map_err(io_error(&staging, "remove"))?;
-        }
-        fs::create_dir(&staging).map_err(io_error(&staging, "create"))?;
-        if let Err(error) = self.write_staging(&staging, dir, &manifest) {
-            // Best effort: a leftover staging directory is harmless and removed by the next write.
-            let _ = fs::remove_dir_all(&staging);
-            return Err(error);
-        }
-        Ok(swap.swap_in(&staging, WhenSwapFails::Remove)?)
+        write_directory(dir, |staging| self.write_staging(staging, dir, &manifest))
     }
 
     /// Writes every cube map, then the manifest, into `staging`, fsyncing each file and the
@@ -287,7 +279,7 @@ impl Bake {
     /// Reads and validates the bake in `dir`: the manifest, then every cube map it lists.
     pub fn read(dir: &Path) -> Result<Bake, BakeError> {
         let manifest = Manifest::read(dir)?;
-        let size = manifest.cube_map_size;
+        let mut reader = MapReader::new(dir, &manifest);
         // A file listed by several layers (a shared layer) is read once and shared.
         let mut read: HashMap<PathBuf, Arc<CubeMap>> = HashMap::new();
         let mut lenses = Vec::with_capacity(manifest.lenses.len());
@@ -296,7 +288,8 @@ impl Bake {
             for viewpoint in 0..manifest.viewpoints.len() {
                 let mut layers = Vec::with_capacity(lens.layers.len());
                 for (layer_index, layer) in lens.layers.iter().enumerate() {
-                    let file: PathBuf = Path::new(&layer.maps[viewpoint]).components().collect();
+                    let name = &layer.maps[viewpoint];
+                    let file: PathBuf = Path::new(name).components().collect();
                     if let Some(cube) = read.get(&file) {
                         layers.push(cube.clone());
                         continue;
@@ -310,7 +303,7 @@ impl Bake {
                             ),
                         });
                     }
-                    let cube = Arc::new(read_cube_map_exr(&path, size)?);
+                    let cube = Arc::new(reader.read(name)?);
                     read.insert(file, cube.clone());
                     layers.push(cube);
                 }
@@ -331,9 +324,30 @@ impl Bake {
             created_by: manifest.created_by,
             viewpoints: manifest.viewpoints,
             lenses,
-            provenance: manifest.provenance,
+            provenance: manifest.provenance.clone(),
         })
     }
+}
+
+/// Writes bake directory `dir` atomically (see the module docs): `fill` writes and fsyncs
+/// everything into the staging directory it is given, then the staging directory is swapped in
+/// for `dir`. On any failure the staging directory is removed and `dir` is left as it was.
+pub(crate) fn write_directory(
+    dir: &Path,
+    fill: impl FnOnce(&Path) -> Result<(), BakeError>,
+) -> Result<(), BakeError> {
+    let swap = prepare_destination(dir)?;
+    let staging = swap.beside(&format!("{WRITING_SUFFIX}{}", std::process::id()));
+    if staging.exists() {
+        fs::remove_dir_all(&staging).map_err(io_error(&staging, "remove"))?;
+    }
+    fs::create_dir(&staging).map_err(io_error(&staging, "create"))?;
+    if let Err(error) = fill(&staging) {
+        // Best effort: a leftover staging directory is harmless and removed by the next write.
+        let _ = fs::remove_dir_all(&staging);
+        return Err(error);
+    }
+    Ok(swap.swap_in(&staging, WhenSwapFails::Remove)?)
 }
 
 /// The suffix of [`Bake::write`]'s staging directory's name, followed by the process id:

@@ -39,5 +39,5 @@ impl Layering {
     }
 }
 
-pub use bake::{Bake, BakeError, BakedLens, Manifest, Provenance, Staging};
+pub use bake::{Bake, BakeError, BakedLens, Manifest, MapReader, Provenance, Staging};
 pub use shell::{LayerShell, ShellError, ShellHit};

@@ -144,6 +144,16 @@ pub enum BakeError {
         /// What is wrong.
         problem: String,
     },
+    /// A compressed cube-map file is truncated, changed, of another scene or undecodable.
+    #[error("{}: {problem}; {fix}", path.display())]
+    Compressed {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+        /// How to fix it.
+        fix: &'static str,
+    },
     /// A cube map lacks a mip level (or a face of one).
     #[error(
         "{}: part '{part}' is missing (a {size}² cube map stores all {levels} mip levels of all six faces); write the bake again",

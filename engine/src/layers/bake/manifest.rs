@@ -8,6 +8,7 @@ use std::path::{Component, Path, PathBuf};
 use glam::{DVec3, Vec3};
 use serde::{Deserialize, Serialize};
 
+use super::compress::Compression;
 use super::error::{BakeError, CountCheck, io_error};
 use crate::atomic::DirectorySwap;
 use crate::gpu::DeviceId;
@@ -47,6 +48,10 @@ pub struct Manifest {
     /// projected EMs): what resuming, merging and rendering check the bake against.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub provenance: Option<Provenance>,
+    /// How the maps are compressed (see [`super::compress`]); absent in an uncompressed bake,
+    /// whose maps are EXR files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compression: Option<Compression>,
 }
 
 /// What a bake was made from, so that one made from another scene or with other options is
@@ -244,7 +249,8 @@ impl Manifest {
 
     /// Checks the version, the cube-map size, that viewpoints and lens objects exist with finite
     /// positions and unique names, every shell ([`LayerShell::validate`]), one map file per
-    /// viewpoint per layer, and that file names stay inside the bake directory. `path` is used in
+    /// viewpoint per layer, that file names stay inside the bake directory, and the
+    /// compression section ([`Compression::validate`]). `path` is used in
     /// error messages.
     pub fn validate(&self, path: &Path) -> Result<(), BakeError> {
         self.validate_header(path)?;
@@ -282,6 +288,16 @@ impl Manifest {
                 let at = LensIndex::new(index).layer(layer);
                 self.validate_layer(path, lens, at, &mut files)?;
             }
+        }
+        if let Some(compression) = &self.compression {
+            let listed: Vec<&str> = self
+                .lenses
+                .iter()
+                .flat_map(|lens| &lens.layers)
+                .flat_map(|layer| &layer.maps)
+                .map(String::as_str)
+                .collect();
+            compression.validate(path, &listed)?;
         }
         Ok(())
     }

@@ -5,6 +5,7 @@ use std::collections::HashSet;
 use std::fs;
 use std::path::{Path, PathBuf};
 
+use super::compress::{MapReader, uncompressed_name};
 use super::error::{BakeError, io_error};
 use super::exr::{check_cube_map, encode_cube_map_exr};
 use super::manifest::{MANIFEST_FILE_NAME, Manifest};
@@ -79,6 +80,21 @@ impl Staging {
     pub fn copy_in(&self, from: &Path, name: &str) -> Result<(), BakeError> {
         let bytes = fs::read(from).map_err(io_error(from, "read"))?;
         self.write_file(name, &bytes)
+    }
+
+    /// Stages map `name` of the bake `reader` reads, and returns the name it is staged under:
+    /// an EXR file is copied as it is; a compressed one is decoded (from its keyframe) and
+    /// written as the EXR [`super::compress::uncompressed_name`] names, since a compressed
+    /// file cannot leave its chain.
+    pub fn copy_map(&self, reader: &mut MapReader<'_>, name: &str) -> Result<String, BakeError> {
+        if !reader.is_compressed() {
+            self.copy_in(&reader.dir().join(name), name)?;
+            return Ok(name.to_owned());
+        }
+        let staged = uncompressed_name(name);
+        let cube = reader.read(name)?;
+        self.write_cube_map(&staged, &cube, cube.size)?;
+        Ok(staged)
     }
 
     /// Makes the staged bake the bake directory: checks `manifest` (which must list only staged

@@ -540,7 +540,7 @@ mod tests {
 
     /// Schlick at a dielectric against its closed form on both sides: `R0` at normal incidence,
     /// 1 at grazing entry and at the critical angle leaving, the light side's cosine leaving, and
-    /// close to exact Fresnel throughout (Schlick's own error at n = 1.5 is under 0.03 here).
+    /// close to exact Fresnel throughout (Schlick's own error at n = 1.5 peaks at 0.0357, the same both ways).
     #[test]
     fn dielectric_schlick_uses_the_light_sides_cosine_and_total_internal_reflection() {
         let fifth = |c: f64| (1.0 - c).powi(5);
@@ -571,7 +571,7 @@ mod tests {
                     for (n1, n2) in [(1.0, n), (n, 1.0)] {
                         let exact = dielectric(theta.cos(), n1, n2).reflectance;
                         let schlick = dielectric_schlick(theta.cos(), n1, n2, fifth).reflectance;
-                        assert!((schlick - exact).abs() < 0.03, "θ = {theta}");
+                        assert!((schlick - exact).abs() < 0.036, "θ = {theta}");
                     }
                 }
             }

@@ -372,10 +372,10 @@ pub fn trace_greedy_paths_in<R: Real>(
 ) -> TwoTermPaths {
     let interface = lens.interface(first_hit.object);
     let scattering = scatter_with::<R>(interface, incoming.direction, first_hit, fresnel);
-    let mut start = |term, (ray, fresnel): (Ray, DVec3)| {
+    let mut start = |term, (ray, coefficient): (Ray, DVec3)| {
         let mut path = GreedyRayPath {
             term,
-            fresnel,
+            fresnel: coefficient,
             attenuation: DVec3::ONE,
             outgoing_ray: ray,
             interfaces: 1,

@@ -36,6 +36,7 @@ fn mirror_teapot_with_the_table_stays_within_the_bound_of_exact_fresnel() {
     let mut largest = 0.0f64;
     let mut largest_relative = 0.0f64;
     let mut vertices = 0;
+    let mut within_one_bounce = 0;
     for (a, b) in exact.lenses.iter().zip(&table.lenses) {
         assert_eq!(
             a.positions, b.positions,
@@ -48,6 +49,17 @@ fn mirror_teapot_with_the_table_stays_within_the_bound_of_exact_fresnel() {
             for (fa, fb) in ta.fg.iter().zip(&tb.fg) {
                 vertices += 1;
                 let difference = f64::from((*fa - *fb).abs().max_element());
+                // (1 − c)⁵ is convex, so its linear interpolant lies above it: every factor,
+                // and so every product, is at least the exact one (to the f32 rounding of F·G).
+                assert!(
+                    fb.cmpge(*fa - 1e-6).all(),
+                    "{}: the table's F·G {fb} is below the exact {fa}",
+                    a.name
+                );
+                within_one_bounce += usize::from(
+                    f64::from((*fa - *fb).abs().max_element())
+                        <= f64::from(1.0 - SILVER) * bound + 1e-7,
+                );
                 largest = largest.max(difference);
                 if fa.min_element() > 0.0 {
                     largest_relative =
@@ -58,8 +70,11 @@ fn mirror_teapot_with_the_table_stays_within_the_bound_of_exact_fresnel() {
     }
     let per_bounce = f64::from(1.0 - SILVER) * bound;
     eprintln!(
-        "{vertices} vertex terms: F·G moved by ≤ {largest:.3e} (one bounce's bound {per_bounce:.3e}), relatively ≤ {largest_relative:.3e}"
+        "{vertices} vertex terms: F·G moved by ≤ {largest:.3e} (one bounce's bound {per_bounce:.3e}; {within_one_bounce} within it), relatively ≤ {largest_relative:.3e}"
     );
+    // Measured at 64×48, N = 16: 4658 vertex terms, F·G up by at most 2.9e-3, 5.2 bounces'
+    // bound: grazing paths that bounce several times (each factor near grazing incidence is
+    // off by nearly the whole bound, all the same way).
     assert!(vertices > 100, "too few lens vertices: {vertices}");
     // Each factor and F·G are stored in f32 on the way to the GPU: half an ulp of 1 each.
     assert!(

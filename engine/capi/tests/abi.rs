@@ -865,7 +865,7 @@ fn misuse_returns_documented_codes_and_useful_messages() {
             "options->blend is 3 (programmable)",
         );
         // 13b. Options struct sizes of no ABI, on a render and on a plan: refused.
-        for size in [0, 64, 80, u32::MAX] {
+        for size in [0, 64, 78, 84, u32::MAX] {
             let mut sized = frame_options(LENSMAP_FORMAT_RGBA8);
             sized.struct_size = size;
             assert_failure(

@@ -2,10 +2,12 @@
 //! 0–90°, per table size, for each lens material of the scenes asked for: against the table's
 //! derived bound, against Schlick evaluated exactly (mirrors and glass), and for glass against
 //! exact dielectric Fresnel entering and leaving the glass, beside Schlick's own error there.
-//! No GPU: the numbers are the per-vertex arithmetic's.
+//! Then the cost of one Fresnel evaluation, exact against the table, alternating runs. No GPU:
+//! the numbers are the per-vertex arithmetic's.
 
 use std::path::PathBuf;
 
+use lensmap::runner::median;
 use lensmap::scene::{Material, Scene};
 use lensmap::trace::path::Interface;
 use lensmap::trace::schlick_table::{
@@ -60,8 +62,11 @@ fn lens_interfaces(scene: &Scene) -> Vec<(String, Interface)> {
 /// `R0 = (r, g, b)` or `IOR n`.
 fn describe(interface: Interface) -> String {
     match interface {
-        Interface::Mirror { reflectance: r } => format!("mirror R0=({},{},{})", r.x, r.y, r.z),
-        Interface::Dielectric { ior, .. } => format!("glass IOR {ior}"),
+        // The scene's values are f32: shown as written, not as their f64 widening.
+        Interface::Mirror { reflectance: r } => {
+            format!("mirror R0=({},{},{})", r.x as f32, r.y as f32, r.z as f32)
+        }
+        Interface::Dielectric { ior, .. } => format!("glass IOR {}", ior as f32),
     }
 }
 
@@ -105,11 +110,82 @@ pub fn run(args: BenchFresnelArgs) -> anyhow::Result<()> {
     for (name, interface) in &materials {
         print_material(name, &tables, *interface, args.samples);
     }
+    let timings = evaluation_costs(&tables, &materials);
     report(
-        &json!({ "samples": args.samples, "tables": rows }),
+        &json!({ "samples": args.samples, "tables": rows, "ns_per_evaluation": timings }),
         args.report.as_deref(),
     )?;
     Ok(())
+}
+
+/// Evaluations per timed run of [`evaluation_costs`].
+const EVALUATIONS: u32 = 1 << 20;
+
+/// Runs per setting of [`evaluation_costs`]; the median counts.
+const RUNS: usize = 15;
+
+/// Nanoseconds per Fresnel evaluation at each material, exact and through each table, over
+/// cosines spread over 0–90° (what a frame's vertices see): medians of [`RUNS`] runs of
+/// [`EVALUATIONS`] each, the settings taking turns run by run; printed and as JSON.
+fn evaluation_costs(
+    tables: &[SchlickTable],
+    materials: &[(String, Interface)],
+) -> serde_json::Value {
+    let mut out = Vec::new();
+    for (name, interface) in materials {
+        // The settings: exact (None), then each table.
+        let settings: Vec<Option<&SchlickTable>> = std::iter::once(None)
+            .chain(tables.iter().map(Some))
+            .collect();
+        let mut times = vec![Vec::new(); settings.len()];
+        for _ in 0..RUNS {
+            for (slot, table) in settings.iter().enumerate() {
+                let start = std::time::Instant::now();
+                let mut sum = 0.0;
+                for k in 0..EVALUATIONS {
+                    let c = std::hint::black_box((f64::from(k) + 0.5) / f64::from(EVALUATIONS));
+                    sum += evaluate(*interface, *table, c);
+                }
+                std::hint::black_box(sum);
+                times[slot].push(start.elapsed().as_secs_f64() * 1e9 / f64::from(EVALUATIONS));
+            }
+        }
+        let medians: Vec<f64> = times.iter_mut().map(|t| median(t)).collect();
+        say!(
+            "{name}: ns per evaluation, exact {:.2}; {}",
+            medians[0],
+            tables
+                .iter()
+                .zip(&medians[1..])
+                .map(|(t, ns)| format!("table:{} {ns:.2}", t.texels().len()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        out.push(json!({ "material": name, "exact": medians[0],
+            "tables": tables.iter().zip(&medians[1..]).map(|(t, ns)| json!({"texels": t.texels().len(), "ns": ns})).collect::<Vec<_>>() }));
+    }
+    json!(out)
+}
+
+/// One Fresnel evaluation at `interface` for light arriving at cosine `c` (from outside), as the
+/// per-vertex paths do it: exact (`None`) or through `table`; the largest channel.
+fn evaluate(interface: Interface, table: Option<&SchlickTable>, c: f64) -> f64 {
+    match (interface, table) {
+        (Interface::Mirror { reflectance }, None) => {
+            lensmap::trace::fresnel::schlick(reflectance, c).max_element()
+        }
+        (Interface::Mirror { reflectance }, Some(table)) => {
+            lensmap::trace::fresnel::schlick_by(reflectance, c, |x| table.fifth_power(x))
+                .max_element()
+        }
+        (Interface::Dielectric { ior, .. }, None) => {
+            lensmap::trace::fresnel::dielectric(c, 1.0, ior).reflectance
+        }
+        (Interface::Dielectric { ior, .. }, Some(table)) => {
+            lensmap::trace::fresnel::dielectric_schlick(c, 1.0, ior, |x| table.fifth_power(x))
+                .reflectance
+        }
+    }
 }
 
 /// One material's table: per size, the largest error against each reference.

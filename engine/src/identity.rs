@@ -13,6 +13,9 @@
 //!   tag 1 and the value;
 //! - an enum as a tag number its `Canonical` impl fixes, then the variant's fields; a struct as
 //!   its fields in the order its impl writes them.
+//! - an option added after this version was fixed may be written after everything else, writing
+//!   nothing for the value every earlier identity implied: those identities stand, and since the
+//!   rest delimits itself the trailing value cannot be confused with another field.
 //!
 //! Each hash starts with a domain string and [`IDENTITY_VERSION`], so a scene hash and an options
 //! hash never collide, and a change of the encoding is a new version, written into every bake's

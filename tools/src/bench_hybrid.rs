@@ -1,14 +1,15 @@
 //! `lensmap bench hybrid`: where a hybrid frame's time goes, per stage, as medians over repeated
 //! frames, single pass vs multipass measured in the same run; then a still camera against a
 //! moving one, latency against throughput with two frames in flight, and the thread scaling of
-//! the CPU stages (1, 2 and all threads).
+//! the CPU stages (1, 2 and all threads). With `--fresnel table:N`, also exact Fresnel against
+//! the table, frames alternating.
 
 use std::path::PathBuf;
 
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene, tessellate::DEFAULT_T},
+    hybrid::{FresnelModel, HybridOptions, HybridScene, tessellate::DEFAULT_T},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{TargetFormat, Variant},
     runner::{
@@ -51,6 +52,8 @@ pub struct BenchHybridArgs {
     /// Projected EMs: cube-map face size.
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     em_size: u32,
+    #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
+    fresnel: FresnelModel,
     /// Timed frames per variant (after two warm-up frames).
     #[arg(long, default_value_t = 9)]
     frames: usize,
@@ -65,7 +68,8 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let format = TargetFormat::from(args.format);
     runner.check_framebuffer(&camera, format)?;
-    let mut steps = Steps::new(5);
+    let with_table = args.fresnel != FresnelModel::Exact;
+    let mut steps = Steps::new(if with_table { 6 } else { 5 });
     let step = steps.step("projected layered EMs and light maps");
     let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
@@ -101,12 +105,18 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let still = bench.still_camera(&mut runner, &options, &mut steps)?;
     let moving = bench.moving_camera(&mut runner, &options, &mut steps)?;
     let scaling = bench.thread_scaling(&mut runner, &options, threads, &mut steps)?;
+    let fresnel = if with_table {
+        Some(bench.fresnel_against_exact(&mut runner, &options, &mut steps)?)
+    } else {
+        None
+    };
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
         "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
         "threads": threads, "frames": args.frames, "rows": rows,
         "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,
+        "fresnel": args.fresnel.name(), "fresnel_against_exact": fresnel,
     });
     report(&out, args.report.as_deref())?;
     Ok(())
@@ -119,6 +129,7 @@ fn checked(
 ) -> anyhow::Result<(HybridOptions, ProjectedOptions, Scene, Camera)> {
     let hybrid_options = HybridOptions {
         footprint_subpixels: args.footprint,
+        fresnel: args.fresnel,
         ..HybridOptions::with_t(args.t)
     };
     hybrid_options.validate().map_err(flag_error)?;
@@ -330,6 +341,78 @@ impl Bench<'_> {
             "threads": threads, "cpu_stages_ms": cpu, "tessellation_ms": tessellation, "frame_ms": total,
             "cpu_speedup": cpu_1 / cpu, "tessellation_speedup": tessellation_1 / tessellation,
         })).collect())
+    }
+}
+
+impl Bench<'_> {
+    /// Exact Fresnel against the table of `options` (its `hybrid.fresnel`), each frame built from
+    /// scratch, the two alternating (A B B A …, so neither always runs first) after a warm-up of
+    /// each: medians of the vertex tracing and of the whole frame, and the median of the paired
+    /// differences (table − exact); printed and as JSON.
+    fn fresnel_against_exact(
+        &self,
+        runner: &mut FrameRunner,
+        options: &FrameOptions,
+        steps: &mut Steps,
+    ) -> anyhow::Result<serde_json::Value> {
+        let step = steps.step("Fresnel: exact against the table, alternating");
+        let exact = FrameOptions {
+            hybrid: HybridOptions {
+                fresnel: FresnelModel::Exact,
+                ..options.hybrid
+            },
+            ..*options
+        };
+        let settings = [&exact, options];
+        let mut frame = |setting: &FrameOptions| {
+            self.hybrid.forget_frame();
+            runner
+                .frame(self.hybrid, &self.camera, setting)
+                .map(|f| (f.stats.trace_ms, f.total_ms))
+        };
+        for setting in settings {
+            frame(setting)?;
+        }
+        let mut times: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
+        for i in 0..self.frames {
+            let order = if i % 2 == 0 { [0, 1] } else { [1, 0] };
+            for which in order {
+                times[which].push(frame(settings[which])?);
+            }
+        }
+        step.finish_and_clear();
+        let median_of = |which: usize, part: fn(&(f64, f64)) -> f64| {
+            median(&mut times[which].iter().map(part).collect::<Vec<_>>())
+        };
+        let paired = |part: fn(&(f64, f64)) -> f64| {
+            let mut differences: Vec<f64> = times[1]
+                .iter()
+                .zip(&times[0])
+                .map(|(table, exact)| part(table) - part(exact))
+                .collect();
+            median(&mut differences)
+        };
+        // (vertex tracing ms, frame ms) of one frame: which of the two a median is of.
+        type Part = fn(&(f64, f64)) -> f64;
+        let (trace, total): (Part, Part) = (|t| t.0, |t| t.1);
+        let name = options.hybrid.fresnel.name();
+        let out = json!({
+            "exact": { "trace_ms": median_of(0, trace), "total_ms": median_of(0, total) },
+            "table": { "fresnel": name, "trace_ms": median_of(1, trace), "total_ms": median_of(1, total) },
+            "paired_difference_ms": { "trace": paired(trace), "total": paired(total) },
+            "frames_each": self.frames,
+        });
+        say!(
+            "Fresnel exact vs {name}, {} frames each, alternating: vertex tracing {:.2} vs {:.2} ms, frame {:.2} vs {:.2} ms; paired difference (table − exact) {:+.2} ms tracing, {:+.2} ms frame (medians)",
+            self.frames,
+            median_of(0, trace),
+            median_of(1, trace),
+            median_of(0, total),
+            median_of(1, total),
+            paired(trace),
+            paired(total)
+        );
+        Ok(out)
     }
 }
 

@@ -12,6 +12,7 @@ use anyhow::Context;
 use clap::ValueEnum;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use lensmap::hybrid::FresnelModel;
 use lensmap::options::{OptionError, Worded};
 use lensmap::render::{BlendScheme, RenderedImage, TargetFormat, Variant};
 use lensmap::scene::{Camera, Scene, SceneError};
@@ -292,6 +293,24 @@ pub struct CameraArgs {
     /// Supersamples per pixel along each axis, k for k×k (default: the scene camera's).
     #[arg(long, value_name = "K")]
     pub supersampling: Option<u32>,
+}
+
+/// The help of `--fresnel`, the same on every command that takes it.
+pub const FRESNEL_HELP: &str = "How each lens vertex evaluates Fresnel: exact (Schlick for mirrors, exact dielectric Fresnel for glass), or table:N, Schlick with its (1 − cos θ)⁵ looked up in a 1D table of N texels (2 to 4096), linearly filtered like a texture (the PEM paper's 1D Fresnel texture)";
+
+/// Parses `--fresnel`: `exact` or `table:N` (the table's size is checked with the other frame
+/// options).
+pub fn parse_fresnel(text: &str) -> Result<FresnelModel, String> {
+    let text = text.trim();
+    if text == "exact" {
+        return Ok(FresnelModel::Exact);
+    }
+    text.strip_prefix("table:")
+        .and_then(|texels| texels.trim().parse::<u32>().ok())
+        .map(|texels| FresnelModel::Table { texels })
+        .ok_or_else(|| {
+            format!("'{text}': give exact or table:N, N texels of the 1D Schlick table (2 to 4096), e.g. table:64")
+        })
 }
 
 /// Parses "x,y,z" into a vector of three finite numbers.

@@ -7,6 +7,7 @@ mod common;
 mod bake;
 mod bench_bake;
 mod bench_error;
+mod bench_fresnel;
 mod bench_hybrid;
 mod bench_infer;
 mod bench_passes;
@@ -134,6 +135,11 @@ enum BenchCommand {
     ///
     /// Example: lensmap bench error --scene teapot-room --plot out/pareto
     Error(bench_error::BenchErrorArgs),
+    /// Schlick's (1 − cos θ)⁵ through a 1D table (--fresnel table:N): its largest error over
+    /// 0–90° per size, against Schlick evaluated exactly and, for glass, exact Fresnel.
+    ///
+    /// Example: lensmap bench fresnel --scene mirror-teapot --scene glass-sphere --texels 16,64,256
+    Fresnel(bench_fresnel::BenchFresnelArgs),
 }
 
 /// Whether an error is the user's input (exit 2) rather than a failure of the work (exit 1).
@@ -252,6 +258,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Infer(args)) => bench_infer::run(args),
         Command::Bench(BenchCommand::Bake(args)) => bench_bake::run(args),
         Command::Bench(BenchCommand::Error(args)) => bench_error::run(args),
+        Command::Bench(BenchCommand::Fresnel(args)) => bench_fresnel::run(args),
     };
     match result {
         Ok(()) => common::exit_status(),

@@ -58,6 +58,8 @@ pub struct RenderArgs {
     /// Outgoing rays further apart than this many degrees split a triangle.
     #[arg(long, default_value_t = DEFAULT_ANGLE_DEGREES, allow_negative_numbers = true)]
     pub angle_degrees: f64,
+    #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
+    pub fresnel: lensmap::hybrid::FresnelModel,
     /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -134,6 +136,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             },
             angle_radians: args.angle_degrees.to_radians(),
             footprint_subpixels: args.footprint,
+            fresnel: args.fresnel,
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),
@@ -247,7 +250,7 @@ fn report(
     let mut out = json!({
         "scene": hybrid.scene.name, "device": device.device, "driver": device.driver_description(),
         "width": camera.width, "height": camera.height, "supersampling": camera.supersampling,
-        "t": args.t, "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
+        "t": args.t, "fresnel": args.fresnel.name(), "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
         "prepare_seconds": prepare_s,
         "light_maps": {

@@ -267,7 +267,13 @@ fn passes_prints_the_golden_plans() {
 
 #[test]
 fn out_of_range_options_exit_2_naming_the_flag() {
-    for (flag, value) in [("--t", "0"), ("--angle-degrees", "200"), ("--em-size", "0")] {
+    for (flag, value) in [
+        ("--t", "0"),
+        ("--angle-degrees", "200"),
+        ("--em-size", "0"),
+        ("--fresnel", "table:1"),
+        ("--fresnel", "table:4097"),
+    ] {
         let option = format!("{flag}={value}");
         let out = lensmap(&[
             "render",
@@ -487,4 +493,74 @@ fn bench_error_measures_time_and_error_with_baselines_and_a_frontier() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `bench fresnel` reports, per table size, an error within the derived bound 2.5/(N − 1)² and
+/// near it; per material of mirror-teapot and glass-sphere, the mirror's error against exact
+/// Schlick at most (1 − R₀) of that, and for glass both sides against exact Fresnel. A `--fresnel`
+/// that is neither `exact` nor `table:N` is a usage error naming the forms.
+#[test]
+fn bench_fresnel_reports_errors_within_the_bound_and_bad_forms_exit_2() {
+    let out = lensmap(&[
+        "bench",
+        "fresnel",
+        "--texels",
+        "16,256",
+        "--samples",
+        "8192",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let tables = json["tables"].as_array().expect("tables");
+    assert_eq!(tables.len(), 2);
+    for table in tables {
+        let n = table["texels"].as_f64().unwrap();
+        let bound = 2.5 / (n - 1.0).powi(2);
+        let measured = table["measured"].as_f64().unwrap();
+        assert!((table["bound"].as_f64().unwrap() - bound).abs() < 1e-15);
+        assert!(
+            measured <= bound + 1e-7 && measured > 0.8 * bound,
+            "N = {n}: {measured}"
+        );
+        let materials = table["materials"].as_array().unwrap();
+        let mirror = materials
+            .iter()
+            .find(|m| {
+                m["material"]
+                    .as_str()
+                    .unwrap()
+                    .starts_with("mirror-teapot:mirror")
+            })
+            .expect("mirror-teapot's silver");
+        let against_schlick = mirror["errors"]["against_schlick"].as_f64().unwrap();
+        assert!(against_schlick <= 0.05 * measured * (1.0 + 1e-6) + 1e-9);
+        let glass = materials
+            .iter()
+            .find(|m| {
+                m["material"]
+                    .as_str()
+                    .unwrap()
+                    .starts_with("glass-sphere:glass")
+            })
+            .expect("glass-sphere's glass");
+        let sides = glass["errors"]["against_dielectric"].as_array().unwrap();
+        assert_eq!(sides.len(), 2, "entering and leaving");
+        assert!(sides.iter().all(|e| e.as_f64().unwrap() > 0.0));
+    }
+    let out = lensmap(&[
+        "render",
+        "--scene",
+        "glass-sphere",
+        "--projected",
+        "--fresnel",
+        "tabel:8",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("give exact or table:N"), "{stderr}");
 }

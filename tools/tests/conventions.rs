@@ -41,7 +41,7 @@ fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
 }
 
 /// Every command, as a user types it.
-const COMMANDS: [&[&str]; 10] = [
+const COMMANDS: [&[&str]; 11] = [
     &["demo"],
     &["passes"],
     &["reference"],
@@ -52,6 +52,7 @@ const COMMANDS: [&[&str]; 10] = [
     &["bench", "trace"],
     &["bench", "infer"],
     &["bench", "bake"],
+    &["bench", "fresnel"],
 ];
 
 #[test]

@@ -2,7 +2,9 @@
 //! identity) and the constants of the baker's method.
 
 use lensmap::{
-    hybrid::{HybridOptions, paths::VertexPrecision, tessellate::TessellationOptions},
+    hybrid::{
+        FresnelModel, HybridOptions, paths::VertexPrecision, tessellate::TessellationOptions,
+    },
     identity::{Canonical, Encoder, identity},
     layers::projected::MAX_EM_SIZE,
     options::OptionError,
@@ -240,6 +242,22 @@ impl Canonical for BakeOptions {
             .value(smoothness)
             .value(tolerance)
             .value(max_iterations);
+        encode_fresnel(encoder, hybrid.fresnel);
+    }
+}
+
+/// The test renderings' Fresnel model. It is in the identity because it changes the maps: the
+/// rendering matrix is drawn with each vertex's F·G, which a table changes (unlike the viewpoint
+/// blending, which the test renderings never use). The model came after identity version 1 was
+/// fixed: the exact one, what every earlier bake used, writes nothing, so their identities stand;
+/// a table writes tag 1 and its size. Written after everything else, whose encoding delimits
+/// itself, it cannot be confused with another field.
+fn encode_fresnel(encoder: &mut Encoder, fresnel: FresnelModel) {
+    match fresnel {
+        FresnelModel::Exact => {}
+        FresnelModel::Table { texels } => {
+            encoder.tag(1).value(&texels);
+        }
     }
 }
 
@@ -253,6 +271,8 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         // The test renderings are drawn at the samples with each sample's own maps: one
         // viewpoint, whatever the blending.
         viewpoint_blending: _,
+        // Written last of all the options ([`encode_fresnel`]).
+        fresnel: _,
     } = hybrid;
     let TessellationOptions {
         t,
@@ -297,6 +317,7 @@ mod tests {
                     footprint_subpixels: 0.0,
                     precision: VertexPrecision::F64,
                     viewpoint_blending: lensmap::hybrid::ViewpointBlending::ViewSpace,
+                    fresnel: FresnelModel::Exact,
                 },
                 variant: Variant::SinglePass,
                 em_size: EmSize::Fixed(64),
@@ -357,8 +378,15 @@ mod tests {
         let mut precision = fixed();
         precision.infer.hybrid.precision = VertexPrecision::F32;
         variants.push(precision);
+        for texels in [64, 65] {
+            let mut fresnel = fixed();
+            fresnel.infer.hybrid.fresnel = FresnelModel::Table { texels };
+            variants.push(fresnel);
+        }
         for (i, options) in variants.iter().enumerate() {
             assert_ne!(options.hash(), base, "variant {i}");
         }
+        let (table_64, table_65) = (&variants[variants.len() - 2], &variants[variants.len() - 1]);
+        assert_ne!(table_64.hash(), table_65.hash());
     }
 }

@@ -73,6 +73,7 @@ fn overhead(c: &mut Criterion) {
                 format: LENSMAP_FORMAT_RGBA16F,
                 blend: LENSMAP_BLEND_FRONT_TO_BACK,
                 viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
+                fresnel_texels: 0,
             };
             // SAFETY: live handles, a buffer of the frame's size.
             let code = unsafe {

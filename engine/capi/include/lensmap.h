@@ -8,7 +8,7 @@
 #include <vulkan/vulkan.h>
 
 // The ABI version this header describes; raised when a struct grows or a function is added.
-#define LENSMAP_ABI_VERSION 4
+#define LENSMAP_ABI_VERSION 5
 
 // `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 #define LENSMAP_VARIANT_SINGLE_PASS 0
@@ -199,6 +199,11 @@ typedef struct LensmapFrameOptions {
   // `LENSMAP_VIEWPOINTS_*`: which viewpoint samples the frame blends (ABI 4; a struct of an
   // earlier ABI's size, which ends before this field, means the view space's own rule).
   uint32_t viewpoint_blending;
+  // How each lens vertex evaluates Fresnel: 0 exactly (Schlick for mirrors, exact dielectric
+  // Fresnel for glass); N in [2, 4096]: Schlick with its fifth-order term looked up in a 1D
+  // table of N texels, linearly filtered like a texture (ABI 5; a struct of an earlier ABI's
+  // size, which ends before this field, means exact).
+  uint32_t fresnel_texels;
 } LensmapFrameOptions;
 
 // Where a frame's time went and what it cost (the paper's table). Set `struct_size`; lensmap

@@ -479,6 +479,7 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
             format: LENSMAP_FORMAT_RGBA16F,
             blend: LENSMAP_BLEND_FRONT_TO_BACK,
             viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
+            fresnel_texels: 0,
         };
         // SAFETY: writable for `size` bytes by the caller's promise (a struct of that ABI's
         // size, checked above): only those are written.

@@ -6,11 +6,12 @@
 use std::ffi::{CStr, c_char};
 
 use lensmap::gpu::vk;
-use lensmap::hybrid::{HybridOptions, ViewpointBlending};
+use lensmap::hybrid::{FresnelModel, HybridOptions, ViewpointBlending};
 use lensmap::options::Worded;
 use lensmap::render::{BlendScheme, TargetFormat, Variant};
 use lensmap::runner::FrameOptions;
 use lensmap::scene::Camera;
+use lensmap::trace::schlick_table::{MAX_TEXELS, MIN_TEXELS};
 
 use crate::failure::{Failure, StructFields, null};
 use crate::types::*;
@@ -103,8 +104,12 @@ pub(crate) const FRAME_OPTIONS_ABI2: usize = 68;
 /// ABI 3's `sizeof(LensmapFrameOptions)`: everything before `viewpoint_blending`.
 pub(crate) const FRAME_OPTIONS_ABI3: usize = 72;
 
+/// ABI 4's `sizeof(LensmapFrameOptions)`: everything before `fresnel_texels`.
+pub(crate) const FRAME_OPTIONS_ABI4: usize = 76;
+
 /// The sizes of `LensmapFrameOptions` earlier ABIs had, all accepted.
-pub(crate) const FRAME_OPTIONS_OLDER: [usize; 2] = [FRAME_OPTIONS_ABI2, FRAME_OPTIONS_ABI3];
+pub(crate) const FRAME_OPTIONS_OLDER: [usize; 3] =
+    [FRAME_OPTIONS_ABI2, FRAME_OPTIONS_ABI3, FRAME_OPTIONS_ABI4];
 
 /// ABI 2's `sizeof(LensmapPlanOptions)`: everything before `blend`.
 pub(crate) const PLAN_OPTIONS_ABI2: usize = 24;
@@ -121,6 +126,10 @@ const _: () = assert!(
 const _: () = assert!(
     FRAME_OPTIONS_ABI3 == std::mem::offset_of!(LensmapFrameOptions, viewpoint_blending),
     "ABI 3's frame options end where `viewpoint_blending` begins"
+);
+const _: () = assert!(
+    FRAME_OPTIONS_ABI4 == std::mem::offset_of!(LensmapFrameOptions, fresnel_texels),
+    "ABI 4's frame options end where `fresnel_texels` begins"
 );
 const _: () = assert!(
     SCENE_OPTIONS_ABI3 == std::mem::offset_of!(LensmapSceneOptions, light_map_max_texels),
@@ -249,9 +258,22 @@ pub(crate) fn frame_settings(
             ));
         }
     };
+    let fresnel = match options.fresnel_texels {
+        0 => FresnelModel::Exact,
+        texels if (MIN_TEXELS..=MAX_TEXELS).contains(&texels) => FresnelModel::Table { texels },
+        other => {
+            return Err(Failure::new(
+                LensmapResult::InvalidArgument,
+                format!(
+                    "options->fresnel_texels is {other}; give 0 (exact Fresnel) or a table of {MIN_TEXELS} to {MAX_TEXELS} texels, e.g. 64"
+                ),
+            ));
+        }
+    };
     let frame_options = FrameOptions {
         hybrid: HybridOptions {
             viewpoint_blending,
+            fresnel,
             ..HybridOptions::with_t(t)
         },
         variant,

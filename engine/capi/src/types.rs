@@ -9,7 +9,7 @@ use crate::exports::{
 };
 
 /// The ABI version this header describes; raised when a struct grows or a function is added.
-pub const LENSMAP_ABI_VERSION: u32 = 4;
+pub const LENSMAP_ABI_VERSION: u32 = 5;
 
 /// `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 pub const LENSMAP_VARIANT_SINGLE_PASS: u32 = 0;
@@ -213,6 +213,11 @@ pub struct LensmapFrameOptions {
     /// `LENSMAP_VIEWPOINTS_*`: which viewpoint samples the frame blends (ABI 4; a struct of an
     /// earlier ABI's size, which ends before this field, means the view space's own rule).
     pub viewpoint_blending: u32,
+    /// How each lens vertex evaluates Fresnel: 0 exactly (Schlick for mirrors, exact dielectric
+    /// Fresnel for glass); N in [2, 4096]: Schlick with its fifth-order term looked up in a 1D
+    /// table of N texels, linearly filtered like a texture (ABI 5; a struct of an earlier ABI's
+    /// size, which ends before this field, means exact).
+    pub fresnel_texels: u32,
 }
 
 /// A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a

@@ -90,6 +90,7 @@ fn frame_options(format: u32) -> LensmapFrameOptions {
         format,
         blend: LENSMAP_BLEND_FRONT_TO_BACK,
         viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
+        fresnel_texels: 0,
     }
 }
 
@@ -265,6 +266,68 @@ fn viewpoint_blending_through_the_abi_and_abi_3_structs() {
     );
     let error = last_error();
     assert!(error.contains("68 or 72"), "{error}");
+    assert_no_validation_messages(context);
+    // SAFETY: handles from this library, freed once.
+    unsafe {
+        lensmap_scene_free(scene);
+        lensmap_context_free(context);
+    }
+}
+
+/// ABI 5's Fresnel table: a table renders glass-sphere close to, but not as, exact Fresnel
+/// (Schlick differs from exact dielectric Fresnel by a few hundredths of reflectance), a size
+/// out of range is refused naming the field, and an ABI 4 caller's struct (no such field)
+/// renders with exact Fresnel.
+#[test]
+fn fresnel_table_through_the_abi_and_abi_4_structs() {
+    let context = new_context();
+    let scene = load_scene();
+    let mut frames = Vec::new();
+    for texels in [0, 64] {
+        let mut options = frame_options(LENSMAP_FORMAT_RGBA32F);
+        options.fresnel_texels = texels;
+        let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+        assert_eq!(
+            render(context, scene, &options, &mut pixels),
+            LensmapResult::Ok,
+            "{}",
+            last_error()
+        );
+        frames.push(pixels);
+    }
+    let largest = frames[0]
+        .iter()
+        .zip(&frames[1])
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(largest > 0.0, "the table changed nothing");
+    assert!(largest < 0.5, "the table moved a channel by {largest}");
+    for texels in [1, 4097] {
+        let mut bad = frame_options(LENSMAP_FORMAT_RGBA32F);
+        bad.fresnel_texels = texels;
+        let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+        assert_eq!(
+            render(context, scene, &bad, &mut pixels),
+            LensmapResult::InvalidArgument
+        );
+        let error = last_error();
+        assert!(
+            error.contains(&format!("options->fresnel_texels is {texels}"))
+                && error.contains("2 to 4096")
+                && !error.contains('\n'),
+            "{error}"
+        );
+    }
+    // An ABI 4 struct: 76 bytes, ending before `fresnel_texels` (not read).
+    let mut old = frame_options(LENSMAP_FORMAT_RGBA32F);
+    old.fresnel_texels = 0xdead;
+    old.struct_size = 76;
+    let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+    assert_eq!(render(context, scene, &old, &mut pixels), LensmapResult::Ok);
+    assert_eq!(
+        pixels, frames[0],
+        "an ABI 4 struct evaluates Fresnel exactly"
+    );
     assert_no_validation_messages(context);
     // SAFETY: handles from this library, freed once.
     unsafe {
@@ -802,7 +865,7 @@ fn misuse_returns_documented_codes_and_useful_messages() {
             "options->blend is 3 (programmable)",
         );
         // 13b. Options struct sizes of no ABI, on a render and on a plan: refused.
-        for size in [0, 64, 80, u32::MAX] {
+        for size in [0, 64, 78, 84, u32::MAX] {
             let mut sized = frame_options(LENSMAP_FORMAT_RGBA8);
             sized.struct_size = size;
             assert_failure(

@@ -23,12 +23,14 @@ use super::{
     texgen::{LensMesh, texgen},
     viewpoints::{self, ViewSpaceFit, ViewpointBlend},
 };
+pub use crate::trace::schlick_table::FresnelModel;
 use crate::{
     layers::LayerShell,
     options::OptionError,
     render::{EnvironmentMesh, FrameInput, LensFaces},
     scene::Camera,
     trace::{
+        schlick_table::SchlickTable,
         stats::TraceCounters,
         world::{LensBvh, TraceScene},
     },
@@ -144,6 +146,10 @@ pub struct HybridOptions {
     /// Which viewpoint samples a frame blends: the view space's own rule (the default), or
     /// fewer, to measure what the blend is worth.
     pub viewpoint_blending: ViewpointBlending,
+    /// How the vertex paths evaluate Fresnel: exactly (the default: Schlick for mirrors, exact
+    /// dielectric Fresnel for glass), or Schlick with its fifth-order term looked up in a 1D
+    /// table per vertex (the PEM paper's 1D texture).
+    pub fresnel: FresnelModel,
 }
 
 /// Which viewpoint samples a frame blends.
@@ -168,6 +174,7 @@ impl Default for HybridOptions {
             footprint_subpixels: 0.0,
             precision: VertexPrecision::F64,
             viewpoint_blending: ViewpointBlending::ViewSpace,
+            fresnel: FresnelModel::Exact,
         }
     }
 }
@@ -188,9 +195,10 @@ impl HybridOptions {
     }
 
     /// Checks every option: `t` ([`TessellationOptions::validate`]), the footprint (finite,
-    /// ≥ 0) and the angle in (0°, 180°).
+    /// ≥ 0), the angle in (0°, 180°) and the Fresnel table's size ([`FresnelModel::validate`]).
     pub fn validate(&self) -> Result<(), OptionError> {
         self.tessellation.validate()?;
+        self.fresnel.validate()?;
         OptionError::require(
             self.footprint_subpixels.is_finite() && self.footprint_subpixels >= 0.0,
             "footprint",
@@ -458,6 +466,7 @@ impl HybridScene {
                 subpixels: Vec2::new(width as f32, height as f32),
             },
             sky: sky.map(|(mesh, _)| mesh),
+            fresnel: None,
         }
     }
 
@@ -548,7 +557,8 @@ impl HybridScene {
                 faces,
             )
             .with_precision(options.precision)
-            .with_bounces(self.lenses[lens_index].layering.bounces());
+            .with_bounces(self.lenses[lens_index].layering.bounces())
+            .with_fresnel(view.fresnel.as_ref());
             let start = Instant::now();
             tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
             let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
@@ -608,7 +618,10 @@ impl HybridScene {
         vertex_exact: bool,
     ) -> Result<(FrameInput, HybridStats, Vec<Vec<u8>>), TessellationError> {
         let start = Instant::now();
-        let view = self.view(camera);
+        let view = FrameView {
+            fresnel: options.fresnel.table()?,
+            ..self.view(camera)
+        };
         let (blend, outside_view_space) = self.placed(camera, options.viewpoint_blending);
         let mut stats = HybridStats {
             outside_view_space,
@@ -690,6 +703,8 @@ struct FrameView {
     screen: ScreenCamera,
     /// The sky dome around the camera, drawn behind everything; `None` when the sky is black.
     sky: Option<Arc<EnvironmentMesh>>,
+    /// The table the vertex paths look Schlick's fifth-order term up in; `None`: evaluated.
+    fresnel: Option<SchlickTable>,
 }
 
 /// A lens object tessellated for a frame: its mesh and each vertex's evaluation.

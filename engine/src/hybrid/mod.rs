@@ -14,8 +14,8 @@ mod texgen;
 pub mod viewpoints;
 
 pub use frame::{
-    BuiltFrame, DEFAULT_ANGLE_DEGREES, HybridOptions, HybridStats, MAX_FOOTPRINT_COARSENING,
-    VertexPrecision, ViewpointBlending, Wireframe, WireframeLens,
+    BuiltFrame, DEFAULT_ANGLE_DEGREES, FresnelModel, HybridOptions, HybridStats,
+    MAX_FOOTPRINT_COARSENING, VertexPrecision, ViewpointBlending, Wireframe, WireframeLens,
 };
 pub use scene::{
     BakeIdentityError, HybridError, HybridScene, HybridSceneOptions, LayeredEms, LensLayers,

@@ -18,7 +18,8 @@ use crate::trace::{
     Bounces, GreedyOptions, GreedyRayPath, Ray, Term,
     bvh::SurfaceHit,
     fresnel::{Real, Vector3},
-    path::trace_greedy_paths_in,
+    path::{FresnelLookup, trace_greedy_paths_in},
+    schlick_table::SchlickTable,
     stats::TraceCounters,
     world::{Part, TraceScene, WorldHit},
 };
@@ -109,6 +110,8 @@ pub struct PathOracle<'a> {
     faces: LensFaces,
     greedy: GreedyOptions,
     precision: VertexPrecision,
+    /// The table Schlick's fifth-order term is looked up in; `None`: evaluated.
+    fresnel: Option<&'a SchlickTable>,
     counters: Mutex<(TraceCounters, f64)>,
 }
 
@@ -133,6 +136,7 @@ impl<'a> PathOracle<'a> {
             faces,
             greedy: GreedyOptions::default(),
             precision: VertexPrecision::F64,
+            fresnel: None,
             counters: Mutex::new((TraceCounters::default(), 0.0)),
         }
     }
@@ -150,6 +154,16 @@ impl<'a> PathOracle<'a> {
                 bounces,
                 ..self.greedy
             },
+            ..self
+        }
+    }
+
+    /// This oracle looking Schlick's fifth-order term up in `table` (the PEM paper's 1D texture;
+    /// mirrors and glass alike, [`FresnelLookup::SchlickTable`]), or evaluating Fresnel exactly
+    /// (`None`, the default).
+    pub fn with_fresnel(self, table: Option<&'a SchlickTable>) -> Self {
+        PathOracle {
+            fresnel: table,
             ..self
         }
     }
@@ -223,7 +237,9 @@ impl<'a> PathOracle<'a> {
             }
         };
         let lens = self.trace.lens_in::<R>(self.lens);
-        let paths = trace_greedy_paths_in::<R>(&lens, &eye_ray, &hit, self.greedy, counters);
+        let fresnel = FresnelLookup::from(self.fresnel);
+        let paths =
+            trace_greedy_paths_in::<R>(&lens, &eye_ray, &hit, self.greedy, fresnel, counters);
         let term = |path: &GreedyRayPath| TermPath {
             fg: weight_in::<R>(path),
             outgoing: path.outgoing_ray,

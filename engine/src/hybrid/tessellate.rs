@@ -334,6 +334,9 @@ pub enum TessellationError {
         u32::MAX
     )]
     TooManyVertices,
+    /// An option of the frame is out of range (the options were not validated).
+    #[error(transparent)]
+    Option(#[from] crate::options::OptionError),
     /// [`VertexOracle::evaluate_batch`] returned the wrong number of evaluations.
     #[error("the vertex oracle returned {returned} evaluations for {asked} vertices")]
     OracleBatchLength {

@@ -24,6 +24,7 @@ pub mod image;
 pub mod lens_pixels;
 pub mod path;
 pub mod records;
+pub mod schlick_table;
 pub mod shade;
 pub mod stats;
 pub mod world;

@@ -16,6 +16,7 @@ use glam::DVec3;
 use super::Ray;
 use super::bvh::SurfaceHit;
 use super::fresnel::{self, Real, Vector3};
+use super::schlick_table::SchlickTable;
 use super::stats::TraceCounters;
 
 /// The two terms of the paper's shading model `T·F_T·G_T + R·F_R·G_R`.
@@ -100,6 +101,24 @@ pub enum Bounces {
     /// At the first interface, whatever its ray meets next: a reflector's first bounce. What it
     /// shows of itself is then its local layer's to hold (the PEM paper's layers by bounce).
     First,
+}
+
+/// How [`scatter_with`] evaluates the Fresnel coefficients at an interface.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum FresnelLookup<'a> {
+    /// Mirrors: Schlick's approximation evaluated; glass: exact dielectric Fresnel.
+    #[default]
+    Exact,
+    /// Schlick's approximation with its fifth-order term looked up in the table: mirrors per
+    /// channel, glass with `R₀ = ((n − 1)/(n + 1))²` ([`fresnel::dielectric_schlick`]).
+    SchlickTable(&'a SchlickTable),
+}
+
+impl<'a> From<Option<&'a SchlickTable>> for FresnelLookup<'a> {
+    /// The table's lookup, or [`FresnelLookup::Exact`] without one.
+    fn from(table: Option<&'a SchlickTable>) -> Self {
+        table.map_or(FresnelLookup::Exact, FresnelLookup::SchlickTable)
+    }
 }
 
 /// One greedy ray path from the first lens hit to where it leaves the lens object.
@@ -199,6 +218,16 @@ pub fn scatter(interface: Interface, direction: DVec3, hit: &SurfaceHit) -> Scat
 /// computed in precision `R` (inputs rounded to it; results stored in f64, which holds them
 /// exactly): f64 is `scatter`; f32 measures what single precision would cost.
 pub fn scatter_in<R: Real>(interface: Interface, direction: DVec3, hit: &SurfaceHit) -> Scattering {
+    scatter_with::<R>(interface, direction, hit, FresnelLookup::Exact)
+}
+
+/// [`scatter_in`] with the Fresnel coefficients evaluated as `fresnel` says.
+pub fn scatter_with<R: Real>(
+    interface: Interface,
+    direction: DVec3,
+    hit: &SurfaceHit,
+    fresnel: FresnelLookup<'_>,
+) -> Scattering {
     let entering = hit.is_front_facing(direction);
     let face = if entering {
         hit.geometric_normal
@@ -210,7 +239,13 @@ pub fn scatter_in<R: Real>(interface: Interface, direction: DVec3, hit: &Surface
     } else {
         -hit.shading_normal
     };
-    let scattering = scatter_about::<R>(interface, direction, hit, face, shading, entering);
+    let about = |normal| Surface {
+        hit,
+        face,
+        normal,
+        entering,
+    };
+    let scattering = scatter_about::<R>(interface, direction, about(shading), fresnel);
     let reflection_ok = scattering.reflection.0.direction.dot(face) > 0.0;
     let refraction_ok = scattering
         .refraction
@@ -218,18 +253,31 @@ pub fn scatter_in<R: Real>(interface: Interface, direction: DVec3, hit: &Surface
     if reflection_ok && refraction_ok {
         scattering
     } else {
-        scatter_about::<R>(interface, direction, hit, face, face, entering)
+        scatter_about::<R>(interface, direction, about(face), fresnel)
     }
+}
+
+/// Where a ray scatters: the hit, its face normal and the normal Fresnel and the directions use
+/// (both on the incident side), and whether the ray enters the medium.
+struct Surface<'a> {
+    hit: &'a SurfaceHit,
+    face: DVec3,
+    normal: DVec3,
+    entering: bool,
 }
 
 fn scatter_about<R: Real>(
     interface: Interface,
     direction: DVec3,
-    hit: &SurfaceHit,
-    face: DVec3,
-    normal: DVec3,
-    entering: bool,
+    surface: Surface<'_>,
+    lookup: FresnelLookup<'_>,
 ) -> Scattering {
+    let Surface {
+        hit,
+        face,
+        normal,
+        entering,
+    } = surface;
     let vector = <R::Vec3 as Vector3>::of;
     let (direction, normal) = (vector(direction), vector(normal));
     let cos_incident = -direction.dot(normal);
@@ -241,14 +289,31 @@ fn scatter_about<R: Real>(
         Interface::Mirror { reflectance } => Scattering {
             reflection: (
                 reflected,
-                fresnel::schlick(vector(reflectance), cos_incident).to_dvec3(),
+                match lookup {
+                    FresnelLookup::Exact => fresnel::schlick(vector(reflectance), cos_incident),
+                    FresnelLookup::SchlickTable(table) => {
+                        fresnel::schlick_by(vector(reflectance), cos_incident, |c| {
+                            table.fifth_power(c)
+                        })
+                    }
+                }
+                .to_dvec3(),
             ),
             refraction: None,
         },
         Interface::Dielectric { ior, .. } => {
             let (ior, one) = (R::of(ior), R::ONE);
             let (eta_incident, eta_transmitted) = if entering { (one, ior) } else { (ior, one) };
-            let split = fresnel::dielectric(cos_incident, eta_incident, eta_transmitted);
+            let split = match lookup {
+                FresnelLookup::Exact => {
+                    fresnel::dielectric(cos_incident, eta_incident, eta_transmitted)
+                }
+                FresnelLookup::SchlickTable(table) => {
+                    fresnel::dielectric_schlick(cos_incident, eta_incident, eta_transmitted, |c| {
+                        table.fifth_power(c)
+                    })
+                }
+            };
             let refraction = (!split.total_internal_reflection).then(|| {
                 let refracted = fresnel::refract(
                     direction,
@@ -299,26 +364,35 @@ pub fn trace_greedy_paths(
     options: GreedyOptions,
     counters: &mut TraceCounters,
 ) -> TwoTermPaths {
-    trace_greedy_paths_in::<f64>(lens, incoming, first_hit, options, counters)
+    trace_greedy_paths_in::<f64>(
+        lens,
+        incoming,
+        first_hit,
+        options,
+        FresnelLookup::Exact,
+        counters,
+    )
 }
 
-/// [`trace_greedy_paths`] with the scattering ([`scatter_in`]), the products of F and G and the
-/// glass distance computed in precision `R`: f64 is `trace_greedy_paths`; f32 measures what
-/// single precision would cost. The intersections are `lens`'s: give it a geometry that
+/// [`trace_greedy_paths`] with the scattering ([`scatter_with`]), the products of F and G and the
+/// glass distance computed in precision `R`, and the Fresnel coefficients evaluated as `fresnel`
+/// says: f64 and [`FresnelLookup::Exact`] is `trace_greedy_paths`; f32 measures what single
+/// precision would cost, a table what Schlick through a 1D texture would. The intersections are `lens`'s: give it a geometry that
 /// intersects in `R` too (e.g. [`super::bvh::MeshBvh::closest_hit_in`]) for a path wholly in `R`.
 pub fn trace_greedy_paths_in<R: Real>(
     lens: &impl LensGeometry,
     incoming: &Ray,
     first_hit: &SurfaceHit,
     options: GreedyOptions,
+    fresnel: FresnelLookup<'_>,
     counters: &mut TraceCounters,
 ) -> TwoTermPaths {
     let interface = lens.interface(first_hit.object);
-    let scattering = scatter_in::<R>(interface, incoming.direction, first_hit);
-    let mut start = |term, (ray, fresnel): (Ray, DVec3)| {
+    let scattering = scatter_with::<R>(interface, incoming.direction, first_hit, fresnel);
+    let mut start = |term, (ray, coefficient): (Ray, DVec3)| {
         let mut path = GreedyRayPath {
             term,
-            fresnel,
+            fresnel: coefficient,
             attenuation: DVec3::ONE,
             outgoing_ray: ray,
             interfaces: 1,
@@ -327,7 +401,8 @@ pub fn trace_greedy_paths_in<R: Real>(
             reflections: 0,
         };
         if options.bounces == Bounces::UntilLeaving {
-            propagate_greedy::<R>(lens, &mut path, first_hit.primitive, options, counters);
+            let exclude = first_hit.primitive;
+            propagate_greedy::<R>(lens, &mut path, exclude, options, fresnel, counters);
         }
         path
     };
@@ -347,6 +422,7 @@ fn propagate_greedy<R: Real>(
     path: &mut GreedyRayPath,
     mut exclude: u32,
     options: GreedyOptions,
+    fresnel: FresnelLookup<'_>,
     counters: &mut TraceCounters,
 ) {
     loop {
@@ -369,7 +445,7 @@ fn propagate_greedy<R: Real>(
             path.truncated = true;
             return;
         }
-        let scattering = scatter_in::<R>(interface, path.outgoing_ray.direction, &hit);
+        let scattering = scatter_with::<R>(interface, path.outgoing_ray.direction, &hit, fresnel);
         if scattering.greedy_reflects() && path.interfaces <= 32 {
             path.reflections |= 1 << (path.interfaces - 1);
         }

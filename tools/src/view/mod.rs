@@ -77,6 +77,8 @@ pub struct ViewArgs {
     /// and `,`).
     #[arg(long, default_value_t = lensmap::hybrid::DEFAULT_ANGLE_DEGREES, allow_negative_numbers = true)]
     pub angle_degrees: f64,
+    #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
+    pub fresnel: lensmap::hybrid::FresnelModel,
     /// Compositor variant (key `v`).
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -193,6 +195,7 @@ fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
                 ..TessellationOptions::default()
             },
             angle_radians: args.angle_degrees.to_radians(),
+            fresnel: args.fresnel,
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),

@@ -613,6 +613,7 @@ mod tests {
                 name: "ball".into(),
                 em_origins: vec![DVec3::ZERO; 2],
                 shells: vec![shell(2.0), shell(9.0)],
+                layering: crate::layers::Layering::Distance,
                 maps: (0..samples)
                     .map(|i| {
                         (0..2)

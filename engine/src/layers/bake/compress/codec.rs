@@ -205,7 +205,7 @@ pub fn pack(values: &[i32]) -> Vec<u8> {
 
 /// The integers [`pack`] made `bytes` from; `None` unless the length is a multiple of 4.
 pub fn unpack(bytes: &[u8]) -> Option<Vec<i32>> {
-    if bytes.len() % 4 != 0 {
+    if !bytes.len().is_multiple_of(4) {
         return None;
     }
     let n = bytes.len() / 4;

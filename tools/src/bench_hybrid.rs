@@ -344,6 +344,9 @@ impl Bench<'_> {
     }
 }
 
+/// One part of a frame's `(vertex tracing, whole frame)` times, ms.
+type Part = fn(&(f64, f64)) -> f64;
+
 impl Bench<'_> {
     /// Exact Fresnel against the table of `options` (its `hybrid.fresnel`), each frame built from
     /// scratch, the two alternating (A B B A …, so neither always runs first) after a warm-up of
@@ -381,10 +384,10 @@ impl Bench<'_> {
             }
         }
         step.finish_and_clear();
-        let median_of = |which: usize, part: fn(&(f64, f64)) -> f64| {
+        let median_of = |which: usize, part: Part| {
             median(&mut times[which].iter().map(part).collect::<Vec<_>>())
         };
-        let paired = |part: fn(&(f64, f64)) -> f64| {
+        let paired = |part: Part| {
             let mut differences: Vec<f64> = times[1]
                 .iter()
                 .zip(&times[0])
@@ -392,8 +395,6 @@ impl Bench<'_> {
                 .collect();
             median(&mut differences)
         };
-        // (vertex tracing ms, frame ms) of one frame: which of the two a median is of.
-        type Part = fn(&(f64, f64)) -> f64;
         let (trace, total): (Part, Part) = (|t| t.0, |t| t.1);
         let name = options.hybrid.fresnel.name();
         let out = json!({

@@ -2,7 +2,8 @@
 //! full ray tree, exact Fresnel, transparency attenuation, reference images and intersection
 //! records.
 //!
-//! Laid out like pbrt: [`fresnel`] (interface physics), [`bvh`] (acceleration and f64
+//! Laid out like pbrt: [`fresnel`] (interface physics), [`schlick_table`] (Schlick's fifth-order
+//! term through a 1D texture, and its error), [`bvh`] (acceleration and f64
 //! intersection), [`world`] (the scene flattened into lens objects and environment), [`path`]
 //! (ray-path models), [`shade`] (environment shading and the camera-ray integrator), [`image`]
 //! (film, render loop, EXR/PNG), [`records`] (the baker's intersection records) and [`stats`]

@@ -6,9 +6,10 @@
 //! integers, and each coarser level as its difference from level 0 decimated to it (2×2 box
 //! means, [`codec::decimate`]), the paper's "residuals from corresponding decimated versions of
 //! the finest level". Across viewpoint samples, in the manifest's sample order (increasing
-//! view-space index), a layer's maps form chains: a **keyframe** every `keyframe_interval`
-//! maps stores its own integers, the maps between store their difference from the map before
-//! them. Any map decodes from its keyframe and at most `keyframe_interval − 1` differences,
+//! view-space index), a layer's maps form chains: a **keyframe** stores its own integers, the
+//! maps after it their difference from the map before them, as long as that difference codes
+//! smaller than the map alone and the chain is shorter than `keyframe_interval`; otherwise the
+//! map starts a new chain as a keyframe. Any map decodes from its keyframe and at most `keyframe_interval − 1` differences,
 //! never from the whole sequence. The integers are zigzag-coded, split into four byte planes
 //! and compressed with zstd. All arithmetic is exact, so decoding returns the very bits coded.
 //!

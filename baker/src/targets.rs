@@ -14,7 +14,7 @@
 use glam::DVec3;
 use lensmap::{
     layers::{LayerShell, projected::layer_range},
-    trace::{LensRecords, Term},
+    trace::{IntersectionRecord, LensRecords, Term},
 };
 
 /// The paper's confidence threshold θ_c, degrees.
@@ -73,20 +73,15 @@ pub fn term_targets(
             "no layer shells; give at least one".into(),
         ));
     }
-    check_theta(theta_c)?;
-    let pixels = (width as usize) * (height as usize);
     let n = shells.len();
-    let mut layers = vec![vec![[0.0f64; 4]; pixels]; n];
-    let mut directions: Vec<Vec<DVec3>> = vec![Vec::new(); pixels];
-    let scale = 1.0 / f64::from(k.max(1) * k.max(1));
+    let mut sum = Accumulation::new(n, (width, height), k, theta_c)?;
     for record in records
         .records
         .iter()
         .filter(|r| r.term == term && r.visible)
     {
-        let pixel = pixel_of(record.image_position, (width, height))?;
+        let pixel = sum.pixel(record)?;
         let ray = record.outgoing_ray;
-        directions[pixel].push(ray.direction.normalize_or_zero());
         let distances: Vec<f64> = shells
             .iter()
             .map(|s| {
@@ -95,7 +90,7 @@ pub fn term_targets(
             })
             .collect();
         let hits = records.hits_of(record);
-        for (layer, image) in layers.iter_mut().enumerate() {
+        for layer in 0..n {
             let (start, end) = layer_range(&distances, layer);
             let hit = hits
                 .iter()
@@ -106,14 +101,10 @@ pub fn term_targets(
                 None if layer + 1 == n => record.background,
                 None => continue,
             };
-            let target = &mut image[pixel];
-            target[0] += radiance.x * scale;
-            target[1] += radiance.y * scale;
-            target[2] += radiance.z * scale;
-            target[3] += scale;
+            sum.add(layer, pixel, radiance);
         }
     }
-    Ok(finish_targets(term, layers, &directions, theta_c))
+    Ok(sum.finish(term))
 }
 
 /// The targets of `term` for records of first-bounce paths ([`lensmap::trace::Bounces::First`]),
@@ -129,85 +120,109 @@ pub fn bounce_targets(
     k: u32,
     theta_c: f64,
 ) -> Result<TermTargets, TargetError> {
-    check_theta(theta_c)?;
-    let pixels = (width as usize) * (height as usize);
-    let mut layers = vec![vec![[0.0f64; 4]; pixels]; 2];
-    let mut directions: Vec<Vec<DVec3>> = vec![Vec::new(); pixels];
-    let scale = 1.0 / f64::from(k.max(1) * k.max(1));
+    let mut sum = Accumulation::new(2, (width, height), k, theta_c)?;
     for record in records
         .records
         .iter()
         .filter(|r| r.term == term && r.visible)
     {
-        let pixel = pixel_of(record.image_position, (width, height))?;
-        directions[pixel].push(record.outgoing_ray.direction.normalize_or_zero());
+        let pixel = sum.pixel(record)?;
         let distant = records
             .hits_of(record)
             .first()
             .map_or(record.background, |h| h.radiance);
-        let local = record.local.map(|l| l.radiance);
-        for (layer, radiance) in [(0, local), (1, Some(distant))] {
-            if let Some(radiance) = radiance {
-                let target = &mut layers[layer][pixel];
-                target[0] += radiance.x * scale;
-                target[1] += radiance.y * scale;
-                target[2] += radiance.z * scale;
-                target[3] += scale;
-            }
+        if let Some(local) = record.local {
+            sum.add(0, pixel, local.radiance);
         }
+        sum.add(1, pixel, distant);
     }
-    Ok(finish_targets(term, layers, &directions, theta_c))
+    Ok(sum.finish(term))
 }
 
-/// The display pixel of a record's image position, or the error of a record outside the image.
-fn pixel_of(position: glam::Vec2, (width, height): (u32, u32)) -> Result<usize, TargetError> {
-    let (x, y) = (position.x.floor(), position.y.floor());
-    if x < 0.0 || y < 0.0 || x >= width as f32 || y >= height as f32 {
-        return Err(TargetError::BadInput(format!(
-            "a record at image position {position} lies outside the {width}×{height} image; compile the records with the same camera"
-        )));
-    }
-    Ok(y as usize * width as usize + x as usize)
-}
-
-fn check_theta(theta_c: f64) -> Result<(), TargetError> {
-    if !(theta_c.is_finite() && theta_c > 0.0) {
-        return Err(TargetError::BadInput(format!(
-            "confidence angle {} degrees; give an angle > 0, e.g. 5",
-            theta_c.to_degrees()
-        )));
-    }
-    Ok(())
-}
-
-/// The targets of `term` from its layer images and each pixel's outgoing directions: the
-/// confidence of each pixel from its widest pair of directions.
-fn finish_targets(
-    term: Term,
+/// One term's targets as they are summed: per layer the premultiplied images, per pixel its
+/// records' outgoing directions (for the confidence).
+struct Accumulation {
     layers: Vec<Vec<[f64; 4]>>,
-    directions: &[Vec<DVec3>],
+    directions: Vec<Vec<DVec3>>,
+    /// 1/k²: one supersample's share of its pixel.
+    scale: f64,
+    size: (u32, u32),
     theta_c: f64,
-) -> TermTargets {
-    let confidence: Vec<f64> = directions
-        .iter()
-        .map(|rays| {
-            if rays.is_empty() {
-                return 0.0;
-            }
-            let mut widest = 0.0f64;
-            for (i, a) in rays.iter().enumerate() {
-                for b in &rays[i + 1..] {
-                    widest = widest.max(a.angle_between(*b));
-                }
-            }
-            confidence(widest, theta_c)
+}
+
+impl Accumulation {
+    /// Empty images of `n` layers at display size `size`, supersampled k×k; θc checked.
+    fn new(n: usize, size: (u32, u32), k: u32, theta_c: f64) -> Result<Self, TargetError> {
+        if !(theta_c.is_finite() && theta_c > 0.0) {
+            return Err(TargetError::BadInput(format!(
+                "confidence angle {} degrees; give an angle > 0, e.g. 5",
+                theta_c.to_degrees()
+            )));
+        }
+        let pixels = (size.0 as usize) * (size.1 as usize);
+        Ok(Accumulation {
+            layers: vec![vec![[0.0f64; 4]; pixels]; n],
+            directions: vec![Vec::new(); pixels],
+            scale: 1.0 / f64::from(k.max(1) * k.max(1)),
+            size,
+            theta_c,
         })
-        .collect();
-    TermTargets {
-        term,
-        layers,
-        pixels_with_records: directions.iter().filter(|d| !d.is_empty()).count(),
-        confidence,
+    }
+
+    /// The display pixel of `record`, whose outgoing direction it takes; an error for a record
+    /// outside the image.
+    fn pixel(&mut self, record: &IntersectionRecord) -> Result<usize, TargetError> {
+        let (width, height) = self.size;
+        let position = record.image_position;
+        let (x, y) = (position.x.floor(), position.y.floor());
+        if x < 0.0 || y < 0.0 || x >= width as f32 || y >= height as f32 {
+            return Err(TargetError::BadInput(format!(
+                "a record at image position {position} lies outside the {width}×{height} image; compile the records with the same camera"
+            )));
+        }
+        let pixel = y as usize * width as usize + x as usize;
+        self.directions[pixel].push(record.outgoing_ray.direction.normalize_or_zero());
+        Ok(pixel)
+    }
+
+    /// One supersample's `radiance` into `layer` at `pixel` (α: its coverage).
+    fn add(&mut self, layer: usize, pixel: usize, radiance: DVec3) {
+        let target = &mut self.layers[layer][pixel];
+        target[0] += radiance.x * self.scale;
+        target[1] += radiance.y * self.scale;
+        target[2] += radiance.z * self.scale;
+        target[3] += self.scale;
+    }
+
+    /// The targets of `term`: each pixel's confidence from its widest pair of directions.
+    fn finish(self, term: Term) -> TermTargets {
+        let Accumulation {
+            layers,
+            directions,
+            theta_c,
+            ..
+        } = self;
+        let confidence: Vec<f64> = directions
+            .iter()
+            .map(|rays| {
+                if rays.is_empty() {
+                    return 0.0;
+                }
+                let mut widest = 0.0f64;
+                for (i, a) in rays.iter().enumerate() {
+                    for b in &rays[i + 1..] {
+                        widest = widest.max(a.angle_between(*b));
+                    }
+                }
+                confidence(widest, theta_c)
+            })
+            .collect();
+        TermTargets {
+            term,
+            layers,
+            pixels_with_records: directions.iter().filter(|d| !d.is_empty()).count(),
+            confidence,
+        }
     }
 }
 

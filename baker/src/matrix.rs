@@ -632,6 +632,13 @@ impl LayerFrames {
             }],
             layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],
             faces: self.lens.faces,
+            // The convex-hull split leaves the local layer (layer 0) off the hull triangles, so
+            // they do not constrain its texels; the other layers cover every triangle.
+            hull_triangles: if layer.index() == 0 {
+                self.lens.hull_triangles
+            } else {
+                0
+            },
         });
         Ok(LayerFrame {
             frame,
@@ -982,6 +989,7 @@ mod tests {
                 }],
                 layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],
                 faces: lensmap::render::LensFaces::Front,
+                hull_triangles: 0,
             }],
             viewpoint_weights: vec![1.0],
         }

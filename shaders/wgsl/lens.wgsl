@@ -8,6 +8,9 @@
 // Multipass: the prime writes (0,0,0,0) to the lens pixels; each layer pass emits
 // (texel.rgb·FG·w, texel.α) under the fixed-function blend src·(1−dstα) + dst (front-to-back
 // "over"); the alpha clear reuses fs_zero with a colour write mask of A only.
+// The convex-hull split: layer 0's draws (and the single pass) draw a lens object's last
+// triangles, its hull triangles, in a second draw with `skip_local` set: their layer-0 texel is
+// taken as zero.
 // Single pass: one draw samples the 2·V (viewpoint, term) textures per layer (V ≤ MAX_VIEWPOINTS
 // viewpoint samples, each with its own cube-map array; the directions are shared) and does the
 // same arithmetic in registers, in the same order, so it matches the multipass frame.
@@ -44,6 +47,10 @@ struct LensConstants {
     read_current: u32,
     // Programmable blending: 1 where a group boundary precedes this pass (the alpha clear).
     reset_alpha: u32,
+    // 1 for the draw of a lens object's hull triangles (the convex-hull split): layer 0, the
+    // local layer, is taken as (0, 0, 0, 0), the identity of every blend. Multipass: set only on
+    // layer 0's draws. The struct is then 128 bytes, the push-constant size every device has.
+    skip_local: u32,
 }
 
 
@@ -93,9 +100,14 @@ fn vs_layer(@builtin(vertex_index) vertex: u32) -> LayerVertex {
     return out;
 }
 
+// 0 where this draw takes layer 0 as empty (the convex-hull split's hull triangles), else 1.
+fn local_keep() -> f32 {
+    return select(1.0, 0.0, constants.skip_local != 0u);
+}
+
 @fragment
 fn fs_layer(in: LayerVertex) -> @location(0) vec4<f32> {
-    let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer);
+    let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer) * local_keep();
     return vec4<f32>(texel.rgb * in.fg * constants.weight_a, texel.a);
 }
 
@@ -107,7 +119,7 @@ fn fs_layer(in: LayerVertex) -> @location(0) vec4<f32> {
 // src·(1 − dstα) + dst, after the alpha clear where a group begins.
 @fragment
 fn fs_layer_programmable(in: LayerVertex) -> @location(0) vec4<f32> {
-    let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer);
+    let texel = textureSample(layers_a, layer_sampler, in.direction, constants.layer) * local_keep();
     let source = vec4<f32>(texel.rgb * in.fg * constants.weight_a, texel.a);
     var destination = vec4<f32>(0.0);
     if constants.read_current != 0u {
@@ -185,7 +197,8 @@ fn vs_single_pass(@builtin(vertex_index) vertex: u32) -> SinglePassVertex {
 }
 
 // One layer of a (viewpoint, term) group composited front to back onto the running (rgb, α),
-// exactly as the blend unit does it: rgb += (1 − α)·texel.rgb·FG·w, α += (1 − α)·texel.α.
+// exactly as the blend unit does it: rgb += (1 − α)·texel.rgb·FG·w, α += (1 − α)·texel.α. The
+// texel is multiplied by `keep`: 1, or 0 for a layer the draw takes as empty.
 fn over_layer(
     running: vec4<f32>,
     layers: texture_cube_array<f32>,
@@ -193,8 +206,9 @@ fn over_layer(
     layer: u32,
     fg: vec3<f32>,
     weight: f32,
+    keep: f32,
 ) -> vec4<f32> {
-    let texel = textureSample(layers, layer_sampler, direction, layer);
+    let texel = textureSample(layers, layer_sampler, direction, layer) * keep;
     let rgb = (texel.rgb * fg * weight) * (1.0 - running.a) + running.rgb;
     let alpha = texel.a * (1.0 - running.a) + running.a;
     return vec4<f32>(rgb, alpha);
@@ -215,12 +229,12 @@ fn composite_group(
     fg: vec3<f32>,
     weight: f32,
 ) -> vec4<f32> {
-    var result = over_layer(vec4<f32>(running, 0.0), layers, d0, 0u, fg, weight);
-    if LAYER_COUNT > 1u { result = over_layer(result, layers, d1, 1u, fg, weight); }
-    if LAYER_COUNT > 2u { result = over_layer(result, layers, d2, 2u, fg, weight); }
-    if LAYER_COUNT > 3u { result = over_layer(result, layers, d3, 3u, fg, weight); }
-    if LAYER_COUNT > 4u { result = over_layer(result, layers, d4, 4u, fg, weight); }
-    if LAYER_COUNT > 5u { result = over_layer(result, layers, d5, 5u, fg, weight); }
+    var result = over_layer(vec4<f32>(running, 0.0), layers, d0, 0u, fg, weight, local_keep());
+    if LAYER_COUNT > 1u { result = over_layer(result, layers, d1, 1u, fg, weight, 1.0); }
+    if LAYER_COUNT > 2u { result = over_layer(result, layers, d2, 2u, fg, weight, 1.0); }
+    if LAYER_COUNT > 3u { result = over_layer(result, layers, d3, 3u, fg, weight, 1.0); }
+    if LAYER_COUNT > 4u { result = over_layer(result, layers, d4, 4u, fg, weight, 1.0); }
+    if LAYER_COUNT > 5u { result = over_layer(result, layers, d5, 5u, fg, weight, 1.0); }
     return result;
 }
 

@@ -270,6 +270,7 @@ pub fn random_compositor_frame(
             positions,
             triangles,
             faces: LensFaces::Front,
+            hull_triangles: 0,
             terms,
             layers: layer_maps,
         }],

@@ -219,3 +219,92 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
     assert_clean(runner.gpu());
     assert_clean(&by_hand_gpu);
 }
+
+/// The convex-hull split on mirror-teapot layered by bounce: the frame draws its hull triangles
+/// last and counts them. Checked against the frame's own output triangles, plane by plane: each
+/// hull triangle faces the eye and has every lens vertex behind its plane; each other triangle
+/// that faces the eye and is not degenerate has some lens vertex in front. With the split off,
+/// or layered by distance, none is split.
+#[test]
+fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
+    use lensmap::{hybrid::hull::IN_FRONT_FRACTION, layers::Layering};
+    let scene = fixtures::built_in_scene("mirror-teapot", 160, 120, 1);
+    let mut hybrid = fixtures::with_projected_ems(scene, 8);
+    let camera = hybrid.scene.camera;
+    let count = |hybrid: &HybridScene, hull_split: bool| {
+        let options = HybridOptions {
+            hull_split,
+            ..HybridOptions::default()
+        };
+        let (frame, stats) = hybrid.frame(&camera, &options).unwrap();
+        let total: usize = frame.lenses.iter().map(|l| l.hull_triangles).sum();
+        assert_eq!(total, stats.hull_triangles);
+        (frame, stats.hull_triangles)
+    };
+    assert_eq!(count(&hybrid, true).1, 0, "layered by distance");
+    for lens in &mut hybrid.lenses {
+        lens.layering = Layering::Bounce;
+    }
+    assert_eq!(count(&hybrid, false).1, 0, "split off");
+    let (frame, split) = count(&hybrid, true);
+    let points: Vec<glam::DVec3> = frame
+        .lenses
+        .iter()
+        .flat_map(|l| l.positions.iter().map(|p| p.as_dvec3()))
+        .collect();
+    let (lo, hi) = points.iter().fold(
+        (
+            glam::DVec3::splat(f64::INFINITY),
+            glam::DVec3::splat(f64::NEG_INFINITY),
+        ),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    // The tessellated triangles lie in their input triangles' planes up to f32 rounding of the
+    // midpoints: twice the split's tolerance either way.
+    let tolerance = 2.0 * IN_FRONT_FRACTION * (hi - lo).length();
+    let eye = camera.position.as_dvec3();
+    let (mut hull, mut inner) = (0, 0);
+    for lens in &frame.lenses {
+        let first_hull = lens.triangles.len() - lens.hull_triangles;
+        for (t, triangle) in lens.triangles.iter().enumerate() {
+            let [a, b, c] = triangle.map(|i| lens.positions[i as usize].as_dvec3());
+            let normal = (b - a).cross(c - a).normalize_or_zero();
+            let facing = normal.dot(eye - a) > 0.0;
+            let most_in_front = points
+                .iter()
+                .map(|&p| normal.dot(p - a))
+                .fold(f64::NEG_INFINITY, f64::max);
+            if t >= first_hull {
+                hull += 1;
+                // Back faces of a closed mesh are culled whether split or not.
+                assert!(
+                    facing || lens.faces == lensmap::render::LensFaces::Front,
+                    "{}: hull triangle {t} faces away",
+                    lens.name
+                );
+                assert!(
+                    most_in_front <= tolerance,
+                    "{}: hull triangle {t} has a lens vertex {most_in_front:e} m in front",
+                    lens.name
+                );
+            } else if facing && normal != glam::DVec3::ZERO {
+                inner += 1;
+                assert!(
+                    most_in_front > 0.25 * tolerance,
+                    "{}: triangle {t} is on the hull ({most_in_front:e} m) but not split",
+                    lens.name
+                );
+            }
+        }
+    }
+    println!("{split} hull triangles, {inner} others facing the eye");
+    assert_eq!(hull, split);
+    assert!(split > 100 && inner > 100, "{split} split, {inner} not");
+    assert!(
+        frame
+            .lenses
+            .iter()
+            .any(|l| l.faces == lensmap::render::LensFaces::Both),
+        "the teapot is open: back faces drawn, and only facing hull triangles split"
+    );
+}

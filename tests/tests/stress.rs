@@ -1119,6 +1119,7 @@ fn sheet_frame(
             positions,
             triangles,
             faces: LensFaces::Front,
+            hull_triangles: 0,
             terms,
             layers,
         }],

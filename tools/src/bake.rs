@@ -20,7 +20,7 @@ use lensmap_baker::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, progress_shown, report};
+use crate::common::{BadUsage, OnOff, progress_shown, report};
 
 #[derive(Args)]
 #[command(after_help = "Examples:
@@ -81,6 +81,8 @@ pub struct BakeArgs {
     /// Direct images from the EM origin for the texels no lens view constrains.
     #[arg(long, value_enum, default_value = "off")]
     direct_images: OnOff,
+    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
+    hull_split: OnOff,
     /// Bake only shard I of N: every N-th requested sample, starting at the I-th.
     #[arg(long, value_name = "I/N")]
     shard: Option<String>,
@@ -113,15 +115,6 @@ pub struct BakeArgs {
           value_parser = clap::value_parser!(u32).range(0..=i64::from(lensmap::layers::bake::compress::codec::MAX_DROPPED_MANTISSA_BITS)),
           requires = "compress")]
     drop_mantissa_bits: u32,
-}
-
-/// `on` or `off`.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
-enum OnOff {
-    /// On.
-    On,
-    /// Off.
-    Off,
 }
 
 /// Runs `lensmap bake`.
@@ -430,11 +423,14 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
         layers,
         multi_view: args.multi_view,
         view_elevation_degrees: args.view_elevation_degrees,
-        share_layers: matches!(args.share_layers, OnOff::On),
+        share_layers: args.share_layers.is_on(),
         infer: InferOptions {
-            hybrid: HybridOptions::with_t(args.t),
+            hybrid: HybridOptions {
+                hull_split: args.hull_split.is_on(),
+                ..HybridOptions::with_t(args.t)
+            },
             theta_c: args.confidence_degrees.to_radians(),
-            direct_images: matches!(args.direct_images, OnOff::On),
+            direct_images: args.direct_images.is_on(),
             solve: lensmap_baker::solve::SolveOptions {
                 tolerance: args.tolerance,
                 ..lensmap_baker::solve::SolveOptions::default()

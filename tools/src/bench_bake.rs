@@ -53,6 +53,8 @@ pub struct BenchBakeArgs {
     /// Projected EMs' face size (the baseline).
     #[arg(long, default_value_t = 128)]
     em_size: u32,
+    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
+    hull_split: crate::common::OnOff,
     /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -180,7 +182,10 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     };
     step.finish_and_clear();
     let options = FrameOptions {
-        hybrid: HybridOptions::with_t(args.t),
+        hybrid: HybridOptions {
+            hull_split: args.hull_split.is_on(),
+            ..HybridOptions::with_t(args.t)
+        },
         variant: Variant::SinglePass,
         blend: lensmap::render::BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,

@@ -227,6 +227,7 @@ impl Bench<'_> {
                 "rays": last.stats.counters.all_rays(),
                 "triangle_tests": last.stats.counters.triangle_tests,
                 "lens_triangles_out": last.stats.triangles_out,
+                "hull_triangles": last.stats.hull_triangles,
                 "vertices_traced": last.stats.vertices_traced,
             }));
         }

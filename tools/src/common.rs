@@ -295,6 +295,25 @@ pub struct CameraArgs {
     pub supersampling: Option<u32>,
 }
 
+/// `on` or `off`.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+impl OnOff {
+    /// Whether it is `on`.
+    pub fn is_on(self) -> bool {
+        self == OnOff::On
+    }
+}
+
+/// The help of `--hull-split`, the same on every command that takes it.
+pub const HULL_SPLIT_HELP: &str = "The convex-hull split (PEM paper §4): a lens object layered by bounce draws its triangles on the convex hull of the lens geometry with the distant layer only, as they cannot show self-reflections; no effect on lens objects layered by distance";
+
 /// The help of `--fresnel`, the same on every command that takes it.
 pub const FRESNEL_HELP: &str = "How each lens vertex evaluates Fresnel: exact (Schlick for mirrors, exact dielectric Fresnel for glass), or table:N, Schlick with its (1 − cos θ)⁵ looked up in a 1D table of N texels (2 to 4096), linearly filtered like a texture (the PEM paper's 1D Fresnel texture)";
 

@@ -60,6 +60,8 @@ pub struct RenderArgs {
     pub angle_degrees: f64,
     #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
     pub fresnel: lensmap::hybrid::FresnelModel,
+    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
+    pub hull_split: crate::common::OnOff,
     /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -137,6 +139,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             angle_radians: args.angle_degrees.to_radians(),
             footprint_subpixels: args.footprint,
             fresnel: args.fresnel,
+            hull_split: args.hull_split.is_on(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),
@@ -250,7 +253,7 @@ fn report(
     let mut out = json!({
         "scene": hybrid.scene.name, "device": device.device, "driver": device.driver_description(),
         "width": camera.width, "height": camera.height, "supersampling": camera.supersampling,
-        "t": args.t, "fresnel": args.fresnel.name(), "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
+        "t": args.t, "fresnel": args.fresnel.name(), "hull_split": args.hull_split.is_on(), "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
         "prepare_seconds": prepare_s,
         "light_maps": {
@@ -281,6 +284,7 @@ fn report(
             "triangle_tests": c.triangle_tests,
             "lens_triangles_in": frame.stats.triangles_in,
             "lens_triangles_out": frame.stats.triangles_out,
+            "hull_triangles": frame.stats.hull_triangles,
             "vertices_traced": frame.stats.vertices_traced,
             "leaves_stopped_by_vertex_budget": frame.stats.stopped_by_budget,
             "outside_view_space": frame.stats.outside_view_space,
@@ -392,6 +396,12 @@ fn print_table(r: &serde_json::Value) {
         h["lens_triangles_out"],
         h["vertices_traced"]
     );
+    if h["hull_triangles"].as_u64().unwrap_or(0) > 0 {
+        say!(
+            "  convex-hull split           {:>10} lens triangles drawn with the distant layer only",
+            h["hull_triangles"]
+        );
+    }
     if h["leaves_stopped_by_vertex_budget"].as_u64().unwrap_or(0) > 0 {
         warn!(
             "the frame's vertex budget was spent: {} triangles were left unsplit (coarser than t asks); raise --max-vertices or t",

@@ -243,6 +243,18 @@ impl Canonical for BakeOptions {
             .value(tolerance)
             .value(max_iterations);
         encode_fresnel(encoder, hybrid.fresnel);
+        encode_hull_split(encoder, *layers, hybrid.hull_split);
+    }
+}
+
+/// The convex-hull split of the test renderings, which changes the local layer a bake by bounce
+/// infers (hull triangles do not constrain it). It came after the layering by bounce: a bake by
+/// bounce without it (all of those made before it) writes nothing, so their identities stand and
+/// say what they are; with it, tag 2 (distinct from [`encode_fresnel`]'s tag 1). Other bakes have
+/// no local layer, the split does not change them, and nothing is written.
+fn encode_hull_split(encoder: &mut Encoder, layers: LayerCount, hull_split: bool) {
+    if hull_split && layers == LayerCount::Bounce {
+        encoder.tag(2);
     }
 }
 
@@ -271,8 +283,9 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         // The test renderings are drawn at the samples with each sample's own maps: one
         // viewpoint, whatever the blending.
         viewpoint_blending: _,
-        // Written last of all the options ([`encode_fresnel`]).
+        // Written last of all the options ([`encode_fresnel`], [`encode_hull_split`]).
         fresnel: _,
+        hull_split: _,
     } = hybrid;
     let TessellationOptions {
         t,
@@ -318,6 +331,7 @@ mod tests {
                     precision: VertexPrecision::F64,
                     viewpoint_blending: lensmap::hybrid::ViewpointBlending::ViewSpace,
                     fresnel: FresnelModel::Exact,
+                    hull_split: true,
                 },
                 variant: Variant::SinglePass,
                 em_size: EmSize::Fixed(64),
@@ -388,5 +402,34 @@ mod tests {
         }
         let (table_64, table_65) = (&variants[variants.len() - 2], &variants[variants.len() - 1]);
         assert_ne!(table_64.hash(), table_65.hash());
+    }
+
+    /// The convex-hull split is in the identity of a bake by bounce, on (tag 2) apart from off
+    /// (nothing, as before the split existed) and from a Fresnel table; it leaves every other
+    /// bake's identity as it was.
+    #[test]
+    fn the_hull_split_is_in_the_identity_of_bakes_by_bounce_only() {
+        let with = |layers, hull_split, fresnel| {
+            let mut options = fixed();
+            options.layers = layers;
+            options.infer.hybrid.hull_split = hull_split;
+            options.infer.hybrid.fresnel = fresnel;
+            options.hash()
+        };
+        let exact = FresnelModel::Exact;
+        let table = FresnelModel::Table { texels: 2 };
+        let count = LayerCount::Count(3);
+        assert_eq!(with(count, true, exact), with(count, false, exact));
+        let bounce = [
+            with(LayerCount::Bounce, true, exact),
+            with(LayerCount::Bounce, false, exact),
+            with(LayerCount::Bounce, true, table),
+            with(LayerCount::Bounce, false, table),
+        ];
+        for i in 0..bounce.len() {
+            for j in 0..i {
+                assert_ne!(bounce[i], bounce[j], "{i} and {j}");
+            }
+        }
     }
 }

@@ -19,13 +19,13 @@ use super::{
     paths::{PathOracle, ScreenCamera, VertexPaths},
     scene::HybridScene,
     sky::SkyDome,
-    tessellate::{TessellationError, TessellationOptions, VertexEvaluation, tessellate},
+    tessellate::{TessellationError, TessellationOptions, VertexEvaluation, faces_eye, tessellate},
     texgen::{LensMesh, texgen},
     viewpoints::{self, ViewSpaceFit, ViewpointBlend},
 };
 pub use crate::trace::schlick_table::FresnelModel;
 use crate::{
-    layers::LayerShell,
+    layers::{LayerShell, Layering},
     options::OptionError,
     render::{EnvironmentMesh, FrameInput, LensFaces},
     scene::Camera,
@@ -55,8 +55,9 @@ struct FrameKey {
 }
 
 /// What identifies one lens object's layered EMs in a [`FrameKey`]: per layer its EM origin,
-/// the shells, and per viewpoint sample the address of every map.
-type LayersKey = (Vec<DVec3>, Vec<LayerShell>, Vec<Vec<usize>>);
+/// the shells, per viewpoint sample the address of every map, and how rays are split between
+/// the layers (the paths and the convex-hull split depend on it).
+type LayersKey = (Vec<DVec3>, Vec<LayerShell>, Vec<Vec<usize>>, Layering);
 
 impl FrameKey {
     fn new(
@@ -78,7 +79,7 @@ impl FrameKey {
                         .iter()
                         .map(|v| v.iter().map(|m| Arc::as_ptr(m) as usize).collect())
                         .collect();
-                    (l.em_origins.clone(), l.shells.clone(), maps)
+                    (l.em_origins.clone(), l.shells.clone(), maps, l.layering)
                 })
                 .collect(),
             environment: scene
@@ -150,6 +151,11 @@ pub struct HybridOptions {
     /// dielectric Fresnel for glass), or Schlick with its fifth-order term looked up in a 1D
     /// table per vertex (the PEM paper's 1D texture).
     pub fresnel: FresnelModel,
+    /// The convex-hull split (PEM paper §4): a lens object layered by bounce draws its triangles
+    /// on the convex hull of the lens geometry (facing the camera) with the distant layer only,
+    /// since they cannot show self-reflections ([`crate::hybrid::hull`]). On by default; no
+    /// effect on lens objects layered by distance.
+    pub hull_split: bool,
 }
 
 /// Which viewpoint samples a frame blends.
@@ -175,6 +181,7 @@ impl Default for HybridOptions {
             precision: VertexPrecision::F64,
             viewpoint_blending: ViewpointBlending::ViewSpace,
             fresnel: FresnelModel::Exact,
+            hull_split: true,
         }
     }
 }
@@ -253,6 +260,10 @@ pub struct HybridStats {
     pub outside_view_space: bool,
     /// Viewpoint samples the frame blends (1 to 3), each with its own layered EMs.
     pub viewpoints_blended: usize,
+    /// Lens triangles (after tessellation) drawn with the distant layer only by the convex-hull
+    /// split ([`HybridOptions::hull_split`]): on the hull of the lens geometry and facing the
+    /// camera, in lens objects layered by bounce.
+    pub hull_triangles: usize,
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
     pub reused: bool,
@@ -525,7 +536,9 @@ impl HybridScene {
         let mut triangles: Vec<[u32; 3]> = Vec::new();
         let mut samples: Vec<Option<VertexEvaluation<VertexPaths>>> = Vec::new();
         let mut depths: Vec<u8> = Vec::new();
+        let mut on_hull: Vec<bool> = Vec::new();
         let faces = self.faces.get(lens_index).copied().unwrap_or_default();
+        let hull_split = options.hull_split && !self.lenses[lens_index].layering.is_distance();
         let visible_objects: Vec<usize> = lens
             .objects
             .iter()
@@ -580,6 +593,9 @@ impl HybridScene {
                     .iter()
                     .map(|record| u8::try_from(record.depth).unwrap_or(u8::MAX)),
             );
+            if hull_split {
+                on_hull.extend(self.facing_hull(object, &tessellation, faces, view));
+            }
             // Moved, not copied, for a lens object of one scene object (the common case).
             if positions.is_empty() {
                 positions = tessellation.mesh.positions;
@@ -598,15 +614,56 @@ impl HybridScene {
                 samples.extend(tessellation.evaluations);
             }
         }
+        let hull_triangles = if hull_split {
+            hull_last(&mut triangles, &mut depths, &on_hull)
+        } else {
+            0
+        };
+        stats.hull_triangles += hull_triangles;
         Ok(TessellatedLens {
             mesh: LensMesh {
                 positions,
                 triangles,
                 faces,
+                hull_triangles,
             },
             samples,
             depths,
         })
+    }
+
+    /// Per output triangle of `tessellation` (of scene object `object`), whether the convex-hull
+    /// split draws it with the distant layer only: its input triangle lies on the hull of the
+    /// lens geometry and it faces the camera (a back face of an open mesh, drawn from behind,
+    /// looks into the object and may well reflect it).
+    fn facing_hull<'a, S>(
+        &'a self,
+        object: usize,
+        tessellation: &'a crate::hybrid::tessellate::Tessellation<S>,
+        faces: LensFaces,
+        view: &FrameView,
+    ) -> impl Iterator<Item = bool> + 'a {
+        let hull = self.hull[object].get_or_init(|| {
+            let points: Vec<Vec3> = self
+                .trace
+                .lenses
+                .iter()
+                .flat_map(|lens| &lens.objects)
+                .flat_map(|&o| self.scene.objects[o].mesh.positions.iter().copied())
+                .collect();
+            super::hull::hull_triangles(&self.scene.objects[object].mesh, &points)
+        });
+        let eye = view.screen.eye.as_vec3();
+        let positions = &tessellation.mesh.positions;
+        tessellation
+            .triangles
+            .iter()
+            .zip(&tessellation.mesh.triangles)
+            .map(move |(record, triangle)| {
+                hull.get(record.source as usize).copied().unwrap_or(false)
+                    && (faces == LensFaces::Front
+                        || faces_eye(triangle.map(|i| positions[i as usize]), eye))
+            })
     }
 
     /// The frame for `camera`, its costs and, per lens object of a frame that is not
@@ -705,6 +762,23 @@ struct FrameView {
     sky: Option<Arc<EnvironmentMesh>>,
     /// The table the vertex paths look Schlick's fifth-order term up in; `None`: evaluated.
     fresnel: Option<SchlickTable>,
+}
+
+/// Moves the triangles `on_hull` marks (parallel to `triangles` and `depths`) after the others,
+/// keeping each part's order, and returns how many there are: the compositor draws a lens
+/// object's last [`LensObject::hull_triangles`](crate::render::LensObject::hull_triangles)
+/// without its local layer.
+fn hull_last(triangles: &mut Vec<[u32; 3]>, depths: &mut Vec<u8>, on_hull: &[bool]) -> usize {
+    let hull = |t: usize| on_hull.get(t).copied().unwrap_or(false);
+    let order: Vec<usize> = (0..triangles.len())
+        .filter(|&t| !hull(t))
+        .chain((0..triangles.len()).filter(|&t| hull(t)))
+        .collect();
+    *triangles = order.iter().map(|&t| triangles[t]).collect();
+    if depths.len() == order.len() {
+        *depths = order.iter().map(|&t| depths[t]).collect();
+    }
+    (0..triangles.len()).filter(|&t| hull(t)).count()
 }
 
 /// A lens object tessellated for a frame: its mesh and each vertex's evaluation.

@@ -3,7 +3,11 @@
 //! from the scene, or a bake's), the light-mapped opaque environment, the sky dome, and which
 //! faces of each lens object are drawn. [`HybridScene::new`] is the one way to make one.
 
-use std::{path::PathBuf, sync::Arc, time::Instant};
+use std::{
+    path::PathBuf,
+    sync::{Arc, OnceLock},
+    time::Instant,
+};
 
 use glam::{DVec3, Vec3};
 
@@ -213,6 +217,10 @@ pub struct HybridScene {
     pub sky: Option<SkyDome>,
     /// The last frame built, reused while nothing it depends on changed.
     pub(super) cache: FrameCache,
+    /// Per scene object, which of its triangles lie on the convex hull of the lens geometry
+    /// ([`super::hull`]): worked out the first time a frame needs it (a lens object layered by
+    /// bounce, with the split on), then kept, as it does not depend on the view.
+    pub(super) hull: Vec<OnceLock<Vec<bool>>>,
 }
 
 impl HybridScene {
@@ -260,6 +268,7 @@ impl HybridScene {
             Self::light_mapped_environment(&scene, &trace, &light_maps)?;
         let faces = Self::lens_faces(&scene, &trace);
         let sky = SkyDome::new(&trace);
+        let hull = (0..scene.objects.len()).map(|_| OnceLock::new()).collect();
         Ok((
             HybridScene {
                 view_space: ViewSpaceBlender::new(
@@ -274,6 +283,7 @@ impl HybridScene {
                 environment,
                 light_maps: light_map_stats,
                 sky,
+                hull,
                 cache: FrameCache::default(),
             },
             rays,

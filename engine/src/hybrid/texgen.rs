@@ -24,6 +24,8 @@ pub(super) struct LensMesh {
     pub triangles: Vec<[u32; 3]>,
     /// The faces its passes draw.
     pub faces: LensFaces,
+    /// Its last this many triangles are drawn without the local layer (the convex-hull split).
+    pub hull_triangles: usize,
 }
 
 /// Texture coordinates: each vertex's outgoing ray per term against each layer shell gives the
@@ -43,6 +45,7 @@ pub(super) fn texgen(
         positions,
         triangles,
         faces,
+        hull_triangles,
     } = mesh;
     let has = |wanted: fn(&Interface) -> bool| {
         trace.lenses[lens]
@@ -111,6 +114,7 @@ pub(super) fn texgen(
         positions,
         triangles,
         faces,
+        hull_triangles,
         terms: term_vertices,
         layers: blend
             .samples

@@ -440,6 +440,7 @@ mod tests {
             positions: vec![Vec3::ZERO; 3],
             triangles: vec![[0, 1, 2]],
             faces: LensFaces::Front,
+            hull_triangles: 0,
             terms: Vec::new(),
             layers,
         };

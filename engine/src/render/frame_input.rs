@@ -54,6 +54,10 @@ pub struct LensObject {
     pub triangles: Vec<[u32; 3]>,
     /// Which faces are drawn: back-facing triangles are culled unless [`LensFaces::Both`].
     pub faces: LensFaces,
+    /// The last this many of `triangles` are drawn without layer 0 (its sample taken as
+    /// (0, 0, 0, 0), the identity of every blend): the convex-hull split of a lens object layered
+    /// by bounce, whose layer 0 is the local layer these triangles cannot show. 0 for others.
+    pub hull_triangles: usize,
     /// The terms this object has: a mirror has only [`Term::Reflection`].
     pub terms: Vec<TermVertices>,
     /// `layers[viewpoint][layer]`: the layered EM of each viewpoint sample, nearest shell first.
@@ -138,6 +142,14 @@ impl FrameInput {
         for (l, lens) in self.lenses.iter().enumerate() {
             let at = format!("lenses[{l}] ({})", lens.name);
             check_mesh(&at, &lens.positions, &lens.triangles)?;
+            if lens.hull_triangles > lens.triangles.len() {
+                return bad(format!(
+                    "{at}.hull_triangles is {} but the lens has {} triangles; give at most that \
+                     many (the last ones are drawn without layer 0)",
+                    lens.hull_triangles,
+                    lens.triangles.len()
+                ));
+            }
             // Pass names and debug labels are made from lens names.
             if self.lenses[..l].iter().any(|other| other.name == lens.name) {
                 return bad(format!(

@@ -56,7 +56,7 @@ impl std::fmt::Display for LimitSource {
 ///   (at least 128);
 /// - fixed whatever n and V: one sampler (`maxPerStageDescriptorSamplers`, at least 16), one
 ///   storage buffer in the vertex stage (`maxPerStageDescriptorStorageBuffers`, at least 4), two
-///   sets for the programmable layer (`maxBoundDescriptorSets`, at least 4) and the 120 bytes of
+///   sets for the programmable layer (`maxBoundDescriptorSets`, at least 4) and the 124 bytes of
 ///   `LensConstants` (`maxPushConstantsSize`, at least 128; asserted at compile time below).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct SinglePassLimits {

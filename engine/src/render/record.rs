@@ -483,6 +483,13 @@ impl Recorder<'_> {
             constants.layer = layer;
             gpu_lens.sets[viewpoint]
         };
+        // The convex-hull split: the draws that sample layer 0 draw the hull triangles (the
+        // last indices) apart, with that layer taken as empty.
+        let samples_local = match draw {
+            Draw::Layer { layer, .. } | Draw::ProgrammableLayer { layer, .. } => layer.index() == 0,
+            Draw::SinglePass { .. } => true,
+            _ => false,
+        };
         // Set 0, and set 1 for the programmable layer (no allocation per draw).
         let (layout, sets, set_count) = match draw {
             Draw::Layer {
@@ -550,11 +557,30 @@ impl Recorder<'_> {
             ),
         );
         let device = self.gpu.device();
+        let hull = if samples_local {
+            gpu_lens.hull_index_count.min(gpu_lens.index_count)
+        } else {
+            0
+        };
+        let rest = gpu_lens.index_count - hull;
         // SAFETY: recording inside a rendering instance with the matching lens pipeline bound;
-        // the index buffer lives as long as the frame.
+        // the index buffer lives as long as the frame; the push constants are the layout's.
         unsafe {
             device.cmd_bind_index_buffer(cb, gpu_lens.indices.handle, 0, vk::IndexType::UINT32);
-            device.cmd_draw_indexed(cb, gpu_lens.index_count, 1, 0, 0, 0);
+            if rest > 0 {
+                device.cmd_draw_indexed(cb, rest, 1, 0, 0, 0);
+            }
+            if hull > 0 {
+                constants.skip_local = 1;
+                device.cmd_push_constants(
+                    cb,
+                    layout,
+                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                    0,
+                    bytemuck::bytes_of(&constants),
+                );
+                device.cmd_draw_indexed(cb, hull, 1, rest, 0, 0);
+            }
         }
     }
 

@@ -36,6 +36,10 @@ pub struct SyntheticOptions {
     pub stacks: u32,
     /// Index of refraction of the glass.
     pub ior: f64,
+    /// The sphere's last this many triangles (the southern ones) drawn without layer 0, as the
+    /// convex-hull split draws a lens object's hull triangles ([`LensObject::hull_triangles`];
+    /// at most every triangle).
+    pub hull_triangles: usize,
 }
 
 impl Default for SyntheticOptions {
@@ -49,6 +53,7 @@ impl Default for SyntheticOptions {
             cube_size: 64,
             stacks: 48,
             ior: 1.5,
+            hull_triangles: 0,
         }
     }
 }
@@ -161,6 +166,7 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
         lenses: vec![LensObject {
             name: "sphere".into(),
             positions,
+            hull_triangles: options.hull_triangles.min(triangles.len()),
             triangles,
             faces: LensFaces::Front,
             terms,

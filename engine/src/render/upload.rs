@@ -32,6 +32,9 @@ pub(super) struct GpuLens {
     data: Buffer,
     pub(super) indices: Buffer,
     pub(super) index_count: u32,
+    /// The last this many indices are drawn without layer 0 (three per hull triangle of the
+    /// convex-hull split, [`LensObject::hull_triangles`](super::LensObject::hull_triangles)).
+    pub(super) hull_index_count: u32,
     pub(super) vertex_count: u32,
     /// Offset (vec4 units) of F·G per term, and of layer 0's directions per term.
     pub(super) fg_offset: HashMap<Term, u32>,
@@ -533,6 +536,7 @@ impl UploadCache {
             data,
             indices,
             index_count: (lens.triangles.len() * 3) as u32,
+            hull_index_count: (lens.hull_triangles.min(lens.triangles.len()) * 3) as u32,
             vertex_count,
             fg_offset,
             direction_offset,

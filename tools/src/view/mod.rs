@@ -79,6 +79,8 @@ pub struct ViewArgs {
     pub angle_degrees: f64,
     #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
     pub fresnel: lensmap::hybrid::FresnelModel,
+    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
+    pub hull_split: crate::common::OnOff,
     /// Compositor variant (key `v`).
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -196,6 +198,7 @@ fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
             },
             angle_radians: args.angle_degrees.to_radians(),
             fresnel: args.fresnel,
+            hull_split: args.hull_split.is_on(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),

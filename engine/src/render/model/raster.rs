@@ -14,8 +14,9 @@ use crate::trace::Term;
 pub(super) enum Source {
     /// Environment mesh `mesh`.
     Environment { mesh: usize },
-    /// Lens object `object`.
-    Lens { object: usize },
+    /// Lens object `object`; `skip_local`: one of its hull triangles, drawn without layer 0
+    /// (the convex-hull split, [`crate::render::LensObject::hull_triangles`]).
+    Lens { object: usize, skip_local: bool },
 }
 
 /// A triangle after the vertex stage and viewport transform.
@@ -113,8 +114,10 @@ impl<'a> FrameSetup<'a> {
         }
         for (object, lens) in frame.lenses.iter().enumerate() {
             let clip = to_clip(&lens.positions);
-            for triangle in &lens.triangles {
-                setup.add_triangle(Source::Lens { object }, &clip, *triangle);
+            let first_hull = lens.triangles.len().saturating_sub(lens.hull_triangles);
+            for (t, triangle) in lens.triangles.iter().enumerate() {
+                let skip_local = t >= first_hull;
+                setup.add_triangle(Source::Lens { object, skip_local }, &clip, *triangle);
             }
             setup.groups.push(lens_groups(frame, lens));
         }
@@ -161,7 +164,7 @@ impl<'a> FrameSetup<'a> {
         let front = cross < 0.0;
         let drawn = match source {
             Source::Environment { .. } => true,
-            Source::Lens { object } => {
+            Source::Lens { object, .. } => {
                 front || self.frame.lenses[object].faces == crate::render::LensFaces::Both
             }
         };

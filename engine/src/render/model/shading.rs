@@ -149,10 +149,7 @@ impl FrameSetup<'_> {
             .iter()
             .filter(|f| {
                 let t = &self.triangles[f.triangle];
-                t.source
-                    == (Source::Lens {
-                        object: object_index,
-                    })
+                matches!(t.source, Source::Lens { object, .. } if object == object_index)
                     && t.drawn
                     && f.covered
             })
@@ -257,6 +254,10 @@ impl FrameSetup<'_> {
         };
         for layer in order {
             for lens_fragment in passing {
+                // A hull triangle's layer-0 sample is taken as zero, the identity of the blend.
+                if layer == 0 && lens_fragment.skip_local {
+                    continue;
+                }
                 let cube = &object.layers[viewpoint][layer];
                 let sample = self.sample(cube, &lens_fragment.directions[term][layer]);
                 *flags |= sample.flags;
@@ -391,6 +392,13 @@ impl FrameSetup<'_> {
             })
             .collect();
         LensFragment {
+            skip_local: matches!(
+                triangle.source,
+                Source::Lens {
+                    skip_local: true,
+                    ..
+                }
+            ),
             fg,
             directions,
             flags,
@@ -508,6 +516,8 @@ struct FilteredSample {
 /// A lens fragment that passes the layer passes' depth test.
 #[derive(Clone, Debug)]
 struct LensFragment {
+    /// Its triangle is a hull triangle of the convex-hull split: layer 0 is not drawn on it.
+    skip_local: bool,
     /// Per term (in `object.terms` order), interpolated F·G.
     fg: Vec<DVec3>,
     /// `directions[term][layer]`.

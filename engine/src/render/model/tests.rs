@@ -107,6 +107,7 @@ fn small_frame(weights: Vec<f32>, layers: Vec<Vec<CubeMap>>) -> FrameInput {
         positions,
         triangles: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6]],
         faces: LensFaces::Front,
+        hull_triangles: 0,
         terms: vec![TermVertices {
             term: Term::Reflection,
             fg: vec![Vec3::new(0.5, 0.75, 1.0); 7],
@@ -541,6 +542,7 @@ fn random_sphere_frame(
             positions,
             triangles,
             faces: LensFaces::Front,
+            hull_triangles: 0,
             terms,
             layers,
         }],

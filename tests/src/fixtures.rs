@@ -121,6 +121,7 @@ pub fn lens_alone(
             name: name.to_owned(),
             objects: vec![0],
             layers: Vec::new(),
+            layering: lensmap::layers::Layering::Distance,
         }],
         camera,
         view_space: ViewSpace::List(Vec::new()),

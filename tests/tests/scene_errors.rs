@@ -101,6 +101,61 @@ objects = ["ball"]
         }
     }
 
+    /// `layering`: a word it does not know, "bounce" on a glass lens, or beside `layers`; a
+    /// mirror lens by bounce loads, and says so.
+    #[test]
+    fn layering_by_bounce_is_for_mirrors_without_layers() {
+        let dir = temp_folder("layering");
+        let lens = "objects = [\"ball\"]";
+        assert_refused(
+            &dir,
+            (lens, "objects = [\"ball\"]\nlayering = \"sideways\""),
+            "lenses[0].layering",
+            "\"sideways\" is not a layering",
+            "\"bounce\"",
+        );
+        assert_refused(
+            &dir,
+            (lens, "objects = [\"ball\"]\nlayering = \"bounce\""),
+            "lenses[0].layering",
+            "object \"ball\" is glass",
+            "leave layering out",
+        );
+        let mirror = edit_scene(
+            &base(),
+            "glass = { ior = 1.5, absorption = [0.9, 0.9, 0.9] }",
+            "mirror = { reflectance = [0.9, 0.9, 0.9] }",
+        );
+        let with_layers = edit_scene(
+            &mirror,
+            lens,
+            "objects = [\"ball\"]\nlayering = \"bounce\"\nlayers = [{ sphere = 3.0 }]",
+        );
+        let (file, error) = load_error(&dir, &with_layers);
+        assert_message(
+            &error,
+            &file,
+            "lenses[0].layering",
+            "also lists layers",
+            "remove either",
+        );
+        let path = dir.join("mirror.toml");
+        std::fs::write(
+            &path,
+            edit_scene(&mirror, lens, "objects = [\"ball\"]\nlayering = \"bounce\""),
+        )
+        .unwrap();
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.lenses[0].layering, lensmap::layers::Layering::Bounce);
+        let plain = dir.join("plain.toml");
+        std::fs::write(&plain, &mirror).unwrap();
+        let scene = Scene::load(&plain).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            scene.lenses[0].layering,
+            lensmap::layers::Layering::Distance
+        );
+    }
+
     #[test]
     fn malformed_toml_names_line_and_column() {
         let dir = temp_folder("malformed");

@@ -254,6 +254,7 @@ fn mirror_scene(reflectance: Vec3) -> Scene {
             name: "mirror".to_owned(),
             objects: vec![0],
             layers: Vec::new(),
+            layering: lensmap::layers::Layering::Distance,
         }],
         camera: Camera {
             position: Vec3::new(0.0, 3.0, 8.0),

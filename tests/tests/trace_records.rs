@@ -93,6 +93,7 @@ fn outgoing_rays_record_every_front_facing_hit_nearest_first() {
         name: "mirror".to_owned(),
         objects: vec![0],
         layers: Vec::new(),
+        layering: lensmap::layers::Layering::Distance,
     }];
     let camera = Camera {
         position: Vec3::new(0.0, 2.0, 6.0),
@@ -200,11 +201,13 @@ fn incoming_rays_continue_through_a_lens_object_to_one_it_occludes() {
             name: "front".to_owned(),
             objects: vec![0],
             layers: Vec::new(),
+            layering: lensmap::layers::Layering::Distance,
         },
         LensObject {
             name: "back".to_owned(),
             objects: vec![1],
             layers: Vec::new(),
+            layering: lensmap::layers::Layering::Distance,
         },
     ];
     let camera = Camera {
@@ -278,6 +281,7 @@ fn first_bounce_records_see_the_mirror_itself_where_the_corner_predicts() {
         name: "corner".to_owned(),
         objects: vec![0, 1],
         layers: Vec::new(),
+        layering: lensmap::layers::Layering::Distance,
     }];
     let camera = Camera {
         position: Vec3::new(3.0, 0.3, 3.5),

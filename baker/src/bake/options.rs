@@ -247,13 +247,21 @@ impl Canonical for BakeOptions {
     }
 }
 
-/// The convex-hull split of the test renderings, which changes the local layer a bake by bounce
-/// infers (hull triangles do not constrain it). It came after the layering by bounce: a bake by
-/// bounce without it (all of those made before it) writes nothing, so their identities stand and
-/// say what they are; with it, tag 2 (distinct from [`encode_fresnel`]'s tag 1). Other bakes have
-/// no local layer, the split does not change them, and nothing is written.
+/// The convex-hull split of the test renderings, which changes the local layer a lens object
+/// layered by bounce infers (hull triangles do not constrain it). It came after identity
+/// version 1, and every earlier bake keeps its identity and its meaning: a bake with
+/// `--layers bounce` then had no split, so it writes tag 2 (distinct from [`encode_fresnel`]'s
+/// tag 1) only with the split on; a bake whose layer count is left to the scene or the baker then
+/// had no lens by bounce (the scene file's `layering` came with the split), so the split being on
+/// changed nothing and writes nothing, and off writes the tag. An explicit layer count has no
+/// lens by bounce: nothing either way.
 fn encode_hull_split(encoder: &mut Encoder, layers: LayerCount, hull_split: bool) {
-    if hull_split && layers == LayerCount::Bounce {
+    let tagged = match layers {
+        LayerCount::Bounce => hull_split,
+        LayerCount::Auto | LayerCount::Scene => !hull_split,
+        LayerCount::Count(_) => false,
+    };
+    if tagged {
         encoder.tag(2);
     }
 }
@@ -404,9 +412,8 @@ mod tests {
         assert_ne!(table_64.hash(), table_65.hash());
     }
 
-    /// The convex-hull split is in the identity of a bake by bounce, on (tag 2) apart from off
-    /// (nothing, as before the split existed) and from a Fresnel table; it leaves every other
-    /// bake's identity as it was.
+    /// The convex-hull split is in the identity of a bake that may layer by bounce, apart from a
+    /// Fresnel table, and every bake made before it keeps its identity ([`encode_hull_split`]).
     #[test]
     fn the_hull_split_is_in_the_identity_of_bakes_by_bounce_only() {
         let with = |layers, hull_split, fresnel| {
@@ -420,6 +427,11 @@ mod tests {
         let table = FresnelModel::Table { texels: 2 };
         let count = LayerCount::Count(3);
         assert_eq!(with(count, true, exact), with(count, false, exact));
+        // Left to the scene, whose file may layer a lens by bounce.
+        assert_ne!(
+            with(LayerCount::Auto, true, exact),
+            with(LayerCount::Auto, false, exact)
+        );
         let bounce = [
             with(LayerCount::Bounce, true, exact),
             with(LayerCount::Bounce, false, exact),

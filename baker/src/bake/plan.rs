@@ -361,7 +361,14 @@ fn plan_lens(
         auto_psnr_db: Vec::new(),
         layering: Layering::Distance,
     };
-    if options.layers == LayerCount::Bounce {
+    // By bounce when asked for every lens object, or when the scene file asks it for this one
+    // and the layer count is left to the scene or the baker (an explicit count means distance).
+    let by_bounce = match options.layers {
+        LayerCount::Bounce => true,
+        LayerCount::Auto | LayerCount::Scene => scene.lenses[position].layering == Layering::Bounce,
+        LayerCount::Count(_) => false,
+    };
+    if by_bounce {
         progress(&format!("fitting layers by bounce for \"{name}\""));
         planned.shells = place_by_bounce(scene, trace, position, origin, placement_views)?.to_vec();
         planned.source = "bounce".into();

@@ -463,6 +463,10 @@ pub(crate) struct LensSpec {
     /// use one sphere at the mean distance of the environment seen from the EM origin.
     #[serde(default)]
     pub layers: Vec<LayerSpecFile>,
+    /// `layering`: "distance" (the default: layers by hit distance) or "bounce" (the PEM
+    /// paper's local and distant layers: for a lens of mirror objects without `layers`).
+    #[serde(default)]
+    pub layering: Option<String>,
 }
 
 /// One layer shell of a lens object, centred on its EM origin, e.g. `{ sphere = 1.4 }`: exactly

@@ -113,8 +113,14 @@ impl Canonical for LensObject {
             name,
             objects,
             layers,
+            layering,
         } = self;
         encoder.value(name).value(objects).value(layers);
+        // Came after identity version 1: by distance, what every earlier scene meant, writes
+        // nothing, so their identities stand.
+        if *layering == crate::layers::Layering::Bounce {
+            encoder.tag(1);
+        }
     }
 }
 

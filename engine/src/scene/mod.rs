@@ -101,6 +101,10 @@ pub struct LensObject {
     /// The layered EM's shells, nearest first, centred on the lens object's centroid (its EM
     /// origin). Empty: the runtime places one sphere itself.
     pub layers: Vec<LayerSpec>,
+    /// How a bake splits its rays between layers (`layering` in the scene file): by hit
+    /// distance (the default), or by bounce, the PEM paper's local and distant layers, whose
+    /// shells the baker fits (a reflector's, so `layers` is then empty).
+    pub layering: crate::layers::Layering,
 }
 
 /// A layer shell of a lens object's layered EM, centred on the EM origin (metres).
@@ -361,6 +365,7 @@ mod tests {
                 name: "drop".into(),
                 objects: vec![0],
                 layers: Vec::new(),
+                layering: crate::layers::Layering::Distance,
             }]
         );
         assert_eq!(scene.lens_of_object(0), Some(0));

@@ -6,7 +6,8 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::{Loader, Result, sorted_list};
-use crate::scene::file::SceneFile;
+use crate::layers::Layering;
+use crate::scene::file::{LensSpec, SceneFile};
 use crate::scene::material::Material;
 use crate::scene::{LayerSpec, LensObject, SceneObject};
 
@@ -92,10 +93,12 @@ impl Loader<'_> {
                 };
                 layers.push(parsed);
             }
+            let layering = self.layering(&field, spec, &members, objects, materials)?;
             lenses.push(LensObject {
                 name: spec.name.clone(),
                 objects: members,
                 layers,
+                layering,
             });
         }
         // Glass and mirror objects that no lens names become lenses of their own.
@@ -108,9 +111,55 @@ impl Loader<'_> {
                     name: object.name.clone(),
                     objects: vec![i],
                     layers: Vec::new(),
+                    layering: Layering::Distance,
                 });
             }
         }
         Ok(lenses)
+    }
+
+    /// A lens entry's `layering`: "distance" (the default) or "bounce", which is for reflectors
+    /// (the local layer holds what a mirror reflects of itself) and fits its own shells.
+    fn layering(
+        &self,
+        field: &str,
+        spec: &LensSpec,
+        members: &[usize],
+        objects: &[SceneObject],
+        materials: &[Material],
+    ) -> Result<Layering> {
+        let field = format!("{field}.layering");
+        let layering = match spec.layering.as_deref() {
+            None | Some("distance") => return Ok(Layering::Distance),
+            Some("bounce") => Layering::Bounce,
+            Some(other) => {
+                return Err(self.error(
+                    field,
+                    format!("\"{other}\" is not a layering"),
+                    "write \"distance\" (layers by hit distance, the default) or \"bounce\" (the PEM paper's local and distant layers, for mirrors)",
+                ));
+            }
+        };
+        if let Some(&glass) = members
+            .iter()
+            .find(|&&o| !matches!(materials[objects[o].material], Material::Mirror { .. }))
+        {
+            return Err(self.error(
+                field,
+                format!(
+                    "layers by bounce are for reflectors, but object \"{}\" is glass",
+                    objects[glass].name
+                ),
+                "leave layering out (by distance) for a lens with glass",
+            ));
+        }
+        if !spec.layers.is_empty() {
+            return Err(self.error(
+                field,
+                "a lens layered by bounce gets its shells fitted by the baker, but it also lists layers",
+                "remove either `layers` or `layering = \"bounce\"`",
+            ));
+        }
+        Ok(layering)
     }
 }

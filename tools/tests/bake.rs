@@ -551,3 +551,58 @@ fn a_bake_records_its_driver_and_a_merge_across_drivers_warns_naming_them() {
     assert_eq!(baked_on.as_array().map(Vec::len), Some(2), "{baked_on}");
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// `lensmap bake --compress DIR --out OUT`.
+fn compress(dir: &Path, out: &Path) -> Output {
+    lensmap(&[
+        "bake",
+        "--compress",
+        dir.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--keyframe-interval",
+        "2",
+    ])
+}
+
+/// Compressed shards merge, and a compressed bake resumes, into the bytes of one uncompressed
+/// bake: the lossless coding decodes bit-exact, and both write EXR maps (compress again after).
+#[test]
+fn compressed_shards_merge_and_a_compressed_bake_resumes_into_the_uncompressed_bake() {
+    let root = temp_dir("compressed");
+    let whole = root.join("whole");
+    succeeded(&bake("glass-sphere", "0..3", &whole, &[]));
+    let (one, two) = (root.join("s1"), root.join("s2"));
+    succeeded(&bake("glass-sphere", "0..3", &one, &["--shard", "1/2"]));
+    succeeded(&bake("glass-sphere", "0..3", &two, &["--shard", "2/2"]));
+    let (one_z, two_z) = (root.join("s1z"), root.join("s2z"));
+    succeeded(&compress(&one, &one_z));
+    succeeded(&compress(&two, &two_z));
+    for dir in [&one_z, &two_z] {
+        let names = files(dir);
+        assert!(
+            names.keys().any(|n| n.ends_with(".lmz")) && !names.keys().any(|n| n.ends_with(".exr")),
+            "{}: {:?}",
+            dir.display(),
+            names.keys().collect::<Vec<_>>()
+        );
+    }
+    // One shard compressed, one not; and both compressed.
+    let (mixed, merged) = (root.join("mixed"), root.join("merged"));
+    succeeded(&merge(&one_z, &two, &mixed));
+    same_bytes(&mixed, &whole);
+    succeeded(&merge(&one_z, &two_z, &merged));
+    same_bytes(&merged, &whole);
+
+    // A compressed bake of sample 0, resumed to 0..3: sample 0 is kept (decoded), 1 and 2 baked.
+    let first = root.join("first");
+    succeeded(&bake("glass-sphere", "0", &first, &[]));
+    let resumed = root.join("resumed");
+    succeeded(&compress(&first, &resumed));
+    let output = bake("glass-sphere", "0..3", &resumed, &["--resume"]);
+    succeeded(&output);
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(json["summary"]["resumed"], serde_json::json!([0]), "{json}");
+    same_bytes(&resumed, &whole);
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -297,7 +297,26 @@ fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
             }
         }
     }
-    println!("{split} hull triangles, {inner} others facing the eye");
+    let lens_points: Vec<Vec3> = hybrid
+        .trace
+        .lenses
+        .iter()
+        .flat_map(|lens| &lens.objects)
+        .flat_map(|&o| hybrid.scene.objects[o].mesh.positions.iter().copied())
+        .collect();
+    let (on, of) = hybrid
+        .trace
+        .lenses
+        .iter()
+        .flat_map(|lens| &lens.objects)
+        .fold((0, 0), |(on, of), &o| {
+            let mesh = &hybrid.scene.objects[o].mesh;
+            let flags = lensmap::hybrid::hull::hull_triangles(mesh, &lens_points);
+            (on + flags.iter().filter(|&&h| h).count(), of + flags.len())
+        });
+    println!(
+        "input triangles on the hull: {on} of {of}; in the frame {split} hull triangles, {inner} others facing the eye"
+    );
     assert_eq!(hull, split);
     assert!(split > 100 && inner > 100, "{split} split, {inner} not");
     assert!(

@@ -280,31 +280,8 @@ fn every_blending_scheme_matches_its_f64_model() {
                         "{}: n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}",
                         blend.name()
                     );
-                    let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
-                    assert!(
-                        model.comparable_lens_pixels() * 10 >= lens_pixels * 8,
-                        "{case}: too few comparable pixels"
-                    );
-                    for i in 0..image.pixels.len() {
-                        if model.exclusion[i].is_some() {
-                            continue;
-                        }
-                        let outside = model.distance_outside_bounds(i, pixel(&image, i));
-                        assert!(
-                            outside <= F32_SLACK,
-                            "{case}: pixel {i} {outside:e} outside"
-                        );
-                        for c in 0..4 {
-                            let d = (pixel(&image, i)[c] - model.rgba[i][c]).abs();
-                            worst[viewpoints - 1][k] = worst[viewpoints - 1][k].max(d);
-                            assert!(
-                                !tolerance.exact || d <= EXACT,
-                                "{case}: pixel {i} channel {c}: GPU {} vs model {}",
-                                image.pixels[i][c],
-                                model.rgba[i][c]
-                            );
-                        }
-                    }
+                    let d = assert_matches_model(&case, &image, &model, &tolerance);
+                    worst[viewpoints - 1][k] = worst[viewpoints - 1][k].max(d);
                 }
             }
         }
@@ -320,6 +297,44 @@ fn every_blending_scheme_matches_its_f64_model() {
         }
     }
     assert_clean(&gpu);
+}
+
+/// `image` (one scheme's RGBA32F frame) against `model` (that scheme's): most lens pixels
+/// comparable, every comparable pixel inside the bounds plus [`F32_SLACK`] and, on lavapipe,
+/// within [`EXACT`]; returns the largest |GPU − model|.
+fn assert_matches_model(
+    case: &str,
+    image: &RenderedImage,
+    model: &ModelImage,
+    tolerance: &Tolerance,
+) -> f64 {
+    let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
+    assert!(
+        model.comparable_lens_pixels() * 10 >= lens_pixels * 8,
+        "{case}: too few comparable pixels"
+    );
+    let mut worst: f64 = 0.0;
+    for i in 0..image.pixels.len() {
+        if model.exclusion[i].is_some() {
+            continue;
+        }
+        let outside = model.distance_outside_bounds(i, pixel(image, i));
+        assert!(
+            outside <= F32_SLACK,
+            "{case}: pixel {i} {outside:e} outside"
+        );
+        for c in 0..4 {
+            let d = (pixel(image, i)[c] - model.rgba[i][c]).abs();
+            worst = worst.max(d);
+            assert!(
+                !tolerance.exact || d <= EXACT,
+                "{case}: pixel {i} channel {c}: GPU {} vs model {}",
+                image.pixels[i][c],
+                model.rgba[i][c]
+            );
+        }
+    }
+    worst
 }
 
 /// The bound check can fail: GPU frames of deliberately wrong inputs (the two viewpoints' weights
@@ -791,30 +806,7 @@ fn a_partial_hull_split_matches_the_f64_model_in_every_scheme() {
                     "{variant:?} {}: {viewpoints} viewpoint(s), {terms:?}",
                     blend.name()
                 );
-                let lens_pixels = model.lens_mask.iter().filter(|m| **m).count();
-                assert!(
-                    model.comparable_lens_pixels() * 10 >= lens_pixels * 8,
-                    "{case}: too few comparable pixels"
-                );
-                for i in 0..image.pixels.len() {
-                    if model.exclusion[i].is_some() {
-                        continue;
-                    }
-                    let outside = model.distance_outside_bounds(i, pixel(&image, i));
-                    assert!(
-                        outside <= F32_SLACK,
-                        "{case}: pixel {i} {outside:e} outside"
-                    );
-                    for c in 0..4 {
-                        let d = (pixel(&image, i)[c] - model.rgba[i][c]).abs();
-                        assert!(
-                            !tolerance.exact || d <= EXACT,
-                            "{case}: pixel {i} channel {c}: GPU {} vs model {}",
-                            image.pixels[i][c],
-                            model.rgba[i][c]
-                        );
-                    }
-                }
+                assert_matches_model(&case, &image, &model, &tolerance);
             }
         }
     }

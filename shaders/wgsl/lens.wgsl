@@ -49,7 +49,8 @@ struct LensConstants {
     reset_alpha: u32,
     // 1 for the draw of a lens object's hull triangles (the convex-hull split): layer 0, the
     // local layer, is taken as (0, 0, 0, 0), the identity of every blend. Multipass: set only on
-    // layer 0's draws. The struct is then 128 bytes, the push-constant size every device has.
+    // layer 0's draws. The fields take 124 bytes (the struct 128 with its padding), within the
+    // 128-byte push-constant size every device has: no room is left for another field.
     skip_local: u32,
 }
 

@@ -276,12 +276,7 @@ fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
                 .fold(f64::NEG_INFINITY, f64::max);
             if t >= first_hull {
                 hull += 1;
-                // Back faces of a closed mesh are culled whether split or not.
-                assert!(
-                    facing || lens.faces == lensmap::render::LensFaces::Front,
-                    "{}: hull triangle {t} faces away",
-                    lens.name
-                );
+                assert!(facing, "{}: hull triangle {t} faces away", lens.name);
                 assert!(
                     most_in_front <= tolerance,
                     "{}: hull triangle {t} has a lens vertex {most_in_front:e} m in front",
@@ -317,8 +312,7 @@ fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
     println!(
         "input triangles on the hull: {on} of {of}; in the frame {split} hull triangles, {inner} others facing the eye"
     );
-    assert_eq!(hull, split);
-    assert!(split > 100 && inner > 100, "{split} split, {inner} not");
+    assert!(hull > 100 && inner > 100, "{hull} split, {inner} not");
     assert!(
         frame
             .lenses

@@ -594,7 +594,7 @@ impl HybridScene {
                     .map(|record| u8::try_from(record.depth).unwrap_or(u8::MAX)),
             );
             if hull_split {
-                on_hull.extend(self.facing_hull(object, &tessellation, faces, view));
+                on_hull.extend(self.facing_hull(object, &tessellation, view));
             }
             // Moved, not copied, for a lens object of one scene object (the common case).
             if positions.is_empty() {
@@ -635,12 +635,12 @@ impl HybridScene {
     /// Per output triangle of `tessellation` (of scene object `object`), whether the convex-hull
     /// split draws it with the distant layer only: its input triangle lies on the hull of the
     /// lens geometry and it faces the camera (a back face of an open mesh, drawn from behind,
-    /// looks into the object and may well reflect it).
+    /// looks into the object and may well reflect it; one of a closed mesh is culled, and not
+    /// counted).
     fn facing_hull<'a, S>(
         &'a self,
         object: usize,
         tessellation: &'a crate::hybrid::tessellate::Tessellation<S>,
-        faces: LensFaces,
         view: &FrameView,
     ) -> impl Iterator<Item = bool> + 'a {
         let hull = self.hull[object].get_or_init(|| {
@@ -661,8 +661,7 @@ impl HybridScene {
             .zip(&tessellation.mesh.triangles)
             .map(move |(record, triangle)| {
                 hull.get(record.source as usize).copied().unwrap_or(false)
-                    && (faces == LensFaces::Front
-                        || faces_eye(triangle.map(|i| positions[i as usize]), eye))
+                    && faces_eye(triangle.map(|i| positions[i as usize]), eye)
             })
     }
 
@@ -775,9 +774,12 @@ fn hull_last(triangles: &mut Vec<[u32; 3]>, depths: &mut Vec<u8>, on_hull: &[boo
         .chain((0..triangles.len()).filter(|&t| hull(t)))
         .collect();
     *triangles = order.iter().map(|&t| triangles[t]).collect();
-    if depths.len() == order.len() {
-        *depths = order.iter().map(|&t| depths[t]).collect();
-    }
+    // One depth per triangle, gathered with them (`tessellate_lens`).
+    debug_assert_eq!(depths.len(), order.len());
+    *depths = order
+        .iter()
+        .map(|&t| depths.get(t).copied().unwrap_or(0))
+        .collect();
     (0..triangles.len()).filter(|&t| hull(t)).count()
 }
 
@@ -874,6 +876,18 @@ mod tests {
         scene::Scene,
     };
     use rand::{Rng, SeedableRng};
+
+    /// The split's triangles go last, each part in its order, their depths with them.
+    #[test]
+    fn hull_last_keeps_each_part_in_order_and_the_depths_in_step() {
+        let mut triangles: Vec<[u32; 3]> = (0..6).map(|t| [t, t + 1, t + 2]).collect();
+        let mut depths: Vec<u8> = (10..16).collect();
+        let on_hull = [true, false, true, false, false, true];
+        assert_eq!(hull_last(&mut triangles, &mut depths, &on_hull), 3);
+        let firsts: Vec<u32> = triangles.iter().map(|t| t[0]).collect();
+        assert_eq!(firsts, [1, 3, 4, 0, 2, 5]);
+        assert_eq!(depths, [11, 13, 14, 10, 12, 15]);
+    }
 
     /// Built-in scene `name` as a hybrid scene made cheaply (8² texel projected EMs at one ray a
     /// texel, light maps of 1 texel a metre), and its camera at `width × height`, 1×1.

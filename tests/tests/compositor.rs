@@ -721,6 +721,20 @@ fn the_frames_lens_pixels_are_the_models_lens_coverage() {
     );
 }
 
+/// RGBA32F render options of every multipass blending scheme, then the single pass.
+fn every_rgba32f_scheme() -> impl Iterator<Item = RenderOptions<'static>> {
+    BlendScheme::ALL
+        .map(|blend| (Variant::Multipass, blend))
+        .into_iter()
+        .chain([(Variant::SinglePass, BlendScheme::FrontToBack)])
+        .map(|(variant, blend)| RenderOptions {
+            variant,
+            blend,
+            format: TargetFormat::Rgba32f,
+            host: None,
+        })
+}
+
 /// The convex-hull split's draws: a frame whose every lens triangle is a hull triangle renders
 /// bit for bit like the same frame with layer 0 made transparent (all zeros) at every viewpoint,
 /// in every blending scheme and the single pass (a second construction of "drawn without layer
@@ -742,17 +756,8 @@ fn hull_triangles_render_like_a_transparent_layer_zero() {
             maps[0] = Arc::new(CubeMap::uniform(16, [0.0; 4]));
         }
         let mut uploads = [&frame, &split, &transparent].map(|f| renderer.upload(&gpu, f).unwrap());
-        let schemes = BlendScheme::ALL
-            .map(|blend| (Variant::Multipass, blend))
-            .into_iter()
-            .chain([(Variant::SinglePass, BlendScheme::FrontToBack)]);
-        for (variant, blend) in schemes {
-            let options = RenderOptions {
-                variant,
-                blend,
-                format: TargetFormat::Rgba32f,
-                host: None,
-            };
+        for options in every_rgba32f_scheme() {
+            let (variant, blend) = (options.variant, options.blend);
             let [plain, split, transparent] = uploads
                 .each_mut()
                 .map(|uploaded| renderer.render(&gpu, uploaded, &options).unwrap().0.pixels);
@@ -783,17 +788,8 @@ fn a_partial_hull_split_matches_the_f64_model_in_every_scheme() {
             let mut frame = random_frame(&mut rng, 2, viewpoints, terms);
             frame.lenses[0].hull_triangles = frame.lenses[0].triangles.len() / 2;
             let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
-            let schemes = BlendScheme::ALL
-                .map(|blend| (Variant::Multipass, blend))
-                .into_iter()
-                .chain([(Variant::SinglePass, BlendScheme::FrontToBack)]);
-            for (variant, blend) in schemes {
-                let options = RenderOptions {
-                    variant,
-                    blend,
-                    format: TargetFormat::Rgba32f,
-                    host: None,
-                };
+            for options in every_rgba32f_scheme() {
+                let (variant, blend) = (options.variant, options.blend);
                 let (image, _) = renderer.render(&gpu, &mut uploaded, &options).unwrap();
                 let model = render_model(
                     &frame,

@@ -50,6 +50,36 @@ impl Gpu {
         unsafe { self.shared.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")
     }
 
+    /// Creates a compute pipeline of `shader` with `layout`.
+    pub fn create_compute_pipeline(
+        &self,
+        shader: &Shader,
+        layout: vk::PipelineLayout,
+    ) -> Result<vk::Pipeline, GpuError> {
+        let device = &self.shared.device;
+        let module = self.create_shader_module(shader)?;
+        let name = std::ffi::CString::new(shader.entry).unwrap_or_default();
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(&name);
+        let info = vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout);
+        // SAFETY: every pointer in `info` lives until return; the module is destroyed after.
+        let result =
+            unsafe { device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None) };
+        // SAFETY: the module is no longer needed once the pipeline exists (or failed).
+        unsafe { device.destroy_shader_module(module, None) };
+        match result {
+            Ok(pipelines) => Ok(pipelines[0]),
+            Err((_, result)) => Err(GpuError::Vulkan {
+                call: "vkCreateComputePipelines",
+                result,
+            }),
+        }
+    }
+
     /// Creates a graphics pipeline for dynamic rendering with dynamic viewport and scissor.
     pub fn create_graphics_pipeline(
         &self,

@@ -24,6 +24,10 @@ pub enum BufferUsage {
     Staging,
     /// Transfer destination the CPU reads back.
     Readback,
+    /// Written and read by the GPU alone (compute passes): a storage, index and indirect-argument
+    /// buffer, and a transfer source and destination (cleared with fills, read back by copies).
+    /// Device-local where the device has such memory.
+    Device,
 }
 
 /// A buffer in host-visible memory (uploads and readbacks need no extra copy on lavapipe or
@@ -53,6 +57,14 @@ impl Buffer {
             ),
             BufferUsage::Staging => (vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu),
             BufferUsage::Readback => (vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu),
+            BufferUsage::Device => (
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::INDEX_BUFFER
+                    | vk::BufferUsageFlags::INDIRECT_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            ),
         };
         let device = &gpu.shared.device;
         let info = vk::BufferCreateInfo::default()

@@ -13,11 +13,11 @@ use crate::gpu::{Gpu, GpuError, VkContext, context::Shared};
 
 /// One binding of a descriptor-set layout: one descriptor of `ty`, read by `stage`.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Binding {
+pub(crate) struct Binding {
     /// The descriptor type.
-    pub(super) ty: vk::DescriptorType,
+    pub(crate) ty: vk::DescriptorType,
     /// The shader stage that reads it.
-    pub(super) stage: vk::ShaderStageFlags,
+    pub(crate) stage: vk::ShaderStageFlags,
 }
 
 const fn binding(ty: vk::DescriptorType, stage: vk::ShaderStageFlags) -> Binding {
@@ -28,7 +28,7 @@ const fn binding(ty: vk::DescriptorType, stage: vk::ShaderStageFlags) -> Binding
 /// cube-map array per viewpoint sample the single pass blends (bindings 1 ..=
 /// [`MAX_VIEWPOINTS`]: `layers_a`, `_b`, `_c` of `lens.wgsl`; a layer pass reads binding 1),
 /// and the sampler.
-pub(super) const LENS_SET: &[Binding] = &[
+pub(crate) const LENS_SET: &[Binding] = &[
     binding(
         vk::DescriptorType::STORAGE_BUFFER,
         vk::ShaderStageFlags::VERTEX,
@@ -52,7 +52,7 @@ pub(super) const LENS_SET: &[Binding] = &[
 const _: () = assert!(LENS_SET.len() == MAX_VIEWPOINTS + 2);
 
 /// Set 0 of the environment program: the mesh's light map and its sampler.
-pub(super) const ENVIRONMENT_SET: &[Binding] = &[
+pub(crate) const ENVIRONMENT_SET: &[Binding] = &[
     binding(
         vk::DescriptorType::SAMPLED_IMAGE,
         vk::ShaderStageFlags::FRAGMENT,
@@ -62,13 +62,13 @@ pub(super) const ENVIRONMENT_SET: &[Binding] = &[
 
 /// One image read with texel fetches: the box filter's colour target, the scratch images the
 /// group sum adds and the programmable layer reads.
-pub(super) const SAMPLED_IMAGE_SET: &[Binding] = &[binding(
+pub(crate) const SAMPLED_IMAGE_SET: &[Binding] = &[binding(
     vk::DescriptorType::SAMPLED_IMAGE,
     vk::ShaderStageFlags::FRAGMENT,
 )];
 
 /// Creates the set layout of `bindings`.
-pub(super) fn create_set_layout(
+pub(crate) fn create_set_layout(
     gpu: &Gpu,
     bindings: &[Binding],
 ) -> Result<vk::DescriptorSetLayout, GpuError> {
@@ -95,7 +95,7 @@ pub(super) fn create_set_layout(
 
 /// What one binding of a set is pointed at.
 #[derive(Clone, Copy, Debug)]
-pub(super) enum Resource {
+pub(crate) enum Resource {
     /// A whole buffer.
     Buffer(vk::Buffer),
     /// An image view, in `SHADER_READ_ONLY_OPTIMAL`.
@@ -106,7 +106,7 @@ pub(super) enum Resource {
 
 /// Points binding i of `set` (of the layout `bindings`) at `resources[i]`. The set must not be
 /// in use by a pending submission.
-pub(super) fn write_set(
+pub(crate) fn write_set(
     gpu: &Gpu,
     set: vk::DescriptorSet,
     bindings: &[Binding],
@@ -160,7 +160,7 @@ pub(super) fn write_set(
 
 /// A descriptor pool that destroys itself; its sets are freed with it, or reset together when a
 /// frame is uploaded into it again.
-pub(super) struct DescriptorPool {
+pub(crate) struct DescriptorPool {
     shared: Arc<Shared>,
     handle: vk::DescriptorPool,
     /// Sets it was sized for.
@@ -169,7 +169,7 @@ pub(super) struct DescriptorPool {
 
 impl DescriptorPool {
     /// A pool for `sets` sets of the layout `bindings`.
-    pub(super) fn new(
+    pub(crate) fn new(
         gpu: &Gpu,
         bindings: &[Binding],
         sets: u32,
@@ -203,13 +203,13 @@ impl DescriptorPool {
     }
 
     /// Sets it was sized for.
-    pub(super) fn capacity(&self) -> u32 {
+    pub(crate) fn capacity(&self) -> u32 {
         self.capacity
     }
 
     /// Allocates `count` sets of `layout` (which must be one of the layouts the pool was sized
     /// for, with room left for them).
-    pub(super) fn allocate(
+    pub(crate) fn allocate(
         &self,
         layout: vk::DescriptorSetLayout,
         count: usize,
@@ -229,7 +229,7 @@ impl DescriptorPool {
 
     /// Allocates one set of `layout` and points its bindings (the layout `bindings`) at
     /// `resources`.
-    pub(super) fn allocate_one(
+    pub(crate) fn allocate_one(
         &self,
         gpu: &Gpu,
         (layout, bindings): (vk::DescriptorSetLayout, &[Binding]),
@@ -244,7 +244,7 @@ impl DescriptorPool {
     }
 
     /// Frees every set of the pool at once. No submission that uses them may be pending.
-    pub(super) fn reset(&self) -> Result<(), GpuError> {
+    pub(crate) fn reset(&self) -> Result<(), GpuError> {
         // SAFETY: the caller waited for the sets' last use (UploadedFrame::last_submission).
         unsafe {
             self.shared

@@ -5,7 +5,7 @@
 //! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 
 mod budget;
-mod descriptors;
+pub(crate) mod descriptors;
 mod frame_input;
 mod host_image;
 mod image;

@@ -44,19 +44,19 @@ pub struct SourceTriangle {
 
 /// A triangle in BVH order with its f64 edges, precomputed for intersection and shading.
 #[derive(Clone, Copy, Debug)]
-struct BvhTriangle {
-    v0: DVec3,
-    e1: DVec3,
-    e2: DVec3,
+pub(super) struct BvhTriangle {
+    pub(super) v0: DVec3,
+    pub(super) e1: DVec3,
+    pub(super) e2: DVec3,
     /// Unit face normal, flipped to agree with the vertex normals.
-    geometric_normal: DVec3,
-    normals: [DVec3; 3],
+    pub(super) geometric_normal: DVec3,
+    pub(super) normals: [DVec3; 3],
     uvs: [DVec2; 3],
-    object: u32,
+    pub(super) object: u32,
 }
 
 /// Padded f32 bounds of one triangle, the primitive obvhs builds over.
-struct PaddedBounds(Aabb);
+pub(super) struct PaddedBounds(Aabb);
 
 impl Boundable for PaddedBounds {
     fn aabb(&self) -> Aabb {
@@ -93,7 +93,7 @@ impl SurfaceHit {
 /// A triangle BVH over some of a scene's objects (one lens object, or the environment).
 pub struct MeshBvh {
     bvh: Option<CwBvh>,
-    triangles: Vec<BvhTriangle>,
+    pub(super) triangles: Vec<BvhTriangle>,
     /// The power of two that obvhs's f32 coordinates are world coordinates times, chosen to bring
     /// the largest coordinate into (16, 32] (scaling by a power of two commutes with rounding):
     /// obvhs's own checks (debug builds) allow an absolute 1e-5 of slack on node bounds, which the
@@ -433,7 +433,7 @@ fn prepare_triangle(source: &SourceTriangle) -> Option<BvhTriangle> {
 /// f32 bounds, in world coordinates times `scale` (a power of two), grown by a relative margin
 /// (at least 1e-5 m), so the f32 traversal never culls a triangle the f64 test would hit (the
 /// f32 ray origin is rounded).
-fn padded_bounds(triangle: &BvhTriangle, scale: f64) -> PaddedBounds {
+pub(super) fn padded_bounds(triangle: &BvhTriangle, scale: f64) -> PaddedBounds {
     let vertices = [
         triangle.v0,
         triangle.v0 + triangle.e1,

@@ -20,6 +20,7 @@
 //! ```
 
 pub mod bvh;
+pub mod bvh_gpu;
 pub mod fresnel;
 pub mod image;
 pub mod lens_pixels;

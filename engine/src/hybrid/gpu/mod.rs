@@ -1,0 +1,357 @@
+//! The hybrid frame's per-vertex work on the GPU: the scene's geometry and BVHs resident in
+//! storage buffers ([`GpuGeometry`]), and compute passes that trace the eye ray and both greedy
+//! paths at each lens vertex by the CPU oracle's rules in f32 (`shaders/wgsl/tracer.wgsl`).
+//!
+//! [`GpuTracer::trace_vertices`] runs the vertex-path pass over given vertices and reads the
+//! records back: what the agreement with the CPU oracle is measured on.
+
+use ash::vk;
+use glam::{DVec3, Vec3};
+use lensmap_shaders::TracerConstants;
+
+use super::paths::{ScreenCamera, TermPath, VertexPaths};
+use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
+use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
+use crate::trace::{
+    Bounces, Ray, bvh_gpu::GpuGeometry, schlick_table::SchlickTable, stats::TraceCounters,
+    world::TraceScene,
+};
+
+/// Storage buffers bound at set 0 of every tracer pass, in binding order (tracer.wgsl).
+const TRACER_SET: &[Binding] = &[STORAGE; 8];
+
+const STORAGE: Binding = Binding {
+    ty: vk::DescriptorType::STORAGE_BUFFER,
+    stage: vk::ShaderStageFlags::COMPUTE,
+};
+
+/// Invocations per workgroup of the tracer's passes (`@workgroup_size` in tracer.wgsl).
+const WORKGROUP: u32 = 64;
+
+/// Bytes of one vertex record (tracer.wgsl `VertexRecord`: seven vec4).
+const RECORD_BYTES: u64 = 7 * 16;
+
+/// Counters the passes add to (tracer.wgsl `COUNTER_*`).
+const COUNTERS: usize = 3;
+
+/// Where a traced vertex's paths start and stop (the CPU oracle's options).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSettings {
+    /// The lens object (TraceScene order) and the scene object the vertices are on.
+    pub lens: usize,
+    /// Scene object of the vertices.
+    pub object: usize,
+    /// Where the paths stop.
+    pub bounces: Bounces,
+    /// Most interfaces a path may meet.
+    pub max_interfaces: u32,
+}
+
+/// One vertex as the GPU traced it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuVertex {
+    /// Both terms' paths (f32 values widened).
+    pub paths: VertexPaths,
+    /// Whether the eye sees the vertex.
+    pub visible: bool,
+    /// Screen position in subpixels, when it has one.
+    pub screen: Option<glam::Vec2>,
+}
+
+/// The resident geometry and the tracer's pipelines on one device.
+pub struct GpuTracer {
+    device: ash::Device,
+    nodes: Buffer,
+    triangles: Buffer,
+    materials: Buffer,
+    roots: Buffer,
+    schlick: Buffer,
+    schlick_texels: u32,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    vertex_paths: vk::Pipeline,
+    pool: DescriptorPool,
+}
+
+impl Drop for GpuTracer {
+    fn drop(&mut self) {
+        // SAFETY: the owner waited for every submission that used the pipelines.
+        unsafe {
+            self.device.destroy_pipeline(self.vertex_paths, None);
+            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+/// `data` as the bytes of a storage buffer (at least one element, so every binding is valid).
+fn storage<T: bytemuck::Pod>(gpu: &Gpu, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
+    let bytes: &[u8] = bytemuck::cast_slice(data);
+    let padded = if bytes.is_empty() {
+        &[0u8; 16][..]
+    } else {
+        bytes
+    };
+    Buffer::with_data(gpu, name, padded, BufferUsage::Storage)
+}
+
+impl GpuTracer {
+    /// Uploads `trace`'s geometry (once per scene) and creates the passes. `fresnel`: the
+    /// Schlick table the paths look Fresnel up in, `None` to evaluate it exactly.
+    pub fn new(
+        gpu: &Gpu,
+        trace: &TraceScene,
+        fresnel: Option<&SchlickTable>,
+    ) -> Result<GpuTracer, GpuError> {
+        let geometry = GpuGeometry::new(trace);
+        let texels = fresnel.map_or(&[0.0f32][..], |t| t.texels());
+        let set_layout = create_set_layout(gpu, TRACER_SET)?;
+        let push = [vk::PushConstantRange {
+            stage_flags: vk::ShaderStageFlags::COMPUTE,
+            offset: 0,
+            size: std::mem::size_of::<TracerConstants>() as u32,
+        }];
+        let set_layouts = [set_layout];
+        // SAFETY: the create info lives until return; Drop destroys the layout.
+        let layout = unsafe {
+            gpu.device().create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )
+        }
+        .vk("vkCreatePipelineLayout")?;
+        let shader = lensmap_shaders::shader("tracer", "cs_vertex_paths").ok_or_else(|| {
+            GpuError::BadUpload {
+                what: "tracer.wgsl".into(),
+                problem: "entry point cs_vertex_paths was not compiled".into(),
+            }
+        })?;
+        let vertex_paths = gpu.create_compute_pipeline(&shader, layout)?;
+        Ok(GpuTracer {
+            device: gpu.device().clone(),
+            nodes: storage(gpu, "tracer nodes", &geometry.nodes)?,
+            triangles: storage(gpu, "tracer triangles", &geometry.triangles)?,
+            materials: storage(gpu, "tracer materials", &geometry.materials)?,
+            roots: storage(gpu, "tracer roots", &geometry.roots)?,
+            schlick: storage(gpu, "tracer schlick", texels)?,
+            schlick_texels: fresnel.map_or(0, |t| t.texels().len() as u32),
+            set_layout,
+            layout,
+            vertex_paths,
+            pool: DescriptorPool::new(gpu, TRACER_SET, 4)?,
+        })
+    }
+
+    /// The constants of a pass over `settings`' vertices seen by `camera`.
+    fn constants(&self, camera: &ScreenCamera, settings: &PathSettings) -> TracerConstants {
+        TracerConstants {
+            view_proj: camera.view_proj.to_cols_array_2d(),
+            eye: camera.eye.as_vec3().to_array(),
+            part: 1 + settings.lens as u32,
+            subpixels: camera.subpixels.to_array(),
+            object: settings.object as u32,
+            first_vertex: 0,
+            vertex_count: 0,
+            first_bounce_only: u32::from(settings.bounces == Bounces::First),
+            max_interfaces: settings.max_interfaces,
+            schlick_texels: self.schlick_texels,
+            t: 0.0,
+            cos_threshold: 0.0,
+            capacity: 0,
+            level: 0,
+        }
+    }
+
+    /// Traces the vertices `(position, unit normal)` of `settings.object` from `camera` in one
+    /// compute pass and reads the records back, with the rays and triangle tests spent.
+    pub fn trace_vertices(
+        &self,
+        gpu: &Gpu,
+        camera: &ScreenCamera,
+        settings: &PathSettings,
+        vertices: &[(Vec3, Vec3)],
+    ) -> Result<(Vec<GpuVertex>, TraceCounters), GpuError> {
+        let count = vertices.len() as u64;
+        let data: Vec<[f32; 4]> = vertices
+            .iter()
+            .flat_map(|(p, n)| [p.extend(1.0).to_array(), n.extend(0.0).to_array()])
+            .collect();
+        let vertex_buffer = storage(gpu, "tracer vertices", &data)?;
+        let records = Buffer::new(
+            gpu,
+            "tracer records",
+            count.max(1) * RECORD_BYTES,
+            BufferUsage::Device,
+        )?;
+        let counters = Buffer::new(
+            gpu,
+            "tracer counters",
+            4 * COUNTERS as u64,
+            BufferUsage::Device,
+        )?;
+        let readback = Buffer::new(
+            gpu,
+            "tracer readback",
+            count.max(1) * RECORD_BYTES + 4 * COUNTERS as u64,
+            BufferUsage::Readback,
+        )?;
+        self.pool.reset()?;
+        let set = self.pool.allocate(self.set_layout, 1)?[0];
+        let resources: Vec<Resource> = [
+            &self.nodes,
+            &self.triangles,
+            &self.materials,
+            &self.roots,
+            &self.schlick,
+            &vertex_buffer,
+            &records,
+            &counters,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect();
+        write_set(gpu, set, TRACER_SET, &resources);
+        let mut constants = self.constants(camera, settings);
+        constants.vertex_count = count as u32;
+        let device = gpu.device();
+        gpu.submit_and_wait(|cb| {
+            // SAFETY: every handle is live until the wait returns; the barriers order the fill
+            // before the pass and the pass before the copies.
+            unsafe {
+                device.cmd_fill_buffer(cb, counters.handle, 0, vk::WHOLE_SIZE, 0);
+                barrier(device, cb, TRANSFER_TO_COMPUTE);
+                device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.vertex_paths);
+                device.cmd_bind_descriptor_sets(
+                    cb,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.layout,
+                    0,
+                    &[set],
+                    &[],
+                );
+                device.cmd_push_constants(
+                    cb,
+                    self.layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    bytemuck::bytes_of(&constants),
+                );
+                device.cmd_dispatch(cb, (count as u32).div_ceil(WORKGROUP), 1, 1);
+                barrier(device, cb, COMPUTE_TO_TRANSFER);
+                let region = |size: u64, dst: u64| vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: dst,
+                    size,
+                };
+                device.cmd_copy_buffer(
+                    cb,
+                    records.handle,
+                    readback.handle,
+                    &[region(count.max(1) * RECORD_BYTES, 0)],
+                );
+                device.cmd_copy_buffer(
+                    cb,
+                    counters.handle,
+                    readback.handle,
+                    &[region(4 * COUNTERS as u64, count.max(1) * RECORD_BYTES)],
+                );
+                barrier(device, cb, TRANSFER_TO_HOST);
+            }
+            Ok(())
+        })?;
+        let bytes = readback.read();
+        let words: &[u32] = bytemuck::cast_slice(&bytes[..readback.size as usize]);
+        let record_words = (RECORD_BYTES / 4) as usize;
+        let out = (0..count as usize)
+            .map(|i| decode(&words[i * record_words..(i + 1) * record_words]))
+            .collect();
+        let c = &words[count.max(1) as usize * record_words..];
+        let counters = TraceCounters {
+            primary_rays: u64::from(c[0]),
+            secondary_rays: u64::from(c[1]),
+            shadow_rays: 0,
+            triangle_tests: u64::from(c[2]),
+        };
+        Ok((out, counters))
+    }
+}
+
+/// A memory barrier between two stages of one command buffer: (source stage, access,
+/// destination stage, access).
+type Dependency = (
+    vk::PipelineStageFlags2,
+    vk::AccessFlags2,
+    vk::PipelineStageFlags2,
+    vk::AccessFlags2,
+);
+
+const TRANSFER_TO_COMPUTE: Dependency = (
+    vk::PipelineStageFlags2::TRANSFER,
+    vk::AccessFlags2::TRANSFER_WRITE,
+    vk::PipelineStageFlags2::COMPUTE_SHADER,
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
+    ),
+);
+
+const COMPUTE_TO_TRANSFER: Dependency = (
+    vk::PipelineStageFlags2::COMPUTE_SHADER,
+    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+    vk::PipelineStageFlags2::TRANSFER,
+    vk::AccessFlags2::TRANSFER_READ,
+);
+
+const TRANSFER_TO_HOST: Dependency = (
+    vk::PipelineStageFlags2::TRANSFER,
+    vk::AccessFlags2::TRANSFER_WRITE,
+    vk::PipelineStageFlags2::HOST,
+    vk::AccessFlags2::HOST_READ,
+);
+
+/// Records a global memory barrier.
+///
+/// # Safety
+/// `cb` is recording.
+unsafe fn barrier(device: &ash::Device, cb: vk::CommandBuffer, dependency: Dependency) {
+    let (src_stage, src_access, dst_stage, dst_access) = dependency;
+    let barriers = [vk::MemoryBarrier2::default()
+        .src_stage_mask(src_stage)
+        .src_access_mask(src_access)
+        .dst_stage_mask(dst_stage)
+        .dst_access_mask(dst_access)];
+    // SAFETY: the caller says `cb` is recording.
+    unsafe {
+        device.cmd_pipeline_barrier2(
+            cb,
+            &vk::DependencyInfo::default().memory_barriers(&barriers),
+        )
+    };
+}
+
+/// One vertex record's 28 words as a [`GpuVertex`].
+fn decode(w: &[u32]) -> GpuVertex {
+    let f = |i: usize| f32::from_bits(w[i]);
+    let v3 = |i: usize| DVec3::new(f64::from(f(i)), f64::from(f(i + 1)), f64::from(f(i + 2)));
+    let term = |base: usize| {
+        (f(base + 11) != 0.0).then(|| TermPath {
+            fg: v3(base),
+            outgoing: Ray {
+                origin: v3(base + 4),
+                direction: v3(base + 8),
+            },
+            topology: (w[base + 3], w[base + 7]),
+        })
+    };
+    let screen = (f(26) != 0.0).then(|| glam::Vec2::new(f(24), f(25)));
+    GpuVertex {
+        paths: VertexPaths {
+            terms: [term(0), term(12)],
+        },
+        visible: f(27) != 0.0,
+        screen,
+    }
+}

@@ -1,0 +1,112 @@
+//! A [`TraceScene`]'s geometry in the layout the GPU tracer reads (`shaders/wgsl/tracer.wgsl`):
+//! every part's triangles in one array and a binary BVH per part, built by obvhs on the CPU.
+//!
+//! Why a binary BVH and not obvhs's compressed-wide one (which the CPU traverses, and which
+//! published GPU traversals use): a lens object has a few thousand triangles, where a BVH2 walked
+//! with a short stack is already a few levels deep, and its traversal is forty lines of WGSL that
+//! are easy to check against the CPU's hits; the CWBVH's quantized 8-wide nodes pay off on large
+//! incoherent scenes. The choice is measured in docs/results.md (GPU hybrid frame).
+
+use std::time::Duration;
+
+use obvhs::{BvhBuildParams, bvh2::builder::build_bvh2};
+
+use super::bvh::{MeshBvh, padded_bounds};
+use super::world::TraceScene;
+use crate::scene::Material;
+
+/// The root index of a part without triangles.
+pub const NO_NODE: u32 = u32::MAX;
+
+/// vec4s per triangle: (v0, object), e1, e2, face normal, three vertex normals.
+pub const TRIANGLE_VEC4S: usize = 7;
+
+/// The scene's geometry for the GPU tracer.
+#[derive(Clone, Debug, Default)]
+pub struct GpuGeometry {
+    /// Two vec4 per node: (min, first index as bits), (max, primitive count as bits). A leaf's
+    /// first index names a triangle, an inner node's its first child (the second follows).
+    pub nodes: Vec<[f32; 4]>,
+    /// [`TRIANGLE_VEC4S`] vec4 per triangle, in BVH order, f32.
+    pub triangles: Vec<[f32; 4]>,
+    /// Root node per part: the environment, then each lens object ([`NO_NODE`]: no triangle).
+    pub roots: Vec<u32>,
+    /// Two vec4 per scene object: (kind: 0 diffuse, 1 glass, 2 mirror; index of refraction),
+    /// (absorption per metre, or reflectance at normal incidence).
+    pub materials: Vec<[f32; 4]>,
+}
+
+impl GpuGeometry {
+    /// Flattens `trace`: the environment (part 0) and each lens object (part 1 + l), with the
+    /// triangles the CPU's BVHs hold (degenerate ones already left out).
+    pub fn new(trace: &TraceScene) -> GpuGeometry {
+        let mut geometry = GpuGeometry::default();
+        let parts = std::iter::once(&trace.environment).chain(trace.lenses.iter().map(|l| &l.bvh));
+        for bvh in parts {
+            let root = geometry.push_part(bvh);
+            geometry.roots.push(root);
+        }
+        geometry.materials = trace
+            .object_materials
+            .iter()
+            .flat_map(|material| match *material {
+                Material::Glass { ior, absorption } => {
+                    [[1.0, ior, 0.0, 0.0], absorption.extend(0.0).to_array()]
+                }
+                Material::Mirror { reflectance } => {
+                    [[2.0, 1.0, 0.0, 0.0], reflectance.extend(0.0).to_array()]
+                }
+                Material::Diffuse { .. } => [[0.0; 4], [0.0; 4]],
+            })
+            .collect();
+        if geometry.materials.is_empty() {
+            geometry.materials.push([0.0; 4]);
+        }
+        geometry
+    }
+
+    /// Triangles of all parts.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len() / TRIANGLE_VEC4S
+    }
+
+    /// Appends one part's triangles and BVH; returns its root node.
+    fn push_part(&mut self, bvh: &MeshBvh) -> u32 {
+        let triangles = &bvh.triangles;
+        if triangles.is_empty() {
+            return NO_NODE;
+        }
+        let bounds: Vec<_> = triangles.iter().map(|t| padded_bounds(t, 1.0)).collect();
+        let bvh2 = build_bvh2(
+            &bounds,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let node_base = (self.nodes.len() / 2) as u32;
+        let triangle_base = self.triangle_count() as u32;
+        for node in &bvh2.nodes {
+            let leaf = node.prim_count > 0;
+            let first = if leaf {
+                triangle_base + node.first_index
+            } else {
+                node_base + node.first_index
+            };
+            let (lo, hi) = (node.aabb.min, node.aabb.max);
+            self.nodes.push([lo.x, lo.y, lo.z, f32::from_bits(first)]);
+            self.nodes
+                .push([hi.x, hi.y, hi.z, f32::from_bits(node.prim_count)]);
+        }
+        for &index in &bvh2.primitive_indices {
+            let t = &triangles[index as usize];
+            let v = |d: glam::DVec3, w: f32| [d.x as f32, d.y as f32, d.z as f32, w];
+            self.triangles.push(v(t.v0, f32::from_bits(t.object)));
+            self.triangles.push(v(t.e1, 0.0));
+            self.triangles.push(v(t.e2, 0.0));
+            self.triangles.push(v(t.geometric_normal, 0.0));
+            for n in t.normals {
+                self.triangles.push(v(n, 0.0));
+            }
+        }
+        node_base
+    }
+}

@@ -1,0 +1,221 @@
+//! The GPU vertex tracer (`shaders/wgsl/tracer.wgsl`) against the CPU oracle (f64) on the base
+//! meshes of the three built-in scenes: the share of vertices whose visibility and both paths'
+//! topologies agree, and on those F·G and the outgoing directions within 1e-4.
+
+use glam::{DVec3, Vec2, Vec3};
+use lensmap::hybrid::gpu::{GpuTracer, PathSettings};
+use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths, VertexPrecision};
+use lensmap::hybrid::tessellate::{SurfaceVertex, VertexOracle, faces_eye};
+use lensmap::render::LensFaces;
+use lensmap::scene::{BUILTIN_SCENES, TriangleMesh};
+use lensmap::trace::{Bounces, GreedyOptions, TraceScene};
+use lensmap_tests::fixtures::built_in_scene;
+use lensmap_tests::{assert_clean, gpu};
+
+/// How two tracers' vertices compare.
+#[derive(Debug, Default)]
+struct Comparison {
+    vertices: usize,
+    /// Vertices with the same visibility and, per term, the same presence and topology.
+    same_path: usize,
+    /// Of those, the largest F·G difference (any channel) and outgoing-direction difference
+    /// over terms with a weight (a path truncated at the interface cap has F·G = 0, and its
+    /// direction after 16 interfaces weighs nothing).
+    worst_fg: f64,
+    worst_direction: f64,
+    /// Of those, how many have every weighted term within 1e-4 in F·G and direction.
+    within_1e4: usize,
+}
+
+impl Comparison {
+    fn add(&mut self, (a, a_visible): (&VertexPaths, bool), (b, b_visible): (&VertexPaths, bool)) {
+        self.vertices += 1;
+        let same = a_visible == b_visible
+            && a.terms.iter().zip(&b.terms).all(|pair| match pair {
+                (None, None) => true,
+                (Some(p), Some(q)) => p.topology == q.topology,
+                _ => false,
+            });
+        if !same {
+            return;
+        }
+        self.same_path += 1;
+        let mut close = true;
+        for (p, q) in a.terms.iter().zip(&b.terms) {
+            let (Some(p), Some(q)) = (p, q) else { continue };
+            if p.fg == DVec3::ZERO && q.fg == DVec3::ZERO {
+                continue;
+            }
+            let fg = (p.fg - q.fg).abs().max_element();
+            let direction = (p.outgoing.direction - q.outgoing.direction).length();
+            self.worst_fg = self.worst_fg.max(fg);
+            self.worst_direction = self.worst_direction.max(direction);
+            close &= fg <= 1e-4 && direction <= 1e-4;
+        }
+        self.within_1e4 += usize::from(close);
+    }
+
+    fn close_share(&self) -> f64 {
+        self.within_1e4 as f64 / self.same_path.max(1) as f64
+    }
+
+    fn share(&self) -> f64 {
+        self.same_path as f64 / self.vertices as f64
+    }
+}
+
+/// Per scene: the GPU against the CPU oracle in f64 (what lensmap renders with) and in f32 (the
+/// same arithmetic the GPU does), and the CPU's f32 against its f64, over the vertices of every
+/// lens object's front-facing triangles.
+struct Agreement {
+    gpu_f64: Comparison,
+    gpu_f32: Comparison,
+    f32_f64: Comparison,
+}
+
+fn agreement(name: &str) -> Agreement {
+    let scene = built_in_scene(name, 320, 240, 1);
+    let trace = TraceScene::new(&scene).expect("the scene traces");
+    let gpu = gpu();
+    let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
+    let camera = &scene.camera;
+    let screen = ScreenCamera {
+        eye: camera.position.as_dvec3(),
+        view_proj: camera.view_proj(0.05, 1000.0),
+        subpixels: Vec2::new(camera.width as f32, camera.height as f32),
+    };
+    let mut found = Agreement {
+        gpu_f64: Comparison::default(),
+        gpu_f32: Comparison::default(),
+        f32_f64: Comparison::default(),
+    };
+    for (lens, lens_bvh) in trace.lenses.iter().enumerate() {
+        for &object in &lens_bvh.objects {
+            let vertices = front_facing_vertices(&scene.objects[object].mesh, camera.position);
+            let oracle = |precision| {
+                PathOracle::new(
+                    &trace,
+                    lens,
+                    object,
+                    screen,
+                    3f64.to_radians(),
+                    LensFaces::Front,
+                )
+                .with_precision(precision)
+                .evaluate_batch(&vertices)
+            };
+            let (f64_paths, f32_paths) =
+                (oracle(VertexPrecision::F64), oracle(VertexPrecision::F32));
+            let settings = PathSettings {
+                lens,
+                object,
+                bounces: Bounces::UntilLeaving,
+                max_interfaces: GreedyOptions::default().max_interfaces,
+            };
+            let input: Vec<(Vec3, Vec3)> =
+                vertices.iter().map(|v| (v.position, v.normal)).collect();
+            let (traced, counters) = tracer
+                .trace_vertices(&gpu, &screen, &settings, &input)
+                .expect("the pass runs");
+            assert_eq!(counters.primary_rays, vertices.len() as u64);
+            for ((c64, c32), g) in f64_paths.iter().zip(&f32_paths).zip(&traced) {
+                let g = (&g.paths, g.visible);
+                found.gpu_f64.add((&c64.sample, c64.visible), g);
+                found.gpu_f32.add((&c32.sample, c32.visible), g);
+                found
+                    .f32_f64
+                    .add((&c64.sample, c64.visible), (&c32.sample, c32.visible));
+            }
+            for (v, g) in vertices.iter().zip(&traced) {
+                let expected = screen.project(v.position);
+                let close = match (expected, g.screen) {
+                    (Some(p), Some(q)) => p.distance(q) <= 1e-3 * p.length().max(1.0),
+                    (None, None) => true,
+                    _ => false,
+                };
+                assert!(
+                    close,
+                    "{name}: vertex {} lands at {:?} on the GPU, {expected:?} on the CPU",
+                    v.index, g.screen
+                );
+            }
+        }
+    }
+    assert_clean(&gpu);
+    found
+}
+
+/// The vertices of `mesh`'s triangles that face `eye`, with unit normals as the tessellation
+/// hands them to its oracle.
+fn front_facing_vertices(mesh: &TriangleMesh, eye: Vec3) -> Vec<SurfaceVertex> {
+    let normals = if mesh.normals.len() == mesh.positions.len() {
+        mesh.normals.clone()
+    } else {
+        mesh.accumulated_face_normals()
+    };
+    let mut used = vec![false; mesh.positions.len()];
+    for t in &mesh.triangles {
+        if faces_eye(t.map(|v| mesh.positions[v as usize]), eye) {
+            t.iter().for_each(|&v| used[v as usize] = true);
+        }
+    }
+    (0..mesh.positions.len())
+        .filter(|&v| used[v])
+        .map(|v| SurfaceVertex {
+            index: v as u32,
+            position: mesh.positions[v],
+            normal: normals[v].normalize_or_zero(),
+            uv: None,
+        })
+        .collect()
+}
+
+#[test]
+fn gpu_vertex_paths_agree_with_the_cpu_oracle_on_the_built_in_scenes() {
+    for name in BUILTIN_SCENES {
+        let Agreement {
+            gpu_f64,
+            gpu_f32,
+            f32_f64,
+        } = agreement(name);
+        for (what, c) in [
+            ("GPU vs CPU f64", &gpu_f64),
+            ("GPU vs CPU f32", &gpu_f32),
+            ("CPU f32 vs f64", &f32_f64),
+        ] {
+            eprintln!(
+                "{name}: {what}: {} vertices, same path {:.2} %, of those within 1e-4 {:.2} %, worst F·G {:.1e}, direction {:.1e}",
+                c.vertices,
+                100.0 * c.share(),
+                100.0 * c.close_share(),
+                c.worst_fg,
+                c.worst_direction,
+            );
+        }
+        assert!(
+            gpu_f64.vertices > 1000,
+            "{name}: {} vertices",
+            gpu_f64.vertices
+        );
+        // The GPU runs the oracle's rules in f32: it takes the CPU f32 run's paths…
+        assert!(
+            gpu_f32.share() >= 0.995,
+            "{name}: {:.4} of vertices take the CPU f32 paths",
+            gpu_f32.share()
+        );
+        // with F·G and directions within 1e-4, but where a long path amplifies the last bits
+        // (f32 ulps of pow, sqrt and normalize differ between the CPU's libm and the driver's)…
+        assert!(gpu_f32.close_share() >= 0.98, "{name}: {gpu_f32:?}");
+        // …and parts from the f64 oracle no more than the CPU's own f32 run does.
+        assert!(
+            gpu_f64.share() >= f32_f64.share() - 0.005,
+            "{name}: GPU {:.4} against the CPU's f32 {:.4} of f64 paths",
+            gpu_f64.share(),
+            f32_f64.share()
+        );
+        assert!(
+            gpu_f64.close_share() >= f32_f64.close_share() - 0.01,
+            "{name}: {gpu_f64:?} {f32_f64:?}"
+        );
+    }
+}

@@ -1,15 +1,18 @@
 //! Criterion benchmarks of the hybrid frame's two CPU stages on teapot-room from the demo's novel
 //! camera (640×480, t = 3): ray tracing the glass teapot's vertices, and the adaptive
 //! tessellation alone (its vertex samples replayed from a table, so no ray is traced), each at
-//! 1 thread and at every thread of the machine.
+//! 1 thread and at every thread of the machine; and the same vertices traced by the GPU's
+//! vertex-path pass.
 //!
 //! `cargo bench -p lensmap --bench hybrid`
 
 use criterion::{BatchSize, Criterion, criterion_main};
 use glam::{Vec2, Vec3};
 use lensmap::{
+    gpu::{Gpu, GpuOptions},
     hybrid::{
         DEFAULT_ANGLE_DEGREES, HybridScene, LayeredEms,
+        gpu::{GpuTracer, PathSettings},
         paths::{PathOracle, ScreenCamera, VertexPaths},
         tessellate::{
             SurfaceVertex, TessellationOptions, VertexEvaluation, VertexOracle, tessellate,
@@ -19,6 +22,7 @@ use lensmap::{
     render::LensFaces,
     runner::novel_camera,
     scene::Scene,
+    trace::{Bounces, GreedyOptions},
 };
 
 /// The teapot-room scene, its novel camera as the tessellation sees it, and the glass teapot.
@@ -165,6 +169,38 @@ fn benches(c: &mut Criterion) {
         );
         group.finish();
     }
+    gpu_bench(c, &setup, &vertices);
+}
+
+/// The same vertices traced by the GPU's vertex-path pass (`hybrid::gpu`), on the device
+/// `LENSMAP_DEVICE` names (the first otherwise): one submission that uploads them, traces and
+/// reads the records back.
+fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
+    let gpu = match Gpu::new(&GpuOptions::from_env()) {
+        Ok(gpu) => gpu,
+        Err(e) => {
+            eprintln!("no GPU, the GPU vertex pass is not measured: {e}");
+            return;
+        }
+    };
+    let tracer = GpuTracer::new(&gpu, &setup.hybrid.trace, None).expect("the tracer uploads");
+    let settings = PathSettings {
+        lens: setup.lens,
+        object: setup.object,
+        bounces: Bounces::UntilLeaving,
+        max_interfaces: GreedyOptions::default().max_interfaces,
+    };
+    let input: Vec<(Vec3, Vec3)> = vertices.iter().map(|v| (v.position, v.normal)).collect();
+    let mut group = c.benchmark_group(format!("teapot-room t=3, {}", gpu.device_id()));
+    group.sample_size(20);
+    group.bench_function(format!("GPU pass: trace {} vertices", input.len()), |b| {
+        b.iter(|| {
+            tracer
+                .trace_vertices(&gpu, &setup.screen, &settings, &input)
+                .expect("the pass runs")
+        })
+    });
+    group.finish();
 }
 
 // The macro's generated function has no doc comment to carry.

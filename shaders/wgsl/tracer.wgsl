@@ -438,27 +438,38 @@ fn trace_vertex(index: u32) {
     let eye_ray = Ray(constants.eye, direction);
     var rays = 0u;
     var tests = 0u;
-    // Visible when nothing lies in front of the vertex by more than the tolerance.
+    // Only what lies up to the vertex matters: the vertex itself, or an occluder.
     let tolerance = 1e-4 * max(distance, 1.0);
-    var visible = distance > tolerance;
-    for (var part = 0u; visible && part < arrayLength(&roots); part++) {
-        let hit = closest_hit(part, eye_ray, distance - tolerance, NO_PRIMITIVE, &tests);
-        visible = hit.primitive == NO_PRIMITIVE;
+    var first = Hit(distance + tolerance, NO_PRIMITIVE, 0.0, 0.0);
+    var first_part = 0u;
+    for (var part = 0u; part < arrayLength(&roots); part++) {
+        let hit = closest_hit(part, eye_ray, first.t, NO_PRIMITIVE, &tests);
+        if hit.primitive != NO_PRIMITIVE {
+            first = hit;
+            first_part = part;
+        }
     }
-    // The paths start at the vertex with its normal as face and shading normal (the CPU
-    // oracle's rule), turned to face the eye when the vertex is occluded or seen edge-on.
-    var normal = vertices[2u * index + 1u].xyz;
-    if dot(normal, normal) > 0.0 {
-        normal = normalize(normal);
+    let visible = first.primitive != NO_PRIMITIVE && first_part == constants.part
+        && abs(first.t - distance) <= tolerance;
+    var surface: Surface;
+    if visible {
+        surface = surface_at(first);
     } else {
-        normal = -direction;
+        // Occluded (or a silhouette the eye ray slips past): the paths start at the vertex with
+        // its normal, turned to face the eye so the first interface is an entry.
+        var normal = vertices[2u * index + 1u].xyz;
+        if dot(normal, normal) > 0.0 {
+            normal = normalize(normal);
+        } else {
+            normal = -direction;
+        }
+        let facing = dot(direction, normal);
+        if facing >= -1e-3 {
+            let turned = normal - (facing + 1e-3) * direction;
+            normal = select(-direction, normalize(turned), dot(turned, turned) > 0.0);
+        }
+        surface = Surface(distance, position, normal, normal, constants.object, NO_PRIMITIVE);
     }
-    let facing = dot(direction, normal);
-    if facing >= -1e-3 && (!visible || facing < 1e-3) {
-        let turned = normal - (facing + 1e-3) * direction;
-        normal = select(-direction, normalize(turned), dot(turned, turned) > 0.0);
-    }
-    let surface = Surface(distance, position, normal, normal, constants.object, NO_PRIMITIVE);
     let s = scatter(surface.object, direction, surface);
     let reflection = start_path(s.reflected, s.reflectance, surface.primitive, &rays, &tests);
     var record: VertexRecord;

@@ -209,31 +209,32 @@ impl<'a> PathOracle<'a> {
         let distance = distance.to_f64();
         let eye_ray = Ray::new(self.camera.eye, direction);
         counters.primary_rays += 1;
-        // Visible when nothing lies in front of the vertex: no surface of any part nearer than
-        // the vertex by more than the tolerance.
+        // Only what lies up to the vertex matters: the vertex itself, or an occluder.
         let tolerance = 1e-4 * distance.max(1.0);
-        let visible = distance > tolerance
-            && closest_hit_within_in::<R>(self.trace, &eye_ray, distance - tolerance, counters)
-                .is_none();
-        // The paths start at the vertex itself, with its normal for both the face and the
-        // shading normal: the eye ray meets a mesh vertex exactly, on the corner of every
-        // triangle around it, and which of those a BVH reports first is an accident of its
-        // traversal order and of rounding (at f32, one base vertex in six changed paths that
-        // way). An occluded vertex's normal, and a visible one seen edge-on, is turned to face
-        // the eye, so the first interface is an entry.
-        let mut normal = vertex.normal.as_dvec3().normalize_or(-direction);
-        let facing = direction.dot(normal);
-        if facing >= -1e-3 && (!visible || facing < 1e-3) {
-            normal = (normal - (facing + 1e-3) * direction).normalize_or(-direction);
-        }
-        let hit = SurfaceHit {
-            distance,
-            position,
-            geometric_normal: normal,
-            shading_normal: normal,
-            uv: vertex.uv.map_or(DVec2::ZERO, |uv| uv.as_dvec2()),
-            object: self.object,
-            primitive: u32::MAX,
+        let first =
+            closest_hit_within_in::<R>(self.trace, &eye_ray, distance + tolerance, counters);
+        let visible = matches!(first, Some(h) if h.part == Part::Lens(self.lens)
+            && (h.hit.distance - distance).abs() <= tolerance);
+        let hit = match first {
+            Some(h) if visible => h.hit,
+            // Occluded (or a silhouette the eye ray slips past): start the paths at the vertex
+            // itself with its normal, turned to face the eye so the first interface is an entry.
+            _ => {
+                let mut normal = vertex.normal.as_dvec3().normalize_or(-direction);
+                let facing = direction.dot(normal);
+                if facing >= -1e-3 {
+                    normal = (normal - (facing + 1e-3) * direction).normalize_or(-direction);
+                }
+                SurfaceHit {
+                    distance,
+                    position,
+                    geometric_normal: normal,
+                    shading_normal: normal,
+                    uv: vertex.uv.map_or(DVec2::ZERO, |uv| uv.as_dvec2()),
+                    object: self.object,
+                    primitive: u32::MAX,
+                }
+            }
         };
         let lens = self.trace.lens_in::<R>(self.lens);
         let fresnel = FresnelLookup::from(self.fresnel);

@@ -106,6 +106,13 @@ impl GpuTracer {
     ) -> Result<GpuTracer, GpuError> {
         let geometry = GpuGeometry::new(trace);
         let texels = fresnel.map_or(&[0.0f32][..], |t| t.texels());
+        // Buffers and the pool first: they free themselves if a later step fails.
+        let nodes = storage(gpu, "tracer nodes", &geometry.nodes)?;
+        let triangles = storage(gpu, "tracer triangles", &geometry.triangles)?;
+        let materials = storage(gpu, "tracer materials", &geometry.materials)?;
+        let roots = storage(gpu, "tracer roots", &geometry.roots)?;
+        let schlick = storage(gpu, "tracer schlick", texels)?;
+        let pool = DescriptorPool::new(gpu, TRACER_SET, 4)?;
         let set_layout = create_set_layout(gpu, TRACER_SET)?;
         let push = [vk::PushConstantRange {
             stage_flags: vk::ShaderStageFlags::COMPUTE,
@@ -122,26 +129,44 @@ impl GpuTracer {
                 None,
             )
         }
-        .vk("vkCreatePipelineLayout")?;
-        let shader = lensmap_shaders::shader("tracer", "cs_vertex_paths").ok_or_else(|| {
-            GpuError::BadUpload {
+        .vk("vkCreatePipelineLayout");
+        let layout = match layout {
+            Ok(layout) => layout,
+            Err(e) => {
+                // SAFETY: created above, unused.
+                unsafe { gpu.device().destroy_descriptor_set_layout(set_layout, None) };
+                return Err(e);
+            }
+        };
+        let pipeline = lensmap_shaders::shader("tracer", "cs_vertex_paths")
+            .ok_or_else(|| GpuError::BadUpload {
                 what: "tracer.wgsl".into(),
                 problem: "entry point cs_vertex_paths was not compiled".into(),
+            })
+            .and_then(|shader| gpu.create_compute_pipeline(&shader, layout));
+        let vertex_paths = match pipeline {
+            Ok(pipeline) => pipeline,
+            Err(e) => {
+                // SAFETY: both were created above and nothing uses them yet.
+                unsafe {
+                    gpu.device().destroy_pipeline_layout(layout, None);
+                    gpu.device().destroy_descriptor_set_layout(set_layout, None);
+                }
+                return Err(e);
             }
-        })?;
-        let vertex_paths = gpu.create_compute_pipeline(&shader, layout)?;
+        };
         Ok(GpuTracer {
             device: gpu.device().clone(),
-            nodes: storage(gpu, "tracer nodes", &geometry.nodes)?,
-            triangles: storage(gpu, "tracer triangles", &geometry.triangles)?,
-            materials: storage(gpu, "tracer materials", &geometry.materials)?,
-            roots: storage(gpu, "tracer roots", &geometry.roots)?,
-            schlick: storage(gpu, "tracer schlick", texels)?,
+            nodes,
+            triangles,
+            materials,
+            roots,
+            schlick,
             schlick_texels: fresnel.map_or(0, |t| t.texels().len() as u32),
             set_layout,
             layout,
             vertex_paths,
-            pool: DescriptorPool::new(gpu, TRACER_SET, 4)?,
+            pool,
         })
     }
 

@@ -26,12 +26,6 @@ struct TracerConstants {
     max_interfaces: u32,
     // Texels of the Schlick table; 0: Fresnel evaluated exactly.
     schlick_texels: u32,
-    // Tessellation: the edge threshold t in subpixels, cos of the angle threshold, the vertex
-    // capacity and the level being split.
-    t: f32,
-    cos_threshold: f32,
-    capacity: u32,
-    level: u32,
 }
 
 var<immediate> constants: TracerConstants;

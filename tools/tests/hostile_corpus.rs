@@ -206,6 +206,16 @@ fn render_scene(scene: &Path, out: &Path) -> Vec<String> {
     .collect()
 }
 
+/// `render --scene glass-sphere --bake BAKE` at the tiny frame, to `out`.
+fn render_bake(bake: &Path, out: &Path) -> Vec<String> {
+    ["render", "--scene", "glass-sphere", "--bake", text(bake)]
+        .into_iter()
+        .chain(TINY_FRAME)
+        .chain(["--out", text(out)])
+        .map(String::from)
+        .collect()
+}
+
 fn strs(args: &[String]) -> Vec<&str> {
     args.iter().map(String::as_str).collect()
 }
@@ -885,14 +895,7 @@ fn damaged_bakes_are_refused_naming_the_file_and_field() {
     args.extend(TINY_RENDER);
     args.extend(["--write-bake", text(&good), "--out", text(&out)]);
     succeeds("writing the bake", &args);
-    let render_bake = |bake: &Path| -> Vec<String> {
-        ["render", "--scene", "glass-sphere", "--bake", text(bake)]
-            .into_iter()
-            .chain(TINY_FRAME)
-            .chain(["--out", text(&out)])
-            .map(String::from)
-            .collect()
-    };
+    let render_bake = |bake: &Path| render_bake(bake, &out);
     // The bake as written renders, finite.
     succeeds("the good bake", &strs(&render_bake(&good)));
     assert_finite_exr("the good bake", &out.with_extension("exr"));
@@ -1141,14 +1144,7 @@ fn damaged_compressed_bakes_are_refused_naming_the_file() {
         "compressing the other",
         &["bake", "--compress", text(&other)],
     );
-    let render_bake = |bake: &Path| -> Vec<String> {
-        ["render", "--scene", "glass-sphere", "--bake", text(bake)]
-            .into_iter()
-            .chain(TINY_FRAME)
-            .chain(["--out", text(&out)])
-            .map(String::from)
-            .collect()
-    };
+    let render_bake = |bake: &Path| render_bake(bake, &out);
     succeeds("the compressed bake", &strs(&render_bake(&good)));
     assert_finite_exr("the compressed bake", &out.with_extension("exr"));
     let earlier = Earlier::of(&out);

@@ -183,10 +183,6 @@ impl GpuTracer {
             first_bounce_only: u32::from(settings.bounces == Bounces::First),
             max_interfaces: settings.max_interfaces,
             schlick_texels: self.schlick_texels,
-            t: 0.0,
-            cos_threshold: 0.0,
-            capacity: 0,
-            level: 0,
         }
     }
 

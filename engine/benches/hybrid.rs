@@ -15,7 +15,8 @@ use lensmap::{
         gpu::{GpuTracer, PathSettings},
         paths::{PathOracle, ScreenCamera, VertexPaths},
         tessellate::{
-            SurfaceVertex, TessellationOptions, VertexEvaluation, VertexOracle, tessellate,
+            SurfaceVertex, TessellationError, TessellationOptions, VertexEvaluation, VertexOracle,
+            tessellate,
         },
     },
     layers::projected::ProjectedOptions,
@@ -99,8 +100,11 @@ impl VertexOracle for Replay<'_> {
     fn evaluate(&self, vertex: &SurfaceVertex) -> VertexPaths {
         self.get(vertex).sample
     }
-    fn evaluate_batch(&self, vertices: &[SurfaceVertex]) -> Vec<VertexEvaluation<VertexPaths>> {
-        vertices.iter().map(|v| self.get(v)).collect()
+    fn evaluate_batch(
+        &self,
+        vertices: &[SurfaceVertex],
+    ) -> Result<Vec<VertexEvaluation<VertexPaths>>, TessellationError> {
+        Ok(vertices.iter().map(|v| self.get(v)).collect())
     }
     fn differ(&self, a: &VertexPaths, b: &VertexPaths) -> bool {
         self.paths.differ(a, b)

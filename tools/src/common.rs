@@ -311,6 +311,28 @@ impl OnOff {
     }
 }
 
+/// `--tracer`: where the lens vertices are ray traced.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TracerArg {
+    /// On the CPU, in f64 (the paper's reference implementation).
+    Cpu,
+    /// On the GPU, in f32, by a compute pass over the scene's resident BVHs.
+    Gpu,
+    /// The GPU on a hardware device, the CPU on a CPU device such as lavapipe (where the CPU
+    /// path is measured faster).
+    Auto,
+}
+
+impl From<TracerArg> for lensmap::hybrid::VertexTracer {
+    fn from(arg: TracerArg) -> Self {
+        match arg {
+            TracerArg::Cpu => lensmap::hybrid::VertexTracer::Cpu,
+            TracerArg::Gpu => lensmap::hybrid::VertexTracer::Gpu,
+            TracerArg::Auto => lensmap::hybrid::VertexTracer::Auto,
+        }
+    }
+}
+
 /// The help of `--hull-split`, the same on every command that takes it.
 pub const HULL_SPLIT_HELP: &str = "The convex-hull split (PEM paper §4): a lens object layered by bounce draws its triangles on the convex hull of the lens geometry with the distant layer only, as they cannot show self-reflections; no effect on lens objects layered by distance";
 

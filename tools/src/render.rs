@@ -62,6 +62,9 @@ pub struct RenderArgs {
     pub fresnel: lensmap::hybrid::FresnelModel,
     #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
     pub hull_split: crate::common::OnOff,
+    /// Where the lens vertices are ray traced.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub tracer: crate::common::TracerArg,
     /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -140,6 +143,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             footprint_subpixels: args.footprint,
             fresnel: args.fresnel,
             hull_split: args.hull_split.is_on(),
+            tracer: args.tracer.into(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),
@@ -253,7 +257,7 @@ fn report(
     let mut out = json!({
         "scene": hybrid.scene.name, "device": device.device, "driver": device.driver_description(),
         "width": camera.width, "height": camera.height, "supersampling": camera.supersampling,
-        "t": args.t, "fresnel": args.fresnel.name(), "hull_split": args.hull_split.is_on(), "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
+        "t": args.t, "fresnel": args.fresnel.name(), "hull_split": args.hull_split.is_on(), "tracer": if frame.stats.traced_on_gpu { "gpu" } else { "cpu" }, "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
         "prepare_seconds": prepare_s,
         "light_maps": {
@@ -368,7 +372,8 @@ fn print_table(r: &serde_json::Value) {
         l["supersampled_texels"]
     );
     say!(
-        "  ray tracing at vertices     {:>10.1} ms",
+        "  ray tracing at vertices ({}) {:>8.1} ms",
+        r["tracer"].as_str().unwrap_or(""),
         ms(&h["ray_tracing_at_vertices_ms"])
     );
     say!(

@@ -294,6 +294,9 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         // Written last of all the options ([`encode_fresnel`], [`encode_hull_split`]).
         fresnel: _,
         hull_split: _,
+        // The test renderings are built without a device, so on the CPU: `auto` traces there,
+        // `gpu` is refused.
+        tracer: _,
     } = hybrid;
     let TessellationOptions {
         t,
@@ -340,6 +343,7 @@ mod tests {
                     viewpoint_blending: lensmap::hybrid::ViewpointBlending::ViewSpace,
                     fresnel: FresnelModel::Exact,
                     hull_split: true,
+                    tracer: lensmap::hybrid::VertexTracer::Auto,
                 },
                 variant: Variant::SinglePass,
                 em_size: EmSize::Fixed(64),

@@ -16,6 +16,7 @@ use rayon::prelude::*;
 
 pub use super::paths::VertexPrecision;
 use super::{
+    gpu::GpuPaths,
     paths::{PathOracle, ScreenCamera, VertexPaths},
     scene::HybridScene,
     sky::SkyDome,
@@ -43,6 +44,8 @@ struct FrameKey {
     camera: Camera,
     options: HybridOptions,
     vertex_exact: bool,
+    /// Whether the vertices were traced on a GPU (its f32 paths are another frame).
+    on_gpu: bool,
     /// Per lens object: EM origins, shells and the identity of every map (`Arc` address).
     layers: Vec<LayersKey>,
     /// The rest of the scene a frame draws: the environment meshes (`Arc` addresses), the sky
@@ -65,11 +68,13 @@ impl FrameKey {
         camera: &Camera,
         options: &HybridOptions,
         vertex_exact: bool,
+        on_gpu: bool,
     ) -> Self {
         FrameKey {
             camera: *camera,
             options: *options,
             vertex_exact,
+            on_gpu,
             layers: scene
                 .lenses
                 .iter()
@@ -156,6 +161,42 @@ pub struct HybridOptions {
     /// since they cannot show self-reflections ([`crate::hybrid::hull`]). On by default; no
     /// effect on lens objects layered by distance.
     pub hull_split: bool,
+    /// Where the lens vertices are ray traced: on the CPU, on the GPU, or as the device suits.
+    pub tracer: VertexTracer,
+}
+
+/// Where a frame's lens vertices are ray traced (`--tracer`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum VertexTracer {
+    /// On the CPU, in the frame's [`VertexPrecision`]: the paper's reference implementation.
+    Cpu,
+    /// On the GPU, in f32, by the compute pass of [`crate::hybrid::gpu`] (the CPU oracle's rules);
+    /// only through a [`crate::runner::FrameRunner`], which owns the device.
+    Gpu,
+    /// The GPU on a hardware device, the CPU on a CPU device (lavapipe), where the CPU path is
+    /// measured faster (`docs/results.md#gpu-vertex-paths`); the CPU without a device.
+    #[default]
+    Auto,
+}
+
+impl VertexTracer {
+    /// The name `--tracer` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            VertexTracer::Cpu => "cpu",
+            VertexTracer::Gpu => "gpu",
+            VertexTracer::Auto => "auto",
+        }
+    }
+
+    /// Whether this choice traces on `gpu` (for `auto`: whether it is not a CPU device).
+    pub fn on_gpu(self, gpu: &crate::gpu::Gpu) -> bool {
+        match self {
+            VertexTracer::Cpu => false,
+            VertexTracer::Gpu => true,
+            VertexTracer::Auto => gpu.properties().device_type != ash::vk::PhysicalDeviceType::CPU,
+        }
+    }
 }
 
 /// Which viewpoint samples a frame blends.
@@ -182,6 +223,7 @@ impl Default for HybridOptions {
             viewpoint_blending: ViewpointBlending::ViewSpace,
             fresnel: FresnelModel::Exact,
             hull_split: true,
+            tracer: VertexTracer::Auto,
         }
     }
 }
@@ -264,6 +306,8 @@ pub struct HybridStats {
     /// split ([`HybridOptions::hull_split`]): on the hull of the lens geometry and facing the
     /// camera, in lens objects layered by bounce.
     pub hull_triangles: usize,
+    /// Whether the lens vertices were traced on the GPU ([`HybridOptions::tracer`]).
+    pub traced_on_gpu: bool,
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
     pub reused: bool,
@@ -310,7 +354,26 @@ impl HybridScene {
         options: &HybridOptions,
         held: u64,
     ) -> Result<BuiltFrame, TessellationError> {
-        let key = FrameKey::new(self, camera, options, false);
+        self.frame_unless_on(camera, options, held, None)
+    }
+
+    /// [`HybridScene::frame_unless`] with `gpu` at hand: the lens vertices are traced there when
+    /// [`HybridOptions::tracer`] says so ([`VertexTracer::on_gpu`]). `gpu`'s tracer must be made
+    /// from this scene's trace structures and the options' Fresnel table. Without a device,
+    /// `auto` traces on the CPU and `gpu` is an error.
+    pub fn frame_unless_on(
+        &self,
+        camera: &Camera,
+        options: &HybridOptions,
+        held: u64,
+        gpu: Option<GpuPaths<'_>>,
+    ) -> Result<BuiltFrame, TessellationError> {
+        let gpu = match (options.tracer, gpu) {
+            (VertexTracer::Gpu, None) => return Err(TessellationError::GpuTracerWithoutDevice),
+            (tracer, Some(device)) if tracer.on_gpu(device.gpu) => Some(device),
+            _ => None,
+        };
+        let key = FrameKey::new(self, camera, options, false, gpu.is_some());
         if let Ok(cache) = self.cache.0.lock()
             && let Some(cached) = cache.as_ref()
             && cached.key == key
@@ -331,7 +394,7 @@ impl HybridScene {
                 BuiltFrame::New(Arc::clone(&cached.frame), stats, cached.identity)
             });
         }
-        let (frame, stats, depths) = self.build_frame(camera, options, false)?;
+        let (frame, stats, depths) = self.build_frame(camera, options, false, gpu)?;
         let frame = Arc::new(frame);
         let identity = FRAME_IDENTITY.fetch_add(1, Ordering::Relaxed);
         if let Ok(mut cache) = self.cache.0.lock() {
@@ -357,7 +420,10 @@ impl HybridScene {
         camera: &Camera,
         options: &HybridOptions,
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
-        let (frame, stats, _) = self.build_frame(camera, options, true)?;
+        if options.tracer == VertexTracer::Gpu {
+            return Err(TessellationError::GpuTracerWithoutDevice);
+        }
+        let (frame, stats, _) = self.build_frame(camera, options, true, None)?;
         Ok((frame, stats))
     }
 
@@ -529,7 +595,7 @@ impl HybridScene {
         (lens_index, lens): (usize, &LensBvh),
         view: &FrameView,
         options: &HybridOptions,
-        vertex_budget: &mut usize,
+        (vertex_budget, gpu): (&mut usize, Option<GpuPaths<'_>>),
         stats: &mut HybridStats,
     ) -> Result<TessellatedLens, TessellationError> {
         let mut positions: Vec<Vec3> = Vec::new();
@@ -571,7 +637,8 @@ impl HybridScene {
             )
             .with_precision(options.precision)
             .with_bounces(self.lenses[lens_index].layering.bounces())
-            .with_fresnel(view.fresnel.as_ref());
+            .with_fresnel(view.fresnel.as_ref())
+            .with_gpu(gpu);
             let start = Instant::now();
             tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
             let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
@@ -672,6 +739,7 @@ impl HybridScene {
         camera: &Camera,
         options: &HybridOptions,
         vertex_exact: bool,
+        gpu: Option<GpuPaths<'_>>,
     ) -> Result<(FrameInput, HybridStats, Vec<Vec<u8>>), TessellationError> {
         let start = Instant::now();
         let view = FrameView {
@@ -682,6 +750,7 @@ impl HybridScene {
         let mut stats = HybridStats {
             outside_view_space,
             viewpoints_blended: blend.samples.len(),
+            traced_on_gpu: gpu.is_some(),
             ..HybridStats::default()
         };
         // The vertex budget is the frame's: each lens object gets what the ones before left.
@@ -698,7 +767,7 @@ impl HybridScene {
                 (lens_index, lens),
                 &view,
                 options,
-                &mut vertex_budget,
+                (&mut vertex_budget, gpu),
                 &mut stats,
             )?;
             if vertex_exact {

@@ -17,7 +17,8 @@ pub mod viewpoints;
 
 pub use frame::{
     BuiltFrame, DEFAULT_ANGLE_DEGREES, FresnelModel, HybridOptions, HybridStats,
-    MAX_FOOTPRINT_COARSENING, VertexPrecision, ViewpointBlending, Wireframe, WireframeLens,
+    MAX_FOOTPRINT_COARSENING, VertexPrecision, VertexTracer, ViewpointBlending, Wireframe,
+    WireframeLens,
 };
 pub use scene::{
     BakeIdentityError, HybridError, HybridScene, HybridSceneOptions, LayeredEms, LensLayers,

@@ -12,7 +12,10 @@ use std::sync::Mutex;
 use glam::{DVec2, DVec3, Mat4, Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::tessellate::{SurfaceVertex, VertexEvaluation, VertexOracle, faces_eye};
+use super::gpu::{GpuPaths, PathSettings};
+use super::tessellate::{
+    SurfaceVertex, TessellationError, VertexEvaluation, VertexOracle, faces_eye,
+};
 use crate::render::LensFaces;
 use crate::trace::{
     Bounces, GreedyOptions, GreedyRayPath, Ray, Term,
@@ -112,6 +115,9 @@ pub struct PathOracle<'a> {
     precision: VertexPrecision,
     /// The table Schlick's fifth-order term is looked up in; `None`: evaluated.
     fresnel: Option<&'a SchlickTable>,
+    /// Where the vertices are traced: on the GPU (its pass, in f32, by the same rules), or on
+    /// the CPU (`None`).
+    gpu: Option<GpuPaths<'a>>,
     counters: Mutex<(TraceCounters, f64)>,
 }
 
@@ -137,6 +143,7 @@ impl<'a> PathOracle<'a> {
             greedy: GreedyOptions::default(),
             precision: VertexPrecision::F64,
             fresnel: None,
+            gpu: None,
             counters: Mutex::new((TraceCounters::default(), 0.0)),
         }
     }
@@ -166,6 +173,14 @@ impl<'a> PathOracle<'a> {
             fresnel: table,
             ..self
         }
+    }
+
+    /// This oracle tracing its vertices on `gpu` (the device and the scene's resident geometry,
+    /// whose Schlick table must be the one [`PathOracle::with_fresnel`] was given), or on the CPU
+    /// (`None`, the default). The GPU computes in f32 whatever [`PathOracle::with_precision`]
+    /// says.
+    pub fn with_gpu(self, gpu: Option<GpuPaths<'a>>) -> Self {
+        PathOracle { gpu, ..self }
     }
 
     /// Rays and triangle tests spent so far.
@@ -257,6 +272,54 @@ impl<'a> PathOracle<'a> {
     }
 }
 
+impl PathOracle<'_> {
+    /// Traces `vertices` on the CPU in parallel (rayon), in order, with the rays spent.
+    fn trace_on_cpu(
+        &self,
+        vertices: &[SurfaceVertex],
+    ) -> (Vec<VertexEvaluation<VertexPaths>>, TraceCounters) {
+        let results: Vec<(VertexEvaluation<VertexPaths>, TraceCounters)> = vertices
+            .par_iter()
+            .map(|vertex| {
+                let mut counters = TraceCounters::default();
+                let (sample, visible) = self.trace_vertex(vertex, &mut counters);
+                (VertexEvaluation { sample, visible }, counters)
+            })
+            .collect();
+        let mut total = TraceCounters::default();
+        for (_, counters) in &results {
+            total += *counters;
+        }
+        (results.into_iter().map(|(e, _)| e).collect(), total)
+    }
+
+    /// Traces `vertices` in one pass of the GPU's vertex tracer, with the rays it counted.
+    fn trace_on_gpu(
+        &self,
+        gpu: GpuPaths<'_>,
+        vertices: &[SurfaceVertex],
+    ) -> Result<(Vec<VertexEvaluation<VertexPaths>>, TraceCounters), TessellationError> {
+        let settings = PathSettings {
+            lens: self.lens,
+            object: self.object,
+            bounces: self.greedy.bounces,
+            max_interfaces: self.greedy.max_interfaces,
+        };
+        let points: Vec<(Vec3, Vec3)> = vertices.iter().map(|v| (v.position, v.normal)).collect();
+        let (traced, counters) =
+            gpu.tracer
+                .trace_vertices(gpu.gpu, &self.camera, &settings, &points)?;
+        let evaluations = traced
+            .into_iter()
+            .map(|vertex| VertexEvaluation {
+                sample: vertex.paths,
+                visible: vertex.visible,
+            })
+            .collect();
+        Ok((evaluations, counters))
+    }
+}
+
 /// [`GreedyRayPath::weight`] (F·G, 0 for a truncated path) with the product in `R`.
 fn weight_in<R: Real>(path: &GreedyRayPath) -> DVec3 {
     if path.truncated {
@@ -294,30 +357,26 @@ fn closest_hit_within_in<R: Real>(
 impl VertexOracle for PathOracle<'_> {
     type Sample = VertexPaths;
 
+    /// One vertex, on the CPU (its counters are not kept): batches are what the tessellation
+    /// asks for, on the GPU when the oracle has one.
     fn evaluate(&self, vertex: &SurfaceVertex) -> VertexPaths {
-        self.evaluate_batch(std::slice::from_ref(vertex))[0].sample
+        self.trace_vertex(vertex, &mut TraceCounters::default()).0
     }
 
-    fn evaluate_batch(&self, vertices: &[SurfaceVertex]) -> Vec<VertexEvaluation<VertexPaths>> {
+    fn evaluate_batch(
+        &self,
+        vertices: &[SurfaceVertex],
+    ) -> Result<Vec<VertexEvaluation<VertexPaths>>, TessellationError> {
         let start = std::time::Instant::now();
-        let results: Vec<(VertexPaths, bool, TraceCounters)> = vertices
-            .par_iter()
-            .map(|vertex| {
-                let mut counters = TraceCounters::default();
-                let (sample, visible) = self.trace_vertex(vertex, &mut counters);
-                (sample, visible, counters)
-            })
-            .collect();
+        let (evaluations, counters) = match self.gpu {
+            Some(gpu) => self.trace_on_gpu(gpu, vertices)?,
+            None => self.trace_on_cpu(vertices),
+        };
         if let Ok(mut guard) = self.counters.lock() {
             guard.1 += start.elapsed().as_secs_f64() * 1e3;
-            for (_, _, c) in &results {
-                guard.0 += *c;
-            }
+            guard.0 += counters;
         }
-        results
-            .into_iter()
-            .map(|(sample, visible, _)| VertexEvaluation { sample, visible })
-            .collect()
+        Ok(evaluations)
     }
 
     fn differ(&self, a: &VertexPaths, b: &VertexPaths) -> bool {

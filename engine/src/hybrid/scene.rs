@@ -221,7 +221,13 @@ pub struct HybridScene {
     /// ([`super::hull`]): worked out the first time a frame needs it (a lens object layered by
     /// bounce, with the split on), then kept, as it does not depend on the view.
     pub(super) hull: Vec<OnceLock<Vec<bool>>>,
+    /// Unique to this scene in the process: what a device's resident copy of its geometry is
+    /// kept by ([`crate::runner::FrameRunner`]'s GPU tracer).
+    identity: u64,
 }
+
+/// The next [`HybridScene`]'s identity.
+static SCENE_IDENTITY: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 impl HybridScene {
     /// Assembles the hybrid scene of `scene` with the layered EMs and light maps `options` asks
@@ -285,9 +291,15 @@ impl HybridScene {
                 sky,
                 hull,
                 cache: FrameCache::default(),
+                identity: SCENE_IDENTITY.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             },
             rays,
         ))
+    }
+
+    /// Unique to this scene in the process (its geometry is fixed once built).
+    pub(crate) fn identity(&self) -> u64 {
+        self.identity
     }
 
     /// The viewpoint sample positions, metres: the bake's samples, or the scene's view space

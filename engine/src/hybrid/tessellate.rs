@@ -138,17 +138,21 @@ pub trait VertexOracle {
         true
     }
 
-    /// Evaluates a batch of new vertices; must return one evaluation per vertex, in order. The
-    /// default calls [`VertexOracle::evaluate`] and [`VertexOracle::visible`] in sequence; a
-    /// runtime may override it to evaluate in parallel.
-    fn evaluate_batch(&self, vertices: &[SurfaceVertex]) -> Vec<VertexEvaluation<Self::Sample>> {
-        vertices
+    /// Evaluates a batch of new vertices; must return one evaluation per vertex, in order, or
+    /// the error that stopped it (a GPU's). The default calls [`VertexOracle::evaluate`] and
+    /// [`VertexOracle::visible`] in sequence; a runtime may override it to evaluate in parallel,
+    /// or on a GPU.
+    fn evaluate_batch(
+        &self,
+        vertices: &[SurfaceVertex],
+    ) -> Result<Vec<VertexEvaluation<Self::Sample>>, TessellationError> {
+        Ok(vertices
             .iter()
             .map(|vertex| VertexEvaluation {
                 sample: self.evaluate(vertex),
                 visible: self.visible(vertex),
             })
-            .collect()
+            .collect())
     }
 
     /// Whether two vertices' samples are different enough that the triangle between them must be
@@ -297,7 +301,7 @@ pub struct Tessellation<S> {
 }
 
 /// Why [`tessellate`] refused its input.
-#[derive(Debug, thiserror::Error, PartialEq)]
+#[derive(Debug, thiserror::Error)]
 pub enum TessellationError {
     /// `t` is zero, negative or not finite.
     #[error("tessellation threshold t = {0} subpixels must be finite and positive")]
@@ -345,6 +349,14 @@ pub enum TessellationError {
         /// Evaluations returned.
         returned: usize,
     },
+    /// The GPU's vertex pass failed (the device was lost or out of memory).
+    #[error("the GPU vertex tracer failed: {0}")]
+    Gpu(#[from] crate::gpu::GpuError),
+    /// The GPU tracer was asked for where no device is at hand.
+    #[error(
+        "--tracer gpu: this frame is built without a device (the GPU tracer runs only through a frame runner); give --tracer cpu or auto"
+    )]
+    GpuTracerWithoutDevice,
 }
 
 /// Adaptively tessellates `mesh` (world space, counter-clockwise triangles) for the camera and
@@ -611,7 +623,7 @@ where
                 uv: self.uvs.as_ref().map(|uvs| uvs[index as usize]),
             })
             .collect();
-        let evaluations = self.oracle.evaluate_batch(&batch);
+        let evaluations = self.oracle.evaluate_batch(&batch)?;
         if evaluations.len() != batch.len() {
             return Err(TessellationError::OracleBatchLength {
                 asked: batch.len(),
@@ -1257,8 +1269,11 @@ mod tests {
         impl VertexOracle for Short {
             type Sample = ();
             fn evaluate(&self, _: &SurfaceVertex) {}
-            fn evaluate_batch(&self, _: &[SurfaceVertex]) -> Vec<VertexEvaluation<()>> {
-                Vec::new()
+            fn evaluate_batch(
+                &self,
+                _: &[SurfaceVertex],
+            ) -> Result<Vec<VertexEvaluation<()>>, TessellationError> {
+                Ok(Vec::new())
             }
             fn differ(&self, _: &(), _: &()) -> bool {
                 true
@@ -1271,13 +1286,13 @@ mod tests {
             }
         }
         let input = unit_triangle();
-        assert_eq!(
-            tessellate(&input, &Short, &options(3.0)).err(),
-            Some(TessellationError::OracleBatchLength {
+        assert!(matches!(
+            tessellate(&input, &Short, &options(3.0)),
+            Err(TessellationError::OracleBatchLength {
                 asked: 3,
                 returned: 0
             })
-        );
+        ));
     }
 
     #[test]

@@ -11,7 +11,10 @@ use super::{
 };
 use crate::{
     gpu::{Gpu, GpuError},
-    hybrid::{BuiltFrame, HybridOptions, HybridScene, HybridStats},
+    hybrid::{
+        BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats,
+        gpu::{GpuPaths, GpuTracer},
+    },
     index::LensIndex,
     options::OptionError,
     render::{
@@ -79,10 +82,20 @@ impl Default for FrameOptions {
 pub struct FrameRunner {
     // Declared before `gpu` so that they are dropped first (their objects belong to that device).
     slots: Vec<Slot>,
+    /// The last scene's geometry resident on the device, for frames traced on the GPU.
+    tracer: Option<ResidentTracer>,
     /// The slot the last frame went to.
     last_slot: usize,
     renderer: Renderer,
     gpu: Gpu,
+}
+
+/// A scene's geometry and BVHs resident on the runner's device, with the Schlick table of the
+/// Fresnel model it was made for.
+struct ResidentTracer {
+    scene: u64,
+    fresnel: FresnelModel,
+    tracer: GpuTracer,
 }
 
 /// One reusable upload and the identity of the hybrid frame it holds (0: none).
@@ -120,6 +133,7 @@ impl FrameRunner {
         let renderer = Renderer::new(&gpu)?;
         Ok(FrameRunner {
             slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
+            tracer: None,
             last_slot: 0,
             renderer,
             gpu,
@@ -292,7 +306,16 @@ impl FrameRunner {
     ) -> Result<Staged, RunError> {
         let start = Instant::now();
         let held = self.slots[self.last_slot].identity;
-        let built = hybrid.frame_unless(camera, &options.hybrid, held)?;
+        let built = if options.hybrid.tracer.on_gpu(&self.gpu) {
+            self.make_resident(hybrid, options.hybrid.fresnel)?;
+            let gpu = self.tracer.as_ref().map(|resident| GpuPaths {
+                gpu: &self.gpu,
+                tracer: &resident.tracer,
+            });
+            hybrid.frame_unless_on(camera, &options.hybrid, held, gpu)?
+        } else {
+            hybrid.frame_unless(camera, &options.hybrid, held)?
+        };
         let slot = match built {
             BuiltFrame::Unchanged(_) => self.last_slot,
             BuiltFrame::New(..) => (self.last_slot + 1) % self.slots.len(),
@@ -321,6 +344,31 @@ impl FrameRunner {
             start,
             gpu_start,
         })
+    }
+
+    /// Makes `hybrid`'s geometry resident on the device for `fresnel`: the copy kept from the
+    /// last frame when it is the same scene and model, else uploaded now (once per scene).
+    fn make_resident(
+        &mut self,
+        hybrid: &HybridScene,
+        fresnel: FresnelModel,
+    ) -> Result<(), RunError> {
+        let kept = self
+            .tracer
+            .as_ref()
+            .is_some_and(|t| t.scene == hybrid.identity() && t.fresnel == fresnel);
+        if !kept {
+            // The old one first: its buffers go before the new ones are made.
+            self.tracer = None;
+            let tracer = GpuTracer::new(&self.gpu, &hybrid.trace, fresnel.table()?.as_ref())
+                .map_err(RenderError::from)?;
+            self.tracer = Some(ResidentTracer {
+                scene: hybrid.identity(),
+                fresnel,
+                tracer,
+            });
+        }
+        Ok(())
     }
 
     /// Submits the frame that [`Self::stage`] put in `slot`: into `host`, or rendered for

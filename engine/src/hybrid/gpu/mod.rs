@@ -58,6 +58,16 @@ pub struct GpuVertex {
     pub screen: Option<glam::Vec2>,
 }
 
+/// A device and a tracer resident on it: what a frame's vertices are traced on when the GPU
+/// traces them ([`crate::hybrid::paths::PathOracle::with_gpu`]).
+#[derive(Clone, Copy)]
+pub struct GpuPaths<'a> {
+    /// The device `tracer` was made on.
+    pub gpu: &'a Gpu,
+    /// The scene's resident geometry and passes.
+    pub tracer: &'a GpuTracer,
+}
+
 /// The resident geometry and the tracer's pipelines on one device.
 pub struct GpuTracer {
     device: ash::Device,
@@ -70,7 +80,9 @@ pub struct GpuTracer {
     set_layout: vk::DescriptorSetLayout,
     layout: vk::PipelineLayout,
     vertex_paths: vk::Pipeline,
-    pool: DescriptorPool,
+    /// The pool every pass's set comes from, reset by each pass: held for the whole pass, so
+    /// that passes from two threads take turns.
+    pool: std::sync::Mutex<DescriptorPool>,
 }
 
 impl Drop for GpuTracer {
@@ -166,7 +178,7 @@ impl GpuTracer {
             set_layout,
             layout,
             vertex_paths,
-            pool,
+            pool: std::sync::Mutex::new(pool),
         })
     }
 
@@ -219,8 +231,10 @@ impl GpuTracer {
             count.max(1) * RECORD_BYTES + 4 * COUNTERS as u64,
             BufferUsage::Readback,
         )?;
-        self.pool.reset()?;
-        let set = self.pool.allocate(self.set_layout, 1)?[0];
+        // A poisoned lock only means another pass panicked: the pool is reset anyway.
+        let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        pool.reset()?;
+        let set = pool.allocate(self.set_layout, 1)?[0];
         let resources: Vec<Resource> = [
             &self.nodes,
             &self.triangles,

@@ -1,14 +1,14 @@
 //! Frames rendered into a host's image: the frame's plan ends in the GPU box filter into an image
 //! lensmap does not own, with no readback. Each is compared with the same frame read back and
 //! box-filtered on the CPU by a fresh runner (a second path through the same framebuffer): bit for
-//! bit in RGBA32F at k = 1, 2 and 3 and in RGBA8 at k = 1; a BGRA sRGB image holds the CPU frame's
-//! sRGB encoding with its channels swapped, within the one 8-bit step the specification allows an
-//! sRGB conversion. The host's signal semaphore is signalled, and a frame waits for the host's wait
-//! semaphore.
+//! bit in RGBA32F at k = 1, 2 and 3 and in RGBA8 at k = 1, and with the lens vertices traced on the
+//! GPU at k = 2; a BGRA sRGB image holds the CPU frame's sRGB encoding with its channels swapped,
+//! within the one 8-bit step the specification allows an sRGB conversion. The host's signal
+//! semaphore is signalled, and a frame waits for the host's wait semaphore.
 
 use lensmap::{
     gpu::{Buffer, BufferUsage, Gpu, Image, ImageDesc, vk},
-    hybrid::HybridOptions,
+    hybrid::{HybridOptions, VertexTracer},
     render::{HostImage, TargetFormat, Variant},
     runner::{FrameOptions, FrameRunner, RunError},
     scene::Camera,
@@ -17,8 +17,16 @@ use lensmap::{
 use lensmap_tests::{assert_clean, gpu, small_teapot_room};
 
 fn options(format: TargetFormat) -> FrameOptions {
+    traced(format, VertexTracer::Cpu)
+}
+
+/// [`options`] with the lens vertices traced by `tracer`.
+fn traced(format: TargetFormat, tracer: VertexTracer) -> FrameOptions {
     FrameOptions {
-        hybrid: HybridOptions::with_t(3.0),
+        hybrid: HybridOptions {
+            tracer,
+            ..HybridOptions::with_t(3.0)
+        },
         variant: Variant::SinglePass,
         blend: lensmap::render::BlendScheme::FrontToBack,
         format,
@@ -103,11 +111,11 @@ fn read_back(gpu: &Gpu, image: &Image) -> Vec<u8> {
 fn cpu_frame(
     hybrid: &lensmap::hybrid::HybridScene,
     camera: &Camera,
-    format: TargetFormat,
+    options: &FrameOptions,
 ) -> Vec<[f32; 4]> {
     let mut alone = FrameRunner::new(gpu()).unwrap();
     hybrid.forget_frame();
-    let frame = alone.frame(hybrid, camera, &options(format)).unwrap();
+    let frame = alone.frame(hybrid, camera, options).unwrap();
     assert_clean(alone.gpu());
     frame.image.pixels
 }
@@ -116,13 +124,36 @@ fn cpu_frame(
 fn a_frame_into_a_host_image_equals_the_frame_read_back() {
     let hybrid = small_teapot_room(24, 18);
     let mut runner = FrameRunner::new(gpu()).unwrap();
+    let (cpu, on_gpu) = (VertexTracer::Cpu, VertexTracer::Gpu);
     let cases = [
-        (TargetFormat::Rgba32f, vk::Format::R32G32B32A32_SFLOAT, 1),
-        (TargetFormat::Rgba32f, vk::Format::R32G32B32A32_SFLOAT, 2),
-        (TargetFormat::Rgba32f, vk::Format::R32G32B32A32_SFLOAT, 3),
-        (TargetFormat::Rgba8, vk::Format::R8G8B8A8_UNORM, 1),
+        (
+            TargetFormat::Rgba32f,
+            vk::Format::R32G32B32A32_SFLOAT,
+            1,
+            cpu,
+        ),
+        (
+            TargetFormat::Rgba32f,
+            vk::Format::R32G32B32A32_SFLOAT,
+            2,
+            cpu,
+        ),
+        (
+            TargetFormat::Rgba32f,
+            vk::Format::R32G32B32A32_SFLOAT,
+            3,
+            cpu,
+        ),
+        (TargetFormat::Rgba8, vk::Format::R8G8B8A8_UNORM, 1, cpu),
+        // A host's frame with no lens vertex traced on the CPU.
+        (
+            TargetFormat::Rgba32f,
+            vk::Format::R32G32B32A32_SFLOAT,
+            2,
+            on_gpu,
+        ),
     ];
-    for (format, image_format, k) in cases {
+    for (format, image_format, k, tracer) in cases {
         let camera = Camera {
             supersampling: k,
             ..hybrid.scene.camera
@@ -130,12 +161,13 @@ fn a_frame_into_a_host_image_equals_the_frame_read_back() {
         let image = host_image(runner.gpu(), image_format, &camera);
         hybrid.forget_frame();
         let frame = runner
-            .frame_into(&hybrid, &camera, &options(format), &lent(&image))
+            .frame_into(&hybrid, &camera, &traced(format, tracer), &lent(&image))
             .unwrap();
         assert!(frame.passes >= 4, "environment, lens, box filter, export");
         assert!(frame.stats.vertices_traced > 0);
+        assert_eq!(frame.stats.traced_on_gpu, tracer == on_gpu);
         let bytes = read_back(runner.gpu(), &image);
-        let expected = cpu_frame(&hybrid, &camera, format);
+        let expected = cpu_frame(&hybrid, &camera, &traced(format, tracer));
         assert_eq!(expected.len(), (camera.width * camera.height) as usize);
         let mut distinct: Vec<[u32; 4]> = expected.iter().map(|p| p.map(f32::to_bits)).collect();
         distinct.sort_unstable();
@@ -220,7 +252,7 @@ fn an_srgb_bgra_image_holds_the_encoded_frame_and_the_semaphores_are_honoured() 
             .unwrap();
     }
     let bytes = read_back(runner.gpu(), &image);
-    let expected = cpu_frame(&hybrid, &camera, TargetFormat::Rgba32f);
+    let expected = cpu_frame(&hybrid, &camera, &options(TargetFormat::Rgba32f));
     let mut worst = 0;
     for (i, pixel) in expected.iter().enumerate() {
         // BGRA: blue first. Alpha is linear in sRGB formats.

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{FresnelModel, HybridOptions, HybridScene, tessellate::DEFAULT_T},
+    hybrid::{FresnelModel, HybridOptions, HybridScene, VertexTracer, tessellate::DEFAULT_T},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{TargetFormat, Variant},
     runner::{
@@ -20,7 +20,7 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, FormatArg, Steps, flag_error, report};
+use crate::common::{BadUsage, FormatArg, Steps, TracerArg, flag_error, report};
 
 #[derive(Args)]
 #[command(
@@ -54,6 +54,10 @@ pub struct BenchHybridArgs {
     em_size: u32,
     #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
     fresnel: FresnelModel,
+    /// Where the lens vertices are traced in the per-stage table and the camera runs (a last
+    /// part times the CPU and the GPU alternately whatever this says).
+    #[arg(long, value_enum, default_value = "auto")]
+    tracer: TracerArg,
     /// Timed frames per variant (after two warm-up frames).
     #[arg(long, default_value_t = 9)]
     frames: usize,
@@ -69,12 +73,12 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let format = TargetFormat::from(args.format);
     runner.check_framebuffer(&camera, format)?;
     let with_table = args.fresnel != FresnelModel::Exact;
-    let mut steps = Steps::new(if with_table { 6 } else { 5 });
+    let mut steps = Steps::new(if with_table { 7 } else { 6 });
     let step = steps.step("projected layered EMs and light maps");
     let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
     say!(
-        "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, {} rayon threads, medians of {} frames",
+        "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, vertices traced on the {}, {} rayon threads, medians of {} frames",
         runner.gpu().device_id(),
         hybrid.scene.name,
         args.width,
@@ -83,6 +87,11 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         camera.supersampling,
         args.t,
         format.name(),
+        if hybrid_options.tracer.on_gpu(runner.gpu()) {
+            "GPU"
+        } else {
+            "CPU"
+        },
         rayon::current_num_threads(),
         args.frames
     );
@@ -106,10 +115,33 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let moving = bench.moving_camera(&mut runner, &options, &mut steps)?;
     let scaling = bench.thread_scaling(&mut runner, &options, threads, &mut steps)?;
     let fresnel = if with_table {
-        Some(bench.fresnel_against_exact(&mut runner, &options, &mut steps)?)
+        let exact = FrameOptions {
+            hybrid: HybridOptions {
+                fresnel: FresnelModel::Exact,
+                ..options.hybrid
+            },
+            ..options
+        };
+        let what = format!("Fresnel exact vs {}", args.fresnel.name());
+        let settings = [("exact", &exact), ("table", &options)];
+        Some(bench.alternating(&mut runner, &what, settings, &mut steps)?)
     } else {
         None
     };
+    let on = |tracer| FrameOptions {
+        hybrid: HybridOptions {
+            tracer,
+            ..options.hybrid
+        },
+        ..options
+    };
+    let (cpu, gpu) = (on(VertexTracer::Cpu), on(VertexTracer::Gpu));
+    let tracers = bench.alternating(
+        &mut runner,
+        "vertex tracing on the CPU vs the GPU",
+        [("cpu", &cpu), ("gpu", &gpu)],
+        &mut steps,
+    )?;
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
@@ -117,6 +149,8 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         "threads": threads, "frames": args.frames, "rows": rows,
         "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,
         "fresnel": args.fresnel.name(), "fresnel_against_exact": fresnel,
+        "tracer": args.tracer.name(), "traced_on_gpu": hybrid_options.tracer.on_gpu(runner.gpu()),
+        "cpu_against_gpu_tracer": tracers,
     });
     report(&out, args.report.as_deref())?;
     Ok(())
@@ -130,6 +164,7 @@ fn checked(
     let hybrid_options = HybridOptions {
         footprint_subpixels: args.footprint,
         fresnel: args.fresnel,
+        tracer: args.tracer.into(),
         ..HybridOptions::with_t(args.t)
     };
     hybrid_options.validate().map_err(flag_error)?;
@@ -349,39 +384,32 @@ impl Bench<'_> {
 type Part = fn(&(f64, f64)) -> f64;
 
 impl Bench<'_> {
-    /// Exact Fresnel against the table of `options` (its `hybrid.fresnel`), each frame built from
-    /// scratch, the two alternating (A B B A …, so neither always runs first) after a warm-up of
-    /// each: medians of the vertex tracing and of the whole frame, and the median of the paired
-    /// differences (table − exact); printed and as JSON.
-    fn fresnel_against_exact(
+    /// Two settings `(label, options)`, each frame built from scratch, alternating (A B B A …,
+    /// so neither always runs first) after a warm-up of each: medians of the vertex tracing and
+    /// of the whole frame per setting, and the medians of the paired differences (second −
+    /// first); printed after `what` and as JSON.
+    fn alternating(
         &self,
         runner: &mut FrameRunner,
-        options: &FrameOptions,
+        what: &str,
+        settings: [(&str, &FrameOptions); 2],
         steps: &mut Steps,
     ) -> anyhow::Result<serde_json::Value> {
-        let step = steps.step("Fresnel: exact against the table, alternating");
-        let exact = FrameOptions {
-            hybrid: HybridOptions {
-                fresnel: FresnelModel::Exact,
-                ..options.hybrid
-            },
-            ..*options
-        };
-        let settings = [&exact, options];
+        let step = steps.step(&format!("{what}, alternating"));
         let mut frame = |setting: &FrameOptions| {
             self.hybrid.forget_frame();
             runner
                 .frame(self.hybrid, &self.camera, setting)
                 .map(|f| (f.stats.trace_ms, f.total_ms))
         };
-        for setting in settings {
+        for (_, setting) in settings {
             frame(setting)?;
         }
         let mut times: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
         for i in 0..self.frames {
             let order = if i % 2 == 0 { [0, 1] } else { [1, 0] };
             for which in order {
-                times[which].push(frame(settings[which])?);
+                times[which].push(frame(settings[which].1)?);
             }
         }
         step.finish_and_clear();
@@ -392,20 +420,14 @@ impl Bench<'_> {
             let mut differences: Vec<f64> = times[1]
                 .iter()
                 .zip(&times[0])
-                .map(|(table, exact)| part(table) - part(exact))
+                .map(|(second, first)| part(second) - part(first))
                 .collect();
             median(&mut differences)
         };
         let (trace, total): (Part, Part) = (|t| t.0, |t| t.1);
-        let name = options.hybrid.fresnel.name();
-        let out = json!({
-            "exact": { "trace_ms": median_of(0, trace), "total_ms": median_of(0, total) },
-            "table": { "fresnel": name, "trace_ms": median_of(1, trace), "total_ms": median_of(1, total) },
-            "paired_difference_ms": { "trace": paired(trace), "total": paired(total) },
-            "frames_each": self.frames,
-        });
+        let [(a, _), (b, _)] = settings;
         say!(
-            "Fresnel exact vs {name}, {} frames each, alternating: vertex tracing {:.2} vs {:.2} ms, frame {:.2} vs {:.2} ms; paired difference (table − exact) {:+.2} ms tracing, {:+.2} ms frame (medians)",
+            "{what}, {} frames each, alternating: vertex tracing {:.2} vs {:.2} ms, frame {:.2} vs {:.2} ms; paired difference ({b} − {a}) {:+.2} ms tracing, {:+.2} ms frame (medians)",
             self.frames,
             median_of(0, trace),
             median_of(1, trace),
@@ -414,7 +436,12 @@ impl Bench<'_> {
             paired(trace),
             paired(total)
         );
-        Ok(out)
+        Ok(json!({
+            a: { "trace_ms": median_of(0, trace), "total_ms": median_of(0, total) },
+            b: { "trace_ms": median_of(1, trace), "total_ms": median_of(1, total) },
+            "paired_difference_ms": { "trace": paired(trace), "total": paired(total) },
+            "frames_each": self.frames,
+        }))
     }
 }
 

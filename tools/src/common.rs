@@ -323,6 +323,13 @@ pub enum TracerArg {
     Auto,
 }
 
+impl TracerArg {
+    /// The name `--tracer` takes.
+    pub fn name(self) -> &'static str {
+        lensmap::hybrid::VertexTracer::from(self).name()
+    }
+}
+
 impl From<TracerArg> for lensmap::hybrid::VertexTracer {
     fn from(arg: TracerArg) -> Self {
         match arg {

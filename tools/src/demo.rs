@@ -15,7 +15,7 @@ use anyhow::Context;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::{HybridOptions, HybridScene, VertexTracer},
     layers::{
         Bake,
         projected::{DEFAULT_EM_SIZE, ProjectedOptions},
@@ -64,6 +64,9 @@ pub struct DemoArgs {
     /// Synthetic demo: timed frames per variant.
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
+    /// Where the lens vertices of the hybrid frames are ray traced. Not for --synthetic.
+    #[arg(long, value_enum, default_value = "auto", conflicts_with = "synthetic")]
+    pub tracer: crate::common::TracerArg,
     /// Also write the report as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
@@ -78,7 +81,16 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     // The GPU first: without a driver the demo stops here with exit code 2.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     runner.check_framebuffer(&camera, TargetFormat::Rgba16f)?;
-    say!("device: {}", runner.gpu().device_id());
+    let tracer = VertexTracer::from(args.tracer);
+    say!(
+        "device: {}; lens vertices traced on the {}",
+        runner.gpu().device_id(),
+        if tracer.on_gpu(runner.gpu()) {
+            "GPU"
+        } else {
+            "CPU"
+        }
+    );
 
     let mut steps = Steps::new(5);
     let inferred = inferred_scene(
@@ -95,6 +107,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         camera: &camera,
         reference: &reference,
         out: &args.out,
+        tracer,
     };
     let (rows, mut side_by_side) = table.rows(
         &mut runner,
@@ -127,6 +140,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "width": camera.width, "height": camera.height,
         "supersampling": camera.supersampling, "em_size": args.em_size,
+        "tracer": args.tracer.name(), "traced_on_gpu": tracer.on_gpu(runner.gpu()),
         "reference": {"ms": reference.stats.seconds * 1e3, "rays": rc.all_rays(), "triangle_tests": rc.triangle_tests},
         "rows": rows,
         "side_by_side": args.out.join("teapot-room-side-by-side.png"),
@@ -201,6 +215,8 @@ struct Table<'a> {
     camera: &'a Camera,
     reference: &'a ReferenceImage,
     out: &'a Path,
+    /// Where the lens vertices are traced.
+    tracer: VertexTracer,
 }
 
 impl Table<'_> {
@@ -243,7 +259,10 @@ impl Table<'_> {
             for variant in [Variant::SinglePass, Variant::Multipass] {
                 for t in [3.0f32, 5.0] {
                     let options = FrameOptions {
-                        hybrid: HybridOptions::with_t(t),
+                        hybrid: HybridOptions {
+                            tracer: self.tracer,
+                            ..HybridOptions::with_t(t)
+                        },
                         variant,
                         blend: lensmap::render::BlendScheme::FrontToBack,
                         format: TargetFormat::Rgba16f,

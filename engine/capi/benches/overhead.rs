@@ -74,6 +74,7 @@ fn overhead(c: &mut Criterion) {
                 blend: LENSMAP_BLEND_FRONT_TO_BACK,
                 viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
                 fresnel_texels: 0,
+                tracer: LENSMAP_TRACER_CPU,
             };
             // SAFETY: live handles, a buffer of the frame's size.
             let code = unsafe {

@@ -8,7 +8,7 @@
 #include <vulkan/vulkan.h>
 
 // The ABI version this header describes; raised when a struct grows or a function is added.
-#define LENSMAP_ABI_VERSION 5
+#define LENSMAP_ABI_VERSION 6
 
 // `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 #define LENSMAP_VARIANT_SINGLE_PASS 0
@@ -40,6 +40,18 @@
 
 // `LensmapFrameOptions::viewpoint_blending`: the nearest sample alone.
 #define LENSMAP_VIEWPOINTS_NEAREST 2
+
+// `LensmapFrameOptions::tracer`: the lens vertices ray traced on the CPU, in f64 (the paper's
+// reference implementation; what every frame did before ABI 6).
+#define LENSMAP_TRACER_CPU 0
+
+// `LensmapFrameOptions::tracer`: the lens vertices ray traced on the device by a compute pass, in
+// f32, over the scene's geometry resident there (uploaded with the first such frame).
+#define LENSMAP_TRACER_GPU 1
+
+// `LensmapFrameOptions::tracer`: the GPU on a hardware device, the CPU on a CPU device such as
+// lavapipe, where the CPU path is measured faster (what `lensmap_scene_frame_options` fills in).
+#define LENSMAP_TRACER_AUTO 2
 
 // `LensmapFrameOptions::format`: an 8-bit unorm framebuffer.
 #define LENSMAP_FORMAT_RGBA8 0
@@ -204,6 +216,9 @@ typedef struct LensmapFrameOptions {
   // table of N texels, linearly filtered like a texture (ABI 5; a struct of an earlier ABI's
   // size, which ends before this field, means exact).
   uint32_t fresnel_texels;
+  // `LENSMAP_TRACER_*`: where the lens vertices are ray traced (ABI 6; a struct of an earlier
+  // ABI's size, which ends before this field, means the CPU).
+  uint32_t tracer;
 } LensmapFrameOptions;
 
 // Where a frame's time went and what it cost (the paper's table). Set `struct_size`; lensmap
@@ -241,6 +256,9 @@ typedef struct LensmapFrameStats {
   // 2D view space: in no triangle; the frame then blends the region's nearest point), else 0
   // (ABI 4).
   uint32_t outside_view_space;
+  // 1 when the lens vertices were traced on the device (`LENSMAP_TRACER_GPU`, or `_AUTO` on a
+  // hardware device), else 0 (ABI 6).
+  uint32_t traced_on_gpu;
 } LensmapFrameStats;
 
 // A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a

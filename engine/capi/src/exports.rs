@@ -480,6 +480,7 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
             blend: LENSMAP_BLEND_FRONT_TO_BACK,
             viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
             fresnel_texels: 0,
+            tracer: LENSMAP_TRACER_AUTO,
         };
         // SAFETY: writable for `size` bytes by the caller's promise (a struct of that ABI's
         // size, checked above): only those are written.

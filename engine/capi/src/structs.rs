@@ -6,7 +6,7 @@
 use std::ffi::{CStr, c_char};
 
 use lensmap::gpu::vk;
-use lensmap::hybrid::{FresnelModel, HybridOptions, ViewpointBlending};
+use lensmap::hybrid::{FresnelModel, HybridOptions, VertexTracer, ViewpointBlending};
 use lensmap::options::Worded;
 use lensmap::render::{BlendScheme, TargetFormat, Variant};
 use lensmap::runner::FrameOptions;
@@ -107,9 +107,16 @@ pub(crate) const FRAME_OPTIONS_ABI3: usize = 72;
 /// ABI 4's `sizeof(LensmapFrameOptions)`: everything before `fresnel_texels`.
 pub(crate) const FRAME_OPTIONS_ABI4: usize = 76;
 
+/// ABI 5's `sizeof(LensmapFrameOptions)`: everything before `tracer`.
+pub(crate) const FRAME_OPTIONS_ABI5: usize = 80;
+
 /// The sizes of `LensmapFrameOptions` earlier ABIs had, all accepted.
-pub(crate) const FRAME_OPTIONS_OLDER: [usize; 3] =
-    [FRAME_OPTIONS_ABI2, FRAME_OPTIONS_ABI3, FRAME_OPTIONS_ABI4];
+pub(crate) const FRAME_OPTIONS_OLDER: [usize; 4] = [
+    FRAME_OPTIONS_ABI2,
+    FRAME_OPTIONS_ABI3,
+    FRAME_OPTIONS_ABI4,
+    FRAME_OPTIONS_ABI5,
+];
 
 /// ABI 2's `sizeof(LensmapPlanOptions)`: everything before `blend`.
 pub(crate) const PLAN_OPTIONS_ABI2: usize = 24;
@@ -130,6 +137,10 @@ const _: () = assert!(
 const _: () = assert!(
     FRAME_OPTIONS_ABI4 == std::mem::offset_of!(LensmapFrameOptions, fresnel_texels),
     "ABI 4's frame options end where `fresnel_texels` begins"
+);
+const _: () = assert!(
+    FRAME_OPTIONS_ABI5 == std::mem::offset_of!(LensmapFrameOptions, tracer),
+    "ABI 5's frame options end where `tracer` begins"
 );
 const _: () = assert!(
     SCENE_OPTIONS_ABI3 == std::mem::offset_of!(LensmapSceneOptions, light_map_max_texels),
@@ -270,10 +281,24 @@ pub(crate) fn frame_settings(
             ));
         }
     };
+    let tracer = match options.tracer {
+        LENSMAP_TRACER_CPU => VertexTracer::Cpu,
+        LENSMAP_TRACER_GPU => VertexTracer::Gpu,
+        LENSMAP_TRACER_AUTO => VertexTracer::Auto,
+        other => {
+            return Err(Failure::new(
+                LensmapResult::InvalidArgument,
+                format!(
+                    "options->tracer is {other}; give LENSMAP_TRACER_CPU (0), LENSMAP_TRACER_GPU (1) or LENSMAP_TRACER_AUTO (2)"
+                ),
+            ));
+        }
+    };
     let frame_options = FrameOptions {
         hybrid: HybridOptions {
             viewpoint_blending,
             fresnel,
+            tracer,
             ..HybridOptions::with_t(t)
         },
         variant,
@@ -394,6 +419,7 @@ pub(crate) fn frame_stats(
         vertices_traced: stats.vertices_traced as u64,
         viewpoints: stats.viewpoints_blended as u32,
         outside_view_space: u32::from(stats.outside_view_space),
+        traced_on_gpu: u32::from(stats.traced_on_gpu),
     }
 }
 

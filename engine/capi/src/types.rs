@@ -9,7 +9,7 @@ use crate::exports::{
 };
 
 /// The ABI version this header describes; raised when a struct grows or a function is added.
-pub const LENSMAP_ABI_VERSION: u32 = 5;
+pub const LENSMAP_ABI_VERSION: u32 = 6;
 
 /// `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 pub const LENSMAP_VARIANT_SINGLE_PASS: u32 = 0;
@@ -33,6 +33,15 @@ pub const LENSMAP_VIEWPOINTS_VIEW_SPACE: u32 = 0;
 pub const LENSMAP_VIEWPOINTS_TWO_NEAREST: u32 = 1;
 /// `LensmapFrameOptions::viewpoint_blending`: the nearest sample alone.
 pub const LENSMAP_VIEWPOINTS_NEAREST: u32 = 2;
+/// `LensmapFrameOptions::tracer`: the lens vertices ray traced on the CPU, in f64 (the paper's
+/// reference implementation; what every frame did before ABI 6).
+pub const LENSMAP_TRACER_CPU: u32 = 0;
+/// `LensmapFrameOptions::tracer`: the lens vertices ray traced on the device by a compute pass, in
+/// f32, over the scene's geometry resident there (uploaded with the first such frame).
+pub const LENSMAP_TRACER_GPU: u32 = 1;
+/// `LensmapFrameOptions::tracer`: the GPU on a hardware device, the CPU on a CPU device such as
+/// lavapipe, where the CPU path is measured faster (what `lensmap_scene_frame_options` fills in).
+pub const LENSMAP_TRACER_AUTO: u32 = 2;
 /// `LensmapFrameOptions::format`: an 8-bit unorm framebuffer.
 pub const LENSMAP_FORMAT_RGBA8: u32 = 0;
 /// `LensmapFrameOptions::format`: a 16-bit float framebuffer.
@@ -218,6 +227,9 @@ pub struct LensmapFrameOptions {
     /// table of N texels, linearly filtered like a texture (ABI 5; a struct of an earlier ABI's
     /// size, which ends before this field, means exact).
     pub fresnel_texels: u32,
+    /// `LENSMAP_TRACER_*`: where the lens vertices are ray traced (ABI 6; a struct of an earlier
+    /// ABI's size, which ends before this field, means the CPU).
+    pub tracer: u32,
 }
 
 /// A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a
@@ -297,6 +309,9 @@ pub struct LensmapFrameStats {
     /// 2D view space: in no triangle; the frame then blends the region's nearest point), else 0
     /// (ABI 4).
     pub outside_view_space: u32,
+    /// 1 when the lens vertices were traced on the device (`LENSMAP_TRACER_GPU`, or `_AUTO` on a
+    /// hardware device), else 0 (ABI 6).
+    pub traced_on_gpu: u32,
 }
 
 /// A plan to print: the compositor's passes for one lens object's frame of this shape.

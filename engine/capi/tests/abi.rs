@@ -91,6 +91,7 @@ fn frame_options(format: u32) -> LensmapFrameOptions {
         blend: LENSMAP_BLEND_FRONT_TO_BACK,
         viewpoint_blending: LENSMAP_VIEWPOINTS_VIEW_SPACE,
         fresnel_texels: 0,
+        tracer: LENSMAP_TRACER_CPU,
     }
 }
 
@@ -328,6 +329,88 @@ fn fresnel_table_through_the_abi_and_abi_4_structs() {
         pixels, frames[0],
         "an ABI 4 struct evaluates Fresnel exactly"
     );
+    assert_no_validation_messages(context);
+    // SAFETY: handles from this library, freed once.
+    unsafe {
+        lensmap_scene_free(scene);
+        lensmap_context_free(context);
+    }
+}
+
+/// ABI 6's tracer: the GPU traces the lens vertices (the stats say where) and its frame agrees
+/// with the CPU-traced one but for the few vertices whose f32 paths part from f64; a value out
+/// of range is refused naming the field; an ABI 5 caller's struct (no such field) traces on the
+/// CPU.
+#[test]
+fn tracer_through_the_abi_and_abi_5_structs() {
+    let context = new_context();
+    let scene = load_scene();
+    let frame = |options: &LensmapFrameOptions| {
+        let mut pixels = vec![f32::NAN; 4 * 40 * 30];
+        let mut stats = LensmapFrameStats {
+            struct_size: size_of::<LensmapFrameStats>() as u32,
+            ..LensmapFrameStats::default()
+        };
+        // SAFETY: live handles, a readable options struct, writable pixels and stats.
+        let code = unsafe {
+            lensmap_render_to_memory(
+                context,
+                scene,
+                options,
+                pixels.as_mut_ptr(),
+                pixels.len(),
+                &mut stats,
+            )
+        };
+        (code, pixels, stats)
+    };
+    let on = |tracer| {
+        let mut options = frame_options(LENSMAP_FORMAT_RGBA32F);
+        options.tracer = tracer;
+        let (code, pixels, stats) = frame(&options);
+        assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+        // The same camera with the other tracer is another frame, not the previous one again.
+        assert_eq!(stats.reused, 0, "{stats:?}");
+        (pixels, stats)
+    };
+    let (cpu, cpu_stats) = on(LENSMAP_TRACER_CPU);
+    let (gpu, gpu_stats) = on(LENSMAP_TRACER_GPU);
+    assert_eq!((cpu_stats.traced_on_gpu, gpu_stats.traced_on_gpu), (0, 1));
+    assert!(
+        gpu_stats.rays > 0 && gpu_stats.vertices_traced > 0,
+        "{gpu_stats:?}"
+    );
+    let mean = |p: &[f32]| p.iter().map(|v| f64::from(v.abs())).sum::<f64>() / p.len() as f64;
+    let difference: Vec<f32> = cpu.iter().zip(&gpu).map(|(a, b)| a - b).collect();
+    eprintln!(
+        "CPU-traced frame: mean {:.4}; GPU-traced: mean {:.4}, mean |difference| {:.5}",
+        mean(&cpu),
+        mean(&gpu),
+        mean(&difference)
+    );
+    assert!(gpu.iter().all(|v| v.is_finite()));
+    assert!(
+        mean(&difference) < 0.01 * mean(&cpu),
+        "the GPU-traced frame differs from the CPU-traced one by {} on average",
+        mean(&difference)
+    );
+    let mut bad = frame_options(LENSMAP_FORMAT_RGBA32F);
+    bad.tracer = 3;
+    let (code, _, _) = frame(&bad);
+    assert_eq!(code, LensmapResult::InvalidArgument);
+    let error = last_error();
+    assert!(
+        error.contains("options->tracer is 3") && !error.contains('\n'),
+        "{error}"
+    );
+    // An ABI 5 struct: 80 bytes, ending before `tracer` (not read).
+    let mut old = frame_options(LENSMAP_FORMAT_RGBA32F);
+    old.tracer = 0xdead;
+    old.struct_size = 80;
+    old.position[1] += 0.01;
+    let (code, _, stats) = frame(&old);
+    assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+    assert_eq!(stats.traced_on_gpu, 0, "an ABI 5 struct traces on the CPU");
     assert_no_validation_messages(context);
     // SAFETY: handles from this library, freed once.
     unsafe {
@@ -865,7 +948,7 @@ fn misuse_returns_documented_codes_and_useful_messages() {
             "options->blend is 3 (programmable)",
         );
         // 13b. Options struct sizes of no ABI, on a render and on a plan: refused.
-        for size in [0, 64, 78, 84, u32::MAX] {
+        for size in [0, 64, 78, 82, 88, u32::MAX] {
             let mut sized = frame_options(LENSMAP_FORMAT_RGBA8);
             sized.struct_size = size;
             assert_failure(

@@ -81,6 +81,9 @@ pub struct ViewArgs {
     pub fresnel: lensmap::hybrid::FresnelModel,
     #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
     pub hull_split: crate::common::OnOff,
+    /// Where the lens vertices are ray traced.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub tracer: crate::common::TracerArg,
     /// Compositor variant (key `v`).
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -199,6 +202,7 @@ fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
             angle_radians: args.angle_degrees.to_radians(),
             fresnel: args.fresnel,
             hull_split: args.hull_split.is_on(),
+            tracer: args.tracer.into(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),

@@ -101,6 +101,10 @@ const BARYCENTRIC_SLACK: f32 = 9.5367432e-7;
 // Secondary rays start this far off the surface, relative to the coordinates' magnitude (the
 // CPU's offset in f32: 128 ulps).
 const ORIGIN_OFFSET: f32 = 1.5258789e-5;
+// Hits this close (relative distance) are one hit, won by the lowest CPU triangle id (e1.w):
+// the CPU's rule (bvh.rs `TIE`), so that a ray through a shared vertex starts on the same
+// triangle on both.
+const TIE: f32 = 1e-5;
 
 fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     let tiny = abs(d) < vec3<f32>(1e-30);
@@ -152,6 +156,9 @@ fn intersect(primitive: u32, ray: Ray, best: f32) -> vec3<f32> {
 // triangle tests into `tests`.
 fn closest_hit(part: u32, ray: Ray, max_t: f32, exclude: u32, tests: ptr<function, u32>) -> Hit {
     var best = Hit(max_t, NO_PRIMITIVE, 0.0, 0.0);
+    var best_id = 0u;
+    // Hits up to here may still win: the best distance so far, plus the tie margin.
+    var reach = max_t;
     let root = roots[part];
     if root == NO_NODE {
         return best;
@@ -165,7 +172,7 @@ fn closest_hit(part: u32, ray: Ray, max_t: f32, exclude: u32, tests: ptr<functio
         let node = stack[size];
         let lo = nodes[2u * node];
         let hi = nodes[2u * node + 1u];
-        if !box_hit(lo.xyz, hi.xyz, ray, inverse, best.t) {
+        if !box_hit(lo.xyz, hi.xyz, ray, inverse, reach) {
             continue;
         }
         let first = bitcast<u32>(lo.w);
@@ -184,9 +191,21 @@ fn closest_hit(part: u32, ray: Ray, max_t: f32, exclude: u32, tests: ptr<functio
             if primitive == exclude {
                 continue;
             }
-            let found = intersect(primitive, ray, best.t);
-            if found.x > 0.0 {
+            let found = intersect(primitive, ray, reach);
+            if found.x <= 0.0 {
+                continue;
+            }
+            let id = bitcast<u32>(triangles[primitive * 7u + 1u].w);
+            var wins = best.primitive == NO_PRIMITIVE;
+            if !wins && abs(found.x - best.t) <= TIE * best.t {
+                wins = id < best_id;
+            } else if !wins {
+                wins = found.x < best.t;
+            }
+            if wins {
                 best = Hit(found.x, primitive, found.y, found.z);
+                best_id = id;
+                reach = min(found.x * (1.0 + TIE), max_t);
             }
         }
     }
@@ -443,13 +462,17 @@ fn trace_vertex(index: u32) {
             first_part = part;
         }
     }
-    let visible = first.primitive != NO_PRIMITIVE && first_part == constants.part
+    // Visible: nothing hit before the vertex (the CPU oracle's rule). Whether the eye ray meets
+    // the vertex's own surface or slips past it at a silhouette is up to rounding; an occluder
+    // stands clear of it.
+    let visible = first.primitive == NO_PRIMITIVE || first.t >= distance - tolerance;
+    let on_vertex = first.primitive != NO_PRIMITIVE && first_part == constants.part
         && abs(first.t - distance) <= tolerance;
     var surface: Surface;
-    if visible {
+    if on_vertex {
         surface = surface_at(first);
     } else {
-        // Occluded (or a silhouette the eye ray slips past): the paths start at the vertex with
+        // Occluded, or a silhouette the eye ray slips past: the paths start at the vertex with
         // its normal, turned to face the eye so the first interface is an entry.
         var normal = vertices[2u * index + 1u].xyz;
         if dot(normal, normal) > 0.0 {

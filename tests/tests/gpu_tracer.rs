@@ -2,9 +2,10 @@
 //! of the three built-in scenes: the share of vertices whose visibility and both paths'
 //! topologies agree with the f64 oracle, and of those within 1e-4 in F·G and outgoing direction,
 //! must be as good as the CPU's own f32 run of the same rules reaches (the GPU computes in f32).
-//! The eye ray meets a base vertex exactly, on the corner of every triangle around it, and which
-//! of them a BVH reports first is an accident of traversal order and rounding: f32 alone moves
-//! 11–17 % of base vertices to another path, on the CPU as on the GPU.
+//! The eye ray meets a base vertex exactly, on the corner of every triangle around it: ties are
+//! broken by triangle id on both sides, but at a silhouette whether the ray meets the vertex's
+//! own surface at all is up to rounding, and f32 secondary rays start 1.5e-5 off the surface:
+//! f32 alone moves 5–11 % of base vertices to another path, on the CPU as on the GPU.
 //!
 //! Whole frames traced on the GPU (`--tracer gpu`) against the same frames traced on the CPU:
 //! their lens PSNR against the reference ray tracer within 0.3 dB, vertex counts within 10 %,
@@ -292,10 +293,11 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
         );
         assert!(on_gpu.image.pixels.iter().flatten().all(|v| v.is_finite()));
         let without_device = hybrid.frame(&camera, &options(VertexTracer::Gpu).hybrid);
-        assert!(matches!(
-            without_device,
-            Err(TessellationError::GpuTracerWithoutDevice)
-        ));
+        assert!(
+            matches!(&without_device, Err(TessellationError::Option(e)) if e.to_string().contains("without a device")),
+            "{:?}",
+            without_device.err()
+        );
     }
     assert_clean(runner.gpu());
 }

@@ -369,7 +369,7 @@ impl HybridScene {
         gpu: Option<GpuPaths<'_>>,
     ) -> Result<BuiltFrame, TessellationError> {
         let gpu = match (options.tracer, gpu) {
-            (VertexTracer::Gpu, None) => return Err(TessellationError::GpuTracerWithoutDevice),
+            (VertexTracer::Gpu, None) => return Err(gpu_without_device().into()),
             (tracer, Some(device)) if tracer.on_gpu(device.gpu) => Some(device),
             _ => None,
         };
@@ -421,7 +421,7 @@ impl HybridScene {
         options: &HybridOptions,
     ) -> Result<(FrameInput, HybridStats), TessellationError> {
         if options.tracer == VertexTracer::Gpu {
-            return Err(TessellationError::GpuTracerWithoutDevice);
+            return Err(gpu_without_device().into());
         }
         let (frame, stats, _) = self.build_frame(camera, options, true, None)?;
         Ok((frame, stats))
@@ -814,6 +814,15 @@ impl HybridScene {
             .max(0.0);
         Ok((frame, stats, depths))
     }
+}
+
+/// The GPU tracer asked of a frame built without a device.
+fn gpu_without_device() -> OptionError {
+    OptionError::new(
+        "tracer",
+        VertexTracer::Gpu.name(),
+        "this frame is built without a device, and the GPU tracer runs only through a frame runner, which owns one; give cpu or auto",
+    )
 }
 
 /// What the camera fixes for a frame before any lens object is traced.

@@ -228,11 +228,15 @@ impl<'a> PathOracle<'a> {
         let tolerance = 1e-4 * distance.max(1.0);
         let first =
             closest_hit_within_in::<R>(self.trace, &eye_ray, distance + tolerance, counters);
-        let visible = matches!(first, Some(h) if h.part == Part::Lens(self.lens)
+        // Visible: nothing hit before the vertex. Whether the eye ray meets the vertex's own
+        // surface or slips past it at a silhouette is up to rounding (f32 and f64, CPU and GPU
+        // differ there); an occluder stands clear of it.
+        let visible = first.is_none_or(|h| h.hit.distance >= distance - tolerance);
+        let on_vertex = matches!(first, Some(h) if h.part == Part::Lens(self.lens)
             && (h.hit.distance - distance).abs() <= tolerance);
         let hit = match first {
-            Some(h) if visible => h.hit,
-            // Occluded (or a silhouette the eye ray slips past): start the paths at the vertex
+            Some(h) if on_vertex => h.hit,
+            // Occluded, or a silhouette the eye ray slips past: start the paths at the vertex
             // itself with its normal, turned to face the eye so the first interface is an entry.
             _ => {
                 let mut normal = vertex.normal.as_dvec3().normalize_or(-direction);

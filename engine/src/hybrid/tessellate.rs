@@ -352,11 +352,6 @@ pub enum TessellationError {
     /// The GPU's vertex pass failed (the device was lost or out of memory).
     #[error("the GPU vertex tracer failed: {0}")]
     Gpu(#[from] crate::gpu::GpuError),
-    /// The GPU tracer was asked for where no device is at hand.
-    #[error(
-        "--tracer gpu: this frame is built without a device (the GPU tracer runs only through a frame runner); give --tracer cpu or auto"
-    )]
-    GpuTracerWithoutDevice,
 }
 
 /// Adaptively tessellates `mesh` (world space, counter-clockwise triangles) for the camera and

@@ -21,6 +21,14 @@ use super::fresnel::{Real, Vector3};
 /// triangles, so no ray slips between them.
 const BARYCENTRIC_SLACK: f64 = 1e-10;
 
+/// Hits whose distances differ by at most this much (relative) are one hit, and the triangle of
+/// the lowest id wins: a ray through a shared vertex or edge meets every triangle around it at
+/// one distance up to rounding, and which one it starts its next segment on must not depend on
+/// the traversal order or the float type (the GPU's f32 tracer breaks ties the same way, by the
+/// same ids). 1e-5 is far above f32's rounding of a distance (a few 1e-7) and far below any gap
+/// between two surfaces of a scene (a glass wall of 2 mm at 10 m is 2e-4).
+pub(crate) const TIE: f64 = 1e-5;
+
 /// How far behind the real origin, in the BVH's scaled units, the f32 traversal ray starts.
 /// obvhs's node test raises every box's entry distance to at least 1e-4 whatever the ray's own
 /// start, so a ray starting at its origin would skip a box it leaves within 1e-4 of it: a camera
@@ -191,7 +199,8 @@ impl MeshBvh {
     ) -> Option<SurfaceHit> {
         let bvh = self.bvh.as_ref()?;
         let mut best: Option<(u32, f64, f64, f64)> = None;
-        let mut best_distance = max_distance;
+        // Hits up to here may still win: the best distance so far, plus the tie margin.
+        let mut reach = max_distance;
         let mut tests = 0u64;
         let mut obvhs_hit = RayHit::none();
         bvh.ray_traverse(self.f32_ray(ray, max_distance), &mut obvhs_hit, |_, id| {
@@ -199,14 +208,22 @@ impl MeshBvh {
             if exclude == Some(id as u32) {
                 return f32::INFINITY;
             }
-            match self.triangles[id].intersect::<R>(ray, min_distance, best_distance) {
-                Some((t, u, v)) => {
-                    best = Some((id as u32, t, u, v));
-                    best_distance = t;
-                    self.traversal_distance(t)
+            let Some((t, u, v)) = self.triangles[id].intersect::<R>(ray, min_distance, reach)
+            else {
+                return f32::INFINITY;
+            };
+            let wins = match best {
+                None => true,
+                Some((best_id, best_t, _, _)) if (t - best_t).abs() <= TIE * best_t => {
+                    (id as u32) < best_id
                 }
-                None => f32::INFINITY,
+                Some((_, best_t, _, _)) => t < best_t,
+            };
+            if wins {
+                best = Some((id as u32, t, u, v));
+                reach = (t * (1.0 + TIE)).min(max_distance);
             }
+            self.traversal_distance(reach)
         });
         *triangle_tests += tests;
         best.map(|(id, t, u, v)| self.triangles[id as usize].surface::<R>(id, t, u, v))

@@ -5,7 +5,7 @@
 //! published GPU traversals use): a lens object has a few thousand triangles, where a BVH2 walked
 //! with a short stack is already a few levels deep, and its traversal is forty lines of WGSL that
 //! are easy to check against the CPU's hits; the CWBVH's quantized 8-wide nodes pay off on large
-//! incoherent scenes. The choice is measured in docs/results.md (GPU hybrid frame).
+//! incoherent scenes. The two have not been measured against each other yet.
 
 use std::time::Duration;
 
@@ -18,8 +18,13 @@ use crate::scene::Material;
 /// The root index of a part without triangles.
 pub const NO_NODE: u32 = u32::MAX;
 
-/// vec4s per triangle: (v0, object), e1, e2, face normal, three vertex normals.
+/// vec4s per triangle: (v0, object), (e1, CPU triangle id), e2, face normal, three vertex normals.
 pub const TRIANGLE_VEC4S: usize = 7;
+
+/// Entries of the traversal stack in `tracer.wgsl` (`STACK_SIZE`). Each level of a walk leaves at
+/// most one sibling on the stack, so a BVH of depth d needs d + 1 entries: a deeper one is
+/// refused ([`GpuGeometry::depth`]), never traversed with children dropped.
+pub const STACK_ENTRIES: u32 = 64;
 
 /// The scene's geometry for the GPU tracer.
 #[derive(Clone, Debug, Default)]
@@ -34,6 +39,8 @@ pub struct GpuGeometry {
     /// Two vec4 per scene object: (kind: 0 diffuse, 1 glass, 2 mirror; index of refraction),
     /// (absorption per metre, or reflectance at normal incidence).
     pub materials: Vec<[f32; 4]>,
+    /// The deepest leaf of any part's BVH (the root has depth 0).
+    pub depth: u32,
 }
 
 impl GpuGeometry {
@@ -82,6 +89,7 @@ impl GpuGeometry {
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
+        self.depth = self.depth.max(depth(&bvh2.nodes));
         let node_base = (self.nodes.len() / 2) as u32;
         let triangle_base = self.triangle_count() as u32;
         for node in &bvh2.nodes {
@@ -100,7 +108,9 @@ impl GpuGeometry {
             let t = &triangles[index as usize];
             let v = |d: glam::DVec3, w: f32| [d.x as f32, d.y as f32, d.z as f32, w];
             self.triangles.push(v(t.v0, f32::from_bits(t.object)));
-            self.triangles.push(v(t.e1, 0.0));
+            // The CPU BVH's id of the triangle: what ties between hits at one distance are
+            // broken by on both sides ([`super::bvh::TIE`]).
+            self.triangles.push(v(t.e1, f32::from_bits(index)));
             self.triangles.push(v(t.e2, 0.0));
             self.triangles.push(v(t.geometric_normal, 0.0));
             for n in t.normals {
@@ -108,5 +118,51 @@ impl GpuGeometry {
             }
         }
         node_base
+    }
+}
+
+/// The deepest leaf below node 0 of `nodes` (obvhs BVH2: an inner node's children are at
+/// `first_index` and the one after).
+fn depth(nodes: &[obvhs::bvh2::node::Bvh2Node]) -> u32 {
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 0u32)];
+    while let Some((index, level)) = stack.pop() {
+        let Some(node) = nodes.get(index) else {
+            continue;
+        };
+        deepest = deepest.max(level);
+        if node.prim_count == 0 {
+            let first = node.first_index as usize;
+            stack.extend([(first, level + 1), (first + 1, level + 1)]);
+        }
+    }
+    deepest
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_stack_bound_is_the_shaders() {
+        let wgsl = include_str!("../../../shaders/wgsl/tracer.wgsl");
+        let declared = format!("const STACK_SIZE: u32 = {STACK_ENTRIES}u;");
+        assert!(wgsl.contains(&declared), "tracer.wgsl lacks `{declared}`");
+    }
+
+    #[test]
+    fn the_depth_is_the_deepest_leafs() {
+        let scene = crate::scene::Scene::load_named("glass-sphere").expect("built in");
+        let trace = TraceScene::new(&scene).expect("traces");
+        let geometry = GpuGeometry::new(&trace);
+        let triangles = geometry.triangle_count() as f64;
+        // A binary tree over n leaves of at most a few triangles each is at least log2(n / 8)
+        // deep, and obvhs's SAH build of a sphere and a room stays far from the stack's bound.
+        assert!(f64::from(geometry.depth) >= (triangles / 8.0).log2().floor());
+        assert!(
+            geometry.depth < STACK_ENTRIES / 2,
+            "depth {}",
+            geometry.depth
+        );
     }
 }

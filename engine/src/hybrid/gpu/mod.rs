@@ -13,7 +13,10 @@ use super::paths::{ScreenCamera, TermPath, VertexPaths};
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
 use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
 use crate::trace::{
-    Bounces, Ray, bvh_gpu::GpuGeometry, schlick_table::SchlickTable, stats::TraceCounters,
+    Bounces, Ray,
+    bvh_gpu::{GpuGeometry, STACK_ENTRIES},
+    schlick_table::SchlickTable,
+    stats::TraceCounters,
     world::TraceScene,
 };
 
@@ -97,6 +100,37 @@ impl Drop for GpuTracer {
     }
 }
 
+/// Refuses geometry the tracer's passes cannot walk whole: a BVH deeper than the traversal stack
+/// holds, or a buffer past the device's `maxStorageBufferRange`.
+fn check_fits(gpu: &Gpu, geometry: &GpuGeometry) -> Result<(), GpuError> {
+    if geometry.depth >= STACK_ENTRIES {
+        return Err(GpuError::BadUpload {
+            what: "tracer BVH".into(),
+            problem: format!(
+                "a part's BVH is {} levels deep, past the {STACK_ENTRIES} entries of the GPU tracer's traversal stack; trace this scene on the CPU",
+                geometry.depth
+            ),
+        });
+    }
+    let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
+    let buffers = [
+        ("tracer nodes", geometry.nodes.len()),
+        ("tracer triangles", geometry.triangles.len()),
+    ];
+    for (what, vec4s) in buffers {
+        let bytes = 16 * vec4s as u64;
+        if bytes > range {
+            return Err(GpuError::BadUpload {
+                what: what.into(),
+                problem: format!(
+                    "{bytes} bytes, past the device's maxStorageBufferRange of {range}; trace this scene on the CPU"
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// `data` as the bytes of a storage buffer (at least one element, so every binding is valid).
 fn storage<T: bytemuck::Pod>(gpu: &Gpu, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
     let bytes: &[u8] = bytemuck::cast_slice(data);
@@ -117,6 +151,7 @@ impl GpuTracer {
         fresnel: Option<&SchlickTable>,
     ) -> Result<GpuTracer, GpuError> {
         let geometry = GpuGeometry::new(trace);
+        check_fits(gpu, &geometry)?;
         let texels = fresnel.map_or(&[0.0f32][..], |t| t.texels());
         // Buffers and the pool first: they free themselves if a later step fails.
         let nodes = storage(gpu, "tracer nodes", &geometry.nodes)?;
@@ -198,9 +233,33 @@ impl GpuTracer {
         }
     }
 
-    /// Traces the vertices `(position, unit normal)` of `settings.object` from `camera` in one
-    /// compute pass and reads the records back, with the rays and triangle tests spent.
+    /// Traces the vertices `(position, unit normal)` of `settings.object` from `camera` and reads
+    /// the records back, with the rays and triangle tests spent: one compute pass, or one per
+    /// chunk where a batch's records would pass the device's `maxStorageBufferRange` or its
+    /// dispatch the guaranteed 65,535 workgroups.
     pub fn trace_vertices(
+        &self,
+        gpu: &Gpu,
+        camera: &ScreenCamera,
+        settings: &PathSettings,
+        vertices: &[(Vec3, Vec3)],
+    ) -> Result<(Vec<GpuVertex>, TraceCounters), GpuError> {
+        let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
+        let chunk = (range / RECORD_BYTES)
+            .min(65_535 * u64::from(WORKGROUP))
+            .max(1) as usize;
+        let mut traced = Vec::with_capacity(vertices.len());
+        let mut counters = TraceCounters::default();
+        for part in vertices.chunks(chunk) {
+            let (records, spent) = self.trace_batch(gpu, camera, settings, part)?;
+            traced.extend(records);
+            counters += spent;
+        }
+        Ok((traced, counters))
+    }
+
+    /// [`GpuTracer::trace_vertices`] in one pass (the batch fits one dispatch and buffer).
+    fn trace_batch(
         &self,
         gpu: &Gpu,
         camera: &ScreenCamera,

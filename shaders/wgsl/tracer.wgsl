@@ -112,15 +112,19 @@ fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     return select(1.0 / d, signed, tiny);
 }
 
-// Whether the ray meets the box before `best` (slab test; the boxes are padded when built).
-fn box_hit(lo: vec3<f32>, hi: vec3<f32>, ray: Ray, inverse: vec3<f32>, best: f32) -> bool {
-    let t0 = (lo - ray.origin) * inverse;
-    let t1 = (hi - ray.origin) * inverse;
+// Where the ray enters node `node`'s box (0 when it starts inside), or -1 when it misses the box
+// or meets it only past `reach` (slab test; the boxes are padded when built).
+fn box_entry(node: u32, ray: Ray, inverse: vec3<f32>, reach: f32) -> f32 {
+    let t0 = (nodes[2u * node].xyz - ray.origin) * inverse;
+    let t1 = (nodes[2u * node + 1u].xyz - ray.origin) * inverse;
     let near = min(t0, t1);
     let far = max(t0, t1);
     let enter = max(max(near.x, near.y), near.z);
     let leave = min(min(far.x, far.y), far.z);
-    return enter <= leave && leave >= 0.0 && enter <= best;
+    if enter <= leave && leave >= 0.0 && enter <= reach {
+        return max(enter, 0.0);
+    }
+    return -1.0;
 }
 
 // Möller–Trumbore as the CPU's f32 test: (t, u, v) with t in (0, best), or t = -1.
@@ -164,24 +168,43 @@ fn closest_hit(part: u32, ray: Ray, max_t: f32, exclude: u32, tests: ptr<functio
         return best;
     }
     let inverse = safe_inverse(ray.direction);
+    // Nodes to visit with the distance at which the ray enters each: the nearer child of a node
+    // is visited first, so that the best hit shrinks `reach` before the farther one is opened.
     var stack: array<u32, STACK_SIZE>;
-    stack[0] = root;
-    var size = 1u;
+    var entries: array<f32, STACK_SIZE>;
+    var size = 0u;
+    let root_entry = box_entry(root, ray, inverse, reach);
+    if root_entry >= 0.0 {
+        stack[0] = root;
+        entries[0] = root_entry;
+        size = 1u;
+    }
     while size > 0u {
         size -= 1u;
-        let node = stack[size];
-        let lo = nodes[2u * node];
-        let hi = nodes[2u * node + 1u];
-        if !box_hit(lo.xyz, hi.xyz, ray, inverse, reach) {
+        if entries[size] > reach {
             continue;
         }
-        let first = bitcast<u32>(lo.w);
-        let count = bitcast<u32>(hi.w);
+        let node = stack[size];
+        let first = bitcast<u32>(nodes[2u * node].w);
+        let count = bitcast<u32>(nodes[2u * node + 1u].w);
         if count == 0u {
-            if size + 2u <= STACK_SIZE {
-                stack[size] = first;
-                stack[size + 1u] = first + 1u;
-                size += 2u;
+            // GpuGeometry refuses a BVH deeper than the stack: both children always fit.
+            let entry_a = box_entry(first, ray, inverse, reach);
+            let entry_b = box_entry(first + 1u, ray, inverse, reach);
+            let a_first = entry_a >= 0.0 && (entry_b < 0.0 || entry_a <= entry_b);
+            let near = select(first + 1u, first, a_first);
+            let far = select(first, first + 1u, a_first);
+            let near_entry = select(entry_b, entry_a, a_first);
+            let far_entry = select(entry_a, entry_b, a_first);
+            if far_entry >= 0.0 && size < STACK_SIZE {
+                stack[size] = far;
+                entries[size] = far_entry;
+                size += 1u;
+            }
+            if near_entry >= 0.0 && size < STACK_SIZE {
+                stack[size] = near;
+                entries[size] = near_entry;
+                size += 1u;
             }
             continue;
         }

@@ -86,7 +86,10 @@ impl GpuGeometry {
         let bounds: Vec<_> = triangles.iter().map(|t| padded_bounds(t, 1.0)).collect();
         let bvh2 = build_bvh2(
             &bounds,
-            BvhBuildParams::medium_build(),
+            BvhBuildParams {
+                max_prims_per_leaf: 3,
+                ..BvhBuildParams::medium_build()
+            },
             &mut Duration::default(),
         );
         self.depth = self.depth.max(depth(&bvh2.nodes));

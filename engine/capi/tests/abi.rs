@@ -101,6 +101,16 @@ fn render(
     options: &LensmapFrameOptions,
     pixels: &mut [f32],
 ) -> LensmapResult {
+    render_with_stats(context, scene, options, pixels).0
+}
+
+/// [`render`] with the frame's statistics, checked when it rendered.
+fn render_with_stats(
+    context: *mut LensmapContext,
+    scene: *const LensmapScene,
+    options: &LensmapFrameOptions,
+    pixels: &mut [f32],
+) -> (LensmapResult, LensmapFrameStats) {
     let mut stats = LensmapFrameStats {
         struct_size: size_of::<LensmapFrameStats>() as u32,
         ..LensmapFrameStats::default()
@@ -130,8 +140,9 @@ fn render(
         );
         assert!((1..=3).contains(&stats.viewpoints), "{stats:?}");
         assert!(stats.outside_view_space <= 1, "{stats:?}");
+        assert!(stats.traced_on_gpu <= 1, "{stats:?}");
     }
-    code
+    (code, stats)
 }
 
 fn assert_no_validation_messages(context: *mut LensmapContext) {
@@ -347,21 +358,7 @@ fn tracer_through_the_abi_and_abi_5_structs() {
     let scene = load_scene();
     let frame = |options: &LensmapFrameOptions| {
         let mut pixels = vec![f32::NAN; 4 * 40 * 30];
-        let mut stats = LensmapFrameStats {
-            struct_size: size_of::<LensmapFrameStats>() as u32,
-            ..LensmapFrameStats::default()
-        };
-        // SAFETY: live handles, a readable options struct, writable pixels and stats.
-        let code = unsafe {
-            lensmap_render_to_memory(
-                context,
-                scene,
-                options,
-                pixels.as_mut_ptr(),
-                pixels.len(),
-                &mut stats,
-            )
-        };
+        let (code, stats) = render_with_stats(context, scene, options, &mut pixels);
         (code, pixels, stats)
     };
     let on = |tracer| {

@@ -2,7 +2,7 @@
 //! events and scripts all read, and the experiment state they change.
 
 use lensmap::{
-    hybrid::tessellate::TessellationOptions,
+    hybrid::{VertexTracer, tessellate::TessellationOptions},
     render::{BlendScheme, TargetFormat, Variant},
     runner::FrameOptions,
 };
@@ -28,6 +28,8 @@ pub enum Action {
     Ems,
     /// The next framebuffer format.
     Format,
+    /// Where the lens vertices are traced: CPU → GPU → auto → CPU.
+    Tracer,
     /// The tessellation wireframe, coloured by subdivision depth.
     Wireframe,
     /// The camera to the nearest viewpoint sample.
@@ -67,6 +69,11 @@ pub const KEYS: &[(&str, Action, &str)] = &[
     ("6", Action::Layer(5), "layer 6 on/off"),
     ("e", Action::Ems, "projected / inferred layered EMs"),
     ("f", Action::Format, "framebuffer format"),
+    (
+        "g",
+        Action::Tracer,
+        "lens vertices traced on the CPU / GPU / auto",
+    ),
     (
         "x",
         Action::Wireframe,
@@ -230,6 +237,14 @@ impl Experiment {
                 };
                 format!("framebuffer {}", options.format.name())
             }
+            Action::Tracer => {
+                options.hybrid.tracer = match options.hybrid.tracer {
+                    VertexTracer::Cpu => VertexTracer::Gpu,
+                    VertexTracer::Gpu => VertexTracer::Auto,
+                    VertexTracer::Auto => VertexTracer::Cpu,
+                };
+                format!("vertex tracer: {}", options.hybrid.tracer.name())
+            }
             Action::Wireframe => {
                 self.wireframe = !self.wireframe;
                 format!("wireframe {}", if self.wireframe { "on" } else { "off" })
@@ -342,6 +357,9 @@ mod tests {
             e.apply(Action::Format);
         }
         assert_eq!(e.options, start);
+        let said: Vec<String> = (0..3).filter_map(|_| e.apply(Action::Tracer)).collect();
+        assert_eq!(e.options, start, "{said:?}");
+        assert!(said.iter().any(|s| s.ends_with("gpu")), "{said:?}");
         // Blending schemes cycle in the multipass variant, wait aside in the single pass, and
         // every state is one the frame accepts.
         e.options.variant = Variant::Multipass;

@@ -66,7 +66,7 @@ pub struct Start {
 /// to its end on the GPU, `overlay_ms` the overlay's layout, recording, presentation and wait.
 const STATS_HEADER: &str = "frame,width,height,frame_ms,latency_ms,total_ms,trace_ms,\
 tessellation_ms,texgen_ms,assemble_ms,upload_ms,record_ms,gpu_ms,overlay_ms,rays,triangle_tests,passes,\
-vertices_traced,lens_triangles,reused";
+vertices_traced,lens_triangles,reused,traced_on_gpu";
 
 /// How many notes the overlay keeps, and for how long, seconds.
 const NOTES: usize = 4;
@@ -794,7 +794,7 @@ impl App {
                     _ => write!(csv, ",{value:.3}"),
                 };
             }
-            let _ = writeln!(csv, ",{}", s.reused);
+            let _ = writeln!(csv, ",{},{}", s.reused, s.traced_on_gpu);
         }
         let stats = &self.stats;
         if let Some(window) = &self.window {

@@ -105,6 +105,9 @@ const ORIGIN_OFFSET: f32 = 1.5258789e-5;
 // the CPU's rule (bvh.rs `TIE`), so that a ray through a shared vertex starts on the same
 // triangle on both.
 const TIE: f32 = 1e-5;
+// |cos| between a vertex's normal and its eye ray below which it is on the silhouette and its
+// paths start at the vertex itself (paths.rs `GRAZING`).
+const GRAZING: f32 = 0.02;
 
 fn safe_inverse(d: vec3<f32>) -> vec3<f32> {
     let tiny = abs(d) < vec3<f32>(1e-30);
@@ -489,8 +492,13 @@ fn trace_vertex(index: u32) {
     // the vertex's own surface or slips past it at a silhouette is up to rounding; an occluder
     // stands clear of it.
     let visible = first.primitive == NO_PRIMITIVE || first.t >= distance - tolerance;
-    let on_vertex = first.primitive != NO_PRIMITIVE && first_part == constants.part
-        && abs(first.t - distance) <= tolerance;
+    let normal_in = vertices[2u * index + 1u].xyz;
+    var cos_view = 0.0;
+    if dot(normal_in, normal_in) > 0.0 {
+        cos_view = abs(dot(normalize(normal_in), direction));
+    }
+    let on_vertex = cos_view >= GRAZING && first.primitive != NO_PRIMITIVE
+        && first_part == constants.part && abs(first.t - distance) <= tolerance;
     var surface: Surface;
     if on_vertex {
         surface = surface_at(first);

@@ -3,9 +3,9 @@
 //! topologies agree with the f64 oracle, and of those within 1e-4 in F·G and outgoing direction,
 //! must be as good as the CPU's own f32 run of the same rules reaches (the GPU computes in f32).
 //! The eye ray meets a base vertex exactly, on the corner of every triangle around it: ties are
-//! broken by triangle id on both sides, but at a silhouette whether the ray meets the vertex's
-//! own surface at all is up to rounding, and f32 secondary rays start 1.5e-5 off the surface:
-//! f32 alone moves 5–11 % of base vertices to another path, on the CPU as on the GPU.
+//! broken by triangle id on both sides and silhouette vertices start at the vertex itself, but
+//! f32 secondary rays start 1.5e-5 off the surface: f32 alone moves 4–10 % of base vertices to
+//! another path, on the CPU as on the GPU.
 //!
 //! Whole frames traced on the GPU (`--tracer gpu`) against the same frames traced on the CPU:
 //! their lens PSNR against the reference ray tracer within 0.3 dB, vertex counts within 10 %,

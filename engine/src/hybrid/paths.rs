@@ -101,6 +101,11 @@ impl ScreenCamera {
     }
 }
 
+/// |cos| between a vertex's normal and its eye ray below which the vertex is on the silhouette:
+/// its paths start at the vertex with its normal turned to face the eye, whether or not the eye
+/// ray happens to meet the vertex's own surface (which rounding decides there).
+pub(crate) const GRAZING: f64 = 0.02;
+
 /// Ray traces the vertices of one scene object of one lens object.
 pub struct PathOracle<'a> {
     trace: &'a TraceScene,
@@ -232,8 +237,16 @@ impl<'a> PathOracle<'a> {
         // surface or slips past it at a silhouette is up to rounding (f32 and f64, CPU and GPU
         // differ there); an occluder stands clear of it.
         let visible = first.is_none_or(|h| h.hit.distance >= distance - tolerance);
-        let on_vertex = matches!(first, Some(h) if h.part == Part::Lens(self.lens)
-            && (h.hit.distance - distance).abs() <= tolerance);
+        let grazing = vertex
+            .normal
+            .as_dvec3()
+            .normalize_or_zero()
+            .dot(direction)
+            .abs()
+            < GRAZING;
+        let on_vertex = !grazing
+            && matches!(first, Some(h) if h.part == Part::Lens(self.lens)
+                && (h.hit.distance - distance).abs() <= tolerance);
         let hit = match first {
             Some(h) if on_vertex => h.hit,
             // Occluded, or a silhouette the eye ray slips past: start the paths at the vertex

@@ -162,9 +162,12 @@ fn intersect(primitive: u32, ray: Ray, best: f32) -> vec3<f32> {
 // The closest hit of `ray` on part `part` in (0, max_t), skipping `exclude`; counts its
 // triangle tests into `tests`.
 fn closest_hit(part: u32, ray: Ray, max_t: f32, exclude: u32, tests: ptr<function, u32>) -> Hit {
+    // The winner: the lowest CPU id among the hits within TIE of the nearest hit so far (the
+    // CPU's rule; the window only shrinks, so the order hits are found in does not matter).
     var best = Hit(max_t, NO_PRIMITIVE, 0.0, 0.0);
     var best_id = 0u;
-    // Hits up to here may still win: the best distance so far, plus the tie margin.
+    var nearest = max_t;
+    // Hits up to here may still win: the nearest hit so far plus the tie margin.
     var reach = max_t;
     let root = roots[part];
     if root == NO_NODE {
@@ -222,16 +225,13 @@ fn closest_hit(part: u32, ray: Ray, max_t: f32, exclude: u32, tests: ptr<functio
                 continue;
             }
             let id = bitcast<u32>(triangles[primitive * 7u + 1u].w);
-            var wins = best.primitive == NO_PRIMITIVE;
-            if !wins && abs(found.x - best.t) <= TIE * best.t {
-                wins = id < best_id;
-            } else if !wins {
-                wins = found.x < best.t;
+            if found.x < nearest {
+                nearest = found.x;
+                reach = min(found.x * (1.0 + TIE), max_t);
             }
-            if wins {
+            if best.primitive == NO_PRIMITIVE || best.t > reach || id < best_id {
                 best = Hit(found.x, primitive, found.y, found.z);
                 best_id = id;
-                reach = min(found.x * (1.0 + TIE), max_t);
             }
         }
     }

@@ -294,8 +294,7 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         // Written last of all the options ([`encode_fresnel`], [`encode_hull_split`]).
         fresnel: _,
         hull_split: _,
-        // The test renderings are built without a device, so on the CPU: `auto` traces there,
-        // `gpu` is refused.
+        // The test renderings are built without a device, so on the CPU (`gpu` is refused).
         tracer: _,
     } = hybrid;
     let TessellationOptions {
@@ -343,7 +342,7 @@ mod tests {
                     viewpoint_blending: lensmap::hybrid::ViewpointBlending::ViewSpace,
                     fresnel: FresnelModel::Exact,
                     hull_split: true,
-                    tracer: lensmap::hybrid::VertexTracer::Auto,
+                    tracer: lensmap::hybrid::VertexTracer::Cpu,
                 },
                 variant: Variant::SinglePass,
                 em_size: EmSize::Fixed(64),

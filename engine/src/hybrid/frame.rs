@@ -165,17 +165,19 @@ pub struct HybridOptions {
     pub tracer: VertexTracer,
 }
 
-/// Where a frame's lens vertices are ray traced (`--tracer`).
+/// Where a frame's lens vertices are ray traced (`--tracer`). The library's default is the CPU,
+/// so that a caller's frames do not change with the device; the command line's is `auto`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum VertexTracer {
     /// On the CPU, in the frame's [`VertexPrecision`]: the paper's reference implementation.
+    #[default]
     Cpu,
     /// On the GPU, in f32, by the compute pass of [`crate::hybrid::gpu`] (the CPU oracle's rules);
     /// only through a [`crate::runner::FrameRunner`], which owns the device.
     Gpu,
     /// The GPU on a hardware device, the CPU on a CPU device (lavapipe), where the CPU path is
-    /// measured faster (`docs/results.md#gpu-vertex-paths`); the CPU without a device.
-    #[default]
+    /// measured faster (`docs/results.md#gpu-frames`); the CPU without a device, or where the
+    /// device cannot hold the scene's geometry.
     Auto,
 }
 
@@ -223,7 +225,7 @@ impl Default for HybridOptions {
             viewpoint_blending: ViewpointBlending::ViewSpace,
             fresnel: FresnelModel::Exact,
             hull_split: true,
-            tracer: VertexTracer::Auto,
+            tracer: VertexTracer::Cpu,
         }
     }
 }

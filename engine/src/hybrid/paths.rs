@@ -316,6 +316,13 @@ impl PathOracle<'_> {
         gpu: GpuPaths<'_>,
         vertices: &[SurfaceVertex],
     ) -> Result<(Vec<VertexEvaluation<VertexPaths>>, TraceCounters), TessellationError> {
+        if !gpu.tracer.holds(self.trace) {
+            return Err(crate::gpu::GpuError::BadUpload {
+                what: "the GPU tracer".into(),
+                problem: "it holds another scene's geometry than the one traced".into(),
+            }
+            .into());
+        }
         let settings = PathSettings {
             lens: self.lens,
             object: self.object,

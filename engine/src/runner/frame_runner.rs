@@ -12,7 +12,7 @@ use super::{
 use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{
-        BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats,
+        BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats, VertexTracer,
         gpu::{GpuPaths, GpuTracer},
     },
     index::LensIndex,
@@ -91,11 +91,12 @@ pub struct FrameRunner {
 }
 
 /// A scene's geometry and BVHs resident on the runner's device, with the Schlick table of the
-/// Fresnel model it was made for.
+/// Fresnel model it was made for, or why the device could not take them (kept, so that `auto`
+/// does not try again every frame).
 struct ResidentTracer {
     scene: u64,
     fresnel: FresnelModel,
-    tracer: GpuTracer,
+    tracer: Result<GpuTracer, String>,
 }
 
 /// One reusable upload and the identity of the hybrid frame it holds (0: none).
@@ -306,15 +307,26 @@ impl FrameRunner {
     ) -> Result<Staged, RunError> {
         let start = Instant::now();
         let held = self.slots[self.last_slot].identity;
-        let built = if options.hybrid.tracer.on_gpu(&self.gpu) {
-            self.make_resident(hybrid, options.hybrid.fresnel)?;
-            let gpu = self.tracer.as_ref().map(|resident| GpuPaths {
-                gpu: &self.gpu,
-                tracer: &resident.tracer,
-            });
-            hybrid.frame_unless_on(camera, &options.hybrid, held, gpu)?
-        } else {
-            hybrid.frame_unless(camera, &options.hybrid, held)?
+        let tracer = options.hybrid.tracer;
+        let on_gpu = tracer.on_gpu(&self.gpu)
+            && match self.make_resident(hybrid, options.hybrid.fresnel) {
+                Ok(()) => true,
+                // `auto` traces on the CPU where the device cannot hold the scene's geometry.
+                Err(_) if tracer == VertexTracer::Auto => false,
+                Err(error) => return Err(error),
+            };
+        let built = match &self.tracer {
+            Some(ResidentTracer {
+                tracer: Ok(resident),
+                ..
+            }) if on_gpu => {
+                let gpu = GpuPaths {
+                    gpu: &self.gpu,
+                    tracer: resident,
+                };
+                hybrid.frame_unless_on(camera, &options.hybrid, held, Some(gpu))?
+            }
+            _ => hybrid.frame_unless(camera, &options.hybrid, held)?,
         };
         let slot = match built {
             BuiltFrame::Unchanged(_) => self.last_slot,
@@ -347,7 +359,8 @@ impl FrameRunner {
     }
 
     /// Makes `hybrid`'s geometry resident on the device for `fresnel`: the copy kept from the
-    /// last frame when it is the same scene and model, else uploaded now (once per scene).
+    /// last frame when it is the same scene and model, else uploaded now (once per scene). An
+    /// error when the device cannot take it (now or on an earlier try).
     fn make_resident(
         &mut self,
         hybrid: &HybridScene,
@@ -361,14 +374,21 @@ impl FrameRunner {
             // The old one first: its buffers go before the new ones are made.
             self.tracer = None;
             let tracer = GpuTracer::new(&self.gpu, &hybrid.trace, fresnel.table()?.as_ref())
-                .map_err(RenderError::from)?;
+                .map_err(|error| error.to_string());
             self.tracer = Some(ResidentTracer {
                 scene: hybrid.identity(),
                 fresnel,
                 tracer,
             });
         }
-        Ok(())
+        match self.tracer.as_ref().map(|t| &t.tracer) {
+            Some(Err(problem)) => Err(RenderError::from(GpuError::BadUpload {
+                what: "the GPU tracer's geometry".into(),
+                problem: problem.clone(),
+            })
+            .into()),
+            _ => Ok(()),
+        }
     }
 
     /// Submits the frame that [`Self::stage`] put in `slot`: into `host`, or rendered for

@@ -21,8 +21,8 @@ use super::fresnel::{Real, Vector3};
 /// triangles, so no ray slips between them.
 const BARYCENTRIC_SLACK: f64 = 1e-10;
 
-/// Hits whose distances differ by at most this much (relative) are one hit, and the triangle of
-/// the lowest id wins: a ray through a shared vertex or edge meets every triangle around it at
+/// Hits at most this much (relative) farther than the nearest hit are one hit with it, and the
+/// triangle of the lowest id among them wins: a ray through a shared vertex or edge meets every triangle around it at
 /// one distance up to rounding, and which one it starts its next segment on must not depend on
 /// the traversal order or the float type (the GPU's f32 tracer breaks ties the same way, by the
 /// same ids). 1e-5 is far above f32's rounding of a distance (a few 1e-7) and far below any gap
@@ -198,8 +198,11 @@ impl MeshBvh {
         triangle_tests: &mut u64,
     ) -> Option<SurfaceHit> {
         let bvh = self.bvh.as_ref()?;
+        // The winner: the lowest id among the hits within TIE of the nearest hit so far. The
+        // window only shrinks, so the result does not depend on the order hits are found in.
         let mut best: Option<(u32, f64, f64, f64)> = None;
-        // Hits up to here may still win: the best distance so far, plus the tie margin.
+        let mut nearest = f64::INFINITY;
+        // Hits up to here may still win: the nearest hit so far plus the tie margin.
         let mut reach = max_distance;
         let mut tests = 0u64;
         let mut obvhs_hit = RayHit::none();
@@ -212,16 +215,16 @@ impl MeshBvh {
             else {
                 return f32::INFINITY;
             };
+            if t < nearest {
+                nearest = t;
+                reach = (t * (1.0 + TIE)).min(max_distance);
+            }
             let wins = match best {
                 None => true,
-                Some((best_id, best_t, _, _)) if (t - best_t).abs() <= TIE * best_t => {
-                    (id as u32) < best_id
-                }
-                Some((_, best_t, _, _)) => t < best_t,
+                Some((best_id, best_t, _, _)) => best_t > reach || (id as u32) < best_id,
             };
             if wins {
                 best = Some((id as u32, t, u, v));
-                reach = (t * (1.0 + TIE)).min(max_distance);
             }
             self.traversal_distance(reach)
         });

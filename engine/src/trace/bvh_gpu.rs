@@ -72,6 +72,13 @@ impl GpuGeometry {
         geometry
     }
 
+    /// The parts and triangles [`GpuGeometry::new`] makes of `trace`, without building it.
+    pub fn shape_of(trace: &TraceScene) -> (usize, usize) {
+        let parts = std::iter::once(&trace.environment).chain(trace.lenses.iter().map(|l| &l.bvh));
+        let triangles = parts.map(|bvh| bvh.triangles.len()).sum();
+        (1 + trace.lenses.len(), triangles)
+    }
+
     /// Triangles of all parts.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len() / TRIANGLE_VEC4S

@@ -37,6 +37,11 @@ const RECORD_BYTES: u64 = 7 * 16;
 /// Counters the passes add to (tracer.wgsl `COUNTER_*`).
 const COUNTERS: usize = 3;
 
+/// The most vertices one pass traces: under the guaranteed 65,535 workgroups of a dispatch, and
+/// small enough that its u32 counters cannot wrap (that would take 65,536 triangle tests per
+/// vertex on average).
+const MAX_BATCH: u64 = 65_536;
+
 /// Where a traced vertex's paths start and stop (the CPU oracle's options).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathSettings {
@@ -83,6 +88,8 @@ pub struct GpuTracer {
     set_layout: vk::DescriptorSetLayout,
     layout: vk::PipelineLayout,
     vertex_paths: vk::Pipeline,
+    /// The parts and triangles of the scene it was made from ([`GpuTracer::holds`]).
+    shape: (usize, usize),
     /// The pool every pass's set comes from, reset by each pass: held for the whole pass, so
     /// that passes from two threads take turns.
     pool: std::sync::Mutex<DescriptorPool>,
@@ -213,6 +220,7 @@ impl GpuTracer {
             set_layout,
             layout,
             vertex_paths,
+            shape: (geometry.roots.len(), geometry.triangle_count()),
             pool: std::sync::Mutex::new(pool),
         })
     }
@@ -235,8 +243,8 @@ impl GpuTracer {
 
     /// Traces the vertices `(position, unit normal)` of `settings.object` from `camera` and reads
     /// the records back, with the rays and triangle tests spent: one compute pass, or one per
-    /// chunk where a batch's records would pass the device's `maxStorageBufferRange` or its
-    /// dispatch the guaranteed 65,535 workgroups.
+    /// chunk where a batch's records would pass the device's `maxStorageBufferRange` or
+    /// [`MAX_BATCH`] vertices.
     pub fn trace_vertices(
         &self,
         gpu: &Gpu,
@@ -244,10 +252,14 @@ impl GpuTracer {
         settings: &PathSettings,
         vertices: &[(Vec3, Vec3)],
     ) -> Result<(Vec<GpuVertex>, TraceCounters), GpuError> {
+        if gpu.device().handle() != self.device.handle() {
+            return Err(GpuError::BadUpload {
+                what: "the GPU tracer".into(),
+                problem: "it was made on another device than the one asked to trace".into(),
+            });
+        }
         let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
-        let chunk = (range / RECORD_BYTES)
-            .min(65_535 * u64::from(WORKGROUP))
-            .max(1) as usize;
+        let chunk = (range / RECORD_BYTES).clamp(1, MAX_BATCH) as usize;
         let mut traced = Vec::with_capacity(vertices.len());
         let mut counters = TraceCounters::default();
         for part in vertices.chunks(chunk) {
@@ -256,6 +268,12 @@ impl GpuTracer {
             counters += spent;
         }
         Ok((traced, counters))
+    }
+
+    /// Whether this tracer holds `trace`'s geometry: the same parts and triangles (what a
+    /// tracer made from another scene would not have).
+    pub fn holds(&self, trace: &TraceScene) -> bool {
+        self.shape == GpuGeometry::shape_of(trace)
     }
 
     /// [`GpuTracer::trace_vertices`] in one pass (the batch fits one dispatch and buffer).

@@ -90,9 +90,65 @@ pub struct GpuTracer {
     vertex_paths: vk::Pipeline,
     /// The parts and triangles of the scene it was made from ([`GpuTracer::holds`]).
     shape: (usize, usize),
-    /// The pool every pass's set comes from, reset by each pass: held for the whole pass, so
-    /// that passes from two threads take turns.
-    pool: std::sync::Mutex<DescriptorPool>,
+    /// What each pass uses and resets: held for the whole pass, so that passes from two threads
+    /// take turns.
+    pass: std::sync::Mutex<PassState>,
+}
+
+/// The descriptor pool every pass's set comes from, and the pass's buffers, kept between passes
+/// and grown to the largest batch so far (a frame's levels reuse them instead of allocating four
+/// buffers each).
+struct PassState {
+    pool: DescriptorPool,
+    scratch: Option<Scratch>,
+}
+
+/// A pass's buffers for up to `capacity` vertices: their inputs, records, the counters, and the
+/// host copy of the counters (first, 16 bytes) and records (after).
+struct Scratch {
+    capacity: u64,
+    vertices: Buffer,
+    records: Buffer,
+    counters: Buffer,
+    readback: Buffer,
+}
+
+/// Bytes of one input vertex (position, normal: two vec4).
+const VERTEX_BYTES: u64 = 32;
+
+/// Where the records start in the readback buffer: after the counters, 16-byte aligned.
+const READBACK_RECORDS: u64 = 16;
+
+impl Scratch {
+    fn new(gpu: &Gpu, capacity: u64) -> Result<Scratch, GpuError> {
+        Ok(Scratch {
+            capacity,
+            vertices: Buffer::new(
+                gpu,
+                "tracer vertices",
+                capacity * VERTEX_BYTES,
+                BufferUsage::Storage,
+            )?,
+            records: Buffer::new(
+                gpu,
+                "tracer records",
+                capacity * RECORD_BYTES,
+                BufferUsage::Device,
+            )?,
+            counters: Buffer::new(
+                gpu,
+                "tracer counters",
+                4 * COUNTERS as u64,
+                BufferUsage::Device,
+            )?,
+            readback: Buffer::new(
+                gpu,
+                "tracer readback",
+                READBACK_RECORDS + capacity * RECORD_BYTES,
+                BufferUsage::Readback,
+            )?,
+        })
+    }
 }
 
 impl Drop for GpuTracer {
@@ -221,7 +277,10 @@ impl GpuTracer {
             layout,
             vertex_paths,
             shape: (geometry.roots.len(), geometry.triangle_count()),
-            pool: std::sync::Mutex::new(pool),
+            pass: std::sync::Mutex::new(PassState {
+                pool,
+                scratch: None,
+            }),
         })
     }
 
@@ -289,27 +348,24 @@ impl GpuTracer {
             .iter()
             .flat_map(|(p, n)| [p.extend(1.0).to_array(), n.extend(0.0).to_array()])
             .collect();
-        let vertex_buffer = storage(gpu, "tracer vertices", &data)?;
-        let records = Buffer::new(
-            gpu,
-            "tracer records",
-            count.max(1) * RECORD_BYTES,
-            BufferUsage::Device,
-        )?;
-        let counters = Buffer::new(
-            gpu,
-            "tracer counters",
-            4 * COUNTERS as u64,
-            BufferUsage::Device,
-        )?;
-        let readback = Buffer::new(
-            gpu,
-            "tracer readback",
-            count.max(1) * RECORD_BYTES + 4 * COUNTERS as u64,
-            BufferUsage::Readback,
-        )?;
         // A poisoned lock only means another pass panicked: the pool is reset anyway.
-        let pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        let PassState { pool, scratch } = &mut *pass;
+        if scratch.as_ref().is_some_and(|s| s.capacity < count) {
+            // The old buffers first: they go before the larger ones are made.
+            *scratch = None;
+        }
+        let Scratch {
+            vertices: vertex_buffer,
+            records,
+            counters,
+            readback,
+            ..
+        } = match scratch {
+            Some(kept) => kept,
+            None => scratch.insert(Scratch::new(gpu, count.max(1))?),
+        };
+        vertex_buffer.write(0, bytemuck::cast_slice(&data), "tracer vertices")?;
         pool.reset()?;
         let set = pool.allocate(self.set_layout, 1)?[0];
         let resources: Vec<Resource> = [
@@ -318,9 +374,9 @@ impl GpuTracer {
             &self.materials,
             &self.roots,
             &self.schlick,
-            &vertex_buffer,
-            &records,
-            &counters,
+            &*vertex_buffer,
+            &*records,
+            &*counters,
         ]
         .iter()
         .map(|b| Resource::Buffer(b.handle))
@@ -329,6 +385,7 @@ impl GpuTracer {
         let mut constants = self.constants(camera, settings);
         constants.vertex_count = count as u32;
         let device = gpu.device();
+        let (records, counters, readback) = (&*records, &*counters, &*readback);
         gpu.submit_and_wait(|cb| {
             // SAFETY: every handle is live until the wait returns; the barriers order the fill
             // before the pass and the pass before the copies.
@@ -360,16 +417,18 @@ impl GpuTracer {
                 };
                 device.cmd_copy_buffer(
                     cb,
-                    records.handle,
-                    readback.handle,
-                    &[region(count.max(1) * RECORD_BYTES, 0)],
-                );
-                device.cmd_copy_buffer(
-                    cb,
                     counters.handle,
                     readback.handle,
-                    &[region(4 * COUNTERS as u64, count.max(1) * RECORD_BYTES)],
+                    &[region(4 * COUNTERS as u64, 0)],
                 );
+                if count > 0 {
+                    device.cmd_copy_buffer(
+                        cb,
+                        records.handle,
+                        readback.handle,
+                        &[region(count * RECORD_BYTES, READBACK_RECORDS)],
+                    );
+                }
                 barrier(device, cb, TRANSFER_TO_HOST);
             }
             Ok(())
@@ -377,15 +436,15 @@ impl GpuTracer {
         let bytes = readback.read();
         let words: &[u32] = bytemuck::cast_slice(&bytes[..readback.size as usize]);
         let record_words = (RECORD_BYTES / 4) as usize;
+        let first = (READBACK_RECORDS / 4) as usize;
         let out = (0..count as usize)
-            .map(|i| decode(&words[i * record_words..(i + 1) * record_words]))
+            .map(|i| decode(&words[first + i * record_words..first + (i + 1) * record_words]))
             .collect();
-        let c = &words[count.max(1) as usize * record_words..];
         let counters = TraceCounters {
-            primary_rays: u64::from(c[0]),
-            secondary_rays: u64::from(c[1]),
+            primary_rays: u64::from(words[0]),
+            secondary_rays: u64::from(words[1]),
             shadow_rays: 0,
-            triangle_tests: u64::from(c[2]),
+            triangle_tests: u64::from(words[2]),
         };
         Ok((out, counters))
     }

@@ -50,6 +50,10 @@ var<immediate> constants: TracerConstants;
 @group(0) @binding(6) var<storage, read_write> records: array<VertexRecord>;
 // Counters, written with atomics: see COUNTER_* below.
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
+// The tessellation's control words (tessellate.wgsl CONTROL_*): the range of vertices a level
+// traces; and per input vertex whether it is traced (1) or not (0).
+@group(0) @binding(8) var<storage, read> control: array<u32>;
+@group(0) @binding(9) var<storage, read> wanted: array<u32>;
 
 const NO_NODE: u32 = 0xffffffffu;
 const NO_PRIMITIVE: u32 = 0xffffffffu;
@@ -57,6 +61,9 @@ const STACK_SIZE: u32 = 64u;
 const COUNTER_PRIMARY_RAYS: u32 = 0u;
 const COUNTER_SECONDARY_RAYS: u32 = 1u;
 const COUNTER_TRIANGLE_TESTS: u32 = 2u;
+const CONTROL_VERTEX_LO: u32 = 3u;
+const CONTROL_VERTEX_HI: u32 = 4u;
+const CONTROL_INPUT_VERTICES: u32 = 21u;
 
 // One term's greedy path: F·G (w: interfaces met), the outgoing ray's origin (w: the greedy
 // choices, bit i set for a reflection at interface i + 2) and direction (w: 1 when the term has
@@ -546,4 +553,18 @@ fn cs_vertex_paths(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     trace_vertex(constants.first_vertex + id.x);
+}
+
+// A tessellation level's new vertices [control VERTEX_LO, VERTEX_HI): of the input vertices only
+// the wanted ones (corners of triangles that are subdivided).
+@compute @workgroup_size(64)
+fn cs_level_paths(@builtin(global_invocation_id) id: vec3<u32>) {
+    let index = control[CONTROL_VERTEX_LO] + id.x;
+    if index >= control[CONTROL_VERTEX_HI] {
+        return;
+    }
+    if index < control[CONTROL_INPUT_VERTICES] && wanted[index] == 0u {
+        return;
+    }
+    trace_vertex(index);
 }

@@ -643,7 +643,11 @@ impl HybridScene {
             .with_gpu(gpu);
             let start = Instant::now();
             tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
-            let tessellation = tessellate(mesh, &oracle, &tessellation_options)?;
+            // On the GPU the whole tessellation runs there, every level's records kept on it.
+            let tessellation = match gpu {
+                Some(gpu) => oracle.tessellate_on_gpu(gpu, mesh, &tessellation_options)?,
+                None => tessellate(mesh, &oracle, &tessellation_options)?,
+            };
             *vertex_budget = vertex_budget.saturating_sub(tessellation.mesh.positions.len());
             stats.stopped_by_budget += tessellation.stats.stopped_by_budget;
             let elapsed = start.elapsed().as_secs_f64() * 1e3;

@@ -193,6 +193,35 @@ impl<'a> PathOracle<'a> {
         self.counters.lock().map(|c| c.0).unwrap_or_default()
     }
 
+    /// Tessellates `mesh` (this oracle's scene object) on the GPU by this oracle's camera, paths
+    /// and criterion, every vertex traced there (`gpu`'s tessellation passes), and adds the
+    /// rays and the submission's time to its counters.
+    pub(crate) fn tessellate_on_gpu(
+        &self,
+        gpu: GpuPaths<'_>,
+        mesh: &crate::scene::TriangleMesh,
+        options: &crate::hybrid::tessellate::TessellationOptions,
+    ) -> Result<crate::hybrid::tessellate::Tessellation<VertexPaths>, TessellationError> {
+        self.check_holds(gpu)?;
+        let settings = self.settings();
+        let request = super::gpu::GpuTessellationRequest {
+            camera: &self.camera,
+            settings: &settings,
+            cos_threshold: self.cos_threshold as f32,
+            back_faces: self.evaluates_back_faces(),
+            options,
+        };
+        let start = std::time::Instant::now();
+        let (tessellation, counters) =
+            gpu.tracer
+                .tessellate(gpu.gpu, (self.object, mesh), &request)?;
+        if let Ok(mut guard) = self.counters.lock() {
+            guard.1 += start.elapsed().as_secs_f64() * 1e3;
+            guard.0 += counters;
+        }
+        Ok(tessellation)
+    }
+
     /// Wall time spent in vertex batches so far, ms.
     pub fn traced_ms(&self) -> f64 {
         self.counters.lock().map(|c| c.1).unwrap_or_default()
@@ -311,11 +340,8 @@ impl PathOracle<'_> {
     }
 
     /// Traces `vertices` in one pass of the GPU's vertex tracer, with the rays it counted.
-    fn trace_on_gpu(
-        &self,
-        gpu: GpuPaths<'_>,
-        vertices: &[SurfaceVertex],
-    ) -> Result<(Vec<VertexEvaluation<VertexPaths>>, TraceCounters), TessellationError> {
+    /// Refuses a GPU tracer made from another scene.
+    fn check_holds(&self, gpu: GpuPaths<'_>) -> Result<(), TessellationError> {
         if !gpu.tracer.holds(self.trace) {
             return Err(crate::gpu::GpuError::BadUpload {
                 what: "the GPU tracer".into(),
@@ -323,12 +349,26 @@ impl PathOracle<'_> {
             }
             .into());
         }
-        let settings = PathSettings {
+        Ok(())
+    }
+
+    /// Where this oracle's paths start and stop, for the GPU's passes.
+    fn settings(&self) -> PathSettings {
+        PathSettings {
             lens: self.lens,
             object: self.object,
             bounces: self.greedy.bounces,
             max_interfaces: self.greedy.max_interfaces,
-        };
+        }
+    }
+
+    fn trace_on_gpu(
+        &self,
+        gpu: GpuPaths<'_>,
+        vertices: &[SurfaceVertex],
+    ) -> Result<(Vec<VertexEvaluation<VertexPaths>>, TraceCounters), TessellationError> {
+        self.check_holds(gpu)?;
+        let settings = self.settings();
         let points: Vec<(Vec3, Vec3)> = vertices.iter().map(|v| (v.position, v.normal)).collect();
         let (traced, counters) =
             gpu.tracer

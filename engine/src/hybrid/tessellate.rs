@@ -379,7 +379,7 @@ where
 }
 
 /// Checks indices, finiteness and attribute lengths.
-fn validate(mesh: &TriangleMesh) -> Result<(), TessellationError> {
+pub(crate) fn validate(mesh: &TriangleMesh) -> Result<(), TessellationError> {
     let count = mesh.positions.len();
     let normals_ok = mesh.normals.is_empty() || mesh.normals.len() == count;
     let uvs_ok = mesh.uvs.is_empty() || mesh.uvs.len() == count;

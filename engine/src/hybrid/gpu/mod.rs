@@ -20,8 +20,12 @@ use crate::trace::{
     world::TraceScene,
 };
 
+mod tessellate;
+
+pub use tessellate::{GPU_MAX_DEPTH, GpuTessellationRequest};
+
 /// Storage buffers bound at set 0 of every tracer pass, in binding order (tracer.wgsl).
-const TRACER_SET: &[Binding] = &[STORAGE; 8];
+const TRACER_SET: &[Binding] = &[STORAGE; 10];
 
 const STORAGE: Binding = Binding {
     ty: vk::DescriptorType::STORAGE_BUFFER,
@@ -88,6 +92,12 @@ pub struct GpuTracer {
     set_layout: vk::DescriptorSetLayout,
     layout: vk::PipelineLayout,
     vertex_paths: vk::Pipeline,
+    /// The pass over a tessellation level's new vertices (`cs_level_paths`).
+    level_paths: vk::Pipeline,
+    /// Bound where a pass reads no tessellation (the level pass's bindings 8 and 9).
+    unbound: Buffer,
+    /// The tessellation's passes.
+    tessellation: tessellate::TessellationPasses,
     /// The parts and triangles of the scene it was made from ([`GpuTracer::holds`]).
     shape: (usize, usize),
     /// What each pass uses and resets: held for the whole pass, so that passes from two threads
@@ -101,6 +111,12 @@ pub struct GpuTracer {
 struct PassState {
     pool: DescriptorPool,
     scratch: Option<Scratch>,
+    /// The tessellation's set comes from this pool.
+    tessellation_pool: DescriptorPool,
+    /// The tessellation's buffers, kept between frames.
+    tessellation: Option<tessellate::Scratch>,
+    /// Each tessellated scene object's mesh, resident.
+    meshes: rustc_hash::FxHashMap<usize, tessellate::InputMesh>,
 }
 
 /// A pass's buffers for up to `capacity` vertices: their inputs, records, the counters, and the
@@ -156,6 +172,7 @@ impl Drop for GpuTracer {
         // SAFETY: the owner waited for every submission that used the pipelines.
         unsafe {
             self.device.destroy_pipeline(self.vertex_paths, None);
+            self.device.destroy_pipeline(self.level_paths, None);
             self.device.destroy_pipeline_layout(self.layout, None);
             self.device
                 .destroy_descriptor_set_layout(self.set_layout, None);
@@ -248,14 +265,47 @@ impl GpuTracer {
                 return Err(e);
             }
         };
-        let pipeline = lensmap_shaders::shader("tracer", "cs_vertex_paths")
-            .ok_or_else(|| GpuError::BadUpload {
-                what: "tracer.wgsl".into(),
-                problem: "entry point cs_vertex_paths was not compiled".into(),
-            })
-            .and_then(|shader| gpu.create_compute_pipeline(&shader, layout));
-        let vertex_paths = match pipeline {
-            Ok(pipeline) => pipeline,
+        let pipeline = |entry: &str| {
+            lensmap_shaders::shader("tracer", entry)
+                .ok_or_else(|| GpuError::BadUpload {
+                    what: "tracer.wgsl".into(),
+                    problem: format!("entry point {entry} was not compiled"),
+                })
+                .and_then(|shader| gpu.create_compute_pipeline(&shader, layout))
+        };
+        let made = pipeline("cs_vertex_paths").and_then(|vertex_paths| {
+            match pipeline("cs_level_paths") {
+                Ok(level_paths) => Ok((vertex_paths, level_paths)),
+                Err(e) => {
+                    // SAFETY: created above, unused.
+                    unsafe { gpu.device().destroy_pipeline(vertex_paths, None) };
+                    Err(e)
+                }
+            }
+        });
+        let rest = made.and_then(|pipelines| {
+            let more = tessellate::TessellationPasses::new(gpu).and_then(|passes| {
+                Ok((
+                    passes,
+                    DescriptorPool::new(gpu, tessellate::TESSELLATE_SET, 1)?,
+                    storage(gpu, "tracer unbound", &[0u32; 4])?,
+                ))
+            });
+            match more {
+                Ok(more) => Ok((pipelines, more)),
+                Err(e) => {
+                    // SAFETY: created above, unused.
+                    unsafe {
+                        gpu.device().destroy_pipeline(pipelines.0, None);
+                        gpu.device().destroy_pipeline(pipelines.1, None);
+                    }
+                    Err(e)
+                }
+            }
+        });
+        let ((vertex_paths, level_paths), (tessellation, tessellation_pool, unbound)) = match rest
+        {
+            Ok(made) => made,
             Err(e) => {
                 // SAFETY: both were created above and nothing uses them yet.
                 unsafe {
@@ -276,10 +326,16 @@ impl GpuTracer {
             set_layout,
             layout,
             vertex_paths,
+            level_paths,
+            unbound,
+            tessellation,
             shape: (geometry.roots.len(), geometry.triangle_count()),
             pass: std::sync::Mutex::new(PassState {
                 pool,
                 scratch: None,
+                tessellation_pool,
+                tessellation: None,
+                meshes: rustc_hash::FxHashMap::default(),
             }),
         })
     }
@@ -311,12 +367,7 @@ impl GpuTracer {
         settings: &PathSettings,
         vertices: &[(Vec3, Vec3)],
     ) -> Result<(Vec<GpuVertex>, TraceCounters), GpuError> {
-        if gpu.device().handle() != self.device.handle() {
-            return Err(GpuError::BadUpload {
-                what: "the GPU tracer".into(),
-                problem: "it was made on another device than the one asked to trace".into(),
-            });
-        }
+        self.check_device(gpu)?;
         let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
         let chunk = (range / RECORD_BYTES).clamp(1, MAX_BATCH) as usize;
         let mut traced = Vec::with_capacity(vertices.len());
@@ -327,6 +378,17 @@ impl GpuTracer {
             counters += spent;
         }
         Ok((traced, counters))
+    }
+
+    /// Refuses a device other than the one the tracer was made on.
+    fn check_device(&self, gpu: &Gpu) -> Result<(), GpuError> {
+        if gpu.device().handle() != self.device.handle() {
+            return Err(GpuError::BadUpload {
+                what: "the GPU tracer".into(),
+                problem: "it was made on another device than the one asked to trace".into(),
+            });
+        }
+        Ok(())
     }
 
     /// Whether this tracer holds `trace`'s geometry: the same parts and triangles (what a
@@ -350,7 +412,7 @@ impl GpuTracer {
             .collect();
         // A poisoned lock only means another pass panicked: the pool is reset anyway.
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
-        let PassState { pool, scratch } = &mut *pass;
+        let PassState { pool, scratch, .. } = &mut *pass;
         if scratch.as_ref().is_some_and(|s| s.capacity < count) {
             // The old buffers first: they go before the larger ones are made.
             *scratch = None;
@@ -377,6 +439,8 @@ impl GpuTracer {
             &*vertex_buffer,
             &*records,
             &*counters,
+            &self.unbound,
+            &self.unbound,
         ]
         .iter()
         .map(|b| Resource::Buffer(b.handle))

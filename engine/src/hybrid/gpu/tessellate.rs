@@ -1,0 +1,845 @@
+//! The adaptive tessellation on the GPU (`shaders/wgsl/tessellate.wgsl`): the CPU tessellator's
+//! rules ([`crate::hybrid::tessellate`]) level by level in compute passes, the vertex paths
+//! traced by the tracer's level pass between them, every record kept on the GPU, all in one
+//! submission. The mesh and its records are then read back once.
+//!
+//! Determinism: midpoint, edge and triangle indices come from stable prefix sums over each
+//! level's triangles (in the CPU's order), and a midpoint belongs to the lowest-indexed triangle
+//! that asks for it (an atomic minimum, whose result does not depend on the order the atomics
+//! land in); so the output is identical run to run, and a midpoint gets the index the CPU gives
+//! it where the decisions agree.
+//!
+//! Capacity: the buffers hold a fixed number of vertices (and six triangles and five edges per
+//! vertex), grown fourfold and the frame redone whenever a frame would pass them before the
+//! vertex budget, up to the budget or what the device can dispatch. Past the budget, splits stop
+//! as on the CPU ([`StopReason::Budget`]).
+
+use ash::vk;
+use glam::{Vec2, Vec3};
+use lensmap_shaders::TessellateConstants;
+use rustc_hash::FxHashMap;
+
+use super::{
+    COMPUTE_TO_TRANSFER, Dependency, GpuTracer, PathSettings, STORAGE, TRANSFER_TO_COMPUTE,
+    TRANSFER_TO_HOST, WORKGROUP, barrier, decode, storage,
+};
+use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
+use crate::hybrid::paths::{ScreenCamera, VertexPaths};
+use crate::hybrid::tessellate::{
+    StopReason, Tessellation, TessellationError, TessellationOptions, TessellationStats,
+    TriangleRecord, VertexEvaluation, VertexOrigin,
+};
+use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
+use crate::scene::TriangleMesh;
+use crate::trace::stats::TraceCounters;
+
+/// Storage buffers bound at set 0 of every tessellation pass, in binding order.
+pub(super) const TESSELLATE_SET: &[Binding] = &[STORAGE; 13];
+
+/// The deepest subdivision the GPU walks: an edge's split tree then has at most 31 levels, what
+/// the edge walk's stack of 64 entries holds (tessellate.wgsl `WALK_STACK`).
+pub const GPU_MAX_DEPTH: u32 = 30;
+
+/// "No vertex / edge" (tessellate.wgsl `NONE`).
+const NONE: u32 = u32::MAX;
+
+/// Control words (tessellate.wgsl `CONTROL_*`, `STAT_*`).
+/// (LEVEL_LO, 0, and VERTEX_LO, 3, start at 0.)
+mod control {
+    pub const LEVEL_HI: usize = 1;
+    pub const NEXT_HI: usize = 2;
+    pub const VERTEX_HI: usize = 4;
+    pub const VERTICES: usize = 5;
+    pub const NEXT_VERTICES: usize = 6;
+    pub const EDGES: usize = 7;
+    pub const NEXT_EDGES: usize = 8;
+    pub const SCAN_N: usize = 9;
+    pub const OUTPUT: usize = 11;
+    pub const DISPATCH_TRACE: usize = 12;
+    pub const DISPATCH_ELEMENTS: usize = 15;
+    pub const DISPATCH_BLOCKS: usize = 18;
+    pub const INPUT_VERTICES: usize = 21;
+    pub const FRONT: usize = 24;
+    pub const BACK: usize = 25;
+    pub const SPLITS: usize = 26;
+    pub const CREATED: usize = 29;
+    pub const REQUESTS: usize = 30;
+    pub const MAX_DEPTH_REACHED: usize = 31;
+    pub const AT_MAX_DEPTH: usize = 32;
+    pub const BUDGET: usize = 33;
+    pub const OCCLUDED: usize = 34;
+    pub const T_JUNCTION_LEAVES: usize = 35;
+    pub const T_JUNCTION_VERTICES: usize = 36;
+    /// Words in the buffer.
+    pub const WORDS: usize = 40;
+}
+
+/// Elements per block of the prefix sum (tessellate.wgsl `SCAN_BLOCK`).
+const SCAN_BLOCK: u64 = 256;
+
+/// Triangles (of every level) and edges the buffers hold per vertex of capacity.
+const TRIANGLES_PER_VERTEX: u64 = 6;
+const EDGES_PER_VERTEX: u64 = 5;
+
+/// The first capacity tried, in vertices: the paper's setting (teapot-room at 1920×1440
+/// subpixels, t = 3) needs some 130,000.
+const FIRST_CAPACITY: u64 = 1 << 17;
+
+/// Bytes per element of the buffers.
+const VERTEX_BYTES: u64 = 32;
+const RECORD_BYTES: u64 = super::RECORD_BYTES;
+const TRIANGLE_BYTES: u64 = 32;
+const EDGE_END_BYTES: u64 = 8;
+const EDGE_STATE_BYTES: u64 = 16;
+const COUNT_BYTES: u64 = 16;
+const OUTPUT_BYTES: u64 = 16;
+
+/// The passes of tessellate.wgsl, in the order [`PASSES`] names them.
+const PASSES: [&str; 12] = [
+    "cs_begin",
+    "cs_classify",
+    "cs_decide",
+    "cs_count",
+    "cs_scan_blocks",
+    "cs_scan_top",
+    "cs_apply",
+    "cs_emit",
+    "cs_advance",
+    "cs_leaves_begin",
+    "cs_leaf_count",
+    "cs_leaf_emit",
+];
+
+/// Index of `name` in [`PASSES`] (a typo fails the tests, which run every pass).
+fn pass(name: &str) -> usize {
+    PASSES.iter().position(|&p| p == name).unwrap_or(0)
+}
+
+/// The tessellation's pipelines on one device.
+pub(super) struct TessellationPasses {
+    device: ash::Device,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pipelines: Vec<vk::Pipeline>,
+}
+
+impl Drop for TessellationPasses {
+    fn drop(&mut self) {
+        // SAFETY: the owner waited for every submission that used them.
+        unsafe {
+            for &pipeline in &self.pipelines {
+                self.device.destroy_pipeline(pipeline, None);
+            }
+            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+impl TessellationPasses {
+    pub(super) fn new(gpu: &Gpu) -> Result<TessellationPasses, GpuError> {
+        let limit = gpu
+            .properties()
+            .limits
+            .max_per_stage_descriptor_storage_buffers;
+        if (limit as usize) < TESSELLATE_SET.len() {
+            return Err(GpuError::BadUpload {
+                what: "the GPU tessellation".into(),
+                problem: format!(
+                    "it binds {} storage buffers, past the device's maxPerStageDescriptorStorageBuffers of {limit}; tessellate on the CPU",
+                    TESSELLATE_SET.len()
+                ),
+            });
+        }
+        let set_layout = create_set_layout(gpu, TESSELLATE_SET)?;
+        let mut passes = TessellationPasses {
+            device: gpu.device().clone(),
+            set_layout,
+            layout: vk::PipelineLayout::null(),
+            pipelines: Vec::new(),
+        };
+        let push = [vk::PushConstantRange {
+            stage_flags: vk::ShaderStageFlags::COMPUTE,
+            offset: 0,
+            size: std::mem::size_of::<TessellateConstants>() as u32,
+        }];
+        let set_layouts = [set_layout];
+        // SAFETY: the create info lives until return; Drop destroys the layout.
+        passes.layout = unsafe {
+            gpu.device().create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )
+        }
+        .vk("vkCreatePipelineLayout")?;
+        for entry in PASSES {
+            let shader =
+                lensmap_shaders::shader("tessellate", entry).ok_or_else(|| GpuError::BadUpload {
+                    what: "tessellate.wgsl".into(),
+                    problem: format!("entry point {entry} was not compiled"),
+                })?;
+            let pipeline = gpu.create_compute_pipeline(&shader, passes.layout)?;
+            passes.pipelines.push(pipeline);
+        }
+        Ok(passes)
+    }
+}
+
+/// A scene object's mesh as the passes read it, resident: its vertices with the normals the CPU
+/// tessellator uses, its triangles with their edges, and its edges.
+pub(super) struct InputMesh {
+    vertices: Buffer,
+    triangles: Buffer,
+    edges: Buffer,
+    vertex_count: u32,
+    triangle_count: u32,
+    edge_count: u32,
+}
+
+impl InputMesh {
+    /// Uploads `mesh` (validated as [`crate::hybrid::tessellate::tessellate`] validates it).
+    fn new(gpu: &Gpu, mesh: &TriangleMesh) -> Result<InputMesh, TessellationError> {
+        crate::hybrid::tessellate::validate(mesh)?;
+        let count = mesh.positions.len();
+        let normals = if mesh.normals.len() == count {
+            mesh.normals.clone()
+        } else {
+            mesh.accumulated_face_normals()
+        };
+        let none = f32::from_bits(NONE);
+        let vertices: Vec<[f32; 4]> = mesh
+            .positions
+            .iter()
+            .zip(&normals)
+            .flat_map(|(p, n)| [p.extend(none).to_array(), n.normalize_or_zero().extend(none).to_array()])
+            .collect();
+        let mut edge_ids: FxHashMap<(u32, u32), u32> = FxHashMap::default();
+        let mut edges: Vec<[u32; 2]> = Vec::new();
+        let mut triangles: Vec<[u32; 4]> = Vec::with_capacity(2 * mesh.triangles.len());
+        for &[a, b, c] in &mesh.triangles {
+            let degenerate = a == b || b == c || c == a;
+            let mut ids = [NONE; 3];
+            if !degenerate {
+                for (side, (u, w)) in [(a, b), (b, c), (c, a)].into_iter().enumerate() {
+                    ids[side] = *edge_ids.entry((u.min(w), u.max(w))).or_insert_with(|| {
+                        edges.push([u, w]);
+                        edges.len() as u32 - 1
+                    });
+                }
+            }
+            triangles.push([a, b, c, 0]);
+            triangles.push([ids[0], ids[1], ids[2], 0]);
+        }
+        let too_many = |what: &str| GpuError::BadUpload {
+            what: "the GPU tessellation".into(),
+            problem: format!("the mesh has more {what} than a u32 names"),
+        };
+        Ok(InputMesh {
+            vertices: storage(gpu, "tessellation input vertices", &vertices)?,
+            triangles: storage(gpu, "tessellation input triangles", &triangles)?,
+            edges: storage(gpu, "tessellation base edges", &edges)?,
+            vertex_count: u32::try_from(count).map_err(|_| too_many("vertices"))?,
+            triangle_count: u32::try_from(mesh.triangles.len())
+                .map_err(|_| too_many("triangles"))?,
+            edge_count: edges.len() as u32,
+        })
+    }
+}
+
+/// The frame's buffers for up to `vertices` vertices (and the derived triangles and edges).
+pub(super) struct Scratch {
+    vertices_capacity: u64,
+    triangles_capacity: u64,
+    edges_capacity: u64,
+    vertices: Buffer,
+    records: Buffer,
+    control: Buffer,
+    wanted: Buffer,
+    triangles: Buffer,
+    edge_ends: Buffer,
+    edge_state: Buffer,
+    counts: Buffer,
+    block_sums: Buffer,
+    output: Buffer,
+    /// The tracer's counters (tracer.wgsl `COUNTER_*`).
+    counters: Buffer,
+    /// Host copies: the control words and tracer counters, then the mesh (grown as needed).
+    readback: Option<Buffer>,
+}
+
+impl Scratch {
+    fn new(gpu: &Gpu, vertices: u64, input: &InputMesh) -> Result<Scratch, GpuError> {
+        let triangles = TRIANGLES_PER_VERTEX * vertices + u64::from(input.triangle_count);
+        let edges = EDGES_PER_VERTEX * vertices + u64::from(input.edge_count);
+        let outputs = 2 * vertices + 2 * u64::from(input.triangle_count);
+        let device = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes, BufferUsage::Device);
+        Ok(Scratch {
+            vertices_capacity: vertices,
+            triangles_capacity: triangles,
+            edges_capacity: edges,
+            vertices: device("tessellation vertices", vertices * VERTEX_BYTES)?,
+            records: device("tessellation records", vertices * RECORD_BYTES)?,
+            control: device("tessellation control", 4 * control::WORDS as u64)?,
+            wanted: device("tessellation wanted", 4 * vertices)?,
+            triangles: device("tessellation triangles", triangles * TRIANGLE_BYTES)?,
+            edge_ends: device("tessellation edge ends", edges * EDGE_END_BYTES)?,
+            edge_state: device("tessellation edge state", edges * EDGE_STATE_BYTES)?,
+            counts: device("tessellation counts", triangles * COUNT_BYTES)?,
+            block_sums: device(
+                "tessellation block sums",
+                triangles.div_ceil(SCAN_BLOCK) * COUNT_BYTES,
+            )?,
+            output: device("tessellation output", outputs * OUTPUT_BYTES)?,
+            counters: device("tessellation tracer counters", 4 * super::COUNTERS as u64)?,
+            readback: None,
+        })
+    }
+
+    /// Whether it holds `input` in full (every input vertex, triangle and edge, and a split).
+    fn holds(&self, input: &InputMesh) -> bool {
+        self.vertices_capacity > u64::from(input.vertex_count) + 3
+            && self.triangles_capacity >= TRIANGLES_PER_VERTEX * self.vertices_capacity
+                + u64::from(input.triangle_count)
+            && self.edges_capacity
+                >= EDGES_PER_VERTEX * self.vertices_capacity + u64::from(input.edge_count)
+    }
+
+    /// A host buffer of at least `bytes`.
+    fn readback(&mut self, gpu: &Gpu, bytes: u64) -> Result<&Buffer, GpuError> {
+        if self.readback.as_ref().is_some_and(|b| b.size < bytes) {
+            self.readback = None;
+        }
+        match &mut self.readback {
+            Some(buffer) => Ok(buffer),
+            slot => Ok(slot.insert(Buffer::new(
+                gpu,
+                "tessellation readback",
+                bytes.next_power_of_two(),
+                BufferUsage::Readback,
+            )?)),
+        }
+    }
+}
+
+/// What a tessellation needs besides its mesh: the camera and paths, the paper's criterion and
+/// the options.
+pub struct GpuTessellationRequest<'a> {
+    /// The frame's camera.
+    pub camera: &'a ScreenCamera,
+    /// The lens object and scene object, and where paths stop.
+    pub settings: &'a PathSettings,
+    /// cos of the paper's angle threshold.
+    pub cos_threshold: f32,
+    /// Whether back-facing triangles are subdivided too (an open mesh).
+    pub back_faces: bool,
+    /// t, the depth cap (at most [`GPU_MAX_DEPTH`]) and the vertex budget.
+    pub options: &'a TessellationOptions,
+}
+
+/// The largest capacity, in vertices, the device can dispatch and bind: every per-triangle pass
+/// within `maxComputeWorkGroupCount[0]` workgroups, every buffer within `maxStorageBufferRange`,
+/// vertex indices below 2³¹.
+fn device_capacity(gpu: &Gpu, input: &InputMesh) -> u64 {
+    let limits = gpu.properties().limits;
+    let groups = u64::from(limits.max_compute_work_group_count[0]);
+    let range = u64::from(limits.max_storage_buffer_range);
+    let triangles = (groups * u64::from(WORKGROUP)).min(range / TRIANGLE_BYTES);
+    let by_triangles =
+        triangles.saturating_sub(u64::from(input.triangle_count)) / TRIANGLES_PER_VERTEX;
+    by_triangles
+        .min(range / RECORD_BYTES)
+        .min((range / EDGE_STATE_BYTES).saturating_sub(u64::from(input.edge_count)) / EDGES_PER_VERTEX)
+        .min(1 << 31)
+}
+
+impl GpuTracer {
+    /// Tessellates scene object `object` (`mesh`) from `request.camera` on the GPU, tracing
+    /// every vertex there, and reads the mesh and its records back.
+    pub fn tessellate(
+        &self,
+        gpu: &Gpu,
+        (object, mesh): (usize, &TriangleMesh),
+        request: &GpuTessellationRequest<'_>,
+    ) -> Result<(Tessellation<VertexPaths>, TraceCounters), TessellationError> {
+        self.check_device(gpu)?;
+        let options = request.options;
+        if options.max_depth > GPU_MAX_DEPTH {
+            return Err(crate::options::OptionError::new(
+                "max_depth",
+                options.max_depth,
+                "the GPU tessellation subdivides at most 30 levels deep; give 30 or less, or tessellate on the CPU",
+            )
+            .into());
+        }
+        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        let state = &mut *pass;
+        let stale = state
+            .meshes
+            .get(&object)
+            .is_some_and(|m| m.vertex_count as usize != mesh.positions.len() || m.triangle_count as usize != mesh.triangles.len());
+        if stale {
+            state.meshes.remove(&object);
+        }
+        if !state.meshes.contains_key(&object) {
+            let input = InputMesh::new(gpu, mesh)?;
+            state.meshes.insert(object, input);
+        }
+        let input = &state.meshes[&object];
+        let budget = (options.max_vertices as u64).max(u64::from(input.vertex_count));
+        let ceiling = budget.min(device_capacity(gpu, input));
+        if ceiling <= u64::from(input.vertex_count) + 3 {
+            return Err(GpuError::BadUpload {
+                what: "the GPU tessellation".into(),
+                problem: format!(
+                    "the device holds at most {ceiling} vertices, too few for the mesh's {}; tessellate on the CPU",
+                    input.vertex_count
+                ),
+            }
+            .into());
+        }
+        let held = state
+            .tessellation
+            .as_ref()
+            .filter(|s| s.holds(input))
+            .map(|s| s.vertices_capacity);
+        let mut capacity = held.unwrap_or(
+            FIRST_CAPACITY
+                .max(u64::from(input.vertex_count) + 4)
+                .min(ceiling),
+        );
+        loop {
+            if state.tessellation.as_ref().map(|s| s.vertices_capacity) != Some(capacity)
+                || held.is_none()
+            {
+                // The old buffers go before the new ones are made.
+                state.tessellation = None;
+                state.tessellation = Some(Scratch::new(gpu, capacity, input)?);
+            }
+            let scratch = state
+                .tessellation
+                .as_mut()
+                .ok_or_else(|| GpuError::BadUpload {
+                    what: "the GPU tessellation".into(),
+                    problem: "its buffers were not made".into(),
+                })?;
+            let words = self.run_levels(
+                gpu,
+                (&state.pool, &state.tessellation_pool, scratch, input),
+                request,
+                capacity.min(budget),
+            )?;
+            if words[control::BUDGET] > 0 && capacity < ceiling {
+                // The buffers, not the budget, stopped the splits: again with larger ones.
+                capacity = (capacity * 4).min(ceiling);
+                continue;
+            }
+            return self.read_mesh(gpu, scratch, input, mesh, &words);
+        }
+    }
+}
+
+/// A compute → compute (and indirect-argument) dependency: every pass reads what the one before
+/// wrote, and the dispatch sizes it wrote.
+const COMPUTE_TO_COMPUTE: Dependency = (
+    vk::PipelineStageFlags2::COMPUTE_SHADER,
+    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+    vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw()
+            | vk::PipelineStageFlags2::DRAW_INDIRECT.as_raw(),
+    ),
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw()
+            | vk::AccessFlags2::INDIRECT_COMMAND_READ.as_raw(),
+    ),
+);
+
+/// The control words a frame starts from: level 0 is the input triangles, its vertices the
+/// input vertices.
+fn first_control(input: &InputMesh) -> [u32; control::WORDS] {
+    let mut words = [0u32; control::WORDS];
+    let (vertices, triangles, edges) = (input.vertex_count, input.triangle_count, input.edge_count);
+    words[control::LEVEL_HI] = triangles;
+    words[control::NEXT_HI] = triangles;
+    words[control::VERTEX_HI] = vertices;
+    words[control::VERTICES] = vertices;
+    words[control::NEXT_VERTICES] = vertices;
+    words[control::EDGES] = edges;
+    words[control::NEXT_EDGES] = edges;
+    words[control::SCAN_N] = triangles;
+    words[control::INPUT_VERTICES] = vertices;
+    let dispatches = [
+        (control::DISPATCH_TRACE, vertices.div_ceil(WORKGROUP)),
+        (control::DISPATCH_ELEMENTS, triangles.div_ceil(WORKGROUP)),
+        (control::DISPATCH_BLOCKS, triangles.div_ceil(SCAN_BLOCK as u32)),
+    ];
+    for (at, groups) in dispatches {
+        words[at..at + 3].copy_from_slice(&[groups, 1, 1]);
+    }
+    words
+}
+
+impl GpuTracer {
+    /// Records and runs every level and the T-junction removal in one submission; returns the
+    /// control words, then the tracer's three counters.
+    fn run_levels(
+        &self,
+        gpu: &Gpu,
+        (pool, tessellation_pool, scratch, input): (
+            &DescriptorPool,
+            &DescriptorPool,
+            &mut Scratch,
+            &InputMesh,
+        ),
+        request: &GpuTessellationRequest<'_>,
+        vertex_capacity: u64,
+    ) -> Result<Vec<u32>, GpuError> {
+        let passes = &self.tessellation;
+        pool.reset()?;
+        tessellation_pool.reset()?;
+        let tracer_set = pool.allocate(self.set_layout, 1)?[0];
+        let tracer_resources: Vec<Resource> = [
+            &self.nodes,
+            &self.triangles,
+            &self.materials,
+            &self.roots,
+            &self.schlick,
+            &scratch.vertices,
+            &scratch.records,
+            &scratch.counters,
+            &scratch.control,
+            &scratch.wanted,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect();
+        write_set(gpu, tracer_set, super::TRACER_SET, &tracer_resources);
+        let set = tessellation_pool.allocate(passes.set_layout, 1)?[0];
+        let resources: Vec<Resource> = [
+            &scratch.vertices,
+            &scratch.records,
+            &scratch.control,
+            &scratch.wanted,
+            &scratch.triangles,
+            &scratch.edge_ends,
+            &scratch.edge_state,
+            &scratch.counts,
+            &scratch.block_sums,
+            &scratch.output,
+            &input.vertices,
+            &input.triangles,
+            &input.edges,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect();
+        write_set(gpu, set, TESSELLATE_SET, &resources);
+        let camera = request.camera;
+        let tracer_constants = self.constants(camera, request.settings);
+        let constants = TessellateConstants {
+            view_proj: camera.view_proj.to_cols_array_2d(),
+            eye: camera.eye.as_vec3().to_array(),
+            t: request.options.t,
+            cos_threshold: request.cos_threshold,
+            max_depth: request.options.max_depth,
+            vertex_capacity: vertex_capacity as u32,
+            edge_capacity: scratch.edges_capacity as u32,
+            triangle_capacity: scratch.triangles_capacity as u32,
+            input_vertices: input.vertex_count,
+            input_triangles: input.triangle_count,
+            base_edges: input.edge_count,
+            back_faces: u32::from(request.back_faces),
+            ..bytemuck::Zeroable::zeroed()
+        };
+        let first = first_control(input);
+        let readback = scratch.readback(gpu, 4 * (control::WORDS as u64 + 4))?.handle;
+        let device = gpu.device();
+        let control_buffer = scratch.control.handle;
+        let pipelines = &passes.pipelines;
+        gpu.submit_and_wait(|cb| {
+            // SAFETY: every handle is live until the wait returns; a barrier separates every
+            // pass from the next, and the copies from the passes.
+            unsafe {
+                device.cmd_update_buffer(cb, control_buffer, 0, bytemuck::cast_slice(&first));
+                device.cmd_fill_buffer(cb, scratch.wanted.handle, 0, 4 * u64::from(input.vertex_count).max(1), 0);
+                device.cmd_fill_buffer(cb, scratch.counters.handle, 0, vk::WHOLE_SIZE, 0);
+                barrier(device, cb, TRANSFER_TO_COMPUTE);
+                let tessellation = |cb: vk::CommandBuffer, name: &str| {
+                    device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipelines[pass(name)]);
+                };
+                let bind_tessellation = |cb: vk::CommandBuffer| {
+                    device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, passes.layout, 0, &[set], &[]);
+                    device.cmd_push_constants(cb, passes.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&constants));
+                };
+                let indirect = |cb: vk::CommandBuffer, name: &str, word: usize| {
+                    tessellation(cb, name);
+                    device.cmd_dispatch_indirect(cb, control_buffer, 4 * word as u64);
+                    barrier(device, cb, COMPUTE_TO_COMPUTE);
+                };
+                let single = |cb: vk::CommandBuffer, name: &str| {
+                    tessellation(cb, name);
+                    device.cmd_dispatch(cb, 1, 1, 1);
+                    barrier(device, cb, COMPUTE_TO_COMPUTE);
+                };
+                tessellation(cb, "cs_begin");
+                bind_tessellation(cb);
+                let begin = input.vertex_count.max(input.edge_count);
+                device.cmd_dispatch(cb, begin.div_ceil(WORKGROUP), 1, 1);
+                barrier(device, cb, COMPUTE_TO_COMPUTE);
+                tessellation(cb, "cs_classify");
+                device.cmd_dispatch(cb, input.triangle_count.div_ceil(WORKGROUP), 1, 1);
+                barrier(device, cb, COMPUTE_TO_COMPUTE);
+                for _level in 0..=request.options.max_depth {
+                    device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.level_paths);
+                    device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[tracer_set], &[]);
+                    device.cmd_push_constants(cb, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&tracer_constants));
+                    device.cmd_dispatch_indirect(cb, control_buffer, 4 * control::DISPATCH_TRACE as u64);
+                    barrier(device, cb, COMPUTE_TO_COMPUTE);
+                    tessellation(cb, "cs_decide");
+                    bind_tessellation(cb);
+                    device.cmd_dispatch_indirect(cb, control_buffer, 4 * control::DISPATCH_ELEMENTS as u64);
+                    barrier(device, cb, COMPUTE_TO_COMPUTE);
+                    indirect(cb, "cs_count", control::DISPATCH_ELEMENTS);
+                    indirect(cb, "cs_scan_blocks", control::DISPATCH_BLOCKS);
+                    single(cb, "cs_scan_top");
+                    indirect(cb, "cs_apply", control::DISPATCH_ELEMENTS);
+                    indirect(cb, "cs_emit", control::DISPATCH_ELEMENTS);
+                    single(cb, "cs_advance");
+                }
+                single(cb, "cs_leaves_begin");
+                indirect(cb, "cs_leaf_count", control::DISPATCH_ELEMENTS);
+                indirect(cb, "cs_scan_blocks", control::DISPATCH_BLOCKS);
+                single(cb, "cs_scan_top");
+                indirect(cb, "cs_leaf_emit", control::DISPATCH_ELEMENTS);
+                barrier(device, cb, COMPUTE_TO_TRANSFER);
+                let words = 4 * control::WORDS as u64;
+                device.cmd_copy_buffer(cb, control_buffer, readback, &[copy(0, 0, words)]);
+                device.cmd_copy_buffer(cb, scratch.counters.handle, readback, &[copy(0, words, 4 * super::COUNTERS as u64)]);
+                barrier(device, cb, TRANSFER_TO_HOST);
+            }
+            Ok(())
+        })?;
+        let bytes = scratch.readback.as_ref().map(|b| b.read()).unwrap_or_default();
+        let words: &[u32] = bytemuck::cast_slice(&bytes[..4 * (control::WORDS + super::COUNTERS)]);
+        Ok(words.to_vec())
+    }
+
+    /// Reads the finished mesh back (a second, short submission: the sizes are known now) and
+    /// builds the CPU tessellator's result from it.
+    fn read_mesh(
+        &self,
+        gpu: &Gpu,
+        scratch: &mut Scratch,
+        input: &InputMesh,
+        mesh: &TriangleMesh,
+        words: &[u32],
+    ) -> Result<(Tessellation<VertexPaths>, TraceCounters), TessellationError> {
+        let vertex_count = u64::from(words[control::VERTICES]);
+        let triangle_count = u64::from(words[control::LEVEL_HI]);
+        let output_count = u64::from(words[control::OUTPUT]);
+        let output_capacity = scratch.output.size / OUTPUT_BYTES;
+        if output_count > output_capacity || vertex_count > scratch.vertices_capacity {
+            return Err(GpuError::BadUpload {
+                what: "the GPU tessellation".into(),
+                problem: format!(
+                    "it made {output_count} triangles and {vertex_count} vertices, past its buffers' {output_capacity} and {}",
+                    scratch.vertices_capacity
+                ),
+            }
+            .into());
+        }
+        let n_in = u64::from(input.vertex_count);
+        // (source, offset in the readback, bytes)
+        let parts = [
+            (scratch.vertices.handle, vertex_count * VERTEX_BYTES),
+            (scratch.records.handle, vertex_count * RECORD_BYTES),
+            (scratch.wanted.handle, 4 * n_in),
+            (scratch.triangles.handle, triangle_count * TRIANGLE_BYTES),
+            (scratch.output.handle, output_count * OUTPUT_BYTES),
+        ];
+        let mut offsets = Vec::with_capacity(parts.len());
+        let mut total = 0u64;
+        for &(_, bytes) in &parts {
+            offsets.push(total);
+            total += bytes.next_multiple_of(16);
+        }
+        let readback = scratch.readback(gpu, total.max(16))?.handle;
+        let device = gpu.device();
+        gpu.submit_and_wait(|cb| {
+            // SAFETY: the passes finished (the last submission was waited for); the copies
+            // stay within both buffers.
+            unsafe {
+                for (&(source, bytes), &offset) in parts.iter().zip(&offsets) {
+                    if bytes > 0 {
+                        device.cmd_copy_buffer(cb, source, readback, &[copy(0, offset, bytes)]);
+                    }
+                }
+                barrier(device, cb, TRANSFER_TO_HOST);
+            }
+            Ok(())
+        })?;
+        let bytes = scratch.readback.as_ref().map(|b| b.read()).unwrap_or_default();
+        let slice = |i: usize| -> &[u32] {
+            bytemuck::cast_slice(&bytes[offsets[i] as usize..(offsets[i] + parts[i].1) as usize])
+        };
+        let (vertex_words, record_words, wanted, triangles, output) =
+            (slice(0), slice(1), slice(2), slice(3), slice(4));
+        let counters = TraceCounters {
+            primary_rays: u64::from(words[control::WORDS]),
+            secondary_rays: u64::from(words[control::WORDS + 1]),
+            shadow_rays: 0,
+            triangle_tests: u64::from(words[control::WORDS + 2]),
+        };
+        let tessellation = assemble(
+            mesh,
+            Readback {
+                vertices: vertex_words,
+                records: record_words,
+                wanted,
+                triangles,
+                output,
+            },
+            words,
+            &counters,
+        );
+        Ok((tessellation, counters))
+    }
+}
+
+/// A region of a buffer copy.
+fn copy(src_offset: u64, dst_offset: u64, size: u64) -> vk::BufferCopy {
+    vk::BufferCopy {
+        src_offset,
+        dst_offset,
+        size,
+    }
+}
+
+/// The GPU's buffers as read back, as words.
+struct Readback<'a> {
+    vertices: &'a [u32],
+    records: &'a [u32],
+    wanted: &'a [u32],
+    triangles: &'a [u32],
+    output: &'a [u32],
+}
+
+/// The stop reason of a state word (tessellate.wgsl `STOP_*`).
+fn stop_reason(state: u32) -> StopReason {
+    match state & 15 {
+        1 => StopReason::BackFacing,
+        2 => StopReason::Degenerate,
+        3 => StopReason::Occluded,
+        4 => StopReason::OffScreen,
+        6 => StopReason::Small,
+        7 => StopReason::MaxDepth,
+        8 => StopReason::Budget,
+        _ => StopReason::Similar,
+    }
+}
+
+/// The CPU tessellator's result from the GPU's buffers.
+fn assemble(
+    mesh: &TriangleMesh,
+    read: Readback<'_>,
+    words: &[u32],
+    counters: &TraceCounters,
+) -> Tessellation<VertexPaths> {
+    let n_in = mesh.positions.len();
+    let vertex_count = read.vertices.len() / 8;
+    let f = |w: u32| f32::from_bits(w);
+    let mut positions = Vec::with_capacity(vertex_count);
+    let mut normals = Vec::with_capacity(vertex_count);
+    let mut origins = Vec::with_capacity(vertex_count);
+    for (i, v) in read.vertices.chunks_exact(8).enumerate() {
+        positions.push(Vec3::new(f(v[0]), f(v[1]), f(v[2])));
+        normals.push(Vec3::new(f(v[4]), f(v[5]), f(v[6])));
+        origins.push(if i < n_in {
+            VertexOrigin::Input(i as u32)
+        } else {
+            VertexOrigin::Midpoint([v[3], v[7]])
+        });
+    }
+    let mut uvs = Vec::new();
+    if mesh.uvs.len() == n_in && n_in > 0 {
+        uvs.extend_from_slice(&mesh.uvs);
+        for origin in &origins[n_in..] {
+            // A midpoint's ends come before it, so their uvs are there.
+            let uv = match *origin {
+                VertexOrigin::Midpoint([lo, hi]) => {
+                    (uvs.get(lo as usize).copied().unwrap_or(Vec2::ZERO)
+                        + uvs.get(hi as usize).copied().unwrap_or(Vec2::ZERO))
+                        * 0.5
+                }
+                VertexOrigin::Input(i) => mesh.uvs[i as usize],
+            };
+            uvs.push(uv);
+        }
+    }
+    let record_words = (RECORD_BYTES / 4) as usize;
+    let evaluations = read
+        .records
+        .chunks_exact(record_words)
+        .enumerate()
+        .map(|(i, record)| {
+            let traced = i >= n_in || read.wanted.get(i).is_some_and(|&w| w != 0);
+            traced.then(|| {
+                let vertex = decode(record);
+                VertexEvaluation {
+                    sample: vertex.paths,
+                    visible: vertex.visible,
+                }
+            })
+        })
+        .collect();
+    let leaf = |t: u32| {
+        let at = 8 * t as usize;
+        let head = &read.triangles[at..at + 4];
+        let state = read.triangles[at + 7];
+        TriangleRecord {
+            source: head[3],
+            leaf: [head[0], head[1], head[2]],
+            depth: state >> 8,
+            stop: stop_reason(state),
+        }
+    };
+    let (triangles, records): (Vec<[u32; 3]>, Vec<TriangleRecord>) = read
+        .output
+        .chunks_exact(4)
+        .map(|o| ([o[0], o[1], o[2]], leaf(o[3])))
+        .unzip();
+    let stats = TessellationStats {
+        input_triangles: mesh.triangles.len(),
+        front_facing_triangles: words[control::FRONT] as usize,
+        back_facing_triangles: words[control::BACK] as usize,
+        output_triangles: triangles.len(),
+        output_vertices: vertex_count,
+        vertices_evaluated: counters.primary_rays as usize,
+        midpoints_created: words[control::CREATED] as usize,
+        midpoints_reused: words[control::REQUESTS].saturating_sub(words[control::CREATED]) as usize,
+        splits_1_to_2: words[control::SPLITS] as usize,
+        splits_1_to_3: words[control::SPLITS + 1] as usize,
+        splits_1_to_4: words[control::SPLITS + 2] as usize,
+        max_depth_reached: words[control::MAX_DEPTH_REACHED],
+        stopped_at_max_depth: words[control::AT_MAX_DEPTH] as usize,
+        stopped_by_budget: words[control::BUDGET] as usize,
+        occluded_leaves: words[control::OCCLUDED] as usize,
+        t_junction_leaves: words[control::T_JUNCTION_LEAVES] as usize,
+        t_junction_vertices: words[control::T_JUNCTION_VERTICES] as usize,
+    };
+    Tessellation {
+        mesh: TriangleMesh {
+            positions,
+            normals,
+            uvs,
+            triangles,
+        },
+        origins,
+        evaluations,
+        triangles: records,
+        stats,
+    }
+}

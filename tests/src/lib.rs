@@ -4,6 +4,7 @@
 
 pub mod c_abi;
 pub mod fixtures;
+pub mod mesh_checks;
 
 use std::sync::OnceLock;
 

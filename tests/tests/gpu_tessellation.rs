@@ -1,0 +1,244 @@
+//! The adaptive tessellation on the GPU (`shaders/wgsl/tessellate.wgsl`) against the CPU
+//! tessellator, on every lens object of the three built-in scenes at t = 3 and t = 5:
+//! - watertight and free of T-junctions, area preserved, every triangle on and wound like its
+//!   source triangle (the geometric checks the CPU tessellator's tests make,
+//!   `lensmap_tests::mesh_checks`);
+//! - a vertex count within 10 % of the CPU's (the GPU traces in f32, the CPU in f64, so a few
+//!   vertices on path boundaries decide differently);
+//! - identical output run to run, bit for bit;
+//! - the vertex budget stops splitting as on the CPU, and a depth cap past the GPU's walk is an
+//!   option error.
+
+use glam::Vec2;
+use lensmap::hybrid::gpu::{GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, PathSettings};
+use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths};
+use lensmap::hybrid::tessellate::{
+    StopReason, Tessellation, TessellationError, TessellationOptions, tessellate,
+};
+use lensmap::render::LensFaces;
+use lensmap::scene::{BUILTIN_SCENES, TriangleMesh};
+use std::collections::HashMap;
+use lensmap::trace::{Bounces, GreedyOptions, TraceScene};
+use lensmap_tests::fixtures::built_in_scene;
+use lensmap_tests::mesh_checks::{check_surface, check_topology};
+use lensmap_tests::{assert_clean, gpu};
+
+/// The paper's angle threshold.
+const ANGLE_DEGREES: f64 = 3.0;
+
+/// `mesh` with coincident vertices (within 1e-6 m) merged (the first one's normal kept): the built-in meshes
+/// have seams, where a midpoint on one side lies on the other side's edge, which the geometric
+/// T-junction check cannot tell from a real one. Both tessellators then run on the welded mesh,
+/// without the triangles welding collapses (at a sphere's poles).
+fn welded(mesh: &TriangleMesh) -> TriangleMesh {
+    let mut first: HashMap<[i64; 3], u32> = HashMap::new();
+    let remap: Vec<u32> = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            // Seams differ by rounding: vertices within 1e-6 m are one.
+            let key = p.to_array().map(|x| (f64::from(x) * 1e6).round() as i64);
+            *first.entry(key).or_insert(i as u32)
+        })
+        .collect();
+    TriangleMesh {
+        triangles: mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| remap[v as usize]))
+            .filter(|[a, b, c]| a != b && b != c && c != a)
+            .collect(),
+        ..mesh.clone()
+    }
+}
+
+/// Everything of a tessellation that must repeat bit for bit.
+fn fingerprint(t: &Tessellation<VertexPaths>) -> (Vec<[u32; 3]>, Vec<[u32; 3]>, String) {
+    let positions = t
+        .mesh
+        .positions
+        .iter()
+        .map(|p| p.to_array().map(f32::to_bits))
+        .collect();
+    (
+        positions,
+        t.mesh.triangles.clone(),
+        format!("{:?}{:?}{:?}", t.triangles, t.evaluations, t.stats),
+    )
+}
+
+#[test]
+fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
+    let gpu = gpu();
+    for name in BUILTIN_SCENES {
+        let scene = built_in_scene(name, 160, 120, 2);
+        let trace = TraceScene::new(&scene).expect("the scene traces");
+        let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
+        let camera = &scene.camera;
+        let screen = ScreenCamera {
+            eye: camera.position.as_dvec3(),
+            view_proj: camera.view_proj(0.05, 1000.0),
+            subpixels: Vec2::new(2.0 * camera.width as f32, 2.0 * camera.height as f32),
+        };
+        let (mut splits, mut t_junction_leaves) = (0, 0);
+        for (lens, lens_bvh) in trace.lenses.iter().enumerate() {
+            for &object in &lens_bvh.objects {
+                let mesh = &scene.objects[object].mesh;
+                let settings = PathSettings {
+                    lens,
+                    object,
+                    bounces: Bounces::UntilLeaving,
+                    max_interfaces: GreedyOptions::default().max_interfaces,
+                };
+                for t in [3.0, 5.0] {
+                    let case = format!("{name}, object {object}, t = {t}");
+                    let options = TessellationOptions {
+                        t,
+                        ..TessellationOptions::default()
+                    };
+                    let oracle = PathOracle::new(
+                        &trace,
+                        lens,
+                        object,
+                        screen,
+                        ANGLE_DEGREES.to_radians(),
+                        LensFaces::Front,
+                    );
+                    let cpu = tessellate(mesh, &oracle, &options).expect("the CPU tessellates");
+                    let request = GpuTessellationRequest {
+                        camera: &screen,
+                        settings: &settings,
+                        cos_threshold: ANGLE_DEGREES.to_radians().cos() as f32,
+                        back_faces: false,
+                        options: &options,
+                    };
+                    let run = || {
+                        tracer
+                            .tessellate(&gpu, (object, mesh), &request)
+                            .expect("the GPU tessellates")
+                    };
+                    let (on_gpu, counters) = run();
+                    let (again, _) = run();
+                    let (c, g) = (&cpu.stats, &on_gpu.stats);
+                    eprintln!(
+                        "{case}: vertices CPU {} GPU {}, triangles {} / {}, splits {}/{}/{} vs {}/{}/{}, T-junction leaves {} / {}, depth {} / {}",
+                        c.output_vertices,
+                        g.output_vertices,
+                        c.output_triangles,
+                        g.output_triangles,
+                        c.splits_1_to_2,
+                        c.splits_1_to_3,
+                        c.splits_1_to_4,
+                        g.splits_1_to_2,
+                        g.splits_1_to_3,
+                        g.splits_1_to_4,
+                        c.t_junction_leaves,
+                        g.t_junction_leaves,
+                        c.max_depth_reached,
+                        g.max_depth_reached,
+                    );
+                    check_topology(&format!("{case} (CPU)"), mesh, &cpu);
+                    check_topology(&case, mesh, &on_gpu);
+                    if name == "glass-sphere" {
+                        // A closed mesh once its seams are welded: the geometric checks too.
+                        let closed = welded(mesh);
+                        let cpu = tessellate(&closed, &oracle, &options).expect("the CPU tessellates");
+                        check_surface(&format!("{case}, welded (CPU)"), &closed, &cpu);
+                        let (on_gpu, _) = tracer
+                            .tessellate(&gpu, (usize::MAX, &closed), &request)
+                            .expect("the GPU tessellates");
+                        check_surface(&format!("{case}, welded"), &closed, &on_gpu);
+                    }
+                    splits += g.splits_1_to_2 + g.splits_1_to_3 + g.splits_1_to_4;
+                    t_junction_leaves += g.t_junction_leaves;
+                    let ratio = g.output_vertices as f64 / c.output_vertices as f64;
+                    assert!((0.9..=1.1).contains(&ratio), "{case}: {c:?} {g:?}");
+                    assert_eq!(g.front_facing_triangles, c.front_facing_triangles, "{case}");
+                    assert_eq!(g.vertices_evaluated as u64, counters.primary_rays, "{case}");
+                    assert_eq!(g.output_triangles, on_gpu.mesh.triangles.len(), "{case}");
+                    assert!(
+                        fingerprint(&on_gpu) == fingerprint(&again),
+                        "{case}: two GPU runs differ"
+                    );
+                }
+            }
+        }
+        assert!(
+            splits > 0 && t_junction_leaves > 0,
+            "{name}: the scene subdivides and removes T-junctions"
+        );
+        assert_clean(&gpu);
+    }
+}
+
+#[test]
+fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
+    let gpu = gpu();
+    let scene = built_in_scene("glass-sphere", 160, 120, 2);
+    let trace = TraceScene::new(&scene).expect("the scene traces");
+    let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
+    let camera = &scene.camera;
+    let screen = ScreenCamera {
+        eye: camera.position.as_dvec3(),
+        view_proj: camera.view_proj(0.05, 1000.0),
+        subpixels: Vec2::new(2.0 * camera.width as f32, 2.0 * camera.height as f32),
+    };
+    let object = trace.lenses[0].objects[0];
+    let mesh = &scene.objects[object].mesh;
+    let settings = PathSettings {
+        lens: 0,
+        object,
+        bounces: Bounces::UntilLeaving,
+        max_interfaces: GreedyOptions::default().max_interfaces,
+    };
+    let budget = mesh.positions.len() + 200;
+    let options = TessellationOptions {
+        t: 1.0,
+        max_vertices: budget,
+        ..TessellationOptions::default()
+    };
+    let request = GpuTessellationRequest {
+        camera: &screen,
+        settings: &settings,
+        cos_threshold: ANGLE_DEGREES.to_radians().cos() as f32,
+        back_faces: false,
+        options: &options,
+    };
+    let (capped, _) = tracer
+        .tessellate(&gpu, (object, mesh), &request)
+        .expect("the GPU tessellates");
+    let stats = &capped.stats;
+    assert!(stats.stopped_by_budget > 0, "{stats:?}");
+    assert!(
+        capped.mesh.positions.len() <= budget && capped.mesh.positions.len() + 3 > budget,
+        "{} vertices against a budget of {budget}",
+        capped.mesh.positions.len()
+    );
+    let budget_leaves = capped
+        .triangles
+        .iter()
+        .filter(|r| r.stop == StopReason::Budget)
+        .count();
+    assert!(budget_leaves > 0);
+    check_topology("glass-sphere under a budget", mesh, &capped);
+
+    let deep = TessellationOptions {
+        max_depth: GPU_MAX_DEPTH + 1,
+        ..options
+    };
+    let refused = tracer.tessellate(
+        &gpu,
+        (object, mesh),
+        &GpuTessellationRequest {
+            options: &deep,
+            ..request
+        },
+    );
+    assert!(
+        matches!(&refused, Err(TessellationError::Option(e)) if e.to_string().contains("max_depth")),
+        "{:?}",
+        refused.err()
+    );
+    assert_clean(&gpu);
+}

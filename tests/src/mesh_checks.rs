@@ -239,7 +239,11 @@ enum Carrier {
 }
 
 /// The input edge both carriers lie on, if any.
-fn common_edge(a: Carrier, b: Carrier, input_edges: &HashMap<(u32, u32), (u32, u32)>) -> Option<(u32, u32)> {
+fn common_edge(
+    a: Carrier,
+    b: Carrier,
+    input_edges: &HashMap<(u32, u32), (u32, u32)>,
+) -> Option<(u32, u32)> {
     let edge = |u: u32, w: u32| {
         let key = (u.min(w), u.max(w));
         input_edges.contains_key(&key).then_some(key)

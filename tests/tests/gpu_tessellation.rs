@@ -17,11 +17,11 @@ use lensmap::hybrid::tessellate::{
 };
 use lensmap::render::LensFaces;
 use lensmap::scene::{BUILTIN_SCENES, TriangleMesh};
-use std::collections::HashMap;
 use lensmap::trace::{Bounces, GreedyOptions, TraceScene};
 use lensmap_tests::fixtures::built_in_scene;
 use lensmap_tests::mesh_checks::{check_surface, check_topology};
 use lensmap_tests::{assert_clean, gpu};
+use std::collections::HashMap;
 
 /// The paper's angle threshold.
 const ANGLE_DEGREES: f64 = 3.0;
@@ -143,7 +143,8 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
                     if name == "glass-sphere" {
                         // A closed mesh once its seams are welded: the geometric checks too.
                         let closed = welded(mesh);
-                        let cpu = tessellate(&closed, &oracle, &options).expect("the CPU tessellates");
+                        let cpu =
+                            tessellate(&closed, &oracle, &options).expect("the CPU tessellates");
                         check_surface(&format!("{case}, welded (CPU)"), &closed, &cpu);
                         let (on_gpu, _) = tracer
                             .tessellate(&gpu, (usize::MAX, &closed), &request)

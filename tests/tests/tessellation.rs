@@ -15,8 +15,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{Mat4, Vec2, Vec3};
 use lensmap::hybrid::tessellate::{
-    StopReason, SurfaceVertex, Tessellation, TessellationOptions, VertexOracle,
-    faces_eye, tessellate,
+    StopReason, SurfaceVertex, Tessellation, TessellationOptions, VertexOracle, faces_eye,
+    tessellate,
 };
 use lensmap::scene::teapot::teapot;
 use lensmap::scene::{Camera as SceneCamera, TriangleMesh};

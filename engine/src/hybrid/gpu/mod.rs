@@ -303,8 +303,7 @@ impl GpuTracer {
                 }
             }
         });
-        let ((vertex_paths, level_paths), (tessellation, tessellation_pool, unbound)) = match rest
-        {
+        let ((vertex_paths, level_paths), (tessellation, tessellation_pool, unbound)) = match rest {
             Ok(made) => made,
             Err(e) => {
                 // SAFETY: both were created above and nothing uses them yet.

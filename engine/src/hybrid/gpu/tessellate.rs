@@ -176,11 +176,12 @@ impl TessellationPasses {
         }
         .vk("vkCreatePipelineLayout")?;
         for entry in PASSES {
-            let shader =
-                lensmap_shaders::shader("tessellate", entry).ok_or_else(|| GpuError::BadUpload {
+            let shader = lensmap_shaders::shader("tessellate", entry).ok_or_else(|| {
+                GpuError::BadUpload {
                     what: "tessellate.wgsl".into(),
                     problem: format!("entry point {entry} was not compiled"),
-                })?;
+                }
+            })?;
             let pipeline = gpu.create_compute_pipeline(&shader, passes.layout)?;
             passes.pipelines.push(pipeline);
         }
@@ -214,7 +215,12 @@ impl InputMesh {
             .positions
             .iter()
             .zip(&normals)
-            .flat_map(|(p, n)| [p.extend(none).to_array(), n.normalize_or_zero().extend(none).to_array()])
+            .flat_map(|(p, n)| {
+                [
+                    p.extend(none).to_array(),
+                    n.normalize_or_zero().extend(none).to_array(),
+                ]
+            })
             .collect();
         let mut edge_ids: FxHashMap<(u32, u32), u32> = FxHashMap::default();
         let mut edges: Vec<[u32; 2]> = Vec::new();
@@ -301,8 +307,8 @@ impl Scratch {
     /// Whether it holds `input` in full (every input vertex, triangle and edge, and a split).
     fn holds(&self, input: &InputMesh) -> bool {
         self.vertices_capacity > u64::from(input.vertex_count) + 3
-            && self.triangles_capacity >= TRIANGLES_PER_VERTEX * self.vertices_capacity
-                + u64::from(input.triangle_count)
+            && self.triangles_capacity
+                >= TRIANGLES_PER_VERTEX * self.vertices_capacity + u64::from(input.triangle_count)
             && self.edges_capacity
                 >= EDGES_PER_VERTEX * self.vertices_capacity + u64::from(input.edge_count)
     }
@@ -351,7 +357,10 @@ fn device_capacity(gpu: &Gpu, input: &InputMesh) -> u64 {
         triangles.saturating_sub(u64::from(input.triangle_count)) / TRIANGLES_PER_VERTEX;
     by_triangles
         .min(range / RECORD_BYTES)
-        .min((range / EDGE_STATE_BYTES).saturating_sub(u64::from(input.edge_count)) / EDGES_PER_VERTEX)
+        .min(
+            (range / EDGE_STATE_BYTES).saturating_sub(u64::from(input.edge_count))
+                / EDGES_PER_VERTEX,
+        )
         .min(1 << 31)
 }
 
@@ -376,18 +385,20 @@ impl GpuTracer {
         }
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
         let state = &mut *pass;
-        let stale = state
-            .meshes
-            .get(&object)
-            .is_some_and(|m| m.vertex_count as usize != mesh.positions.len() || m.triangle_count as usize != mesh.triangles.len());
+        let stale = state.meshes.get(&object).is_some_and(|m| {
+            m.vertex_count as usize != mesh.positions.len()
+                || m.triangle_count as usize != mesh.triangles.len()
+        });
         if stale {
             state.meshes.remove(&object);
         }
-        if !state.meshes.contains_key(&object) {
-            let input = InputMesh::new(gpu, mesh)?;
-            state.meshes.insert(object, input);
-        }
-        let input = &state.meshes[&object];
+        let input = match state.meshes.entry(object) {
+            std::collections::hash_map::Entry::Occupied(held) => held.into_mut(),
+            std::collections::hash_map::Entry::Vacant(slot) => {
+                slot.insert(InputMesh::new(gpu, mesh)?)
+            }
+        };
+        let input = &*input;
         let budget = (options.max_vertices as u64).max(u64::from(input.vertex_count));
         let ceiling = budget.min(device_capacity(gpu, input));
         if ceiling <= u64::from(input.vertex_count) + 3 {
@@ -474,7 +485,10 @@ fn first_control(input: &InputMesh) -> [u32; control::WORDS] {
     let dispatches = [
         (control::DISPATCH_TRACE, vertices.div_ceil(WORKGROUP)),
         (control::DISPATCH_ELEMENTS, triangles.div_ceil(WORKGROUP)),
-        (control::DISPATCH_BLOCKS, triangles.div_ceil(SCAN_BLOCK as u32)),
+        (
+            control::DISPATCH_BLOCKS,
+            triangles.div_ceil(SCAN_BLOCK as u32),
+        ),
     ];
     for (at, groups) in dispatches {
         words[at..at + 3].copy_from_slice(&[groups, 1, 1]);
@@ -483,20 +497,14 @@ fn first_control(input: &InputMesh) -> [u32; control::WORDS] {
 }
 
 impl GpuTracer {
-    /// Records and runs every level and the T-junction removal in one submission; returns the
-    /// control words, then the tracer's three counters.
-    fn run_levels(
+    /// The tracer's level pass's set and the tessellation's, over `scratch` and `input`.
+    fn sets(
         &self,
         gpu: &Gpu,
-        (pool, tessellation_pool, scratch, input): (
-            &DescriptorPool,
-            &DescriptorPool,
-            &mut Scratch,
-            &InputMesh,
-        ),
-        request: &GpuTessellationRequest<'_>,
-        vertex_capacity: u64,
-    ) -> Result<Vec<u32>, GpuError> {
+        (pool, tessellation_pool): (&DescriptorPool, &DescriptorPool),
+        scratch: &Scratch,
+        input: &InputMesh,
+    ) -> Result<(vk::DescriptorSet, vk::DescriptorSet), GpuError> {
         let passes = &self.tessellation;
         pool.reset()?;
         tessellation_pool.reset()?;
@@ -537,6 +545,25 @@ impl GpuTracer {
         .map(|b| Resource::Buffer(b.handle))
         .collect();
         write_set(gpu, set, TESSELLATE_SET, &resources);
+        Ok((tracer_set, set))
+    }
+
+    /// Records and runs every level and the T-junction removal in one submission; returns the
+    /// control words, then the tracer's three counters.
+    fn run_levels(
+        &self,
+        gpu: &Gpu,
+        (pool, tessellation_pool, scratch, input): (
+            &DescriptorPool,
+            &DescriptorPool,
+            &mut Scratch,
+            &InputMesh,
+        ),
+        request: &GpuTessellationRequest<'_>,
+        vertex_capacity: u64,
+    ) -> Result<Vec<u32>, GpuError> {
+        let passes = &self.tessellation;
+        let (tracer_set, set) = self.sets(gpu, (pool, tessellation_pool), scratch, input)?;
         let camera = request.camera;
         let tracer_constants = self.constants(camera, request.settings);
         let constants = TessellateConstants {
@@ -555,74 +582,87 @@ impl GpuTracer {
             ..bytemuck::Zeroable::zeroed()
         };
         let first = first_control(input);
-        let readback = scratch.readback(gpu, 4 * (control::WORDS as u64 + 4))?.handle;
+        let readback = scratch
+            .readback(gpu, 4 * (control::WORDS as u64 + 4))?
+            .handle;
         let device = gpu.device();
-        let control_buffer = scratch.control.handle;
-        let pipelines = &passes.pipelines;
+        let scratch = &*scratch;
         gpu.submit_and_wait(|cb| {
+            let recorder = Recorder {
+                device,
+                cb,
+                passes,
+                set,
+                constants: &constants,
+                control: scratch.control.handle,
+            };
             // SAFETY: every handle is live until the wait returns; a barrier separates every
             // pass from the next, and the copies from the passes.
             unsafe {
-                device.cmd_update_buffer(cb, control_buffer, 0, bytemuck::cast_slice(&first));
-                device.cmd_fill_buffer(cb, scratch.wanted.handle, 0, 4 * u64::from(input.vertex_count).max(1), 0);
+                device.cmd_update_buffer(cb, recorder.control, 0, bytemuck::cast_slice(&first));
+                device.cmd_fill_buffer(
+                    cb,
+                    scratch.wanted.handle,
+                    0,
+                    4 * u64::from(input.vertex_count).max(1),
+                    0,
+                );
                 device.cmd_fill_buffer(cb, scratch.counters.handle, 0, vk::WHOLE_SIZE, 0);
                 barrier(device, cb, TRANSFER_TO_COMPUTE);
-                let tessellation = |cb: vk::CommandBuffer, name: &str| {
-                    device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipelines[pass(name)]);
-                };
-                let bind_tessellation = |cb: vk::CommandBuffer| {
-                    device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, passes.layout, 0, &[set], &[]);
-                    device.cmd_push_constants(cb, passes.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&constants));
-                };
-                let indirect = |cb: vk::CommandBuffer, name: &str, word: usize| {
-                    tessellation(cb, name);
-                    device.cmd_dispatch_indirect(cb, control_buffer, 4 * word as u64);
-                    barrier(device, cb, COMPUTE_TO_COMPUTE);
-                };
-                let single = |cb: vk::CommandBuffer, name: &str| {
-                    tessellation(cb, name);
-                    device.cmd_dispatch(cb, 1, 1, 1);
-                    barrier(device, cb, COMPUTE_TO_COMPUTE);
-                };
-                tessellation(cb, "cs_begin");
-                bind_tessellation(cb);
-                let begin = input.vertex_count.max(input.edge_count);
-                device.cmd_dispatch(cb, begin.div_ceil(WORKGROUP), 1, 1);
-                barrier(device, cb, COMPUTE_TO_COMPUTE);
-                tessellation(cb, "cs_classify");
-                device.cmd_dispatch(cb, input.triangle_count.div_ceil(WORKGROUP), 1, 1);
-                barrier(device, cb, COMPUTE_TO_COMPUTE);
+                recorder.groups("cs_begin", input.vertex_count.max(input.edge_count));
+                recorder.groups("cs_classify", input.triangle_count);
                 for _level in 0..=request.options.max_depth {
+                    // The level's new vertices, by the tracer's pass (its own layout and set).
                     device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.level_paths);
-                    device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[tracer_set], &[]);
-                    device.cmd_push_constants(cb, self.layout, vk::ShaderStageFlags::COMPUTE, 0, bytemuck::bytes_of(&tracer_constants));
-                    device.cmd_dispatch_indirect(cb, control_buffer, 4 * control::DISPATCH_TRACE as u64);
-                    barrier(device, cb, COMPUTE_TO_COMPUTE);
-                    tessellation(cb, "cs_decide");
-                    bind_tessellation(cb);
-                    device.cmd_dispatch_indirect(cb, control_buffer, 4 * control::DISPATCH_ELEMENTS as u64);
-                    barrier(device, cb, COMPUTE_TO_COMPUTE);
-                    indirect(cb, "cs_count", control::DISPATCH_ELEMENTS);
-                    indirect(cb, "cs_scan_blocks", control::DISPATCH_BLOCKS);
-                    single(cb, "cs_scan_top");
-                    indirect(cb, "cs_apply", control::DISPATCH_ELEMENTS);
-                    indirect(cb, "cs_emit", control::DISPATCH_ELEMENTS);
-                    single(cb, "cs_advance");
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::COMPUTE,
+                        self.layout,
+                        0,
+                        &[tracer_set],
+                        &[],
+                    );
+                    device.cmd_push_constants(
+                        cb,
+                        self.layout,
+                        vk::ShaderStageFlags::COMPUTE,
+                        0,
+                        bytemuck::bytes_of(&tracer_constants),
+                    );
+                    recorder.dispatch_indirect(control::DISPATCH_TRACE);
+                    for name in ["cs_decide", "cs_count"] {
+                        recorder.indirect(name, control::DISPATCH_ELEMENTS);
+                    }
+                    recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
+                    recorder.single("cs_scan_top");
+                    for name in ["cs_apply", "cs_emit"] {
+                        recorder.indirect(name, control::DISPATCH_ELEMENTS);
+                    }
+                    recorder.single("cs_advance");
                 }
-                single(cb, "cs_leaves_begin");
-                indirect(cb, "cs_leaf_count", control::DISPATCH_ELEMENTS);
-                indirect(cb, "cs_scan_blocks", control::DISPATCH_BLOCKS);
-                single(cb, "cs_scan_top");
-                indirect(cb, "cs_leaf_emit", control::DISPATCH_ELEMENTS);
+                recorder.single("cs_leaves_begin");
+                recorder.indirect("cs_leaf_count", control::DISPATCH_ELEMENTS);
+                recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
+                recorder.single("cs_scan_top");
+                recorder.indirect("cs_leaf_emit", control::DISPATCH_ELEMENTS);
                 barrier(device, cb, COMPUTE_TO_TRANSFER);
                 let words = 4 * control::WORDS as u64;
-                device.cmd_copy_buffer(cb, control_buffer, readback, &[copy(0, 0, words)]);
-                device.cmd_copy_buffer(cb, scratch.counters.handle, readback, &[copy(0, words, 4 * super::COUNTERS as u64)]);
+                device.cmd_copy_buffer(cb, recorder.control, readback, &[copy(0, 0, words)]);
+                device.cmd_copy_buffer(
+                    cb,
+                    scratch.counters.handle,
+                    readback,
+                    &[copy(0, words, 4 * super::COUNTERS as u64)],
+                );
                 barrier(device, cb, TRANSFER_TO_HOST);
             }
             Ok(())
         })?;
-        let bytes = scratch.readback.as_ref().map(|b| b.read()).unwrap_or_default();
+        let bytes = scratch
+            .readback
+            .as_ref()
+            .map(|b| b.read())
+            .unwrap_or_default();
         let words: &[u32] = bytemuck::cast_slice(&bytes[..4 * (control::WORDS + super::COUNTERS)]);
         Ok(words.to_vec())
     }
@@ -681,7 +721,11 @@ impl GpuTracer {
             }
             Ok(())
         })?;
-        let bytes = scratch.readback.as_ref().map(|b| b.read()).unwrap_or_default();
+        let bytes = scratch
+            .readback
+            .as_ref()
+            .map(|b| b.read())
+            .unwrap_or_default();
         let slice = |i: usize| -> &[u32] {
             bytemuck::cast_slice(&bytes[offsets[i] as usize..(offsets[i] + parts[i].1) as usize])
         };
@@ -706,6 +750,102 @@ impl GpuTracer {
             &counters,
         );
         Ok((tessellation, counters))
+    }
+}
+
+/// Records the tessellation's passes into one command buffer.
+struct Recorder<'a> {
+    device: &'a ash::Device,
+    cb: vk::CommandBuffer,
+    passes: &'a TessellationPasses,
+    set: vk::DescriptorSet,
+    constants: &'a TessellateConstants,
+    control: vk::Buffer,
+}
+
+impl Recorder<'_> {
+    /// Binds pass `name` with the tessellation's set and constants (bound again each time: the
+    /// tracer's pass between levels has another layout).
+    ///
+    /// # Safety
+    /// `cb` is recording.
+    unsafe fn bind(&self, name: &str) {
+        let (device, cb, layout) = (self.device, self.cb, self.passes.layout);
+        // SAFETY: the caller says `cb` is recording; the pipeline, set and layout are live.
+        unsafe {
+            device.cmd_bind_pipeline(
+                cb,
+                vk::PipelineBindPoint::COMPUTE,
+                self.passes.pipelines[pass(name)],
+            );
+            device.cmd_bind_descriptor_sets(
+                cb,
+                vk::PipelineBindPoint::COMPUTE,
+                layout,
+                0,
+                &[self.set],
+                &[],
+            );
+            device.cmd_push_constants(
+                cb,
+                layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(self.constants),
+            );
+        }
+    }
+
+    /// Dispatches the bound pass with the arguments at control word `word`, then a barrier.
+    ///
+    /// # Safety
+    /// `cb` is recording and a compute pipeline is bound.
+    unsafe fn dispatch_indirect(&self, word: usize) {
+        // SAFETY: as the caller says; the control buffer holds the arguments.
+        unsafe {
+            self.device
+                .cmd_dispatch_indirect(self.cb, self.control, 4 * word as u64);
+            barrier(self.device, self.cb, COMPUTE_TO_COMPUTE);
+        }
+    }
+
+    /// Pass `name` over the elements counted at control word `word`.
+    ///
+    /// # Safety
+    /// `cb` is recording.
+    unsafe fn indirect(&self, name: &str, word: usize) {
+        // SAFETY: as the caller says.
+        unsafe {
+            self.bind(name);
+            self.dispatch_indirect(word);
+        }
+    }
+
+    /// Pass `name` over `n` elements (a count known when recording).
+    ///
+    /// # Safety
+    /// `cb` is recording.
+    unsafe fn groups(&self, name: &str, n: u32) {
+        // SAFETY: as the caller says.
+        unsafe {
+            self.bind(name);
+            self.device
+                .cmd_dispatch(self.cb, n.div_ceil(WORKGROUP), 1, 1);
+            barrier(self.device, self.cb, COMPUTE_TO_COMPUTE);
+        }
+    }
+
+    /// Pass `name` in one invocation.
+    ///
+    /// # Safety
+    /// `cb` is recording.
+    unsafe fn single(&self, name: &str) {
+        // SAFETY: as the caller says.
+        unsafe {
+            self.bind(name);
+            self.device.cmd_dispatch(self.cb, 1, 1, 1);
+            barrier(self.device, self.cb, COMPUTE_TO_COMPUTE);
+        }
     }
 }
 

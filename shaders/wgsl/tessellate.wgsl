@@ -646,11 +646,14 @@ fn cs_advance() {
 
 // ---- T-junction removal -----------------------------------------------------------------------
 
-// One invocation after the last level: the leaf passes run over every triangle made.
+// One invocation after the last level: the leaf passes run over every triangle made, and the
+// texgen pass over every vertex.
 @compute @workgroup_size(1)
 fn cs_leaves_begin() {
     atomicStore(&control[CONTROL_LEVEL_LO], 0u);
     set_element_dispatch(load(CONTROL_LEVEL_HI));
+    // The levels are traced: the trace arguments now cover every vertex (texgen.wgsl's pass).
+    atomicStore(&control[CONTROL_DISPATCH_TRACE], groups(load(CONTROL_VERTICES), WORKGROUP));
 }
 
 // An in-order walk of the vertices a split edge's tree places strictly inside it, from vertex `start`.

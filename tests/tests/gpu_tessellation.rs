@@ -7,17 +7,22 @@
 //!   vertices on path boundaries decide differently);
 //! - identical output run to run, bit for bit;
 //! - the vertex budget stops splitting as on the CPU, and a depth cap past the GPU's walk is an
-//!   option error.
+//!   option error;
+//! - texgen on the GPU (`shaders/wgsl/texgen.wgsl`) against the shells' own f64 intersection on
+//!   the same paths, for every kind of shell, and F·G exactly the records'.
 
-use glam::Vec2;
-use lensmap::hybrid::gpu::{GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, PathSettings};
+use glam::{DVec2, DVec3, Vec2, Vec3};
+use lensmap::hybrid::gpu::{
+    GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, PathSettings, TexgenRequest,
+};
 use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths};
 use lensmap::hybrid::tessellate::{
     StopReason, Tessellation, TessellationError, TessellationOptions, tessellate,
 };
+use lensmap::layers::LayerShell;
 use lensmap::render::LensFaces;
 use lensmap::scene::{BUILTIN_SCENES, TriangleMesh};
-use lensmap::trace::{Bounces, GreedyOptions, TraceScene};
+use lensmap::trace::{Bounces, GreedyOptions, Interface, Term, TraceScene};
 use lensmap_tests::fixtures::built_in_scene;
 use lensmap_tests::mesh_checks::{check_surface, check_topology};
 use lensmap_tests::{assert_clean, gpu};
@@ -112,14 +117,16 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
                         cos_threshold: ANGLE_DEGREES.to_radians().cos() as f32,
                         back_faces: false,
                         options: &options,
+                        texgen: None,
                     };
                     let run = || {
                         tracer
                             .tessellate(&gpu, (object, mesh), &request)
                             .expect("the GPU tessellates")
                     };
-                    let (on_gpu, counters) = run();
-                    let (again, _) = run();
+                    let first = run();
+                    let (on_gpu, counters) = (first.tessellation, first.counters);
+                    let again = run().tessellation;
                     let (c, g) = (&cpu.stats, &on_gpu.stats);
                     eprintln!(
                         "{case}: vertices CPU {} GPU {}, triangles {} / {}, splits {}/{}/{} vs {}/{}/{}, T-junction leaves {} / {}, depth {} / {}",
@@ -146,9 +153,10 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
                         let cpu =
                             tessellate(&closed, &oracle, &options).expect("the CPU tessellates");
                         check_surface(&format!("{case}, welded (CPU)"), &closed, &cpu);
-                        let (on_gpu, _) = tracer
+                        let on_gpu = tracer
                             .tessellate(&gpu, (usize::MAX, &closed), &request)
-                            .expect("the GPU tessellates");
+                            .expect("the GPU tessellates")
+                            .tessellation;
                         check_surface(&format!("{case}, welded"), &closed, &on_gpu);
                     }
                     splits += g.splits_1_to_2 + g.splits_1_to_3 + g.splits_1_to_4;
@@ -205,10 +213,12 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
         cos_threshold: ANGLE_DEGREES.to_radians().cos() as f32,
         back_faces: false,
         options: &options,
+        texgen: None,
     };
-    let (capped, _) = tracer
+    let capped = tracer
         .tessellate(&gpu, (object, mesh), &request)
-        .expect("the GPU tessellates");
+        .expect("the GPU tessellates")
+        .tessellation;
     let stats = &capped.stats;
     assert!(stats.stopped_by_budget > 0, "{stats:?}");
     assert!(
@@ -242,4 +252,152 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
         refused.err()
     );
     assert_clean(&gpu);
+}
+
+/// Every kind of layer shell around a lens object of centre `c` and size `r`: sphere, ellipsoid,
+/// box, capped and unbounded cylinders, a quad impostor.
+fn every_shell(c: DVec3, r: f64) -> Vec<LayerShell> {
+    vec![
+        LayerShell::Sphere {
+            centre: c,
+            radius: 2.0 * r,
+        },
+        LayerShell::Ellipsoid {
+            centre: c + DVec3::new(0.1, 0.0, 0.05) * r,
+            radii: DVec3::new(3.0, 2.0, 2.5) * r,
+        },
+        LayerShell::Box {
+            centre: c + DVec3::new(0.0, 0.2, 0.0) * r,
+            half_extents: DVec3::new(3.0, 2.0, 4.0) * r,
+        },
+        LayerShell::Cylinder {
+            centre: c,
+            axis: DVec3::new(1.0, 2.0, 0.5).normalize(),
+            radius: 3.0 * r,
+            half_height: Some(4.0 * r),
+        },
+        LayerShell::Cylinder {
+            centre: c,
+            axis: DVec3::Y,
+            radius: 2.5 * r,
+            half_height: None,
+        },
+        LayerShell::quad_facing(
+            c + DVec3::new(0.0, 0.0, -5.0 * r),
+            DVec3::new(0.0, 0.3, 1.0),
+            DVec2::new(3.0 * r, 3.0 * r),
+        ),
+    ]
+}
+
+#[test]
+fn gpu_texgen_matches_every_shell_kind_in_f64() {
+    let gpu = gpu();
+    for name in BUILTIN_SCENES {
+        let scene = built_in_scene(name, 160, 120, 2);
+        let trace = TraceScene::new(&scene).expect("the scene traces");
+        let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
+        let camera = &scene.camera;
+        let screen = ScreenCamera {
+            eye: camera.position.as_dvec3(),
+            view_proj: camera.view_proj(0.05, 1000.0),
+            subpixels: Vec2::new(2.0 * camera.width as f32, 2.0 * camera.height as f32),
+        };
+        let object = trace.lenses[0].objects[0];
+        let mesh = &scene.objects[object].mesh;
+        let (lo, hi) = mesh.bounds().expect("a lens mesh");
+        let (c, r) = (
+            ((lo + hi) * 0.5).as_dvec3(),
+            f64::from((hi - lo).length()) * 0.5,
+        );
+        let shells = every_shell(c, r);
+        let em_origins: Vec<DVec3> = (0..shells.len())
+            .map(|i| c + DVec3::new(0.0, 0.01 * i as f64, 0.0) * r)
+            .collect();
+        let refraction = trace
+            .interface(object)
+            .is_some_and(|i| matches!(i, Interface::Dielectric { .. }));
+        let settings = PathSettings {
+            lens: 0,
+            object,
+            bounces: Bounces::UntilLeaving,
+            max_interfaces: GreedyOptions::default().max_interfaces,
+        };
+        let options = TessellationOptions {
+            t: 3.0,
+            ..TessellationOptions::default()
+        };
+        let made = tracer
+            .tessellate(
+                &gpu,
+                (object, mesh),
+                &GpuTessellationRequest {
+                    camera: &screen,
+                    settings: &settings,
+                    cos_threshold: ANGLE_DEGREES.to_radians().cos() as f32,
+                    back_faces: false,
+                    options: &options,
+                    texgen: Some(TexgenRequest {
+                        shells: &shells,
+                        em_origins: &em_origins,
+                        refraction,
+                    }),
+                },
+            )
+            .expect("the GPU tessellates");
+        let terms = made.terms.expect("texgen was asked for");
+        let t = &made.tessellation;
+        let expected_terms: Vec<Term> = [Term::Refraction, Term::Reflection]
+            .into_iter()
+            .filter(|&term| refraction || term == Term::Reflection)
+            .collect();
+        assert_eq!(
+            terms.iter().map(|t| t.term).collect::<Vec<_>>(),
+            expected_terms
+        );
+        let (mut compared, mut within, mut worst) = (0usize, 0usize, 0f64);
+        for term in &terms {
+            assert_eq!(term.fg.len(), t.mesh.positions.len(), "{name}");
+            assert_eq!(term.directions.len(), shells.len(), "{name}");
+            for (v, evaluation) in t.evaluations.iter().enumerate() {
+                // The CPU texgen's rule: the term's path, else the reflection's weighing nothing.
+                let path = evaluation.as_ref().and_then(|e| {
+                    e.sample.get(term.term).copied().or(e
+                        .sample
+                        .get(Term::Reflection)
+                        .copied()
+                        .map(|mut p| {
+                            p.fg = DVec3::ZERO;
+                            p
+                        }))
+                });
+                let fg = path.map_or(Vec3::ZERO, |p| p.fg.as_vec3());
+                assert_eq!(term.fg[v], fg, "{name}: vertex {v}'s F·G");
+                for (layer, (shell, &origin)) in shells.iter().zip(&em_origins).enumerate() {
+                    let cpu = match path {
+                        Some(p) => shell.texture_direction_for_ray(
+                            origin,
+                            p.outgoing.origin,
+                            p.outgoing.direction,
+                        ),
+                        None => (t.mesh.positions[v].as_dvec3() - origin).normalize_or(DVec3::Z),
+                    };
+                    let error = (term.directions[layer][v].as_dvec3() - cpu).length()
+                        / cpu.length().max(1e-9);
+                    compared += 1;
+                    within += usize::from(error <= 1e-4);
+                    worst = worst.max(error);
+                }
+            }
+        }
+        let share = within as f64 / compared as f64;
+        eprintln!(
+            "{name}: {compared} directions (vertices × terms × {} shells): {:.4} % within 1e-4 of f64, worst {worst:.2e}",
+            shells.len(),
+            100.0 * share
+        );
+        assert!(compared > 10_000, "{name}: {compared}");
+        assert!(share >= 0.999 && worst <= 1e-3, "{name}: {share} {worst}");
+        assert_clean(&gpu);
+    }
 }

@@ -16,19 +16,19 @@ use rayon::prelude::*;
 
 pub use super::paths::VertexPrecision;
 use super::{
-    gpu::GpuPaths,
+    gpu::{GpuPaths, TexgenRequest},
     paths::{PathOracle, ScreenCamera, VertexPaths},
     scene::HybridScene,
     sky::SkyDome,
     tessellate::{TessellationError, TessellationOptions, VertexEvaluation, faces_eye, tessellate},
-    texgen::{LensMesh, texgen},
+    texgen::{self, LensMesh, texgen},
     viewpoints::{self, ViewSpaceFit, ViewpointBlend},
 };
 pub use crate::trace::schlick_table::FresnelModel;
 use crate::{
     layers::{LayerShell, Layering},
     options::OptionError,
-    render::{EnvironmentMesh, FrameInput, LensFaces},
+    render::{EnvironmentMesh, FrameInput, LensFaces, TermVertices},
     scene::Camera,
     trace::{
         schlick_table::SchlickTable,
@@ -597,9 +597,17 @@ impl HybridScene {
         (lens_index, lens): (usize, &LensBvh),
         view: &FrameView,
         options: &HybridOptions,
-        (vertex_budget, gpu): (&mut usize, Option<GpuPaths<'_>>),
+        (vertex_budget, gpu, with_texgen): (&mut usize, Option<GpuPaths<'_>>, bool),
         stats: &mut HybridStats,
     ) -> Result<TessellatedLens, TessellationError> {
+        let layers = &self.lenses[lens_index];
+        // On the GPU, texgen runs in the tessellation's submission, object by object.
+        let texgen_request = (with_texgen && gpu.is_some()).then(|| TexgenRequest {
+            shells: &layers.shells,
+            em_origins: &layers.em_origins,
+            refraction: texgen::has_refraction(&self.trace, lens_index),
+        });
+        let mut terms: Option<Vec<TermVertices>> = None;
         let mut positions: Vec<Vec3> = Vec::new();
         let mut triangles: Vec<[u32; 3]> = Vec::new();
         let mut samples: Vec<Option<VertexEvaluation<VertexPaths>>> = Vec::new();
@@ -645,7 +653,16 @@ impl HybridScene {
             tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
             // On the GPU the whole tessellation runs there, every level's records kept on it.
             let tessellation = match gpu {
-                Some(gpu) => oracle.tessellate_on_gpu(gpu, mesh, &tessellation_options)?,
+                Some(gpu) => {
+                    let made = oracle.tessellate_on_gpu(
+                        gpu,
+                        mesh,
+                        &tessellation_options,
+                        texgen_request,
+                    )?;
+                    append_terms(&mut terms, made.terms);
+                    made.tessellation
+                }
                 None => tessellate(mesh, &oracle, &tessellation_options)?,
             };
             *vertex_budget = vertex_budget.saturating_sub(tessellation.mesh.positions.len());
@@ -700,6 +717,7 @@ impl HybridScene {
                 faces,
                 hull_triangles,
             },
+            terms,
             samples,
             depths,
         })
@@ -767,13 +785,14 @@ impl HybridScene {
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
             let TessellatedLens {
                 mesh,
+                terms,
                 samples,
                 depths: lens_depths,
             } = self.tessellate_lens(
                 (lens_index, lens),
                 &view,
                 options,
-                (&mut vertex_budget, gpu),
+                (&mut vertex_budget, gpu, !vertex_exact),
                 &mut stats,
             )?;
             if vertex_exact {
@@ -786,15 +805,19 @@ impl HybridScene {
                 continue;
             }
             let start = Instant::now();
-            let object = texgen(
-                &self.trace,
-                lens_index,
-                layers,
-                mesh,
-                &samples,
-                &blend,
-                options.precision,
-            );
+            let object = match terms {
+                // Made on the GPU: assembled only.
+                Some(terms) => texgen::lens_object(lens.name.clone(), layers, mesh, terms, &blend),
+                None => texgen(
+                    &self.trace,
+                    lens_index,
+                    layers,
+                    mesh,
+                    &samples,
+                    &blend,
+                    options.precision,
+                ),
+            };
             stats.texgen_ms += start.elapsed().as_secs_f64() * 1e3;
             lenses.push(object);
             depths.push(lens_depths);
@@ -819,6 +842,22 @@ impl HybridScene {
             - stats.texgen_ms)
             .max(0.0);
         Ok((frame, stats, depths))
+    }
+}
+
+/// Appends one scene object's terms (made on the GPU) to its lens object's, vertex after vertex.
+fn append_terms(all: &mut Option<Vec<TermVertices>>, part: Option<Vec<TermVertices>>) {
+    let Some(part) = part else { return };
+    match all {
+        None => *all = Some(part),
+        Some(all) => {
+            for (into, from) in all.iter_mut().zip(part) {
+                into.fg.extend(from.fg);
+                for (layer, directions) in into.directions.iter_mut().zip(from.directions) {
+                    layer.extend(directions);
+                }
+            }
+        }
     }
 }
 
@@ -870,6 +909,9 @@ fn hull_last(triangles: &mut Vec<[u32; 3]>, depths: &mut Vec<u8>, on_hull: &[boo
 /// A lens object tessellated for a frame: its mesh and each vertex's evaluation.
 struct TessellatedLens {
     mesh: LensMesh,
+    /// Per term its F·G and directions per layer, made on the GPU with the mesh (`None`: the
+    /// CPU's texgen makes them).
+    terms: Option<Vec<TermVertices>>,
     /// Per vertex of `mesh`, its ray paths (`None` where it was never evaluated).
     samples: Vec<Option<VertexEvaluation<VertexPaths>>>,
     /// Per triangle of `mesh`, its subdivision depth (saturated at 255).

@@ -194,14 +194,16 @@ impl<'a> PathOracle<'a> {
     }
 
     /// Tessellates `mesh` (this oracle's scene object) on the GPU by this oracle's camera, paths
-    /// and criterion, every vertex traced there (`gpu`'s tessellation passes), and adds the
-    /// rays and the submission's time to its counters.
+    /// and criterion, every vertex traced there (`gpu`'s tessellation passes), with the texture
+    /// coordinates of `texgen`'s layers when asked, and adds the rays and the submission's time
+    /// to its counters.
     pub(crate) fn tessellate_on_gpu(
         &self,
         gpu: GpuPaths<'_>,
         mesh: &crate::scene::TriangleMesh,
         options: &crate::hybrid::tessellate::TessellationOptions,
-    ) -> Result<crate::hybrid::tessellate::Tessellation<VertexPaths>, TessellationError> {
+        texgen: Option<super::gpu::TexgenRequest<'_>>,
+    ) -> Result<super::gpu::GpuTessellation, TessellationError> {
         self.check_holds(gpu)?;
         let settings = self.settings();
         let request = super::gpu::GpuTessellationRequest {
@@ -210,16 +212,17 @@ impl<'a> PathOracle<'a> {
             cos_threshold: self.cos_threshold as f32,
             back_faces: self.evaluates_back_faces(),
             options,
+            texgen,
         };
         let start = std::time::Instant::now();
-        let (tessellation, counters) =
-            gpu.tracer
-                .tessellate(gpu.gpu, (self.object, mesh), &request)?;
+        let made = gpu
+            .tracer
+            .tessellate(gpu.gpu, (self.object, mesh), &request)?;
         if let Ok(mut guard) = self.counters.lock() {
             guard.1 += start.elapsed().as_secs_f64() * 1e3;
-            guard.0 += counters;
+            guard.0 += made.counters;
         }
-        Ok(tessellation)
+        Ok(made)
     }
 
     /// Wall time spent in vertex batches so far, ms.

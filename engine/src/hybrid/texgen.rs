@@ -47,14 +47,8 @@ pub(super) fn texgen(
         faces,
         hull_triangles,
     } = mesh;
-    let has = |wanted: fn(&Interface) -> bool| {
-        trace.lenses[lens]
-            .objects
-            .iter()
-            .any(|&o| trace.interface(o).is_some_and(|i| wanted(&i)))
-    };
     let mut terms = Vec::new();
-    if has(|i| matches!(i, Interface::Dielectric { .. })) {
+    if has_refraction(trace, lens) {
         terms.push(Term::Refraction);
     }
     terms.push(Term::Reflection);
@@ -109,13 +103,46 @@ pub(super) fn texgen(
             }
         })
         .collect();
-    LensObject {
-        name: trace.lenses[lens].name.clone(),
+    let mesh = LensMesh {
         positions,
         triangles,
         faces,
         hull_triangles,
-        terms: term_vertices,
+    };
+    lens_object(
+        trace.lenses[lens].name.clone(),
+        layers,
+        mesh,
+        term_vertices,
+        blend,
+    )
+}
+
+/// Whether lens object `lens` has a refraction term: some object of it is glass.
+pub(super) fn has_refraction(trace: &TraceScene, lens: usize) -> bool {
+    trace.lenses[lens].objects.iter().any(|&o| {
+        trace
+            .interface(o)
+            .is_some_and(|i| matches!(i, Interface::Dielectric { .. }))
+    })
+}
+
+/// The lens object of `mesh` with its terms' vertex data and the layered EMs of the viewpoint
+/// samples `blend` uses.
+pub(super) fn lens_object(
+    name: String,
+    layers: &LensLayers,
+    mesh: LensMesh,
+    terms: Vec<TermVertices>,
+    blend: &ViewpointBlend,
+) -> LensObject {
+    LensObject {
+        name,
+        positions: mesh.positions,
+        triangles: mesh.triangles,
+        faces: mesh.faces,
+        hull_triangles: mesh.hull_triangles,
+        terms,
         layers: blend
             .samples
             .iter()

@@ -21,8 +21,10 @@ use crate::trace::{
 };
 
 mod tessellate;
+mod texgen;
 
-pub use tessellate::{GPU_MAX_DEPTH, GpuTessellationRequest};
+pub use tessellate::{GPU_MAX_DEPTH, GpuTessellation, GpuTessellationRequest};
+pub use texgen::TexgenRequest;
 
 /// Storage buffers bound at set 0 of every tracer pass, in binding order (tracer.wgsl).
 const TRACER_SET: &[Binding] = &[STORAGE; 10];
@@ -98,6 +100,8 @@ pub struct GpuTracer {
     unbound: Buffer,
     /// The tessellation's passes.
     tessellation: tessellate::TessellationPasses,
+    /// The texgen pass.
+    texgen: texgen::TexgenPass,
     /// The parts and triangles of the scene it was made from ([`GpuTracer::holds`]).
     shape: (usize, usize),
     /// What each pass uses and resets: held for the whole pass, so that passes from two threads
@@ -113,6 +117,8 @@ struct PassState {
     scratch: Option<Scratch>,
     /// The tessellation's set comes from this pool.
     tessellation_pool: DescriptorPool,
+    /// The texgen pass's set comes from this pool.
+    texgen_pool: DescriptorPool,
     /// The tessellation's buffers, kept between frames.
     tessellation: Option<tessellate::Scratch>,
     /// Each tessellated scene object's mesh, resident.
@@ -286,8 +292,11 @@ impl GpuTracer {
         let rest = made.and_then(|pipelines| {
             let more = tessellate::TessellationPasses::new(gpu).and_then(|passes| {
                 Ok((
-                    passes,
-                    DescriptorPool::new(gpu, tessellate::TESSELLATE_SET, 1)?,
+                    (passes, texgen::TexgenPass::new(gpu)?),
+                    (
+                        DescriptorPool::new(gpu, tessellate::TESSELLATE_SET, 1)?,
+                        DescriptorPool::new(gpu, texgen::TEXGEN_SET, 1)?,
+                    ),
                     storage(gpu, "tracer unbound", &[0u32; 4])?,
                 ))
             });
@@ -303,7 +312,10 @@ impl GpuTracer {
                 }
             }
         });
-        let ((vertex_paths, level_paths), (tessellation, tessellation_pool, unbound)) = match rest {
+        let (
+            (vertex_paths, level_paths),
+            ((tessellation, texgen), (tessellation_pool, texgen_pool), unbound),
+        ) = match rest {
             Ok(made) => made,
             Err(e) => {
                 // SAFETY: both were created above and nothing uses them yet.
@@ -328,11 +340,13 @@ impl GpuTracer {
             level_paths,
             unbound,
             tessellation,
+            texgen,
             shape: (geometry.roots.len(), geometry.triangle_count()),
             pass: std::sync::Mutex::new(PassState {
                 pool,
                 scratch: None,
                 tessellation_pool,
+                texgen_pool,
                 tessellation: None,
                 meshes: rustc_hash::FxHashMap::default(),
             }),

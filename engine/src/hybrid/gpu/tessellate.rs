@@ -16,9 +16,10 @@
 
 use ash::vk;
 use glam::{Vec2, Vec3};
-use lensmap_shaders::TessellateConstants;
+use lensmap_shaders::{TessellateConstants, TexgenConstants};
 use rustc_hash::FxHashMap;
 
+use super::texgen::{self, TexgenRequest};
 use super::{
     COMPUTE_TO_TRANSFER, Dependency, GpuTracer, PathSettings, STORAGE, TRANSFER_TO_COMPUTE,
     TRANSFER_TO_HOST, WORKGROUP, barrier, decode, storage,
@@ -29,6 +30,7 @@ use crate::hybrid::tessellate::{
     StopReason, Tessellation, TessellationError, TessellationOptions, TessellationStats,
     TriangleRecord, VertexEvaluation, VertexOrigin,
 };
+use crate::render::TermVertices;
 use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
 use crate::scene::TriangleMesh;
 use crate::trace::stats::TraceCounters;
@@ -272,6 +274,8 @@ pub(super) struct Scratch {
     output: Buffer,
     /// The tracer's counters (tracer.wgsl `COUNTER_*`).
     counters: Buffer,
+    /// Texgen's output, the lens pass's data (grown as a request needs).
+    lens_data: Option<Buffer>,
     /// Host copies: the control words and tracer counters, then the mesh (grown as needed).
     readback: Option<Buffer>,
 }
@@ -300,6 +304,7 @@ impl Scratch {
             )?,
             output: device("tessellation output", outputs * OUTPUT_BYTES)?,
             counters: device("tessellation tracer counters", 4 * super::COUNTERS as u64)?,
+            lens_data: None,
             readback: None,
         })
     }
@@ -311,6 +316,20 @@ impl Scratch {
                 >= TRIANGLES_PER_VERTEX * self.vertices_capacity + u64::from(input.triangle_count)
             && self.edges_capacity
                 >= EDGES_PER_VERTEX * self.vertices_capacity + u64::from(input.edge_count)
+    }
+
+    /// Makes the lens data buffer hold at least `bytes`.
+    fn ensure_lens_data(&mut self, gpu: &Gpu, bytes: u64) -> Result<(), GpuError> {
+        if self.lens_data.as_ref().is_none_or(|b| b.size < bytes) {
+            self.lens_data = None;
+            self.lens_data = Some(Buffer::new(
+                gpu,
+                "tessellation lens data",
+                bytes,
+                BufferUsage::Device,
+            )?);
+        }
+        Ok(())
     }
 
     /// A host buffer of at least `bytes`.
@@ -343,6 +362,26 @@ pub struct GpuTessellationRequest<'a> {
     pub back_faces: bool,
     /// t, the depth cap (at most [`GPU_MAX_DEPTH`]) and the vertex budget.
     pub options: &'a TessellationOptions,
+    /// Texture coordinates too, for these layers (in the same submission), or not.
+    pub texgen: Option<TexgenRequest<'a>>,
+}
+
+/// A tessellation made on the GPU, read back.
+pub struct GpuTessellation {
+    /// The mesh, its origins, records and stats, as the CPU tessellator gives them.
+    pub tessellation: Tessellation<VertexPaths>,
+    /// The rays and triangle tests of its vertex paths.
+    pub counters: TraceCounters,
+    /// Per term its F·G and each layer's directions, when texgen was asked for.
+    pub terms: Option<Vec<TermVertices>>,
+}
+
+/// The descriptor pools of a tessellation's sets: the tracer's level pass, the tessellation's
+/// passes, texgen.
+pub(super) struct Pools<'a> {
+    pub(super) tracer: &'a DescriptorPool,
+    pub(super) tessellation: &'a DescriptorPool,
+    pub(super) texgen: &'a DescriptorPool,
 }
 
 /// The largest capacity, in vertices, the device can dispatch and bind: every per-triangle pass
@@ -372,7 +411,7 @@ impl GpuTracer {
         gpu: &Gpu,
         (object, mesh): (usize, &TriangleMesh),
         request: &GpuTessellationRequest<'_>,
-    ) -> Result<(Tessellation<VertexPaths>, TraceCounters), TessellationError> {
+    ) -> Result<GpuTessellation, TessellationError> {
         self.check_device(gpu)?;
         let options = request.options;
         if options.max_depth > GPU_MAX_DEPTH {
@@ -436,18 +475,22 @@ impl GpuTracer {
                     what: "the GPU tessellation".into(),
                     problem: "its buffers were not made".into(),
                 })?;
-            let words = self.run_levels(
-                gpu,
-                (&state.pool, &state.tessellation_pool, scratch, input),
-                request,
-                capacity.min(budget),
-            )?;
+            if let Some(texgen) = &request.texgen {
+                scratch.ensure_lens_data(gpu, capacity * texgen.arrays() * 16)?;
+            }
+            let pools = Pools {
+                tracer: &state.pool,
+                tessellation: &state.tessellation_pool,
+                texgen: &state.texgen_pool,
+            };
+            let words =
+                self.run_levels(gpu, (&pools, scratch, input), request, capacity.min(budget))?;
             if words[control::BUDGET] > 0 && capacity < ceiling {
                 // The buffers, not the budget, stopped the splits: again with larger ones.
                 capacity = (capacity * 4).min(ceiling);
                 continue;
             }
-            return self.read_mesh(gpu, scratch, input, mesh, &words);
+            return self.read_mesh(gpu, (scratch, input, mesh), request.texgen.as_ref(), &words);
         }
     }
 }
@@ -501,11 +544,12 @@ impl GpuTracer {
     fn sets(
         &self,
         gpu: &Gpu,
-        (pool, tessellation_pool): (&DescriptorPool, &DescriptorPool),
+        pools: &Pools<'_>,
         scratch: &Scratch,
         input: &InputMesh,
     ) -> Result<(vk::DescriptorSet, vk::DescriptorSet), GpuError> {
         let passes = &self.tessellation;
+        let (pool, tessellation_pool) = (pools.tracer, pools.tessellation);
         pool.reset()?;
         tessellation_pool.reset()?;
         let tracer_set = pool.allocate(self.set_layout, 1)?[0];
@@ -548,22 +592,56 @@ impl GpuTracer {
         Ok((tracer_set, set))
     }
 
+    /// The texgen pass's set over `scratch` and the request's shells (the buffer it returns holds
+    /// them and must live until the submission is done), and its constants.
+    fn texgen_set(
+        &self,
+        gpu: &Gpu,
+        pool: &DescriptorPool,
+        scratch: &Scratch,
+        (input, request): (&InputMesh, &TexgenRequest<'_>),
+    ) -> Result<(vk::DescriptorSet, Buffer, TexgenConstants), GpuError> {
+        let data = scratch
+            .lens_data
+            .as_ref()
+            .ok_or_else(|| GpuError::BadUpload {
+                what: "the GPU texgen".into(),
+                problem: "its output buffer was not made".into(),
+            })?;
+        let shells = storage(gpu, "texgen shells", &request.shell_words())?;
+        pool.reset()?;
+        let set = pool.allocate(self.texgen.set_layout, 1)?[0];
+        let resources: Vec<Resource> = [
+            &scratch.vertices,
+            &scratch.records,
+            &scratch.wanted,
+            &shells,
+            data,
+            &scratch.control,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect();
+        write_set(gpu, set, texgen::TEXGEN_SET, &resources);
+        let constants = request.constants(input.vertex_count, scratch.vertices_capacity as u32);
+        Ok((set, shells, constants))
+    }
+
     /// Records and runs every level and the T-junction removal in one submission; returns the
     /// control words, then the tracer's three counters.
     fn run_levels(
         &self,
         gpu: &Gpu,
-        (pool, tessellation_pool, scratch, input): (
-            &DescriptorPool,
-            &DescriptorPool,
-            &mut Scratch,
-            &InputMesh,
-        ),
+        (pools, scratch, input): (&Pools<'_>, &mut Scratch, &InputMesh),
         request: &GpuTessellationRequest<'_>,
         vertex_capacity: u64,
     ) -> Result<Vec<u32>, GpuError> {
         let passes = &self.tessellation;
-        let (tracer_set, set) = self.sets(gpu, (pool, tessellation_pool), scratch, input)?;
+        let (tracer_set, set) = self.sets(gpu, pools, scratch, input)?;
+        let texgen = match &request.texgen {
+            Some(texgen) => Some(self.texgen_set(gpu, pools.texgen, scratch, (input, texgen))?),
+            None => None,
+        };
         let camera = request.camera;
         let tracer_constants = self.constants(camera, request.settings);
         let constants = TessellateConstants {
@@ -645,6 +723,31 @@ impl GpuTracer {
                 recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
                 recorder.single("cs_scan_top");
                 recorder.indirect("cs_leaf_emit", control::DISPATCH_ELEMENTS);
+                if let Some((texgen_set, _, texgen_constants)) = &texgen {
+                    let layout = self.texgen.layout;
+                    device.cmd_bind_pipeline(
+                        cb,
+                        vk::PipelineBindPoint::COMPUTE,
+                        self.texgen.pipeline,
+                    );
+                    device.cmd_bind_descriptor_sets(
+                        cb,
+                        vk::PipelineBindPoint::COMPUTE,
+                        layout,
+                        0,
+                        &[*texgen_set],
+                        &[],
+                    );
+                    device.cmd_push_constants(
+                        cb,
+                        layout,
+                        vk::ShaderStageFlags::COMPUTE,
+                        0,
+                        bytemuck::bytes_of(texgen_constants),
+                    );
+                    // Over every vertex: cs_leaves_begin set the trace arguments so.
+                    recorder.dispatch_indirect(control::DISPATCH_TRACE);
+                }
                 barrier(device, cb, COMPUTE_TO_TRANSFER);
                 let words = 4 * control::WORDS as u64;
                 device.cmd_copy_buffer(cb, recorder.control, readback, &[copy(0, 0, words)]);
@@ -672,11 +775,10 @@ impl GpuTracer {
     fn read_mesh(
         &self,
         gpu: &Gpu,
-        scratch: &mut Scratch,
-        input: &InputMesh,
-        mesh: &TriangleMesh,
+        (scratch, input, mesh): (&mut Scratch, &InputMesh, &TriangleMesh),
+        texgen: Option<&TexgenRequest<'_>>,
         words: &[u32],
-    ) -> Result<(Tessellation<VertexPaths>, TraceCounters), TessellationError> {
+    ) -> Result<GpuTessellation, TessellationError> {
         let vertex_count = u64::from(words[control::VERTICES]);
         let triangle_count = u64::from(words[control::LEVEL_HI]);
         let output_count = u64::from(words[control::OUTPUT]);
@@ -692,17 +794,23 @@ impl GpuTracer {
             .into());
         }
         let n_in = u64::from(input.vertex_count);
-        // (source, offset in the readback, bytes)
-        let parts = [
-            (scratch.vertices.handle, vertex_count * VERTEX_BYTES),
-            (scratch.records.handle, vertex_count * RECORD_BYTES),
-            (scratch.wanted.handle, 4 * n_in),
-            (scratch.triangles.handle, triangle_count * TRIANGLE_BYTES),
-            (scratch.output.handle, output_count * OUTPUT_BYTES),
+        // (source, offset in it, bytes): the mesh, then each array of the lens data.
+        let mut parts = vec![
+            (scratch.vertices.handle, 0, vertex_count * VERTEX_BYTES),
+            (scratch.records.handle, 0, vertex_count * RECORD_BYTES),
+            (scratch.wanted.handle, 0, 4 * n_in),
+            (scratch.triangles.handle, 0, triangle_count * TRIANGLE_BYTES),
+            (scratch.output.handle, 0, output_count * OUTPUT_BYTES),
         ];
+        if let (Some(texgen), Some(data)) = (texgen, &scratch.lens_data) {
+            let stride = 16 * scratch.vertices_capacity;
+            for array in 0..texgen.arrays() {
+                parts.push((data.handle, array * stride, 16 * vertex_count));
+            }
+        }
         let mut offsets = Vec::with_capacity(parts.len());
         let mut total = 0u64;
-        for &(_, bytes) in &parts {
+        for &(_, _, bytes) in &parts {
             offsets.push(total);
             total += bytes.next_multiple_of(16);
         }
@@ -712,9 +820,9 @@ impl GpuTracer {
             // SAFETY: the passes finished (the last submission was waited for); the copies
             // stay within both buffers.
             unsafe {
-                for (&(source, bytes), &offset) in parts.iter().zip(&offsets) {
+                for (&(source, from, bytes), &offset) in parts.iter().zip(&offsets) {
                     if bytes > 0 {
-                        device.cmd_copy_buffer(cb, source, readback, &[copy(0, offset, bytes)]);
+                        device.cmd_copy_buffer(cb, source, readback, &[copy(from, offset, bytes)]);
                     }
                 }
                 barrier(device, cb, TRANSFER_TO_HOST);
@@ -727,7 +835,7 @@ impl GpuTracer {
             .map(|b| b.read())
             .unwrap_or_default();
         let slice = |i: usize| -> &[u32] {
-            bytemuck::cast_slice(&bytes[offsets[i] as usize..(offsets[i] + parts[i].1) as usize])
+            bytemuck::cast_slice(&bytes[offsets[i] as usize..(offsets[i] + parts[i].2) as usize])
         };
         let (vertex_words, record_words, wanted, triangles, output) =
             (slice(0), slice(1), slice(2), slice(3), slice(4));
@@ -749,7 +857,17 @@ impl GpuTracer {
             words,
             &counters,
         );
-        Ok((tessellation, counters))
+        let terms = texgen.map(|request| {
+            let arrays: Vec<&[[f32; 4]]> = (5..parts.len())
+                .map(|i| bytemuck::cast_slice(slice(i)))
+                .collect();
+            texgen::term_vertices(request, &arrays)
+        });
+        Ok(GpuTessellation {
+            tessellation,
+            counters,
+            terms,
+        })
     }
 }
 

@@ -73,7 +73,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let format = TargetFormat::from(args.format);
     runner.check_framebuffer(&camera, format)?;
     let with_table = args.fresnel != FresnelModel::Exact;
-    let mut steps = Steps::new(if with_table { 7 } else { 6 });
+    let mut steps = Steps::new(if with_table { 8 } else { 7 });
     let step = steps.step("projected layered EMs and light maps");
     let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
@@ -142,6 +142,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         [("cpu", &cpu), ("gpu", &gpu)],
         &mut steps,
     )?;
+    let gpu_stages = bench.gpu_stages(&mut runner, &gpu, &mut steps)?;
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
@@ -150,7 +151,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,
         "fresnel": args.fresnel.name(), "fresnel_against_exact": fresnel,
         "tracer": args.tracer.name(), "traced_on_gpu": hybrid_options.tracer.on_gpu(runner.gpu()),
-        "cpu_against_gpu_tracer": tracers,
+        "cpu_against_gpu_tracer": tracers, "gpu_stages": gpu_stages,
     });
     report(&out, args.report.as_deref())?;
     Ok(())
@@ -384,6 +385,55 @@ impl Bench<'_> {
 type Part = fn(&(f64, f64)) -> f64;
 
 impl Bench<'_> {
+    /// Frames traced on the GPU with their stages timed by the device's timestamps, each built
+    /// from scratch after a warm-up: medians of the trace passes, the split passes, texgen, the
+    /// rest of the tessellation (submission, read-back, the mesh rebuilt on the CPU) and the
+    /// frame. The timestamps slow the frames down, so these are a split, not the frame time.
+    fn gpu_stages(
+        &self,
+        runner: &mut FrameRunner,
+        options: &FrameOptions,
+        steps: &mut Steps,
+    ) -> anyhow::Result<serde_json::Value> {
+        let step = steps.step("GPU stages by the device's timestamps");
+        runner.time_gpu_stages(true);
+        let mut frames = Vec::new();
+        let mut timed = || -> anyhow::Result<()> {
+            for i in 0..=self.frames {
+                self.hybrid.forget_frame();
+                let frame = runner.frame(self.hybrid, &self.camera, options)?;
+                if i > 0 {
+                    frames.push((frame.stats, frame.total_ms));
+                }
+            }
+            Ok(())
+        };
+        let result = timed();
+        runner.time_gpu_stages(false);
+        result?;
+        step.finish_and_clear();
+        if frames.iter().any(|(stats, _)| stats.gpu_split_ms.is_none()) {
+            say!("GPU stages: not timed (the device's queue has no timestamps)");
+            return Ok(serde_json::Value::Null);
+        }
+        let median_of = |part: &dyn Fn(&(lensmap::hybrid::HybridStats, f64)) -> f64| {
+            median(&mut frames.iter().map(part).collect::<Vec<_>>())
+        };
+        let trace = median_of(&|f| f.0.trace_ms);
+        let split = median_of(&|f| f.0.gpu_split_ms.unwrap_or_default());
+        let texgen = median_of(&|f| f.0.texgen_ms);
+        let rest = median_of(&|f| f.0.tessellation_ms);
+        let total = median_of(&|f| f.1);
+        say!(
+            "GPU stages by the device's timestamps, {} frames: trace passes {trace:.2} ms, split and T-junction passes {split:.2} ms, texgen {texgen:.2} ms (pass and assembly), the rest of the tessellation (split passes, submission, read-back, mesh rebuilt on the CPU) {rest:.2} ms; frame {total:.2} ms, slowed by the timestamps (medians)",
+            self.frames
+        );
+        Ok(json!({
+            "trace_ms": trace, "split_ms": split, "texgen_ms": texgen,
+            "tessellation_rest_ms": rest, "total_ms": total, "frames": self.frames,
+        }))
+    }
+
     /// Two settings `(label, options)`, each frame built from scratch, alternating (A B B A …,
     /// so neither always runs first) after a warm-up of each: medians of the vertex tracing and
     /// of the whole frame per setting, and the medians of the paired differences (second −

@@ -310,6 +310,12 @@ pub struct HybridStats {
     pub hull_triangles: usize,
     /// Whether the lens vertices were traced on the GPU ([`HybridOptions::tracer`]).
     pub traced_on_gpu: bool,
+    /// With the GPU tracer [timing its stages](crate::hybrid::gpu::GpuTracer::time_stages): the
+    /// device time of the tessellation's split passes and T-junction removal, summed over the
+    /// lens objects (`trace_ms` and `texgen_ms` are then the device time of those passes, and
+    /// `tessellation_ms` the rest: these passes, the submission, the read-back and rebuilding
+    /// the mesh on the CPU). `None` otherwise.
+    pub gpu_split_ms: Option<f64>,
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
     pub reused: bool,
@@ -652,6 +658,8 @@ impl HybridScene {
             let start = Instant::now();
             tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
             // On the GPU the whole tessellation runs there, every level's records kept on it.
+            // The texgen pass's device time, when the GPU made the terms with the mesh.
+            let mut texgen_ms = 0.0;
             let tessellation = match gpu {
                 Some(gpu) => {
                     let made = oracle.tessellate_on_gpu(
@@ -660,6 +668,10 @@ impl HybridScene {
                         &tessellation_options,
                         texgen_request,
                     )?;
+                    texgen_ms = made.stage_ms.map_or(0.0, |stages| stages.texgen);
+                    if let Some(stages) = made.stage_ms {
+                        *stats.gpu_split_ms.get_or_insert(0.0) += stages.tessellation;
+                    }
                     append_terms(&mut terms, made.terms);
                     made.tessellation
                 }
@@ -672,7 +684,8 @@ impl HybridScene {
             // The oracle's batches run inside tessellate(); their share is ray tracing.
             let traced_ms = oracle.traced_ms();
             stats.trace_ms += traced_ms;
-            stats.tessellation_ms += (elapsed - traced_ms).max(0.0);
+            stats.texgen_ms += texgen_ms;
+            stats.tessellation_ms += (elapsed - traced_ms - texgen_ms).max(0.0);
             stats.counters += counters;
             stats.triangles_in += mesh.triangles.len();
             stats.triangles_out += tessellation.mesh.triangles.len();

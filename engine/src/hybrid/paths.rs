@@ -214,12 +214,15 @@ impl<'a> PathOracle<'a> {
             options,
             texgen,
         };
-        let start = std::time::Instant::now();
         let made = gpu
             .tracer
             .tessellate(gpu.gpu, (self.object, mesh), &request)?;
         if let Ok(mut guard) = self.counters.lock() {
-            guard.1 += start.elapsed().as_secs_f64() * 1e3;
+            // The trace passes' device time when timed, else the submission's wall time (every
+            // pass, the split passes too; the read-back and the mesh's rebuilding are not in it).
+            guard.1 += made
+                .stage_ms
+                .map_or(made.submission_ms, |stages| stages.trace);
             guard.0 += made.counters;
         }
         Ok(made)

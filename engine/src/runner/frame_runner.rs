@@ -84,6 +84,8 @@ pub struct FrameRunner {
     slots: Vec<Slot>,
     /// The last scene's geometry resident on the device, for frames traced on the GPU.
     tracer: Option<ResidentTracer>,
+    /// Whether GPU-traced frames time their stages ([`FrameRunner::time_gpu_stages`]).
+    time_gpu_stages: bool,
     /// The slot the last frame went to.
     last_slot: usize,
     renderer: Renderer,
@@ -135,6 +137,7 @@ impl FrameRunner {
         Ok(FrameRunner {
             slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
             tracer: None,
+            time_gpu_stages: false,
             last_slot: 0,
             renderer,
             gpu,
@@ -358,6 +361,13 @@ impl FrameRunner {
         })
     }
 
+    /// Whether the frames traced on the GPU time their stages by the device's timestamps
+    /// ([`HybridStats::gpu_split_ms`](crate::hybrid::HybridStats::gpu_split_ms)); off by
+    /// default, since the timestamps slow lavapipe's frames down.
+    pub fn time_gpu_stages(&mut self, on: bool) {
+        self.time_gpu_stages = on;
+    }
+
     /// Makes `hybrid`'s geometry resident on the device for `fresnel`: the copy kept from the
     /// last frame when it is the same scene and model, else uploaded now (once per scene). An
     /// error when the device cannot take it (now or on an earlier try).
@@ -380,6 +390,9 @@ impl FrameRunner {
                 fresnel,
                 tracer,
             });
+        }
+        if let Some(Ok(tracer)) = self.tracer.as_ref().map(|t| &t.tracer) {
+            tracer.time_stages(self.time_gpu_stages);
         }
         match self.tracer.as_ref().map(|t| &t.tracer) {
             Some(Err(problem)) => Err(RenderError::from(GpuError::BadUpload {

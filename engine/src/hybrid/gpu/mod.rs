@@ -20,10 +20,12 @@ use crate::trace::{
     world::TraceScene,
 };
 
+mod assemble;
+mod recorder;
 mod tessellate;
 mod texgen;
 
-pub use tessellate::{GPU_MAX_DEPTH, GpuTessellation, GpuTessellationRequest};
+pub use tessellate::{GPU_MAX_DEPTH, GpuStageMs, GpuTessellation, GpuTessellationRequest};
 pub use texgen::TexgenRequest;
 
 /// Storage buffers bound at set 0 of every tracer pass, in binding order (tracer.wgsl).
@@ -102,6 +104,10 @@ pub struct GpuTracer {
     tessellation: tessellate::TessellationPasses,
     /// The texgen pass.
     texgen: texgen::TexgenPass,
+    /// Valid bits of the queue's timestamps (0: none; the GPU stages are then not timed).
+    timestamp_bits: u32,
+    /// Whether tessellations time their stages with timestamps ([`GpuTracer::time_stages`]).
+    timed: std::sync::atomic::AtomicBool,
     /// The parts and triangles of the scene it was made from ([`GpuTracer::holds`]).
     shape: (usize, usize),
     /// What each pass uses and resets: held for the whole pass, so that passes from two threads
@@ -184,6 +190,20 @@ impl Drop for GpuTracer {
                 .destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
+}
+
+/// Valid bits of the timestamps of `gpu`'s queue.
+fn timestamp_bits(gpu: &Gpu) -> u32 {
+    let vulkan = gpu.vulkan();
+    // SAFETY: the physical device belongs to the instance.
+    let families = unsafe {
+        vulkan
+            .instance
+            .get_physical_device_queue_family_properties(vulkan.physical_device)
+    };
+    families
+        .get(vulkan.queue_family as usize)
+        .map_or(0, |family| family.timestamp_valid_bits)
 }
 
 /// Refuses geometry the tracer's passes cannot walk whole: a BVH deeper than the traversal stack
@@ -341,6 +361,8 @@ impl GpuTracer {
             unbound,
             tessellation,
             texgen,
+            timestamp_bits: timestamp_bits(gpu),
+            timed: std::sync::atomic::AtomicBool::new(false),
             shape: (geometry.roots.len(), geometry.triangle_count()),
             pass: std::sync::Mutex::new(PassState {
                 pool,
@@ -391,6 +413,13 @@ impl GpuTracer {
             counters += spent;
         }
         Ok((traced, counters))
+    }
+
+    /// Whether its tessellations time their stages by the device's timestamps
+    /// ([`GpuTessellation::stage_ms`]). Off by default: a timestamp waits for everything before
+    /// it, which on lavapipe costs the frame tens of milliseconds.
+    pub fn time_stages(&self, on: bool) {
+        self.timed.store(on, std::sync::atomic::Ordering::Relaxed);
     }
 
     /// Refuses a device other than the one the tracer was made on.

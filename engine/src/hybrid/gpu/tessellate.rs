@@ -15,21 +15,19 @@
 //! as on the CPU ([`StopReason::Budget`]).
 
 use ash::vk;
-use glam::{Vec2, Vec3};
 use lensmap_shaders::{TessellateConstants, TexgenConstants};
 use rustc_hash::FxHashMap;
 
+use super::assemble::{Readback, assemble};
+use super::recorder::{Recorder, Timestamps};
 use super::texgen::{self, TexgenRequest};
 use super::{
-    COMPUTE_TO_TRANSFER, Dependency, GpuTracer, PathSettings, STORAGE, TRANSFER_TO_COMPUTE,
-    TRANSFER_TO_HOST, WORKGROUP, barrier, decode, storage,
+    COMPUTE_TO_TRANSFER, GpuTracer, PathSettings, STORAGE, TRANSFER_TO_COMPUTE, TRANSFER_TO_HOST,
+    WORKGROUP, barrier, storage,
 };
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
 use crate::hybrid::paths::{ScreenCamera, VertexPaths};
-use crate::hybrid::tessellate::{
-    StopReason, Tessellation, TessellationError, TessellationOptions, TessellationStats,
-    TriangleRecord, VertexEvaluation, VertexOrigin,
-};
+use crate::hybrid::tessellate::{Tessellation, TessellationError, TessellationOptions};
 use crate::render::TermVertices;
 use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
 use crate::scene::TriangleMesh;
@@ -47,7 +45,7 @@ const NONE: u32 = u32::MAX;
 
 /// Control words (tessellate.wgsl `CONTROL_*`, `STAT_*`).
 /// (LEVEL_LO, 0, and VERTEX_LO, 3, start at 0.)
-mod control {
+pub(super) mod control {
     pub const LEVEL_HI: usize = 1;
     pub const NEXT_HI: usize = 2;
     pub const VERTEX_HI: usize = 4;
@@ -113,7 +111,7 @@ const PASSES: [&str; 12] = [
 ];
 
 /// Index of `name` in [`PASSES`] (a typo fails the tests, which run every pass).
-fn pass(name: &str) -> usize {
+pub(super) fn pass(name: &str) -> usize {
     PASSES.iter().position(|&p| p == name).unwrap_or(0)
 }
 
@@ -121,8 +119,8 @@ fn pass(name: &str) -> usize {
 pub(super) struct TessellationPasses {
     device: ash::Device,
     set_layout: vk::DescriptorSetLayout,
-    layout: vk::PipelineLayout,
-    pipelines: Vec<vk::Pipeline>,
+    pub(super) layout: vk::PipelineLayout,
+    pub(super) pipelines: Vec<vk::Pipeline>,
 }
 
 impl Drop for TessellationPasses {
@@ -366,8 +364,25 @@ pub struct GpuTessellationRequest<'a> {
     pub texgen: Option<TexgenRequest<'a>>,
 }
 
+/// Where a GPU tessellation's time went on the device, by timestamps, ms.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct GpuStageMs {
+    /// The levels' vertex-path passes.
+    pub trace: f64,
+    /// The levels' split passes and the T-junction removal.
+    pub tessellation: f64,
+    /// The texgen pass.
+    pub texgen: f64,
+}
+
 /// A tessellation made on the GPU, read back.
 pub struct GpuTessellation {
+    /// Wall time of its main submission (every pass, recorded, run and waited for), ms: all but
+    /// the read-back and rebuilding the mesh on the CPU.
+    pub submission_ms: f64,
+    /// Its stages' device time (`None` unless the tracer [times them](GpuTracer::time_stages)
+    /// and the queue has timestamps).
+    pub stage_ms: Option<GpuStageMs>,
     /// The mesh, its origins, records and stats, as the CPU tessellator gives them.
     pub tessellation: Tessellation<VertexPaths>,
     /// The rays and triangle tests of its vertex paths.
@@ -483,33 +498,48 @@ impl GpuTracer {
                 tessellation: &state.tessellation_pool,
                 texgen: &state.texgen_pool,
             };
-            let words =
+            let start = std::time::Instant::now();
+            let (words, stage_ms) =
                 self.run_levels(gpu, (&pools, scratch, input), request, capacity.min(budget))?;
+            let submission_ms = start.elapsed().as_secs_f64() * 1e3;
             if words[control::BUDGET] > 0 && capacity < ceiling {
                 // The buffers, not the budget, stopped the splits: again with larger ones.
                 capacity = (capacity * 4).min(ceiling);
                 continue;
             }
-            return self.read_mesh(gpu, (scratch, input, mesh), request.texgen.as_ref(), &words);
+            let mut made =
+                self.read_mesh(gpu, (scratch, input, mesh), request.texgen.as_ref(), &words)?;
+            made.stage_ms = stage_ms;
+            made.submission_ms = submission_ms;
+            return Ok(made);
         }
     }
 }
 
-/// A compute → compute (and indirect-argument) dependency: every pass reads what the one before
-/// wrote, and the dispatch sizes it wrote.
-const COMPUTE_TO_COMPUTE: Dependency = (
-    vk::PipelineStageFlags2::COMPUTE_SHADER,
-    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-    vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw()
-            | vk::PipelineStageFlags2::DRAW_INDIRECT.as_raw(),
-    ),
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
-            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw()
-            | vk::AccessFlags2::INDIRECT_COMMAND_READ.as_raw(),
-    ),
-);
+/// The tessellation passes' constants for `request` over `scratch` and `input`.
+fn tessellate_constants(
+    request: &GpuTessellationRequest<'_>,
+    scratch: &Scratch,
+    input: &InputMesh,
+    vertex_capacity: u64,
+) -> TessellateConstants {
+    let camera = request.camera;
+    TessellateConstants {
+        view_proj: camera.view_proj.to_cols_array_2d(),
+        eye: camera.eye.as_vec3().to_array(),
+        t: request.options.t,
+        cos_threshold: request.cos_threshold,
+        max_depth: request.options.max_depth,
+        vertex_capacity: vertex_capacity as u32,
+        edge_capacity: scratch.edges_capacity as u32,
+        triangle_capacity: scratch.triangles_capacity as u32,
+        input_vertices: input.vertex_count,
+        input_triangles: input.triangle_count,
+        base_edges: input.edge_count,
+        back_faces: u32::from(request.back_faces),
+        ..bytemuck::Zeroable::zeroed()
+    }
+}
 
 /// The control words a frame starts from: level 0 is the input triangles, its vertices the
 /// input vertices.
@@ -635,31 +665,22 @@ impl GpuTracer {
         (pools, scratch, input): (&Pools<'_>, &mut Scratch, &InputMesh),
         request: &GpuTessellationRequest<'_>,
         vertex_capacity: u64,
-    ) -> Result<Vec<u32>, GpuError> {
+    ) -> Result<(Vec<u32>, Option<GpuStageMs>), GpuError> {
         let passes = &self.tessellation;
         let (tracer_set, set) = self.sets(gpu, pools, scratch, input)?;
         let texgen = match &request.texgen {
             Some(texgen) => Some(self.texgen_set(gpu, pools.texgen, scratch, (input, texgen))?),
             None => None,
         };
-        let camera = request.camera;
-        let tracer_constants = self.constants(camera, request.settings);
-        let constants = TessellateConstants {
-            view_proj: camera.view_proj.to_cols_array_2d(),
-            eye: camera.eye.as_vec3().to_array(),
-            t: request.options.t,
-            cos_threshold: request.cos_threshold,
-            max_depth: request.options.max_depth,
-            vertex_capacity: vertex_capacity as u32,
-            edge_capacity: scratch.edges_capacity as u32,
-            triangle_capacity: scratch.triangles_capacity as u32,
-            input_vertices: input.vertex_count,
-            input_triangles: input.triangle_count,
-            base_edges: input.edge_count,
-            back_faces: u32::from(request.back_faces),
-            ..bytemuck::Zeroable::zeroed()
-        };
+        let tracer_constants = self.constants(request.camera, request.settings);
+        let constants = tessellate_constants(request, scratch, input, vertex_capacity);
         let first = first_control(input);
+        let levels = request.options.max_depth + 1;
+        let timed = self.timed.load(std::sync::atomic::Ordering::Relaxed);
+        let timestamps = match self.timestamp_bits {
+            bits if bits > 0 && timed => Some(Timestamps::new(gpu, levels)?),
+            _ => None,
+        };
         let readback = scratch
             .readback(gpu, 4 * (control::WORDS as u64 + 4))?
             .handle;
@@ -673,6 +694,7 @@ impl GpuTracer {
                 set,
                 constants: &constants,
                 control: scratch.control.handle,
+                timestamps: timestamps.as_ref(),
             };
             // SAFETY: every handle is live until the wait returns; a barrier separates every
             // pass from the next, and the copies from the passes.
@@ -686,11 +708,15 @@ impl GpuTracer {
                     0,
                 );
                 device.cmd_fill_buffer(cb, scratch.counters.handle, 0, vk::WHOLE_SIZE, 0);
+                if let Some(timestamps) = &timestamps {
+                    device.cmd_reset_query_pool(cb, timestamps.pool, 0, 4 * levels + 4);
+                }
                 barrier(device, cb, TRANSFER_TO_COMPUTE);
                 recorder.groups("cs_begin", input.vertex_count.max(input.edge_count));
                 recorder.groups("cs_classify", input.triangle_count);
-                for _level in 0..=request.options.max_depth {
+                for level in 0..levels {
                     // The level's new vertices, by the tracer's pass (its own layout and set).
+                    recorder.stamp(4 * level);
                     device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.level_paths);
                     device.cmd_bind_descriptor_sets(
                         cb,
@@ -708,6 +734,8 @@ impl GpuTracer {
                         bytemuck::bytes_of(&tracer_constants),
                     );
                     recorder.dispatch_indirect(control::DISPATCH_TRACE);
+                    recorder.stamp(4 * level + 1);
+                    recorder.stamp(4 * level + 2);
                     for name in ["cs_decide", "cs_count"] {
                         recorder.indirect(name, control::DISPATCH_ELEMENTS);
                     }
@@ -717,12 +745,16 @@ impl GpuTracer {
                         recorder.indirect(name, control::DISPATCH_ELEMENTS);
                     }
                     recorder.single("cs_advance");
+                    recorder.stamp(4 * level + 3);
                 }
+                recorder.stamp(4 * levels);
                 recorder.single("cs_leaves_begin");
                 recorder.indirect("cs_leaf_count", control::DISPATCH_ELEMENTS);
                 recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
                 recorder.single("cs_scan_top");
                 recorder.indirect("cs_leaf_emit", control::DISPATCH_ELEMENTS);
+                recorder.stamp(4 * levels + 1);
+                recorder.stamp(4 * levels + 2);
                 if let Some((texgen_set, _, texgen_constants)) = &texgen {
                     let layout = self.texgen.layout;
                     device.cmd_bind_pipeline(
@@ -748,6 +780,7 @@ impl GpuTracer {
                     // Over every vertex: cs_leaves_begin set the trace arguments so.
                     recorder.dispatch_indirect(control::DISPATCH_TRACE);
                 }
+                recorder.stamp(4 * levels + 3);
                 barrier(device, cb, COMPUTE_TO_TRANSFER);
                 let words = 4 * control::WORDS as u64;
                 device.cmd_copy_buffer(cb, recorder.control, readback, &[copy(0, 0, words)]);
@@ -767,7 +800,12 @@ impl GpuTracer {
             .map(|b| b.read())
             .unwrap_or_default();
         let words: &[u32] = bytemuck::cast_slice(&bytes[..4 * (control::WORDS + super::COUNTERS)]);
-        Ok(words.to_vec())
+        let period = gpu.properties().limits.timestamp_period;
+        let stage_ms = match &timestamps {
+            Some(timestamps) => Some(timestamps.read(self.timestamp_bits, period)?),
+            None => None,
+        };
+        Ok((words.to_vec(), stage_ms))
     }
 
     /// Reads the finished mesh back (a second, short submission: the sizes are known now) and
@@ -864,106 +902,12 @@ impl GpuTracer {
             texgen::term_vertices(request, &arrays)
         });
         Ok(GpuTessellation {
+            submission_ms: 0.0,
+            stage_ms: None,
             tessellation,
             counters,
             terms,
         })
-    }
-}
-
-/// Records the tessellation's passes into one command buffer.
-struct Recorder<'a> {
-    device: &'a ash::Device,
-    cb: vk::CommandBuffer,
-    passes: &'a TessellationPasses,
-    set: vk::DescriptorSet,
-    constants: &'a TessellateConstants,
-    control: vk::Buffer,
-}
-
-impl Recorder<'_> {
-    /// Binds pass `name` with the tessellation's set and constants (bound again each time: the
-    /// tracer's pass between levels has another layout).
-    ///
-    /// # Safety
-    /// `cb` is recording.
-    unsafe fn bind(&self, name: &str) {
-        let (device, cb, layout) = (self.device, self.cb, self.passes.layout);
-        // SAFETY: the caller says `cb` is recording; the pipeline, set and layout are live.
-        unsafe {
-            device.cmd_bind_pipeline(
-                cb,
-                vk::PipelineBindPoint::COMPUTE,
-                self.passes.pipelines[pass(name)],
-            );
-            device.cmd_bind_descriptor_sets(
-                cb,
-                vk::PipelineBindPoint::COMPUTE,
-                layout,
-                0,
-                &[self.set],
-                &[],
-            );
-            device.cmd_push_constants(
-                cb,
-                layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::bytes_of(self.constants),
-            );
-        }
-    }
-
-    /// Dispatches the bound pass with the arguments at control word `word`, then a barrier.
-    ///
-    /// # Safety
-    /// `cb` is recording and a compute pipeline is bound.
-    unsafe fn dispatch_indirect(&self, word: usize) {
-        // SAFETY: as the caller says; the control buffer holds the arguments.
-        unsafe {
-            self.device
-                .cmd_dispatch_indirect(self.cb, self.control, 4 * word as u64);
-            barrier(self.device, self.cb, COMPUTE_TO_COMPUTE);
-        }
-    }
-
-    /// Pass `name` over the elements counted at control word `word`.
-    ///
-    /// # Safety
-    /// `cb` is recording.
-    unsafe fn indirect(&self, name: &str, word: usize) {
-        // SAFETY: as the caller says.
-        unsafe {
-            self.bind(name);
-            self.dispatch_indirect(word);
-        }
-    }
-
-    /// Pass `name` over `n` elements (a count known when recording).
-    ///
-    /// # Safety
-    /// `cb` is recording.
-    unsafe fn groups(&self, name: &str, n: u32) {
-        // SAFETY: as the caller says.
-        unsafe {
-            self.bind(name);
-            self.device
-                .cmd_dispatch(self.cb, n.div_ceil(WORKGROUP), 1, 1);
-            barrier(self.device, self.cb, COMPUTE_TO_COMPUTE);
-        }
-    }
-
-    /// Pass `name` in one invocation.
-    ///
-    /// # Safety
-    /// `cb` is recording.
-    unsafe fn single(&self, name: &str) {
-        // SAFETY: as the caller says.
-        unsafe {
-            self.bind(name);
-            self.device.cmd_dispatch(self.cb, 1, 1, 1);
-            barrier(self.device, self.cb, COMPUTE_TO_COMPUTE);
-        }
     }
 }
 
@@ -973,131 +917,5 @@ fn copy(src_offset: u64, dst_offset: u64, size: u64) -> vk::BufferCopy {
         src_offset,
         dst_offset,
         size,
-    }
-}
-
-/// The GPU's buffers as read back, as words.
-struct Readback<'a> {
-    vertices: &'a [u32],
-    records: &'a [u32],
-    wanted: &'a [u32],
-    triangles: &'a [u32],
-    output: &'a [u32],
-}
-
-/// The stop reason of a state word (tessellate.wgsl `STOP_*`).
-fn stop_reason(state: u32) -> StopReason {
-    match state & 15 {
-        1 => StopReason::BackFacing,
-        2 => StopReason::Degenerate,
-        3 => StopReason::Occluded,
-        4 => StopReason::OffScreen,
-        6 => StopReason::Small,
-        7 => StopReason::MaxDepth,
-        8 => StopReason::Budget,
-        _ => StopReason::Similar,
-    }
-}
-
-/// The CPU tessellator's result from the GPU's buffers.
-fn assemble(
-    mesh: &TriangleMesh,
-    read: Readback<'_>,
-    words: &[u32],
-    counters: &TraceCounters,
-) -> Tessellation<VertexPaths> {
-    let n_in = mesh.positions.len();
-    let vertex_count = read.vertices.len() / 8;
-    let f = |w: u32| f32::from_bits(w);
-    let mut positions = Vec::with_capacity(vertex_count);
-    let mut normals = Vec::with_capacity(vertex_count);
-    let mut origins = Vec::with_capacity(vertex_count);
-    for (i, v) in read.vertices.chunks_exact(8).enumerate() {
-        positions.push(Vec3::new(f(v[0]), f(v[1]), f(v[2])));
-        normals.push(Vec3::new(f(v[4]), f(v[5]), f(v[6])));
-        origins.push(if i < n_in {
-            VertexOrigin::Input(i as u32)
-        } else {
-            VertexOrigin::Midpoint([v[3], v[7]])
-        });
-    }
-    let mut uvs = Vec::new();
-    if mesh.uvs.len() == n_in && n_in > 0 {
-        uvs.extend_from_slice(&mesh.uvs);
-        for origin in &origins[n_in..] {
-            // A midpoint's ends come before it, so their uvs are there.
-            let uv = match *origin {
-                VertexOrigin::Midpoint([lo, hi]) => {
-                    (uvs.get(lo as usize).copied().unwrap_or(Vec2::ZERO)
-                        + uvs.get(hi as usize).copied().unwrap_or(Vec2::ZERO))
-                        * 0.5
-                }
-                VertexOrigin::Input(i) => mesh.uvs[i as usize],
-            };
-            uvs.push(uv);
-        }
-    }
-    let record_words = (RECORD_BYTES / 4) as usize;
-    let evaluations = read
-        .records
-        .chunks_exact(record_words)
-        .enumerate()
-        .map(|(i, record)| {
-            let traced = i >= n_in || read.wanted.get(i).is_some_and(|&w| w != 0);
-            traced.then(|| {
-                let vertex = decode(record);
-                VertexEvaluation {
-                    sample: vertex.paths,
-                    visible: vertex.visible,
-                }
-            })
-        })
-        .collect();
-    let leaf = |t: u32| {
-        let at = 8 * t as usize;
-        let head = &read.triangles[at..at + 4];
-        let state = read.triangles[at + 7];
-        TriangleRecord {
-            source: head[3],
-            leaf: [head[0], head[1], head[2]],
-            depth: state >> 8,
-            stop: stop_reason(state),
-        }
-    };
-    let (triangles, records): (Vec<[u32; 3]>, Vec<TriangleRecord>) = read
-        .output
-        .chunks_exact(4)
-        .map(|o| ([o[0], o[1], o[2]], leaf(o[3])))
-        .unzip();
-    let stats = TessellationStats {
-        input_triangles: mesh.triangles.len(),
-        front_facing_triangles: words[control::FRONT] as usize,
-        back_facing_triangles: words[control::BACK] as usize,
-        output_triangles: triangles.len(),
-        output_vertices: vertex_count,
-        vertices_evaluated: counters.primary_rays as usize,
-        midpoints_created: words[control::CREATED] as usize,
-        midpoints_reused: words[control::REQUESTS].saturating_sub(words[control::CREATED]) as usize,
-        splits_1_to_2: words[control::SPLITS] as usize,
-        splits_1_to_3: words[control::SPLITS + 1] as usize,
-        splits_1_to_4: words[control::SPLITS + 2] as usize,
-        max_depth_reached: words[control::MAX_DEPTH_REACHED],
-        stopped_at_max_depth: words[control::AT_MAX_DEPTH] as usize,
-        stopped_by_budget: words[control::BUDGET] as usize,
-        occluded_leaves: words[control::OCCLUDED] as usize,
-        t_junction_leaves: words[control::T_JUNCTION_LEAVES] as usize,
-        t_junction_vertices: words[control::T_JUNCTION_VERTICES] as usize,
-    };
-    Tessellation {
-        mesh: TriangleMesh {
-            positions,
-            normals,
-            uvs,
-            triangles,
-        },
-        origins,
-        evaluations,
-        triangles: records,
-        stats,
     }
 }

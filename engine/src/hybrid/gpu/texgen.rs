@@ -64,7 +64,6 @@ impl TexgenRequest<'_> {
             stride,
             layer_count: self.shells.len() as u32,
             refraction: u32::from(self.refraction),
-            ..bytemuck::Zeroable::zeroed()
         }
     }
 }

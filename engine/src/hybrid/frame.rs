@@ -657,8 +657,8 @@ impl HybridScene {
             .with_gpu(gpu);
             let start = Instant::now();
             tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
-            // On the GPU the whole tessellation runs there, every level's records kept on it.
-            // The texgen pass's device time, when the GPU made the terms with the mesh.
+            // On the GPU the whole tessellation runs there, every level's records kept on it,
+            // and texgen with it; `texgen_ms` is that pass's device time when it is timed.
             let mut texgen_ms = 0.0;
             let tessellation = match gpu {
                 Some(gpu) => {

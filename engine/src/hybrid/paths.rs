@@ -345,7 +345,6 @@ impl PathOracle<'_> {
         (results.into_iter().map(|(e, _)| e).collect(), total)
     }
 
-    /// Traces `vertices` in one pass of the GPU's vertex tracer, with the rays it counted.
     /// Refuses a GPU tracer made from another scene.
     fn check_holds(&self, gpu: GpuPaths<'_>) -> Result<(), TessellationError> {
         if !gpu.tracer.holds(self.trace) {
@@ -368,6 +367,7 @@ impl PathOracle<'_> {
         }
     }
 
+    /// Traces `vertices` in one pass of the GPU's vertex tracer, with the rays it counted.
     fn trace_on_gpu(
         &self,
         gpu: GpuPaths<'_>,

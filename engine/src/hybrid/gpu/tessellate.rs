@@ -316,8 +316,18 @@ impl Scratch {
                 >= EDGES_PER_VERTEX * self.vertices_capacity + u64::from(input.edge_count)
     }
 
-    /// Makes the lens data buffer hold at least `bytes`.
+    /// Makes the lens data buffer hold at least `bytes`; refused past the device's
+    /// `maxStorageBufferRange`.
     fn ensure_lens_data(&mut self, gpu: &Gpu, bytes: u64) -> Result<(), GpuError> {
+        let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
+        if bytes > range {
+            return Err(GpuError::BadUpload {
+                what: "the GPU texgen's lens data".into(),
+                problem: format!(
+                    "{bytes} bytes for this many vertices and layers, past the device's maxStorageBufferRange of {range}; trace on the CPU or lower the vertex budget"
+                ),
+            });
+        }
         if self.lens_data.as_ref().is_none_or(|b| b.size < bytes) {
             self.lens_data = None;
             self.lens_data = Some(Buffer::new(
@@ -406,13 +416,19 @@ fn device_capacity(gpu: &Gpu, input: &InputMesh) -> u64 {
     let limits = gpu.properties().limits;
     let groups = u64::from(limits.max_compute_work_group_count[0]);
     let range = u64::from(limits.max_storage_buffer_range);
-    let triangles = (groups * u64::from(WORKGROUP)).min(range / TRIANGLE_BYTES);
+    // Every count is a u32 in the passes.
+    let words = u64::from(u32::MAX);
+    let triangles = (groups * u64::from(WORKGROUP))
+        .min(range / TRIANGLE_BYTES)
+        .min(words);
     let by_triangles =
         triangles.saturating_sub(u64::from(input.triangle_count)) / TRIANGLES_PER_VERTEX;
     by_triangles
         .min(range / RECORD_BYTES)
         .min(
-            (range / EDGE_STATE_BYTES).saturating_sub(u64::from(input.edge_count))
+            (range / EDGE_STATE_BYTES)
+                .min(words)
+                .saturating_sub(u64::from(input.edge_count))
                 / EDGES_PER_VERTEX,
         )
         .min(1 << 31)

@@ -114,6 +114,9 @@ pub(super) struct Recorder<'a> {
     pub(super) constants: &'a TessellateConstants,
     pub(super) control: vk::Buffer,
     pub(super) timestamps: Option<&'a Timestamps>,
+    /// Whether the tessellation's set and constants are bound (pipelines of one layout keep
+    /// them; the tracer's pass between levels, of another layout, does not).
+    pub(super) bound: std::cell::Cell<bool>,
 }
 
 impl Recorder<'_> {
@@ -128,8 +131,7 @@ impl Recorder<'_> {
         }
     }
 
-    /// Binds pass `name` with the tessellation's set and constants (bound again each time: the
-    /// tracer's pass between levels has another layout).
+    /// Binds pass `name`, and the tessellation's set and constants unless they are bound.
     ///
     /// # Safety
     /// `cb` is recording.
@@ -142,6 +144,9 @@ impl Recorder<'_> {
                 vk::PipelineBindPoint::COMPUTE,
                 self.passes.pipelines[pass(name)],
             );
+            if self.bound.replace(true) {
+                return;
+            }
             device.cmd_bind_descriptor_sets(
                 cb,
                 vk::PipelineBindPoint::COMPUTE,

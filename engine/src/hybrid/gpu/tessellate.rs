@@ -711,6 +711,7 @@ impl GpuTracer {
                 constants: &constants,
                 control: scratch.control.handle,
                 timestamps: timestamps.as_ref(),
+                bound: std::cell::Cell::new(false),
             };
             // SAFETY: every handle is live until the wait returns; a barrier separates every
             // pass from the next, and the copies from the passes.
@@ -750,6 +751,7 @@ impl GpuTracer {
                         bytemuck::bytes_of(&tracer_constants),
                     );
                     recorder.dispatch_indirect(control::DISPATCH_TRACE);
+                    recorder.bound.set(false);
                     recorder.stamp(4 * level + 1);
                     recorder.stamp(4 * level + 2);
                     for name in ["cs_decide", "cs_count"] {

@@ -12,6 +12,7 @@
 //!   the same paths, for every kind of shell, and F·G exactly the records'.
 
 use glam::{DVec2, DVec3, Vec2, Vec3};
+use lensmap::gpu::Gpu;
 use lensmap::hybrid::gpu::{
     GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, PathSettings, TexgenRequest,
 };
@@ -21,7 +22,7 @@ use lensmap::hybrid::tessellate::{
 };
 use lensmap::layers::LayerShell;
 use lensmap::render::LensFaces;
-use lensmap::scene::{BUILTIN_SCENES, TriangleMesh};
+use lensmap::scene::{BUILTIN_SCENES, Scene, TriangleMesh};
 use lensmap::trace::{Bounces, GreedyOptions, Interface, Term, TraceScene};
 use lensmap_tests::fixtures::built_in_scene;
 use lensmap_tests::mesh_checks::{check_surface, check_topology};
@@ -58,6 +59,21 @@ fn welded(mesh: &TriangleMesh) -> TriangleMesh {
     }
 }
 
+/// Built-in scene `name` at 160×120 with 2×2 supersampling, its trace structures, a GPU tracer
+/// holding them, and its camera as the tessellation sees it.
+fn on_gpu(gpu: &Gpu, name: &str) -> (Scene, TraceScene, GpuTracer, ScreenCamera) {
+    let scene = built_in_scene(name, 160, 120, 2);
+    let trace = TraceScene::new(&scene).expect("the scene traces");
+    let tracer = GpuTracer::new(gpu, &trace, None).expect("the tracer uploads");
+    let camera = &scene.camera;
+    let screen = ScreenCamera {
+        eye: camera.position.as_dvec3(),
+        view_proj: camera.view_proj(0.05, 1000.0),
+        subpixels: Vec2::new(2.0 * camera.width as f32, 2.0 * camera.height as f32),
+    };
+    (scene, trace, tracer, screen)
+}
+
 /// Everything of a tessellation that must repeat bit for bit.
 fn fingerprint(t: &Tessellation<VertexPaths>) -> (Vec<[u32; 3]>, Vec<[u32; 3]>, String) {
     let positions = t
@@ -77,15 +93,7 @@ fn fingerprint(t: &Tessellation<VertexPaths>) -> (Vec<[u32; 3]>, Vec<[u32; 3]>, 
 fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
     let gpu = gpu();
     for name in BUILTIN_SCENES {
-        let scene = built_in_scene(name, 160, 120, 2);
-        let trace = TraceScene::new(&scene).expect("the scene traces");
-        let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
-        let camera = &scene.camera;
-        let screen = ScreenCamera {
-            eye: camera.position.as_dvec3(),
-            view_proj: camera.view_proj(0.05, 1000.0),
-            subpixels: Vec2::new(2.0 * camera.width as f32, 2.0 * camera.height as f32),
-        };
+        let (scene, trace, tracer, screen) = on_gpu(&gpu, name);
         let (mut splits, mut t_junction_leaves) = (0, 0);
         for (lens, lens_bvh) in trace.lenses.iter().enumerate() {
             for &object in &lens_bvh.objects {
@@ -184,15 +192,7 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
 #[test]
 fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
     let gpu = gpu();
-    let scene = built_in_scene("glass-sphere", 160, 120, 2);
-    let trace = TraceScene::new(&scene).expect("the scene traces");
-    let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
-    let camera = &scene.camera;
-    let screen = ScreenCamera {
-        eye: camera.position.as_dvec3(),
-        view_proj: camera.view_proj(0.05, 1000.0),
-        subpixels: Vec2::new(2.0 * camera.width as f32, 2.0 * camera.height as f32),
-    };
+    let (scene, trace, tracer, screen) = on_gpu(&gpu, "glass-sphere");
     let object = trace.lenses[0].objects[0];
     let mesh = &scene.objects[object].mesh;
     let settings = PathSettings {
@@ -294,15 +294,7 @@ fn every_shell(c: DVec3, r: f64) -> Vec<LayerShell> {
 fn gpu_texgen_matches_every_shell_kind_in_f64() {
     let gpu = gpu();
     for name in BUILTIN_SCENES {
-        let scene = built_in_scene(name, 160, 120, 2);
-        let trace = TraceScene::new(&scene).expect("the scene traces");
-        let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
-        let camera = &scene.camera;
-        let screen = ScreenCamera {
-            eye: camera.position.as_dvec3(),
-            view_proj: camera.view_proj(0.05, 1000.0),
-            subpixels: Vec2::new(2.0 * camera.width as f32, 2.0 * camera.height as f32),
-        };
+        let (scene, trace, tracer, screen) = on_gpu(&gpu, name);
         let object = trace.lenses[0].objects[0];
         let mesh = &scene.objects[object].mesh;
         let (lo, hi) = mesh.bounds().expect("a lens mesh");

@@ -192,6 +192,30 @@ impl Drop for GpuTracer {
     }
 }
 
+/// A compute pipeline layout of one set, `set_layout`, and push constants `C` (the caller
+/// destroys it).
+fn compute_layout<C>(
+    gpu: &Gpu,
+    set_layout: vk::DescriptorSetLayout,
+) -> Result<vk::PipelineLayout, GpuError> {
+    let push = [vk::PushConstantRange {
+        stage_flags: vk::ShaderStageFlags::COMPUTE,
+        offset: 0,
+        size: std::mem::size_of::<C>() as u32,
+    }];
+    let set_layouts = [set_layout];
+    // SAFETY: the create info lives until return.
+    unsafe {
+        gpu.device().create_pipeline_layout(
+            &vk::PipelineLayoutCreateInfo::default()
+                .set_layouts(&set_layouts)
+                .push_constant_ranges(&push),
+            None,
+        )
+    }
+    .vk("vkCreatePipelineLayout")
+}
+
 /// Valid bits of the timestamps of `gpu`'s queue.
 fn timestamp_bits(gpu: &Gpu) -> u32 {
     let vulkan = gpu.vulkan();
@@ -267,23 +291,7 @@ impl GpuTracer {
         let schlick = storage(gpu, "tracer schlick", texels)?;
         let pool = DescriptorPool::new(gpu, TRACER_SET, 4)?;
         let set_layout = create_set_layout(gpu, TRACER_SET)?;
-        let push = [vk::PushConstantRange {
-            stage_flags: vk::ShaderStageFlags::COMPUTE,
-            offset: 0,
-            size: std::mem::size_of::<TracerConstants>() as u32,
-        }];
-        let set_layouts = [set_layout];
-        // SAFETY: the create info lives until return; Drop destroys the layout.
-        let layout = unsafe {
-            gpu.device().create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&set_layouts)
-                    .push_constant_ranges(&push),
-                None,
-            )
-        }
-        .vk("vkCreatePipelineLayout");
-        let layout = match layout {
+        let layout = match compute_layout::<TracerConstants>(gpu, set_layout) {
             Ok(layout) => layout,
             Err(e) => {
                 // SAFETY: created above, unused.

@@ -25,7 +25,7 @@ use super::{
     COMPUTE_TO_TRANSFER, GpuTracer, PathSettings, STORAGE, TRANSFER_TO_COMPUTE, TRANSFER_TO_HOST,
     WORKGROUP, barrier, storage,
 };
-use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
+use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError};
 use crate::hybrid::paths::{ScreenCamera, VertexPaths};
 use crate::hybrid::tessellate::{Tessellation, TessellationError, TessellationOptions};
 use crate::render::TermVertices;
@@ -159,22 +159,7 @@ impl TessellationPasses {
             layout: vk::PipelineLayout::null(),
             pipelines: Vec::new(),
         };
-        let push = [vk::PushConstantRange {
-            stage_flags: vk::ShaderStageFlags::COMPUTE,
-            offset: 0,
-            size: std::mem::size_of::<TessellateConstants>() as u32,
-        }];
-        let set_layouts = [set_layout];
-        // SAFETY: the create info lives until return; Drop destroys the layout.
-        passes.layout = unsafe {
-            gpu.device().create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&set_layouts)
-                    .push_constant_ranges(&push),
-                None,
-            )
-        }
-        .vk("vkCreatePipelineLayout")?;
+        passes.layout = super::compute_layout::<TessellateConstants>(gpu, set_layout)?;
         for entry in PASSES {
             let shader = lensmap_shaders::shader("tessellate", entry).ok_or_else(|| {
                 GpuError::BadUpload {
@@ -338,6 +323,11 @@ impl Scratch {
             )?);
         }
         Ok(())
+    }
+
+    /// What the last copy to the host buffer left there (empty before the first).
+    fn read_back(&self) -> &[u8] {
+        self.readback.as_ref().map(|b| b.read()).unwrap_or_default()
     }
 
     /// A host buffer of at least `bytes`.
@@ -812,11 +802,7 @@ impl GpuTracer {
             }
             Ok(())
         })?;
-        let bytes = scratch
-            .readback
-            .as_ref()
-            .map(|b| b.read())
-            .unwrap_or_default();
+        let bytes = scratch.read_back();
         let words: &[u32] = bytemuck::cast_slice(&bytes[..4 * (control::WORDS + super::COUNTERS)]);
         let period = gpu.properties().limits.timestamp_period;
         let stage_ms = match &timestamps {
@@ -885,11 +871,7 @@ impl GpuTracer {
             }
             Ok(())
         })?;
-        let bytes = scratch
-            .readback
-            .as_ref()
-            .map(|b| b.read())
-            .unwrap_or_default();
+        let bytes = scratch.read_back();
         let slice = |i: usize| -> &[u32] {
             bytemuck::cast_slice(&bytes[offsets[i] as usize..(offsets[i] + parts[i].2) as usize])
         };

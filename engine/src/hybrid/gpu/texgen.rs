@@ -10,7 +10,7 @@ use glam::{DVec3, Vec3};
 use lensmap_shaders::TexgenConstants;
 
 use super::STORAGE;
-use crate::gpu::{Gpu, GpuError, VkContext};
+use crate::gpu::{Gpu, GpuError};
 use crate::layers::LayerShell;
 use crate::render::TermVertices;
 use crate::render::descriptors::{Binding, create_set_layout};
@@ -148,22 +148,7 @@ impl TexgenPass {
             layout: vk::PipelineLayout::null(),
             pipeline: vk::Pipeline::null(),
         };
-        let push = [vk::PushConstantRange {
-            stage_flags: vk::ShaderStageFlags::COMPUTE,
-            offset: 0,
-            size: std::mem::size_of::<TexgenConstants>() as u32,
-        }];
-        let set_layouts = [pass.set_layout];
-        // SAFETY: the create info lives until return; Drop destroys the layout.
-        pass.layout = unsafe {
-            gpu.device().create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&set_layouts)
-                    .push_constant_ranges(&push),
-                None,
-            )
-        }
-        .vk("vkCreatePipelineLayout")?;
+        pass.layout = super::compute_layout::<TexgenConstants>(gpu, pass.set_layout)?;
         let shader =
             lensmap_shaders::shader("texgen", "cs_texgen").ok_or_else(|| GpuError::BadUpload {
                 what: "texgen.wgsl".into(),

@@ -51,9 +51,11 @@ struct EdgeState {
     request: atomic<u32>,
 }
 
-// Vertices, two vec4 each: (position, bits of the lower origin vertex), (unit normal, bits of the
-// higher origin vertex); origins are NONE for an input vertex.
-@group(0) @binding(0) var<storage, read_write> vertices: array<vec4<f32>>;
+// Vertices, two vec4 each: (position, the lower origin vertex), (unit normal, the higher origin
+// vertex), the floats as their bits (so that the origins are stored as integers, not as float
+// bit patterns a driver might flush); origins are NONE for an input vertex. The tracer and
+// texgen read the same buffer as floats.
+@group(0) @binding(0) var<storage, read_write> vertices: array<vec4<u32>>;
 // Per vertex the tracer's record, seven vec4 (tracer.wgsl VertexRecord).
 @group(0) @binding(1) var<storage, read> records: array<vec4<f32>>;
 // Ranges, dispatch arguments and counts: CONTROL_* below.
@@ -73,7 +75,7 @@ struct EdgeState {
 @group(0) @binding(9) var<storage, read_write> output: array<vec4<u32>>;
 // The input mesh, resident: vertices like `vertices`, triangles (a, b, c, 0), (edge ab, bc, ca, 0)
 // (edges NONE for a degenerate triangle), and the base edges' ends.
-@group(0) @binding(10) var<storage, read> input_vertices: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> input_vertices: array<vec4<u32>>;
 @group(0) @binding(11) var<storage, read> input_triangles: array<vec4<u32>>;
 @group(0) @binding(12) var<storage, read> base_edges: array<vec2<u32>>;
 
@@ -141,7 +143,11 @@ fn long_of(state: u32) -> u32 {
 }
 
 fn position(v: u32) -> vec3<f32> {
-    return vertices[2u * v].xyz;
+    return bitcast<vec3<f32>>(vertices[2u * v].xyz);
+}
+
+fn input_position(v: u32) -> vec3<f32> {
+    return bitcast<vec3<f32>>(input_vertices[2u * v].xyz);
 }
 
 fn load(word: u32) -> u32 {
@@ -189,9 +195,9 @@ fn cs_classify(@builtin(global_invocation_id) id: vec3<u32>) {
     if corners.x == corners.y || corners.y == corners.z || corners.z == corners.x {
         stop = STOP_DEGENERATE;
     } else if !faces_eye(
-        input_vertices[2u * corners.x].xyz,
-        input_vertices[2u * corners.y].xyz,
-        input_vertices[2u * corners.z].xyz,
+        input_position(corners.x),
+        input_position(corners.y),
+        input_position(corners.z),
     ) {
         atomicAdd(&control[STAT_BACK], 1u);
         if constants.back_faces == 0u {
@@ -451,14 +457,15 @@ fn scanned(i: u32) -> vec4<u32> {
 // A unit normal for a midpoint: the renormalized sum of its ends' normals, or (when they cancel)
 // the input triangle's face normal.
 fn midpoint_normal(lo: u32, hi: u32, source: u32) -> vec3<f32> {
-    let sum = vertices[2u * lo + 1u].xyz + vertices[2u * hi + 1u].xyz;
+    let sum = bitcast<vec3<f32>>(vertices[2u * lo + 1u].xyz)
+        + bitcast<vec3<f32>>(vertices[2u * hi + 1u].xyz);
     let length_squared = dot(sum, sum);
     if length_squared > 0.0 && length_squared < 3.0e38 {
         return sum / sqrt(length_squared);
     }
     let corners = input_triangles[2u * source].xyz;
-    let a = input_vertices[2u * corners.x].xyz;
-    let face = cross(input_vertices[2u * corners.y].xyz - a, input_vertices[2u * corners.z].xyz - a);
+    let a = input_position(corners.x);
+    let face = cross(input_position(corners.y) - a, input_position(corners.z) - a);
     let face_squared = dot(face, face);
     if face_squared > 0.0 {
         return face / sqrt(face_squared);
@@ -513,8 +520,8 @@ fn cs_apply(@builtin(global_invocation_id) id: vec3<u32>) {
         let hi = max(ends.x, ends.y);
         let v = vertex_base + before.x + made;
         let half = edge_base + before.y + 2u * made;
-        vertices[2u * v] = vec4<f32>((position(lo) + position(hi)) * 0.5, bitcast<f32>(lo));
-        vertices[2u * v + 1u] = vec4<f32>(midpoint_normal(lo, hi, head.w), bitcast<f32>(hi));
+        vertices[2u * v] = vec4<u32>(bitcast<vec3<u32>>((position(lo) + position(hi)) * 0.5), lo);
+        vertices[2u * v + 1u] = vec4<u32>(bitcast<vec3<u32>>(midpoint_normal(lo, hi, head.w)), hi);
         new_edge(half, vec2<u32>(ends.x, v));
         new_edge(half + 1u, vec2<u32>(v, ends.y));
         edge_state[e].mid = v;
@@ -679,18 +686,20 @@ fn walk_next(walk: ptr<function, EdgeWalk>) -> u32 {
         if (entry & EMIT) != 0u {
             return entry & ~EMIT;
         }
-        let state = edge_state[entry];
-        if state.mid == NONE || (*walk).top + 3u > WALK_STACK {
+        // Field by field: the struct holds an atomic, which WGSL does not load whole.
+        let mid = edge_state[entry].mid;
+        if mid == NONE || (*walk).top + 3u > WALK_STACK {
             continue;
         }
-        var first = state.child0;
-        var second = state.child1;
+        var first = edge_state[entry].child0;
+        var second = edge_state[entry].child1;
         if (*walk).reversed {
-            first = state.child1;
-            second = state.child0;
+            let swap = first;
+            first = second;
+            second = swap;
         }
         (*walk).stack[(*walk).top] = second;
-        (*walk).stack[(*walk).top + 1u] = state.mid | EMIT;
+        (*walk).stack[(*walk).top + 1u] = mid | EMIT;
         (*walk).stack[(*walk).top + 2u] = first;
         (*walk).top += 3u;
     }

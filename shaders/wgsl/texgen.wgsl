@@ -192,7 +192,8 @@ fn texture_direction(layer: u32, origin: vec3<f32>, direction: vec3<f32>) -> vec
         t = interval.near;
     }
     let point = origin + direction * t;
-    if abs(t) > INFINITY || !finite(point) {
+    // ±INFINITY (f32::MAX) stands for the CPU's ±∞ of an unbounded interval: not finite either.
+    if abs(t) >= INFINITY || !finite(point) {
         return direction;
     }
     return point - em_origin;

@@ -234,6 +234,38 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
     assert!(budget_leaves > 0);
     check_topology("glass-sphere under a budget", mesh, &capped);
 
+    // A spent budget (a lens object after others took it all): no split, no error.
+    let spent = TessellationOptions {
+        max_vertices: 0,
+        ..options
+    };
+    let unsplit = tracer
+        .tessellate(
+            &gpu,
+            (object, mesh),
+            &GpuTessellationRequest {
+                options: &spent,
+                ..request
+            },
+        )
+        .expect("a spent budget only stops the splits")
+        .tessellation;
+    assert_eq!(unsplit.mesh.positions.len(), mesh.positions.len());
+    assert!(unsplit.stats.stopped_by_budget > 0);
+    check_topology("glass-sphere with a spent budget", mesh, &unsplit);
+    let zero_t = TessellationOptions { t: 0.0, ..options };
+    assert!(matches!(
+        tracer.tessellate(
+            &gpu,
+            (object, mesh),
+            &GpuTessellationRequest {
+                options: &zero_t,
+                ..request
+            },
+        ),
+        Err(TessellationError::InvalidThreshold(_))
+    ));
+
     let deep = TessellationOptions {
         max_depth: GPU_MAX_DEPTH + 1,
         ..options

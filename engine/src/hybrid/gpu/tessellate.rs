@@ -15,6 +15,7 @@
 //! as on the CPU ([`StopReason::Budget`]).
 
 use ash::vk;
+use glam::Vec3;
 use lensmap_shaders::{TessellateConstants, TexgenConstants};
 use rustc_hash::FxHashMap;
 
@@ -195,17 +196,13 @@ impl InputMesh {
         } else {
             mesh.accumulated_face_normals()
         };
-        let none = f32::from_bits(NONE);
-        let vertices: Vec<[f32; 4]> = mesh
+        // The floats as bits, the origins (none: an input vertex) as integers (tessellate.wgsl).
+        let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits(), NONE];
+        let vertices: Vec<[u32; 4]> = mesh
             .positions
             .iter()
             .zip(&normals)
-            .flat_map(|(p, n)| {
-                [
-                    p.extend(none).to_array(),
-                    n.normalize_or_zero().extend(none).to_array(),
-                ]
-            })
+            .flat_map(|(&p, n)| [bits(p), bits(n.normalize_or_zero())])
             .collect();
         let mut edge_ids: FxHashMap<(u32, u32), u32> = FxHashMap::default();
         let mut edges: Vec<[u32; 2]> = Vec::new();
@@ -400,9 +397,9 @@ pub(super) struct Pools<'a> {
 }
 
 /// The largest capacity, in vertices, the device can dispatch and bind: every per-triangle pass
-/// within `maxComputeWorkGroupCount[0]` workgroups, every buffer within `maxStorageBufferRange`,
-/// vertex indices below 2³¹.
-fn device_capacity(gpu: &Gpu, input: &InputMesh) -> u64 {
+/// within `maxComputeWorkGroupCount[0]` workgroups, every buffer (texgen's lens data too, when
+/// asked for) within `maxStorageBufferRange`, vertex indices below 2³¹.
+fn device_capacity(gpu: &Gpu, input: &InputMesh, texgen: Option<&TexgenRequest<'_>>) -> u64 {
     let limits = gpu.properties().limits;
     let groups = u64::from(limits.max_compute_work_group_count[0]);
     let range = u64::from(limits.max_storage_buffer_range);
@@ -422,11 +419,18 @@ fn device_capacity(gpu: &Gpu, input: &InputMesh) -> u64 {
                 / EDGES_PER_VERTEX,
         )
         .min(1 << 31)
+        .min(texgen.map_or(u64::MAX, |t| range / (16 * t.arrays())))
 }
 
 impl GpuTracer {
     /// Tessellates scene object `object` (`mesh`) from `request.camera` on the GPU, tracing
     /// every vertex there, and reads the mesh and its records back.
+    ///
+    /// `object` names `mesh` within the tracer's scene: the copy kept resident for it is reused
+    /// while its vertex and triangle counts match, so a mesh that changes must come under
+    /// another index. Splits stop at the vertex budget as on the CPU (`Budget` leaves); the
+    /// device's limits stop them the same way, and only a device that cannot hold the input
+    /// mesh and one split is an error.
     pub fn tessellate(
         &self,
         gpu: &Gpu,
@@ -435,6 +439,9 @@ impl GpuTracer {
     ) -> Result<GpuTessellation, TessellationError> {
         self.check_device(gpu)?;
         let options = request.options;
+        if options.validate().is_err() {
+            return Err(TessellationError::InvalidThreshold(options.t));
+        }
         if options.max_depth > GPU_MAX_DEPTH {
             return Err(crate::options::OptionError::new(
                 "max_depth",
@@ -459,28 +466,27 @@ impl GpuTracer {
             }
         };
         let input = &*input;
-        let budget = (options.max_vertices as u64).max(u64::from(input.vertex_count));
-        let ceiling = budget.min(device_capacity(gpu, input));
-        if ceiling <= u64::from(input.vertex_count) + 3 {
+        let least = u64::from(input.vertex_count) + 4;
+        let device = device_capacity(gpu, input, request.texgen.as_ref());
+        if device < least {
             return Err(GpuError::BadUpload {
                 what: "the GPU tessellation".into(),
                 problem: format!(
-                    "the device holds at most {ceiling} vertices, too few for the mesh's {}; tessellate on the CPU",
+                    "the device holds at most {device} vertices, too few for the mesh's {}; tessellate on the CPU",
                     input.vertex_count
                 ),
             }
             .into());
         }
+        // A spent budget still gets buffers for the input (and refuses every split).
+        let budget = (options.max_vertices as u64).max(u64::from(input.vertex_count));
+        let ceiling = budget.min(device).max(least);
         let held = state
             .tessellation
             .as_ref()
-            .filter(|s| s.holds(input))
+            .filter(|s| s.holds(input) && s.vertices_capacity <= device)
             .map(|s| s.vertices_capacity);
-        let mut capacity = held.unwrap_or(
-            FIRST_CAPACITY
-                .max(u64::from(input.vertex_count) + 4)
-                .min(ceiling),
-        );
+        let mut capacity = held.unwrap_or(FIRST_CAPACITY.max(least).min(ceiling));
         loop {
             if state.tessellation.as_ref().map(|s| s.vertices_capacity) != Some(capacity)
                 || held.is_none()

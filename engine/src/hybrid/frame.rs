@@ -660,23 +660,19 @@ impl HybridScene {
             // On the GPU the whole tessellation runs there, every level's records kept on it,
             // and texgen with it; `texgen_ms` is that pass's device time when it is timed.
             let mut texgen_ms = 0.0;
-            let tessellation = match gpu {
-                Some(gpu) => {
-                    let made = oracle.tessellate_on_gpu(
-                        gpu,
-                        mesh,
-                        &tessellation_options,
-                        texgen_request,
-                    )?;
-                    texgen_ms = made.stage_ms.map_or(0.0, |stages| stages.texgen);
-                    if let Some(stages) = made.stage_ms {
-                        *stats.gpu_split_ms.get_or_insert(0.0) += stages.tessellation;
+            let tessellation =
+                match oracle.tessellate_on_gpu(mesh, &tessellation_options, texgen_request) {
+                    Some(made) => {
+                        let made = made?;
+                        texgen_ms = made.stage_ms.map_or(0.0, |stages| stages.texgen);
+                        if let Some(stages) = made.stage_ms {
+                            *stats.gpu_split_ms.get_or_insert(0.0) += stages.tessellation;
+                        }
+                        append_terms(&mut terms, made.terms);
+                        made.tessellation
                     }
-                    append_terms(&mut terms, made.terms);
-                    made.tessellation
-                }
-                None => tessellate(mesh, &oracle, &tessellation_options)?,
-            };
+                    None => tessellate(mesh, &oracle, &tessellation_options)?,
+                };
             *vertex_budget = vertex_budget.saturating_sub(tessellation.mesh.positions.len());
             stats.stopped_by_budget += tessellation.stats.stopped_by_budget;
             let elapsed = start.elapsed().as_secs_f64() * 1e3;

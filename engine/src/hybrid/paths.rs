@@ -193,11 +193,22 @@ impl<'a> PathOracle<'a> {
         self.counters.lock().map(|c| c.0).unwrap_or_default()
     }
 
-    /// Tessellates `mesh` (this oracle's scene object) on the GPU by this oracle's camera, paths
-    /// and criterion, every vertex traced there (`gpu`'s tessellation passes), with the texture
+    /// Tessellates `mesh` (this oracle's scene object) on its GPU ([`Self::with_gpu`]) by this
+    /// oracle's camera, paths and criterion, every vertex traced there, with the texture
     /// coordinates of `texgen`'s layers when asked, and adds the rays and the submission's time
-    /// to its counters.
+    /// to its counters. `None` when the oracle traces on the CPU.
     pub(crate) fn tessellate_on_gpu(
+        &self,
+        mesh: &crate::scene::TriangleMesh,
+        options: &crate::hybrid::tessellate::TessellationOptions,
+        texgen: Option<super::gpu::TexgenRequest<'_>>,
+    ) -> Option<Result<super::gpu::GpuTessellation, TessellationError>> {
+        let gpu = self.gpu?;
+        Some(self.tessellate_with(gpu, mesh, options, texgen))
+    }
+
+    /// [`Self::tessellate_on_gpu`] on `gpu`.
+    fn tessellate_with(
         &self,
         gpu: GpuPaths<'_>,
         mesh: &crate::scene::TriangleMesh,

@@ -256,6 +256,8 @@ pub(super) struct Scratch {
     counters: Buffer,
     /// Texgen's output, the lens pass's data (grown as a request needs).
     lens_data: Option<Buffer>,
+    /// Texgen's layer shells (host-visible, rewritten each frame, grown as needed).
+    shells: Option<Buffer>,
     /// Host copies: the control words and tracer counters, then the mesh (grown as needed).
     readback: Option<Buffer>,
 }
@@ -285,6 +287,7 @@ impl Scratch {
             output: device("tessellation output", outputs * OUTPUT_BYTES)?,
             counters: device("tessellation tracer counters", 4 * super::COUNTERS as u64)?,
             lens_data: None,
+            shells: None,
             readback: None,
         })
     }
@@ -320,6 +323,28 @@ impl Scratch {
             )?);
         }
         Ok(())
+    }
+
+    /// Writes texgen's shells into their buffer, made or grown first where it is too small.
+    fn write_shells(&mut self, gpu: &Gpu, words: &[[f32; 4]]) -> Result<(), GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(words);
+        if self
+            .shells
+            .as_ref()
+            .is_none_or(|b| b.size < bytes.len() as u64)
+        {
+            self.shells = None;
+            self.shells = Some(Buffer::new(
+                gpu,
+                "texgen shells",
+                bytes.len() as u64,
+                BufferUsage::Storage,
+            )?);
+        }
+        match &mut self.shells {
+            Some(buffer) => buffer.write(0, bytes, "texgen shells"),
+            None => Ok(()),
+        }
     }
 
     /// What the last copy to the host buffer left there (empty before the first).
@@ -634,30 +659,29 @@ impl GpuTracer {
         Ok((tracer_set, set))
     }
 
-    /// The texgen pass's set over `scratch` and the request's shells (the buffer it returns holds
-    /// them and must live until the submission is done), and its constants.
+    /// The texgen pass's set over `scratch` and the request's shells (written into `scratch`),
+    /// and its constants.
     fn texgen_set(
         &self,
         gpu: &Gpu,
         pool: &DescriptorPool,
-        scratch: &Scratch,
+        scratch: &mut Scratch,
         (input, request): (&InputMesh, &TexgenRequest<'_>),
-    ) -> Result<(vk::DescriptorSet, Buffer, TexgenConstants), GpuError> {
-        let data = scratch
-            .lens_data
-            .as_ref()
-            .ok_or_else(|| GpuError::BadUpload {
+    ) -> Result<(vk::DescriptorSet, TexgenConstants), GpuError> {
+        scratch.write_shells(gpu, &request.shell_words())?;
+        let (Some(data), Some(shells)) = (&scratch.lens_data, &scratch.shells) else {
+            return Err(GpuError::BadUpload {
                 what: "the GPU texgen".into(),
-                problem: "its output buffer was not made".into(),
-            })?;
-        let shells = storage(gpu, "texgen shells", &request.shell_words())?;
+                problem: "its buffers were not made".into(),
+            });
+        };
         pool.reset()?;
         let set = pool.allocate(self.texgen.set_layout, 1)?[0];
         let resources: Vec<Resource> = [
             &scratch.vertices,
             &scratch.records,
             &scratch.wanted,
-            &shells,
+            shells,
             data,
             &scratch.control,
         ]
@@ -666,7 +690,7 @@ impl GpuTracer {
         .collect();
         write_set(gpu, set, texgen::TEXGEN_SET, &resources);
         let constants = request.constants(input.vertex_count, scratch.vertices_capacity as u32);
-        Ok((set, shells, constants))
+        Ok((set, constants))
     }
 
     /// Records and runs every level and the T-junction removal in one submission; returns the
@@ -769,7 +793,7 @@ impl GpuTracer {
                 recorder.indirect("cs_leaf_emit", control::DISPATCH_ELEMENTS);
                 recorder.stamp(4 * levels + 1);
                 recorder.stamp(4 * levels + 2);
-                if let Some((texgen_set, _, texgen_constants)) = &texgen {
+                if let Some((texgen_set, texgen_constants)) = &texgen {
                     let layout = self.texgen.layout;
                     device.cmd_bind_pipeline(
                         cb,

@@ -639,6 +639,7 @@ impl LayerFrames {
             } else {
                 0
             },
+            resident: None,
         });
         Ok(LayerFrame {
             frame,
@@ -990,6 +991,7 @@ mod tests {
                 layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],
                 faces: lensmap::render::LensFaces::Front,
                 hull_triangles: 0,
+                resident: None,
             }],
             viewpoint_weights: vec![1.0],
         }

@@ -109,6 +109,17 @@ const STAT_BUDGET: u32 = 33u;
 const STAT_OCCLUDED: u32 = 34u;
 const STAT_T_JUNCTION_LEAVES: u32 = 35u;
 const STAT_T_JUNCTION_VERTICES: u32 = 36u;
+// The most vertices this tessellation may hold: the capacity, or the frame's vertex budget left
+// (at least the input's), whichever is smaller; set by cs_begin.
+const CONTROL_VERTEX_LIMIT: u32 = 37u;
+// The frame's vertex budget left: written by the host for the frame's first lens object (and
+// where the host counts the budget itself), kept between the objects of a frame, and lowered by
+// each object's vertices in cs_leaves_begin, so that the frame's lens objects share one budget
+// in order with no count read back.
+const CONTROL_FRAME_BUDGET: u32 = 38u;
+// This object's share of it: the frame's budget left, or its input vertices if more; set by
+// cs_begin (the host compares it with the capacity to tell a budget stop from a full buffer).
+const CONTROL_OBJECT_BUDGET: u32 = 39u;
 
 // A triangle's state word: its stop reason (STOP_*; 0 while active), its long edges (bits 4-6)
 // and its depth (bits 8 and up).
@@ -160,6 +171,11 @@ fn load(word: u32) -> u32 {
 @compute @workgroup_size(64)
 fn cs_begin(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
+    if i == 0u {
+        let budget = max(load(CONTROL_FRAME_BUDGET), constants.input_vertices);
+        atomicStore(&control[CONTROL_OBJECT_BUDGET], budget);
+        atomicStore(&control[CONTROL_VERTEX_LIMIT], min(constants.vertex_capacity, budget));
+    }
     if i < constants.input_vertices {
         vertices[2u * i] = input_vertices[2u * i];
         vertices[2u * i + 1u] = input_vertices[2u * i + 1u];
@@ -384,75 +400,7 @@ fn cs_count(@builtin(global_invocation_id) id: vec3<u32>) {
     counts[id.x] = c;
 }
 
-var<workgroup> scan_scratch: array<vec4<u32>, 256>;
-var<workgroup> scan_length: u32;
-
-// The exclusive prefix of `value` over the workgroup (lane order); the total is left in
-// scan_scratch[SCAN_BLOCK - 1].
-fn workgroup_exclusive(lane: u32, value: vec4<u32>) -> vec4<u32> {
-    workgroupBarrier();
-    scan_scratch[lane] = value;
-    for (var d = 1u; d < SCAN_BLOCK; d *= 2u) {
-        workgroupBarrier();
-        var v = scan_scratch[lane];
-        if lane >= d {
-            v += scan_scratch[lane - d];
-        }
-        workgroupBarrier();
-        scan_scratch[lane] = v;
-    }
-    workgroupBarrier();
-    return scan_scratch[lane] - value;
-}
-
-// Each block's exclusive prefix in place, and its total.
-@compute @workgroup_size(256)
-fn cs_scan_blocks(
-    @builtin(local_invocation_id) local: vec3<u32>,
-    @builtin(workgroup_id) group: vec3<u32>,
-) {
-    let n = load(CONTROL_SCAN_N);
-    let i = group.x * SCAN_BLOCK + local.x;
-    var value = vec4<u32>(0u);
-    if i < n {
-        value = counts[i];
-    }
-    let prefix = workgroup_exclusive(local.x, value);
-    if i < n {
-        counts[i] = prefix;
-    }
-    if local.x == SCAN_BLOCK - 1u {
-        block_sums[group.x] = prefix + value;
-    }
-}
-
-// The blocks' exclusive prefix in place: one workgroup, a block of totals at a time.
-@compute @workgroup_size(256)
-fn cs_scan_top(@builtin(local_invocation_id) local: vec3<u32>) {
-    if local.x == 0u {
-        scan_length = load(CONTROL_SCAN_N);
-    }
-    let n = workgroupUniformLoad(&scan_length);
-    let blocks = (n + SCAN_BLOCK - 1u) / SCAN_BLOCK;
-    var carry = vec4<u32>(0u);
-    for (var base = 0u; base < blocks; base += SCAN_BLOCK) {
-        let i = base + local.x;
-        var value = vec4<u32>(0u);
-        if i < blocks {
-            value = block_sums[i];
-        }
-        let prefix = workgroup_exclusive(local.x, value);
-        if i < blocks {
-            block_sums[i] = prefix + carry;
-        }
-        carry += scan_scratch[SCAN_BLOCK - 1u];
-    }
-}
-
-// An element's exclusive prefix over the whole scan.
-fn scanned(i: u32) -> vec4<u32> {
-    return counts[i] + block_sums[i / SCAN_BLOCK];
-}
+// #include "scan.wgsl"
 
 // A unit normal for a midpoint: the renormalized sum of its ends' normals, or (when they cancel)
 // the input triangle's face normal.
@@ -496,7 +444,7 @@ fn cs_apply(@builtin(global_invocation_id) id: vec3<u32>) {
     let edge_base = load(CONTROL_EDGES);
     let triangle_base = load(CONTROL_LEVEL_HI);
     // A split adds at most 3 vertices, 9 edges and 4 triangles: none once they would not fit.
-    let fits = vertex_base + before.x + 3u <= constants.vertex_capacity
+    let fits = vertex_base + before.x + 3u <= load(CONTROL_VERTEX_LIMIT)
         && edge_base + before.y + 9u <= constants.edge_capacity
         && triangle_base + before.z + 4u <= constants.triangle_capacity;
     if !fits {
@@ -660,7 +608,10 @@ fn cs_leaves_begin() {
     atomicStore(&control[CONTROL_LEVEL_LO], 0u);
     set_element_dispatch(load(CONTROL_LEVEL_HI));
     // The levels are traced: the trace arguments now cover every vertex (texgen.wgsl's pass).
-    atomicStore(&control[CONTROL_DISPATCH_TRACE], groups(load(CONTROL_VERTICES), WORKGROUP));
+    let vertices = load(CONTROL_VERTICES);
+    atomicStore(&control[CONTROL_DISPATCH_TRACE], groups(vertices, WORKGROUP));
+    let budget = load(CONTROL_FRAME_BUDGET);
+    atomicStore(&control[CONTROL_FRAME_BUDGET], budget - min(budget, vertices));
 }
 
 // An in-order walk of the vertices a split edge's tree places strictly inside it, from vertex `start`.

@@ -274,6 +274,7 @@ pub fn random_compositor_frame(
             hull_triangles: 0,
             terms,
             layers: layer_maps,
+            resident: None,
         }],
         viewpoint_weights: weights,
     }

@@ -126,6 +126,8 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
                         back_faces: false,
                         options: &options,
                         texgen: None,
+                        hull: None,
+                        continue_budget: false,
                     };
                     let run = || {
                         tracer
@@ -214,6 +216,8 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
         back_faces: false,
         options: &options,
         texgen: None,
+        hull: None,
+        continue_budget: false,
     };
     let capped = tracer
         .tessellate(&gpu, (object, mesh), &request)
@@ -366,6 +370,8 @@ fn gpu_texgen_matches_every_shell_kind_in_f64() {
                         em_origins: &em_origins,
                         refraction,
                     }),
+                    hull: None,
+                    continue_budget: false,
                 },
             )
             .expect("the GPU tessellates");

@@ -1122,6 +1122,7 @@ fn sheet_frame(
             hull_triangles: 0,
             terms,
             layers,
+            resident: None,
         }],
         viewpoint_weights: weights,
     }

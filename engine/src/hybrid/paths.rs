@@ -224,6 +224,8 @@ impl<'a> PathOracle<'a> {
             back_faces: self.evaluates_back_faces(),
             options,
             texgen,
+            hull: None,
+            continue_budget: false,
         };
         let made = gpu
             .tracer

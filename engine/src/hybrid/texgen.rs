@@ -148,5 +148,6 @@ pub(super) fn lens_object(
             .iter()
             .map(|(sample, _)| layers.maps[(*sample).min(layers.maps.len() - 1)].clone())
             .collect(),
+        resident: None,
     }
 }

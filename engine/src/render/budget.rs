@@ -443,6 +443,7 @@ mod tests {
             hull_triangles: 0,
             terms: Vec::new(),
             layers,
+            resident: None,
         };
         let mesh = |light_map: Option<(u32, u32)>| {
             Arc::new(EnvironmentMesh {

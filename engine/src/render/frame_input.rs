@@ -9,6 +9,7 @@ use glam::{Mat4, Vec2, Vec3};
 
 use super::RenderError;
 use crate::cubemap::CubeMap;
+use crate::gpu::Buffer;
 use crate::lightmap::LightMap;
 use crate::trace::Term;
 
@@ -62,9 +63,15 @@ pub struct LensObject {
     pub terms: Vec<TermVertices>,
     /// `layers[viewpoint][layer]`: the layered EM of each viewpoint sample, nearest shell first.
     /// Every viewpoint has the same number of layers n, equal to each term's `directions.len()`.
+    /// (A resident object's terms name its terms, with no per-vertex data.)
     /// Shared (`Arc`): frames reuse the same maps, and the renderer keeps a map uploaded for as
     /// long as frames keep handing it the same `Arc`.
     pub layers: Vec<Vec<Arc<CubeMap>>>,
+    /// Where the mesh and the per-vertex data are on the device instead: a lens object
+    /// tessellated on the GPU and drawn from the tessellation's own buffers, with no per-vertex
+    /// data on the host (`positions`, `triangles` and the terms' vectors are then empty, and
+    /// `hull_triangles` 0). `None`: the host data above is uploaded.
+    pub resident: Option<ResidentLens>,
 }
 
 impl LensObject {
@@ -72,7 +79,61 @@ impl LensObject {
     pub fn layer_count(&self) -> usize {
         self.layers.first().map_or(0, Vec::len)
     }
+
+    /// Whether it has no triangle to draw (a resident object may have some: only the device
+    /// knows how many).
+    pub fn is_empty(&self) -> bool {
+        self.resident.as_ref().map_or(self.triangles.is_empty(), |r| r.parts.is_empty())
+    }
 }
+
+/// A lens object's mesh and per-vertex data where the GPU tessellation left them: one part per
+/// scene object, each drawn by indirect draws whose arguments the GPU wrote.
+#[derive(Clone)]
+pub struct ResidentLens {
+    /// The parts, each a scene object's tessellation, drawn in order.
+    pub parts: Vec<Arc<DeviceLensPart>>,
+}
+
+impl PartialEq for ResidentLens {
+    /// The same buffers (a frame that hands over the same parts draws the same data).
+    fn eq(&self, other: &ResidentLens) -> bool {
+        self.parts.len() == other.parts.len()
+            && self.parts.iter().zip(&other.parts).all(|(a, b)| Arc::ptr_eq(a, b))
+    }
+}
+
+impl std::fmt::Debug for ResidentLens {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ResidentLens")
+            .field("parts", &self.parts.len())
+            .finish()
+    }
+}
+
+/// One scene object's tessellation on the device, as the lens passes draw it.
+pub struct DeviceLensPart {
+    /// The lens pass's data (positions, then per term F·G and each layer's directions), arrays
+    /// `stride` vec4s apart, in the order of the lens object's terms.
+    pub data: Buffer,
+    /// Three indices per triangle, the convex-hull split's last.
+    pub indices: Buffer,
+    /// Three `VkDrawIndexedIndirectCommand`s: every triangle, the non-hull ones, the hull's
+    /// ([`INDIRECT_ALL`], [`INDIRECT_REST`], [`INDIRECT_HULL`]).
+    pub args: Buffer,
+    /// vec4s between consecutive arrays of `data` (the tessellation's vertex capacity).
+    pub stride: u32,
+    /// The host copy of the tessellation's counts, written by the GPU with the part and read
+    /// once the frame that drew it is done (off the frame's critical path).
+    pub counts: Buffer,
+}
+
+/// Byte offsets of the indirect draws in [`DeviceLensPart::args`].
+pub const INDIRECT_ALL: u64 = 0;
+/// See [`INDIRECT_ALL`].
+pub const INDIRECT_REST: u64 = 20;
+/// See [`INDIRECT_ALL`].
+pub const INDIRECT_HULL: u64 = 40;
 
 /// An opaque environment mesh drawn before the lens objects with depth test and write. A
 /// fragment shows its interpolated vertex colour times its light map's bilinear sample (1
@@ -242,6 +303,13 @@ impl LensObject {
         viewpoints: usize,
         checked: &dyn Fn(usize) -> bool,
     ) -> Result<(), RenderError> {
+        if self.resident.is_some()
+            && (!self.positions.is_empty() || !self.triangles.is_empty() || self.hull_triangles > 0)
+        {
+            return bad(format!(
+                "{at} is resident on the device and has host positions or triangles too; give one or the other"
+            ));
+        }
         let n = self.layer_count();
         if n == 0 {
             return bad(format!(

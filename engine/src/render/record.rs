@@ -8,11 +8,11 @@ use bytemuck::Zeroable;
 use lensmap_shaders::{EnvironmentConstants, GroupSumConstants, LensConstants, ResolveConstants};
 
 use super::{
-    HostImage, TargetFormat,
+    HostImage, INDIRECT_ALL, INDIRECT_HULL, INDIRECT_REST, TargetFormat,
     pipelines::Pipelines,
     plan::{Draw, FramePlan, FrameResources},
     targets::Targets,
-    upload::{GpuLens, UploadedFrame},
+    upload::{GpuLens, LensPart, PartBuffers, UploadedFrame},
     vulkan::{vk_access, vk_layout},
 };
 use crate::{
@@ -21,6 +21,36 @@ use crate::{
     index::{LayerIndex, LensIndex},
     trace::Term,
 };
+
+/// How many indices a lens part's draw takes: (non-hull, hull) from the host, or the GPU's
+/// indirect arguments.
+enum DrawCounts<'a> {
+    Direct(u32, u32),
+    Indirect(&'a crate::gpu::Buffer),
+}
+
+/// Makes the GPU tessellation's writes (submitted earlier on the same queue, whose barriers'
+/// first scope holds every command submitted before) visible to the lens passes: the data their
+/// vertex stage reads, the indices and the indirect arguments.
+fn resident_barrier(gpu: &Gpu, cb: vk::CommandBuffer) {
+    let barrier = vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+        .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+        .dst_stage_mask(
+            vk::PipelineStageFlags2::VERTEX_SHADER
+                | vk::PipelineStageFlags2::INDEX_INPUT
+                | vk::PipelineStageFlags2::DRAW_INDIRECT,
+        )
+        .dst_access_mask(
+            vk::AccessFlags2::SHADER_STORAGE_READ
+                | vk::AccessFlags2::INDEX_READ
+                | vk::AccessFlags2::INDIRECT_COMMAND_READ,
+        );
+    let barriers = [barrier];
+    let dependency = vk::DependencyInfo::default().memory_barriers(&barriers);
+    // SAFETY: recording outside any rendering instance.
+    unsafe { gpu.device().cmd_pipeline_barrier2(cb, &dependency) };
+}
 
 /// What recording one frame reads.
 pub(super) struct Recorder<'a> {
@@ -170,6 +200,14 @@ impl Recorder<'_> {
             targets,
             host: self.host.filter(|_| resources.external.is_some()),
         };
+        if frame
+            .lenses
+            .iter()
+            .flat_map(|lens| &lens.parts)
+            .any(|part| matches!(part.buffers, PartBuffers::Device(_)))
+        {
+            resident_barrier(gpu, cb);
+        }
         for (step, pipeline) in plan.steps.iter().zip(pipelines) {
             self.barriers(cb, &images, &step.barriers);
             if let Some(instance) = &step.begin {
@@ -468,20 +506,33 @@ impl Recorder<'_> {
     }
 
     /// One draw of lens object `lens` (the prime or alpha clear, a layer, a programmable layer,
-    /// the single pass): its descriptor sets and push constants, then its triangles.
+    /// the single pass): per part, its descriptor sets and push constants, then its triangles.
     fn lens(&self, cb: vk::CommandBuffer, draw: Draw, lens: LensIndex, targets: &Targets) {
         let gpu_lens = &self.frame.lenses[lens.index()];
-        let mut constants = self.lens_constants(gpu_lens);
+        for part in &gpu_lens.parts {
+            self.lens_part(cb, draw, (gpu_lens, part), targets);
+        }
+    }
+
+    /// [`Self::lens`] for one part of the lens object.
+    fn lens_part(
+        &self,
+        cb: vk::CommandBuffer,
+        draw: Draw,
+        (gpu_lens, part): (&GpuLens, &LensPart),
+        targets: &Targets,
+    ) {
+        let mut constants = self.lens_constants(gpu_lens, part.stride);
         let weight = |v: usize| self.viewpoint_weight(v);
         // One layer of one (viewpoint, term) group: its weight, F·G and directions.
         let mut one_layer = |viewpoint: usize, term: Term, layer: LayerIndex| {
             let layer = layer.index() as u32;
+            let (fg, directions) = gpu_lens.offsets(term, part.stride).unwrap_or((0, 0));
             constants.weight_a = weight(viewpoint);
-            constants.fg_offset_t = gpu_lens.fg_offset[&term];
-            constants.direction_offset_t =
-                gpu_lens.direction_offset[&term] + layer * gpu_lens.vertex_count;
+            constants.fg_offset_t = fg;
+            constants.direction_offset_t = directions + layer * part.stride;
             constants.layer = layer;
-            gpu_lens.sets[viewpoint]
+            part.sets[viewpoint]
         };
         // The convex-hull split: the draws that sample layer 0 draw the hull triangles (the
         // last indices) apart, with that layer taken as empty.
@@ -527,19 +578,19 @@ impl Recorder<'_> {
                 // The single pass blends the viewpoints with weight > 0 in order, as the plan's
                 // specialization counts them and its set binds their arrays: binding 1 and
                 // weight_a are the first active viewpoint's, then b, then c.
-                let mut active = (0..gpu_lens.sets.len()).map(weight).filter(|&w| w > 0.0);
+                let mut active = (0..part.sets.len()).map(weight).filter(|&w| w > 0.0);
                 constants.weight_a = active.next().unwrap_or(0.0);
                 constants.weight_b = active.next().unwrap_or(0.0);
                 constants.weight_c = active.next().unwrap_or(0.0);
                 (
                     self.pipelines.lens_layout,
-                    [gpu_lens.single_pass_set, vk::DescriptorSet::null()],
+                    [part.single_pass_set, vk::DescriptorSet::null()],
                     1,
                 )
             }
             Draw::LensZero { .. } => (
                 self.pipelines.lens_layout,
-                [gpu_lens.single_pass_set, vk::DescriptorSet::null()],
+                [part.single_pass_set, vk::DescriptorSet::null()],
                 1,
             ),
             Draw::Environment { .. } | Draw::GroupSum { .. } | Draw::BoxFilter { .. } => {
@@ -557,29 +608,58 @@ impl Recorder<'_> {
             ),
         );
         let device = self.gpu.device();
-        let hull = if samples_local {
-            gpu_lens.hull_index_count.min(gpu_lens.index_count)
-        } else {
-            0
-        };
-        let rest = gpu_lens.index_count - hull;
-        // SAFETY: recording inside a rendering instance with the matching lens pipeline bound;
-        // the index buffer lives as long as the frame; the push constants are the layout's.
-        unsafe {
-            device.cmd_bind_index_buffer(cb, gpu_lens.indices.handle, 0, vk::IndexType::UINT32);
-            if rest > 0 {
-                device.cmd_draw_indexed(cb, rest, 1, 0, 0, 0);
+        let (indices, counts) = match &part.buffers {
+            PartBuffers::Host {
+                indices,
+                index_count,
+                hull_index_count,
+                ..
+            } => {
+                let hull = if samples_local {
+                    (*hull_index_count).min(*index_count)
+                } else {
+                    0
+                };
+                (indices.handle, DrawCounts::Direct(*index_count - hull, hull))
             }
-            if hull > 0 {
+            PartBuffers::Device(part) => (part.indices.handle, DrawCounts::Indirect(&part.args)),
+        };
+        // SAFETY: recording inside a rendering instance with the matching lens pipeline bound;
+        // the index buffer and a resident part's arguments live as long as the frame (whose
+        // first barrier made the tessellation's writes visible to these reads); the push
+        // constants are the layout's.
+        unsafe {
+            device.cmd_bind_index_buffer(cb, indices, 0, vk::IndexType::UINT32);
+            let skip_local = |constants: &mut LensConstants| {
                 constants.skip_local = 1;
                 device.cmd_push_constants(
                     cb,
                     layout,
                     vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                     0,
-                    bytemuck::bytes_of(&constants),
+                    bytemuck::bytes_of(&*constants),
                 );
-                device.cmd_draw_indexed(cb, hull, 1, rest, 0, 0);
+            };
+            match counts {
+                DrawCounts::Direct(rest, hull) => {
+                    if rest > 0 {
+                        device.cmd_draw_indexed(cb, rest, 1, 0, 0, 0);
+                    }
+                    if hull > 0 {
+                        skip_local(&mut constants);
+                        device.cmd_draw_indexed(cb, hull, 1, rest, 0, 0);
+                    }
+                }
+                // The counts are the GPU's: every triangle, or the non-hull ones and then the
+                // hull's without the local layer.
+                DrawCounts::Indirect(args) if samples_local => {
+                    device.cmd_draw_indexed_indirect(cb, args.handle, INDIRECT_REST, 1, 20);
+                    skip_local(&mut constants);
+                    device.cmd_draw_indexed_indirect(cb, args.handle, INDIRECT_HULL, 1, 20);
+                }
+                DrawCounts::Indirect(args) => {
+                    device.cmd_draw_indexed_indirect(cb, args.handle, INDIRECT_ALL, 1, 20);
+                }
             }
         }
     }
@@ -594,26 +674,26 @@ impl Recorder<'_> {
             .unwrap_or(0.0)
     }
 
-    /// A lens object's push constants before a draw picks its group and layer: both terms'
-    /// offsets, the layer count and term mask, no weights.
-    fn lens_constants(&self, lens: &GpuLens) -> LensConstants {
-        let offset = |offsets: &std::collections::HashMap<Term, u32>, term| {
-            offsets.get(&term).copied().unwrap_or(0)
-        };
+    /// A lens part's push constants before a draw picks its group and layer: both terms'
+    /// offsets in data arrays `stride` vec4s apart, the layer count and term mask, no weights.
+    fn lens_constants(&self, lens: &GpuLens, stride: u32) -> LensConstants {
+        let offsets = |term| lens.offsets(term, stride).unwrap_or((0, 0));
+        let (fg_t, direction_t) = offsets(Term::Refraction);
+        let (fg_r, direction_r) = offsets(Term::Reflection);
         LensConstants {
             view_proj: self.frame.view_proj,
             weight_a: 0.0,
             weight_b: 0.0,
             weight_c: 0.0,
             layer_count: lens.layer_count,
-            term_mask: u32::from(lens.fg_offset.contains_key(&Term::Refraction))
-                | (u32::from(lens.fg_offset.contains_key(&Term::Reflection)) << 1),
+            term_mask: u32::from(lens.terms.contains(&Term::Refraction))
+                | (u32::from(lens.terms.contains(&Term::Reflection)) << 1),
             position_offset: 0,
-            fg_offset_t: offset(&lens.fg_offset, Term::Refraction),
-            fg_offset_r: offset(&lens.fg_offset, Term::Reflection),
-            direction_offset_t: offset(&lens.direction_offset, Term::Refraction),
-            direction_offset_r: offset(&lens.direction_offset, Term::Reflection),
-            vertex_count: lens.vertex_count,
+            fg_offset_t: fg_t,
+            fg_offset_r: fg_r,
+            direction_offset_t: direction_t,
+            direction_offset_r: direction_r,
+            vertex_count: stride,
             layer: 0,
             ..Zeroable::zeroed()
         }

@@ -171,6 +171,7 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
             faces: LensFaces::Front,
             terms,
             layers,
+            resident: None,
         }],
         viewpoint_weights: weights,
     }

@@ -12,7 +12,8 @@ use std::{collections::HashMap, sync::Arc};
 use ash::vk;
 
 use super::{
-    EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes, RenderError,
+    DeviceLensPart, EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes,
+    RenderError,
     SinglePassLimits, TargetFormat,
     descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
@@ -25,29 +26,66 @@ use crate::{
     trace::Term,
 };
 
-/// A lens object's data on the GPU.
+/// A lens object's data on the GPU: its layered EMs and the parts it is drawn in.
 pub(super) struct GpuLens {
-    /// The storage buffer the descriptor sets point at; kept, and rewritten in place, by the
-    /// next frame uploaded into the same [`UploadedFrame`] when it is large enough.
-    data: Buffer,
-    pub(super) indices: Buffer,
-    pub(super) index_count: u32,
-    /// The last this many indices are drawn without layer 0 (three per hull triangle of the
-    /// convex-hull split, [`LensObject::hull_triangles`](super::LensObject::hull_triangles)).
-    pub(super) hull_index_count: u32,
-    pub(super) vertex_count: u32,
-    /// Offset (vec4 units) of F·G per term, and of layer 0's directions per term.
-    pub(super) fg_offset: HashMap<Term, u32>,
-    pub(super) direction_offset: HashMap<Term, u32>,
+    /// Its terms in the order its data holds them.
+    pub(super) terms: Vec<Term>,
     pub(super) layer_count: u32,
     /// One cube-map array per viewpoint sample (shared with the renderer's cache).
     pub(super) layers: Vec<Arc<Image>>,
+    /// What is drawn: the host's mesh (one part), or a resident object's parts.
+    pub(super) parts: Vec<LensPart>,
+}
+
+/// Where a lens part's data and indices are and how many to draw.
+pub(super) enum PartBuffers {
+    /// Uploaded from the host: kept, and rewritten in place, by the next frame uploaded into the
+    /// same [`UploadedFrame`] when large enough. The last `hull_index_count` of `index_count`
+    /// indices are drawn without layer 0 (three per hull triangle of the convex-hull split,
+    /// [`LensObject::hull_triangles`](super::LensObject::hull_triangles)).
+    Host {
+        data: Buffer,
+        indices: Buffer,
+        index_count: u32,
+        hull_index_count: u32,
+    },
+    /// The GPU tessellation's own buffers, drawn by the indirect draws it wrote (kept alive until
+    /// the frame's last submission completed).
+    Device(Arc<DeviceLensPart>),
+}
+
+/// One mesh of a lens object with its vertex data and descriptor sets.
+pub(super) struct LensPart {
+    pub(super) buffers: PartBuffers,
+    /// vec4s between the arrays of the data buffer (its vertex count, or the tessellation's
+    /// capacity).
+    pub(super) stride: u32,
     /// One descriptor set per viewpoint, for its layer passes (every cube-map binding that
     /// viewpoint's).
     pub(super) sets: Vec<vk::DescriptorSet>,
     /// The single pass's set: bindings 1, 2, … the viewpoints with a weight above zero, in order
     /// (the last one repeated in bindings past them).
     pub(super) single_pass_set: vk::DescriptorSet,
+}
+
+impl LensPart {
+    /// The data buffer the sets point at.
+    fn data(&self) -> vk::Buffer {
+        match &self.buffers {
+            PartBuffers::Host { data, .. } => data.handle,
+            PartBuffers::Device(part) => part.data.handle,
+        }
+    }
+}
+
+impl GpuLens {
+    /// Offsets (vec4 units) in a part's data of `term`'s F·G and of its layer 0's directions:
+    /// the positions first, then per term F·G and one array per layer, `stride` apart.
+    pub(super) fn offsets(&self, term: Term, stride: u32) -> Option<(u32, u32)> {
+        let slot = self.terms.iter().position(|&t| t == term)? as u32;
+        let fg = stride * (1 + slot * (1 + self.layer_count));
+        Some((fg, fg + stride))
+    }
 }
 
 /// An environment mesh's vertex and index buffers, its light map (a shared white 1×1 map for a
@@ -198,11 +236,11 @@ impl UploadCache {
             .map(|mesh| self.environment_mesh(gpu, pipelines, mesh))
             .collect::<Result<Vec<_>, GpuError>>()?;
 
-        // Per lens object a set per viewpoint and the single pass's.
+        // Per lens part a set per viewpoint and the single pass's.
         let set_count = frame
             .lenses
             .iter()
-            .map(|l| l.layers.len() + 1)
+            .map(|l| (l.layers.len() + 1) * l.resident.as_ref().map_or(1, |r| r.parts.len()))
             .sum::<usize>()
             .max(1) as u32;
         let (width, height) = (frame.width, frame.height);
@@ -478,9 +516,9 @@ impl UploadCache {
         Ok(image)
     }
 
-    /// Uploads lens object `index`'s vertex data and indices, into `old`'s buffers where they
-    /// are large enough, and allocates and writes its descriptor sets from `pool`; its single
-    /// pass blends the viewpoints `active`.
+    /// Uploads lens object `index`'s vertex data and indices (a resident object's are on the
+    /// device already), into `old`'s buffers where they are large enough, and allocates and
+    /// writes its descriptor sets from `pool`; its single pass blends the viewpoints `active`.
     fn upload_lens(
         &mut self,
         gpu: &Gpu,
@@ -489,65 +527,94 @@ impl UploadCache {
         (index, lens, active): (usize, &LensObject, &[usize]),
         old: Option<GpuLens>,
     ) -> Result<GpuLens, GpuError> {
-        let vertex_count = lens.positions.len() as u32;
-        let mut data: Vec<[f32; 4]> = lens
-            .positions
-            .iter()
-            .map(|p| p.extend(1.0).to_array())
-            .collect();
-        let mut fg_offset = HashMap::new();
-        let mut direction_offset = HashMap::new();
-        for term in &lens.terms {
-            fg_offset.insert(term.term, data.len() as u32);
-            data.extend(term.fg.iter().map(|c| c.extend(0.0).to_array()));
-            direction_offset.insert(term.term, data.len() as u32);
-            for layer in &term.directions {
-                data.extend(layer.iter().map(|d| d.extend(0.0).to_array()));
+        let buffers = match &lens.resident {
+            Some(resident) => resident
+                .parts
+                .iter()
+                .map(|part| (PartBuffers::Device(part.clone()), part.stride))
+                .collect(),
+            None => {
+                let old = old.and_then(|o| o.parts.into_iter().next());
+                vec![host_buffers(gpu, index, lens, old.map(|o| o.buffers))?]
             }
-        }
-        let (old_data, old_indices) = old.map_or((None, None), |o| (Some(o.data), Some(o.indices)));
-        let data = reuse_or_new(
-            gpu,
-            old_data,
-            &format!("lens{index} data"),
-            bytemuck::cast_slice(&data),
-            BufferUsage::Storage,
-        )?;
-        let indices = reuse_or_new(
-            gpu,
-            old_indices,
-            &format!("lens{index} indices"),
-            bytemuck::cast_slice(&lens.triangles),
-            BufferUsage::Index,
-        )?;
-
+        };
         let mut layers = Vec::new();
         for (viewpoint, cubes) in lens.layers.iter().enumerate() {
             layers.push(self.layer_image(gpu, &format!("lens{index}/em{viewpoint}"), cubes)?);
         }
-
-        // The pool was sized for one set per (lens, viewpoint) and one per lens.
-        let mut sets = pool.allocate(pipelines.lens_set_layout, layers.len() + 1)?;
-        let single_pass_set = sets.pop().ok_or(GpuError::Vulkan {
-            call: "vkAllocateDescriptorSets",
-            result: vk::Result::ERROR_OUT_OF_POOL_MEMORY,
-        })?;
+        // The pool was sized for one set per (lens part, viewpoint) and one per lens part.
+        let mut parts = Vec::with_capacity(buffers.len());
+        for (buffers, stride) in buffers {
+            let mut sets = pool.allocate(pipelines.lens_set_layout, layers.len() + 1)?;
+            let single_pass_set = sets.pop().ok_or(GpuError::Vulkan {
+                call: "vkAllocateDescriptorSets",
+                result: vk::Result::ERROR_OUT_OF_POOL_MEMORY,
+            })?;
+            parts.push(LensPart {
+                buffers,
+                stride,
+                sets,
+                single_pass_set,
+            });
+        }
         let gpu_lens = GpuLens {
-            data,
-            indices,
-            index_count: (lens.triangles.len() * 3) as u32,
-            hull_index_count: (lens.hull_triangles.min(lens.triangles.len()) * 3) as u32,
-            vertex_count,
-            fg_offset,
-            direction_offset,
+            terms: lens.terms.iter().map(|t| t.term).collect(),
             layer_count: lens.layer_count() as u32,
             layers,
-            sets,
-            single_pass_set,
+            parts,
         };
         write_lens_sets(gpu, pipelines, &gpu_lens, (&gpu_lens.layers, active));
         Ok(gpu_lens)
     }
+}
+
+/// A host lens object's vertex data and indices uploaded, into `old`'s buffers where they are
+/// large enough; and its stride (its vertex count).
+fn host_buffers(
+    gpu: &Gpu,
+    index: usize,
+    lens: &LensObject,
+    old: Option<PartBuffers>,
+) -> Result<(PartBuffers, u32), GpuError> {
+    let vertex_count = lens.positions.len() as u32;
+    let mut data: Vec<[f32; 4]> = lens
+        .positions
+        .iter()
+        .map(|p| p.extend(1.0).to_array())
+        .collect();
+    for term in &lens.terms {
+        data.extend(term.fg.iter().map(|c| c.extend(0.0).to_array()));
+        for layer in &term.directions {
+            data.extend(layer.iter().map(|d| d.extend(0.0).to_array()));
+        }
+    }
+    let (old_data, old_indices) = match old {
+        Some(PartBuffers::Host { data, indices, .. }) => (Some(data), Some(indices)),
+        _ => (None, None),
+    };
+    let data = reuse_or_new(
+        gpu,
+        old_data,
+        &format!("lens{index} data"),
+        bytemuck::cast_slice(&data),
+        BufferUsage::Storage,
+    )?;
+    let indices = reuse_or_new(
+        gpu,
+        old_indices,
+        &format!("lens{index} indices"),
+        bytemuck::cast_slice(&lens.triangles),
+        BufferUsage::Index,
+    )?;
+    Ok((
+        PartBuffers::Host {
+            data,
+            indices,
+            index_count: (lens.triangles.len() * 3) as u32,
+            hull_index_count: (lens.hull_triangles.min(lens.triangles.len()) * 3) as u32,
+        },
+        vertex_count,
+    ))
 }
 
 /// `data` in `old` when it is large enough (rewritten in place: the mapped memory is the
@@ -571,30 +638,33 @@ fn reuse_or_new(
     Ok(buffer)
 }
 
-/// Points the descriptor sets of `lens` at its data buffer, cube-map arrays `layers` (one per
-/// viewpoint) and the sampler: each viewpoint's set at that viewpoint's array in every binding,
-/// the single pass's at the `active` viewpoints' arrays in order (the last one repeated where
-/// fewer than [`MAX_VIEWPOINTS`] are active). The sets must not be in use by a pending
-/// submission.
+/// Points the descriptor sets of every part of `lens` at its data buffer, cube-map arrays
+/// `layers` (one per viewpoint) and the sampler: each viewpoint's set at that viewpoint's array in
+/// every binding, the single pass's at the `active` viewpoints' arrays in order (the last one
+/// repeated where fewer than [`MAX_VIEWPOINTS`] are active). The sets must not be in use by a
+/// pending submission.
 fn write_lens_sets(
     gpu: &Gpu,
     pipelines: &Pipelines,
     lens: &GpuLens,
     (layers, active): (&[Arc<Image>], &[usize]),
 ) {
-    let write = |set: vk::DescriptorSet, viewpoint_in_binding: &dyn Fn(usize) -> usize| {
-        let mut resources = vec![Resource::Buffer(lens.data.handle)];
-        resources.extend(
-            (0..MAX_VIEWPOINTS).map(|k| Resource::Image(layers[viewpoint_in_binding(k)].view)),
-        );
-        resources.push(Resource::Sampler(pipelines.sampler));
-        write_set(gpu, set, LENS_SET, &resources);
-    };
-    for (viewpoint, set) in lens.sets.iter().enumerate() {
-        write(*set, &|_| viewpoint);
+    for part in &lens.parts {
+        let write = |set: vk::DescriptorSet, viewpoint_in_binding: &dyn Fn(usize) -> usize| {
+            let mut resources = vec![Resource::Buffer(part.data())];
+            resources.extend(
+                (0..MAX_VIEWPOINTS).map(|k| Resource::Image(layers[viewpoint_in_binding(k)].view)),
+            );
+            resources.push(Resource::Sampler(pipelines.sampler));
+            write_set(gpu, set, LENS_SET, &resources);
+        };
+        for (viewpoint, set) in part.sets.iter().enumerate() {
+            write(*set, &|_| viewpoint);
+        }
+        // A lens with no active viewpoint has no single pass; its set still points at valid
+        // arrays.
+        write(part.single_pass_set, &|k| {
+            active.get(k).or(active.last()).copied().unwrap_or(0)
+        });
     }
-    // A lens with no active viewpoint has no single pass; its set still points at valid arrays.
-    write(lens.single_pass_set, &|k| {
-        active.get(k).or(active.last()).copied().unwrap_or(0)
-    });
 }

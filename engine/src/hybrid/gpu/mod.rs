@@ -22,10 +22,14 @@ use crate::trace::{
 
 mod assemble;
 mod recorder;
+mod resident;
 mod tessellate;
 mod texgen;
 
-pub use tessellate::{GPU_MAX_DEPTH, GpuStageMs, GpuTessellation, GpuTessellationRequest};
+pub use resident::{DeviceCounts, read_counts};
+pub use tessellate::{
+    DeviceTessellation, GPU_MAX_DEPTH, GpuStageMs, GpuTessellation, GpuTessellationRequest,
+};
 pub use texgen::TexgenRequest;
 
 /// Storage buffers bound at set 0 of every tracer pass, in binding order (tracer.wgsl).
@@ -104,6 +108,8 @@ pub struct GpuTracer {
     tessellation: tessellate::TessellationPasses,
     /// The texgen pass.
     texgen: texgen::TexgenPass,
+    /// The draw list's passes.
+    draw_list: resident::DrawListPass,
     /// Valid bits of the queue's timestamps (0: none; the GPU stages are then not timed).
     timestamp_bits: u32,
     /// Whether tessellations time their stages with timestamps ([`GpuTracer::time_stages`]).
@@ -121,14 +127,15 @@ pub struct GpuTracer {
 struct PassState {
     pool: DescriptorPool,
     scratch: Option<Scratch>,
-    /// The tessellation's set comes from this pool.
-    tessellation_pool: DescriptorPool,
-    /// The texgen pass's set comes from this pool.
-    texgen_pool: DescriptorPool,
-    /// The tessellation's buffers, kept between frames.
+    /// The tessellation's buffers, shared by the scene objects and kept between frames.
     tessellation: Option<tessellate::Scratch>,
-    /// Each tessellated scene object's mesh, resident.
-    meshes: rustc_hash::FxHashMap<usize, tessellate::InputMesh>,
+    /// The vertex capacity the tessellation's buffers have, or are to have once grown (0:
+    /// none made yet).
+    capacity: u64,
+    /// Each tessellated scene object's resident mesh, sets and outputs.
+    objects: rustc_hash::FxHashMap<usize, resident::ObjectState>,
+    /// The tessellations' submissions, not waited for.
+    submissions: resident::Submissions,
 }
 
 /// A pass's buffers for up to `capacity` vertices: their inputs, records, the counters, and the
@@ -181,7 +188,13 @@ impl Scratch {
 
 impl Drop for GpuTracer {
     fn drop(&mut self) {
-        // SAFETY: the owner waited for every submission that used the pipelines.
+        // The tessellations' submissions are not waited for when made: before anything they use
+        // goes. (A frame that draws a part holds the part's buffers itself.)
+        if let Ok(state) = self.pass.get_mut() {
+            let _ = state.submissions.wait_all();
+        }
+        // SAFETY: every submission that used the pipelines completed (above, or the owner
+        // waited for trace_vertices' own).
         unsafe {
             self.device.destroy_pipeline(self.vertex_paths, None);
             self.device.destroy_pipeline(self.level_paths, None);
@@ -322,8 +335,8 @@ impl GpuTracer {
                 Ok((
                     (passes, texgen::TexgenPass::new(gpu)?),
                     (
-                        DescriptorPool::new(gpu, tessellate::TESSELLATE_SET, 1)?,
-                        DescriptorPool::new(gpu, texgen::TEXGEN_SET, 1)?,
+                        resident::DrawListPass::new(gpu)?,
+                        resident::Submissions::new(gpu)?,
                     ),
                     storage(gpu, "tracer unbound", &[0u32; 4])?,
                 ))
@@ -342,7 +355,7 @@ impl GpuTracer {
         });
         let (
             (vertex_paths, level_paths),
-            ((tessellation, texgen), (tessellation_pool, texgen_pool), unbound),
+            ((tessellation, texgen), (draw_list, submissions), unbound),
         ) = match rest {
             Ok(made) => made,
             Err(e) => {
@@ -369,16 +382,17 @@ impl GpuTracer {
             unbound,
             tessellation,
             texgen,
+            draw_list,
             timestamp_bits: timestamp_bits(gpu),
             timed: std::sync::atomic::AtomicBool::new(false),
             shape: (geometry.roots.len(), geometry.triangle_count()),
             pass: std::sync::Mutex::new(PassState {
                 pool,
                 scratch: None,
-                tessellation_pool,
-                texgen_pool,
                 tessellation: None,
-                meshes: rustc_hash::FxHashMap::default(),
+                capacity: 0,
+                objects: rustc_hash::FxHashMap::default(),
+                submissions,
             }),
         })
     }

@@ -3,10 +3,17 @@
 //! them, and the optional timestamps that split the device's time between the stages.
 
 use ash::vk;
-use lensmap_shaders::TessellateConstants;
+use lensmap_shaders::{DrawConstants, TessellateConstants};
 
-use super::tessellate::{GpuStageMs, TessellationPasses, pass};
-use super::{Dependency, WORKGROUP, barrier};
+use super::resident::Outputs;
+use super::tessellate::{
+    GpuStageMs, GpuTessellationRequest, InputMesh, Scratch, TessellationPasses, control,
+    first_control, pass, tessellate_constants,
+};
+use super::{
+    COMPUTE_TO_TRANSFER, COUNTERS, Dependency, GpuTracer, TRANSFER_TO_COMPUTE, TRANSFER_TO_HOST,
+    WORKGROUP, barrier,
+};
 use crate::gpu::{Gpu, GpuError, VkContext};
 
 /// A compute → compute (and indirect-argument) dependency: every pass reads what the one before
@@ -215,5 +222,214 @@ impl Recorder<'_> {
             self.device.cmd_dispatch(self.cb, 1, 1, 1);
             barrier(self.device, self.cb, COMPUTE_TO_COMPUTE);
         }
+    }
+}
+
+/// One tessellation as recorded: its buffers, sets, outputs and request.
+pub(super) struct TessellationRecording<'a> {
+    pub(super) tracer: &'a GpuTracer,
+    pub(super) scratch: &'a Scratch,
+    pub(super) input: &'a InputMesh,
+    pub(super) outputs: &'a Outputs,
+    /// The level pass's set and the tessellation's.
+    pub(super) sets: (vk::DescriptorSet, vk::DescriptorSet),
+    pub(super) request: &'a GpuTessellationRequest<'a>,
+    pub(super) timestamps: Option<&'a Timestamps>,
+}
+
+/// Every earlier command (the tracer's last tessellation on the shared buffers, a frame's draws
+/// of a part about to be rewritten) before this submission's transfers and passes.
+const EARLIER_TO_THIS: Dependency = (
+    vk::PipelineStageFlags2::ALL_COMMANDS,
+    vk::AccessFlags2::MEMORY_WRITE,
+    vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::TRANSFER.as_raw()
+            | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw(),
+    ),
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::MEMORY_READ.as_raw() | vk::AccessFlags2::MEMORY_WRITE.as_raw(),
+    ),
+);
+
+impl TessellationRecording<'_> {
+    /// Records every level, the T-junction removal, texgen and the draw list, then the copy of
+    /// the counts to the part's host buffer, into `cb`.
+    pub(super) fn record(&self, gpu: &Gpu, cb: vk::CommandBuffer) {
+        let (tracer, scratch, input, request) = (self.tracer, self.scratch, self.input, self.request);
+        let device = gpu.device();
+        let (tracer_set, set) = self.sets;
+        let tracer_constants = tracer.constants(request.camera, request.settings);
+        let constants = tessellate_constants(request, scratch, input);
+        let mut first = first_control(input);
+        // The budget word is the host's for the frame's first object (or where the host counts
+        // the budget), else what the object before left on the device.
+        let written = if request.continue_budget {
+            control::FRAME_BUDGET
+        } else {
+            first[control::FRAME_BUDGET] =
+                u32::try_from(request.options.max_vertices).unwrap_or(u32::MAX);
+            control::FRAME_BUDGET + 1
+        };
+        let levels = request.options.max_depth + 1;
+        let part = &self.outputs.part;
+        let recorder = Recorder {
+            device,
+            cb,
+            passes: &tracer.tessellation,
+            set,
+            constants: &constants,
+            control: scratch.control.handle,
+            timestamps: self.timestamps,
+            bound: std::cell::Cell::new(false),
+        };
+        // SAFETY: every handle is live until the submission completes (the tracer waits for its
+        // submissions before freeing what they use, and a part outlives the frames that draw
+        // it); a barrier separates every pass from the next, and the copies from the passes.
+        unsafe {
+            barrier(device, cb, EARLIER_TO_THIS);
+            device.cmd_update_buffer(
+                cb,
+                recorder.control,
+                0,
+                bytemuck::cast_slice(&first[..written]),
+            );
+            device.cmd_fill_buffer(
+                cb,
+                scratch.wanted.handle,
+                0,
+                4 * u64::from(input.vertex_count).max(1),
+                0,
+            );
+            device.cmd_fill_buffer(cb, scratch.counters.handle, 0, vk::WHOLE_SIZE, 0);
+            if let Some(timestamps) = self.timestamps {
+                device.cmd_reset_query_pool(cb, timestamps.pool, 0, 4 * levels + 4);
+            }
+            barrier(device, cb, TRANSFER_TO_COMPUTE);
+            recorder.groups("cs_begin", input.vertex_count.max(input.edge_count));
+            recorder.groups("cs_classify", input.triangle_count);
+            for level in 0..levels {
+                // The level's new vertices, by the tracer's pass (its own layout and set).
+                recorder.stamp(4 * level);
+                bind_compute(
+                    device,
+                    cb,
+                    (tracer.level_paths, tracer.layout, tracer_set),
+                    bytemuck::bytes_of(&tracer_constants),
+                );
+                recorder.dispatch_indirect(control::DISPATCH_TRACE);
+                recorder.bound.set(false);
+                recorder.stamp(4 * level + 1);
+                recorder.stamp(4 * level + 2);
+                for name in ["cs_decide", "cs_count"] {
+                    recorder.indirect(name, control::DISPATCH_ELEMENTS);
+                }
+                recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
+                recorder.single("cs_scan_top");
+                for name in ["cs_apply", "cs_emit"] {
+                    recorder.indirect(name, control::DISPATCH_ELEMENTS);
+                }
+                recorder.single("cs_advance");
+                recorder.stamp(4 * level + 3);
+            }
+            recorder.stamp(4 * levels);
+            recorder.single("cs_leaves_begin");
+            recorder.indirect("cs_leaf_count", control::DISPATCH_ELEMENTS);
+            recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
+            recorder.single("cs_scan_top");
+            recorder.indirect("cs_leaf_emit", control::DISPATCH_ELEMENTS);
+            recorder.stamp(4 * levels + 1);
+            recorder.stamp(4 * levels + 2);
+            if let (Some(texgen), Some(texgen_set)) = (&request.texgen, self.outputs.texgen_set) {
+                let constants = texgen.constants(input.vertex_count, part.stride);
+                bind_compute(
+                    device,
+                    cb,
+                    (tracer.texgen.pipeline, tracer.texgen.layout, texgen_set),
+                    bytemuck::bytes_of(&constants),
+                );
+                // Over every vertex: cs_leaves_begin set the trace arguments so.
+                recorder.dispatch_indirect(control::DISPATCH_TRACE);
+            }
+            recorder.stamp(4 * levels + 3);
+            self.record_draw_list(device, &recorder);
+            barrier(device, cb, COMPUTE_TO_TRANSFER);
+            let words = 4 * control::WORDS as u64;
+            let copies = [
+                (recorder.control, 0, words),
+                (scratch.counters.handle, words, 4 * COUNTERS as u64),
+                (part.args.handle, words + 16, 60),
+            ];
+            for (source, at, bytes) in copies {
+                let region = vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: at,
+                    size: bytes,
+                };
+                device.cmd_copy_buffer(cb, source, part.counts.handle, &[region]);
+            }
+            barrier(device, cb, TRANSFER_TO_HOST);
+        }
+    }
+
+    /// The draw list's passes: the index buffer and the indirect draws.
+    ///
+    /// # Safety
+    /// `recorder.cb` is recording.
+    unsafe fn record_draw_list(&self, device: &ash::Device, recorder: &Recorder<'_>) {
+        let pass = &self.tracer.draw_list;
+        let constants = DrawConstants {
+            eye: self.request.camera.eye.as_vec3().to_array(),
+            hull_split: u32::from(self.request.hull.is_some()),
+        };
+        let cb = recorder.cb;
+        // SAFETY: as the caller says; the pipelines, layout and set are live.
+        unsafe {
+            bind_compute(
+                device,
+                cb,
+                (
+                    pass.pipeline("cs_draw_begin"),
+                    pass.layout,
+                    self.outputs.draw_set,
+                ),
+                bytemuck::bytes_of(&constants),
+            );
+            for name in super::resident::PASSES {
+                device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pass.pipeline(name));
+                match name {
+                    "cs_draw_begin" | "cs_scan_top" | "cs_draw_args" => {
+                        device.cmd_dispatch(cb, 1, 1, 1);
+                        barrier(device, cb, COMPUTE_TO_COMPUTE);
+                    }
+                    "cs_scan_blocks" => recorder.dispatch_indirect(control::DISPATCH_BLOCKS),
+                    _ => recorder.dispatch_indirect(control::DISPATCH_ELEMENTS),
+                }
+            }
+        }
+    }
+}
+
+/// Binds a compute `pipeline` with its layout's one set and push constants.
+///
+/// # Safety
+/// `cb` is recording; the handles are live and of one layout.
+unsafe fn bind_compute(
+    device: &ash::Device,
+    cb: vk::CommandBuffer,
+    (pipeline, layout, set): (vk::Pipeline, vk::PipelineLayout, vk::DescriptorSet),
+    constants: &[u8],
+) {
+    // SAFETY: as the caller says.
+    unsafe {
+        device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipeline);
+        device.cmd_bind_descriptor_sets(
+            cb,
+            vk::PipelineBindPoint::COMPUTE,
+            layout,
+            0,
+            &[set],
+            &[],
+        );
+        device.cmd_push_constants(cb, layout, vk::ShaderStageFlags::COMPUTE, 0, constants);
     }
 }

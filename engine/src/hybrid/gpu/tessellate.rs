@@ -14,23 +14,25 @@
 //! vertex budget, up to the budget or what the device can dispatch. Past the budget, splits stop
 //! as on the CPU ([`StopReason::Budget`]).
 
+use std::sync::Arc;
+
 use ash::vk;
 use glam::Vec3;
-use lensmap_shaders::{TessellateConstants, TexgenConstants};
+use lensmap_shaders::TessellateConstants;
 use rustc_hash::FxHashMap;
 
 use super::assemble::{Readback, assemble};
-use super::recorder::{Recorder, Timestamps};
+use super::recorder::Timestamps;
+use super::resident;
 use super::texgen::{self, TexgenRequest};
 use super::{
-    COMPUTE_TO_TRANSFER, GpuTracer, PathSettings, STORAGE, TRANSFER_TO_COMPUTE, TRANSFER_TO_HOST,
-    WORKGROUP, barrier, storage,
+    GpuTracer, PassState, PathSettings, STORAGE, TRANSFER_TO_HOST, WORKGROUP, barrier, storage,
 };
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError};
 use crate::hybrid::paths::{ScreenCamera, VertexPaths};
 use crate::hybrid::tessellate::{Tessellation, TessellationError, TessellationOptions};
-use crate::render::TermVertices;
-use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
+use crate::render::{DeviceLensPart, TermVertices};
+use crate::render::descriptors::{Binding, Resource, create_set_layout};
 use crate::scene::TriangleMesh;
 use crate::trace::stats::TraceCounters;
 
@@ -71,6 +73,10 @@ pub(super) mod control {
     pub const OCCLUDED: usize = 34;
     pub const T_JUNCTION_LEAVES: usize = 35;
     pub const T_JUNCTION_VERTICES: usize = 36;
+    /// The frame's vertex budget left (kept between a frame's objects).
+    pub const FRAME_BUDGET: usize = 38;
+    /// This object's budget: the frame's left, or its input vertices if more.
+    pub const OBJECT_BUDGET: usize = 39;
     /// Words in the buffer.
     pub const WORDS: usize = 40;
 }
@@ -178,12 +184,12 @@ impl TessellationPasses {
 /// A scene object's mesh as the passes read it, resident: its vertices with the normals the CPU
 /// tessellator uses, its triangles with their edges, and its edges.
 pub(super) struct InputMesh {
-    vertices: Buffer,
-    triangles: Buffer,
-    edges: Buffer,
-    vertex_count: u32,
-    triangle_count: u32,
-    edge_count: u32,
+    pub(super) vertices: Buffer,
+    pub(super) triangles: Buffer,
+    pub(super) edges: Buffer,
+    pub(super) vertex_count: u32,
+    pub(super) triangle_count: u32,
+    pub(super) edge_count: u32,
 }
 
 impl InputMesh {
@@ -239,27 +245,23 @@ impl InputMesh {
 
 /// The frame's buffers for up to `vertices` vertices (and the derived triangles and edges).
 pub(super) struct Scratch {
-    vertices_capacity: u64,
-    triangles_capacity: u64,
-    edges_capacity: u64,
-    vertices: Buffer,
-    records: Buffer,
-    control: Buffer,
-    wanted: Buffer,
-    triangles: Buffer,
-    edge_ends: Buffer,
-    edge_state: Buffer,
-    counts: Buffer,
-    block_sums: Buffer,
-    output: Buffer,
+    pub(super) vertices_capacity: u64,
+    pub(super) triangles_capacity: u64,
+    pub(super) edges_capacity: u64,
+    pub(super) vertices: Buffer,
+    pub(super) records: Buffer,
+    pub(super) control: Buffer,
+    pub(super) wanted: Buffer,
+    pub(super) triangles: Buffer,
+    pub(super) edge_ends: Buffer,
+    pub(super) edge_state: Buffer,
+    pub(super) counts: Buffer,
+    pub(super) block_sums: Buffer,
+    pub(super) output: Buffer,
     /// The tracer's counters (tracer.wgsl `COUNTER_*`).
-    counters: Buffer,
-    /// Texgen's output, the lens pass's data (grown as a request needs).
-    lens_data: Option<Buffer>,
-    /// Texgen's layer shells (host-visible, rewritten each frame, grown as needed).
-    shells: Option<Buffer>,
-    /// Host copies: the control words and tracer counters, then the mesh (grown as needed).
-    readback: Option<Buffer>,
+    pub(super) counters: Buffer,
+    /// The host copy of a mesh read back (grown as needed).
+    pub(super) readback: Option<Buffer>,
 }
 
 impl Scratch {
@@ -286,8 +288,6 @@ impl Scratch {
             )?,
             output: device("tessellation output", outputs * OUTPUT_BYTES)?,
             counters: device("tessellation tracer counters", 4 * super::COUNTERS as u64)?,
-            lens_data: None,
-            shells: None,
             readback: None,
         })
     }
@@ -301,50 +301,87 @@ impl Scratch {
                 >= EDGES_PER_VERTEX * self.vertices_capacity + u64::from(input.edge_count)
     }
 
-    /// Makes the lens data buffer hold at least `bytes`; refused past the device's
-    /// `maxStorageBufferRange`.
-    fn ensure_lens_data(&mut self, gpu: &Gpu, bytes: u64) -> Result<(), GpuError> {
-        let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
-        if bytes > range {
-            return Err(GpuError::BadUpload {
-                what: "the GPU texgen's lens data".into(),
-                problem: format!(
-                    "{bytes} bytes for this many vertices and layers, past the device's maxStorageBufferRange of {range}; trace on the CPU or lower the vertex budget"
-                ),
-            });
-        }
-        if self.lens_data.as_ref().is_none_or(|b| b.size < bytes) {
-            self.lens_data = None;
-            self.lens_data = Some(Buffer::new(
-                gpu,
-                "tessellation lens data",
-                bytes,
-                BufferUsage::Device,
-            )?);
-        }
-        Ok(())
+    /// Vertices the buffers hold.
+    pub(super) fn vertices_capacity(&self) -> u64 {
+        self.vertices_capacity
     }
 
-    /// Writes texgen's shells into their buffer, made or grown first where it is too small.
-    fn write_shells(&mut self, gpu: &Gpu, words: &[[f32; 4]]) -> Result<(), GpuError> {
-        let bytes: &[u8] = bytemuck::cast_slice(words);
-        if self
-            .shells
-            .as_ref()
-            .is_none_or(|b| b.size < bytes.len() as u64)
-        {
-            self.shells = None;
-            self.shells = Some(Buffer::new(
-                gpu,
-                "texgen shells",
-                bytes.len() as u64,
-                BufferUsage::Storage,
-            )?);
-        }
-        match &mut self.shells {
-            Some(buffer) => buffer.write(0, bytes, "texgen shells"),
-            None => Ok(()),
-        }
+    /// Output triangles the buffers hold.
+    pub(super) fn output_capacity(&self) -> u64 {
+        self.output.size / OUTPUT_BYTES
+    }
+
+    /// The level pass's buffers after the geometry's (tracer.wgsl bindings 5 to 9).
+    pub(super) fn tracer_resources(&self) -> Vec<Resource> {
+        [
+            &self.vertices,
+            &self.records,
+            &self.counters,
+            &self.control,
+            &self.wanted,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect()
+    }
+
+    /// The tessellation's buffers over `input` (tessellate.wgsl bindings).
+    pub(super) fn tessellation_resources(&self, input: &InputMesh) -> Vec<Resource> {
+        [
+            &self.vertices,
+            &self.records,
+            &self.control,
+            &self.wanted,
+            &self.triangles,
+            &self.edge_ends,
+            &self.edge_state,
+            &self.counts,
+            &self.block_sums,
+            &self.output,
+            &input.vertices,
+            &input.triangles,
+            &input.edges,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect()
+    }
+
+    /// Texgen's buffers, writing into `data` (texgen.wgsl bindings).
+    pub(super) fn texgen_resources(&self, shells: &Buffer, data: &Buffer) -> Vec<Resource> {
+        [
+            &self.vertices,
+            &self.records,
+            &self.wanted,
+            shells,
+            data,
+            &self.control,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect()
+    }
+
+    /// The draw list's buffers (drawlist.wgsl bindings).
+    pub(super) fn draw_resources(
+        &self,
+        hull: &Buffer,
+        (indices, args): (&Buffer, &Buffer),
+    ) -> Vec<Resource> {
+        [
+            &self.control,
+            &self.output,
+            &self.triangles,
+            &self.vertices,
+            hull,
+            &self.counts,
+            &self.block_sums,
+            indices,
+            args,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect()
     }
 
     /// What the last copy to the host buffer left there (empty before the first).
@@ -384,6 +421,26 @@ pub struct GpuTessellationRequest<'a> {
     pub options: &'a TessellationOptions,
     /// Texture coordinates too, for these layers (in the same submission), or not.
     pub texgen: Option<TexgenRequest<'a>>,
+    /// Per input triangle whether it lies on the convex hull of the lens geometry: the draw
+    /// list puts those facing the eye last (`None`: no convex-hull split).
+    pub hull: Option<&'a [bool]>,
+    /// Whether the vertex budget continues on the device from the tessellation submitted before
+    /// (the frame's previous scene object, whose vertices the host never counted) instead of
+    /// starting at `options.max_vertices`.
+    pub continue_budget: bool,
+}
+
+/// A tessellation left on the device, its submission not waited for (unless timed).
+pub struct DeviceTessellation {
+    /// The buffers a frame draws it from.
+    pub part: Arc<DeviceLensPart>,
+    /// Its stages' device time (`None` unless the tracer [times them](GpuTracer::time_stages):
+    /// it then waits for the submission).
+    pub stage_ms: Option<GpuStageMs>,
+    /// Wall time of recording and submitting it (and of waiting, when timed), ms.
+    pub submission_ms: f64,
+    /// The tracer's timeline value its completion signals.
+    submitted: u64,
 }
 
 /// Where a GPU tessellation's time went on the device, by timestamps, ms.
@@ -411,14 +468,6 @@ pub struct GpuTessellation {
     pub counters: TraceCounters,
     /// Per term its F·G and each layer's directions, when texgen was asked for.
     pub terms: Option<Vec<TermVertices>>,
-}
-
-/// The descriptor pools of a tessellation's sets: the tracer's level pass, the tessellation's
-/// passes, texgen.
-pub(super) struct Pools<'a> {
-    pub(super) tracer: &'a DescriptorPool,
-    pub(super) tessellation: &'a DescriptorPool,
-    pub(super) texgen: &'a DescriptorPool,
 }
 
 /// The largest capacity, in vertices, the device can dispatch and bind: every per-triangle pass
@@ -449,19 +498,89 @@ fn device_capacity(gpu: &Gpu, input: &InputMesh, texgen: Option<&TexgenRequest<'
 
 impl GpuTracer {
     /// Tessellates scene object `object` (`mesh`) from `request.camera` on the GPU, tracing
-    /// every vertex there, and reads the mesh and its records back.
+    /// every vertex there, waits for it and reads the mesh and its records back.
     ///
     /// `object` names `mesh` within the tracer's scene: the copy kept resident for it is reused
     /// while its vertex and triangle counts match, so a mesh that changes must come under
     /// another index. Splits stop at the vertex budget as on the CPU (`Budget` leaves); the
     /// device's limits stop them the same way, and only a device that cannot hold the input
-    /// mesh and one split is an error.
+    /// mesh and one split is an error. Buffers that stop splits before the budget are grown
+    /// fourfold and the tessellation made again.
     pub fn tessellate(
         &self,
         gpu: &Gpu,
         (object, mesh): (usize, &TriangleMesh),
         request: &GpuTessellationRequest<'_>,
     ) -> Result<GpuTessellation, TessellationError> {
+        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            let start = std::time::Instant::now();
+            let made = self.submit_tessellation(gpu, &mut pass, (object, mesh), request)?;
+            pass.submissions.wait(made.submitted)?;
+            let submission_ms = start.elapsed().as_secs_f64() * 1e3;
+            if resident::read_counts(&made.part).capped_by_buffers
+                && self.grow_locked(gpu, &mut pass)?
+            {
+                continue;
+            }
+            let mut read = self.read_mesh(gpu, (&mut pass, object, mesh), &made.part, request)?;
+            read.stage_ms = made.stage_ms;
+            read.submission_ms = submission_ms;
+            return Ok(read);
+        }
+    }
+
+    /// [`Self::tessellate`] left on the device: the mesh, the lens pass's data (when
+    /// `request.texgen` asks) and the draw list are made in one submission that is not waited
+    /// for, and a frame draws them from the returned part. Its counts are read once that frame
+    /// is done ([`super::read_counts`]); where they say the buffers stopped splits before the
+    /// budget, [`Self::grow`] gives the next tessellation larger ones.
+    pub fn tessellate_on_device(
+        &self,
+        gpu: &Gpu,
+        (object, mesh): (usize, &TriangleMesh),
+        request: &GpuTessellationRequest<'_>,
+    ) -> Result<DeviceTessellation, TessellationError> {
+        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        let start = std::time::Instant::now();
+        let mut made = self.submit_tessellation(gpu, &mut pass, (object, mesh), request)?;
+        made.submission_ms = start.elapsed().as_secs_f64() * 1e3;
+        Ok(made)
+    }
+
+    /// Makes the buffers four times larger for the next tessellation (up to what the device
+    /// holds), after every submission completed; whether they grew.
+    pub fn grow(&self, gpu: &Gpu) -> Result<bool, GpuError> {
+        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        self.grow_locked(gpu, &mut pass)
+    }
+
+    fn grow_locked(&self, gpu: &Gpu, state: &mut PassState) -> Result<bool, GpuError> {
+        let Some(scratch) = &state.tessellation else {
+            return Ok(false);
+        };
+        let device = state
+            .objects
+            .values()
+            .map(|o| device_capacity(gpu, &o.input, None))
+            .min()
+            .unwrap_or(u64::MAX);
+        let grown = (scratch.vertices_capacity * 4).min(device);
+        if grown <= scratch.vertices_capacity {
+            return Ok(false);
+        }
+        state.capacity = grown;
+        Ok(true)
+    }
+
+    /// Records and submits one tessellation (the caller holds the pass state).
+    fn submit_tessellation(
+        &self,
+        gpu: &Gpu,
+        state: &mut PassState,
+        (object, mesh): (usize, &TriangleMesh),
+        request: &GpuTessellationRequest<'_>,
+    ) -> Result<DeviceTessellation, TessellationError> {
         self.check_device(gpu)?;
         let options = request.options;
         if options.validate().is_err() {
@@ -475,22 +594,21 @@ impl GpuTracer {
             )
             .into());
         }
-        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
-        let state = &mut *pass;
-        let stale = state.meshes.get(&object).is_some_and(|m| {
-            m.vertex_count as usize != mesh.positions.len()
-                || m.triangle_count as usize != mesh.triangles.len()
+        let stale = state.objects.get(&object).is_some_and(|o| {
+            o.input.vertex_count as usize != mesh.positions.len()
+                || o.input.triangle_count as usize != mesh.triangles.len()
         });
         if stale {
-            state.meshes.remove(&object);
+            state.submissions.wait_all()?;
+            state.objects.remove(&object);
         }
-        let input = match state.meshes.entry(object) {
-            std::collections::hash_map::Entry::Occupied(held) => held.into_mut(),
-            std::collections::hash_map::Entry::Vacant(slot) => {
-                slot.insert(InputMesh::new(gpu, mesh)?)
-            }
-        };
-        let input = &*input;
+        if !state.objects.contains_key(&object) {
+            let input = InputMesh::new(gpu, mesh)?;
+            state
+                .objects
+                .insert(object, resident::ObjectState::new(gpu, input)?);
+        }
+        let input = &state.objects[&object].input;
         let least = u64::from(input.vertex_count) + 4;
         let device = device_capacity(gpu, input, request.texgen.as_ref());
         if device < least {
@@ -503,62 +621,122 @@ impl GpuTracer {
             }
             .into());
         }
-        // A spent budget still gets buffers for the input (and refuses every split).
-        let budget = (options.max_vertices as u64).max(u64::from(input.vertex_count));
-        let ceiling = budget.min(device).max(least);
-        let held = state
-            .tessellation
-            .as_ref()
-            .filter(|s| s.holds(input) && s.vertices_capacity <= device)
-            .map(|s| s.vertices_capacity);
-        let mut capacity = held.unwrap_or(FIRST_CAPACITY.max(least).min(ceiling));
-        loop {
-            if state.tessellation.as_ref().map(|s| s.vertices_capacity) != Some(capacity)
-                || held.is_none()
-            {
-                // The old buffers go before the new ones are made.
-                state.tessellation = None;
-                state.tessellation = Some(Scratch::new(gpu, capacity, input)?);
-            }
-            let scratch = state
-                .tessellation
-                .as_mut()
-                .ok_or_else(|| GpuError::BadUpload {
-                    what: "the GPU tessellation".into(),
-                    problem: "its buffers were not made".into(),
-                })?;
-            if let Some(texgen) = &request.texgen {
-                scratch.ensure_lens_data(gpu, capacity * texgen.arrays() * 16)?;
-            }
-            let pools = Pools {
-                tracer: &state.pool,
-                tessellation: &state.tessellation_pool,
-                texgen: &state.texgen_pool,
-            };
-            let start = std::time::Instant::now();
-            let (words, stage_ms) =
-                self.run_levels(gpu, (&pools, scratch, input), request, capacity.min(budget))?;
-            let submission_ms = start.elapsed().as_secs_f64() * 1e3;
-            if words[control::BUDGET] > 0 && capacity < ceiling {
-                // The buffers, not the budget, stopped the splits: again with larger ones.
-                capacity = (capacity * 4).min(ceiling);
-                continue;
-            }
-            let mut made =
-                self.read_mesh(gpu, (scratch, input, mesh), request.texgen.as_ref(), &words)?;
-            made.stage_ms = stage_ms;
-            made.submission_ms = submission_ms;
-            return Ok(made);
+        // The buffers are kept while they hold the input (grown only by `grow`); the first are
+        // sized for the paper's setting, or the budget when smaller.
+        let budget = (options.max_vertices as u64).max(least);
+        let wanted = match state.capacity {
+            0 => FIRST_CAPACITY.min(budget),
+            grown => grown,
         }
+        .max(least)
+        .min(device);
+        // Kept while they hold the input and no growth was asked for since they were made.
+        let fits = state.tessellation.as_ref().is_some_and(|s| {
+            s.holds(input) && s.vertices_capacity <= device && s.vertices_capacity == state.capacity
+        });
+        if !fits {
+            // Nothing submitted may still use the old buffers, nor the sets that point at them.
+            state.submissions.wait_all()?;
+            state.tessellation = None;
+            state.tessellation = Some(Scratch::new(gpu, wanted, input)?);
+            state.capacity = wanted;
+            for held in state.objects.values_mut() {
+                held.forget_sets();
+            }
+        }
+        let hull: Vec<u32> = request
+            .hull
+            .map(|flags| flags.iter().map(|&f| u32::from(f)).collect())
+            .unwrap_or_default();
+        let shells = request.texgen.as_ref().map(TexgenRequest::shell_words);
+        let held = state.objects.get_mut(&object).ok_or_else(|| GpuError::BadUpload {
+            what: "the GPU tessellation".into(),
+            problem: "its mesh was not kept".into(),
+        })?;
+        if held.changes(&hull, shells.as_deref()) {
+            state.submissions.wait_all()?;
+            held.write_inputs(gpu, &hull, shells.as_deref())?;
+        }
+        let Some(scratch) = state.tessellation.as_ref() else {
+            return Err(GpuError::BadUpload {
+                what: "the GPU tessellation".into(),
+                problem: "its buffers were not made".into(),
+            }
+            .into());
+        };
+        let geometry: Vec<Resource> = [
+            &self.nodes,
+            &self.triangles,
+            &self.materials,
+            &self.roots,
+            &self.schlick,
+        ]
+        .iter()
+        .map(|b| Resource::Buffer(b.handle))
+        .collect();
+        held.ensure_sets(
+            gpu,
+            (
+                (self.set_layout, &geometry),
+                self.tessellation.set_layout,
+            ),
+            scratch,
+        )?;
+        let sets = held.sets.ok_or_else(|| GpuError::BadUpload {
+            what: "the GPU tessellation".into(),
+            problem: "its sets were not made".into(),
+        })?;
+        let arrays = request.texgen.as_ref().map_or(0, TexgenRequest::arrays);
+        let at = held.free_outputs(
+            gpu,
+            (self.texgen.set_layout, self.draw_list.set_layout),
+            scratch,
+            arrays,
+        )?;
+        let held = &*held;
+        let (input, outputs) = (&held.input, &held.outputs[at]);
+        let levels = options.max_depth + 1;
+        let timed = self.timed.load(std::sync::atomic::Ordering::Relaxed);
+        let timestamps = match self.timestamp_bits {
+            bits if bits > 0 && timed => Some(Timestamps::new(gpu, levels)?),
+            _ => None,
+        };
+        let part = outputs.part.clone();
+        let record = super::recorder::TessellationRecording {
+            tracer: self,
+            scratch,
+            input,
+            outputs,
+            sets,
+            request,
+            timestamps: timestamps.as_ref(),
+        };
+        let submitted = state.submissions.submit(gpu, |cb| {
+            record.record(gpu, cb);
+            Ok(())
+        })?;
+        let stage_ms = match &timestamps {
+            Some(timestamps) => {
+                state.submissions.wait(submitted)?;
+                let period = gpu.properties().limits.timestamp_period;
+                Some(timestamps.read(self.timestamp_bits, period)?)
+            }
+            None => None,
+        };
+        Ok(DeviceTessellation {
+            part,
+            stage_ms,
+            submission_ms: 0.0,
+            submitted,
+        })
     }
 }
 
 /// The tessellation passes' constants for `request` over `scratch` and `input`.
-fn tessellate_constants(
+pub(super) fn tessellate_constants(
     request: &GpuTessellationRequest<'_>,
     scratch: &Scratch,
     input: &InputMesh,
-    vertex_capacity: u64,
 ) -> TessellateConstants {
     let camera = request.camera;
     TessellateConstants {
@@ -567,7 +745,7 @@ fn tessellate_constants(
         t: request.options.t,
         cos_threshold: request.cos_threshold,
         max_depth: request.options.max_depth,
-        vertex_capacity: vertex_capacity as u32,
+        vertex_capacity: scratch.vertices_capacity as u32,
         edge_capacity: scratch.edges_capacity as u32,
         triangle_capacity: scratch.triangles_capacity as u32,
         input_vertices: input.vertex_count,
@@ -580,7 +758,7 @@ fn tessellate_constants(
 
 /// The control words a frame starts from: level 0 is the input triangles, its vertices the
 /// input vertices.
-fn first_control(input: &InputMesh) -> [u32; control::WORDS] {
+pub(super) fn first_control(input: &InputMesh) -> [u32; control::WORDS] {
     let mut words = [0u32; control::WORDS];
     let (vertices, triangles, edges) = (input.vertex_count, input.triangle_count, input.edge_count);
     words[control::LEVEL_HI] = triangles;
@@ -607,254 +785,30 @@ fn first_control(input: &InputMesh) -> [u32; control::WORDS] {
 }
 
 impl GpuTracer {
-    /// The tracer's level pass's set and the tessellation's, over `scratch` and `input`.
-    fn sets(
-        &self,
-        gpu: &Gpu,
-        pools: &Pools<'_>,
-        scratch: &Scratch,
-        input: &InputMesh,
-    ) -> Result<(vk::DescriptorSet, vk::DescriptorSet), GpuError> {
-        let passes = &self.tessellation;
-        let (pool, tessellation_pool) = (pools.tracer, pools.tessellation);
-        pool.reset()?;
-        tessellation_pool.reset()?;
-        let tracer_set = pool.allocate(self.set_layout, 1)?[0];
-        let tracer_resources: Vec<Resource> = [
-            &self.nodes,
-            &self.triangles,
-            &self.materials,
-            &self.roots,
-            &self.schlick,
-            &scratch.vertices,
-            &scratch.records,
-            &scratch.counters,
-            &scratch.control,
-            &scratch.wanted,
-        ]
-        .iter()
-        .map(|b| Resource::Buffer(b.handle))
-        .collect();
-        write_set(gpu, tracer_set, super::TRACER_SET, &tracer_resources);
-        let set = tessellation_pool.allocate(passes.set_layout, 1)?[0];
-        let resources: Vec<Resource> = [
-            &scratch.vertices,
-            &scratch.records,
-            &scratch.control,
-            &scratch.wanted,
-            &scratch.triangles,
-            &scratch.edge_ends,
-            &scratch.edge_state,
-            &scratch.counts,
-            &scratch.block_sums,
-            &scratch.output,
-            &input.vertices,
-            &input.triangles,
-            &input.edges,
-        ]
-        .iter()
-        .map(|b| Resource::Buffer(b.handle))
-        .collect();
-        write_set(gpu, set, TESSELLATE_SET, &resources);
-        Ok((tracer_set, set))
-    }
-
-    /// The texgen pass's set over `scratch` and the request's shells (written into `scratch`),
-    /// and its constants.
-    fn texgen_set(
-        &self,
-        gpu: &Gpu,
-        pool: &DescriptorPool,
-        scratch: &mut Scratch,
-        (input, request): (&InputMesh, &TexgenRequest<'_>),
-    ) -> Result<(vk::DescriptorSet, TexgenConstants), GpuError> {
-        scratch.write_shells(gpu, &request.shell_words())?;
-        let (Some(data), Some(shells)) = (&scratch.lens_data, &scratch.shells) else {
-            return Err(GpuError::BadUpload {
-                what: "the GPU texgen".into(),
-                problem: "its buffers were not made".into(),
-            });
-        };
-        pool.reset()?;
-        let set = pool.allocate(self.texgen.set_layout, 1)?[0];
-        let resources: Vec<Resource> = [
-            &scratch.vertices,
-            &scratch.records,
-            &scratch.wanted,
-            shells,
-            data,
-            &scratch.control,
-        ]
-        .iter()
-        .map(|b| Resource::Buffer(b.handle))
-        .collect();
-        write_set(gpu, set, texgen::TEXGEN_SET, &resources);
-        let constants = request.constants(input.vertex_count, scratch.vertices_capacity as u32);
-        Ok((set, constants))
-    }
-
-    /// Records and runs every level and the T-junction removal in one submission; returns the
-    /// control words, then the tracer's three counters.
-    fn run_levels(
-        &self,
-        gpu: &Gpu,
-        (pools, scratch, input): (&Pools<'_>, &mut Scratch, &InputMesh),
-        request: &GpuTessellationRequest<'_>,
-        vertex_capacity: u64,
-    ) -> Result<(Vec<u32>, Option<GpuStageMs>), GpuError> {
-        let passes = &self.tessellation;
-        let (tracer_set, set) = self.sets(gpu, pools, scratch, input)?;
-        let texgen = match &request.texgen {
-            Some(texgen) => Some(self.texgen_set(gpu, pools.texgen, scratch, (input, texgen))?),
-            None => None,
-        };
-        let tracer_constants = self.constants(request.camera, request.settings);
-        let constants = tessellate_constants(request, scratch, input, vertex_capacity);
-        let first = first_control(input);
-        let levels = request.options.max_depth + 1;
-        let timed = self.timed.load(std::sync::atomic::Ordering::Relaxed);
-        let timestamps = match self.timestamp_bits {
-            bits if bits > 0 && timed => Some(Timestamps::new(gpu, levels)?),
-            _ => None,
-        };
-        let readback = scratch
-            .readback(gpu, 4 * (control::WORDS as u64 + 4))?
-            .handle;
-        let device = gpu.device();
-        let scratch = &*scratch;
-        gpu.submit_and_wait(|cb| {
-            let recorder = Recorder {
-                device,
-                cb,
-                passes,
-                set,
-                constants: &constants,
-                control: scratch.control.handle,
-                timestamps: timestamps.as_ref(),
-                bound: std::cell::Cell::new(false),
-            };
-            // SAFETY: every handle is live until the wait returns; a barrier separates every
-            // pass from the next, and the copies from the passes.
-            unsafe {
-                device.cmd_update_buffer(cb, recorder.control, 0, bytemuck::cast_slice(&first));
-                device.cmd_fill_buffer(
-                    cb,
-                    scratch.wanted.handle,
-                    0,
-                    4 * u64::from(input.vertex_count).max(1),
-                    0,
-                );
-                device.cmd_fill_buffer(cb, scratch.counters.handle, 0, vk::WHOLE_SIZE, 0);
-                if let Some(timestamps) = &timestamps {
-                    device.cmd_reset_query_pool(cb, timestamps.pool, 0, 4 * levels + 4);
-                }
-                barrier(device, cb, TRANSFER_TO_COMPUTE);
-                recorder.groups("cs_begin", input.vertex_count.max(input.edge_count));
-                recorder.groups("cs_classify", input.triangle_count);
-                for level in 0..levels {
-                    // The level's new vertices, by the tracer's pass (its own layout and set).
-                    recorder.stamp(4 * level);
-                    device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.level_paths);
-                    device.cmd_bind_descriptor_sets(
-                        cb,
-                        vk::PipelineBindPoint::COMPUTE,
-                        self.layout,
-                        0,
-                        &[tracer_set],
-                        &[],
-                    );
-                    device.cmd_push_constants(
-                        cb,
-                        self.layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        bytemuck::bytes_of(&tracer_constants),
-                    );
-                    recorder.dispatch_indirect(control::DISPATCH_TRACE);
-                    recorder.bound.set(false);
-                    recorder.stamp(4 * level + 1);
-                    recorder.stamp(4 * level + 2);
-                    for name in ["cs_decide", "cs_count"] {
-                        recorder.indirect(name, control::DISPATCH_ELEMENTS);
-                    }
-                    recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
-                    recorder.single("cs_scan_top");
-                    for name in ["cs_apply", "cs_emit"] {
-                        recorder.indirect(name, control::DISPATCH_ELEMENTS);
-                    }
-                    recorder.single("cs_advance");
-                    recorder.stamp(4 * level + 3);
-                }
-                recorder.stamp(4 * levels);
-                recorder.single("cs_leaves_begin");
-                recorder.indirect("cs_leaf_count", control::DISPATCH_ELEMENTS);
-                recorder.indirect("cs_scan_blocks", control::DISPATCH_BLOCKS);
-                recorder.single("cs_scan_top");
-                recorder.indirect("cs_leaf_emit", control::DISPATCH_ELEMENTS);
-                recorder.stamp(4 * levels + 1);
-                recorder.stamp(4 * levels + 2);
-                if let Some((texgen_set, texgen_constants)) = &texgen {
-                    let layout = self.texgen.layout;
-                    device.cmd_bind_pipeline(
-                        cb,
-                        vk::PipelineBindPoint::COMPUTE,
-                        self.texgen.pipeline,
-                    );
-                    device.cmd_bind_descriptor_sets(
-                        cb,
-                        vk::PipelineBindPoint::COMPUTE,
-                        layout,
-                        0,
-                        &[*texgen_set],
-                        &[],
-                    );
-                    device.cmd_push_constants(
-                        cb,
-                        layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        bytemuck::bytes_of(texgen_constants),
-                    );
-                    // Over every vertex: cs_leaves_begin set the trace arguments so.
-                    recorder.dispatch_indirect(control::DISPATCH_TRACE);
-                }
-                recorder.stamp(4 * levels + 3);
-                barrier(device, cb, COMPUTE_TO_TRANSFER);
-                let words = 4 * control::WORDS as u64;
-                device.cmd_copy_buffer(cb, recorder.control, readback, &[copy(0, 0, words)]);
-                device.cmd_copy_buffer(
-                    cb,
-                    scratch.counters.handle,
-                    readback,
-                    &[copy(0, words, 4 * super::COUNTERS as u64)],
-                );
-                barrier(device, cb, TRANSFER_TO_HOST);
-            }
-            Ok(())
-        })?;
-        let bytes = scratch.read_back();
-        let words: &[u32] = bytemuck::cast_slice(&bytes[..4 * (control::WORDS + super::COUNTERS)]);
-        let period = gpu.properties().limits.timestamp_period;
-        let stage_ms = match &timestamps {
-            Some(timestamps) => Some(timestamps.read(self.timestamp_bits, period)?),
-            None => None,
-        };
-        Ok((words.to_vec(), stage_ms))
-    }
-
-    /// Reads the finished mesh back (a second, short submission: the sizes are known now) and
-    /// builds the CPU tessellator's result from it.
+    /// Reads the finished mesh of `part`'s tessellation back (a second, short submission: the
+    /// sizes are known now) and builds the CPU tessellator's result from it. The tessellation's
+    /// submission was waited for, and nothing was submitted since (the caller holds the state).
     fn read_mesh(
         &self,
         gpu: &Gpu,
-        (scratch, input, mesh): (&mut Scratch, &InputMesh, &TriangleMesh),
-        texgen: Option<&TexgenRequest<'_>>,
-        words: &[u32],
+        (state, object, mesh): (&mut PassState, usize, &TriangleMesh),
+        part: &DeviceLensPart,
+        request: &GpuTessellationRequest<'_>,
     ) -> Result<GpuTessellation, TessellationError> {
+        let words = resident::count_words(part);
+        let (Some(scratch), Some(held)) = (state.tessellation.as_mut(), state.objects.get(&object))
+        else {
+            return Err(GpuError::BadUpload {
+                what: "the GPU tessellation".into(),
+                problem: "its buffers were not kept".into(),
+            }
+            .into());
+        };
+        let input = &held.input;
         let vertex_count = u64::from(words[control::VERTICES]);
         let triangle_count = u64::from(words[control::LEVEL_HI]);
         let output_count = u64::from(words[control::OUTPUT]);
-        let output_capacity = scratch.output.size / OUTPUT_BYTES;
+        let output_capacity = scratch.output_capacity();
         if output_count > output_capacity || vertex_count > scratch.vertices_capacity {
             return Err(GpuError::BadUpload {
                 what: "the GPU tessellation".into(),
@@ -874,10 +828,10 @@ impl GpuTracer {
             (scratch.triangles.handle, 0, triangle_count * TRIANGLE_BYTES),
             (scratch.output.handle, 0, output_count * OUTPUT_BYTES),
         ];
-        if let (Some(texgen), Some(data)) = (texgen, &scratch.lens_data) {
-            let stride = 16 * scratch.vertices_capacity;
+        if let Some(texgen) = &request.texgen {
+            let stride = 16 * u64::from(part.stride);
             for array in 0..texgen.arrays() {
-                parts.push((data.handle, array * stride, 16 * vertex_count));
+                parts.push((part.data.handle, array * stride, 16 * vertex_count));
             }
         }
         let mut offsets = Vec::with_capacity(parts.len());
@@ -889,8 +843,8 @@ impl GpuTracer {
         let readback = scratch.readback(gpu, total.max(16))?.handle;
         let device = gpu.device();
         gpu.submit_and_wait(|cb| {
-            // SAFETY: the passes finished (the last submission was waited for); the copies
-            // stay within both buffers.
+            // SAFETY: the passes finished (their submission was waited for); the copies stay
+            // within both buffers.
             unsafe {
                 for (&(source, from, bytes), &offset) in parts.iter().zip(&offsets) {
                     if bytes > 0 {
@@ -907,12 +861,7 @@ impl GpuTracer {
         };
         let (vertex_words, record_words, wanted, triangles, output) =
             (slice(0), slice(1), slice(2), slice(3), slice(4));
-        let counters = TraceCounters {
-            primary_rays: u64::from(words[control::WORDS]),
-            secondary_rays: u64::from(words[control::WORDS + 1]),
-            shadow_rays: 0,
-            triangle_tests: u64::from(words[control::WORDS + 2]),
-        };
+        let counters = resident::read_counts(part).counters;
         let tessellation = assemble(
             mesh,
             Readback {
@@ -922,14 +871,14 @@ impl GpuTracer {
                 triangles,
                 output,
             },
-            words,
+            &words,
             &counters,
         );
-        let terms = texgen.map(|request| {
+        let terms = request.texgen.as_ref().map(|texgen| {
             let arrays: Vec<&[[f32; 4]]> = (5..parts.len())
                 .map(|i| bytemuck::cast_slice(slice(i)))
                 .collect();
-            texgen::term_vertices(request, &arrays)
+            texgen::term_vertices(texgen, &arrays)
         });
         Ok(GpuTessellation {
             submission_ms: 0.0,

@@ -117,6 +117,7 @@ fn small_frame(weights: Vec<f32>, layers: Vec<Vec<CubeMap>>) -> FrameInput {
             .into_iter()
             .map(|v| v.into_iter().map(std::sync::Arc::new).collect())
             .collect(),
+        resident: None,
     };
     FrameInput {
         width: 8,
@@ -545,6 +546,7 @@ fn random_sphere_frame(
             hull_triangles: 0,
             terms,
             layers,
+            resident: None,
         }],
         viewpoint_weights,
     }

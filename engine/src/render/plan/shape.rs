@@ -13,7 +13,8 @@ use crate::trace::Term;
 pub struct LensShape {
     /// Debug name.
     pub name: String,
-    /// Number of triangles (0 → no passes).
+    /// Number of triangles (0 → no passes); for a lens object resident on the device, which
+    /// alone knows its count, its number of parts (each drawn by indirect draws).
     pub triangles: usize,
     /// Which faces are drawn: [`LensFaces::Both`] makes every lens pass cull nothing.
     pub faces: LensFaces,
@@ -74,7 +75,10 @@ impl FrameShape {
                     terms.sort();
                     LensShape {
                         name: lens.name.clone(),
-                        triangles: lens.triangles.len(),
+                        triangles: lens
+                            .resident
+                            .as_ref()
+                            .map_or(lens.triangles.len(), |r| r.parts.len()),
                         faces: lens.faces,
                         terms,
                         empty: lens

@@ -247,8 +247,9 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
         let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 32);
         let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {})
             .expect("the reference renders");
-        let mut frame = |tracer| {
+        let mut frame = |tracer, read_back: bool| {
             hybrid.forget_frame();
+            runner.read_back_gpu_meshes(read_back);
             let frame = runner
                 .frame(&hybrid, &camera, &options(tracer))
                 .expect("the frame renders");
@@ -256,10 +257,13 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
                 .expect("the lens covers pixels");
             (frame, error.psnr_db)
         };
-        let (cpu, cpu_psnr) = frame(VertexTracer::Cpu);
-        let (on_gpu, gpu_psnr) = frame(VertexTracer::Gpu);
-        let (again, _) = frame(VertexTracer::Gpu);
-        let (auto, _) = frame(VertexTracer::Auto);
+        let (cpu, cpu_psnr) = frame(VertexTracer::Cpu, false);
+        let (on_gpu, gpu_psnr) = frame(VertexTracer::Gpu, false);
+        let (again, _) = frame(VertexTracer::Gpu, false);
+        let (auto, _) = frame(VertexTracer::Auto, false);
+        // The same frame read back to the host and drawn from uploaded data: the device's
+        // draw list and lens data are what the host would have made of the same mesh.
+        let (read_back, _) = frame(VertexTracer::Gpu, true);
         let (c, g) = (cpu.stats, on_gpu.stats);
         eprintln!(
             "{name}: lens PSNR CPU {cpu_psnr:.3} dB, GPU {gpu_psnr:.3} dB; vertices {} / {}, triangles {} / {}",
@@ -292,6 +296,18 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
             "{name}: the same frame traced twice on the GPU differs"
         );
         assert!(on_gpu.image.pixels.iter().flatten().all(|v| v.is_finite()));
+        let r = read_back.stats;
+        assert!(g.counted_on_device && !r.counted_on_device);
+        assert_eq!(
+            (g.vertices_traced, g.triangles_out, g.hull_triangles, g.stopped_by_budget),
+            (r.vertices_traced, r.triangles_out, r.hull_triangles, r.stopped_by_budget),
+            "{name}: the device's counts are the read-back mesh's"
+        );
+        assert_eq!(g.counters, r.counters, "{name}: rays and triangle tests");
+        assert!(
+            on_gpu.image.pixels == read_back.image.pixels,
+            "{name}: the frame drawn from the device's buffers differs from the one read back"
+        );
         let without_device = hybrid.frame(&camera, &options(VertexTracer::Gpu).hybrid);
         assert!(
             matches!(&without_device, Err(TessellationError::Option(e)) if e.to_string().contains("without a device")),

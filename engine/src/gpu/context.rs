@@ -1008,6 +1008,14 @@ impl Timeline {
         self.semaphore
     }
 
+    /// Whether the counter has reached `value`, without waiting.
+    pub fn reached(&self, value: u64) -> Result<bool, GpuError> {
+        // SAFETY: a live timeline semaphore of this device.
+        let counter = unsafe { self.shared.device.get_semaphore_counter_value(self.semaphore) }
+            .vk("vkGetSemaphoreCounterValue")?;
+        Ok(counter >= value)
+    }
+
     /// Blocks until the counter reaches `value` (at once for 0).
     pub fn wait(&self, value: u64) -> Result<(), GpuError> {
         if value == 0 {

@@ -28,7 +28,10 @@ pub use crate::trace::schlick_table::FresnelModel;
 use crate::{
     layers::{LayerShell, Layering},
     options::OptionError,
-    render::{EnvironmentMesh, FrameInput, LensFaces, TermVertices},
+    render::{
+        DeviceLensPart, EnvironmentMesh, FrameInput, LensFaces, LensObject, ResidentLens,
+        TermVertices,
+    },
     scene::Camera,
     trace::{
         schlick_table::SchlickTable,
@@ -44,8 +47,9 @@ struct FrameKey {
     camera: Camera,
     options: HybridOptions,
     vertex_exact: bool,
-    /// Whether the vertices were traced on a GPU (its f32 paths are another frame).
-    on_gpu: bool,
+    /// Whether the vertices were traced on a GPU (its f32 paths are another frame), and then
+    /// whether the frame is drawn from the device's buffers.
+    on_gpu: Option<bool>,
     /// Per lens object: EM origins, shells and the identity of every map (`Arc` address).
     layers: Vec<LayersKey>,
     /// The rest of the scene a frame draws: the environment meshes (`Arc` addresses), the sky
@@ -68,7 +72,7 @@ impl FrameKey {
         camera: &Camera,
         options: &HybridOptions,
         vertex_exact: bool,
-        on_gpu: bool,
+        on_gpu: Option<bool>,
     ) -> Self {
         FrameKey {
             camera: *camera,
@@ -310,6 +314,12 @@ pub struct HybridStats {
     pub hull_triangles: usize,
     /// Whether the lens vertices were traced on the GPU ([`HybridOptions::tracer`]).
     pub traced_on_gpu: bool,
+    /// Whether the lens objects were drawn where the GPU tessellation left them: the vertex,
+    /// triangle, ray and budget counts above are then the device's, added once the frame was
+    /// done ([`crate::runner::FrameRunner`]; for a frame into a host's image, with the next
+    /// frame: [`crate::runner::HostFrame::previous`]), and `trace_ms` is the time to record and
+    /// submit the tessellation (its device time is in the frame's execution).
+    pub counted_on_device: bool,
     /// With the GPU tracer [timing its stages](crate::hybrid::gpu::GpuTracer::time_stages): the
     /// device time of the tessellation's split passes and T-junction removal, summed over the
     /// lens objects (`trace_ms` and `texgen_ms` are then the device time of those passes, and
@@ -381,7 +391,7 @@ impl HybridScene {
             (tracer, Some(device)) if tracer.on_gpu(device.gpu) => Some(device),
             _ => None,
         };
-        let key = FrameKey::new(self, camera, options, false, gpu.is_some());
+        let key = FrameKey::new(self, camera, options, false, gpu.map(|g| g.resident));
         if let Ok(cache) = self.cache.0.lock()
             && let Some(cached) = cache.as_ref()
             && cached.key == key
@@ -603,7 +613,7 @@ impl HybridScene {
         (lens_index, lens): (usize, &LensBvh),
         view: &FrameView,
         options: &HybridOptions,
-        (vertex_budget, gpu, with_texgen): (&mut usize, Option<GpuPaths<'_>>, bool),
+        (vertex_budget, gpu, with_texgen): (&mut VertexBudget, Option<GpuPaths<'_>>, bool),
         stats: &mut HybridStats,
     ) -> Result<TessellatedLens, TessellationError> {
         let layers = &self.lenses[lens_index];
@@ -613,6 +623,9 @@ impl HybridScene {
             em_origins: &layers.em_origins,
             refraction: texgen::has_refraction(&self.trace, lens_index),
         });
+        // Drawn where the GPU leaves it: a texgen'd frame on a resident tracer.
+        let resident = gpu.is_some_and(|g| g.resident) && texgen_request.is_some();
+        let mut parts = Vec::new();
         let mut terms: Option<Vec<TermVertices>> = None;
         let mut positions: Vec<Vec3> = Vec::new();
         let mut triangles: Vec<[u32; 3]> = Vec::new();
@@ -656,7 +669,26 @@ impl HybridScene {
             .with_fresnel(view.fresnel.as_ref())
             .with_gpu(gpu);
             let start = Instant::now();
-            tessellation_options.max_vertices = (*vertex_budget).max(mesh.positions.len());
+            tessellation_options.max_vertices = vertex_budget.left.max(mesh.positions.len());
+            if resident {
+                let hull = hull_split.then(|| self.hull_flags(object));
+                let request = (texgen_request, hull.map(Vec::as_slice), vertex_budget.on_device);
+                if let Some(made) =
+                    oracle.tessellate_on_device(mesh, &tessellation_options, request)
+                {
+                    let made = made?;
+                    // The device counts the frame's budget from here on.
+                    vertex_budget.on_device = true;
+                    if let Some(stages) = made.stage_ms {
+                        *stats.gpu_split_ms.get_or_insert(0.0) += stages.tessellation;
+                        stats.texgen_ms += stages.texgen;
+                    }
+                    stats.trace_ms += oracle.traced_ms();
+                    stats.triangles_in += mesh.triangles.len();
+                    parts.push(made.part);
+                    continue;
+                }
+            }
             // On the GPU the whole tessellation runs there, every level's records kept on it,
             // and texgen with it; `texgen_ms` is that pass's device time when it is timed.
             let mut texgen_ms = 0.0;
@@ -673,7 +705,9 @@ impl HybridScene {
                     }
                     None => tessellate(mesh, &oracle, &tessellation_options)?,
                 };
-            *vertex_budget = vertex_budget.saturating_sub(tessellation.mesh.positions.len());
+            vertex_budget.left = vertex_budget
+                .left
+                .saturating_sub(tessellation.mesh.positions.len());
             stats.stopped_by_budget += tessellation.stats.stopped_by_budget;
             let elapsed = start.elapsed().as_secs_f64() * 1e3;
             let counters = oracle.counters();
@@ -719,7 +753,14 @@ impl HybridScene {
             0
         };
         stats.hull_triangles += hull_triangles;
+        if !parts.is_empty()
+            && let Some(request) = &texgen_request
+        {
+            // Its terms with no per-vertex data: the device holds it.
+            terms = Some(texgen::resident_terms(request));
+        }
         Ok(TessellatedLens {
+            parts,
             mesh: LensMesh {
                 positions,
                 triangles,
@@ -729,6 +770,21 @@ impl HybridScene {
             terms,
             samples,
             depths,
+        })
+    }
+
+    /// Per input triangle of scene object `object`, whether it lies on the convex hull of the
+    /// lens geometry (computed once per object).
+    fn hull_flags(&self, object: usize) -> &Vec<bool> {
+        self.hull[object].get_or_init(|| {
+            let points: Vec<Vec3> = self
+                .trace
+                .lenses
+                .iter()
+                .flat_map(|lens| &lens.objects)
+                .flat_map(|&o| self.scene.objects[o].mesh.positions.iter().copied())
+                .collect();
+            super::hull::hull_triangles(&self.scene.objects[object].mesh, &points)
         })
     }
 
@@ -743,16 +799,7 @@ impl HybridScene {
         tessellation: &'a crate::hybrid::tessellate::Tessellation<S>,
         view: &FrameView,
     ) -> impl Iterator<Item = bool> + 'a {
-        let hull = self.hull[object].get_or_init(|| {
-            let points: Vec<Vec3> = self
-                .trace
-                .lenses
-                .iter()
-                .flat_map(|lens| &lens.objects)
-                .flat_map(|&o| self.scene.objects[o].mesh.positions.iter().copied())
-                .collect();
-            super::hull::hull_triangles(&self.scene.objects[object].mesh, &points)
-        });
+        let hull = self.hull_flags(object);
         let eye = view.screen.eye.as_vec3();
         let positions = &tessellation.mesh.positions;
         tessellation
@@ -787,12 +834,16 @@ impl HybridScene {
             ..HybridStats::default()
         };
         // The vertex budget is the frame's: each lens object gets what the ones before left.
-        let mut vertex_budget = options.tessellation.max_vertices;
+        let mut vertex_budget = VertexBudget {
+            left: options.tessellation.max_vertices,
+            on_device: false,
+        };
         let mut lenses = Vec::new();
         let mut exact = Vec::new();
         let mut depths = Vec::new();
         for (lens_index, (lens, layers)) in self.trace.lenses.iter().zip(&self.lenses).enumerate() {
             let TessellatedLens {
+                parts,
                 mesh,
                 terms,
                 samples,
@@ -815,8 +866,11 @@ impl HybridScene {
             }
             let start = Instant::now();
             let object = match terms {
-                // Made on the GPU: assembled only.
-                Some(terms) => texgen::lens_object(lens.name.clone(), layers, mesh, terms, &blend),
+                // Made on the GPU: assembled only (drawn from the device's buffers when resident).
+                Some(terms) => LensObject {
+                    resident: (!parts.is_empty()).then_some(ResidentLens { parts }),
+                    ..texgen::lens_object(lens.name.clone(), layers, mesh, terms, &blend)
+                },
                 None => texgen(
                     &self.trace,
                     lens_index,
@@ -831,6 +885,7 @@ impl HybridScene {
             lenses.push(object);
             depths.push(lens_depths);
         }
+        stats.counted_on_device = lenses.iter().any(|l| l.resident.is_some());
         let frame = FrameInput {
             width: view.width,
             height: view.height,
@@ -915,8 +970,19 @@ fn hull_last(triangles: &mut Vec<[u32; 3]>, depths: &mut Vec<u8>, on_hull: &[boo
     (0..triangles.len()).filter(|&t| hull(t)).count()
 }
 
+/// A frame's vertex budget, shared by its lens objects in order.
+struct VertexBudget {
+    /// What the objects before left, as the host counted it.
+    left: usize,
+    /// Whether an object was tessellated on the device with no count read back: the device
+    /// keeps the budget left from then on.
+    on_device: bool,
+}
+
 /// A lens object tessellated for a frame: its mesh and each vertex's evaluation.
 struct TessellatedLens {
+    /// Its scene objects' tessellations left on the device (the mesh is then empty).
+    parts: Vec<Arc<DeviceLensPart>>,
     mesh: LensMesh,
     /// Per term its F·G and directions per layer, made on the GPU with the mesh (`None`: the
     /// CPU's texgen makes them).

@@ -217,28 +217,75 @@ impl<'a> PathOracle<'a> {
     ) -> Result<super::gpu::GpuTessellation, TessellationError> {
         self.check_holds(gpu)?;
         let settings = self.settings();
-        let request = super::gpu::GpuTessellationRequest {
+        let request = self.gpu_request(&settings, options, texgen);
+        let made = gpu
+            .tracer
+            .tessellate(gpu.gpu, (self.object, mesh), &request)?;
+        self.add_gpu_time(made.stage_ms, made.submission_ms, made.counters);
+        Ok(made)
+    }
+
+    /// Tessellates `mesh` as [`Self::tessellate_on_gpu`] does, left on the device for a frame to
+    /// draw ([`GpuTracer::tessellate_on_device`](super::gpu::GpuTracer::tessellate_on_device)):
+    /// the convex-hull split by `hull` (per input triangle, or none), the vertex budget
+    /// continued from the frame's previous tessellation when `continue_budget`. Its rays are
+    /// counted on the device, read once the frame is done. `None` when the oracle traces on the
+    /// CPU.
+    pub(crate) fn tessellate_on_device(
+        &self,
+        mesh: &crate::scene::TriangleMesh,
+        options: &crate::hybrid::tessellate::TessellationOptions,
+        (texgen, hull, continue_budget): (Option<super::gpu::TexgenRequest<'_>>, Option<&[bool]>, bool),
+    ) -> Option<Result<super::gpu::DeviceTessellation, TessellationError>> {
+        let gpu = self.gpu?;
+        let made = self.check_holds(gpu).map_err(TessellationError::from).and_then(|()| {
+            let settings = self.settings();
+            let request = super::gpu::GpuTessellationRequest {
+                hull,
+                continue_budget,
+                ..self.gpu_request(&settings, options, texgen)
+            };
+            let made = gpu
+                .tracer
+                .tessellate_on_device(gpu.gpu, (self.object, mesh), &request)?;
+            self.add_gpu_time(made.stage_ms, made.submission_ms, TraceCounters::default());
+            Ok(made)
+        });
+        Some(made)
+    }
+
+    /// The GPU tessellation's request for this oracle's camera, paths and criterion.
+    fn gpu_request<'r>(
+        &'r self,
+        settings: &'r super::gpu::PathSettings,
+        options: &'r crate::hybrid::tessellate::TessellationOptions,
+        texgen: Option<super::gpu::TexgenRequest<'r>>,
+    ) -> super::gpu::GpuTessellationRequest<'r> {
+        super::gpu::GpuTessellationRequest {
             camera: &self.camera,
-            settings: &settings,
+            settings,
             cos_threshold: self.cos_threshold as f32,
             back_faces: self.evaluates_back_faces(),
             options,
             texgen,
             hull: None,
             continue_budget: false,
-        };
-        let made = gpu
-            .tracer
-            .tessellate(gpu.gpu, (self.object, mesh), &request)?;
-        if let Ok(mut guard) = self.counters.lock() {
-            // The trace passes' device time when timed, else the submission's wall time (every
-            // pass, the split passes too; the read-back and the mesh's rebuilding are not in it).
-            guard.1 += made
-                .stage_ms
-                .map_or(made.submission_ms, |stages| stages.trace);
-            guard.0 += made.counters;
         }
-        Ok(made)
+    }
+
+    /// Adds a GPU tessellation's tracing time and rays to the counters: the trace passes' device
+    /// time when timed, else the submission's wall time (every pass, the split passes too; no
+    /// read-back or rebuilding of the mesh on the CPU).
+    fn add_gpu_time(
+        &self,
+        stage_ms: Option<super::gpu::GpuStageMs>,
+        submission_ms: f64,
+        counters: TraceCounters,
+    ) {
+        if let Ok(mut guard) = self.counters.lock() {
+            guard.1 += stage_ms.map_or(submission_ms, |stages| stages.trace);
+            guard.0 += counters;
+        }
     }
 
     /// Wall time spent in vertex batches so far, ms.

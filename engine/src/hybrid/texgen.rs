@@ -151,3 +151,17 @@ pub(super) fn lens_object(
         resident: None,
     }
 }
+
+/// The terms of a lens object whose per-vertex data the GPU holds ([`TexgenRequest`]'s, in the
+/// order its data holds them), with no vertex data: one empty direction list per layer.
+pub(super) fn resident_terms(request: &super::gpu::TexgenRequest<'_>) -> Vec<TermVertices> {
+    request
+        .terms()
+        .into_iter()
+        .map(|term| TermVertices {
+            term,
+            fg: Vec::new(),
+            directions: vec![Vec::new(); request.shells.len()],
+        })
+        .collect()
+}

@@ -107,6 +107,11 @@ impl Submission {
     pub fn record_ms(&self) -> f64 {
         self.record_ms
     }
+
+    /// The renderer's timeline value its completion signals ([`Renderer::completed`]).
+    pub fn value(&self) -> u64 {
+        self.value
+    }
 }
 
 impl Renderer {
@@ -197,6 +202,12 @@ impl Renderer {
     ) -> Result<(RenderedImage, FrameTimings), RenderError> {
         let submission = self.submit(gpu, frame, options)?;
         self.finish(frame, submission)
+    }
+
+    /// Whether the submission whose [`Submission::value`] is `value` completed, without
+    /// waiting (an error reading the timeline counts as not completed).
+    pub fn completed(&self, value: u64) -> bool {
+        self.timeline.reached(value).unwrap_or(false)
     }
 
     /// Records the frame's plan and submits it without waiting. Without a host image the plan

@@ -3,7 +3,7 @@
 //! read back and box-filtered to pixels, or rendered into a host's image; compositor-only
 //! renders of an uploaded frame are timed for the benchmarks and the baker.
 
-use std::time::Instant;
+use std::{sync::Arc, time::Instant};
 
 use super::{
     RunError,
@@ -13,12 +13,12 @@ use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{
         BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats, VertexTracer,
-        gpu::{GpuPaths, GpuTracer},
+        gpu::{GpuPaths, GpuTracer, read_counts},
     },
     index::LensIndex,
     options::OptionError,
     render::{
-        BlendScheme, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError, RenderOptions,
+        BlendScheme, DeviceLensPart, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError, RenderOptions,
         RenderedImage, Renderer, Submission, TargetFormat, UploadedFrame, Variant,
     },
     scene::Camera,
@@ -86,6 +86,14 @@ pub struct FrameRunner {
     tracer: Option<ResidentTracer>,
     /// Whether GPU-traced frames time their stages ([`FrameRunner::time_gpu_stages`]).
     time_gpu_stages: bool,
+    /// Whether GPU-traced frames read their meshes back ([`FrameRunner::read_back_gpu_meshes`]).
+    read_back_gpu_meshes: bool,
+    /// The last frame into a host's image drawn from the device's buffers: its submission's
+    /// value, its parts and stats, until its counts are read ([`HostFrame::previous`]).
+    host_counts: Option<(u64, Vec<Arc<DeviceLensPart>>, HybridStats)>,
+    /// Whether a finished frame's counts said the GPU tessellation's buffers stopped splits and
+    /// the tracer grew them (a single frame is then made again).
+    grew: bool,
     /// The slot the last frame went to.
     last_slot: usize,
     renderer: Renderer,
@@ -112,6 +120,8 @@ struct Slot {
 struct Staged {
     slot: usize,
     stats: HybridStats,
+    /// Its lens parts drawn from the device's buffers, whose counts are read once it is done.
+    parts: Vec<Arc<DeviceLensPart>>,
     upload_ms: f64,
     /// When its CPU stages began.
     start: Instant,
@@ -124,6 +134,7 @@ struct Pending {
     slot: usize,
     submission: Submission,
     stats: HybridStats,
+    parts: Vec<Arc<DeviceLensPart>>,
     supersampling: u32,
     upload_ms: f64,
     start: Instant,
@@ -138,6 +149,9 @@ impl FrameRunner {
             slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
             tracer: None,
             time_gpu_stages: false,
+            read_back_gpu_meshes: false,
+            host_counts: None,
+            grew: false,
             last_slot: 0,
             renderer,
             gpu,
@@ -212,11 +226,21 @@ impl FrameRunner {
         camera: &Camera,
         options: &FrameOptions,
     ) -> Result<HybridFrame, RunError> {
-        let (frames, _) = self.frames_in_flight(hybrid, std::slice::from_ref(camera), options)?;
-        frames
-            .into_iter()
-            .next()
-            .ok_or_else(|| RenderError::BadInput("no frame was rendered".into()).into())
+        loop {
+            self.grew = false;
+            let (frames, _) =
+                self.frames_in_flight(hybrid, std::slice::from_ref(camera), options)?;
+            // A frame whose buffers stopped splits before the budget is made again with the
+            // larger ones (they grow fourfold each time, up to what the device holds).
+            if self.grew {
+                hybrid.forget_frame();
+                continue;
+            }
+            return frames
+                .into_iter()
+                .next()
+                .ok_or_else(|| RenderError::BadInput("no frame was rendered".into()).into());
+        }
     }
 
     /// Renders `cameras` in order with up to [`FRAMES_IN_FLIGHT`] frames in flight: the CPU
@@ -249,6 +273,7 @@ impl FrameRunner {
                 slot: staged.slot,
                 submission,
                 stats: staged.stats,
+                parts: staged.parts,
                 supersampling: camera.supersampling,
                 upload_ms: staged.upload_ms,
                 start: staged.start,
@@ -290,13 +315,64 @@ impl FrameRunner {
         )?;
         let staged = self.stage(hybrid, camera, options, |_, _| Ok(()))?;
         let submission = self.submit(staged.slot, options, Some(host))?;
+        // The previous frame's counts, if it is done by now (never waited for here).
+        let previous = match self.host_counts.take() {
+            Some((value, parts, mut stats)) if self.renderer.completed(value) => {
+                self.grew |= self.add_device_counts(&mut stats, &parts)?;
+                Some(stats)
+            }
+            held => {
+                self.host_counts = held;
+                None
+            }
+        };
+        if !staged.parts.is_empty() {
+            self.host_counts = Some((submission.value(), staged.parts, staged.stats));
+        }
         Ok(HostFrame {
             stats: staged.stats,
+            previous,
             upload_ms: staged.upload_ms,
             record_ms: submission.record_ms(),
             passes: submission.passes(),
             total_ms: staged.start.elapsed().as_secs_f64() * 1e3,
         })
+    }
+
+    /// Adds the device's counts of a finished frame's resident lens parts to its `stats`;
+    /// where they say the tessellation's buffers stopped splits before the vertex budget, the
+    /// tracer grows them for the next frame. Returns whether it did.
+    fn add_device_counts(
+        &self,
+        stats: &mut HybridStats,
+        parts: &[Arc<DeviceLensPart>],
+    ) -> Result<bool, RunError> {
+        let mut capped = false;
+        for part in parts {
+            let counts = read_counts(part);
+            stats.triangles_out += counts.triangles as usize;
+            stats.hull_triangles += counts.hull_triangles as usize;
+            stats.stopped_by_budget += counts.stopped_by_budget as usize;
+            stats.vertices_traced += counts.counters.primary_rays as usize;
+            stats.counters += counts.counters;
+            capped |= counts.capped_by_buffers;
+        }
+        match (capped, &self.tracer) {
+            (
+                true,
+                Some(ResidentTracer {
+                    tracer: Ok(tracer), ..
+                }),
+            ) => Ok(tracer.grow(&self.gpu).map_err(RenderError::from)?),
+            _ => Ok(false),
+        }
+    }
+
+    /// Whether frames traced on the GPU read their meshes back to the host (the tessellation
+    /// wireframe and the per-triangle depths need them), instead of being drawn where the GPU
+    /// left them with no per-vertex data read back (the default).
+    pub fn read_back_gpu_meshes(&mut self, on: bool) {
+        self.read_back_gpu_meshes = on;
     }
 
     /// A frame's CPU stages (unless the last slot holds it already: a still camera) and its
@@ -326,6 +402,7 @@ impl FrameRunner {
                 let gpu = GpuPaths {
                     gpu: &self.gpu,
                     tracer: resident,
+                    resident: !self.read_back_gpu_meshes,
                 };
                 hybrid.frame_unless_on(camera, &options.hybrid, held, Some(gpu))?
             }
@@ -337,9 +414,16 @@ impl FrameRunner {
         };
         free_slot(self, slot)?;
         let gpu_start = Instant::now();
+        let mut parts = Vec::new();
         let stats = match built {
             BuiltFrame::Unchanged(stats) => stats,
             BuiltFrame::New(frame, stats, identity) => {
+                parts = frame
+                    .lenses
+                    .iter()
+                    .filter_map(|lens| lens.resident.as_ref())
+                    .flat_map(|resident| resident.parts.iter().cloned())
+                    .collect();
                 let uploaded = match self.slots[slot].uploaded.take() {
                     Some(previous) => self.renderer.upload_into(&self.gpu, &frame, previous)?,
                     None => self.renderer.upload(&self.gpu, &frame)?,
@@ -355,6 +439,7 @@ impl FrameRunner {
         Ok(Staged {
             slot,
             stats,
+            parts,
             upload_ms: gpu_start.elapsed().as_secs_f64() * 1e3,
             start,
             gpu_start,
@@ -429,12 +514,14 @@ impl FrameRunner {
             return Err(RenderError::BadInput("a pending frame lost its upload".into()).into());
         };
         let (image, render) = self.renderer.finish(uploaded, pending.submission)?;
+        let mut stats = pending.stats;
+        self.grew |= self.add_device_counts(&mut stats, &pending.parts)?;
         let downsample_start = Instant::now();
         let image = image.box_downsample(pending.supersampling);
         let downsample_ms = downsample_start.elapsed().as_secs_f64() * 1e3;
         Ok(HybridFrame {
             image,
-            stats: pending.stats,
+            stats,
             gpu_ms: pending.gpu_start.elapsed().as_secs_f64() * 1e3,
             upload_ms: pending.upload_ms,
             render,

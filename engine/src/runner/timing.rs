@@ -66,6 +66,11 @@ impl HybridFrame {
 pub struct HostFrame {
     /// CPU stages.
     pub stats: HybridStats,
+    /// The stats of the frame before, with the device's counts added, when its lens objects
+    /// were drawn from the device's buffers ([`HybridStats::counted_on_device`]) and it was
+    /// done by the time this frame was submitted (its counts are read then, never waited for);
+    /// `None` otherwise.
+    pub previous: Option<HybridStats>,
     /// Uploading the frame's data, ms.
     pub upload_ms: f64,
     /// Compiling the plan and recording the command buffer, ms.

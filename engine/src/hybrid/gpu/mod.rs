@@ -86,6 +86,10 @@ pub struct GpuPaths<'a> {
     pub gpu: &'a Gpu,
     /// The scene's resident geometry and passes.
     pub tracer: &'a GpuTracer,
+    /// Whether a frame's lens objects are drawn where the GPU tessellation left them (no
+    /// per-vertex data read back; the counts read once the frame is done), or read back to the
+    /// host (the mesh, its depths for the wireframe, the counts at once).
+    pub resident: bool,
 }
 
 /// The resident geometry and the tracer's pipelines on one device.

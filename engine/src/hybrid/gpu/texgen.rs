@@ -33,7 +33,7 @@ pub struct TexgenRequest<'a> {
 
 impl TexgenRequest<'_> {
     /// The terms written, in order.
-    pub(super) fn terms(&self) -> Vec<Term> {
+    pub(crate) fn terms(&self) -> Vec<Term> {
         let mut terms = Vec::with_capacity(2);
         if self.refraction {
             terms.push(Term::Refraction);

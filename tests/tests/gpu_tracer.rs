@@ -299,8 +299,18 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
         let r = read_back.stats;
         assert!(g.counted_on_device && !r.counted_on_device);
         assert_eq!(
-            (g.vertices_traced, g.triangles_out, g.hull_triangles, g.stopped_by_budget),
-            (r.vertices_traced, r.triangles_out, r.hull_triangles, r.stopped_by_budget),
+            (
+                g.vertices_traced,
+                g.triangles_out,
+                g.hull_triangles,
+                g.stopped_by_budget
+            ),
+            (
+                r.vertices_traced,
+                r.triangles_out,
+                r.hull_triangles,
+                r.stopped_by_budget
+            ),
             "{name}: the device's counts are the read-back mesh's"
         );
         assert_eq!(g.counters, r.counters, "{name}: rays and triangle tests");

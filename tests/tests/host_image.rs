@@ -164,9 +164,23 @@ fn a_frame_into_a_host_image_equals_the_frame_read_back() {
             .frame_into(&hybrid, &camera, &traced(format, tracer), &lent(&image))
             .unwrap();
         assert!(frame.passes >= 4, "environment, lens, box filter, export");
-        assert!(frame.stats.vertices_traced > 0);
         assert_eq!(frame.stats.traced_on_gpu, tracer == on_gpu);
+        // A frame drawn from the device's buffers has its counts read with the next frame.
+        assert_eq!(frame.stats.counted_on_device, tracer == on_gpu);
+        assert_eq!(frame.stats.vertices_traced > 0, tracer == cpu);
         let bytes = read_back(runner.gpu(), &image);
+        if tracer == on_gpu {
+            // The read-back above waited for the frame: the next one reports its counts.
+            hybrid.forget_frame();
+            let next = runner
+                .frame_into(&hybrid, &camera, &traced(format, tracer), &lent(&image))
+                .unwrap();
+            // Waits for the frame before the image goes.
+            read_back(runner.gpu(), &image);
+            let counted = next.previous.expect("the frame before is done and counted");
+            assert!(counted.vertices_traced > 0 && counted.triangles_out > 0);
+            assert!(counted.counters.primary_rays > 0);
+        }
         let expected = cpu_frame(&hybrid, &camera, &traced(format, tracer));
         assert_eq!(expected.len(), (camera.width * camera.height) as usize);
         let mut distinct: Vec<[u32; 4]> = expected.iter().map(|p| p.map(f32::to_bits)).collect();

@@ -241,7 +241,10 @@ typedef struct LensmapFrameStats {
   double other_ms;
   // The whole frame, ms.
   double total_ms;
-  // Rays cast (primary, secondary and shadow).
+  // Rays cast (primary, secondary and shadow). This and the next three are counted on the
+  // device when the lens vertices are traced there (`traced_on_gpu`): a frame into a host's
+  // image then gives the frame before's, read once it was done (zeros while it is not); a
+  // frame read back gives its own.
   uint64_t rays;
   // Ray-triangle intersection tests.
   uint64_t triangle_tests;

@@ -423,7 +423,8 @@ pub unsafe extern "C" fn lensmap_render_to_image(
         runner.check_framebuffer(&camera, frame_options.format)?;
         let frame = runner.frame_into(&scene.hybrid, &camera, &frame_options, &host)?;
         if let Some(size) = stats_size {
-            let filled = frame_stats(&frame.stats, frame.passes, frame.total_ms, frame.other_ms());
+            let counted = frame.counted_stats();
+            let filled = frame_stats(&counted, frame.passes, frame.total_ms, frame.other_ms());
             // SAFETY: the caller set struct_size to what it can hold (checked above).
             unsafe { write_stats(stats, size, filled) };
         }

@@ -294,7 +294,10 @@ pub struct LensmapFrameStats {
     pub other_ms: f64,
     /// The whole frame, ms.
     pub total_ms: f64,
-    /// Rays cast (primary, secondary and shadow).
+    /// Rays cast (primary, secondary and shadow). This and the next three are counted on the
+    /// device when the lens vertices are traced there (`traced_on_gpu`): a frame into a host's
+    /// image then gives the frame before's, read once it was done (zeros while it is not); a
+    /// frame read back gives its own.
     pub rays: u64,
     /// Ray-triangle intersection tests.
     pub triangle_tests: u64,

@@ -1011,8 +1011,12 @@ impl Timeline {
     /// Whether the counter has reached `value`, without waiting.
     pub fn reached(&self, value: u64) -> Result<bool, GpuError> {
         // SAFETY: a live timeline semaphore of this device.
-        let counter = unsafe { self.shared.device.get_semaphore_counter_value(self.semaphore) }
-            .vk("vkGetSemaphoreCounterValue")?;
+        let counter = unsafe {
+            self.shared
+                .device
+                .get_semaphore_counter_value(self.semaphore)
+        }
+        .vk("vkGetSemaphoreCounterValue")?;
         Ok(counter >= value)
     }
 

@@ -670,24 +670,11 @@ impl HybridScene {
             .with_gpu(gpu);
             let start = Instant::now();
             tessellation_options.max_vertices = vertex_budget.left.max(mesh.positions.len());
-            if resident {
-                let hull = hull_split.then(|| self.hull_flags(object));
-                let request = (texgen_request, hull.map(Vec::as_slice), vertex_budget.on_device);
-                if let Some(made) =
-                    oracle.tessellate_on_device(mesh, &tessellation_options, request)
-                {
-                    let made = made?;
-                    // The device counts the frame's budget from here on.
-                    vertex_budget.on_device = true;
-                    if let Some(stages) = made.stage_ms {
-                        *stats.gpu_split_ms.get_or_insert(0.0) += stages.tessellation;
-                        stats.texgen_ms += stages.texgen;
-                    }
-                    stats.trace_ms += oracle.traced_ms();
-                    stats.triangles_in += mesh.triangles.len();
-                    parts.push(made.part);
-                    continue;
-                }
+            let on = (&oracle, object, &tessellation_options);
+            let request = (texgen_request, hull_split, &mut *vertex_budget);
+            if resident && let Some(part) = self.tessellate_on_device(on, request, stats)? {
+                parts.push(part);
+                continue;
             }
             // On the GPU the whole tessellation runs there, every level's records kept on it,
             // and texgen with it; `texgen_ms` is that pass's device time when it is timed.
@@ -753,11 +740,9 @@ impl HybridScene {
             0
         };
         stats.hull_triangles += hull_triangles;
-        if !parts.is_empty()
-            && let Some(request) = &texgen_request
-        {
+        if !parts.is_empty() {
             // Its terms with no per-vertex data: the device holds it.
-            terms = Some(texgen::resident_terms(request));
+            terms = texgen_request.as_ref().map(texgen::resident_terms);
         }
         Ok(TessellatedLens {
             parts,
@@ -771,6 +756,35 @@ impl HybridScene {
             samples,
             depths,
         })
+    }
+
+    /// Scene object `object` tessellated by `oracle` on its GPU and left there for the frame to
+    /// draw (`None` when the oracle traces on the CPU), with the convex-hull split when
+    /// `hull_split`, its vertices taken from the frame's budget on the device; adds the time to
+    /// record and submit it to `stats` (its counts are the device's, read once the frame is done).
+    fn tessellate_on_device(
+        &self,
+        (oracle, object, options): (&PathOracle<'_>, usize, &TessellationOptions),
+        (texgen, hull_split, budget): (Option<TexgenRequest<'_>>, bool, &mut VertexBudget),
+        stats: &mut HybridStats,
+    ) -> Result<Option<Arc<DeviceLensPart>>, TessellationError> {
+        let mesh = &self.scene.objects[object].mesh;
+        let hull = hull_split.then(|| self.hull_flags(object).as_slice());
+        let Some(made) =
+            oracle.tessellate_on_device(mesh, options, (texgen, hull, budget.on_device))
+        else {
+            return Ok(None);
+        };
+        let made = made?;
+        // The device counts the frame's budget from here on.
+        budget.on_device = true;
+        if let Some(stages) = made.stage_ms {
+            *stats.gpu_split_ms.get_or_insert(0.0) += stages.tessellation;
+            stats.texgen_ms += stages.texgen;
+        }
+        stats.trace_ms += oracle.traced_ms();
+        stats.triangles_in += mesh.triangles.len();
+        Ok(Some(made.part))
     }
 
     /// Per input triangle of scene object `object`, whether it lies on the convex hull of the

@@ -235,10 +235,14 @@ impl<'a> PathOracle<'a> {
         &self,
         mesh: &crate::scene::TriangleMesh,
         options: &crate::hybrid::tessellate::TessellationOptions,
-        (texgen, hull, continue_budget): (Option<super::gpu::TexgenRequest<'_>>, Option<&[bool]>, bool),
+        (texgen, hull, continue_budget): (
+            Option<super::gpu::TexgenRequest<'_>>,
+            Option<&[bool]>,
+            bool,
+        ),
     ) -> Option<Result<super::gpu::DeviceTessellation, TessellationError>> {
         let gpu = self.gpu?;
-        let made = self.check_holds(gpu).map_err(TessellationError::from).and_then(|()| {
+        let made = self.check_holds(gpu).and_then(|()| {
             let settings = self.settings();
             let request = super::gpu::GpuTessellationRequest {
                 hull,

@@ -83,7 +83,9 @@ impl LensObject {
     /// Whether it has no triangle to draw (a resident object may have some: only the device
     /// knows how many).
     pub fn is_empty(&self) -> bool {
-        self.resident.as_ref().map_or(self.triangles.is_empty(), |r| r.parts.is_empty())
+        self.resident
+            .as_ref()
+            .map_or(self.triangles.is_empty(), |r| r.parts.is_empty())
     }
 }
 
@@ -99,7 +101,11 @@ impl PartialEq for ResidentLens {
     /// The same buffers (a frame that hands over the same parts draws the same data).
     fn eq(&self, other: &ResidentLens) -> bool {
         self.parts.len() == other.parts.len()
-            && self.parts.iter().zip(&other.parts).all(|(a, b)| Arc::ptr_eq(a, b))
+            && self
+                .parts
+                .iter()
+                .zip(&other.parts)
+                .all(|(a, b)| Arc::ptr_eq(a, b))
     }
 }
 

@@ -609,18 +609,10 @@ impl Recorder<'_> {
         );
         let device = self.gpu.device();
         let (indices, counts) = match &part.buffers {
-            PartBuffers::Host {
-                indices,
-                index_count,
-                hull_index_count,
-                ..
-            } => {
-                let hull = if samples_local {
-                    (*hull_index_count).min(*index_count)
-                } else {
-                    0
-                };
-                (indices.handle, DrawCounts::Direct(*index_count - hull, hull))
+            PartBuffers::Host(host) => {
+                let hull = host.hull_index_count.min(host.index_count) * u32::from(samples_local);
+                let rest = host.index_count - hull;
+                (host.indices.handle, DrawCounts::Direct(rest, hull))
             }
             PartBuffers::Device(part) => (part.indices.handle, DrawCounts::Indirect(&part.args)),
         };

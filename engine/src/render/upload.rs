@@ -13,8 +13,7 @@ use ash::vk;
 
 use super::{
     DeviceLensPart, EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes,
-    RenderError,
-    SinglePassLimits, TargetFormat,
+    RenderError, SinglePassLimits, TargetFormat,
     descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
     targets::Targets,
@@ -39,19 +38,22 @@ pub(super) struct GpuLens {
 
 /// Where a lens part's data and indices are and how many to draw.
 pub(super) enum PartBuffers {
-    /// Uploaded from the host: kept, and rewritten in place, by the next frame uploaded into the
-    /// same [`UploadedFrame`] when large enough. The last `hull_index_count` of `index_count`
-    /// indices are drawn without layer 0 (three per hull triangle of the convex-hull split,
-    /// [`LensObject::hull_triangles`](super::LensObject::hull_triangles)).
-    Host {
-        data: Buffer,
-        indices: Buffer,
-        index_count: u32,
-        hull_index_count: u32,
-    },
+    /// Uploaded from the host.
+    Host(Box<HostPart>),
     /// The GPU tessellation's own buffers, drawn by the indirect draws it wrote (kept alive until
     /// the frame's last submission completed).
     Device(Arc<DeviceLensPart>),
+}
+
+/// A lens part uploaded from the host: kept, and rewritten in place, by the next frame uploaded
+/// into the same [`UploadedFrame`] when large enough. The last `hull_index_count` of
+/// `index_count` indices are drawn without layer 0 (three per hull triangle of the convex-hull
+/// split, [`LensObject::hull_triangles`](super::LensObject::hull_triangles)).
+pub(super) struct HostPart {
+    data: Buffer,
+    pub(super) indices: Buffer,
+    pub(super) index_count: u32,
+    pub(super) hull_index_count: u32,
 }
 
 /// One mesh of a lens object with its vertex data and descriptor sets.
@@ -72,7 +74,7 @@ impl LensPart {
     /// The data buffer the sets point at.
     fn data(&self) -> vk::Buffer {
         match &self.buffers {
-            PartBuffers::Host { data, .. } => data.handle,
+            PartBuffers::Host(host) => host.data.handle,
             PartBuffers::Device(part) => part.data.handle,
         }
     }
@@ -589,7 +591,7 @@ fn host_buffers(
         }
     }
     let (old_data, old_indices) = match old {
-        Some(PartBuffers::Host { data, indices, .. }) => (Some(data), Some(indices)),
+        Some(PartBuffers::Host(host)) => (Some(host.data), Some(host.indices)),
         _ => (None, None),
     };
     let data = reuse_or_new(
@@ -607,12 +609,12 @@ fn host_buffers(
         BufferUsage::Index,
     )?;
     Ok((
-        PartBuffers::Host {
+        PartBuffers::Host(Box::new(HostPart {
             data,
             indices,
             index_count: (lens.triangles.len() * 3) as u32,
             hull_index_count: (lens.hull_triangles.min(lens.triangles.len()) * 3) as u32,
-        },
+        })),
         vertex_count,
     ))
 }

@@ -18,8 +18,8 @@ use crate::{
     index::LensIndex,
     options::OptionError,
     render::{
-        BlendScheme, DeviceLensPart, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError, RenderOptions,
-        RenderedImage, Renderer, Submission, TargetFormat, UploadedFrame, Variant,
+        BlendScheme, DeviceLensPart, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError,
+        RenderOptions, RenderedImage, Renderer, Submission, TargetFormat, UploadedFrame, Variant,
     },
     scene::Camera,
 };

@@ -82,6 +82,27 @@ pub struct HostFrame {
 }
 
 impl HostFrame {
+    /// The frame's stats with what is counted on the device (rays, triangle tests, vertices
+    /// traced, lens triangles, the convex-hull split's and the budget's stops) taken from the
+    /// frame before, when this frame was drawn where the GPU tessellation left it
+    /// ([`HybridStats::counted_on_device`]): the frame before's once it is done (its counts
+    /// are read then), zeros while it is not.
+    pub fn counted_stats(&self) -> HybridStats {
+        let s = self.stats;
+        if !s.counted_on_device {
+            return s;
+        }
+        let counted = self.previous.unwrap_or_default();
+        HybridStats {
+            counters: counted.counters,
+            vertices_traced: counted.vertices_traced,
+            triangles_out: counted.triangles_out,
+            hull_triangles: counted.hull_triangles,
+            stopped_by_budget: counted.stopped_by_budget,
+            ..s
+        }
+    }
+
     /// "Other" in the paper's table: everything but vertex tracing, texture coordinates and
     /// tessellation, ms (here: assembly, upload, recording and submission).
     pub fn other_ms(&self) -> f64 {

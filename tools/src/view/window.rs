@@ -554,6 +554,8 @@ impl App {
         let hybrid = self.hybrids[usize::from(self.experiment.inferred)]
             .as_ref()
             .expect("the shown scene is loaded");
+        // The wireframe needs the GPU's meshes on the host.
+        self.runner.read_back_gpu_meshes(self.experiment.wireframe);
         let rendered =
             match self
                 .runner
@@ -746,7 +748,12 @@ impl App {
         done: Instant,
     ) {
         let s = &frame.stats;
-        let c = s.counters;
+        // A frame drawn where the GPU tessellation left it has its counts read with the next
+        // frame: the counts shown are the frame before's (none while it is not done).
+        let counted =
+            (!s.counted_on_device || frame.previous.is_some()).then(|| frame.counted_stats());
+        let count =
+            |f: &dyn Fn(&lensmap::hybrid::HybridStats) -> f64| counted.as_ref().map_or(f64::NAN, f);
         let interval = self
             .last_frame_end
             .map(|last| done.duration_since(last).as_secs_f64() * 1e3);
@@ -764,12 +771,18 @@ impl App {
             ("overlay", overlay_ms),
             (
                 "rays",
-                (c.primary_rays + c.secondary_rays + c.shadow_rays) as f64,
+                count(&|p| {
+                    let c = p.counters;
+                    (c.primary_rays + c.secondary_rays + c.shadow_rays) as f64
+                }),
             ),
-            ("triangle tests", c.triangle_tests as f64),
+            (
+                "triangle tests",
+                count(&|p| p.counters.triangle_tests as f64),
+            ),
             ("passes", frame.passes as f64),
-            ("vertices", s.vertices_traced as f64),
-            ("triangles", s.triangles_out as f64),
+            ("vertices", count(&|p| p.vertices_traced as f64)),
+            ("triangles", count(&|p| p.triangles_out as f64)),
             ("frame", interval.unwrap_or(f64::NAN)),
         ];
         for (name, value) in figures {
@@ -788,6 +801,8 @@ impl App {
             );
             for (name, value) in &figures[..15] {
                 let _ = match *name {
+                    // Counts not read yet (the frame before is not done) are left empty.
+                    _ if !value.is_finite() => write!(csv, ","),
                     "rays" | "triangle tests" | "passes" | "vertices" | "triangles" => {
                         write!(csv, ",{value}")
                     }

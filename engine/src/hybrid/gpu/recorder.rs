@@ -255,7 +255,8 @@ impl TessellationRecording<'_> {
     /// Records every level, the T-junction removal, texgen and the draw list, then the copy of
     /// the counts to the part's host buffer, into `cb`.
     pub(super) fn record(&self, gpu: &Gpu, cb: vk::CommandBuffer) {
-        let (tracer, scratch, input, request) = (self.tracer, self.scratch, self.input, self.request);
+        let (tracer, scratch, input, request) =
+            (self.tracer, self.scratch, self.input, self.request);
         let device = gpu.device();
         let (tracer_set, set) = self.sets;
         let tracer_constants = tracer.constants(request.camera, request.settings);
@@ -422,14 +423,7 @@ unsafe fn bind_compute(
     // SAFETY: as the caller says.
     unsafe {
         device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipeline);
-        device.cmd_bind_descriptor_sets(
-            cb,
-            vk::PipelineBindPoint::COMPUTE,
-            layout,
-            0,
-            &[set],
-            &[],
-        );
+        device.cmd_bind_descriptor_sets(cb, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
         device.cmd_push_constants(cb, layout, vk::ShaderStageFlags::COMPUTE, 0, constants);
     }
 }

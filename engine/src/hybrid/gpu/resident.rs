@@ -77,12 +77,11 @@ impl DrawListPass {
         };
         pass.layout = compute_layout::<DrawConstants>(gpu, pass.set_layout)?;
         for entry in PASSES {
-            let shader = lensmap_shaders::shader("drawlist", entry).ok_or_else(|| {
-                GpuError::BadUpload {
+            let shader =
+                lensmap_shaders::shader("drawlist", entry).ok_or_else(|| GpuError::BadUpload {
                     what: "drawlist.wgsl".into(),
                     problem: format!("entry point {entry} was not compiled"),
-                }
-            })?;
+                })?;
             pass.pipelines
                 .push(gpu.create_compute_pipeline(&shader, pass.layout)?);
         }
@@ -238,7 +237,10 @@ impl ObjectState {
     pub(super) fn ensure_sets(
         &mut self,
         gpu: &Gpu,
-        (tracer, tessellation): ((vk::DescriptorSetLayout, &[Resource]), vk::DescriptorSetLayout),
+        (tracer, tessellation): (
+            (vk::DescriptorSetLayout, &[Resource]),
+            vk::DescriptorSetLayout,
+        ),
         scratch: &Scratch,
     ) -> Result<(), GpuError> {
         if self.sets.is_some() {

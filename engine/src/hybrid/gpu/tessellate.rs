@@ -31,8 +31,8 @@ use super::{
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError};
 use crate::hybrid::paths::{ScreenCamera, VertexPaths};
 use crate::hybrid::tessellate::{Tessellation, TessellationError, TessellationOptions};
-use crate::render::{DeviceLensPart, TermVertices};
 use crate::render::descriptors::{Binding, Resource, create_set_layout};
+use crate::render::{DeviceLensPart, TermVertices};
 use crate::scene::TriangleMesh;
 use crate::trace::stats::TraceCounters;
 
@@ -573,41 +573,16 @@ impl GpuTracer {
         Ok(true)
     }
 
-    /// Records and submits one tessellation (the caller holds the pass state).
-    fn submit_tessellation(
+    /// Makes the shared buffers hold scene object `object`'s input (made, or grown as asked,
+    /// after every submission that used the old ones completed); an error where the device
+    /// cannot hold the input and one split.
+    fn ensure_buffers(
         &self,
         gpu: &Gpu,
         state: &mut PassState,
-        (object, mesh): (usize, &TriangleMesh),
-        request: &GpuTessellationRequest<'_>,
-    ) -> Result<DeviceTessellation, TessellationError> {
-        self.check_device(gpu)?;
+        (object, request): (usize, &GpuTessellationRequest<'_>),
+    ) -> Result<(), TessellationError> {
         let options = request.options;
-        if options.validate().is_err() {
-            return Err(TessellationError::InvalidThreshold(options.t));
-        }
-        if options.max_depth > GPU_MAX_DEPTH {
-            return Err(crate::options::OptionError::new(
-                "max_depth",
-                options.max_depth,
-                "the GPU tessellation subdivides at most 30 levels deep; give 30 or less, or tessellate on the CPU",
-            )
-            .into());
-        }
-        let stale = state.objects.get(&object).is_some_and(|o| {
-            o.input.vertex_count as usize != mesh.positions.len()
-                || o.input.triangle_count as usize != mesh.triangles.len()
-        });
-        if stale {
-            state.submissions.wait_all()?;
-            state.objects.remove(&object);
-        }
-        if !state.objects.contains_key(&object) {
-            let input = InputMesh::new(gpu, mesh)?;
-            state
-                .objects
-                .insert(object, resident::ObjectState::new(gpu, input)?);
-        }
         let input = &state.objects[&object].input;
         let least = u64::from(input.vertex_count) + 4;
         let device = device_capacity(gpu, input, request.texgen.as_ref());
@@ -644,15 +619,54 @@ impl GpuTracer {
                 held.forget_sets();
             }
         }
+        Ok(())
+    }
+
+    /// Records and submits one tessellation (the caller holds the pass state).
+    fn submit_tessellation(
+        &self,
+        gpu: &Gpu,
+        state: &mut PassState,
+        (object, mesh): (usize, &TriangleMesh),
+        request: &GpuTessellationRequest<'_>,
+    ) -> Result<DeviceTessellation, TessellationError> {
+        self.check_device(gpu)?;
+        let options = request.options;
+        if options.validate().is_err() {
+            return Err(TessellationError::InvalidThreshold(options.t));
+        }
+        if options.max_depth > GPU_MAX_DEPTH {
+            return Err(crate::options::OptionError::new(
+                "max_depth",
+                options.max_depth,
+                "the GPU tessellation subdivides at most 30 levels deep; give 30 or less, or tessellate on the CPU",
+            )
+            .into());
+        }
+        let stale = state.objects.get(&object).is_some_and(|o| {
+            o.input.vertex_count as usize != mesh.positions.len()
+                || o.input.triangle_count as usize != mesh.triangles.len()
+        });
+        if stale {
+            state.submissions.wait_all()?;
+            state.objects.remove(&object);
+        }
+        if let std::collections::hash_map::Entry::Vacant(slot) = state.objects.entry(object) {
+            slot.insert(resident::ObjectState::new(gpu, InputMesh::new(gpu, mesh)?)?);
+        }
+        self.ensure_buffers(gpu, state, (object, request))?;
         let hull: Vec<u32> = request
             .hull
             .map(|flags| flags.iter().map(|&f| u32::from(f)).collect())
             .unwrap_or_default();
         let shells = request.texgen.as_ref().map(TexgenRequest::shell_words);
-        let held = state.objects.get_mut(&object).ok_or_else(|| GpuError::BadUpload {
-            what: "the GPU tessellation".into(),
-            problem: "its mesh was not kept".into(),
-        })?;
+        let held = state
+            .objects
+            .get_mut(&object)
+            .ok_or_else(|| GpuError::BadUpload {
+                what: "the GPU tessellation".into(),
+                problem: "its mesh was not kept".into(),
+            })?;
         if held.changes(&hull, shells.as_deref()) {
             state.submissions.wait_all()?;
             held.write_inputs(gpu, &hull, shells.as_deref())?;
@@ -676,10 +690,7 @@ impl GpuTracer {
         .collect();
         held.ensure_sets(
             gpu,
-            (
-                (self.set_layout, &geometry),
-                self.tessellation.set_layout,
-            ),
+            ((self.set_layout, &geometry), self.tessellation.set_layout),
             scratch,
         )?;
         let sets = held.sets.ok_or_else(|| GpuError::BadUpload {

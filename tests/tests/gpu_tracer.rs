@@ -327,3 +327,57 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
     }
     assert_clean(runner.gpu());
 }
+
+/// The frame's vertex budget is shared by its lens objects in order. A frame drawn from the
+/// device's buffers counts it on the device, with no vertex count read back between the objects;
+/// it must spend it exactly as the frame read back to the host, whose budget the host counts.
+#[test]
+fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
+    let mut runner = FrameRunner::new(gpu()).expect("a runner");
+    let scene = built_in_scene("teapot-room", 96, 72, 2);
+    let camera = scene.camera;
+    let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 32);
+    let input: usize = hybrid
+        .trace
+        .lenses
+        .iter()
+        .flat_map(|lens| &lens.objects)
+        .map(|&o| hybrid.scene.objects[o].mesh.positions.len())
+        .sum();
+    let mut options = FrameOptions {
+        hybrid: HybridOptions {
+            tracer: VertexTracer::Gpu,
+            ..HybridOptions::default()
+        },
+        variant: Variant::SinglePass,
+        blend: BlendScheme::FrontToBack,
+        format: TargetFormat::Rgba32f,
+    };
+    // Enough for the first objects' splits, not for all of them.
+    options.hybrid.tessellation.max_vertices = input + 1500;
+    let mut frame = |read_back: bool| {
+        hybrid.forget_frame();
+        runner.read_back_gpu_meshes(read_back);
+        runner
+            .frame(&hybrid, &camera, &options)
+            .expect("the frame renders")
+    };
+    let (resident, read_back) = (frame(false), frame(true));
+    let (g, r) = (resident.stats, read_back.stats);
+    eprintln!(
+        "budget {}: vertices {} / {}, stopped by the budget {} / {}",
+        input + 1500,
+        g.vertices_traced,
+        r.vertices_traced,
+        g.stopped_by_budget,
+        r.stopped_by_budget
+    );
+    assert!(r.stopped_by_budget > 0, "the budget stops splits");
+    assert!(g.counted_on_device && !r.counted_on_device);
+    assert_eq!(
+        (g.vertices_traced, g.triangles_out, g.stopped_by_budget),
+        (r.vertices_traced, r.triangles_out, r.stopped_by_budget)
+    );
+    assert!(resident.image.pixels == read_back.image.pixels);
+    assert_clean(runner.gpu());
+}

@@ -31,10 +31,12 @@ enum DrawCounts<'a> {
 
 /// Makes the GPU tessellation's writes (submitted earlier on the same queue, whose barriers'
 /// first scope holds every command submitted before) visible to the lens passes: the data their
-/// vertex stage reads, the indices and the indirect arguments.
+/// vertex stage reads, the indices and the indirect arguments. Its transfers (the copy of its
+/// counts) are in the first scope too, so that the frame's completion means theirs: the counts
+/// are read once the frame is done.
 fn resident_barrier(gpu: &Gpu, cb: vk::CommandBuffer) {
     let barrier = vk::MemoryBarrier2::default()
-        .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+        .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::TRANSFER)
         .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
         .dst_stage_mask(
             vk::PipelineStageFlags2::VERTEX_SHADER

@@ -612,8 +612,25 @@ impl GpuTracer {
         if !fits {
             // Nothing submitted may still use the old buffers, nor the sets that point at them.
             state.submissions.wait_all()?;
-            state.tessellation = None;
-            state.tessellation = Some(Scratch::new(gpu, wanted, input)?);
+            let made = Scratch::new(gpu, wanted, input)?;
+            if let Some(old) = state.tessellation.take() {
+                // The frame's budget left goes on to the objects after this one.
+                let word = 4 * control::FRAME_BUDGET as u64;
+                gpu.submit_and_wait(|cb| {
+                    // SAFETY: both buffers are live and idle (waited for above); the copy is
+                    // one word inside both.
+                    unsafe {
+                        gpu.device().cmd_copy_buffer(
+                            cb,
+                            old.control.handle,
+                            made.control.handle,
+                            &[copy(word, word, 4)],
+                        );
+                    }
+                    Ok(())
+                })?;
+            }
+            state.tessellation = Some(made);
             state.capacity = wanted;
             for held in state.objects.values_mut() {
                 held.forget_sets();

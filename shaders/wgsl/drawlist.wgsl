@@ -44,9 +44,11 @@ fn load(word: u32) -> u32 {
 
 // #include "scan.wgsl"
 
-// The output triangles in the list: all of them, or as many as the buffers hold.
+// The output triangles in the list: all of them, or as many as the buffers hold (the scan's
+// too).
 fn triangle_count() -> u32 {
-    return min(load(CONTROL_OUTPUT), min(arrayLength(&output), arrayLength(&indices) / 3u));
+    let held = min(min(arrayLength(&output), arrayLength(&counts)), arrayLength(&indices) / 3u);
+    return min(load(CONTROL_OUTPUT), held);
 }
 
 fn position(v: u32) -> vec3<f32> {

@@ -367,16 +367,19 @@ impl Bench<'_> {
         }
         bar.finish_and_clear();
         let (_, cpu_1, tessellation_1, _) = scaling[0];
+        // A speed-up over no time (the GPU path leaves the CPU no tessellation) has no value.
+        let speedup = |one: f64, many: f64| (one > 0.0 && many > 0.0).then(|| one / many);
+        let shown = |ratio: Option<f64>| ratio.map_or("no CPU time".into(), |r| format!("{r:.2}×"));
         for &(count, cpu, tessellation, total) in &scaling {
             say!(
-                "{count:>2} threads: CPU stages {cpu:.1} ms ({:.2}× of 1 thread), tessellation {tessellation:.1} ms ({:.2}×), frame {total:.1} ms",
-                cpu_1 / cpu,
-                tessellation_1 / tessellation
+                "{count:>2} threads: CPU stages {cpu:.1} ms ({} of 1 thread), tessellation {tessellation:.1} ms ({}), frame {total:.1} ms",
+                shown(speedup(cpu_1, cpu)),
+                shown(speedup(tessellation_1, tessellation))
             );
         }
         Ok(scaling.iter().map(|&(threads, cpu, tessellation, total)| json!({
             "threads": threads, "cpu_stages_ms": cpu, "tessellation_ms": tessellation, "frame_ms": total,
-            "cpu_speedup": cpu_1 / cpu, "tessellation_speedup": tessellation_1 / tessellation,
+            "cpu_speedup": speedup(cpu_1, cpu), "tessellation_speedup": speedup(tessellation_1, tessellation),
         })).collect())
     }
 }
@@ -425,7 +428,7 @@ impl Bench<'_> {
         let rest = median_of(&|f| f.0.tessellation_ms);
         let total = median_of(&|f| f.1);
         say!(
-            "GPU stages by the device's timestamps, {} frames: trace passes {trace:.2} ms, split and T-junction passes {split:.2} ms, texgen {texgen:.2} ms (pass and assembly), the rest of the tessellation (split passes, submission, read-back, mesh rebuilt on the CPU) {rest:.2} ms; frame {total:.2} ms, slowed by the timestamps (medians)",
+            "GPU stages by the device's timestamps, {} frames: trace passes {trace:.2} ms, split and T-junction passes {split:.2} ms, texgen {texgen:.2} ms (pass and assembly), the rest of the tessellation on the CPU (submissions waited for; reading back and rebuilding the mesh where it is read back) {rest:.2} ms; frame {total:.2} ms, slowed by the timestamps (medians)",
             self.frames
         );
         Ok(json!({

@@ -48,8 +48,9 @@ struct FrameKey {
     options: HybridOptions,
     vertex_exact: bool,
     /// Whether the vertices were traced on a GPU (its f32 paths are another frame), and then
-    /// whether the frame is drawn from the device's buffers.
-    on_gpu: Option<bool>,
+    /// whether the frame is drawn from the device's buffers and the tracer whose buffers they
+    /// are (another tracer, perhaps on another device, must not draw them).
+    on_gpu: Option<(bool, u64)>,
     /// Per lens object: EM origins, shells and the identity of every map (`Arc` address).
     layers: Vec<LayersKey>,
     /// The rest of the scene a frame draws: the environment meshes (`Arc` addresses), the sky
@@ -72,7 +73,7 @@ impl FrameKey {
         camera: &Camera,
         options: &HybridOptions,
         vertex_exact: bool,
-        on_gpu: Option<bool>,
+        on_gpu: Option<(bool, u64)>,
     ) -> Self {
         FrameKey {
             camera: *camera,
@@ -322,9 +323,10 @@ pub struct HybridStats {
     pub counted_on_device: bool,
     /// With the GPU tracer [timing its stages](crate::hybrid::gpu::GpuTracer::time_stages): the
     /// device time of the tessellation's split passes and T-junction removal, summed over the
-    /// lens objects (`trace_ms` and `texgen_ms` are then the device time of those passes, and
-    /// `tessellation_ms` the rest: these passes, the submission, the read-back and rebuilding
-    /// the mesh on the CPU). `None` otherwise.
+    /// lens objects (`trace_ms` and `texgen_ms` are then the device time of those passes, and,
+    /// for a frame read back, `tessellation_ms` the rest: these passes, the submission, the
+    /// read-back and rebuilding the mesh on the CPU; timing waits for each tessellation). `None`
+    /// otherwise.
     pub gpu_split_ms: Option<f64>,
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
@@ -391,7 +393,13 @@ impl HybridScene {
             (tracer, Some(device)) if tracer.on_gpu(device.gpu) => Some(device),
             _ => None,
         };
-        let key = FrameKey::new(self, camera, options, false, gpu.map(|g| g.resident));
+        let key = FrameKey::new(
+            self,
+            camera,
+            options,
+            false,
+            gpu.map(|g| (g.resident, g.tracer.id())),
+        );
         if let Ok(cache) = self.cache.0.lock()
             && let Some(cached) = cache.as_ref()
             && cached.key == key

@@ -88,9 +88,10 @@ pub struct FrameRunner {
     time_gpu_stages: bool,
     /// Whether GPU-traced frames read their meshes back ([`FrameRunner::read_back_gpu_meshes`]).
     read_back_gpu_meshes: bool,
-    /// The last frame into a host's image drawn from the device's buffers: its submission's
-    /// value, its parts and stats, until its counts are read ([`HostFrame::previous`]).
-    host_counts: Option<(u64, Vec<Arc<DeviceLensPart>>, HybridStats)>,
+    /// The frames into a host's image drawn from the device's buffers whose counts are not
+    /// read yet, oldest first: each one's submission value, parts and stats
+    /// ([`HostFrame::previous`]).
+    host_counts: std::collections::VecDeque<(u64, Vec<Arc<DeviceLensPart>>, HybridStats)>,
     /// Whether a finished frame's counts said the GPU tessellation's buffers stopped splits and
     /// the tracer grew them (a single frame is then made again).
     grew: bool,
@@ -114,6 +115,8 @@ struct ResidentTracer {
 struct Slot {
     uploaded: Option<UploadedFrame>,
     identity: u64,
+    /// The frame's lens parts drawn from the device's buffers (their counts).
+    parts: Vec<Arc<DeviceLensPart>>,
 }
 
 /// A frame whose CPU stages and upload are done, in its slot.
@@ -150,7 +153,7 @@ impl FrameRunner {
             tracer: None,
             time_gpu_stages: false,
             read_back_gpu_meshes: false,
-            host_counts: None,
+            host_counts: std::collections::VecDeque::new(),
             grew: false,
             last_slot: 0,
             renderer,
@@ -315,19 +318,25 @@ impl FrameRunner {
         )?;
         let staged = self.stage(hybrid, camera, options, |_, _| Ok(()))?;
         let submission = self.submit(staged.slot, options, Some(host))?;
-        // The previous frame's counts, if it is done by now (never waited for here).
-        let previous = match self.host_counts.take() {
-            Some((value, parts, mut stats)) if self.renderer.completed(value) => {
+        // The counts of the frames before that are done by now (never waited for here); the
+        // latest of them is reported. Frames complete in order, and no more than the slots are
+        // ever pending.
+        let mut previous = None;
+        while let Some((value, ..)) = self.host_counts.front()
+            && self.renderer.completed(*value)
+        {
+            if let Some((_, parts, mut stats)) = self.host_counts.pop_front() {
                 self.grew |= self.add_device_counts(&mut stats, &parts)?;
-                Some(stats)
+                previous = Some(stats);
             }
-            held => {
-                self.host_counts = held;
-                None
-            }
-        };
+        }
         if !staged.parts.is_empty() {
-            self.host_counts = Some((submission.value(), staged.parts, staged.stats));
+            let held = (submission.value(), staged.parts, staged.stats);
+            self.host_counts.push_back(held);
+        }
+        // Only a device that stopped completing work leaves more pending: their counts go.
+        while self.host_counts.len() > FRAMES_IN_FLIGHT + 1 {
+            self.host_counts.pop_front();
         }
         Ok(HostFrame {
             stats: staged.stats,
@@ -352,10 +361,13 @@ impl FrameRunner {
             let counts = read_counts(part);
             stats.triangles_out += counts.triangles as usize;
             stats.hull_triangles += counts.hull_triangles as usize;
-            stats.stopped_by_budget += counts.stopped_by_budget as usize;
-            stats.vertices_traced += counts.counters.primary_rays as usize;
-            stats.counters += counts.counters;
-            capped |= counts.capped_by_buffers;
+            // A frame reused whole traced nothing: only what it draws counts.
+            if !stats.reused {
+                stats.stopped_by_budget += counts.stopped_by_budget as usize;
+                stats.vertices_traced += counts.counters.primary_rays as usize;
+                stats.counters += counts.counters;
+                capped |= counts.capped_by_buffers;
+            }
         }
         match (capped, &self.tracer) {
             (
@@ -363,7 +375,7 @@ impl FrameRunner {
                 Some(ResidentTracer {
                     tracer: Ok(tracer), ..
                 }),
-            ) => Ok(tracer.grow(&self.gpu).map_err(RenderError::from)?),
+            ) => Ok(tracer.grow()),
             _ => Ok(false),
         }
     }
@@ -416,7 +428,10 @@ impl FrameRunner {
         let gpu_start = Instant::now();
         let mut parts = Vec::new();
         let stats = match built {
-            BuiltFrame::Unchanged(stats) => stats,
+            BuiltFrame::Unchanged(stats) => {
+                parts.clone_from(&self.slots[slot].parts);
+                stats
+            }
             BuiltFrame::New(frame, stats, identity) => {
                 parts = frame
                     .lenses
@@ -431,6 +446,7 @@ impl FrameRunner {
                 self.slots[slot] = Slot {
                     uploaded: Some(uploaded),
                     identity,
+                    parts: parts.clone(),
                 };
                 stats
             }

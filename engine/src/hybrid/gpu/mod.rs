@@ -32,6 +32,9 @@ pub use tessellate::{
 };
 pub use texgen::TexgenRequest;
 
+/// The next [`GpuTracer::id`].
+static NEXT_TRACER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
 /// Storage buffers bound at set 0 of every tracer pass, in binding order (tracer.wgsl).
 const TRACER_SET: &[Binding] = &[STORAGE; 10];
 
@@ -109,17 +112,19 @@ pub struct GpuTracer {
     /// Bound where a pass reads no tessellation (the level pass's bindings 8 and 9).
     unbound: Buffer,
     /// The tessellation's passes.
-    tessellation: tessellate::TessellationPasses,
+    tessellation: recorder::ComputePasses,
     /// The texgen pass.
-    texgen: texgen::TexgenPass,
+    texgen: recorder::ComputePasses,
     /// The draw list's passes.
-    draw_list: resident::DrawListPass,
+    draw_list: recorder::ComputePasses,
     /// Valid bits of the queue's timestamps (0: none; the GPU stages are then not timed).
     timestamp_bits: u32,
     /// Whether tessellations time their stages with timestamps ([`GpuTracer::time_stages`]).
     timed: std::sync::atomic::AtomicBool,
     /// The parts and triangles of the scene it was made from ([`GpuTracer::holds`]).
     shape: (usize, usize),
+    /// Unique among the tracers of this process ([`GpuTracer::id`]).
+    id: u64,
     /// What each pass uses and resets: held for the whole pass, so that passes from two threads
     /// take turns.
     pass: std::sync::Mutex<PassState>,
@@ -136,6 +141,9 @@ struct PassState {
     /// The vertex capacity the tessellation's buffers have, or are to have once grown (0:
     /// none made yet).
     capacity: u64,
+    /// The most the device holds for the last tessellation (its dispatch and binding limits,
+    /// texgen's lens data included): what growing stops at.
+    device_limit: u64,
     /// Each tessellated scene object's resident mesh, sets and outputs.
     objects: rustc_hash::FxHashMap<usize, resident::ObjectState>,
     /// The tessellations' submissions, not waited for.
@@ -194,9 +202,8 @@ impl Drop for GpuTracer {
     fn drop(&mut self) {
         // The tessellations' submissions are not waited for when made: before anything they use
         // goes. (A frame that draws a part holds the part's buffers itself.)
-        if let Ok(state) = self.pass.get_mut() {
-            let _ = state.submissions.wait_all();
-        }
+        let state = self.pass.get_mut().unwrap_or_else(|e| e.into_inner());
+        let _ = state.submissions.wait_all();
         // SAFETY: every submission that used the pipelines completed (above, or the owner
         // waited for trace_vertices' own).
         unsafe {
@@ -335,11 +342,11 @@ impl GpuTracer {
             }
         });
         let rest = made.and_then(|pipelines| {
-            let more = tessellate::TessellationPasses::new(gpu).and_then(|passes| {
+            let more = tessellate::tessellation_passes(gpu).and_then(|passes| {
                 Ok((
-                    (passes, texgen::TexgenPass::new(gpu)?),
+                    (passes, texgen::texgen_pass(gpu)?),
                     (
-                        resident::DrawListPass::new(gpu)?,
+                        resident::draw_list_passes(gpu)?,
                         resident::Submissions::new(gpu)?,
                     ),
                     storage(gpu, "tracer unbound", &[0u32; 4])?,
@@ -390,11 +397,13 @@ impl GpuTracer {
             timestamp_bits: timestamp_bits(gpu),
             timed: std::sync::atomic::AtomicBool::new(false),
             shape: (geometry.roots.len(), geometry.triangle_count()),
+            id: NEXT_TRACER.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             pass: std::sync::Mutex::new(PassState {
                 pool,
                 scratch: None,
                 tessellation: None,
                 capacity: 0,
+                device_limit: 0,
                 objects: rustc_hash::FxHashMap::default(),
                 submissions,
             }),
@@ -457,6 +466,13 @@ impl GpuTracer {
             });
         }
         Ok(())
+    }
+
+    /// An identity unique among the tracers of this process: the buffers a frame drawn where its
+    /// tessellation lies belong to this tracer's device, and such a frame is another tracer's
+    /// frame for no other.
+    pub fn id(&self) -> u64 {
+        self.id
     }
 
     /// Whether this tracer holds `trace`'s geometry: the same parts and triangles (what a

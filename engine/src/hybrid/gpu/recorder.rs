@@ -7,14 +7,15 @@ use lensmap_shaders::{DrawConstants, TessellateConstants};
 
 use super::resident::Outputs;
 use super::tessellate::{
-    GpuStageMs, GpuTessellationRequest, InputMesh, Scratch, TessellationPasses, control,
-    first_control, pass, tessellate_constants,
+    GpuStageMs, GpuTessellationRequest, InputMesh, Scratch, control, first_control,
+    tessellate_constants,
 };
 use super::{
     COMPUTE_TO_TRANSFER, COUNTERS, Dependency, GpuTracer, TRANSFER_TO_COMPUTE, TRANSFER_TO_HOST,
     WORKGROUP, barrier,
 };
 use crate::gpu::{Gpu, GpuError, VkContext};
+use crate::render::descriptors::{Binding, create_set_layout};
 
 /// A compute → compute (and indirect-argument) dependency: every pass reads what the one before
 /// wrote, and the dispatch sizes it wrote.
@@ -31,6 +32,68 @@ pub(super) const COMPUTE_TO_COMPUTE: Dependency = (
             | vk::AccessFlags2::INDIRECT_COMMAND_READ.as_raw(),
     ),
 );
+
+/// The compute pipelines of one shader file's entry points over one set layout, with push
+/// constants: the tessellation's, texgen's and the draw list's passes.
+pub(super) struct ComputePasses {
+    device: ash::Device,
+    pub(super) set_layout: vk::DescriptorSetLayout,
+    pub(super) layout: vk::PipelineLayout,
+    pipelines: Vec<vk::Pipeline>,
+    entries: &'static [&'static str],
+}
+
+impl Drop for ComputePasses {
+    fn drop(&mut self) {
+        // SAFETY: the owner waited for every submission that used them.
+        unsafe {
+            for &pipeline in &self.pipelines {
+                self.device.destroy_pipeline(pipeline, None);
+            }
+            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+impl ComputePasses {
+    /// The pipelines of `entries` of `shaders/wgsl/{file}.wgsl`, binding `bindings` at set 0
+    /// and push constants `C`.
+    pub(super) fn new<C>(
+        gpu: &Gpu,
+        file: &str,
+        entries: &'static [&'static str],
+        bindings: &[Binding],
+    ) -> Result<ComputePasses, GpuError> {
+        let mut passes = ComputePasses {
+            device: gpu.device().clone(),
+            set_layout: create_set_layout(gpu, bindings)?,
+            layout: vk::PipelineLayout::null(),
+            pipelines: Vec::new(),
+            entries,
+        };
+        passes.layout = super::compute_layout::<C>(gpu, passes.set_layout)?;
+        for entry in entries {
+            let shader =
+                lensmap_shaders::shader(file, entry).ok_or_else(|| GpuError::BadUpload {
+                    what: format!("{file}.wgsl"),
+                    problem: format!("entry point {entry} was not compiled"),
+                })?;
+            passes
+                .pipelines
+                .push(gpu.create_compute_pipeline(&shader, passes.layout)?);
+        }
+        Ok(passes)
+    }
+
+    /// The pipeline of entry point `name` (the first for a name it does not have: a typo fails
+    /// the tests, which run every pass).
+    pub(super) fn pipeline(&self, name: &str) -> vk::Pipeline {
+        let index = self.entries.iter().position(|&e| e == name).unwrap_or(0);
+        self.pipelines[index]
+    }
+}
 
 /// A timestamp query pool for one tessellation: four queries per level (its trace pass, then its
 /// split passes, each begun and ended), then four for the T-junction removal and texgen.
@@ -116,7 +179,7 @@ impl Timestamps {
 pub(super) struct Recorder<'a> {
     pub(super) device: &'a ash::Device,
     pub(super) cb: vk::CommandBuffer,
-    pub(super) passes: &'a TessellationPasses,
+    pub(super) passes: &'a ComputePasses,
     pub(super) set: vk::DescriptorSet,
     pub(super) constants: &'a TessellateConstants,
     pub(super) control: vk::Buffer,
@@ -149,7 +212,7 @@ impl Recorder<'_> {
             device.cmd_bind_pipeline(
                 cb,
                 vk::PipelineBindPoint::COMPUTE,
-                self.passes.pipelines[pass(name)],
+                self.passes.pipeline(name),
             );
             if self.bound.replace(true) {
                 return;
@@ -345,7 +408,11 @@ impl TessellationRecording<'_> {
                 bind_compute(
                     device,
                     cb,
-                    (tracer.texgen.pipeline, tracer.texgen.layout, texgen_set),
+                    (
+                        tracer.texgen.pipeline("cs_texgen"),
+                        tracer.texgen.layout,
+                        texgen_set,
+                    ),
                     bytemuck::bytes_of(&constants),
                 );
                 // Over every vertex: cs_leaves_begin set the trace arguments so.
@@ -395,7 +462,7 @@ impl TessellationRecording<'_> {
                 ),
                 bytemuck::bytes_of(&constants),
             );
-            for name in super::resident::PASSES {
+            for &name in super::resident::PASSES {
                 device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pass.pipeline(name));
                 match name {
                     "cs_draw_begin" | "cs_scan_top" | "cs_draw_args" => {

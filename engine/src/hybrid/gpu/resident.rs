@@ -15,18 +15,19 @@ use std::sync::Arc;
 use ash::vk;
 use lensmap_shaders::DrawConstants;
 
+use super::recorder::ComputePasses;
 use super::tessellate::{InputMesh, Scratch, control};
-use super::{COUNTERS, STORAGE, compute_layout};
-use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, Timeline};
+use super::{COUNTERS, STORAGE, storage};
+use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, Timeline, VkContext};
 use crate::render::DeviceLensPart;
-use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout};
+use crate::render::descriptors::{Binding, DescriptorPool, Resource};
 use crate::trace::stats::TraceCounters;
 
 /// Storage buffers bound at set 0 of the draw list's passes, in binding order (drawlist.wgsl).
 pub(super) const DRAW_SET: &[Binding] = &[STORAGE; 9];
 
 /// The draw list's passes, in the order they run (the scan's two between count and args).
-pub(super) const PASSES: [&str; 6] = [
+pub(super) const PASSES: &[&str] = &[
     "cs_draw_begin",
     "cs_draw_count",
     "cs_scan_blocks",
@@ -46,68 +47,43 @@ const ARGS_BYTES: u64 = 60;
 const IN_FLIGHT: usize = 4;
 
 /// The draw list's pipelines on one device.
-pub(super) struct DrawListPass {
-    device: ash::Device,
-    pub(super) set_layout: vk::DescriptorSetLayout,
-    pub(super) layout: vk::PipelineLayout,
-    pub(super) pipelines: Vec<vk::Pipeline>,
+pub(super) fn draw_list_passes(gpu: &Gpu) -> Result<ComputePasses, GpuError> {
+    ComputePasses::new::<DrawConstants>(gpu, "drawlist", PASSES, DRAW_SET)
 }
 
-impl Drop for DrawListPass {
-    fn drop(&mut self) {
-        // SAFETY: the owner waited for every submission that used them.
-        unsafe {
-            for &pipeline in &self.pipelines {
-                self.device.destroy_pipeline(pipeline, None);
-            }
-            self.device.destroy_pipeline_layout(self.layout, None);
-            self.device
-                .destroy_descriptor_set_layout(self.set_layout, None);
-        }
-    }
-}
-
-impl DrawListPass {
-    pub(super) fn new(gpu: &Gpu) -> Result<DrawListPass, GpuError> {
-        let mut pass = DrawListPass {
-            device: gpu.device().clone(),
-            set_layout: create_set_layout(gpu, DRAW_SET)?,
-            layout: vk::PipelineLayout::null(),
-            pipelines: Vec::new(),
-        };
-        pass.layout = compute_layout::<DrawConstants>(gpu, pass.set_layout)?;
-        for entry in PASSES {
-            let shader =
-                lensmap_shaders::shader("drawlist", entry).ok_or_else(|| GpuError::BadUpload {
-                    what: "drawlist.wgsl".into(),
-                    problem: format!("entry point {entry} was not compiled"),
-                })?;
-            pass.pipelines
-                .push(gpu.create_compute_pipeline(&shader, pass.layout)?);
-        }
-        Ok(pass)
-    }
-
-    /// The pipeline of pass `name` (a typo fails the tests, which run every pass).
-    pub(super) fn pipeline(&self, name: &str) -> vk::Pipeline {
-        let index = PASSES.iter().position(|&p| p == name).unwrap_or(0);
-        self.pipelines[index]
-    }
-}
-
-/// Command buffers the tessellations are recorded into, reused round robin once their last
-/// submission completed, and the timeline that says which did.
+/// Command buffers the tessellations are recorded into, from a pool of their own, reused round
+/// robin once their last submission completed, and the timeline that says which did.
 pub(super) struct Submissions {
+    device: ash::Device,
+    pool: vk::CommandPool,
     timeline: Timeline,
     ring: Vec<(vk::CommandBuffer, u64)>,
     /// The value the last submission signals.
     submitted: u64,
 }
 
+impl Drop for Submissions {
+    fn drop(&mut self) {
+        let _ = self.wait_all();
+        // SAFETY: every submission of its command buffers completed (or the device is lost);
+        // they are freed with the pool.
+        unsafe { self.device.destroy_command_pool(self.pool, None) };
+    }
+}
+
 impl Submissions {
     pub(super) fn new(gpu: &Gpu) -> Result<Submissions, GpuError> {
+        let info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(gpu.vulkan().queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let timeline = Timeline::new(gpu)?;
+        // SAFETY: a valid create info for the queue's family; destroyed in Drop.
+        let pool =
+            unsafe { gpu.device().create_command_pool(&info, None) }.vk("vkCreateCommandPool")?;
         Ok(Submissions {
-            timeline: Timeline::new(gpu)?,
+            device: gpu.device().clone(),
+            pool,
+            timeline,
             ring: Vec::new(),
             submitted: 0,
         })
@@ -122,7 +98,15 @@ impl Submissions {
     ) -> Result<u64, GpuError> {
         let slot = (self.submitted as usize) % IN_FLIGHT;
         if self.ring.len() <= slot {
-            self.ring.push((gpu.allocate_command_buffer()?, 0));
+            let info = vk::CommandBufferAllocateInfo::default()
+                .command_pool(self.pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(1);
+            // SAFETY: the pool belongs to this device and is used by this tracer alone (under
+            // its pass lock).
+            let made = unsafe { self.device.allocate_command_buffers(&info) }
+                .vk("vkAllocateCommandBuffers")?;
+            self.ring.push((made[0], 0));
         }
         let (cb, last) = self.ring[slot];
         self.timeline.wait(last)?;
@@ -174,7 +158,7 @@ impl ObjectState {
     pub(super) fn new(gpu: &Gpu, input: InputMesh) -> Result<ObjectState, GpuError> {
         Ok(ObjectState {
             input,
-            hull: Buffer::with_data(gpu, "tessellation hull", &[0u8; 16], BufferUsage::Storage)?,
+            hull: storage::<u32>(gpu, "tessellation hull", &[])?,
             hull_words: Vec::new(),
             shells: None,
             sets: None,
@@ -207,27 +191,14 @@ impl ObjectState {
         shells: Option<&[[f32; 4]]>,
     ) -> Result<(), GpuError> {
         if self.hull_words != hull {
-            let bytes: &[u8] = bytemuck::cast_slice(hull);
-            self.hull = Buffer::with_data(
-                gpu,
-                "tessellation hull",
-                if bytes.is_empty() { &[0u8; 16] } else { bytes },
-                BufferUsage::Storage,
-            )?;
+            self.hull = storage(gpu, "tessellation hull", hull)?;
             self.hull_words = hull.to_vec();
             self.outputs.clear();
         }
         if let Some(words) = shells
             && self.shells.as_ref().is_none_or(|(_, w)| w != words)
         {
-            let bytes: &[u8] = bytemuck::cast_slice(words);
-            let buffer = Buffer::with_data(
-                gpu,
-                "texgen shells",
-                if bytes.is_empty() { &[0u8; 16] } else { bytes },
-                BufferUsage::Storage,
-            )?;
-            self.shells = Some((buffer, words.to_vec()));
+            self.shells = Some((storage(gpu, "texgen shells", words)?, words.to_vec()));
             self.outputs.clear();
         }
         Ok(())

@@ -1,7 +1,9 @@
 //! The adaptive tessellation on the GPU (`shaders/wgsl/tessellate.wgsl`): the CPU tessellator's
 //! rules ([`crate::hybrid::tessellate`]) level by level in compute passes, the vertex paths
-//! traced by the tracer's level pass between them, every record kept on the GPU, all in one
-//! submission. The mesh and its records are then read back once.
+//! traced by the tracer's level pass between them, every record kept on the GPU, then texgen and
+//! the draw list, all in one submission. A frame draws the result where it lies
+//! ([`GpuTracer::tessellate_on_device`], [`super::resident`]); [`GpuTracer::tessellate`] waits
+//! for it and reads the mesh and its records back once.
 //!
 //! Determinism: midpoint, edge and triangle indices come from stable prefix sums over each
 //! level's triangles (in the CPU's order), and a midpoint belongs to the lowest-indexed triangle
@@ -10,9 +12,11 @@
 //! it where the decisions agree.
 //!
 //! Capacity: the buffers hold a fixed number of vertices (and six triangles and five edges per
-//! vertex), grown fourfold and the frame redone whenever a frame would pass them before the
-//! vertex budget, up to the budget or what the device can dispatch. Past the budget, splits stop
-//! as on the CPU ([`StopReason::Budget`]).
+//! vertex), shared by the scene objects. Where a tessellation's counts say they, not the vertex
+//! budget, stopped its splits, they grow fourfold, up to the budget or what the device can
+//! dispatch, for the next tessellation: at once for one read back (it is made again), with the
+//! next frame for one drawn where it lies (a single frame of the runner is made again). Past the
+//! budget, splits stop as on the CPU ([`StopReason::Budget`]).
 
 use std::sync::Arc;
 
@@ -22,7 +26,7 @@ use lensmap_shaders::TessellateConstants;
 use rustc_hash::FxHashMap;
 
 use super::assemble::{Readback, assemble};
-use super::recorder::Timestamps;
+use super::recorder::{ComputePasses, Timestamps};
 use super::resident;
 use super::texgen::{self, TexgenRequest};
 use super::{
@@ -31,7 +35,7 @@ use super::{
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError};
 use crate::hybrid::paths::{ScreenCamera, VertexPaths};
 use crate::hybrid::tessellate::{Tessellation, TessellationError, TessellationOptions};
-use crate::render::descriptors::{Binding, Resource, create_set_layout};
+use crate::render::descriptors::{Binding, Resource};
 use crate::render::{DeviceLensPart, TermVertices};
 use crate::scene::TriangleMesh;
 use crate::trace::stats::TraceCounters;
@@ -101,8 +105,8 @@ const EDGE_STATE_BYTES: u64 = 16;
 const COUNT_BYTES: u64 = 16;
 const OUTPUT_BYTES: u64 = 16;
 
-/// The passes of tessellate.wgsl, in the order [`PASSES`] names them.
-const PASSES: [&str; 12] = [
+/// The passes of tessellate.wgsl.
+const PASSES: &[&str] = &[
     "cs_begin",
     "cs_classify",
     "cs_decide",
@@ -117,68 +121,23 @@ const PASSES: [&str; 12] = [
     "cs_leaf_emit",
 ];
 
-/// Index of `name` in [`PASSES`] (a typo fails the tests, which run every pass).
-pub(super) fn pass(name: &str) -> usize {
-    PASSES.iter().position(|&p| p == name).unwrap_or(0)
-}
-
-/// The tessellation's pipelines on one device.
-pub(super) struct TessellationPasses {
-    device: ash::Device,
-    set_layout: vk::DescriptorSetLayout,
-    pub(super) layout: vk::PipelineLayout,
-    pub(super) pipelines: Vec<vk::Pipeline>,
-}
-
-impl Drop for TessellationPasses {
-    fn drop(&mut self) {
-        // SAFETY: the owner waited for every submission that used them.
-        unsafe {
-            for &pipeline in &self.pipelines {
-                self.device.destroy_pipeline(pipeline, None);
-            }
-            self.device.destroy_pipeline_layout(self.layout, None);
-            self.device
-                .destroy_descriptor_set_layout(self.set_layout, None);
-        }
+/// The tessellation's pipelines on one device; refused where the device binds fewer storage
+/// buffers per stage than they do.
+pub(super) fn tessellation_passes(gpu: &Gpu) -> Result<ComputePasses, GpuError> {
+    let limit = gpu
+        .properties()
+        .limits
+        .max_per_stage_descriptor_storage_buffers;
+    if (limit as usize) < TESSELLATE_SET.len() {
+        return Err(GpuError::BadUpload {
+            what: "the GPU tessellation".into(),
+            problem: format!(
+                "it binds {} storage buffers, past the device's maxPerStageDescriptorStorageBuffers of {limit}; tessellate on the CPU",
+                TESSELLATE_SET.len()
+            ),
+        });
     }
-}
-
-impl TessellationPasses {
-    pub(super) fn new(gpu: &Gpu) -> Result<TessellationPasses, GpuError> {
-        let limit = gpu
-            .properties()
-            .limits
-            .max_per_stage_descriptor_storage_buffers;
-        if (limit as usize) < TESSELLATE_SET.len() {
-            return Err(GpuError::BadUpload {
-                what: "the GPU tessellation".into(),
-                problem: format!(
-                    "it binds {} storage buffers, past the device's maxPerStageDescriptorStorageBuffers of {limit}; tessellate on the CPU",
-                    TESSELLATE_SET.len()
-                ),
-            });
-        }
-        let set_layout = create_set_layout(gpu, TESSELLATE_SET)?;
-        let mut passes = TessellationPasses {
-            device: gpu.device().clone(),
-            set_layout,
-            layout: vk::PipelineLayout::null(),
-            pipelines: Vec::new(),
-        };
-        passes.layout = super::compute_layout::<TessellateConstants>(gpu, set_layout)?;
-        for entry in PASSES {
-            let shader = lensmap_shaders::shader("tessellate", entry).ok_or_else(|| {
-                GpuError::BadUpload {
-                    what: "tessellate.wgsl".into(),
-                    problem: format!("entry point {entry} was not compiled"),
-                }
-            })?;
-            let pipeline = gpu.create_compute_pipeline(&shader, passes.layout)?;
-            passes.pipelines.push(pipeline);
-        }
-        Ok(passes)
-    }
+    ComputePasses::new::<TessellateConstants>(gpu, "tessellate", PASSES, TESSELLATE_SET)
 }
 
 /// A scene object's mesh as the passes read it, resident: its vertices with the normals the CPU
@@ -518,9 +477,7 @@ impl GpuTracer {
             let made = self.submit_tessellation(gpu, &mut pass, (object, mesh), request)?;
             pass.submissions.wait(made.submitted)?;
             let submission_ms = start.elapsed().as_secs_f64() * 1e3;
-            if resident::read_counts(&made.part).capped_by_buffers
-                && self.grow_locked(gpu, &mut pass)?
-            {
+            if resident::read_counts(&made.part).capped_by_buffers && self.grow_locked(&mut pass) {
                 continue;
             }
             let mut read = self.read_mesh(gpu, (&mut pass, object, mesh), &made.part, request)?;
@@ -548,29 +505,24 @@ impl GpuTracer {
         Ok(made)
     }
 
-    /// Makes the buffers four times larger for the next tessellation (up to what the device
-    /// holds), after every submission completed; whether they grew.
-    pub fn grow(&self, gpu: &Gpu) -> Result<bool, GpuError> {
+    /// Asks for buffers four times larger (up to what the device holds) for the next
+    /// tessellation, which makes them once every submission that uses the old ones completed;
+    /// whether they will grow.
+    pub fn grow(&self) -> bool {
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
-        self.grow_locked(gpu, &mut pass)
+        self.grow_locked(&mut pass)
     }
 
-    fn grow_locked(&self, gpu: &Gpu, state: &mut PassState) -> Result<bool, GpuError> {
+    fn grow_locked(&self, state: &mut PassState) -> bool {
         let Some(scratch) = &state.tessellation else {
-            return Ok(false);
+            return false;
         };
-        let device = state
-            .objects
-            .values()
-            .map(|o| device_capacity(gpu, &o.input, None))
-            .min()
-            .unwrap_or(u64::MAX);
-        let grown = (scratch.vertices_capacity * 4).min(device);
+        let grown = (scratch.vertices_capacity * 4).min(state.device_limit);
         if grown <= scratch.vertices_capacity {
-            return Ok(false);
+            return false;
         }
         state.capacity = grown;
-        Ok(true)
+        true
     }
 
     /// Makes the shared buffers hold scene object `object`'s input (made, or grown as asked,
@@ -596,6 +548,7 @@ impl GpuTracer {
             }
             .into());
         }
+        state.device_limit = device;
         // The buffers are kept while they hold the input (grown only by `grow`); the first are
         // sized for the paper's setting, or the budget when smaller.
         let budget = (options.max_vertices as u64).max(least);

@@ -5,15 +5,15 @@
 //! stride being the tessellation's vertex capacity so that the offsets are known when
 //! recording).
 
-use ash::vk;
 use glam::{DVec3, Vec3};
 use lensmap_shaders::TexgenConstants;
 
 use super::STORAGE;
+use super::recorder::ComputePasses;
 use crate::gpu::{Gpu, GpuError};
 use crate::layers::LayerShell;
 use crate::render::TermVertices;
-use crate::render::descriptors::{Binding, create_set_layout};
+use crate::render::descriptors::Binding;
 use crate::trace::Term;
 
 /// Storage buffers bound at set 0 of the texgen pass, in binding order (texgen.wgsl).
@@ -121,42 +121,8 @@ fn shell_words(shell: &LayerShell, em_origin: DVec3) -> [[f32; 4]; 4] {
 }
 
 /// The texgen pass's pipeline on one device.
-pub(super) struct TexgenPass {
-    device: ash::Device,
-    pub(super) set_layout: vk::DescriptorSetLayout,
-    pub(super) layout: vk::PipelineLayout,
-    pub(super) pipeline: vk::Pipeline,
-}
-
-impl Drop for TexgenPass {
-    fn drop(&mut self) {
-        // SAFETY: the owner waited for every submission that used them.
-        unsafe {
-            self.device.destroy_pipeline(self.pipeline, None);
-            self.device.destroy_pipeline_layout(self.layout, None);
-            self.device
-                .destroy_descriptor_set_layout(self.set_layout, None);
-        }
-    }
-}
-
-impl TexgenPass {
-    pub(super) fn new(gpu: &Gpu) -> Result<TexgenPass, GpuError> {
-        let mut pass = TexgenPass {
-            device: gpu.device().clone(),
-            set_layout: create_set_layout(gpu, TEXGEN_SET)?,
-            layout: vk::PipelineLayout::null(),
-            pipeline: vk::Pipeline::null(),
-        };
-        pass.layout = super::compute_layout::<TexgenConstants>(gpu, pass.set_layout)?;
-        let shader =
-            lensmap_shaders::shader("texgen", "cs_texgen").ok_or_else(|| GpuError::BadUpload {
-                what: "texgen.wgsl".into(),
-                problem: "entry point cs_texgen was not compiled".into(),
-            })?;
-        pass.pipeline = gpu.create_compute_pipeline(&shader, pass.layout)?;
-        Ok(pass)
-    }
+pub(super) fn texgen_pass(gpu: &Gpu) -> Result<ComputePasses, GpuError> {
+    ComputePasses::new::<TexgenConstants>(gpu, "texgen", &["cs_texgen"], TEXGEN_SET)
 }
 
 /// The terms' vertex data from the lens data as read back: `arrays[i]` is array i's first

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// A private Xvfb server, killed when dropped.
+/// A private Xvfb server, stopped when dropped.
 struct Xvfb {
     child: Child,
     display: String,
@@ -18,6 +18,19 @@ struct Xvfb {
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
+        // SIGTERM first: Xvfb then removes its socket and lock file, which a SIGKILL leaves
+        // behind to make the next run's display look taken.
+        let terminated = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status()
+            .is_ok_and(|s| s.success());
+        let start = Instant::now();
+        while terminated && start.elapsed() < Duration::from_secs(5) {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
@@ -71,15 +84,16 @@ fn png(path: &Path) -> (Vec<u8>, u32, u32) {
     (image.into_raw(), w, h)
 }
 
-/// 60 frames: an orbit of 60 poses; the wireframe on and off, the variant to multipass and the
-/// blending scheme on, t up and down, the framebuffer format round, one resize; a screenshot of
-/// the last frame.
+/// 60 frames: an orbit of 60 poses; the lens vertices traced on the GPU (`g` twice: auto → cpu
+/// → gpu), with the wireframe on (the meshes read back) and off (drawn where the GPU left them),
+/// the variant to multipass and the blending scheme on, t up and down, the framebuffer format
+/// round, one resize; a screenshot of the last frame.
 const SCRIPT: &str = r#"
 path = "orbit"
 frames = 60
 [[step]]
 frame = 5
-keys = ["x", "h"]
+keys = ["x", "h", "g", "g"]
 [[step]]
 frame = 12
 keys = ["v", "b", "b"]
@@ -151,6 +165,7 @@ fn a_scripted_window_shows_what_render_renders_without_a_validation_message() {
     assert_eq!(json["format"], "rgba16f", "{json}");
     assert_eq!(json["t"], 3.0, "{json}");
     let render = json["render"].as_str().expect("a render command line");
+    assert!(render.ends_with("--tracer gpu"), "{render}");
     let out = root.join("render.png");
     let mut args: Vec<&str> = render.split(' ').skip(1).collect();
     let out_arg = out.to_str().unwrap();

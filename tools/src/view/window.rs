@@ -947,7 +947,7 @@ impl App {
         let layers_off = self.experiment.layers_off.iter().any(|&off| off);
         let render = (!layers_off).then(|| {
             format!(
-                "lensmap render --scene {} {ems} --camera-position={} --look-at={} --width {} --height {} --supersampling {} --t {} --angle-degrees {} --variant {} --blend {} --format {}",
+                "lensmap render --scene {} {ems} --camera-position={} --look-at={} --width {} --height {} --supersampling {} --t {} --angle-degrees {} --variant {} --blend {} --format {} --tracer {}",
                 self.scene_arg,
                 v3(c.position),
                 v3(c.look_at),
@@ -960,7 +960,8 @@ impl App {
                 o.hybrid.angle_radians.to_degrees() as f32,
                 o.variant.name(),
                 o.blend.name(),
-                o.format.name()
+                o.format.name(),
+                o.hybrid.tracer.name()
             )
         });
         let json = serde_json::json!({

@@ -4,8 +4,8 @@
 use std::{collections::HashSet, fmt};
 
 use super::{
-    Access, BufferInfo, DepthAttachment, Graph, GraphError, ImageId, ImageInfo, Layout, LoadOp,
-    Origin, Pass, PassKind, StoreOp,
+    Access, BufferId, BufferInfo, DepthAttachment, Graph, GraphError, ImageId, ImageInfo, Layout,
+    LoadOp, Origin, Pass, PassKind, StoreOp,
 };
 
 /// Why a declared pass is not in the plan.
@@ -41,6 +41,18 @@ pub struct Barrier {
     pub dst: Access,
 }
 
+/// A memory dependency on one buffer before a step: a compute pass wrote it, and the step's draws
+/// read it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BufferBarrier {
+    /// The buffer.
+    pub buffer: BufferId,
+    /// The access that must finish first.
+    pub src: Access,
+    /// The access that waits.
+    pub dst: Access,
+}
+
 /// A run of consecutive draw passes with the same attachments, recorded inside one
 /// `vkCmdBeginRendering`/`vkCmdEndRendering`: blending within it is ordered by the rasterization
 /// order guarantee, so it needs no barriers between its passes.
@@ -59,6 +71,9 @@ pub struct Step<D, P, C> {
     pub pass: Pass<D, P, C>,
     /// Barriers recorded before it (only on the first step of a rendering instance, or a readback).
     pub barriers: Vec<Barrier>,
+    /// Buffer barriers recorded before it (on the first step of a rendering instance whose draws
+    /// read what a compute pass wrote).
+    pub buffer_barriers: Vec<BufferBarrier>,
     /// `Some` on the first step of a rendering instance: begin rendering before this step.
     pub begin: Option<RenderingInstance>,
     /// End rendering after this step.
@@ -132,6 +147,16 @@ fn reads_and_writes<D, P, C>(pass: &Pass<D, P, C>) -> (Vec<ImageId>, Vec<ImageId
             (reads, writes)
         }
         PassKind::Readback { image, .. } | PassKind::Export { image } => (vec![*image], Vec::new()),
+        PassKind::Compute { .. } => (Vec::new(), Vec::new()),
+    }
+}
+
+/// The buffers a pass reads (a draw's `storage`) and writes (a compute pass's).
+fn buffer_reads_and_writes<D, P, C>(pass: &Pass<D, P, C>) -> (&[BufferId], &[BufferId]) {
+    match &pass.kind {
+        PassKind::Draw { storage, .. } => (storage, &[]),
+        PassKind::Compute { writes, .. } => (&[], writes),
+        PassKind::Readback { .. } | PassKind::Export { .. } => (&[], &[]),
     }
 }
 
@@ -142,7 +167,7 @@ fn redefines<D, P, C>(pass: &Pass<D, P, C>, image: ImageId) -> bool {
             (colour.image == image && colour.load != LoadOp::Load)
                 || depth.is_some_and(|d| d.image == image && d.load != LoadOp::Load)
         }
-        PassKind::Readback { .. } | PassKind::Export { .. } => false,
+        PassKind::Readback { .. } | PassKind::Export { .. } | PassKind::Compute { .. } => false,
     }
 }
 
@@ -198,6 +223,9 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                 {
                     Some(CullReason::EmptyDrawList)
                 }
+                PassKind::Compute { dispatches, .. } if dispatches.is_empty() => {
+                    Some(CullReason::EmptyDrawList)
+                }
                 _ => None,
             })
             .collect()
@@ -207,17 +235,20 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
     /// current contents a later live pass reads.
     fn cull_unread_outputs(&self, culled: &mut Culling) {
         let mut needed: HashSet<ImageId> = HashSet::new();
+        let mut needed_buffers: HashSet<BufferId> = HashSet::new();
         for (index, pass) in self.passes.iter().enumerate().rev() {
             if culled[index].is_some() {
                 continue;
             }
             let (reads, writes) = reads_and_writes(pass);
+            let (buffer_reads, buffer_writes) = buffer_reads_and_writes(pass);
             let live = pass.side_effect
                 || matches!(
                     pass.kind,
                     PassKind::Readback { .. } | PassKind::Export { .. }
                 )
-                || writes.iter().any(|w| needed.contains(w));
+                || writes.iter().any(|w| needed.contains(w))
+                || buffer_writes.iter().any(|w| needed_buffers.contains(w));
             if !live {
                 culled[index] = Some(CullReason::OutputUnused);
                 continue;
@@ -228,6 +259,7 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                 }
             }
             needed.extend(reads);
+            needed_buffers.extend(buffer_reads);
         }
     }
 
@@ -268,6 +300,8 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
             })
             .collect();
         let mut steps: Vec<Step<D, P, C>> = Vec::with_capacity(live.len());
+        // Buffers written by a compute step that no draw has waited for yet.
+        let mut written: HashSet<BufferId> = HashSet::new();
         let mut index = 0;
         while index < live.len() {
             let pass = live[index];
@@ -292,6 +326,20 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                     steps.push(Step {
                         pass: pass.clone(),
                         barriers,
+                        buffer_barriers: Vec::new(),
+                        begin: None,
+                        end: false,
+                    });
+                    index += 1;
+                }
+                // Compute work: a step of its own, outside rendering; what it writes is waited
+                // for by the first instance that reads it.
+                PassKind::Compute { writes, .. } => {
+                    written.extend(writes.iter().copied());
+                    steps.push(Step {
+                        pass: pass.clone(),
+                        barriers: Vec::new(),
+                        buffer_barriers: Vec::new(),
                         begin: None,
                         end: false,
                     });
@@ -299,7 +347,26 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                 }
                 PassKind::Draw { .. } => {
                     let last = instance_end(live, index);
-                    steps.extend(rendering_instance(&live[index..=last], &mut state));
+                    let group = &live[index..=last];
+                    let mut instance = rendering_instance(group, &mut state);
+                    let mut read: Vec<BufferId> = group
+                        .iter()
+                        .flat_map(|p| buffer_reads_and_writes(p).0.iter().copied())
+                        .filter(|b| written.remove(b))
+                        .collect();
+                    read.sort();
+                    read.dedup();
+                    if let Some(first) = instance.first_mut() {
+                        first.buffer_barriers = read
+                            .into_iter()
+                            .map(|buffer| BufferBarrier {
+                                buffer,
+                                src: Access::ComputeWrite,
+                                dst: Access::VertexStorageRead,
+                            })
+                            .collect();
+                    }
+                    steps.extend(instance);
                     index = last + 1;
                 }
             }
@@ -354,6 +421,15 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                         image(*s)?;
                     }
                     if let Some(b) = storage.iter().find(|b| b.0 as usize >= self.buffers.len()) {
+                        return Err(GraphError::UnknownResource {
+                            pass: pass.name.clone(),
+                            kind: "buffer",
+                            index: b.0,
+                        });
+                    }
+                }
+                PassKind::Compute { writes, .. } => {
+                    if let Some(b) = writes.iter().find(|b| b.0 as usize >= self.buffers.len()) {
                         return Err(GraphError::UnknownResource {
                             pass: pass.name.clone(),
                             kind: "buffer",
@@ -508,6 +584,7 @@ fn rendering_instance<D: Clone, P: Clone, C: Clone>(
             } else {
                 Vec::new()
             },
+            buffer_barriers: Vec::new(),
             begin: (offset == 0).then_some(instance),
             end: offset == last,
         })
@@ -571,6 +648,7 @@ impl<D, P, C> fmt::Display for Plan<D, P, C> {
                 ),
                 PassKind::Readback { .. } => ("copy".into(), "-".into(), "-".into()),
                 PassKind::Export { .. } => ("hand back".into(), "-".into(), "-".into()),
+                PassKind::Compute { .. } => ("compute".into(), "-".into(), "-".into()),
             };
             let rendering = match (&step.begin, step.end) {
                 (Some(instance), true) => format!("begin {}+end", load_name(instance.colour.1)),
@@ -587,6 +665,10 @@ impl<D, P, C> fmt::Display for Plan<D, P, C> {
                         self.images[b.image.0 as usize].name, b.old_layout, b.new_layout
                     )
                 })
+                .chain(step.buffer_barriers.iter().map(|b| {
+                    let name = self.buffers.get(b.buffer.0 as usize).map_or("?", |i| &i.name);
+                    format!("{name}: compute->vertex")
+                }))
                 .collect();
             writeln!(
                 f,

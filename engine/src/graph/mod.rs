@@ -59,7 +59,7 @@ pub enum GraphError {
     },
 }
 
-pub use compile::Barrier;
+pub use compile::{Barrier, BufferBarrier};
 
 #[cfg(test)]
 mod tests;

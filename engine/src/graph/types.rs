@@ -127,8 +127,10 @@ pub enum Access {
     DepthAttachment,
     /// Sampled by the fragment shader.
     FragmentSample,
-    /// Read by the vertex shader (storage buffer).
+    /// Read by the vertex stage: a storage buffer, indices or indirect draw arguments.
     VertexStorageRead,
+    /// Written by a compute shader (storage buffer).
+    ComputeWrite,
     /// Copy source.
     TransferRead,
     /// Copy destination.
@@ -290,10 +292,19 @@ pub enum PassKind<D, P> {
         cull: Cull,
         /// Images sampled by the fragment shader.
         sampled: Vec<ImageId>,
-        /// Buffers read by the vertex shader.
+        /// Buffers read by the vertex stage: as storage, indices or indirect arguments.
         storage: Vec<BufferId>,
         /// The draws, as payloads `render/` understands.
         draws: Vec<D>,
+    },
+    /// Run `dispatches` (compute work, as payloads `render/` understands), outside any
+    /// rendering instance, writing the buffers `writes`: a later draw pass that reads one (its
+    /// `storage`) waits for it, and keeps it alive.
+    Compute {
+        /// The dispatches.
+        dispatches: Vec<D>,
+        /// Buffers they write.
+        writes: Vec<BufferId>,
     },
     /// Copy an image into a host-readable buffer (a side effect: it keeps what it reads alive).
     Readback {
@@ -354,14 +365,15 @@ impl<D, P, C> Pass<D, P, C> {
                 depth_write: depth.is_some_and(|d| d.write),
                 cull: *cull,
             }),
-            PassKind::Readback { .. } | PassKind::Export { .. } => None,
+            PassKind::Compute { .. } | PassKind::Readback { .. } | PassKind::Export { .. } => None,
         }
     }
 
-    /// Number of draws (0 for a readback or an export).
+    /// Number of draws, or dispatches of a compute pass (0 for a readback or an export).
     pub fn draw_count(&self) -> usize {
         match &self.kind {
             PassKind::Draw { draws, .. } => draws.len(),
+            PassKind::Compute { dispatches, .. } => dispatches.len(),
             PassKind::Readback { .. } | PassKind::Export { .. } => 0,
         }
     }

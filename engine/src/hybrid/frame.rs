@@ -29,7 +29,8 @@ use crate::{
     layers::{LayerShell, Layering},
     options::OptionError,
     render::{
-        DeviceLensPart, EnvironmentMesh, FrameInput, LensFaces, LensObject, ResidentLens,
+        DeviceLensPart, DeviceWork, EnvironmentMesh, FrameInput, LensFaces, LensObject,
+        ResidentLens,
         TermVertices,
     },
     scene::Camera,
@@ -775,7 +776,7 @@ impl HybridScene {
         (oracle, object, options): (&PathOracle<'_>, usize, &TessellationOptions),
         (texgen, hull_split, budget): (Option<TexgenRequest<'_>>, bool, &mut VertexBudget),
         stats: &mut HybridStats,
-    ) -> Result<Option<Arc<DeviceLensPart>>, TessellationError> {
+    ) -> Result<Option<ResidentPart>, TessellationError> {
         let mesh = &self.scene.objects[object].mesh;
         let hull = hull_split.then(|| self.hull_flags(object).as_slice());
         let Some(made) =
@@ -792,7 +793,7 @@ impl HybridScene {
         }
         stats.trace_ms += oracle.traced_ms();
         stats.triangles_in += mesh.triangles.len();
-        Ok(Some(made.part))
+        Ok(Some((made.part, made.work)))
     }
 
     /// Per input triangle of scene object `object`, whether it lies on the convex hull of the
@@ -890,7 +891,7 @@ impl HybridScene {
             let object = match terms {
                 // Made on the GPU: assembled only (drawn from the device's buffers when resident).
                 Some(terms) => LensObject {
-                    resident: (!parts.is_empty()).then_some(ResidentLens { parts }),
+                    resident: (!parts.is_empty()).then(|| resident_lens(parts)),
                     ..texgen::lens_object(lens.name.clone(), layers, mesh, terms, &blend)
                 },
                 None => texgen(
@@ -992,6 +993,20 @@ fn hull_last(triangles: &mut Vec<[u32; 3]>, depths: &mut Vec<u8>, on_hull: &[boo
     (0..triangles.len()).filter(|&t| hull(t)).count()
 }
 
+/// A scene object's tessellation left on the device, and the work that makes it (`None`: made
+/// already).
+type ResidentPart = (Arc<DeviceLensPart>, Option<Arc<dyn DeviceWork>>);
+
+/// A lens object drawn from its parts, each made by its work in the frame that draws it (or,
+/// where one was made already, a timed tessellation, by their own submissions).
+fn resident_lens(parts: Vec<ResidentPart>) -> ResidentLens {
+    let works: Option<Vec<_>> = parts.iter().map(|(_, work)| work.clone()).collect();
+    ResidentLens {
+        parts: parts.into_iter().map(|(part, _)| part).collect(),
+        works: works.unwrap_or_default(),
+    }
+}
+
 /// A frame's vertex budget, shared by its lens objects in order.
 struct VertexBudget {
     /// What the objects before left, as the host counted it.
@@ -1003,8 +1018,9 @@ struct VertexBudget {
 
 /// A lens object tessellated for a frame: its mesh and each vertex's evaluation.
 struct TessellatedLens {
-    /// Its scene objects' tessellations left on the device (the mesh is then empty).
-    parts: Vec<Arc<DeviceLensPart>>,
+    /// Its scene objects' tessellations left on the device, each with the work that makes it
+    /// (the mesh is then empty).
+    parts: Vec<ResidentPart>,
     mesh: LensMesh,
     /// Per term its F·G and directions per layer, made on the GPU with the mesh (`None`: the
     /// CPU's texgen makes them).

@@ -89,12 +89,29 @@ impl LensObject {
     }
 }
 
-/// A lens object's mesh and per-vertex data where the GPU tessellation left them: one part per
+/// A lens object's mesh and per-vertex data where the GPU tessellation leaves them: one part per
 /// scene object, each drawn by indirect draws whose arguments the GPU wrote.
 #[derive(Clone)]
 pub struct ResidentLens {
     /// The parts, each a scene object's tessellation, drawn in order.
     pub parts: Vec<Arc<DeviceLensPart>>,
+    /// The compute work that makes the parts, recorded by the frame before its lens passes (a
+    /// compute pass of its graph; only the first time the frame is drawn): one per part, or
+    /// none where the parts were made already.
+    pub works: Vec<Arc<dyn DeviceWork>>,
+}
+
+/// Compute work a frame records before its lens passes: the GPU tessellation of a resident lens
+/// part, writing the part's buffers. Its handles stay valid until the frame's submission
+/// completes (its maker's promise).
+pub trait DeviceWork: Send + Sync {
+    /// Records the work into `cb` (outside any rendering instance). The frame's graph waits for
+    /// its writes before the lens passes read them.
+    fn record(&self, cb: ash::vk::CommandBuffer);
+
+    /// Whether it was not recorded yet (it runs once: a frame drawn again, or handed to another
+    /// upload, draws what it made).
+    fn pending(&self) -> bool;
 }
 
 impl PartialEq for ResidentLens {
@@ -113,6 +130,7 @@ impl std::fmt::Debug for ResidentLens {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ResidentLens")
             .field("parts", &self.parts.len())
+            .field("works", &self.works.len())
             .finish()
     }
 }

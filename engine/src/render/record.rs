@@ -54,6 +54,27 @@ fn resident_barrier(gpu: &Gpu, cb: vk::CommandBuffer) {
     unsafe { gpu.device().cmd_pipeline_barrier2(cb, &dependency) };
 }
 
+/// The graph's buffer barriers before a step, as one global memory barrier (the buffers are the
+/// resident parts' several buffers each; a global barrier covers them all at once).
+fn memory_barrier(gpu: &Gpu, cb: vk::CommandBuffer, barriers: &[graph::BufferBarrier]) {
+    let mut dependency = vk::MemoryBarrier2::default();
+    for b in barriers {
+        let (src_stage, src_access) = vk_access(b.src);
+        let (dst_stage, dst_access) = vk_access(b.dst);
+        dependency = dependency
+            .src_stage_mask(dependency.src_stage_mask | src_stage)
+            .src_access_mask(dependency.src_access_mask | src_access)
+            .dst_stage_mask(dependency.dst_stage_mask | dst_stage)
+            .dst_access_mask(dependency.dst_access_mask | dst_access);
+    }
+    let barriers = [dependency];
+    // SAFETY: recording outside any rendering instance (a step's barriers come before it).
+    unsafe {
+        gpu.device()
+            .cmd_pipeline_barrier2(cb, &vk::DependencyInfo::default().memory_barriers(&barriers))
+    };
+}
+
 /// What recording one frame reads.
 pub(super) struct Recorder<'a> {
     /// The device (labels, commands).
@@ -202,16 +223,24 @@ impl Recorder<'_> {
             targets,
             host: self.host.filter(|_| resources.external.is_some()),
         };
-        if frame
-            .lenses
-            .iter()
-            .flat_map(|lens| &lens.parts)
-            .any(|part| matches!(part.buffers, PartBuffers::Device(_)))
-        {
+        // Parts made by an earlier submission (a frame drawn again, or a tessellation timed in a
+        // submission of its own) need its writes made visible; parts made this frame get the
+        // graph's barrier after their compute pass.
+        let made_before = frame.lenses.iter().zip(&frame.shape.lenses).any(|(lens, shape)| {
+            shape.compute == 0
+                && lens
+                    .parts
+                    .iter()
+                    .any(|part| matches!(part.buffers, PartBuffers::Device(_)))
+        });
+        if made_before {
             resident_barrier(gpu, cb);
         }
         for (step, pipeline) in plan.steps.iter().zip(pipelines) {
             self.barriers(cb, &images, &step.barriers);
+            if !step.buffer_barriers.is_empty() {
+                memory_barrier(gpu, cb, &step.buffer_barriers);
+            }
             if let Some(instance) = &step.begin {
                 self.begin_rendering(cb, &images, instance);
             }
@@ -231,6 +260,11 @@ impl Recorder<'_> {
                         for draw in draws {
                             self.record_draw(cb, *draw, targets);
                         }
+                    }
+                }
+                PassKind::Compute { dispatches, .. } => {
+                    for dispatch in dispatches {
+                        self.compute(cb, *dispatch);
                     }
                 }
                 PassKind::Readback { .. } => self.copy_to_readback(cb, targets),
@@ -384,6 +418,22 @@ impl Recorder<'_> {
         }
     }
 
+    /// Records the compute work `dispatch` (a resident lens part's tessellation).
+    fn compute(&self, cb: vk::CommandBuffer, dispatch: Draw) {
+        let Draw::Tessellate { lens, part } = dispatch else {
+            debug_assert!(false, "not a compute dispatch: {dispatch:?}");
+            return;
+        };
+        if let Some(work) = self
+            .frame
+            .lenses
+            .get(lens.index())
+            .and_then(|l| l.works.get(part))
+        {
+            work.record(cb);
+        }
+    }
+
     /// Records one draw with its push constants and descriptor sets; the pipeline is bound.
     /// `targets` are the framebuffer's (the box filter reads their colour, the group sum and
     /// the programmable layer their scratch images).
@@ -434,6 +484,7 @@ impl Recorder<'_> {
             | Draw::SinglePass { lens }
             | Draw::Layer { lens, .. }
             | Draw::ProgrammableLayer { lens, .. } => self.lens(cb, draw, lens, targets),
+            Draw::Tessellate { .. } => debug_assert!(false, "a compute dispatch in a draw pass"),
         }
     }
 
@@ -595,7 +646,10 @@ impl Recorder<'_> {
                 [part.single_pass_set, vk::DescriptorSet::null()],
                 1,
             ),
-            Draw::Environment { .. } | Draw::GroupSum { .. } | Draw::BoxFilter { .. } => {
+            Draw::Environment { .. }
+            | Draw::GroupSum { .. }
+            | Draw::BoxFilter { .. }
+            | Draw::Tessellate { .. } => {
                 debug_assert!(false, "not a lens draw: {draw:?}");
                 return;
             }

@@ -204,6 +204,11 @@ impl Renderer {
         self.finish(frame, submission)
     }
 
+    /// The timeline its submissions signal (a [`Submission::value`] on it).
+    pub fn timeline(&self) -> Arc<Timeline> {
+        self.timeline.clone()
+    }
+
     /// Whether the submission whose [`Submission::value`] is `value` completed, without
     /// waiting (an error reading the timeline counts as not completed).
     pub fn completed(&self, value: u64) -> bool {
@@ -277,6 +282,11 @@ impl Renderer {
         self.submitted = value;
         self.command_buffers[slot].1 = value;
         frame.last_submission = Some((self.timeline.clone(), value));
+        // The compute work that makes resident lens parts runs once: a frame drawn again draws
+        // what it made.
+        for lens in &mut frame.shape.lenses {
+            lens.compute = 0;
+        }
         Ok(Submission {
             value,
             readback: host.is_none(),

@@ -12,7 +12,7 @@ use std::{collections::HashMap, sync::Arc};
 use ash::vk;
 
 use super::{
-    DeviceLensPart, EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes,
+    DeviceLensPart, DeviceWork, EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes,
     RenderError, SinglePassLimits, TargetFormat,
     descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
@@ -34,6 +34,9 @@ pub(super) struct GpuLens {
     pub(super) layers: Vec<Arc<Image>>,
     /// What is drawn: the host's mesh (one part), or a resident object's parts.
     pub(super) parts: Vec<LensPart>,
+    /// The compute work that makes a resident object's parts, recorded by the frame's first
+    /// submission (held until the frame is uploaded over or dropped, after its submissions).
+    pub(super) works: Vec<Arc<dyn DeviceWork>>,
 }
 
 /// Where a lens part's data and indices are and how many to draw.
@@ -560,6 +563,10 @@ impl UploadCache {
             });
         }
         let gpu_lens = GpuLens {
+            works: lens
+                .resident
+                .as_ref()
+                .map_or_else(Vec::new, |r| r.works.clone()),
             terms: lens.terms.iter().map(|t| t.term).collect(),
             layer_count: lens.layer_count() as u32,
             layers,

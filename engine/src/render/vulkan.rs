@@ -71,8 +71,17 @@ pub(super) fn vk_access(access: Access) -> (vk::PipelineStageFlags2, vk::AccessF
             vk::AccessFlags2::SHADER_SAMPLED_READ,
         ),
         Access::VertexStorageRead => (
-            vk::PipelineStageFlags2::VERTEX_SHADER,
-            vk::AccessFlags2::SHADER_STORAGE_READ,
+            vk::PipelineStageFlags2::VERTEX_SHADER
+                | vk::PipelineStageFlags2::INDEX_INPUT
+                | vk::PipelineStageFlags2::DRAW_INDIRECT,
+            vk::AccessFlags2::SHADER_STORAGE_READ
+                | vk::AccessFlags2::INDEX_READ
+                | vk::AccessFlags2::INDIRECT_COMMAND_READ,
+        ),
+        // The compute work's storage writes, and its copies (a resident part's counts).
+        Access::ComputeWrite => (
+            vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::TRANSFER_WRITE,
         ),
         Access::TransferRead => (
             vk::PipelineStageFlags2::COPY,

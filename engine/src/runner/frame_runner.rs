@@ -521,7 +521,17 @@ impl FrameRunner {
             host,
             ..options.compositing()
         };
-        Ok(self.renderer.submit(&self.gpu, uploaded, &compositing)?)
+        let submission = self.renderer.submit(&self.gpu, uploaded, &compositing)?;
+        // A frame drawn where the GPU tessellation leaves it recorded the tracer's work: the
+        // tracer keeps what that names until the frame is done.
+        if !self.slots[slot].parts.is_empty()
+            && let Some(ResidentTracer {
+                tracer: Ok(tracer), ..
+            }) = &self.tracer
+        {
+            tracer.used_until(self.renderer.timeline(), submission.value());
+        }
+        Ok(submission)
     }
 
     /// Waits for a submitted frame, reads it back and box-filters it to pixels.

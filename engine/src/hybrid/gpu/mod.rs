@@ -5,6 +5,8 @@
 //! [`GpuTracer::trace_vertices`] runs the vertex-path pass over given vertices and reads the
 //! records back: what the agreement with the CPU oracle is measured on.
 
+use std::sync::Arc;
+
 use ash::vk;
 use glam::{DVec3, Vec3};
 use lensmap_shaders::TracerConstants;
@@ -125,6 +127,10 @@ pub struct GpuTracer {
     shape: (usize, usize),
     /// Unique among the tracers of this process ([`GpuTracer::id`]).
     id: u64,
+    /// Triangles of every lens object: the tessellation's buffers reserve room for the largest
+    /// input, so that they are never made again between the objects of one frame (the work of
+    /// the objects before, not yet recorded, names them).
+    lens_triangles: u64,
     /// What each pass uses and resets: held for the whole pass, so that passes from two threads
     /// take turns.
     pass: std::sync::Mutex<PassState>,
@@ -398,6 +404,11 @@ impl GpuTracer {
             timed: std::sync::atomic::AtomicBool::new(false),
             shape: (geometry.roots.len(), geometry.triangle_count()),
             id: NEXT_TRACER.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            lens_triangles: trace
+                .lenses
+                .iter()
+                .map(|lens| lens.bvh.triangle_count() as u64)
+                .sum(),
             pass: std::sync::Mutex::new(PassState {
                 pool,
                 scratch: None,
@@ -466,6 +477,14 @@ impl GpuTracer {
             });
         }
         Ok(())
+    }
+
+    /// Notes that submission `value` of `timeline` (a frame's) recorded tessellations this tracer
+    /// prepared ([`GpuTracer::tessellate_on_device`]): the buffers, sets and pipelines they name
+    /// are kept until it completed.
+    pub fn used_until(&self, timeline: Arc<crate::gpu::Timeline>, value: u64) {
+        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        pass.submissions.used_until(timeline, value);
     }
 
     /// An identity unique among the tracers of this process: the buffers a frame drawn where its

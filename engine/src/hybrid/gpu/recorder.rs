@@ -3,16 +3,12 @@
 //! them, and the optional timestamps that split the device's time between the stages.
 
 use ash::vk;
-use lensmap_shaders::{DrawConstants, TessellateConstants};
+use lensmap_shaders::{DrawConstants, TessellateConstants, TexgenConstants, TracerConstants};
 
-use super::resident::Outputs;
-use super::tessellate::{
-    GpuStageMs, GpuTessellationRequest, InputMesh, Scratch, control, first_control,
-    tessellate_constants,
-};
+use super::tessellate::{GpuStageMs, control};
 use super::{
-    COMPUTE_TO_TRANSFER, COUNTERS, Dependency, GpuTracer, TRANSFER_TO_COMPUTE, TRANSFER_TO_HOST,
-    WORKGROUP, barrier,
+    COMPUTE_TO_TRANSFER, COUNTERS, Dependency, TRANSFER_TO_COMPUTE, TRANSFER_TO_HOST, WORKGROUP,
+    barrier,
 };
 use crate::gpu::{Gpu, GpuError, VkContext};
 use crate::render::descriptors::{Binding, create_set_layout};
@@ -38,19 +34,35 @@ pub(super) const COMPUTE_TO_COMPUTE: Dependency = (
 pub(super) struct ComputePasses {
     device: ash::Device,
     pub(super) set_layout: vk::DescriptorSetLayout,
+    /// The layout and pipelines (copied into the work that records them).
+    pub(super) handles: ComputeHandles,
+}
+
+/// The handles of [`ComputePasses`] that recording needs, owned by the passes.
+#[derive(Clone)]
+pub(super) struct ComputeHandles {
     pub(super) layout: vk::PipelineLayout,
     pipelines: Vec<vk::Pipeline>,
     entries: &'static [&'static str],
+}
+
+impl ComputeHandles {
+    /// The pipeline of entry point `name` (the first for a name it does not have: a typo fails
+    /// the tests, which run every pass).
+    pub(super) fn pipeline(&self, name: &str) -> vk::Pipeline {
+        let index = self.entries.iter().position(|&e| e == name).unwrap_or(0);
+        self.pipelines[index]
+    }
 }
 
 impl Drop for ComputePasses {
     fn drop(&mut self) {
         // SAFETY: the owner waited for every submission that used them.
         unsafe {
-            for &pipeline in &self.pipelines {
+            for &pipeline in &self.handles.pipelines {
                 self.device.destroy_pipeline(pipeline, None);
             }
-            self.device.destroy_pipeline_layout(self.layout, None);
+            self.device.destroy_pipeline_layout(self.handles.layout, None);
             self.device
                 .destroy_descriptor_set_layout(self.set_layout, None);
         }
@@ -69,29 +81,22 @@ impl ComputePasses {
         let mut passes = ComputePasses {
             device: gpu.device().clone(),
             set_layout: create_set_layout(gpu, bindings)?,
-            layout: vk::PipelineLayout::null(),
-            pipelines: Vec::new(),
-            entries,
+            handles: ComputeHandles {
+                layout: vk::PipelineLayout::null(),
+                pipelines: Vec::new(),
+                entries,
+            },
         };
-        passes.layout = super::compute_layout::<C>(gpu, passes.set_layout)?;
+        passes.handles.layout = super::compute_layout::<C>(gpu, passes.set_layout)?;
         for entry in entries {
-            let shader =
-                lensmap_shaders::shader(file, entry).ok_or_else(|| GpuError::BadUpload {
-                    what: format!("{file}.wgsl"),
-                    problem: format!("entry point {entry} was not compiled"),
-                })?;
-            passes
-                .pipelines
-                .push(gpu.create_compute_pipeline(&shader, passes.layout)?);
+            let shader = lensmap_shaders::shader(file, entry).ok_or_else(|| GpuError::BadUpload {
+                what: format!("{file}.wgsl"),
+                problem: format!("entry point {entry} was not compiled"),
+            })?;
+            let pipeline = gpu.create_compute_pipeline(&shader, passes.handles.layout)?;
+            passes.handles.pipelines.push(pipeline);
         }
         Ok(passes)
-    }
-
-    /// The pipeline of entry point `name` (the first for a name it does not have: a typo fails
-    /// the tests, which run every pass).
-    pub(super) fn pipeline(&self, name: &str) -> vk::Pipeline {
-        let index = self.entries.iter().position(|&e| e == name).unwrap_or(0);
-        self.pipelines[index]
     }
 }
 
@@ -179,7 +184,7 @@ impl Timestamps {
 pub(super) struct Recorder<'a> {
     pub(super) device: &'a ash::Device,
     pub(super) cb: vk::CommandBuffer,
-    pub(super) passes: &'a ComputePasses,
+    pub(super) passes: &'a ComputeHandles,
     pub(super) set: vk::DescriptorSet,
     pub(super) constants: &'a TessellateConstants,
     pub(super) control: vk::Buffer,
@@ -288,16 +293,34 @@ impl Recorder<'_> {
     }
 }
 
-/// One tessellation as recorded: its buffers, sets, outputs and request.
-pub(super) struct TessellationRecording<'a> {
-    pub(super) tracer: &'a GpuTracer,
-    pub(super) scratch: &'a Scratch,
-    pub(super) input: &'a InputMesh,
-    pub(super) outputs: &'a Outputs,
-    /// The level pass's set and the tessellation's.
-    pub(super) sets: (vk::DescriptorSet, vk::DescriptorSet),
-    pub(super) request: &'a GpuTessellationRequest<'a>,
-    pub(super) timestamps: Option<&'a Timestamps>,
+/// One tessellation, ready to record into any command buffer: the handles of its passes,
+/// buffers and sets and every constant, taken from the tracer when it was prepared. The tracer
+/// keeps what they name alive until every submission that may hold the work completed
+/// ([`super::GpuTracer::used_until`]).
+pub(super) struct TessellationWork {
+    pub(super) device: ash::Device,
+    /// The tessellation's, texgen's and the draw list's passes.
+    pub(super) passes: [ComputeHandles; 3],
+    /// The tracer's level pass and layout.
+    pub(super) level_paths: (vk::Pipeline, vk::PipelineLayout),
+    /// The level pass's set, the tessellation's, texgen's (when asked for) and the draw list's.
+    pub(super) sets: [vk::DescriptorSet; 4],
+    /// The shared control, wanted and tracer-counter buffers.
+    pub(super) scratch: [vk::Buffer; 3],
+    /// The part's draw arguments and its host copy of the counts.
+    pub(super) part: [vk::Buffer; 2],
+    /// Input vertices, triangles and base edges.
+    pub(super) input: [u32; 3],
+    pub(super) levels: u32,
+    /// The control words it starts from: how many of them it writes (the frame's budget word
+    /// included, or left as the object before left it).
+    pub(super) first: ([u32; control::WORDS], usize),
+    pub(super) tracer_constants: TracerConstants,
+    pub(super) constants: TessellateConstants,
+    pub(super) texgen: Option<TexgenConstants>,
+    pub(super) draw: DrawConstants,
+    /// Whether it was recorded into a frame (it runs once).
+    pub(super) recorded: std::sync::atomic::AtomicBool,
 }
 
 /// Every earlier command (the tracer's last tessellation on the shared buffers, a frame's draws
@@ -314,71 +337,51 @@ const EARLIER_TO_THIS: Dependency = (
     ),
 );
 
-impl TessellationRecording<'_> {
+impl TessellationWork {
     /// Records every level, the T-junction removal, texgen and the draw list, then the copy of
-    /// the counts to the part's host buffer, into `cb`.
-    pub(super) fn record(&self, gpu: &Gpu, cb: vk::CommandBuffer) {
-        let (tracer, scratch, input, request) =
-            (self.tracer, self.scratch, self.input, self.request);
-        let device = gpu.device();
-        let (tracer_set, set) = self.sets;
-        let tracer_constants = tracer.constants(request.camera, request.settings);
-        let constants = tessellate_constants(request, scratch, input);
-        let mut first = first_control(input);
-        // The budget word is the host's for the frame's first object (or where the host counts
-        // the budget), else what the object before left on the device.
-        let written = if request.continue_budget {
-            control::FRAME_BUDGET
-        } else {
-            first[control::FRAME_BUDGET] =
-                u32::try_from(request.options.max_vertices).unwrap_or(u32::MAX);
-            control::FRAME_BUDGET + 1
-        };
-        let levels = request.options.max_depth + 1;
-        let part = &self.outputs.part;
+    /// the counts to the part's host buffer, into `cb`, with the stages timed by `timestamps`.
+    pub(super) fn record_timed(&self, cb: vk::CommandBuffer, timestamps: Option<&Timestamps>) {
+        let device = &self.device;
+        let [tracer_set, set, texgen_set, draw_set] = self.sets;
+        let [control, wanted, counters] = self.scratch;
+        let [args, counts] = self.part;
+        let [vertex_count, triangle_count, edge_count] = self.input;
+        let (first, written) = &self.first;
+        let levels = self.levels;
         let recorder = Recorder {
             device,
             cb,
-            passes: &tracer.tessellation,
+            passes: &self.passes[0],
             set,
-            constants: &constants,
-            control: scratch.control.handle,
-            timestamps: self.timestamps,
+            constants: &self.constants,
+            control,
+            timestamps,
             bound: std::cell::Cell::new(false),
         };
-        // SAFETY: every handle is live until the submission completes (the tracer waits for its
-        // submissions before freeing what they use, and a part outlives the frames that draw
-        // it); a barrier separates every pass from the next, and the copies from the passes.
+        // SAFETY: every handle is live until the submission completes (the tracer waits for
+        // every submission that may hold a work before freeing what it names, and a part
+        // outlives the frames that draw it); a barrier separates every pass from the next, and
+        // the copies from the passes.
         unsafe {
             barrier(device, cb, EARLIER_TO_THIS);
-            device.cmd_update_buffer(
-                cb,
-                recorder.control,
-                0,
-                bytemuck::cast_slice(&first[..written]),
-            );
-            device.cmd_fill_buffer(
-                cb,
-                scratch.wanted.handle,
-                0,
-                4 * u64::from(input.vertex_count).max(1),
-                0,
-            );
-            device.cmd_fill_buffer(cb, scratch.counters.handle, 0, vk::WHOLE_SIZE, 0);
-            if let Some(timestamps) = self.timestamps {
+            device.cmd_update_buffer(cb, control, 0, bytemuck::cast_slice(&first[..*written]));
+            device.cmd_fill_buffer(cb, wanted, 0, 4 * u64::from(vertex_count).max(1), 0);
+            device.cmd_fill_buffer(cb, counters, 0, vk::WHOLE_SIZE, 0);
+            if let Some(timestamps) = timestamps {
                 device.cmd_reset_query_pool(cb, timestamps.pool, 0, 4 * levels + 4);
             }
             barrier(device, cb, TRANSFER_TO_COMPUTE);
-            recorder.groups("cs_begin", input.vertex_count.max(input.edge_count));
-            recorder.groups("cs_classify", input.triangle_count);
+            recorder.groups("cs_begin", vertex_count.max(edge_count));
+            recorder.groups("cs_classify", triangle_count);
             for level in 0..levels {
                 // The level's new vertices, by the tracer's pass (its own layout and set).
                 recorder.stamp(4 * level);
+                let (level_paths, layout) = self.level_paths;
                 bind_compute(
                     device,
                     cb,
-                    (tracer.level_paths, tracer.layout, tracer_set),
-                    bytemuck::bytes_of(&tracer_constants),
+                    (level_paths, layout, tracer_set),
+                    bytemuck::bytes_of(&self.tracer_constants),
                 );
                 recorder.dispatch_indirect(control::DISPATCH_TRACE);
                 recorder.bound.set(false);
@@ -403,29 +406,25 @@ impl TessellationRecording<'_> {
             recorder.indirect("cs_leaf_emit", control::DISPATCH_ELEMENTS);
             recorder.stamp(4 * levels + 1);
             recorder.stamp(4 * levels + 2);
-            if let (Some(texgen), Some(texgen_set)) = (&request.texgen, self.outputs.texgen_set) {
-                let constants = texgen.constants(input.vertex_count, part.stride);
+            if let Some(constants) = &self.texgen {
+                let texgen = &self.passes[1];
                 bind_compute(
                     device,
                     cb,
-                    (
-                        tracer.texgen.pipeline("cs_texgen"),
-                        tracer.texgen.layout,
-                        texgen_set,
-                    ),
-                    bytemuck::bytes_of(&constants),
+                    (texgen.pipeline("cs_texgen"), texgen.layout, texgen_set),
+                    bytemuck::bytes_of(constants),
                 );
                 // Over every vertex: cs_leaves_begin set the trace arguments so.
                 recorder.dispatch_indirect(control::DISPATCH_TRACE);
             }
             recorder.stamp(4 * levels + 3);
-            self.record_draw_list(device, &recorder);
+            self.record_draw_list(&recorder, draw_set);
             barrier(device, cb, COMPUTE_TO_TRANSFER);
             let words = 4 * control::WORDS as u64;
             let copies = [
-                (recorder.control, 0, words),
-                (scratch.counters.handle, words, 4 * COUNTERS as u64),
-                (part.args.handle, words + 16, 60),
+                (control, 0, words),
+                (counters, words, 4 * COUNTERS as u64),
+                (args, words + 16, 60),
             ];
             for (source, at, bytes) in copies {
                 let region = vk::BufferCopy {
@@ -433,7 +432,7 @@ impl TessellationRecording<'_> {
                     dst_offset: at,
                     size: bytes,
                 };
-                device.cmd_copy_buffer(cb, source, part.counts.handle, &[region]);
+                device.cmd_copy_buffer(cb, source, counts, &[region]);
             }
             barrier(device, cb, TRANSFER_TO_HOST);
         }
@@ -443,24 +442,15 @@ impl TessellationRecording<'_> {
     ///
     /// # Safety
     /// `recorder.cb` is recording.
-    unsafe fn record_draw_list(&self, device: &ash::Device, recorder: &Recorder<'_>) {
-        let pass = &self.tracer.draw_list;
-        let constants = DrawConstants {
-            eye: self.request.camera.eye.as_vec3().to_array(),
-            hull_split: u32::from(self.request.hull.is_some()),
-        };
-        let cb = recorder.cb;
+    unsafe fn record_draw_list(&self, recorder: &Recorder<'_>, draw_set: vk::DescriptorSet) {
+        let (device, cb, pass) = (recorder.device, recorder.cb, &self.passes[2]);
         // SAFETY: as the caller says; the pipelines, layout and set are live.
         unsafe {
             bind_compute(
                 device,
                 cb,
-                (
-                    pass.pipeline("cs_draw_begin"),
-                    pass.layout,
-                    self.outputs.draw_set,
-                ),
-                bytemuck::bytes_of(&constants),
+                (pass.pipeline("cs_draw_begin"), pass.layout, draw_set),
+                bytemuck::bytes_of(&self.draw),
             );
             for &name in super::resident::PASSES {
                 device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pass.pipeline(name));
@@ -474,6 +464,18 @@ impl TessellationRecording<'_> {
                 }
             }
         }
+    }
+}
+
+impl crate::render::DeviceWork for TessellationWork {
+    fn record(&self, cb: vk::CommandBuffer) {
+        self.recorded
+            .store(true, std::sync::atomic::Ordering::Relaxed);
+        self.record_timed(cb, None);
+    }
+
+    fn pending(&self) -> bool {
+        !self.recorded.load(std::sync::atomic::Ordering::Relaxed)
     }
 }
 

@@ -60,6 +60,9 @@ pub(super) struct Submissions {
     ring: Vec<(vk::CommandBuffer, u64)>,
     /// The value the last submission signals.
     submitted: u64,
+    /// Another timeline whose submissions recorded this tracer's work (a renderer's frames,
+    /// [`super::GpuTracer::used_until`]), and the last value of them.
+    external: Option<(Arc<Timeline>, u64)>,
 }
 
 impl Drop for Submissions {
@@ -86,6 +89,7 @@ impl Submissions {
             timeline,
             ring: Vec::new(),
             submitted: 0,
+            external: None,
         })
     }
 
@@ -122,9 +126,28 @@ impl Submissions {
         self.timeline.wait(value)
     }
 
-    /// Blocks until every submission completed.
+    /// Blocks until every submission completed, the frames' that recorded this tracer's work
+    /// included.
     pub(super) fn wait_all(&self) -> Result<(), GpuError> {
+        if let Some((timeline, value)) = &self.external {
+            timeline.wait(*value)?;
+        }
         self.timeline.wait(self.submitted)
+    }
+
+    /// Notes that submission `value` of `timeline` recorded this tracer's work: what it names is
+    /// kept until that completed.
+    pub(super) fn used_until(&mut self, timeline: Arc<Timeline>, value: u64) {
+        match &mut self.external {
+            Some((held, last)) if Arc::ptr_eq(held, &timeline) => *last = (*last).max(value),
+            other => {
+                // Another timeline (a new renderer): the old one's work must be done first.
+                if let Some((held, last)) = other.take() {
+                    let _ = held.wait(last);
+                }
+                *other = Some((timeline, value));
+            }
+        }
     }
 }
 

@@ -22,11 +22,11 @@ use std::sync::Arc;
 
 use ash::vk;
 use glam::Vec3;
-use lensmap_shaders::TessellateConstants;
+use lensmap_shaders::{DrawConstants, TessellateConstants};
 use rustc_hash::FxHashMap;
 
 use super::assemble::{Readback, assemble};
-use super::recorder::{ComputePasses, Timestamps};
+use super::recorder::{ComputePasses, TessellationWork, Timestamps};
 use super::resident;
 use super::texgen::{self, TexgenRequest};
 use super::{
@@ -224,10 +224,12 @@ pub(super) struct Scratch {
 }
 
 impl Scratch {
-    fn new(gpu: &Gpu, vertices: u64, input: &InputMesh) -> Result<Scratch, GpuError> {
-        let triangles = TRIANGLES_PER_VERTEX * vertices + u64::from(input.triangle_count);
-        let edges = EDGES_PER_VERTEX * vertices + u64::from(input.edge_count);
-        let outputs = 2 * vertices + 2 * u64::from(input.triangle_count);
+    /// Buffers for `vertices` vertices and an input of up to `reserve` triangles (its edges at
+    /// most three times as many).
+    fn new(gpu: &Gpu, vertices: u64, reserve: u64) -> Result<Scratch, GpuError> {
+        let triangles = TRIANGLES_PER_VERTEX * vertices + reserve;
+        let edges = EDGES_PER_VERTEX * vertices + 3 * reserve;
+        let outputs = 2 * vertices + 2 * reserve;
         let device = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes, BufferUsage::Device);
         Ok(Scratch {
             vertices_capacity: vertices,
@@ -389,10 +391,14 @@ pub struct GpuTessellationRequest<'a> {
     pub continue_budget: bool,
 }
 
-/// A tessellation left on the device, its submission not waited for (unless timed).
+/// A tessellation left on the device: its work for a frame to record, or its submission, not
+/// waited for (unless timed).
 pub struct DeviceTessellation {
     /// The buffers a frame draws it from.
     pub part: Arc<DeviceLensPart>,
+    /// The compute work that makes them, for the frame that draws them to record before its
+    /// lens passes (`None`: submitted already, as a timed tessellation is).
+    pub work: Option<Arc<dyn crate::render::DeviceWork>>,
     /// Its stages' device time (`None` unless the tracer [times them](GpuTracer::time_stages):
     /// it then waits for the submission).
     pub stage_ms: Option<GpuStageMs>,
@@ -429,10 +435,11 @@ pub struct GpuTessellation {
     pub terms: Option<Vec<TermVertices>>,
 }
 
-/// The largest capacity, in vertices, the device can dispatch and bind: every per-triangle pass
+/// The largest capacity, in vertices, the device can dispatch and bind with room for an input of
+/// `reserve` triangles (and three times as many edges): every per-triangle pass
 /// within `maxComputeWorkGroupCount[0]` workgroups, every buffer (texgen's lens data too, when
 /// asked for) within `maxStorageBufferRange`, vertex indices below 2³¹.
-fn device_capacity(gpu: &Gpu, input: &InputMesh, texgen: Option<&TexgenRequest<'_>>) -> u64 {
+fn device_capacity(gpu: &Gpu, reserve: u64, texgen: Option<&TexgenRequest<'_>>) -> u64 {
     let limits = gpu.properties().limits;
     let groups = u64::from(limits.max_compute_work_group_count[0]);
     let range = u64::from(limits.max_storage_buffer_range);
@@ -441,14 +448,13 @@ fn device_capacity(gpu: &Gpu, input: &InputMesh, texgen: Option<&TexgenRequest<'
     let triangles = (groups * u64::from(WORKGROUP))
         .min(range / TRIANGLE_BYTES)
         .min(words);
-    let by_triangles =
-        triangles.saturating_sub(u64::from(input.triangle_count)) / TRIANGLES_PER_VERTEX;
+    let by_triangles = triangles.saturating_sub(reserve) / TRIANGLES_PER_VERTEX;
     by_triangles
         .min(range / RECORD_BYTES)
         .min(
             (range / EDGE_STATE_BYTES)
                 .min(words)
-                .saturating_sub(u64::from(input.edge_count))
+                .saturating_sub(3 * reserve)
                 / EDGES_PER_VERTEX,
         )
         .min(1 << 31)
@@ -474,7 +480,8 @@ impl GpuTracer {
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
         loop {
             let start = std::time::Instant::now();
-            let made = self.submit_tessellation(gpu, &mut pass, (object, mesh), request)?;
+            let made =
+                self.submit_tessellation(gpu, &mut pass, (object, mesh), (request, false))?;
             pass.submissions.wait(made.submitted)?;
             let submission_ms = start.elapsed().as_secs_f64() * 1e3;
             if resident::read_counts(&made.part).capped_by_buffers && self.grow_locked(&mut pass) {
@@ -500,7 +507,8 @@ impl GpuTracer {
     ) -> Result<DeviceTessellation, TessellationError> {
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
         let start = std::time::Instant::now();
-        let mut made = self.submit_tessellation(gpu, &mut pass, (object, mesh), request)?;
+        let mut made =
+            self.submit_tessellation(gpu, &mut pass, (object, mesh), (request, true))?;
         made.submission_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(made)
     }
@@ -537,7 +545,12 @@ impl GpuTracer {
         let options = request.options;
         let input = &state.objects[&object].input;
         let least = u64::from(input.vertex_count) + 4;
-        let device = device_capacity(gpu, input, request.texgen.as_ref());
+        // Room for the largest input of the scene's lens objects (its edges at most three times
+        // as many).
+        let reserve = u64::from(input.triangle_count)
+            .max(u64::from(input.edge_count).div_ceil(3))
+            .max(self.lens_triangles);
+        let device = device_capacity(gpu, reserve, request.texgen.as_ref());
         if device < least {
             return Err(GpuError::BadUpload {
                 what: "the GPU tessellation".into(),
@@ -565,7 +578,7 @@ impl GpuTracer {
         if !fits {
             // Nothing submitted may still use the old buffers, nor the sets that point at them.
             state.submissions.wait_all()?;
-            let made = Scratch::new(gpu, wanted, input)?;
+            let made = Scratch::new(gpu, wanted, reserve)?;
             if let Some(old) = state.tessellation.take() {
                 // The frame's budget left goes on to the objects after this one.
                 let word = 4 * control::FRAME_BUDGET as u64;
@@ -598,7 +611,7 @@ impl GpuTracer {
         gpu: &Gpu,
         state: &mut PassState,
         (object, mesh): (usize, &TriangleMesh),
-        request: &GpuTessellationRequest<'_>,
+        (request, on_device): (&GpuTessellationRequest<'_>, bool),
     ) -> Result<DeviceTessellation, TessellationError> {
         self.check_device(gpu)?;
         let options = request.options;
@@ -677,23 +690,68 @@ impl GpuTracer {
         let held = &*held;
         let (input, outputs) = (&held.input, &held.outputs[at]);
         let levels = options.max_depth + 1;
+        let mut first = first_control(input);
+        // The budget word is the host's for the frame's first object (or where the host counts
+        // the budget), else what the object before left on the device.
+        let written = if request.continue_budget {
+            control::FRAME_BUDGET
+        } else {
+            first[control::FRAME_BUDGET] = u32::try_from(options.max_vertices).unwrap_or(u32::MAX);
+            control::FRAME_BUDGET + 1
+        };
+        let part = outputs.part.clone();
+        let work = TessellationWork {
+            device: gpu.device().clone(),
+            passes: [
+                self.tessellation.handles.clone(),
+                self.texgen.handles.clone(),
+                self.draw_list.handles.clone(),
+            ],
+            level_paths: (self.level_paths, self.layout),
+            sets: [
+                sets.0,
+                sets.1,
+                outputs.texgen_set.unwrap_or_default(),
+                outputs.draw_set,
+            ],
+            scratch: [
+                scratch.control.handle,
+                scratch.wanted.handle,
+                scratch.counters.handle,
+            ],
+            part: [part.args.handle, part.counts.handle],
+            input: [input.vertex_count, input.triangle_count, input.edge_count],
+            levels,
+            first: (first, written),
+            tracer_constants: self.constants(request.camera, request.settings),
+            constants: tessellate_constants(request, scratch, input),
+            texgen: match (&request.texgen, outputs.texgen_set) {
+                (Some(texgen), Some(_)) => Some(texgen.constants(input.vertex_count, part.stride)),
+                _ => None,
+            },
+            draw: DrawConstants {
+                eye: request.camera.eye.as_vec3().to_array(),
+                hull_split: u32::from(request.hull.is_some()),
+            },
+            recorded: std::sync::atomic::AtomicBool::new(false),
+        };
         let timed = self.timed.load(std::sync::atomic::Ordering::Relaxed);
+        if on_device && !timed {
+            // Recorded by the frame that draws the part, as a compute pass of its graph.
+            return Ok(DeviceTessellation {
+                part,
+                work: Some(Arc::new(work)),
+                stage_ms: None,
+                submission_ms: 0.0,
+                submitted: 0,
+            });
+        }
         let timestamps = match self.timestamp_bits {
             bits if bits > 0 && timed => Some(Timestamps::new(gpu, levels)?),
             _ => None,
         };
-        let part = outputs.part.clone();
-        let record = super::recorder::TessellationRecording {
-            tracer: self,
-            scratch,
-            input,
-            outputs,
-            sets,
-            request,
-            timestamps: timestamps.as_ref(),
-        };
         let submitted = state.submissions.submit(gpu, |cb| {
-            record.record(gpu, cb);
+            work.record_timed(cb, timestamps.as_ref());
             Ok(())
         })?;
         let stage_ms = match &timestamps {
@@ -706,6 +764,7 @@ impl GpuTracer {
         };
         Ok(DeviceTessellation {
             part,
+            work: None,
             stage_ms,
             submission_ms: 0.0,
             submitted,

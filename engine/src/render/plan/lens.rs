@@ -345,7 +345,8 @@ impl<'a> LensPasses<'a> {
                 }),
                 cull: self.cull,
                 sampled: pass.sampled,
-                storage: Vec::new(),
+                // A resident lens object's parts, made this frame by its compute pass.
+                storage: self.resources.parts[self.index.index()].clone(),
                 draws: pass.draws,
             },
         });

@@ -14,8 +14,8 @@ mod schemes;
 mod shape;
 
 use crate::graph::{
-    Blend, ColourAttachment, ColourMask, CompareOp, Cull, DepthAttachment, Format, Graph, ImageId,
-    LoadOp, Pass, PassKind, Plan, StoreOp,
+    Blend, BufferId, ColourAttachment, ColourMask, CompareOp, Cull, DepthAttachment, Format, Graph,
+    ImageId, LoadOp, Pass, PassKind, Plan, StoreOp,
 };
 
 use super::program::{ProgramError, ShaderProgram, SinglePassLimits};
@@ -205,6 +205,14 @@ pub enum Draw {
         /// The lens object.
         lens: LensIndex,
     },
+    /// The compute work that makes part `part` of a lens object resident on the device (the GPU
+    /// tessellation, texgen and draw list).
+    Tessellate {
+        /// The lens object.
+        lens: LensIndex,
+        /// The part.
+        part: usize,
+    },
     /// A full-screen triangle averaging `supersampling`² subpixels of the colour target into
     /// each pixel of an external image.
     BoxFilter {
@@ -246,12 +254,17 @@ pub struct FrameResources {
     pub external: Option<ImageId>,
     /// The blending scheme's scratch images, in the order of their layers in the scratch array.
     pub scratch: Vec<ImageId>,
+    /// `parts[lens]`: the buffers of a resident lens object's parts that its compute pass
+    /// writes this frame (empty for the rest).
+    pub parts: Vec<Vec<BufferId>>,
 }
 
 /// What a pass of a frame is, for counting (`lensmap passes`, the renderer's statistics): the
 /// category of every [`FrameGraph`] pass.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PassCategory {
+    /// The GPU tessellation of lens objects resident on the device (compute).
+    Tessellation,
     /// The opaque environment meshes.
     Environment,
     /// A lens object's prime: its pixels set to (0, 0, 0, 0) with its depth.
@@ -276,7 +289,8 @@ pub enum PassCategory {
 
 impl PassCategory {
     /// Every category, in the order a frame's passes run.
-    pub const ALL: [PassCategory; 10] = [
+    pub const ALL: [PassCategory; 11] = [
+        PassCategory::Tessellation,
         PassCategory::Environment,
         PassCategory::Prime,
         PassCategory::Layer,
@@ -292,6 +306,7 @@ impl PassCategory {
     /// The category's name in `lensmap passes --json` and the benchmarks' JSON.
     pub fn name(self) -> &'static str {
         match self {
+            PassCategory::Tessellation => "tessellation",
             PassCategory::Environment => "environment",
             PassCategory::Prime => "prime",
             PassCategory::Layer => "layer",
@@ -357,6 +372,7 @@ pub fn frame_graph(
     }
     let mut graph = Graph::new();
     let mut resources = declare_images(&mut graph, shape, blend, format);
+    tessellation(&mut graph, shape, &resources);
     environment(&mut graph, shape, &resources);
     for (index, lens) in LensIndex::all(shape.lenses.len()).zip(&shape.lenses) {
         let viewpoints = shape.active_viewpoints(lens);
@@ -436,12 +452,45 @@ fn declare_images(
                 .collect()
         })
         .collect();
+    let parts = shape
+        .lenses
+        .iter()
+        .enumerate()
+        .map(|(i, lens)| {
+            (0..lens.compute)
+                .map(|k| graph.buffer(&format!("lens{i}/part{k}"), 0))
+                .collect()
+        })
+        .collect();
     FrameResources {
         colour,
         depth,
         layers,
         external: None,
         scratch,
+        parts,
+    }
+}
+
+/// Per lens object resident on the device whose parts are made this frame, a compute pass
+/// writing them, before any draw. A side effect: the parts' counts are read after the frame even
+/// where no lens pass draws them.
+fn tessellation(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources) {
+    for (index, lens) in LensIndex::all(shape.lenses.len()).zip(&shape.lenses) {
+        if lens.compute == 0 {
+            continue;
+        }
+        graph.add_pass(Pass {
+            name: format!("{}/tessellate", lens.name),
+            category: PassCategory::Tessellation,
+            side_effect: true,
+            kind: PassKind::Compute {
+                dispatches: (0..lens.compute)
+                    .map(|part| Draw::Tessellate { lens: index, part })
+                    .collect(),
+                writes: resources.parts[index.index()].clone(),
+            },
+        });
     }
 }
 

@@ -22,6 +22,10 @@ pub struct LensShape {
     pub terms: Vec<Term>,
     /// `empty[viewpoint][layer]`: the layer's cube map is all zeros, so its pass changes nothing.
     pub empty: Vec<Vec<bool>>,
+    /// Parts of a lens object resident on the device whose compute work (the GPU tessellation
+    /// that makes them) runs in this frame before the lens passes; 0 for the rest, and once the
+    /// work ran (a frame drawn again).
+    pub compute: usize,
 }
 
 impl LensShape {
@@ -79,6 +83,11 @@ impl FrameShape {
                             .resident
                             .as_ref()
                             .map_or(lens.triangles.len(), |r| r.parts.len()),
+                        compute: lens
+                            .resident
+                            .as_ref()
+                            .filter(|r| r.works.iter().all(|w| w.pending()))
+                            .map_or(0, |r| r.works.len()),
                         faces: lens.faces,
                         terms,
                         empty: lens
@@ -130,6 +139,7 @@ impl FrameShape {
                 faces: LensFaces::Front,
                 terms: terms.to_vec(),
                 empty: vec![vec![false; layers]; viewpoints],
+                compute: 0,
             }],
             viewpoint_weights: vec![1.0 / viewpoints as f32; viewpoints],
         }

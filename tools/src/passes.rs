@@ -15,7 +15,7 @@ use crate::words::Flags;
 
 #[derive(Args)]
 #[command(
-    after_help = "Example:\n  lensmap passes --layers 3 --viewpoints 2 --terms 2 --variant multipass --format rgba8"
+    after_help = "Example:\n  lensmap passes --layers 3 --viewpoints 2 --terms 2 --variant multipass --format rgba8\n  lensmap passes --variant single-pass --gpu-parts 2"
 )]
 pub struct PassesArgs {
     /// Layers n per viewpoint sample.
@@ -37,6 +37,11 @@ pub struct PassesArgs {
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba8")]
     format: FormatArg,
+    /// The lens object is tessellated on the GPU (`--tracer gpu`) from this many scene objects:
+    /// the frame opens with its compute pass, which the lens passes wait for; 0 for a lens
+    /// object traced on the CPU.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=16))]
+    gpu_parts: u8,
 }
 
 /// Prints the plan of one lens object's frame.
@@ -54,7 +59,10 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let shape = FrameShape::synthetic(640, 480, args.layers, args.viewpoints as usize, terms);
+    let mut shape = FrameShape::synthetic(640, 480, args.layers, args.viewpoints as usize, terms);
+    for lens in &mut shape.lenses {
+        lens.compute = usize::from(args.gpu_parts);
+    }
     let variant = Variant::from(args.variant);
     let format = TargetFormat::from(args.format);
     let blend = BlendScheme::from(args.blend);
@@ -71,6 +79,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     })?;
     let plan = graph.compile()?;
     let counts = json!({
+        "tessellation": plan.count(PassCategory::Tessellation),
         "prime": plan.count(PassCategory::Prime),
         "layer": plan.count(PassCategory::Layer),
         "alpha_clear": plan.count(PassCategory::AlphaClear),
@@ -93,7 +102,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
                     "draws": s.pass.draw_count(),
                     "blend": key.map(|k| k.blend.to_string()),
                     "write_mask": key.map(|k| k.write_mask.to_string()),
-                    "barriers": s.barriers.len(),
+                    "barriers": s.barriers.len() + s.buffer_barriers.len(),
                 })
             })
             .collect();
@@ -106,9 +115,10 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     } else {
         say!("{}", plan.to_string().trim_end_matches('\n'));
         say!(
-            "{} ({}) lens passes: {} prime + {} layer + {} alpha clear + {} scratch clear + {} group sum + {} single-pass; {} rendering instance(s), {} barrier(s)",
+            "{} ({}) lens passes: {} tessellation + {} prime + {} layer + {} alpha clear + {} scratch clear + {} group sum + {} single-pass; {} rendering instance(s), {} barrier(s)",
             variant.name(),
             blend.name(),
+            counts["tessellation"],
             counts["prime"],
             counts["layer"],
             counts["alpha_clear"],

@@ -69,6 +69,20 @@ fn passes_prints_the_papers_counts() {
             (Some(1), Some(0))
         );
     }
+    // A lens object tessellated on the GPU: its compute pass first, then every lens pass as
+    // before, waiting for it once.
+    let gpu = passes_counts(&["--layers", "2", "--gpu-parts", "2"]);
+    let cpu = passes_counts(&["--layers", "2"]);
+    assert_eq!(
+        (gpu["tessellation"].as_u64(), cpu["tessellation"].as_u64()),
+        (Some(1), Some(0))
+    );
+    assert_eq!(gpu["layer"], cpu["layer"]);
+    assert_eq!(
+        gpu["barriers"].as_u64(),
+        cpu["barriers"].as_u64().map(|b| b + 2),
+        "one buffer barrier per part"
+    );
     let table = lensmap(&["passes", "--layers", "2"]);
     let text = String::from_utf8_lossy(&table.stdout);
     assert!(

@@ -118,7 +118,10 @@ impl<D, P, C: PartialEq> Plan<D, P, C> {
 
     /// Number of barriers.
     pub fn barrier_count(&self) -> usize {
-        self.steps.iter().map(|s| s.barriers.len()).sum()
+        self.steps
+            .iter()
+            .map(|s| s.barriers.len() + s.buffer_barriers.len())
+            .sum()
     }
 }
 
@@ -666,7 +669,10 @@ impl<D, P, C> fmt::Display for Plan<D, P, C> {
                     )
                 })
                 .chain(step.buffer_barriers.iter().map(|b| {
-                    let name = self.buffers.get(b.buffer.0 as usize).map_or("?", |i| &i.name);
+                    let name = self
+                        .buffers
+                        .get(b.buffer.0 as usize)
+                        .map_or("?", |i| &i.name);
                     format!("{name}: compute->vertex")
                 }))
                 .collect();

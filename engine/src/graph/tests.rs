@@ -341,3 +341,70 @@ fn an_external_image_is_filtered_into_and_handed_back() {
     let table = plan.to_string();
     assert!(table.contains("host: colour->external"), "{table}");
 }
+
+#[test]
+fn a_compute_pass_runs_first_and_the_draws_that_read_its_buffers_wait_for_it() {
+    let (mut g, colour, depth, buffer) = frame();
+    let part = g.buffer("part", 64);
+    let unread = g.buffer("unread", 64);
+    let compute = |name: &str, writes: Vec<BufferId>, side_effect: bool| TestPass {
+        name: name.into(),
+        category: "compute",
+        side_effect,
+        kind: PassKind::Compute {
+            dispatches: vec![7],
+            writes,
+        },
+    };
+    g.add_pass(compute("make", vec![part], false));
+    // Nothing reads it and it has no side effect: culled.
+    g.add_pass(compute("idle", vec![unread], false));
+    g.add_pass(draw(
+        "clear",
+        colour,
+        LoadOp::Clear([0.0; 4]),
+        Some((depth, LoadOp::Clear([1.0, 0.0, 0.0, 0.0]), true)),
+        1,
+    ));
+    let mut reader = draw(
+        "read",
+        colour,
+        LoadOp::Load,
+        Some((depth, LoadOp::Load, true)),
+        1,
+    );
+    if let PassKind::Draw { storage, .. } = &mut reader.kind {
+        storage.push(part);
+    }
+    g.add_pass(reader);
+    g.add_pass(readback(colour, buffer));
+    let plan = g.compile().expect("compiles");
+    let names: Vec<&str> = plan.steps.iter().map(|s| s.pass.name.as_str()).collect();
+    assert_eq!(names, ["make", "clear", "read", "readback"]);
+    assert_eq!(
+        plan.culled,
+        vec![("idle".to_string(), CullReason::OutputUnused)]
+    );
+    // The compute step is outside rendering; the instance that reads its buffer waits for it
+    // once, on its first step.
+    assert!(plan.steps[0].begin.is_none() && !plan.steps[0].end);
+    assert_eq!(
+        plan.steps[1].buffer_barriers,
+        vec![BufferBarrier {
+            buffer: part,
+            src: Access::ComputeWrite,
+            dst: Access::VertexStorageRead,
+        }]
+    );
+    assert!(plan.steps[2..].iter().all(|s| s.buffer_barriers.is_empty()));
+    assert!(plan.to_string().contains("part: compute->vertex"));
+    // A compute pass kept for its side effect stays even with no reader.
+    let (mut g, colour, _, buffer) = frame();
+    let counts = g.buffer("counts", 64);
+    g.add_pass(compute("counted", vec![counts], true));
+    g.add_pass(draw("clear", colour, LoadOp::Clear([0.0; 4]), None, 1));
+    g.add_pass(readback(colour, buffer));
+    let plan = g.compile().expect("compiles");
+    assert_eq!(plan.steps[0].pass.name, "counted");
+    assert!(plan.steps.iter().all(|s| s.buffer_barriers.is_empty()));
+}

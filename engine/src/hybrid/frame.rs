@@ -30,8 +30,7 @@ use crate::{
     options::OptionError,
     render::{
         DeviceLensPart, DeviceWork, EnvironmentMesh, FrameInput, LensFaces, LensObject,
-        ResidentLens,
-        TermVertices,
+        ResidentLens, TermVertices,
     },
     scene::Camera,
     trace::{

@@ -70,8 +70,10 @@ fn memory_barrier(gpu: &Gpu, cb: vk::CommandBuffer, barriers: &[graph::BufferBar
     let barriers = [dependency];
     // SAFETY: recording outside any rendering instance (a step's barriers come before it).
     unsafe {
-        gpu.device()
-            .cmd_pipeline_barrier2(cb, &vk::DependencyInfo::default().memory_barriers(&barriers))
+        gpu.device().cmd_pipeline_barrier2(
+            cb,
+            &vk::DependencyInfo::default().memory_barriers(&barriers),
+        )
     };
 }
 
@@ -226,13 +228,17 @@ impl Recorder<'_> {
         // Parts made by an earlier submission (a frame drawn again, or a tessellation timed in a
         // submission of its own) need its writes made visible; parts made this frame get the
         // graph's barrier after their compute pass.
-        let made_before = frame.lenses.iter().zip(&frame.shape.lenses).any(|(lens, shape)| {
-            shape.compute == 0
-                && lens
-                    .parts
-                    .iter()
-                    .any(|part| matches!(part.buffers, PartBuffers::Device(_)))
-        });
+        let made_before = frame
+            .lenses
+            .iter()
+            .zip(&frame.shape.lenses)
+            .any(|(lens, shape)| {
+                shape.compute == 0
+                    && lens
+                        .parts
+                        .iter()
+                        .any(|part| matches!(part.buffers, PartBuffers::Device(_)))
+            });
         if made_before {
             resident_barrier(gpu, cb);
         }

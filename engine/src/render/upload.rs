@@ -12,8 +12,8 @@ use std::{collections::HashMap, sync::Arc};
 use ash::vk;
 
 use super::{
-    DeviceLensPart, DeviceWork, EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes,
-    RenderError, SinglePassLimits, TargetFormat,
+    DeviceLensPart, DeviceWork, EnvironmentMesh, FrameInput, FrameShape, LensObject,
+    MAX_VIEWPOINTS, MapBytes, RenderError, SinglePassLimits, TargetFormat,
     descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
     targets::Targets,

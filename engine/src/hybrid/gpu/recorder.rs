@@ -62,7 +62,8 @@ impl Drop for ComputePasses {
             for &pipeline in &self.handles.pipelines {
                 self.device.destroy_pipeline(pipeline, None);
             }
-            self.device.destroy_pipeline_layout(self.handles.layout, None);
+            self.device
+                .destroy_pipeline_layout(self.handles.layout, None);
             self.device
                 .destroy_descriptor_set_layout(self.set_layout, None);
         }
@@ -89,10 +90,11 @@ impl ComputePasses {
         };
         passes.handles.layout = super::compute_layout::<C>(gpu, passes.set_layout)?;
         for entry in entries {
-            let shader = lensmap_shaders::shader(file, entry).ok_or_else(|| GpuError::BadUpload {
-                what: format!("{file}.wgsl"),
-                problem: format!("entry point {entry} was not compiled"),
-            })?;
+            let shader =
+                lensmap_shaders::shader(file, entry).ok_or_else(|| GpuError::BadUpload {
+                    what: format!("{file}.wgsl"),
+                    problem: format!("entry point {entry} was not compiled"),
+                })?;
             let pipeline = gpu.create_compute_pipeline(&shader, passes.handles.layout)?;
             passes.handles.pipelines.push(pipeline);
         }

@@ -2,13 +2,15 @@
 //! (`shaders/wgsl/drawlist.wgsl`) turn the tessellation's output into an index buffer and
 //! indirect draw arguments, and each tessellation leaves a [`DeviceLensPart`] (the lens pass's
 //! data, the indices, the arguments and a host copy of its counts) that a frame draws with no
-//! per-vertex data read back. Submissions are not waited for: the counts are read once the frame
-//! that drew the part is done ([`read_counts`]).
+//! per-vertex data read back. The frame records the tessellation itself, as a compute pass of its
+//! graph ([`super::recorder::TessellationWork`]); the counts are read once the frame is done
+//! ([`read_counts`]). Tessellations read back or timed are the tracer's own submissions.
 //!
 //! Each scene object keeps its resident input mesh and its passes' descriptor sets over the
 //! tracer's shared buffers, and a few sets of outputs, one per frame that may still draw one: an
 //! output is reused once no frame holds its part (the `Arc` is the only reference left), so a
-//! tessellation never writes what a pending frame reads.
+//! tessellation never writes what a pending frame reads. Whatever a recorded work names is kept
+//! until the frames that recorded it are done ([`super::GpuTracer::used_until`]).
 
 use std::sync::Arc;
 

@@ -1,9 +1,9 @@
 //! The adaptive tessellation on the GPU (`shaders/wgsl/tessellate.wgsl`): the CPU tessellator's
 //! rules ([`crate::hybrid::tessellate`]) level by level in compute passes, the vertex paths
 //! traced by the tracer's level pass between them, every record kept on the GPU, then texgen and
-//! the draw list, all in one submission. A frame draws the result where it lies
-//! ([`GpuTracer::tessellate_on_device`], [`super::resident`]); [`GpuTracer::tessellate`] waits
-//! for it and reads the mesh and its records back once.
+//! the draw list, all in one command buffer. A frame records it and draws the result where it
+//! lies ([`GpuTracer::tessellate_on_device`], [`super::resident`]); [`GpuTracer::tessellate`]
+//! submits it, waits for it and reads the mesh and its records back once.
 //!
 //! Determinism: midpoint, edge and triangle indices come from stable prefix sums over each
 //! level's triangles (in the CPU's order), and a midpoint belongs to the lowest-indexed triangle
@@ -494,9 +494,9 @@ impl GpuTracer {
         }
     }
 
-    /// [`Self::tessellate`] left on the device: the mesh, the lens pass's data (when
-    /// `request.texgen` asks) and the draw list are made in one submission that is not waited
-    /// for, and a frame draws them from the returned part. Its counts are read once that frame
+    /// [`Self::tessellate`] left on the device: the work that makes the mesh, the lens pass's
+    /// data (when `request.texgen` asks) and the draw list, for the frame that draws the returned
+    /// part to record first (timed, it is submitted and waited for here instead). Its counts are read once that frame
     /// is done ([`super::read_counts`]); where they say the buffers stopped splits before the
     /// budget, [`Self::grow`] gives the next tessellation larger ones.
     pub fn tessellate_on_device(
@@ -507,8 +507,7 @@ impl GpuTracer {
     ) -> Result<DeviceTessellation, TessellationError> {
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
         let start = std::time::Instant::now();
-        let mut made =
-            self.submit_tessellation(gpu, &mut pass, (object, mesh), (request, true))?;
+        let mut made = self.submit_tessellation(gpu, &mut pass, (object, mesh), (request, true))?;
         made.submission_ms = start.elapsed().as_secs_f64() * 1e3;
         Ok(made)
     }
@@ -605,6 +604,69 @@ impl GpuTracer {
         Ok(())
     }
 
+    /// The work of one tessellation of `held`'s input into its output `at`, over `scratch`
+    /// with the object's `sets`.
+    fn work(
+        &self,
+        gpu: &Gpu,
+        (scratch, held, at, sets): (
+            &Scratch,
+            &resident::ObjectState,
+            usize,
+            (vk::DescriptorSet, vk::DescriptorSet),
+        ),
+        request: &GpuTessellationRequest<'_>,
+    ) -> TessellationWork {
+        let options = request.options;
+        let (input, outputs) = (&held.input, &held.outputs[at]);
+        let levels = options.max_depth + 1;
+        let mut first = first_control(input);
+        // The budget word is the host's for the frame's first object (or where the host counts
+        // the budget), else what the object before left on the device.
+        let written = if request.continue_budget {
+            control::FRAME_BUDGET
+        } else {
+            first[control::FRAME_BUDGET] = u32::try_from(options.max_vertices).unwrap_or(u32::MAX);
+            control::FRAME_BUDGET + 1
+        };
+        let part = &outputs.part;
+        TessellationWork {
+            device: gpu.device().clone(),
+            passes: [
+                self.tessellation.handles.clone(),
+                self.texgen.handles.clone(),
+                self.draw_list.handles.clone(),
+            ],
+            level_paths: (self.level_paths, self.layout),
+            sets: [
+                sets.0,
+                sets.1,
+                outputs.texgen_set.unwrap_or_default(),
+                outputs.draw_set,
+            ],
+            scratch: [
+                scratch.control.handle,
+                scratch.wanted.handle,
+                scratch.counters.handle,
+            ],
+            part: [part.args.handle, part.counts.handle],
+            input: [input.vertex_count, input.triangle_count, input.edge_count],
+            levels,
+            first: (first, written),
+            tracer_constants: self.constants(request.camera, request.settings),
+            constants: tessellate_constants(request, scratch, input),
+            texgen: match (&request.texgen, outputs.texgen_set) {
+                (Some(texgen), Some(_)) => Some(texgen.constants(input.vertex_count, part.stride)),
+                _ => None,
+            },
+            draw: DrawConstants {
+                eye: request.camera.eye.as_vec3().to_array(),
+                hull_split: u32::from(request.hull.is_some()),
+            },
+            recorded: std::sync::atomic::AtomicBool::new(false),
+        }
+    }
+
     /// Records and submits one tessellation (the caller holds the pass state).
     fn submit_tessellation(
         &self,
@@ -688,53 +750,9 @@ impl GpuTracer {
             arrays,
         )?;
         let held = &*held;
-        let (input, outputs) = (&held.input, &held.outputs[at]);
+        let part = held.outputs[at].part.clone();
+        let work = self.work(gpu, (scratch, held, at, sets), request);
         let levels = options.max_depth + 1;
-        let mut first = first_control(input);
-        // The budget word is the host's for the frame's first object (or where the host counts
-        // the budget), else what the object before left on the device.
-        let written = if request.continue_budget {
-            control::FRAME_BUDGET
-        } else {
-            first[control::FRAME_BUDGET] = u32::try_from(options.max_vertices).unwrap_or(u32::MAX);
-            control::FRAME_BUDGET + 1
-        };
-        let part = outputs.part.clone();
-        let work = TessellationWork {
-            device: gpu.device().clone(),
-            passes: [
-                self.tessellation.handles.clone(),
-                self.texgen.handles.clone(),
-                self.draw_list.handles.clone(),
-            ],
-            level_paths: (self.level_paths, self.layout),
-            sets: [
-                sets.0,
-                sets.1,
-                outputs.texgen_set.unwrap_or_default(),
-                outputs.draw_set,
-            ],
-            scratch: [
-                scratch.control.handle,
-                scratch.wanted.handle,
-                scratch.counters.handle,
-            ],
-            part: [part.args.handle, part.counts.handle],
-            input: [input.vertex_count, input.triangle_count, input.edge_count],
-            levels,
-            first: (first, written),
-            tracer_constants: self.constants(request.camera, request.settings),
-            constants: tessellate_constants(request, scratch, input),
-            texgen: match (&request.texgen, outputs.texgen_set) {
-                (Some(texgen), Some(_)) => Some(texgen.constants(input.vertex_count, part.stride)),
-                _ => None,
-            },
-            draw: DrawConstants {
-                eye: request.camera.eye.as_vec3().to_array(),
-                hull_split: u32::from(request.hull.is_some()),
-            },
-            recorded: std::sync::atomic::AtomicBool::new(false),
-        };
         let timed = self.timed.load(std::sync::atomic::Ordering::Relaxed);
         if on_device && !timed {
             // Recorded by the frame that draws the part, as a compute pass of its graph.

@@ -353,31 +353,31 @@ fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
         blend: BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     };
-    // Enough for the first objects' splits, not for all of them.
-    options.hybrid.tessellation.max_vertices = input + 1500;
-    let mut frame = |read_back: bool| {
-        hybrid.forget_frame();
-        runner.read_back_gpu_meshes(read_back);
-        runner
-            .frame(&hybrid, &camera, &options)
-            .expect("the frame renders")
-    };
-    let (resident, read_back) = (frame(false), frame(true));
-    let (g, r) = (resident.stats, read_back.stats);
-    eprintln!(
-        "budget {}: vertices {} / {}, stopped by the budget {} / {}",
-        input + 1500,
-        g.vertices_traced,
-        r.vertices_traced,
-        g.stopped_by_budget,
-        r.stopped_by_budget
-    );
-    assert!(r.stopped_by_budget > 0, "the budget stops splits");
-    assert!(g.counted_on_device && !r.counted_on_device);
-    assert_eq!(
-        (g.vertices_traced, g.triangles_out, g.stopped_by_budget),
-        (r.vertices_traced, r.triangles_out, r.stopped_by_budget)
-    );
-    assert!(resident.image.pixels == read_back.image.pixels);
+    // Enough for the first objects' splits, not for all of them; then fewer vertices than any
+    // object has, so that the buffers are first sized below a later object's input (they must
+    // hold every object of the frame before its first one is tessellated).
+    for budget in [input + 1500, 10] {
+        options.hybrid.tessellation.max_vertices = budget;
+        let mut frame = |read_back: bool| {
+            hybrid.forget_frame();
+            runner.read_back_gpu_meshes(read_back);
+            runner
+                .frame(&hybrid, &camera, &options)
+                .expect("the frame renders")
+        };
+        let (resident, read_back) = (frame(false), frame(true));
+        let (g, r) = (resident.stats, read_back.stats);
+        eprintln!(
+            "budget {budget}: vertices {} / {}, stopped by the budget {} / {}",
+            g.vertices_traced, r.vertices_traced, g.stopped_by_budget, r.stopped_by_budget
+        );
+        assert!(r.stopped_by_budget > 0, "the budget stops splits");
+        assert!(g.counted_on_device && !r.counted_on_device);
+        assert_eq!(
+            (g.vertices_traced, g.triangles_out, g.stopped_by_budget),
+            (r.vertices_traced, r.triangles_out, r.stopped_by_budget)
+        );
+        assert!(resident.image.pixels == read_back.image.pixels);
+    }
     assert_clean(runner.gpu());
 }

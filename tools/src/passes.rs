@@ -115,10 +115,13 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     } else {
         say!("{}", plan.to_string().trim_end_matches('\n'));
         say!(
-            "{} ({}) lens passes: {} tessellation + {} prime + {} layer + {} alpha clear + {} scratch clear + {} group sum + {} single-pass; {} rendering instance(s), {} barrier(s)",
+            "{} ({}) lens passes: {}{} prime + {} layer + {} alpha clear + {} scratch clear + {} group sum + {} single-pass; {} rendering instance(s), {} barrier(s)",
             variant.name(),
             blend.name(),
-            counts["tessellation"],
+            match plan.count(PassCategory::Tessellation) {
+                0 => String::new(),
+                n => format!("{n} tessellation (compute) + "),
+            },
             counts["prime"],
             counts["layer"],
             counts["alpha_clear"],

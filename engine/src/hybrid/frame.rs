@@ -795,6 +795,32 @@ impl HybridScene {
         Ok(Some((made.part, made.work)))
     }
 
+    /// Makes the GPU tracer's buffers hold every lens object's scene objects at once before a
+    /// frame drawn where its tessellations lie: each object's work, recorded later by the frame,
+    /// names those buffers, so they must not be made again between two objects.
+    fn prepare_device_frame(
+        &self,
+        device: GpuPaths<'_>,
+        options: &HybridOptions,
+    ) -> Result<(), TessellationError> {
+        let mut objects = Vec::new();
+        for (lens_index, lens) in self.trace.lenses.iter().enumerate() {
+            let layers = &self.lenses[lens_index];
+            let arrays = TexgenRequest {
+                shells: &layers.shells,
+                em_origins: &layers.em_origins,
+                refraction: texgen::has_refraction(&self.trace, lens_index),
+            }
+            .arrays();
+            for &object in &lens.objects {
+                objects.push((object, &self.scene.objects[object].mesh, arrays));
+            }
+        }
+        device
+            .tracer
+            .prepare_frame(device.gpu, &objects, &options.tessellation)
+    }
+
     /// Per input triangle of scene object `object`, whether it lies on the convex hull of the
     /// lens geometry (computed once per object).
     fn hull_flags(&self, object: usize) -> &Vec<bool> {
@@ -856,6 +882,9 @@ impl HybridScene {
             ..HybridStats::default()
         };
         // The vertex budget is the frame's: each lens object gets what the ones before left.
+        if let Some(device) = gpu.filter(|g| g.resident && !vertex_exact) {
+            self.prepare_device_frame(device, options)?;
+        }
         let mut vertex_budget = VertexBudget {
             left: options.tessellation.max_vertices,
             on_device: false,
@@ -1000,6 +1029,8 @@ type ResidentPart = (Arc<DeviceLensPart>, Option<Arc<dyn DeviceWork>>);
 /// where one was made already, a timed tessellation, by their own submissions).
 fn resident_lens(parts: Vec<ResidentPart>) -> ResidentLens {
     let works: Option<Vec<_>> = parts.iter().map(|(_, work)| work.clone()).collect();
+    // All one way: the tracer times (and then submits) every tessellation of a frame or none.
+    debug_assert!(works.is_some() || parts.iter().all(|(_, work)| work.is_none()));
     ResidentLens {
         parts: parts.into_iter().map(|(part, _)| part).collect(),
         works: works.unwrap_or_default(),

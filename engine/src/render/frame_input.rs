@@ -109,9 +109,12 @@ pub trait DeviceWork: Send + Sync {
     /// its writes before the lens passes read them.
     fn record(&self, cb: ash::vk::CommandBuffer);
 
-    /// Whether it was not recorded yet (it runs once: a frame drawn again, or handed to another
+    /// Whether it was not submitted yet (it runs once: a frame drawn again, or handed to another
     /// upload, draws what it made).
     fn pending(&self) -> bool;
+
+    /// Marks it submitted: the submission that recorded it went to the queue.
+    fn submitted(&self);
 }
 
 impl PartialEq for ResidentLens {

@@ -287,6 +287,9 @@ impl Renderer {
         for lens in &mut frame.shape.lenses {
             lens.compute = 0;
         }
+        for work in frame.lenses.iter().flat_map(|lens| &lens.works) {
+            work.submitted();
+        }
         Ok(Submission {
             value,
             readback: host.is_none(),

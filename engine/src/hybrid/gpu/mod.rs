@@ -127,10 +127,6 @@ pub struct GpuTracer {
     shape: (usize, usize),
     /// Unique among the tracers of this process ([`GpuTracer::id`]).
     id: u64,
-    /// Triangles of every lens object: the tessellation's buffers reserve room for the largest
-    /// input, so that they are never made again between the objects of one frame (the work of
-    /// the objects before, not yet recorded, names them).
-    lens_triangles: u64,
     /// What each pass uses and resets: held for the whole pass, so that passes from two threads
     /// take turns.
     pass: std::sync::Mutex<PassState>,
@@ -150,6 +146,8 @@ struct PassState {
     /// The most the device holds for the last tessellation (its dispatch and binding limits,
     /// texgen's lens data included): what growing stops at.
     device_limit: u64,
+    /// What the tessellation's buffers hold: every input tessellated so far (only grows).
+    extent: tessellate::Extent,
     /// Each tessellated scene object's resident mesh, sets and outputs.
     objects: rustc_hash::FxHashMap<usize, resident::ObjectState>,
     /// The tessellations' submissions, not waited for.
@@ -404,17 +402,13 @@ impl GpuTracer {
             timed: std::sync::atomic::AtomicBool::new(false),
             shape: (geometry.roots.len(), geometry.triangle_count()),
             id: NEXT_TRACER.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
-            lens_triangles: trace
-                .lenses
-                .iter()
-                .map(|lens| lens.bvh.triangle_count() as u64)
-                .sum(),
             pass: std::sync::Mutex::new(PassState {
                 pool,
                 scratch: None,
                 tessellation: None,
                 capacity: 0,
                 device_limit: 0,
+                extent: tessellate::Extent::default(),
                 objects: rustc_hash::FxHashMap::default(),
                 submissions,
             }),

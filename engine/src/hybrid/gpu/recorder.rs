@@ -321,7 +321,7 @@ pub(super) struct TessellationWork {
     pub(super) constants: TessellateConstants,
     pub(super) texgen: Option<TexgenConstants>,
     pub(super) draw: DrawConstants,
-    /// Whether it was recorded into a frame (it runs once).
+    /// Whether a frame that recorded it was submitted (it runs once).
     pub(super) recorded: std::sync::atomic::AtomicBool,
 }
 
@@ -471,13 +471,16 @@ impl TessellationWork {
 
 impl crate::render::DeviceWork for TessellationWork {
     fn record(&self, cb: vk::CommandBuffer) {
-        self.recorded
-            .store(true, std::sync::atomic::Ordering::Relaxed);
         self.record_timed(cb, None);
     }
 
     fn pending(&self) -> bool {
         !self.recorded.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    fn submitted(&self) {
+        self.recorded
+            .store(true, std::sync::atomic::Ordering::Relaxed);
     }
 }
 

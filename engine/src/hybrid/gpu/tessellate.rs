@@ -202,6 +202,34 @@ impl InputMesh {
     }
 }
 
+/// What the shared buffers must hold for the objects tessellated so far: the most input vertices
+/// (and room for a split), input triangles (edges at most three times as many) and texgen arrays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Extent {
+    least: u64,
+    reserve: u64,
+    arrays: u64,
+}
+
+impl Extent {
+    fn of(input: &InputMesh, arrays: u64) -> Extent {
+        Extent {
+            least: u64::from(input.vertex_count) + 4,
+            reserve: u64::from(input.triangle_count).max(u64::from(input.edge_count).div_ceil(3)),
+            arrays,
+        }
+    }
+
+    /// The larger of each.
+    fn max(self, other: Extent) -> Extent {
+        Extent {
+            least: self.least.max(other.least),
+            reserve: self.reserve.max(other.reserve),
+            arrays: self.arrays.max(other.arrays),
+        }
+    }
+}
+
 /// The frame's buffers for up to `vertices` vertices (and the derived triangles and edges).
 pub(super) struct Scratch {
     pub(super) vertices_capacity: u64,
@@ -253,13 +281,13 @@ impl Scratch {
         })
     }
 
-    /// Whether it holds `input` in full (every input vertex, triangle and edge, and a split).
-    fn holds(&self, input: &InputMesh) -> bool {
-        self.vertices_capacity > u64::from(input.vertex_count) + 3
+    /// Whether it holds every input of `extent` in full (its vertices, triangles and edges, and
+    /// a split).
+    fn holds(&self, extent: &Extent) -> bool {
+        self.vertices_capacity >= extent.least
             && self.triangles_capacity
-                >= TRIANGLES_PER_VERTEX * self.vertices_capacity + u64::from(input.triangle_count)
-            && self.edges_capacity
-                >= EDGES_PER_VERTEX * self.vertices_capacity + u64::from(input.edge_count)
+                >= TRIANGLES_PER_VERTEX * self.vertices_capacity + extent.reserve
+            && self.edges_capacity >= EDGES_PER_VERTEX * self.vertices_capacity + 3 * extent.reserve
     }
 
     /// Vertices the buffers hold.
@@ -436,10 +464,10 @@ pub struct GpuTessellation {
 }
 
 /// The largest capacity, in vertices, the device can dispatch and bind with room for an input of
-/// `reserve` triangles (and three times as many edges): every per-triangle pass
-/// within `maxComputeWorkGroupCount[0]` workgroups, every buffer (texgen's lens data too, when
-/// asked for) within `maxStorageBufferRange`, vertex indices below 2³¹.
-fn device_capacity(gpu: &Gpu, reserve: u64, texgen: Option<&TexgenRequest<'_>>) -> u64 {
+/// `reserve` triangles (and three times as many edges): every per-triangle pass within
+/// `maxComputeWorkGroupCount[0]` workgroups, every buffer (texgen's lens data of `arrays`
+/// arrays too; 0 without texgen) within `maxStorageBufferRange`, vertex indices below 2³¹.
+fn device_capacity(gpu: &Gpu, reserve: u64, arrays: u64) -> u64 {
     let limits = gpu.properties().limits;
     let groups = u64::from(limits.max_compute_work_group_count[0]);
     let range = u64::from(limits.max_storage_buffer_range);
@@ -458,7 +486,7 @@ fn device_capacity(gpu: &Gpu, reserve: u64, texgen: Option<&TexgenRequest<'_>>) 
                 / EDGES_PER_VERTEX,
         )
         .min(1 << 31)
-        .min(texgen.map_or(u64::MAX, |t| range / (16 * t.arrays())))
+        .min(range.checked_div(16 * arrays).unwrap_or(u64::MAX))
 }
 
 impl GpuTracer {
@@ -512,6 +540,32 @@ impl GpuTracer {
         Ok(made)
     }
 
+    /// Makes the buffers hold every scene object a frame is about to tessellate on the device,
+    /// `objects` with the texgen arrays of each (made or grown now, at the frame's start), so
+    /// that they are never made again between two of its objects: each object's work, recorded
+    /// later by the frame, names them.
+    pub fn prepare_frame(
+        &self,
+        gpu: &Gpu,
+        objects: &[(usize, &TriangleMesh, u64)],
+        options: &TessellationOptions,
+    ) -> Result<(), TessellationError> {
+        let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        let state = &mut *pass;
+        let mut widest = None;
+        for &(object, mesh, arrays) in objects {
+            self.keep_input(gpu, state, (object, mesh))?;
+            let extent = Extent::of(&state.objects[&object].input, arrays);
+            state.extent = state.extent.max(extent);
+            widest = Some((object, arrays));
+        }
+        let Some((object, arrays)) = widest else {
+            return Ok(());
+        };
+        // The extent holds every object's needs: the buffers are sized for them all now.
+        self.ensure_buffers(gpu, state, (object, arrays), (options.max_vertices, false))
+    }
+
     /// Asks for buffers four times larger (up to what the device holds) for the next
     /// tessellation, which makes them once every submission that uses the old ones completed;
     /// whether they will grow.
@@ -532,6 +586,28 @@ impl GpuTracer {
         true
     }
 
+    /// Scene object `object`'s input kept resident: uploaded unless it is, again where its mesh
+    /// changed (after every submission that used the old one).
+    fn keep_input(
+        &self,
+        gpu: &Gpu,
+        state: &mut PassState,
+        (object, mesh): (usize, &TriangleMesh),
+    ) -> Result<(), TessellationError> {
+        let stale = state.objects.get(&object).is_some_and(|o| {
+            o.input.vertex_count as usize != mesh.positions.len()
+                || o.input.triangle_count as usize != mesh.triangles.len()
+        });
+        if stale {
+            state.submissions.wait_all()?;
+            state.objects.remove(&object);
+        }
+        if let std::collections::hash_map::Entry::Vacant(slot) = state.objects.entry(object) {
+            slot.insert(resident::ObjectState::new(gpu, InputMesh::new(gpu, mesh)?)?);
+        }
+        Ok(())
+    }
+
     /// Makes the shared buffers hold scene object `object`'s input (made, or grown as asked,
     /// after every submission that used the old ones completed); an error where the device
     /// cannot hold the input and one split.
@@ -539,17 +615,16 @@ impl GpuTracer {
         &self,
         gpu: &Gpu,
         state: &mut PassState,
-        (object, request): (usize, &GpuTessellationRequest<'_>),
+        (object, arrays): (usize, u64),
+        (max_vertices, continue_budget): (usize, bool),
     ) -> Result<(), TessellationError> {
-        let options = request.options;
         let input = &state.objects[&object].input;
         let least = u64::from(input.vertex_count) + 4;
-        // Room for the largest input of the scene's lens objects (its edges at most three times
-        // as many).
-        let reserve = u64::from(input.triangle_count)
-            .max(u64::from(input.edge_count).div_ceil(3))
-            .max(self.lens_triangles);
-        let device = device_capacity(gpu, reserve, request.texgen.as_ref());
+        let mine = Extent::of(input, arrays);
+        // What the buffers hold only grows: every object tessellated so far fits.
+        state.extent = state.extent.max(mine);
+        let extent = state.extent;
+        let device = device_capacity(gpu, extent.reserve, extent.arrays);
         if device < least {
             return Err(GpuError::BadUpload {
                 what: "the GPU tessellation".into(),
@@ -561,45 +636,40 @@ impl GpuTracer {
             .into());
         }
         state.device_limit = device;
-        // The buffers are kept while they hold the input (grown only by `grow`); the first are
-        // sized for the paper's setting, or the budget when smaller.
-        let budget = (options.max_vertices as u64).max(least);
+        // The buffers are kept while they hold every input so far (grown only by `grow`); the
+        // first are sized for the paper's setting, or the budget when smaller.
+        let budget = (max_vertices as u64).max(extent.least);
         let wanted = match state.capacity {
             0 => FIRST_CAPACITY.min(budget),
             grown => grown,
         }
-        .max(least)
+        .max(extent.least)
         .min(device);
-        // Kept while they hold the input and no growth was asked for since they were made.
+        // Kept while they hold the inputs and no growth was asked for since they were made.
         let fits = state.tessellation.as_ref().is_some_and(|s| {
-            s.holds(input) && s.vertices_capacity <= device && s.vertices_capacity == state.capacity
+            s.holds(&extent)
+                && s.vertices_capacity <= device
+                && s.vertices_capacity == state.capacity
         });
-        if !fits {
-            // Nothing submitted may still use the old buffers, nor the sets that point at them.
-            state.submissions.wait_all()?;
-            let made = Scratch::new(gpu, wanted, reserve)?;
-            if let Some(old) = state.tessellation.take() {
-                // The frame's budget left goes on to the objects after this one.
-                let word = 4 * control::FRAME_BUDGET as u64;
-                gpu.submit_and_wait(|cb| {
-                    // SAFETY: both buffers are live and idle (waited for above); the copy is
-                    // one word inside both.
-                    unsafe {
-                        gpu.device().cmd_copy_buffer(
-                            cb,
-                            old.control.handle,
-                            made.control.handle,
-                            &[copy(word, word, 4)],
-                        );
-                    }
-                    Ok(())
-                })?;
+        if fits {
+            return Ok(());
+        }
+        if continue_budget {
+            // The frame's earlier objects' work, not recorded yet, names these buffers, and
+            // the budget word they carry: the frame must be prepared first (prepare_frame).
+            return Err(GpuError::BadUpload {
+                what: "the GPU tessellation".into(),
+                problem: "its buffers would be made again between two objects of one frame; the frame was not prepared for all its objects".into(),
             }
-            state.tessellation = Some(made);
-            state.capacity = wanted;
-            for held in state.objects.values_mut() {
-                held.forget_sets();
-            }
+            .into());
+        }
+        // Nothing submitted may still use the old buffers, nor the sets that point at them.
+        state.submissions.wait_all()?;
+        state.tessellation = None;
+        state.tessellation = Some(Scratch::new(gpu, wanted, extent.reserve)?);
+        state.capacity = wanted;
+        for held in state.objects.values_mut() {
+            held.forget_sets();
         }
         Ok(())
     }
@@ -688,18 +758,10 @@ impl GpuTracer {
             )
             .into());
         }
-        let stale = state.objects.get(&object).is_some_and(|o| {
-            o.input.vertex_count as usize != mesh.positions.len()
-                || o.input.triangle_count as usize != mesh.triangles.len()
-        });
-        if stale {
-            state.submissions.wait_all()?;
-            state.objects.remove(&object);
-        }
-        if let std::collections::hash_map::Entry::Vacant(slot) = state.objects.entry(object) {
-            slot.insert(resident::ObjectState::new(gpu, InputMesh::new(gpu, mesh)?)?);
-        }
-        self.ensure_buffers(gpu, state, (object, request))?;
+        self.keep_input(gpu, state, (object, mesh))?;
+        let arrays = request.texgen.as_ref().map_or(0, TexgenRequest::arrays);
+        let budget = (options.max_vertices, request.continue_budget);
+        self.ensure_buffers(gpu, state, (object, arrays), budget)?;
         let hull: Vec<u32> = request
             .hull
             .map(|flags| flags.iter().map(|&f| u32::from(f)).collect())

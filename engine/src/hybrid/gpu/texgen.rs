@@ -43,7 +43,7 @@ impl TexgenRequest<'_> {
     }
 
     /// Arrays of the lens data: the positions, then per term F·G and one per layer.
-    pub(super) fn arrays(&self) -> u64 {
+    pub(crate) fn arrays(&self) -> u64 {
         1 + self.terms().len() as u64 * (1 + self.shells.len() as u64)
     }
 

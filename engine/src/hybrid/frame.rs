@@ -318,8 +318,9 @@ pub struct HybridStats {
     /// Whether the lens objects were drawn where the GPU tessellation left them: the vertex,
     /// triangle, ray and budget counts above are then the device's, added once the frame was
     /// done ([`crate::runner::FrameRunner`]; for a frame into a host's image, with the next
-    /// frame: [`crate::runner::HostFrame::previous`]), and `trace_ms` is the time to record and
-    /// submit the tessellation (its device time is in the frame's execution).
+    /// frame: [`crate::runner::HostFrame::previous`]), and `trace_ms` is the time to prepare the
+    /// tessellation's work, which the frame records (its device time is in the frame's
+    /// execution).
     pub counted_on_device: bool,
     /// With the GPU tracer [timing its stages](crate::hybrid::gpu::GpuTracer::time_stages): the
     /// device time of the tessellation's split passes and T-junction removal, summed over the
@@ -766,10 +767,11 @@ impl HybridScene {
         })
     }
 
-    /// Scene object `object` tessellated by `oracle` on its GPU and left there for the frame to
-    /// draw (`None` when the oracle traces on the CPU), with the convex-hull split when
-    /// `hull_split`, its vertices taken from the frame's budget on the device; adds the time to
-    /// record and submit it to `stats` (its counts are the device's, read once the frame is done).
+    /// Scene object `object`'s tessellation by `oracle` on its GPU, prepared for the frame to
+    /// record and draw where it lies (`None` when the oracle traces on the CPU), with the
+    /// convex-hull split when `hull_split`, its vertices taken from the frame's budget on the
+    /// device; adds the time to prepare it to `stats` (its counts are the device's, read once the
+    /// frame is done).
     fn tessellate_on_device(
         &self,
         (oracle, object, options): (&PathOracle<'_>, usize, &TessellationOptions),

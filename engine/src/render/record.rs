@@ -17,7 +17,7 @@ use super::{
 };
 use crate::{
     gpu::Gpu,
-    graph::{self, Barrier, Layout, LoadOp, PassKind, RenderingInstance, StoreOp},
+    graph::{self, Access, Barrier, Layout, LoadOp, PassKind, RenderingInstance, StoreOp},
     index::{LayerIndex, LensIndex},
     trace::Term,
 };
@@ -29,38 +29,20 @@ enum DrawCounts<'a> {
     Indirect(&'a crate::gpu::Buffer),
 }
 
-/// Makes the GPU tessellation's writes (submitted earlier on the same queue, whose barriers'
-/// first scope holds every command submitted before) visible to the lens passes: the data their
-/// vertex stage reads, the indices and the indirect arguments. Its transfers (the copy of its
-/// counts) are in the first scope too, so that the frame's completion means theirs: the counts
-/// are read once the frame is done.
-fn resident_barrier(gpu: &Gpu, cb: vk::CommandBuffer) {
-    let barrier = vk::MemoryBarrier2::default()
-        .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::TRANSFER)
-        .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
-        .dst_stage_mask(
-            vk::PipelineStageFlags2::VERTEX_SHADER
-                | vk::PipelineStageFlags2::INDEX_INPUT
-                | vk::PipelineStageFlags2::DRAW_INDIRECT,
-        )
-        .dst_access_mask(
-            vk::AccessFlags2::SHADER_STORAGE_READ
-                | vk::AccessFlags2::INDEX_READ
-                | vk::AccessFlags2::INDIRECT_COMMAND_READ,
-        );
-    let barriers = [barrier];
-    let dependency = vk::DependencyInfo::default().memory_barriers(&barriers);
-    // SAFETY: recording outside any rendering instance.
-    unsafe { gpu.device().cmd_pipeline_barrier2(cb, &dependency) };
-}
-
-/// The graph's buffer barriers before a step, as one global memory barrier (the buffers are the
-/// resident parts' several buffers each; a global barrier covers them all at once).
-fn memory_barrier(gpu: &Gpu, cb: vk::CommandBuffer, barriers: &[graph::BufferBarrier]) {
+/// One global memory barrier covering every `(src, dst)` access pair: the graph's buffer
+/// barriers before a step (a resident part's several buffers at once), or, for a frame whose
+/// parts an earlier submission made (a frame drawn again, a timed tessellation), their writes
+/// and the copy of their counts before the lens passes read them (that earlier submission is in
+/// the barrier's first scope, so the frame's completion means its own).
+fn memory_barrier(
+    gpu: &Gpu,
+    cb: vk::CommandBuffer,
+    accesses: impl IntoIterator<Item = (Access, Access)>,
+) {
     let mut dependency = vk::MemoryBarrier2::default();
-    for b in barriers {
-        let (src_stage, src_access) = vk_access(b.src);
-        let (dst_stage, dst_access) = vk_access(b.dst);
+    for (src, dst) in accesses {
+        let (src_stage, src_access) = vk_access(src);
+        let (dst_stage, dst_access) = vk_access(dst);
         dependency = dependency
             .src_stage_mask(dependency.src_stage_mask | src_stage)
             .src_access_mask(dependency.src_access_mask | src_access)
@@ -240,12 +222,13 @@ impl Recorder<'_> {
                         .any(|part| matches!(part.buffers, PartBuffers::Device(_)))
             });
         if made_before {
-            resident_barrier(gpu, cb);
+            memory_barrier(gpu, cb, [(Access::ComputeWrite, Access::VertexStorageRead)]);
         }
         for (step, pipeline) in plan.steps.iter().zip(pipelines) {
             self.barriers(cb, &images, &step.barriers);
             if !step.buffer_barriers.is_empty() {
-                memory_barrier(gpu, cb, &step.buffer_barriers);
+                let accesses = step.buffer_barriers.iter().map(|b| (b.src, b.dst));
+                memory_barrier(gpu, cb, accesses);
             }
             if let Some(instance) = &step.begin {
                 self.begin_rendering(cb, &images, instance);

@@ -552,14 +552,14 @@ impl GpuTracer {
     ) -> Result<(), TessellationError> {
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
         let state = &mut *pass;
-        let mut widest = None;
+        let mut last = None;
         for &(object, mesh, arrays) in objects {
             self.keep_input(gpu, state, (object, mesh))?;
             let extent = Extent::of(&state.objects[&object].input, arrays);
             state.extent = state.extent.max(extent);
-            widest = Some((object, arrays));
+            last = Some((object, arrays));
         }
-        let Some((object, arrays)) = widest else {
+        let Some((object, arrays)) = last else {
             return Ok(());
         };
         // The extent holds every object's needs: the buffers are sized for them all now.

@@ -117,8 +117,8 @@ type Combination = Vec<(&'static str, u32)>;
 struct Compiled {
     /// (entry point, override values, SPIR-V words).
     blobs: Vec<(String, Combination, Vec<u32>)>,
-    /// Rust source of the file's push-constant structs.
-    push_constants: String,
+    /// Rust source of the file's push-constant structs, by struct name.
+    push_constants: Vec<(String, String)>,
     /// The file's single-pass limits, if it declares them.
     single_pass: Option<SinglePassBounds>,
 }
@@ -140,6 +140,7 @@ fn main() {
     let mut specialized =
         String::from("pub(crate) const SPECIALIZED: &[(&str, &str, Overrides, &[u8])] = &[\n");
     let mut push_constants = String::new();
+    let mut emitted: BTreeMap<String, String> = BTreeMap::new();
     let mut single_pass = None;
     let mut failed = false;
     for path in &entries {
@@ -178,7 +179,22 @@ fn main() {
                         );
                     }
                 }
-                push_constants.push_str(&compiled.push_constants);
+                // Files that share an include share its push-constant struct: written once.
+                for (name, text) in compiled.push_constants {
+                    match emitted.get(&name) {
+                        None => {
+                            push_constants.push_str(&text);
+                            emitted.insert(name, text);
+                        }
+                        Some(first) if *first == text => {}
+                        Some(_) => {
+                            eprintln!(
+                                "error: {shown}: push constants `{name}` differ from another file's struct of that name: rename one"
+                            );
+                            failed = true;
+                        }
+                    }
+                }
                 if let Some(found) = compiled.single_pass {
                     if single_pass.is_some() {
                         eprintln!(
@@ -237,7 +253,9 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
         .map_err(|e| e.emit_to_string_with_path(source, shown))?;
     let mut validator = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::IMMEDIATES | naga::valid::Capabilities::CUBE_ARRAY_TEXTURES,
+        naga::valid::Capabilities::IMMEDIATES
+            | naga::valid::Capabilities::CUBE_ARRAY_TEXTURES
+            | naga::valid::Capabilities::RAY_QUERY,
     );
     let info = validator
         .validate(&module)
@@ -402,8 +420,11 @@ fn u32_constant(module: &naga::Module, name: &str) -> Result<Option<u32>, String
 /// Rust for every push-constant (`var<immediate>`) struct of the module: `#[repr(C)]`, the
 /// members at naga's offsets with explicit zero padding between and after them, and compile-time
 /// assertions of the size and of every member's offset.
-fn push_constant_structs(module: &naga::Module, shown: &str) -> Result<String, String> {
-    let mut out = String::new();
+fn push_constant_structs(
+    module: &naga::Module,
+    shown: &str,
+) -> Result<Vec<(String, String)>, String> {
+    let mut structs = Vec::new();
     let mut seen = BTreeMap::new();
     for (_, global) in module.global_variables.iter() {
         if global.space != naga::AddressSpace::Immediate {
@@ -418,10 +439,11 @@ fn push_constant_structs(module: &naga::Module, shown: &str) -> Result<String, S
         if seen.insert(name.clone(), ()).is_some() {
             continue;
         }
+        let mut out = String::new();
         let _ = writeln!(
             out,
-            "\n/// The push constants `{name}` of `{shown}` (`var<immediate>`), laid out as naga lays \
-             them out ({span} bytes): generated from the shader, so the two cannot disagree.\n\
+            "\n/// The push constants `{name}` of the shaders (`var<immediate>`), laid out as naga \
+             lays them out ({span} bytes): generated from the shader, so the two cannot disagree.\n\
              #[repr(C)]\n\
              #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]\n\
              pub struct {name} {{"
@@ -470,8 +492,9 @@ fn push_constant_structs(module: &naga::Module, shown: &str) -> Result<String, S
             out.push_str(&line);
             out.push('\n');
         }
+        structs.push((name.clone(), out));
     }
-    Ok(out)
+    Ok(structs)
 }
 
 /// The Rust type, byte size and WGSL spelling of a push-constant member (32-bit scalars, vectors

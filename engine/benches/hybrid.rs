@@ -12,7 +12,7 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{
         DEFAULT_ANGLE_DEGREES, HybridScene, LayeredEms,
-        gpu::{GpuTracer, PathSettings},
+        gpu::{GpuTracer, GpuTraversal, PathSettings},
         paths::{PathOracle, ScreenCamera, VertexPaths},
         tessellate::{
             SurfaceVertex, TessellationError, TessellationOptions, VertexEvaluation, VertexOracle,
@@ -187,7 +187,8 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
             return;
         }
     };
-    let tracer = GpuTracer::new(&gpu, &setup.hybrid.trace, None).expect("the tracer uploads");
+    let tracer = GpuTracer::new(&gpu, &setup.hybrid.trace, None, GpuTraversal::Bvh)
+        .expect("the tracer uploads");
     let settings = PathSettings {
         lens: setup.lens,
         object: setup.object,

@@ -14,7 +14,7 @@
 use glam::{DVec2, DVec3, Vec2, Vec3};
 use lensmap::gpu::Gpu;
 use lensmap::hybrid::gpu::{
-    GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, PathSettings, TexgenRequest,
+    GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, GpuTraversal, PathSettings, TexgenRequest,
 };
 use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths};
 use lensmap::hybrid::tessellate::{
@@ -64,7 +64,7 @@ fn welded(mesh: &TriangleMesh) -> TriangleMesh {
 fn on_gpu(gpu: &Gpu, name: &str) -> (Scene, TraceScene, GpuTracer, ScreenCamera) {
     let scene = built_in_scene(name, 160, 120, 2);
     let trace = TraceScene::new(&scene).expect("the scene traces");
-    let tracer = GpuTracer::new(gpu, &trace, None).expect("the tracer uploads");
+    let tracer = GpuTracer::new(gpu, &trace, None, GpuTraversal::Bvh).expect("the tracer uploads");
     let camera = &scene.camera;
     let screen = ScreenCamera {
         eye: camera.position.as_dvec3(),

@@ -12,7 +12,7 @@
 //! the same frame twice bit for bit.
 
 use glam::{DVec3, Vec2, Vec3};
-use lensmap::hybrid::gpu::{GpuTracer, PathSettings};
+use lensmap::hybrid::gpu::{GpuTracer, GpuTraversal, PathSettings, Traversal};
 use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths, VertexPrecision};
 use lensmap::hybrid::tessellate::TessellationError;
 use lensmap::hybrid::tessellate::{SurfaceVertex, VertexOracle, faces_eye};
@@ -92,7 +92,12 @@ fn agreement(name: &str) -> Agreement {
     let scene = built_in_scene(name, 320, 240, 1);
     let trace = TraceScene::new(&scene).expect("the scene traces");
     let gpu = gpu();
-    let tracer = GpuTracer::new(&gpu, &trace, None).expect("the tracer uploads");
+    let tracer =
+        GpuTracer::new(&gpu, &trace, None, GpuTraversal::Bvh).expect("the tracer uploads");
+    // Where the device has ray queries, the driver's walk must find what the BVH walk finds.
+    let driver = gpu.ray_queries().then(|| {
+        GpuTracer::new(&gpu, &trace, None, GpuTraversal::Driver).expect("the driver's walk builds")
+    });
     let camera = &scene.camera;
     let screen = ScreenCamera {
         eye: camera.position.as_dvec3(),
@@ -134,6 +139,23 @@ fn agreement(name: &str) -> Agreement {
                 .trace_vertices(&gpu, &screen, &settings, &input)
                 .expect("the pass runs");
             assert_eq!(counters.primary_rays, vertices.len() as u64);
+            if let Some(driver) = &driver {
+                let (walked, driver_counters) = driver
+                    .trace_vertices(&gpu, &screen, &settings, &input)
+                    .expect("the driver's walk runs");
+                let differ = traced.iter().zip(&walked).filter(|(a, b)| a != b).count();
+                eprintln!(
+                    "{name}: lens {lens}, object {object}: the driver's walk differs from the BVH's at {differ} of {} vertices; triangle tests {} / {}",
+                    traced.len(),
+                    driver_counters.triangle_tests,
+                    counters.triangle_tests
+                );
+                assert_eq!(differ, 0, "{name}: the two walks' records");
+                assert_eq!(
+                    (driver_counters.primary_rays, driver_counters.secondary_rays),
+                    (counters.primary_rays, counters.secondary_rays)
+                );
+            }
             for ((c64, c32), g) in f64_paths.iter().zip(&f32_paths).zip(&traced) {
                 let g = (&g.paths, g.visible);
                 found.gpu_f64.add((&c64.sample, c64.visible), g);
@@ -232,31 +254,34 @@ fn gpu_vertex_paths_agree_with_the_cpu_oracle_on_the_built_in_scenes() {
 #[test]
 fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
     let mut runner = FrameRunner::new(gpu()).expect("a runner");
-    let options = |tracer| FrameOptions {
+    let options = |tracer, traversal| FrameOptions {
         hybrid: HybridOptions {
             tracer,
+            traversal,
             ..HybridOptions::default()
         },
         variant: Variant::SinglePass,
         blend: BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     };
+    let ray_queries = runner.gpu().ray_queries();
     for name in BUILTIN_SCENES {
         let scene = built_in_scene(name, 96, 72, 2);
         let camera = scene.camera;
         let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 32);
         let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {})
             .expect("the reference renders");
-        let mut frame = |tracer, read_back: bool| {
+        let mut walk_frame = |tracer, read_back: bool, traversal| {
             hybrid.forget_frame();
             runner.read_back_gpu_meshes(read_back);
             let frame = runner
-                .frame(&hybrid, &camera, &options(tracer))
+                .frame(&hybrid, &camera, &options(tracer, traversal))
                 .expect("the frame renders");
             let error = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)
                 .expect("the lens covers pixels");
             (frame, error.psnr_db)
         };
+        let mut frame = |tracer, read_back| walk_frame(tracer, read_back, Traversal::Bvh);
         let (cpu, cpu_psnr) = frame(VertexTracer::Cpu, false);
         let (on_gpu, gpu_psnr) = frame(VertexTracer::Gpu, false);
         let (again, _) = frame(VertexTracer::Gpu, false);
@@ -264,6 +289,8 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
         // The same frame read back to the host and drawn from uploaded data: the device's
         // draw list and lens data are what the host would have made of the same mesh.
         let (read_back, _) = frame(VertexTracer::Gpu, true);
+        // The driver's acceleration structures, where the device has them: the same frame.
+        let walked = ray_queries.then(|| walk_frame(VertexTracer::Gpu, false, Traversal::Driver).0);
         let (c, g) = (cpu.stats, on_gpu.stats);
         eprintln!(
             "{name}: lens PSNR CPU {cpu_psnr:.3} dB, GPU {gpu_psnr:.3} dB; vertices {} / {}, triangles {} / {}",
@@ -318,7 +345,20 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
             on_gpu.image.pixels == read_back.image.pixels,
             "{name}: the frame drawn from the device's buffers differs from the one read back"
         );
-        let without_device = hybrid.frame(&camera, &options(VertexTracer::Gpu).hybrid);
+        if let Some(walked) = walked {
+            assert!(
+                walked.stats.traced_on_gpu && walked.image.pixels == on_gpu.image.pixels,
+                "{name}: the frame traced by the driver's walk differs from the BVH walk's"
+            );
+            assert_eq!(
+                (walked.stats.vertices_traced, walked.stats.triangles_out),
+                (g.vertices_traced, g.triangles_out)
+            );
+        }
+        let without_device = hybrid.frame(
+            &camera,
+            &options(VertexTracer::Gpu, Traversal::Bvh).hybrid,
+        );
         assert!(
             matches!(&without_device, Err(TessellationError::Option(e)) if e.to_string().contains("without a device")),
             "{:?}",

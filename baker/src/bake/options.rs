@@ -296,6 +296,7 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         hull_split: _,
         // The test renderings are built without a device, so on the CPU (`gpu` is refused).
         tracer: _,
+        traversal: _,
     } = hybrid;
     let TessellationOptions {
         t,
@@ -343,6 +344,7 @@ mod tests {
                     fresnel: FresnelModel::Exact,
                     hull_split: true,
                     tracer: lensmap::hybrid::VertexTracer::Cpu,
+                    traversal: lensmap::hybrid::gpu::Traversal::Auto,
                 },
                 variant: Variant::SinglePass,
                 em_size: EmSize::Fixed(64),

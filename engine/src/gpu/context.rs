@@ -81,6 +81,9 @@ pub(crate) struct Shared {
     debug_instance: Option<ash::ext::debug_utils::Instance>,
     /// Debug-utils command-buffer labels around passes; `None` when the extension is absent.
     pub(crate) debug_device: Option<ash::ext::debug_utils::Device>,
+    /// `VK_KHR_acceleration_structure`'s entry points, where the device was made with ray
+    /// queries ([`Gpu::ray_queries`]).
+    pub(crate) acceleration: Option<ash::khr::acceleration_structure::Device>,
     messenger: vk::DebugUtilsMessengerEXT,
     messages: Box<Mutex<Vec<String>>>,
     /// Whether lensmap created the instance and device (and destroys them), or a host lent them
@@ -205,6 +208,8 @@ struct Parts {
     debug_instance: Option<ash::ext::debug_utils::Instance>,
     messenger: vk::DebugUtilsMessengerEXT,
     messages: Box<Mutex<Vec<String>>>,
+    /// Whether the device was made with ray queries (`super::acceleration`).
+    ray_queries: bool,
 }
 
 /// What lensmap needs enabled on a host's device, as the host declares it: Vulkan gives no way
@@ -350,6 +355,8 @@ impl Gpu {
             debug_instance: None,
             messenger: vk::DebugUtilsMessengerEXT::null(),
             messages: Box::default(),
+            // A host's device: Vulkan cannot tell whether it enabled them.
+            ray_queries: false,
         };
         Gpu::assemble(parts, false).map_err(|(error, _)| error)
     }
@@ -362,7 +369,8 @@ impl Gpu {
             device: parts.device.clone(),
             physical_device: parts.physical_device,
             debug_settings: Default::default(),
-            buffer_device_address: false,
+            // Acceleration structures are built from buffers' device addresses.
+            buffer_device_address: parts.ray_queries,
             allocation_sizes: Default::default(),
         });
         let allocator = match allocator {
@@ -414,11 +422,14 @@ impl Gpu {
             debug_instance,
             messenger,
             messages,
+            ray_queries,
             ..
         } = parts;
         let debug_device = debug_instance
             .as_ref()
             .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        let acceleration = ray_queries
+            .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
         // From here the Shared owns (or borrows) the device and destroys it in its Drop.
         let shared = Arc::new(Shared {
             entry,
@@ -427,6 +438,7 @@ impl Gpu {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             debug_instance,
             debug_device,
+            acceleration,
             messenger,
             messages,
             owned,
@@ -523,8 +535,13 @@ impl Gpu {
             }
         };
         let (physical_device, queue_family, properties) = chosen;
+        let ray_queries = super::acceleration::supported(&instance, physical_device);
 
-        let device = match create_device(&instance, physical_device, queue_family, presents) {
+        let features = DeviceFeatures {
+            presents,
+            ray_queries,
+        };
+        let device = match create_device(&instance, physical_device, queue_family, features) {
             Ok(device) => device,
             Err(result) => {
                 destroy_instance(&instance);
@@ -547,6 +564,7 @@ impl Gpu {
             debug_instance,
             messenger,
             messages,
+            ray_queries,
         };
         match Gpu::assemble(parts, true) {
             Ok(mut gpu) => {
@@ -589,6 +607,12 @@ impl Gpu {
     /// The device's name as the driver reports it (`llvmpipe (LLVM 15.0.6, 256 bits)` on lavapipe).
     pub fn device_name(&self) -> &str {
         &self.device.device
+    }
+
+    /// Whether the device was made with acceleration structures and ray queries, which the GPU
+    /// tracer may walk instead of its own BVH (`crate::gpu::acceleration`).
+    pub fn ray_queries(&self) -> bool {
+        self.shared.acceleration.is_some()
     }
 
     /// The device and its driver (name and version): what a report should name, since two
@@ -866,17 +890,32 @@ fn create_instance(
     }
 }
 
+/// What a device is made with besides what lensmap always needs.
+#[derive(Clone, Copy)]
+struct DeviceFeatures {
+    /// `VK_KHR_swapchain`.
+    presents: bool,
+    /// Acceleration structures and ray queries, with buffer device addresses
+    /// (`super::acceleration`).
+    ray_queries: bool,
+}
+
 /// A device on `physical_device` with one queue of `queue_family` and the features lensmap
 /// needs: cube-map arrays, dynamic rendering, synchronization2 and timeline semaphores; with
-/// `VK_KHR_swapchain` when it `presents`.
+/// `VK_KHR_swapchain` when it presents, and ray queries where asked.
 fn create_device(
     instance: &ash::Instance,
     physical_device: vk::PhysicalDevice,
     queue_family: u32,
-    presents: bool,
+    wanted: DeviceFeatures,
 ) -> ash::prelude::VkResult<ash::Device> {
-    let extensions = [ash::khr::swapchain::NAME.as_ptr()];
-    let extensions = if presents { &extensions[..] } else { &[] };
+    let mut extensions = Vec::new();
+    if wanted.presents {
+        extensions.push(ash::khr::swapchain::NAME.as_ptr());
+    }
+    if wanted.ray_queries {
+        extensions.extend(super::acceleration::EXTENSIONS.map(|name| name.as_ptr()));
+    }
     let priorities = [1.0f32];
     let queues = [vk::DeviceQueueCreateInfo::default()
         .queue_family_index(queue_family)
@@ -887,13 +926,23 @@ fn create_device(
         .synchronization2(true);
     // Timeline semaphores are required of every Vulkan 1.2 device: frames in flight are
     // tracked by one counter instead of a fence per submission.
-    let mut features12 = vk::PhysicalDeviceVulkan12Features::default().timeline_semaphore(true);
-    let device_info = vk::DeviceCreateInfo::default()
+    let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
+        .timeline_semaphore(true)
+        .buffer_device_address(wanted.ray_queries);
+    let mut acceleration = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+        .acceleration_structure(true);
+    let mut ray_query = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+    let mut device_info = vk::DeviceCreateInfo::default()
         .queue_create_infos(&queues)
-        .enabled_extension_names(extensions)
+        .enabled_extension_names(&extensions)
         .enabled_features(&features)
         .push_next(&mut features13)
         .push_next(&mut features12);
+    if wanted.ray_queries {
+        device_info = device_info
+            .push_next(&mut acceleration)
+            .push_next(&mut ray_query);
+    }
     // SAFETY: physical_device comes from this instance; the create info lives until return.
     unsafe { instance.create_device(physical_device, &device_info, None) }
 }

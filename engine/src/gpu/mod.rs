@@ -3,6 +3,7 @@
 //! debug-utils labels and the validation messenger. Nothing above this room calls ash directly
 //! except `render/`, which records command buffers.
 
+pub mod acceleration;
 pub(crate) mod context;
 mod pipeline;
 pub(crate) mod resources;

@@ -28,6 +28,13 @@ pub enum BufferUsage {
     /// buffer, and a transfer source and destination (cleared with fills, read back by copies).
     /// Device-local where the device has such memory.
     Device,
+    /// Input to an acceleration-structure build (boxes, instances), written by the CPU and read
+    /// by its device address.
+    AccelerationInput,
+    /// Where an acceleration structure lives. Device-local where the device has such memory.
+    AccelerationStorage,
+    /// An acceleration-structure build's scratch memory, by its device address.
+    AccelerationScratch,
 }
 
 /// A buffer in host-visible memory (uploads and readbacks need no extra copy on lavapipe or
@@ -45,6 +52,18 @@ impl Buffer {
     /// Creates a buffer of `size` bytes (at least 4).
     pub fn new(gpu: &Gpu, name: &str, size: u64, usage: BufferUsage) -> Result<Buffer, GpuError> {
         let size = size.max(4);
+        let acceleration = matches!(
+            usage,
+            BufferUsage::AccelerationInput
+                | BufferUsage::AccelerationStorage
+                | BufferUsage::AccelerationScratch
+        );
+        if acceleration && gpu.shared.acceleration.is_none() {
+            return Err(GpuError::BadUpload {
+                what: name.into(),
+                problem: "the device was made without acceleration structures".into(),
+            });
+        }
         let (flags, location) = match usage {
             BufferUsage::Vertex => (
                 vk::BufferUsageFlags::VERTEX_BUFFER,
@@ -63,6 +82,20 @@ impl Buffer {
                     | vk::BufferUsageFlags::INDIRECT_BUFFER
                     | vk::BufferUsageFlags::TRANSFER_SRC
                     | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            ),
+            BufferUsage::AccelerationInput => (
+                vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+                    | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+                MemoryLocation::CpuToGpu,
+            ),
+            BufferUsage::AccelerationStorage => (
+                vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+                    | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+                MemoryLocation::GpuOnly,
+            ),
+            BufferUsage::AccelerationScratch => (
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
                 MemoryLocation::GpuOnly,
             ),
         };
@@ -121,6 +154,18 @@ impl Buffer {
             })?;
         target.copy_from_slice(data);
         Ok(())
+    }
+
+    /// The buffer's device address (the acceleration-structure usages, on a device with
+    /// `bufferDeviceAddress` enabled: [`Gpu::ray_queries`]).
+    pub fn device_address(&self) -> vk::DeviceAddress {
+        // SAFETY: a live buffer of this device; its usages that need an address include
+        // SHADER_DEVICE_ADDRESS, which only a device with ray queries is asked to make.
+        unsafe {
+            self.shared
+                .device
+                .get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(self.handle))
+        }
     }
 
     /// The mapped contents (host-visible buffers; empty otherwise).

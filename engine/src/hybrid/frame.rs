@@ -168,6 +168,8 @@ pub struct HybridOptions {
     pub hull_split: bool,
     /// Where the lens vertices are ray traced: on the CPU, on the GPU, or as the device suits.
     pub tracer: VertexTracer,
+    /// How the GPU tracer finds a ray's hits.
+    pub traversal: super::gpu::Traversal,
 }
 
 /// Where a frame's lens vertices are ray traced (`--tracer`). The library's default is the CPU,
@@ -231,6 +233,7 @@ impl Default for HybridOptions {
             fresnel: FresnelModel::Exact,
             hull_split: true,
             tracer: VertexTracer::Cpu,
+            traversal: super::gpu::Traversal::Auto,
         }
     }
 }

@@ -102,6 +102,8 @@ pub(crate) enum Resource {
     Image(vk::ImageView),
     /// A sampler.
     Sampler(vk::Sampler),
+    /// A top-level acceleration structure, for ray queries.
+    AccelerationStructure(vk::AccelerationStructureKHR),
 }
 
 /// Points binding i of `set` (of the layout `bindings`) at `resources[i]`. The set must not be
@@ -121,7 +123,7 @@ pub(crate) fn write_set(
                 offset: 0,
                 range: vk::WHOLE_SIZE,
             }],
-            Resource::Image(_) | Resource::Sampler(_) => Default::default(),
+            _ => Default::default(),
         })
         .collect();
     let images: Vec<[vk::DescriptorImageInfo; 1]> = resources
@@ -136,14 +138,26 @@ pub(crate) fn write_set(
                 sampler,
                 ..Default::default()
             }],
-            Resource::Buffer(_) => Default::default(),
+            _ => Default::default(),
         })
+        .collect();
+    let structures: Vec<[vk::AccelerationStructureKHR; 1]> = resources
+        .iter()
+        .map(|resource| match *resource {
+            Resource::AccelerationStructure(structure) => [structure],
+            _ => Default::default(),
+        })
+        .collect();
+    let mut structure_infos: Vec<vk::WriteDescriptorSetAccelerationStructureKHR> = structures
+        .iter()
+        .map(|s| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s))
         .collect();
     let writes: Vec<vk::WriteDescriptorSet> = bindings
         .iter()
         .zip(resources)
+        .zip(&mut structure_infos)
         .enumerate()
-        .map(|(index, (binding, resource))| {
+        .map(|(index, ((binding, resource), structure))| {
             let write = vk::WriteDescriptorSet::default()
                 .dst_set(set)
                 .dst_binding(index as u32)
@@ -151,6 +165,9 @@ pub(crate) fn write_set(
             match resource {
                 Resource::Buffer(_) => write.buffer_info(&buffers[index]),
                 Resource::Image(_) | Resource::Sampler(_) => write.image_info(&images[index]),
+                Resource::AccelerationStructure(_) => {
+                    write.descriptor_count(1).push_next(structure)
+                }
             }
         })
         .collect();

@@ -13,7 +13,7 @@ use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{
         BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats, VertexTracer,
-        gpu::{GpuPaths, GpuTracer, read_counts},
+        gpu::{GpuPaths, GpuTracer, Traversal, read_counts},
     },
     index::LensIndex,
     options::OptionError,
@@ -107,6 +107,7 @@ pub struct FrameRunner {
 struct ResidentTracer {
     scene: u64,
     fresnel: FresnelModel,
+    traversal: Traversal,
     tracer: Result<GpuTracer, String>,
 }
 
@@ -400,7 +401,7 @@ impl FrameRunner {
         let held = self.slots[self.last_slot].identity;
         let tracer = options.hybrid.tracer;
         let on_gpu = tracer.on_gpu(&self.gpu)
-            && match self.make_resident(hybrid, options.hybrid.fresnel) {
+            && match self.make_resident(hybrid, options.hybrid.fresnel, options.hybrid.traversal) {
                 Ok(()) => true,
                 // `auto` traces on the CPU where the device cannot hold the scene's geometry.
                 Err(_) if tracer == VertexTracer::Auto => false,
@@ -476,19 +477,23 @@ impl FrameRunner {
         &mut self,
         hybrid: &HybridScene,
         fresnel: FresnelModel,
+        traversal: Traversal,
     ) -> Result<(), RunError> {
-        let kept = self
-            .tracer
-            .as_ref()
-            .is_some_and(|t| t.scene == hybrid.identity() && t.fresnel == fresnel);
+        let kept = self.tracer.as_ref().is_some_and(|t| {
+            t.scene == hybrid.identity() && t.fresnel == fresnel && t.traversal == traversal
+        });
         if !kept {
             // The old one first: its buffers go before the new ones are made.
             self.tracer = None;
-            let tracer = GpuTracer::new(&self.gpu, &hybrid.trace, fresnel.table()?.as_ref())
+            let table = fresnel.table()?;
+            let tracer = traversal
+                .resolve(&self.gpu)
+                .and_then(|walk| GpuTracer::new(&self.gpu, &hybrid.trace, table.as_ref(), walk))
                 .map_err(|error| error.to_string());
             self.tracer = Some(ResidentTracer {
                 scene: hybrid.identity(),
                 fresnel,
+                traversal,
                 tracer,
             });
         }

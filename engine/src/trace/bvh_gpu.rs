@@ -9,7 +9,7 @@
 
 use std::time::Duration;
 
-use obvhs::{BvhBuildParams, bvh2::builder::build_bvh2};
+use obvhs::{Boundable, BvhBuildParams, bvh2::builder::build_bvh2};
 
 use super::bvh::{MeshBvh, padded_bounds};
 use super::world::TraceScene;
@@ -36,6 +36,13 @@ pub struct GpuGeometry {
     pub triangles: Vec<[f32; 4]>,
     /// Root node per part: the environment, then each lens object ([`NO_NODE`]: no triangle).
     pub roots: Vec<u32>,
+    /// Per part its first triangle and its triangle count: what the tracer's ray-query
+    /// traversal reads instead of the roots (`shaders/wgsl/tracer_rq.wgsl`).
+    pub ranges: Vec<[u32; 2]>,
+    /// Per part each triangle's padded box `[min, max]`, in triangle order: the boxes of the
+    /// driver's acceleration structures (`crate::gpu::acceleration::BoxScene`), the same boxes
+    /// as the BVH's leaves.
+    pub boxes: Vec<Vec<[f32; 6]>>,
     /// Two vec4 per scene object: (kind: 0 diffuse, 1 glass, 2 mirror; index of refraction),
     /// (absorption per metre, or reflectance at normal incidence).
     pub materials: Vec<[f32; 4]>,
@@ -50,8 +57,12 @@ impl GpuGeometry {
         let mut geometry = GpuGeometry::default();
         let parts = std::iter::once(&trace.environment).chain(trace.lenses.iter().map(|l| &l.bvh));
         for bvh in parts {
+            let first = geometry.triangle_count() as u32;
             let root = geometry.push_part(bvh);
             geometry.roots.push(root);
+            geometry
+                .ranges
+                .push([first, geometry.triangle_count() as u32 - first]);
         }
         geometry.materials = trace
             .object_materials
@@ -88,6 +99,7 @@ impl GpuGeometry {
     fn push_part(&mut self, bvh: &MeshBvh) -> u32 {
         let triangles = &bvh.triangles;
         if triangles.is_empty() {
+            self.boxes.push(Vec::new());
             return NO_NODE;
         }
         let bounds: Vec<_> = triangles.iter().map(|t| padded_bounds(t, 1.0)).collect();
@@ -114,6 +126,15 @@ impl GpuGeometry {
             self.nodes
                 .push([hi.x, hi.y, hi.z, f32::from_bits(node.prim_count)]);
         }
+        self.boxes.push(
+            bvh2.primitive_indices
+                .iter()
+                .map(|&index| {
+                    let b = bounds[index as usize].aabb();
+                    [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z]
+                })
+                .collect(),
+        );
         for &index in &bvh2.primitive_indices {
             let t = &triangles[index as usize];
             let v = |d: glam::DVec3, w: f32| [d.x as f32, d.y as f32, d.z as f32, w];

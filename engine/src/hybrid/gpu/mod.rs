@@ -16,7 +16,7 @@ use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
 use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
 use crate::trace::{
     Bounces, Ray,
-    bvh_gpu::{GpuGeometry, STACK_ENTRIES},
+    bvh_gpu::GpuGeometry,
     schlick_table::SchlickTable,
     stats::TraceCounters,
     world::TraceScene,
@@ -27,18 +27,17 @@ mod recorder;
 mod resident;
 mod tessellate;
 mod texgen;
+mod walk;
 
 pub use resident::{DeviceCounts, read_counts};
 pub use tessellate::{
     DeviceTessellation, GPU_MAX_DEPTH, GpuStageMs, GpuTessellation, GpuTessellationRequest,
 };
 pub use texgen::TexgenRequest;
+pub use walk::{GpuTraversal, Traversal};
 
 /// The next [`GpuTracer::id`].
 static NEXT_TRACER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
-
-/// Storage buffers bound at set 0 of every tracer pass, in binding order (tracer.wgsl).
-const TRACER_SET: &[Binding] = &[STORAGE; 10];
 
 const STORAGE: Binding = Binding {
     ty: vk::DescriptorType::STORAGE_BUFFER,
@@ -100,10 +99,10 @@ pub struct GpuPaths<'a> {
 /// The resident geometry and the tracer's pipelines on one device.
 pub struct GpuTracer {
     device: ash::Device,
-    nodes: Buffer,
+    /// What finds a ray's hits: the BVHs, or the driver's acceleration structures.
+    walk: walk::Walk,
     triangles: Buffer,
     materials: Buffer,
-    roots: Buffer,
     schlick: Buffer,
     schlick_texels: u32,
     set_layout: vk::DescriptorSetLayout,
@@ -258,33 +257,17 @@ fn timestamp_bits(gpu: &Gpu) -> u32 {
         .map_or(0, |family| family.timestamp_valid_bits)
 }
 
-/// Refuses geometry the tracer's passes cannot walk whole: a BVH deeper than the traversal stack
-/// holds, or a buffer past the device's `maxStorageBufferRange`.
-fn check_fits(gpu: &Gpu, geometry: &GpuGeometry) -> Result<(), GpuError> {
-    if geometry.depth >= STACK_ENTRIES {
+/// Refuses a buffer of `vec4s` vec4 past the device's `maxStorageBufferRange`.
+fn check_range(gpu: &Gpu, what: &str, vec4s: usize) -> Result<(), GpuError> {
+    let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
+    let bytes = 16 * vec4s as u64;
+    if bytes > range {
         return Err(GpuError::BadUpload {
-            what: "tracer BVH".into(),
+            what: what.into(),
             problem: format!(
-                "a part's BVH is {} levels deep, past the {STACK_ENTRIES} entries of the GPU tracer's traversal stack; trace this scene on the CPU",
-                geometry.depth
+                "{bytes} bytes, past the device's maxStorageBufferRange of {range}; trace this scene on the CPU"
             ),
         });
-    }
-    let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
-    let buffers = [
-        ("tracer nodes", geometry.nodes.len()),
-        ("tracer triangles", geometry.triangles.len()),
-    ];
-    for (what, vec4s) in buffers {
-        let bytes = 16 * vec4s as u64;
-        if bytes > range {
-            return Err(GpuError::BadUpload {
-                what: what.into(),
-                problem: format!(
-                    "{bytes} bytes, past the device's maxStorageBufferRange of {range}; trace this scene on the CPU"
-                ),
-            });
-        }
     }
     Ok(())
 }
@@ -301,24 +284,24 @@ fn storage<T: bytemuck::Pod>(gpu: &Gpu, name: &str, data: &[T]) -> Result<Buffer
 }
 
 impl GpuTracer {
-    /// Uploads `trace`'s geometry (once per scene) and creates the passes. `fresnel`: the
-    /// Schlick table the paths look Fresnel up in, `None` to evaluate it exactly.
+    /// Uploads `trace`'s geometry (once per scene) for `traversal` and creates the passes.
+    /// `fresnel`: the Schlick table the paths look Fresnel up in, `None` to evaluate it exactly.
     pub fn new(
         gpu: &Gpu,
         trace: &TraceScene,
         fresnel: Option<&SchlickTable>,
+        traversal: GpuTraversal,
     ) -> Result<GpuTracer, GpuError> {
         let geometry = GpuGeometry::new(trace);
-        check_fits(gpu, &geometry)?;
+        check_range(gpu, "tracer triangles", geometry.triangles.len())?;
         let texels = fresnel.map_or(&[0.0f32][..], |t| t.texels());
         // Buffers and the pool first: they free themselves if a later step fails.
-        let nodes = storage(gpu, "tracer nodes", &geometry.nodes)?;
+        let walk = walk::Walk::new(gpu, &geometry, traversal)?;
         let triangles = storage(gpu, "tracer triangles", &geometry.triangles)?;
         let materials = storage(gpu, "tracer materials", &geometry.materials)?;
-        let roots = storage(gpu, "tracer roots", &geometry.roots)?;
         let schlick = storage(gpu, "tracer schlick", texels)?;
-        let pool = DescriptorPool::new(gpu, TRACER_SET, 4)?;
-        let set_layout = create_set_layout(gpu, TRACER_SET)?;
+        let pool = DescriptorPool::new(gpu, walk.bindings(), 4)?;
+        let set_layout = create_set_layout(gpu, walk.bindings())?;
         let layout = match compute_layout::<TracerConstants>(gpu, set_layout) {
             Ok(layout) => layout,
             Err(e) => {
@@ -327,10 +310,11 @@ impl GpuTracer {
                 return Err(e);
             }
         };
+        let module = walk.module();
         let pipeline = |entry: &str| {
-            lensmap_shaders::shader("tracer", entry)
+            lensmap_shaders::shader(module, entry)
                 .ok_or_else(|| GpuError::BadUpload {
-                    what: "tracer.wgsl".into(),
+                    what: format!("{module}.wgsl"),
                     problem: format!("entry point {entry} was not compiled"),
                 })
                 .and_then(|shader| gpu.create_compute_pipeline(&shader, layout))
@@ -384,10 +368,9 @@ impl GpuTracer {
         };
         Ok(GpuTracer {
             device: gpu.device().clone(),
-            nodes,
+            walk,
             triangles,
             materials,
-            roots,
             schlick,
             schlick_texels: fresnel.map_or(0, |t| t.texels().len() as u32),
             set_layout,
@@ -413,6 +396,24 @@ impl GpuTracer {
                 submissions,
             }),
         })
+    }
+
+    /// How it finds a ray's hits.
+    pub fn traversal(&self) -> GpuTraversal {
+        self.walk.traversal()
+    }
+
+    /// What bindings 0 to 4 of a tracer pass's set point at: the walk's two, the triangles, the
+    /// materials and the Schlick table.
+    fn geometry_resources(&self) -> Vec<Resource> {
+        let (walk, parts) = self.walk.resources();
+        vec![
+            walk,
+            Resource::Buffer(self.triangles.handle),
+            Resource::Buffer(self.materials.handle),
+            parts,
+            Resource::Buffer(self.schlick.handle),
+        ]
     }
 
     /// The constants of a pass over `settings`' vertices seen by `camera`.
@@ -527,22 +528,19 @@ impl GpuTracer {
         vertex_buffer.write(0, bytemuck::cast_slice(&data), "tracer vertices")?;
         pool.reset()?;
         let set = pool.allocate(self.set_layout, 1)?[0];
-        let resources: Vec<Resource> = [
-            &self.nodes,
-            &self.triangles,
-            &self.materials,
-            &self.roots,
-            &self.schlick,
-            &*vertex_buffer,
-            &*records,
-            &*counters,
-            &self.unbound,
-            &self.unbound,
-        ]
-        .iter()
-        .map(|b| Resource::Buffer(b.handle))
-        .collect();
-        write_set(gpu, set, TRACER_SET, &resources);
+        let mut resources = self.geometry_resources();
+        resources.extend(
+            [
+                &*vertex_buffer,
+                &*records,
+                &*counters,
+                &self.unbound,
+                &self.unbound,
+            ]
+            .iter()
+            .map(|b| Resource::Buffer(b.handle)),
+        );
+        write_set(gpu, set, self.walk.bindings(), &resources);
         let mut constants = self.constants(camera, settings);
         constants.vertex_count = count as u32;
         let device = gpu.device();

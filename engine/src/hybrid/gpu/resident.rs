@@ -234,7 +234,7 @@ impl ObjectState {
         &mut self,
         gpu: &Gpu,
         (tracer, tessellation): (
-            (vk::DescriptorSetLayout, &[Resource]),
+            (vk::DescriptorSetLayout, &'static [Binding], &[Resource]),
             vk::DescriptorSetLayout,
         ),
         scratch: &Scratch,
@@ -242,12 +242,12 @@ impl ObjectState {
         if self.sets.is_some() {
             return Ok(());
         }
-        let tracer_pool = DescriptorPool::new(gpu, super::TRACER_SET, 1)?;
+        let tracer_pool = DescriptorPool::new(gpu, tracer.1, 1)?;
         let tessellation_pool = DescriptorPool::new(gpu, super::tessellate::TESSELLATE_SET, 1)?;
-        let mut tracer_resources = tracer.1.to_vec();
+        let mut tracer_resources = tracer.2.to_vec();
         tracer_resources.extend(scratch.tracer_resources());
         let tracer_set =
-            tracer_pool.allocate_one(gpu, (tracer.0, super::TRACER_SET), &tracer_resources)?;
+            tracer_pool.allocate_one(gpu, (tracer.0, tracer.1), &tracer_resources)?;
         let tessellation_set = tessellation_pool.allocate_one(
             gpu,
             (tessellation, super::tessellate::TESSELLATE_SET),

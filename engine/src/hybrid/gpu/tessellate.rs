@@ -785,19 +785,13 @@ impl GpuTracer {
             }
             .into());
         };
-        let geometry: Vec<Resource> = [
-            &self.nodes,
-            &self.triangles,
-            &self.materials,
-            &self.roots,
-            &self.schlick,
-        ]
-        .iter()
-        .map(|b| Resource::Buffer(b.handle))
-        .collect();
+        let geometry = self.geometry_resources();
         held.ensure_sets(
             gpu,
-            ((self.set_layout, &geometry), self.tessellation.set_layout),
+            (
+                (self.set_layout, self.walk.bindings(), &geometry),
+                self.tessellation.set_layout,
+            ),
             scratch,
         )?;
         let sets = held.sets.ok_or_else(|| GpuError::BadUpload {

@@ -1,0 +1,170 @@
+//! How the tracer's passes find a ray's hits: set 0's bindings 0 and 3, and the shader that
+//! reads them. Both walks test the same triangles with the same f32 test and tie rule
+//! (`shaders/wgsl/include/vertex_paths.wgsl`); they differ in what culls the triangles a ray
+//! cannot hit.
+
+use ash::vk;
+
+use super::{STORAGE, storage};
+use crate::gpu::{Gpu, GpuError, acceleration::BoxScene};
+use crate::render::descriptors::{Binding, Resource};
+use crate::trace::bvh_gpu::{GpuGeometry, STACK_ENTRIES};
+
+/// The walk the GPU tracer uses, once chosen for a device
+/// ([`crate::hybrid::Traversal::resolve`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum GpuTraversal {
+    /// A binary BVH per part built by obvhs on the CPU, walked with a stack in the compute
+    /// shader (`tracer.wgsl`): every Vulkan 1.3 device.
+    Bvh,
+    /// The driver's acceleration structures over each triangle's box, walked with ray queries
+    /// (`tracer_rq.wgsl`): devices with [`Gpu::ray_queries`].
+    Driver,
+}
+
+impl GpuTraversal {
+    /// The name `--traversal` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            GpuTraversal::Bvh => "bvh",
+            GpuTraversal::Driver => "driver",
+        }
+    }
+}
+
+/// How the GPU tracer finds a ray's hits (`--traversal`), before a device is chosen.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Traversal {
+    /// The walk measured faster on the device (`docs/results.md#gpu-traversal`).
+    #[default]
+    Auto,
+    /// [`GpuTraversal::Bvh`].
+    Bvh,
+    /// [`GpuTraversal::Driver`]; an error on a device without ray queries.
+    Driver,
+}
+
+impl Traversal {
+    /// The name `--traversal` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Traversal::Auto => "auto",
+            Traversal::Bvh => "bvh",
+            Traversal::Driver => "driver",
+        }
+    }
+
+    /// The walk this choice takes on `gpu`, or why it cannot.
+    pub fn resolve(self, gpu: &Gpu) -> Result<GpuTraversal, GpuError> {
+        match self {
+            Traversal::Auto => Ok(GpuTraversal::Bvh),
+            Traversal::Bvh => Ok(GpuTraversal::Bvh),
+            Traversal::Driver if gpu.ray_queries() => Ok(GpuTraversal::Driver),
+            Traversal::Driver => Err(GpuError::NoSuitableDevice(format!(
+                "{} ({}) offers no acceleration structures with ray queries (VK_KHR_acceleration_structure, VK_KHR_ray_query); walk the tracer's own BVH instead",
+                gpu.device_name(),
+                gpu.device_id().driver_description()
+            ))),
+        }
+    }
+}
+
+/// Set 0 of the BVH walk's passes: ten storage buffers (tracer.wgsl).
+const BVH_SET: &[Binding] = &[STORAGE; 10];
+
+/// Set 0 of the driver's walk: binding 0 the top-level acceleration structure (tracer_rq.wgsl).
+const DRIVER_SET: &[Binding] = &[
+    Binding {
+        ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+        stage: vk::ShaderStageFlags::COMPUTE,
+    },
+    STORAGE,
+    STORAGE,
+    STORAGE,
+    STORAGE,
+    STORAGE,
+    STORAGE,
+    STORAGE,
+    STORAGE,
+    STORAGE,
+];
+
+/// What a walk reads, resident on the device.
+pub(super) enum Walk {
+    /// The BVHs' nodes (binding 0) and each part's root node (binding 3).
+    Bvh { nodes: crate::gpu::Buffer, roots: crate::gpu::Buffer },
+    /// The acceleration structures (binding 0) and each part's triangle range (binding 3).
+    Driver {
+        scene: BoxScene,
+        ranges: crate::gpu::Buffer,
+    },
+}
+
+impl Walk {
+    /// Makes `geometry`'s walk resident on `gpu`; refuses geometry it cannot walk whole.
+    pub(super) fn new(
+        gpu: &Gpu,
+        geometry: &GpuGeometry,
+        traversal: GpuTraversal,
+    ) -> Result<Walk, GpuError> {
+        match traversal {
+            GpuTraversal::Bvh => {
+                if geometry.depth >= STACK_ENTRIES {
+                    return Err(GpuError::BadUpload {
+                        what: "tracer BVH".into(),
+                        problem: format!(
+                            "a part's BVH is {} levels deep, past the {STACK_ENTRIES} entries of the GPU tracer's traversal stack; trace this scene on the CPU",
+                            geometry.depth
+                        ),
+                    });
+                }
+                super::check_range(gpu, "tracer nodes", geometry.nodes.len())?;
+                Ok(Walk::Bvh {
+                    nodes: storage(gpu, "tracer nodes", &geometry.nodes)?,
+                    roots: storage(gpu, "tracer roots", &geometry.roots)?,
+                })
+            }
+            GpuTraversal::Driver => Ok(Walk::Driver {
+                scene: BoxScene::build(gpu, &geometry.boxes)?,
+                ranges: storage(gpu, "tracer part ranges", &geometry.ranges)?,
+            }),
+        }
+    }
+
+    /// Which walk this is.
+    pub(super) fn traversal(&self) -> GpuTraversal {
+        match self {
+            Walk::Bvh { .. } => GpuTraversal::Bvh,
+            Walk::Driver { .. } => GpuTraversal::Driver,
+        }
+    }
+
+    /// The layout of set 0 of its passes.
+    pub(super) fn bindings(&self) -> &'static [Binding] {
+        match self {
+            Walk::Bvh { .. } => BVH_SET,
+            Walk::Driver { .. } => DRIVER_SET,
+        }
+    }
+
+    /// The shader file of its passes.
+    pub(super) fn module(&self) -> &'static str {
+        match self {
+            Walk::Bvh { .. } => "tracer",
+            Walk::Driver { .. } => "tracer_rq",
+        }
+    }
+
+    /// What bindings 0 and 3 of set 0 point at.
+    pub(super) fn resources(&self) -> (Resource, Resource) {
+        match self {
+            Walk::Bvh { nodes, roots } => {
+                (Resource::Buffer(nodes.handle), Resource::Buffer(roots.handle))
+            }
+            Walk::Driver { scene, ranges } => (
+                Resource::AccelerationStructure(scene.top.handle),
+                Resource::Buffer(ranges.handle),
+            ),
+        }
+    }
+}

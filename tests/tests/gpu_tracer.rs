@@ -92,8 +92,7 @@ fn agreement(name: &str) -> Agreement {
     let scene = built_in_scene(name, 320, 240, 1);
     let trace = TraceScene::new(&scene).expect("the scene traces");
     let gpu = gpu();
-    let tracer =
-        GpuTracer::new(&gpu, &trace, None, GpuTraversal::Bvh).expect("the tracer uploads");
+    let tracer = GpuTracer::new(&gpu, &trace, None, GpuTraversal::Bvh).expect("the tracer uploads");
     // Where the device has ray queries, the driver's walk must find what the BVH walk finds.
     let driver = gpu.ray_queries().then(|| {
         GpuTracer::new(&gpu, &trace, None, GpuTraversal::Driver).expect("the driver's walk builds")
@@ -355,10 +354,8 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
                 (g.vertices_traced, g.triangles_out)
             );
         }
-        let without_device = hybrid.frame(
-            &camera,
-            &options(VertexTracer::Gpu, Traversal::Bvh).hybrid,
-        );
+        let without_device =
+            hybrid.frame(&camera, &options(VertexTracer::Gpu, Traversal::Bvh).hybrid);
         assert!(
             matches!(&without_device, Err(TessellationError::Option(e)) if e.to_string().contains("without a device")),
             "{:?}",

@@ -9,7 +9,10 @@ use std::path::PathBuf;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{FresnelModel, HybridOptions, HybridScene, VertexTracer, tessellate::DEFAULT_T},
+    hybrid::{
+        FresnelModel, HybridOptions, HybridScene, VertexTracer, gpu::Traversal,
+        tessellate::DEFAULT_T,
+    },
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{TargetFormat, Variant},
     runner::{
@@ -58,6 +61,9 @@ pub struct BenchHybridArgs {
     /// part times the CPU and the GPU alternately whatever this says).
     #[arg(long, value_enum, default_value = "auto")]
     tracer: TracerArg,
+    /// How the GPU tracer finds a ray's hits.
+    #[arg(long, value_enum, default_value = "auto")]
+    traversal: crate::common::TraversalArg,
     /// Timed frames per variant (after two warm-up frames).
     #[arg(long, default_value_t = 9)]
     frames: usize,
@@ -87,11 +93,8 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         camera.supersampling,
         args.t,
         format.name(),
-        if hybrid_options.tracer.on_gpu(runner.gpu()) {
-            "GPU"
-        } else {
-            "CPU"
-        },
+        crate::common::gpu_walk(runner.gpu(), &hybrid_options)
+            .map_or_else(|| "CPU".to_owned(), |walk| format!("GPU ({walk} walk)")),
         rayon::current_num_threads(),
         args.frames
     );
@@ -143,6 +146,27 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         &mut steps,
     )?;
     let gpu_stages = bench.gpu_stages(&mut runner, &gpu, &mut steps)?;
+    // Where the device has ray queries: the GPU tracer's two walks, alternately.
+    let walks = if runner.gpu().ray_queries() {
+        let walk = |traversal| FrameOptions {
+            hybrid: HybridOptions {
+                traversal,
+                ..gpu.hybrid
+            },
+            ..gpu
+        };
+        let (bvh, driver) = (walk(Traversal::Bvh), walk(Traversal::Driver));
+        let timed = bench.alternating(
+            &mut runner,
+            "the GPU tracer's BVH walk vs the driver's acceleration structures",
+            [("bvh", &bvh), ("driver", &driver)],
+            &mut steps,
+        )?;
+        let stages = bench.gpu_stages(&mut runner, &driver, &mut steps)?;
+        Some(json!({"alternating": timed, "driver_gpu_stages": stages}))
+    } else {
+        None
+    };
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
@@ -151,7 +175,8 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,
         "fresnel": args.fresnel.name(), "fresnel_against_exact": fresnel,
         "tracer": args.tracer.name(), "traced_on_gpu": hybrid_options.tracer.on_gpu(runner.gpu()),
-        "cpu_against_gpu_tracer": tracers, "gpu_stages": gpu_stages,
+        "walk": crate::common::gpu_walk(runner.gpu(), &hybrid_options),
+        "cpu_against_gpu_tracer": tracers, "gpu_stages": gpu_stages, "bvh_against_driver_walk": walks,
     });
     report(&out, args.report.as_deref())?;
     Ok(())
@@ -166,6 +191,7 @@ fn checked(
         footprint_subpixels: args.footprint,
         fresnel: args.fresnel,
         tracer: args.tracer.into(),
+        traversal: args.traversal.into(),
         ..HybridOptions::with_t(args.t)
     };
     hybrid_options.validate().map_err(flag_error)?;

@@ -340,6 +340,40 @@ impl From<TracerArg> for lensmap::hybrid::VertexTracer {
     }
 }
 
+/// `--traversal`: how the GPU tracer finds a ray's hits.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TraversalArg {
+    /// The walk measured faster on the device (docs/results.md#gpu-traversal).
+    Auto,
+    /// The tracer's own BVH, walked with a stack in a compute shader: every device.
+    Bvh,
+    /// The driver's acceleration structures, walked with ray queries: devices with
+    /// VK_KHR_acceleration_structure and VK_KHR_ray_query (Mesa 25's lavapipe, most GPUs).
+    Driver,
+}
+
+impl From<TraversalArg> for lensmap::hybrid::gpu::Traversal {
+    fn from(arg: TraversalArg) -> Self {
+        match arg {
+            TraversalArg::Auto => lensmap::hybrid::gpu::Traversal::Auto,
+            TraversalArg::Bvh => lensmap::hybrid::gpu::Traversal::Bvh,
+            TraversalArg::Driver => lensmap::hybrid::gpu::Traversal::Driver,
+        }
+    }
+}
+
+/// The walk the GPU tracer takes on `gpu` with these options (`bvh`, `driver`), or `None` where
+/// the vertices are traced on the CPU or the walk cannot be had (the frame then says why).
+pub fn gpu_walk(
+    gpu: &lensmap::gpu::Gpu,
+    options: &lensmap::hybrid::HybridOptions,
+) -> Option<&'static str> {
+    if !options.tracer.on_gpu(gpu) {
+        return None;
+    }
+    options.traversal.resolve(gpu).ok().map(|walk| walk.name())
+}
+
 /// The help of `--hull-split`, the same on every command that takes it.
 pub const HULL_SPLIT_HELP: &str = "The convex-hull split (PEM paper §4): a lens object layered by bounce draws its triangles on the convex hull of the lens geometry with the distant layer only, as they cannot show self-reflections; no effect on lens objects layered by distance";
 

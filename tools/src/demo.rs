@@ -67,6 +67,9 @@ pub struct DemoArgs {
     /// Where the lens vertices of the hybrid frames are ray traced. Not for --synthetic.
     #[arg(long, value_enum, default_value = "auto", conflicts_with = "synthetic")]
     pub tracer: crate::common::TracerArg,
+    /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
+    #[arg(long, value_enum, default_value = "auto", conflicts_with = "synthetic")]
+    pub traversal: crate::common::TraversalArg,
     /// Also write the report as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
@@ -82,14 +85,18 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     runner.check_framebuffer(&camera, TargetFormat::Rgba16f)?;
     let tracer = VertexTracer::from(args.tracer);
+    let walk = crate::common::gpu_walk(
+        runner.gpu(),
+        &HybridOptions {
+            tracer,
+            traversal: args.traversal.into(),
+            ..HybridOptions::default()
+        },
+    );
     say!(
         "device: {}; lens vertices traced on the {}",
         runner.gpu().device_id(),
-        if tracer.on_gpu(runner.gpu()) {
-            "GPU"
-        } else {
-            "CPU"
-        }
+        walk.map_or_else(|| "CPU".to_owned(), |walk| format!("GPU ({walk} walk)"))
     );
 
     let mut steps = Steps::new(5);
@@ -108,6 +115,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         reference: &reference,
         out: &args.out,
         tracer,
+        traversal: args.traversal.into(),
     };
     let (rows, mut side_by_side) = table.rows(
         &mut runner,
@@ -140,7 +148,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "width": camera.width, "height": camera.height,
         "supersampling": camera.supersampling, "em_size": args.em_size,
-        "tracer": args.tracer.name(), "traced_on_gpu": tracer.on_gpu(runner.gpu()),
+        "tracer": args.tracer.name(), "traced_on_gpu": tracer.on_gpu(runner.gpu()), "walk": walk,
         "reference": {"ms": reference.stats.seconds * 1e3, "rays": rc.all_rays(), "triangle_tests": rc.triangle_tests},
         "rows": rows,
         "side_by_side": args.out.join("teapot-room-side-by-side.png"),
@@ -217,6 +225,8 @@ struct Table<'a> {
     out: &'a Path,
     /// Where the lens vertices are traced.
     tracer: VertexTracer,
+    /// How the GPU tracer finds a ray's hits.
+    traversal: lensmap::hybrid::gpu::Traversal,
 }
 
 impl Table<'_> {
@@ -261,6 +271,7 @@ impl Table<'_> {
                     let options = FrameOptions {
                         hybrid: HybridOptions {
                             tracer: self.tracer,
+                            traversal: self.traversal,
                             ..HybridOptions::with_t(t)
                         },
                         variant,

@@ -65,6 +65,9 @@ pub struct RenderArgs {
     /// Where the lens vertices are ray traced.
     #[arg(long, value_enum, default_value = "auto")]
     pub tracer: crate::common::TracerArg,
+    /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub traversal: crate::common::TraversalArg,
     /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -144,6 +147,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             fresnel: args.fresnel,
             hull_split: args.hull_split.is_on(),
             tracer: args.tracer.into(),
+            traversal: args.traversal.into(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),

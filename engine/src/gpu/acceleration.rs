@@ -212,10 +212,7 @@ fn instance(part: u32, address: vk::DeviceAddress) -> vk::AccelerationStructureI
     };
     vk::AccelerationStructureInstanceKHR {
         transform: identity,
-        instance_custom_index_and_mask: vk::Packed24_8::new(
-            part,
-            1u8 << part.min(MASK_BITS - 1),
-        ),
+        instance_custom_index_and_mask: vk::Packed24_8::new(part, 1u8 << part.min(MASK_BITS - 1)),
         instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(0, 0),
         acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
             device_handle: address,
@@ -269,7 +266,8 @@ fn create(
     // SAFETY: a live structure of this device.
     let address = unsafe {
         fns.get_acceleration_structure_device_address(
-            &vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(handle),
+            &vk::AccelerationStructureDeviceAddressInfoKHR::default()
+                .acceleration_structure(handle),
         )
     };
     let structure = AccelerationStructure {
@@ -316,8 +314,8 @@ fn record_build(
         .scratch_data(vk::DeviceOrHostAddressKHR {
             device_address: *scratch,
         });
-    let ranges = [vk::AccelerationStructureBuildRangeInfoKHR::default()
-        .primitive_count(build.primitives)];
+    let ranges =
+        [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(build.primitives)];
     // SAFETY: the geometry's buffers, the destination and the scratch live until the submission
     // is waited for ([`BoxScene::build`]).
     unsafe { fns.cmd_build_acceleration_structures(cb, &[info], &[&ranges[..]]) };

@@ -428,8 +428,8 @@ impl Gpu {
         let debug_device = debug_instance
             .as_ref()
             .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
-        let acceleration = ray_queries
-            .then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
+        let acceleration =
+            ray_queries.then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
         // From here the Shared owns (or borrows) the device and destroys it in its Drop.
         let shared = Arc::new(Shared {
             entry,
@@ -929,8 +929,8 @@ fn create_device(
     let mut features12 = vk::PhysicalDeviceVulkan12Features::default()
         .timeline_semaphore(true)
         .buffer_device_address(wanted.ray_queries);
-    let mut acceleration = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
-        .acceleration_structure(true);
+    let mut acceleration =
+        vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
     let mut ray_query = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
     let mut device_info = vk::DeviceCreateInfo::default()
         .queue_create_infos(&queues)

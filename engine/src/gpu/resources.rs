@@ -162,9 +162,9 @@ impl Buffer {
         // SAFETY: a live buffer of this device; its usages that need an address include
         // SHADER_DEVICE_ADDRESS, which only a device with ray queries is asked to make.
         unsafe {
-            self.shared
-                .device
-                .get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(self.handle))
+            self.shared.device.get_buffer_device_address(
+                &vk::BufferDeviceAddressInfo::default().buffer(self.handle),
+            )
         }
     }
 

@@ -150,7 +150,9 @@ pub(crate) fn write_set(
         .collect();
     let mut structure_infos: Vec<vk::WriteDescriptorSetAccelerationStructureKHR> = structures
         .iter()
-        .map(|s| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s))
+        .map(|s| {
+            vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(s)
+        })
         .collect();
     let writes: Vec<vk::WriteDescriptorSet> = bindings
         .iter()

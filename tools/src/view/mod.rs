@@ -84,6 +84,9 @@ pub struct ViewArgs {
     /// Where the lens vertices are ray traced.
     #[arg(long, value_enum, default_value = "auto")]
     pub tracer: crate::common::TracerArg,
+    /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
+    #[arg(long, value_enum, default_value = "auto")]
+    pub traversal: crate::common::TraversalArg,
     /// Compositor variant (key `v`).
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -203,6 +206,7 @@ fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
             fresnel: args.fresnel,
             hull_split: args.hull_split.is_on(),
             tracer: args.tracer.into(),
+            traversal: args.traversal.into(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),

@@ -944,10 +944,10 @@ impl App {
             (Some(dir), true) => format!("--bake {}", dir.display()),
             _ => format!("--projected --em-size {}", self.ems.projected.size),
         };
-        let layers_off = self.experiment.layers_off.iter().any(|&off| off);
-        let render = (!layers_off).then(|| {
+        // A frame with layers off has no command that renders it.
+        let render = (!self.experiment.layers_off.contains(&true)).then(|| {
             format!(
-                "lensmap render --scene {} {ems} --camera-position={} --look-at={} --width {} --height {} --supersampling {} --t {} --angle-degrees {} --variant {} --blend {} --format {} --tracer {}",
+                "lensmap render --scene {} {ems} --camera-position={} --look-at={} --width {} --height {} --supersampling {} --t {} --angle-degrees {} --variant {} --blend {} --format {} --tracer {} --traversal {}",
                 self.scene_arg,
                 v3(c.position),
                 v3(c.look_at),
@@ -961,7 +961,8 @@ impl App {
                 o.variant.name(),
                 o.blend.name(),
                 o.format.name(),
-                o.hybrid.tracer.name()
+                o.hybrid.tracer.name(),
+                o.hybrid.traversal.name()
             )
         });
         let json = serde_json::json!({

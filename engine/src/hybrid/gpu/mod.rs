@@ -15,10 +15,7 @@ use super::paths::{ScreenCamera, TermPath, VertexPaths};
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
 use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
 use crate::trace::{
-    Bounces, Ray,
-    bvh_gpu::GpuGeometry,
-    schlick_table::SchlickTable,
-    stats::TraceCounters,
+    Bounces, Ray, bvh_gpu::GpuGeometry, schlick_table::SchlickTable, stats::TraceCounters,
     world::TraceScene,
 };
 

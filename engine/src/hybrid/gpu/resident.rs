@@ -246,8 +246,7 @@ impl ObjectState {
         let tessellation_pool = DescriptorPool::new(gpu, super::tessellate::TESSELLATE_SET, 1)?;
         let mut tracer_resources = tracer.2.to_vec();
         tracer_resources.extend(scratch.tracer_resources());
-        let tracer_set =
-            tracer_pool.allocate_one(gpu, (tracer.0, tracer.1), &tracer_resources)?;
+        let tracer_set = tracer_pool.allocate_one(gpu, (tracer.0, tracer.1), &tracer_resources)?;
         let tessellation_set = tessellation_pool.allocate_one(
             gpu,
             (tessellation, super::tessellate::TESSELLATE_SET),

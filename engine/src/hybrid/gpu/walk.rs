@@ -92,7 +92,10 @@ const DRIVER_SET: &[Binding] = &[
 /// What a walk reads, resident on the device.
 pub(super) enum Walk {
     /// The BVHs' nodes (binding 0) and each part's root node (binding 3).
-    Bvh { nodes: crate::gpu::Buffer, roots: crate::gpu::Buffer },
+    Bvh {
+        nodes: crate::gpu::Buffer,
+        roots: crate::gpu::Buffer,
+    },
     /// The acceleration structures (binding 0) and each part's triangle range (binding 3).
     Driver {
         scene: BoxScene,
@@ -158,9 +161,10 @@ impl Walk {
     /// What bindings 0 and 3 of set 0 point at.
     pub(super) fn resources(&self) -> (Resource, Resource) {
         match self {
-            Walk::Bvh { nodes, roots } => {
-                (Resource::Buffer(nodes.handle), Resource::Buffer(roots.handle))
-            }
+            Walk::Bvh { nodes, roots } => (
+                Resource::Buffer(nodes.handle),
+                Resource::Buffer(roots.handle),
+            ),
             Walk::Driver { scene, ranges } => (
                 Resource::AccelerationStructure(scene.top.handle),
                 Resource::Buffer(ranges.handle),

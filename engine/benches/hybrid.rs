@@ -178,7 +178,8 @@ fn benches(c: &mut Criterion) {
 
 /// The same vertices traced by the GPU's vertex-path pass (`hybrid::gpu`), on the device
 /// `LENSMAP_DEVICE` names (the first otherwise): one submission that uploads them, traces and
-/// reads the records back.
+/// reads the records back; with the tracer's BVH walk, and with the driver's acceleration
+/// structures where the device has ray queries.
 fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
     let gpu = match Gpu::new(&GpuOptions::from_env()) {
         Ok(gpu) => gpu,
@@ -187,8 +188,14 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
             return;
         }
     };
-    let tracer = GpuTracer::new(&gpu, &setup.hybrid.trace, None, GpuTraversal::Bvh)
-        .expect("the tracer uploads");
+    let walks = [GpuTraversal::Bvh, GpuTraversal::Driver];
+    let tracers: Vec<GpuTracer> = walks
+        .into_iter()
+        .filter(|&walk| walk == GpuTraversal::Bvh || gpu.ray_queries())
+        .map(|walk| {
+            GpuTracer::new(&gpu, &setup.hybrid.trace, None, walk).expect("the tracer uploads")
+        })
+        .collect();
     let settings = PathSettings {
         lens: setup.lens,
         object: setup.object,
@@ -198,13 +205,20 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
     let input: Vec<(Vec3, Vec3)> = vertices.iter().map(|v| (v.position, v.normal)).collect();
     let mut group = c.benchmark_group(format!("teapot-room t=3, {}", gpu.device_id()));
     group.sample_size(20);
-    group.bench_function(format!("GPU pass: trace {} vertices", input.len()), |b| {
-        b.iter(|| {
-            tracer
-                .trace_vertices(&gpu, &setup.screen, &settings, &input)
-                .expect("the pass runs")
-        })
-    });
+    for tracer in &tracers {
+        let name = format!(
+            "GPU pass ({} walk): trace {} vertices",
+            tracer.traversal().name(),
+            input.len()
+        );
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                tracer
+                    .trace_vertices(&gpu, &setup.screen, &settings, &input)
+                    .expect("the pass runs")
+            })
+        });
+    }
     group.finish();
 }
 

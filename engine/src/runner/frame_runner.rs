@@ -13,7 +13,7 @@ use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{
         BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats, VertexTracer,
-        gpu::{GpuPaths, GpuTracer, Traversal, read_counts},
+        gpu::{GpuPaths, GpuTracer, GpuTraversal, Traversal, read_counts},
     },
     index::LensIndex,
     options::OptionError,
@@ -84,6 +84,9 @@ pub struct FrameRunner {
     slots: Vec<Slot>,
     /// The last scene's geometry resident on the device, for frames traced on the GPU.
     tracer: Option<ResidentTracer>,
+    /// The same scene's for the other walk, when frames switched walks: kept, so that frames
+    /// that alternate walks (a benchmark, the viewer) do not upload and build every time.
+    other_walk: Option<ResidentTracer>,
     /// Whether GPU-traced frames time their stages ([`FrameRunner::time_gpu_stages`]).
     time_gpu_stages: bool,
     /// Whether GPU-traced frames read their meshes back ([`FrameRunner::read_back_gpu_meshes`]).
@@ -107,7 +110,7 @@ pub struct FrameRunner {
 struct ResidentTracer {
     scene: u64,
     fresnel: FresnelModel,
-    traversal: Traversal,
+    walk: GpuTraversal,
     tracer: Result<GpuTracer, String>,
 }
 
@@ -152,6 +155,7 @@ impl FrameRunner {
         Ok(FrameRunner {
             slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
             tracer: None,
+            other_walk: None,
             time_gpu_stages: false,
             read_back_gpu_meshes: false,
             host_counts: std::collections::VecDeque::new(),
@@ -479,21 +483,27 @@ impl FrameRunner {
         fresnel: FresnelModel,
         traversal: Traversal,
     ) -> Result<(), RunError> {
-        let kept = self.tracer.as_ref().is_some_and(|t| {
-            t.scene == hybrid.identity() && t.fresnel == fresnel && t.traversal == traversal
-        });
-        if !kept {
-            // The old one first: its buffers go before the new ones are made.
-            self.tracer = None;
+        let walk = traversal
+            .resolve(&self.gpu)
+            .map_err(|error| RunError::from(RenderError::from(error)))?;
+        let scene = hybrid.identity();
+        let same = |t: &ResidentTracer| t.scene == scene && t.fresnel == fresnel;
+        let matches =
+            |t: &Option<ResidentTracer>| t.as_ref().is_some_and(|t| same(t) && t.walk == walk);
+        if !matches(&self.tracer) && matches(&self.other_walk) {
+            std::mem::swap(&mut self.tracer, &mut self.other_walk);
+        }
+        if !matches(&self.tracer) {
+            // The old ones first: their buffers go before the new ones are made. The same
+            // scene's other walk is kept.
+            self.other_walk = self.tracer.take().filter(|t| same(t));
             let table = fresnel.table()?;
-            let tracer = traversal
-                .resolve(&self.gpu)
-                .and_then(|walk| GpuTracer::new(&self.gpu, &hybrid.trace, table.as_ref(), walk))
+            let tracer = GpuTracer::new(&self.gpu, &hybrid.trace, table.as_ref(), walk)
                 .map_err(|error| error.to_string());
             self.tracer = Some(ResidentTracer {
-                scene: hybrid.identity(),
+                scene,
                 fresnel,
-                traversal,
+                walk,
                 tracer,
             });
         }

@@ -254,6 +254,7 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
     let mut validator = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::IMMEDIATES
+            | naga::valid::Capabilities::FLOAT64
             | naga::valid::Capabilities::CUBE_ARRAY_TEXTURES
             | naga::valid::Capabilities::RAY_QUERY,
     );

@@ -13,7 +13,7 @@ use lensmap::{
     hybrid::{
         DEFAULT_ANGLE_DEGREES, HybridScene, LayeredEms,
         gpu::{GpuTracer, GpuTraversal, PathSettings},
-        paths::{PathOracle, ScreenCamera, VertexPaths},
+        paths::{PathOracle, ScreenCamera, VertexPaths, VertexPrecision},
         tessellate::{
             SurfaceVertex, TessellationError, TessellationOptions, VertexEvaluation, VertexOracle,
             tessellate,
@@ -193,7 +193,13 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
         .into_iter()
         .filter(|&walk| walk == GpuTraversal::Bvh || gpu.ray_queries())
         .map(|walk| {
-            GpuTracer::new(&gpu, &setup.hybrid.trace, None, walk).expect("the tracer uploads")
+            GpuTracer::new(
+                &gpu,
+                &setup.hybrid.trace,
+                None,
+                (walk, VertexPrecision::F32),
+            )
+            .expect("the tracer uploads")
         })
         .collect();
     let settings = PathSettings {

@@ -16,7 +16,7 @@ use lensmap::gpu::Gpu;
 use lensmap::hybrid::gpu::{
     GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, GpuTraversal, PathSettings, TexgenRequest,
 };
-use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths};
+use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths, VertexPrecision};
 use lensmap::hybrid::tessellate::{
     StopReason, Tessellation, TessellationError, TessellationOptions, tessellate,
 };
@@ -64,7 +64,8 @@ fn welded(mesh: &TriangleMesh) -> TriangleMesh {
 fn on_gpu(gpu: &Gpu, name: &str) -> (Scene, TraceScene, GpuTracer, ScreenCamera) {
     let scene = built_in_scene(name, 160, 120, 2);
     let trace = TraceScene::new(&scene).expect("the scene traces");
-    let tracer = GpuTracer::new(gpu, &trace, None, GpuTraversal::Bvh).expect("the tracer uploads");
+    let tracer = GpuTracer::new(gpu, &trace, None, (GpuTraversal::Bvh, VertexPrecision::F32))
+        .expect("the tracer uploads");
     let camera = &scene.camera;
     let screen = ScreenCamera {
         eye: camera.position.as_dvec3(),

@@ -297,6 +297,7 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         // The test renderings are built without a device, so on the CPU (`gpu` is refused).
         tracer: _,
         traversal: _,
+        gpu_precision: _,
     } = hybrid;
     let TessellationOptions {
         t,
@@ -345,6 +346,7 @@ mod tests {
                     hull_split: true,
                     tracer: lensmap::hybrid::VertexTracer::Cpu,
                     traversal: lensmap::hybrid::gpu::Traversal::Auto,
+                    gpu_precision: VertexPrecision::F32,
                 },
                 variant: Variant::SinglePass,
                 em_size: EmSize::Fixed(64),

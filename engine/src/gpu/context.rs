@@ -128,6 +128,8 @@ pub struct Gpu {
     device_local_heap_bytes: u64,
     /// The device and the driver behind it.
     device: DeviceId,
+    /// Whether shaders may compute in f64 (`shaderFloat64` enabled).
+    float64: bool,
 }
 
 /// A device and its driver, as `VkPhysicalDeviceProperties` and `VkPhysicalDeviceDriverProperties`
@@ -210,6 +212,8 @@ struct Parts {
     messages: Box<Mutex<Vec<String>>>,
     /// Whether the device was made with ray queries (`super::acceleration`).
     ray_queries: bool,
+    /// Whether the device was made with `shaderFloat64`.
+    float64: bool,
 }
 
 /// What lensmap needs enabled on a host's device, as the host declares it: Vulkan gives no way
@@ -357,6 +361,7 @@ impl Gpu {
             messages: Box::default(),
             // A host's device: Vulkan cannot tell whether it enabled them.
             ray_queries: false,
+            float64: false,
         };
         Gpu::assemble(parts, false).map_err(|(error, _)| error)
     }
@@ -423,6 +428,7 @@ impl Gpu {
             messenger,
             messages,
             ray_queries,
+            float64,
             ..
         } = parts;
         let debug_device = debug_instance
@@ -477,6 +483,7 @@ impl Gpu {
             properties,
             device_local_heap_bytes,
             device,
+            float64,
         })
     }
 
@@ -536,10 +543,15 @@ impl Gpu {
         };
         let (physical_device, queue_family, properties) = chosen;
         let ray_queries = super::acceleration::supported(&instance, physical_device);
+        // SAFETY: the physical device comes from this instance.
+        let float64 = unsafe { instance.get_physical_device_features(physical_device) }
+            .shader_float64
+            == vk::TRUE;
 
         let features = DeviceFeatures {
             presents,
             ray_queries,
+            float64,
         };
         let device = match create_device(&instance, physical_device, queue_family, features) {
             Ok(device) => device,
@@ -565,6 +577,7 @@ impl Gpu {
             messenger,
             messages,
             ray_queries,
+            float64,
         };
         match Gpu::assemble(parts, true) {
             Ok(mut gpu) => {
@@ -607,6 +620,12 @@ impl Gpu {
     /// The device's name as the driver reports it (`llvmpipe (LLVM 15.0.6, 256 bits)` on lavapipe).
     pub fn device_name(&self) -> &str {
         &self.device.device
+    }
+
+    /// Whether shaders may compute in f64 (the device has `shaderFloat64`, enabled where
+    /// offered; a host's device is used without it).
+    pub fn shader_float64(&self) -> bool {
+        self.float64
     }
 
     /// Whether the device was made with acceleration structures and ray queries, which the GPU
@@ -898,6 +917,8 @@ struct DeviceFeatures {
     /// Acceleration structures and ray queries, with buffer device addresses
     /// (`super::acceleration`).
     ray_queries: bool,
+    /// `shaderFloat64`.
+    float64: bool,
 }
 
 /// A device on `physical_device` with one queue of `queue_family` and the features lensmap
@@ -920,7 +941,9 @@ fn create_device(
     let queues = [vk::DeviceQueueCreateInfo::default()
         .queue_family_index(queue_family)
         .queue_priorities(&priorities)];
-    let features = vk::PhysicalDeviceFeatures::default().image_cube_array(true);
+    let features = vk::PhysicalDeviceFeatures::default()
+        .image_cube_array(true)
+        .shader_float64(wanted.float64);
     let mut features13 = vk::PhysicalDeviceVulkan13Features::default()
         .dynamic_rendering(true)
         .synchronization2(true);

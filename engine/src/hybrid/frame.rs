@@ -170,6 +170,9 @@ pub struct HybridOptions {
     pub tracer: VertexTracer,
     /// How the GPU tracer finds a ray's hits.
     pub traversal: super::gpu::Traversal,
+    /// What the GPU tracer computes in: f32 (the default, every device), or f64, the CPU
+    /// oracle's precision (devices with `shaderFloat64`). `precision` is the CPU's.
+    pub gpu_precision: VertexPrecision,
 }
 
 /// Where a frame's lens vertices are ray traced (`--tracer`). The library's default is the CPU,
@@ -234,6 +237,7 @@ impl Default for HybridOptions {
             hull_split: true,
             tracer: VertexTracer::Cpu,
             traversal: super::gpu::Traversal::Auto,
+            gpu_precision: VertexPrecision::F32,
         }
     }
 }

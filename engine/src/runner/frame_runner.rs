@@ -13,7 +13,8 @@ use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{
         BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats, VertexTracer,
-        gpu::{GpuPaths, GpuTracer, GpuTraversal, Traversal, read_counts},
+        gpu::{GpuPaths, GpuTracer, GpuTraversal, read_counts},
+        paths::VertexPrecision,
     },
     index::LensIndex,
     options::OptionError,
@@ -84,9 +85,9 @@ pub struct FrameRunner {
     slots: Vec<Slot>,
     /// The last scene's geometry resident on the device, for frames traced on the GPU.
     tracer: Option<ResidentTracer>,
-    /// The same scene's for the other walk, when frames switched walks: kept, so that frames
-    /// that alternate walks (a benchmark, the viewer) do not upload and build every time.
-    other_walk: Option<ResidentTracer>,
+    /// The same scene's for another walk or precision, when frames switched: kept, so that
+    /// frames that alternate them (a benchmark, the viewer) do not upload and build every time.
+    spare: Option<ResidentTracer>,
     /// Whether GPU-traced frames time their stages ([`FrameRunner::time_gpu_stages`]).
     time_gpu_stages: bool,
     /// Whether GPU-traced frames read their meshes back ([`FrameRunner::read_back_gpu_meshes`]).
@@ -110,7 +111,7 @@ pub struct FrameRunner {
 struct ResidentTracer {
     scene: u64,
     fresnel: FresnelModel,
-    walk: GpuTraversal,
+    walk: (GpuTraversal, VertexPrecision),
     tracer: Result<GpuTracer, String>,
 }
 
@@ -155,7 +156,7 @@ impl FrameRunner {
         Ok(FrameRunner {
             slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
             tracer: None,
-            other_walk: None,
+            spare: None,
             time_gpu_stages: false,
             read_back_gpu_meshes: false,
             host_counts: std::collections::VecDeque::new(),
@@ -405,7 +406,7 @@ impl FrameRunner {
         let held = self.slots[self.last_slot].identity;
         let tracer = options.hybrid.tracer;
         let on_gpu = tracer.on_gpu(&self.gpu)
-            && match self.make_resident(hybrid, options.hybrid.fresnel, options.hybrid.traversal) {
+            && match self.make_resident(hybrid, &options.hybrid) {
                 Ok(()) => true,
                 // `auto` traces on the CPU where the device cannot hold the scene's geometry.
                 Err(_) if tracer == VertexTracer::Auto => false,
@@ -480,23 +481,25 @@ impl FrameRunner {
     fn make_resident(
         &mut self,
         hybrid: &HybridScene,
-        fresnel: FresnelModel,
-        traversal: Traversal,
+        options: &HybridOptions,
     ) -> Result<(), RunError> {
-        let walk = traversal
+        let fresnel = options.fresnel;
+        let walk = options
+            .traversal
             .resolve(&self.gpu)
             .map_err(|error| RunError::from(RenderError::from(error)))?;
+        let walk = (walk, options.gpu_precision);
         let scene = hybrid.identity();
         let same = |t: &ResidentTracer| t.scene == scene && t.fresnel == fresnel;
         let matches =
             |t: &Option<ResidentTracer>| t.as_ref().is_some_and(|t| same(t) && t.walk == walk);
-        if !matches(&self.tracer) && matches(&self.other_walk) {
-            std::mem::swap(&mut self.tracer, &mut self.other_walk);
+        if !matches(&self.tracer) && matches(&self.spare) {
+            std::mem::swap(&mut self.tracer, &mut self.spare);
         }
         if !matches(&self.tracer) {
             // The old ones first: their buffers go before the new ones are made. The same
-            // scene's other walk is kept.
-            self.other_walk = self.tracer.take().filter(|t| same(t));
+            // scene's other one is kept.
+            self.spare = self.tracer.take().filter(|t| same(t));
             let table = fresnel.table()?;
             let tracer = GpuTracer::new(&self.gpu, &hybrid.trace, table.as_ref(), walk)
                 .map_err(|error| error.to_string());

@@ -34,6 +34,9 @@ pub struct GpuGeometry {
     pub nodes: Vec<[f32; 4]>,
     /// [`TRIANGLE_VEC4S`] vec4 per triangle, in BVH order, f32.
     pub triangles: Vec<[f32; 4]>,
+    /// The same in f64, the CPU's own values (the object and id as exact f64 values), for the
+    /// tracer's f64 passes (`shaders/wgsl/include/real_f64.wgsl`).
+    pub triangles_f64: Vec<[f64; 4]>,
     /// Root node per part: the environment, then each lens object ([`NO_NODE`]: no triangle).
     pub roots: Vec<u32>,
     /// Per part its first triangle and its triangle count: what the tracer's ray-query
@@ -137,6 +140,14 @@ impl GpuGeometry {
         );
         for &index in &bvh2.primitive_indices {
             let t = &triangles[index as usize];
+            let w = |d: glam::DVec3, w: u32| [d.x, d.y, d.z, f64::from(w)];
+            self.triangles_f64.extend([
+                w(t.v0, t.object),
+                w(t.e1, index),
+                w(t.e2, 0),
+                w(t.geometric_normal, 0),
+            ]);
+            self.triangles_f64.extend(t.normals.map(|n| w(n, 0)));
             let v = |d: glam::DVec3, w: f32| [d.x as f32, d.y as f32, d.z as f32, w];
             self.triangles.push(v(t.v0, f32::from_bits(t.object)));
             // The CPU BVH's id of the triangle: what ties between hits at one distance are

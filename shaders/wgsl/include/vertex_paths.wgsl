@@ -1,6 +1,6 @@
 // The hybrid frame's per-vertex work on the GPU (hybrid-rendering paper §5): the eye ray and the
 // two greedy ray paths at each lens vertex, by the rules of the CPU oracle
-// (engine/src/hybrid/paths.rs, engine/src/trace/path.rs) run in f32: the visibility query
+// (engine/src/hybrid/paths.rs, engine/src/trace/path.rs) run in `real`: the visibility query
 // against every part of the scene, Fresnel (exact, or Schlick through the 1D table), total
 // internal reflection, attenuation `absorption^distance`, the interface cap.
 //
@@ -9,6 +9,11 @@
 // per part with a stack, tracer_rq.wgsl asks the driver's acceleration structures with ray
 // queries. Both test triangles with `intersect` and pick the winner with `consider`, so they
 // find the same hits.
+//
+// The file that includes this one also sets the precision: `alias real = f32;` or `f64`, with
+// `BARYCENTRIC_SLACK`, `ORIGIN_OFFSET` (the CPU's values in that precision) and `word(x)`, the
+// u32 a triangle's `w` holds. Records, vertices, materials and the Schlick table are f32 either
+// way; f64 costs the device `shaderFloat64`.
 
 struct TracerConstants {
     // World → Vulkan clip space, for the screen positions the tessellation measures edges in.
@@ -35,7 +40,7 @@ var<immediate> constants: TracerConstants;
 
 // Triangles, seven vec4 each: (v0, object), e1, e2, the unit face normal (oriented like the
 // vertex normals), the three unit vertex normals.
-@group(0) @binding(1) var<storage, read> triangles: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> triangles: array<vec4<real>>;
 // Per scene object two vec4: (kind: 0 none, 1 glass, 2 mirror; index of refraction),
 // (absorption per metre for glass, reflectance at normal incidence for a mirror).
 @group(0) @binding(2) var<storage, read> materials: array<vec4<f32>>;
@@ -78,41 +83,36 @@ struct VertexRecord {
 }
 
 struct Ray {
-    origin: vec3<f32>,
-    direction: vec3<f32>,
+    origin: vec3<real>,
+    direction: vec3<real>,
 }
 
 struct Hit {
-    t: f32,
+    t: real,
     primitive: u32,
-    u: f32,
-    v: f32,
+    u: real,
+    v: real,
 }
 
 struct Surface {
-    t: f32,
-    position: vec3<f32>,
-    geometric_normal: vec3<f32>,
-    shading_normal: vec3<f32>,
+    t: real,
+    position: vec3<real>,
+    geometric_normal: vec3<real>,
+    shading_normal: vec3<real>,
     object: u32,
     primitive: u32,
 }
 
-// The barycentric slack of the CPU's triangle test in f32: max(1e-10, 8 ulps).
-const BARYCENTRIC_SLACK: f32 = 9.5367432e-7;
-// Secondary rays start this far off the surface, relative to the coordinates' magnitude (the
-// CPU's offset in f32: 128 ulps).
-const ORIGIN_OFFSET: f32 = 1.5258789e-5;
 // Hits this close (relative distance) are one hit, won by the lowest CPU triangle id (e1.w):
 // the CPU's rule (bvh.rs `TIE`), so that a ray through a shared vertex starts on the same
 // triangle on both.
-const TIE: f32 = 1e-5;
+const TIE: real = 1e-5;
 // |cos| between a vertex's normal and its eye ray below which it is on the silhouette and its
 // paths start at the vertex itself (paths.rs `GRAZING`).
-const GRAZING: f32 = 0.02;
+const GRAZING: real = 0.02;
 
-// Möller–Trumbore as the CPU's f32 test: (t, u, v) with t in (0, best), or t = -1.
-fn intersect(primitive: u32, ray: Ray, best: f32) -> vec3<f32> {
+// Möller–Trumbore as the CPU's test in the same precision: (t, u, v) with t in (0, best), or t = -1.
+fn intersect(primitive: u32, ray: Ray, best: real) -> vec3<real> {
     let base = primitive * 7u;
     let v0 = triangles[base].xyz;
     let e1 = triangles[base + 1u].xyz;
@@ -120,24 +120,24 @@ fn intersect(primitive: u32, ray: Ray, best: f32) -> vec3<f32> {
     let p = cross(ray.direction, e2);
     let determinant = dot(e1, p);
     if determinant == 0.0 {
-        return vec3<f32>(-1.0);
+        return vec3<real>(-1.0);
     }
     let inverse = 1.0 / determinant;
     let s = ray.origin - v0;
     let u = dot(s, p) * inverse;
     if !(u >= -BARYCENTRIC_SLACK && u <= 1.0 + BARYCENTRIC_SLACK) {
-        return vec3<f32>(-1.0);
+        return vec3<real>(-1.0);
     }
     let q = cross(s, e1);
     let v = dot(ray.direction, q) * inverse;
     if v < -BARYCENTRIC_SLACK || u + v > 1.0 + BARYCENTRIC_SLACK {
-        return vec3<f32>(-1.0);
+        return vec3<real>(-1.0);
     }
     let t = dot(e2, q) * inverse;
     if t > 0.0 && t < best {
-        return vec3<f32>(t, u, v);
+        return vec3<real>(t, u, v);
     }
-    return vec3<f32>(-1.0);
+    return vec3<real>(-1.0);
 }
 
 // The search for a ray's closest hit: the nearest hit so far, and the winner among the hits
@@ -146,13 +146,13 @@ fn intersect(primitive: u32, ray: Ray, best: f32) -> vec3<f32> {
 struct Closest {
     best: Hit,
     best_id: u32,
-    nearest: f32,
+    nearest: real,
     // Hits up to here may still win: the nearest hit so far plus the tie margin.
-    reach: f32,
-    max_t: f32,
+    reach: real,
+    max_t: real,
 }
 
-fn no_hit_yet(max_t: f32) -> Closest {
+fn no_hit_yet(max_t: real) -> Closest {
     return Closest(Hit(max_t, NO_PRIMITIVE, 0.0, 0.0), 0u, max_t, max_t, max_t);
 }
 
@@ -162,7 +162,7 @@ fn consider(closest: ptr<function, Closest>, primitive: u32, ray: Ray) {
     if found.x <= 0.0 {
         return;
     }
-    let id = bitcast<u32>(triangles[primitive * 7u + 1u].w);
+    let id = word(triangles[primitive * 7u + 1u].w);
     if found.x < (*closest).nearest {
         (*closest).nearest = found.x;
         (*closest).reach = min(found.x * (1.0 + TIE), (*closest).max_t);
@@ -175,7 +175,7 @@ fn consider(closest: ptr<function, Closest>, primitive: u32, ray: Ray) {
 }
 
 
-// The surface at a hit: position and normals interpolated as the CPU's f32 path does.
+// The surface at a hit: position and normals interpolated as the CPU's path does.
 fn surface_at(hit: Hit) -> Surface {
     let base = hit.primitive * 7u;
     let w = 1.0 - hit.u - hit.v;
@@ -191,10 +191,10 @@ fn surface_at(hit: Hit) -> Surface {
             shading = n;
         }
     }
-    return Surface(hit.t, position, geometric, shading, bitcast<u32>(v0.w), hit.primitive);
+    return Surface(hit.t, position, geometric, shading, word(v0.w), hit.primitive);
 }
 
-fn offset_origin(position: vec3<f32>, side: vec3<f32>) -> vec3<f32> {
+fn offset_origin(position: vec3<real>, side: vec3<real>) -> vec3<real> {
     let a = abs(position);
     let magnitude = max(max(max(a.x, a.y), a.z), 1.0);
     return position + side * (ORIGIN_OFFSET * magnitude);
@@ -202,7 +202,7 @@ fn offset_origin(position: vec3<f32>, side: vec3<f32>) -> vec3<f32> {
 
 // (1 − c)⁵ for c clamped to [0, 1]: evaluated, or through the Schlick table as a linear sampler
 // with clamp-to-edge addressing reads it (SchlickTable::sample).
-fn fifth_power(cos_theta: f32) -> f32 {
+fn fifth_power(cos_theta: real) -> real {
     var c = clamp(cos_theta, 0.0, 1.0);
     if cos_theta != cos_theta {
         c = 0.0;
@@ -212,18 +212,18 @@ fn fifth_power(cos_theta: f32) -> f32 {
         let m = 1.0 - c;
         return m * m * m * m * m;
     }
-    let size = f32(n);
+    let size = real(n);
     let u = (c * (size - 1.0) + 0.5) / size;
     let x = u * size - 0.5;
     let i = floor(x);
     let alpha = x - i;
     let last = i32(n) - 1;
-    let a = schlick[u32(clamp(i32(i), 0, last))];
-    let b = schlick[u32(clamp(i32(i) + 1, 0, last))];
+    let a = real(schlick[u32(clamp(i32(i), 0, last))]);
+    let b = real(schlick[u32(clamp(i32(i) + 1, 0, last))]);
     return (1.0 - alpha) * a + alpha * b;
 }
 
-fn amplitude_squared(numerator: f32, denominator: f32) -> f32 {
+fn amplitude_squared(numerator: real, denominator: real) -> real {
     if denominator == 0.0 {
         return 1.0;
     }
@@ -235,33 +235,33 @@ fn amplitude_squared(numerator: f32, denominator: f32) -> f32 {
 // ray and its coefficient (transmittance < 0: none).
 struct Scattering {
     reflected: Ray,
-    reflectance: vec3<f32>,
+    reflectance: vec3<real>,
     refracted: Ray,
-    transmittance: f32,
+    transmittance: real,
 }
 
 fn scatter_about(
     material: u32,
-    direction: vec3<f32>,
+    direction: vec3<real>,
     surface: Surface,
-    face: vec3<f32>,
-    normal: vec3<f32>,
+    face: vec3<real>,
+    normal: vec3<real>,
     entering: bool,
 ) -> Scattering {
     let kind = materials[2u * material];
-    let colour = materials[2u * material + 1u].xyz;
+    let colour = vec3<real>(materials[2u * material + 1u].xyz);
     let cos_incident = -dot(direction, normal);
     let reflected = Ray(
         offset_origin(surface.position, face),
         normalize(direction - normal * (2.0 * dot(direction, normal))),
     );
-    var out = Scattering(reflected, vec3<f32>(0.0), reflected, -1.0);
+    var out = Scattering(reflected, vec3<real>(0.0), reflected, -1.0);
     if kind.x != 1.0 {
         // A mirror (or, as the CPU's fallback, anything else): Schlick per channel.
-        out.reflectance = colour + (vec3<f32>(1.0) - colour) * fifth_power(cos_incident);
+        out.reflectance = colour + (vec3<real>(1.0) - colour) * fifth_power(cos_incident);
         return out;
     }
-    let ior = kind.y;
+    let ior = real(kind.y);
     let eta_incident = select(ior, 1.0, entering);
     let eta_transmitted = select(1.0, ior, entering);
     var cos_i = clamp(cos_incident, 0.0, 1.0);
@@ -271,11 +271,11 @@ fn scatter_about(
     let eta = eta_incident / eta_transmitted;
     let sin2_t = eta * eta * max(1.0 - cos_i * cos_i, 0.0);
     if sin2_t >= 1.0 {
-        out.reflectance = vec3<f32>(1.0);
+        out.reflectance = vec3<real>(1.0);
         return out;
     }
     let cos_t = sqrt(1.0 - sin2_t);
-    var reflectance = 0.0;
+    var reflectance: real = 0.0;
     if constants.schlick_texels == 0u {
         let n1 = eta_incident;
         let n2 = eta_transmitted;
@@ -288,7 +288,7 @@ fn scatter_about(
         let r0 = amplitude_squared(eta_incident - eta_transmitted, eta_incident + eta_transmitted);
         reflectance = clamp(r0 + (1.0 - r0) * fifth_power(thinner), 0.0, 1.0);
     }
-    out.reflectance = vec3<f32>(reflectance);
+    out.reflectance = vec3<real>(reflectance);
     out.transmittance = 1.0 - reflectance;
     out.refracted = Ray(
         offset_origin(surface.position, -face),
@@ -299,7 +299,7 @@ fn scatter_about(
 
 // The children of a ray arriving along `direction` at `surface` (the CPU's scatter_with): about
 // the shading normal, or the face normal where that would send a child to the wrong side.
-fn scatter(material: u32, direction: vec3<f32>, surface: Surface) -> Scattering {
+fn scatter(material: u32, direction: vec3<real>, surface: Surface) -> Scattering {
     let entering = dot(direction, surface.geometric_normal) < 0.0;
     let face = select(-surface.geometric_normal, surface.geometric_normal, entering);
     let shading = select(-surface.shading_normal, surface.shading_normal, entering);
@@ -318,8 +318,8 @@ fn greedy_reflects(s: Scattering) -> bool {
 }
 
 struct Path {
-    fresnel: vec3<f32>,
-    attenuation: vec3<f32>,
+    fresnel: vec3<real>,
+    attenuation: vec3<real>,
     ray: Ray,
     interfaces: u32,
     reflections: u32,
@@ -342,8 +342,10 @@ fn propagate(path_in: Path, first_exclude: u32, rays: ptr<function, u32>, tests:
         let kind = materials[2u * surface.object];
         if dot(path.ray.direction, surface.geometric_normal) >= 0.0 && kind.x == 1.0 {
             // Leaving the glass: the segment just travelled was inside it.
+            // In f32: SPIR-V's pow has no f64 form (the CPU's f64 power differs by ~1e-7).
             let absorption = max(materials[2u * surface.object + 1u].xyz, vec3<f32>(0.0));
-            path.attenuation = path.attenuation * pow(absorption, vec3<f32>(hit.t));
+            let through = pow(absorption, vec3<f32>(f32(hit.t)));
+            path.attenuation = path.attenuation * vec3<real>(through);
         }
         if path.interfaces >= cap {
             path.truncated = true;
@@ -370,17 +372,17 @@ fn propagate(path_in: Path, first_exclude: u32, rays: ptr<function, u32>, tests:
 fn term_record(path: Path) -> TermRecord {
     var fg = path.fresnel * path.attenuation;
     if path.truncated {
-        fg = vec3<f32>(0.0);
+        fg = vec3<real>(0.0);
     }
     return TermRecord(
-        vec4<f32>(fg, bitcast<f32>(path.interfaces)),
-        vec4<f32>(path.ray.origin, bitcast<f32>(path.reflections)),
-        vec4<f32>(path.ray.direction, 1.0),
+        vec4<f32>(vec3<f32>(fg), bitcast<f32>(path.interfaces)),
+        vec4<f32>(vec3<f32>(path.ray.origin), bitcast<f32>(path.reflections)),
+        vec4<f32>(vec3<f32>(path.ray.direction), 1.0),
     );
 }
 
-fn start_path(ray: Ray, coefficient: vec3<f32>, exclude: u32, rays: ptr<function, u32>, tests: ptr<function, u32>) -> Path {
-    var path = Path(coefficient, vec3<f32>(1.0), ray, 1u, 0u, false);
+fn start_path(ray: Ray, coefficient: vec3<real>, exclude: u32, rays: ptr<function, u32>, tests: ptr<function, u32>) -> Path {
+    var path = Path(coefficient, vec3<real>(1.0), ray, 1u, 0u, false);
     if constants.first_bounce_only == 0u {
         path = propagate(path, exclude, rays, tests);
     }
@@ -388,8 +390,8 @@ fn start_path(ray: Ray, coefficient: vec3<f32>, exclude: u32, rays: ptr<function
 }
 
 // Screen position in subpixels (xy) and whether there is one (z), as ScreenCamera::project.
-fn project(position: vec3<f32>) -> vec3<f32> {
-    let clip = constants.view_proj * vec4<f32>(position, 1.0);
+fn project(position: vec3<real>) -> vec3<f32> {
+    let clip = constants.view_proj * vec4<f32>(vec3<f32>(position), 1.0);
     if clip.w <= 1e-6 {
         return vec3<f32>(0.0);
     }
@@ -404,14 +406,15 @@ fn project(position: vec3<f32>) -> vec3<f32> {
 // Traces vertex `index`: the eye ray (the visibility query, and the first hit when the vertex is
 // visible), then both greedy paths; writes its record.
 fn trace_vertex(index: u32) {
-    let position = vertices[2u * index].xyz;
-    let to_vertex = position - constants.eye;
+    let position = vec3<real>(vertices[2u * index].xyz);
+    let eye = vec3<real>(constants.eye);
+    let to_vertex = position - eye;
     let distance = length(to_vertex);
-    var direction = vec3<f32>(0.0, 0.0, -1.0);
+    var direction = vec3<real>(0.0, 0.0, -1.0);
     if distance > 0.0 {
         direction = to_vertex / distance;
     }
-    let eye_ray = Ray(constants.eye, direction);
+    let eye_ray = Ray(eye, direction);
     var rays = 0u;
     var tests = 0u;
     // Only what lies up to the vertex matters: the vertex itself, or an occluder.
@@ -429,8 +432,8 @@ fn trace_vertex(index: u32) {
     // the vertex's own surface or slips past it at a silhouette is up to rounding; an occluder
     // stands clear of it.
     let visible = first.primitive == NO_PRIMITIVE || first.t >= distance - tolerance;
-    let normal_in = vertices[2u * index + 1u].xyz;
-    var cos_view = 0.0;
+    let normal_in = vec3<real>(vertices[2u * index + 1u].xyz);
+    var cos_view: real = 0.0;
     if dot(normal_in, normal_in) > 0.0 {
         cos_view = abs(dot(normalize(normal_in), direction));
     }
@@ -442,7 +445,7 @@ fn trace_vertex(index: u32) {
     } else {
         // Occluded, or a silhouette the eye ray slips past: the paths start at the vertex with
         // its normal, turned to face the eye so the first interface is an entry.
-        var normal = vertices[2u * index + 1u].xyz;
+        var normal = vec3<real>(vertices[2u * index + 1u].xyz);
         if dot(normal, normal) > 0.0 {
             normal = normalize(normal);
         } else {
@@ -461,7 +464,7 @@ fn trace_vertex(index: u32) {
     record.reflection = term_record(reflection);
     if s.transmittance >= 0.0 {
         let refraction = start_path(
-            s.refracted, vec3<f32>(s.transmittance), surface.primitive, &rays, &tests,
+            s.refracted, vec3<real>(s.transmittance), surface.primitive, &rays, &tests,
         );
         record.refraction = term_record(refraction);
     } else {

@@ -11,7 +11,7 @@ use ash::vk;
 use glam::{DVec3, Vec3};
 use lensmap_shaders::TracerConstants;
 
-use super::paths::{ScreenCamera, TermPath, VertexPaths};
+use super::paths::{ScreenCamera, TermPath, VertexPaths, VertexPrecision};
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, VkContext};
 use crate::render::descriptors::{Binding, DescriptorPool, Resource, create_set_layout, write_set};
 use crate::trace::{
@@ -98,6 +98,8 @@ pub struct GpuTracer {
     device: ash::Device,
     /// What finds a ray's hits: the BVHs, or the driver's acceleration structures.
     walk: walk::Walk,
+    /// What its passes compute in.
+    precision: VertexPrecision,
     triangles: Buffer,
     materials: Buffer,
     schlick: Buffer,
@@ -281,20 +283,36 @@ fn storage<T: bytemuck::Pod>(gpu: &Gpu, name: &str, data: &[T]) -> Result<Buffer
 }
 
 impl GpuTracer {
-    /// Uploads `trace`'s geometry (once per scene) for `traversal` and creates the passes.
-    /// `fresnel`: the Schlick table the paths look Fresnel up in, `None` to evaluate it exactly.
+    /// Uploads `trace`'s geometry (once per scene) for `traversal` and creates the passes, which
+    /// trace in `precision` (f64: devices with [`Gpu::shader_float64`]). `fresnel`: the Schlick
+    /// table the paths look Fresnel up in, `None` to evaluate it exactly.
     pub fn new(
         gpu: &Gpu,
         trace: &TraceScene,
         fresnel: Option<&SchlickTable>,
-        traversal: GpuTraversal,
+        (traversal, precision): (GpuTraversal, VertexPrecision),
     ) -> Result<GpuTracer, GpuError> {
+        if precision == VertexPrecision::F64 && !gpu.shader_float64() {
+            return Err(GpuError::NoSuitableDevice(format!(
+                "{} ({}) offers no shaderFloat64, which the GPU tracer's f64 passes need; trace in f32 or on the CPU",
+                gpu.device_name(),
+                gpu.device_id().driver_description()
+            )));
+        }
         let geometry = GpuGeometry::new(trace);
-        check_range(gpu, "tracer triangles", geometry.triangles.len())?;
         let texels = fresnel.map_or(&[0.0f32][..], |t| t.texels());
         // Buffers and the pool first: they free themselves if a later step fails.
         let walk = walk::Walk::new(gpu, &geometry, traversal)?;
-        let triangles = storage(gpu, "tracer triangles", &geometry.triangles)?;
+        let triangles = match precision {
+            VertexPrecision::F32 => {
+                check_range(gpu, "tracer triangles", geometry.triangles.len())?;
+                storage(gpu, "tracer triangles", &geometry.triangles)?
+            }
+            VertexPrecision::F64 => {
+                check_range(gpu, "tracer triangles", 2 * geometry.triangles_f64.len())?;
+                storage(gpu, "tracer triangles", &geometry.triangles_f64)?
+            }
+        };
         let materials = storage(gpu, "tracer materials", &geometry.materials)?;
         let schlick = storage(gpu, "tracer schlick", texels)?;
         let pool = DescriptorPool::new(gpu, walk.bindings(), 4)?;
@@ -307,9 +325,12 @@ impl GpuTracer {
                 return Err(e);
             }
         };
-        let module = walk.module();
+        let module = match precision {
+            VertexPrecision::F32 => walk.module().to_owned(),
+            VertexPrecision::F64 => format!("{}_f64", walk.module()),
+        };
         let pipeline = |entry: &str| {
-            lensmap_shaders::shader(module, entry)
+            lensmap_shaders::shader(&module, entry)
                 .ok_or_else(|| GpuError::BadUpload {
                     what: format!("{module}.wgsl"),
                     problem: format!("entry point {entry} was not compiled"),
@@ -366,6 +387,7 @@ impl GpuTracer {
         Ok(GpuTracer {
             device: gpu.device().clone(),
             walk,
+            precision,
             triangles,
             materials,
             schlick,
@@ -398,6 +420,11 @@ impl GpuTracer {
     /// How it finds a ray's hits.
     pub fn traversal(&self) -> GpuTraversal {
         self.walk.traversal()
+    }
+
+    /// What its passes compute in.
+    pub fn precision(&self) -> VertexPrecision {
+        self.precision
     }
 
     /// What bindings 0 to 4 of a tracer pass's set point at: the walk's two, the triangles, the

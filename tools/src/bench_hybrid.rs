@@ -64,6 +64,9 @@ pub struct BenchHybridArgs {
     /// How the GPU tracer finds a ray's hits.
     #[arg(long, value_enum, default_value = "auto")]
     traversal: crate::common::TraversalArg,
+    /// What the GPU tracer computes in.
+    #[arg(long, value_enum, default_value = "f32")]
+    gpu_precision: crate::common::GpuPrecisionArg,
     /// Timed frames per variant (after two warm-up frames).
     #[arg(long, default_value_t = 9)]
     frames: usize,
@@ -192,6 +195,7 @@ fn checked(
         fresnel: args.fresnel,
         tracer: args.tracer.into(),
         traversal: args.traversal.into(),
+        gpu_precision: args.gpu_precision.into(),
         ..HybridOptions::with_t(args.t)
     };
     hybrid_options.validate().map_err(flag_error)?;

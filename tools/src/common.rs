@@ -362,6 +362,36 @@ impl From<TraversalArg> for lensmap::hybrid::gpu::Traversal {
     }
 }
 
+/// `--gpu-precision`: what the GPU tracer computes in.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuPrecisionArg {
+    /// Single precision: every device, the fastest.
+    F32,
+    /// Double precision, the CPU oracle's: the same paths as the CPU path; devices with
+    /// shaderFloat64.
+    F64,
+}
+
+impl From<GpuPrecisionArg> for lensmap::hybrid::paths::VertexPrecision {
+    fn from(arg: GpuPrecisionArg) -> Self {
+        match arg {
+            GpuPrecisionArg::F32 => lensmap::hybrid::paths::VertexPrecision::F32,
+            GpuPrecisionArg::F64 => lensmap::hybrid::paths::VertexPrecision::F64,
+        }
+    }
+}
+
+/// The command-line flags that give `options`' vertex tracer: `--tracer`, `--traversal` and
+/// `--gpu-precision` (what a screenshot's render command repeats).
+pub fn tracer_flags(options: &lensmap::hybrid::HybridOptions) -> String {
+    format!(
+        "--tracer {} --traversal {} --gpu-precision {}",
+        options.tracer.name(),
+        options.traversal.name(),
+        options.gpu_precision.name()
+    )
+}
+
 /// The walk the GPU tracer takes on `gpu` with these options (`bvh`, `driver`), or `None` where
 /// the vertices are traced on the CPU or the walk cannot be had (the frame then says why).
 pub fn gpu_walk(

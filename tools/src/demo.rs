@@ -70,6 +70,9 @@ pub struct DemoArgs {
     /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
     #[arg(long, value_enum, default_value = "auto", conflicts_with = "synthetic")]
     pub traversal: crate::common::TraversalArg,
+    /// What the GPU tracer computes in (with the GPU tracer only).
+    #[arg(long, value_enum, default_value = "f32", conflicts_with = "synthetic")]
+    pub gpu_precision: crate::common::GpuPrecisionArg,
     /// Also write the report as JSON to this file.
     #[arg(long, value_name = "FILE")]
     pub report: Option<PathBuf>,
@@ -116,6 +119,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
         out: &args.out,
         tracer,
         traversal: args.traversal.into(),
+        gpu_precision: args.gpu_precision.into(),
     };
     let (rows, mut side_by_side) = table.rows(
         &mut runner,
@@ -227,6 +231,8 @@ struct Table<'a> {
     tracer: VertexTracer,
     /// How the GPU tracer finds a ray's hits.
     traversal: lensmap::hybrid::gpu::Traversal,
+    /// What the GPU tracer computes in.
+    gpu_precision: lensmap::hybrid::paths::VertexPrecision,
 }
 
 impl Table<'_> {
@@ -272,6 +278,7 @@ impl Table<'_> {
                         hybrid: HybridOptions {
                             tracer: self.tracer,
                             traversal: self.traversal,
+                            gpu_precision: self.gpu_precision,
                             ..HybridOptions::with_t(t)
                         },
                         variant,

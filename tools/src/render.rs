@@ -68,6 +68,9 @@ pub struct RenderArgs {
     /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
     #[arg(long, value_enum, default_value = "auto")]
     pub traversal: crate::common::TraversalArg,
+    /// What the GPU tracer computes in (with the GPU tracer only).
+    #[arg(long, value_enum, default_value = "f32")]
+    pub gpu_precision: crate::common::GpuPrecisionArg,
     /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -148,6 +151,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             hull_split: args.hull_split.is_on(),
             tracer: args.tracer.into(),
             traversal: args.traversal.into(),
+            gpu_precision: args.gpu_precision.into(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),

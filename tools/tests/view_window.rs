@@ -165,7 +165,10 @@ fn a_scripted_window_shows_what_render_renders_without_a_validation_message() {
     assert_eq!(json["format"], "rgba16f", "{json}");
     assert_eq!(json["t"], 3.0, "{json}");
     let render = json["render"].as_str().expect("a render command line");
-    assert!(render.ends_with("--tracer gpu"), "{render}");
+    assert!(
+        render.ends_with("--tracer gpu --traversal auto --gpu-precision f32"),
+        "{render}"
+    );
     let out = root.join("render.png");
     let mut args: Vec<&str> = render.split(' ').skip(1).collect();
     let out_arg = out.to_str().unwrap();

@@ -87,6 +87,9 @@ pub struct ViewArgs {
     /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
     #[arg(long, value_enum, default_value = "auto")]
     pub traversal: crate::common::TraversalArg,
+    /// What the GPU tracer computes in (with the GPU tracer only).
+    #[arg(long, value_enum, default_value = "f32")]
+    pub gpu_precision: crate::common::GpuPrecisionArg,
     /// Compositor variant (key `v`).
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -207,6 +210,7 @@ fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
             hull_split: args.hull_split.is_on(),
             tracer: args.tracer.into(),
             traversal: args.traversal.into(),
+            gpu_precision: args.gpu_precision.into(),
             ..HybridOptions::default()
         },
         variant: Variant::from(args.variant),

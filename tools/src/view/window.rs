@@ -947,7 +947,7 @@ impl App {
         // A frame with layers off has no command that renders it.
         let render = (!self.experiment.layers_off.contains(&true)).then(|| {
             format!(
-                "lensmap render --scene {} {ems} --camera-position={} --look-at={} --width {} --height {} --supersampling {} --t {} --angle-degrees {} --variant {} --blend {} --format {} --tracer {} --traversal {}",
+                "lensmap render --scene {} {ems} --camera-position={} --look-at={} --width {} --height {} --supersampling {} --t {} --angle-degrees {} --variant {} --blend {} --format {} {}",
                 self.scene_arg,
                 v3(c.position),
                 v3(c.look_at),
@@ -961,8 +961,7 @@ impl App {
                 o.variant.name(),
                 o.blend.name(),
                 o.format.name(),
-                o.hybrid.tracer.name(),
-                o.hybrid.traversal.name()
+                crate::common::tracer_flags(&o.hybrid)
             )
         });
         let json = serde_json::json!({

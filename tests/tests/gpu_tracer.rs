@@ -296,17 +296,18 @@ fn gpu_vertex_paths_agree_with_the_cpu_oracle_on_the_built_in_scenes() {
 #[test]
 fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
     let mut runner = FrameRunner::new(gpu()).expect("a runner");
-    let options = |tracer, traversal| FrameOptions {
+    let options = |tracer, (traversal, gpu_precision)| FrameOptions {
         hybrid: HybridOptions {
             tracer,
             traversal,
+            gpu_precision,
             ..HybridOptions::default()
         },
         variant: Variant::SinglePass,
         blend: BlendScheme::FrontToBack,
         format: TargetFormat::Rgba32f,
     };
-    let ray_queries = runner.gpu().ray_queries();
+    let (ray_queries, float64) = (runner.gpu().ray_queries(), runner.gpu().shader_float64());
     for name in BUILTIN_SCENES {
         let scene = built_in_scene(name, 96, 72, 2);
         let camera = scene.camera;
@@ -323,7 +324,9 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
                 .expect("the lens covers pixels");
             (frame, error.psnr_db)
         };
-        let mut frame = |tracer, read_back| walk_frame(tracer, read_back, Traversal::Bvh);
+        let mut frame = |tracer, read_back| {
+            walk_frame(tracer, read_back, (Traversal::Bvh, VertexPrecision::F32))
+        };
         let (cpu, cpu_psnr) = frame(VertexTracer::Cpu, false);
         let (on_gpu, gpu_psnr) = frame(VertexTracer::Gpu, false);
         let (again, _) = frame(VertexTracer::Gpu, false);
@@ -332,7 +335,22 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
         // draw list and lens data are what the host would have made of the same mesh.
         let (read_back, _) = frame(VertexTracer::Gpu, true);
         // The driver's acceleration structures, where the device has them: the same frame.
-        let walked = ray_queries.then(|| walk_frame(VertexTracer::Gpu, false, Traversal::Driver).0);
+        let walked = ray_queries.then(|| {
+            walk_frame(
+                VertexTracer::Gpu,
+                false,
+                (Traversal::Driver, VertexPrecision::F32),
+            )
+            .0
+        });
+        // In f64, where the device has it: the CPU path's own paths.
+        let precise = float64.then(|| {
+            walk_frame(
+                VertexTracer::Gpu,
+                false,
+                (Traversal::Bvh, VertexPrecision::F64),
+            )
+        });
         let (c, g) = (cpu.stats, on_gpu.stats);
         eprintln!(
             "{name}: lens PSNR CPU {cpu_psnr:.3} dB, GPU {gpu_psnr:.3} dB; vertices {} / {}, triangles {} / {}",
@@ -387,6 +405,19 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
             on_gpu.image.pixels == read_back.image.pixels,
             "{name}: the frame drawn from the device's buffers differs from the one read back"
         );
+        if let Some((precise, psnr)) = precise {
+            let p = precise.stats;
+            eprintln!(
+                "{name}: the GPU in f64: lens PSNR {psnr:.3} dB; vertices {}, triangles {}",
+                p.vertices_traced, p.triangles_out
+            );
+            assert!(
+                p.traced_on_gpu && psnr >= cpu_psnr - 0.3,
+                "{name}: {psnr:.3} dB"
+            );
+            let ratio = p.vertices_traced as f64 / c.vertices_traced as f64;
+            assert!((0.99..=1.01).contains(&ratio), "{name}: {ratio}");
+        }
         if let Some(walked) = walked {
             assert!(
                 walked.stats.traced_on_gpu && walked.image.pixels == on_gpu.image.pixels,
@@ -397,8 +428,10 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
                 (g.vertices_traced, g.triangles_out)
             );
         }
-        let without_device =
-            hybrid.frame(&camera, &options(VertexTracer::Gpu, Traversal::Bvh).hybrid);
+        let without_device = hybrid.frame(
+            &camera,
+            &options(VertexTracer::Gpu, (Traversal::Bvh, VertexPrecision::F32)).hybrid,
+        );
         assert!(
             matches!(&without_device, Err(TessellationError::Option(e)) if e.to_string().contains("without a device")),
             "{:?}",

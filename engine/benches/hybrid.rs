@@ -178,8 +178,8 @@ fn benches(c: &mut Criterion) {
 
 /// The same vertices traced by the GPU's vertex-path pass (`hybrid::gpu`), on the device
 /// `LENSMAP_DEVICE` names (the first otherwise): one submission that uploads them, traces and
-/// reads the records back; with the tracer's BVH walk, and with the driver's acceleration
-/// structures where the device has ray queries.
+/// reads the records back; with the tracer's BVH walk in f32 and in f64 (where the device has
+/// shaderFloat64), and with the driver's acceleration structures (where it has ray queries).
 fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
     let gpu = match Gpu::new(&GpuOptions::from_env()) {
         Ok(gpu) => gpu,
@@ -188,18 +188,25 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
             return;
         }
     };
-    let walks = [GpuTraversal::Bvh, GpuTraversal::Driver];
-    let tracers: Vec<GpuTracer> = walks
+    let variants = [
+        (GpuTraversal::Bvh, VertexPrecision::F32, true),
+        (
+            GpuTraversal::Bvh,
+            VertexPrecision::F64,
+            gpu.shader_float64(),
+        ),
+        (
+            GpuTraversal::Driver,
+            VertexPrecision::F32,
+            gpu.ray_queries(),
+        ),
+    ];
+    let tracers: Vec<GpuTracer> = variants
         .into_iter()
-        .filter(|&walk| walk == GpuTraversal::Bvh || gpu.ray_queries())
-        .map(|walk| {
-            GpuTracer::new(
-                &gpu,
-                &setup.hybrid.trace,
-                None,
-                (walk, VertexPrecision::F32),
-            )
-            .expect("the tracer uploads")
+        .filter(|&(.., offered)| offered)
+        .map(|(walk, precision, _)| {
+            GpuTracer::new(&gpu, &setup.hybrid.trace, None, (walk, precision))
+                .expect("the tracer uploads")
         })
         .collect();
     let settings = PathSettings {
@@ -213,8 +220,9 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
     group.sample_size(20);
     for tracer in &tracers {
         let name = format!(
-            "GPU pass ({} walk): trace {} vertices",
+            "GPU pass ({} walk, {}): trace {} vertices",
             tracer.traversal().name(),
+            tracer.precision().name(),
             input.len()
         );
         group.bench_function(name, |b| {

@@ -11,7 +11,7 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{
         FresnelModel, HybridOptions, HybridScene, VertexTracer, gpu::Traversal,
-        tessellate::DEFAULT_T,
+        paths::VertexPrecision, tessellate::DEFAULT_T,
     },
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{TargetFormat, Variant},
@@ -149,27 +149,39 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         &mut steps,
     )?;
     let gpu_stages = bench.gpu_stages(&mut runner, &gpu, &mut steps)?;
-    // Where the device has ray queries: the GPU tracer's two walks, alternately.
-    let walks = if runner.gpu().ray_queries() {
-        let walk = |traversal| FrameOptions {
-            hybrid: HybridOptions {
-                traversal,
-                ..gpu.hybrid
-            },
-            ..gpu
-        };
-        let (bvh, driver) = (walk(Traversal::Bvh), walk(Traversal::Driver));
-        let timed = bench.alternating(
-            &mut runner,
-            "the GPU tracer's BVH walk vs the driver's acceleration structures",
-            [("bvh", &bvh), ("driver", &driver)],
-            &mut steps,
-        )?;
-        let stages = bench.gpu_stages(&mut runner, &driver, &mut steps)?;
-        Some(json!({"alternating": timed, "driver_gpu_stages": stages}))
-    } else {
-        None
+    // The GPU tracer's variants, each against its default where the device has it: the
+    // driver's walk (ray queries) and f64 (shaderFloat64), alternately, with their stages.
+    let (ray_queries, float64) = (runner.gpu().ray_queries(), runner.gpu().shader_float64());
+    let variant = |traversal, gpu_precision| FrameOptions {
+        hybrid: HybridOptions {
+            traversal,
+            gpu_precision,
+            ..gpu.hybrid
+        },
+        ..gpu
     };
+    let default = variant(Traversal::Bvh, VertexPrecision::F32);
+    let mut against = |offered: bool, what: &str, names: (&str, &str), other: FrameOptions| {
+        if !offered {
+            return Ok::<_, anyhow::Error>(serde_json::Value::Null);
+        }
+        let settings = [(names.0, &default), (names.1, &other)];
+        let timed = bench.alternating(&mut runner, what, settings, &mut steps)?;
+        let stages = bench.gpu_stages(&mut runner, &other, &mut steps)?;
+        Ok(json!({"alternating": timed, "gpu_stages": stages}))
+    };
+    let walks = against(
+        ray_queries,
+        "the GPU tracer's BVH walk vs the driver's acceleration structures",
+        ("bvh", "driver"),
+        variant(Traversal::Driver, VertexPrecision::F32),
+    )?;
+    let precisions = against(
+        float64,
+        "the GPU tracer in f32 vs f64",
+        ("f32", "f64"),
+        variant(Traversal::Bvh, VertexPrecision::F64),
+    )?;
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
@@ -180,6 +192,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         "tracer": args.tracer.name(), "traced_on_gpu": hybrid_options.tracer.on_gpu(runner.gpu()),
         "walk": crate::common::gpu_walk(runner.gpu(), &hybrid_options),
         "cpu_against_gpu_tracer": tracers, "gpu_stages": gpu_stages, "bvh_against_driver_walk": walks,
+        "f32_against_f64": precisions,
     });
     report(&out, args.report.as_deref())?;
     Ok(())

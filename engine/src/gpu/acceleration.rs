@@ -167,32 +167,15 @@ impl BoxScene {
                 record_build(fns, cb, build, *handle, scratch);
             }
             // The bottom levels are built before the top level reads them.
-            let barrier = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR)
-                .src_access_mask(vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR)
-                .dst_stage_mask(vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR)
-                .dst_access_mask(vk::AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR)];
-            // SAFETY: recording into the command buffer `submit_and_wait` began.
-            unsafe {
-                gpu.device().cmd_pipeline_barrier2(
-                    cb,
-                    &vk::DependencyInfo::default().memory_barriers(&barrier),
-                )
-            };
+            after_builds(
+                gpu,
+                cb,
+                vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR,
+            );
             record_build(fns, cb, &top, top_structure.handle, &top_scratch);
-            // The top level is built before any later submission's shaders read it.
-            let barrier = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR)
-                .src_access_mask(vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR)
-                .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                .dst_access_mask(vk::AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR)];
-            // SAFETY: as above.
-            unsafe {
-                gpu.device().cmd_pipeline_barrier2(
-                    cb,
-                    &vk::DependencyInfo::default().memory_barriers(&barrier),
-                )
-            };
+            // The top level is built before any later submission's shaders read it (a barrier
+            // orders commands across submissions to one queue).
+            after_builds(gpu, cb, vk::PipelineStageFlags2::COMPUTE_SHADER);
             Ok(())
         })?;
         // The inputs and scratch were only read by the build, which is done.
@@ -202,6 +185,20 @@ impl BoxScene {
             _bottoms: bottoms,
         })
     }
+}
+
+/// Records a barrier from the builds recorded so far to reads of what they built at `stage`.
+fn after_builds(gpu: &Gpu, cb: vk::CommandBuffer, stage: vk::PipelineStageFlags2) {
+    let barrier = [vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR)
+        .src_access_mask(vk::AccessFlags2::ACCELERATION_STRUCTURE_WRITE_KHR)
+        .dst_stage_mask(stage)
+        .dst_access_mask(vk::AccessFlags2::ACCELERATION_STRUCTURE_READ_KHR)];
+    // SAFETY: `cb` is recording (the caller's submit_and_wait began it).
+    unsafe {
+        gpu.device()
+            .cmd_pipeline_barrier2(cb, &vk::DependencyInfo::default().memory_barriers(&barrier))
+    };
 }
 
 /// The instance of part `part`'s bottom level at `address`: identity transform, custom index

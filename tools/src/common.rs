@@ -393,12 +393,15 @@ pub fn tracer_flags(options: &lensmap::hybrid::HybridOptions) -> String {
 }
 
 /// The walk the GPU tracer takes on `gpu` with these options (`bvh`, `driver`), or `None` where
-/// the vertices are traced on the CPU or the walk cannot be had (the frame then says why).
+/// the vertices are traced on the CPU or the walk or the precision cannot be had there (with
+/// `--tracer gpu` the frame then fails saying why; `auto` traces on the CPU).
 pub fn gpu_walk(
     gpu: &lensmap::gpu::Gpu,
     options: &lensmap::hybrid::HybridOptions,
 ) -> Option<&'static str> {
-    if !options.tracer.on_gpu(gpu) {
+    let f64_missing = options.gpu_precision == lensmap::hybrid::paths::VertexPrecision::F64
+        && !gpu.shader_float64();
+    if !options.tracer.on_gpu(gpu) || f64_missing {
         return None;
     }
     options.traversal.resolve(gpu).ok().map(|walk| walk.name())

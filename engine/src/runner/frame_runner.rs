@@ -362,7 +362,7 @@ impl FrameRunner {
         stats: &mut HybridStats,
         parts: &[Arc<DeviceLensPart>],
     ) -> Result<bool, RunError> {
-        let mut capped = false;
+        let mut capped = Vec::new();
         for part in parts {
             let counts = read_counts(part);
             stats.triangles_out += counts.triangles as usize;
@@ -372,18 +372,21 @@ impl FrameRunner {
                 stats.stopped_by_budget += counts.stopped_by_budget as usize;
                 stats.vertices_traced += counts.counters.primary_rays as usize;
                 stats.counters += counts.counters;
-                capped |= counts.capped_by_buffers;
+                if counts.capped_by_buffers {
+                    capped.push(part);
+                }
             }
         }
-        match (capped, &self.tracer) {
-            (
-                true,
-                Some(ResidentTracer {
-                    tracer: Ok(tracer), ..
-                }),
-            ) => Ok(tracer.grow()),
-            _ => Ok(false),
+        // The tracer that made the parts grows: the frame may have come from the spare one.
+        let mut grew = false;
+        for resident in [&self.tracer, &self.spare].into_iter().flatten() {
+            if let Ok(tracer) = &resident.tracer
+                && capped.iter().any(|part| tracer.made(part))
+            {
+                grew |= tracer.grow();
+            }
         }
+        Ok(grew)
     }
 
     /// Whether frames traced on the GPU read their meshes back to the host (the tessellation
@@ -475,9 +478,10 @@ impl FrameRunner {
         self.time_gpu_stages = on;
     }
 
-    /// Makes `hybrid`'s geometry resident on the device for `fresnel`: the copy kept from the
-    /// last frame when it is the same scene and model, else uploaded now (once per scene). An
-    /// error when the device cannot take it (now or on an earlier try).
+    /// Makes `hybrid`'s geometry resident on the device for `options`' Fresnel model, GPU walk
+    /// and precision: the copy kept from an earlier frame (the last one's, or the spare) when it
+    /// is the same scene and settings, else uploaded now. An error when the device cannot take
+    /// it (now or on an earlier try) or lacks what the walk or the precision needs.
     fn make_resident(
         &mut self,
         hybrid: &HybridScene,
@@ -497,12 +501,17 @@ impl FrameRunner {
             std::mem::swap(&mut self.tracer, &mut self.spare);
         }
         if !matches(&self.tracer) {
-            // The old ones first: their buffers go before the new ones are made. The same
-            // scene's other one is kept.
+            // The old one's buffers go before the new ones are made, but for the same scene's,
+            // kept as the spare.
             self.spare = self.tracer.take().filter(|t| same(t));
             let table = fresnel.table()?;
-            let tracer = GpuTracer::new(&self.gpu, &hybrid.trace, table.as_ref(), walk)
-                .map_err(|error| error.to_string());
+            let make = || GpuTracer::new(&self.gpu, &hybrid.trace, table.as_ref(), walk);
+            let tracer = match make() {
+                // Once more without the spare, should it hold the memory the new one needs.
+                Err(_) if self.spare.take().is_some() => make(),
+                made => made,
+            }
+            .map_err(|error| error.to_string());
             self.tracer = Some(ResidentTracer {
                 scene,
                 fresnel,

@@ -40,7 +40,7 @@ pub struct GpuGeometry {
     /// Root node per part: the environment, then each lens object ([`NO_NODE`]: no triangle).
     pub roots: Vec<u32>,
     /// Per part its first triangle and its triangle count: what the tracer's ray-query
-    /// traversal reads instead of the roots (`shaders/wgsl/tracer_rq.wgsl`).
+    /// traversal reads instead of the roots (`shaders/wgsl/include/walk_rq.wgsl`).
     pub ranges: Vec<[u32; 2]>,
     /// Per part each triangle's padded box `[min, max]`, in triangle order: the boxes of the
     /// driver's acceleration structures (`crate::gpu::acceleration::BoxScene`), the same boxes
@@ -187,9 +187,9 @@ mod tests {
 
     #[test]
     fn the_stack_bound_is_the_shaders() {
-        let wgsl = include_str!("../../../shaders/wgsl/tracer.wgsl");
+        let wgsl = include_str!("../../../shaders/wgsl/include/walk_bvh.wgsl");
         let declared = format!("const STACK_SIZE: u32 = {STACK_ENTRIES}u;");
-        assert!(wgsl.contains(&declared), "tracer.wgsl lacks `{declared}`");
+        assert!(wgsl.contains(&declared), "walk_bvh.wgsl lacks `{declared}`");
     }
 
     #[test]

@@ -11,3 +11,8 @@ const ORIGIN_OFFSET: real = 1.5258789e-5;
 fn word(x: real) -> u32 {
     return bitcast<u32>(x);
 }
+
+// A distance as the f32 the walks prune with.
+fn up_to_f32(x: real) -> f32 {
+    return x;
+}

@@ -11,3 +11,13 @@ const ORIGIN_OFFSET: real = 1e-9;
 fn word(x: real) -> u32 {
     return u32(x);
 }
+
+// The smallest f32 not below a positive distance `x`, so that the f32 walks prune with it
+// conservatively (the CPU's `round_up`).
+fn up_to_f32(x: real) -> f32 {
+    let r = f32(x);
+    if f64(r) < x {
+        return bitcast<f32>(bitcast<u32>(r) + 1u);
+    }
+    return r;
+}

@@ -52,7 +52,7 @@ fn closest_hit(part: u32, ray: Ray, max_t: real, exclude: u32, tests: ptr<functi
     var stack: array<u32, STACK_SIZE>;
     var entries: array<f32, STACK_SIZE>;
     var size = 0u;
-    let root_entry = box_entry(root, origin, inverse, f32(closest.reach));
+    let root_entry = box_entry(root, origin, inverse, up_to_f32(closest.reach));
     if root_entry >= 0.0 {
         stack[0] = root;
         entries[0] = root_entry;
@@ -60,7 +60,7 @@ fn closest_hit(part: u32, ray: Ray, max_t: real, exclude: u32, tests: ptr<functi
     }
     while size > 0u {
         size -= 1u;
-        if entries[size] > f32(closest.reach) {
+        if entries[size] > up_to_f32(closest.reach) {
             continue;
         }
         let node = stack[size];
@@ -68,8 +68,8 @@ fn closest_hit(part: u32, ray: Ray, max_t: real, exclude: u32, tests: ptr<functi
         let count = bitcast<u32>(nodes[2u * node + 1u].w);
         if count == 0u {
             // GpuGeometry refuses a BVH deeper than the stack: both children always fit.
-            let entry_a = box_entry(first, origin, inverse, f32(closest.reach));
-            let entry_b = box_entry(first + 1u, origin, inverse, f32(closest.reach));
+            let entry_a = box_entry(first, origin, inverse, up_to_f32(closest.reach));
+            let entry_b = box_entry(first + 1u, origin, inverse, up_to_f32(closest.reach));
             let a_first = entry_a >= 0.0 && (entry_b < 0.0 || entry_a <= entry_b);
             let near = select(first + 1u, first, a_first);
             let far = select(first, first + 1u, a_first);

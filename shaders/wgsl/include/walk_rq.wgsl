@@ -32,7 +32,7 @@ fn closest_hit(part: u32, ray: Ray, max_t: real, exclude: u32, tests: ptr<functi
     let origin = vec3<f32>(ray.origin);
     let direction = vec3<f32>(ray.direction);
     // What the driver prunes boxes beyond: the reach of the search (never past max_t).
-    var committed = f32(max_t);
+    var committed = up_to_f32(max_t);
     rayQueryInitialize(&query, scene, RayDesc(RAY_FLAG_NONE, mask, 0.0, committed, origin, direction));
     while rayQueryProceed(&query) {
         let candidate = rayQueryGetCandidateIntersection(&query);
@@ -46,7 +46,7 @@ fn closest_hit(part: u32, ray: Ray, max_t: real, exclude: u32, tests: ptr<functi
         }
         consider(&closest, primitive, ray);
         // Named first: naga 30 loses a load written inside the call's arguments.
-        let reach = f32(closest.reach);
+        let reach = up_to_f32(closest.reach);
         if reach < committed {
             // Commits the reach, not the hit: boxes up to it may still hold a tie that wins.
             committed = reach;

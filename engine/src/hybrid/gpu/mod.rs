@@ -294,7 +294,7 @@ impl GpuTracer {
     ) -> Result<GpuTracer, GpuError> {
         if precision == VertexPrecision::F64 && !gpu.shader_float64() {
             return Err(GpuError::NoSuitableDevice(format!(
-                "{} ({}) offers no shaderFloat64, which the GPU tracer's f64 passes need; trace in f32 or on the CPU",
+                "{} ({}) has no shaderFloat64, which the GPU tracer's f64 passes need (lensmap enables it where the driver offers it, and uses a host's device without it); trace in f32 or on the CPU",
                 gpu.device_name(),
                 gpu.device_id().driver_description()
             )));

@@ -566,6 +566,15 @@ impl GpuTracer {
         self.ensure_buffers(gpu, state, (object, arrays), (options.max_vertices, false))
     }
 
+    /// Whether `part` is one of this tracer's outputs (a frame's counts grow the tracer that
+    /// made its parts).
+    pub fn made(&self, part: &Arc<DeviceLensPart>) -> bool {
+        let pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
+        pass.objects
+            .values()
+            .any(|object| object.outputs.iter().any(|o| Arc::ptr_eq(&o.part, part)))
+    }
+
     /// Asks for buffers four times larger (up to what the device holds) for the next
     /// tessellation, which makes them once every submission that uses the old ones completed;
     /// whether they will grow.

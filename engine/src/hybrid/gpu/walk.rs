@@ -1,5 +1,5 @@
 //! How the tracer's passes find a ray's hits: set 0's bindings 0 and 3, and the shader that
-//! reads them. Both walks test the same triangles with the same f32 test and tie rule
+//! reads them. Both walks test the same triangles with the same test and tie rule
 //! (`shaders/wgsl/include/vertex_paths.wgsl`); they differ in what culls the triangles a ray
 //! cannot hit.
 
@@ -61,7 +61,7 @@ impl Traversal {
             Traversal::Bvh => Ok(GpuTraversal::Bvh),
             Traversal::Driver if gpu.ray_queries() => Ok(GpuTraversal::Driver),
             Traversal::Driver => Err(GpuError::NoSuitableDevice(format!(
-                "{} ({}) offers no acceleration structures with ray queries (VK_KHR_acceleration_structure, VK_KHR_ray_query); walk the tracer's own BVH instead",
+                "{} ({}) has no acceleration structures with ray queries: lensmap makes its device with them where the driver offers VK_KHR_acceleration_structure and VK_KHR_ray_query, and uses a host's device without them; walk the tracer's own BVH instead",
                 gpu.device_name(),
                 gpu.device_id().driver_description()
             ))),

@@ -50,7 +50,7 @@ fn lens_interfaces(scene: &Scene) -> Vec<(String, Interface)> {
             Material::Mirror { reflectance } => Interface::Mirror {
                 reflectance: reflectance.as_dvec3(),
             },
-            Material::Diffuse { .. } => continue,
+            Material::Diffuse { .. } | Material::Glossy(_) => continue,
         };
         if !seen.iter().any(|(_, known)| *known == interface) {
             seen.push((format!("{}:{}", scene.name, describe(interface)), interface));

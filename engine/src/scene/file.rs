@@ -132,8 +132,9 @@ pub(crate) struct LightSpec {
     pub intensity: [f32; 3],
 }
 
-/// One `[[materials]]` entry: a `name` and exactly one of `glass`, `mirror` and `diffuse`. Glass
-/// and mirror materials make lens objects; diffuse ones make the environment.
+/// One `[[materials]]` entry: a `name` and exactly one of `glass`, `mirror`, `diffuse` and
+/// `glossy`. Glass and mirror materials make lens objects; diffuse and glossy ones make the
+/// environment.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct MaterialSpec {
@@ -146,6 +147,37 @@ pub(crate) struct MaterialSpec {
     pub mirror: Option<MirrorSpec>,
     /// `diffuse = { colour, checker, image }`: a Lambertian surface lit by the point lights.
     pub diffuse: Option<DiffuseSpec>,
+    /// `glossy = { diffuse, specular, exponent, coat }`: a glossy surface.
+    pub glossy: Option<GlossySpec>,
+}
+
+/// `glossy = { diffuse = [0.5, 0.1, 0.1], specular = [0.3, 0.3, 0.3], exponent = 40, coat = {
+/// ior = 1.5, exponent = 1000 } }`: a Lambertian base and a normalized Phong lobe, optionally
+/// under a Fresnel clear coat (the reflection-space IBR paper's car paint).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct GlossySpec {
+    /// `diffuse`, default [0, 0, 0]: the Lambertian albedo kd per channel, each in [0, 1].
+    #[serde(default)]
+    pub diffuse: [f32; 3],
+    /// `specular`, default [0, 0, 0]: the Phong lobe's reflectance ks per channel, each in
+    /// [0, 1], with diffuse + specular ≤ 1 per channel.
+    #[serde(default)]
+    pub specular: [f32; 3],
+    /// `exponent`, required with a specular lobe: the Phong exponent, in [1, 100000].
+    pub exponent: Option<f32>,
+    /// `coat = { ior, exponent }`: a clear coat over the base. `None`: none.
+    pub coat: Option<CoatSpec>,
+}
+
+/// `coat = { ior = 1.5, exponent = 1000 }`: both keys required.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CoatSpec {
+    /// `ior`: the coat's index of refraction, in (1, 3].
+    pub ior: f32,
+    /// `exponent`: the coat lobe's Phong exponent, in [1, 100000].
+    pub exponent: f32,
 }
 
 /// `glass = { ior = 1.5, absorption = [0.82, 0.9, 0.95] }`: a dielectric lens material.

@@ -62,6 +62,17 @@ impl Canonical for Material {
             Material::Glass { ior, absorption } => encoder.tag(0).value(ior).value(absorption),
             Material::Mirror { reflectance } => encoder.tag(1).value(reflectance),
             Material::Diffuse { colour, texture } => encoder.tag(2).value(colour).value(texture),
+            Material::Glossy(glossy) => {
+                let encoder = encoder
+                    .tag(3)
+                    .value(&glossy.diffuse)
+                    .value(&glossy.specular)
+                    .value(&glossy.exponent);
+                match &glossy.coat {
+                    None => encoder.tag(0),
+                    Some(coat) => encoder.tag(1).value(&coat.ior).value(&coat.exponent),
+                }
+            }
         };
     }
 }

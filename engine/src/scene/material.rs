@@ -1,5 +1,6 @@
 //! Materials: glass and mirror (the "lens" materials that the ray tracer and the hybrid runtime
-//! trace through) and diffuse (the environment, shaded by point lights), with textures.
+//! trace through), diffuse (the environment, shaded by point lights), with textures, and glossy
+//! (the reflection-space IBR paper's objects).
 
 use glam::{Vec2, Vec3};
 
@@ -27,6 +28,35 @@ pub enum Material {
         /// Optional texture multiplied into the albedo, sampled at the mesh's uvs.
         texture: Option<Texture>,
     },
+    /// A glossy surface: a Lambertian base and a Phong lobe, optionally under a Fresnel clear
+    /// coat (`crate::trace::glossy` gives its BRDF). Part of the environment's geometry; the
+    /// reference ray tracer integrates its BRDF against everything it sees, while hybrid frames
+    /// draw it with its light map, which holds its diffuse base under the point lights.
+    Glossy(Glossy),
+}
+
+/// A glossy material's parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Glossy {
+    /// Lambertian albedo kd per channel, in [0, 1].
+    pub diffuse: Vec3,
+    /// The Phong lobe's reflectance ks per channel, in [0, 1], with kd + ks ≤ 1: the share of
+    /// uniform light it reflects at normal incidence.
+    pub specular: Vec3,
+    /// The Phong exponent m, in [1, 10⁵].
+    pub exponent: f32,
+    /// A clear coat over the base, if any.
+    pub coat: Option<Coat>,
+}
+
+/// A Fresnel clear coat: a Phong lobe of its own, weighted by the exact dielectric Fresnel
+/// reflectance F at the viewing angle, over the base weighted by 1 − F.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coat {
+    /// Index of refraction of the coat, in (1, 3].
+    pub ior: f32,
+    /// The coat lobe's Phong exponent, in [1, 10⁵].
+    pub exponent: f32,
 }
 
 impl Material {
@@ -36,12 +66,14 @@ impl Material {
         matches!(self, Material::Glass { .. } | Material::Mirror { .. })
     }
 
-    /// The diffuse albedo at texture coordinate `uv` (zero for glass and mirror).
+    /// The diffuse albedo at texture coordinate `uv` (a glossy material's base; zero for glass
+    /// and mirror).
     pub fn albedo(&self, uv: Vec2) -> Vec3 {
         match self {
             Material::Diffuse { colour, texture } => {
                 *colour * texture.as_ref().map_or(Vec3::ONE, |t| t.sample(uv))
             }
+            Material::Glossy(glossy) => glossy.diffuse,
             _ => Vec3::ZERO,
         }
     }

@@ -28,7 +28,7 @@ pub use environment::{
     Environment, LatLongMap, PointLight, direction_to_lat_long, lat_long_to_direction,
 };
 pub use error::SceneError;
-pub use material::{ImageTexture, Material, Texture};
+pub use material::{Coat, Glossy, ImageTexture, Material, Texture};
 pub use mesh::{MeshProblem, TriangleMesh};
 pub use path::{CameraPath, CameraPose};
 

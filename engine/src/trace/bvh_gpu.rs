@@ -77,7 +77,7 @@ impl GpuGeometry {
                 Material::Mirror { reflectance } => {
                     [[2.0, 1.0, 0.0, 0.0], reflectance.extend(0.0).to_array()]
                 }
-                Material::Diffuse { .. } => [[0.0; 4], [0.0; 4]],
+                Material::Diffuse { .. } | Material::Glossy(_) => [[0.0; 4], [0.0; 4]],
             })
             .collect();
         if geometry.materials.is_empty() {

@@ -39,12 +39,16 @@ pub struct ReferenceImage {
     /// Which lens object each pixel shows, by the rule every lens-error figure uses (see
     /// [`super::lens_pixels`]).
     pub lens_pixels: LensPixels,
+    /// The Monte Carlo standard error of each pixel's `radiance` (root mean square over channels),
+    /// from its glossy subsamples ([`super::glossy`]); 0 where it sees no glossy surface.
+    pub glossy_error: Vec<f32>,
     /// Work and time of the render.
     pub stats: RenderStats,
 }
 
 /// The per-pixel sums of one image row.
 struct Row {
+    glossy_error: Vec<f32>,
     radiance: Vec<Vec3>,
     refraction: Vec<Vec3>,
     reflection: Vec<Vec3>,
@@ -193,6 +197,7 @@ pub fn render_reference_cancellable(
         refraction: Vec::with_capacity(pixels),
         reflection: Vec::with_capacity(pixels),
         lens_mask: Vec::with_capacity(pixels),
+        glossy_error: Vec::with_capacity(pixels),
         lens_pixels: LensPixels {
             width: camera.width,
             height: camera.height,
@@ -211,6 +216,7 @@ pub fn render_reference_cancellable(
         image.refraction.extend(row.refraction);
         image.reflection.extend(row.reflection);
         image.lens_mask.extend(row.lens_mask);
+        image.glossy_error.extend(row.glossy_error);
         image.lens_pixels.covers.extend(row.covers);
         image.stats.counters += row.counters;
     }
@@ -222,6 +228,7 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
     let width = camera.width as usize;
     let scale = 1.0 / f64::from(k * k);
     let mut row = Row {
+        glossy_error: Vec::with_capacity(width),
         radiance: Vec::with_capacity(width),
         refraction: Vec::with_capacity(width),
         reflection: Vec::with_capacity(width),
@@ -232,6 +239,8 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
     let mut first_hits = Vec::with_capacity((k * k) as usize);
     for x in 0..camera.width {
         let mut sums = [DVec3::ZERO; 3];
+        // Σ of the subsamples' variances (squared standard errors), mean over channels.
+        let mut variance = 0.0;
         let mut lens_hits = 0u32;
         for j in 0..k {
             for i in 0..k {
@@ -241,6 +250,7 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
                 sums[0] += sample.radiance;
                 sums[1] += sample.refraction;
                 sums[2] += sample.reflection;
+                variance += (sample.standard_error * sample.standard_error).element_sum() / 3.0;
                 lens_hits += u32::from(sample.lens.is_some());
                 first_hits.push(sample.lens);
             }
@@ -250,6 +260,8 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
         row.refraction.push((sums[1] * scale).as_vec3());
         row.reflection.push((sums[2] * scale).as_vec3());
         row.lens_mask.push((f64::from(lens_hits) * scale) as f32);
+        // The pixel is the mean of k² independent subsamples.
+        row.glossy_error.push((variance.sqrt() * scale) as f32);
     }
     row
 }

@@ -22,6 +22,7 @@
 pub mod bvh;
 pub mod bvh_gpu;
 pub mod fresnel;
+pub mod glossy;
 pub mod image;
 pub mod lens_pixels;
 pub mod path;

@@ -250,7 +250,7 @@ fn push_record(
     };
     for hit in outgoing_hits(scene, &ray, &seen_lenses, counters) {
         let radiance = match hit.1 {
-            Part::Environment => scene.shade_diffuse(&ray, &hit.0, counters),
+            Part::Environment => scene.shade_surface(&ray, &hit.0, options, counters),
             Part::Lens(other) => {
                 let [t, r] = scene.greedy_terms(other, &ray, &hit.0, 2, options, counters);
                 t + r

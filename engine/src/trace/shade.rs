@@ -42,7 +42,14 @@ pub struct TraceOptions {
     /// Greedy model: most lens objects evaluated along one camera ray (≥ 1); an outgoing ray
     /// beyond it sees the environment alone.
     pub max_lens_depth: u32,
+    /// Directions sampled per shading point of a glossy surface ([`super::glossy`]).
+    pub glossy_samples: u32,
+    /// Seed of the glossy surfaces' samples: two seeds give independent estimates.
+    pub glossy_seed: u64,
 }
+
+/// Default of [`TraceOptions::glossy_samples`].
+pub const DEFAULT_GLOSSY_SAMPLES: u32 = 256;
 
 impl Default for TraceOptions {
     fn default() -> Self {
@@ -51,6 +58,8 @@ impl Default for TraceOptions {
             greedy: GreedyOptions::default(),
             tree: RayTreeOptions::default(),
             max_lens_depth: 3,
+            glossy_samples: DEFAULT_GLOSSY_SAMPLES,
+            glossy_seed: 0,
         }
     }
 }
@@ -66,6 +75,9 @@ pub struct CameraSample {
     pub reflection: DVec3,
     /// The lens object hit first, if any.
     pub lens: Option<usize>,
+    /// The Monte Carlo standard error of `radiance`, per channel: non-zero only on a glossy
+    /// surface ([`super::glossy`]).
+    pub standard_error: DVec3,
 }
 
 impl TraceScene {
@@ -123,6 +135,24 @@ impl TraceScene {
         sanitize(albedo * irradiance * std::f64::consts::FRAC_1_PI)
     }
 
+    /// Radiance leaving environment surface `hit` towards the origin of `ray`: a glossy one's
+    /// estimate ([`TraceScene::shade_glossy`]), else the Lambertian shading.
+    pub fn shade_surface(
+        &self,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        options: &TraceOptions,
+        counters: &mut TraceCounters,
+    ) -> DVec3 {
+        match self.material(hit.object) {
+            crate::scene::Material::Glossy(glossy) => {
+                self.shade_glossy(ray, hit, glossy, options, counters)
+                    .radiance
+            }
+            _ => self.shade_diffuse(ray, hit, counters),
+        }
+    }
+
     /// Radiance of one camera ray (counted as a primary ray) under `options`.
     pub fn trace_camera_ray(
         &self,
@@ -138,14 +168,24 @@ impl TraceScene {
                 refraction: DVec3::ZERO,
                 reflection: DVec3::ZERO,
                 lens: None,
+                standard_error: DVec3::ZERO,
             };
         };
         let Part::Lens(lens) = world_hit.part else {
+            let hit = &world_hit.hit;
+            let (radiance, standard_error) = match self.material(hit.object) {
+                crate::scene::Material::Glossy(glossy) => {
+                    let estimate = self.shade_glossy(ray, hit, glossy, options, counters);
+                    (estimate.radiance, estimate.standard_error)
+                }
+                _ => (self.shade_diffuse(ray, hit, counters), DVec3::ZERO),
+            };
             return CameraSample {
-                radiance: self.shade_diffuse(ray, &world_hit.hit, counters),
+                radiance,
                 refraction: DVec3::ZERO,
                 reflection: DVec3::ZERO,
                 lens: None,
+                standard_error,
             };
         };
         let [refraction, reflection] = match options.model {
@@ -157,6 +197,7 @@ impl TraceScene {
             refraction,
             reflection,
             lens: Some(lens),
+            standard_error: DVec3::ZERO,
         }
     }
 
@@ -223,7 +264,7 @@ impl TraceScene {
             Some(WorldHit {
                 hit,
                 part: Part::Environment,
-            }) => self.shade_diffuse(ray, &hit, counters),
+            }) => self.shade_surface(ray, &hit, options, counters),
             Some(WorldHit {
                 hit,
                 part: Part::Lens(lens),

@@ -185,7 +185,7 @@ impl TraceScene {
             Material::Mirror { reflectance } => Some(Interface::Mirror {
                 reflectance: reflectance.as_dvec3(),
             }),
-            Material::Diffuse { .. } => None,
+            Material::Diffuse { .. } | Material::Glossy(_) => None,
         }
     }
 

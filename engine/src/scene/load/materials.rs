@@ -7,9 +7,9 @@ use glam::Vec3;
 
 use super::{Loader, MAX_RADIANCE, Result};
 use crate::scene::environment::{Environment, LatLongMap};
-use crate::scene::file::{DiffuseSpec, EnvironmentSpec, MaterialSpec};
+use crate::scene::file::{DiffuseSpec, EnvironmentSpec, GlossySpec, MaterialSpec};
 use crate::scene::image_file::load_linear_rgb;
-use crate::scene::material::{ImageTexture, Material, Texture};
+use crate::scene::material::{Coat, Glossy, ImageTexture, Material, Texture};
 
 impl Loader<'_> {
     pub(super) fn environment(&self, spec: &EnvironmentSpec) -> Result<Environment> {
@@ -69,8 +69,25 @@ impl Loader<'_> {
             let field = format!("materials[{i}]");
             let used = index.insert(spec.name.clone(), i).is_some();
             self.check_name(&field, &spec.name, used, "material")?;
-            let material = match (&spec.glass, &spec.mirror, &spec.diffuse) {
-                (Some(glass), None, None) => {
+            let kinds = [
+                spec.glass.is_some(),
+                spec.mirror.is_some(),
+                spec.diffuse.is_some(),
+                spec.glossy.is_some(),
+            ];
+            let not_one = || {
+                self.error(
+                    &field,
+                    format!(
+                        "material \"{}\" needs exactly one of glass, mirror, diffuse or glossy",
+                        spec.name
+                    ),
+                    "keep one of glass = { ... }, mirror = { ... }, diffuse = { ... }, glossy = { ... }",
+                )
+            };
+            let material = match (&spec.glass, &spec.mirror, &spec.diffuse, &spec.glossy) {
+                _ if kinds.iter().filter(|&&k| k).count() != 1 => return Err(not_one()),
+                (Some(glass), ..) => {
                     let ior = glass.ior;
                     if !(ior.is_finite() && ior > 0.0) {
                         return Err(self.error(
@@ -88,30 +105,76 @@ impl Loader<'_> {
                     }
                     Material::Glass { ior, absorption }
                 }
-                (None, Some(mirror), None) => Material::Mirror {
+                (_, Some(mirror), ..) => Material::Mirror {
                     reflectance: self.colour(
                         &format!("{field}.mirror.reflectance"),
                         mirror.reflectance,
                         Some(1.0),
                     )?,
                 },
-                (None, None, Some(diffuse)) => {
-                    self.diffuse(&format!("{field}.diffuse"), diffuse)?
-                }
-                _ => {
-                    return Err(self.error(
-                        &field,
-                        format!(
-                            "material \"{}\" needs exactly one of glass, mirror or diffuse",
-                            spec.name
-                        ),
-                        "keep one of glass = { ... }, mirror = { ... }, diffuse = { ... }",
-                    ));
-                }
+                (_, _, Some(diffuse), _) => self.diffuse(&format!("{field}.diffuse"), diffuse)?,
+                (.., Some(glossy)) => self.glossy(&format!("{field}.glossy"), glossy)?,
+                (None, None, None, None) => return Err(not_one()),
             };
             materials.push(material);
         }
         Ok((materials, index))
+    }
+
+    pub(super) fn glossy(&self, field: &str, spec: &GlossySpec) -> Result<Material> {
+        let diffuse = self.colour(&format!("{field}.diffuse"), spec.diffuse, Some(1.0))?;
+        let specular = self.colour(&format!("{field}.specular"), spec.specular, Some(1.0))?;
+        if (diffuse + specular).max_element() > 1.0 {
+            return Err(self.error(
+                field,
+                format!("diffuse + specular is {:?}, above 1 in a channel", (diffuse + specular).to_array()),
+                "lower diffuse or specular so that their sum is at most 1 per channel (the light a surface reflects)",
+            ));
+        }
+        let exponent_in = |name: &str, exponent: f32| {
+            if (1.0..=MAX_EXPONENT).contains(&exponent) {
+                Ok(exponent)
+            } else {
+                Err(self.error(
+                    format!("{field}.{name}"),
+                    format!("{exponent} is outside [1, {MAX_EXPONENT}]"),
+                    "give a Phong exponent of at least 1 (broad) and at most 100000 (near a mirror)",
+                ))
+            }
+        };
+        let exponent = match spec.exponent {
+            Some(exponent) => exponent_in("exponent", exponent)?,
+            None if specular == Vec3::ZERO => 1.0,
+            None => {
+                return Err(self.error(
+                    field,
+                    "has a specular lobe but no exponent",
+                    "add exponent = N (the Phong exponent, e.g. 40)",
+                ));
+            }
+        };
+        let coat = match &spec.coat {
+            None => None,
+            Some(coat) => {
+                if !(coat.ior > 1.0 && coat.ior <= 3.0) {
+                    return Err(self.error(
+                        format!("{field}.coat.ior"),
+                        format!("index of refraction {} is outside (1, 3]", coat.ior),
+                        "give the clear coat's index of refraction, e.g. 1.5",
+                    ));
+                }
+                Some(Coat {
+                    ior: coat.ior,
+                    exponent: exponent_in("coat.exponent", coat.exponent)?,
+                })
+            }
+        };
+        Ok(Material::Glossy(Glossy {
+            diffuse,
+            specular,
+            exponent,
+            coat,
+        }))
     }
 
     pub(super) fn diffuse(&self, field: &str, spec: &DiffuseSpec) -> Result<Material> {
@@ -151,6 +214,9 @@ impl Loader<'_> {
         Ok(Material::Diffuse { colour, texture })
     }
 }
+
+/// The largest Phong exponent a glossy material may have (a lobe about 0.3° wide).
+const MAX_EXPONENT: f32 = 100_000.0;
 
 /// Checks a lat-long scale factor.
 fn spec_scale(loader: &Loader<'_>, scale: f32) -> Result<f32> {

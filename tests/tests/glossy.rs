@@ -1,0 +1,262 @@
+//! Glossy surfaces in the reference ray tracer (`engine/src/trace/glossy.rs`) against closed forms
+//! and a second algorithm: a Lambertian, a Phong and a coated sphere under a uniform environment
+//! (each reflects a known share of it at normal incidence), a Phong sphere at oblique incidence
+//! against a deterministic quadrature of the same BRDF over the hemisphere, and a glossy plane
+//! under one point light (the direct term, exact). The estimates must lie within 4 standard
+//! errors (their own, reported) of the answers; images are bit-identical at any thread count, and
+//! two seeds differ within their errors.
+
+use std::f64::consts::{FRAC_1_PI, PI, TAU};
+use std::path::Path;
+
+use glam::DVec3;
+use lensmap::scene::{Material, Scene};
+use lensmap::trace::glossy::Lobes;
+use lensmap::trace::{Ray, TraceCounters, TraceOptions, TraceScene, render_reference};
+
+/// A scene of one unit sphere at the origin in material `glossy` (the TOML inline table), under
+/// a constant environment `environment` and the given `[[lights]]` tables, seen from +z.
+fn sphere_scene(glossy: &str, environment: f64, lights: &str) -> (Scene, TraceScene) {
+    let text = format!(
+        r#"
+name = "glossy-test"
+[camera]
+position = [0.0, 0.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+vfov_degrees = 30.0
+width = 24
+height = 24
+supersampling = 1
+[environment]
+constant = [{environment}, {environment}, {environment}]
+{lights}
+[[materials]]
+name = "shiny"
+glossy = {glossy}
+[[objects]]
+name = "ball"
+material = "shiny"
+sphere = {{ radius = 1.0, segments = 256, rings = 128 }}
+"#
+    );
+    let scene =
+        Scene::from_toml_str(&text, Path::new("glossy-test.toml")).expect("the scene loads");
+    let trace = TraceScene::new(&scene).expect("the scene traces");
+    (scene, trace)
+}
+
+/// The camera ray from +z through the sphere's point at polar angle `theta` from +z (in the xz
+/// plane): the hit's normal makes `theta` with the view direction only approximately (the ray
+/// comes from a finite eye), so the tests use the hit's own normal.
+fn ray_to(theta: f64) -> Ray {
+    let eye = DVec3::new(0.0, 0.0, 5.0);
+    let target = DVec3::new(theta.sin(), 0.0, theta.cos());
+    Ray {
+        origin: eye,
+        direction: (target - eye).normalize(),
+    }
+}
+
+fn options(samples: u32, seed: u64) -> TraceOptions {
+    TraceOptions {
+        glossy_samples: samples,
+        glossy_seed: seed,
+        ..TraceOptions::default()
+    }
+}
+
+/// The estimate along `ray` and its standard error (mean over channels: the tests' materials and
+/// lights are grey).
+fn estimate(trace: &TraceScene, ray: &Ray, options: &TraceOptions) -> (f64, f64) {
+    let mut counters = TraceCounters::default();
+    let sample = trace.trace_camera_ray(ray, options, &mut counters);
+    assert!(sample.lens.is_none());
+    (
+        sample.radiance.element_sum() / 3.0,
+        sample.standard_error.element_sum() / 3.0,
+    )
+}
+
+fn assert_within(what: &str, (value, error): (f64, f64), expected: f64, slack: f64) {
+    eprintln!("{what}: {value:.6} ± {error:.2e} against {expected:.6}");
+    assert!(
+        (value - expected).abs() <= 4.0 * error + slack * expected.abs(),
+        "{what}: {value} ± {error} is not {expected}"
+    );
+}
+
+#[test]
+fn a_lambertian_sphere_reflects_its_albedo_of_a_uniform_environment() {
+    let (_, trace) = sphere_scene("{ diffuse = [0.6, 0.6, 0.6] }", 0.5, "");
+    for theta in [0.0, 0.6, 1.2] {
+        let found = estimate(&trace, &ray_to(theta), &options(64, 0));
+        // Cosine-weighted sampling of a Lambertian lobe has no variance: the only departure is
+        // the faceted sphere's sliver between its face and its shading normal.
+        assert_within(&format!("Lambert at θ = {theta}"), found, 0.6 * 0.5, 2e-3);
+    }
+}
+
+#[test]
+fn phong_and_coated_spheres_reflect_their_closed_forms_at_normal_incidence() {
+    let environment = 0.5f64;
+    // At normal incidence the lobes' axis is the normal, and (m + 2)/2π·∫cos^m θ cos θ dω = 1.
+    let (_, phong) = sphere_scene(
+        "{ diffuse = [0.2, 0.2, 0.2], specular = [0.5, 0.5, 0.5], exponent = 40 }",
+        environment,
+        "",
+    );
+    let found = estimate(&phong, &ray_to(0.0), &options(4096, 1));
+    assert_within("Phong at normal incidence", found, 0.7 * environment, 1e-3);
+    let (_, coated) = sphere_scene(
+        "{ diffuse = [0.3, 0.3, 0.3], specular = [0.2, 0.2, 0.2], exponent = 20, coat = { ior = 1.5, exponent = 800 } }",
+        environment,
+        "",
+    );
+    let f0 = ((1.5f64 - 1.0) / (1.5 + 1.0)).powi(2);
+    let found = estimate(&coated, &ray_to(0.0), &options(4096, 2));
+    assert_within(
+        "coat at normal incidence",
+        found,
+        environment * (f0 + (1.0 - f0) * 0.5),
+        1e-3,
+    );
+}
+
+/// ∫ f(ωi)·cos θi dω over the directions above both the shading and the face normal, by the
+/// midpoint rule in (cos θ, φ) about the shading normal: the integrator's answer for a uniform
+/// environment of radiance 1, by a second, deterministic algorithm.
+fn quadrature(lobes: &Lobes, normal: DVec3, face: DVec3) -> f64 {
+    let (n_theta, n_phi) = (2000, 1000);
+    let (tangent, bitangent) = normal.any_orthonormal_pair();
+    let mut sum = 0.0;
+    for i in 0..n_theta {
+        let cos_theta = (f64::from(i) + 0.5) / f64::from(n_theta);
+        let sin_theta = (1.0 - cos_theta * cos_theta).sqrt();
+        for j in 0..n_phi {
+            let phi = TAU * (f64::from(j) + 0.5) / f64::from(n_phi);
+            let direction =
+                (tangent * phi.cos() + bitangent * phi.sin()) * sin_theta + normal * cos_theta;
+            if direction.dot(face) <= 0.0 {
+                continue;
+            }
+            sum += lobes.eval(direction).element_sum() / 3.0 * cos_theta;
+        }
+    }
+    // dω = d(cos θ) dφ.
+    sum * (1.0 / f64::from(n_theta)) * (TAU / f64::from(n_phi))
+}
+
+#[test]
+fn a_phong_sphere_at_oblique_incidence_matches_a_quadrature_of_its_brdf() {
+    let (scene, trace) = sphere_scene(
+        "{ diffuse = [0.1, 0.1, 0.1], specular = [0.6, 0.6, 0.6], exponent = 12 }",
+        1.0,
+        "",
+    );
+    let Material::Glossy(brdf) = scene.materials[0] else {
+        panic!("the test scene's material is glossy");
+    };
+    for theta in [0.5, 1.0, 1.3] {
+        let ray = ray_to(theta);
+        let mut counters = TraceCounters::default();
+        let hit = trace
+            .closest_hit(&ray, None, None, &mut counters)
+            .expect("the ray meets the sphere")
+            .hit;
+        let (normal, face) = (hit.shading_normal, hit.geometric_normal);
+        let lobes = Lobes::new(&brdf, normal, -ray.direction);
+        let expected = quadrature(&lobes, normal, face);
+        let found = estimate(&trace, &ray, &options(4096, 3));
+        // The horizon cuts the lobe more as θ grows: the share reflected falls below kd + ks.
+        assert!(expected < 0.7 + 1e-9);
+        assert_within(&format!("Phong at θ = {theta}"), found, expected, 2e-3);
+    }
+}
+
+#[test]
+fn a_glossy_plane_under_one_point_light_has_the_exact_direct_term() {
+    let light = DVec3::new(0.7, 2.0, 1.5);
+    let intensity = 3.0;
+    let lights = format!(
+        "[[lights]]\nposition = [{}, {}, {}]\nintensity = [{intensity}, {intensity}, {intensity}]",
+        light.x, light.y, light.z
+    );
+    let (kd, ks, m) = (0.3, 0.4, 25.0);
+    let (_, trace) = sphere_scene(
+        &format!(
+            "{{ diffuse = [{kd}, {kd}, {kd}], specular = [{ks}, {ks}, {ks}], exponent = {m} }}"
+        ),
+        0.0,
+        &lights,
+    );
+    for theta in [0.0, 0.4, 0.8] {
+        let ray = ray_to(theta);
+        let mut counters = TraceCounters::default();
+        let hit = trace
+            .closest_hit(&ray, None, None, &mut counters)
+            .expect("the ray meets the sphere")
+            .hit;
+        let n = hit.shading_normal;
+        let to_light = light - hit.position;
+        let d2 = to_light.length_squared();
+        let l = to_light / d2.sqrt();
+        let v = -ray.direction;
+        let r = 2.0 * n.dot(v) * n - v;
+        let cos_alpha = l.dot(r).max(0.0);
+        // The closed form, written out: (kd/π + ks·(m + 2)/2π·cos^m α)·I·cos θ/d².
+        let brdf = kd * FRAC_1_PI + ks * (m + 2.0) / (2.0 * PI) * cos_alpha.powf(m);
+        let expected = brdf * intensity * n.dot(l).max(0.0) / d2;
+        let (value, error) = estimate(&trace, &ray, &options(16, 0));
+        assert_eq!(error, 0.0, "a black environment adds no sampled light");
+        // The scene holds the light's position and intensity in f32.
+        assert!(
+            (value - expected).abs() <= 1e-6 * expected,
+            "θ = {theta}: {value} against {expected}"
+        );
+    }
+}
+
+#[test]
+fn glossy_images_are_the_same_at_any_thread_count_and_seeds_agree_within_their_errors() {
+    let (scene, trace) = sphere_scene(
+        "{ diffuse = [0.2, 0.2, 0.2], specular = [0.5, 0.5, 0.5], exponent = 30, coat = { ior = 1.5, exponent = 300 } }",
+        0.5,
+        "[[lights]]\nposition = [1.0, 3.0, 3.0]\nintensity = [5.0, 5.0, 5.0]",
+    );
+    let render = |threads: usize, seed: u64| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a pool")
+            .install(|| render_reference(&trace, &scene.camera, &options(64, seed), &|_| {}))
+            .expect("the reference renders")
+    };
+    let (one, two) = (render(1, 0), render(2, 0));
+    assert!(one.radiance == two.radiance && one.glossy_error == two.glossy_error);
+    let other = render(2, 1);
+    let (mut glossy, mut normalized) = (0usize, 0.0f64);
+    for ((a, b), (ea, eb)) in one
+        .radiance
+        .iter()
+        .zip(&other.radiance)
+        .zip(one.glossy_error.iter().zip(&other.glossy_error))
+    {
+        if *ea == 0.0 {
+            continue;
+        }
+        glossy += 1;
+        let difference = f64::from((*a - *b).element_sum() / 3.0);
+        let spread = f64::from(ea * ea + eb * eb).sqrt();
+        normalized += (difference / spread).powi(2);
+        assert!(a.is_finite() && a.min_element() >= 0.0);
+    }
+    assert!(glossy > 100, "{glossy} glossy pixels");
+    assert_ne!(one.radiance, other.radiance, "two seeds give two estimates");
+    // The seeds' differences over their combined standard errors: unit variance if the errors are
+    // right (a mean square far from 1 means the reported errors are not the estimates' spread).
+    let mean_square = normalized / glossy as f64;
+    eprintln!(
+        "{glossy} glossy pixels: mean square of normalized seed differences {mean_square:.3}"
+    );
+    assert!((0.5..=2.0).contains(&mean_square), "{mean_square}");
+}

@@ -437,6 +437,56 @@ objects = ["ball"]
     }
 
     #[test]
+    fn glossy_values_are_checked() {
+        let dir = temp_folder("glossy");
+        let grey = "diffuse = { colour = [0.5, 0.5, 0.5] }";
+        let field = "materials[1].glossy";
+        let cases: [(&str, &str, &str, &str); 5] = [
+            (
+                "glossy = { diffuse = [0.6, 0.6, 0.6], specular = [0.5, 0.3, 0.3], exponent = 10 }",
+                field,
+                "above 1 in a channel",
+                "at most 1 per channel",
+            ),
+            (
+                "glossy = { specular = [0.5, 0.5, 0.5] }",
+                field,
+                "has a specular lobe but no exponent",
+                "add exponent = N",
+            ),
+            (
+                "glossy = { specular = [0.5, 0.5, 0.5], exponent = 0.5 }",
+                "materials[1].glossy.exponent",
+                "outside [1, 100000]",
+                "Phong exponent",
+            ),
+            (
+                "glossy = { diffuse = [0.5, 0.5, 0.5], coat = { ior = 1.0, exponent = 100 } }",
+                "materials[1].glossy.coat.ior",
+                "outside (1, 3]",
+                "clear coat's index of refraction",
+            ),
+            (
+                "glossy = { diffuse = [0.5, 0.5, 0.5] }\ndiffuse = { colour = [0.5, 0.5, 0.5] }",
+                "materials[1]",
+                "needs exactly one of glass, mirror, diffuse or glossy",
+                "keep one of",
+            ),
+        ];
+        for (bad, field, what, fix) in cases {
+            assert_refused(&dir, (grey, bad), field, what, fix);
+        }
+        // A coated Phong material loads.
+        let good = edit(
+            grey,
+            "glossy = { diffuse = [0.3, 0.1, 0.1], specular = [0.2, 0.2, 0.2], exponent = 50, coat = { ior = 1.5, exponent = 900 } }",
+        );
+        let path = dir.join("good.toml");
+        std::fs::write(&path, good).expect("write the scene");
+        Scene::load(&path).expect("a glossy material loads");
+    }
+
+    #[test]
     fn camera_look_at_equal_to_position() {
         let dir = temp_folder("look-at");
         assert_refused(

@@ -31,6 +31,12 @@ pub struct ReferenceArgs {
     /// Output directory (created if missing).
     #[arg(long)]
     pub out: PathBuf,
+    /// Directions sampled per camera ray that meets a glossy surface.
+    #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES, value_parser = clap::value_parser!(u32).range(1..))]
+    pub glossy_samples: u32,
+    /// Seed of the glossy samples: two seeds give independent estimates.
+    #[arg(long, default_value_t = 0)]
+    pub glossy_seed: u64,
 }
 
 /// The ray-path model named on the command line.
@@ -72,7 +78,37 @@ struct Report<'a> {
     rays_per_pixel: f64,
     triangle_tests_per_ray: f64,
     lens_pixels: usize,
+    glossy: Glossiness,
     files: Vec<PathBuf>,
+}
+
+/// The glossy surfaces' Monte Carlo estimate: its samples, the pixels that show a glossy surface
+/// and the root mean square of their standard errors (null without glossy pixels).
+#[derive(serde::Serialize)]
+struct Glossiness {
+    samples: u32,
+    seed: u64,
+    pixels: usize,
+    rms_standard_error: Option<f64>,
+}
+
+impl Glossiness {
+    fn of(image: &ReferenceImage, options: &TraceOptions) -> Glossiness {
+        let errors: Vec<f64> = image
+            .glossy_error
+            .iter()
+            .filter(|&&e| e > 0.0)
+            .map(|&e| f64::from(e))
+            .collect();
+        let rms = (!errors.is_empty())
+            .then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt());
+        Glossiness {
+            samples: options.glossy_samples,
+            seed: options.glossy_seed,
+            pixels: errors.len(),
+            rms_standard_error: rms,
+        }
+    }
 }
 
 /// Runs `lensmap reference`.
@@ -85,6 +121,8 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     step.finish_and_clear();
     let options = TraceOptions {
         model: args.tree.into(),
+        glossy_samples: args.glossy_samples,
+        glossy_seed: args.glossy_seed,
         ..TraceOptions::default()
     };
 
@@ -119,6 +157,7 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
         rays_per_pixel: image.stats.rays_per_pixel(),
         triangle_tests_per_ray: image.stats.counters.triangle_tests_per_ray(),
         lens_pixels: lens_pixel_count(&image),
+        glossy: Glossiness::of(&image, &options),
         files: Vec::new(),
     };
     let stats_path = args.out.join("stats.json");
@@ -128,6 +167,14 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     step.finish_and_clear();
     crate::common::report(&report, None)?;
     print_summary(&scene.name, &args.out, options.model, &image.stats, &image);
+    if let Some(rms) = report.glossy.rms_standard_error {
+        say!(
+            "  glossy surfaces: {} pixels, {} samples per camera ray (seed {}), standard error {rms:.2e} (root mean square over those pixels)",
+            report.glossy.pixels,
+            options.glossy_samples,
+            options.glossy_seed
+        );
+    }
     Ok(())
 }
 

@@ -217,6 +217,11 @@ impl TraceScene {
             radiance += lobes.eval(direction) * irradiance;
         }
         let samples = options.glossy_samples.max(1);
+        // What the sampled directions see shades glossy surfaces by their diffuse base.
+        let seen_options = TraceOptions {
+            glossy_samples: 0,
+            ..*options
+        };
         let mut rng = generator(ray, options.glossy_seed);
         let (mut mean, mut squares) = (DVec3::ZERO, DVec3::ZERO);
         for k in 0..samples {
@@ -226,8 +231,12 @@ impl TraceScene {
             if cosine > 0.0 && direction.dot(face) > 0.0 {
                 let pdf = lobes.pdf(direction);
                 if pdf > 0.0 {
-                    let seen =
-                        self.radiance_seen(&Ray { origin, direction }, exclude, options, counters);
+                    let seen = self.radiance_seen(
+                        &Ray { origin, direction },
+                        exclude,
+                        &seen_options,
+                        counters,
+                    );
                     value = sanitize(lobes.eval(direction) * seen * (cosine / pdf));
                 }
             }
@@ -249,7 +258,8 @@ impl TraceScene {
     }
 
     /// Radiance arriving back along `ray`, which leaves a glossy surface (`exclude`): the
-    /// background, a lens object's greedy terms, or an environment surface's diffuse shading.
+    /// background, a lens object's greedy terms (under `options`, whose glossy surfaces are
+    /// shaded diffusely), or an environment surface's diffuse shading.
     fn radiance_seen(
         &self,
         ray: &Ray,

@@ -42,7 +42,9 @@ pub struct TraceOptions {
     /// Greedy model: most lens objects evaluated along one camera ray (≥ 1); an outgoing ray
     /// beyond it sees the environment alone.
     pub max_lens_depth: u32,
-    /// Directions sampled per shading point of a glossy surface ([`super::glossy`]).
+    /// Directions sampled per shading point of a glossy surface ([`super::glossy`]); 0 shades
+    /// glossy surfaces by their diffuse base under the point lights, which is what a sampled
+    /// direction sees (so that glossy shading never recurses).
     pub glossy_samples: u32,
     /// Seed of the glossy surfaces' samples: two seeds give independent estimates.
     pub glossy_seed: u64,
@@ -145,7 +147,7 @@ impl TraceScene {
         counters: &mut TraceCounters,
     ) -> DVec3 {
         match self.material(hit.object) {
-            crate::scene::Material::Glossy(glossy) => {
+            crate::scene::Material::Glossy(glossy) if options.glossy_samples > 0 => {
                 self.shade_glossy(ray, hit, glossy, options, counters)
                     .radiance
             }
@@ -174,7 +176,7 @@ impl TraceScene {
         let Part::Lens(lens) = world_hit.part else {
             let hit = &world_hit.hit;
             let (radiance, standard_error) = match self.material(hit.object) {
-                crate::scene::Material::Glossy(glossy) => {
+                crate::scene::Material::Glossy(glossy) if options.glossy_samples > 0 => {
                     let estimate = self.shade_glossy(ray, hit, glossy, options, counters);
                     (estimate.radiance, estimate.standard_error)
                 }

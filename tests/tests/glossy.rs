@@ -260,3 +260,34 @@ fn glossy_images_are_the_same_at_any_thread_count_and_seeds_agree_within_their_e
     );
     assert!((0.5..=2.0).contains(&mean_square), "{mean_square}");
 }
+
+/// A glass ball over a coated glossy floor: the floor's samples see the ball's two terms, whose
+/// outgoing rays see the floor again (shaded by its diffuse base, so that nothing recurses).
+#[test]
+fn a_glass_ball_over_a_glossy_floor_renders_finite() {
+    let text = lensmap_tests::fixtures::edit_scene(
+        lensmap_tests::fixtures::SMALL_SCENE,
+        "diffuse = { colour = [0.5, 0.5, 0.5] }",
+        "glossy = { diffuse = [0.3, 0.1, 0.1], specular = [0.2, 0.2, 0.2], exponent = 50, coat = { ior = 1.5, exponent = 900 } }",
+    );
+    let scene = Scene::from_toml_str(&text, Path::new("small-glossy.toml")).expect("it loads");
+    let trace = TraceScene::new(&scene).expect("it traces");
+    let camera = lensmap::scene::Camera {
+        width: 48,
+        height: 36,
+        ..scene.camera
+    };
+    let image = render_reference(&trace, &camera, &options(32, 0), &|_| {}).expect("it renders");
+    assert!(
+        image
+            .radiance
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0)
+    );
+    let glossy = image.glossy_error.iter().filter(|&&e| e > 0.0).count();
+    let lens = image.lens_mask.iter().filter(|&&m| m > 0.0).count();
+    assert!(
+        glossy > 100 && lens > 50,
+        "{glossy} glossy and {lens} lens pixels"
+    );
+}

@@ -173,23 +173,31 @@ fn a_phong_sphere_at_oblique_incidence_matches_a_quadrature_of_its_brdf() {
     }
 }
 
+/// The exact unpolarized Fresnel reflectance from air into index `n`, written out.
+fn fresnel(cos_i: f64, n: f64) -> f64 {
+    let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (n * n)).sqrt();
+    let rs = ((cos_i - n * cos_t) / (cos_i + n * cos_t)).powi(2);
+    let rp = ((n * cos_i - cos_t) / (n * cos_i + cos_t)).powi(2);
+    0.5 * (rs + rp)
+}
+
 #[test]
-fn a_glossy_plane_under_one_point_light_has_the_exact_direct_term() {
+fn a_coated_sphere_under_one_point_light_has_the_exact_direct_term() {
     let light = DVec3::new(0.7, 2.0, 1.5);
     let intensity = 3.0;
     let lights = format!(
         "[[lights]]\nposition = [{}, {}, {}]\nintensity = [{intensity}, {intensity}, {intensity}]",
         light.x, light.y, light.z
     );
-    let (kd, ks, m) = (0.3, 0.4, 25.0);
+    let (kd, ks, m, ior, c) = (0.3, 0.4, 25.0, 1.5, 300.0);
     let (_, trace) = sphere_scene(
         &format!(
-            "{{ diffuse = [{kd}, {kd}, {kd}], specular = [{ks}, {ks}, {ks}], exponent = {m} }}"
+            "{{ diffuse = [{kd}, {kd}, {kd}], specular = [{ks}, {ks}, {ks}], exponent = {m}, coat = {{ ior = {ior}, exponent = {c} }} }}"
         ),
         0.0,
         &lights,
     );
-    for theta in [0.0, 0.4, 0.8] {
+    for theta in [0.0, 0.4, 0.8, 1.2] {
         let ray = ray_to(theta);
         let mut counters = TraceCounters::default();
         let hit = trace
@@ -203,8 +211,11 @@ fn a_glossy_plane_under_one_point_light_has_the_exact_direct_term() {
         let v = -ray.direction;
         let r = 2.0 * n.dot(v) * n - v;
         let cos_alpha = l.dot(r).max(0.0);
-        // The closed form, written out: (kd/π + ks·(m + 2)/2π·cos^m α)·I·cos θ/d².
-        let brdf = kd * FRAC_1_PI + ks * (m + 2.0) / (2.0 * PI) * cos_alpha.powf(m);
+        // The closed form, written out: ((1 − F)·(kd/π + ks·(m + 2)/2π·cos^m α)
+        // + F·(c + 2)/2π·cos^c α)·I·cos θ/d², with F at the viewing angle.
+        let f = fresnel(n.dot(v), ior);
+        let brdf = (1.0 - f) * (kd * FRAC_1_PI + ks * (m + 2.0) / (2.0 * PI) * cos_alpha.powf(m))
+            + f * (c + 2.0) / (2.0 * PI) * cos_alpha.powf(c);
         let expected = brdf * intensity * n.dot(l).max(0.0) / d2;
         let (value, error) = estimate(&trace, &ray, &options(16, 0));
         assert_eq!(error, 0.0, "a black environment adds no sampled light");
@@ -235,13 +246,14 @@ fn glossy_images_are_the_same_at_any_thread_count_and_seeds_agree_within_their_e
     assert!(one.radiance == two.radiance && one.glossy_error == two.glossy_error);
     let other = render(2, 1);
     let (mut glossy, mut normalized) = (0usize, 0.0f64);
-    for ((a, b), (ea, eb)) in one
+    for (((a, b), (ea, eb)), mask) in one
         .radiance
         .iter()
         .zip(&other.radiance)
         .zip(one.glossy_error.iter().zip(&other.glossy_error))
+        .zip(&one.glossy_mask)
     {
-        if *ea == 0.0 {
+        if *mask == 0.0 {
             continue;
         }
         glossy += 1;
@@ -284,7 +296,7 @@ fn a_glass_ball_over_a_glossy_floor_renders_finite() {
             .iter()
             .all(|p| p.is_finite() && p.min_element() >= 0.0)
     );
-    let glossy = image.glossy_error.iter().filter(|&&e| e > 0.0).count();
+    let glossy = image.glossy_mask.iter().filter(|&&m| m > 0.0).count();
     let lens = image.lens_mask.iter().filter(|&&m| m > 0.0).count();
     assert!(
         glossy > 100 && lens > 50,

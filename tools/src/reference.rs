@@ -32,7 +32,8 @@ pub struct ReferenceArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Directions sampled per camera ray that meets a glossy surface.
-    #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES, value_parser = clap::value_parser!(u32).range(1..))]
+    /// At least 2, so that the estimate's error can be estimated too.
+    #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES, value_parser = clap::value_parser!(u32).range(2..))]
     pub glossy_samples: u32,
     /// Seed of the glossy samples: two seeds give independent estimates.
     #[arg(long, default_value_t = 0)]
@@ -97,8 +98,9 @@ impl Glossiness {
         let errors: Vec<f64> = image
             .glossy_error
             .iter()
-            .filter(|&&e| e > 0.0)
-            .map(|&e| f64::from(e))
+            .zip(&image.glossy_mask)
+            .filter(|&(_, &mask)| mask > 0.0)
+            .map(|(&e, _)| f64::from(e))
             .collect();
         let rms = (!errors.is_empty())
             .then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt());

@@ -40,8 +40,11 @@ pub struct ReferenceImage {
     /// [`super::lens_pixels`]).
     pub lens_pixels: LensPixels,
     /// The Monte Carlo standard error of each pixel's `radiance` (root mean square over channels),
-    /// from its glossy subsamples ([`super::glossy`]); 0 where it sees no glossy surface.
+    /// from its subsamples that meet a glossy surface first ([`super::glossy`]); 0 elsewhere,
+    /// and where one sample per ray gives no estimate of it.
     pub glossy_error: Vec<f32>,
+    /// Fraction of each pixel's subsamples whose camera ray meets a glossy surface first.
+    pub glossy_mask: Vec<f32>,
     /// Work and time of the render.
     pub stats: RenderStats,
 }
@@ -49,6 +52,7 @@ pub struct ReferenceImage {
 /// The per-pixel sums of one image row.
 struct Row {
     glossy_error: Vec<f32>,
+    glossy_mask: Vec<f32>,
     radiance: Vec<Vec3>,
     refraction: Vec<Vec3>,
     reflection: Vec<Vec3>,
@@ -198,6 +202,7 @@ pub fn render_reference_cancellable(
         reflection: Vec::with_capacity(pixels),
         lens_mask: Vec::with_capacity(pixels),
         glossy_error: Vec::with_capacity(pixels),
+        glossy_mask: Vec::with_capacity(pixels),
         lens_pixels: LensPixels {
             width: camera.width,
             height: camera.height,
@@ -217,6 +222,7 @@ pub fn render_reference_cancellable(
         image.reflection.extend(row.reflection);
         image.lens_mask.extend(row.lens_mask);
         image.glossy_error.extend(row.glossy_error);
+        image.glossy_mask.extend(row.glossy_mask);
         image.lens_pixels.covers.extend(row.covers);
         image.stats.counters += row.counters;
     }
@@ -229,6 +235,7 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
     let scale = 1.0 / f64::from(k * k);
     let mut row = Row {
         glossy_error: Vec::with_capacity(width),
+        glossy_mask: Vec::with_capacity(width),
         radiance: Vec::with_capacity(width),
         refraction: Vec::with_capacity(width),
         reflection: Vec::with_capacity(width),
@@ -241,6 +248,7 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
         let mut sums = [DVec3::ZERO; 3];
         // Σ of the subsamples' variances (squared standard errors), mean over channels.
         let mut variance = 0.0;
+        let mut glossy_hits = 0u32;
         let mut lens_hits = 0u32;
         for j in 0..k {
             for i in 0..k {
@@ -251,6 +259,7 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
                 sums[1] += sample.refraction;
                 sums[2] += sample.reflection;
                 variance += (sample.standard_error * sample.standard_error).element_sum() / 3.0;
+                glossy_hits += u32::from(sample.glossy);
                 lens_hits += u32::from(sample.lens.is_some());
                 first_hits.push(sample.lens);
             }
@@ -262,6 +271,8 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
         row.lens_mask.push((f64::from(lens_hits) * scale) as f32);
         // The pixel is the mean of k² independent subsamples.
         row.glossy_error.push((variance.sqrt() * scale) as f32);
+        row.glossy_mask
+            .push((f64::from(glossy_hits) * scale) as f32);
     }
     row
 }

@@ -34,8 +34,8 @@ pub struct EnvironmentHit {
     pub lens: Option<usize>,
     /// Distance from the outgoing ray's origin in metres (> 0).
     pub distance: f64,
-    /// Radiance leaving the surface back along the outgoing ray (diffuse shading, or the
-    /// two-term value of the other lens object), linear, ≥ 0.
+    /// Radiance leaving the surface back along the outgoing ray (its shading: diffuse, or a
+    /// glossy surface's estimate; or the two-term value of the other lens object), linear, ≥ 0.
     pub radiance: DVec3,
 }
 
@@ -120,6 +120,9 @@ pub struct RecordSet {
     pub counters: TraceCounters,
 }
 
+/// What [`compile_records`] mixes into [`TraceOptions::glossy_seed`].
+const RECORDS_GLOSSY_SEED: u64 = 0x7265_636f_7264_7321;
+
 /// Compiles the intersection records of `scene` seen by `camera` (its size and k×k
 /// supersampling), with the greedy path limits of `options`, on the current rayon pool.
 /// Deterministic whatever the thread count.
@@ -129,6 +132,13 @@ pub fn compile_records(
     options: &TraceOptions,
 ) -> Result<RecordSet, TraceError> {
     validate_camera(camera)?;
+    // Glossy surfaces along the outgoing rays are estimated with another seed than a reference
+    // render's: the same rays would otherwise carry the same Monte Carlo noise as the reference
+    // the records are judged against, and flatter it.
+    let options = &TraceOptions {
+        glossy_seed: options.glossy_seed ^ RECORDS_GLOSSY_SEED,
+        ..*options
+    };
     let rows: Vec<(Vec<LensRecords>, TraceCounters)> = (0..camera.height)
         .into_par_iter()
         .map(|y| record_row(scene, camera, options, y))

@@ -77,9 +77,12 @@ pub struct CameraSample {
     pub reflection: DVec3,
     /// The lens object hit first, if any.
     pub lens: Option<usize>,
-    /// The Monte Carlo standard error of `radiance`, per channel: non-zero only on a glossy
-    /// surface ([`super::glossy`]).
+    /// The Monte Carlo standard error of `radiance`, per channel, where the ray meets a glossy
+    /// surface first ([`super::glossy`]); 0 elsewhere (a glossy surface seen through a lens
+    /// object is estimated too, but its error is not tracked).
     pub standard_error: DVec3,
+    /// Whether the ray meets a glossy surface first (and it was sampled).
+    pub glossy: bool,
 }
 
 impl TraceScene {
@@ -171,16 +174,17 @@ impl TraceScene {
                 reflection: DVec3::ZERO,
                 lens: None,
                 standard_error: DVec3::ZERO,
+                glossy: false,
             };
         };
         let Part::Lens(lens) = world_hit.part else {
             let hit = &world_hit.hit;
-            let (radiance, standard_error) = match self.material(hit.object) {
+            let (radiance, standard_error, glossy) = match self.material(hit.object) {
                 crate::scene::Material::Glossy(glossy) if options.glossy_samples > 0 => {
                     let estimate = self.shade_glossy(ray, hit, glossy, options, counters);
-                    (estimate.radiance, estimate.standard_error)
+                    (estimate.radiance, estimate.standard_error, true)
                 }
-                _ => (self.shade_diffuse(ray, hit, counters), DVec3::ZERO),
+                _ => (self.shade_diffuse(ray, hit, counters), DVec3::ZERO, false),
             };
             return CameraSample {
                 radiance,
@@ -188,6 +192,7 @@ impl TraceScene {
                 reflection: DVec3::ZERO,
                 lens: None,
                 standard_error,
+                glossy,
             };
         };
         let [refraction, reflection] = match options.model {
@@ -200,6 +205,7 @@ impl TraceScene {
             reflection,
             lens: Some(lens),
             standard_error: DVec3::ZERO,
+            glossy: false,
         }
     }
 

@@ -124,7 +124,8 @@ impl Loader<'_> {
     pub(super) fn glossy(&self, field: &str, spec: &GlossySpec) -> Result<Material> {
         let diffuse = self.colour(&format!("{field}.diffuse"), spec.diffuse, Some(1.0))?;
         let specular = self.colour(&format!("{field}.specular"), spec.specular, Some(1.0))?;
-        if (diffuse + specular).max_element() > 1.0 {
+        // With room for the f32 rounding of two decimals that sum to 1.
+        if (diffuse + specular).max_element() > 1.0 + 1e-6 {
             return Err(self.error(
                 field,
                 format!("diffuse + specular is {:?}, above 1 in a channel", (diffuse + specular).to_array()),

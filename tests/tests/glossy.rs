@@ -57,6 +57,14 @@ fn ray_to(theta: f64) -> Ray {
     }
 }
 
+/// Where `ray` meets the sphere.
+fn first_hit(trace: &TraceScene, ray: &Ray) -> lensmap::trace::bvh::SurfaceHit {
+    trace
+        .closest_hit(ray, None, None, &mut TraceCounters::default())
+        .expect("the ray meets the sphere")
+        .hit
+}
+
 fn options(samples: u32, seed: u64) -> TraceOptions {
     TraceOptions {
         glossy_samples: samples,
@@ -158,11 +166,7 @@ fn a_phong_sphere_at_oblique_incidence_matches_a_quadrature_of_its_brdf() {
     };
     for theta in [0.5, 1.0, 1.3] {
         let ray = ray_to(theta);
-        let mut counters = TraceCounters::default();
-        let hit = trace
-            .closest_hit(&ray, None, None, &mut counters)
-            .expect("the ray meets the sphere")
-            .hit;
+        let hit = first_hit(&trace, &ray);
         let (normal, face) = (hit.shading_normal, hit.geometric_normal);
         let lobes = Lobes::new(&brdf, normal, -ray.direction);
         let expected = quadrature(&lobes, normal, face);
@@ -199,11 +203,7 @@ fn a_coated_sphere_under_one_point_light_has_the_exact_direct_term() {
     );
     for theta in [0.0, 0.4, 0.8, 1.2] {
         let ray = ray_to(theta);
-        let mut counters = TraceCounters::default();
-        let hit = trace
-            .closest_hit(&ray, None, None, &mut counters)
-            .expect("the ray meets the sphere")
-            .hit;
+        let hit = first_hit(&trace, &ray);
         let n = hit.shading_normal;
         let to_light = light - hit.position;
         let d2 = to_light.length_squared();

@@ -34,7 +34,7 @@ use rand_pcg::Pcg64Mcg;
 use super::Ray;
 use super::bvh::SurfaceHit;
 use super::fresnel::{dielectric, reflect};
-use super::shade::TraceOptions;
+use super::shade::{Receiver, TraceOptions};
 use super::stats::TraceCounters;
 use super::world::{Part, SurfaceId, TraceScene, sanitize};
 use crate::scene::Glossy;
@@ -190,32 +190,17 @@ impl TraceScene {
             part: Part::Environment,
             primitive: hit.primitive,
         };
+        let receiver = Receiver {
+            position: hit.position,
+            origin,
+            normal: lobes.normal,
+            face,
+            primitive: hit.primitive,
+        };
         let mut radiance = DVec3::ZERO;
-        for light in &self.lights {
-            let to_light = light.position.as_dvec3() - hit.position;
-            let distance = to_light.length();
-            if !(distance > 0.0 && distance.is_finite()) {
-                continue;
-            }
-            let direction = to_light / distance;
-            let cosine = lobes.normal.dot(direction);
-            if cosine <= 0.0 || face.dot(direction) <= 0.0 {
-                continue;
-            }
-            counters.shadow_rays += 1;
-            let shadow = Ray { origin, direction };
-            if self.environment.occluded(
-                &shadow,
-                0.0,
-                distance,
-                Some(hit.primitive),
-                &mut counters.triangle_tests,
-            ) {
-                continue;
-            }
-            let irradiance = light.intensity.as_dvec3() * (cosine / (distance * distance));
+        self.for_each_light(&receiver, counters, |direction, irradiance| {
             radiance += lobes.eval(direction) * irradiance;
-        }
+        });
         let samples = options.glossy_samples.max(1);
         // What the sampled directions see shades glossy surfaces by their diffuse base.
         let seen_options = TraceOptions {

@@ -20,6 +20,19 @@ use super::path::{self, GreedyOptions, Interface, RayTree, RayTreeOptions, Term,
 use super::stats::TraceCounters;
 use super::world::{Part, SurfaceId, TraceScene, WorldHit, sanitize};
 
+/// A shading point as the point lights see it.
+pub(crate) struct Receiver {
+    /// Where it is.
+    pub(crate) position: DVec3,
+    /// Where its shadow rays start (off the surface, on the viewer's side).
+    pub(crate) origin: DVec3,
+    /// Its unit shading normal and face normal, on the viewer's side.
+    pub(crate) normal: DVec3,
+    pub(crate) face: DVec3,
+    /// The triangle it lies on (its shadow rays skip it).
+    pub(crate) primitive: u32,
+}
+
 /// Which ray-path model evaluates lens objects.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -109,35 +122,58 @@ impl TraceScene {
         };
         let face = hit.geometric_normal * toward_viewer;
         let normal = hit.shading_normal * toward_viewer;
-        let origin = path::offset_origin(hit.position, face);
-        let exclude = Some(hit.primitive);
+        let receiver = Receiver {
+            position: hit.position,
+            origin: path::offset_origin(hit.position, face),
+            normal,
+            face,
+            primitive: hit.primitive,
+        };
         let mut irradiance = DVec3::ZERO;
+        self.for_each_light(&receiver, counters, |_, arriving| irradiance += arriving);
+        sanitize(albedo * irradiance * std::f64::consts::FRAC_1_PI)
+    }
+
+    /// Calls `arrive(direction, irradiance)` for each point light that reaches `receiver`
+    /// unoccluded by the environment geometry, above both its normals: the light's unit
+    /// direction and the irradiance `I·cos θ/d²` it gives (cos θ about the shading normal).
+    pub(crate) fn for_each_light(
+        &self,
+        receiver: &Receiver,
+        counters: &mut TraceCounters,
+        mut arrive: impl FnMut(DVec3, DVec3),
+    ) {
         for light in &self.lights {
-            let to_light = light.position.as_dvec3() - hit.position;
+            let to_light = light.position.as_dvec3() - receiver.position;
             let distance_squared = to_light.length_squared();
             if distance_squared <= 0.0 || !distance_squared.is_finite() {
                 continue;
             }
             let distance = distance_squared.sqrt();
             let direction = to_light / distance;
-            let cosine = normal.dot(direction);
-            if cosine <= 0.0 || face.dot(direction) <= 0.0 {
+            let cosine = receiver.normal.dot(direction);
+            if cosine <= 0.0 || receiver.face.dot(direction) <= 0.0 {
                 continue;
             }
             counters.shadow_rays += 1;
-            let shadow = Ray { origin, direction };
+            let shadow = Ray {
+                origin: receiver.origin,
+                direction,
+            };
             if self.environment.occluded(
                 &shadow,
                 0.0,
                 distance,
-                exclude,
+                Some(receiver.primitive),
                 &mut counters.triangle_tests,
             ) {
                 continue;
             }
-            irradiance += sanitize(light.intensity.as_dvec3()) * (cosine / distance_squared);
+            arrive(
+                direction,
+                sanitize(light.intensity.as_dvec3()) * (cosine / distance_squared),
+            );
         }
-        sanitize(albedo * irradiance * std::f64::consts::FRAC_1_PI)
     }
 
     /// Radiance leaving environment surface `hit` towards the origin of `ray`: a glossy one's

@@ -303,3 +303,75 @@ fn a_glass_ball_over_a_glossy_floor_renders_finite() {
         "{glossy} glossy and {lens} lens pixels"
     );
 }
+
+/// Radiance maps (`engine/src/trace/radiance_map.rs`) under a uniform environment: the normal
+/// warp's map of a Lambertian lobe is kd·L wherever the element faces the viewer, and the mirror
+/// warp's map of a Phong lobe is ks·L where the mirror direction is the view (normal incidence),
+/// falling where the horizon cuts the lobe; nothing faces away, and the map is the same on 1 and
+/// 2 threads.
+#[test]
+fn radiance_maps_under_a_uniform_environment_hold_their_closed_forms() {
+    use lensmap::scene::Glossy;
+    use lensmap::trace::radiance_map::{RadianceMapRequest, Warp};
+    let (_, trace) = sphere_scene("{ diffuse = [0.6, 0.6, 0.6] }", 0.5, "");
+    let view = DVec3::new(0.3, 0.4, 0.866_025_403_784_438_6).normalize();
+    let request = |brdf, warp| RadianceMapRequest {
+        centre: DVec3::ZERO,
+        radius: 1.01,
+        view,
+        brdf,
+        warp,
+        size: 8,
+        samples: 512,
+        seed: 0,
+    };
+    let lambert = Glossy {
+        diffuse: glam::Vec3::splat(0.6),
+        specular: glam::Vec3::ZERO,
+        exponent: 1.0,
+        coat: None,
+    };
+    let map = trace.radiance_map(&request(lambert, Warp::Normal), &options(0, 0));
+    let (mut facing, mut away) = (0, 0);
+    for face in &map.map.levels[0] {
+        for texel in face {
+            if texel[3] > 0.0 {
+                facing += 1;
+                assert!((f64::from(texel[0]) - 0.3).abs() < 2e-6, "{texel:?}");
+            } else {
+                away += 1;
+                assert_eq!(texel[..3], [0.0; 3]);
+            }
+        }
+    }
+    assert!(facing > 100 && away > 100, "{facing} facing, {away} away");
+    let phong = Glossy {
+        diffuse: glam::Vec3::ZERO,
+        specular: glam::Vec3::splat(0.5),
+        exponent: 30.0,
+        coat: None,
+    };
+    let threads = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .expect("a pool")
+            .install(|| trace.radiance_map(&request(phong, Warp::Mirror), &options(0, 0)))
+    };
+    let (one, two) = (threads(1), threads(2));
+    assert!(one.map.levels[0] == two.map.levels[0] && one.errors == two.errors);
+    // The texel nearest the view direction: the mirror direction is the view, so the lobe is
+    // about the normal and reflects ks·L whole.
+    let face = lensmap::cubemap::face::major_face(view);
+    let coordinates = lensmap::cubemap::face::face_coordinates_on(face, view);
+    let edge = 8usize;
+    let at = |c: f64| (((c / coordinates.major + 1.0) * 0.5 * edge as f64) as usize).min(edge - 1);
+    let index = at(coordinates.tc) * edge + at(coordinates.sc);
+    let texel = one.map.levels[0][face.index()][index];
+    let error = f64::from(one.errors[face.index()][index]);
+    eprintln!("mirror map near the view: {texel:?} ± {error:.2e}");
+    assert!(
+        (f64::from(texel[0]) - 0.25).abs() <= 4.0 * error + 0.01,
+        "{texel:?} ± {error}"
+    );
+}

@@ -216,9 +216,9 @@ impl TraceScene {
             if cosine > 0.0 && direction.dot(face) > 0.0 {
                 let pdf = lobes.pdf(direction);
                 if pdf > 0.0 {
-                    let seen = self.radiance_seen(
+                    let seen = self.radiance_along(
                         &Ray { origin, direction },
-                        exclude,
+                        Some(exclude),
                         &seen_options,
                         counters,
                     );
@@ -242,18 +242,18 @@ impl TraceScene {
         }
     }
 
-    /// Radiance arriving back along `ray`, which leaves a glossy surface (`exclude`): the
+    /// Radiance arriving back along `ray`, which leaves a glossy surface (`exclude`, if on one): the
     /// background, a lens object's greedy terms (under `options`, whose glossy surfaces are
     /// shaded diffusely), or an environment surface's diffuse shading.
-    fn radiance_seen(
+    pub(crate) fn radiance_along(
         &self,
         ray: &Ray,
-        exclude: SurfaceId,
+        exclude: Option<SurfaceId>,
         options: &TraceOptions,
         counters: &mut TraceCounters,
     ) -> DVec3 {
         counters.secondary_rays += 1;
-        match self.closest_hit(ray, Some(exclude), None, counters) {
+        match self.closest_hit(ray, exclude, None, counters) {
             None => self.background_radiance(ray.direction),
             Some(seen) => match seen.part {
                 Part::Lens(lens) => {

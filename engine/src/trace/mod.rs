@@ -26,6 +26,7 @@ pub mod glossy;
 pub mod image;
 pub mod lens_pixels;
 pub mod path;
+pub mod radiance_map;
 pub mod records;
 pub mod schlick_table;
 pub mod shade;

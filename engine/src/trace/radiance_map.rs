@@ -52,7 +52,8 @@ pub struct RadianceMapRequest {
     pub brdf: Glossy,
     /// The direction the map is indexed by.
     pub warp: Warp,
-    /// Texels along a face's edge.
+    /// Texels along a face's edge, rounded up to a power of two (a cube map's mip chain halves
+    /// it).
     pub size: u32,
     /// Directions sampled per texel (at least 2).
     pub samples: u32,
@@ -63,7 +64,8 @@ pub struct RadianceMapRequest {
 /// A radiance map and its texels' standard errors.
 #[derive(Clone, Debug)]
 pub struct RadianceMap {
-    /// Radiance (rgb) and confidence (alpha) per texel, mips box-filtered.
+    /// Radiance (rgb, not multiplied by the confidence) and confidence (alpha) per texel, mips
+    /// box-filtered channel by channel.
     pub map: CubeMap,
     /// The standard error of each level-0 texel's radiance (root mean square over channels),
     /// face by face.
@@ -80,7 +82,8 @@ impl TraceScene {
         request: &RadianceMapRequest,
         options: &TraceOptions,
     ) -> RadianceMap {
-        let edge = request.size.max(1) as usize;
+        let size = request.size.max(1).next_power_of_two();
+        let edge = size as usize;
         let seen = TraceOptions {
             glossy_samples: 0,
             ..*options
@@ -112,7 +115,7 @@ impl TraceScene {
             counters += face_counters;
         }
         RadianceMap {
-            map: CubeMap::from_level0(request.size.max(1), level0),
+            map: CubeMap::from_level0(size, level0),
             errors,
             counters,
         }

@@ -138,6 +138,44 @@ impl Lobes {
     }
 }
 
+impl Lobes {
+    /// The mean of `samples` (≥ 1) draws of f·cos θ·L/pdf and its standard error, per channel:
+    /// `arriving(direction)` gives L for a direction above both the shading normal and `face`;
+    /// a direction below either counts 0.
+    pub(crate) fn estimate(
+        &self,
+        rng: &mut impl Rng,
+        samples: u32,
+        face: DVec3,
+        mut arriving: impl FnMut(DVec3) -> DVec3,
+    ) -> (DVec3, DVec3) {
+        let samples = samples.max(1);
+        let (mut mean, mut squares) = (DVec3::ZERO, DVec3::ZERO);
+        for k in 0..samples {
+            let direction = self.sample(rng);
+            let cosine = direction.dot(self.normal);
+            let mut value = DVec3::ZERO;
+            if cosine > 0.0 && direction.dot(face) > 0.0 {
+                let pdf = self.pdf(direction);
+                if pdf > 0.0 {
+                    value = sanitize(self.eval(direction) * arriving(direction) * (cosine / pdf));
+                }
+            }
+            // Welford's running mean and sum of squared deviations, per channel.
+            let delta = value - mean;
+            mean += delta / f64::from(k + 1);
+            squares += delta * (value - mean);
+        }
+        let n = f64::from(samples);
+        let variance = if samples > 1 {
+            squares / (n - 1.0)
+        } else {
+            DVec3::ZERO
+        };
+        (mean, (variance / n).max(DVec3::ZERO).map(f64::sqrt))
+    }
+}
+
 /// The unit direction at cosine `cos_theta` from `axis` and azimuth `2π·v`.
 fn around(axis: DVec3, cos_theta: f64, v: f64) -> DVec3 {
     let (tangent, bitangent) = axis.any_orthonormal_pair();
@@ -146,15 +184,11 @@ fn around(axis: DVec3, cos_theta: f64, v: f64) -> DVec3 {
     (tangent * phi.cos() + bitangent * phi.sin()) * sin_theta + axis * cos_theta
 }
 
-/// The generator of the shading point `ray` arrives at: seeded from the ray's bits and `seed`.
-fn generator(ray: &Ray, seed: u64) -> Pcg64Mcg {
+/// A generator seeded from `values`' bits and `seed`: the same values, the same samples, on any
+/// thread.
+pub(crate) fn generator(values: impl IntoIterator<Item = f64>, seed: u64) -> Pcg64Mcg {
     let mut hasher = rustc_hash::FxHasher::default();
-    for value in ray
-        .origin
-        .to_array()
-        .into_iter()
-        .chain(ray.direction.to_array())
-    {
+    for value in values {
         hasher.write_u64(value.to_bits());
     }
     hasher.write_u64(seed);
@@ -201,44 +235,25 @@ impl TraceScene {
         self.for_each_light(&receiver, counters, |direction, irradiance| {
             radiance += lobes.eval(direction) * irradiance;
         });
-        let samples = options.glossy_samples.max(1);
         // What the sampled directions see shades glossy surfaces by their diffuse base.
         let seen_options = TraceOptions {
             glossy_samples: 0,
             ..*options
         };
-        let mut rng = generator(ray, options.glossy_seed);
-        let (mut mean, mut squares) = (DVec3::ZERO, DVec3::ZERO);
-        for k in 0..samples {
-            let direction = lobes.sample(&mut rng);
-            let cosine = direction.dot(lobes.normal);
-            let mut value = DVec3::ZERO;
-            if cosine > 0.0 && direction.dot(face) > 0.0 {
-                let pdf = lobes.pdf(direction);
-                if pdf > 0.0 {
-                    let seen = self.radiance_along(
-                        &Ray { origin, direction },
-                        Some(exclude),
-                        &seen_options,
-                        counters,
-                    );
-                    value = sanitize(lobes.eval(direction) * seen * (cosine / pdf));
-                }
-            }
-            // Welford's running mean and sum of squared deviations, per channel.
-            let delta = value - mean;
-            mean += delta / f64::from(k + 1);
-            squares += delta * (value - mean);
-        }
-        let n = f64::from(samples);
-        let variance = if samples > 1 {
-            squares / (n - 1.0)
-        } else {
-            DVec3::ZERO
-        };
+        let bits = ray
+            .origin
+            .to_array()
+            .into_iter()
+            .chain(ray.direction.to_array());
+        let mut rng = generator(bits, options.glossy_seed);
+        let (mean, standard_error) =
+            lobes.estimate(&mut rng, options.glossy_samples, face, |direction| {
+                let ray = Ray { origin, direction };
+                self.radiance_along(&ray, Some(exclude), &seen_options, counters)
+            });
         GlossyEstimate {
             radiance: sanitize(radiance + mean),
-            standard_error: (variance / n).max(DVec3::ZERO).map(f64::sqrt),
+            standard_error,
         }
     }
 

@@ -17,12 +17,10 @@
 //! of several views' maps should trust this one least.
 
 use glam::DVec3;
-use rand::SeedableRng;
-use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 
 use super::Ray;
-use super::glossy::Lobes;
+use super::glossy::{Lobes, generator};
 use super::shade::TraceOptions;
 use super::stats::TraceCounters;
 use super::world::{TraceScene, sanitize};
@@ -170,29 +168,10 @@ impl TraceScene {
             let irradiance = light.intensity.as_dvec3() * (cosine / (distance * distance));
             radiance += lobes.eval(toward) * irradiance;
         }
-        let mut hasher = rustc_hash::FxHasher::default();
-        for value in direction.to_array() {
-            std::hash::Hasher::write_u64(&mut hasher, value.to_bits());
-        }
-        std::hash::Hasher::write_u64(&mut hasher, request.seed);
-        let mut rng = Pcg64Mcg::seed_from_u64(std::hash::Hasher::finish(&hasher));
-        let samples = request.samples.max(2);
-        let (mut mean, mut squares) = (DVec3::ZERO, DVec3::ZERO);
-        for k in 0..samples {
-            let incoming = lobes.sample(&mut rng);
-            let cosine = incoming.dot(normal);
-            let mut value = DVec3::ZERO;
-            let pdf = lobes.pdf(incoming);
-            if cosine > 0.0 && pdf > 0.0 {
-                let arriving = self.radiance_along(&from_sphere(incoming), None, seen, counters);
-                value = sanitize(lobes.eval(incoming) * arriving * (cosine / pdf));
-            }
-            let delta = value - mean;
-            mean += delta / f64::from(k + 1);
-            squares += delta * (value - mean);
-        }
-        let n = f64::from(samples);
-        let variance = (squares / ((n - 1.0) * n)).max(DVec3::ZERO);
+        let mut rng = generator(direction.to_array(), request.seed);
+        let (mean, error) = lobes.estimate(&mut rng, request.samples.max(2), normal, |incoming| {
+            self.radiance_along(&from_sphere(incoming), None, seen, counters)
+        });
         let total = sanitize(radiance + mean);
         (
             [
@@ -201,7 +180,7 @@ impl TraceScene {
                 total.z as f32,
                 confidence as f32,
             ],
-            (variance.element_sum() / 3.0).sqrt() as f32,
+            ((error * error).element_sum() / 3.0).sqrt() as f32,
         )
     }
 }

@@ -24,6 +24,7 @@ pub mod lightmap;
 pub mod metrics;
 pub mod options;
 pub mod render;
+pub mod rsibr;
 pub mod runner;
 pub mod scene;
 pub mod trace;

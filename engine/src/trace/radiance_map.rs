@@ -14,7 +14,10 @@
 //!
 //! Alpha holds the texel's confidence, cos θo = n·v: the view's foreshortening of the element,
 //! 0 where the element faces away (and at the mirror warp's singularity), which is where a blend
-//! of several views' maps should trust this one least.
+//! of several views' maps should trust this one least. The colour is premultiplied by it (as
+//! every cube map in lensmap is), so that filtering across the edge of what the view sees and
+//! blending several views weight each texel by its confidence: a blend is Σ wᵢ·rgbᵢ / Σ wᵢ·αᵢ
+//! ([`crate::rsibr`]).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -62,11 +65,11 @@ pub struct RadianceMapRequest {
 /// A radiance map and its texels' standard errors.
 #[derive(Clone, Debug)]
 pub struct RadianceMap {
-    /// Radiance (rgb, not multiplied by the confidence) and confidence (alpha) per texel, mips
+    /// Radiance times confidence (rgb) and confidence (alpha) per texel, premultiplied; mips
     /// box-filtered channel by channel.
     pub map: CubeMap,
-    /// The standard error of each level-0 texel's radiance (root mean square over channels),
-    /// face by face.
+    /// The standard error of each level-0 texel's radiance, not premultiplied (root mean square
+    /// over channels), face by face.
     pub errors: [Vec<f32>; 6],
     /// Rays traced.
     pub counters: TraceCounters,
@@ -172,7 +175,7 @@ impl TraceScene {
         let (mean, error) = lobes.estimate(&mut rng, request.samples.max(2), normal, |incoming| {
             self.radiance_along(&from_sphere(incoming), None, seen, counters)
         });
-        let total = sanitize(radiance + mean);
+        let total = sanitize(radiance + mean) * confidence;
         (
             [
                 total.x as f32,

@@ -268,7 +268,7 @@ impl CountCheck<'_> {
 
 /// An I/O error naming the path a user knows: a path inside the staging, previous or temporary
 /// names a bake is written through is said as the bake path it stands for.
-pub(super) fn io_error(
+pub(crate) fn io_error(
     path: &Path,
     action: &'static str,
 ) -> impl FnOnce(std::io::Error) -> BakeError {

@@ -27,19 +27,20 @@ use crate::common::{BadUsage, OnOff, progress_shown, report};
   lensmap bake --scene teapot-room --samples 0,1 --out out/bake
   lensmap bake --scene teapot-room --shard 2/8 --out out/shard-2     (one job of an array)
   lensmap bake --merge out/shard-1 out/shard-2 --out out/bake
+  lensmap bake --radiance-maps --scene glossy-studio --out out/radiance  (glossy objects)
   lensmap bake --compress out/bake                                   (in place, lossless)
   lensmap bake --compress out/bake --drop-mantissa-bits 12 --out out/bake-small")]
 pub struct BakeArgs {
     /// Built-in scene name or path (not with --merge or --compress).
     #[arg(long, required_unless_present_any = ["merge", "compress"])]
-    scene: Option<String>,
+    pub(crate) scene: Option<String>,
     /// The bake directory to write (replaced atomically when the bake is complete); with
     /// --compress, where to write the compressed bake (default: the bake itself).
     #[arg(long, required_unless_present = "compress")]
-    out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// Viewpoint samples: all, I,J,K, A..B (B excluded) or A..=B.
     #[arg(long, default_value = "all")]
-    samples: String,
+    pub(crate) samples: String,
     /// Layers per lens object, placed by clustering with fitted shells: auto (as many as the
     /// scene names, else as many as help) or a count; or scene (the scene's named shells as
     /// they are); or bounce (reflectors: a local ellipsoid over a distant box, the PEM paper's).
@@ -85,19 +86,36 @@ pub struct BakeArgs {
     hull_split: OnOff,
     /// Bake only shard I of N: every N-th requested sample, starting at the I-th.
     #[arg(long, value_name = "I/N")]
-    shard: Option<String>,
+    pub(crate) shard: Option<String>,
     /// Keep samples already complete (staged, or in the bake at --out made with the same scene
     /// and options) and bake only the rest; the bake then holds every complete sample, asked
     /// for or not.
     #[arg(long)]
-    resume: bool,
+    pub(crate) resume: bool,
     /// Skip measuring each sample's lens PSNR against a reference (saves a reference trace per
     /// sample; the maps are the same).
     #[arg(long)]
     no_judge: bool,
+    /// Bake the glossy objects' radiance environment maps (reflection-space IBR) instead of
+    /// layered EMs: one map per lobe per view sample of --views; --samples, --shard, --resume
+    /// and --merge work on those view samples.
+    #[arg(long, conflicts_with = "compress")]
+    pub(crate) radiance_maps: bool,
+    /// With --radiance-maps: view samples, an icosahedron (12) or its subdivisions (42, 162).
+    #[arg(long, default_value_t = lensmap::rsibr::views::DEFAULT_VIEW_COUNT)]
+    pub(crate) views: usize,
+    /// With --radiance-maps: face size of the maps, texels (rounded up to a power of two).
+    #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SIZE)]
+    pub(crate) map_size: u32,
+    /// With --radiance-maps: directions sampled per texel (≥ 2).
+    #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SAMPLES)]
+    pub(crate) map_samples: u32,
+    /// With --radiance-maps: seed of the samples.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) map_seed: u64,
     /// Join these shard directories into --out instead of baking.
     #[arg(long, num_args = 1.., value_name = "DIR", conflicts_with_all = ["scene", "shard", "resume"])]
-    merge: Vec<PathBuf>,
+    pub(crate) merge: Vec<PathBuf>,
     /// Compress this complete (or merged) bake instead of baking: MIP levels as residuals from
     /// the finest level, each sample coded against the one before, zstd; lossless unless
     /// --drop-mantissa-bits. Everything that reads bakes reads it unchanged.
@@ -128,6 +146,9 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         )
         .into());
     };
+    if args.radiance_maps {
+        return crate::bake_radiance::run(&args, out);
+    }
     if !args.merge.is_empty() {
         return run_merge(&args, out);
     }

@@ -5,6 +5,7 @@
 #[macro_use]
 mod common;
 mod bake;
+mod bake_radiance;
 mod bench_bake;
 mod bench_error;
 mod bench_fresnel;

@@ -304,20 +304,37 @@ impl RadianceStaging {
         Ok(records)
     }
 
-    /// Writes the manifest of every staged sample and swaps the staging directory in.
-    pub fn commit(self, scene: &Scene, options: &RadianceMapOptions) -> Result<(), BakeError> {
-        let objects = glossy_objects(scene);
+    /// Writes `template` (its samples replaced by every staged sample's record) as the manifest
+    /// and swaps the staging directory in.
+    pub fn commit(self, template: &RadianceManifest) -> Result<RadianceManifest, BakeError> {
         let manifest = RadianceManifest {
+            identity: self.identity.clone(),
+            samples: self.records()?,
+            ..template.clone()
+        };
+        let path = self.path.join(RADIANCE_MANIFEST);
+        let json = serde_json::to_vec_pretty(&manifest).expect("plain data serializes");
+        atomic::write_synced(&path, &json).map_err(io_error(&path, "write"))?;
+        atomic::sync_directory(&self.path).map_err(io_error(&self.path, "fsync"))?;
+        self.swap.swap_in(&self.path, WhenSwapFails::Keep)?;
+        Ok(manifest)
+    }
+}
+
+impl RadianceManifest {
+    /// The manifest of a bake of `scene`'s glossy objects with `options`, without samples yet.
+    pub fn template(scene: &Scene, options: &RadianceMapOptions) -> RadianceManifest {
+        RadianceManifest {
             format_version: RADIANCE_FORMAT_VERSION,
             scene: scene.name.clone(),
             created_by: crate::layers::bake::default_created_by(),
-            identity: self.identity.clone(),
+            identity: RadianceIdentity::of(scene, options),
             size: options.size.max(1).next_power_of_two(),
             samples_per_texel: options.samples,
             seed: options.seed,
             views: options.views,
-            samples: self.records()?,
-            objects: objects
+            samples: Vec::new(),
+            objects: glossy_objects(scene)
                 .iter()
                 .map(|o| ManifestObject {
                     object: o.object,
@@ -327,14 +344,52 @@ impl RadianceStaging {
                     lobes: o.lobes.iter().map(|l| l.name().to_owned()).collect(),
                 })
                 .collect(),
-        };
-        let path = self.path.join(RADIANCE_MANIFEST);
-        let json = serde_json::to_vec_pretty(&manifest).expect("plain data serializes");
-        atomic::write_synced(&path, &json).map_err(io_error(&path, "write"))?;
-        atomic::sync_directory(&self.path).map_err(io_error(&self.path, "fsync"))?;
-        self.swap.swap_in(&self.path, WhenSwapFails::Keep)?;
-        Ok(())
+        }
     }
+}
+
+/// Joins the radiance-map bakes `shards` (of one scene and options, no sample twice) into `out`.
+pub fn merge(shards: &[PathBuf], out: &Path) -> Result<RadianceManifest, BakeError> {
+    let manifests = shards
+        .iter()
+        .map(|dir| read_manifest(dir))
+        .collect::<Result<Vec<_>, _>>()?;
+    let Some(first) = manifests.first() else {
+        return Err(invalid(
+            out,
+            "--merge",
+            "names no shard".into(),
+            "name the shard directories to join",
+        ));
+    };
+    let mut seen = std::collections::HashSet::new();
+    for (dir, manifest) in shards.iter().zip(&manifests) {
+        let path = dir.join(RADIANCE_MANIFEST);
+        if manifest.identity != first.identity || manifest.objects != first.objects {
+            return Err(invalid(
+                &path,
+                "identity",
+                format!(
+                    "differs from {}'s: another scene or other options",
+                    shards[0].display()
+                ),
+                "merge shards of one bake only",
+            ));
+        }
+        if let Some(record) = manifest.samples.iter().find(|r| !seen.insert(r.sample)) {
+            return Err(invalid(
+                &path,
+                "samples",
+                format!("repeats sample {} of an earlier shard", record.sample),
+                "merge disjoint shards (`--shard I/N` with one N)",
+            ));
+        }
+    }
+    let staging = RadianceStaging::open(out, first.identity.clone(), false)?;
+    for (dir, manifest) in shards.iter().zip(&manifests) {
+        staging.take_in(dir, manifest)?;
+    }
+    staging.commit(first)
 }
 
 /// The file name a manifest gives object `k`'s map of lobe `lobe` at `sample`.

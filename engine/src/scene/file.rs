@@ -93,7 +93,7 @@ pub(crate) struct CameraSpec {
 }
 
 /// `[environment]`: the radiance arriving from infinitely far away along rays that leave the
-/// scene. Exactly one of `constant` and `latlong`; both or neither is an error.
+/// scene. Exactly one of `constant`, `latlong` and `studio`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct EnvironmentSpec {
@@ -102,6 +102,25 @@ pub(crate) struct EnvironmentSpec {
     pub constant: Option<[f32; 3]>,
     /// `latlong = { path, scale }`: an equirectangular HDR image.
     pub latlong: Option<LatLongSpec>,
+    /// `studio = { width, scale }`: lensmap's procedural studio ([`super::environment::studio`]),
+    /// a lat-long map `width` texels wide (default 512) made at load time.
+    pub studio: Option<StudioSpec>,
+}
+
+/// `studio = { width = 512, scale = 1.0 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct StudioSpec {
+    /// `width`, default 512: texels around; the map is half as tall. In [8, 8192].
+    #[serde(default = "studio_width")]
+    pub width: u32,
+    /// `scale`, default 1: a multiplier on the radiance, finite and ≥ 0.
+    #[serde(default = "one_f32")]
+    pub scale: f32,
+}
+
+fn studio_width() -> u32 {
+    512
 }
 
 /// `latlong = { path = "sky.exr", scale = 1.0 }`: an equirectangular (latitude-longitude) map of

@@ -32,11 +32,20 @@ pub use material::{Coat, Glossy, ImageTexture, Material, Texture};
 pub use mesh::{MeshProblem, TriangleMesh};
 pub use path::{CameraPath, CameraPose};
 
-/// The names of the built-in scenes, in the order `lensmap` lists them.
+/// The names of the built-in scenes with lens objects, in the order `lensmap` lists them.
 pub const BUILTIN_SCENES: [&str; 3] = ["teapot-room", "glass-sphere", "mirror-teapot"];
 
+/// The names of the built-in scenes of glossy objects alone (reflection-space IBR).
+pub const GLOSSY_SCENES: [&str; 2] = ["glossy-studio", "glossy-room"];
+
+/// Every built-in scene's name, lens scenes first, joined for a message.
+pub fn builtin_names() -> String {
+    let names: Vec<&str> = BUILTIN_SCENES.iter().chain(&GLOSSY_SCENES).copied().collect();
+    names.join(", ")
+}
+
 /// The built-in scene files' text, embedded at compile time.
-const BUILTIN_SOURCES: [(&str, &str); 3] = [
+const BUILTIN_SOURCES: [(&str, &str); 5] = [
     ("teapot-room", include_str!("../../scenes/teapot-room.toml")),
     (
         "glass-sphere",
@@ -46,6 +55,11 @@ const BUILTIN_SOURCES: [(&str, &str); 3] = [
         "mirror-teapot",
         include_str!("../../scenes/mirror-teapot.toml"),
     ),
+    (
+        "glossy-studio",
+        include_str!("../../scenes/glossy-studio.toml"),
+    ),
+    ("glossy-room", include_str!("../../scenes/glossy-room.toml")),
 ];
 
 /// The text of built-in scene `name`, or `None` for an unknown name.
@@ -128,7 +142,7 @@ impl Scene {
             problem: format!("cannot read the scene file ({e})"),
             fix: format!(
                 "check the path, or name a built-in scene: {}",
-                BUILTIN_SCENES.join(", ")
+                builtin_names()
             ),
         })?;
         Scene::from_toml_str(&text, path)
@@ -185,17 +199,18 @@ impl Scene {
             // "Did you mean": the built-in name nearest the one given, if it is near.
             let nearest = BUILTIN_SCENES
                 .iter()
+                .chain(&GLOSSY_SCENES)
                 .map(|name| (strsim::damerau_levenshtein(name, name_or_path), *name))
                 .min()
                 .filter(|&(distance, _)| distance <= 3);
             let fix = match nearest {
                 Some((_, name)) => format!(
                     "did you mean {name}? Name a built-in scene ({}) or the path of a scene .toml file",
-                    BUILTIN_SCENES.join(", ")
+                    builtin_names()
                 ),
                 None => format!(
                     "name a built-in scene ({}) or the path of a scene .toml file",
-                    BUILTIN_SCENES.join(", ")
+                    builtin_names()
                 ),
             };
             return Err(SceneError::Read {
@@ -242,6 +257,30 @@ mod tests {
             Some(Ok(scene)) => scene,
             Some(Err(e)) => panic!("{e}"),
             None => panic!("{name} is not built in"),
+        }
+    }
+
+    #[test]
+    fn the_glossy_scenes_load_with_two_glossy_objects_each() {
+        for name in GLOSSY_SCENES {
+            let scene = load(name);
+            assert_eq!(scene.name, name);
+            assert!(scene.lenses.is_empty());
+            let glossy = crate::rsibr::glossy_objects(&scene);
+            let names: Vec<&str> = glossy.iter().map(|g| g.name.as_str()).collect();
+            assert_eq!(names, ["sphere", "teapot"], "{name}");
+            for object in &glossy {
+                // The maps' bounding spheres clear every other object.
+                for other in scene.objects.iter().filter(|o| o.name != object.name) {
+                    let nearest = other
+                        .mesh
+                        .positions
+                        .iter()
+                        .map(|p| p.as_dvec3().distance(object.centre))
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(nearest > object.radius, "{name}: {} in {}", other.name, object.name);
+                }
+            }
         }
     }
 

@@ -13,6 +13,26 @@ use crate::scene::material::{Coat, Glossy, ImageTexture, Material, Texture};
 
 impl Loader<'_> {
     pub(super) fn environment(&self, spec: &EnvironmentSpec) -> Result<Environment> {
+        if let Some(studio) = &spec.studio {
+            if spec.constant.is_some() || spec.latlong.is_some() {
+                return Err(self.error(
+                    "environment",
+                    "names studio and another environment",
+                    "keep one of constant, latlong and studio",
+                ));
+            }
+            if !(8..=8192).contains(&studio.width) {
+                return Err(self.error(
+                    "environment.studio.width",
+                    format!("{} texels is out of range", studio.width),
+                    "give a width in [8, 8192], e.g. 512",
+                ));
+            }
+            let scale = spec_scale(self, "environment.studio.scale", studio.scale)?;
+            let mut map = crate::scene::environment::studio(studio.width);
+            map.texels.iter_mut().for_each(|t| *t *= scale);
+            return Ok(Environment::LatLong(map));
+        }
         match (&spec.constant, &spec.latlong) {
             (Some(colour), None) => Ok(Environment::Constant(self.colour(
                 "environment.constant",
@@ -20,7 +40,7 @@ impl Loader<'_> {
                 None,
             )?)),
             (None, Some(latlong)) => {
-                let scale = spec_scale(self, latlong.scale)?;
+                let scale = spec_scale(self, "environment.latlong.scale", latlong.scale)?;
                 let path = self.resolve(&latlong.path);
                 let image = load_linear_rgb(&path).map_err(|problem| {
                     self.error("environment.latlong.path", format!("{}: {problem}", path.display()), "give a readable lat-long EXR with finite, non-negative radiance (relative paths start at the scene file's folder)")
@@ -53,8 +73,8 @@ impl Loader<'_> {
             }
             _ => Err(self.error(
                 "environment",
-                "needs exactly one of constant or latlong",
-                "write either constant = [r, g, b] or latlong = { path = \"sky.exr\" }",
+                "needs exactly one of constant, latlong and studio",
+                "write constant = [r, g, b], latlong = { path = \"sky.exr\" } or studio = {}",
             )),
         }
     }
@@ -220,12 +240,12 @@ impl Loader<'_> {
 const MAX_EXPONENT: f32 = 100_000.0;
 
 /// Checks a lat-long scale factor.
-fn spec_scale(loader: &Loader<'_>, scale: f32) -> Result<f32> {
+fn spec_scale(loader: &Loader<'_>, field: &str, scale: f32) -> Result<f32> {
     if scale.is_finite() && scale >= 0.0 {
         Ok(scale)
     } else {
         Err(loader.error(
-            "environment.latlong.scale",
+            field,
             format!("{scale} is not a finite number ≥ 0"),
             "give a radiance multiplier ≥ 0 (1 = as stored)",
         ))

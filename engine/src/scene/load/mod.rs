@@ -112,7 +112,7 @@ impl Loader<'_> {
             return Err(self.error(
                 "extends",
                 format!("\"{name}\" is not a built-in scene"),
-                format!("give one of {}", super::BUILTIN_SCENES.join(", ")),
+                format!("give one of {}", super::builtin_names()),
             ));
         };
         let builtin: SceneFile = toml::from_str(source).map_err(|e| {

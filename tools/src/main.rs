@@ -9,6 +9,7 @@ mod bake_radiance;
 mod bench_bake;
 mod bench_error;
 mod bench_fresnel;
+mod bench_glossy;
 mod bench_hybrid;
 mod bench_infer;
 mod bench_passes;
@@ -141,6 +142,9 @@ enum BenchCommand {
     ///
     /// Example: lensmap bench fresnel --scene mirror-teapot --scene glass-sphere --texels 16,64,256
     Fresnel(bench_fresnel::BenchFresnelArgs),
+    /// Glossy objects by reflection-space IBR against the reference: warped, nearest and
+    /// blended maps on a sample, in a triangle and on an edge; 12, 42 and 162 view samples.
+    Glossy(bench_glossy::BenchGlossyArgs),
 }
 
 /// Whether an error is the user's input (exit 2) rather than a failure of the work (exit 1).
@@ -260,6 +264,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Bake(args)) => bench_bake::run(args),
         Command::Bench(BenchCommand::Error(args)) => bench_error::run(args),
         Command::Bench(BenchCommand::Fresnel(args)) => bench_fresnel::run(args),
+        Command::Bench(BenchCommand::Glossy(args)) => bench_glossy::run(args),
     };
     match result {
         Ok(()) => common::exit_status(),

@@ -587,6 +587,7 @@ impl LayerFrames {
                 height: crop.height,
                 view_proj: crop.clip_transform() * frame.view_proj,
                 environment,
+                glossy: frame.glossy.clone(),
                 lenses: Vec::new(),
                 viewpoint_weights: vec![1.0],
             },
@@ -979,6 +980,7 @@ mod tests {
             height,
             view_proj: glam::Mat4::IDENTITY,
             environment: Vec::new(),
+            glossy: Vec::new(),
             lenses: vec![LensObject {
                 name: "crafted".into(),
                 positions: positions.clone(),

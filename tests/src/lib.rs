@@ -266,6 +266,7 @@ pub fn random_compositor_frame(
             triangles: vec![[0, 1, 2]],
             light_map: None,
         })],
+        glossy: Vec::new(),
         lenses: vec![LensObject {
             name: "sheet".into(),
             positions,

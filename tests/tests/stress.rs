@@ -1114,6 +1114,7 @@ fn sheet_frame(
             triangles: vec![[0, 1, 2]],
             light_map: None,
         })],
+        glossy: Vec::new(),
         lenses: vec![render::LensObject {
             name: "sheet".into(),
             positions,

@@ -14,6 +14,8 @@ pub enum VertexInput {
     /// Binding 0: position (vec3 f32), binding 1: colour (vec3 f32), binding 2: light-map
     /// texture coordinates (vec2 f32).
     PositionColourUv,
+    /// Binding 0: position (vec3 f32), binding 1: normal (vec3 f32).
+    PositionNormal,
 }
 
 /// Everything a graphics pipeline is made of.
@@ -149,6 +151,10 @@ impl Gpu {
             VertexInput::PositionColourUv => vk::PipelineVertexInputStateCreateInfo::default()
                 .vertex_binding_descriptions(&bindings)
                 .vertex_attribute_descriptions(&attributes),
+            // The first two bindings and attributes: position and normal, both vec3.
+            VertexInput::PositionNormal => vk::PipelineVertexInputStateCreateInfo::default()
+                .vertex_binding_descriptions(&bindings[..2])
+                .vertex_attribute_descriptions(&attributes[..2]),
         };
         let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
             .topology(vk::PrimitiveTopology::TRIANGLE_LIST);

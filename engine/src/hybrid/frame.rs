@@ -957,6 +957,7 @@ impl HybridScene {
                 .chain(exact)
                 .chain(view.sky)
                 .collect(),
+            glossy: Vec::new(),
             lenses,
             viewpoint_weights: blend.samples.iter().map(|(_, w)| *w as f32).collect(),
         };

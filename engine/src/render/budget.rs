@@ -462,6 +462,7 @@ mod tests {
             height: 8,
             view_proj: Mat4::IDENTITY,
             environment: vec![lit.clone(), lit, mesh(Some((10, 10))), mesh(None)],
+            glossy: Vec::new(),
             lenses: vec![
                 lens(vec![shared.clone()]),
                 lens(vec![shared, vec![cube(32), cube(32)]]),

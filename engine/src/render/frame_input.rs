@@ -198,6 +198,8 @@ pub struct FrameInput {
     /// Opaque environment, drawn first. Shared (`Arc`) like the layered EMs: the renderer keeps a
     /// mesh's buffers for as long as frames keep handing it the same `Arc`.
     pub environment: Vec<Arc<EnvironmentMesh>>,
+    /// Glossy objects, drawn after the environment by reflection-space IBR.
+    pub glossy: Vec<super::glossy::GlossyDraw>,
     /// Lens objects.
     pub lenses: Vec<LensObject>,
     /// Weight of each viewpoint sample (1 to [`MAX_VIEWPOINTS`] entries, summing to 1). A zero
@@ -226,6 +228,9 @@ impl FrameInput {
             if !checked(Arc::as_ptr(mesh) as usize) {
                 mesh.validate(m)?;
             }
+        }
+        for (g, glossy) in self.glossy.iter().enumerate() {
+            glossy.validate(g, checked)?;
         }
         for (l, lens) in self.lenses.iter().enumerate() {
             let at = format!("lenses[{l}] ({})", lens.name);

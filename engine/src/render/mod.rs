@@ -7,6 +7,7 @@
 mod budget;
 pub(crate) mod descriptors;
 mod frame_input;
+mod glossy;
 mod host_image;
 mod image;
 mod lens_pixels;
@@ -28,6 +29,7 @@ pub use budget::{
     check_framebuffer,
 };
 pub use frame_input::*;
+pub use glossy::{GlossyDraw, GlossyMesh, GlossySlot, MAX_GLOSSY_SLOTS};
 pub use host_image::HostImage;
 pub use image::RenderedImage;
 pub use lens_pixels::frame_lens_pixels;

@@ -12,6 +12,7 @@ use lensmap_shaders::{EnvironmentConstants, GroupSumConstants, LensConstants, Re
 use super::{
     ShaderProgram,
     descriptors::{ENVIRONMENT_SET, LENS_SET, SAMPLED_IMAGE_SET, create_set_layout},
+    glossy::GLOSSY_SET,
     vulkan::{blend_state, vk_compare, vk_format},
 };
 use crate::{
@@ -30,6 +31,10 @@ pub(super) struct Pipelines {
     pub(super) environment_set_layout: vk::DescriptorSetLayout,
     /// The environment program's layout: set 0 and [`EnvironmentConstants`].
     pub(super) environment_layout: vk::PipelineLayout,
+    /// Set 0 of the glossy program ([`GLOSSY_SET`]).
+    pub(super) glossy_set_layout: vk::DescriptorSetLayout,
+    /// The glossy program's layout: set 0 alone (its data is in the set's storage buffer).
+    pub(super) glossy_layout: vk::PipelineLayout,
     /// One sampled image ([`SAMPLED_IMAGE_SET`]): set 0 of the box filter (the colour target)
     /// and of the group sum (the scratch images' array view), set 1 of the programmable layer
     /// (one scratch image).
@@ -62,6 +67,7 @@ impl Drop for Pipelines {
             for layout in [
                 self.lens_layout,
                 self.environment_layout,
+                self.glossy_layout,
                 self.box_filter_layout,
                 self.group_sum_layout,
                 self.programmable_layout,
@@ -71,6 +77,7 @@ impl Drop for Pipelines {
             for layout in [
                 self.lens_set_layout,
                 self.environment_set_layout,
+                self.glossy_set_layout,
                 self.sampled_image_set_layout,
             ] {
                 device.destroy_descriptor_set_layout(layout, None);
@@ -90,13 +97,14 @@ fn push_constants<T>(stages: vk::ShaderStageFlags) -> vk::PushConstantRange {
     }
 }
 
-/// Creates the pipeline layout of `sets` (set i is `sets[i]`) and one push-constant range.
+/// Creates the pipeline layout of `sets` (set i is `sets[i]`) and at most one push-constant
+/// range.
 fn create_layout(
     gpu: &Gpu,
     sets: &[vk::DescriptorSetLayout],
-    push: vk::PushConstantRange,
+    push: impl Into<Option<vk::PushConstantRange>>,
 ) -> Result<vk::PipelineLayout, GpuError> {
-    let push = [push];
+    let push: Vec<vk::PushConstantRange> = push.into().into_iter().collect();
     // SAFETY: the create info lives until the call returns; Pipelines::drop destroys the layout.
     unsafe {
         gpu.device().create_pipeline_layout(
@@ -139,6 +147,8 @@ impl Pipelines {
             lens_layout: vk::PipelineLayout::null(),
             environment_set_layout: vk::DescriptorSetLayout::null(),
             environment_layout: vk::PipelineLayout::null(),
+            glossy_set_layout: vk::DescriptorSetLayout::null(),
+            glossy_layout: vk::PipelineLayout::null(),
             sampled_image_set_layout: vk::DescriptorSetLayout::null(),
             box_filter_layout: vk::PipelineLayout::null(),
             group_sum_layout: vk::PipelineLayout::null(),
@@ -151,6 +161,7 @@ impl Pipelines {
         p.lens_set_layout = create_set_layout(gpu, LENS_SET)?;
         p.environment_set_layout = create_set_layout(gpu, ENVIRONMENT_SET)?;
         p.sampled_image_set_layout = create_set_layout(gpu, SAMPLED_IMAGE_SET)?;
+        p.glossy_set_layout = create_set_layout(gpu, GLOSSY_SET)?;
         let (vertex, fragment) = (vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT);
         let lens_push = push_constants::<LensConstants>(vertex | fragment);
         p.lens_layout = create_layout(gpu, &[p.lens_set_layout], lens_push)?;
@@ -159,6 +170,7 @@ impl Pipelines {
             &[p.environment_set_layout],
             push_constants::<EnvironmentConstants>(vertex),
         )?;
+        p.glossy_layout = create_layout(gpu, &[p.glossy_set_layout], None)?;
         p.box_filter_layout = create_layout(
             gpu,
             &[p.sampled_image_set_layout],
@@ -184,6 +196,7 @@ impl Pipelines {
     pub(super) fn layout_of(&self, program: ShaderProgram) -> vk::PipelineLayout {
         match program {
             ShaderProgram::Environment => self.environment_layout,
+            ShaderProgram::Glossy => self.glossy_layout,
             ShaderProgram::LensZero
             | ShaderProgram::LensLayer
             | ShaderProgram::LensSinglePass(_) => self.lens_layout,

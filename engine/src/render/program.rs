@@ -295,6 +295,8 @@ impl SinglePassProgram {
 pub enum ShaderProgram {
     /// Opaque vertex-coloured environment meshes (`environment.wgsl`).
     Environment,
+    /// Glossy objects by reflection-space IBR (`glossy.wgsl`).
+    Glossy,
     /// A lens object's triangles writing zero: the prime and, with write mask A, the alpha clear.
     LensZero,
     /// One layer of one (viewpoint, term) group of the multipass variant.
@@ -323,6 +325,7 @@ impl ShaderProgram {
         };
         match self {
             ShaderProgram::Environment => plain("environment", "vs_environment", "fs_environment"),
+            ShaderProgram::Glossy => plain("glossy", "vs_glossy", "fs_glossy"),
             ShaderProgram::LensZero => plain("lens", "vs_position", "fs_zero"),
             ShaderProgram::LensLayer => plain("lens", "vs_layer", "fs_layer"),
             ShaderProgram::BoxFilter => plain("resolve", "vs_full_screen", "fs_box_filter"),
@@ -345,6 +348,7 @@ impl ShaderProgram {
     pub fn vertex_input(self) -> VertexInput {
         match self {
             ShaderProgram::Environment => VertexInput::PositionColourUv,
+            ShaderProgram::Glossy => VertexInput::PositionNormal,
             ShaderProgram::LensZero
             | ShaderProgram::LensLayer
             | ShaderProgram::LensSinglePass(_)

@@ -469,6 +469,7 @@ impl Recorder<'_> {
                 );
             }
             Draw::Environment { mesh } => self.environment(cb, mesh),
+            Draw::Glossy { index } => self.glossy(cb, index),
             Draw::LensZero { lens }
             | Draw::SinglePass { lens }
             | Draw::Layer { lens, .. }
@@ -541,6 +542,33 @@ impl Recorder<'_> {
                 0,
                 &[mesh.positions.handle, mesh.colours.handle, mesh.uvs.handle],
                 &[0, 0, 0],
+            );
+            device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
+            device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);
+        }
+    }
+
+    /// Glossy object `index`: its set (data, maps, sampler), vertex and index buffers.
+    fn glossy(&self, cb: vk::CommandBuffer, index: usize) {
+        let (device, frame) = (self.gpu.device(), self.frame);
+        let glossy = &frame.glossy[index];
+        let mesh = &glossy.mesh;
+        // SAFETY: recording inside a rendering instance with the glossy pipeline bound; the set
+        // and buffers live as long as `frame`.
+        unsafe {
+            device.cmd_bind_descriptor_sets(
+                cb,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.pipelines.glossy_layout,
+                0,
+                &[glossy.set],
+                &[],
+            );
+            device.cmd_bind_vertex_buffers(
+                cb,
+                0,
+                &[mesh.positions.handle, mesh.normals.handle],
+                &[0, 0],
             );
             device.cmd_bind_index_buffer(cb, mesh.indices.handle, 0, vk::IndexType::UINT32);
             device.cmd_draw_indexed(cb, mesh.index_count, 1, 0, 0, 0);
@@ -636,6 +664,7 @@ impl Recorder<'_> {
                 1,
             ),
             Draw::Environment { .. }
+            | Draw::Glossy { .. }
             | Draw::GroupSum { .. }
             | Draw::BoxFilter { .. }
             | Draw::Tessellate { .. } => {

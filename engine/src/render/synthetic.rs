@@ -163,6 +163,7 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
         height: options.height,
         view_proj: camera.view_proj(0.1, 100.0),
         environment: room(),
+        glossy: Vec::new(),
         lenses: vec![LensObject {
             name: "sphere".into(),
             positions,

@@ -123,6 +123,7 @@ pub struct UploadedFrame {
     pub(super) single_pass: SinglePassLimits,
     pub(super) view_proj: [[f32; 4]; 4],
     pub(super) environment: Vec<Arc<GpuMesh>>,
+    pub(super) glossy: Vec<super::glossy::GpuGlossy>,
     pub(super) lenses: Vec<GpuLens>,
     /// The pool of the lens descriptor sets (`None` only while a new frame takes it over).
     pool: Option<DescriptorPool>,
@@ -156,6 +157,9 @@ pub(super) struct UploadCache {
     layer_cache: HashMap<Vec<usize>, CachedLayers>,
     /// Uploaded environment meshes, keyed by the identity of their `Arc<EnvironmentMesh>`.
     mesh_cache: HashMap<usize, CachedMesh>,
+    /// Uploaded glossy meshes, keyed by the identity of their `Arc<GlossyMesh>` (held, so the
+    /// address stays unique), with the upload generation that last used them.
+    glossy_cache: HashMap<usize, (Arc<super::GlossyMesh>, Arc<super::glossy::GpuGlossyMesh>, u64)>,
     /// Uploads so far (for evicting cache entries no recent frame used).
     generation: u64,
     /// The white 1×1 light map of meshes without one, made on first use.
@@ -216,7 +220,9 @@ impl UploadCache {
     ) -> Result<UploadedFrame, RenderError> {
         super::budget::check_dimensions(gpu, frame.width, frame.height)?;
         frame.validate_unless_checked(&|address| {
-            self.mesh_cache.contains_key(&address) || self.checked_cubes.contains_key(&address)
+            self.mesh_cache.contains_key(&address)
+                || self.checked_cubes.contains_key(&address)
+                || self.layer_cache.keys().any(|key| key.contains(&address))
         })?;
         // Before anything is allocated: the frame's maps, each once (those already resident from
         // a recent frame included, as this frame needs them resident too). A recent frame's maps
@@ -239,6 +245,12 @@ impl UploadCache {
             .iter()
             .filter(|m| !m.triangles.is_empty())
             .map(|mesh| self.environment_mesh(gpu, pipelines, mesh))
+            .collect::<Result<Vec<_>, GpuError>>()?;
+        let glossy = frame
+            .glossy
+            .iter()
+            .enumerate()
+            .map(|(g, draw)| self.glossy_draw(gpu, pipelines, (g, draw), &frame.view_proj))
             .collect::<Result<Vec<_>, GpuError>>()?;
 
         // Per lens part a set per viewpoint and the single pass's.
@@ -291,6 +303,7 @@ impl UploadCache {
             single_pass: SinglePassLimits::of_device(&gpu.properties().limits),
             view_proj: frame.view_proj.to_cols_array_2d(),
             environment,
+            glossy,
             lenses,
             pool: Some(pool),
             targets,
@@ -300,6 +313,8 @@ impl UploadCache {
             .retain(|_, cached| cached.last_used + 1 >= generation);
         self.mesh_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
+        self.glossy_cache
+            .retain(|_, (_, _, last_used)| *last_used + 1 >= generation);
         self.checked_cubes
             .retain(|_, checked| checked.last_used + 1 >= generation);
         Ok(uploaded)
@@ -459,6 +474,39 @@ impl UploadCache {
             },
         );
         Ok(buffers)
+    }
+
+    /// Glossy draw `g` uploaded: its mesh from the cache or freshly uploaded, its maps as one
+    /// cube-map array (cached like layered EMs), its data and descriptor set.
+    fn glossy_draw(
+        &mut self,
+        gpu: &Gpu,
+        pipelines: &Pipelines,
+        (g, draw): (usize, &super::GlossyDraw),
+        view_proj: &glam::Mat4,
+    ) -> Result<super::glossy::GpuGlossy, GpuError> {
+        let key = Arc::as_ptr(&draw.mesh) as usize;
+        let generation = self.generation;
+        let mesh = match self.glossy_cache.get_mut(&key) {
+            Some((_, mesh, last_used)) => {
+                *last_used = generation;
+                mesh.clone()
+            }
+            None => {
+                let mesh = Arc::new(super::glossy::GpuGlossyMesh::new(gpu, &draw.mesh)?);
+                self.glossy_cache
+                    .insert(key, (draw.mesh.clone(), mesh.clone(), generation));
+                mesh
+            }
+        };
+        let maps = self.layer_image(gpu, &format!("glossy{g}/maps"), &draw.flat_maps())?;
+        super::glossy::GpuGlossy::new(
+            gpu,
+            (pipelines.glossy_set_layout, pipelines.sampler),
+            mesh,
+            maps,
+            &draw.data(view_proj),
+        )
     }
 
     /// The white 1×1 light map (RGBA16F ones), made once.

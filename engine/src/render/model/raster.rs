@@ -14,6 +14,8 @@ use crate::trace::Term;
 pub(super) enum Source {
     /// Environment mesh `mesh`.
     Environment { mesh: usize },
+    /// Glossy draw `index`.
+    Glossy { index: usize },
     /// Lens object `object`; `skip_local`: one of its hull triangles, drawn without layer 0
     /// (the convex-hull split, [`crate::render::LensObject::hull_triangles`]).
     Lens { object: usize, skip_local: bool },
@@ -112,6 +114,12 @@ impl<'a> FrameSetup<'a> {
                 setup.add_triangle(Source::Environment { mesh }, &clip, *triangle);
             }
         }
+        for (index, glossy) in frame.glossy.iter().enumerate() {
+            let clip = to_clip(&glossy.mesh.positions);
+            for triangle in &glossy.mesh.triangles {
+                setup.add_triangle(Source::Glossy { index }, &clip, *triangle);
+            }
+        }
         for (object, lens) in frame.lenses.iter().enumerate() {
             let clip = to_clip(&lens.positions);
             let first_hull = lens.triangles.len().saturating_sub(lens.hull_triangles);
@@ -163,7 +171,7 @@ impl<'a> FrameSetup<'a> {
         // Vulkan: a = −½ Σ (x_i y_{i+1} − x_{i+1} y_i) = −cross/2, front-facing (CCW) if a > 0.
         let front = cross < 0.0;
         let drawn = match source {
-            Source::Environment { .. } => true,
+            Source::Environment { .. } | Source::Glossy { .. } => true,
             Source::Lens { object, .. } => {
                 front || self.frame.lenses[object].faces == crate::render::LensFaces::Both
             }

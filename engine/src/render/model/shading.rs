@@ -70,6 +70,7 @@ impl FrameSetup<'_> {
             pixel.flags |= Exclusion::ClippedTriangle.bit();
         }
         self.environment_pass(&mut pixel, (x, y), fragments);
+        self.glossy_pass(&mut pixel, (x, y), fragments);
         for object in 0..self.frame.lenses.len() {
             self.lens_passes(&mut pixel, object, (x, y), fragments);
         }
@@ -102,6 +103,40 @@ impl FrameSetup<'_> {
             };
             if fragment.covered && fragment.depth < pixel.depth {
                 pixel.colour = self.environment_colour(triangle, mesh, centre);
+                pixel.depth = fragment.depth;
+                pixel.visible = Some(fragment.triangle);
+            }
+        }
+    }
+
+    /// The glossy pass: LESS, write, (radiance, 1), the radiance [`crate::rsibr::shade`]'s at the
+    /// interpolated position and normal (no precision bounds: the value alone).
+    fn glossy_pass(&self, pixel: &mut PixelState, (x, y): (usize, usize), fragments: &[Fragment]) {
+        let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
+        for fragment in fragments {
+            let triangle = &self.triangles[fragment.triangle];
+            let Source::Glossy { index } = triangle.source else {
+                continue;
+            };
+            if fragment.covered && fragment.depth < pixel.depth {
+                let draw = &self.frame.glossy[index];
+                let mesh = &draw.mesh;
+                let position = self.interpolate(triangle, centre, |v| mesh.positions[v].as_dvec3());
+                let normal = self
+                    .interpolate(triangle, centre, |v| mesh.normals[v].as_dvec3())
+                    .normalize_or_zero();
+                let shading = crate::rsibr::GlossyShading {
+                    brdf: draw.brdf,
+                    lobes: draw.lobes.clone(),
+                    slots: draw
+                        .slots
+                        .iter()
+                        .map(|s| (f64::from(s.weight), s.rotation.as_dmat3(), s.maps.clone()))
+                        .collect(),
+                };
+                let toward_viewer = (draw.eye.as_dvec3() - position).normalize_or_zero();
+                let rgb = crate::rsibr::shade(&shading, normal, toward_viewer);
+                pixel.colour = Bounded::point([rgb.x, rgb.y, rgb.z, 1.0]);
                 pixel.depth = fragment.depth;
                 pixel.visible = Some(fragment.triangle);
             }

@@ -124,6 +124,7 @@ fn small_frame(weights: Vec<f32>, layers: Vec<Vec<CubeMap>>) -> FrameInput {
         height: 8,
         view_proj: Mat4::IDENTITY,
         environment: vec![std::sync::Arc::new(environment)],
+        glossy: Vec::new(),
         lenses: vec![lens],
         viewpoint_weights: weights,
     }
@@ -294,6 +295,7 @@ fn perspective_interpolation_matches_ray_plane_intersection() {
             triangles: vec![[0, 1, 2]],
             light_map: None,
         })],
+        glossy: Vec::new(),
         lenses: vec![],
         viewpoint_weights: vec![1.0],
     };
@@ -538,6 +540,7 @@ fn random_sphere_frame(
         height: size,
         view_proj,
         environment: vec![std::sync::Arc::new(environment)],
+        glossy: Vec::new(),
         lenses: vec![LensObject {
             name: "sphere".into(),
             positions,

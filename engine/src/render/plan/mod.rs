@@ -160,6 +160,11 @@ pub enum Draw {
         /// Index into `FrameInput::environment`.
         mesh: usize,
     },
+    /// Glossy object `index`.
+    Glossy {
+        /// Index into `FrameInput::glossy`.
+        index: usize,
+    },
     /// The lens object's triangles with the zero shader (prime and alpha clear).
     LensZero {
         /// The lens object.
@@ -267,6 +272,8 @@ pub enum PassCategory {
     Tessellation,
     /// The opaque environment meshes.
     Environment,
+    /// The glossy objects (reflection-space IBR).
+    Glossy,
     /// A lens object's prime: its pixels set to (0, 0, 0, 0) with its depth.
     Prime,
     /// One layer of one (viewpoint, term) group.
@@ -289,9 +296,10 @@ pub enum PassCategory {
 
 impl PassCategory {
     /// Every category, in the order a frame's passes run.
-    pub const ALL: [PassCategory; 11] = [
+    pub const ALL: [PassCategory; 12] = [
         PassCategory::Tessellation,
         PassCategory::Environment,
+        PassCategory::Glossy,
         PassCategory::Prime,
         PassCategory::Layer,
         PassCategory::AlphaClear,
@@ -308,6 +316,7 @@ impl PassCategory {
         match self {
             PassCategory::Tessellation => "tessellation",
             PassCategory::Environment => "environment",
+            PassCategory::Glossy => "glossy",
             PassCategory::Prime => "prime",
             PassCategory::Layer => "layer",
             PassCategory::AlphaClear => "alpha-clear",
@@ -374,6 +383,7 @@ pub fn frame_graph(
     let mut resources = declare_images(&mut graph, shape, blend, format);
     tessellation(&mut graph, shape, &resources);
     environment(&mut graph, shape, &resources);
+    glossy(&mut graph, shape, &resources);
     for (index, lens) in LensIndex::all(shape.lenses.len()).zip(&shape.lenses) {
         let viewpoints = shape.active_viewpoints(lens);
         if lens.triangles == 0
@@ -522,6 +532,43 @@ fn environment(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameReso
             storage: Vec::new(),
             draws: (0..shape.environment_meshes)
                 .map(|mesh| Draw::Environment { mesh })
+                .collect(),
+        },
+    });
+}
+
+/// The glossy pass (reflection-space IBR): every glossy object drawn opaque over the environment
+/// with depth test and write, its maps warped and blended per fragment. None without glossy
+/// objects.
+fn glossy(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources) {
+    if shape.glossy.is_empty() {
+        return;
+    }
+    graph.add_pass(Pass {
+        name: "glossy".into(),
+        category: PassCategory::Glossy,
+        side_effect: false,
+        kind: PassKind::Draw {
+            program: ShaderProgram::Glossy,
+            colour: ColourAttachment {
+                image: resources.colour,
+                load: LoadOp::Load,
+                store: StoreOp::Store,
+                blend: Blend::Replace,
+                write_mask: ColourMask::RGBA,
+            },
+            depth: Some(DepthAttachment {
+                image: resources.depth,
+                load: LoadOp::Load,
+                store: StoreOp::DontCare,
+                test: Some(CompareOp::Less),
+                write: true,
+            }),
+            cull: Cull::None,
+            sampled: Vec::new(),
+            storage: Vec::new(),
+            draws: (0..shape.glossy.len())
+                .map(|index| Draw::Glossy { index })
                 .collect(),
         },
     });

@@ -44,6 +44,8 @@ pub struct FrameShape {
     pub height: u32,
     /// Number of environment meshes (one draw each).
     pub environment_meshes: usize,
+    /// The glossy objects' names (one draw each, in the glossy pass).
+    pub glossy: Vec<String>,
     /// Lens objects.
     pub lenses: Vec<LensShape>,
     /// Viewpoint weights.
@@ -71,6 +73,7 @@ impl FrameShape {
                 .iter()
                 .filter(|m| !m.triangles.is_empty())
                 .count(),
+            glossy: frame.glossy.iter().map(|g| g.name.clone()).collect(),
             lenses: frame
                 .lenses
                 .iter()
@@ -133,6 +136,7 @@ impl FrameShape {
             width,
             height,
             environment_meshes: 1,
+            glossy: Vec::new(),
             lenses: vec![LensShape {
                 name: "lens".into(),
                 triangles: 1,

@@ -12,8 +12,8 @@
 use std::sync::Arc;
 
 use glam::{DVec3, Mat3, Vec3};
-use lensmap::cubemap::{CubeFace, CubeMap};
 use lensmap::cubemap::sampling::FilterPrecision;
+use lensmap::cubemap::{CubeFace, CubeMap};
 use lensmap::render::model::{ModelOptions, render_model};
 use lensmap::render::{
     EnvironmentMesh, FrameInput, GlossyDraw, GlossyMesh, GlossySlot, Renderer, Variant,

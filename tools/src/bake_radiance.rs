@@ -46,8 +46,15 @@ pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
     if !args.merge.is_empty() {
         let manifest = merge(&args.merge, out)?;
         let samples: Vec<usize> = manifest.samples.iter().map(|r| r.sample).collect();
-        report(&json!({ "out": out, "merged": args.merge, "samples": samples }), None)?;
-        say!("merged {} shards into {}: samples {samples:?}", args.merge.len(), out.display());
+        report(
+            &json!({ "out": out, "merged": args.merge, "samples": samples }),
+            None,
+        )?;
+        say!(
+            "merged {} shards into {}: samples {samples:?}",
+            args.merge.len(),
+            out.display()
+        );
         return Ok(());
     }
     let Some(scene_name) = &args.scene else {
@@ -98,7 +105,12 @@ pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
             }
             max_error.push(max);
             rms_error.push((squares / count.max(1) as f64).sqrt() as f32);
-            maps.push(lobes.into_iter().map(|m| std::sync::Arc::new(m.map)).collect::<Vec<_>>());
+            maps.push(
+                lobes
+                    .into_iter()
+                    .map(|m| std::sync::Arc::new(m.map))
+                    .collect::<Vec<_>>(),
+            );
         }
         let record = SampleRecord {
             sample,

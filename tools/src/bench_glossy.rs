@@ -25,7 +25,9 @@ use serde_json::{Value, json};
 use crate::common::{BadUsage, report};
 
 #[derive(Args)]
-#[command(after_help = "Example:\n  lensmap bench glossy --scenes glossy-studio --width 160 --height 120")]
+#[command(
+    after_help = "Example:\n  lensmap bench glossy --scenes glossy-studio --width 160 --height 120"
+)]
 pub struct BenchGlossyArgs {
     /// Glossy scenes (built-in names or paths), comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = lensmap::scene::GLOSSY_SCENES.map(String::from))]
@@ -151,7 +153,9 @@ fn reconstruct(
 ) -> Vec<Option<Vec3>> {
     let object = &maps.object;
     let view = camera.position.as_dvec3() - object.centre;
-    let slots = views.slots(view, reconstruction).expect("a camera off the centre");
+    let slots = views
+        .slots(view, reconstruction)
+        .expect("a camera off the centre");
     let shading = GlossyShading {
         brdf: object.brdf,
         lobes: object.lobes.clone(),
@@ -194,7 +198,10 @@ fn materials(scene: &Scene) -> Vec<(usize, String)> {
             Material::Glossy(g) => Some((
                 i,
                 match g.coat {
-                    Some(c) => format!("coat (ior {}, c = {}) over Phong m = {}", c.ior, c.exponent, g.exponent),
+                    Some(c) => format!(
+                        "coat (ior {}, c = {}) over Phong m = {}",
+                        c.ior, c.exponent, g.exponent
+                    ),
                     None => format!("Phong m = {}", g.exponent),
                 },
             )),
@@ -207,7 +214,10 @@ fn materials(scene: &Scene) -> Vec<(usize, String)> {
 pub fn run(args: BenchGlossyArgs) -> anyhow::Result<()> {
     for &count in &args.views {
         if GlossyViews::geodesic(count).is_none() {
-            return Err(BadUsage(format!("--views {count}: give geodesic counts (12, 42, 162)")).into());
+            return Err(BadUsage(format!(
+                "--views {count}: give geodesic counts (12, 42, 162)"
+            ))
+            .into());
         }
     }
     let mut results = Vec::new();
@@ -256,7 +266,14 @@ fn bench_scene(args: &BenchGlossyArgs, scene: &Scene, material: &str) -> anyhow:
             .map(|((_, camera), reference)| {
                 let second = render_reference(&trace, camera, &second_options, &|_| {})?;
                 let mask = image_mask(&trace, camera, &object);
-                Ok(compare(&second.radiance, &reference.radiance, &mask, Encoding::DisplaySrgb, Channels::Rgb)?.psnr_db)
+                Ok(compare(
+                    &second.radiance,
+                    &reference.radiance,
+                    &mask,
+                    Encoding::DisplaySrgb,
+                    Channels::Rgb,
+                )?
+                .psnr_db)
             })
             .collect::<anyhow::Result<Vec<f64>>>()?;
         for &count in &args.views {
@@ -271,7 +288,8 @@ fn bench_scene(args: &BenchGlossyArgs, scene: &Scene, material: &str) -> anyhow:
             let (maps, counters) = all_maps(&trace, &object, &views, &options);
             let map_seconds = start.elapsed().as_secs_f64();
             let mut psnrs = Vec::new();
-            for (((name, camera), reference), noise) in cameras.iter().zip(&references).zip(&noise) {
+            for (((name, camera), reference), noise) in cameras.iter().zip(&references).zip(&noise)
+            {
                 let mut settings = serde_json::Map::new();
                 for reconstruction in Reconstruction::ALL {
                     if count != 12 && reconstruction != Reconstruction::Warped {
@@ -280,7 +298,13 @@ fn bench_scene(args: &BenchGlossyArgs, scene: &Scene, material: &str) -> anyhow:
                     let image = reconstruct(&trace, camera, &maps, &views, reconstruction);
                     let mask = Mask::from_flags(image.iter().map(Option::is_some).collect());
                     let pixels: Vec<Vec3> = image.iter().map(|p| p.unwrap_or(Vec3::ZERO)).collect();
-                    let error = compare(&pixels, &reference.radiance, &mask, Encoding::DisplaySrgb, Channels::Rgb)?;
+                    let error = compare(
+                        &pixels,
+                        &reference.radiance,
+                        &mask,
+                        Encoding::DisplaySrgb,
+                        Channels::Rgb,
+                    )?;
                     if reconstruction == Reconstruction::Warped {
                         psnrs.push(error.psnr_db);
                     }

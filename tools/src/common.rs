@@ -650,3 +650,43 @@ pub fn warn_of_file_size_limit() {
         );
     }
 }
+
+/// How the glossy pass reconstructs a view's radiance map (`--glossy-reconstruction`).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum ReconstructionArg {
+    /// Three samples, each warped into the view's reflection space, blended (the paper's).
+    Warped,
+    /// The nearest sample alone, unwarped.
+    NearestUnwarped,
+    /// Three samples blended, unwarped.
+    BlendedUnwarped,
+}
+
+impl From<ReconstructionArg> for lensmap::rsibr::Reconstruction {
+    fn from(arg: ReconstructionArg) -> Self {
+        match arg {
+            ReconstructionArg::Warped => lensmap::rsibr::Reconstruction::Warped,
+            ReconstructionArg::NearestUnwarped => lensmap::rsibr::Reconstruction::NearestUnwarped,
+            ReconstructionArg::BlendedUnwarped => lensmap::rsibr::Reconstruction::BlendedUnwarped,
+        }
+    }
+}
+
+/// Reads the radiance-map bake at `dir` (made from `hybrid`'s scene) and draws the glossy
+/// objects from it by reflection-space IBR.
+pub fn use_radiance_maps(
+    hybrid: &mut lensmap::hybrid::HybridScene,
+    dir: &std::path::Path,
+    reconstruction: lensmap::rsibr::Reconstruction,
+) -> anyhow::Result<()> {
+    let (manifest, maps) = lensmap::rsibr::bake::read_maps(dir, &hybrid.scene)?;
+    let views = lensmap::rsibr::GlossyViews::geodesic(manifest.views).ok_or_else(|| {
+        anyhow::anyhow!(
+            "{}: views {} is not a geodesic count",
+            dir.display(),
+            manifest.views
+        )
+    })?;
+    hybrid.use_radiance_maps(views, maps, reconstruction);
+    Ok(())
+}

@@ -18,7 +18,7 @@ use lensmap::{
         DEFAULT_MAX_TEXELS, DEFAULT_MAX_TEXELS_PER_METRE, DEFAULT_MIN_TEXELS_PER_METRE,
         DEFAULT_PIXELS_PER_TEXEL, LightMapOptions,
     },
-    metrics::{Encoding, MetricsError},
+    metrics::{Channels, Encoding, Mask, MetricsError, compare},
     render::{BlendScheme, TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, LoadOptions, Repetitions, lens_error,
@@ -110,6 +110,14 @@ pub struct RenderArgs {
     /// chart's density is lowered by one factor.
     #[arg(long, default_value_t = DEFAULT_MAX_TEXELS)]
     pub light_map_max_texels: u64,
+    /// Draw the glossy objects by reflection-space IBR from this radiance-map bake
+    /// (`lensmap bake --radiance-maps`), instead of light-mapped.
+    #[arg(long, value_name = "DIR")]
+    pub radiance: Option<PathBuf>,
+    /// How the glossy pass reconstructs a view's radiance map (with --radiance): the paper's
+    /// warped blend of three samples, or a baseline without the warp.
+    #[arg(long, value_enum, default_value = "warped")]
+    pub glossy_reconstruction: crate::common::ReconstructionArg,
     /// Also write the layered EMs used as a bake directory.
     #[arg(long, value_name = "DIR")]
     pub write_bake: Option<PathBuf>,
@@ -180,7 +188,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         ..LightMapOptions::default()
     };
     light_maps.validate().map_err(flag_error)?;
-    let (hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
+    let (mut hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
+    if let Some(dir) = &args.radiance {
+        crate::common::use_radiance_maps(&mut hybrid, dir, args.glossy_reconstruction.into())?;
+    }
     let prepare_s = prepare.elapsed().as_secs_f64();
     if let Some(dir) = &args.write_bake {
         hybrid.to_bake().write(dir)?;
@@ -300,6 +311,7 @@ fn report(
             "vertices_traced": frame.stats.vertices_traced,
             "leaves_stopped_by_vertex_budget": frame.stats.stopped_by_budget,
             "outside_view_space": frame.stats.outside_view_space,
+            "glossy_maps_read": frame.stats.glossy_maps,
             "viewpoints": hybrid
                 .viewpoint_blend(camera, ViewpointBlending::ViewSpace)
                 .samples
@@ -336,6 +348,22 @@ fn report(
             }
             (Err(MetricsError::EmptyMask), _) | (_, Err(MetricsError::EmptyMask)) => {}
             (Err(error), _) | (_, Err(error)) => return Err(error.into()),
+        }
+        // The glossy objects: pixels whose every subsample meets a glossy surface first.
+        let glossy = Mask::from_flags(reference.glossy_mask.iter().map(|&m| m >= 1.0).collect());
+        match compare(
+            &frame.image.pixels,
+            &reference.radiance,
+            &glossy,
+            Encoding::DisplaySrgb,
+            Channels::Rgb,
+        ) {
+            Ok(display) => {
+                out["glossy_psnr_db"] = json!(display.psnr_db);
+                out["glossy_pixels"] = json!(display.pixels);
+            }
+            Err(MetricsError::EmptyMask) => {}
+            Err(error) => return Err(error.into()),
         }
         // The opaque environment (light-mapped) and the background: pixels no lens covers.
         match non_lens_error(&frame.image, reference, Encoding::DisplaySrgb) {
@@ -447,6 +475,19 @@ fn print_table(r: &serde_json::Value) {
                 linear
             ),
             _ => say!("  no pixel is entirely lens in the reference: no lens PSNR"),
+        }
+        if let Some(display) = r["glossy_psnr_db"].as_f64() {
+            say!(
+                "  PSNR over {} glossy pixels: {:.2} dB (display sRGB; {} radiance maps read{})",
+                r["glossy_pixels"],
+                display,
+                h["glossy_maps_read"],
+                if h["glossy_maps_read"].as_u64() == Some(0) {
+                    ": light-mapped, diffuse only; give --radiance DIR"
+                } else {
+                    ""
+                }
+            );
         }
         if let Some(display) = r["non_lens_psnr_db"].as_f64() {
             say!(

@@ -316,6 +316,9 @@ pub struct HybridStats {
     pub outside_view_space: bool,
     /// Viewpoint samples the frame blends (1 to 3), each with its own layered EMs.
     pub viewpoints_blended: usize,
+    /// Radiance maps the glossy pass reads (warped, or turned, and blended): per glossy object,
+    /// its view samples blended (1 to 3) times its lobes.
+    pub glossy_maps: usize,
     /// Lens triangles (after tessellation) drawn with the distant layer only by the convex-hull
     /// split ([`HybridOptions::hull_split`]): on the hull of the lens geometry and facing the
     /// camera, in lens objects layered by bounce.
@@ -946,6 +949,11 @@ impl HybridScene {
             depths.push(lens_depths);
         }
         stats.counted_on_device = lenses.iter().any(|l| l.resident.is_some());
+        let (glossy, glossy_maps) = self
+            .glossy
+            .as_ref()
+            .map_or_else(|| (Vec::new(), 0), |g| g.draws(view.screen.eye));
+        stats.glossy_maps = glossy_maps;
         let frame = FrameInput {
             width: view.width,
             height: view.height,
@@ -957,7 +965,7 @@ impl HybridScene {
                 .chain(exact)
                 .chain(view.sky)
                 .collect(),
-            glossy: Vec::new(),
+            glossy,
             lenses,
             viewpoint_weights: blend.samples.iter().map(|(_, w)| *w as f32).collect(),
         };

@@ -5,6 +5,7 @@
 //! of the enclosing spherical triangle in a 2D one.
 
 pub mod frame;
+pub mod glossy;
 pub mod gpu;
 pub mod hull;
 pub mod paths;

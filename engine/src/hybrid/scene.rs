@@ -215,6 +215,9 @@ pub struct HybridScene {
     pub light_maps: LightMapStats,
     /// The environment at infinity for the GPU, drawn behind everything; `None` when it is black.
     pub sky: Option<SkyDome>,
+    /// The glossy objects drawn by reflection-space IBR (see
+    /// [`HybridScene::use_radiance_maps`]); `None`: they are light-mapped environment meshes.
+    pub glossy: Option<super::glossy::GlossyScene>,
     /// The last frame built, reused while nothing it depends on changed.
     pub(super) cache: FrameCache,
     /// Per scene object, which of its triangles lie on the convex hull of the lens geometry
@@ -289,6 +292,7 @@ impl HybridScene {
                 environment,
                 light_maps: light_map_stats,
                 sky,
+                glossy: None,
                 hull,
                 cache: FrameCache::default(),
                 identity: SCENE_IDENTITY.fetch_add(1, std::sync::atomic::Ordering::Relaxed),

@@ -64,7 +64,11 @@ fn bad<T>(message: String) -> Result<T, RenderError> {
 impl GlossyDraw {
     /// Glossy draw `g`'s sizes, indices and values; the contents of maps `checked` knows (by the
     /// address of their `Arc`) are not scanned again.
-    pub(super) fn validate(&self, g: usize, checked: &dyn Fn(usize) -> bool) -> Result<(), RenderError> {
+    pub(super) fn validate(
+        &self,
+        g: usize,
+        checked: &dyn Fn(usize) -> bool,
+    ) -> Result<(), RenderError> {
         let at = format!("glossy[{g}] ({})", self.name);
         let mesh = &self.mesh;
         if mesh.normals.len() != mesh.positions.len()
@@ -82,13 +86,18 @@ impl GlossyDraw {
             .iter()
             .position(|t| t.iter().any(|&i| i as usize >= mesh.positions.len()))
         {
-            return bad(format!("{at}.mesh.triangles[{t}] indexes past the positions"));
+            return bad(format!(
+                "{at}.mesh.triangles[{t}] indexes past the positions"
+            ));
         }
         if !self.eye.is_finite() {
             return bad(format!("{at}.eye has NaN or infinite values"));
         }
         if self.lobes.is_empty() || self.lobes.len() > MapLobe::ALL.len() {
-            return bad(format!("{at}.lobes has {} entries; give 1 to 3", self.lobes.len()));
+            return bad(format!(
+                "{at}.lobes has {} entries; give 1 to 3",
+                self.lobes.len()
+            ));
         }
         if self.slots.is_empty() || self.slots.len() > MAX_GLOSSY_SLOTS {
             return bad(format!(
@@ -96,13 +105,22 @@ impl GlossyDraw {
                 self.slots.len()
             ));
         }
-        if let Some(coat) = self.brdf.coat.filter(|c| !(c.ior.is_finite() && c.ior > 1.0)) {
-            return bad(format!("{at}.brdf.coat.ior {} must be finite and > 1", coat.ior));
+        if let Some(coat) = self
+            .brdf
+            .coat
+            .filter(|c| !(c.ior.is_finite() && c.ior > 1.0))
+        {
+            return bad(format!(
+                "{at}.brdf.coat.ior {} must be finite and > 1",
+                coat.ior
+            ));
         }
         let size = self.slots[0].maps.first().map_or(1, |m| m.size);
         for (s, slot) in self.slots.iter().enumerate() {
             if !(slot.weight.is_finite() && slot.weight >= 0.0) || !slot.rotation.is_finite() {
-                return bad(format!("{at}.slots[{s}]: the weight must be finite and ≥ 0, the rotation finite"));
+                return bad(format!(
+                    "{at}.slots[{s}]: the weight must be finite and ≥ 0, the rotation finite"
+                ));
             }
             if slot.maps.len() != self.lobes.len() {
                 return bad(format!(
@@ -128,7 +146,10 @@ impl GlossyDraw {
 
     /// The maps in the order of the cube-map array: slot by slot, lobe by lobe.
     pub(super) fn flat_maps(&self) -> Vec<Arc<CubeMap>> {
-        self.slots.iter().flat_map(|s| s.maps.iter().cloned()).collect()
+        self.slots
+            .iter()
+            .flat_map(|s| s.maps.iter().cloned())
+            .collect()
     }
 
     /// `GlossyData` of `glossy.wgsl` (std430): view-projection, eye and slot count, weights and
@@ -154,7 +175,10 @@ impl GlossyDraw {
         kinds[3] = self.lobes.len() as u32;
         floats.extend(kinds.map(f32::from_bits));
         for s in 0..MAX_GLOSSY_SLOTS {
-            let rotation = self.slots.get(s).map_or(Mat3::IDENTITY, |slot| slot.rotation);
+            let rotation = self
+                .slots
+                .get(s)
+                .map_or(Mat3::IDENTITY, |slot| slot.rotation);
             floats.extend(glam::Mat4::from_mat3(rotation).to_cols_array());
         }
         bytemuck::cast_slice(&floats).to_vec()
@@ -190,10 +214,22 @@ pub(super) struct GpuGlossyMesh {
 impl GpuGlossyMesh {
     /// Uploads `mesh`.
     pub(super) fn new(gpu: &Gpu, mesh: &GlossyMesh) -> Result<GpuGlossyMesh, GpuError> {
-        let floats = |v: &[Vec3]| -> Vec<u8> { bytemuck::cast_slice(&v.iter().map(|p| p.to_array()).collect::<Vec<_>>()).to_vec() };
+        let floats = |v: &[Vec3]| -> Vec<u8> {
+            bytemuck::cast_slice(&v.iter().map(|p| p.to_array()).collect::<Vec<_>>()).to_vec()
+        };
         Ok(GpuGlossyMesh {
-            positions: Buffer::with_data(gpu, "glossy positions", &floats(&mesh.positions), BufferUsage::Vertex)?,
-            normals: Buffer::with_data(gpu, "glossy normals", &floats(&mesh.normals), BufferUsage::Vertex)?,
+            positions: Buffer::with_data(
+                gpu,
+                "glossy positions",
+                &floats(&mesh.positions),
+                BufferUsage::Vertex,
+            )?,
+            normals: Buffer::with_data(
+                gpu,
+                "glossy normals",
+                &floats(&mesh.normals),
+                BufferUsage::Vertex,
+            )?,
             indices: Buffer::with_data(
                 gpu,
                 "glossy indices",

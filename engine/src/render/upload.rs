@@ -159,7 +159,14 @@ pub(super) struct UploadCache {
     mesh_cache: HashMap<usize, CachedMesh>,
     /// Uploaded glossy meshes, keyed by the identity of their `Arc<GlossyMesh>` (held, so the
     /// address stays unique), with the upload generation that last used them.
-    glossy_cache: HashMap<usize, (Arc<super::GlossyMesh>, Arc<super::glossy::GpuGlossyMesh>, u64)>,
+    glossy_cache: HashMap<
+        usize,
+        (
+            Arc<super::GlossyMesh>,
+            Arc<super::glossy::GpuGlossyMesh>,
+            u64,
+        ),
+    >,
     /// Uploads so far (for evicting cache entries no recent frame used).
     generation: u64,
     /// The white 1×1 light map of meshes without one, made on first use.

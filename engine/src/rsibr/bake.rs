@@ -429,7 +429,10 @@ pub fn read_manifest(dir: &Path) -> Result<RadianceManifest, BakeError> {
 
 /// The maps of every glossy object of `scene` from the bake at `dir`, which must have been made
 /// from this scene and hold every view sample.
-pub fn read_maps(dir: &Path, scene: &Scene) -> Result<(RadianceManifest, Vec<GlossyMaps>), BakeError> {
+pub fn read_maps(
+    dir: &Path,
+    scene: &Scene,
+) -> Result<(RadianceManifest, Vec<GlossyMaps>), BakeError> {
     let manifest = read_manifest(dir)?;
     let path = dir.join(RADIANCE_MANIFEST);
     if manifest.identity.identity_version != IDENTITY_VERSION

@@ -227,13 +227,17 @@ mod tests {
         assert_eq!(warped.len(), 3);
         assert!((warped.iter().map(|s| s.weight).sum::<f64>() - 1.0).abs() < 1e-12);
         assert!(warped.iter().all(|s| s.rotation == DMat3::IDENTITY));
-        let unwarped = views.slots(inside, Reconstruction::BlendedUnwarped).unwrap();
+        let unwarped = views
+            .slots(inside, Reconstruction::BlendedUnwarped)
+            .unwrap();
         for (w, u) in warped.iter().zip(&unwarped) {
             assert_eq!((w.sample, w.weight), (u.sample, u.weight));
             let to = views.directions()[u.sample];
             assert!((u.rotation * inside - to).length() < 1e-12);
         }
-        let nearest = views.slots(inside, Reconstruction::NearestUnwarped).unwrap();
+        let nearest = views
+            .slots(inside, Reconstruction::NearestUnwarped)
+            .unwrap();
         assert_eq!(nearest.len(), 1);
         assert_eq!(nearest[0].sample, views.triangles()[0][2]);
         // On a sample: that sample alone.

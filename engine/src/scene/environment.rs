@@ -212,7 +212,11 @@ pub fn studio(width: u32) -> LatLongMap {
 
 /// [`studio`]'s radiance along unit `direction`.
 fn studio_radiance(direction: Vec3) -> Vec3 {
-    let azimuth = direction.x.atan2(-direction.z).to_degrees().rem_euclid(360.0);
+    let azimuth = direction
+        .x
+        .atan2(-direction.z)
+        .to_degrees()
+        .rem_euclid(360.0);
     let elevation = direction.y.clamp(-1.0, 1.0).asin().to_degrees();
     for ([az, el, half_az, half_el], radiance) in SOFTBOXES {
         let d_az = (azimuth - az + 180.0).rem_euclid(360.0) - 180.0;

@@ -40,7 +40,11 @@ pub const GLOSSY_SCENES: [&str; 2] = ["glossy-studio", "glossy-room"];
 
 /// Every built-in scene's name, lens scenes first, joined for a message.
 pub fn builtin_names() -> String {
-    let names: Vec<&str> = BUILTIN_SCENES.iter().chain(&GLOSSY_SCENES).copied().collect();
+    let names: Vec<&str> = BUILTIN_SCENES
+        .iter()
+        .chain(&GLOSSY_SCENES)
+        .copied()
+        .collect();
     names.join(", ")
 }
 
@@ -278,7 +282,12 @@ mod tests {
                         .iter()
                         .map(|p| p.as_dvec3().distance(object.centre))
                         .fold(f64::INFINITY, f64::min);
-                    assert!(nearest > object.radius, "{name}: {} in {}", other.name, object.name);
+                    assert!(
+                        nearest > object.radius,
+                        "{name}: {} in {}",
+                        other.name,
+                        object.name
+                    );
                 }
             }
         }

@@ -53,6 +53,12 @@ pub struct BenchGlossyArgs {
     /// Camera distance from the object's centre, metres.
     #[arg(long, default_value_t = 2.0)]
     distance: f64,
+    /// Frames rendered per variant for the glossy pass's time (0: no timing).
+    #[arg(long, default_value_t = 9)]
+    frames: usize,
+    /// Width of the timed frames, pixels (the height is 3/4 of it).
+    #[arg(long, default_value_t = 640)]
+    frame_width: u32,
     /// Also write the JSON results to this file.
     #[arg(long)]
     out: Option<std::path::PathBuf>,
@@ -221,14 +227,18 @@ pub fn run(args: BenchGlossyArgs) -> anyhow::Result<()> {
         }
     }
     let mut results = Vec::new();
+    let mut timings = Vec::new();
     for scene_name in &args.scenes {
         let base = Scene::load_named(scene_name)?;
+        if args.frames > 0 {
+            timings.push(frame_time(&args, &base)?);
+        }
         for (material, material_name) in materials(&base) {
             let scene = with_material(&base, material);
             results.push(bench_scene(&args, &scene, &material_name)?);
         }
     }
-    let document = json!({ "results": results });
+    let document = json!({ "frame_time": timings, "results": results });
     report(&document, args.out.as_deref())?;
     Ok(())
 }
@@ -369,4 +379,97 @@ fn image_mask(trace: &TraceScene, camera: &Camera, object: &GlossyObject) -> Mas
             })
             .collect(),
     )
+}
+
+/// The glossy pass's device time in `scene` (its own materials, 12 view samples, the scene
+/// camera at `--frame-width`, one sample per pixel): the frame with its glossy draws against the
+/// same frame without them, alternating, medians of `--frames` each; for the warped blend of
+/// three samples and for the nearest sample alone (a third of the maps read per fragment).
+fn frame_time(args: &BenchGlossyArgs, scene: &Scene) -> anyhow::Result<Value> {
+    use lensmap::gpu::{Gpu, GpuOptions};
+    use lensmap::render::{FrameInput, RenderOptions, Renderer};
+    use lensmap::runner::{EmSource, load_hybrid_scene, median};
+    let trace = TraceScene::new(scene)?;
+    let views = GlossyViews::geodesic(12).expect("12");
+    let options = RadianceMapOptions {
+        size: args.map_size,
+        samples: args.map_samples,
+        seed: 0,
+        views: 12,
+    };
+    let maps: Vec<GlossyMaps> = glossy_objects(scene)
+        .iter()
+        .map(|object| all_maps(&trace, object, &views, &options).0)
+        .collect();
+    let (mut hybrid, _) = load_hybrid_scene(
+        scene.clone(),
+        &EmSource::Projected(lensmap::layers::projected::ProjectedOptions::default()).into(),
+    )?;
+    hybrid.use_radiance_maps(views, maps, Reconstruction::Warped);
+    let camera = scene
+        .camera
+        .with_resolution(args.frame_width, args.frame_width * 3 / 4, 1);
+    let gpu = Gpu::new(&GpuOptions::from_env())?;
+    let device = gpu.device_id().clone();
+    let mut renderer = Renderer::new(&gpu)?;
+    let mut out = serde_json::Map::new();
+    for reconstruction in [Reconstruction::Warped, Reconstruction::NearestUnwarped] {
+        if let Some(glossy) = hybrid.glossy.as_mut() {
+            glossy.reconstruction = reconstruction;
+        }
+        hybrid.forget_frame();
+        let (with, stats) = hybrid.frame(&camera, &lensmap::hybrid::HybridOptions::default())?;
+        let without = FrameInput {
+            glossy: Vec::new(),
+            ..with.clone()
+        };
+        let mut uploaded = [renderer.upload(&gpu, &with)?, renderer.upload(&gpu, &without)?];
+        let render_options = RenderOptions::default();
+        let (mut times, mut images) = ([Vec::new(), Vec::new()], [None, None]);
+        // A warm-up of each, then A B B A … so that drift in the machine's speed cancels.
+        for round in 0..=args.frames {
+            let order = if round % 2 == 0 { [0, 1] } else { [1, 0] };
+            for k in order {
+                let (image, timing) = renderer.render(&gpu, &mut uploaded[k], &render_options)?;
+                if round > 0 {
+                    times[k].push(timing.execute_ms);
+                }
+                images[k] = Some(image);
+            }
+        }
+        let glossy_pixels = match (&images[0], &images[1]) {
+            (Some(a), Some(b)) => a.pixels.iter().zip(&b.pixels).filter(|(p, q)| p != q).count(),
+            _ => 0,
+        };
+        let [with_ms, without_ms] = [median(&mut times[0]), median(&mut times[1])];
+        let pass_ms = with_ms - without_ms;
+        say!(
+            "{}: {} at {}×{}: frame {with_ms:.2} ms with the glossy pass, {without_ms:.2} ms without: the pass {pass_ms:.2} ms for {glossy_pixels} pixels ({:.1} ns each), {} maps read over the glossy objects; {device}",
+            scene.name,
+            reconstruction.name(),
+            camera.width,
+            camera.height,
+            pass_ms * 1e6 / glossy_pixels.max(1) as f64,
+            stats.glossy_maps
+        );
+        out.insert(
+            reconstruction.name().into(),
+            json!({
+                "frame_ms": with_ms,
+                "without_glossy_ms": without_ms,
+                "glossy_pass_ms": pass_ms,
+                "glossy_pixels": glossy_pixels,
+                "maps_read": stats.glossy_maps,
+                "frames": args.frames,
+            }),
+        );
+    }
+    Ok(json!({
+        "scene": scene.name,
+        "device": device.device,
+        "driver": device.driver_description(),
+        "width": camera.width,
+        "height": camera.height,
+        "times": out,
+    }))
 }

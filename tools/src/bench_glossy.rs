@@ -423,7 +423,10 @@ fn frame_time(args: &BenchGlossyArgs, scene: &Scene) -> anyhow::Result<Value> {
             glossy: Vec::new(),
             ..with.clone()
         };
-        let mut uploaded = [renderer.upload(&gpu, &with)?, renderer.upload(&gpu, &without)?];
+        let mut uploaded = [
+            renderer.upload(&gpu, &with)?,
+            renderer.upload(&gpu, &without)?,
+        ];
         let render_options = RenderOptions::default();
         let (mut times, mut images) = ([Vec::new(), Vec::new()], [None, None]);
         // A warm-up of each, then A B B A … so that drift in the machine's speed cancels.
@@ -438,7 +441,12 @@ fn frame_time(args: &BenchGlossyArgs, scene: &Scene) -> anyhow::Result<Value> {
             }
         }
         let glossy_pixels = match (&images[0], &images[1]) {
-            (Some(a), Some(b)) => a.pixels.iter().zip(&b.pixels).filter(|(p, q)| p != q).count(),
+            (Some(a), Some(b)) => a
+                .pixels
+                .iter()
+                .zip(&b.pixels)
+                .filter(|(p, q)| p != q)
+                .count(),
             _ => 0,
         };
         let [with_ms, without_ms] = [median(&mut times[0]), median(&mut times[1])];

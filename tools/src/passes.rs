@@ -42,6 +42,10 @@ pub struct PassesArgs {
     /// object traced on the CPU.
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=16))]
     gpu_parts: u8,
+    /// Glossy objects drawn by reflection-space IBR (the glossy pass after the environment,
+    /// one draw each).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=16))]
+    glossy: u8,
 }
 
 /// Prints the plan of one lens object's frame.
@@ -63,6 +67,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     for lens in &mut shape.lenses {
         lens.compute = usize::from(args.gpu_parts);
     }
+    shape.glossy = (0..args.glossy).map(|g| format!("glossy{g}")).collect();
     let variant = Variant::from(args.variant);
     let format = TargetFormat::from(args.format);
     let blend = BlendScheme::from(args.blend);

@@ -39,6 +39,10 @@ pub struct ViewArgs {
     /// Use projected layered EMs (layer shells from the scene file), even where a bake exists.
     #[arg(long)]
     pub projected: bool,
+    /// Draw the glossy objects by reflection-space IBR from this radiance-map bake
+    /// (`lensmap bake --radiance-maps`), instead of light-mapped.
+    #[arg(long, value_name = "DIR")]
+    pub radiance: Option<PathBuf>,
     /// Render the camera path headless into DIR (no window, no display needed):
     /// frame-NNNN.png and .exr per frame and stats.csv.
     #[arg(long, value_name = "DIR", conflicts_with = "script")]
@@ -132,6 +136,8 @@ pub(crate) struct EmChoice {
     inferred_first: bool,
     /// Projected EMs' options.
     projected: ProjectedOptions,
+    /// A radiance-map bake the glossy objects are drawn from, if any.
+    radiance: Option<PathBuf>,
 }
 
 impl EmChoice {
@@ -145,6 +151,7 @@ impl EmChoice {
                 bake: Some(dir.clone()),
                 inferred_first: true,
                 projected,
+                radiance: args.radiance.clone(),
             });
         }
         let cache = Path::new("out").join(crate::demo::BAKE_CACHE);
@@ -177,7 +184,16 @@ impl EmChoice {
             inferred_first: offered.is_some(),
             bake: offered,
             projected,
+            radiance: args.radiance.clone(),
         })
+    }
+
+    /// ` --radiance DIR` when the glossy objects are drawn from a radiance-map bake, for the
+    /// `lensmap render` command a screenshot repeats.
+    pub(crate) fn radiance_flag(&self) -> String {
+        self.radiance
+            .as_ref()
+            .map_or_else(String::new, |dir| format!(" --radiance {}", dir.display()))
     }
 
     /// The hybrid scene with inferred (`true`) or projected EMs.
@@ -186,13 +202,20 @@ impl EmChoice {
             (Some(dir), true) => EmSource::Bake(dir.clone()),
             _ => EmSource::Projected(self.projected),
         };
-        let (hybrid, _) = load_hybrid_scene(
+        let (mut hybrid, _) = load_hybrid_scene(
             scene.clone(),
             &LoadOptions {
                 ems,
                 light_maps: LightMapOptions::default(),
             },
         )?;
+        if let Some(dir) = &self.radiance {
+            crate::common::use_radiance_maps(
+                &mut hybrid,
+                dir,
+                lensmap::rsibr::Reconstruction::Warped,
+            )?;
+        }
         Ok(hybrid)
     }
 }

@@ -19,7 +19,7 @@ use crate::common::BadUsage;
 /// One CSV row per frame.
 const CSV_HEADER: &str = "frame,position_x,position_y,position_z,look_at_x,look_at_y,look_at_z,\
 total_ms,trace_ms,tessellation_ms,texture_coordinates_ms,gpu_ms,vertices_traced,lens_triangles,\
-traced_on_gpu";
+traced_on_gpu,glossy_maps";
 
 pub(super) fn run(
     args: &ViewArgs,
@@ -53,7 +53,7 @@ pub(super) fn run(
         let (p, l) = (camera.position, camera.look_at);
         writeln!(
             csv,
-            "{i},{},{},{},{},{},{},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{}",
+            "{i},{},{},{},{},{},{},{:.3},{:.3},{:.3},{:.3},{:.3},{},{},{},{}",
             p.x,
             p.y,
             p.z,
@@ -67,7 +67,8 @@ pub(super) fn run(
             frame.gpu_ms,
             s.vertices_traced,
             s.triangles_out,
-            s.traced_on_gpu
+            s.traced_on_gpu,
+            s.glossy_maps
         )
         .expect("writing to a String");
     }

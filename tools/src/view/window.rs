@@ -943,7 +943,7 @@ impl App {
         let ems = match (&self.ems.bake, self.experiment.inferred) {
             (Some(dir), true) => format!("--bake {}", dir.display()),
             _ => format!("--projected --em-size {}", self.ems.projected.size),
-        };
+        } + &self.ems.radiance_flag();
         // A frame with layers off has no command that renders it.
         let render = (!self.experiment.layers_off.contains(&true)).then(|| {
             format!(

@@ -142,9 +142,7 @@ impl App {
             ("lens triangles".to_owned(), count("triangles")),
             ("passes".to_owned(), count("passes")),
         ];
-        if frame.is_some_and(|f| f.stats.reused) {
-            table.push(("frame".to_owned(), "reused (still camera)".to_owned()));
-        }
+        table.extend(frame_rows(frame));
         let mut notes: Vec<String> = self.notes.iter().map(|(n, _)| n.clone()).collect();
         if let Some(error) = &self.frame_error {
             notes.push(format!("frame not rendered: {error}"));
@@ -260,4 +258,20 @@ impl App {
             None,
         )
     }
+}
+
+/// The overlay's rows about the frame itself: reused whole, and the radiance maps the glossy
+/// pass read (reflection-space IBR).
+fn frame_rows(frame: Option<&HostFrame>) -> Vec<(String, String)> {
+    let mut rows = Vec::new();
+    if frame.is_some_and(|f| f.stats.reused) {
+        rows.push(("frame".to_owned(), "reused (still camera)".to_owned()));
+    }
+    if let Some(f) = frame.filter(|f| f.stats.glossy_maps > 0) {
+        rows.push((
+            "glossy maps read".to_owned(),
+            f.stats.glossy_maps.to_string(),
+        ));
+    }
+    rows
 }

@@ -41,6 +41,7 @@ fn overhead(c: &mut Criterion) {
         em_size: 0,
         accept_any_bake: 0,
         light_map_max_texels: 0,
+        radiance_dir: std::ptr::null(),
     };
     // SAFETY: valid options and out-pointers.
     unsafe {

@@ -8,7 +8,7 @@
 #include <vulkan/vulkan.h>
 
 // The ABI version this header describes; raised when a struct grows or a function is added.
-#define LENSMAP_ABI_VERSION 6
+#define LENSMAP_ABI_VERSION 7
 
 // `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 #define LENSMAP_VARIANT_SINGLE_PASS 0
@@ -178,6 +178,11 @@ typedef struct LensmapSceneOptions {
   // default, 4194304). The field to lower when a frame's maps are over the device's budget
   // (ABI 4; a struct of ABI 3's size, which ends before this field, means the default).
   uint64_t light_map_max_texels;
+  // A radiance-map bake made for this scene by `lensmap bake --radiance-maps`, UTF-8: its
+  // glossy objects are then drawn by reflection-space IBR (the glossy pass) instead of
+  // light-mapped; NULL for light-mapped (ABI 7; a struct of an earlier size ends before this
+  // field).
+  const char *radiance_dir;
 } LensmapSceneOptions;
 
 // One frame: the camera, the tessellation threshold, the compositor and the framebuffer.
@@ -262,6 +267,10 @@ typedef struct LensmapFrameStats {
   // 1 when the lens vertices were traced on the device (`LENSMAP_TRACER_GPU`, or `_AUTO` on a
   // hardware device), else 0 (ABI 6).
   uint32_t traced_on_gpu;
+  // Radiance maps the glossy pass read, warped and blended (reflection-space IBR): per
+  // glossy object drawn from a radiance-map bake, its view samples blended (1 to 3) times its
+  // lobes; 0 without one (ABI 7).
+  uint32_t glossy_maps;
 } LensmapFrameStats;
 
 // A host's image to render a frame into ([`lensmap_render_to_image`]), on the device of a

@@ -22,9 +22,9 @@ use crate::handles::{
     scene_ref,
 };
 use crate::structs::{
-    FRAME_OPTIONS_OLDER, PLAN_OPTIONS_ABI2, SCENE_OPTIONS_ABI3, compositing, degrees_of, format,
-    frame_settings, frame_stats, read_struct, read_text, read_versioned, semaphores, stats_size,
-    struct_size_failure, write_stats,
+    FRAME_OPTIONS_OLDER, PLAN_OPTIONS_ABI2, SCENE_OPTIONS_ABI3, SCENE_OPTIONS_ABI6, compositing,
+    degrees_of, format, frame_settings, frame_stats, read_struct, read_text, read_versioned,
+    semaphores, stats_size, struct_size_failure, write_stats,
 };
 use crate::types::*;
 
@@ -200,7 +200,13 @@ pub unsafe extern "C" fn lensmap_scene_load(
             return Err(null("out"));
         }
         // SAFETY: the caller's promise (LensmapSceneOptions is integers and pointers).
-        let options = unsafe { read_versioned(options, "options", &[SCENE_OPTIONS_ABI3]) }?;
+        let options = unsafe {
+            read_versioned(
+                options,
+                "options",
+                &[SCENE_OPTIONS_ABI3, SCENE_OPTIONS_ABI6],
+            )
+        }?;
         // SAFETY: the caller's promise.
         let Some(name) = (unsafe { read_text(options.scene, "options->scene") })? else {
             return Err(null("options->scene"));
@@ -231,7 +237,12 @@ pub unsafe extern "C" fn lensmap_scene_load(
             },
             ..LightMapOptions::default()
         };
-        let (hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
+        // SAFETY: the caller's promise.
+        let radiance = unsafe { read_text(options.radiance_dir, "options->radiance_dir") }?;
+        let (mut hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
+        if let Some(dir) = radiance {
+            use_radiance_maps(&mut hybrid, std::path::Path::new(&dir))?;
+        }
         let handle = register(
             Box::new(LensmapScene {
                 hybrid: Box::new(hybrid),
@@ -591,4 +602,31 @@ pub unsafe extern "C" fn lensmap_plan_text(
         }
         Ok(())
     })
+}
+
+/// Draws `hybrid`'s glossy objects from the radiance-map bake at `dir` (the paper's warped
+/// reconstruction).
+fn use_radiance_maps(
+    hybrid: &mut lensmap::hybrid::HybridScene,
+    dir: &std::path::Path,
+) -> Result<(), Failure> {
+    let (manifest, maps) =
+        lensmap::rsibr::bake::read_maps(dir, &hybrid.scene).map_err(|error| {
+            Failure::new(
+                LensmapResult::Bake,
+                format!("options->radiance_dir: {error}"),
+            )
+        })?;
+    let views = lensmap::rsibr::GlossyViews::geodesic(manifest.views).ok_or_else(|| {
+        Failure::new(
+            LensmapResult::InvalidArgument,
+            format!(
+                "options->radiance_dir: {}: views {} is not a geodesic count",
+                dir.display(),
+                manifest.views
+            ),
+        )
+    })?;
+    hybrid.use_radiance_maps(views, maps, lensmap::rsibr::Reconstruction::Warped);
+    Ok(())
 }

@@ -125,6 +125,13 @@ pub(crate) const PLAN_OPTIONS_ABI2: usize = 24;
 /// struct ended on two `uint32_t` after two pointers, without trailing padding).
 pub(crate) const SCENE_OPTIONS_ABI3: usize = 32;
 
+/// ABI 6's `sizeof(LensmapSceneOptions)`: everything before `radiance_dir`.
+pub(crate) const SCENE_OPTIONS_ABI6: usize = 40;
+
+const _: () = assert!(
+    SCENE_OPTIONS_ABI6 == std::mem::offset_of!(LensmapSceneOptions, radiance_dir),
+    "ABI 6's scene options end where `radiance_dir` begins"
+);
 const _: () = assert!(
     FRAME_OPTIONS_ABI2 == std::mem::offset_of!(LensmapFrameOptions, blend)
         && PLAN_OPTIONS_ABI2 == std::mem::offset_of!(LensmapPlanOptions, blend),
@@ -420,6 +427,7 @@ pub(crate) fn frame_stats(
         viewpoints: stats.viewpoints_blended as u32,
         outside_view_space: u32::from(stats.outside_view_space),
         traced_on_gpu: u32::from(stats.traced_on_gpu),
+        glossy_maps: stats.glossy_maps as u32,
     }
 }
 

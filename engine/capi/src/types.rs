@@ -9,7 +9,7 @@ use crate::exports::{
 };
 
 /// The ABI version this header describes; raised when a struct grows or a function is added.
-pub const LENSMAP_ABI_VERSION: u32 = 6;
+pub const LENSMAP_ABI_VERSION: u32 = 7;
 
 /// `LensmapFrameOptions::variant`: the single-pass compositor (one draw per lens object).
 pub const LENSMAP_VARIANT_SINGLE_PASS: u32 = 0;
@@ -187,6 +187,11 @@ pub struct LensmapSceneOptions {
     /// default, 4194304). The field to lower when a frame's maps are over the device's budget
     /// (ABI 4; a struct of ABI 3's size, which ends before this field, means the default).
     pub light_map_max_texels: u64,
+    /// A radiance-map bake made for this scene by `lensmap bake --radiance-maps`, UTF-8: its
+    /// glossy objects are then drawn by reflection-space IBR (the glossy pass) instead of
+    /// light-mapped; NULL for light-mapped (ABI 7; a struct of an earlier size ends before this
+    /// field).
+    pub radiance_dir: *const c_char,
 }
 
 /// One frame: the camera, the tessellation threshold, the compositor and the framebuffer.
@@ -315,6 +320,10 @@ pub struct LensmapFrameStats {
     /// 1 when the lens vertices were traced on the device (`LENSMAP_TRACER_GPU`, or `_AUTO` on a
     /// hardware device), else 0 (ABI 6).
     pub traced_on_gpu: u32,
+    /// Radiance maps the glossy pass read, warped and blended (reflection-space IBR): per
+    /// glossy object drawn from a radiance-map bake, its view samples blended (1 to 3) times its
+    /// lobes; 0 without one (ABI 7).
+    pub glossy_maps: u32,
 }
 
 /// A plan to print: the compositor's passes for one lens object's frame of this shape.

@@ -59,6 +59,7 @@ fn scene_options(scene: &CStr, bake: Option<&CStr>) -> LensmapSceneOptions {
         em_size: 8,
         accept_any_bake: 0,
         light_map_max_texels: 0,
+        radiance_dir: null(),
     }
 }
 
@@ -1466,4 +1467,132 @@ fn a_frame_into_a_hosts_image_signals_its_semaphore_and_misuse_is_refused() {
         0,
         "the host's validation layer reported messages (see stderr)"
     );
+}
+
+/// A radiance-map bake of glossy-studio at `dir`: 4² maps, 4 directions a texel, all twelve
+/// samples (written with the library's own staging, as `lensmap bake --radiance-maps` does).
+fn tiny_radiance_bake(dir: &std::path::Path) {
+    use lensmap::rsibr::bake::{RadianceManifest, RadianceStaging, SampleRecord};
+    use lensmap::rsibr::{GlossyViews, RadianceMapOptions, glossy_objects, maps::sample_maps};
+    let scene = Scene::builtin("glossy-studio")
+        .expect("built in")
+        .expect("loads");
+    let options = RadianceMapOptions {
+        size: 4,
+        samples: 4,
+        seed: 0,
+        views: 12,
+    };
+    let template = RadianceManifest::template(&scene, &options);
+    let staging = RadianceStaging::open(dir, template.identity.clone(), false).expect("staging");
+    let trace = lensmap::trace::TraceScene::new(&scene).expect("a trace scene");
+    let objects = glossy_objects(&scene);
+    let views = GlossyViews::geodesic(12).expect("12");
+    for (sample, &view) in views.directions().iter().enumerate() {
+        let maps: Vec<Vec<std::sync::Arc<lensmap::cubemap::CubeMap>>> = objects
+            .iter()
+            .map(|o| {
+                let (maps, _) = sample_maps(&trace, o, (sample, view), &options);
+                maps.into_iter()
+                    .map(|m| std::sync::Arc::new(m.map))
+                    .collect()
+            })
+            .collect();
+        let record = SampleRecord {
+            sample,
+            max_standard_error: vec![0.0; objects.len()],
+            rms_standard_error: vec![0.0; objects.len()],
+            rays: 0,
+            seconds: 0.0,
+            device: None,
+        };
+        staging
+            .write_sample(&objects, &maps, &record)
+            .expect("a sample");
+    }
+    staging.commit(&template).expect("the bake");
+}
+
+/// Glossy objects through the ABI: a scene loaded with `radiance_dir` draws them by the glossy
+/// pass (the stats count the maps it read, the pixels differ from the light-mapped frame), an
+/// ABI 6 struct (without the field) loads them light-mapped, and a directory that is not a bake
+/// is a bake failure naming the field.
+#[test]
+fn glossy_objects_are_drawn_from_a_radiance_map_bake() {
+    let dir = std::env::temp_dir().join(format!("lensmap-abi-radiance-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    tiny_radiance_bake(&dir);
+    let dir_text = CString::new(dir.to_str().expect("UTF-8")).expect("no NUL");
+    let context = new_context();
+    let camera = Scene::builtin("glossy-studio")
+        .expect("built in")
+        .expect("loads")
+        .camera;
+    let options = LensmapFrameOptions {
+        position: camera.position.to_array(),
+        look_at: camera.look_at.to_array(),
+        up: camera.up.to_array(),
+        vfov_degrees: camera.vfov_radians.to_degrees(),
+        supersampling: 1,
+        ..frame_options(LENSMAP_FORMAT_RGBA32F)
+    };
+    let frame = |radiance: Option<&CStr>, struct_size: usize| {
+        let mut scene_options = scene_options(c"glossy-studio", None);
+        scene_options.radiance_dir = radiance.map_or(null(), CStr::as_ptr);
+        scene_options.struct_size = struct_size as u32;
+        let mut scene = null_mut();
+        // SAFETY: valid options and out-pointer.
+        let code = unsafe { lensmap_scene_load(&scene_options, &mut scene) };
+        assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+        let mut pixels = vec![0.0f32; 40 * 30 * 4];
+        let mut stats = LensmapFrameStats {
+            struct_size: size_of::<LensmapFrameStats>() as u32,
+            ..LensmapFrameStats::default()
+        };
+        // SAFETY: live handles, writable pixels and stats.
+        let code = unsafe {
+            lensmap_render_to_memory(
+                context,
+                scene,
+                &options,
+                pixels.as_mut_ptr(),
+                pixels.len(),
+                &mut stats,
+            )
+        };
+        assert_eq!(code, LensmapResult::Ok, "{}", last_error());
+        // SAFETY: a live scene.
+        unsafe { lensmap_scene_free(scene) };
+        (pixels, stats)
+    };
+    let full = size_of::<LensmapSceneOptions>();
+    let (glossy, stats) = frame(Some(&dir_text), full);
+    // Both objects inside a triangle or on an edge: 2 or 3 samples × (2 + 3) lobes.
+    assert!((10..=15).contains(&stats.glossy_maps), "{stats:?}");
+    let (light_mapped, stats) = frame(None, full);
+    assert_eq!(stats.glossy_maps, 0);
+    let (older, stats) = frame(
+        Some(&dir_text),
+        std::mem::offset_of!(LensmapSceneOptions, radiance_dir),
+    );
+    assert_eq!(stats.glossy_maps, 0, "an ABI 6 struct has no radiance_dir");
+    assert!(older == light_mapped);
+    let differing = glossy
+        .chunks(4)
+        .zip(light_mapped.chunks(4))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(differing > 100, "{differing} pixels differ");
+
+    let mut scene_options = scene_options(c"glossy-studio", None);
+    let missing = CString::new(dir.join("missing").to_str().unwrap()).unwrap();
+    scene_options.radiance_dir = missing.as_ptr();
+    let mut scene = null_mut();
+    // SAFETY: valid options and out-pointer.
+    let code = unsafe { lensmap_scene_load(&scene_options, &mut scene) };
+    assert_failure(code, LensmapResult::Bake, "options->radiance_dir");
+    assert_no_validation_messages(context);
+    // SAFETY: a live context.
+    unsafe { lensmap_context_free(context) };
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -61,7 +61,7 @@ pub struct BenchGlossyArgs {
     frame_width: u32,
     /// Also write the JSON results to this file.
     #[arg(long)]
-    out: Option<std::path::PathBuf>,
+    report: Option<std::path::PathBuf>,
 }
 
 /// Where the cameras of one object sit, as directions from its centre.
@@ -239,7 +239,7 @@ pub fn run(args: BenchGlossyArgs) -> anyhow::Result<()> {
         }
     }
     let document = json!({ "frame_time": timings, "results": results });
-    report(&document, args.out.as_deref())?;
+    report(&document, args.report.as_deref())?;
     Ok(())
 }
 

@@ -690,3 +690,43 @@ pub fn use_radiance_maps(
     hybrid.use_radiance_maps(views, maps, reconstruction);
     Ok(())
 }
+
+/// Images of one size side by side, left to right.
+pub fn beside(images: &[RenderedImage]) -> anyhow::Result<RenderedImage> {
+    let Some(first) = images.first() else {
+        anyhow::bail!("no images to put side by side");
+    };
+    let (w, h) = (first.width as usize, first.height as usize);
+    if images.iter().any(|i| i.pixels.len() != w * h) {
+        anyhow::bail!("side by side: the images differ in size");
+    }
+    let mut pixels = Vec::with_capacity(images.len() * w * h);
+    for y in 0..h {
+        for image in images {
+            pixels.extend_from_slice(&image.pixels[y * w..(y + 1) * w]);
+        }
+    }
+    Ok(RenderedImage {
+        width: first.width * images.len() as u32,
+        height: first.height,
+        pixels,
+    })
+}
+
+/// The absolute difference of two images of one size, times `gain`, α 1: what a side-by-side
+/// shows beside a frame and its reference.
+pub fn difference(a: &RenderedImage, b: &RenderedImage, gain: f32) -> RenderedImage {
+    RenderedImage {
+        width: a.width,
+        height: a.height,
+        pixels: a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(p, q)| {
+                let d = |c: usize| (p[c] - q[c]).abs() * gain;
+                [d(0), d(1), d(2), 1.0]
+            })
+            .collect(),
+    }
+}

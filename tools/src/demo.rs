@@ -32,7 +32,7 @@ use lensmap::{
 use lensmap_baker::bake::{BakeJob, BakeOptions, bake, reuse};
 use serde_json::json;
 
-use crate::common::{BadUsage, Steps, flag_error, reference_frame, report};
+use crate::common::{BadUsage, Steps, beside, flag_error, reference_frame, report};
 
 #[derive(Args)]
 #[command(after_help = "Examples:
@@ -370,27 +370,6 @@ impl Table<'_> {
     }
 }
 
-/// Images of one size side by side, left to right.
-fn beside(images: &[RenderedImage]) -> anyhow::Result<RenderedImage> {
-    let Some(first) = images.first() else {
-        anyhow::bail!("no images to put side by side");
-    };
-    let (w, h) = (first.width as usize, first.height as usize);
-    if images.iter().any(|i| i.pixels.len() != w * h) {
-        anyhow::bail!("side by side: the images differ in size");
-    }
-    let mut pixels = Vec::with_capacity(images.len() * w * h);
-    for y in 0..h {
-        for image in images {
-            pixels.extend_from_slice(&image.pixels[y * w..(y + 1) * w]);
-        }
-    }
-    Ok(RenderedImage {
-        width: first.width * images.len() as u32,
-        height: first.height,
-        pixels,
-    })
-}
 
 /// The hybrid scene with EMs inferred at the two viewpoint samples `camera` lies between (the
 /// two nearest by angle), baked into `dir` unless a bake there already holds them for this scene

@@ -128,6 +128,13 @@ pub struct RenderArgs {
     /// Also render the reference ray tracer at the same settings and compare.
     #[arg(long)]
     pub compare: bool,
+    /// With --compare: also write the frame, the reference and their difference (×4, over the
+    /// lens and glossy pixels; black elsewhere) side by side into this PNG (with its EXR).
+    #[arg(long, value_name = "FILE", requires = "compare")]
+    pub side_by_side: Option<PathBuf>,
+    /// With --compare: directions the reference samples per camera ray at a glossy surface.
+    #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES, requires = "compare")]
+    pub reference_glossy_samples: u32,
     /// Output image: a .png (sRGB) with a linear .exr written beside it (or the .exr, with the
     /// .png beside it), or a folder that gets hybrid.png and hybrid.exr.
     #[arg(long, default_value = "out/hybrid.png")]
@@ -226,10 +233,26 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 
     let reference = if args.compare {
         let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
-        let image = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|rows| {
+        let options = TraceOptions {
+            glossy_samples: args.reference_glossy_samples.max(2),
+            ..TraceOptions::default()
+        };
+        let image = render_reference(&hybrid.trace, &camera, &options, &|rows| {
             bar.set_position(u64::from(rows))
         })?;
         bar.finish_and_clear();
+        if let Some(path) = &args.side_by_side {
+            let reference = crate::common::reference_frame(&image);
+            let mut difference = crate::common::difference(&frame.image, &reference, 4.0);
+            let objects = image.lens_mask.iter().zip(&image.glossy_mask);
+            for (pixel, (lens, glossy)) in difference.pixels.iter_mut().zip(objects) {
+                if *lens <= 0.0 && *glossy <= 0.0 {
+                    *pixel = [0.0, 0.0, 0.0, 1.0];
+                }
+            }
+            crate::common::beside(&[frame.image.clone(), reference, difference])?
+                .write_png_and_exr(path)?;
+        }
         Some(image)
     } else {
         None

@@ -486,6 +486,48 @@ objects = ["ball"]
         Scene::load(&path).expect("a glossy material loads");
     }
 
+    /// `environment.studio`: its width in range, not beside another environment; a studio
+    /// loads as a lat-long map half as tall as wide, its softboxes the brightest texels.
+    #[test]
+    fn the_studio_environment_is_checked() {
+        let dir = temp_folder("studio");
+        let constant = "constant = [0.1, 0.1, 0.1]";
+        assert_refused(
+            &dir,
+            (constant, "studio = { width = 4 }"),
+            "environment.studio.width",
+            "4 texels is out of range",
+            "[8, 8192]",
+        );
+        assert_refused(
+            &dir,
+            (constant, "studio = { scale = -1.0 }"),
+            "environment.studio.scale",
+            "not a finite number ≥ 0",
+            "multiplier",
+        );
+        assert_refused(
+            &dir,
+            (constant, "studio = {}\nconstant = [0.1, 0.1, 0.1]"),
+            "environment",
+            "names studio and another environment",
+            "keep one of constant, latlong and studio",
+        );
+        let path = dir.join("studio.toml");
+        std::fs::write(&path, edit(constant, "studio = { width = 64 }")).expect("write");
+        let scene = Scene::load(&path).expect("a studio loads");
+        let lensmap::scene::Environment::LatLong(map) = &scene.environment else {
+            panic!("a studio is a lat-long map");
+        };
+        assert_eq!((map.width, map.height), (64, 32));
+        let brightest = map
+            .texels
+            .iter()
+            .map(|t| t.max_element())
+            .fold(0.0, f32::max);
+        assert_eq!(brightest, 6.0);
+    }
+
     #[test]
     fn camera_look_at_equal_to_position() {
         let dir = temp_folder("look-at");

@@ -117,7 +117,7 @@ fn camera_for(base: &Camera, object: &GlossyObject, direction: DVec3, distance: 
         position: (object.centre + direction * distance).as_vec3(),
         look_at: object.centre.as_vec3(),
         up,
-        ..base.clone()
+        ..*base
     }
 }
 

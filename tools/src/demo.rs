@@ -370,7 +370,6 @@ impl Table<'_> {
     }
 }
 
-
 /// The hybrid scene with EMs inferred at the two viewpoint samples `camera` lies between (the
 /// two nearest by angle), baked into `dir` unless a bake there already holds them for this scene
 /// and these options (its provenance says so): the first demo bakes, later ones reuse it.

@@ -66,6 +66,14 @@ impl MapBytes {
                 bytes.add_layered_em(cubes);
             }
         }
+        // The glossy draws' maps, one cube-map array a draw, counted with the layered EMs.
+        for glossy in &frame.glossy {
+            let cubes = glossy.flat_maps();
+            let key: Vec<usize> = cubes.iter().map(|c| Arc::as_ptr(c) as usize).collect();
+            if arrays.insert(key) {
+                bytes.add_layered_em(&cubes);
+            }
+        }
         let mut meshes = HashSet::new();
         for mesh in &frame.environment {
             if let Some(light_map) = &mesh.light_map

@@ -117,7 +117,7 @@ impl GlossyDraw {
         }
         let size = self.slots[0].maps.first().map_or(1, |m| m.size);
         for (s, slot) in self.slots.iter().enumerate() {
-            if !(slot.weight.is_finite() && slot.weight >= 0.0) || !slot.rotation.is_finite() {
+            if !(slot.weight.is_finite() && slot.weight >= 0.0 && slot.rotation.is_finite()) {
                 return bad(format!(
                     "{at}.slots[{s}]: the weight must be finite and ≥ 0, the rotation finite"
                 ));

@@ -225,10 +225,11 @@ impl RadianceStaging {
             path,
             identity,
         };
-        if resume && let Ok(old) = read_manifest(dir) {
-            if old.identity == staging.identity {
-                staging.take_in(dir, &old)?;
-            }
+        if resume
+            && let Ok(old) = read_manifest(dir)
+            && old.identity == staging.identity
+        {
+            staging.take_in(dir, &old)?;
         }
         Ok(staging)
     }
@@ -316,7 +317,18 @@ impl RadianceStaging {
         let json = serde_json::to_vec_pretty(&manifest).expect("plain data serializes");
         atomic::write_synced(&path, &json).map_err(io_error(&path, "write"))?;
         atomic::sync_directory(&self.path).map_err(io_error(&self.path, "fsync"))?;
+        // Swap first, tidy after: until the bake is in place the staged records stay, so a
+        // failure here still resumes. The records live on in the manifest.
         self.swap.swap_in(&self.path, WhenSwapFails::Keep)?;
+        let dir = self.swap.target();
+        for entry in fs::read_dir(dir).map_err(io_error(dir, "list"))? {
+            let path = entry.map_err(io_error(dir, "list"))?.path();
+            let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+            if name == "identity.json" || (name.starts_with("sample-") && name.ends_with(".json")) {
+                fs::remove_file(&path).map_err(io_error(&path, "remove"))?;
+            }
+        }
+        atomic::sync_directory(dir).map_err(io_error(dir, "fsync"))?;
         Ok(manifest)
     }
 }

@@ -103,9 +103,9 @@ impl GlossyViews {
         self.triangulation.triangles()
     }
 
-    /// The samples a frame seen along `view` (from the object towards the viewer, any length
-    /// > 0) uses under `reconstruction`: one to three slots, largest weight first. `None` for a
-    /// zero or non-finite view.
+    /// The samples a frame seen along `view` (from the object towards the viewer, of any
+    /// non-zero length) uses under `reconstruction`: one to three slots, largest weight first.
+    /// `None` for a zero or non-finite view.
     pub fn slots(&self, view: DVec3, reconstruction: Reconstruction) -> Option<Vec<ViewSlot>> {
         let view = view.normalize_or_zero();
         if view == DVec3::ZERO || !view.is_finite() {

@@ -104,6 +104,67 @@ impl LatLongMap {
     }
 }
 
+/// The softboxes of [`studio`]: centre azimuth and elevation, half extents (all degrees), and
+/// radiance.
+const SOFTBOXES: [([f32; 4], [f32; 3]); 3] = [
+    ([35.0, 30.0, 14.0, 8.0], [6.0, 5.6, 5.0]),
+    ([160.0, 15.0, 7.0, 12.0], [1.5, 2.5, 5.0]),
+    ([265.0, 55.0, 10.0, 10.0], [4.0, 4.0, 4.0]),
+];
+
+/// lensmap's procedural studio, a lat-long map `width × width/2` (the pixel centres'
+/// directions, no filtering): a sky graded from a pale horizon to a blue zenith, a dark ground
+/// in a 12 × 6 checker of azimuth and elevation, and three bright softboxes (rectangles in
+/// azimuth and elevation) at different heights and colours: distant lighting with sharp
+/// features for the glossy objects' maps, made in code because the repository holds no HDR
+/// image. Azimuth is `atan2(x, −z)` in degrees, [0, 360); elevation `asin(y)`.
+pub fn studio(width: u32) -> LatLongMap {
+    let width = width.max(2);
+    let height = (width / 2).max(1);
+    let mut texels = Vec::with_capacity((width * height) as usize);
+    for j in 0..height {
+        for i in 0..width {
+            let uv = Vec2::new(
+                (i as f32 + 0.5) / width as f32,
+                (j as f32 + 0.5) / height as f32,
+            );
+            texels.push(studio_radiance(lat_long_to_direction(uv)));
+        }
+    }
+    LatLongMap {
+        width,
+        height,
+        texels,
+    }
+}
+
+/// [`studio`]'s radiance along unit `direction`.
+fn studio_radiance(direction: Vec3) -> Vec3 {
+    let azimuth = direction
+        .x
+        .atan2(-direction.z)
+        .to_degrees()
+        .rem_euclid(360.0);
+    let elevation = direction.y.clamp(-1.0, 1.0).asin().to_degrees();
+    for ([az, el, half_az, half_el], radiance) in SOFTBOXES {
+        let d_az = (azimuth - az + 180.0).rem_euclid(360.0) - 180.0;
+        if d_az.abs() <= half_az && (elevation - el).abs() <= half_el {
+            return Vec3::from(radiance);
+        }
+    }
+    if elevation >= 0.0 {
+        let t = (elevation / 90.0).sqrt();
+        Vec3::new(0.55, 0.6, 0.7).lerp(Vec3::new(0.1, 0.2, 0.5), t)
+    } else {
+        let cell = (azimuth / 30.0).floor() as i32 + (-elevation / 15.0).floor() as i32;
+        if cell % 2 == 0 {
+            Vec3::new(0.12, 0.1, 0.08)
+        } else {
+            Vec3::new(0.05, 0.045, 0.04)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -173,66 +234,5 @@ mod tests {
             Environment::Constant(Vec3::ONE).radiance(Vec3::X),
             Vec3::ONE
         );
-    }
-}
-
-/// The softboxes of [`studio`]: centre azimuth and elevation, half extents (all degrees), and
-/// radiance.
-const SOFTBOXES: [([f32; 4], [f32; 3]); 3] = [
-    ([35.0, 30.0, 14.0, 8.0], [6.0, 5.6, 5.0]),
-    ([160.0, 15.0, 7.0, 12.0], [1.5, 2.5, 5.0]),
-    ([265.0, 55.0, 10.0, 10.0], [4.0, 4.0, 4.0]),
-];
-
-/// lensmap's procedural studio, a lat-long map `width × width/2` (the pixel centres'
-/// directions, no filtering): a sky graded from a pale horizon to a blue zenith, a dark ground
-/// in a 12 × 6 checker of azimuth and elevation, and three bright softboxes (rectangles in
-/// azimuth and elevation) at different heights and colours: distant lighting with sharp
-/// features for the glossy objects' maps, made in code because the repository holds no HDR
-/// image. Azimuth is `atan2(x, −z)` in degrees, [0, 360); elevation `asin(y)`.
-pub fn studio(width: u32) -> LatLongMap {
-    let width = width.max(2);
-    let height = (width / 2).max(1);
-    let mut texels = Vec::with_capacity((width * height) as usize);
-    for j in 0..height {
-        for i in 0..width {
-            let uv = Vec2::new(
-                (i as f32 + 0.5) / width as f32,
-                (j as f32 + 0.5) / height as f32,
-            );
-            texels.push(studio_radiance(lat_long_to_direction(uv)));
-        }
-    }
-    LatLongMap {
-        width,
-        height,
-        texels,
-    }
-}
-
-/// [`studio`]'s radiance along unit `direction`.
-fn studio_radiance(direction: Vec3) -> Vec3 {
-    let azimuth = direction
-        .x
-        .atan2(-direction.z)
-        .to_degrees()
-        .rem_euclid(360.0);
-    let elevation = direction.y.clamp(-1.0, 1.0).asin().to_degrees();
-    for ([az, el, half_az, half_el], radiance) in SOFTBOXES {
-        let d_az = (azimuth - az + 180.0).rem_euclid(360.0) - 180.0;
-        if d_az.abs() <= half_az && (elevation - el).abs() <= half_el {
-            return Vec3::from(radiance);
-        }
-    }
-    if elevation >= 0.0 {
-        let t = (elevation / 90.0).sqrt();
-        Vec3::new(0.55, 0.6, 0.7).lerp(Vec3::new(0.1, 0.2, 0.5), t)
-    } else {
-        let cell = (azimuth / 30.0).floor() as i32 + (-elevation / 15.0).floor() as i32;
-        if cell % 2 == 0 {
-            Vec3::new(0.12, 0.1, 0.08)
-        } else {
-            Vec3::new(0.05, 0.045, 0.04)
-        }
     }
 }

@@ -369,8 +369,8 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<RadianceManifest, BakeErr
     let Some(first) = manifests.first() else {
         return Err(invalid(
             out,
-            "--merge",
-            "names no shard".into(),
+            "the shards",
+            "are none".into(),
             "name the shard directories to join",
         ));
     };
@@ -393,7 +393,7 @@ pub fn merge(shards: &[PathBuf], out: &Path) -> Result<RadianceManifest, BakeErr
                 &path,
                 "samples",
                 format!("repeats sample {} of an earlier shard", record.sample),
-                "merge disjoint shards (`--shard I/N` with one N)",
+                "merge shards with no sample in common",
             ));
         }
     }
@@ -422,7 +422,7 @@ pub fn read_manifest(dir: &Path) -> Result<RadianceManifest, BakeError> {
             &path,
             "the manifest",
             e.to_string(),
-            "write the bake again with `lensmap bake --radiance-maps`",
+            "write the radiance-map bake again",
         )
     })?;
     if manifest.format_version != RADIANCE_FORMAT_VERSION {
@@ -454,7 +454,7 @@ pub fn read_maps(
             &path,
             "identity.scene_hash",
             format!("is not scene \"{}\" as it is now", scene.name),
-            "bake the radiance maps of this scene again (`lensmap bake --radiance-maps`)",
+            "bake this scene's radiance maps again",
         ));
     }
     let views = GlossyViews::geodesic(manifest.views).ok_or_else(|| {
@@ -475,7 +475,7 @@ pub fn read_maps(
                 complete.len(),
                 views.directions().len()
             ),
-            "bake the missing samples (`--resume`) or merge the shards",
+            "bake the missing samples (resume the bake) or merge the shards",
         ));
     }
     let objects = glossy_objects(scene);

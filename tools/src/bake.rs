@@ -293,12 +293,17 @@ fn run_merge(args: &BakeArgs, out: &std::path::Path) -> anyhow::Result<()> {
         }),
         None,
     )?;
+    say_merged(args, out, &samples);
+    Ok(())
+}
+
+/// The line a merge ends with: how many shards went into `out`, and its samples.
+pub(crate) fn say_merged(args: &BakeArgs, out: &std::path::Path, samples: &[usize]) {
     say!(
         "merged {} shards into {}: samples {samples:?}",
         args.merge.len(),
         out.display()
     );
-    Ok(())
 }
 
 /// `lensmap bake --compress DIR`: compresses the bake at `source` into `--out` (default: in

@@ -50,11 +50,7 @@ pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
             &json!({ "out": out, "merged": args.merge, "samples": samples }),
             None,
         )?;
-        say!(
-            "merged {} shards into {}: samples {samples:?}",
-            args.merge.len(),
-            out.display()
-        );
+        crate::bake::say_merged(args, out, &samples);
         return Ok(());
     }
     let Some(scene_name) = &args.scene else {

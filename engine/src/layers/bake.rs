@@ -115,8 +115,15 @@ pub fn default_created_by() -> String {
 /// `lens_name`) at viewpoint sample `viewpoint`: `lens{i}-{name}.v{viewpoint:03}.layer{layer}.exr`,
 /// the name reduced to ASCII letters, digits, `-` and `_`.
 pub fn map_file_name(at: LayerRef, lens_name: &str, viewpoint: usize) -> String {
-    let name: String = lens_name
-        .chars()
+    let name = file_name_part(lens_name);
+    let LayerRef { lens, layer } = at;
+    format!("lens{lens}-{name}.v{viewpoint:03}.layer{layer}.exr")
+}
+
+/// `name` as a part of a bake's file names: ASCII letters, digits, `-` and `_` kept, every other
+/// character `_`.
+pub fn file_name_part(name: &str) -> String {
+    name.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
                 c
@@ -124,9 +131,7 @@ pub fn map_file_name(at: LayerRef, lens_name: &str, viewpoint: usize) -> String 
                 '_'
             }
         })
-        .collect();
-    let LayerRef { lens, layer } = at;
-    format!("lens{lens}-{name}.v{viewpoint:03}.layer{layer}.exr")
+        .collect()
 }
 
 impl Bake {

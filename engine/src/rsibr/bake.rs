@@ -147,16 +147,7 @@ pub fn map_file_name(object: &GlossyObject, sample: usize, lobe: MapLobe) -> Str
 /// `glossy{object}-{name}.v{sample:03}.{lobe}.exr`, the name reduced to ASCII letters, digits,
 /// `-` and `_`.
 fn file_name(object: usize, name: &str, sample: usize, lobe: &str) -> String {
-    let name: String = name
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
+    let name = crate::layers::bake::file_name_part(name);
     format!("glossy{object}-{name}.v{sample:03}.{lobe}.exr")
 }
 

@@ -55,7 +55,11 @@ fn dielectric_reflectance(cos_i: f32, eta: f32) -> f32 {
 @fragment
 fn fs_glossy(in: VertexOut) -> @location(0) vec4<f32> {
     let toward_viewer = normalize(data.eye.xyz - in.position);
-    var normal = normalize(in.normal);
+    // Opposite vertex normals can interpolate to zero: face the viewer there (as rsibr::shade).
+    var normal = toward_viewer;
+    if dot(in.normal, in.normal) > 0.0 {
+        normal = normalize(in.normal);
+    }
     if dot(normal, toward_viewer) < 0.0 {
         normal = -normal;
     }

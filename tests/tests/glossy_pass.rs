@@ -186,3 +186,85 @@ fn the_glossy_pass_matches_the_f64_model() {
     );
     assert!(compared > 500, "{compared} sphere pixels compared");
 }
+
+/// Radiance maps in a hybrid scene: the glossy objects given maps leave the light-mapped
+/// environment, maps for other objects put them back, and a frame built after the reconstruction
+/// changed is not the cached one.
+#[test]
+fn radiance_maps_replace_light_maps_and_change_the_frame() {
+    use lensmap::hybrid::{HybridOptions, HybridScene, HybridSceneOptions};
+    use lensmap::rsibr::maps::sample_maps;
+    use lensmap::rsibr::{GlossyMaps, GlossyViews, RadianceMapOptions, Reconstruction};
+    let scene = Scene::load_named("glossy-room").expect("the built-in scene");
+    let (mut hybrid, _) =
+        HybridScene::new(scene.clone(), HybridSceneOptions::default()).expect("a hybrid scene");
+    let light_mapped = hybrid.environment.clone();
+    let views = GlossyViews::geodesic(12).expect("12");
+    let options = RadianceMapOptions {
+        size: 2,
+        samples: 2,
+        seed: 0,
+        views: 12,
+    };
+    let maps_of = |name: &str| {
+        let object = lensmap::rsibr::glossy_objects(&scene)
+            .into_iter()
+            .find(|o| o.name == name)
+            .expect("a glossy object");
+        let maps = views
+            .directions()
+            .iter()
+            .enumerate()
+            .map(|(sample, &view)| {
+                let (maps, _) = sample_maps(&hybrid.trace, &object, (sample, view), &options);
+                maps.into_iter().map(|m| Arc::new(m.map)).collect()
+            })
+            .collect();
+        GlossyMaps { object, maps }
+    };
+    let (sphere, teapot) = (maps_of("sphere"), maps_of("teapot"));
+    // The environment meshes are the non-lens objects in order: the sphere is the first.
+    let sphere_mesh = light_mapped[0].clone();
+    hybrid.use_radiance_maps(views.clone(), vec![sphere], Reconstruction::Warped);
+    assert_eq!(hybrid.environment.len(), light_mapped.len() - 1);
+    assert!(
+        !hybrid
+            .environment
+            .iter()
+            .any(|m| Arc::ptr_eq(m, &sphere_mesh))
+    );
+    hybrid.use_radiance_maps(views, vec![teapot], Reconstruction::Warped);
+    assert_eq!(hybrid.environment.len(), light_mapped.len() - 1);
+    assert!(
+        Arc::ptr_eq(&hybrid.environment[0], &sphere_mesh),
+        "the sphere is light-mapped again"
+    );
+    assert!(
+        !hybrid
+            .environment
+            .iter()
+            .any(|m| Arc::ptr_eq(m, &light_mapped[1])),
+        "the teapot is not"
+    );
+
+    let camera = scene.camera.with_resolution(32, 24, 1);
+    let rotations = |hybrid: &HybridScene| {
+        let (frame, stats) = hybrid
+            .frame(&camera, &HybridOptions::default())
+            .expect("a frame");
+        assert_eq!(stats.glossy_maps, frame.glossy[0].slots.len() * 3);
+        frame.glossy[0]
+            .slots
+            .iter()
+            .map(|s| s.rotation)
+            .collect::<Vec<_>>()
+    };
+    let warped = rotations(&hybrid);
+    assert!(warped.iter().all(|r| *r == Mat3::IDENTITY));
+    hybrid.glossy.as_mut().expect("maps").reconstruction = Reconstruction::BlendedUnwarped;
+    let unwarped = rotations(&hybrid);
+    assert!(
+        unwarped.iter().any(|r| *r != Mat3::IDENTITY),
+        "a stale cached frame"
+    );
+}

@@ -142,6 +142,14 @@ fn render_draws_from_the_maps_and_refuses_an_incomplete_bake() {
         .expect("a count");
     assert!((5..=15).contains(&read), "{read} maps read");
 
+    // A manifest whose stated options were edited is refused, not read as other maps.
+    let manifest = full.join("radiance.json");
+    let text = std::fs::read_to_string(&manifest).expect("a manifest");
+    std::fs::write(&manifest, text.replace("\"seed\": 0", "\"seed\": 7")).expect("edited");
+    let output = render(&full);
+    assert_eq!(output.status.code(), Some(2), "{output:?}");
+    assert!(String::from_utf8_lossy(&output.stderr).contains("identity.options_hash"));
+
     assert_success("part", &bake("0..6", &part, &[]));
     let output = render(&part);
     assert_eq!(output.status.code(), Some(2), "{output:?}");

@@ -60,6 +60,9 @@ struct FrameKey {
     sky: Option<usize>,
     viewpoints: Vec<DVec3>,
     faces: Vec<LensFaces>,
+    /// The glossy objects drawn from radiance maps: the reconstruction and, per object, the
+    /// addresses of its mesh and of every map ([`super::glossy::GlossyScene::key`]).
+    glossy: Option<super::glossy::GlossyKey>,
 }
 
 /// What identifies one lens object's layered EMs in a [`FrameKey`]: per layer its EM origin,
@@ -100,6 +103,7 @@ impl FrameKey {
             sky: scene.sky.as_ref().map(SkyDome::identity),
             viewpoints: scene.viewpoints().to_vec(),
             faces: scene.faces.clone(),
+            glossy: scene.glossy.as_ref().map(super::glossy::GlossyScene::key),
         }
     }
 }

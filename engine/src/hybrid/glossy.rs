@@ -7,7 +7,7 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use super::HybridScene;
-use crate::render::{GlossyDraw, GlossyMesh, GlossySlot};
+use crate::render::{EnvironmentMesh, GlossyDraw, GlossyMesh, GlossySlot};
 use crate::rsibr::{GlossyMaps, GlossyViews, Reconstruction};
 
 /// The glossy objects a hybrid scene draws by reflection-space IBR.
@@ -18,9 +18,33 @@ pub struct GlossyScene {
     pub objects: Vec<(Arc<GlossyMesh>, GlossyMaps)>,
     /// How frames reconstruct the maps (the paper's: [`Reconstruction::Warped`]).
     pub reconstruction: Reconstruction,
+    /// The light-mapped environment meshes these objects replace, with their scene object:
+    /// put back when other maps replace these.
+    light_mapped: Vec<(usize, Arc<EnvironmentMesh>)>,
 }
 
+/// What identifies the glossy objects' part of a frame: the reconstruction and, per object, the
+/// address of its mesh and of every map.
+pub(super) type GlossyKey = (Reconstruction, Vec<(usize, Vec<Vec<usize>>)>);
+
 impl GlossyScene {
+    /// The frame cache's key of these objects.
+    pub(super) fn key(&self) -> GlossyKey {
+        let objects = self
+            .objects
+            .iter()
+            .map(|(mesh, maps)| {
+                let addresses = maps
+                    .maps
+                    .iter()
+                    .map(|lobes| lobes.iter().map(|m| Arc::as_ptr(m) as usize).collect())
+                    .collect();
+                (Arc::as_ptr(mesh) as usize, addresses)
+            })
+            .collect();
+        (self.reconstruction, objects)
+    }
+
     /// The draws of a frame seen from `eye`; with the maps each reads, counted.
     pub fn draws(&self, eye: DVec3) -> (Vec<GlossyDraw>, usize) {
         let mut maps_read = 0;
@@ -62,18 +86,27 @@ impl HybridScene {
         maps: Vec<GlossyMaps>,
         reconstruction: Reconstruction,
     ) {
-        // The environment meshes are the objects of no lens object, in scene order.
-        let environment_objects: Vec<usize> = (0..self.scene.objects.len())
+        // The environment meshes are the objects of no lens object, in scene order: put back
+        // those earlier maps replaced, then take out those these maps replace.
+        let mut environment: Vec<(usize, Arc<EnvironmentMesh>)> = (0..self.scene.objects.len())
             .filter(|&o| self.trace.object_lens.get(o).is_some_and(|l| l.is_none()))
+            .filter(|o| {
+                !self
+                    .glossy
+                    .as_ref()
+                    .is_some_and(|g| g.light_mapped.iter().any(|(object, _)| object == o))
+            })
+            .zip(std::mem::take(&mut self.environment))
             .collect();
+        if let Some(earlier) = self.glossy.take() {
+            environment.extend(earlier.light_mapped);
+            environment.sort_by_key(|(object, _)| *object);
+        }
         let glossy: Vec<usize> = maps.iter().map(|m| m.object.object).collect();
-        let environment = std::mem::take(&mut self.environment);
-        self.environment = environment
+        let (light_mapped, kept): (Vec<_>, Vec<_>) = environment
             .into_iter()
-            .zip(&environment_objects)
-            .filter(|(_, object)| !glossy.contains(object))
-            .map(|(mesh, _)| mesh)
-            .collect();
+            .partition(|(object, _)| glossy.contains(object));
+        self.environment = kept.into_iter().map(|(_, mesh)| mesh).collect();
         let objects = maps
             .into_iter()
             .map(|maps| {
@@ -90,6 +123,7 @@ impl HybridScene {
             views,
             objects,
             reconstruction,
+            light_mapped,
         });
         self.cache = Default::default();
     }

@@ -71,12 +71,18 @@ impl GlossyDraw {
     ) -> Result<(), RenderError> {
         let at = format!("glossy[{g}] ({})", self.name);
         let mesh = &self.mesh;
+        if mesh.triangles.is_empty() {
+            return bad(format!("{at}.mesh has no triangles; leave the draw out"));
+        }
         if mesh.normals.len() != mesh.positions.len()
-            || mesh.normals.iter().any(|n| !n.is_finite())
+            || mesh
+                .normals
+                .iter()
+                .any(|n| !n.is_finite() || *n == Vec3::ZERO)
             || mesh.positions.iter().any(|p| !p.is_finite())
         {
             return bad(format!(
-                "{at}.mesh needs finite positions and one finite normal per position ({} normals for {} positions)",
+                "{at}.mesh needs finite positions and one finite, non-zero normal per position ({} normals for {} positions)",
                 mesh.normals.len(),
                 mesh.positions.len()
             ));

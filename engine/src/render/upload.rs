@@ -116,7 +116,8 @@ pub(super) struct GpuMesh {
 /// ([`super::Renderer::upload_into`]) rewrites the mapped lens buffers in place (growing them only
 /// when a frame needs more), resets the descriptor pool instead of creating one, and keeps the
 /// colour, depth and readback targets of the same size, so a steady stream of frames allocates
-/// nothing.
+/// nothing but each glossy draw's small data buffer and descriptor set (its mesh and maps are
+/// cached).
 pub struct UploadedFrame {
     pub(super) shape: FrameShape,
     /// What the single pass composites on the device the frame was uploaded to.

@@ -137,7 +137,7 @@ impl RadianceIdentity {
 }
 
 /// Raised when the maps' computation changes, so that older bakes are not resumed into newer.
-const MAP_REVISION: u64 = 1;
+const MAP_REVISION: u64 = 2;
 
 /// The file of `object`'s map of `lobe` at `sample`.
 pub fn map_file_name(object: &GlossyObject, sample: usize, lobe: MapLobe) -> String {
@@ -438,13 +438,38 @@ pub fn read_maps(
 ) -> Result<(RadianceManifest, Vec<GlossyMaps>), BakeError> {
     let manifest = read_manifest(dir)?;
     let path = dir.join(RADIANCE_MANIFEST);
+    let options = RadianceMapOptions {
+        size: manifest.size,
+        samples: manifest.samples_per_texel,
+        seed: manifest.seed,
+        views: manifest.views,
+    };
+    let expected = RadianceManifest::template(scene, &options);
     if manifest.identity.identity_version != IDENTITY_VERSION
-        || manifest.identity.scene_hash != scene.content_hash()
+        || manifest.identity.scene_hash != expected.identity.scene_hash
     {
         return Err(invalid(
             &path,
             "identity.scene_hash",
             format!("is not scene \"{}\" as it is now", scene.name),
+            "bake this scene's radiance maps again",
+        ));
+    }
+    // The options the manifest states must be those its maps were made with, and its objects
+    // the scene's: an edited or older manifest is refused, not read as something else.
+    if manifest.identity.options_hash != expected.identity.options_hash {
+        return Err(invalid(
+            &path,
+            "identity.options_hash",
+            "does not match the size, samples, seed and views the manifest states, or the maps were made by an older lensmap".into(),
+            "write the radiance-map bake again",
+        ));
+    }
+    if manifest.objects != expected.objects {
+        return Err(invalid(
+            &path,
+            "objects",
+            format!("differ from scene \"{}\"'s glossy objects", scene.name),
             "bake this scene's radiance maps again",
         ));
     }

@@ -210,10 +210,7 @@ pub fn sample_maps(
                     warp: lobe.warp(),
                     size: options.size,
                     samples: options.samples,
-                    seed: options.seed
-                        ^ (object.object as u64) << 40
-                        ^ (sample as u64) << 8
-                        ^ k as u64,
+                    seed: map_seed(options.seed, object.object, sample, k),
                 },
                 &trace_options,
             );
@@ -222,4 +219,15 @@ pub fn sample_maps(
         })
         .collect();
     (maps, counters)
+}
+
+/// The seed of one map: `seed`, the object, the sample and the lobe hashed together, so that
+/// every map (and every `seed`) draws its own stream.
+fn map_seed(seed: u64, object: usize, sample: usize, lobe: usize) -> u64 {
+    use std::hash::Hasher;
+    let mut hasher = rustc_hash::FxHasher::default();
+    for value in [seed, object as u64, sample as u64, lobe as u64] {
+        hasher.write_u64(value);
+    }
+    hasher.finish()
 }

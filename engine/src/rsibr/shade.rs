@@ -29,6 +29,12 @@ pub struct GlossyShading {
 /// The radiance leaving a point with unit shading normal `normal` towards the viewer along unit
 /// `toward_viewer` (the normal is turned to the viewer's side first, as the tracer does).
 pub fn shade(shading: &GlossyShading, normal: DVec3, toward_viewer: DVec3) -> DVec3 {
+    // A zero normal (opposite vertex normals interpolated) faces the viewer.
+    let normal = if normal == DVec3::ZERO {
+        toward_viewer
+    } else {
+        normal
+    };
     let normal = if normal.dot(toward_viewer) < 0.0 {
         -normal
     } else {

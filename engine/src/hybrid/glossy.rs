@@ -54,14 +54,17 @@ impl GlossyScene {
             .filter_map(|(mesh, maps)| {
                 let object = &maps.object;
                 let slots = self.views.slots(eye - object.centre, self.reconstruction)?;
+                // Maps missing a sample (not from a complete bake) leave the object undrawn.
                 let slots: Vec<GlossySlot> = slots
                     .into_iter()
-                    .map(|slot| GlossySlot {
-                        weight: slot.weight as f32,
-                        rotation: slot.rotation.as_mat3(),
-                        maps: maps.maps[slot.sample].clone(),
+                    .map(|slot| {
+                        Some(GlossySlot {
+                            weight: slot.weight as f32,
+                            rotation: slot.rotation.as_mat3(),
+                            maps: maps.maps.get(slot.sample)?.clone(),
+                        })
                     })
-                    .collect();
+                    .collect::<Option<_>>()?;
                 maps_read += slots.len() * object.lobes.len();
                 Some(GlossyDraw {
                     name: object.name.clone(),
@@ -107,16 +110,17 @@ impl HybridScene {
             .into_iter()
             .partition(|(object, _)| glossy.contains(object));
         self.environment = kept.into_iter().map(|(_, mesh)| mesh).collect();
+        // Maps of an object this scene does not have are left out.
         let objects = maps
             .into_iter()
-            .map(|maps| {
-                let mesh = &self.scene.objects[maps.object.object].mesh;
+            .filter_map(|maps| {
+                let mesh = &self.scene.objects.get(maps.object.object)?.mesh;
                 let mesh = Arc::new(GlossyMesh {
                     positions: mesh.positions.clone(),
                     normals: mesh.normals.clone(),
                     triangles: mesh.triangles.clone(),
                 });
-                (mesh, maps)
+                Some((mesh, maps))
             })
             .collect();
         self.glossy = Some(GlossyScene {

@@ -193,8 +193,8 @@ fn the_glossy_pass_matches_the_f64_model() {
 #[test]
 fn radiance_maps_replace_light_maps_and_change_the_frame() {
     use lensmap::hybrid::{HybridOptions, HybridScene, HybridSceneOptions};
-    use lensmap::rsibr::maps::sample_maps;
-    use lensmap::rsibr::{GlossyMaps, GlossyViews, RadianceMapOptions, Reconstruction};
+    use lensmap::rsibr::maps::all_maps;
+    use lensmap::rsibr::{GlossyViews, RadianceMapOptions, Reconstruction};
     let scene = Scene::load_named("glossy-room").expect("the built-in scene");
     let (mut hybrid, _) =
         HybridScene::new(scene.clone(), HybridSceneOptions::default()).expect("a hybrid scene");
@@ -211,16 +211,7 @@ fn radiance_maps_replace_light_maps_and_change_the_frame() {
             .into_iter()
             .find(|o| o.name == name)
             .expect("a glossy object");
-        let maps = views
-            .directions()
-            .iter()
-            .enumerate()
-            .map(|(sample, &view)| {
-                let (maps, _) = sample_maps(&hybrid.trace, &object, (sample, view), &options);
-                maps.into_iter().map(|m| Arc::new(m.map)).collect()
-            })
-            .collect();
-        GlossyMaps { object, maps }
+        all_maps(&hybrid.trace, &object, &views, &options).0
     };
     let (sphere, teapot) = (maps_of("sphere"), maps_of("teapot"));
     // The environment meshes are the non-lens objects in order: the sphere is the first.

@@ -5,13 +5,12 @@
 //! compared over the object's pixels with a converged reference (its Monte Carlo error stated).
 //! Then the number of view samples (12, 42, 162) against the warped reconstruction's error.
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use clap::Args;
 use glam::{DVec3, Vec3};
 use lensmap::metrics::{Channels, Encoding, Mask, compare};
-use lensmap::rsibr::maps::sample_maps;
+use lensmap::rsibr::maps::all_maps;
 use lensmap::rsibr::{
     GlossyMaps, GlossyObject, GlossyShading, GlossyViews, RadianceMapOptions, Reconstruction,
     glossy_objects, shade,
@@ -119,33 +118,6 @@ fn camera_for(base: &Camera, object: &GlossyObject, direction: DVec3, distance: 
         up,
         ..*base
     }
-}
-
-/// Every map of `object` at every sample of `views`.
-fn all_maps(
-    trace: &TraceScene,
-    object: &GlossyObject,
-    views: &GlossyViews,
-    options: &RadianceMapOptions,
-) -> (GlossyMaps, TraceCounters) {
-    let mut counters = TraceCounters::default();
-    let maps = views
-        .directions()
-        .iter()
-        .enumerate()
-        .map(|(sample, &view)| {
-            let (maps, c) = sample_maps(trace, object, (sample, view), options);
-            counters += c;
-            maps.into_iter().map(|m| Arc::new(m.map)).collect()
-        })
-        .collect();
-    (
-        GlossyMaps {
-            object: object.clone(),
-            maps,
-        },
-        counters,
-    )
 }
 
 /// The reconstructed frame: per pixel whose centre ray meets `object` first, its RSIBR shading;

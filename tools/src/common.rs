@@ -672,25 +672,6 @@ impl From<ReconstructionArg> for lensmap::rsibr::Reconstruction {
     }
 }
 
-/// Reads the radiance-map bake at `dir` (made from `hybrid`'s scene) and draws the glossy
-/// objects from it by reflection-space IBR.
-pub fn use_radiance_maps(
-    hybrid: &mut lensmap::hybrid::HybridScene,
-    dir: &std::path::Path,
-    reconstruction: lensmap::rsibr::Reconstruction,
-) -> anyhow::Result<()> {
-    let (manifest, maps) = lensmap::rsibr::bake::read_maps(dir, &hybrid.scene)?;
-    let views = lensmap::rsibr::GlossyViews::geodesic(manifest.views).ok_or_else(|| {
-        anyhow::anyhow!(
-            "{}: views {} is not a geodesic count",
-            dir.display(),
-            manifest.views
-        )
-    })?;
-    hybrid.use_radiance_maps(views, maps, reconstruction);
-    Ok(())
-}
-
 /// Images of one size side by side, left to right.
 pub fn beside(images: &[RenderedImage]) -> anyhow::Result<RenderedImage> {
     let Some(first) = images.first() else {

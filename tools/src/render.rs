@@ -197,7 +197,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     light_maps.validate().map_err(flag_error)?;
     let (mut hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
     if let Some(dir) = &args.radiance {
-        crate::common::use_radiance_maps(&mut hybrid, dir, args.glossy_reconstruction.into())?;
+        hybrid.use_radiance_bake(dir, args.glossy_reconstruction.into())?;
     }
     let prepare_s = prepare.elapsed().as_secs_f64();
     if let Some(dir) = &args.write_bake {

@@ -241,7 +241,17 @@ pub unsafe extern "C" fn lensmap_scene_load(
         let radiance = unsafe { read_text(options.radiance_dir, "options->radiance_dir") }?;
         let (mut hybrid, _) = load_hybrid_scene(scene, &LoadOptions { ems, light_maps })?;
         if let Some(dir) = radiance {
-            use_radiance_maps(&mut hybrid, std::path::Path::new(&dir))?;
+            hybrid
+                .use_radiance_bake(
+                    std::path::Path::new(&dir),
+                    lensmap::rsibr::Reconstruction::Warped,
+                )
+                .map_err(|error| {
+                    Failure::new(
+                        LensmapResult::Bake,
+                        format!("options->radiance_dir: {error}"),
+                    )
+                })?;
         }
         let handle = register(
             Box::new(LensmapScene {
@@ -602,31 +612,4 @@ pub unsafe extern "C" fn lensmap_plan_text(
         }
         Ok(())
     })
-}
-
-/// Draws `hybrid`'s glossy objects from the radiance-map bake at `dir` (the paper's warped
-/// reconstruction).
-fn use_radiance_maps(
-    hybrid: &mut lensmap::hybrid::HybridScene,
-    dir: &std::path::Path,
-) -> Result<(), Failure> {
-    let (manifest, maps) =
-        lensmap::rsibr::bake::read_maps(dir, &hybrid.scene).map_err(|error| {
-            Failure::new(
-                LensmapResult::Bake,
-                format!("options->radiance_dir: {error}"),
-            )
-        })?;
-    let views = lensmap::rsibr::GlossyViews::geodesic(manifest.views).ok_or_else(|| {
-        Failure::new(
-            LensmapResult::InvalidArgument,
-            format!(
-                "options->radiance_dir: {}: views {} is not a geodesic count",
-                dir.display(),
-                manifest.views
-            ),
-        )
-    })?;
-    hybrid.use_radiance_maps(views, maps, lensmap::rsibr::Reconstruction::Warped);
-    Ok(())
 }

@@ -81,6 +81,19 @@ impl GlossyScene {
 }
 
 impl HybridScene {
+    /// Draws the glossy objects from the radiance-map bake at `dir` (made from this scene, every
+    /// sample complete; [`crate::rsibr::bake::read_maps`]) by `reconstruction`; returns its
+    /// manifest.
+    pub fn use_radiance_bake(
+        &mut self,
+        dir: &std::path::Path,
+        reconstruction: Reconstruction,
+    ) -> Result<crate::rsibr::bake::RadianceManifest, crate::layers::bake::BakeError> {
+        let (manifest, views, maps) = crate::rsibr::bake::read_maps(dir, &self.scene)?;
+        self.use_radiance_maps(views, maps, reconstruction);
+        Ok(manifest)
+    }
+
     /// Draws the glossy objects `maps` holds (made at `views`' samples) by reflection-space IBR
     /// from now on, no longer as light-mapped environment meshes.
     pub fn use_radiance_maps(

@@ -431,11 +431,11 @@ pub fn read_manifest(dir: &Path) -> Result<RadianceManifest, BakeError> {
 }
 
 /// The maps of every glossy object of `scene` from the bake at `dir`, which must have been made
-/// from this scene and hold every view sample.
+/// from this scene and hold every view sample; with the manifest and the view samples.
 pub fn read_maps(
     dir: &Path,
     scene: &Scene,
-) -> Result<(RadianceManifest, Vec<GlossyMaps>), BakeError> {
+) -> Result<(RadianceManifest, GlossyViews, Vec<GlossyMaps>), BakeError> {
     let manifest = read_manifest(dir)?;
     let path = dir.join(RADIANCE_MANIFEST);
     let options = RadianceMapOptions {
@@ -508,5 +508,5 @@ pub fn read_maps(
         }
         all.push(GlossyMaps { object, maps });
     }
-    Ok((manifest, all))
+    Ok((manifest, views, all))
 }

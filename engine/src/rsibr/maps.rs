@@ -231,3 +231,30 @@ fn map_seed(seed: u64, object: usize, sample: usize, lobe: usize) -> u64 {
     }
     hasher.finish()
 }
+
+/// Every map of `object` at every sample of `views`.
+pub fn all_maps(
+    trace: &TraceScene,
+    object: &GlossyObject,
+    views: &super::GlossyViews,
+    options: &RadianceMapOptions,
+) -> (GlossyMaps, TraceCounters) {
+    let mut counters = TraceCounters::default();
+    let maps = views
+        .directions()
+        .iter()
+        .enumerate()
+        .map(|(sample, &view)| {
+            let (maps, c) = sample_maps(trace, object, (sample, view), options);
+            counters += c;
+            maps.into_iter().map(|m| Arc::new(m.map)).collect()
+        })
+        .collect();
+    (
+        GlossyMaps {
+            object: object.clone(),
+            maps,
+        },
+        counters,
+    )
+}

@@ -210,11 +210,7 @@ impl EmChoice {
             },
         )?;
         if let Some(dir) = &self.radiance {
-            crate::common::use_radiance_maps(
-                &mut hybrid,
-                dir,
-                lensmap::rsibr::Reconstruction::Warped,
-            )?;
+            hybrid.use_radiance_bake(dir, lensmap::rsibr::Reconstruction::Warped)?;
         }
         Ok(hybrid)
     }

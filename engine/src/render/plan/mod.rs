@@ -507,34 +507,16 @@ fn tessellation(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameRes
 /// The environment pass: colour cleared to zero and depth to 1, every mesh drawn opaque with
 /// depth test and write.
 fn environment(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources) {
-    graph.add_pass(Pass {
-        name: "environment".into(),
-        category: PassCategory::Environment,
-        side_effect: false,
-        kind: PassKind::Draw {
-            program: ShaderProgram::Environment,
-            colour: ColourAttachment {
-                image: resources.colour,
-                load: LoadOp::Clear([0.0; 4]),
-                store: StoreOp::Store,
-                blend: Blend::Replace,
-                write_mask: ColourMask::RGBA,
-            },
-            depth: Some(DepthAttachment {
-                image: resources.depth,
-                load: LoadOp::Clear([1.0; 4]),
-                store: StoreOp::DontCare,
-                test: Some(CompareOp::Less),
-                write: true,
-            }),
-            cull: Cull::None,
-            sampled: Vec::new(),
-            storage: Vec::new(),
-            draws: (0..shape.environment_meshes)
-                .map(|mesh| Draw::Environment { mesh })
-                .collect(),
-        },
-    });
+    let draws = (0..shape.environment_meshes)
+        .map(|mesh| Draw::Environment { mesh })
+        .collect();
+    opaque_pass(
+        graph,
+        resources,
+        (PassCategory::Environment, ShaderProgram::Environment),
+        true,
+        draws,
+    );
 }
 
 /// The glossy pass (reflection-space IBR): every glossy object drawn opaque over the environment
@@ -544,22 +526,50 @@ fn glossy(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources
     if shape.glossy.is_empty() {
         return;
     }
+    let draws = (0..shape.glossy.len())
+        .map(|index| Draw::Glossy { index })
+        .collect();
+    opaque_pass(
+        graph,
+        resources,
+        (PassCategory::Glossy, ShaderProgram::Glossy),
+        false,
+        draws,
+    );
+}
+
+/// A pass of opaque draws named after its category, with depth test LESS and write: colour and
+/// depth cleared (to zero and 1) when `clear`, else loaded.
+fn opaque_pass(
+    graph: &mut FrameGraph,
+    resources: &FrameResources,
+    (category, program): (PassCategory, ShaderProgram),
+    clear: bool,
+    draws: Vec<Draw>,
+) {
+    let load = |value: [f32; 4]| {
+        if clear {
+            LoadOp::Clear(value)
+        } else {
+            LoadOp::Load
+        }
+    };
     graph.add_pass(Pass {
-        name: "glossy".into(),
-        category: PassCategory::Glossy,
+        name: category.name().into(),
+        category,
         side_effect: false,
         kind: PassKind::Draw {
-            program: ShaderProgram::Glossy,
+            program,
             colour: ColourAttachment {
                 image: resources.colour,
-                load: LoadOp::Load,
+                load: load([0.0; 4]),
                 store: StoreOp::Store,
                 blend: Blend::Replace,
                 write_mask: ColourMask::RGBA,
             },
             depth: Some(DepthAttachment {
                 image: resources.depth,
-                load: LoadOp::Load,
+                load: load([1.0; 4]),
                 store: StoreOp::DontCare,
                 test: Some(CompareOp::Less),
                 write: true,
@@ -567,9 +577,7 @@ fn glossy(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources
             cull: Cull::None,
             sampled: Vec::new(),
             storage: Vec::new(),
-            draws: (0..shape.glossy.len())
-                .map(|index| Draw::Glossy { index })
-                .collect(),
+            draws,
         },
     });
 }

@@ -130,11 +130,12 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-# A free TCP port: one that nothing listens on (/proc/net/tcp{,6} list them in hex).
+# A free TCP port other than $1: one that nothing listens on (/proc/net/tcp{,6} list them in hex).
 free_port() {
     local port
     while :; do
         port=$((20000 + RANDOM % 30000))
+        [ "$port" = "${1:-}" ] && continue
         if ! grep -qi ":$(printf '%04X' "$port") 00000000:0000 0A" /proc/net/tcp /proc/net/tcp6 2>/dev/null; then
             echo "$port"
             return
@@ -155,11 +156,12 @@ munge -S "$root/munge/munge.socket" -n | unmunge -S "$root/munge/munge.socket" >
 # --- Slurm: one node with 2 CPUs, this machine. No systemd or cgroups here: processes are
 # tracked through /proc, tasks are not bound, nothing is accounted but the completion log.
 node=$(hostname -s)
+controller_port=$(free_port)
 cat >"$SLURM_CONF" <<EOF
 ClusterName=lensmap
 SlurmctldHost=$node(127.0.0.1)
-SlurmctldPort=$(free_port)
-SlurmdPort=$(free_port)
+SlurmctldPort=$controller_port
+SlurmdPort=$(free_port "$controller_port")
 AuthType=auth/munge
 CredType=cred/munge
 AuthInfo=socket=$root/munge/munge.socket,cred_expire=10
@@ -253,6 +255,9 @@ kill -KILL "$victim"
 staged=$(cd "$staging" && ls sample-*.json | tr '\n' ' ')
 step "kill -9 $victim (job ${array}_$killed's lensmap) with staged: $staged"
 [ "$staged" = "sample-000.json " ] || fail "the kill did not land while sample 4 was in flight"
+# A lensmap that locks its --out leaves its lock file behind; the requeued task must take it over.
+lock=$bakes/.shard-$killed.lock
+[ -e "$lock" ] && step "left behind by the killed process: $(basename "$lock"): $(head -c 200 "$lock")"
 
 task_failed() { [ "$(job_field "${array}_$killed" JobState)" = FAILED ]; }
 wait_for 60 "job ${array}_$killed to fail" task_failed

@@ -1,12 +1,17 @@
 //! Atomic writes. A file is written beside its target under a temporary name, fsynced and
 //! renamed over the target, so a failed write (a full disk, a killed process) leaves any earlier
 //! file at that path intact, and a reader never sees half a file. A directory is built complete
-//! beside its target and swapped in by renames ([`DirectorySwap`]), with the same guarantee for
-//! the directory as a whole.
+//! beside its target and swapped in by one atomic exchange ([`DirectorySwap`]), with the same
+//! guarantee for the directory as a whole; a reader that reads a directory's files one by one
+//! sees one version of it with [`read_consistently`]. One writer per directory at a time:
+//! [`lock::DirectoryLock`].
+
+pub mod lock;
 
 use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 /// Writes `bytes` to `path` atomically (see the module documentation), creating the parent
 /// folder if needed. Errors are the I/O error of the step that failed; the temporary file is
@@ -166,11 +171,15 @@ pub enum WhenSwapFails {
 
 /// A directory `NAME` replaced as a whole. The replacement is built complete under a hidden name
 /// beside it ([`DirectorySwap::beside`]), every file fsynced, then swapped in
-/// ([`DirectorySwap::swap_in`]): the old directory is renamed to `.NAME.previous`, the new one to
-/// `NAME`, and the old one removed. An interruption before the swap leaves the old directory
-/// untouched at `NAME`; one between the two renames leaves it at `.NAME.previous`, which
-/// [`DirectorySwap::prepare`] puts back (or, if the new one made it to `NAME`, removes) before
-/// the next swap starts. One writer per directory at a time.
+/// ([`DirectorySwap::swap_in`]) by one atomic exchange of the two names (Linux `renameat2` with
+/// `RENAME_EXCHANGE`), after which the old directory, now under the hidden name, is removed: at
+/// every moment `NAME` is the old directory or the new one. On a file system without the
+/// exchange (NFS, an old kernel) it takes two renames instead: the old directory to
+/// `.NAME.previous`, the new one to `NAME`; an interruption between them leaves the old one at
+/// `.NAME.previous`, which [`DirectorySwap::prepare`] puts back (or, if the new one made it to
+/// `NAME`, removes) before the next swap starts, and [`read_consistently`] waits out. An
+/// interruption before the swap leaves the old directory untouched at `NAME`. One writer per
+/// directory at a time ([`lock::DirectoryLock`]).
 #[derive(Clone, Debug)]
 pub struct DirectorySwap {
     target: PathBuf,
@@ -226,11 +235,29 @@ impl DirectorySwap {
     }
 
     /// Makes the complete directory `built` the target (see the type's documentation) and syncs
-    /// the parent folder. When a rename fails, the old directory is put back and `built` is
-    /// removed or kept as `when_fails` says.
+    /// the parent folder. When the exchange or a rename fails, the old directory stays (or is put
+    /// back) and `built` is removed or kept as `when_fails` says.
     pub fn swap_in(&self, built: &Path, when_fails: WhenSwapFails) -> Result<(), StepError> {
         let had_old = self.target.exists();
         if had_old {
+            match exchange(built, &self.target) {
+                Ok(()) => {
+                    sync_directory(&self.parent).map_err(StepError::of(&self.parent, "fsync"))?;
+                    // `built` now names the old directory.
+                    let _ = fs::remove_dir_all(built);
+                    return Ok(());
+                }
+                Err(error) if !exchange_unsupported(&error) => {
+                    if when_fails == WhenSwapFails::Remove {
+                        let _ = fs::remove_dir_all(built);
+                    }
+                    return Err(StepError::of(&self.target, "exchange the staging directory with")(
+                        error,
+                    ));
+                }
+                // A file system without the exchange: two renames, below.
+                Err(_) => {}
+            }
             fs::rename(&self.target, &self.previous)
                 .map_err(StepError::of(&self.target, "move aside"))?;
         }
@@ -252,6 +279,73 @@ impl DirectorySwap {
             let _ = fs::remove_dir_all(&self.previous);
         }
         Ok(())
+    }
+}
+
+/// Exchanges two existing paths in one step (Linux `renameat2` with `RENAME_EXCHANGE`): a reader
+/// of either path finds something there at every moment.
+#[cfg(target_os = "linux")]
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    use rustix::fs::{CWD, RenameFlags, renameat_with};
+    renameat_with(CWD, a, CWD, b, RenameFlags::EXCHANGE).map_err(std::io::Error::from)
+}
+
+/// Elsewhere there is no atomic exchange: the caller falls back to two renames.
+#[cfg(not(target_os = "linux"))]
+fn exchange(_: &Path, _: &Path) -> std::io::Result<()> {
+    Err(std::io::ErrorKind::Unsupported.into())
+}
+
+/// Whether `exchange` failed for want of support (an old kernel, a file system without it, such
+/// as NFS) rather than for the paths.
+fn exchange_unsupported(error: &std::io::Error) -> bool {
+    use rustix::io::Errno;
+    error.kind() == std::io::ErrorKind::Unsupported
+        || [Errno::INVAL, Errno::NOSYS, Errno::OPNOTSUPP]
+            .iter()
+            .any(|errno| error.raw_os_error() == Some(errno.raw_os_error()))
+}
+
+/// What identifies one version of a directory: its device, inode and change time. A swap gives
+/// the path another inode; a reused inode has a new change time.
+fn version_of(dir: &Path) -> Option<(u64, u64, i64, i64)> {
+    let stat = rustix::fs::stat(dir).ok()?;
+    #[allow(clippy::unnecessary_cast, clippy::useless_conversion)]
+    Some((
+        stat.st_dev as u64,
+        stat.st_ino as u64,
+        stat.st_ctime as i64,
+        stat.st_ctime_nsec as i64,
+    ))
+}
+
+/// How many times [`read_consistently`] reads a directory that keeps being replaced before it
+/// gives the last read's result.
+pub const CONSISTENT_READ_ATTEMPTS: usize = 50;
+
+/// Runs `read` (which reads files of directory `dir` one by one) until it ran while `dir` stayed
+/// one version: the same directory before and after, no [`DirectorySwap`] in between. So a
+/// reader sees the old directory or the new one, never files of both, and never "not found"
+/// while a swap is under way (the two renames of a file system without an atomic exchange leave
+/// the path missing for a moment). After [`CONSISTENT_READ_ATTEMPTS`] reads that each overlapped
+/// a swap, the last result is returned.
+pub fn read_consistently<T, E>(dir: &Path, mut read: impl FnMut() -> Result<T, E>) -> Result<T, E> {
+    let swap = DirectorySwap::new(dir);
+    let mut attempt = 1;
+    loop {
+        let before = version_of(dir);
+        let result = read();
+        let after = version_of(dir);
+        let swapping = before.is_none()
+            && swap
+                .as_ref()
+                .is_some_and(|swap| swap.interrupted().is_some());
+        if (before == after && !swapping) || attempt >= CONSISTENT_READ_ATTEMPTS {
+            return result;
+        }
+        attempt += 1;
+        // A swap is a few system calls: the next read almost always sees one version.
+        std::thread::sleep(Duration::from_millis(2 * attempt as u64));
     }
 }
 

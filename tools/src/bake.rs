@@ -173,6 +173,12 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         lensmap::render::TargetFormat::Rgba32f,
     )?;
     let device = runner.gpu().device_id().clone();
+    if let Some(staging) = lensmap::layers::Staging::path_of(out) {
+        crate::interrupt::stop_on_signals(crate::interrupt::Interruptible {
+            out: out.clone(),
+            staging,
+        })?;
+    }
     let bars = BakeBars::new(samples.len());
     let job = BakeJob {
         dir: out,

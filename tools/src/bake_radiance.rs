@@ -73,6 +73,12 @@ pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
     }
     let template = RadianceManifest::template(&scene, &options);
     let staging = RadianceStaging::open(out, template.identity.clone(), args.resume)?;
+    if let Some(staging) = RadianceStaging::path_of(out) {
+        crate::interrupt::stop_on_signals(crate::interrupt::Interruptible {
+            out: out.to_owned(),
+            staging,
+        })?;
+    }
     let trace = TraceScene::new(&scene)?;
     let (mut baked, mut resumed) = (Vec::new(), Vec::new());
     for &sample in &samples {

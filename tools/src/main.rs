@@ -15,6 +15,7 @@ mod bench_infer;
 mod bench_passes;
 mod bench_trace;
 mod demo;
+mod interrupt;
 mod pareto;
 mod passes;
 mod reference;
@@ -55,7 +56,9 @@ const HELP_FOOTER: &str = "Exit codes:
   0    success
   1    the work failed (a disk error, a GPU failure, a result the work could not reach)
   2    bad usage or bad input (an option, a scene, an asset or a bake), said in one line
+  130  bake: interrupted by SIGINT (Ctrl-C); finished samples kept, --resume finishes
   141  stdout was closed before the end (e.g. piped into head); the work and files finished
+  143  bake: interrupted by SIGTERM (a scheduler's preemption); finished samples kept, --resume finishes
 
 Environment:
   LENSMAP_VALIDATION=1   enable the Khronos validation layer (fails on any message)

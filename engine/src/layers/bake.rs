@@ -26,13 +26,17 @@
 //!
 //! **Atomic writes.** [`Bake::write`] writes everything into a sibling staging directory
 //! `.NAME.writing-PID`, fsyncs every file and the directory, then swaps it in with
-//! [`crate::atomic::DirectorySwap`]: the old bake is renamed to `.NAME.previous`, the staging
-//! directory to `NAME`, and the old one is removed. An interruption before the swap leaves the
-//! old bake untouched at `NAME`; one during the swap leaves it at `.NAME.previous`, which the next
-//! write restores before it starts (and which [`Bake::read`] names in its error). One writer per
-//! directory at a time; a staging directory left by a killed writer is removed by the next write
-//! from the same process id only, and is otherwise safe to delete. [`Staging`] builds a bake
-//! sample by sample the same way.
+//! [`crate::atomic::DirectorySwap`] (one atomic exchange of the two names, or two renames on a
+//! file system without it), and removes the old bake. A reader finds the old bake or the new one
+//! at `NAME` at every moment, and [`Bake::read`] never mixes the two. An interruption before the
+//! swap leaves the old bake untouched at `NAME`; one between the two renames of the fallback
+//! leaves it at `.NAME.previous`, which the next write restores before it starts (and which
+//! [`Bake::read`] names in its error). One writer per directory at a time: every writer holds the
+//! lock `.NAME.lock` ([`crate::atomic::lock::DirectoryLock`]) from before it touches anything to
+//! after the swap, and a second writer is refused at once, naming the holder's host and pid. A
+//! staging directory left by a killed writer is removed by the next write from the same process
+//! id only, and is otherwise safe to delete. [`Staging`] builds a bake sample by sample the same
+//! way.
 //!
 //! The rooms: [`manifest`] (the JSON and its checks), [`exr`] (cube-map files), [`staging`]
 //! (a bake built piece by piece), [`error`] (what goes wrong, said with the paths a user knows).
@@ -56,7 +60,7 @@ use std::sync::Arc;
 use glam::{DVec3, Vec3};
 
 use super::shell::LayerShell;
-use crate::atomic::{self, DirectorySwap, WhenSwapFails};
+use crate::atomic::{self, DirectorySwap, WhenSwapFails, lock::DirectoryLock};
 pub use crate::cubemap::ALPHA_TOLERANCE;
 use crate::cubemap::CubeMap;
 use crate::index::{LayerIndex, LayerRef, LensIndex};
@@ -281,8 +285,15 @@ impl Bake {
         atomic::sync_directory(staging).map_err(io_error(staging, "fsync"))
     }
 
-    /// Reads and validates the bake in `dir`: the manifest, then every cube map it lists.
+    /// Reads and validates the bake in `dir`: the manifest, then every cube map it lists. A bake
+    /// replaced while it is read is read again ([`atomic::read_consistently`]): the result is
+    /// the old bake or the new one, never maps of both.
     pub fn read(dir: &Path) -> Result<Bake, BakeError> {
+        atomic::read_consistently(dir, || Bake::read_once(dir))
+    }
+
+    /// [`Bake::read`] without the check for a concurrent replacement.
+    fn read_once(dir: &Path) -> Result<Bake, BakeError> {
         let manifest = Manifest::read(dir)?;
         let mut reader = MapReader::new(dir, &manifest);
         // A file listed by several layers (a shared layer) is read once and shared.
@@ -341,7 +352,7 @@ pub(crate) fn write_directory(
     dir: &Path,
     fill: impl FnOnce(&Path) -> Result<(), BakeError>,
 ) -> Result<(), BakeError> {
-    let swap = prepare_destination(dir)?;
+    let (swap, _lock) = prepare_destination(dir)?;
     let staging = swap.beside(&format!("{WRITING_SUFFIX}{}", std::process::id()));
     if staging.exists() {
         fs::remove_dir_all(&staging).map_err(io_error(&staging, "remove"))?;
@@ -359,23 +370,25 @@ pub(crate) fn write_directory(
 /// `.NAME.writing-PID` beside bake directory `NAME`.
 const WRITING_SUFFIX: &str = ".writing-";
 
-/// The swap that replaces bake directory `dir`, made ready: parent folders created, a swap an
-/// earlier write left half done finished, and an existing `dir` checked to be a bake (or empty),
-/// since it is about to be replaced.
-fn prepare_destination(dir: &Path) -> Result<DirectorySwap, BakeError> {
+/// The swap that replaces bake directory `dir`, made ready, and the directory's lock, which the
+/// writer holds until the swap is done: the lock taken (or refused, naming its holder), parent
+/// folders created, a swap an earlier write left half done finished, and an existing `dir`
+/// checked to be a bake (or empty), since it is about to be replaced.
+fn prepare_destination(dir: &Path) -> Result<(DirectorySwap, DirectoryLock), BakeError> {
     let swap = DirectorySwap::new(dir).ok_or_else(|| BakeError::Invalid {
         path: dir.to_owned(),
         field: "the bake directory".into(),
         problem: "has no final name (or is not UTF-8)".into(),
         fix: "name the directory itself, e.g. out/bake",
     })?;
+    let lock = DirectoryLock::acquire(dir)?;
     swap.prepare()?;
     if dir.exists() && !is_bake_or_empty(dir) {
         return Err(BakeError::NotABake {
             dir: dir.to_owned(),
         });
     }
-    Ok(swap)
+    Ok((swap, lock))
 }
 
 /// Whether a directory may be replaced: it holds a manifest, or nothing at all.

@@ -16,7 +16,9 @@
 //!   and options; other options or another scene start afresh.
 //! - **Shards** bake a subset of samples; **merge** joins shards of the same scene and options.
 //! - **Commit** writes the manifest (every complete sample) and swaps the staging directory in
-//!   for the old bake in one rename ([`DirectorySwap`]).
+//!   for the old bake in one atomic exchange ([`DirectorySwap`]). The writer holds the bake's
+//!   lock `.NAME.lock` from opening the staging directory to the commit
+//!   ([`crate::atomic::lock::DirectoryLock`]).
 //! - Maps are the layered bake's cube-map EXRs ([`crate::layers::bake::exr`]): premultiplied RGBA
 //!   f32, every mip level stored, lossless.
 
@@ -29,7 +31,7 @@ use serde::{Deserialize, Serialize};
 
 use super::maps::{GlossyMaps, GlossyObject, MapLobe, RadianceMapOptions, glossy_objects};
 use super::views::GlossyViews;
-use crate::atomic::{self, DirectorySwap, WhenSwapFails};
+use crate::atomic::{self, DirectorySwap, WhenSwapFails, lock::DirectoryLock};
 use crate::gpu::DeviceId;
 use crate::identity::{Encoder, IDENTITY_VERSION};
 use crate::layers::bake::error::io_error;
@@ -169,6 +171,8 @@ pub struct RadianceStaging {
     swap: DirectorySwap,
     path: PathBuf,
     identity: RadianceIdentity,
+    /// Held from opening to the commit: one baker per directory.
+    _lock: DirectoryLock,
 }
 
 impl RadianceStaging {
@@ -188,6 +192,7 @@ impl RadianceStaging {
                 "name the directory itself, e.g. out/radiance",
             )
         })?;
+        let lock = DirectoryLock::acquire(dir)?;
         swap.prepare()?;
         let is_ours = dir.join(RADIANCE_MANIFEST).is_file()
             || fs::read_dir(dir).is_ok_and(|mut entries| entries.next().is_none());
@@ -211,10 +216,12 @@ impl RadianceStaging {
         let json = serde_json::to_vec_pretty(&identity).expect("plain data serializes");
         atomic::write_atomically(&identity_path, &json)
             .map_err(io_error(&identity_path, "write"))?;
+        crate::layers::bake::staging::remove_temporaries(&path)?;
         let staging = RadianceStaging {
             swap,
             path,
             identity,
+            _lock: lock,
         };
         if resume
             && let Ok(old) = read_manifest(dir)
@@ -223,6 +230,12 @@ impl RadianceStaging {
             staging.take_in(dir, &old)?;
         }
         Ok(staging)
+    }
+
+    /// The staging directory that keeps bake directory `dir`'s finished samples until the bake
+    /// is complete: `.NAME.radiance-baking` beside it.
+    pub fn path_of(dir: &Path) -> Option<PathBuf> {
+        Some(DirectorySwap::new(dir)?.beside(STAGING_SUFFIX))
     }
 
     /// Stages every complete sample of the bake `manifest` at `dir` describes (files copied
@@ -432,7 +445,16 @@ pub fn read_manifest(dir: &Path) -> Result<RadianceManifest, BakeError> {
 
 /// The maps of every glossy object of `scene` from the bake at `dir`, which must have been made
 /// from this scene and hold every view sample; with the manifest and the view samples.
+/// A bake replaced while it is read is read again ([`atomic::read_consistently`]).
 pub fn read_maps(
+    dir: &Path,
+    scene: &Scene,
+) -> Result<(RadianceManifest, GlossyViews, Vec<GlossyMaps>), BakeError> {
+    atomic::read_consistently(dir, || read_maps_once(dir, scene))
+}
+
+/// [`read_maps`] without the check for a concurrent replacement.
+fn read_maps_once(
     dir: &Path,
     scene: &Scene,
 ) -> Result<(RadianceManifest, GlossyViews, Vec<GlossyMaps>), BakeError> {

@@ -222,6 +222,9 @@ pub enum BakeError {
         /// The α found.
         value: f32,
     },
+    /// Another writer holds the bake directory's lock, or the lock could not be taken.
+    #[error(transparent)]
+    Lock(#[from] crate::atomic::lock::LockError),
 }
 
 impl From<StepError> for BakeError {

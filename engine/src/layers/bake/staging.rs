@@ -9,7 +9,7 @@ use super::compress::{MapReader, uncompressed_name};
 use super::error::{BakeError, io_error};
 use super::exr::{check_cube_map, encode_cube_map_exr};
 use super::manifest::{MANIFEST_FILE_NAME, Manifest};
-use crate::atomic::{self, DirectorySwap, WhenSwapFails};
+use crate::atomic::{self, DirectorySwap, WhenSwapFails, lock::DirectoryLock};
 use crate::cubemap::CubeMap;
 
 /// The suffix of a staging directory's name: `.NAME.baking` beside bake directory `NAME`.
@@ -24,19 +24,34 @@ pub(super) const STAGING_SUFFIX: &str = ".baking";
 pub struct Staging {
     swap: DirectorySwap,
     path: PathBuf,
+    /// Held from opening to the commit (or until dropped): one baker per directory.
+    _lock: DirectoryLock,
 }
 
 impl Staging {
     /// The staging directory of bake directory `dir`, created (with `dir`'s parents) when absent
-    /// and kept when present, for resuming. A swap an earlier write left half done is finished
-    /// first; an existing `dir` that is not a bake is refused.
+    /// and kept when present, for resuming. The directory's lock is taken first (a bake another
+    /// process is writing is refused, naming it), then a swap an earlier write left half done is
+    /// finished; an existing `dir` that is not a bake is refused. Temporaries a killed writer
+    /// left in staging are removed.
     pub fn open(dir: &Path) -> Result<Staging, BakeError> {
-        let swap = super::prepare_destination(dir)?;
+        let (swap, lock) = super::prepare_destination(dir)?;
         let path = swap.beside(STAGING_SUFFIX);
         if !path.is_dir() {
             fs::create_dir(&path).map_err(io_error(&path, "create"))?;
         }
-        Ok(Staging { swap, path })
+        remove_temporaries(&path)?;
+        Ok(Staging {
+            swap,
+            path,
+            _lock: lock,
+        })
+    }
+
+    /// The staging directory `lensmap bake` keeps bake directory `dir`'s finished samples in
+    /// until the bake is complete: `.NAME.baking` beside it.
+    pub fn path_of(dir: &Path) -> Option<PathBuf> {
+        Some(DirectorySwap::new(dir)?.beside(STAGING_SUFFIX))
     }
 
     /// Empties the staging directory (a fresh start: nothing of an earlier bake is reused).
@@ -138,4 +153,22 @@ impl Staging {
         }
         atomic::sync_directory(dir).map_err(io_error(dir, "fsync"))
     }
+}
+
+/// Removes the temporaries of atomic writes (`.NAME.PID.tmp`) that a killed writer left in
+/// staging directory `dir`: the lock is held, so none belongs to a live writer.
+pub(crate) fn remove_temporaries(dir: &Path) -> Result<(), BakeError> {
+    let entries = fs::read_dir(dir).map_err(io_error(dir, "list"))?;
+    for entry in entries {
+        let entry = entry.map_err(io_error(dir, "list"))?;
+        let name = entry.file_name();
+        if name
+            .to_str()
+            .is_some_and(|n| n.ends_with(".tmp") && atomic::stands_for(n).is_some())
+        {
+            let path = entry.path();
+            fs::remove_file(&path).map_err(io_error(&path, "remove"))?;
+        }
+    }
+    Ok(())
 }

@@ -130,13 +130,16 @@ cleanup() {
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-# A free TCP port other than $1: one that nothing listens on (/proc/net/tcp{,6} list them in hex).
+# A free TCP port other than $1: one that nothing listens on (/proc/net/tcp{,6}: the local
+# address's port in hex after its last colon, state 0A is LISTEN).
 free_port() {
     local port
     while :; do
         port=$((20000 + RANDOM % 30000))
         [ "$port" = "${1:-}" ] && continue
-        if ! grep -qi ":$(printf '%04X' "$port") 00000000:0000 0A" /proc/net/tcp /proc/net/tcp6 2>/dev/null; then
+        if ! awk -v port="$(printf '%04X' "$port")" '
+                $4 == "0A" && toupper(substr($2, length($2) - 3)) == port { found = 1 }
+                END { exit !found }' /proc/net/tcp /proc/net/tcp6 2>/dev/null; then
             echo "$port"
             return
         fi
@@ -147,7 +150,7 @@ free_port() {
 mungekey --create --keyfile="$root/munge/munge.key"
 munged --foreground --key-file="$root/munge/munge.key" --socket="$root/munge/munge.socket" \
     --pid-file="$root/munge/munged.pid" --log-file="$root/log/munged.log" \
-    --seed-file="$root/munge/munged.seed" >>"$root/log/munged.log" 2>&1 &
+    --seed-file="$root/munge/munged.seed" >"$root/log/munged.out" 2>&1 &
 daemons+=($!)
 for _ in $(seq 1 40); do [ -S "$root/munge/munge.socket" ] && break; sleep 0.25; done
 munge -S "$root/munge/munge.socket" -n | unmunge -S "$root/munge/munge.socket" >/dev/null ||

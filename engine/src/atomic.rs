@@ -238,8 +238,18 @@ impl DirectorySwap {
     /// the parent folder. When the exchange or a rename fails, the old directory stays (or is put
     /// back) and `built` is removed or kept as `when_fails` says.
     pub fn swap_in(&self, built: &Path, when_fails: WhenSwapFails) -> Result<(), StepError> {
+        self.swap_in_by(built, when_fails, SwapMethod::Exchange)
+    }
+
+    /// [`DirectorySwap::swap_in`] by `method` (tests force the fallback of two renames).
+    fn swap_in_by(
+        &self,
+        built: &Path,
+        when_fails: WhenSwapFails,
+        method: SwapMethod,
+    ) -> Result<(), StepError> {
         let had_old = self.target.exists();
-        if had_old {
+        if had_old && method == SwapMethod::Exchange {
             match exchange(built, &self.target) {
                 Ok(()) => {
                     sync_directory(&self.parent).map_err(StepError::of(&self.parent, "fsync"))?;
@@ -251,13 +261,16 @@ impl DirectorySwap {
                     if when_fails == WhenSwapFails::Remove {
                         let _ = fs::remove_dir_all(built);
                     }
-                    return Err(StepError::of(&self.target, "exchange the staging directory with")(
-                        error,
-                    ));
+                    return Err(StepError::of(
+                        &self.target,
+                        "exchange the staging directory with",
+                    )(error));
                 }
                 // A file system without the exchange: two renames, below.
                 Err(_) => {}
             }
+        }
+        if had_old {
             fs::rename(&self.target, &self.previous)
                 .map_err(StepError::of(&self.target, "move aside"))?;
         }
@@ -280,6 +293,16 @@ impl DirectorySwap {
         }
         Ok(())
     }
+}
+
+/// How [`DirectorySwap::swap_in_by`] swaps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum SwapMethod {
+    /// One atomic exchange where the file system has it, else two renames.
+    Exchange,
+    /// Two renames.
+    #[cfg_attr(not(test), allow(dead_code))]
+    Renames,
 }
 
 /// Exchanges two existing paths in one step (Linux `renameat2` with `RENAME_EXCHANGE`): a reader
@@ -321,7 +344,7 @@ fn version_of(dir: &Path) -> Option<(u64, u64, i64, i64)> {
 
 /// How many times [`read_consistently`] reads a directory that keeps being replaced before it
 /// gives the last read's result.
-pub const CONSISTENT_READ_ATTEMPTS: usize = 50;
+pub const CONSISTENT_READ_ATTEMPTS: usize = 20;
 
 /// Runs `read` (which reads files of directory `dir` one by one) until it ran while `dir` stayed
 /// one version: the same directory before and after, no [`DirectorySwap`] in between. So a
@@ -345,7 +368,7 @@ pub fn read_consistently<T, E>(dir: &Path, mut read: impl FnMut() -> Result<T, E
         }
         attempt += 1;
         // A swap is a few system calls: the next read almost always sees one version.
-        std::thread::sleep(Duration::from_millis(2 * attempt as u64));
+        std::thread::sleep(Duration::from_millis(attempt as u64));
     }
 }
 
@@ -426,6 +449,56 @@ mod tests {
         assert_eq!(fs::read(target.join("f")).unwrap(), b"two");
         assert!(DirectorySwap::new(Path::new("/")).is_none());
         fs::remove_dir_all(&root).unwrap();
+    }
+
+    /// A reader of a directory's two files in a loop while a writer swaps versions in, by the
+    /// atomic exchange and by the fallback of two renames: every read sees both files of one
+    /// version, and never a missing directory.
+    #[test]
+    fn a_reader_sees_one_version_whole_during_swaps_by_either_method() {
+        for method in [SwapMethod::Exchange, SwapMethod::Renames] {
+            let root =
+                std::env::temp_dir().join(format!("lensmap-versions-{}", std::process::id()));
+            let _ = fs::remove_dir_all(&root);
+            let target = root.join("d");
+            let swap = DirectorySwap::new(&target).unwrap();
+            swap.prepare().unwrap();
+            let write_version = |version: u32| {
+                let built = swap.beside(".building");
+                fs::create_dir_all(&built).unwrap();
+                for name in ["a", "b"] {
+                    write_synced(&built.join(name), &version.to_le_bytes()).unwrap();
+                }
+                swap.swap_in_by(&built, WhenSwapFails::Remove, method)
+                    .unwrap();
+            };
+            write_version(0);
+            let done = std::sync::atomic::AtomicBool::new(false);
+            let reads = std::thread::scope(|scope| {
+                scope.spawn(|| {
+                    for version in 1..=300 {
+                        write_version(version);
+                    }
+                    done.store(true, std::sync::atomic::Ordering::Release);
+                });
+                let mut reads = 0;
+                while !done.load(std::sync::atomic::Ordering::Acquire) {
+                    let (a, b) = read_consistently(&target, || {
+                        Ok::<_, std::io::Error>((
+                            fs::read(target.join("a"))?,
+                            fs::read(target.join("b"))?,
+                        ))
+                    })
+                    .unwrap_or_else(|e| panic!("{method:?}, read {reads}: {e}"));
+                    assert_eq!(a, b, "{method:?}: read {reads} mixes two versions");
+                    reads += 1;
+                }
+                reads
+            });
+            assert!(reads > 0);
+            assert_eq!(fs::read_dir(&root).unwrap().count(), 1, "{method:?}");
+            fs::remove_dir_all(&root).unwrap();
+        }
     }
 
     #[test]

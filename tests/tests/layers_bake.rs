@@ -392,6 +392,67 @@ mod layers_bake {
         assert_eq!(siblings(&dir), ["bake"]);
     }
 
+    /// A reader in a loop while a writer replaces the bake again and again: every read is the
+    /// old bake or the new one, whole (never maps of both: the two bakes have the same file
+    /// names and different texels), and never "not found". A second writer meanwhile is refused,
+    /// naming the first.
+    #[test]
+    fn a_reader_during_replaces_sees_one_bake_whole() {
+        let dir = fresh("reader-during-replaces");
+        let bakes = [sample_bake(21, 4), sample_bake(22, 4)];
+        let texels = bakes.each_ref().map(bits);
+        assert_ne!(texels[0], texels[1]);
+        bakes[0].write(&dir).unwrap();
+        let replaces = 150;
+        let done = std::sync::atomic::AtomicBool::new(false);
+        let (reads, seen) = std::thread::scope(|scope| {
+            scope.spawn(|| {
+                for i in 0..replaces {
+                    bakes[(i + 1) % 2].write(&dir).unwrap();
+                }
+                done.store(true, std::sync::atomic::Ordering::Release);
+            });
+            let (mut reads, mut seen) = (0, [0usize; 2]);
+            while !done.load(std::sync::atomic::Ordering::Acquire) {
+                let read = Bake::read(&dir).unwrap_or_else(|e| panic!("read {reads}: {e}"));
+                let which = texels
+                    .iter()
+                    .position(|t| *t == bits(&read))
+                    .unwrap_or_else(|| panic!("read {reads} mixes the two bakes"));
+                assert!(read == bakes[which]);
+                seen[which] += 1;
+                reads += 1;
+            }
+            (reads, seen)
+        });
+        eprintln!("{reads} reads during {replaces} replaces: {seen:?} of each bake");
+        assert!(seen[0] > 0 && seen[1] > 0, "both bakes read: {seen:?}");
+        assert_eq!(siblings(&dir), ["bake"]);
+    }
+
+    #[test]
+    fn a_second_writer_is_refused_while_the_first_holds_the_lock() {
+        let dir = fresh("two-writers");
+        sample_bake(23, 2).write(&dir).unwrap();
+        let held = lensmap::atomic::lock::DirectoryLock::acquire(&dir).unwrap();
+        let error = sample_bake(24, 2)
+            .write(&dir)
+            .expect_err("the lock is held");
+        let message = error.to_string();
+        assert!(matches!(error, BakeError::Lock(_)), "{message}");
+        assert!(
+            message.contains(&format!("pid {}", std::process::id()))
+                && message.contains(".bake.lock")
+                && !message.contains('\n'),
+            "{message}"
+        );
+        assert_same_bake(&Bake::read(&dir).unwrap(), &sample_bake(23, 2));
+        drop(held);
+        sample_bake(24, 2).write(&dir).unwrap();
+        assert_same_bake(&Bake::read(&dir).unwrap(), &sample_bake(24, 2));
+        assert_eq!(siblings(&dir), ["bake"]);
+    }
+
     #[test]
     fn an_interrupted_swap_is_reported_and_the_next_write_recovers() {
         let dir = fresh("interrupted");

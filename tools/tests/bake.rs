@@ -1,6 +1,7 @@
 //! `lensmap bake` as a user runs it, on a tiny glass-sphere bake (validation layer on): shards
 //! merged and a killed-then-resumed bake give the same bytes as one uninterrupted bake, the
-//! previous bake survives a kill, and bad input exits 2 with one line naming the fix.
+//! previous bake survives a kill, a second bake into one directory is refused, SIGTERM stops a
+//! bake at once keeping its finished samples, and bad input exits 2 with one line naming the fix.
 
 mod common;
 use common::{lensmap, lensmap_command};
@@ -138,28 +139,7 @@ fn shards_and_a_killed_resumed_bake_equal_one_uninterrupted_bake() {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let staging = root.join(".killed.baking");
-    let start = Instant::now();
-    loop {
-        let staged = std::fs::read_dir(&staging).map_or(0, |entries| {
-            entries
-                .filter_map(Result::ok)
-                .filter(|e| e.file_name().to_string_lossy().starts_with("sample-"))
-                .count()
-        });
-        if staged >= 1 {
-            break;
-        }
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "the bake finished before it could be killed"
-        );
-        assert!(
-            start.elapsed() < Duration::from_secs(300),
-            "no sample staged"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_for_staged(&mut child, &root.join(".killed.baking"), 1);
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
     assert_eq!(files(&dir), previous, "the previous bake is untouched");
@@ -185,6 +165,111 @@ fn shards_and_a_killed_resumed_bake_equal_one_uninterrupted_bake() {
             }
         }
     }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Waits until `staging` holds at least `count` sample reports (a sample's report is written
+/// last), while `child` runs.
+fn wait_for_staged(child: &mut std::process::Child, staging: &Path, count: usize) {
+    let start = Instant::now();
+    loop {
+        let staged = std::fs::read_dir(staging).map_or(0, |entries| {
+            entries
+                .filter_map(Result::ok)
+                .filter(|e| e.file_name().to_string_lossy().starts_with("sample-"))
+                .count()
+        });
+        if staged >= count {
+            return;
+        }
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the bake finished before {count} sample(s) were staged"
+        );
+        assert!(
+            start.elapsed() < Duration::from_secs(300),
+            "no sample staged"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// Two bakes into one directory: the second is refused at once, naming the lock and the first's
+/// pid. SIGTERM stops the first within seconds with exit code 143, keeping its finished sample,
+/// releasing the lock and saying how to resume; `--resume` then gives an uninterrupted bake's
+/// bytes.
+#[test]
+fn a_second_bake_is_refused_and_sigterm_keeps_the_finished_samples() {
+    let root = temp_dir("sigterm");
+    let whole = root.join("whole");
+    succeeded(&bake("glass-sphere", "0..4", &whole, &[]));
+    let dir = root.join("bake");
+    let out = dir.to_str().unwrap();
+    let mut args = vec![
+        "bake",
+        "--scene",
+        "glass-sphere",
+        "--samples",
+        "0..4",
+        "--out",
+        out,
+    ];
+    args.extend_from_slice(&TINY[..TINY.len() - 1]); // not --json: the human line
+    let mut first = lensmap_command(&args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let staging = root.join(".bake.baking");
+    wait_for_staged(&mut first, &staging, 1);
+
+    // The second writer: refused at once with one line naming the lock and its holder.
+    let second = bake("glass-sphere", "0..4", &dir, &[]);
+    fails_with_2(&second, &format!("pid {}", first.id()));
+    fails_with_2(&second, ".bake.lock");
+    assert!(
+        first.try_wait().unwrap().is_none(),
+        "the first bake goes on"
+    );
+
+    let sent = Instant::now();
+    let kill = std::process::Command::new("kill")
+        .args(["-TERM", &first.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = first.wait().unwrap();
+    let stopped_in = sent.elapsed();
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(first.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    eprintln!("SIGTERM to exit: {:.1} ms", stopped_in.as_secs_f64() * 1e3);
+    assert_eq!(status.code(), Some(143), "{stderr}");
+    assert!(
+        stopped_in < Duration::from_secs(5),
+        "stopped in {stopped_in:?}"
+    );
+    let said = stderr.trim().lines().last().unwrap_or_default();
+    assert!(
+        said.contains("interrupted by SIGTERM")
+            && said.contains("finished sample(s) kept")
+            && said.contains("--resume"),
+        "{stderr}"
+    );
+    assert!(!dir.exists(), "nothing swapped in for an unfinished bake");
+    assert!(!root.join(".bake.lock").exists(), "the lock is released");
+    assert!(staging.join("sample-000.json").is_file());
+
+    // Resumed: the finished sample kept, the rest baked, the bytes of one bake.
+    let resumed = bake("glass-sphere", "0..4", &dir, &["--resume"]);
+    succeeded(&resumed);
+    let json: serde_json::Value = serde_json::from_slice(&resumed.stdout).unwrap();
+    assert!(
+        json["summary"]["resumed"]
+            .as_array()
+            .is_some_and(|r| r.contains(&0.into())),
+        "{json}"
+    );
+    same_bytes(&dir, &whole);
     let _ = std::fs::remove_dir_all(&root);
 }
 

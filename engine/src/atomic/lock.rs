@@ -342,7 +342,9 @@ mod tests {
         fs::write(&path, serde_json::to_string(&elsewhere).unwrap()).unwrap();
         let error = DirectoryLock::acquire(&dir).unwrap_err();
         assert!(
-            error.to_string().contains("stale 60 s after its last heartbeat"),
+            error
+                .to_string()
+                .contains("stale 60 s after its last heartbeat"),
             "{error}"
         );
         // Its heartbeat stopped longer ago than STALE_AFTER: taken over.

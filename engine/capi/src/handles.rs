@@ -26,6 +26,17 @@ pub struct LensmapContext {
     pub(crate) on_host: bool,
 }
 
+impl LensmapContext {
+    /// The device memory lensmap's allocator holds on this context's device
+    /// ([`lensmap::gpu::Gpu::device_memory`]), or `None` while a call on another thread is
+    /// inside the context. For Rust code linking this crate (the soak test samples it between
+    /// frames); not part of `lensmap.h`.
+    pub fn device_memory(&self) -> Option<lensmap::gpu::DeviceMemory> {
+        let runner = self.runner.try_lock().ok()?;
+        Some(runner.gpu().device_memory())
+    }
+}
+
 /// A scene with its layered EMs and light maps, ready to render.
 pub struct LensmapScene {
     /// Boxed, so that the handle's tombstone is small (see the module documentation).

@@ -67,6 +67,23 @@ pub struct ValidationReport {
     pub messages: Vec<String>,
 }
 
+/// The device memory lensmap holds through its allocator, which makes every buffer and image
+/// lensmap creates ([`Gpu::device_memory`]): what a long-running host watches for growth. It
+/// does not count what the driver keeps for itself (pipelines, descriptor pools, command
+/// buffers), which a CPU driver such as lavapipe keeps in the process's resident memory.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DeviceMemory {
+    /// Bytes of the live buffers' and images' allocations (their memory requirements' sizes).
+    pub allocated_bytes: u64,
+    /// Bytes of the device memory blocks the allocator holds from the driver
+    /// (`vkAllocateMemory`), at least `allocated_bytes`: what the device has given lensmap.
+    pub reserved_bytes: u64,
+    /// Live allocations.
+    pub allocations: u64,
+    /// Device memory blocks held.
+    pub blocks: u64,
+}
+
 /// Everything that must outlive every resource: resources hold an `Arc` of it, so the device and
 /// instance are destroyed only after the last buffer and image.
 pub(crate) struct Shared {
@@ -654,6 +671,26 @@ impl Gpu {
     /// The logical device, for `render/`.
     pub fn device(&self) -> &ash::Device {
         &self.shared.device
+    }
+
+    /// The device memory held through lensmap's allocator now ([`DeviceMemory`]): its totals,
+    /// summed from gpu-allocator's report under the allocator's lock (microseconds; every
+    /// allocation is listed, so not for a per-draw loop).
+    pub fn device_memory(&self) -> DeviceMemory {
+        // A panic while the lock was held leaves the allocator's bookkeeping readable: only
+        // totals are read here, nothing is changed.
+        let allocator = self
+            .shared
+            .allocator
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        let report = allocator.generate_report();
+        DeviceMemory {
+            allocated_bytes: report.total_allocated_bytes,
+            reserved_bytes: report.total_capacity_bytes,
+            allocations: report.allocations.len() as u64,
+            blocks: report.blocks.len() as u64,
+        }
     }
 
     /// The validation messages counted so far.

@@ -10,8 +10,8 @@ pub(crate) mod resources;
 
 pub use ash::vk;
 pub use context::{
-    DeviceChoice, DeviceId, Gpu, GpuOptions, HostDevice, HostFeatures, Timeline, ValidationReport,
-    VulkanHandles,
+    DeviceChoice, DeviceId, DeviceMemory, Gpu, GpuOptions, HostDevice, HostFeatures, Timeline,
+    ValidationReport, VulkanHandles,
 };
 pub use pipeline::{GraphicsPipelineDesc, VertexInput};
 pub use resources::{Buffer, BufferUsage, Image, ImageDesc, format_bytes};

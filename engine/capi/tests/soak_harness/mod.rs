@@ -1,0 +1,715 @@
+//! The soak through the C ABI, shared by the short soak that `cargo test` runs
+//! (`tests/soak.rs`) and the full one (`examples/soak.rs`, run by `tools/scripts/soak.sh`).
+//!
+//! Two phases, both through the exported `extern "C"` functions, validation on:
+//! - **frames**: one context renders frame after frame with a moving camera, alternating scenes,
+//!   compositor variant, blending scheme, framebuffer format, size, supersampling, viewpoint
+//!   blending, Fresnel model and tracer (a repeated camera now and then, which the scene's frame
+//!   cache reuses). Every `sample_every` frames the process's resident memory (`VmRSS`), the
+//!   device memory lensmap's allocator holds and the validation messages are sampled.
+//! - **cycles**: `lensmap_context_new`, `lensmap_scene_load`, one frame, `lensmap_scene_free`,
+//!   `lensmap_context_free`, over and over, the resident memory sampled between cycles.
+//!
+//! [`FramesReport::failures`] and [`CyclesReport::failures`] hold the figures against the
+//! plan's [`Bounds`]; the bounds and why they are what they are live with the plans
+//! ([`Plan::full`], [`Plan::short`]).
+
+use std::ffi::{CStr, c_char};
+use std::ptr::{null, null_mut};
+use std::time::Instant;
+
+use lensmap::gpu::DeviceMemory;
+use lensmap_capi::*;
+
+const MIB: f64 = 1024.0 * 1024.0;
+
+/// The built-in scenes the soak alternates (both small; two, so that the renderer's upload
+/// cache, which keeps the last two frames' meshes and maps, sees each scene's again).
+pub const SCENES: [&CStr; 2] = [c"glass-sphere", c"mirror-teapot"];
+
+/// The frame sizes alternated, pixels.
+pub const SIZES: [(u32, u32); 2] = [(64, 48), (96, 72)];
+
+/// How far memory may grow past its level once warm before the soak fails, bytes.
+#[derive(Clone, Copy, Debug)]
+pub struct Bounds {
+    /// Resident memory in the frames phase, from the sample at `warm_frames` to any later one
+    /// (plus `validation_layer_per_frame` for each frame in between when validation is on).
+    pub frames_rss_growth: u64,
+    /// What the Khronos validation layer may add to resident memory per frame, bytes: its state
+    /// grows with every frame lensmap submits (measured on layer 1.3.239: 7 KB a frame with
+    /// validation on against 0.6 KB without, over the same frames), which is not lensmap's.
+    pub validation_layer_per_frame: u64,
+    /// Device memory held through the allocator (its reserved blocks), from the sample at
+    /// `warm_frames` to any later one.
+    pub frames_device_growth: u64,
+    /// Resident memory in the cycles phase, from the sample at `warm_cycles` to any later one.
+    pub cycles_rss_growth: u64,
+}
+
+/// What to run and what to hold it to.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    /// Frames rendered through one context.
+    pub frames: u32,
+    /// Frames between samples of memory and validation messages.
+    pub sample_every: u32,
+    /// The sample whose memory is the baseline: by then every option combination of the
+    /// schedule has been rendered (its pipelines, targets and buffers made).
+    pub warm_frames: u32,
+    /// The frames at each end whose median frame times are compared (the drift).
+    pub drift_window: u32,
+    /// Context and scene cycles.
+    pub cycles: u32,
+    /// Cycles between samples of resident memory.
+    pub cycle_sample_every: u32,
+    /// The cycle sample whose resident memory is the baseline of the cycles.
+    pub warm_cycles: u32,
+    /// Face size of the projected layered EMs, texels.
+    pub em_size: u32,
+    /// Contexts with the Khronos validation layer on (its messages counted and held to zero);
+    /// off only to tell the layer's own memory from lensmap's and the driver's.
+    pub validation: bool,
+    /// The limits on growth.
+    pub bounds: Bounds,
+}
+
+impl Plan {
+    /// The full soak: 10,000 frames, 200 cycles (`tools/scripts/soak.sh`).
+    ///
+    /// The bounds. Resident memory may move without a leak: the allocator's free lists and
+    /// arenas hold what transient allocations left (the largest are a frame's subpixel image
+    /// read back, 192 × 144 × 16 B = 432 KiB, its box-filtered copy and the lens meshes' CPU
+    /// buffers; two threads' arenas may each keep a few); the frame cache holds one frame per
+    /// scene whose size varies with the camera. 8 MiB covers a dozen such buffers held at once.
+    /// A leak below the bound is still caught in the full run's figures: 8 MiB over the 9,500
+    /// frames after the baseline is 883 B a frame, less than one leaked Vulkan object per frame
+    /// on lavapipe (an image view, a descriptor pool or a pipeline each hold more) and less than
+    /// any of the frame's own buffers.
+    ///
+    /// Device memory: every buffer and image is either reused or cached per format, size and
+    /// scene, so after the warm-up the allocator holds the same blocks; lens buffers grow only
+    /// when a camera needs more vertices than any before. One allocator block (gpu-allocator's
+    /// default, 256 MiB device-local, 64 MiB host-visible) would be a real step, so the bound
+    /// is 1 MiB: the largest lens buffer of these frames grown once more.
+    ///
+    /// Cycles: each makes and drops an instance, a device, the validation layer's state, the
+    /// pipelines and a scene. What may stay is the handle registry's tombstone per handle
+    /// (16 B and a map entry: 2 × 200 × under 64 B = 25 KiB) and the allocator's arenas; 8 MiB
+    /// over 190 cycles is 43 KiB a cycle, less than one leaked device or scene.
+    pub fn full() -> Plan {
+        Plan {
+            frames: 10_000,
+            sample_every: 500,
+            warm_frames: 500,
+            drift_window: 1_000,
+            cycles: 200,
+            cycle_sample_every: 10,
+            warm_cycles: 10,
+            em_size: 8,
+            validation: true,
+            bounds: Bounds {
+                frames_rss_growth: 8 << 20,
+                validation_layer_per_frame: 16 << 10,
+                frames_device_growth: 1 << 20,
+                cycles_rss_growth: 8 << 20,
+            },
+        }
+    }
+
+    /// The short soak `cargo test` runs: 300 frames, 4 cycles, the same schedule and checks.
+    ///
+    /// The baseline is frame 150: lavapipe's device memory is the process's memory, and its
+    /// pages become resident as frames first use them (measured without validation: 509 MiB at
+    /// frame 100, 514 MiB at frame 150, then within 4 MiB to frame 1,000). The bounds are the
+    /// full soak's: what memory may hold without a leak does not shrink with fewer frames. Its
+    /// reach does: over the 150 frames after the baseline, 8 MiB plus the validation layer's
+    /// 16 KiB a frame catches a leak of 70 KiB a frame (a leaked framebuffer target, readback
+    /// buffer or frame image of these sizes), and the device memory bound any leaked target or
+    /// map block at once. The cycles (4, baseline at 2) check validation and that a context's
+    /// device memory is the same every time; their resident bound reaches only a leak of 4 MiB
+    /// a cycle (a whole leaked device or scene), the full soak's 200 cycles the rest.
+    pub fn short() -> Plan {
+        Plan {
+            frames: 300,
+            sample_every: 50,
+            warm_frames: 150,
+            drift_window: 100,
+            cycles: 4,
+            cycle_sample_every: 2,
+            warm_cycles: 2,
+            ..Plan::full()
+        }
+    }
+}
+
+/// The process's resident memory now (`VmRSS` of `/proc/self/status`), bytes.
+pub fn resident_bytes() -> Result<u64, String> {
+    let status = std::fs::read_to_string("/proc/self/status")
+        .map_err(|e| format!("/proc/self/status: {e}"))?;
+    status
+        .lines()
+        .find_map(|line| line.strip_prefix("VmRSS:"))
+        .and_then(|value| value.trim().strip_suffix("kB"))
+        .and_then(|kib| kib.trim().parse::<u64>().ok())
+        .map(|kib| kib * 1024)
+        .ok_or_else(|| "/proc/self/status: no VmRSS line in kB".to_string())
+}
+
+fn last_error() -> String {
+    // SAFETY: lensmap_last_error returns a NUL-terminated string valid until the next failure.
+    unsafe { CStr::from_ptr(lensmap_last_error()) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+/// `Ok` or the call's name, code and last error.
+fn ok(call: &str, code: LensmapResult) -> Result<(), String> {
+    if code == LensmapResult::Ok {
+        Ok(())
+    } else {
+        Err(format!("{call}: {code:?}: {}", last_error()))
+    }
+}
+
+fn new_context(validation: bool) -> Result<*mut LensmapContext, String> {
+    let options = LensmapContextOptions {
+        struct_size: size_of::<LensmapContextOptions>() as u32,
+        validation: validation.into(),
+        device_name: null(),
+    };
+    let mut context = null_mut();
+    // SAFETY: valid options and out-pointer.
+    ok("lensmap_context_new", unsafe {
+        lensmap_context_new(&options, &mut context)
+    })?;
+    Ok(context)
+}
+
+fn load_scene(name: &CStr, em_size: u32) -> Result<*mut LensmapScene, String> {
+    let options = LensmapSceneOptions {
+        struct_size: size_of::<LensmapSceneOptions>() as u32,
+        scene: name.as_ptr() as *const c_char,
+        bake_dir: null(),
+        em_size,
+        accept_any_bake: 0,
+        light_map_max_texels: 0,
+        radiance_dir: null(),
+    };
+    let mut scene = null_mut();
+    // SAFETY: valid options (NUL-terminated strings) and out-pointer.
+    ok("lensmap_scene_load", unsafe {
+        lensmap_scene_load(&options, &mut scene)
+    })?;
+    Ok(scene)
+}
+
+/// The scene's default frame, as `lensmap_scene_frame_options` fills it.
+fn default_frame(scene: *const LensmapScene) -> Result<LensmapFrameOptions, String> {
+    let mut options = LensmapFrameOptions {
+        struct_size: size_of::<LensmapFrameOptions>() as u32,
+        position: [0.0; 3],
+        look_at: [0.0; 3],
+        up: [0.0; 3],
+        vfov_degrees: 0.0,
+        width: 0,
+        height: 0,
+        supersampling: 0,
+        t: 0.0,
+        variant: 0,
+        format: 0,
+        blend: 0,
+        viewpoint_blending: 0,
+        fresnel_texels: 0,
+        tracer: 0,
+    };
+    // SAFETY: a live scene; `options` is writable for its struct_size.
+    ok("lensmap_scene_frame_options", unsafe {
+        lensmap_scene_frame_options(scene, &mut options)
+    })?;
+    Ok(options)
+}
+
+fn validation_messages(context: *mut LensmapContext) -> Result<u64, String> {
+    let mut count = 0;
+    // SAFETY: a live context and a writable count.
+    ok("lensmap_context_validation_messages", unsafe {
+        lensmap_context_validation_messages(context, &mut count)
+    })?;
+    Ok(count)
+}
+
+fn device_memory(context: *mut LensmapContext) -> Result<DeviceMemory, String> {
+    // SAFETY: a live context this thread made and no other thread uses.
+    unsafe { &*context }
+        .device_memory()
+        .ok_or_else(|| "the context is busy".to_string())
+}
+
+/// Renders `options` into `pixels` (resized to fit), checking the result and the stats.
+fn render(
+    context: *mut LensmapContext,
+    scene: *const LensmapScene,
+    options: &LensmapFrameOptions,
+    pixels: &mut Vec<f32>,
+) -> Result<LensmapFrameStats, String> {
+    pixels.resize(4 * options.width as usize * options.height as usize, 0.0);
+    let mut stats = LensmapFrameStats {
+        struct_size: size_of::<LensmapFrameStats>() as u32,
+        ..LensmapFrameStats::default()
+    };
+    // SAFETY: live handles; `pixels` is writable for its length; `stats` writable.
+    ok("lensmap_render_to_memory", unsafe {
+        lensmap_render_to_memory(
+            context,
+            scene,
+            options,
+            pixels.as_mut_ptr(),
+            pixels.len(),
+            &mut stats,
+        )
+    })?;
+    if stats.passes == 0 || !stats.total_ms.is_finite() {
+        return Err(format!("a frame with implausible stats: {stats:?}"));
+    }
+    Ok(stats)
+}
+
+/// Frame `step` of the schedule, from its scene's default frame `base`: the camera orbits the
+/// look-at point (1.3° a frame, bobbing up and down) and the options cycle with coprime
+/// periods, so that every combination comes round within the first few hundred frames.
+pub fn frame_options(base: &LensmapFrameOptions, step: u32) -> LensmapFrameOptions {
+    let angle = (step as f32 * 1.3).to_radians();
+    let look = glam::Vec3::from(base.look_at);
+    let offset = glam::Vec3::from(base.position) - look;
+    let rotated = glam::Quat::from_rotation_y(angle) * offset;
+    let bob = glam::Vec3::Y * offset.length() * 0.15 * (step as f32 * 0.05).sin();
+    let multipass = step % 2 == 1;
+    let (width, height) = SIZES[(step / 4) as usize % SIZES.len()];
+    LensmapFrameOptions {
+        position: (look + rotated + bob).to_array(),
+        width,
+        height,
+        supersampling: 1 + (step / 8) % 2,
+        t: 3.0,
+        variant: if multipass {
+            LENSMAP_VARIANT_MULTIPASS
+        } else {
+            LENSMAP_VARIANT_SINGLE_PASS
+        },
+        blend: if multipass {
+            (step / 2) % 4
+        } else {
+            LENSMAP_BLEND_FRONT_TO_BACK
+        },
+        format: (step / 3) % 3,
+        viewpoint_blending: (step / 16) % 3,
+        fresnel_texels: if (step / 32) % 2 == 1 { 64 } else { 0 },
+        tracer: if step % 7 == 3 {
+            LENSMAP_TRACER_GPU
+        } else {
+            LENSMAP_TRACER_CPU
+        },
+        ..*base
+    }
+}
+
+/// One sample of the frames phase.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    /// Frames rendered before it.
+    pub frame: u32,
+    /// Resident memory, bytes.
+    pub rss: u64,
+    /// Device memory held through lensmap's allocator.
+    pub device: DeviceMemory,
+    /// Validation messages the context has seen.
+    pub validation: u64,
+}
+
+/// What the frames phase measured.
+#[derive(Clone, Debug)]
+pub struct FramesReport {
+    /// The plan it ran.
+    pub plan: Plan,
+    /// Samples at frame 0 and every `sample_every` frames.
+    pub samples: Vec<Sample>,
+    /// Each frame's time as the host sees it (the `lensmap_render_to_memory` call), ms.
+    pub frame_ms: Vec<f64>,
+    /// Frames the scene's frame cache reused (a repeated camera).
+    pub reused: u32,
+    /// Frames traced on the device.
+    pub traced_on_gpu: u32,
+}
+
+/// Runs the frames phase of `plan`.
+pub fn run_frames(plan: &Plan) -> Result<FramesReport, String> {
+    let context = new_context(plan.validation)?;
+    let scenes = SCENES
+        .iter()
+        .map(|name| load_scene(name, plan.em_size))
+        .collect::<Result<Vec<_>, _>>()?;
+    let bases = scenes
+        .iter()
+        .map(|&scene| default_frame(scene))
+        .collect::<Result<Vec<_>, _>>()?;
+    let sample = |frame| -> Result<Sample, String> {
+        Ok(Sample {
+            frame,
+            rss: resident_bytes()?,
+            device: device_memory(context)?,
+            validation: validation_messages(context)?,
+        })
+    };
+    let mut report = FramesReport {
+        plan: *plan,
+        samples: vec![sample(0)?],
+        frame_ms: Vec::with_capacity(plan.frames as usize),
+        reused: 0,
+        traced_on_gpu: 0,
+    };
+    let mut pixels = Vec::new();
+    for frame in 0..plan.frames {
+        // Every 25th frame repeats the one before: a still camera.
+        let step = if frame % 25 == 24 { frame - 1 } else { frame };
+        let which = (step / 5) as usize % scenes.len();
+        let options = frame_options(&bases[which], step);
+        let start = Instant::now();
+        let stats = render(context, scenes[which], &options, &mut pixels)
+            .map_err(|e| format!("frame {frame} ({options:?}): {e}"))?;
+        report.frame_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        report.reused += stats.reused;
+        report.traced_on_gpu += stats.traced_on_gpu;
+        if (frame + 1) % plan.sample_every == 0 {
+            report.samples.push(sample(frame + 1)?);
+        }
+    }
+    for scene in scenes {
+        // SAFETY: a live scene, freed once.
+        ok("lensmap_scene_free", unsafe { lensmap_scene_free(scene) })?;
+    }
+    // SAFETY: a live context, freed once.
+    ok("lensmap_context_free", unsafe {
+        lensmap_context_free(context)
+    })?;
+    Ok(report)
+}
+
+/// The median of `values` (NaN for none).
+fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    match sorted.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => sorted[n / 2],
+        n => 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]),
+    }
+}
+
+/// The least-squares slope of `y` against `x`.
+fn slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let (mx, my) = points
+        .iter()
+        .fold((0.0, 0.0), |(sx, sy), (x, y)| (sx + x / n, sy + y / n));
+    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(sxy, sxx), (x, y)| {
+        (sxy + (x - mx) * (y - my), sxx + (x - mx) * (x - mx))
+    });
+    sxy / sxx
+}
+
+/// Frame-time drift over the frames phase.
+#[derive(Clone, Copy, Debug)]
+pub struct Drift {
+    /// Median frame time of the first `drift_window` frames, ms.
+    pub first_ms: f64,
+    /// Median frame time of the last `drift_window` frames, ms.
+    pub last_ms: f64,
+    /// The least-squares slope of the per-sample-interval medians against the frame number,
+    /// ms per 1,000 frames.
+    pub slope_ms_per_1000: f64,
+}
+
+impl FramesReport {
+    /// The sample whose memory is the baseline (at `warm_frames`).
+    fn warm(&self) -> Option<&Sample> {
+        self.samples
+            .iter()
+            .find(|s| s.frame == self.plan.warm_frames)
+    }
+
+    /// The frame times' drift.
+    pub fn drift(&self) -> Drift {
+        let window = (self.plan.drift_window as usize).min(self.frame_ms.len());
+        let every = self.plan.sample_every as usize;
+        let points = self
+            .frame_ms
+            .chunks(every)
+            .enumerate()
+            .map(|(i, chunk)| ((i * every + chunk.len() / 2) as f64, median(chunk)))
+            .collect::<Vec<_>>();
+        Drift {
+            first_ms: median(&self.frame_ms[..window]),
+            last_ms: median(&self.frame_ms[self.frame_ms.len() - window..]),
+            slope_ms_per_1000: slope(&points) * 1000.0,
+        }
+    }
+
+    /// Largest resident and device memory growth past the warm sample, bytes (negative: shrank).
+    pub fn growth(&self) -> (i64, i64) {
+        let Some(warm) = self.warm() else {
+            return (0, 0);
+        };
+        let later = self.samples.iter().filter(|s| s.frame >= warm.frame);
+        later.fold((i64::MIN, i64::MIN), |(rss, device), s| {
+            (
+                rss.max(s.rss as i64 - warm.rss as i64),
+                device.max(s.device.reserved_bytes as i64 - warm.device.reserved_bytes as i64),
+            )
+        })
+    }
+
+    /// How far resident memory may grow over `frames` frames past the warm sample, bytes.
+    pub fn rss_bound(&self, frames: u32) -> u64 {
+        let bounds = self.plan.bounds;
+        let layer = if self.plan.validation {
+            bounds.validation_layer_per_frame * u64::from(frames)
+        } else {
+            0
+        };
+        bounds.frames_rss_growth + layer
+    }
+
+    /// What broke the plan's bounds, one line each; empty when the soak held.
+    pub fn failures(&self) -> Vec<String> {
+        let mut failures = Vec::new();
+        let Some(warm) = self.warm() else {
+            return vec![format!(
+                "no sample at the warm frame {} (samples every {})",
+                self.plan.warm_frames, self.plan.sample_every
+            )];
+        };
+        for s in &self.samples {
+            if s.validation != 0 {
+                failures.push(format!(
+                    "{} validation messages by frame {} (see stderr)",
+                    s.validation, s.frame
+                ));
+                break;
+            }
+        }
+        let bounds = self.plan.bounds;
+        for s in self.samples.iter().filter(|s| s.frame > warm.frame) {
+            let bound = self.rss_bound(s.frame - warm.frame);
+            if s.rss > warm.rss + bound {
+                failures.push(format!(
+                    "resident memory grew {:.2} MiB from frame {} to frame {} (bound {:.2} MiB)",
+                    (s.rss - warm.rss) as f64 / MIB,
+                    warm.frame,
+                    s.frame,
+                    bound as f64 / MIB
+                ));
+            }
+            if s.device.reserved_bytes > warm.device.reserved_bytes + bounds.frames_device_growth {
+                failures.push(format!(
+                    "device memory grew {:.2} MiB from frame {} to frame {} (bound {:.2} MiB)",
+                    (s.device.reserved_bytes - warm.device.reserved_bytes) as f64 / MIB,
+                    warm.frame,
+                    s.frame,
+                    bounds.frames_device_growth as f64 / MIB
+                ));
+            }
+        }
+        failures
+    }
+
+    /// The figures as text: one line per sample, then the drift.
+    pub fn table(&self) -> String {
+        let mut text = String::from(
+            "frame   resident MiB   device allocated MiB   device reserved MiB   allocations   validation   median ms (since last sample)\n",
+        );
+        let every = self.plan.sample_every as usize;
+        for s in &self.samples {
+            let since = if s.frame == 0 {
+                f64::NAN
+            } else {
+                let end = s.frame as usize;
+                median(&self.frame_ms[end.saturating_sub(every)..end])
+            };
+            text += &format!(
+                "{:>6}   {:>12.2}   {:>20.2}   {:>19.2}   {:>11}   {:>10}   {:>8.2}\n",
+                s.frame,
+                s.rss as f64 / MIB,
+                s.device.allocated_bytes as f64 / MIB,
+                s.device.reserved_bytes as f64 / MIB,
+                s.device.allocations,
+                s.validation,
+                since
+            );
+        }
+        let drift = self.drift();
+        let (rss, device) = self.growth();
+        text += &format!(
+            "growth from frame {}: resident {:+.2} MiB (bound {:.2} at the end; validation {}), device reserved {:+.2} MiB (bound {:.2})\n",
+            self.plan.warm_frames,
+            rss as f64 / MIB,
+            self.rss_bound(self.plan.frames.saturating_sub(self.plan.warm_frames)) as f64 / MIB,
+            if self.plan.validation { "on" } else { "off" },
+            device as f64 / MIB,
+            self.plan.bounds.frames_device_growth as f64 / MIB
+        );
+        text += &format!(
+            "frame time: median of the first {w} frames {:.2} ms, of the last {w} {:.2} ms ({:+.1} %); slope {:+.3} ms per 1,000 frames\n",
+            drift.first_ms,
+            drift.last_ms,
+            (drift.last_ms / drift.first_ms - 1.0) * 100.0,
+            drift.slope_ms_per_1000,
+            w = self.plan.drift_window,
+        );
+        text += &format!(
+            "frames: {} ({} reused by the frame cache, {} traced on the device)\n",
+            self.frame_ms.len(),
+            self.reused,
+            self.traced_on_gpu
+        );
+        text
+    }
+}
+
+/// What the cycles phase measured.
+#[derive(Clone, Debug)]
+pub struct CyclesReport {
+    /// The plan it ran.
+    pub plan: Plan,
+    /// (cycles done, resident memory in bytes) at 0 and every `cycle_sample_every` cycles.
+    pub samples: Vec<(u32, u64)>,
+    /// Validation messages over every cycle's context.
+    pub validation: u64,
+    /// Device memory held during each cycle's frame, before its scene was freed.
+    pub device: Vec<DeviceMemory>,
+    /// Each cycle's time, ms.
+    pub cycle_ms: Vec<f64>,
+}
+
+/// Runs the cycles phase of `plan`: context, scene, one frame, free, `plan.cycles` times.
+pub fn run_cycles(plan: &Plan) -> Result<CyclesReport, String> {
+    let mut report = CyclesReport {
+        plan: *plan,
+        samples: vec![(0, resident_bytes()?)],
+        validation: 0,
+        device: Vec::new(),
+        cycle_ms: Vec::new(),
+    };
+    let mut pixels = Vec::new();
+    for cycle in 0..plan.cycles {
+        let start = Instant::now();
+        let context = new_context(plan.validation)?;
+        let scene = load_scene(SCENES[cycle as usize % SCENES.len()], plan.em_size)?;
+        // The same scene and options every other cycle: their device memory must be the same.
+        let options = frame_options(&default_frame(scene)?, cycle % SCENES.len() as u32);
+        render(context, scene, &options, &mut pixels).map_err(|e| format!("cycle {cycle}: {e}"))?;
+        report.device.push(device_memory(context)?);
+        report.validation += validation_messages(context)?;
+        // SAFETY: live handles, each freed once.
+        unsafe {
+            ok("lensmap_scene_free", lensmap_scene_free(scene))?;
+            ok("lensmap_context_free", lensmap_context_free(context))?;
+        }
+        report.cycle_ms.push(start.elapsed().as_secs_f64() * 1e3);
+        if (cycle + 1) % plan.cycle_sample_every == 0 {
+            report.samples.push((cycle + 1, resident_bytes()?));
+        }
+    }
+    Ok(report)
+}
+
+impl CyclesReport {
+    /// The resident memory at `cycle`, if sampled there.
+    pub fn at(&self, cycle: u32) -> Option<u64> {
+        self.samples
+            .iter()
+            .find(|(c, _)| *c == cycle)
+            .map(|&(_, rss)| rss)
+    }
+
+    /// Largest resident memory growth past the warm sample, bytes.
+    pub fn growth(&self) -> i64 {
+        let Some(warm) = self.at(self.plan.warm_cycles) else {
+            return 0;
+        };
+        self.samples
+            .iter()
+            .filter(|(c, _)| *c >= self.plan.warm_cycles)
+            .map(|&(_, rss)| rss as i64 - warm as i64)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// What broke the plan's bounds, one line each; empty when the cycles held.
+    pub fn failures(&self) -> Vec<String> {
+        let mut failures = Vec::new();
+        if self.validation != 0 {
+            failures.push(format!(
+                "{} validation messages over the cycles (see stderr)",
+                self.validation
+            ));
+        }
+        let Some(warm) = self.at(self.plan.warm_cycles) else {
+            failures.push(format!(
+                "no sample at the warm cycle {}",
+                self.plan.warm_cycles
+            ));
+            return failures;
+        };
+        let bound = self.plan.bounds.cycles_rss_growth;
+        for &(cycle, rss) in &self.samples {
+            if cycle > self.plan.warm_cycles && rss > warm + bound {
+                failures.push(format!(
+                    "resident memory grew {:.2} MiB from cycle {} to cycle {cycle} (bound {:.2} MiB)",
+                    (rss - warm) as f64 / MIB,
+                    self.plan.warm_cycles,
+                    bound as f64 / MIB
+                ));
+            }
+        }
+        // The same scene and frame in a fresh context hold the same device memory.
+        for (cycle, device) in self.device.iter().enumerate().skip(SCENES.len()) {
+            let first = &self.device[cycle % SCENES.len()];
+            if device.reserved_bytes != first.reserved_bytes {
+                failures.push(format!(
+                    "cycle {cycle} held {} B of device memory, cycle {} of the same scene {} B",
+                    device.reserved_bytes,
+                    cycle % SCENES.len(),
+                    first.reserved_bytes
+                ));
+            }
+        }
+        failures
+    }
+
+    /// The figures as text.
+    pub fn table(&self) -> String {
+        let mut text = String::from("cycle   resident MiB\n");
+        for &(cycle, rss) in &self.samples {
+            text += &format!("{cycle:>5}   {:>12.2}\n", rss as f64 / MIB);
+        }
+        text += &format!(
+            "growth from cycle {}: {:+.2} MiB (bound {:.2}); validation messages {}; median cycle {:.0} ms\n",
+            self.plan.warm_cycles,
+            self.growth() as f64 / MIB,
+            self.plan.bounds.cycles_rss_growth as f64 / MIB,
+            self.validation,
+            median(&self.cycle_ms)
+        );
+        text
+    }
+}
+
+/// The device and driver lensmap picks (as `lensmap_context_new` with no device name does),
+/// from a probe without validation that is dropped at once.
+pub fn device_named() -> String {
+    match lensmap::gpu::Gpu::new(&lensmap::gpu::GpuOptions::default()) {
+        Ok(gpu) => gpu.device_id().to_string(),
+        Err(error) => format!("(no device: {error})"),
+    }
+}

@@ -75,7 +75,53 @@ fn bake_corpus_reads_or_is_refused_cleanly() {
 
 /// Each finding (tests/fuzz/regressions/<target>/<name>): refused with one line holding these
 /// words (the file and field it names).
-const FINDINGS: &[(&str, &str, &[&str])] = &[];
+const FINDINGS: &[(&str, &str, &[&str])] = &[
+    // An 803-byte EXR whose header claims 8388616×4 texels: the EXR decoder allocated all of
+    // them (past the 512 MiB budget) before reading a chunk. As a lat-long sky and as a texture.
+    (
+        "asset",
+        "exr-header-8388616x4-sky",
+        &[
+            "environment.latlong.path",
+            "asset.exr",
+            "8388616×4",
+            "over the limit",
+        ],
+    ),
+    (
+        "asset",
+        "exr-header-8388616x4-texture",
+        &[
+            "materials[1].diffuse.image",
+            "asset.png",
+            "8388616×4",
+            "over the limit",
+        ],
+    ),
+    // A bake whose cube-map EXR has a part header claiming 12124168×8 texels: read (past the
+    // budget) before its size was compared with the manifest's.
+    (
+        "bake",
+        "exr-part-header-12124168x8",
+        &[
+            "lens0-sphere.v000.layer0.exr",
+            "level0/+X",
+            "12124168×8",
+            "8×8",
+        ],
+    ),
+    // A compressed map whose header's payload length is 2⁶⁴ − 1: the message's arithmetic
+    // overflowed (a panic).
+    (
+        "bake",
+        "lmz-payload-length-u64-max",
+        &[
+            "lens0-sphere.v000.layer0.lmz",
+            "truncated",
+            "18446744073709551615",
+        ],
+    ),
+];
 
 #[test]
 fn every_finding_is_refused_naming_its_field() {

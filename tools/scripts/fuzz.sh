@@ -23,6 +23,10 @@ targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(scene asset bake capi)
 
 export CARGO_INCREMENTAL=0
+# cargo-afl's own AFL++ tools first: afl-cmin must find the afl-showmap of the same version,
+# not an older one from the system (Debian's afl++ 4.04c lacks options it passes).
+afl_bin=$(ls -d "${XDG_DATA_HOME:-$HOME/.local/share}"/afl.rs/*/afl.rs-*/afl/bin 2>/dev/null | tail -1)
+[ -z "$afl_bin" ] || export PATH="$afl_bin:$PATH"
 (cd "$root/tests/fuzz" && nice cargo afl build --release --quiet)
 
 # Per-input timeouts (ms): the readers take milliseconds; a C ABI input loads a scene and

@@ -240,8 +240,11 @@ pub fn bake_directory(scratch: &Scratch, data: &[u8]) -> Result<String, String> 
         .map_err(|error| error.to_string())
 }
 
+/// A reader target: an input in, the outcome (what was read, or the error line) out.
+pub type Target = fn(&Scratch, &[u8]) -> Result<String, String>;
+
 /// The targets of this module by name, for the tests that replay corpus folders.
-pub fn by_name(target: &str) -> Option<fn(&Scratch, &[u8]) -> Result<String, String>> {
+pub fn by_name(target: &str) -> Option<Target> {
     match target {
         "scene" => Some(scene_file),
         "asset" => Some(asset),

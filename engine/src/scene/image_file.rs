@@ -4,7 +4,14 @@
 use std::path::Path;
 
 use glam::Vec3;
-use image::DynamicImage;
+use image::{DynamicImage, ImageDecoder};
+
+/// The most texels an image asset may have: 2²⁴ (4096 × 4096, or 8192 × 2048 for a lat-long
+/// sky). Reading one holds up to 28 bytes a texel at once (the decoded RGBA f32 image and its
+/// RGB f32 copy, then that copy and the texels), about 450 MiB at the limit; the size is
+/// checked from the file's header, before anything is decoded (the EXR decoder allocates
+/// whatever the header claims).
+pub(crate) const MAX_IMAGE_TEXELS: u64 = 1 << 24;
 
 /// Bilinear filtering at continuous texel coordinates (`x`, `y`; texel centres at integers + ½),
 /// with `texel` deciding how coordinates outside the image wrap or clamp.
@@ -36,6 +43,13 @@ pub(crate) enum ImageProblem {
     Unreadable(String),
     /// The image has no pixels.
     Empty,
+    /// The header claims more than [`MAX_IMAGE_TEXELS`] texels.
+    TooLarge {
+        /// Width in pixels, as the header says.
+        width: u32,
+        /// Height in pixels, as the header says.
+        height: u32,
+    },
     /// Texels that are NaN, infinite or negative.
     BadTexels {
         /// How many texels are bad.
@@ -54,6 +68,11 @@ impl std::fmt::Display for ImageProblem {
         match self {
             ImageProblem::Unreadable(why) => write!(f, "cannot read the image ({why})"),
             ImageProblem::Empty => write!(f, "the image has no pixels"),
+            ImageProblem::TooLarge { width, height } => write!(
+                f,
+                "the image is {width}×{height} texels, over the limit of {MAX_IMAGE_TEXELS} \
+                 (4096×4096); downscale it"
+            ),
             ImageProblem::BadTexels { count, x, y, value } => write!(
                 f,
                 "{count} texel(s) are NaN, infinite or negative, the first at pixel ({x}, {y}) = \
@@ -76,12 +95,18 @@ pub(crate) fn srgb_to_linear(encoded: f32) -> f32 {
 /// Loads an image as linear RGB. Floating-point images (EXR, HDR) are taken as linear; 8- and
 /// 16-bit images (PNG) as sRGB-encoded and linearized. Alpha is ignored.
 pub(crate) fn load_linear_rgb(path: &Path) -> Result<LinearImage, ImageProblem> {
-    let image = image::ImageReader::open(path)
+    let unreadable = |e: image::ImageError| ImageProblem::Unreadable(e.to_string());
+    let decoder = image::ImageReader::open(path)
         .map_err(|e| ImageProblem::Unreadable(e.to_string()))?
         .with_guessed_format()
         .map_err(|e| ImageProblem::Unreadable(e.to_string()))?
-        .decode()
-        .map_err(|e| ImageProblem::Unreadable(e.to_string()))?;
+        .into_decoder()
+        .map_err(unreadable)?;
+    let (width, height) = decoder.dimensions();
+    if u64::from(width) * u64::from(height) > MAX_IMAGE_TEXELS {
+        return Err(ImageProblem::TooLarge { width, height });
+    }
+    let image = DynamicImage::from_decoder(decoder).map_err(unreadable)?;
     let is_float = matches!(
         image,
         DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_)

@@ -418,7 +418,7 @@ fn decode_bytes(
             format!(
                 "is truncated: {} bytes, its header says {}",
                 bytes.len(),
-                HEADER_LEN as u64 + header.payload_len
+                (HEADER_LEN as u64).saturating_add(header.payload_len)
             ),
         ));
     }

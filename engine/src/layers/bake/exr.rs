@@ -170,11 +170,63 @@ pub fn encode_cube_map_exr(cube: &CubeMap, path: &Path) -> Result<Vec<u8>, BakeE
     Ok(bytes.into_inner())
 }
 
+/// Checks the parts' names, sizes and channel counts from the file's headers alone, before
+/// any pixel is read: the EXR reader allocates whatever a header claims, so a damaged header
+/// could ask for gigabytes (found by fuzzing). The same rules as [`read_cube_map_exr`] applies
+/// to the pixels, so the messages are the same.
+fn check_headers(path: &Path, size: u32) -> Result<(), BakeError> {
+    let file = File::open(path).map_err(io_error(path, "open"))?;
+    let meta =
+        exr::meta::MetaData::read_from_buffered(BufReader::new(file), false).map_err(|error| {
+            BakeError::Exr {
+                path: path.to_owned(),
+                message: error.to_string(),
+            }
+        })?;
+    let levels = CubeMap::full_chain_levels(size) as usize;
+    for header in &meta.headers {
+        let name = header
+            .own_attributes
+            .layer_name
+            .as_ref()
+            .map_or_else(String::new, |name| name.to_string());
+        let Some((level, _)) = parse_part_name(&name).filter(|(level, _)| *level < levels) else {
+            return Err(BakeError::BadPart {
+                path: path.to_owned(),
+                part: name,
+                problem: format!("is not one of level0/+X … level{}/-Z", levels - 1),
+            });
+        };
+        let edge = (size >> level).max(1) as usize;
+        if header.layer_size.0 != edge || header.layer_size.1 != edge {
+            return Err(BakeError::WrongSize {
+                path: path.to_owned(),
+                part: name,
+                found: format!("{}×{}", header.layer_size.0, header.layer_size.1),
+                expected: edge as u32,
+                size,
+            });
+        }
+        if header.channels.list.len() != 4 {
+            return Err(BakeError::BadPart {
+                path: path.to_owned(),
+                part: name,
+                problem: format!(
+                    "has {} channels, not R, G, B and A",
+                    header.channels.list.len()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Reads a cube-map EXR written by [`write_cube_map_exr`] and checks it against `size`: every
 /// part of the full chain present once with f32 `R G B A` channels of the right size, and every
 /// texel finite with α in [0, 1] (tolerance [`ALPHA_TOLERANCE`](super::ALPHA_TOLERANCE)).
 pub fn read_cube_map_exr(path: &Path, size: u32) -> Result<CubeMap, BakeError> {
     use exr::prelude::*;
+    check_headers(path, size)?;
     let file = File::open(path).map_err(io_error(path, "open"))?;
     let image = read()
         .no_deep_data()

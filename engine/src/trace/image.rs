@@ -79,7 +79,8 @@ pub const MAX_CAMERA_METRES: f32 = 1e6;
 pub fn validate_camera(camera: &Camera) -> Result<(), TraceError> {
     let forward = camera.look_at - camera.position;
     let side = |n: u32| u64::from(n) * u64::from(camera.supersampling);
-    let subpixels = side(camera.width) * side(camera.height);
+    // Saturating: two sides of 2³² subpixels each would overflow u64 (found by fuzzing).
+    let subpixels = side(camera.width).saturating_mul(side(camera.height));
     let problem = if camera.width == 0 || camera.height == 0 {
         Some(format!(
             "the image is empty ({}×{})",

@@ -48,10 +48,12 @@ fn interrupted(bake: &Interruptible, signal: i32) -> ! {
     };
     let kept = finished_samples(&bake.staging);
     let code = 128 + signal;
+    // `./.NAME.baking` for a bake named without a folder: said as the user would write it.
+    let staging = bake.staging.strip_prefix(".").unwrap_or(&bake.staging);
     let line = format!(
         "interrupted by {name}: {} finished sample(s) kept in {}{}; the sample in flight is discarded; run the same command with --resume to finish the bake into {}",
         kept.len(),
-        bake.staging.display(),
+        staging.display(),
         if kept.is_empty() {
             String::new()
         } else {

@@ -70,8 +70,8 @@ impl std::fmt::Display for ImageProblem {
             ImageProblem::Empty => write!(f, "the image has no pixels"),
             ImageProblem::TooLarge { width, height } => write!(
                 f,
-                "the image is {width}×{height} texels, over the limit of {MAX_IMAGE_TEXELS} \
-                 (4096×4096); downscale it"
+                "cannot read the image (it is {width}×{height} texels, over the limit of \
+                 {MAX_IMAGE_TEXELS}: 4096×4096; downscale it)"
             ),
             ImageProblem::BadTexels { count, x, y, value } => write!(
                 f,

@@ -41,8 +41,13 @@ pub struct Bounds {
     /// validation on against 0.6 KB without, over the same frames), which is not lensmap's.
     pub validation_layer_per_frame: u64,
     /// Device memory held through the allocator (its reserved blocks), from the sample at
-    /// `warm_frames` to any later one.
+    /// `warm_frames` to the last one.
     pub frames_device_growth: u64,
+    /// Device memory any sample past `warm_frames` may hold above it for a while: one more
+    /// block of the allocator's (64 MiB host-visible) when fragmentation leaves no room, given
+    /// back once emptied (measured: 256 MiB at frame 2,000 of the full soak, 192 MiB again by
+    /// 2,500).
+    pub frames_device_transient: u64,
     /// Resident memory in the cycles phase, from the sample at `warm_cycles` to any later one.
     pub cycles_rss_growth: u64,
 }
@@ -112,6 +117,7 @@ impl Plan {
                 frames_rss_growth: 8 << 20,
                 validation_layer_per_frame: 16 << 10,
                 frames_device_growth: 1 << 20,
+                frames_device_transient: 64 << 20,
                 cycles_rss_growth: 8 << 20,
             },
         }
@@ -523,13 +529,19 @@ impl FramesReport {
                     bound as f64 / MIB
                 ));
             }
-            if s.device.reserved_bytes > warm.device.reserved_bytes + bounds.frames_device_growth {
+            let last = self.samples.last().is_some_and(|l| l.frame == s.frame);
+            let device_bound = if last {
+                bounds.frames_device_growth
+            } else {
+                bounds.frames_device_transient
+            };
+            if s.device.reserved_bytes > warm.device.reserved_bytes + device_bound {
                 failures.push(format!(
                     "device memory grew {:.2} MiB from frame {} to frame {} (bound {:.2} MiB)",
                     (s.device.reserved_bytes - warm.device.reserved_bytes) as f64 / MIB,
                     warm.frame,
                     s.frame,
-                    bounds.frames_device_growth as f64 / MIB
+                    device_bound as f64 / MIB
                 ));
             }
         }
@@ -563,13 +575,14 @@ impl FramesReport {
         let drift = self.drift();
         let (rss, device) = self.growth();
         text += &format!(
-            "growth from frame {}: resident {:+.2} MiB (bound {:.2} at the end; validation {}), device reserved {:+.2} MiB (bound {:.2})\n",
+            "largest growth past frame {}: resident {:+.2} MiB (bound {:.2} at the end; validation {}), device reserved {:+.2} MiB (bound {:.2} at the end, {:.2} before)\n",
             self.plan.warm_frames,
             rss as f64 / MIB,
             self.rss_bound(self.plan.frames.saturating_sub(self.plan.warm_frames)) as f64 / MIB,
             if self.plan.validation { "on" } else { "off" },
             device as f64 / MIB,
-            self.plan.bounds.frames_device_growth as f64 / MIB
+            self.plan.bounds.frames_device_growth as f64 / MIB,
+            self.plan.bounds.frames_device_transient as f64 / MIB
         );
         text += &format!(
             "frame time: median of the first {w} frames {:.2} ms, of the last {w} {:.2} ms ({:+.1} %); slope {:+.3} ms per 1,000 frames\n",

@@ -255,6 +255,7 @@ impl DirectorySwap {
                     sync_directory(&self.parent).map_err(StepError::of(&self.parent, "fsync"))?;
                     // `built` now names the old directory.
                     let _ = fs::remove_dir_all(built);
+                    SWAPS_DONE.fetch_add(1, std::sync::atomic::Ordering::Release);
                     return Ok(());
                 }
                 Err(error) if !exchange_unsupported(&error) => {
@@ -291,6 +292,7 @@ impl DirectorySwap {
             // The new directory is in place; an old one left over is removed by the next prepare.
             let _ = fs::remove_dir_all(&self.previous);
         }
+        SWAPS_DONE.fetch_add(1, std::sync::atomic::Ordering::Release);
         Ok(())
     }
 }
@@ -343,33 +345,65 @@ fn version_of(dir: &Path) -> Option<(u64, u64, i64, i64)> {
 }
 
 /// How many times [`read_consistently`] reads a directory that keeps being replaced before it
-/// gives the last read's result.
+/// gives up.
 pub const CONSISTENT_READ_ATTEMPTS: usize = 20;
 
 /// Runs `read` (which reads files of directory `dir` one by one) until it ran while `dir` stayed
 /// one version: the same directory before and after, no [`DirectorySwap`] in between. So a
 /// reader sees the old directory or the new one, never files of both, and never "not found"
 /// while a swap is under way (the two renames of a file system without an atomic exchange leave
-/// the path missing for a moment). After [`CONSISTENT_READ_ATTEMPTS`] reads that each overlapped
-/// a swap, the last result is returned.
-pub fn read_consistently<T, E>(dir: &Path, mut read: impl FnMut() -> Result<T, E>) -> Result<T, E> {
+/// the path missing for a moment). When every one of [`CONSISTENT_READ_ATTEMPTS`] reads
+/// overlapped a swap, the error `kept_changing` makes is returned, never a read that may mix
+/// two versions.
+pub fn read_consistently<T, E>(
+    dir: &Path,
+    mut read: impl FnMut() -> Result<T, E>,
+    kept_changing: impl FnOnce() -> E,
+) -> Result<T, E> {
     let swap = DirectorySwap::new(dir);
-    let mut attempt = 1;
-    loop {
+    let swap_under_way = || {
+        swap.as_ref()
+            .is_some_and(|swap| swap.interrupted().is_some())
+    };
+    for attempt in 1..=CONSISTENT_READ_ATTEMPTS {
         let before = version_of(dir);
         let result = read();
         let after = version_of(dir);
-        let swapping = before.is_none()
-            && swap
-                .as_ref()
-                .is_some_and(|swap| swap.interrupted().is_some());
-        if (before == after && !swapping) || attempt >= CONSISTENT_READ_ATTEMPTS {
+        let stable = match (before, after) {
+            (Some(before), Some(after)) => before == after,
+            // Missing throughout, and no swap has put it back or is under way: truly missing.
+            (None, None) => version_of(dir).is_none() && !swap_under_way(),
+            _ => false,
+        };
+        if stable {
             return result;
         }
-        attempt += 1;
         // A swap is a few system calls: the next read almost always sees one version.
         std::thread::sleep(Duration::from_millis(attempt as u64));
     }
+    Err(kept_changing())
+}
+
+/// How many swaps this process has completed ([`swaps_done`]).
+static SWAPS_DONE: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// How many [`DirectorySwap::swap_in`]s this process has completed: a signal handler holding the
+/// [`swap_barrier`] tells from it whether a command's one write is already in place.
+pub fn swaps_done() -> usize {
+    SWAPS_DONE.load(std::sync::atomic::Ordering::Acquire)
+}
+
+/// Held by a writer while it swaps a directory in and tidies it ([`swap_barrier`]).
+static SWAP_BARRIER: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// A process-wide barrier around the last steps of a write (the swap and the tidying after it):
+/// a writer holds it while it swaps, and code that ends the process abruptly (a signal handler
+/// calling `_exit`) takes it first, so that the process never ends between a swap and its
+/// tidying, and can tell whether the swap happened.
+pub fn swap_barrier() -> std::sync::MutexGuard<'static, ()> {
+    SWAP_BARRIER
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 #[cfg(test)]
@@ -483,12 +517,16 @@ mod tests {
                 });
                 let mut reads = 0;
                 while !done.load(std::sync::atomic::Ordering::Acquire) {
-                    let (a, b) = read_consistently(&target, || {
-                        Ok::<_, std::io::Error>((
-                            fs::read(target.join("a"))?,
-                            fs::read(target.join("b"))?,
-                        ))
-                    })
+                    let (a, b) = read_consistently(
+                        &target,
+                        || {
+                            Ok::<_, std::io::Error>((
+                                fs::read(target.join("a"))?,
+                                fs::read(target.join("b"))?,
+                            ))
+                        },
+                        || std::io::Error::other("kept changing"),
+                    )
                     .unwrap_or_else(|e| panic!("{method:?}, read {reads}: {e}"));
                     assert_eq!(a, b, "{method:?}: read {reads} mixes two versions");
                     reads += 1;

@@ -49,7 +49,7 @@ fi
 
 # The packages, once per machine (excluded from the measured time).
 missing=()
-for package in slurm-wlm munge; do
+for package in slurm-wlm munge jq; do
     dpkg -s "$package" >/dev/null 2>&1 || missing+=("$package")
 done
 if [ ${#missing[@]} -gt 0 ]; then
@@ -243,17 +243,22 @@ step "submitted: array job $array (tasks 1-$shards), merge job $merge (--depende
 
 # --- The kill: shard 1's first sample staged, the second in flight.
 staging=$bakes/.shard-$killed.baking
-# Polled every 20 ms: a sample takes about half a second here.
+# The victim's pid first (the task's lensmap, once started), so that nothing but a file test
+# stands between seeing its first sample staged and the kill; polled every 20 ms: a sample takes
+# about half a second here.
+victim=
+until [ -n "$victim" ]; do
+    [ $((SECONDS - start)) -lt 300 ] || fail "no lensmap process among job ${array}_$killed's (scontrol listpids)"
+    # listpids takes the task's own job id, not ARRAY_TASK.
+    for pid in $(scontrol listpids "$(job_field "${array}_$killed" JobId)" 2>/dev/null | awk 'NR > 1 { print $1 }'); do
+        [ "$(cat "/proc/$pid/comm" 2>/dev/null)" = lensmap ] && victim=$pid
+    done
+    [ -n "$victim" ] || sleep 0.02
+done
 until [ -e "$staging/sample-000.json" ]; do
     [ $((SECONDS - start)) -lt 300 ] || fail "timed out waiting for shard $killed's first sample"
     sleep 0.02
 done
-victim=
-# listpids takes the task's own job id, not ARRAY_TASK.
-for pid in $(scontrol listpids "$(job_field "${array}_$killed" JobId)" 2>/dev/null | awk 'NR > 1 { print $1 }'); do
-    [ "$(cat "/proc/$pid/comm" 2>/dev/null)" = lensmap ] && victim=$pid
-done
-[ -n "$victim" ] || fail "no lensmap process among job ${array}_$killed's (scontrol listpids)"
 kill -KILL "$victim"
 staged=$(cd "$staging" && ls sample-*.json | tr '\n' ' ')
 step "kill -9 $victim (job ${array}_$killed's lensmap) with staged: $staged"

@@ -39,13 +39,25 @@ pub fn stop_on_signals(bake: Interruptible) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Says what was kept and ends the process with 128 + `signal`.
+/// Says what was kept and ends the process with 128 + `signal`; or, when the bake was already
+/// swapped in complete, says so and ends it with 0.
 fn interrupted(bake: &Interruptible, signal: i32) -> ! {
     let name = if signal == SIGTERM {
         "SIGTERM"
     } else {
         "SIGINT"
     };
+    // Never between a swap and its tidying; held until the process ends.
+    let _barrier = lensmap::atomic::swap_barrier();
+    if lensmap::atomic::swaps_done() > 0 {
+        // The bake's one swap, its commit, is done: the bake is complete in place.
+        crate::common::tell(format_args!(
+            "\n{name} after the bake was complete in {}: nothing to resume",
+            bake.out.display()
+        ));
+        // SAFETY: as below.
+        unsafe { libc::_exit(0) }
+    }
     let kept = finished_samples(&bake.staging);
     let code = 128 + signal;
     // `./.NAME.baking` for a bake named without a folder: said as the user would write it.

@@ -158,7 +158,13 @@ fn is_bad_input(error: &anyhow::Error) -> bool {
 /// A bake that cannot be read or written: the disk failing is the work's failure (exit 1),
 /// everything else (a directory that is not a bake, a damaged manifest…) the input's.
 fn bake_input(error: &lensmap::layers::BakeError) -> bool {
-    !matches!(error, lensmap::layers::BakeError::Io { .. })
+    use lensmap::{atomic::lock::LockError, layers::BakeError};
+    // A lock that another writer holds is a usage conflict (exit 2); one the disk refused, the
+    // work's failure.
+    !matches!(
+        error,
+        BakeError::Io { .. } | BakeError::Lock(LockError::Io { .. })
+    )
 }
 
 /// One cause of an error chain: bad input, or a failure of the work? The runner's error forwards

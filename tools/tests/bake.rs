@@ -202,7 +202,7 @@ fn wait_for_staged(child: &mut std::process::Child, staging: &Path, count: usize
 fn a_second_bake_is_refused_and_sigterm_keeps_the_finished_samples() {
     let root = temp_dir("sigterm");
     let whole = root.join("whole");
-    succeeded(&bake("glass-sphere", "0..4", &whole, &[]));
+    succeeded(&bake("glass-sphere", "0..6", &whole, &[]));
     let dir = root.join("bake");
     let out = dir.to_str().unwrap();
     let mut args = vec![
@@ -210,7 +210,7 @@ fn a_second_bake_is_refused_and_sigterm_keeps_the_finished_samples() {
         "--scene",
         "glass-sphere",
         "--samples",
-        "0..4",
+        "0..6",
         "--out",
         out,
     ];
@@ -224,7 +224,7 @@ fn a_second_bake_is_refused_and_sigterm_keeps_the_finished_samples() {
     wait_for_staged(&mut first, &staging, 1);
 
     // The second writer: refused at once with one line naming the lock and its holder.
-    let second = bake("glass-sphere", "0..4", &dir, &[]);
+    let second = bake("glass-sphere", "0..6", &dir, &[]);
     fails_with_2(&second, &format!("pid {}", first.id()));
     fails_with_2(&second, ".bake.lock");
     assert!(
@@ -260,7 +260,7 @@ fn a_second_bake_is_refused_and_sigterm_keeps_the_finished_samples() {
     assert!(staging.join("sample-000.json").is_file());
 
     // Resumed: the finished sample kept, the rest baked, the bytes of one bake.
-    let resumed = bake("glass-sphere", "0..4", &dir, &["--resume"]);
+    let resumed = bake("glass-sphere", "0..6", &dir, &["--resume"]);
     succeeded(&resumed);
     let json: serde_json::Value = serde_json::from_slice(&resumed.stdout).unwrap();
     assert!(

@@ -16,7 +16,10 @@
 //! line), so a refusal says who to wait for.
 //!
 //! A lock is not re-entrant: a second [`DirectoryLock::acquire`] of one directory in one process
-//! is refused like any other.
+//! is refused like any other, where `flock` is the kernel's own. On NFS, Linux implements `flock`
+//! as a POSIX lock, which belongs to the process: there a second acquire in the same process
+//! succeeds (lensmap never takes one directory's lock twice), and other processes and hosts are
+//! still refused.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{Read, Seek, Write};
@@ -94,7 +97,8 @@ pub enum LockError {
     },
     /// The file system refused a step.
     #[error(
-        "{}: cannot {action}: {source}{}",
+        "{}: cannot {action} its lock {}: {source}{}",
+        dir.display(),
         lock.display(),
         if source.raw_os_error() == Some(rustix::io::Errno::NOLCK.raw_os_error())
             || source.kind() == std::io::ErrorKind::Unsupported
@@ -105,6 +109,8 @@ pub enum LockError {
         }
     )]
     Io {
+        /// The directory.
+        dir: PathBuf,
         /// The lock file.
         lock: PathBuf,
         /// What was being done.
@@ -141,8 +147,9 @@ impl DirectoryLock {
     pub fn acquire(dir: &Path) -> Result<DirectoryLock, LockError> {
         let Some(path) = DirectoryLock::path_of(dir) else {
             return Err(LockError::Io {
+                dir: dir.to_owned(),
                 lock: dir.to_owned(),
-                action: "name a lock for",
+                action: "name",
                 source: std::io::Error::new(
                     std::io::ErrorKind::InvalidInput,
                     "the directory has no final name in UTF-8",
@@ -150,8 +157,9 @@ impl DirectoryLock {
             });
         };
         let io = |action: &'static str| {
-            let lock = path.clone();
+            let (dir, lock) = (dir.to_owned(), path.clone());
             move |source: std::io::Error| LockError::Io {
+                dir,
                 lock,
                 action,
                 source,
@@ -184,11 +192,13 @@ impl DirectoryLock {
             let held = rustix::fs::fstat(&file).map_err(|e| io("inspect")(e.into()))?;
             match rustix::fs::stat(&path) {
                 Ok(at_path) if (at_path.st_dev, at_path.st_ino) == (held.st_dev, held.st_ino) => {}
-                _ => continue,
+                Ok(_) | Err(rustix::io::Errno::NOENT) => continue,
+                Err(errno) => return Err(io("inspect")(errno.into())),
             }
+            // A heartbeat in the future (the holder's clock ahead of ours) is fresh.
             if let Some(holder) = read_holder(&mut file)
                 && holder.host != host_name()
-                && heartbeat_age(&file).is_some_and(|age| age < STALE_AFTER)
+                && heartbeat_age(&file).is_none_or(|age| age < STALE_AFTER)
             {
                 return Err(LockError::Held {
                     dir: dir.to_owned(),
@@ -241,7 +251,8 @@ fn write_holder(file: &mut File, holder: &Holder) -> std::io::Result<()> {
     file.sync_all()
 }
 
-/// How long ago the lock file was last touched; `None` when its time is unknown or in the future.
+/// How long ago the lock file was last touched; `None` when its time is unknown or in the future
+/// (the holder's clock ahead of ours).
 fn heartbeat_age(file: &File) -> Option<Duration> {
     let modified = file.metadata().ok()?.modified().ok()?;
     SystemTime::now().duration_since(modified).ok()

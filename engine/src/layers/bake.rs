@@ -34,8 +34,7 @@
 //! [`Bake::read`] names in its error). One writer per directory at a time: every writer holds the
 //! lock `.NAME.lock` ([`crate::atomic::lock::DirectoryLock`]) from before it touches anything to
 //! after the swap, and a second writer is refused at once, naming the holder's host and pid. A
-//! staging directory left by a killed writer is removed by the next write from the same process
-//! id only, and is otherwise safe to delete. [`Staging`] builds a bake sample by sample the same
+//! staging directory left by a killed writer is removed by the next write. [`Staging`] builds a bake sample by sample the same
 //! way.
 //!
 //! The rooms: [`manifest`] (the JSON and its checks), [`exr`] (cube-map files), [`staging`]
@@ -289,7 +288,7 @@ impl Bake {
     /// replaced while it is read is read again ([`atomic::read_consistently`]): the result is
     /// the old bake or the new one, never maps of both.
     pub fn read(dir: &Path) -> Result<Bake, BakeError> {
-        atomic::read_consistently(dir, || Bake::read_once(dir))
+        atomic::read_consistently(dir, || Bake::read_once(dir), || replaced_throughout(dir))
     }
 
     /// [`Bake::read`] without the check for a concurrent replacement.
@@ -353,17 +352,47 @@ pub(crate) fn write_directory(
     fill: impl FnOnce(&Path) -> Result<(), BakeError>,
 ) -> Result<(), BakeError> {
     let (swap, _lock) = prepare_destination(dir)?;
-    let staging = swap.beside(&format!("{WRITING_SUFFIX}{}", std::process::id()));
-    if staging.exists() {
-        fs::remove_dir_all(&staging).map_err(io_error(&staging, "remove"))?;
+    // Every writer's leftover (a killed one's staging, or the old bake a killed swap had not yet
+    // removed): the lock is held, so none is in use.
+    let leftover = swap.beside(WRITING_SUFFIX);
+    let leftover = leftover
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or_default();
+    let parent = dir
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    for entry in fs::read_dir(parent)
+        .map_err(io_error(parent, "list"))?
+        .flatten()
+    {
+        if entry
+            .file_name()
+            .to_str()
+            .is_some_and(|n| n.starts_with(leftover))
+        {
+            let path = entry.path();
+            fs::remove_dir_all(&path).map_err(io_error(&path, "remove"))?;
+        }
     }
+    let staging = swap.beside(&format!("{WRITING_SUFFIX}{}", std::process::id()));
     fs::create_dir(&staging).map_err(io_error(&staging, "create"))?;
     if let Err(error) = fill(&staging) {
         // Best effort: a leftover staging directory is harmless and removed by the next write.
         let _ = fs::remove_dir_all(&staging);
         return Err(error);
     }
+    let _barrier = atomic::swap_barrier();
     Ok(swap.swap_in(&staging, WhenSwapFails::Remove)?)
+}
+
+/// The error of a bake that was replaced during every read ([`atomic::read_consistently`]).
+pub(crate) fn replaced_throughout(dir: &Path) -> BakeError {
+    io_error(dir, "read")(std::io::Error::other(format!(
+        "it was replaced during each of {} reads; read it when its writer is done",
+        atomic::CONSISTENT_READ_ATTEMPTS
+    )))
 }
 
 /// The suffix of [`Bake::write`]'s staging directory's name, followed by the process id:

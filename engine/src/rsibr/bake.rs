@@ -323,6 +323,7 @@ impl RadianceStaging {
         atomic::sync_directory(&self.path).map_err(io_error(&self.path, "fsync"))?;
         // Swap first, tidy after: until the bake is in place the staged records stay, so a
         // failure here still resumes. The records live on in the manifest.
+        let _barrier = atomic::swap_barrier();
         self.swap.swap_in(&self.path, WhenSwapFails::Keep)?;
         let dir = self.swap.target();
         for entry in fs::read_dir(dir).map_err(io_error(dir, "list"))? {
@@ -450,7 +451,11 @@ pub fn read_maps(
     dir: &Path,
     scene: &Scene,
 ) -> Result<(RadianceManifest, GlossyViews, Vec<GlossyMaps>), BakeError> {
-    atomic::read_consistently(dir, || read_maps_once(dir, scene))
+    atomic::read_consistently(
+        dir,
+        || read_maps_once(dir, scene),
+        || crate::layers::bake::replaced_throughout(dir),
+    )
 }
 
 /// [`read_maps`] without the check for a concurrent replacement.

@@ -141,6 +141,7 @@ impl Staging {
         atomic::sync_directory(&self.path).map_err(io_error(&self.path, "fsync"))?;
         // Swap first, tidy after: until the new bake is in place the staged plan and reports
         // stay, so a kill or a failure here still resumes (and a failed swap keeps staging).
+        let _barrier = atomic::swap_barrier();
         self.swap.swap_in(&self.path, WhenSwapFails::Keep)?;
         let entries = fs::read_dir(dir).map_err(io_error(dir, "list"))?;
         for entry in entries {

@@ -353,8 +353,9 @@ pub const CONSISTENT_READ_ATTEMPTS: usize = 20;
 /// reader sees the old directory or the new one, never files of both, and never "not found"
 /// while a swap is under way (the two renames of a file system without an atomic exchange leave
 /// the path missing for a moment). When every one of [`CONSISTENT_READ_ATTEMPTS`] reads
-/// overlapped a swap, the error `kept_changing` makes is returned, never a read that may mix
-/// two versions.
+/// overlapped a swap, the last read's error is returned if it failed (a swap interrupted for
+/// good, between its two renames, is reported so), else the error `kept_changing` makes: never a
+/// read that may mix two versions.
 pub fn read_consistently<T, E>(
     dir: &Path,
     mut read: impl FnMut() -> Result<T, E>,
@@ -365,6 +366,7 @@ pub fn read_consistently<T, E>(
         swap.as_ref()
             .is_some_and(|swap| swap.interrupted().is_some())
     };
+    let mut last_error = None;
     for attempt in 1..=CONSISTENT_READ_ATTEMPTS {
         let before = version_of(dir);
         let result = read();
@@ -378,10 +380,13 @@ pub fn read_consistently<T, E>(
         if stable {
             return result;
         }
+        last_error = result.err();
         // A swap is a few system calls: the next read almost always sees one version.
         std::thread::sleep(Duration::from_millis(attempt as u64));
     }
-    Err(kept_changing())
+    // An error mixes nothing: the last one says what is wrong (a swap interrupted for good
+    // names the previous directory); a read that succeeded across a swap is never returned.
+    Err(last_error.unwrap_or_else(kept_changing))
 }
 
 /// How many swaps this process has completed ([`swaps_done`]).

@@ -448,6 +448,10 @@ mod layers_bake {
         );
         assert_same_bake(&Bake::read(&dir).unwrap(), &sample_bake(23, 2));
         drop(held);
+        // What a writer killed mid-write leaves (its staging): the next writer removes it.
+        let killed = dir.with_file_name(".bake.writing-999999");
+        fs::create_dir_all(&killed).unwrap();
+        fs::write(killed.join("manifest.json"), b"{}").unwrap();
         sample_bake(24, 2).write(&dir).unwrap();
         assert_same_bake(&Bake::read(&dir).unwrap(), &sample_bake(24, 2));
         assert_eq!(siblings(&dir), ["bake"]);

@@ -370,7 +370,9 @@ pub(crate) fn write_directory(
         if entry
             .file_name()
             .to_str()
-            .is_some_and(|n| n.starts_with(leftover))
+            // `.NAME.writing-PID` exactly: not the staging of a bake whose own name starts so.
+            .and_then(|n| n.strip_prefix(leftover))
+            .is_some_and(|pid| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()))
         {
             let path = entry.path();
             fs::remove_dir_all(&path).map_err(io_error(&path, "remove"))?;

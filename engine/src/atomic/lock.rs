@@ -133,12 +133,7 @@ pub struct DirectoryLock {
 impl DirectoryLock {
     /// The lock file of directory `dir`: `.NAME.lock` beside it.
     pub fn path_of(dir: &Path) -> Option<PathBuf> {
-        let name = dir.file_name()?.to_str()?;
-        let parent = dir
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        Some(parent.join(format!(".{name}{LOCK_SUFFIX}")))
+        Some(super::DirectorySwap::new(dir)?.beside(LOCK_SUFFIX))
     }
 
     /// Takes the lock of directory `dir` (its parent folders are created), or refuses at once

@@ -355,14 +355,11 @@ pub(crate) fn write_directory(
     // Every writer's leftover (a killed one's staging, or the old bake a killed swap had not yet
     // removed): the lock is held, so none is in use.
     let leftover = swap.beside(WRITING_SUFFIX);
+    let parent = leftover.parent().unwrap_or(Path::new("."));
     let leftover = leftover
         .file_name()
         .and_then(|n| n.to_str())
         .unwrap_or_default();
-    let parent = dir
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
     for entry in fs::read_dir(parent)
         .map_err(io_error(parent, "list"))?
         .flatten()

@@ -28,43 +28,8 @@ const SUBPIXEL_LIMIT: u64 = 16384;
 const MAX_CALLS: usize = 6;
 
 /// A small scene file the harness writes beside its scratch files: a glass ball over a floor
-/// (loads and renders in milliseconds).
-const SMALL_SCENE: &str = r#"
-name = "fuzz-small"
-
-[camera]
-position = [0, 1, 5]
-look_at = [0, 1, 0]
-vfov_degrees = 45
-width = 16
-height = 12
-supersampling = 1
-
-[environment]
-constant = [0.1, 0.1, 0.1]
-
-[[lights]]
-position = [0, 5, 0]
-intensity = [10, 10, 10]
-
-[[materials]]
-name = "glass"
-glass = { ior = 1.5 }
-
-[[materials]]
-name = "grey"
-diffuse = { colour = [0.5, 0.5, 0.5] }
-
-[[objects]]
-name = "ball"
-material = "glass"
-sphere = { radius = 1, segments = 8, rings = 4 }
-
-[[objects]]
-name = "floor"
-material = "grey"
-plane = { size = [4, 4] }
-"#;
+/// (loads and renders in milliseconds), the one the reader targets place their assets in.
+const SMALL_SCENE: &str = include_str!("small-scene.toml");
 
 /// The input, read front to back; past its end every read is zero.
 struct Input<'a> {

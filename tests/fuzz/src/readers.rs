@@ -10,42 +10,7 @@ use lensmap::layers::Bake;
 use lensmap::scene::Scene;
 
 /// The scene every asset input is placed into: one glass ball over a floor, under a constant sky.
-pub const ASSET_SCENE: &str = r#"
-name = "fuzz"
-
-[camera]
-position = [0, 1, 5]
-look_at = [0, 1, 0]
-vfov_degrees = 45
-width = 16
-height = 12
-supersampling = 1
-
-[environment]
-constant = [0.1, 0.1, 0.1]
-
-[[lights]]
-position = [0, 5, 0]
-intensity = [10, 10, 10]
-
-[[materials]]
-name = "glass"
-glass = { ior = 1.5 }
-
-[[materials]]
-name = "grey"
-diffuse = { colour = [0.5, 0.5, 0.5] }
-
-[[objects]]
-name = "ball"
-material = "glass"
-sphere = { radius = 1, segments = 16, rings = 8 }
-
-[[objects]]
-name = "floor"
-material = "grey"
-plane = { size = [4, 4] }
-"#;
+pub const ASSET_SCENE: &str = include_str!("small-scene.toml");
 
 /// The kinds of asset input: the first byte of an input picks one (modulo their number), the
 /// rest is the file. (file name, text replaced in [`ASSET_SCENE`], its replacement.)

@@ -136,6 +136,9 @@ pub fn sync_directory(dir: &Path) -> std::io::Result<()> {
 /// The suffix of the name an old directory is moved aside to during a swap.
 const PREVIOUS_SUFFIX: &str = ".previous";
 
+/// The suffix of the lock file of a swap by two renames ([`DirectorySwap::swapping_path`]).
+const SWAPPING_SUFFIX: &str = ".swapping";
+
 /// A step of a directory swap that the file system refused: which path, doing what.
 #[derive(Debug, thiserror::Error)]
 #[error("{}: cannot {action}: {source}", path.display())]
@@ -175,9 +178,11 @@ pub enum WhenSwapFails {
 /// `RENAME_EXCHANGE`), after which the old directory, now under the hidden name, is removed: at
 /// every moment `NAME` is the old directory or the new one. On a file system without the
 /// exchange (NFS, an old kernel) it takes two renames instead: the old directory to
-/// `.NAME.previous`, the new one to `NAME`; an interruption between them leaves the old one at
-/// `.NAME.previous`, which [`DirectorySwap::prepare`] puts back (or, if the new one made it to
-/// `NAME`, removes) before the next swap starts, and [`read_consistently`] waits out. An
+/// `.NAME.previous`, the new one to `NAME`, under an exclusive `flock` on the file
+/// `.NAME.swapping` that [`read_consistently`] takes shared to tell a swap under way from a
+/// missing directory; an interruption between them leaves the old one at `.NAME.previous`,
+/// which [`DirectorySwap::prepare`] puts back (or, if the new one made it to `NAME`, removes)
+/// before the next swap starts. An
 /// interruption before the swap leaves the old directory untouched at `NAME`. One writer per
 /// directory at a time ([`lock::DirectoryLock`]).
 #[derive(Clone, Debug)]
@@ -216,6 +221,47 @@ impl DirectorySwap {
     /// between its two renames (the target is missing and the old directory is there).
     pub fn interrupted(&self) -> Option<&Path> {
         (!self.target.is_dir() && self.previous.is_dir()).then_some(self.previous.as_path())
+    }
+
+    /// `.NAME.swapping`: the file a swap by two renames holds an exclusive `flock` on between
+    /// them. It is created before the first such swap and then left in place (removing a lock
+    /// file races with its next taker).
+    fn swapping_path(&self) -> PathBuf {
+        self.beside(SWAPPING_SUFFIX)
+    }
+
+    /// Takes the exclusive lock of a swap by two renames ([`DirectorySwap::swapping_path`]),
+    /// waiting for readers that hold it shared for the moment of one `stat`.
+    fn swapping_lock(&self) -> Result<File, StepError> {
+        let path = self.swapping_path();
+        let file = fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(StepError::of(&path, "create"))?;
+        rustix::fs::flock(&file, rustix::fs::FlockOperation::LockExclusive)
+            .map_err(|e| StepError::of(&path, "lock")(e.into()))?;
+        Ok(file)
+    }
+
+    /// Whether the target is missing with no swap by two renames between its renames: a swap
+    /// started after the target went missing creates `.NAME.swapping` before its first rename,
+    /// so a missing file means none was under way; otherwise the target is looked at again while
+    /// holding that file's lock shared, which no swap can start or be halfway through. `None`
+    /// when a swap holds the lock now (the caller tries again).
+    fn missing_with_no_swap_under_way(&self) -> Option<bool> {
+        let lock = match File::open(self.swapping_path()) {
+            Ok(lock) => lock,
+            Err(_) => return Some(true),
+        };
+        match rustix::fs::flock(&lock, rustix::fs::FlockOperation::NonBlockingLockShared) {
+            Ok(()) => Some(version_of(&self.target).is_none()),
+            Err(rustix::io::Errno::WOULDBLOCK) => None,
+            // A file system without flock: the swap under way is told by its moved-aside
+            // directory alone.
+            Err(_) => Some(version_of(&self.target).is_none() && !self.previous.is_dir()),
+        }
     }
 
     /// Creates the parent folders and finishes a swap an earlier run left half done: with the
@@ -271,6 +317,8 @@ impl DirectorySwap {
                 Err(_) => {}
             }
         }
+        // Readers that find the target missing wait for this lock before they believe it.
+        let swapping = had_old.then(|| self.swapping_lock()).transpose()?;
         if had_old {
             fs::rename(&self.target, &self.previous)
                 .map_err(StepError::of(&self.target, "move aside"))?;
@@ -279,6 +327,7 @@ impl DirectorySwap {
             if had_old {
                 let _ = fs::rename(&self.previous, &self.target);
             }
+            drop(swapping);
             if when_fails == WhenSwapFails::Remove {
                 let _ = fs::remove_dir_all(built);
             }
@@ -287,6 +336,7 @@ impl DirectorySwap {
                 "rename the staging directory to",
             )(error));
         }
+        drop(swapping);
         sync_directory(&self.parent).map_err(StepError::of(&self.parent, "fsync"))?;
         if had_old {
             // The new directory is in place; an old one left over is removed by the next prepare.
@@ -331,17 +381,38 @@ fn exchange_unsupported(error: &std::io::Error) -> bool {
             .any(|errno| error.raw_os_error() == Some(errno.raw_os_error()))
 }
 
-/// What identifies one version of a directory: its device, inode and change time. A swap gives
-/// the path another inode; a reused inode has a new change time.
-fn version_of(dir: &Path) -> Option<(u64, u64, i64, i64)> {
-    let stat = rustix::fs::stat(dir).ok()?;
+/// What identifies one version of a directory: its device, inode and change time.
+type Version = (u64, u64, i64, i64);
+
+fn version_from(stat: &rustix::fs::Stat) -> Version {
     #[allow(clippy::unnecessary_cast, clippy::useless_conversion)]
-    Some((
+    (
         stat.st_dev as u64,
         stat.st_ino as u64,
         stat.st_ctime as i64,
         stat.st_ctime_nsec as i64,
-    ))
+    )
+}
+
+/// The version of the directory at `dir` now, `None` when there is none.
+fn version_of(dir: &Path) -> Option<Version> {
+    rustix::fs::stat(dir).ok().map(|stat| version_from(&stat))
+}
+
+/// The directory at `dir` opened, with its version: while the handle is open its inode number
+/// cannot be given to another directory, so finding the same number at `dir` later means the
+/// same directory (a swap that removes it and creates the next would otherwise be free to reuse
+/// the number, and ext4 does).
+fn pin(dir: &Path) -> Option<(rustix::fd::OwnedFd, Version)> {
+    use rustix::fs::{Mode, OFlags, open};
+    let fd = open(
+        dir,
+        OFlags::RDONLY | OFlags::DIRECTORY | OFlags::CLOEXEC,
+        Mode::empty(),
+    )
+    .ok()?;
+    let version = version_from(&rustix::fs::fstat(&fd).ok()?);
+    Some((fd, version))
 }
 
 /// How many times [`read_consistently`] reads a directory that keeps being replaced before it
@@ -349,10 +420,10 @@ fn version_of(dir: &Path) -> Option<(u64, u64, i64, i64)> {
 pub const CONSISTENT_READ_ATTEMPTS: usize = 20;
 
 /// Runs `read` (which reads files of directory `dir` one by one) until it ran while `dir` stayed
-/// one version: the same directory before and after, no [`DirectorySwap`] in between. So a
-/// reader sees the old directory or the new one, never files of both, and never "not found"
-/// while a swap is under way (the two renames of a file system without an atomic exchange leave
-/// the path missing for a moment). When every one of [`CONSISTENT_READ_ATTEMPTS`] reads
+/// one version: the same directory, held open, before and after, no [`DirectorySwap`] in
+/// between. So a reader sees the old directory or the new one, never files of both, and never
+/// "not found" while a swap by two renames is under way (it leaves the path missing for a
+/// moment; the swap's lock tells). When every one of [`CONSISTENT_READ_ATTEMPTS`] reads
 /// overlapped a swap, the last read's error is returned if it failed (a swap interrupted for
 /// good, between its two renames, is reported so), else the error `kept_changing` makes: never a
 /// read that may mix two versions.
@@ -362,21 +433,22 @@ pub fn read_consistently<T, E>(
     kept_changing: impl FnOnce() -> E,
 ) -> Result<T, E> {
     let swap = DirectorySwap::new(dir);
-    let swap_under_way = || {
-        swap.as_ref()
-            .is_some_and(|swap| swap.interrupted().is_some())
-    };
     let mut last_error = None;
     for attempt in 1..=CONSISTENT_READ_ATTEMPTS {
-        let before = version_of(dir);
+        let before = pin(dir);
         let result = read();
         let after = version_of(dir);
-        let stable = match (before, after) {
-            (Some(before), Some(after)) => before == after,
-            // Missing throughout, and no swap has put it back or is under way: truly missing.
-            (None, None) => version_of(dir).is_none() && !swap_under_way(),
+        let stable = match (&before, after) {
+            (Some((_, before)), Some(after)) => *before == after,
+            // Missing throughout, and no swap is halfway through: truly missing.
+            (None, None) => {
+                swap.as_ref()
+                    .map_or(Some(true), DirectorySwap::missing_with_no_swap_under_way)
+                    == Some(true)
+            }
             _ => false,
         };
+        drop(before);
         if stable {
             return result;
         }
@@ -539,7 +611,17 @@ mod tests {
                 reads
             });
             assert!(reads > 0);
-            assert_eq!(fs::read_dir(&root).unwrap().count(), 1, "{method:?}");
+            let mut left: Vec<_> = fs::read_dir(&root)
+                .unwrap()
+                .map(|entry| entry.unwrap().file_name().into_string().unwrap())
+                .collect();
+            left.sort();
+            let expected: &[&str] = match method {
+                SwapMethod::Exchange => &["d"],
+                // The swap lock stays: removing a lock file races with its next taker.
+                SwapMethod::Renames => &[".d.swapping", "d"],
+            };
+            assert_eq!(left, expected, "{method:?}");
             fs::remove_dir_all(&root).unwrap();
         }
     }

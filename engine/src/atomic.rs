@@ -405,9 +405,15 @@ fn version_of(dir: &Path) -> Option<Version> {
 /// the number, and ext4 does).
 fn pin(dir: &Path) -> Option<(rustix::fd::OwnedFd, Version)> {
     use rustix::fs::{Mode, OFlags, open};
+    // `O_PATH` where there is one: it needs no read permission on the directory, as `stat` does
+    // not.
+    #[cfg(any(target_os = "linux", target_os = "android"))]
+    let access = OFlags::PATH;
+    #[cfg(not(any(target_os = "linux", target_os = "android")))]
+    let access = OFlags::RDONLY;
     let fd = open(
         dir,
-        OFlags::RDONLY | OFlags::DIRECTORY | OFlags::CLOEXEC,
+        access | OFlags::DIRECTORY | OFlags::CLOEXEC,
         Mode::empty(),
     )
     .ok()?;

@@ -138,6 +138,13 @@ pub struct Gpu {
     physical_device: vk::PhysicalDevice,
     /// The pool of that family's command buffers, resettable one by one.
     pub(crate) command_pool: vk::CommandPool,
+    /// Command buffers of finished one-off submissions ([`Gpu::submit_and_wait`]), reset and
+    /// reused by the next ones instead of one allocated and freed per submission: Debian 12's
+    /// Khronos validation layer (1.3.239, synchronization validation on) never frees the state
+    /// it makes for each allocated command buffer (KhronosGroup/Vulkan-ValidationLayers#6033),
+    /// which heaptrack measured at 3.1 KB a call, 1.7 calls a frame in the soak
+    /// (docs/results.md#soak). They die with the pool.
+    spare_command_buffers: std::sync::Mutex<Vec<vk::CommandBuffer>>,
     /// The chosen physical device's properties (limits, API version, name).
     pub(crate) properties: vk::PhysicalDeviceProperties,
     /// The largest device-local memory heap, bytes: what budgets of GPU memory are checked
@@ -497,6 +504,7 @@ impl Gpu {
             queue_family,
             physical_device,
             command_pool,
+            spare_command_buffers: std::sync::Mutex::new(Vec::new()),
             properties,
             device_local_heap_bytes,
             device,
@@ -747,14 +755,29 @@ impl Gpu {
         };
     }
 
-    /// Records `record` into a fresh command buffer, submits it and waits for it to finish.
+    /// Records `record` into a command buffer (a spare one reset, else a new one), submits it
+    /// and waits for it to finish.
     pub fn submit_and_wait(
         &self,
         record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
     ) -> Result<(), GpuError> {
-        let command_buffer = self.allocate_command_buffer()?;
+        let spares = || {
+            self.spare_command_buffers
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+        };
+        let spare = spares().pop();
+        let command_buffer = match spare {
+            Some(command_buffer) => command_buffer,
+            None => self.allocate_command_buffer()?,
+        };
         let result = self.record_submit_wait(command_buffer, record);
-        self.free_command_buffer(command_buffer);
+        match result {
+            // Finished: the next submission resets and records it.
+            Ok(()) => spares().push(command_buffer),
+            // A failed record, submission or wait: freed, as before there were spares.
+            Err(_) => self.free_command_buffer(command_buffer),
+        }
         result
     }
 

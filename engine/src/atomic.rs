@@ -247,20 +247,22 @@ impl DirectorySwap {
 
     /// Whether the target is missing with no swap by two renames between its renames: a swap
     /// started after the target went missing creates `.NAME.swapping` before its first rename,
-    /// so a missing file means none was under way; otherwise the target is looked at again while
-    /// holding that file's lock shared, which no swap can start or be halfway through. `None`
-    /// when a swap holds the lock now (the caller tries again).
+    /// so no such file means none was under way; otherwise the target is looked at again while
+    /// holding that file's lock shared, which no swap on this host can start or be halfway
+    /// through, and the moved-aside `.NAME.previous` must be absent too (a swap from another
+    /// host where `flock` stays on each host, or one interrupted for good: the caller's retries
+    /// then end in the read's error). `None` when that cannot be told now (the caller tries
+    /// again).
     fn missing_with_no_swap_under_way(&self) -> Option<bool> {
         let lock = match File::open(self.swapping_path()) {
             Ok(lock) => lock,
-            Err(_) => return Some(true),
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Some(true),
+            Err(_) => return None,
         };
         match rustix::fs::flock(&lock, rustix::fs::FlockOperation::NonBlockingLockShared) {
-            Ok(()) => Some(version_of(&self.target).is_none()),
             Err(rustix::io::Errno::WOULDBLOCK) => None,
-            // A file system without flock: the swap under way is told by its moved-aside
-            // directory alone.
-            Err(_) => Some(version_of(&self.target).is_none() && !self.previous.is_dir()),
+            // Held shared, or a file system without flock: the moved-aside directory tells.
+            _ => Some(version_of(&self.target).is_none() && !self.previous.is_dir()),
         }
     }
 
@@ -400,10 +402,11 @@ fn version_of(dir: &Path) -> Option<Version> {
 }
 
 /// The directory at `dir` opened, with its version: while the handle is open its inode number
-/// cannot be given to another directory, so finding the same number at `dir` later means the
-/// same directory (a swap that removes it and creates the next would otherwise be free to reuse
-/// the number, and ext4 does).
-fn pin(dir: &Path) -> Option<(rustix::fd::OwnedFd, Version)> {
+/// cannot be given to another directory on this host, so finding the same number at `dir` later
+/// means the same directory (a swap that removes it and creates the next would otherwise be free
+/// to reuse the number, and ext4 does; across hosts, on NFS, the change time still tells). When
+/// it exists but cannot be opened, its version alone. `None` when there is none.
+fn pin(dir: &Path) -> Option<(Option<rustix::fd::OwnedFd>, Version)> {
     use rustix::fs::{Mode, OFlags, open};
     // `O_PATH` where there is one: it needs no read permission on the directory, as `stat` does
     // not.
@@ -411,14 +414,18 @@ fn pin(dir: &Path) -> Option<(rustix::fd::OwnedFd, Version)> {
     let access = OFlags::PATH;
     #[cfg(not(any(target_os = "linux", target_os = "android")))]
     let access = OFlags::RDONLY;
-    let fd = open(
+    match open(
         dir,
         access | OFlags::DIRECTORY | OFlags::CLOEXEC,
         Mode::empty(),
-    )
-    .ok()?;
-    let version = version_from(&rustix::fs::fstat(&fd).ok()?);
-    Some((fd, version))
+    ) {
+        Ok(fd) => {
+            let version = version_from(&rustix::fs::fstat(&fd).ok()?);
+            Some((Some(fd), version))
+        }
+        Err(rustix::io::Errno::NOENT) => None,
+        Err(_) => version_of(dir).map(|version| (None, version)),
+    }
 }
 
 /// How many times [`read_consistently`] reads a directory that keeps being replaced before it
@@ -446,8 +453,9 @@ pub fn read_consistently<T, E>(
         let after = version_of(dir);
         let stable = match (&before, after) {
             (Some((_, before)), Some(after)) => *before == after,
-            // Missing throughout, and no swap is halfway through: truly missing.
-            (None, None) => {
+            // Missing throughout, and no swap is halfway through: truly missing. A read that
+            // succeeded found a directory that came and went meanwhile: read again.
+            (None, None) if result.is_err() => {
                 swap.as_ref()
                     .map_or(Some(true), DirectorySwap::missing_with_no_swap_under_way)
                     == Some(true)

@@ -120,9 +120,10 @@ impl Plan {
             validation: true,
             bounds: Bounds {
                 frames_rss_growth: 8 << 20,
-                // A third of the layer's 3.1 KB per allocated command buffer: it catches
-                // lensmap allocating one every third frame, and holds the layer's residual
-                // (0.55 KB a frame from frame 500 to 9,500 in the full soak on Mesa 22.3).
+                // A third of the layer's 3.1 KB per allocated command buffer: with the 8 MiB,
+                // 17.3 MiB over 9,500 frames, which lensmap allocating one a frame again (29
+                // MiB) breaks, and which holds the layer's residual (0.54 KB a frame from
+                // frame 500 to 9,500 in the full soak on Mesa 22.3).
                 validation_layer_per_frame: 1 << 10,
                 frames_device_growth: 1 << 20,
                 frames_device_transient: 64 << 20,
@@ -139,7 +140,7 @@ impl Plan {
     /// every option has come round: 8.6 MiB (Mesa 22.3) and 5.3 MiB (Mesa 25.0) from frame 150
     /// to 300 in the test profile; in release without validation the same pages settle by
     /// frame 400 (+0.4 MiB from there to 1,000). So the bound is 16 MiB past frame 150 (plus
-    /// the layer's 16 KiB a frame): it catches a leak of 110 KiB a frame or more (any leaked
+    /// the layer's 1 KiB a frame): it catches a leak of 110 KiB a frame or more (any leaked
     /// readback buffer or frame image of these sizes, 96 × 72 subpixels at 2 × 2 in RGBA32F
     /// is 432 KiB) and the device memory bound any leaked target or block at once; the full
     /// soak's 9,500 warm frames reach the rest.
@@ -545,17 +546,24 @@ impl FramesReport {
             }
             let last = self.samples.last().is_some_and(|l| l.frame == s.frame);
             // The last sample may also fall while fragmentation holds a block, which tells
-            // nothing of a leak when lensmap's live allocations are no more than at an earlier
-            // sample past the warm one (the schedule repeats, so earlier samples saw the same
-            // states); otherwise it is held to `frames_device_growth`.
-            let earlier_allocated = self
-                .samples
-                .iter()
-                .filter(|e| e.frame > warm.frame && e.frame < s.frame)
-                .map(|e| e.device.allocated_bytes)
-                .max();
-            let fragmented =
-                earlier_allocated.is_some_and(|earlier| s.device.allocated_bytes <= earlier);
+            // nothing of a leak when lensmap's live allocations (bytes and count) are no more
+            // than at a sample of the run's first half past the warm one (the schedule repeats,
+            // so those samples saw the same states, and a slow leak had not yet accumulated);
+            // otherwise it is held to `frames_device_growth`.
+            let first_half = self.samples.iter().filter(|e| {
+                e.frame > warm.frame && e.frame <= warm.frame + (self.plan.frames - warm.frame) / 2
+            });
+            let fragmented = first_half
+                .fold(None, |most: Option<(u64, u64)>, e| {
+                    let (bytes, count) = most.unwrap_or_default();
+                    Some((
+                        bytes.max(e.device.allocated_bytes),
+                        count.max(e.device.allocations),
+                    ))
+                })
+                .is_some_and(|(bytes, count)| {
+                    s.device.allocated_bytes <= bytes && s.device.allocations <= count
+                });
             let device_bound = if last && !fragmented {
                 bounds.frames_device_growth
             } else {

@@ -122,8 +122,8 @@ impl Plan {
                 frames_rss_growth: 8 << 20,
                 // A third of the layer's 3.1 KB per allocated command buffer: with the 8 MiB,
                 // 17.3 MiB over 9,500 frames, which lensmap allocating one a frame again (29
-                // MiB) breaks, and which holds the layer's residual (0.54 KB a frame from
-                // frame 500 to 9,500 in the full soak on Mesa 22.3).
+                // MiB) breaks, and which holds the layer's residual (in the full soak, 0.58 KB
+                // a frame over frames 500 to 9,500 on Mesa 22.3, 0.80 KB to 10,000 on 25.0).
                 validation_layer_per_frame: 1 << 10,
                 frames_device_growth: 1 << 20,
                 frames_device_transient: 64 << 20,

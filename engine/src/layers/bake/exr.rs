@@ -170,6 +170,35 @@ pub fn encode_cube_map_exr(cube: &CubeMap, path: &Path) -> Result<Vec<u8>, BakeE
     Ok(bytes.into_inner())
 }
 
+/// Where part `name` of a cube map of `size` belongs, `(level, face, edge)`, and that its
+/// `(width, height)` is that level's: the rule the headers and the pixels are both checked by.
+fn part_place(
+    path: &Path,
+    name: &str,
+    size: u32,
+    (width, height): (usize, usize),
+) -> Result<(usize, usize, usize), BakeError> {
+    let levels = CubeMap::full_chain_levels(size) as usize;
+    let Some((level, face)) = parse_part_name(name).filter(|(level, _)| *level < levels) else {
+        return Err(BakeError::BadPart {
+            path: path.to_owned(),
+            part: name.to_owned(),
+            problem: format!("is not one of level0/+X … level{}/-Z", levels - 1),
+        });
+    };
+    let edge = (size >> level).max(1) as usize;
+    if width != edge || height != edge {
+        return Err(BakeError::WrongSize {
+            path: path.to_owned(),
+            part: name.to_owned(),
+            found: format!("{width}×{height}"),
+            expected: edge as u32,
+            size,
+        });
+    }
+    Ok((level, face, edge))
+}
+
 /// Checks the parts' names, sizes and channel counts from the file's headers alone, before
 /// any pixel is read: the EXR reader allocates whatever a header claims, so a damaged header
 /// could ask for gigabytes (found by fuzzing). The same rules as [`read_cube_map_exr`] applies
@@ -183,30 +212,18 @@ fn check_headers(path: &Path, size: u32) -> Result<(), BakeError> {
                 message: error.to_string(),
             }
         })?;
-    let levels = CubeMap::full_chain_levels(size) as usize;
     for header in &meta.headers {
         let name = header
             .own_attributes
             .layer_name
             .as_ref()
             .map_or_else(String::new, |name| name.to_string());
-        let Some((level, _)) = parse_part_name(&name).filter(|(level, _)| *level < levels) else {
-            return Err(BakeError::BadPart {
-                path: path.to_owned(),
-                part: name,
-                problem: format!("is not one of level0/+X … level{}/-Z", levels - 1),
-            });
-        };
-        let edge = (size >> level).max(1) as usize;
-        if header.layer_size.0 != edge || header.layer_size.1 != edge {
-            return Err(BakeError::WrongSize {
-                path: path.to_owned(),
-                part: name,
-                found: format!("{}×{}", header.layer_size.0, header.layer_size.1),
-                expected: edge as u32,
-                size,
-            });
-        }
+        part_place(
+            path,
+            &name,
+            size,
+            (header.layer_size.0, header.layer_size.1),
+        )?;
         if header.channels.list.len() != 4 {
             return Err(BakeError::BadPart {
                 path: path.to_owned(),
@@ -253,25 +270,9 @@ pub fn read_cube_map_exr(path: &Path, size: u32) -> Result<CubeMap, BakeError> {
             part: name.clone(),
             problem,
         };
-        let Some((level, face)) = parse_part_name(&name).filter(|(level, _)| *level < levels)
-        else {
-            return Err(bad(format!(
-                "is not one of level0/+X … level{}/-Z",
-                levels - 1
-            )));
-        };
+        let (level, face, edge) = part_place(path, &name, size, (part.size.0, part.size.1))?;
         if found[level][face].is_some() {
             return Err(bad("appears twice".to_owned()));
-        }
-        let edge = (size >> level).max(1) as usize;
-        if part.size.0 != edge || part.size.1 != edge {
-            return Err(BakeError::WrongSize {
-                path: path.to_owned(),
-                part: name,
-                found: format!("{}×{}", part.size.0, part.size.1),
-                expected: edge as u32,
-                size,
-            });
         }
         let mut texels = vec![[0.0f32; 4]; edge * edge];
         for (index, channel_name) in ["R", "G", "B", "A"].into_iter().enumerate() {

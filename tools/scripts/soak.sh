@@ -6,8 +6,9 @@
 # Builds `engine/capi/examples/soak.rs` (it links lensmap-capi and calls its exported
 # `extern "C"` functions) with `cargo build --release`, then runs it: 10,000 frames with a
 # moving camera and alternating scenes and options on one context (validation on), resident
-# and device memory sampled every 500 frames, then 200 `lensmap_context_new` /
-# `lensmap_scene_load` / `_free` cycles, resident memory sampled every 10. It prints the samples,
+# memory, the C allocator's live bytes (the heap) and device memory sampled every 500 frames,
+# then 200 `lensmap_context_new` / `lensmap_scene_load` / `_free` cycles, resident memory and
+# the heap sampled every 10. It prints the samples,
 # the frame-time drift and the cycles, and exits 1 when memory grew past the bounds stated in
 # `engine/capi/tests/soak_harness/mod.rs` (`Plan::full`) or the validation layer reported
 # anything. The driver is the environment's: for Mesa 25.0's lavapipe,

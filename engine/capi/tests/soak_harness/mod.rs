@@ -36,6 +36,12 @@ pub struct Bounds {
     /// Resident memory in the frames phase, from the sample at `warm_frames` to any later one
     /// (plus `validation_layer_per_frame` for each frame in between when validation is on).
     pub frames_rss_growth: u64,
+    /// Live allocations of the C allocator ([`heap_bytes`]) in the frames phase, from the
+    /// sample at `warm_frames` to any later one (plus `validation_layer_per_frame` for each
+    /// frame in between when validation is on, and any device block held above the warm
+    /// sample's: Mesa 22.3's lavapipe allocates device memory with malloc; 25.0 maps it
+    /// itself, outside the heap).
+    pub frames_heap_growth: u64,
     /// What the Khronos validation layer may add to resident memory per frame, bytes: its state
     /// grows with every command buffer allocated (layer 1.3.239 leaks 3.1 KB a
     /// `vkAllocateCommandBuffers`, KhronosGroup/Vulkan-ValidationLayers#6033: 7 KB a frame
@@ -52,6 +58,9 @@ pub struct Bounds {
     pub frames_device_transient: u64,
     /// Resident memory in the cycles phase, from the sample at `warm_cycles` to any later one.
     pub cycles_rss_growth: u64,
+    /// Live allocations of the C allocator in the cycles phase, from the sample at
+    /// `warm_cycles` to any later one.
+    pub cycles_heap_growth: u64,
 }
 
 /// What to run and what to hold it to.
@@ -68,9 +77,9 @@ pub struct Plan {
     pub drift_window: u32,
     /// Context and scene cycles.
     pub cycles: u32,
-    /// Cycles between samples of resident memory.
+    /// Cycles between samples of resident memory and the heap.
     pub cycle_sample_every: u32,
-    /// The cycle sample whose resident memory is the baseline of the cycles.
+    /// The cycle sample whose memory is the baseline of the cycles.
     pub warm_cycles: u32,
     /// Face size of the projected layered EMs, texels.
     pub em_size: u32,
@@ -84,15 +93,24 @@ pub struct Plan {
 impl Plan {
     /// The full soak: 10,000 frames, 200 cycles (`tools/scripts/soak.sh`).
     ///
-    /// The bounds. Resident memory may move without a leak: the allocator's free lists and
-    /// arenas hold what transient allocations left (the largest are a frame's subpixel image
-    /// read back, 192 × 144 × 16 B = 432 KiB, its box-filtered copy and the lens meshes' CPU
-    /// buffers; two threads' arenas may each keep a few); the frame cache holds one frame per
-    /// scene whose size varies with the camera. 8 MiB covers a dozen such buffers held at once.
-    /// A leak below the bound is still caught in the full run's figures: 8 MiB over the 9,500
-    /// frames after the baseline is 883 B a frame, less than one leaked Vulkan object per frame
-    /// on lavapipe (an image view, a descriptor pool or a pipeline each hold more) and less than
-    /// any of the frame's own buffers.
+    /// The bounds. The heap (the C allocator's live bytes) carries the leak check: it moves
+    /// only when something is allocated and kept, and it sees what resident memory hides, a
+    /// leak into memory the allocator had freed. Once warm it stays within 390.6–400.1 MiB at
+    /// the same device memory over the full run (Mesa 22.3): a transient of 8–9.5 MiB is there
+    /// at some samples and not others (at frame 100, 150 or 200 in different runs of the same
+    /// schedule, so a driver or worker thread's, not the schedule's). The bound is 16 MiB, plus
+    /// the layer's share: over the 9,500 frames after the baseline, 1.7 KiB a frame beyond the
+    /// layer's, less than one leaked Vulkan object per frame on lavapipe (an image view, a
+    /// descriptor pool or a pipeline each hold more) and less than any of the frame's own
+    /// buffers (the largest, its subpixel image read back, is 192 × 144 × 16 B = 432 KiB).
+    ///
+    /// Resident memory moves without a leak: freed pages stay with the process or go back as
+    /// the allocator likes, and the driver maps and unmaps its JIT code outside it. Over the
+    /// full run at the same device memory it ranged over 511.5–550.5 MiB (Mesa 22.3; a run
+    /// whose frame 500 sat 9.8 MiB under frame 1,000's broke an 8 MiB bound with its heap
+    /// flat). Its bound is 64 MiB, half as much again as that spread: 7 KiB a frame, which
+    /// catches what bypasses the allocator (mapped memory, threads' stacks, JIT code) leaking
+    /// a page or two a frame.
     ///
     /// Device memory: every buffer and image is either reused or cached per format, size and
     /// scene, so after the warm-up the allocator holds the same blocks; lens buffers grow only
@@ -106,7 +124,9 @@ impl Plan {
     /// first ~20 cycles fill the driver's and the allocator's caches (Mesa 22.3, release:
     /// +26 MiB over cycles 0–10, +14.5 over 10–20, +0.2 over 20–30), so the baseline is cycle
     /// 30; 8 MiB over the 170 cycles after it is 48 KiB a cycle, less than one leaked device
-    /// or scene.
+    /// or scene. The heap's bound is the same 8 MiB: it moves 20 KiB a cycle (the layer's
+    /// residue, which heaptrack puts at 11.5 KiB), and a cycle's context and scene hold far
+    /// more (the table's "held" figure).
     pub fn full() -> Plan {
         Plan {
             frames: 10_000,
@@ -119,15 +139,18 @@ impl Plan {
             em_size: 8,
             validation: true,
             bounds: Bounds {
-                frames_rss_growth: 8 << 20,
-                // A third of the layer's 3.1 KB per allocated command buffer: with the 8 MiB,
-                // 17.3 MiB over 9,500 frames, which lensmap allocating one a frame again (29
-                // MiB) breaks, and which holds the layer's residual (in the full soak, 0.58 KB
-                // a frame over frames 500 to 9,500 on Mesa 22.3, 0.80 KB to 10,000 on 25.0).
+                frames_rss_growth: 64 << 20,
+                frames_heap_growth: 16 << 20,
+                // A third of the layer's 3.1 KB per allocated command buffer: with the heap's
+                // 16 MiB, 25.3 MiB over 9,500 frames, which lensmap allocating one a frame again
+                // (28 MiB) breaks, and which holds the layer's residual (resident memory in the
+                // full soak, 0.58 KB a frame over frames 500 to 9,500 on Mesa 22.3, 0.80 KB to
+                // 10,000 on 25.0).
                 validation_layer_per_frame: 1 << 10,
                 frames_device_growth: 1 << 20,
                 frames_device_transient: 64 << 20,
                 cycles_rss_growth: 8 << 20,
+                cycles_heap_growth: 8 << 20,
             },
         }
     }
@@ -135,22 +158,27 @@ impl Plan {
     /// The short soak `cargo test` runs: 300 frames, 4 cycles, the same schedule and checks,
     /// and bounds for a run that is not warm yet.
     ///
-    /// Frames: lavapipe's device memory is the process's memory, and the pages of the
-    /// allocator's 192 MiB of blocks become resident as frames first use them, long after
-    /// every option has come round: 8.6 MiB (Mesa 22.3) and 5.3 MiB (Mesa 25.0) from frame 150
-    /// to 300 in the test profile; in release without validation the same pages settle by
-    /// frame 400 (+0.4 MiB from there to 1,000). So the bound is 16 MiB past frame 150 (plus
-    /// the layer's 1 KiB a frame): it catches a leak of 110 KiB a frame or more (any leaked
-    /// readback buffer or frame image of these sizes, 96 × 72 subpixels at 2 × 2 in RGBA32F
-    /// is 432 KiB) and the device memory bound any leaked target or block at once; the full
-    /// soak's 9,500 warm frames reach the rest.
+    /// Frames: resident memory is not warm by then. lavapipe's device memory is the process's
+    /// memory (in the heap on Mesa 22.3, mapped by the driver on 25.0), and the pages of the allocator's 192 MiB of blocks
+    /// become resident as frames first use them, long after every option has come round; the
+    /// allocator keeps or returns freed pages as it likes. From frame 150 to 300 in the test
+    /// profile (Mesa 22.3, eight runs on one machine and one in CI) resident memory moved from
+    /// −46 to +33 MiB; in the runs that sampled the heap it moved 1.5 MiB at most beyond its
+    /// 8.2 MiB transient. So the heap
+    /// carries the check: 16 MiB past frame 150 (plus the layer's 1 KiB a frame) catches a
+    /// leak through the C allocator of 110 KiB a frame or more (any leaked readback buffer or
+    /// frame image of these sizes: 96 × 72 subpixels at 2 × 2 in RGBA32F is 432 KiB), and the
+    /// device memory bound any leaked target or block at once. Resident memory's bound is
+    /// 64 MiB, twice the growth measured: it catches what bypasses the allocator (mapped
+    /// memory, threads' stacks, JIT code) at 437 KiB a frame; the full soak's 9,500 warm frames
+    /// hold it to 7 KiB a frame.
     ///
     /// Cycles: the first cycles grow resident memory while the driver's and the allocator's
     /// caches fill (22.3: +26 MiB over cycles 0–10, +15 over 10–20, +0.2 over 20–30; 25.0:
-    /// +8 MiB from cycle 2 to 4), so 4 cycles are not warm: their bound is 16 MiB past
-    /// cycle 2, catching a leak of 8 MiB a cycle (a whole leaked device with its pipelines
-    /// and targets); they also check validation and that a context holds the same device
-    /// memory every time. The full soak's 200 cycles hold the 8 MiB bound past cycle 30.
+    /// +8 MiB from cycle 2 to 4; from +5 to +23 MiB over cycles 2–4 in eight runs of 22.3),
+    /// while the heap moved +0.04 MiB. The heap's bound is the full soak's 8 MiB past cycle 2,
+    /// less than one leaked context with its scene; resident memory's is 64 MiB. They also
+    /// check validation and that a context holds the same device memory every time.
     pub fn short() -> Plan {
         let full = Plan::full();
         Plan {
@@ -162,13 +190,24 @@ impl Plan {
             cycle_sample_every: 2,
             warm_cycles: 2,
             bounds: Bounds {
-                frames_rss_growth: 16 << 20,
-                cycles_rss_growth: 16 << 20,
+                cycles_rss_growth: 64 << 20,
                 ..full.bounds
             },
             ..full
         }
     }
+}
+
+/// Bytes the C allocator holds for live allocations now: glibc's in-use chunks over all arenas
+/// plus the chunks it mapped on its own (`mallinfo2`'s `uordblks + hblkhd`). lensmap (Rust's
+/// system allocator), the driver and the validation layer all allocate through it. Unlike
+/// resident memory it does not move when allocated pages are first touched (Mesa 22.3's
+/// lavapipe mallocs device memory, which becomes resident only as frames use it) or when freed
+/// pages stay with the process: it moves when something is allocated and kept.
+pub fn heap_bytes() -> u64 {
+    // SAFETY: mallinfo2 takes nothing and reads the allocator's statistics under its locks.
+    let info = unsafe { libc::mallinfo2() };
+    (info.uordblks + info.hblkhd) as u64
 }
 
 /// The process's resident memory now (`VmRSS` of `/proc/self/status`), bytes.
@@ -349,6 +388,8 @@ pub struct Sample {
     pub frame: u32,
     /// Resident memory, bytes.
     pub rss: u64,
+    /// Live allocations of the C allocator ([`heap_bytes`]), bytes.
+    pub heap: u64,
     /// Device memory held through lensmap's allocator.
     pub device: DeviceMemory,
     /// Validation messages the context has seen.
@@ -385,6 +426,7 @@ pub fn run_frames(plan: &Plan) -> Result<FramesReport, String> {
         Ok(Sample {
             frame,
             rss: resident_bytes()?,
+            heap: heap_bytes(),
             device: device_memory(context)?,
             validation: validation_messages(context)?,
         })
@@ -483,29 +525,31 @@ impl FramesReport {
         }
     }
 
-    /// Largest resident and device memory growth past the warm sample, bytes (negative: shrank).
-    pub fn growth(&self) -> (i64, i64) {
+    /// Largest resident, heap and device memory growth past the warm sample, bytes (negative:
+    /// shrank).
+    pub fn growth(&self) -> [i64; 3] {
         let Some(warm) = self.warm() else {
-            return (0, 0);
+            return [0; 3];
         };
         let later = self.samples.iter().filter(|s| s.frame >= warm.frame);
-        later.fold((i64::MIN, i64::MIN), |(rss, device), s| {
-            (
+        later.fold([i64::MIN; 3], |[rss, heap, device], s| {
+            [
                 rss.max(s.rss as i64 - warm.rss as i64),
+                heap.max(s.heap as i64 - warm.heap as i64),
                 device.max(s.device.reserved_bytes as i64 - warm.device.reserved_bytes as i64),
-            )
+            ]
         })
     }
 
-    /// How far resident memory may grow over `frames` frames past the warm sample, bytes.
-    pub fn rss_bound(&self, frames: u32) -> u64 {
-        let bounds = self.plan.bounds;
+    /// How far memory bounded by `growth` (resident or heap) may grow over `frames` frames
+    /// past the warm sample, bytes: `growth` plus the validation layer's share.
+    pub fn bound(&self, growth: u64, frames: u32) -> u64 {
         let layer = if self.plan.validation {
-            bounds.validation_layer_per_frame * u64::from(frames)
+            self.plan.bounds.validation_layer_per_frame * u64::from(frames)
         } else {
             0
         };
-        bounds.frames_rss_growth + layer
+        growth + layer
     }
 
     /// What broke the plan's bounds, one line each; empty when the soak held.
@@ -534,15 +578,21 @@ impl FramesReport {
                 .device
                 .reserved_bytes
                 .saturating_sub(warm.device.reserved_bytes);
-            let bound = self.rss_bound(s.frame - warm.frame) + blocks;
-            if s.rss > warm.rss + bound {
-                failures.push(format!(
-                    "resident memory grew {:.2} MiB from frame {} to frame {} (bound {:.2} MiB)",
-                    (s.rss - warm.rss) as f64 / MIB,
-                    warm.frame,
-                    s.frame,
-                    bound as f64 / MIB
-                ));
+            let measures = [
+                ("resident memory", s.rss, warm.rss, bounds.frames_rss_growth),
+                ("the heap", s.heap, warm.heap, bounds.frames_heap_growth),
+            ];
+            for (what, now, then, growth) in measures {
+                let bound = self.bound(growth, s.frame - warm.frame) + blocks;
+                if now > then + bound {
+                    failures.push(format!(
+                        "{what} grew {:.2} MiB from frame {} to frame {} (bound {:.2} MiB)",
+                        (now - then) as f64 / MIB,
+                        warm.frame,
+                        s.frame,
+                        bound as f64 / MIB
+                    ));
+                }
             }
             let last = self.samples.last().is_some_and(|l| l.frame == s.frame);
             // The last sample may also fall while fragmentation holds a block, which tells
@@ -585,7 +635,7 @@ impl FramesReport {
     /// The figures as text: one line per sample, then the drift.
     pub fn table(&self) -> String {
         let mut text = String::from(
-            "frame   resident MiB   device allocated MiB   device reserved MiB   allocations   validation   median ms (since last sample)\n",
+            "frame   resident MiB   heap MiB   device allocated MiB   device reserved MiB   allocations   validation   median ms (since last sample)\n",
         );
         let every = self.plan.sample_every as usize;
         for s in &self.samples {
@@ -598,9 +648,10 @@ impl FramesReport {
                 format!("{:.2}", median(before))
             };
             text += &format!(
-                "{:>6}   {:>12.2}   {:>20.2}   {:>19.2}   {:>11}   {:>10}   {:>8}\n",
+                "{:>6}   {:>12.2}   {:>8.2}   {:>20.2}   {:>19.2}   {:>11}   {:>10}   {:>8}\n",
                 s.frame,
                 s.rss as f64 / MIB,
+                s.heap as f64 / MIB,
                 s.device.allocated_bytes as f64 / MIB,
                 s.device.reserved_bytes as f64 / MIB,
                 s.device.allocations,
@@ -609,12 +660,15 @@ impl FramesReport {
             );
         }
         let drift = self.drift();
-        let (rss, device) = self.growth();
+        let [rss, heap, device] = self.growth();
+        let warm_frames = self.plan.frames.saturating_sub(self.plan.warm_frames);
         text += &format!(
-            "largest growth past frame {}: resident {:+.2} MiB (bound {:.2} at the end, plus any device block held above the warm sample's; validation {}), device reserved {:+.2} MiB (bound {:.2} at the end when its live allocations exceed every earlier sample's, else {:.2})\n",
+            "largest growth past frame {}: resident {:+.2} MiB, heap {:+.2} MiB (bounds {:.2} and {:.2} at the end, plus any device block held above the warm sample's; validation {}), device reserved {:+.2} MiB (bound {:.2} at the end when its live allocations exceed every earlier sample's, else {:.2})\n",
             self.plan.warm_frames,
             rss as f64 / MIB,
-            self.rss_bound(self.plan.frames.saturating_sub(self.plan.warm_frames)) as f64 / MIB,
+            heap as f64 / MIB,
+            self.bound(self.plan.bounds.frames_rss_growth, warm_frames) as f64 / MIB,
+            self.bound(self.plan.bounds.frames_heap_growth, warm_frames) as f64 / MIB,
             if self.plan.validation { "on" } else { "off" },
             device as f64 / MIB,
             self.plan.bounds.frames_device_growth as f64 / MIB,
@@ -638,17 +692,41 @@ impl FramesReport {
     }
 }
 
+/// One sample of the cycles phase.
+#[derive(Clone, Copy, Debug)]
+pub struct CycleSample {
+    /// Cycles done before it.
+    pub cycle: u32,
+    /// Resident memory, bytes.
+    pub rss: u64,
+    /// Live allocations of the C allocator ([`heap_bytes`]), bytes.
+    pub heap: u64,
+}
+
+impl CycleSample {
+    fn now(cycle: u32) -> Result<CycleSample, String> {
+        Ok(CycleSample {
+            cycle,
+            rss: resident_bytes()?,
+            heap: heap_bytes(),
+        })
+    }
+}
+
 /// What the cycles phase measured.
 #[derive(Clone, Debug)]
 pub struct CyclesReport {
     /// The plan it ran.
     pub plan: Plan,
-    /// (cycles done, resident memory in bytes) at 0 and every `cycle_sample_every` cycles.
-    pub samples: Vec<(u32, u64)>,
+    /// Samples at 0 and every `cycle_sample_every` cycles.
+    pub samples: Vec<CycleSample>,
     /// Validation messages over every cycle's context.
     pub validation: u64,
     /// Device memory held during each cycle's frame, before its scene was freed.
     pub device: Vec<DeviceMemory>,
+    /// The heap during each cycle's frame less the sample before the cycle: what one leaked
+    /// cycle would leave (with the transients of a frame), bytes.
+    pub held: Vec<i64>,
     /// Each cycle's time, ms.
     pub cycle_ms: Vec<f64>,
 }
@@ -657,20 +735,23 @@ pub struct CyclesReport {
 pub fn run_cycles(plan: &Plan) -> Result<CyclesReport, String> {
     let mut report = CyclesReport {
         plan: *plan,
-        samples: vec![(0, resident_bytes()?)],
+        samples: vec![CycleSample::now(0)?],
         validation: 0,
         device: Vec::new(),
+        held: Vec::new(),
         cycle_ms: Vec::new(),
     };
     let mut pixels = Vec::new();
     for cycle in 0..plan.cycles {
         let start = Instant::now();
+        let before = heap_bytes();
         let context = new_context(plan.validation)?;
         let scene = load_scene(SCENES[cycle as usize % SCENES.len()], plan.em_size)?;
         // The same scene and options every other cycle: their device memory must be the same.
         let options = frame_options(&default_frame(scene)?, cycle % SCENES.len() as u32);
         render(context, scene, &options, &mut pixels).map_err(|e| format!("cycle {cycle}: {e}"))?;
         report.device.push(device_memory(context)?);
+        report.held.push(heap_bytes() as i64 - before as i64);
         report.validation += validation_messages(context)?;
         // SAFETY: live handles, each freed once.
         unsafe {
@@ -679,32 +760,30 @@ pub fn run_cycles(plan: &Plan) -> Result<CyclesReport, String> {
         }
         report.cycle_ms.push(start.elapsed().as_secs_f64() * 1e3);
         if (cycle + 1) % plan.cycle_sample_every == 0 {
-            report.samples.push((cycle + 1, resident_bytes()?));
+            report.samples.push(CycleSample::now(cycle + 1)?);
         }
     }
     Ok(report)
 }
 
 impl CyclesReport {
-    /// The resident memory at `cycle`, if sampled there.
-    pub fn at(&self, cycle: u32) -> Option<u64> {
-        self.samples
-            .iter()
-            .find(|(c, _)| *c == cycle)
-            .map(|&(_, rss)| rss)
+    /// The sample at `cycle`, if there is one.
+    pub fn at(&self, cycle: u32) -> Option<&CycleSample> {
+        self.samples.iter().find(|s| s.cycle == cycle)
     }
 
-    /// Largest resident memory growth past the warm sample, bytes.
-    pub fn growth(&self) -> i64 {
+    /// Largest resident and heap growth past the warm sample, bytes.
+    pub fn growth(&self) -> [i64; 2] {
         let Some(warm) = self.at(self.plan.warm_cycles) else {
-            return 0;
+            return [0; 2];
         };
-        self.samples
-            .iter()
-            .filter(|(c, _)| *c >= self.plan.warm_cycles)
-            .map(|&(_, rss)| rss as i64 - warm as i64)
-            .max()
-            .unwrap_or(0)
+        let later = self.samples.iter().filter(|s| s.cycle >= warm.cycle);
+        later.fold([i64::MIN; 2], |[rss, heap], s| {
+            [
+                rss.max(s.rss as i64 - warm.rss as i64),
+                heap.max(s.heap as i64 - warm.heap as i64),
+            ]
+        })
     }
 
     /// What broke the plan's bounds, one line each; empty when the cycles held.
@@ -723,15 +802,22 @@ impl CyclesReport {
             ));
             return failures;
         };
-        let bound = self.plan.bounds.cycles_rss_growth;
-        for &(cycle, rss) in &self.samples {
-            if cycle > self.plan.warm_cycles && rss > warm + bound {
-                failures.push(format!(
-                    "resident memory grew {:.2} MiB from cycle {} to cycle {cycle} (bound {:.2} MiB)",
-                    (rss - warm) as f64 / MIB,
-                    self.plan.warm_cycles,
-                    bound as f64 / MIB
-                ));
+        let bounds = self.plan.bounds;
+        for s in self.samples.iter().filter(|s| s.cycle > warm.cycle) {
+            let measures = [
+                ("resident memory", s.rss, warm.rss, bounds.cycles_rss_growth),
+                ("the heap", s.heap, warm.heap, bounds.cycles_heap_growth),
+            ];
+            for (what, now, then, bound) in measures {
+                if now > then + bound {
+                    failures.push(format!(
+                        "{what} grew {:.2} MiB from cycle {} to cycle {} (bound {:.2} MiB)",
+                        (now - then) as f64 / MIB,
+                        warm.cycle,
+                        s.cycle,
+                        bound as f64 / MIB
+                    ));
+                }
             }
         }
         // The same scene and frame in a fresh context hold the same device memory.
@@ -751,15 +837,24 @@ impl CyclesReport {
 
     /// The figures as text.
     pub fn table(&self) -> String {
-        let mut text = String::from("cycle   resident MiB\n");
-        for &(cycle, rss) in &self.samples {
-            text += &format!("{cycle:>5}   {:>12.2}\n", rss as f64 / MIB);
+        let mut text = String::from("cycle   resident MiB   heap MiB\n");
+        for s in &self.samples {
+            text += &format!(
+                "{:>5}   {:>12.2}   {:>8.2}\n",
+                s.cycle,
+                s.rss as f64 / MIB,
+                s.heap as f64 / MIB
+            );
         }
+        let [rss, heap] = self.growth();
         text += &format!(
-            "growth from cycle {}: {:+.2} MiB (bound {:.2}); validation messages {}; median cycle {:.0} ms\n",
+            "growth from cycle {}: resident {:+.2} MiB, heap {:+.2} MiB (bounds {:.2} and {:.2}); heap held by a cycle's context and scene: {:.2} MiB at least; validation messages {}; median cycle {:.0} ms\n",
             self.plan.warm_cycles,
-            self.growth() as f64 / MIB,
+            rss as f64 / MIB,
+            heap as f64 / MIB,
             self.plan.bounds.cycles_rss_growth as f64 / MIB,
+            self.plan.bounds.cycles_heap_growth as f64 / MIB,
+            self.held.iter().min().copied().unwrap_or(0) as f64 / MIB,
             self.validation,
             median(&self.cycle_ms)
         );

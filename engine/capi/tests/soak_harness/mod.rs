@@ -95,13 +95,14 @@ impl Plan {
     ///
     /// The bounds. The heap (the C allocator's live bytes) carries the leak check: it moves
     /// only when something is allocated and kept, and it sees what resident memory hides, a
-    /// leak into memory the allocator had freed. Once warm its floor holds (390.6 MiB at the
-    /// same device memory over the full run on Mesa 22.3, 212.1 to 212.6 MiB on 25.0), and a
-    /// transient of up to 9.5 MiB (22.3) and 11 MiB (25.0) is there at some samples and not
-    /// others (at frame 100, 150 or 200 in different runs of the same schedule, so a driver or
-    /// worker thread's, not the schedule's). The bound is 24 MiB, twice the largest transient
-    /// and more, plus the layer's share: over the 9,500 frames after the baseline, 2.6 KiB a
-    /// frame beyond the layer's, less than one leaked Vulkan object per frame on lavapipe (an image view, a
+    /// leak into memory the allocator had freed. Once warm its floor holds (390.4–390.7 MiB at
+    /// the same device memory over two full runs on Mesa 22.3, 212.1–212.6 MiB on 25.0), and a
+    /// transient of up to 14.5 MiB (22.3) and 11 MiB (25.0) is there at some samples and not
+    /// others: at frame 100, 150 or 200 in different runs of the same schedule, so it follows
+    /// the timing, not the schedule; it is still there 300 ms later, so it is kept until a
+    /// later frame, not a thread still freeing. The bound is 24 MiB, the largest transient and
+    /// 9.5 MiB more, plus the layer's share: over the 9,500 frames after the baseline, 2.6 KiB
+    /// a frame beyond the layer's, less than one leaked Vulkan object per frame on lavapipe (an image view, a
     /// descriptor pool or a pipeline each hold more) and less than any of the frame's own
     /// buffers (the largest, its subpixel image read back, is 192 × 144 × 16 B = 432 KiB).
     ///

@@ -1,7 +1,8 @@
 //! The short soak through the C ABI (`soak_harness`, whose full run is `examples/soak.rs`):
 //! 300 frames with a moving camera and alternating scenes and options on one context, then 4
-//! context and scene cycles, validation on. Resident and device memory must stay within the
-//! bounds of [`soak_harness::Plan::short`] once warm, and the validation layer silent.
+//! context and scene cycles, validation on. The heap, resident and device memory must stay
+//! within the bounds of [`soak_harness::Plan::short`] once warm, and the validation layer
+//! silent.
 
 mod soak_harness;
 

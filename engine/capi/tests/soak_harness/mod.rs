@@ -151,9 +151,8 @@ impl Plan {
                 // A third of the layer's 3.1 KB per allocated command buffer: with the heap's
                 // 24 MiB, 33.3 MiB over 9,500 frames, which lensmap allocating its one-off
                 // command buffers again (1.7 a frame: 48 MiB) breaks, and which holds the
-                // layer's residual (resident memory in the
-                // full soak, 0.58 KB a frame over frames 500 to 9,500 on Mesa 22.3, 0.80 KB to
-                // 10,000 on 25.0).
+                // layer's residual (resident memory in the full soak, 0.58 KB a frame over
+                // frames 500 to 9,500 on Mesa 22.3, 0.80 KB to 10,000 on 25.0).
                 validation_layer_per_frame: 1 << 10,
                 frames_device_growth: 1 << 20,
                 frames_device_transient: 64 << 20,
@@ -389,6 +388,25 @@ pub fn frame_options(base: &LensmapFrameOptions, step: u32) -> LensmapFrameOptio
     }
 }
 
+/// The failure line when `what` grew from `then` to `now` bytes by more than `bound` over
+/// `span` (the unit, "frame" or "cycle", and its first and last).
+fn grew_past(
+    what: &str,
+    now: u64,
+    then: u64,
+    bound: u64,
+    span: (&str, u32, u32),
+) -> Option<String> {
+    let (unit, from, to) = span;
+    (now > then + bound).then(|| {
+        format!(
+            "{what} grew {:.2} MiB from {unit} {from} to {unit} {to} (bound {:.2} MiB)",
+            (now - then) as f64 / MIB,
+            bound as f64 / MIB
+        )
+    })
+}
+
 /// One sample of the frames phase.
 #[derive(Clone, Copy, Debug)]
 pub struct Sample {
@@ -592,6 +610,7 @@ impl FramesReport {
             }
         }
         let bounds = self.plan.bounds;
+        let device_memory_in_heap = self.device_memory_in_heap();
         for s in self.samples.iter().filter(|s| s.frame > warm.frame) {
             // Device memory is checked on its own below; on lavapipe its blocks are also
             // resident (and on Mesa 22.3 in the heap), so a block held for a while is not
@@ -600,11 +619,7 @@ impl FramesReport {
                 .device
                 .reserved_bytes
                 .saturating_sub(warm.device.reserved_bytes);
-            let heap_blocks = if self.device_memory_in_heap() {
-                blocks
-            } else {
-                0
-            };
+            let heap_blocks = if device_memory_in_heap { blocks } else { 0 };
             let measures = [
                 (
                     "resident memory",
@@ -623,15 +638,8 @@ impl FramesReport {
             ];
             for (what, now, then, growth, blocks) in measures {
                 let bound = self.bound(growth, s.frame - warm.frame) + blocks;
-                if now > then + bound {
-                    failures.push(format!(
-                        "{what} grew {:.2} MiB from frame {} to frame {} (bound {:.2} MiB)",
-                        (now - then) as f64 / MIB,
-                        warm.frame,
-                        s.frame,
-                        bound as f64 / MIB
-                    ));
-                }
+                let span = ("frame", warm.frame, s.frame);
+                failures.extend(grew_past(what, now, then, bound, span));
             }
             let last = self.samples.last().is_some_and(|l| l.frame == s.frame);
             // The last sample may also fall while fragmentation holds a block, which tells
@@ -853,15 +861,8 @@ impl CyclesReport {
                 ("the heap", s.heap, warm.heap, bounds.cycles_heap_growth),
             ];
             for (what, now, then, bound) in measures {
-                if now > then + bound {
-                    failures.push(format!(
-                        "{what} grew {:.2} MiB from cycle {} to cycle {} (bound {:.2} MiB)",
-                        (now - then) as f64 / MIB,
-                        warm.cycle,
-                        s.cycle,
-                        bound as f64 / MIB
-                    ));
-                }
+                let span = ("cycle", warm.cycle, s.cycle);
+                failures.extend(grew_past(what, now, then, bound, span));
             }
         }
         // The same scene and frame in a fresh context hold the same device memory.

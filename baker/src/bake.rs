@@ -54,6 +54,7 @@
 pub mod failure;
 pub mod judge;
 pub mod merge;
+pub mod names;
 pub mod options;
 pub mod plan;
 pub mod reuse;

@@ -10,7 +10,7 @@ use lensmap::{
     hybrid::{HybridOptions, HybridScene},
     index::{LayerIndex, LayerRef, LensIndex},
     layers::Layering,
-    render::{FrameInput, TargetFormat, UploadedFrame, Variant},
+    render::{Compositing, FrameInput, TargetFormat, UploadedFrame},
     runner::FrameRunner,
     scene::Camera,
     trace::LensRecords,
@@ -32,16 +32,16 @@ pub const DEFAULT_MAX_EM_SIZE: u32 = 128;
 /// RGBA32F target, uploaded once per test frame, the maps replaced between renderings.
 pub struct DeviceRenderer<'a> {
     runner: &'a mut FrameRunner,
-    variant: Variant,
+    compositing: Compositing,
     uploaded: Option<UploadedFrame>,
 }
 
 impl<'a> DeviceRenderer<'a> {
-    /// Test renderings on `runner`'s device with compositor variant `variant`.
-    pub fn new(runner: &'a mut FrameRunner, variant: Variant) -> DeviceRenderer<'a> {
+    /// Test renderings on `runner`'s device, composited as `compositing` says.
+    pub fn new(runner: &'a mut FrameRunner, compositing: Compositing) -> DeviceRenderer<'a> {
         DeviceRenderer {
             runner,
-            variant,
+            compositing,
             uploaded: None,
         }
     }
@@ -72,7 +72,7 @@ impl TestRenderer for DeviceRenderer<'_> {
             .map_err(failed)?;
         Ok(self
             .runner
-            .render_uploaded(uploaded, self.variant, TargetFormat::Rgba32f)
+            .render_uploaded(uploaded, self.compositing, TargetFormat::Rgba32f)
             .map_err(failed)?
             .pixels)
     }
@@ -96,8 +96,8 @@ pub enum EmSize {
 pub struct InferOptions {
     /// The runtime frame's options (tessellation), as the hybrid frame uses them.
     pub hybrid: HybridOptions,
-    /// Compositor variant of the test renderings.
-    pub variant: Variant,
+    /// How the test renderings are composited.
+    pub compositing: Compositing,
     /// EM face size.
     pub em_size: EmSize,
     /// Confidence threshold θ_c, radians.
@@ -113,7 +113,7 @@ impl Default for InferOptions {
     fn default() -> Self {
         InferOptions {
             hybrid: HybridOptions::default(),
-            variant: Variant::SinglePass,
+            compositing: Compositing::SinglePass,
             em_size: EmSize::Auto {
                 cap: DEFAULT_MAX_EM_SIZE,
             },
@@ -289,7 +289,7 @@ pub fn infer_lens(
 ) -> Result<Inference, InferError> {
     let start = Instant::now();
     let prepared = prepare(hybrid, lens, views, options)?;
-    let mut renderer = DeviceRenderer::new(runner, options.variant);
+    let mut renderer = DeviceRenderer::new(runner, options.compositing);
     // The resolution: the finest level read by any (term, layer) frame of the first view at the
     // cap.
     let (size, finest_level_at_cap, search_renders) = match options.em_size {

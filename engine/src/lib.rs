@@ -9,7 +9,8 @@
 //! (the CPU reference ray tracer), [`lightmap`] (the opaque environment's light maps: charts,
 //! atlases, ray-traced radiance), [`gpu`] (ash: devices, memory, images); [`metrics`] (masked
 //! image errors); [`render`] (the compositor and its CPU f64 model); [`layers`] (shells, projected
-//! EMs, the bake format); [`hybrid`] (per-frame vertex tracing, tessellation, texgen); and on top
+//! EMs, the bake format); [`rsibr`] (glossy objects by reflection-space IBR: view samples, radiance
+//! maps, their bake); [`hybrid`] (per-frame vertex tracing, tessellation, texgen); and on top
 //! [`runner`], the frame runner the command line, the tests and hosts call.
 
 pub mod atomic;

@@ -10,7 +10,7 @@ use std::sync::OnceLock;
 
 use lensmap::gpu::{DeviceId, Gpu, GpuOptions};
 use lensmap::render::{
-    RenderOptions, RenderedImage, Renderer, TargetFormat, UploadedFrame, Variant,
+    Compositing, RenderOptions, RenderedImage, Renderer, TargetFormat, UploadedFrame,
 };
 
 /// A GPU for tests, with validation on. The validation layer is required (CI installs
@@ -73,16 +73,16 @@ pub fn name_the_binarys_driver_on_failure() {
     });
 }
 
-/// `frame` rendered by `renderer` with `variant` into RGBA32F, the format the exact comparisons
-/// use (front to back, read back).
+/// `frame` rendered by `renderer` composited as `compositing` says into RGBA32F, the format the
+/// exact comparisons use (read back).
 pub fn render_rgba32f(
     renderer: &mut Renderer,
     gpu: &Gpu,
     frame: &mut UploadedFrame,
-    variant: Variant,
+    compositing: Compositing,
 ) -> RenderedImage {
     let options = RenderOptions {
-        variant,
+        compositing,
         format: TargetFormat::Rgba32f,
         ..Default::default()
     };

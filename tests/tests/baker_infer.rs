@@ -1,6 +1,7 @@
 //! Inferred layered EMs beat projected ones on real targets, at test sizes: the targets traced
 //! 3×3, the judge an independent 6×6 reference.
 
+use lensmap::render::Compositing;
 use std::sync::Arc;
 
 use lensmap::{
@@ -8,7 +9,7 @@ use lensmap::{
     index::LensIndex,
     layers::projected::ProjectedOptions,
     metrics::Encoding,
-    render::{TargetFormat, Variant},
+    render::TargetFormat,
     runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene},
     scene::Scene,
     trace::{TraceOptions, compile_records, render_reference},
@@ -40,8 +41,7 @@ fn inferred_ems_beat_projected_ones() {
             render_reference(&hybrid.trace, &judge_camera, &trace_options, &|_| {}).unwrap();
         let options = FrameOptions {
             hybrid: HybridOptions::default(),
-            variant: Variant::SinglePass,
-            blend: lensmap::render::BlendScheme::FrontToBack,
+            compositing: Compositing::SinglePass,
             format: TargetFormat::Rgba32f,
         };
         let psnr = |runner: &mut FrameRunner, hybrid: &_| {

@@ -9,7 +9,7 @@ use lensmap::{
     index::{LayerIndex, LensIndex},
     layers::projected::ProjectedOptions,
     render::{
-        FrameInput, TargetFormat, Variant,
+        BlendScheme, Compositing, FrameInput, TargetFormat,
         model::{ModelOptions, render_model},
     },
     runner::FrameRunner,
@@ -88,7 +88,10 @@ fn the_matrix_is_the_hardware() {
         let (_, frame, _) = frame_of(name, (64, 48, 2));
         let frames = LayerFrames::new(&frame, LensIndex::new(0), 2).unwrap();
         let n = frames.layer_count();
-        for variant in [Variant::Multipass, Variant::SinglePass] {
+        for variant in [
+            Compositing::Multipass(BlendScheme::FrontToBack),
+            Compositing::SinglePass,
+        ] {
             for term in frames.terms() {
                 for layer in if n > 1 { vec![0, n - 1] } else { vec![0] } {
                     let mut layer_frame = frames.layer(term, LayerIndex::new(layer)).unwrap();
@@ -148,7 +151,10 @@ fn the_matrix_agrees_with_the_f64_model() {
     let (_, frame, _) = frame_of("teapot-room", (96, 72, 1));
     let frames = LayerFrames::new(&frame, LensIndex::new(0), 1).unwrap();
     let mut layer_frame = frames.layer(frames.terms()[0], LayerIndex::new(0)).unwrap();
-    let mut device = DeviceRenderer::new(&mut runner, Variant::Multipass);
+    let mut device = DeviceRenderer::new(
+        &mut runner,
+        Compositing::Multipass(BlendScheme::FrontToBack),
+    );
     let hardware = RenderingMatrix::measure(
         &mut device,
         &mut layer_frame,
@@ -236,7 +242,7 @@ fn the_solver_inverts_the_matrix() {
     let (_, frame, _) = frame_of("teapot-room", (128, 96, 2));
     let frames = LayerFrames::new(&frame, LensIndex::new(0), 2).unwrap();
     let terms = frames.terms();
-    let mut device = DeviceRenderer::new(&mut runner, Variant::SinglePass);
+    let mut device = DeviceRenderer::new(&mut runner, Compositing::SinglePass);
     let matrices: Vec<RenderingMatrix> = terms
         .iter()
         .map(|&t| {

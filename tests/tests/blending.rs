@@ -9,7 +9,7 @@ use std::sync::Arc;
 use lensmap::cubemap::CubeMap;
 use lensmap::metrics::Mask;
 use lensmap::render::{
-    BlendScheme, RenderOptions, Renderer, TargetFormat, Variant, frame_lens_pixels,
+    BlendScheme, Compositing, RenderOptions, Renderer, TargetFormat, Variant, frame_lens_pixels,
 };
 use lensmap::trace::{LensSelection, Term};
 use lensmap_tests::fixtures::compositor;
@@ -42,8 +42,7 @@ fn every_scheme_equals_front_to_back_in_rgba32f() {
                             &gpu,
                             uploaded,
                             &RenderOptions {
-                                variant: Variant::Multipass,
-                                blend,
+                                compositing: Compositing::Multipass(blend),
                                 format: TargetFormat::Rgba32f,
                                 host: None,
                             },
@@ -125,8 +124,7 @@ fn schemes_agree_when_layers_groups_and_viewpoints_are_skipped() {
                     &gpu,
                     &mut uploaded,
                     &RenderOptions {
-                        variant: Variant::Multipass,
-                        blend,
+                        compositing: Compositing::Multipass(blend),
                         format: TargetFormat::Rgba32f,
                         host: None,
                     },
@@ -184,8 +182,7 @@ fn schemes_agree_with_two_overlapping_lens_objects() {
                 .timed_renders(
                     &mut uploaded,
                     &RenderOptions {
-                        variant: Variant::Multipass,
-                        blend,
+                        compositing: Compositing::Multipass(blend),
                         format: TargetFormat::Rgba32f,
                         host: None,
                     },
@@ -202,40 +199,19 @@ fn schemes_agree_with_two_overlapping_lens_objects() {
     assert_clean(runner.gpu());
 }
 
-/// The single pass does not blend: asking it for another scheme is an error naming the fix.
+/// The single pass does not blend: the one check of the pair refuses every other scheme, naming
+/// the fix, so no frame, render or plan can be asked for it.
 #[test]
 fn the_single_pass_refuses_other_schemes() {
-    let (gpu, mut renderer, mut rng) = compositor(9);
-    let frame = random_compositor_frame(&mut rng, 16, 1, 1, &[Term::Reflection]);
-    let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
     for blend in BlendScheme::ALL.into_iter().skip(1) {
-        let error = renderer
-            .render(
-                &gpu,
-                &mut uploaded,
-                &RenderOptions {
-                    variant: Variant::SinglePass,
-                    blend,
-                    format: TargetFormat::Rgba32f,
-                    host: None,
-                },
-            )
+        let error = Compositing::new(Variant::SinglePass, blend)
             .unwrap_err()
             .to_string();
-        assert!(error.contains("multipass"), "{error}");
-        // The library's frame options say so before any work.
-        let options = lensmap::runner::FrameOptions {
-            variant: Variant::SinglePass,
-            blend,
-            ..Default::default()
-        };
-        let error = options.validate().unwrap_err().to_string();
         assert!(
-            error.contains("blend") && error.contains("multipass"),
+            error.contains(blend.name()) && error.contains("multipass"),
             "{error}"
         );
     }
-    assert_clean(&gpu);
 }
 
 /// The f64 model of each scheme (its own passes and arithmetic order: back-to-front "over" into

@@ -10,6 +10,7 @@
 //! approximation the spec allows, plus [`F32_SLACK`]. On lavapipe they must also equal the
 //! model's nominal value (lavapipe's measured LOD choices, [`ModelOptions::lavapipe`]) to 1e-5.
 
+use lensmap::render::Compositing;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -62,7 +63,7 @@ impl Tolerance {
     fn of(gpu: &Gpu) -> Tolerance {
         Tolerance {
             precision: FilterPrecision::SPEC_MINIMUM,
-            reported: FilterPrecision::from_limits(&gpu.properties().limits),
+            reported: gpu.filter_precision(),
             exact: gpu.device_name().starts_with("llvmpipe"),
         }
     }
@@ -132,10 +133,14 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
             for terms in [&both[..], &[Term::Reflection][..]] {
                 let frame = random_frame(&mut rng, layers, viewpoints, terms);
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
-                let multipass =
-                    render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::Multipass);
+                let multipass = render_rgba32f(
+                    &mut renderer,
+                    &gpu,
+                    &mut uploaded,
+                    Compositing::Multipass(BlendScheme::FrontToBack),
+                );
                 let single =
-                    render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::SinglePass);
+                    render_rgba32f(&mut renderer, &gpu, &mut uploaded, Compositing::SinglePass);
 
                 let model = render_model(&frame, &model_options(tolerance.precision));
                 let reported_model = render_model(&frame, &model_options(tolerance.reported));
@@ -264,8 +269,7 @@ fn every_blending_scheme_matches_its_f64_model() {
                             &gpu,
                             &mut uploaded,
                             &RenderOptions {
-                                variant: Variant::Multipass,
-                                blend,
+                                compositing: Compositing::Multipass(blend),
                                 format: TargetFormat::Rgba32f,
                                 host: None,
                             },
@@ -388,7 +392,12 @@ fn the_bound_check_rejects_wrong_frames() {
         assert!(compared.len() > 1500, "{} pixels compared", compared.len());
         for (mistake, wrong) in &mistakes {
             let mut uploaded = renderer.upload(&gpu, wrong).unwrap();
-            let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::Multipass);
+            let image = render_rgba32f(
+                &mut renderer,
+                &gpu,
+                &mut uploaded,
+                Compositing::Multipass(BlendScheme::FrontToBack),
+            );
             let rejected = compared
                 .iter()
                 .filter(|&&i| model.distance_outside_bounds(i, pixel(&image, i)) > F32_SLACK)
@@ -446,7 +455,7 @@ fn renders_like(
         let plan = Renderer::plan(
             &a,
             &RenderOptions {
-                variant,
+                compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
                 format: TargetFormat::Rgba32f,
                 ..Default::default()
             },
@@ -462,8 +471,18 @@ fn renders_like(
                 "{plan}"
             );
         }
-        let x = render_rgba32f(renderer, gpu, &mut a, variant);
-        let y = render_rgba32f(renderer, gpu, &mut b, variant);
+        let x = render_rgba32f(
+            renderer,
+            gpu,
+            &mut a,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
+        let y = render_rgba32f(
+            renderer,
+            gpu,
+            &mut b,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
         assert_eq!(x, y, "{variant:?}, weight 0 on viewpoint {zero}");
     }
 }
@@ -531,7 +550,7 @@ fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
             &gpu,
             &mut uploaded,
             &RenderOptions {
-                variant: Variant::SinglePass,
+                compositing: Compositing::SinglePass,
                 format: TargetFormat::Rgba8,
                 ..Default::default()
             },
@@ -544,7 +563,7 @@ fn frames_the_renderer_cannot_draw_are_errors_not_panics() {
             &gpu,
             &mut uploaded,
             &RenderOptions {
-                variant: Variant::Multipass,
+                compositing: Compositing::Multipass(BlendScheme::FrontToBack),
                 format: TargetFormat::Rgba8,
                 ..Default::default()
             },
@@ -573,7 +592,7 @@ fn maps_over_the_budget_are_refused_before_upload_and_lose_nothing() {
     let before = lensmap::render::MapBytes::of_frame(&small);
     assert_eq!(before.total(), 2 * 32736);
     let mut uploaded = renderer.upload(&gpu, &small).unwrap();
-    let first = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::SinglePass);
+    let first = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Compositing::SinglePass);
 
     let error = renderer
         .upload(&gpu, &large)
@@ -593,23 +612,33 @@ fn maps_over_the_budget_are_refused_before_upload_and_lose_nothing() {
     for words in [
         "287.7 KiB",
         "204.8 KiB",
-        "`em_size`",
-        "`light_map_max_texels`",
+        "`ProjectedOptions.size`",
+        "`LightMapOptions.max_texels`",
     ] {
         assert!(message.contains(words), "{words}: {message}");
     }
 
     // The frame uploaded before renders as before, and a smaller frame after the refusal
     // renders as it does on a fresh renderer.
-    let again = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::SinglePass);
+    let again = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Compositing::SinglePass);
     assert_eq!(again, first);
     let smaller = random_compositor_frame(&mut rng, 32, 1, 3, &both);
     let mut after = renderer.upload(&gpu, &smaller).unwrap();
     let mut fresh_renderer = Renderer::new(&gpu).unwrap();
     let mut fresh = fresh_renderer.upload(&gpu, &smaller).unwrap();
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let image = render_rgba32f(&mut renderer, &gpu, &mut after, variant);
-        let expected = render_rgba32f(&mut fresh_renderer, &gpu, &mut fresh, variant);
+        let image = render_rgba32f(
+            &mut renderer,
+            &gpu,
+            &mut after,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
+        let expected = render_rgba32f(
+            &mut fresh_renderer,
+            &gpu,
+            &mut fresh,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
         assert_eq!(image, expected, "{variant:?}");
     }
     assert_clean(&gpu);
@@ -674,8 +703,18 @@ fn replacing_the_layered_ems_of_an_uploaded_frame_renders_like_a_fresh_upload() 
         .unwrap();
     let mut fresh = renderer.upload(&gpu, &replaced).unwrap();
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let a = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
-        let b = render_rgba32f(&mut renderer, &gpu, &mut fresh, variant);
+        let a = render_rgba32f(
+            &mut renderer,
+            &gpu,
+            &mut uploaded,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
+        let b = render_rgba32f(
+            &mut renderer,
+            &gpu,
+            &mut fresh,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
         assert_eq!(a.pixels, b.pixels, "{variant:?}");
     }
     // A replacement that does not fit the uploaded frame is an error naming the lens.
@@ -728,8 +767,7 @@ fn every_rgba32f_scheme() -> impl Iterator<Item = RenderOptions<'static>> {
         .into_iter()
         .chain([(Variant::SinglePass, BlendScheme::FrontToBack)])
         .map(|(variant, blend)| RenderOptions {
-            variant,
-            blend,
+            compositing: Compositing::new(variant, blend).unwrap(),
             format: TargetFormat::Rgba32f,
             host: None,
         })
@@ -757,7 +795,7 @@ fn hull_triangles_render_like_a_transparent_layer_zero() {
         }
         let mut uploads = [&frame, &split, &transparent].map(|f| renderer.upload(&gpu, f).unwrap());
         for options in every_rgba32f_scheme() {
-            let (variant, blend) = (options.variant, options.blend);
+            let (variant, blend) = (options.compositing.variant(), options.compositing.blend());
             let [plain, split, transparent] = uploads
                 .each_mut()
                 .map(|uploaded| renderer.render(&gpu, uploaded, &options).unwrap().0.pixels);
@@ -789,7 +827,7 @@ fn a_partial_hull_split_matches_the_f64_model_in_every_scheme() {
             frame.lenses[0].hull_triangles = frame.lenses[0].triangles.len() / 2;
             let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
             for options in every_rgba32f_scheme() {
-                let (variant, blend) = (options.variant, options.blend);
+                let (variant, blend) = (options.compositing.variant(), options.compositing.blend());
                 let (image, _) = renderer.render(&gpu, &mut uploaded, &options).unwrap();
                 let model = render_model(
                     &frame,

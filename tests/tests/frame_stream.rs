@@ -3,6 +3,8 @@
 //! the same frame rendered alone by a fresh runner, which builds everything from scratch: a second,
 //! independent path through the same stages.
 
+use lensmap::render::BlendScheme;
+use lensmap::render::Compositing;
 use lensmap::{
     hybrid::{HybridOptions, HybridScene},
     render::{TargetFormat, Variant},
@@ -14,8 +16,7 @@ use lensmap_tests::{assert_clean, gpu, small_teapot_room};
 fn options(variant: Variant) -> FrameOptions {
     FrameOptions {
         hybrid: HybridOptions::with_t(3.0),
-        variant,
-        blend: lensmap::render::BlendScheme::FrontToBack,
+        compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
         format: TargetFormat::Rgba32f,
     }
 }

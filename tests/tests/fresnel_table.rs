@@ -5,7 +5,8 @@
 //! table's derived error bound allows. GPU work runs with validation on.
 
 use lensmap::hybrid::{FresnelModel, HybridOptions};
-use lensmap::render::{Renderer, Variant};
+use lensmap::render::Compositing;
+use lensmap::render::Renderer;
 use lensmap::trace::schlick_table::SchlickTable;
 use lensmap_tests::{assert_clean, fixtures, gpu, render_rgba32f};
 
@@ -87,7 +88,12 @@ fn mirror_teapot_with_the_table_stays_within_the_bound_of_exact_fresnel() {
     let mut renderer = Renderer::new(&device).expect("a renderer");
     let images = [&exact, &table].map(|frame| {
         let mut uploaded = renderer.upload(&device, frame).expect("uploads");
-        render_rgba32f(&mut renderer, &device, &mut uploaded, Variant::SinglePass)
+        render_rgba32f(
+            &mut renderer,
+            &device,
+            &mut uploaded,
+            Compositing::SinglePass,
+        )
     });
     assert_eq!(images[0].pixels.len(), images[1].pixels.len());
     let [exact_image, table_image] = &images;

@@ -9,15 +9,15 @@
 //! The tolerance carries that through the blend `Σ w·rgb / Σ w·α` and the lobes' sum, plus f32
 //! rounding.
 
+use lensmap::render::BlendScheme;
+use lensmap::render::Compositing;
 use std::sync::Arc;
 
 use glam::{DVec3, Mat3, Vec3};
 use lensmap::cubemap::sampling::FilterPrecision;
 use lensmap::cubemap::{CubeFace, CubeMap};
 use lensmap::render::model::{ModelOptions, render_model};
-use lensmap::render::{
-    EnvironmentMesh, FrameInput, GlossyDraw, GlossyMesh, GlossySlot, Renderer, Variant,
-};
+use lensmap::render::{EnvironmentMesh, FrameInput, GlossyDraw, GlossyMesh, GlossySlot, Renderer};
 use lensmap::rsibr::MapLobe;
 use lensmap::scene::{Coat, Glossy, Scene};
 use lensmap_tests::{assert_clean, gpu, render_rgba32f};
@@ -135,7 +135,12 @@ fn the_glossy_pass_matches_the_f64_model() {
     let gpu = gpu();
     let mut renderer = Renderer::new(&gpu).expect("a renderer");
     let mut uploaded = renderer.upload(&gpu, &frame).expect("the frame uploads");
-    let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, Variant::Multipass);
+    let image = render_rgba32f(
+        &mut renderer,
+        &gpu,
+        &mut uploaded,
+        Compositing::Multipass(BlendScheme::FrontToBack),
+    );
     assert_clean(&gpu);
     let model = render_model(&frame, &ModelOptions::default());
     // The sphere's pixels: nearer than the backdrop alone.

@@ -20,8 +20,9 @@ use lensmap::hybrid::tessellate::TessellationError;
 use lensmap::hybrid::tessellate::{SurfaceVertex, VertexOracle, faces_eye};
 use lensmap::hybrid::{HybridOptions, VertexTracer};
 use lensmap::metrics::Encoding;
+use lensmap::render::Compositing;
 use lensmap::render::LensFaces;
-use lensmap::render::{BlendScheme, TargetFormat, Variant};
+use lensmap::render::TargetFormat;
 use lensmap::runner::{FrameOptions, FrameRunner, lens_error};
 use lensmap::scene::{BUILTIN_SCENES, TriangleMesh};
 use lensmap::trace::{Bounces, GreedyOptions, TraceScene};
@@ -305,8 +306,7 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
             gpu_precision,
             ..HybridOptions::default()
         },
-        variant: Variant::SinglePass,
-        blend: BlendScheme::FrontToBack,
+        compositing: Compositing::SinglePass,
         format: TargetFormat::Rgba32f,
     };
     let (ray_queries, float64) = (runner.gpu().ray_queries(), runner.gpu().shader_float64());
@@ -464,8 +464,7 @@ fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
             tracer: VertexTracer::Gpu,
             ..HybridOptions::default()
         },
-        variant: Variant::SinglePass,
-        blend: BlendScheme::FrontToBack,
+        compositing: Compositing::SinglePass,
         format: TargetFormat::Rgba32f,
     };
     // Enough for the first objects' splits, not for all of them; then fewer vertices than any

@@ -6,10 +6,11 @@
 //! within the one 8-bit step the specification allows an sRGB conversion. The host's signal
 //! semaphore is signalled, and a frame waits for the host's wait semaphore.
 
+use lensmap::render::Compositing;
 use lensmap::{
     gpu::{Buffer, BufferUsage, Gpu, Image, ImageDesc, vk},
     hybrid::{HybridOptions, VertexTracer},
-    render::{HostImage, TargetFormat, Variant},
+    render::{HostImage, TargetFormat},
     runner::{FrameOptions, FrameRunner, RunError},
     scene::Camera,
     trace::image::srgb_encode,
@@ -27,8 +28,7 @@ fn traced(format: TargetFormat, tracer: VertexTracer) -> FrameOptions {
             tracer,
             ..HybridOptions::with_t(3.0)
         },
-        variant: Variant::SinglePass,
-        blend: lensmap::render::BlendScheme::FrontToBack,
+        compositing: Compositing::SinglePass,
         format,
     }
 }

@@ -2,6 +2,8 @@
 //! distant sphere shell with a projected EM must reproduce the tracer's reflection term nearly
 //! exactly; awkward cameras must render without errors or NaN. GPU work runs with validation on.
 
+use lensmap::render::BlendScheme;
+use lensmap::render::Compositing;
 use std::path::PathBuf;
 
 use glam::Vec3;
@@ -66,8 +68,7 @@ layers = [{ sphere = 1000.0 }]
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let options = FrameOptions {
             hybrid: HybridOptions::default(),
-            variant,
-            blend: lensmap::render::BlendScheme::FrontToBack,
+            compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
             format: TargetFormat::Rgba32f,
         };
         let frame = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -124,8 +125,7 @@ fn awkward_cameras_render_without_error_or_nan() {
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let options = FrameOptions {
                 hybrid: HybridOptions::default(),
-                variant,
-                blend: lensmap::render::BlendScheme::FrontToBack,
+                compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
                 format: TargetFormat::Rgba16f,
             };
             let frame = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -198,8 +198,7 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let frame_options = FrameOptions {
             hybrid: HybridOptions::with_t(4.0),
-            variant,
-            blend: lensmap::render::BlendScheme::FrontToBack,
+            compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
             format: TargetFormat::Rgba32f,
         };
         // Both frames built from scratch (a repeated camera would reuse the cached frame).
@@ -208,7 +207,12 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
         hybrid.forget_frame();
         let (input, stats) = hybrid.frame(&camera, &frame_options.hybrid).unwrap();
         let mut uploaded = renderer.upload(&by_hand_gpu, &input).unwrap();
-        let full = render_rgba32f(&mut renderer, &by_hand_gpu, &mut uploaded, variant);
+        let full = render_rgba32f(
+            &mut renderer,
+            &by_hand_gpu,
+            &mut uploaded,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
         assert_eq!((full.width, full.height), (80, 60), "supersampled 2×2");
         let by_hand = full.box_downsample(2);
         assert_eq!((run.image.width, run.image.height), (40, 30));

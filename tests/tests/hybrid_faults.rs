@@ -5,6 +5,8 @@
 //! between lid and rim). GPU work runs with validation on.
 
 use glam::Vec3;
+use lensmap::render::BlendScheme;
+use lensmap::render::Compositing;
 use lensmap::{
     hybrid::{HybridOptions, HybridScene, LayeredEms},
     layers::projected::ProjectedOptions,
@@ -126,8 +128,7 @@ fn the_environment_shows_where_camera_rays_escape() {
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let options = FrameOptions {
                 hybrid: HybridOptions::default(),
-                variant,
-                blend: lensmap::render::BlendScheme::FrontToBack,
+                compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
                 format: TargetFormat::Rgba32f,
             };
             let frame = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -171,8 +172,7 @@ fn the_environment_shows_where_camera_rays_escape() {
         {
             let options = FrameOptions {
                 hybrid: HybridOptions::default(),
-                variant: *variant,
-                blend: lensmap::render::BlendScheme::FrontToBack,
+                compositing: Compositing::new(*variant, BlendScheme::FrontToBack).unwrap(),
                 format: TargetFormat::Rgba32f,
             };
             let without = runner.frame(&hybrid, &camera, &options).unwrap();
@@ -218,8 +218,7 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let options = FrameOptions {
             hybrid: HybridOptions::with_t(3.0),
-            variant,
-            blend: lensmap::render::BlendScheme::FrontToBack,
+            compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
             format: TargetFormat::Rgba32f,
         };
         let frame = runner.frame(&hybrid, &camera, &options).unwrap();

@@ -1,8 +1,11 @@
 //! The library stands without the command line: no text of `engine/src` or `baker/src` names a
 //! command-line flag (front ends word the library's option errors themselves, see
-//! `lensmap::options`), and no source or manifest in `engine/`, `baker/` or `shaders/` reads a
-//! file from `tools/` (`include_str!`, `include_bytes!`, a path from `CARGO_MANIFEST_DIR`, a
-//! dependency), so the library builds with `tools/` absent.
+//! `lensmap::options`); every option the library names (its `OptionName`s) is a field the
+//! library declares where the name says, and its C ABI word a field of the header's structs (the
+//! command line's flags are checked against its own command tree by `tools/src/words.rs`); and no
+//! source or manifest in `engine/`, `baker/` or `shaders/` reads a file from `tools/`
+//! (`include_str!`, `include_bytes!`, a path from `CARGO_MANIFEST_DIR`, a dependency), so the
+//! library builds with `tools/` absent.
 
 use std::path::{Path, PathBuf};
 
@@ -185,4 +188,103 @@ fn nothing_in_the_library_reads_from_tools() {
         "the library must build with tools/ absent:\n{}",
         offenders.join("\n")
     );
+}
+
+/// Every option of the library and the baker, as the messages name it.
+fn every_option() -> Vec<lensmap::options::OptionName> {
+    let mut all = lensmap::options::names::ALL.to_vec();
+    all.extend_from_slice(lensmap_baker::bake::names::ALL);
+    all
+}
+
+/// The text of the item `pub struct OWNER` or `pub enum OWNER` (its fields or variants), of
+/// `pub fn OWNER(` for a function (its parameters), or of `pub fn NAME(` inside `impl TYPE` for
+/// an owner `TYPE::NAME`, in the library's sources.
+fn owner_text(sources: &[String], owner: &str) -> Option<String> {
+    let (within, openings, close) = match owner.split_once("::") {
+        Some((ty, function)) => (
+            Some(format!("impl {ty} {{")),
+            vec![format!("pub fn {function}(")],
+            ')',
+        ),
+        None if owner.starts_with(char::is_lowercase) => {
+            (None, vec![format!("pub fn {owner}(")], ')')
+        }
+        None => (
+            None,
+            vec![format!("pub struct {owner}"), format!("pub enum {owner}")],
+            '}',
+        ),
+    };
+    sources.iter().find_map(|source| {
+        let from = match &within {
+            Some(block) => source.find(block.as_str())?,
+            None => 0,
+        };
+        // A type's name must end there (`BakeJob<'a>` has generics; `EmSize` is not `Em`).
+        let ends = |rest: &str| close == ')' || rest.starts_with([' ', '<']);
+        let start = openings
+            .iter()
+            .filter_map(|opening| {
+                let (at, _) = source[from..]
+                    .match_indices(opening.as_str())
+                    .find(|(i, _)| ends(&source[from + i + opening.len()..]))?;
+                Some(from + at + opening.len())
+            })
+            .min()?;
+        let end = source[start..]
+            .find(close)
+            .map_or(source.len(), |e| start + e);
+        Some(source[start..end].to_owned())
+    })
+}
+
+/// Library → front ends: each option's field is declared where its name says (a field of its
+/// struct, or a parameter of its function), and its C ABI field is a member of the header.
+#[test]
+fn every_option_names_a_field_the_library_declares() {
+    let root = workspace();
+    let sources: Vec<String> = ["engine/src", "baker/src"]
+        .iter()
+        .flat_map(|dir| rust_files(&root.join(dir)))
+        .filter_map(|path| non_test_source(&path))
+        .collect();
+    let header =
+        std::fs::read_to_string(root.join("engine/capi/include/lensmap.h")).expect("the C header");
+    let mut offenders = Vec::new();
+    for option in every_option() {
+        match owner_text(&sources, option.owner) {
+            None => offenders.push(format!("{}: no such struct or function", option.owner)),
+            Some(text)
+                if !text.contains(&format!("{}:", option.field))
+                    && !text.contains(&format!("{}(", option.field)) =>
+            {
+                offenders.push(format!(
+                    "{}.{}: no such field or parameter",
+                    option.owner, option.field
+                ))
+            }
+            Some(_) => {}
+        }
+        if let Some(field) = option.c_field {
+            let declared = header.lines().any(|line| {
+                let line = line.trim();
+                !line.starts_with("//")
+                    && (line.ends_with(&format!(" {field};"))
+                        || line.ends_with(&format!("*{field};")))
+            });
+            if !declared {
+                offenders.push(format!(
+                    "C field {field} (of {}): not in lensmap.h",
+                    option.field
+                ));
+            }
+        }
+        if let Some(prefix) = option.c_constants
+            && !header.contains(&format!("#define {prefix}"))
+        {
+            offenders.push(format!("C constants {prefix}*: not in lensmap.h"));
+        }
+    }
+    assert!(offenders.is_empty(), "{}", offenders.join("\n"));
 }

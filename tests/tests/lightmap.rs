@@ -3,11 +3,12 @@
 //! reference sub-sample sees a lens object — must match the reference's radiance to ≥ 45 dB in
 //! display sRGB. GPU work runs with validation on.
 
+use lensmap::render::Compositing;
 use lensmap::{
     hybrid::HybridOptions,
     layers::projected::ProjectedOptions,
     metrics::{self, Channels, Encoding, Mask},
-    render::{TargetFormat, Variant},
+    render::TargetFormat,
     runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene},
     scene::Scene,
     trace::{TraceOptions, render_reference},
@@ -30,8 +31,7 @@ fn non_lens_pixels_match_the_reference() {
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(6.0),
-        variant: Variant::SinglePass,
-        blend: lensmap::render::BlendScheme::FrontToBack,
+        compositing: Compositing::SinglePass,
         format: TargetFormat::Rgba32f,
     };
     let frame = runner.frame(&hybrid, &camera, &options).unwrap();

@@ -11,6 +11,8 @@
 //! tiny (16×12 to 32×24 pixels, cube maps of 8² texels or fewer), so the whole file runs in
 //! seconds. ε below is f64's machine epsilon, 2⁻⁵².
 
+use lensmap::render::BlendScheme;
+use lensmap::render::Compositing;
 use std::f64::consts::FRAC_PI_2;
 use std::sync::Arc;
 
@@ -837,7 +839,7 @@ fn gpu_against_model(frame: &FrameInput) -> Vec<(Variant, f64, usize)> {
         .into_iter()
         .map(|variant| {
             let options = RenderOptions {
-                variant,
+                compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
                 format: TargetFormat::Rgba32f,
                 ..Default::default()
             };
@@ -1190,7 +1192,7 @@ fn radiance_past_half_float_range_is_clamped_not_infinite() {
                 &gpu,
                 &mut uploaded,
                 &RenderOptions {
-                    variant,
+                    compositing: Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
                     format: TargetFormat::Rgba16f,
                     ..Default::default()
                 },
@@ -1326,7 +1328,12 @@ fn alpha_a_hair_from_zero_and_one_composites_like_the_f64_model() {
         let model = render_model(frame, &ModelOptions::lavapipe());
         let mut uploaded = renderer.upload(&gpu, frame).expect("the frame uploads");
         for variant in [Variant::Multipass, Variant::SinglePass] {
-            let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
+            let image = render_rgba32f(
+                &mut renderer,
+                &gpu,
+                &mut uploaded,
+                Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+            );
             let (difference, compared) = model_difference(&image, &model);
             worst_model = worst_model.max(difference);
             assert!(
@@ -1474,7 +1481,12 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let mut worst_uniform = 0.0f64;
     let mut uploaded = renderer.upload(&gpu, &uniform).expect("the frame uploads");
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
+        let image = render_rgba32f(
+            &mut renderer,
+            &gpu,
+            &mut uploaded,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
         assert!(image.pixels.iter().flatten().all(|v| v.is_finite()));
         for (pixel, _) in image
             .pixels
@@ -1498,7 +1510,12 @@ fn cube_maps_of_one_texel_per_face_render_within_their_texels() {
     let mut images = Vec::new();
     let mut worst_outside = 0.0f64;
     for variant in [Variant::Multipass, Variant::SinglePass] {
-        let image = render_rgba32f(&mut renderer, &gpu, &mut uploaded, variant);
+        let image = render_rgba32f(
+            &mut renderer,
+            &gpu,
+            &mut uploaded,
+            Compositing::new(variant, BlendScheme::FrontToBack).unwrap(),
+        );
         for (pixel, _) in image
             .pixels
             .iter()

@@ -18,7 +18,7 @@ use lensmap::{
     hybrid::{HybridOptions, HybridScene, ViewpointBlending, sphere::SphereTriangulation},
     layers::{Bake, projected::ProjectedOptions},
     metrics::{self, Channels, Encoding, Mask},
-    render::{TargetFormat, Variant},
+    render::{Compositing, TargetFormat},
     runner::{
         EmSource, FrameOptions, FrameRunner, camera_between, lens_error, load_hybrid_scene,
         non_lens_error,
@@ -186,8 +186,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             hull_split: args.hull_split.is_on(),
             ..HybridOptions::with_t(args.t)
         },
-        variant: Variant::SinglePass,
-        blend: lensmap::render::BlendScheme::FrontToBack,
+        compositing: Compositing::SinglePass,
         format: TargetFormat::Rgba32f,
     };
     say!(
@@ -271,7 +270,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             .1
             .vertex_exact_frame(&camera, &options.hybrid)?;
         let exact = runner
-            .render(&exact_frame, options.variant, options.format)?
+            .render(&exact_frame, options.compositing, options.format)?
             .box_downsample(camera.supersampling);
         let exact_lens = lens_error(&exact, &reference, Encoding::DisplaySrgb)?.psnr_db;
         line.push_str(&format!("  vertex-exact: {exact_lens:.2}"));

@@ -28,7 +28,7 @@ use lensmap::{
         projected::{DEFAULT_EM_SIZE, ProjectedOptions, em_origin},
     },
     metrics::{Channels, Encoding, ImageError, Mask},
-    render::{RenderedImage, TargetFormat, Variant},
+    render::{BlendScheme, Compositing, RenderedImage, TargetFormat},
     runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error, load_hybrid_scene},
     scene::{Camera, LayerSpec, Scene},
     trace::{
@@ -158,7 +158,7 @@ struct Setting {
     em_size: u32,
     /// The first this many shells of each lens object; `None`: all of them.
     layers: Option<usize>,
-    variant: Variant,
+    compositing: Compositing,
     format: TargetFormat,
     supersampling: u32,
     ems: Ems,
@@ -176,7 +176,7 @@ impl Setting {
             angle_degrees: lensmap::hybrid::DEFAULT_ANGLE_DEGREES,
             em_size: DEFAULT_EM_SIZE,
             layers: None,
-            variant: Variant::SinglePass,
+            compositing: Compositing::SinglePass,
             format: TargetFormat::Rgba16f,
             supersampling: 1,
             ems: Ems::Projected,
@@ -199,7 +199,7 @@ impl Setting {
             self.em_size,
             self.layers
                 .map_or_else(|| "all".to_owned(), |n| n.to_string()),
-            self.variant.name(),
+            self.compositing.variant().name(),
             self.format.name(),
             self.supersampling
         )
@@ -258,7 +258,9 @@ fn settings(layer_count: usize, inferred: bool) -> Vec<Setting> {
     for layers in 1..layer_count {
         add("layers", &|s| s.layers = Some(layers));
     }
-    add("variant", &|s| s.variant = Variant::Multipass);
+    add("variant", &|s| {
+        s.compositing = Compositing::Multipass(BlendScheme::FrontToBack)
+    });
     add("CPU precision", &|s| s.precision = VertexPrecision::F32);
     add("CPU precision", &|s| {
         (s.precision, s.format) = (VertexPrecision::F32, TargetFormat::Rgba32f)
@@ -720,8 +722,7 @@ fn measure_setting(
             precision: setting.precision,
             ..HybridOptions::with_t(setting.t)
         },
-        variant: setting.variant,
-        blend: lensmap::render::BlendScheme::FrontToBack,
+        compositing: setting.compositing,
         format: setting.format,
     };
     runner.check_framebuffer(&camera, options.format)?;

@@ -14,7 +14,7 @@ use lensmap::{
         paths::VertexPrecision, tessellate::DEFAULT_T,
     },
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
-    render::{TargetFormat, Variant},
+    render::{BlendScheme, Compositing, TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, TimedFrames,
         load_hybrid_scene, median, novel_camera,
@@ -112,8 +112,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     // The rest is single pass, the runtime's default.
     let options = FrameOptions {
         hybrid: hybrid_options,
-        variant: Variant::SinglePass,
-        blend: lensmap::render::BlendScheme::FrontToBack,
+        compositing: Compositing::SinglePass,
         format,
     };
     step.finish_and_clear();
@@ -274,8 +273,8 @@ impl Bench<'_> {
         for variant in [Variant::SinglePass, Variant::Multipass] {
             let options = FrameOptions {
                 hybrid: hybrid_options,
-                variant,
-                blend: lensmap::render::BlendScheme::FrontToBack,
+                compositing: Compositing::new(variant, BlendScheme::FrontToBack)
+                    .expect("front to back is every variant's"),
                 format,
             };
             let repetitions = Repetitions {

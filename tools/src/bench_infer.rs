@@ -14,7 +14,7 @@ use lensmap::{
     index::LensIndex,
     layers::projected::ProjectedOptions,
     metrics::Encoding,
-    render::{TargetFormat, Variant},
+    render::{Compositing, TargetFormat},
     runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene, median},
     scene::{Camera, Scene},
     trace::{ReferenceImage, TraceOptions, compile_records, render_reference},
@@ -226,8 +226,7 @@ impl Judge<'_> {
     ) -> anyhow::Result<(f64, f64)> {
         let frame_options = FrameOptions {
             hybrid: HybridOptions::default(),
-            variant: Variant::SinglePass,
-            blend: lensmap::render::BlendScheme::FrontToBack,
+            compositing: Compositing::SinglePass,
             format: TargetFormat::Rgba32f,
         };
         let frame = runner.frame(hybrid, self.camera, &frame_options)?;

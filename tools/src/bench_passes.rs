@@ -17,8 +17,8 @@ use lensmap::{
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     metrics::{self, Channels, Encoding, ImageError, Mask},
     render::{
-        BlendScheme, FrameInput, RenderOptions, RenderedImage, Renderer, TargetFormat, Variant,
-        frame_lens_pixels,
+        BlendScheme, Compositing, FrameInput, RenderOptions, RenderedImage, Renderer, TargetFormat,
+        Variant, frame_lens_pixels,
         synthetic::{SyntheticOptions, sphere_frame},
     },
     runner::{EmSource, FrameRunner, load_hybrid_scene},
@@ -266,8 +266,7 @@ fn frame_rows(
     let mut uploaded = runner.upload(frame)?;
     // The reference of every row: the paper's scheme in RGBA32F.
     let paper = RenderOptions {
-        variant: Variant::Multipass,
-        blend: BlendScheme::FrontToBack,
+        compositing: Compositing::Multipass(BlendScheme::FrontToBack),
         format: TargetFormat::Rgba32f,
         host: None,
     };
@@ -276,8 +275,7 @@ fn frame_rows(
     for &(variant, blend) in compositings {
         for format in TargetFormat::ALL {
             let compositing = RenderOptions {
-                variant,
-                blend,
+                compositing: Compositing::new(variant, blend)?,
                 format,
                 host: None,
             };

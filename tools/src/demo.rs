@@ -21,7 +21,10 @@ use lensmap::{
         projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     },
     metrics::Encoding,
-    render::{PassCategory, RenderedImage, SinglePassProgram, TargetFormat, Variant, synthetic},
+    render::{
+        BlendScheme, Compositing, PassCategory, RenderedImage, SinglePassProgram, TargetFormat,
+        Variant, synthetic,
+    },
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, TimedFrames, lens_error,
         load_hybrid_scene, novel_camera,
@@ -281,8 +284,8 @@ impl Table<'_> {
                             gpu_precision: self.gpu_precision,
                             ..HybridOptions::with_t(t)
                         },
-                        variant,
-                        blend: lensmap::render::BlendScheme::FrontToBack,
+                        compositing: Compositing::new(variant, BlendScheme::FrontToBack)
+                            .expect("front to back is every variant's"),
                         format: TargetFormat::Rgba16f,
                     };
                     // The first frame compiles pipelines; then the median of three timed frames.
@@ -473,9 +476,10 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let step = steps.step(&format!("{} frames", variant.name()));
         let compositing = lensmap::render::RenderOptions {
-            variant,
+            compositing: Compositing::new(variant, BlendScheme::FrontToBack)
+                .expect("front to back is every variant's"),
             format,
-            ..Default::default()
+            host: None,
         };
         let plan = lensmap::render::Renderer::plan(&uploaded, &compositing)?;
         let renders = runner.timed_renders(&mut uploaded, &compositing, args.frames)?;

@@ -4,7 +4,7 @@
 use clap::Args;
 use lensmap::options::Worded;
 use lensmap::render::{
-    BlendScheme, FrameShape, Output, PassCategory, PlanOptions, ProgramError, SinglePassLimits,
+    BlendScheme, Compositing, FrameShape, Output, PassCategory, PlanOptions, SinglePassLimits,
     TargetFormat, Variant, plan::frame_graph,
 };
 use lensmap::trace::Term;
@@ -68,20 +68,17 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         lens.compute = usize::from(args.gpu_parts);
     }
     shape.glossy = (0..args.glossy).map(|g| format!("glossy{g}")).collect();
-    let variant = Variant::from(args.variant);
     let format = TargetFormat::from(args.format);
-    let blend = BlendScheme::from(args.blend);
+    let compositing = Compositing::new(Variant::from(args.variant), BlendScheme::from(args.blend))
+        .map_err(|error| BadUsage(error.worded(&Flags)))?;
     let options = PlanOptions {
-        variant,
-        blend,
+        compositing,
         format,
         output: Output::Readback,
         single_pass: SinglePassLimits::COMPILED,
     };
-    let (graph, _) = frame_graph(&shape, &options).map_err(|error| match error {
-        ProgramError::SinglePassBlend { .. } => BadUsage(error.worded(&Flags)),
-        _ => BadUsage(format!("--layers {}: {error}", args.layers)),
-    })?;
+    let (graph, _) = frame_graph(&shape, &options)
+        .map_err(|error| BadUsage(format!("--layers {}: {error}", args.layers)))?;
     let plan = graph.compile()?;
     let counts = json!({
         "tessellation": plan.count(PassCategory::Tessellation),
@@ -113,7 +110,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
             .collect();
         let out = json!({
             "layers": args.layers, "viewpoints": args.viewpoints, "terms": args.terms,
-            "variant": variant.name(), "blend": blend.name(), "format": format.name(), "counts": counts, "steps": steps,
+            "variant": compositing.variant().name(), "blend": compositing.blend().name(), "format": format.name(), "counts": counts, "steps": steps,
             "culled": plan.culled.iter().map(|(n, r)| json!({"pass": n, "reason": r.to_string()})).collect::<Vec<_>>(),
         });
         report(&out, None)?;
@@ -121,8 +118,8 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         say!("{}", plan.to_string().trim_end_matches('\n'));
         say!(
             "{} ({}) lens passes: {}{} prime + {} layer + {} alpha clear + {} scratch clear + {} group sum + {} single-pass; {} rendering instance(s), {} barrier(s)",
-            variant.name(),
-            blend.name(),
+            compositing.variant().name(),
+            compositing.blend().name(),
             match plan.count(PassCategory::Tessellation) {
                 0 => String::new(),
                 n => format!("{n} tessellation (compute) + "),

@@ -19,7 +19,7 @@ use lensmap::{
         DEFAULT_PIXELS_PER_TEXEL, LightMapOptions,
     },
     metrics::{Channels, Encoding, Mask, MetricsError, compare},
-    render::{BlendScheme, TargetFormat, Variant},
+    render::{BlendScheme, Compositing, TargetFormat, Variant},
     runner::{
         EmSource, FrameOptions, FrameRunner, HybridFrame, LoadOptions, Repetitions, lens_error,
         load_hybrid_scene, non_lens_error,
@@ -169,8 +169,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             gpu_precision: args.gpu_precision.into(),
             ..HybridOptions::default()
         },
-        variant: Variant::from(args.variant),
-        blend: BlendScheme::from(args.blend),
+        compositing: Compositing::new(Variant::from(args.variant), BlendScheme::from(args.blend))
+            .map_err(|error| {
+            crate::common::BadUsage(lensmap::options::Worded::worded(
+                &error,
+                &crate::words::Flags,
+            ))
+        })?,
         format: TargetFormat::from(args.format),
     };
     options.validate().map_err(flag_error)?;

@@ -1,27 +1,32 @@
-//! How the command line says the library's errors: options as flags (`em_size` is `--em-size`),
-//! and an error chain as one line in which every library error that names options is worded so.
+//! How the command line says the library's errors: options as flags (each option's own, from its
+//! [`OptionName`]: `ProjectedOptions.size` is `--em-size`), and an error chain as one line in
+//! which every library error that names options is worded so.
 
-use lensmap::options::{OptionWords, Worded};
+use lensmap::options::{OptionName, OptionWords, Worded};
 
-/// Options as the command line's flags: the field name with `_` written `-`.
+/// Options as the command line's flags: each option's [`OptionName::flag`].
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Flags;
 
 impl OptionWords for Flags {
-    fn option(&self, field: &str) -> String {
-        format!("--{}", field.replace('_', "-"))
+    fn option(&self, name: OptionName) -> String {
+        match name.flag {
+            Some(flag) => format!("--{flag}"),
+            // An option no flag sets (the tests keep the table and the flags in step).
+            None => format!("`{}.{}`", name.owner, name.field),
+        }
     }
 
-    fn setting(&self, field: &str, value: &str) -> String {
-        format!("{} {value}", self.option(field))
+    fn setting(&self, name: OptionName, value: &str) -> String {
+        format!("{} {value}", self.option(name))
     }
 
     fn call(&self, call: &str) -> String {
         format!("lensmap {call}")
     }
 
-    fn switch_on(&self, field: &str) -> String {
-        format!("pass {}", self.option(field))
+    fn switch_on(&self, name: OptionName) -> String {
+        format!("pass {}", self.option(name))
     }
 
     fn bake_command(&self, scene: Option<&str>) -> Option<String> {
@@ -49,7 +54,7 @@ fn downcast<'a, T: Worded + 'static>(
 const WORDED_ERRORS: [Downcast; 11] = [
     downcast::<lensmap::options::OptionError>,
     downcast::<lensmap::render::RenderError>,
-    downcast::<lensmap::render::ProgramError>,
+    downcast::<lensmap::render::CompositingError>,
     downcast::<lensmap::render::FramebufferError>,
     downcast::<lensmap::render::MapBudgetError>,
     downcast::<lensmap::hybrid::BakeIdentityError>,
@@ -91,6 +96,37 @@ pub fn error_line(error: &anyhow::Error) -> String {
 #[cfg(test)]
 mod tests {
     use super::error_line;
+
+    /// Every long flag of every command (subcommands included), without its dashes.
+    fn flags(command: &clap::Command, into: &mut std::collections::BTreeSet<String>) {
+        into.extend(
+            command
+                .get_arguments()
+                .filter_map(|a| a.get_long())
+                .map(String::from),
+        );
+        for sub in command.get_subcommands() {
+            flags(sub, into);
+        }
+    }
+
+    /// Front ends → library: every option the library and the baker name has the flag its
+    /// name gives on some command, so a message never tells a user to pass a flag that does
+    /// not exist.
+    #[test]
+    fn every_options_flag_is_a_flag_of_the_command_line() {
+        use clap::CommandFactory;
+        let mut all = std::collections::BTreeSet::new();
+        flags(&crate::Cli::command(), &mut all);
+        let options = lensmap::options::names::ALL
+            .iter()
+            .chain(lensmap_baker::bake::names::ALL);
+        let missing: Vec<String> = options
+            .filter_map(|option| option.flag.filter(|flag| !all.contains(*flag)))
+            .map(|flag| format!("--{flag}"))
+            .collect();
+        assert!(missing.is_empty(), "flags no command has: {missing:?}");
+    }
     use lensmap::render::{MapBudgetError, MapBytes, RenderError};
 
     /// Maps over the device's budget, in the command line's words: the flags that shrink them.

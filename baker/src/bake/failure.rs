@@ -15,6 +15,7 @@ use lensmap::{
 };
 
 use super::merge::MergeError;
+use super::names;
 use crate::{infer::InferError, placement::PlacementError};
 
 /// Why a bake failed.
@@ -140,9 +141,9 @@ impl Worded for BakeInputError {
                 supersampling,
             } => format!(
                 "{} {} {}: give values ≥ 1",
-                words.setting("width", &width.to_string()),
-                words.setting("height", &height.to_string()),
-                words.setting("supersampling", &supersampling.to_string()),
+                words.setting(names::WIDTH, &width.to_string()),
+                words.setting(names::HEIGHT, &height.to_string()),
+                words.setting(names::SUPERSAMPLING, &supersampling.to_string()),
             ),
             BakeInputError::SampleList {
                 spec,
@@ -151,7 +152,7 @@ impl Worded for BakeInputError {
                 count,
             } => format!(
                 "{}: {problem}; scene \"{scene}\" has samples 0..{count} (give all, I,J,K, A..B or A..=B)",
-                words.setting("samples", spec)
+                words.setting(names::SAMPLES, spec)
             ),
             BakeInputError::MissingSample {
                 sample,
@@ -159,7 +160,7 @@ impl Worded for BakeInputError {
                 count,
             } => format!(
                 "{}: sample {sample} does not exist; scene \"{scene}\" has samples 0..{count}",
-                words.option("samples")
+                words.option(names::SAMPLES)
             ),
             BakeInputError::NoSamples => "no samples to bake (the shard or the sample list is empty); give more samples or fewer shards".into(),
             BakeInputError::NoLensObjects { scene } => format!(
@@ -168,12 +169,12 @@ impl Worded for BakeInputError {
             BakeInputError::OtherIdentityVersion { manifest, version } => format!(
                 "{}: provenance.identity_version: the bake names its scene and options in identity version {version}, this lensmap in version {IDENTITY_VERSION}, so its samples cannot be resumed; bake again without {}",
                 manifest.display(),
-                words.option("resume")
+                words.option(names::RESUME)
             ),
             BakeInputError::Staged { path, message } => format!(
                 "{}: {message}; delete it (or bake without {})",
                 path.display(),
-                words.option("resume")
+                words.option(names::RESUME)
             ),
         }
     }

@@ -33,8 +33,7 @@ pub(super) fn masked_psnr(
         camera,
         &FrameOptions {
             hybrid: options.infer.hybrid,
-            variant: options.infer.variant,
-            blend: lensmap::render::BlendScheme::FrontToBack,
+            compositing: options.infer.compositing,
             format: TargetFormat::Rgba32f,
         },
     )?;

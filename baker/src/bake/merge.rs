@@ -17,6 +17,7 @@ use lensmap::{
 };
 
 use super::failure::BakeFailure;
+use super::names;
 
 /// Why shards cannot be merged. The shard list is option `merge`; a bake for a shard is made by
 /// call `bake` with option `shard`.
@@ -63,21 +64,21 @@ impl Worded for MergeError {
         match self {
             MergeError::TooFew => format!(
                 "{} needs at least two bake directories, e.g. {}",
-                words.option("merge"),
-                words.setting("merge", "out/shard-1 out/shard-2")
+                words.option(names::MERGE),
+                words.setting(names::MERGE, "out/shard-1 out/shard-2")
             ),
             MergeError::NoProvenance { manifest } => format!(
                 "{}: has no provenance (not written by {}), so it cannot be merged; bake it with {} {}",
                 manifest.display(),
                 words.call("bake"),
                 words.call("bake"),
-                words.option("shard")
+                words.option(names::SHARD)
             ),
             MergeError::OtherIdentityVersion { manifest, version } => format!(
                 "{}: provenance.identity_version: the shard names its scene and options in identity version {version}, this lensmap in version {IDENTITY_VERSION}, so it cannot be merged; bake it again with {} {}",
                 manifest.display(),
                 words.call("bake"),
-                words.option("shard")
+                words.option(names::SHARD)
             ),
             MergeError::NotShards { first, other, what } => format!(
                 "{} and {}: {what} differ, so these are not shards of one bake; merge only shards made with the same scene and options",

@@ -8,10 +8,11 @@ use lensmap::{
     identity::{Canonical, Encoder, identity},
     layers::projected::MAX_EM_SIZE,
     options::OptionError,
-    render::Variant,
+    render::{BlendScheme, Variant},
 };
 
 use super::failure::{BakeFailure, BakeInputError};
+use super::names;
 use crate::infer::{DEFAULT_MAX_EM_SIZE, EmSize, InferOptions};
 use crate::solve::{SolveMethod, SolveOptions};
 
@@ -135,14 +136,14 @@ impl BakeOptions {
         };
         OptionError::require(
             size.is_power_of_two() && size <= MAX_EM_SIZE,
-            "em_size",
+            names::EM_SIZE,
             size,
             format!("give auto or a power of two from 1 to {MAX_EM_SIZE}, e.g. 128"),
         )?;
         if let LayerCount::Count(n) = self.layers {
             OptionError::require(
                 (1..=8).contains(&n),
-                "layers",
+                names::LAYERS,
                 n,
                 "give auto or a count from 1 to 8",
             )?;
@@ -150,27 +151,27 @@ impl BakeOptions {
         let tolerance = self.infer.solve.tolerance;
         OptionError::require(
             tolerance.is_finite() && tolerance > 0.0 && tolerance < 1.0,
-            "tolerance",
+            names::TOLERANCE,
             tolerance,
             "give a relative residual in (0, 1), e.g. 1e-4",
         )?;
         let theta = self.infer.theta_c.to_degrees();
         OptionError::require(
             theta.is_finite() && theta > 0.0 && theta < 180.0,
-            "confidence_degrees",
+            names::CONFIDENCE,
             theta,
             "give an angle in (0, 180), e.g. 30",
         )?;
         let elevation = self.view_elevation_degrees;
         OptionError::require(
             elevation.is_finite() && (0.0..90.0).contains(&elevation),
-            "view_elevation_degrees",
+            names::VIEW_ELEVATION,
             elevation,
             "give an angle in [0, 90), e.g. 15 (0: no raised view)",
         )?;
         OptionError::require(
             (1..=9).contains(&self.multi_view),
-            "multi_view",
+            names::MULTI_VIEW,
             self.multi_view,
             "give a view count from 1 to 9 (1 turns multi-view off)",
         )?;
@@ -216,17 +217,22 @@ impl Canonical for BakeOptions {
             .value(share_layers);
         let InferOptions {
             hybrid,
-            variant,
+            compositing,
             em_size: _,
             theta_c,
             direct_images,
             solve,
         } = infer;
         encode_hybrid(encoder, hybrid);
-        encoder.tag(match variant {
+        encoder.tag(match compositing.variant() {
             Variant::Multipass => 0,
             Variant::SinglePass => 1,
         });
+        // The paper's front-to-back scheme adds nothing, so that bakes made before schemes
+        // could be chosen keep their identity.
+        if compositing.blend() != BlendScheme::FrontToBack {
+            encoder.value(compositing.blend().name());
+        }
         encoder.value(theta_c).value(direct_images);
         let SolveOptions {
             method,
@@ -348,7 +354,7 @@ mod tests {
                     traversal: lensmap::hybrid::gpu::Traversal::Auto,
                     gpu_precision: VertexPrecision::F32,
                 },
-                variant: Variant::SinglePass,
+                compositing: lensmap::render::Compositing::SinglePass,
                 em_size: EmSize::Fixed(64),
                 theta_c: 30f64.to_radians(),
                 direct_images: false,

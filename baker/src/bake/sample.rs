@@ -278,7 +278,7 @@ fn solve_lenses(
             )
         })
         .collect();
-    let mut renderer = DeviceRenderer::new(runner, infer.variant);
+    let mut renderer = DeviceRenderer::new(runner, infer.compositing);
     Ok(solve_layers(
         &mut renderer,
         hybrid,

@@ -4,6 +4,7 @@
 use lensmap::options::OptionError;
 
 use super::failure::{BakeFailure, BakeInputError};
+use super::names;
 
 /// The view-space indices `spec` names for a view space of `count` samples: `all`, `I,J,K` or
 /// `A..B` (B excluded) or `A..=B`; sorted, without repeats. A spec that names none of scene
@@ -64,7 +65,7 @@ pub fn parse_samples(spec: &str, count: usize, scene: &str) -> Result<Vec<usize>
 pub fn parse_shard(spec: &str) -> Result<(usize, usize), BakeFailure> {
     let bad = || {
         BakeFailure::from(OptionError::new(
-            "shard",
+            names::SHARD,
             spec,
             "give I/N with 1 ≤ I ≤ N, e.g. 1/4 for the first of four shards",
         ))
@@ -105,7 +106,7 @@ mod tests {
                 panic!("{bad}: not an input error");
             };
             let e = e.to_string();
-            assert!(e.starts_with(&format!("`samples` = {bad}:")), "{e}");
+            assert!(e.starts_with(&format!("`BakeJob.samples` = {bad}:")), "{e}");
             assert!(e.contains("0..4"), "{e}");
         }
         assert_eq!(parse_shard("2/3").unwrap(), (2, 3));
@@ -113,7 +114,7 @@ mod tests {
             let BakeFailure::Option(e) = parse_shard(bad).unwrap_err() else {
                 panic!("{bad}: not an option error");
             };
-            assert_eq!((e.option, e.value.as_str()), ("shard", bad));
+            assert_eq!((e.option, e.value.as_str()), (names::SHARD, bad));
         }
         let all: Vec<usize> = (0..7).collect();
         let shards: Vec<Vec<usize>> = (1..=3).map(|i| shard_samples(&all, (i, 3))).collect();

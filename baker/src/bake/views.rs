@@ -288,7 +288,7 @@ mod tests {
             .validate()
             .unwrap_err();
             assert!(
-                matches!(&e, BakeFailure::Option(o) if o.option == "view_elevation_degrees"),
+                matches!(&e, BakeFailure::Option(o) if o.option == crate::bake::names::VIEW_ELEVATION),
                 "{e}"
             );
         }

@@ -9,7 +9,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use lensmap::gpu::{Gpu, GpuOptions};
 use lensmap::hybrid::HybridOptions;
 use lensmap::layers::projected::ProjectedOptions;
-use lensmap::render::{TargetFormat, Variant};
+use lensmap::render::{Compositing, TargetFormat};
 use lensmap::runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene};
 use lensmap::scene::{Camera, Scene};
 use lensmap_capi::*;
@@ -107,8 +107,7 @@ fn overhead(c: &mut Criterion) {
     .expect("projected EMs");
     let options = FrameOptions {
         hybrid: HybridOptions::with_t(3.0),
-        variant: Variant::SinglePass,
-        blend: lensmap::render::BlendScheme::FrontToBack,
+        compositing: Compositing::SinglePass,
         format: TargetFormat::Rgba16f,
     };
     let mut step = 0;

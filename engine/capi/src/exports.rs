@@ -575,17 +575,14 @@ pub unsafe extern "C" fn lensmap_plan_text(
             options.viewpoints as usize,
             terms,
         );
-        let (variant, blend) = compositing(options.variant, options.blend)?;
         let plan_options = PlanOptions {
-            variant,
-            blend,
+            compositing: compositing(options.variant, options.blend)?,
             format: format(options.format, "options->format")?,
             output: Output::Readback,
             single_pass: SinglePassLimits::COMPILED,
         };
-        let (graph, _) = frame_graph(&shape, &plan_options).map_err(|error| {
-            Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
-        })?;
+        let (graph, _) = frame_graph(&shape, &plan_options)
+            .map_err(|error| Failure::new(LensmapResult::InvalidArgument, error.to_string()))?;
         let plan = graph
             .compile()
             .map_err(|error| Failure::new(LensmapResult::Render, error.to_string()))?;

@@ -8,23 +8,31 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use lensmap::gpu::GpuError;
 use lensmap::hybrid::HybridError;
-use lensmap::options::{OptionWords, Worded};
+use lensmap::options::{OptionName, OptionWords, Worded};
 use lensmap::render::RenderError;
 use lensmap::runner::RunError;
 use lensmap::scene::SceneError;
 
 use crate::types::LensmapResult;
 
-/// Options as the C ABI names them: the fields of the options struct a call was given.
+/// Options as the C ABI names them: the fields of the options struct a call was given, and
+/// named values as the header's constants (`LENSMAP_BLEND_PROGRAMMABLE`).
 pub(crate) struct StructFields;
 
 impl OptionWords for StructFields {
-    fn option(&self, field: &str) -> String {
-        format!("options->{field}")
+    fn option(&self, name: OptionName) -> String {
+        format!("options->{}", name.c_field.unwrap_or(name.field))
     }
 
-    fn setting(&self, field: &str, value: &str) -> String {
-        format!("options->{field} {value}")
+    fn setting(&self, name: OptionName, value: &str) -> String {
+        match name.c_constants {
+            Some(prefix) => format!(
+                "{} {prefix}{}",
+                self.option(name),
+                value.to_uppercase().replace('-', "_")
+            ),
+            None => format!("{} {value}", self.option(name)),
+        }
     }
 }
 

@@ -8,7 +8,7 @@ use std::ffi::{CStr, c_char};
 use lensmap::gpu::vk;
 use lensmap::hybrid::{FresnelModel, HybridOptions, VertexTracer, ViewpointBlending};
 use lensmap::options::Worded;
-use lensmap::render::{BlendScheme, TargetFormat, Variant};
+use lensmap::render::{BlendScheme, Compositing, TargetFormat, Variant};
 use lensmap::runner::FrameOptions;
 use lensmap::scene::Camera;
 use lensmap::trace::schlick_table::{MAX_TEXELS, MIN_TEXELS};
@@ -200,26 +200,14 @@ pub(crate) fn blend(value: u32, field: &str) -> Result<BlendScheme, Failure> {
     }
 }
 
-/// `options->variant` and `options->blend`, checked together: the single pass takes only
-/// front-to-back.
-pub(crate) fn compositing(
-    variant_value: u32,
-    blend_value: u32,
-) -> Result<(Variant, BlendScheme), Failure> {
-    let (variant, scheme) = (
+/// `options->variant` and `options->blend` as the library's [`Compositing`], whose one check
+/// refuses the single pass with a blending scheme.
+pub(crate) fn compositing(variant_value: u32, blend_value: u32) -> Result<Compositing, Failure> {
+    Compositing::new(
         variant(variant_value, "options->variant")?,
         blend(blend_value, "options->blend")?,
-    );
-    if variant == Variant::SinglePass && scheme != BlendScheme::FrontToBack {
-        return Err(Failure::new(
-            LensmapResult::InvalidArgument,
-            format!(
-                "options->blend is {blend_value} ({}); the single pass takes only LENSMAP_BLEND_FRONT_TO_BACK: set options->variant to LENSMAP_VARIANT_MULTIPASS or options->blend to 0",
-                scheme.name()
-            ),
-        ));
-    }
-    Ok((variant, scheme))
+    )
+    .map_err(|error| Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields)))
 }
 
 pub(crate) fn format(value: u32, field: &str) -> Result<TargetFormat, Failure> {
@@ -262,7 +250,7 @@ pub(crate) fn frame_settings(
     } else {
         options.t
     };
-    let (variant, blend) = compositing(options.variant, options.blend)?;
+    let compositing = compositing(options.variant, options.blend)?;
     let viewpoint_blending = match options.viewpoint_blending {
         LENSMAP_VIEWPOINTS_VIEW_SPACE => ViewpointBlending::ViewSpace,
         LENSMAP_VIEWPOINTS_TWO_NEAREST => ViewpointBlending::TwoNearest,
@@ -308,8 +296,7 @@ pub(crate) fn frame_settings(
             tracer,
             ..HybridOptions::with_t(t)
         },
-        variant,
-        blend,
+        compositing,
         format: format(options.format, "options->format")?,
     };
     frame_options.validate().map_err(|error| {

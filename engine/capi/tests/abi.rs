@@ -10,7 +10,7 @@ use std::ptr::{null, null_mut};
 use lensmap::gpu::{Gpu, GpuOptions};
 use lensmap::hybrid::HybridOptions;
 use lensmap::layers::projected::ProjectedOptions;
-use lensmap::render::{BlendScheme, TargetFormat, Variant};
+use lensmap::render::{BlendScheme, Compositing, TargetFormat};
 use lensmap::runner::{EmSource, FrameOptions, FrameRunner, load_hybrid_scene};
 use lensmap::scene::{Camera, Scene};
 use lensmap_capi::*;
@@ -188,11 +188,12 @@ fn rust_frame(runner: &mut FrameRunner, options: &LensmapFrameOptions) -> Vec<f3
             &camera,
             &FrameOptions {
                 hybrid: HybridOptions::with_t(options.t),
-                variant: match options.variant {
-                    LENSMAP_VARIANT_MULTIPASS => Variant::Multipass,
-                    _ => Variant::SinglePass,
+                compositing: match options.variant {
+                    LENSMAP_VARIANT_MULTIPASS => {
+                        Compositing::Multipass(BlendScheme::ALL[options.blend as usize])
+                    }
+                    _ => Compositing::SinglePass,
                 },
-                blend: BlendScheme::ALL[options.blend as usize],
                 format: TargetFormat::Rgba32f,
             },
         )
@@ -943,7 +944,7 @@ fn misuse_returns_documented_codes_and_useful_messages() {
         assert_failure(
             render(context, scene, &blend, &mut pixels),
             R::InvalidArgument,
-            "options->blend is 3 (programmable)",
+            "options->blend LENSMAP_BLEND_PROGRAMMABLE",
         );
         // 13b. Options struct sizes of no ABI, on a render and on a plan: refused.
         for size in [0, 64, 78, 82, 88, u32::MAX] {

@@ -19,7 +19,6 @@
 //! factor, coarse or fine derivatives, the LOD fraction resolved to `mipmapPrecisionBits`), and
 //! bilinear weights snapped to `subTexelPrecisionBits`.
 
-use ash::vk;
 use glam::DVec3;
 
 use super::CubeMap;
@@ -154,14 +153,6 @@ pub struct FilterPrecision {
 }
 
 impl FilterPrecision {
-    /// The precision `limits` reports.
-    pub fn from_limits(limits: &vk::PhysicalDeviceLimits) -> Self {
-        FilterPrecision {
-            sub_texel_bits: limits.sub_texel_precision_bits,
-            mipmap_bits: limits.mipmap_precision_bits,
-        }
-    }
-
     /// The loosest precision the Vulkan spec allows (4 bits of each: the minimum of
     /// `subTexelPrecisionBits` and `mipmapPrecisionBits` in the spec's "Required Limits" table),
     /// and the precision every conformant driver is held to whatever it reports.

@@ -7,14 +7,17 @@ pub mod acceleration;
 pub(crate) mod context;
 mod pipeline;
 pub(crate) mod resources;
+mod startup;
+mod timeline;
 
 pub use ash::vk;
 pub use context::{
-    DeviceChoice, DeviceId, DeviceMemory, Gpu, GpuOptions, HostDevice, HostFeatures, Timeline,
+    DeviceChoice, DeviceId, DeviceMemory, Gpu, GpuOptions, HostDevice, HostFeatures,
     ValidationReport, VulkanHandles,
 };
 pub use pipeline::{GraphicsPipelineDesc, VertexInput};
 pub use resources::{Buffer, BufferUsage, Image, ImageDesc, format_bytes};
+pub use timeline::Timeline;
 
 /// Errors from the Vulkan backend.
 #[derive(Debug, thiserror::Error)]

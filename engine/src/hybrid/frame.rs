@@ -210,7 +210,7 @@ impl VertexTracer {
         match self {
             VertexTracer::Cpu => false,
             VertexTracer::Gpu => true,
-            VertexTracer::Auto => gpu.properties().device_type != ash::vk::PhysicalDeviceType::CPU,
+            VertexTracer::Auto => !gpu.is_cpu_device(),
         }
     }
 }
@@ -268,7 +268,7 @@ impl HybridOptions {
         self.fresnel.validate()?;
         OptionError::require(
             self.footprint_subpixels.is_finite() && self.footprint_subpixels >= 0.0,
-            "footprint",
+            crate::options::names::FOOTPRINT,
             self.footprint_subpixels,
             "give a number of subpixels ≥ 0 (0 turns footprint coarsening off), e.g. 64",
         )?;
@@ -278,7 +278,7 @@ impl HybridOptions {
         let radians = self.angle_radians;
         OptionError::require(
             radians.is_finite() && radians > 0.0 && radians < std::f64::consts::PI,
-            "angle_degrees",
+            crate::options::names::ANGLE,
             radians.to_degrees() as f32,
             "give an angle in (0, 180), e.g. 3",
         )
@@ -1001,7 +1001,7 @@ fn append_terms(all: &mut Option<Vec<TermVertices>>, part: Option<Vec<TermVertic
 /// The GPU tracer asked of a frame built without a device.
 fn gpu_without_device() -> OptionError {
     OptionError::new(
-        "tracer",
+        crate::options::names::TRACER,
         VertexTracer::Gpu.name(),
         "this frame is built without a device, and the GPU tracer runs only through a frame runner, which owns one; give cpu or auto",
     )

@@ -23,7 +23,7 @@ use crate::{
     lightmap::{
         LightMapOptions, LightMapStats, PlanError, Viewers, build_light_mapped_mesh, plan_atlases,
     },
-    options::{LibraryWords, OptionWords, Worded},
+    options::{LibraryWords, OptionWords, Worded, names},
     render::{EnvironmentMesh, LensFaces, MeshLightMap},
     scene::{Scene, TriangleMesh},
     trace::world::TraceScene,
@@ -134,14 +134,14 @@ impl Worded for BakeIdentityError {
             BakeIdentityError::Unidentified { .. } => format!(
                 "manifest.json: provenance: the bake does not say which scene it was made from; bake this scene{}, or {} to use it anyway",
                 bake_command(None),
-                words.switch_on("accept_any_bake")
+                words.switch_on(names::ACCEPT_ANY_BAKE)
             ),
             BakeIdentityError::OtherIdentityVersion { bake, version } => format!(
                 "{}manifest.json: provenance.identity_version: the bake names its scene and options in identity version {version}, this lensmap in version {IDENTITY_VERSION}, so it cannot tell what the bake was made from; bake the scene again{}, or {} to use it anyway",
                 bake.as_ref()
                     .map_or_else(String::new, |dir| format!("{}/", dir.display())),
                 bake_command(None),
-                words.switch_on("accept_any_bake")
+                words.switch_on(names::ACCEPT_ANY_BAKE)
             ),
         }
     }
@@ -553,12 +553,12 @@ mod tests {
     struct Capitals;
 
     impl OptionWords for Capitals {
-        fn option(&self, field: &str) -> String {
-            field.to_uppercase()
+        fn option(&self, name: crate::options::OptionName) -> String {
+            name.field.to_uppercase()
         }
 
-        fn switch_on(&self, field: &str) -> String {
-            format!("turn on {}", self.option(field))
+        fn switch_on(&self, name: crate::options::OptionName) -> String {
+            format!("turn on {}", self.option(name))
         }
 
         fn bake_command(&self, scene: Option<&str>) -> Option<String> {
@@ -588,11 +588,11 @@ mod tests {
         let said = "manifest.json: provenance: the bake does not say which scene it was made from; bake this scene";
         assert_eq!(
             unnamed.to_string(),
-            format!("{said}, or set `accept_any_bake` to use it anyway")
+            format!("{said}, or set `EmSource.AnyBake` to use it anyway")
         );
         assert_eq!(
             unnamed.worded(&Capitals),
-            format!("{said} (BAKE(?)), or turn on ACCEPT_ANY_BAKE to use it anyway")
+            format!("{said} (BAKE(?)), or turn on ANYBAKE to use it anyway")
         );
     }
 }

@@ -91,7 +91,7 @@ impl TessellationOptions {
     pub fn validate(&self) -> Result<(), crate::options::OptionError> {
         crate::options::OptionError::require(
             self.t.is_finite() && self.t > 0.0,
-            "t",
+            crate::options::names::T,
             self.t,
             "give a positive number of subpixels, e.g. 3",
         )

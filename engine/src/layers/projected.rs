@@ -63,13 +63,13 @@ impl ProjectedOptions {
     pub fn validate(&self) -> Result<(), crate::options::OptionError> {
         crate::options::OptionError::require(
             (1..=MAX_EM_SIZE).contains(&self.size) && self.size.is_power_of_two(),
-            "em_size",
+            crate::options::names::EM_SIZE,
             self.size,
             "give a power-of-two cube-map face size from 1 to 2048 texels, e.g. 128",
         )?;
         crate::options::OptionError::require(
             (1..=16).contains(&self.supersampling),
-            "em_supersampling",
+            crate::options::names::EM_SUPERSAMPLING,
             self.supersampling,
             "give 1 to 16 rays per texel side, e.g. 2",
         )

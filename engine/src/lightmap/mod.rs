@@ -23,7 +23,7 @@ pub mod radiance;
 use glam::DVec3;
 use half::f16;
 
-use crate::options::OptionError;
+use crate::options::{Fix, OptionError, names};
 
 pub use atlas::{Atlas, AtlasError, Chart, TexelRect};
 pub use density::{PlanError, Viewers, plan_atlases};
@@ -110,38 +110,41 @@ impl LightMapOptions {
         let density = |d: f64| d.is_finite() && (1.0..=4096.0).contains(&d);
         OptionError::require(
             density(self.min_texels_per_metre),
-            "light_map_density",
+            names::LIGHT_MAP_DENSITY,
             self.min_texels_per_metre,
             "give texels per metre in [1, 4096], e.g. 16",
         )?;
         OptionError::require(
             density(self.max_texels_per_metre)
                 && self.max_texels_per_metre >= self.min_texels_per_metre,
-            "light_map_max_density",
+            names::LIGHT_MAP_MAX_DENSITY,
             self.max_texels_per_metre,
-            "give texels per metre in [light_map_density, 4096], e.g. 256",
+            Fix::naming(
+                "give texels per metre in [{0}, 4096], e.g. 256",
+                &[names::LIGHT_MAP_DENSITY],
+            ),
         )?;
         OptionError::require(
             self.pixels_per_texel.is_finite() && (0.25..=64.0).contains(&self.pixels_per_texel),
-            "light_map_pixels_per_texel",
+            names::LIGHT_MAP_PIXELS_PER_TEXEL,
             self.pixels_per_texel,
             "give pixels per texel in [0.25, 64], e.g. 2",
         )?;
         OptionError::require(
             (16..=16384).contains(&self.max_atlas_size),
-            "light_map_max_size",
+            names::LIGHT_MAP_MAX_SIZE,
             self.max_atlas_size,
             "give an atlas side in [16, 16384] texels, e.g. 4096",
         )?;
         OptionError::require(
             (1 << 16..=1 << 32).contains(&self.max_texels),
-            "light_map_max_texels",
+            names::LIGHT_MAP_MAX_TEXELS,
             self.max_texels,
             "give a texel budget in [65536, 4294967296], e.g. 4194304 (32 MiB)",
         )?;
         OptionError::require(
             (1..=16).contains(&self.supersampling),
-            "light_map_supersampling",
+            names::LIGHT_MAP_SUPERSAMPLING,
             self.supersampling,
             "give k in [1, 16], e.g. 4",
         )

@@ -11,7 +11,7 @@ use super::{FRAMES_IN_FLIGHT, FrameInput, RenderError, TargetFormat, targets::Sc
 use crate::{
     cubemap::CubeMap,
     gpu::Gpu,
-    options::{LibraryWords, OptionWords, Worded},
+    options::{LibraryWords, OptionWords, Worded, names},
 };
 
 /// The share of the largest device-local heap the framebuffer targets may take (see
@@ -153,8 +153,8 @@ impl Worded for MapBudgetError {
             size(maps.layered_em_bytes),
             size(self.budget),
             MAP_HEAP_SHARE * 100.0,
-            words.option("em_size"),
-            words.option("light_map_max_texels"),
+            words.option(names::EM_SIZE),
+            words.option(names::LIGHT_MAP_MAX_TEXELS),
         )
     }
 }
@@ -233,9 +233,9 @@ impl Worded for FramebufferError {
                 limit,
             } => format!(
                 "the framebuffer is {width}×{height} subpixels, past this device's limit of {limit} a side (maxImageDimension2D); give a smaller image or less supersampling ({}/{}/{})",
-                words.option("width"),
-                words.option("height"),
-                words.option("supersampling")
+                words.option(names::WIDTH),
+                words.option(names::HEIGHT),
+                words.option(names::SUPERSAMPLING)
             ),
             FramebufferError::OverBudget {
                 width,
@@ -252,7 +252,7 @@ impl Worded for FramebufferError {
                         format!(" and the blending scheme's {scratch} scratch images"),
                         format!(
                             " or {}",
-                            words.setting("blend", super::BlendScheme::FrontToBack.name())
+                            words.setting(names::BLEND, super::BlendScheme::FrontToBack.name())
                         ),
                     )
                 } else {
@@ -264,7 +264,7 @@ impl Worded for FramebufferError {
                     mib(needed),
                     mib(budget),
                     FRAMEBUFFER_HEAP_SHARE * 100.0,
-                    words.option("format"),
+                    words.option(names::FORMAT),
                 )
             }
         }
@@ -371,7 +371,7 @@ mod tests {
                 .unwrap_err();
         let (library, flags) = (error.to_string(), error.worded(&Flags));
         assert!(
-            library.contains("4000×3000") && library.contains("a smaller `format`"),
+            library.contains("4000×3000") && library.contains("a smaller `FrameOptions.format`"),
             "{library}"
         );
         assert!(
@@ -410,7 +410,7 @@ mod tests {
         };
         assert_eq!(
             error.to_string(),
-            "the framebuffer is 20000×10 subpixels, past this device's limit of 16384 a side (maxImageDimension2D); give a smaller image or less supersampling (`width`/`height`/`supersampling`)"
+            "the framebuffer is 20000×10 subpixels, past this device's limit of 16384 a side (maxImageDimension2D); give a smaller image or less supersampling (`Camera.width`/`Camera.height`/`Camera.supersampling`)"
         );
         assert!(
             error
@@ -506,10 +506,10 @@ mod tests {
         let (library, flags) = (error.to_string(), error.worded(&Flags));
         assert_eq!(
             library,
-            "the frame's maps need 336.7 KiB of device memory (4 layered-EM cube maps of up to 32² texels a face with their mip chains: 319.9 KiB; 2 light map(s) of 2148 texels: 16.8 KiB), past this device's budget for maps of 335.7 KiB (20% of its largest device-local heap); give a smaller `em_size` (of the projected EMs, or bake with a smaller one) or a smaller `light_map_max_texels` (it lowers every light-map chart's density)"
+            "the frame's maps need 336.7 KiB of device memory (4 layered-EM cube maps of up to 32² texels a face with their mip chains: 319.9 KiB; 2 light map(s) of 2148 texels: 16.8 KiB), past this device's budget for maps of 335.7 KiB (20% of its largest device-local heap); give a smaller `ProjectedOptions.size` (of the projected EMs, or bake with a smaller one) or a smaller `LightMapOptions.max_texels` (it lowers every light-map chart's density)"
         );
         assert!(
-            flags.contains("a smaller --em_size") && flags.contains("--light_map_max_texels"),
+            flags.contains("a smaller --em-size") && flags.contains("--light-map-max-texels"),
             "{flags}"
         );
     }

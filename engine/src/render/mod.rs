@@ -34,7 +34,8 @@ pub use host_image::HostImage;
 pub use image::RenderedImage;
 pub use lens_pixels::frame_lens_pixels;
 pub use plan::{
-    BlendScheme, FramePlan, FrameShape, Output, PassCategory, PlanOptions, TargetFormat, Variant,
+    BlendScheme, Compositing, CompositingError, FramePlan, FrameShape, Output, PassCategory,
+    PlanOptions, TargetFormat, Variant,
 };
 pub use program::{LimitSource, ProgramError, ShaderProgram, SinglePassLimits, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, RenderOptions, Renderer, Submission};
@@ -86,10 +87,11 @@ impl From<MapBudgetError> for RenderError {
 impl Worded for RenderError {
     fn worded(&self, words: &dyn OptionWords) -> String {
         match self {
-            RenderError::Program(error) => format!("frame input: {}", error.worded(words)),
             RenderError::Framebuffer(error) => format!("frame input: {}", error.worded(words)),
             RenderError::Maps(error) => format!("frame input: {}", error.worded(words)),
-            RenderError::BadInput(_) | RenderError::Gpu(_) => self.to_string(),
+            RenderError::BadInput(_) | RenderError::Program(_) | RenderError::Gpu(_) => {
+                self.to_string()
+            }
         }
     }
 }
@@ -102,12 +104,12 @@ mod tests {
     pub(super) struct Flags;
 
     impl OptionWords for Flags {
-        fn option(&self, field: &str) -> String {
-            format!("--{field}")
+        fn option(&self, name: crate::options::OptionName) -> String {
+            format!("--{}", name.flag.unwrap_or(name.field))
         }
 
-        fn setting(&self, field: &str, value: &str) -> String {
-            format!("--{field} {value}")
+        fn setting(&self, name: crate::options::OptionName, value: &str) -> String {
+            format!("{} {value}", self.option(name))
         }
     }
 

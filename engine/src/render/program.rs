@@ -7,12 +7,7 @@
 use ash::vk;
 use lensmap_shaders::{LensConstants, Overrides, Shader};
 
-use super::{BlendScheme, Variant};
-use crate::{
-    gpu::VertexInput,
-    options::{LibraryWords, OptionWords, Worded},
-    trace::Term,
-};
+use crate::{gpu::VertexInput, trace::Term};
 
 /// What bounds one of the single pass's limits ([`SinglePassLimits`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -189,12 +184,6 @@ pub enum ProgramError {
         /// What bounds it.
         bound: LimitSource,
     },
-    /// A blending scheme other than front-to-back asked of the single pass, which does not blend.
-    #[error("{}", single_pass_blend(*.blend, &LibraryWords))]
-    SinglePassBlend {
-        /// The scheme asked for.
-        blend: BlendScheme,
-    },
     /// A lens object with no layers, no terms, more than two terms or no viewpoint sample.
     #[error(
         "lens \"{lens}\": the single pass needs 1 to {max} layers, one or two terms and at least one viewpoint (got {layers}, {terms}, {viewpoints})"
@@ -211,26 +200,6 @@ pub enum ProgramError {
         /// [`SinglePassLimits::max_layers`].
         max: usize,
     },
-}
-
-/// The message of [`ProgramError::SinglePassBlend`], naming the options by `words`.
-fn single_pass_blend(blend: BlendScheme, words: &dyn OptionWords) -> String {
-    format!(
-        "{} applies to the multipass variant; the single pass composites in registers and does not blend: use {}",
-        words.setting("blend", blend.name()),
-        words.setting("variant", Variant::Multipass.name())
-    )
-}
-
-impl Worded for ProgramError {
-    fn worded(&self, words: &dyn OptionWords) -> String {
-        match self {
-            ProgramError::SinglePassBlend { blend } => single_pass_blend(*blend, words),
-            ProgramError::TooManyLayers { .. }
-            | ProgramError::TooManyViewpoints { .. }
-            | ProgramError::Unsupported { .. } => self.to_string(),
-        }
-    }
 }
 
 impl SinglePassProgram {
@@ -474,23 +443,5 @@ mod tests {
             "{error}"
         );
         assert!(SinglePassProgram::new("glass", (5, &both, 2), &limits).is_ok());
-    }
-
-    /// The single pass asked to blend names the options by their field names; a front end
-    /// words them its own way.
-    #[test]
-    fn a_blend_for_the_single_pass_names_the_options() {
-        use crate::render::tests::Flags;
-        let error = ProgramError::SinglePassBlend {
-            blend: BlendScheme::Programmable,
-        };
-        assert_eq!(
-            error.to_string(),
-            "`blend` = programmable applies to the multipass variant; the single pass composites in registers and does not blend: use `variant` = multipass"
-        );
-        assert_eq!(
-            error.worded(&Flags),
-            "--blend programmable applies to the multipass variant; the single pass composites in registers and does not blend: use --variant multipass"
-        );
     }
 }

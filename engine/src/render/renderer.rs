@@ -9,10 +9,10 @@ use std::{sync::Arc, time::Instant};
 use ash::vk;
 
 use super::{
-    FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat, Variant,
+    FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat,
     image::decode,
     pipelines::Pipelines,
-    plan::{BlendScheme, FrameResources, Output, PlanOptions, frame_graph},
+    plan::{Compositing, FrameResources, Output, PlanOptions, frame_graph},
     record::Recorder,
     targets::Targets,
     upload::{UploadCache, UploadedFrame},
@@ -47,11 +47,9 @@ pub struct FrameTimings {
 /// into RGBA16F, read back.
 #[derive(Clone, Copy, Debug)]
 pub struct RenderOptions<'a> {
-    /// The compositor variant.
-    pub variant: Variant,
-    /// How the multipass variant combines layers and groups (the single pass takes only
-    /// [`BlendScheme::FrontToBack`]).
-    pub blend: BlendScheme,
+    /// How lens objects are composited: the single pass, or the multipass variant and its
+    /// blending scheme.
+    pub compositing: Compositing,
     /// The framebuffer's format.
     pub format: TargetFormat,
     /// A host's image to box-filter the frame into on the GPU, or `None` to read the
@@ -62,8 +60,7 @@ pub struct RenderOptions<'a> {
 impl Default for RenderOptions<'_> {
     fn default() -> Self {
         RenderOptions {
-            variant: Variant::SinglePass,
-            blend: BlendScheme::FrontToBack,
+            compositing: Compositing::SinglePass,
             format: TargetFormat::Rgba16f,
             host: None,
         }
@@ -161,8 +158,7 @@ impl Renderer {
     }
 
     /// The plan [`Renderer::submit`] records for `frame` with `options`; an error where a lens
-    /// object needs a program that does not exist (more layers than the single pass supports),
-    /// or the single pass is asked to blend.
+    /// object needs a program that does not exist (more layers than the single pass supports).
     pub fn plan(frame: &UploadedFrame, options: &RenderOptions) -> Result<FramePlan, RenderError> {
         Ok(Self::plan_with_resources(frame, options)?.0)
     }
@@ -180,8 +176,7 @@ impl Renderer {
         let (graph, resources) = frame_graph(
             frame.shape(),
             &PlanOptions {
-                variant: options.variant,
-                blend: options.blend,
+                compositing: options.compositing,
                 format: options.format,
                 output,
                 single_pass: frame.single_pass,

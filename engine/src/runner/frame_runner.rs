@@ -19,8 +19,8 @@ use crate::{
     index::LensIndex,
     options::OptionError,
     render::{
-        BlendScheme, DeviceLensPart, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError,
-        RenderOptions, RenderedImage, Renderer, Submission, TargetFormat, UploadedFrame, Variant,
+        Compositing, DeviceLensPart, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError,
+        RenderOptions, RenderedImage, Renderer, Submission, TargetFormat, UploadedFrame,
     },
     scene::Camera,
 };
@@ -30,11 +30,9 @@ use crate::{
 pub struct FrameOptions {
     /// Tessellation and the angle threshold.
     pub hybrid: HybridOptions,
-    /// Compositor variant.
-    pub variant: Variant,
-    /// How the multipass variant combines layers and groups (the single pass takes only
-    /// [`BlendScheme::FrontToBack`]).
-    pub blend: BlendScheme,
+    /// How lens objects are composited: the single pass, or the multipass variant and its
+    /// blending scheme.
+    pub compositing: Compositing,
     /// Framebuffer format.
     pub format: TargetFormat,
 }
@@ -43,23 +41,15 @@ impl FrameOptions {
     /// The compositor's part of these options, for a frame read back.
     pub fn compositing(&self) -> RenderOptions<'static> {
         RenderOptions {
-            variant: self.variant,
-            blend: self.blend,
+            compositing: self.compositing,
             format: self.format,
             host: None,
         }
     }
 
-    /// Checks the options a frame cannot use before any work: the hybrid options, and a blending
-    /// scheme other than front-to-back asked of the single pass (which does not blend).
+    /// Checks the options a frame cannot use before any work (the hybrid options).
     pub fn validate(&self) -> Result<(), OptionError> {
-        self.hybrid.validate()?;
-        OptionError::require(
-            self.variant == Variant::Multipass || self.blend == BlendScheme::FrontToBack,
-            "blend",
-            self.blend.name(),
-            "the single pass composites in registers and does not blend; give variant multipass, or blend front-to-back",
-        )
+        self.hybrid.validate()
     }
 }
 
@@ -67,8 +57,7 @@ impl Default for FrameOptions {
     fn default() -> Self {
         FrameOptions {
             hybrid: HybridOptions::default(),
-            variant: Variant::SinglePass,
-            blend: BlendScheme::FrontToBack,
+            compositing: Compositing::SinglePass,
             format: TargetFormat::Rgba16f,
         }
     }
@@ -194,26 +183,26 @@ impl FrameRunner {
     pub fn render(
         &mut self,
         frame: &FrameInput,
-        variant: Variant,
+        compositing: Compositing,
         format: TargetFormat,
     ) -> Result<RenderedImage, RenderError> {
         let mut uploaded = self.renderer.upload(&self.gpu, frame)?;
-        self.render_uploaded(&mut uploaded, variant, format)
+        self.render_uploaded(&mut uploaded, compositing, format)
     }
 
     /// Renders an uploaded frame at its framebuffer resolution (no box filter).
     pub fn render_uploaded(
         &mut self,
         uploaded: &mut UploadedFrame,
-        variant: Variant,
+        compositing: Compositing,
         format: TargetFormat,
     ) -> Result<RenderedImage, RenderError> {
-        let compositing = RenderOptions {
-            variant,
+        let options = RenderOptions {
+            compositing,
             format,
-            ..RenderOptions::default()
+            host: None,
         };
-        Ok(self.renderer.render(&self.gpu, uploaded, &compositing)?.0)
+        Ok(self.renderer.render(&self.gpu, uploaded, &options)?.0)
     }
 
     /// Replaces the layered EMs of lens `lens` of an uploaded frame (see

@@ -59,7 +59,7 @@ impl FresnelModel {
             FresnelModel::Exact => Ok(()),
             FresnelModel::Table { texels } => OptionError::require(
                 (MIN_TEXELS..=MAX_TEXELS).contains(&texels),
-                "fresnel",
+                crate::options::names::FRESNEL,
                 self.name(),
                 "give a table of 2 to 4096 texels, e.g. table:64, or exact",
             ),
@@ -324,9 +324,9 @@ mod tests {
     fn sizes_out_of_range_are_refused_with_the_fix() {
         for texels in [0, 1, 4097, u32::MAX] {
             let error = SchlickTable::new(texels).expect_err("out of range");
-            assert_eq!(error.option, "fresnel");
+            assert_eq!(error.option, crate::options::names::FRESNEL);
             assert_eq!(error.value, format!("table:{texels}"));
-            assert!(error.fix.contains("2 to 4096"));
+            assert!(error.fix.text.contains("2 to 4096"));
         }
         assert_eq!(FresnelModel::Exact.table(), Ok(None));
     }

@@ -3,7 +3,7 @@
 
 use lensmap::{
     hybrid::{VertexTracer, tessellate::TessellationOptions},
-    render::{BlendScheme, TargetFormat, Variant},
+    render::{BlendScheme, Compositing, TargetFormat},
     runner::FrameOptions,
 };
 
@@ -169,30 +169,27 @@ impl Experiment {
         let options = &mut self.options;
         let said = match action {
             Action::Variant => {
-                // The single pass blends front to back only: the multipass scheme waits aside.
-                match options.variant {
-                    Variant::SinglePass => {
-                        options.variant = Variant::Multipass;
-                        options.blend = self.multipass_blend;
+                // The single pass does not blend: the multipass scheme waits aside.
+                options.compositing = match options.compositing {
+                    Compositing::SinglePass => Compositing::Multipass(self.multipass_blend),
+                    Compositing::Multipass(blend) => {
+                        self.multipass_blend = blend;
+                        Compositing::SinglePass
                     }
-                    Variant::Multipass => {
-                        options.variant = Variant::SinglePass;
-                        self.multipass_blend = options.blend;
-                        options.blend = BlendScheme::FrontToBack;
-                    }
-                }
-                format!("variant: {}", options.variant.name())
+                };
+                format!("variant: {}", options.compositing.variant().name())
             }
             Action::Blend => {
-                if options.variant == Variant::SinglePass {
+                let Compositing::Multipass(blend) = options.compositing else {
                     return Some(
                         "the single pass blends front to back only: key v for multipass".into(),
                     );
-                }
+                };
                 let all = BlendScheme::ALL;
-                let at = all.iter().position(|b| *b == options.blend).unwrap_or(0);
-                options.blend = all[(at + 1) % all.len()];
-                format!("blending: {}", options.blend.name())
+                let at = all.iter().position(|b| *b == blend).unwrap_or(0);
+                let next = all[(at + 1) % all.len()];
+                options.compositing = Compositing::Multipass(next);
+                format!("blending: {}", next.name())
             }
             Action::TUp | Action::TDown => {
                 let t = options.hybrid.tessellation.t;
@@ -351,7 +348,7 @@ mod tests {
         let mut e = experiment();
         let start = e.options;
         e.apply(Action::Variant);
-        assert_ne!(e.options.variant, start.variant);
+        assert_ne!(e.options.compositing, start.compositing);
         e.apply(Action::Variant);
         for _ in 0..3 {
             e.apply(Action::Format);
@@ -362,21 +359,19 @@ mod tests {
         assert!(said.iter().any(|s| s.ends_with("gpu")), "{said:?}");
         // Blending schemes cycle in the multipass variant, wait aside in the single pass, and
         // every state is one the frame accepts.
-        e.options.variant = Variant::Multipass;
+        e.options.compositing = Compositing::Multipass(start.compositing.blend());
         for _ in 0..BlendScheme::ALL.len() {
             e.apply(Action::Blend);
-            e.options.validate().expect("a valid scheme");
         }
-        assert_eq!(e.options.blend, start.blend);
+        assert_eq!(e.options.compositing.blend(), start.compositing.blend());
         e.apply(Action::Blend);
-        let chosen = e.options.blend;
+        let chosen = e.options.compositing;
         e.apply(Action::Variant);
-        assert_eq!(e.options.blend, BlendScheme::FrontToBack);
-        e.options.validate().expect("the single pass's scheme");
+        assert_eq!(e.options.compositing, Compositing::SinglePass);
         assert!(e.apply(Action::Blend).is_some_and(|s| s.contains("key v")));
-        assert_eq!(e.options.blend, BlendScheme::FrontToBack);
+        assert_eq!(e.options.compositing, Compositing::SinglePass);
         e.apply(Action::Variant);
-        assert_eq!(e.options.blend, chosen);
+        assert_eq!(e.options.compositing, chosen);
         e.apply(Action::Layer(2));
         assert!(e.layer_on(0) && !e.layer_on(2) && e.layer_on(7));
         e.apply(Action::Layer(2));

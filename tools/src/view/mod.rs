@@ -18,7 +18,7 @@ use lensmap::{
     hybrid::{HybridOptions, HybridScene, tessellate::DEFAULT_T, tessellate::TessellationOptions},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     lightmap::LightMapOptions,
-    render::{BlendScheme, TargetFormat, Variant},
+    render::{BlendScheme, Compositing, TargetFormat, Variant},
     runner::{EmSource, FrameOptions, LoadOptions, load_hybrid_scene},
     scene::{Camera, Scene},
 };
@@ -232,8 +232,13 @@ fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
             gpu_precision: args.gpu_precision.into(),
             ..HybridOptions::default()
         },
-        variant: Variant::from(args.variant),
-        blend: BlendScheme::from(args.blend),
+        compositing: Compositing::new(Variant::from(args.variant), BlendScheme::from(args.blend))
+            .map_err(|error| {
+            crate::common::BadUsage(lensmap::options::Worded::worded(
+                &error,
+                &crate::words::Flags,
+            ))
+        })?,
         format: TargetFormat::from(args.format),
     };
     options.validate().map_err(flag_error)?;

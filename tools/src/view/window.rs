@@ -131,7 +131,7 @@ pub fn run(args: &ViewArgs, start: Start) -> anyhow::Result<()> {
         trace: None,
         experiment: Experiment {
             options: start.options,
-            multipass_blend: start.options.blend,
+            multipass_blend: start.options.compositing.blend(),
             layers_off: Vec::new(),
             inferred,
             wireframe: false,
@@ -958,8 +958,8 @@ impl App {
                 // At f32 precision: the trip through radians does not show (3, not
                 // 3.0000000000000004), and the radians it gives back are the same.
                 o.hybrid.angle_radians.to_degrees() as f32,
-                o.variant.name(),
-                o.blend.name(),
+                o.compositing.variant().name(),
+                o.compositing.blend().name(),
                 o.format.name(),
                 crate::common::tracer_flags(&o.hybrid)
             )
@@ -976,8 +976,8 @@ impl App {
             },
             "t": o.hybrid.tessellation.t,
             "angle_degrees": o.hybrid.angle_radians.to_degrees() as f32,
-            "variant": o.variant.name(),
-            "blend": o.blend.name(),
+            "variant": o.compositing.variant().name(),
+            "blend": o.compositing.blend().name(),
             "format": o.format.name(),
             "inferred": self.experiment.inferred,
             "layers_off": self.experiment.layers_off,

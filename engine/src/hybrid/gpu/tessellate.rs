@@ -761,7 +761,7 @@ impl GpuTracer {
         }
         if options.max_depth > GPU_MAX_DEPTH {
             return Err(crate::options::OptionError::new(
-                "max_depth",
+                crate::options::names::MAX_DEPTH,
                 options.max_depth,
                 "the GPU tessellation subdivides at most 30 levels deep; give 30 or less, or tessellate on the CPU",
             )

@@ -9,6 +9,7 @@
 //! rather than a new flag; more viewpoint samples per lens object are more groups, which every
 //! scheme takes as they come.
 
+mod compositing;
 mod lens;
 mod schemes;
 mod shape;
@@ -21,98 +22,9 @@ use crate::graph::{
 use super::program::{ProgramError, ShaderProgram, SinglePassLimits};
 use crate::index::{LayerIndex, LensIndex};
 use crate::trace::Term;
+pub use compositing::{BlendScheme, Compositing, CompositingError, Variant};
 use lens::{Group, LensPasses};
 pub use shape::{FrameShape, LensShape};
-
-/// How lens objects are composited.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Variant {
-    /// The paper's scheme: one pass per (viewpoint, term, layer), alpha clears between groups
-    /// (2·V·n layer passes for V viewpoint samples, n layers and both terms).
-    Multipass,
-    /// One draw per lens object sampling the 2·V (viewpoint, term) textures per layer at once.
-    SinglePass,
-}
-
-impl Variant {
-    /// Name on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Variant::Multipass => "multipass",
-            Variant::SinglePass => "single-pass",
-        }
-    }
-}
-
-/// How the multipass variant combines the layers of a (viewpoint, term) group and the groups of
-/// a lens object (`--blend`). Every scheme computes the paper's closed form
-/// `Σ_groups w·FG ⊙ (L1 over … over Ln).rgb`, α = the last group's `(L1 over … over Ln).α`; they
-/// differ in the passes, attachments and barriers it takes, and in where rounding happens. (Where
-/// two lens objects lie at exactly the same depth, the later one's prime fails its `<` test but
-/// its layers pass `<=`, and each scheme then mixes the two objects its own way; the f64 model
-/// marks such pixels as depth ties and leaves them out.)
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum BlendScheme {
-    /// The paper's scheme: per group, layers nearest first with `src·(1 − dstα) + dst` straight
-    /// into the framebuffer, an alpha clear between groups. One rendering instance, no barriers.
-    #[default]
-    FrontToBack,
-    /// Layers farthest first with the classic `src + dst·(1 − srcα)`. "Over" from the back needs
-    /// a clear destination, so each group composites into a cleared scratch image, and a
-    /// full-screen pass adds it to the framebuffer (colour only, but α too for the last group):
-    /// per group two more passes (the clear and the add) and two more rendering instances, with
-    /// three or four barriers.
-    BackToFront,
-    /// Each group composited front to back into its own cleared image (no alpha clears), then one
-    /// full-screen resolve adds the groups' colour and takes the last group's α.
-    GroupTargets,
-    /// Blending in the fragment shader: each layer pass reads the pixel's current value and
-    /// writes `src·(1 − dstα) + dst` (and the alpha clear) with shader arithmetic, so the result
-    /// does not depend on fixed-function blend precision. The current value comes from the
-    /// previous pass's image (passes alternate between two scratch images and end in the
-    /// framebuffer): a rendering instance and two barriers per pass, no device feature needed.
-    Programmable,
-}
-
-impl BlendScheme {
-    /// Every scheme, the default first.
-    pub const ALL: [BlendScheme; 4] = [
-        BlendScheme::FrontToBack,
-        BlendScheme::BackToFront,
-        BlendScheme::GroupTargets,
-        BlendScheme::Programmable,
-    ];
-
-    /// Name on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            BlendScheme::FrontToBack => "front-to-back",
-            BlendScheme::BackToFront => "back-to-front",
-            BlendScheme::GroupTargets => "group-targets",
-            BlendScheme::Programmable => "programmable",
-        }
-    }
-
-    /// The scheme named `name` on the command line.
-    pub fn from_name(name: &str) -> Option<BlendScheme> {
-        Self::ALL.into_iter().find(|s| s.name() == name)
-    }
-
-    /// Scratch images (framebuffer-sized, the framebuffer's format) a frame of `shape` needs.
-    pub fn scratch_images(self, shape: &FrameShape) -> usize {
-        match self {
-            BlendScheme::FrontToBack => 0,
-            BlendScheme::BackToFront => 1,
-            BlendScheme::Programmable => 2,
-            BlendScheme::GroupTargets => shape
-                .lenses
-                .iter()
-                .map(|lens| shape.active_viewpoints(lens).len() * lens.terms.len())
-                .max()
-                .unwrap_or(0),
-        }
-    }
-}
 
 /// Framebuffer colour format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -346,11 +258,9 @@ pub type FramePlan = Plan<Draw, ShaderProgram, PassCategory>;
 /// How a frame is composited and where its pixels go: the options of [`frame_graph`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PlanOptions {
-    /// The compositor variant.
-    pub variant: Variant,
-    /// How the multipass variant combines layers and groups; the single pass takes only
-    /// [`BlendScheme::FrontToBack`] (it does not blend).
-    pub blend: BlendScheme,
+    /// How lens objects are composited: the single pass, or the multipass variant and its
+    /// blending scheme.
+    pub compositing: Compositing,
     /// The framebuffer's format.
     pub format: TargetFormat,
     /// Where the pixels go.
@@ -361,26 +271,21 @@ pub struct PlanOptions {
     pub single_pass: SinglePassLimits,
 }
 
-/// Declares a frame's passes: the environment, each lens object's passes in `options.variant`
-/// and `options.blend`, and `options.output`. Fails where a lens object needs a program that
-/// does not exist (more layers than the single pass supports), or the single pass is asked to
-/// blend.
+/// Declares a frame's passes: the environment, each lens object's passes as
+/// `options.compositing` says, and `options.output`. Fails where a lens object needs a program
+/// that does not exist (more layers than the single pass supports).
 pub fn frame_graph(
     shape: &FrameShape,
     options: &PlanOptions,
 ) -> Result<(FrameGraph, FrameResources), ProgramError> {
     let PlanOptions {
-        variant,
-        blend,
+        compositing,
         format,
         output,
         single_pass,
     } = *options;
-    if variant == Variant::SinglePass && blend != BlendScheme::FrontToBack {
-        return Err(ProgramError::SinglePassBlend { blend });
-    }
     let mut graph = Graph::new();
-    let mut resources = declare_images(&mut graph, shape, blend, format);
+    let mut resources = declare_images(&mut graph, shape, compositing.blend(), format);
     tessellation(&mut graph, shape, &resources);
     environment(&mut graph, shape, &resources);
     glossy(&mut graph, shape, &resources);
@@ -395,20 +300,20 @@ pub fn frame_graph(
         }
         let mut passes = LensPasses::new(&mut graph, &resources, lens, index);
         let groups = Group::all(&viewpoints, &lens.terms);
-        match (variant, blend) {
-            (Variant::SinglePass, _) => {
+        match compositing {
+            Compositing::SinglePass => {
                 schemes::single_pass(&mut passes, viewpoints.len(), &single_pass)?
             }
-            (Variant::Multipass, BlendScheme::FrontToBack) => {
+            Compositing::Multipass(BlendScheme::FrontToBack) => {
                 schemes::front_to_back(&mut passes, &groups)
             }
-            (Variant::Multipass, BlendScheme::BackToFront) => {
+            Compositing::Multipass(BlendScheme::BackToFront) => {
                 schemes::back_to_front(&mut passes, &groups)
             }
-            (Variant::Multipass, BlendScheme::GroupTargets) => {
+            Compositing::Multipass(BlendScheme::GroupTargets) => {
                 schemes::group_targets(&mut passes, &groups)
             }
-            (Variant::Multipass, BlendScheme::Programmable) => {
+            Compositing::Multipass(BlendScheme::Programmable) => {
                 schemes::programmable(&mut passes, &groups)
             }
         }

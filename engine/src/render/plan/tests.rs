@@ -4,11 +4,10 @@
 use super::*;
 use crate::render::LensFaces;
 
-/// Options of a plan ending in a readback.
+/// Options of a plan ending in a readback (`variant` and `blend` a pair the plan takes).
 fn readback(variant: Variant, blend: BlendScheme, format: TargetFormat) -> PlanOptions {
     PlanOptions {
-        variant,
-        blend,
+        compositing: Compositing::new(variant, blend).expect("a compositing"),
         format,
         output: Output::Readback,
         single_pass: SinglePassLimits::COMPILED,
@@ -339,22 +338,6 @@ fn programmable_resets_alpha_at_group_boundaries() {
         Some("lens/v1/T/alpha-clear"),
         "{all:?}"
     );
-}
-
-#[test]
-fn the_single_pass_takes_only_front_to_back() {
-    let shape = FrameShape::synthetic(64, 64, 2, 2, &BOTH);
-    for blend in BlendScheme::ALL {
-        let result = frame_graph(
-            &shape,
-            &readback(Variant::SinglePass, blend, TargetFormat::Rgba8),
-        );
-        assert_eq!(
-            result.is_ok(),
-            blend == BlendScheme::FrontToBack,
-            "{blend:?}"
-        );
-    }
 }
 
 /// The plans `lensmap passes` prints (its defaults: 640×480, RGBA8), n = 1…4, for one, two and

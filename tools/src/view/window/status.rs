@@ -63,8 +63,8 @@ impl App {
             format!("{} · {}", self.scene.name, self.runner.gpu().device_id()),
             format!(
                 "{ems} · {} · {} · {}",
-                o.variant.name(),
-                o.blend.name(),
+                o.compositing.variant().name(),
+                o.compositing.blend().name(),
                 o.format.name()
             ),
             format!(

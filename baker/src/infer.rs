@@ -316,7 +316,7 @@ pub fn infer_lens(
     };
     let name = prepared.name.clone();
     let frame_ms = prepared.frame_ms;
-    let mut one: Vec<Option<Prepared<'_>>> = (0..hybrid.lenses.len()).map(|_| None).collect();
+    let mut one: Vec<Option<Prepared<'_>>> = (0..hybrid.lenses().len()).map(|_| None).collect();
     one[lens.index()] = Some(prepared);
     let solved = solve_layers(
         &mut renderer,
@@ -364,7 +364,7 @@ pub struct Prepared<'v> {
 impl Prepared<'_> {
     /// Its layer count in `hybrid`.
     fn layers(&self, hybrid: &HybridScene) -> usize {
-        hybrid.lenses[self.lens.index()].shells.len()
+        hybrid.lenses()[self.lens.index()].shells.len()
     }
 
     /// Building its frames, ms.
@@ -386,19 +386,19 @@ pub fn prepare<'v>(
         .hybrid
         .validate()
         .map_err(|e| InferError::BadOption(e.to_string()))?;
-    let Some(layers) = hybrid.lenses.get(lens.index()) else {
+    let Some(layers) = hybrid.lenses().get(lens.index()) else {
         return Err(InferError::BadOption(format!(
             "lens {lens} does not exist; the scene has {} lens objects",
-            hybrid.lenses.len()
+            hybrid.lenses().len()
         )));
     };
-    let name = hybrid.trace.lenses[lens.index()].name.clone();
+    let name = hybrid.trace().lenses[lens.index()].name.clone();
     let n = layers.shells.len();
     // Per view: its test frames.
     let mut seen = Vec::new();
     for view in views {
-        let (frame, _) = hybrid
-            .frame(view.camera, &options.hybrid)
+        let (frame, _) = lensmap::hybrid::FrameBuilder::new()
+            .frame(hybrid, view.camera, &options.hybrid)
             .map_err(|e| InferError::Frame(e.to_string()))?;
         let k = view.camera.supersampling.max(1);
         seen.push((*view, LayerFrames::new(&frame, lens, k)?));
@@ -480,7 +480,7 @@ pub fn solve_layers(
         .enumerate()
         .map(|(lens, p)| {
             p.as_ref().map(|_| {
-                let n = hybrid.lenses[lens].shells.len();
+                let n = hybrid.lenses()[lens].shells.len();
                 SolvedLens {
                     maps: vec![None; n],
                     layers: Vec::with_capacity(n),
@@ -495,7 +495,7 @@ pub fn solve_layers(
         if lens_prepared.is_none() {
             continue;
         }
-        let n = hybrid.lenses[lens.index()].shells.len();
+        let n = hybrid.lenses()[lens.index()].shells.len();
         for layer in LayerIndex::all(n) {
             let at = lens.layer(layer);
             let group = shared
@@ -572,18 +572,18 @@ fn check_solve_inputs(
         .iter()
         .enumerate()
         .any(|(i, p)| p.as_ref().is_some_and(|p| p.lens.index() != i));
-    if prepared.len() != hybrid.lenses.len() || misplaced {
+    if prepared.len() != hybrid.lenses().len() || misplaced {
         return Err(InferError::BadOption(format!(
             "{} prepared lens objects for a scene of {}; give prepared[lens] for each lens object",
             prepared.len(),
-            hybrid.lenses.len()
+            hybrid.lenses().len()
         )));
     }
     for group in shared {
         let layer_of = |&LayerRef { lens, layer }: &LayerRef| {
             let layer = layer.index();
             hybrid
-                .lenses
+                .lenses()
                 .get(lens.index())
                 .filter(|l| layer < l.shells.len() && layer < l.em_origins.len())
                 .map(|l| (l.shells[layer], l.em_origins[layer]))
@@ -714,7 +714,7 @@ fn solve_group(
     // The layer's current (projected) EM at this size: CG's start (where no pixel constrains a
     // texel, few iterations move it, and the projection is a better guess there than zero) and
     // the direct images' values.
-    let current = hybrid.lenses[lens.index()]
+    let current = hybrid.lenses()[lens.index()]
         .maps
         .first()
         .and_then(|maps| maps.get(layer.index()))
@@ -729,9 +729,9 @@ fn solve_group(
                 .flat_map(|m| m.prepared.seen.iter().map(|(v, _)| v.records))
                 .collect();
             let owner = group.owner;
-            let owner_layers = &hybrid.lenses[owner.lens.index()];
+            let owner_layers = &hybrid.lenses()[owner.lens.index()];
             let at = crate::direct::DirectLayer {
-                trace: &hybrid.trace,
+                trace: hybrid.trace(),
                 lens: owner.lens,
                 origin: owner_layers.em_origins[owner.layer.index()],
                 shells: &owner_layers.shells,

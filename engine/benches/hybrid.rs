@@ -45,19 +45,19 @@ fn setup() -> Setup {
     .expect("projected EMs");
     // The lens object with the most triangles: the teapot.
     let (lens, object) = hybrid
-        .trace
+        .trace()
         .lenses
         .iter()
         .enumerate()
         .flat_map(|(lens, l)| l.objects.iter().map(move |&object| (lens, object)))
-        .max_by_key(|&(_, object)| hybrid.scene.objects[object].mesh.triangles.len())
+        .max_by_key(|&(_, object)| hybrid.scene().objects[object].mesh.triangles.len())
         .expect("teapot-room has lens objects");
     let screen = ScreenCamera {
         eye: camera.position.as_dvec3(),
         view_proj: camera.view_proj(0.05, 100.0),
         subpixels: Vec2::new(camera.width as f32, camera.height as f32),
     };
-    let faces = HybridScene::lens_faces(&hybrid.scene, &hybrid.trace)[lens];
+    let faces = HybridScene::lens_faces(hybrid.scene(), hybrid.trace())[lens];
     Setup {
         hybrid,
         screen,
@@ -70,7 +70,7 @@ fn setup() -> Setup {
 impl Setup {
     fn oracle(&self) -> PathOracle<'_> {
         PathOracle::new(
-            &self.hybrid.trace,
+            self.hybrid.trace(),
             self.lens,
             self.object,
             self.screen,
@@ -125,7 +125,7 @@ impl VertexOracle for Replay<'_> {
 
 fn benches(c: &mut Criterion) {
     let setup = setup();
-    let mesh = &setup.hybrid.scene.objects[setup.object].mesh;
+    let mesh = &setup.hybrid.scene().objects[setup.object].mesh;
     let options = TessellationOptions::default();
     let oracle = setup.oracle();
     let traced = tessellate(mesh, &oracle, &options).expect("teapot tessellates");
@@ -205,7 +205,7 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
         .into_iter()
         .filter(|&(.., offered)| offered)
         .map(|(walk, precision, _)| {
-            GpuTracer::new(&gpu, &setup.hybrid.trace, None, (walk, precision))
+            GpuTracer::new(&gpu, setup.hybrid.trace(), None, (walk, precision))
                 .expect("the tracer uploads")
         })
         .collect();

@@ -38,7 +38,7 @@ fn inferred_ems_beat_projected_ones() {
         .unwrap();
         let trace_options = TraceOptions::default();
         let reference =
-            render_reference(&hybrid.trace, &judge_camera, &trace_options, &|_| {}).unwrap();
+            render_reference(hybrid.trace(), &judge_camera, &trace_options, &|_| {}).unwrap();
         let options = FrameOptions {
             hybrid: HybridOptions::default(),
             compositing: Compositing::SinglePass,
@@ -51,7 +51,7 @@ fn inferred_ems_beat_projected_ones() {
                 .psnr_db
         };
         let projected = psnr(&mut runner, &hybrid);
-        let records = compile_records(&hybrid.trace, &targets_camera, &trace_options).unwrap();
+        let records = compile_records(hybrid.trace(), &targets_camera, &trace_options).unwrap();
         let infer = InferOptions {
             em_size: EmSize::Auto { cap: 64 },
             ..InferOptions::default()
@@ -73,7 +73,10 @@ fn inferred_ems_beat_projected_ones() {
             inferred_maps.push(inference.maps);
         }
         for (lens, maps) in inferred_maps.into_iter().enumerate() {
-            hybrid.lenses[lens].maps = vec![maps.into_iter().map(Arc::new).collect()];
+            hybrid.set_lens_maps(
+                lensmap::index::LensIndex::new(lens),
+                vec![maps.into_iter().map(Arc::new).collect()],
+            );
         }
         let inferred = psnr(&mut runner, &hybrid);
         println!("{name}: lens PSNR projected {projected:.2} dB, inferred {inferred:.2} dB");
@@ -97,7 +100,7 @@ fn a_camera_that_sees_no_lens_pixel_is_an_error() {
         &EmSource::Projected(ProjectedOptions::with_size(8)).into(),
     )
     .unwrap();
-    let records = compile_records(&hybrid.trace, &away, &TraceOptions::default()).unwrap();
+    let records = compile_records(hybrid.trace(), &away, &TraceOptions::default()).unwrap();
     let view = View {
         camera: &away,
         records: &records.lenses[0],

@@ -1,6 +1,7 @@
 //! The baker's rendering matrices against the hardware and the CPU f64 model (the matrix is what
 //! the hardware renders), and the solver against known EMs (the solver inverts the matrix).
 
+use lensmap::hybrid::FrameBuilder;
 use std::sync::Arc;
 
 use lensmap::{
@@ -39,7 +40,9 @@ fn frame_of(name: &str, camera_size: (u32, u32, u32)) -> (HybridScene, FrameInpu
         LayeredEms::Projected(ProjectedOptions::with_size(EM_SIZE)).into(),
     )
     .unwrap();
-    let (frame, _) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
+    let (frame, _) = FrameBuilder::new()
+        .frame(&hybrid, &camera, &HybridOptions::default())
+        .unwrap();
     (hybrid, frame, camera)
 }
 

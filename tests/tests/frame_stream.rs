@@ -33,7 +33,7 @@ fn single_pass(runner: &mut FrameRunner, hybrid: &HybridScene, camera: &Camera) 
 #[test]
 fn frames_in_flight_equal_frames_rendered_alone() {
     let hybrid = small_teapot_room(48, 36);
-    let base = hybrid.scene.camera;
+    let base = hybrid.scene().camera;
     let cameras = [
         base.orbited(0.0),
         base.orbited(4.0),
@@ -43,7 +43,6 @@ fn frames_in_flight_equal_frames_rendered_alone() {
     ];
     for variant in [Variant::SinglePass, Variant::Multipass] {
         let mut stream = FrameRunner::new(gpu()).unwrap();
-        hybrid.forget_frame();
         let (frames, wall_ms) = stream
             .frames_in_flight(&hybrid, &cameras, &options(variant))
             .unwrap();
@@ -56,7 +55,6 @@ fn frames_in_flight_equal_frames_rendered_alone() {
         assert!(frames[1].stats.vertices_traced > 0);
         for (i, (frame, camera)) in frames.iter().zip(&cameras).enumerate() {
             let mut alone = FrameRunner::new(gpu()).unwrap();
-            hybrid.forget_frame();
             let expected = alone.frame(&hybrid, camera, &options(variant)).unwrap();
             assert!(!expected.stats.reused);
             assert!(
@@ -75,7 +73,7 @@ fn frames_in_flight_equal_frames_rendered_alone() {
 #[test]
 fn a_still_camera_renders_the_same_frame_without_cpu_work() {
     let hybrid = small_teapot_room(48, 36);
-    let camera = hybrid.scene.camera;
+    let camera = hybrid.scene().camera;
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let first = single_pass(&mut runner, &hybrid, &camera);
     let second = single_pass(&mut runner, &hybrid, &camera);
@@ -100,7 +98,7 @@ fn a_still_camera_renders_the_same_frame_without_cpu_work() {
 #[test]
 fn lens_objects_outside_the_view_are_skipped() {
     let hybrid = small_teapot_room(48, 36);
-    let base = hybrid.scene.camera;
+    let base = hybrid.scene().camera;
     // Look from the scene camera straight away from the lens objects.
     let away = Camera {
         look_at: base.position + (base.position - base.look_at),
@@ -108,7 +106,7 @@ fn lens_objects_outside_the_view_are_skipped() {
     };
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let frame = single_pass(&mut runner, &hybrid, &away);
-    assert_eq!(frame.stats.lenses_outside_view, hybrid.trace.lenses.len());
+    assert_eq!(frame.stats.lenses_outside_view, hybrid.trace().lenses.len());
     assert_eq!(frame.stats.vertices_traced, 0);
     assert_eq!(frame.stats.triangles_out, 0);
     // A camera that sees them skips none.
@@ -124,10 +122,10 @@ fn lens_objects_outside_the_view_are_skipped() {
 #[test]
 fn frames_do_not_depend_on_the_thread_count() {
     let hybrid = small_teapot_room(48, 36);
-    let camera = hybrid.scene.camera.orbited(2.0);
+    let camera = hybrid.scene().camera.orbited(2.0);
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let mut render = |threads: usize| {
-        hybrid.forget_frame();
+        runner.forget_frame();
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -150,7 +148,7 @@ fn frames_do_not_depend_on_the_thread_count() {
 #[test]
 fn small_footprints_get_a_coarser_t_only_when_asked() {
     let hybrid = small_teapot_room(48, 36);
-    let base = hybrid.scene.camera;
+    let base = hybrid.scene().camera;
     // Farther away: the lens objects cover part of the 48×36 frame, all below 1000 subpixels.
     let far = Camera {
         position: base.look_at + 1.5 * (base.position - base.look_at),
@@ -183,59 +181,40 @@ fn small_footprints_get_a_coarser_t_only_when_asked() {
     assert_clean(runner.gpu());
 }
 
-/// The still-camera cache is keyed by every part of the scene a caller may swap: new environment
-/// meshes, another sky, other viewpoint samples each make the next frame a new one.
+/// The still-camera cache is keyed by the scene's version: every setter (other maps, even the
+/// same maps again; other viewpoint samples; another sky) makes the next frame a new one, and a
+/// frame of an unchanged scene is reused.
 #[test]
-fn swapping_scene_parts_is_not_a_still_frame() {
+fn changing_the_scene_is_not_a_still_frame() {
     let mut hybrid = small_teapot_room(48, 36);
-    let camera = hybrid.scene.camera;
+    let camera = hybrid.scene().camera;
     let options = options(Variant::SinglePass);
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    runner.frame(&hybrid, &camera, &options).unwrap();
-    assert!(
+    let mut reused = |hybrid: &lensmap::hybrid::HybridScene| {
         runner
-            .frame(&hybrid, &camera, &options)
+            .frame(hybrid, &camera, &options)
             .unwrap()
             .stats
             .reused
-    );
-    // The same meshes in new Arcs.
-    hybrid.environment = hybrid
-        .environment
-        .iter()
-        .map(|m| std::sync::Arc::new((**m).clone()))
-        .collect();
-    assert!(
-        !runner
-            .frame(&hybrid, &camera, &options)
-            .unwrap()
-            .stats
-            .reused
-    );
-    assert!(
-        runner
-            .frame(&hybrid, &camera, &options)
-            .unwrap()
-            .stats
-            .reused
-    );
+    };
+    assert!(!reused(&hybrid));
+    assert!(reused(&hybrid));
+    // The same maps set again: a new version.
+    let lens = lensmap::index::LensIndex::new(0);
+    let maps = hybrid.lenses()[0].maps.clone();
+    hybrid.set_lens_maps(lens, maps);
+    assert!(!reused(&hybrid));
+    assert!(reused(&hybrid));
     let reversed = hybrid.viewpoints().iter().rev().copied().collect();
     hybrid.set_viewpoints(reversed);
-    assert!(
-        !runner
-            .frame(&hybrid, &camera, &options)
-            .unwrap()
-            .stats
-            .reused
-    );
-    let had_sky = hybrid.sky.take().is_some();
-    assert_eq!(
-        runner
-            .frame(&hybrid, &camera, &options)
-            .unwrap()
-            .stats
-            .reused,
-        !had_sky
-    );
+    assert!(!reused(&hybrid));
+    assert!(hybrid.sky().is_some(), "teapot-room has a sky");
+    hybrid.set_sky(None);
+    assert!(!reused(&hybrid));
+    assert!(reused(&hybrid));
+    let version = hybrid.version();
+    hybrid.set_sky(None);
+    assert_ne!(hybrid.version(), version);
+    assert_eq!(hybrid.version().id, version.id, "the same scene");
     assert_clean(runner.gpu());
 }

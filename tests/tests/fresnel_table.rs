@@ -4,6 +4,7 @@
 //! share every vertex, and each vertex's F·G and each lens pixel may move only as far as the
 //! table's derived error bound allows. GPU work runs with validation on.
 
+use lensmap::hybrid::FrameBuilder;
 use lensmap::hybrid::{FresnelModel, HybridOptions};
 use lensmap::render::Compositing;
 use lensmap::render::Renderer;
@@ -31,8 +32,12 @@ fn mirror_teapot_with_the_table_stays_within_the_bound_of_exact_fresnel() {
         fresnel: FresnelModel::Table { texels },
         ..exact_options
     };
-    let (exact, _) = hybrid.frame(&camera, &exact_options).expect("exact frame");
-    let (table, _) = hybrid.frame(&camera, &table_options).expect("table frame");
+    let (exact, _) = FrameBuilder::new()
+        .frame(&hybrid, &camera, &exact_options)
+        .expect("exact frame");
+    let (table, _) = FrameBuilder::new()
+        .frame(&hybrid, &camera, &table_options)
+        .expect("table frame");
 
     let mut largest = 0.0f64;
     let mut largest_relative = 0.0f64;

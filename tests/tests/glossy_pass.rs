@@ -9,6 +9,7 @@
 //! The tolerance carries that through the blend `Σ w·rgb / Σ w·α` and the lobes' sum, plus f32
 //! rounding.
 
+use lensmap::hybrid::FrameBuilder;
 use lensmap::render::BlendScheme;
 use lensmap::render::Compositing;
 use std::sync::Arc;
@@ -203,7 +204,7 @@ fn radiance_maps_replace_light_maps_and_change_the_frame() {
     let scene = Scene::load_named("glossy-room").expect("the built-in scene");
     let (mut hybrid, _) =
         HybridScene::new(scene.clone(), HybridSceneOptions::default()).expect("a hybrid scene");
-    let light_mapped = hybrid.environment.clone();
+    let light_mapped = hybrid.environment().to_vec();
     let views = GlossyViews::geodesic(12).expect("12");
     let options = RadianceMapOptions {
         size: 2,
@@ -216,28 +217,28 @@ fn radiance_maps_replace_light_maps_and_change_the_frame() {
             .into_iter()
             .find(|o| o.name == name)
             .expect("a glossy object");
-        all_maps(&hybrid.trace, &object, &views, &options).0
+        all_maps(hybrid.trace(), &object, &views, &options).0
     };
     let (sphere, teapot) = (maps_of("sphere"), maps_of("teapot"));
     // The environment meshes are the non-lens objects in order: the sphere is the first.
     let sphere_mesh = light_mapped[0].clone();
     hybrid.use_radiance_maps(views.clone(), vec![sphere], Reconstruction::Warped);
-    assert_eq!(hybrid.environment.len(), light_mapped.len() - 1);
+    assert_eq!(hybrid.environment().len(), light_mapped.len() - 1);
     assert!(
         !hybrid
-            .environment
+            .environment()
             .iter()
             .any(|m| Arc::ptr_eq(m, &sphere_mesh))
     );
     hybrid.use_radiance_maps(views, vec![teapot], Reconstruction::Warped);
-    assert_eq!(hybrid.environment.len(), light_mapped.len() - 1);
+    assert_eq!(hybrid.environment().len(), light_mapped.len() - 1);
     assert!(
-        Arc::ptr_eq(&hybrid.environment[0], &sphere_mesh),
+        Arc::ptr_eq(&hybrid.environment()[0], &sphere_mesh),
         "the sphere is light-mapped again"
     );
     assert!(
         !hybrid
-            .environment
+            .environment()
             .iter()
             .any(|m| Arc::ptr_eq(m, &light_mapped[1])),
         "the teapot is not"
@@ -245,8 +246,8 @@ fn radiance_maps_replace_light_maps_and_change_the_frame() {
 
     let camera = scene.camera.with_resolution(32, 24, 1);
     let rotations = |hybrid: &HybridScene| {
-        let (frame, stats) = hybrid
-            .frame(&camera, &HybridOptions::default())
+        let (frame, stats) = FrameBuilder::new()
+            .frame(hybrid, &camera, &HybridOptions::default())
             .expect("a frame");
         assert_eq!(stats.glossy_maps, frame.glossy[0].slots.len() * 3);
         frame.glossy[0]
@@ -257,7 +258,7 @@ fn radiance_maps_replace_light_maps_and_change_the_frame() {
     };
     let warped = rotations(&hybrid);
     assert!(warped.iter().all(|r| *r == Mat3::IDENTITY));
-    hybrid.glossy.as_mut().expect("maps").reconstruction = Reconstruction::BlendedUnwarped;
+    hybrid.set_glossy_reconstruction(Reconstruction::BlendedUnwarped);
     let unwarped = rotations(&hybrid);
     assert!(
         unwarped.iter().any(|r| *r != Mat3::IDENTITY),

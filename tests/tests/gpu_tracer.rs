@@ -14,6 +14,7 @@
 //! (1 % in f64), the same frame twice bit for bit, and the driver's walk's frame the BVH walk's.
 
 use glam::{DVec3, Vec2, Vec3};
+use lensmap::hybrid::FrameBuilder;
 use lensmap::hybrid::gpu::{GpuTracer, GpuTraversal, PathSettings, Traversal};
 use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths, VertexPrecision};
 use lensmap::hybrid::tessellate::TessellationError;
@@ -314,10 +315,11 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
         let scene = built_in_scene(name, 96, 72, 2);
         let camera = scene.camera;
         let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 32);
-        let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {})
-            .expect("the reference renders");
+        let reference =
+            render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {})
+                .expect("the reference renders");
         let mut walk_frame = |tracer, read_back: bool, traversal| {
-            hybrid.forget_frame();
+            runner.forget_frame();
             runner.read_back_gpu_meshes(read_back);
             let frame = runner
                 .frame(&hybrid, &camera, &options(tracer, traversal))
@@ -430,7 +432,8 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
                 (g.vertices_traced, g.triangles_out)
             );
         }
-        let without_device = hybrid.frame(
+        let without_device = FrameBuilder::new().frame(
+            &hybrid,
             &camera,
             &options(VertexTracer::Gpu, (Traversal::Bvh, VertexPrecision::F32)).hybrid,
         );
@@ -453,11 +456,11 @@ fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
     let camera = scene.camera;
     let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 32);
     let input: usize = hybrid
-        .trace
+        .trace()
         .lenses
         .iter()
         .flat_map(|lens| &lens.objects)
-        .map(|&o| hybrid.scene.objects[o].mesh.positions.len())
+        .map(|&o| hybrid.scene().objects[o].mesh.positions.len())
         .sum();
     let mut options = FrameOptions {
         hybrid: HybridOptions {
@@ -473,7 +476,7 @@ fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
     for budget in [input + 1500, 10] {
         options.hybrid.tessellation.max_vertices = budget;
         let mut frame = |read_back: bool| {
-            hybrid.forget_frame();
+            runner.forget_frame();
             runner.read_back_gpu_meshes(read_back);
             runner
                 .frame(&hybrid, &camera, &options)

@@ -114,7 +114,6 @@ fn cpu_frame(
     options: &FrameOptions,
 ) -> Vec<[f32; 4]> {
     let mut alone = FrameRunner::new(gpu()).unwrap();
-    hybrid.forget_frame();
     let frame = alone.frame(hybrid, camera, options).unwrap();
     assert_clean(alone.gpu());
     frame.image.pixels
@@ -156,10 +155,10 @@ fn a_frame_into_a_host_image_equals_the_frame_read_back() {
     for (format, image_format, k, tracer) in cases {
         let camera = Camera {
             supersampling: k,
-            ..hybrid.scene.camera
+            ..hybrid.scene().camera
         };
         let image = host_image(runner.gpu(), image_format, &camera);
-        hybrid.forget_frame();
+        runner.forget_frame();
         let frame = runner
             .frame_into(&hybrid, &camera, &traced(format, tracer), &lent(&image))
             .unwrap();
@@ -171,7 +170,7 @@ fn a_frame_into_a_host_image_equals_the_frame_read_back() {
         let bytes = read_back(runner.gpu(), &image);
         if tracer == on_gpu {
             // The read-back above waited for the frame: the next one reports its counts.
-            hybrid.forget_frame();
+            runner.forget_frame();
             let next = runner
                 .frame_into(&hybrid, &camera, &traced(format, tracer), &lent(&image))
                 .unwrap();
@@ -218,7 +217,7 @@ fn an_srgb_bgra_image_holds_the_encoded_frame_and_the_semaphores_are_honoured() 
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let camera = Camera {
         supersampling: 2,
-        ..hybrid.scene.camera
+        ..hybrid.scene().camera
     };
     let image = host_image(runner.gpu(), vk::Format::B8G8R8A8_SRGB, &camera);
     let device = runner.gpu().device().clone();
@@ -298,7 +297,7 @@ fn an_srgb_bgra_image_holds_the_encoded_frame_and_the_semaphores_are_honoured() 
 fn host_images_that_do_not_fit_the_frame_are_refused_naming_the_fix() {
     let hybrid = small_teapot_room(24, 18);
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    let camera = hybrid.scene.camera;
+    let camera = hybrid.scene().camera;
     let image = host_image(runner.gpu(), vk::Format::R8G8B8A8_UNORM, &camera);
     let mut refusal = |host: HostImage| -> String {
         match runner.frame_into(&hybrid, &camera, &options(TargetFormat::Rgba8), &host) {

@@ -2,6 +2,7 @@
 //! distant sphere shell with a projected EM must reproduce the tracer's reflection term nearly
 //! exactly; awkward cameras must render without errors or NaN. GPU work runs with validation on.
 
+use lensmap::hybrid::FrameBuilder;
 use lensmap::render::BlendScheme;
 use lensmap::render::Compositing;
 use std::path::PathBuf;
@@ -64,7 +65,7 @@ layers = [{ sphere = 1000.0 }]
     let (hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let reference =
-        render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {}).unwrap();
+        render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {}).unwrap();
     for variant in [Variant::Multipass, Variant::SinglePass] {
         let options = FrameOptions {
             hybrid: HybridOptions::default(),
@@ -172,8 +173,12 @@ fn a_written_bake_reads_back_into_the_same_frame() {
     )
     .unwrap()
     .0;
-    let (a, _) = projected.frame(&camera, &HybridOptions::default()).unwrap();
-    let (b, _) = baked.frame(&camera, &HybridOptions::default()).unwrap();
+    let (a, _) = FrameBuilder::new()
+        .frame(&projected, &camera, &HybridOptions::default())
+        .unwrap();
+    let (b, _) = FrameBuilder::new()
+        .frame(&baked, &camera, &HybridOptions::default())
+        .unwrap();
     assert_eq!(a.lenses.len(), b.lenses.len());
     for (x, y) in a.lenses.iter().zip(&b.lenses) {
         assert_eq!(x.positions, y.positions);
@@ -202,10 +207,11 @@ fn the_frame_runner_equals_the_frame_done_by_hand() {
             format: TargetFormat::Rgba32f,
         };
         // Both frames built from scratch (a repeated camera would reuse the cached frame).
-        hybrid.forget_frame();
+        runner.forget_frame();
         let run = runner.frame(&hybrid, &camera, &frame_options).unwrap();
-        hybrid.forget_frame();
-        let (input, stats) = hybrid.frame(&camera, &frame_options.hybrid).unwrap();
+        let (input, stats) = FrameBuilder::new()
+            .frame(&hybrid, &camera, &frame_options.hybrid)
+            .unwrap();
         let mut uploaded = renderer.upload(&by_hand_gpu, &input).unwrap();
         let full = render_rgba32f(
             &mut renderer,
@@ -234,20 +240,24 @@ fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
     use lensmap::{hybrid::hull::IN_FRONT_FRACTION, layers::Layering};
     let scene = fixtures::built_in_scene("mirror-teapot", 160, 120, 1);
     let mut hybrid = fixtures::with_projected_ems(scene, 8);
-    let camera = hybrid.scene.camera;
+    let camera = hybrid.scene().camera;
     let count = |hybrid: &HybridScene, hull_split: bool| {
         let options = HybridOptions {
             hull_split,
             ..HybridOptions::default()
         };
-        let (frame, stats) = hybrid.frame(&camera, &options).unwrap();
+        let (frame, stats) = FrameBuilder::new()
+            .frame(hybrid, &camera, &options)
+            .unwrap();
         let total: usize = frame.lenses.iter().map(|l| l.hull_triangles).sum();
         assert_eq!(total, stats.hull_triangles);
         (frame, stats.hull_triangles)
     };
     assert_eq!(count(&hybrid, true).1, 0, "layered by distance");
-    for lens in &mut hybrid.lenses {
-        lens.layering = Layering::Bounce;
+    for lens in lensmap::index::LensIndex::all(hybrid.lenses().len()) {
+        let mut layers = hybrid.lenses()[lens.index()].clone();
+        layers.layering = Layering::Bounce;
+        hybrid.set_lens_layers(lens, layers);
     }
     assert_eq!(count(&hybrid, false).1, 0, "split off");
     let (frame, split) = count(&hybrid, true);
@@ -297,19 +307,19 @@ fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
         }
     }
     let lens_points: Vec<Vec3> = hybrid
-        .trace
+        .trace()
         .lenses
         .iter()
         .flat_map(|lens| &lens.objects)
-        .flat_map(|&o| hybrid.scene.objects[o].mesh.positions.iter().copied())
+        .flat_map(|&o| hybrid.scene().objects[o].mesh.positions.iter().copied())
         .collect();
     let (on, of) = hybrid
-        .trace
+        .trace()
         .lenses
         .iter()
         .flat_map(|lens| &lens.objects)
         .fold((0, 0), |(on, of), &o| {
-            let mesh = &hybrid.scene.objects[o].mesh;
+            let mesh = &hybrid.scene().objects[o].mesh;
             let flags = lensmap::hybrid::hull::hull_triangles(mesh, &lens_points);
             (on + flags.iter().filter(|&&h| h).count(), of + flags.len())
         });

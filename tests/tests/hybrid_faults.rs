@@ -5,6 +5,7 @@
 //! between lid and rim). GPU work runs with validation on.
 
 use glam::Vec3;
+use lensmap::hybrid::FrameBuilder;
 use lensmap::render::BlendScheme;
 use lensmap::render::Compositing;
 use lensmap::{
@@ -93,14 +94,17 @@ fn the_environment_shows_where_camera_rays_escape() {
         let scene = open_scene(&dir, environment);
         let camera = scene.camera;
         let mut hybrid = with_projected_ems(scene, 16);
-        assert!(hybrid.sky.is_some(), "{environment}: a lit sky has a dome");
+        assert!(
+            hybrid.sky().is_some(),
+            "{environment}: a lit sky has a dome"
+        );
         let (w, h) = (camera.width as i64, camera.height as i64);
         let escapes: Vec<bool> = (0..w * h)
             .map(|p| {
                 let ray = camera_ray(&camera, (p % w) as f64 + 0.5, (p / w) as f64 + 0.5);
                 let mut counters = TraceCounters::default();
                 hybrid
-                    .trace
+                    .trace()
                     .closest_hit(&ray, None, None, &mut counters)
                     .is_none()
             })
@@ -123,7 +127,7 @@ fn the_environment_shows_where_camera_rays_escape() {
             interior.len()
         );
         let reference =
-            render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {}).unwrap();
+            render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {}).unwrap();
         let mut frames: Vec<RenderedImage> = Vec::new();
         for variant in [Variant::Multipass, Variant::SinglePass] {
             let options = FrameOptions {
@@ -165,7 +169,7 @@ fn the_environment_shows_where_camera_rays_escape() {
             frames.push(frame.image);
         }
         // The lens pixels do not see the sky dome: the same frame without it has the same lens.
-        hybrid.sky = None;
+        hybrid.set_sky(None);
         for (variant, with_sky) in [Variant::Multipass, Variant::SinglePass]
             .iter()
             .zip(&frames)
@@ -207,9 +211,9 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
     let camera = scene.camera;
     let hybrid = with_projected_ems(scene, 16);
     // The teapot is open (the cup's cylinder and torus are closed).
-    assert_eq!(hybrid.faces, vec![LensFaces::Both, LensFaces::Front]);
+    assert_eq!(hybrid.faces(), vec![LensFaces::Both, LensFaces::Front]);
     let reference =
-        render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {}).unwrap();
+        render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {}).unwrap();
     let lens: Vec<usize> = (0..reference.lens_mask.len())
         .filter(|&p| reference.lens_mask[p] >= 1.0)
         .collect();
@@ -222,7 +226,9 @@ fn no_lens_pixel_is_left_unshaded_in_the_teapots_lid_gap() {
             format: TargetFormat::Rgba32f,
         };
         let frame = runner.frame(&hybrid, &camera, &options).unwrap();
-        let (mut input, _) = hybrid.frame(&camera, &options.hybrid).unwrap();
+        let (mut input, _) = FrameBuilder::new()
+            .frame(&hybrid, &camera, &options.hybrid)
+            .unwrap();
         input.lenses.clear();
         let mut uploaded = runner.upload(&input).unwrap();
         let without_lenses = runner
@@ -264,11 +270,13 @@ fn open_lens_meshes_draw_both_faces_and_closed_ones_front_faces() {
         .into(),
     )
     .unwrap();
-    assert_eq!(hybrid.faces, vec![LensFaces::Front]);
-    let mut camera = hybrid.scene.camera;
+    assert_eq!(hybrid.faces(), vec![LensFaces::Front]);
+    let mut camera = hybrid.scene().camera;
     camera.width = 32;
     camera.height = 24;
-    let (frame, _) = hybrid.frame(&camera, &HybridOptions::default()).unwrap();
+    let (frame, _) = FrameBuilder::new()
+        .frame(&hybrid, &camera, &HybridOptions::default())
+        .unwrap();
     assert_eq!(frame.lenses[0].faces, LensFaces::Front);
     let scene = Scene::load_named("mirror-teapot").unwrap();
     let faces = HybridScene::lens_faces(

@@ -36,7 +36,7 @@ fn non_lens_pixels_match_the_reference() {
     };
     let frame = runner.frame(&hybrid, &camera, &options).unwrap();
     let reference =
-        render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {}).unwrap();
+        render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {}).unwrap();
     // An independent mask from the reference's own coverage (no sub-sample on a lens object).
     let non_lens = Mask::from_flags(reference.lens_mask.iter().map(|&c| c == 0.0).collect());
     let error = metrics::compare(

@@ -11,6 +11,7 @@
 //! tiny (16×12 to 32×24 pixels, cube maps of 8² texels or fewer), so the whole file runs in
 //! seconds. ε below is f64's machine epsilon, 2⁻⁵².
 
+use lensmap::hybrid::FrameBuilder;
 use lensmap::render::BlendScheme;
 use lensmap::render::Compositing;
 use std::f64::consts::FRAC_PI_2;
@@ -782,8 +783,8 @@ fn sliver_and_zero_area_triangles_in_a_mirror_stay_exact() {
         LayeredEms::Projected(ProjectedOptions::with_size(8)).into(),
     )
     .expect("the scene loads");
-    let (frame, stats) = hybrid
-        .frame(&camera, &HybridOptions::default())
+    let (frame, stats) = FrameBuilder::new()
+        .frame(&hybrid, &camera, &HybridOptions::default())
         .expect("the slivers tessellate");
     let lens = &frame.lenses[0];
     let mut worst_fg = 0.0f64;
@@ -1017,8 +1018,8 @@ fn nearly_coincident_layer_shells_render_like_the_model() {
         },
     )
     .expect("the scene loads");
-    let (frame, _) = hybrid
-        .frame(&camera, &HybridOptions::default())
+    let (frame, _) = FrameBuilder::new()
+        .frame(&hybrid, &camera, &HybridOptions::default())
         .expect("the sphere tessellates");
     let mut worst_gap = 0.0f64;
     for term in &frame.lenses[0].terms {

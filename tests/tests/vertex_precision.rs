@@ -4,6 +4,7 @@
 //! teapot-room, where f32 must stay close to f64 without being equal to it.
 
 use glam::{DVec2, DVec3, Vec3};
+use lensmap::hybrid::FrameBuilder;
 use lensmap::hybrid::{HybridOptions, paths::VertexPrecision};
 use lensmap::layers::LayerShell;
 use lensmap::trace::bvh::SurfaceHit;
@@ -154,11 +155,14 @@ fn percentile(values: &mut [f64], p: f64) -> f64 {
 #[test]
 fn teapot_room_vertex_data_in_f32_is_close_to_f64_but_not_equal() {
     let hybrid = small_teapot_room(96, 72);
-    let camera = hybrid.scene.camera;
+    let camera = hybrid.scene().camera;
     let options = HybridOptions::default();
-    let (exact, _) = hybrid.frame(&camera, &options).expect("f64 frame");
-    let (single, _) = hybrid
+    let (exact, _) = FrameBuilder::new()
+        .frame(&hybrid, &camera, &options)
+        .expect("f64 frame");
+    let (single, _) = FrameBuilder::new()
         .frame(
+            &hybrid,
             &camera,
             &HybridOptions {
                 precision: VertexPrecision::F32,

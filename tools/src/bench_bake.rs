@@ -7,7 +7,7 @@
 //! independent reference traced with more supersamples than the bake's targets had, for
 //! projected EMs (the scene's shells) and for every bake given, over the lens pixels and the
 //! non-lens pixels; and, for the error budget, the frame with perfect information at each vertex
-//! (`HybridScene::vertex_exact_frame`), whose lens error is the tessellation's share.
+//! (`lensmap::hybrid::vertex_exact_frame`), whose lens error is the tessellation's share.
 
 use std::path::PathBuf;
 
@@ -207,14 +207,14 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             "rows",
         );
         let reference = render_reference(
-            &contenders[0].1.trace,
+            contenders[0].1.trace(),
             &reference_camera,
             &TraceOptions::default(),
             &|rows| bar.set_position(u64::from(rows)),
         )?;
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
-        let per_lens = lens_object_masks(&contenders[0].1.trace, &reference);
+        let per_lens = lens_object_masks(contenders[0].1.trace(), &reference);
         let drawn = contenders
             .iter()
             .enumerate()
@@ -266,9 +266,8 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         }
         // The error budget's tessellation share: the same tessellation with the exact radiance
         // at every vertex, interpolated (no EM, no shell, no filtering).
-        let (exact_frame, _) = contenders[0]
-            .1
-            .vertex_exact_frame(&camera, &options.hybrid)?;
+        let (exact_frame, _) =
+            lensmap::hybrid::vertex_exact_frame(&contenders[0].1, &camera, &options.hybrid)?;
         let exact = runner
             .render(&exact_frame, options.compositing, options.format)?
             .box_downsample(camera.supersampling);

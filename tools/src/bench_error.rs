@@ -660,7 +660,7 @@ fn measure(
     steps: &mut Steps,
 ) -> anyhow::Result<Measurements> {
     let count = sweep.settings.len();
-    let trace = &scenes[&Setting::default_setting().scene_key()].trace;
+    let trace = &scenes[&Setting::default_setting().scene_key()].trace();
     let bar = steps.counted(
         "references and frames",
         (cameras.len() * (count + 2)) as u64,

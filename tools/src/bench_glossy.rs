@@ -5,6 +5,7 @@
 //! compared over the object's pixels with a converged reference (its Monte Carlo error stated).
 //! Then the number of view samples (12, 42, 162) against the warped reconstruction's error.
 
+use lensmap::hybrid::FrameBuilder;
 use std::time::Instant;
 
 use clap::Args;
@@ -386,11 +387,12 @@ fn frame_time(args: &BenchGlossyArgs, scene: &Scene) -> anyhow::Result<Value> {
     let mut renderer = Renderer::new(&gpu)?;
     let mut out = serde_json::Map::new();
     for reconstruction in [Reconstruction::Warped, Reconstruction::NearestUnwarped] {
-        if let Some(glossy) = hybrid.glossy.as_mut() {
-            glossy.reconstruction = reconstruction;
-        }
-        hybrid.forget_frame();
-        let (with, stats) = hybrid.frame(&camera, &lensmap::hybrid::HybridOptions::default())?;
+        hybrid.set_glossy_reconstruction(reconstruction);
+        let (with, stats) = FrameBuilder::new().frame(
+            &hybrid,
+            &camera,
+            &lensmap::hybrid::HybridOptions::default(),
+        )?;
         let without = FrameInput {
             glossy: Vec::new(),
             ..with.clone()

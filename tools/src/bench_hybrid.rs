@@ -89,7 +89,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     say!(
         "device: {}  {} {}×{} ({}×{} supersampling), t = {}, {}, vertices traced on the {}, {} rayon threads, medians of {} frames",
         runner.gpu().device_id(),
-        hybrid.scene.name,
+        hybrid.scene().name,
         args.width,
         args.height,
         camera.supersampling,
@@ -183,7 +183,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     )?;
 
     let out = json!({
-        "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene.name, "width": args.width, "height": args.height,
+        "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene().name, "width": args.width, "height": args.height,
         "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
         "threads": threads, "frames": args.frames, "rows": rows,
         "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,
@@ -324,7 +324,7 @@ impl Bench<'_> {
         let mut first = Vec::new();
         let mut still = Vec::new();
         for _ in 0..self.frames {
-            self.hybrid.forget_frame();
+            runner.forget_frame();
             first.push(runner.frame(self.hybrid, &self.camera, options)?.total_ms);
             let again = runner.frame(self.hybrid, &self.camera, options)?;
             if !again.stats.reused {
@@ -445,7 +445,7 @@ impl Bench<'_> {
         let mut frames = Vec::new();
         let mut timed = || -> anyhow::Result<()> {
             for i in 0..=self.frames {
-                self.hybrid.forget_frame();
+                runner.forget_frame();
                 let frame = runner.frame(self.hybrid, &self.camera, options)?;
                 if i > 0 {
                     frames.push((frame.stats, frame.total_ms));
@@ -492,7 +492,7 @@ impl Bench<'_> {
     ) -> anyhow::Result<serde_json::Value> {
         let step = steps.step(&format!("{what}, alternating"));
         let mut frame = |setting: &FrameOptions| {
-            self.hybrid.forget_frame();
+            runner.forget_frame();
             runner
                 .frame(self.hybrid, &self.camera, setting)
                 .map(|f| (f.stats.trace_ms, f.total_ms))

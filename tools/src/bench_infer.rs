@@ -97,7 +97,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
         u64::from(reference_camera.height),
         "rows",
     );
-    let reference = render_reference(&hybrid.trace, &reference_camera, &trace_options, &|rows| {
+    let reference = render_reference(hybrid.trace(), &reference_camera, &trace_options, &|rows| {
         bar.set_position(u64::from(rows))
     })?;
     bar.finish_and_clear();
@@ -109,7 +109,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let (projected_srgb, projected_linear) = judge.lens_psnr(&mut runner, &hybrid)?;
     let step = steps.step("intersection records");
     let records_start = Instant::now();
-    let records = compile_records(&hybrid.trace, &camera, &trace_options)?;
+    let records = compile_records(hybrid.trace(), &camera, &trace_options)?;
     step.finish_and_clear();
     let records_ms = records_start.elapsed().as_secs_f64() * 1e3;
     let options = infer_options(&args);
@@ -145,7 +145,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     for (lens, maps) in inferred_maps {
-        hybrid.lenses[lens.index()].maps = vec![maps.into_iter().map(Arc::new).collect()];
+        hybrid.set_lens_maps(lens, vec![maps.into_iter().map(Arc::new).collect()]);
     }
     let (inferred_srgb, inferred_linear) = judge.lens_psnr(&mut runner, &hybrid)?;
     say!(

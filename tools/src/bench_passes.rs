@@ -6,6 +6,7 @@
 //! come from the frame's geometry ([`lensmap::render::frame_lens_pixels`]). Medians of repeated frames, all
 //! measured in one run.
 
+use lensmap::hybrid::FrameBuilder;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -127,7 +128,7 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, usize, FrameInpu
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
-    let (frame, _) = hybrid.frame(&camera, &HybridOptions::default())?;
+    let (frame, _) = FrameBuilder::new().frame(&hybrid, &camera, &HybridOptions::default())?;
     let layers = frame
         .lenses
         .iter()

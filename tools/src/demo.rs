@@ -199,7 +199,7 @@ fn projected_scene(
     step.finish_and_clear();
     say!(
         "projected layered EMs: {} lens objects, {}² texels per face, {} rays, {:.2} s",
-        hybrid.lenses.len(),
+        hybrid.lenses().len(),
         em_size,
         em_rays,
         prepare.elapsed().as_secs_f64()
@@ -215,7 +215,7 @@ fn reference(
     steps: &mut Steps,
 ) -> anyhow::Result<ReferenceImage> {
     let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
-    let reference = render_reference(&hybrid.trace, camera, &TraceOptions::default(), &|rows| {
+    let reference = render_reference(hybrid.trace(), camera, &TraceOptions::default(), &|rows| {
         bar.set_position(u64::from(rows))
     })?;
     bar.finish_and_clear();

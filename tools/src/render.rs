@@ -242,7 +242,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             glossy_samples: args.reference_glossy_samples.max(2),
             ..TraceOptions::default()
         };
-        let image = render_reference(&hybrid.trace, &camera, &options, &|rows| {
+        let image = render_reference(hybrid.trace(), &camera, &options, &|rows| {
             bar.set_position(u64::from(rows))
         })?;
         bar.finish_and_clear();
@@ -302,7 +302,7 @@ fn report(
     } = run;
     let c = frame.stats.counters;
     let mut out = json!({
-        "scene": hybrid.scene.name, "device": device.device, "driver": device.driver_description(),
+        "scene": hybrid.scene().name, "device": device.device, "driver": device.driver_description(),
         "width": camera.width, "height": camera.height, "supersampling": camera.supersampling,
         "t": args.t, "fresnel": args.fresnel.name(), "hull_split": args.hull_split.is_on(), "tracer": if frame.stats.traced_on_gpu { "gpu" } else { "cpu" }, "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
         "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
@@ -312,16 +312,16 @@ fn report(
             "max_texels_per_metre_asked": args.light_map_max_density,
             "pixels_per_texel": args.light_map_pixels_per_texel,
             "max_texels": args.light_map_max_texels,
-            "min_texels_per_metre": hybrid.light_maps.min_texels_per_metre,
-            "max_texels_per_metre": hybrid.light_maps.max_texels_per_metre,
-            "ms": hybrid.light_maps.ms,
-            "gpu_bytes": hybrid.light_maps.gpu_bytes,
-            "texels": hybrid.light_maps.texels,
-            "shaded_texels": hybrid.light_maps.shaded_texels,
-            "supersampled_texels": hybrid.light_maps.supersampled_texels,
-            "samples": hybrid.light_maps.samples,
-            "shadow_rays": hybrid.light_maps.shadow_rays,
-            "charts": hybrid.light_maps.charts,
+            "min_texels_per_metre": hybrid.light_maps().min_texels_per_metre,
+            "max_texels_per_metre": hybrid.light_maps().max_texels_per_metre,
+            "ms": hybrid.light_maps().ms,
+            "gpu_bytes": hybrid.light_maps().gpu_bytes,
+            "texels": hybrid.light_maps().texels,
+            "shaded_texels": hybrid.light_maps().shaded_texels,
+            "supersampled_texels": hybrid.light_maps().supersampled_texels,
+            "samples": hybrid.light_maps().samples,
+            "shadow_rays": hybrid.light_maps().shadow_rays,
+            "charts": hybrid.light_maps().charts,
         },
         "hybrid": {
             "ray_tracing_at_vertices_ms": frame.stats.trace_ms,

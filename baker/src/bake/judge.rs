@@ -73,16 +73,17 @@ pub(super) fn project_into(
     size: u32,
 ) {
     let (maps, _) = project_layers(
-        &hybrid.trace,
+        hybrid.trace(),
         lens.index(),
         origin,
         &shells,
         &ProjectedOptions::with_size(size),
     );
-    hybrid.lenses[lens.index()] = LensLayers {
-        layering: hybrid.lenses[lens.index()].layering,
+    let layers = LensLayers {
+        layering: hybrid.lenses()[lens.index()].layering,
         em_origins: vec![origin; shells.len()],
         shells,
         maps: vec![maps.into_iter().map(Arc::new).collect()],
     };
+    hybrid.set_lens_layers(lens, layers);
 }

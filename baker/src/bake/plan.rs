@@ -5,7 +5,7 @@ use std::collections::BTreeSet;
 
 use glam::DVec3;
 use lensmap::{
-    hybrid::HybridScene,
+    hybrid::{FrameBuilder, HybridScene},
     index::{LayerIndex, LayerRef, LensIndex},
     layers::{
         LayerShell, Layering,
@@ -426,7 +426,7 @@ fn grow_layers(
         planned.source = "clustered (unseen at sample 0: one layer)".into();
         return Ok(planned.adopt(&place(1)?));
     }
-    let default_layers = judge.hybrid()?.lenses[lens.index()].clone();
+    let default_layers = judge.hybrid()?.lenses()[lens.index()].clone();
     let mut best: Option<(f64, Placement)> = None;
     for k in 1..=MAX_AUTO_LAYERS {
         let placement = place(k)?;
@@ -445,7 +445,7 @@ fn grow_layers(
             _ => best = Some((psnr, placement)),
         }
     }
-    judge.hybrid()?.lenses[lens.index()] = default_layers;
+    judge.hybrid()?.set_lens_layers(lens, default_layers);
     let Some((_, placement)) = best else {
         unreachable!("k = 1 always places a layer")
     };
@@ -483,8 +483,8 @@ fn search_em_size(
     share_maps(hybrid, plan);
     adopt_layering(hybrid, plan);
     let camera = sample_camera(scene, scene.view_space.samples()[0], options);
-    let (frame, _) = hybrid
-        .frame(&camera, &options.infer.hybrid)
+    let (frame, _) = FrameBuilder::new()
+        .frame(hybrid, &camera, &options.infer.hybrid)
         .map_err(|e| InferError::Frame(e.to_string()))?;
     let mut renderer = DeviceRenderer::new(runner, options.infer.compositing);
     let mut finest: Option<usize> = None;
@@ -519,7 +519,9 @@ pub fn working_scene(scene: &Scene, plan: &Plan) -> Result<HybridScene, BakeFail
 
 /// Gives each lens object of `hybrid` its layering in `plan`.
 fn adopt_layering(hybrid: &mut HybridScene, plan: &Plan) {
-    for (layers, planned) in hybrid.lenses.iter_mut().zip(&plan.lenses) {
+    for (lens, planned) in LensIndex::all(plan.lenses.len()).zip(&plan.lenses) {
+        let mut layers = hybrid.lenses()[lens.index()].clone();
         layers.layering = planned.layering;
+        hybrid.set_lens_layers(lens, layers);
     }
 }

@@ -141,7 +141,7 @@ pub fn bake_sample(
         .into_iter()
         .enumerate()
     {
-        if hybrid.lenses.iter().any(|l| l.layering == layering) {
+        if hybrid.lenses().iter().any(|l| l.layering == layering) {
             records[slot] = trace_views(hybrid, &cameras, layering, &mut seconds, progress)?;
         }
     }
@@ -207,7 +207,7 @@ fn trace_views(
             },
             ..TraceOptions::default()
         };
-        records.push(compile_records(&hybrid.trace, camera, &options)?);
+        records.push(compile_records(hybrid.trace(), camera, &options)?);
         seconds.tracing += t.elapsed().as_secs_f64();
     }
     Ok(records)
@@ -320,7 +320,7 @@ fn sample_maps(
     let mut inferred: Vec<bool> = Vec::new();
     let mut lenses = Vec::new();
     for (lens, (planned, solved)) in plan.lenses.iter().zip(solved).enumerate() {
-        let projected = |layer: usize| CubeMap::clone(&hybrid.lenses[lens].maps[0][layer]);
+        let projected = |layer: usize| CubeMap::clone(&hybrid.lenses()[lens].maps[0][layer]);
         let Some(solved) = solved.filter(|s| s.maps.iter().all(Option::is_some)) else {
             maps.push((0..planned.shells.len()).map(projected).collect());
             inferred.push(false);
@@ -375,19 +375,19 @@ fn judge_sample(
     options: &BakeOptions,
 ) -> Result<(Option<f64>, Option<f64>), BakeFailure> {
     let camera = sample_camera(scene, scene.view_space.samples()[sample], options);
-    let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {})?;
+    let reference = render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {})?;
     let mask = Mask::lens(&reference.lens_pixels, LensSelection::All);
     if mask.selected() == 0 {
         return Ok((None, None));
     }
     let projected_psnr = masked_psnr(runner, hybrid, &camera, &reference.radiance, &mask, options)?;
-    let projected: Vec<_> = hybrid.lenses.iter().map(|l| l.maps.clone()).collect();
-    for (layers, inferred) in hybrid.lenses.iter_mut().zip(maps) {
-        layers.maps = vec![inferred.iter().cloned().map(Arc::new).collect()];
+    let projected: Vec<_> = hybrid.lenses().iter().map(|l| l.maps.clone()).collect();
+    for (lens, inferred) in LensIndex::all(projected.len()).zip(maps) {
+        hybrid.set_lens_maps(lens, vec![inferred.iter().cloned().map(Arc::new).collect()]);
     }
     let judged = masked_psnr(runner, hybrid, &camera, &reference.radiance, &mask, options);
-    for (layers, maps) in hybrid.lenses.iter_mut().zip(projected) {
-        layers.maps = maps;
+    for (lens, maps) in LensIndex::all(projected.len()).zip(projected) {
+        hybrid.set_lens_maps(lens, maps);
     }
     Ok((Some(judged?), Some(projected_psnr)))
 }

@@ -116,7 +116,7 @@ pub(super) fn share_far_layers(
 pub(super) fn share_maps(hybrid: &mut HybridScene, plan: &Plan) {
     for shared in &plan.shared {
         let owner = shared.members[0];
-        let owner_layers = &hybrid.lenses[owner.lens.index()];
+        let owner_layers = &hybrid.lenses()[owner.lens.index()];
         let owner_layer = owner.layer.index();
         let origin = owner_layers.em_origins[owner_layer];
         let maps: Vec<_> = owner_layers
@@ -125,11 +125,12 @@ pub(super) fn share_maps(hybrid: &mut HybridScene, plan: &Plan) {
             .map(|v| v[owner_layer].clone())
             .collect();
         for &LayerRef { lens, layer } in &shared.members[1..] {
-            let (layers, layer) = (&mut hybrid.lenses[lens.index()], layer.index());
-            layers.em_origins[layer] = origin;
+            let mut layers = hybrid.lenses()[lens.index()].clone();
+            layers.em_origins[layer.index()] = origin;
             for (v, map) in layers.maps.iter_mut().zip(&maps) {
-                v[layer] = map.clone();
+                v[layer.index()] = map.clone();
             }
+            hybrid.set_lens_layers(lens, layers);
         }
     }
 }

@@ -486,7 +486,7 @@ pub unsafe extern "C" fn lensmap_scene_frame_options(
         }
         // SAFETY: the caller's promise.
         let scene = unsafe { scene_ref(scene) }?;
-        let camera = scene.hybrid.scene.camera;
+        let camera = scene.hybrid.scene().camera;
         let filled = LensmapFrameOptions {
             struct_size: size as u32,
             position: camera.position.to_array(),

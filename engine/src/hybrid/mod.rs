@@ -1,8 +1,9 @@
-//! The hybrid runtime (hybrid-rendering paper §5): per frame, on the CPU, the lens object's
-//! vertices are ray traced from the real camera, the mesh is adaptively tessellated where ray
-//! paths differ, texture coordinates into the layered environment maps are generated, and the
-//! viewpoint samples are chosen and weighted: the two nearest along a 1D view space, the three
-//! of the enclosing spherical triangle in a 2D one.
+//! The hybrid runtime (hybrid-rendering paper §5): per frame, the lens object's vertices are ray
+//! traced from the real camera, the mesh is adaptively tessellated where ray paths differ,
+//! texture coordinates into the layered environment maps are generated (on the CPU or the GPU,
+//! as the frame's vertex stage says), and the viewpoint samples are chosen and weighted: the two
+//! nearest along a 1D view space, the three of the enclosing spherical triangle in a 2D one.
+//! [`scene`] holds what frames are made from, [`frame`] builds them.
 
 pub mod frame;
 pub mod glossy;
@@ -17,11 +18,12 @@ mod texgen;
 pub mod viewpoints;
 
 pub use frame::{
-    BuiltFrame, DEFAULT_ANGLE_DEGREES, FresnelModel, HybridOptions, HybridStats,
-    MAX_FOOTPRINT_COARSENING, VertexPrecision, VertexTracer, ViewpointBlending, Wireframe,
-    WireframeLens,
+    BuiltFrame, CpuStage, DEFAULT_ANGLE_DEGREES, FrameBuilder, FrameId, FresnelModel, GpuReadBack,
+    GpuResident, HybridOptions, HybridStats, MAX_FOOTPRINT_COARSENING, VertexPrecision,
+    VertexStage, VertexTracer, ViewpointBlending, Wireframe, WireframeLens, vertex_exact_frame,
 };
 pub use scene::{
     BakeIdentityError, HybridError, HybridScene, HybridSceneOptions, LayeredEms, LensLayers,
+    SceneVersion,
 };
 pub use viewpoints::{ViewSpaceBlender, ViewSpaceFit, ViewpointBlend};

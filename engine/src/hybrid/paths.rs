@@ -120,9 +120,6 @@ pub struct PathOracle<'a> {
     precision: VertexPrecision,
     /// The table Schlick's fifth-order term is looked up in; `None`: evaluated.
     fresnel: Option<&'a SchlickTable>,
-    /// Where the vertices are traced: on the GPU (its pass, in f32, by the same rules), or on
-    /// the CPU (`None`).
-    gpu: Option<GpuPaths<'a>>,
     counters: Mutex<(TraceCounters, f64)>,
 }
 
@@ -148,7 +145,6 @@ impl<'a> PathOracle<'a> {
             greedy: GreedyOptions::default(),
             precision: VertexPrecision::F64,
             fresnel: None,
-            gpu: None,
             counters: Mutex::new((TraceCounters::default(), 0.0)),
         }
     }
@@ -180,35 +176,15 @@ impl<'a> PathOracle<'a> {
         }
     }
 
-    /// This oracle tracing its vertices on `gpu` (the device and the scene's resident geometry,
-    /// whose Schlick table must be the one [`PathOracle::with_fresnel`] was given), or on the CPU
-    /// (`None`, the default). The GPU computes in f32 whatever [`PathOracle::with_precision`]
-    /// says.
-    pub fn with_gpu(self, gpu: Option<GpuPaths<'a>>) -> Self {
-        PathOracle { gpu, ..self }
-    }
-
     /// Rays and triangle tests spent so far.
     pub fn counters(&self) -> TraceCounters {
         self.counters.lock().map(|c| c.0).unwrap_or_default()
     }
 
-    /// Tessellates `mesh` (this oracle's scene object) on its GPU ([`Self::with_gpu`]) by this
-    /// oracle's camera, paths and criterion, every vertex traced there, with the texture
-    /// coordinates of `texgen`'s layers when asked, and adds the rays and the submission's time
-    /// to its counters. `None` when the oracle traces on the CPU.
+    /// Tessellates `mesh` (this oracle's scene object) on `gpu` by this oracle's camera, paths
+    /// and criterion, every vertex traced there, with the texture coordinates of `texgen`'s
+    /// layers when asked, and adds the rays and the submission's time to its counters.
     pub(crate) fn tessellate_on_gpu(
-        &self,
-        mesh: &crate::scene::TriangleMesh,
-        options: &crate::hybrid::tessellate::TessellationOptions,
-        texgen: Option<super::gpu::TexgenRequest<'_>>,
-    ) -> Option<Result<super::gpu::GpuTessellation, TessellationError>> {
-        let gpu = self.gpu?;
-        Some(self.tessellate_with(gpu, mesh, options, texgen))
-    }
-
-    /// [`Self::tessellate_on_gpu`] on `gpu`.
-    fn tessellate_with(
         &self,
         gpu: GpuPaths<'_>,
         mesh: &crate::scene::TriangleMesh,
@@ -226,36 +202,29 @@ impl<'a> PathOracle<'a> {
     }
 
     /// Tessellates `mesh` as [`Self::tessellate_on_gpu`] does, left on the device for a frame to
-    /// draw ([`GpuTracer::tessellate_on_device`](super::gpu::GpuTracer::tessellate_on_device)):
-    /// the convex-hull split by `hull` (per input triangle, or none), the vertex budget
-    /// continued from the frame's previous tessellation when `continue_budget`. Its rays are
-    /// counted on the device, read once the frame is done. `None` when the oracle traces on the
-    /// CPU.
+    /// draw ([`GpuTracer::tessellate_on_device`](super::gpu::GpuTracer::tessellate_on_device)),
+    /// with what `extras` adds (texgen, the convex-hull split, the budget continued from the
+    /// frame's previous tessellation). Its rays are counted on the device, read once the frame
+    /// is done.
     pub(crate) fn tessellate_on_device(
         &self,
+        gpu: GpuPaths<'_>,
         mesh: &crate::scene::TriangleMesh,
         options: &crate::hybrid::tessellate::TessellationOptions,
-        (texgen, hull, continue_budget): (
-            Option<super::gpu::TexgenRequest<'_>>,
-            Option<&[bool]>,
-            bool,
-        ),
-    ) -> Option<Result<super::gpu::DeviceTessellation, TessellationError>> {
-        let gpu = self.gpu?;
-        let made = self.check_holds(gpu).and_then(|()| {
-            let settings = self.settings();
-            let request = super::gpu::GpuTessellationRequest {
-                hull,
-                continue_budget,
-                ..self.gpu_request(&settings, options, texgen)
-            };
-            let made = gpu
-                .tracer
-                .tessellate_on_device(gpu.gpu, (self.object, mesh), &request)?;
-            self.add_gpu_time(made.stage_ms, made.submission_ms, TraceCounters::default());
-            Ok(made)
-        });
-        Some(made)
+        extras: super::gpu::DeviceExtras<'_>,
+    ) -> Result<super::gpu::DeviceTessellation, TessellationError> {
+        self.check_holds(gpu)?;
+        let settings = self.settings();
+        let request = super::gpu::GpuTessellationRequest {
+            hull: extras.hull,
+            continue_budget: extras.continue_budget,
+            ..self.gpu_request(&settings, options, extras.texgen)
+        };
+        let made = gpu
+            .tracer
+            .tessellate_on_device(gpu.gpu, (self.object, mesh), &request)?;
+        self.add_gpu_time(made.stage_ms, made.submission_ms, TraceCounters::default());
+        Ok(made)
     }
 
     /// The GPU tessellation's request for this oracle's camera, paths and criterion.
@@ -430,28 +399,6 @@ impl PathOracle<'_> {
             max_interfaces: self.greedy.max_interfaces,
         }
     }
-
-    /// Traces `vertices` in one pass of the GPU's vertex tracer, with the rays it counted.
-    fn trace_on_gpu(
-        &self,
-        gpu: GpuPaths<'_>,
-        vertices: &[SurfaceVertex],
-    ) -> Result<(Vec<VertexEvaluation<VertexPaths>>, TraceCounters), TessellationError> {
-        self.check_holds(gpu)?;
-        let settings = self.settings();
-        let points: Vec<(Vec3, Vec3)> = vertices.iter().map(|v| (v.position, v.normal)).collect();
-        let (traced, counters) =
-            gpu.tracer
-                .trace_vertices(gpu.gpu, &self.camera, &settings, &points)?;
-        let evaluations = traced
-            .into_iter()
-            .map(|vertex| VertexEvaluation {
-                sample: vertex.paths,
-                visible: vertex.visible,
-            })
-            .collect();
-        Ok((evaluations, counters))
-    }
 }
 
 /// [`GreedyRayPath::weight`] (F·G, 0 for a truncated path) with the product in `R`.
@@ -491,8 +438,7 @@ fn closest_hit_within_in<R: Real>(
 impl VertexOracle for PathOracle<'_> {
     type Sample = VertexPaths;
 
-    /// One vertex, on the CPU (its counters are not kept): batches are what the tessellation
-    /// asks for, on the GPU when the oracle has one.
+    /// One vertex (its counters are not kept): batches are what the tessellation asks for.
     fn evaluate(&self, vertex: &SurfaceVertex) -> VertexPaths {
         self.trace_vertex(vertex, &mut TraceCounters::default()).0
     }
@@ -502,10 +448,7 @@ impl VertexOracle for PathOracle<'_> {
         vertices: &[SurfaceVertex],
     ) -> Result<Vec<VertexEvaluation<VertexPaths>>, TessellationError> {
         let start = std::time::Instant::now();
-        let (evaluations, counters) = match self.gpu {
-            Some(gpu) => self.trace_on_gpu(gpu, vertices)?,
-            None => self.trace_on_cpu(vertices),
-        };
+        let (evaluations, counters) = self.trace_on_cpu(vertices);
         if let Ok(mut guard) = self.counters.lock() {
             guard.1 += start.elapsed().as_secs_f64() * 1e3;
             guard.0 += counters;

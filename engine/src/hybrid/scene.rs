@@ -1,7 +1,9 @@
 //! Assembling a hybrid scene: everything a hybrid frame is made from that does not change with
 //! the camera. The scene's ray-tracing structures, each lens object's layered EMs (projected
 //! from the scene, or a bake's), the light-mapped opaque environment, the sky dome, and which
-//! faces of each lens object are drawn. [`HybridScene::new`] is the one way to make one.
+//! faces of each lens object are drawn. [`HybridScene::new`] is the one way to make one; it is
+//! data, read through its accessors, and every change goes through a setter that bumps its
+//! [`SceneVersion`], which the frames built from it are keyed by.
 
 use std::{
     path::PathBuf,
@@ -11,10 +13,16 @@ use std::{
 
 use glam::{DVec3, Vec3};
 
-use super::{frame::FrameCache, sky::SkyDome, viewpoints::ViewSpaceBlender};
+use super::{
+    ViewpointBlending,
+    glossy::GlossyScene,
+    sky::SkyDome,
+    viewpoints::{self, ViewSpaceBlender, ViewSpaceFit, ViewpointBlend},
+};
 use crate::{
     cubemap::CubeMap,
     identity::{Encoder, IDENTITY_VERSION},
+    index::LensIndex,
     layers::{
         Bake, BakedLens, LayerShell, Layering, Provenance,
         bake::default_created_by,
@@ -25,7 +33,7 @@ use crate::{
     },
     options::{LibraryWords, OptionWords, Worded, names},
     render::{EnvironmentMesh, LensFaces, MeshLightMap},
-    scene::{Scene, TriangleMesh},
+    scene::{Camera, Scene, TriangleMesh},
     trace::world::TraceScene,
 };
 
@@ -198,35 +206,41 @@ impl From<LayeredEms> for HybridSceneOptions {
 /// Everything a hybrid frame is made from that does not change with the camera.
 pub struct HybridScene {
     /// The scene.
-    pub scene: Scene,
+    scene: Scene,
     /// Its ray-tracing structures.
-    pub trace: TraceScene,
+    trace: TraceScene,
     /// The viewpoint samples and how a frame blends them (1D or triangulated 2D).
-    pub(super) view_space: ViewSpaceBlender,
+    view_space: ViewSpaceBlender,
     /// Per lens object (TraceScene order).
-    pub lenses: Vec<LensLayers>,
+    lenses: Vec<LensLayers>,
     /// Per lens object (TraceScene order), which faces are traced and drawn (see
     /// [`HybridScene::lens_faces`]).
-    pub faces: Vec<LensFaces>,
+    faces: Vec<LensFaces>,
     /// The opaque environment for the GPU, light-mapped (see
     /// [`HybridScene::light_mapped_environment`]).
-    pub environment: Vec<Arc<EnvironmentMesh>>,
+    environment: Vec<Arc<EnvironmentMesh>>,
     /// What making the environment's light maps cost.
-    pub light_maps: LightMapStats,
+    light_maps: LightMapStats,
     /// The environment at infinity for the GPU, drawn behind everything; `None` when it is black.
-    pub sky: Option<SkyDome>,
+    sky: Option<SkyDome>,
     /// The glossy objects drawn by reflection-space IBR (see
     /// [`HybridScene::use_radiance_maps`]); `None`: they are light-mapped environment meshes.
-    pub glossy: Option<super::glossy::GlossyScene>,
-    /// The last frame built, reused while nothing it depends on changed.
-    pub(super) cache: FrameCache,
+    glossy: Option<GlossyScene>,
     /// Per scene object, which of its triangles lie on the convex hull of the lens geometry
     /// ([`super::hull`]): worked out the first time a frame needs it (a lens object layered by
-    /// bounce, with the split on), then kept, as it does not depend on the view.
-    pub(super) hull: Vec<OnceLock<Vec<bool>>>,
-    /// Unique to this scene in the process: what a device's resident copy of its geometry is
-    /// kept by ([`crate::runner::FrameRunner`]'s GPU tracer).
-    identity: u64,
+    /// bounce, with the split on), then kept, as the geometry does not change.
+    hull: Vec<OnceLock<Vec<bool>>>,
+    /// This scene's identity and how many times it was changed.
+    version: SceneVersion,
+}
+
+/// Which scene, and which version of it: a frame built from another version is another frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct SceneVersion {
+    /// Unique to the scene in the process; its geometry never changes under it.
+    pub id: u64,
+    /// How many times a setter changed it since it was built.
+    pub generation: u64,
 }
 
 /// The next [`HybridScene`]'s identity.
@@ -294,16 +308,131 @@ impl HybridScene {
                 sky,
                 glossy: None,
                 hull,
-                cache: FrameCache::default(),
-                identity: SCENE_IDENTITY.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+                version: SceneVersion {
+                    id: SCENE_IDENTITY.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+                    generation: 0,
+                },
             },
             rays,
         ))
     }
 
-    /// Unique to this scene in the process (its geometry is fixed once built).
+    /// Unique to this scene in the process (its geometry is fixed once built): what a device's
+    /// resident copy of its geometry is kept by.
     pub(crate) fn identity(&self) -> u64 {
-        self.identity
+        self.version.id
+    }
+
+    /// This scene and its version.
+    pub fn version(&self) -> SceneVersion {
+        self.version
+    }
+
+    /// The scene description.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// Its ray-tracing structures.
+    pub fn trace(&self) -> &TraceScene {
+        &self.trace
+    }
+
+    /// Per lens object (TraceScene order), its layered EMs.
+    pub fn lenses(&self) -> &[LensLayers] {
+        &self.lenses
+    }
+
+    /// Per lens object (TraceScene order), which faces are traced and drawn.
+    pub fn faces(&self) -> &[LensFaces] {
+        &self.faces
+    }
+
+    /// The opaque environment for the GPU, light-mapped.
+    pub fn environment(&self) -> &[Arc<EnvironmentMesh>] {
+        &self.environment
+    }
+
+    /// What making the environment's light maps cost.
+    pub fn light_maps(&self) -> &LightMapStats {
+        &self.light_maps
+    }
+
+    /// The environment at infinity for the GPU; `None` when it is black.
+    pub fn sky(&self) -> Option<&SkyDome> {
+        self.sky.as_ref()
+    }
+
+    /// The glossy objects drawn by reflection-space IBR; `None` while they are light-mapped.
+    pub fn glossy(&self) -> Option<&GlossyScene> {
+        self.glossy.as_ref()
+    }
+
+    /// Replaces lens object `lens`'s layered EMs (its EM origins, shells, layering and maps) by
+    /// `layers`: the baker's and the viewer's experiments. A new version of the scene.
+    pub fn set_lens_layers(&mut self, lens: LensIndex, layers: LensLayers) {
+        if let Some(slot) = self.lenses.get_mut(lens.index()) {
+            *slot = layers;
+            self.changed();
+        }
+    }
+
+    /// Replaces lens object `lens`'s maps (`maps[viewpoint sample][layer]`, as
+    /// [`LensLayers::maps`]), keeping its shells: the baker's judged maps, the viewer's layers
+    /// switched off. A new version of the scene.
+    pub fn set_lens_maps(&mut self, lens: LensIndex, maps: Vec<Vec<Arc<CubeMap>>>) {
+        if let Some(slot) = self.lenses.get_mut(lens.index()) {
+            slot.maps = maps;
+            self.changed();
+        }
+    }
+
+    /// Reconstructs the glossy objects' maps by `reconstruction` (no effect while they are
+    /// light-mapped). A new version of the scene.
+    pub fn set_glossy_reconstruction(&mut self, reconstruction: crate::rsibr::Reconstruction) {
+        if let Some(glossy) = &mut self.glossy {
+            glossy.reconstruction = reconstruction;
+            self.changed();
+        }
+    }
+
+    /// Draws the environment at infinity from `sky` (`None`: black). A new version of the
+    /// scene.
+    pub fn set_sky(&mut self, sky: Option<SkyDome>) {
+        self.sky = sky;
+        self.changed();
+    }
+
+    /// The glossy objects drawn by reflection-space IBR (`glossy`), and the environment meshes
+    /// left light-mapped: what [`HybridScene::use_radiance_maps`] sets. A new version.
+    pub(super) fn set_glossy(
+        &mut self,
+        glossy: Option<GlossyScene>,
+        environment: Vec<Arc<EnvironmentMesh>>,
+    ) {
+        self.glossy = glossy;
+        self.environment = environment;
+        self.changed();
+    }
+
+    /// Notes a change: frames built before are of another version.
+    fn changed(&mut self) {
+        self.version.generation += 1;
+    }
+
+    /// Per input triangle of scene object `object`, whether it lies on the convex hull of the
+    /// lens geometry (computed once per object).
+    pub(crate) fn hull_triangles(&self, object: usize) -> &[bool] {
+        self.hull[object].get_or_init(|| {
+            let points: Vec<Vec3> = self
+                .trace
+                .lenses
+                .iter()
+                .flat_map(|lens| &lens.objects)
+                .flat_map(|&o| self.scene.objects[o].mesh.positions.iter().copied())
+                .collect();
+            super::hull::hull_triangles(&self.scene.objects[object].mesh, &points)
+        })
     }
 
     /// The viewpoint sample positions, metres: the bake's samples, or the scene's view space
@@ -317,6 +446,140 @@ impl HybridScene {
         &self.view_space
     }
 
+    /// How `camera` sits in the view space of [`HybridScene::viewpoints`] about its centre
+    /// ([`ViewSpaceBlender::fit`](crate::hybrid::ViewSpaceBlender::fit)): its nearest sample and whether it has left the space the
+    /// samples cover (2D: its direction is in no triangle). `None` without viewpoint samples, or
+    /// for a camera at the centre or not finite.
+    pub fn view_space_fit(&self, camera: &Camera) -> Option<ViewSpaceFit> {
+        self.view_space.fit(camera.position.as_dvec3())
+    }
+
+    /// Per lens object (TraceScene order), its name and the axis-aligned bounds `(min, max)` of
+    /// all its scene objects' meshes, metres: where a viewer stops a camera short of a lens
+    /// object. A lens object none of whose meshes has a vertex has no bounds and is left out.
+    pub fn lens_bounds(&self) -> Vec<(String, Vec3, Vec3)> {
+        self.trace
+            .lenses
+            .iter()
+            .filter_map(|lens| {
+                let (lo, hi) = lens
+                    .objects
+                    .iter()
+                    .filter_map(|&object| self.scene.objects.get(object)?.mesh.bounds())
+                    .reduce(|(lo, hi), (a, b)| (lo.min(a), hi.max(b)))?;
+                Some((lens.name.clone(), lo, hi))
+            })
+            .collect()
+    }
+
+    /// The viewpoint samples (indices into [`HybridScene::viewpoints`]) a frame seen by
+    /// `camera` blends by `blending` and their weights, summing to 1, largest first
+    /// ([`ViewSpaceBlender::blend`](crate::hybrid::ViewSpaceBlender::blend): two along a 1D view space, up to three in a 2D one, the
+    /// nearest point of the region for a camera outside it).
+    /// EMs shared by every viewpoint sample (projected ones) need no blending: one sample,
+    /// weight 1, half the compositing work. Sample 0 with weight 1 when there is no sample or
+    /// the camera sits at its look-at point.
+    pub fn viewpoint_blend(&self, camera: &Camera, blending: ViewpointBlending) -> ViewpointBlend {
+        self.placed(camera, blending).0
+    }
+
+    /// [`HybridScene::viewpoint_blend`] and whether the camera is outside the view space, with
+    /// one point location for the view space's own blending.
+    pub(crate) fn placed(
+        &self,
+        camera: &Camera,
+        blending: ViewpointBlending,
+    ) -> (ViewpointBlend, bool) {
+        let position = camera.position.as_dvec3();
+        let view_space = &self.view_space;
+        let placed = view_space.place(position);
+        let outside = placed.as_ref().is_some_and(|(_, outside)| *outside);
+        let blend = match blending {
+            ViewpointBlending::ViewSpace => placed.map(|(blend, _)| blend),
+            ViewpointBlending::TwoNearest | ViewpointBlending::Nearest => {
+                viewpoints::blend(view_space.positions(), view_space.centre(), position)
+            }
+        };
+        let blend = blend.unwrap_or(ViewpointBlend {
+            samples: vec![(0, 1.0)],
+        });
+        let blend = if self.lenses.iter().all(|l| l.maps.len() == 1)
+            || blending == ViewpointBlending::Nearest
+        {
+            ViewpointBlend {
+                samples: vec![(blend.samples[0].0, 1.0)],
+            }
+        } else {
+            blend
+        };
+        (blend, outside)
+    }
+
+    /// Draws the glossy objects from the radiance-map bake at `dir` (made from this scene, every
+    /// sample complete; [`crate::rsibr::bake::read_maps`]) by `reconstruction`; returns its
+    /// manifest.
+    pub fn use_radiance_bake(
+        &mut self,
+        dir: &std::path::Path,
+        reconstruction: crate::rsibr::Reconstruction,
+    ) -> Result<crate::rsibr::bake::RadianceManifest, crate::layers::bake::BakeError> {
+        let (manifest, views, maps) = crate::rsibr::bake::read_maps(dir, self.scene())?;
+        self.use_radiance_maps(views, maps, reconstruction);
+        Ok(manifest)
+    }
+
+    /// Draws the glossy objects `maps` holds (made at `views`' samples) by reflection-space IBR
+    /// from now on, no longer as light-mapped environment meshes.
+    pub fn use_radiance_maps(
+        &mut self,
+        views: crate::rsibr::GlossyViews,
+        maps: Vec<crate::rsibr::GlossyMaps>,
+        reconstruction: crate::rsibr::Reconstruction,
+    ) {
+        // The environment meshes are the objects of no lens object, in scene order: put back
+        // those earlier maps replaced, then take out those these maps replace.
+        let (scene, trace) = (self.scene(), self.trace());
+        let earlier = self.glossy();
+        let mut environment: Vec<(usize, Arc<EnvironmentMesh>)> = (0..scene.objects.len())
+            .filter(|&o| trace.object_lens.get(o).is_some_and(|l| l.is_none()))
+            .filter(|o| {
+                !earlier.is_some_and(|g| g.light_mapped.iter().any(|(object, _)| object == o))
+            })
+            .zip(self.environment().iter().cloned())
+            .collect();
+        if let Some(earlier) = earlier {
+            environment.extend(earlier.light_mapped.iter().cloned());
+            environment.sort_by_key(|(object, _)| *object);
+        }
+        let glossy: Vec<usize> = maps.iter().map(|m| m.object.object).collect();
+        let (light_mapped, kept): (Vec<_>, Vec<_>) = environment
+            .into_iter()
+            .partition(|(object, _)| glossy.contains(object));
+        // Maps of an object this scene does not have are left out.
+        let objects = maps
+            .into_iter()
+            .filter_map(|maps| {
+                let mesh = &scene.objects.get(maps.object.object)?.mesh;
+                let mesh = Arc::new(crate::render::GlossyMesh {
+                    positions: mesh.positions.clone(),
+                    normals: mesh.normals.clone(),
+                    triangles: mesh.triangles.clone(),
+                });
+                Some((mesh, maps))
+            })
+            .collect();
+        let glossy = GlossyScene {
+            views,
+            objects,
+            reconstruction,
+            light_mapped,
+        };
+        self.set_glossy(
+            Some(glossy),
+            kept.into_iter().map(|(_, mesh)| mesh).collect(),
+        );
+    }
+
     /// Moves the viewpoint samples to `positions` (one per sample of the layered EMs, same
     /// order), triangulated again when the scene's view space is 2D.
     pub fn set_viewpoints(&mut self, positions: Vec<DVec3>) {
@@ -325,6 +588,7 @@ impl HybridScene {
             self.view_space.centre(),
             self.scene.view_space.is_surface(),
         );
+        self.changed();
     }
 
     /// These layered EMs as a bake: projected EMs become a bake with one viewpoint sample. The

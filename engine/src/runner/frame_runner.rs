@@ -12,7 +12,8 @@ use super::{
 use crate::{
     gpu::{Gpu, GpuError},
     hybrid::{
-        BuiltFrame, FresnelModel, HybridOptions, HybridScene, HybridStats, VertexTracer,
+        BuiltFrame, CpuStage, FrameBuilder, FrameId, FresnelModel, GpuReadBack, GpuResident,
+        HybridOptions, HybridScene, HybridStats, VertexStage, VertexTracer, Wireframe,
         gpu::{GpuPaths, GpuTracer, GpuTraversal, read_counts},
         paths::VertexPrecision,
     },
@@ -67,9 +68,12 @@ impl Default for FrameOptions {
 ///
 /// Frames are uploaded into [`FRAMES_IN_FLIGHT`] reusable slots in turn (buffers, descriptor
 /// pool and targets kept from frame to frame), and a frame equal to the one the last slot holds
-/// (a still camera: [`HybridScene::frame_unless`]) is only rendered again, with no CPU stage and
-/// no upload.
+/// (a still camera: [`FrameBuilder::frame_unless`]) is only rendered again, with no CPU stage
+/// and no upload. Its [`FrameBuilder`] keeps the last frame; the vertex stage of each frame is
+/// chosen here, where the device is.
 pub struct FrameRunner {
+    /// Builds the frames and keeps the last one.
+    builder: FrameBuilder,
     // Declared before `gpu` so that they are dropped first (their objects belong to that device).
     slots: Vec<Slot>,
     /// The last scene's geometry resident on the device, for frames traced on the GPU.
@@ -104,11 +108,11 @@ struct ResidentTracer {
     tracer: Result<GpuTracer, String>,
 }
 
-/// One reusable upload and the identity of the hybrid frame it holds (0: none).
+/// One reusable upload and the identity of the hybrid frame it holds.
 #[derive(Default)]
 struct Slot {
     uploaded: Option<UploadedFrame>,
-    identity: u64,
+    identity: Option<FrameId>,
     /// The frame's lens parts drawn from the device's buffers (their counts).
     parts: Vec<Arc<DeviceLensPart>>,
 }
@@ -143,6 +147,7 @@ impl FrameRunner {
     pub fn new(gpu: Gpu) -> Result<FrameRunner, GpuError> {
         let renderer = Renderer::new(&gpu)?;
         Ok(FrameRunner {
+            builder: FrameBuilder::new(),
             slots: (0..FRAMES_IN_FLIGHT).map(|_| Slot::default()).collect(),
             tracer: None,
             spare: None,
@@ -159,6 +164,19 @@ impl FrameRunner {
     /// The device (its name, the validation report).
     pub fn gpu(&self) -> &Gpu {
         &self.gpu
+    }
+
+    /// Forgets the last frame, so that the next one is built from scratch even for the same
+    /// camera: what timing a full frame needs.
+    pub fn forget_frame(&mut self) {
+        self.builder.forget();
+    }
+
+    /// The tessellation wireframe of the last frame built or reused
+    /// ([`FrameBuilder::last_wireframe`]); frames drawn where the GPU left them have none (their
+    /// meshes are not read back: [`FrameRunner::read_back_gpu_meshes`]).
+    pub fn last_wireframe(&self) -> Option<Wireframe> {
+        self.builder.last_wireframe()
     }
 
     /// Checks that frames of `camera` (its subpixels) in `format` fit this device, before any
@@ -231,7 +249,7 @@ impl FrameRunner {
             // A frame whose buffers stopped splits before the budget is made again with the
             // larger ones (they grow fourfold each time, up to what the device holds).
             if self.grew {
-                hybrid.forget_frame();
+                self.builder.forget();
                 continue;
             }
             return frames
@@ -406,17 +424,24 @@ impl FrameRunner {
             };
         let built = match &self.tracer {
             Some(ResidentTracer {
-                tracer: Ok(resident),
-                ..
+                tracer: Ok(tracer), ..
             }) if on_gpu => {
-                let gpu = GpuPaths {
+                let paths = GpuPaths {
                     gpu: &self.gpu,
-                    tracer: resident,
-                    resident: !self.read_back_gpu_meshes,
+                    tracer,
                 };
-                hybrid.frame_unless_on(camera, &options.hybrid, held, Some(gpu))?
+                // Drawn where the GPU leaves it, unless the meshes are to be read back.
+                let stage: &dyn VertexStage = if self.read_back_gpu_meshes {
+                    &GpuReadBack { paths }
+                } else {
+                    &GpuResident { paths }
+                };
+                self.builder
+                    .frame_unless(hybrid, camera, &options.hybrid, stage, held)?
             }
-            _ => hybrid.frame_unless(camera, &options.hybrid, held)?,
+            _ => self
+                .builder
+                .frame_unless(hybrid, camera, &options.hybrid, &CpuStage, held)?,
         };
         let slot = match built {
             BuiltFrame::Unchanged(_) => self.last_slot,
@@ -443,7 +468,7 @@ impl FrameRunner {
                 };
                 self.slots[slot] = Slot {
                     uploaded: Some(uploaded),
-                    identity,
+                    identity: Some(identity),
                     parts: parts.clone(),
                 };
                 stats
@@ -494,7 +519,7 @@ impl FrameRunner {
             // kept as the spare.
             self.spare = self.tracer.take().filter(|t| same(t));
             let table = fresnel.table()?;
-            let make = || GpuTracer::new(&self.gpu, &hybrid.trace, table.as_ref(), walk);
+            let make = || GpuTracer::new(&self.gpu, hybrid.trace(), table.as_ref(), walk);
             let tracer = match make() {
                 // Once more without the spare, should it hold the memory the new one needs.
                 Err(_) if self.spare.take().is_some() => make(),
@@ -583,7 +608,7 @@ impl FrameRunner {
         repetitions: Repetitions,
     ) -> Result<TimedFrames, RunError> {
         let full_frame = |runner: &mut Self| {
-            hybrid.forget_frame();
+            runner.builder.forget();
             runner.frame(hybrid, camera, options)
         };
         for _ in 0..repetitions.warmup {

@@ -28,7 +28,7 @@
 //! let repetitions = Repetitions { warmup: 1, timed: 3 };
 //! let frames = runner.timed_frames(&hybrid, &camera, &FrameOptions::default(), repetitions)?;
 //! println!("median frame {:.1} ms", frames.median(|f| f.total_ms));
-//! let reference = render_reference(&hybrid.trace, &camera, &TraceOptions::default(), &|_| {})?;
+//! let reference = render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {})?;
 //! let error = lens_error(&frames.last().image, &reference, Encoding::Linear)?;
 //! println!("lens PSNR {:.2} dB ({})", error.psnr_db, error.encoding.name());
 //! frames.last().image.write_png_and_exr("out/frame.png".as_ref())?;

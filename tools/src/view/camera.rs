@@ -116,7 +116,7 @@ pub fn guard(scene: &HybridScene, camera: Camera) -> (Moved, Vec<String>) {
     }
     let eye = camera.position.as_dvec3();
     let mut inside = Vec::new();
-    for (lens, layers) in scene.trace.lenses.iter().zip(&scene.lenses) {
+    for (lens, layers) in scene.trace().lenses.iter().zip(scene.lenses()) {
         for (i, shell) in layers.shells.iter().enumerate() {
             if shell.contains(eye) {
                 inside.push(format!("{} layer {}", lens.name, i + 1));

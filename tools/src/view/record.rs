@@ -77,7 +77,7 @@ pub(super) fn run(
         .with_context(|| format!("writing {}", stats.display()))?;
     crate::common::report(
         &json!({
-            "scene": hybrid.scene.name,
+            "scene": hybrid.scene().name,
             "device": runner.gpu().device_name(),
             "driver": runner.gpu().device_id().driver_description(),
             "frames": path.poses.len(),
@@ -88,7 +88,7 @@ pub(super) fn run(
     )?;
     say!(
         "{}: {} frames along {} into {} (stats.csv), device {}",
-        hybrid.scene.name,
+        hybrid.scene().name,
         path.poses.len(),
         args.path,
         dir.display(),

@@ -2,6 +2,7 @@
 //! frame the hybrid frame rendered into the swapchain image, the overlay over it and the
 //! presentation.
 
+use lensmap::index::LensIndex;
 use std::collections::{HashMap, HashSet, VecDeque};
 use std::ffi::CStr;
 use std::fmt::Write as _;
@@ -420,7 +421,7 @@ impl App {
 
     /// Keeps `hybrid` as the scene with inferred (or projected) EMs, with its maps as loaded.
     fn set_hybrid(&mut self, inferred: bool, hybrid: HybridScene) {
-        let maps = hybrid.lenses.iter().map(|l| l.maps.clone()).collect();
+        let maps = hybrid.lenses().iter().map(|l| l.maps.clone()).collect();
         self.originals[usize::from(inferred)] = Some(maps);
         self.hybrids[usize::from(inferred)] = Some(hybrid);
         // Its maps are the originals: layers off are applied before its first frame.
@@ -702,8 +703,8 @@ impl App {
         else {
             return;
         };
-        for (lens, original) in hybrid.lenses.iter_mut().zip(originals) {
-            lens.maps = original
+        for (lens, original) in LensIndex::all(originals.len()).zip(originals) {
+            let maps = original
                 .iter()
                 .map(|layers| {
                     layers
@@ -721,6 +722,7 @@ impl App {
                         .collect()
                 })
                 .collect();
+            hybrid.set_lens_maps(lens, maps);
         }
         self.applied_layers = off;
     }

@@ -28,7 +28,8 @@ mod walk;
 
 pub use resident::{DeviceCounts, read_counts};
 pub use tessellate::{
-    DeviceTessellation, GPU_MAX_DEPTH, GpuStageMs, GpuTessellation, GpuTessellationRequest,
+    DeviceExtras, DeviceTessellation, GPU_MAX_DEPTH, GpuStageMs, GpuTessellation,
+    GpuTessellationRequest,
 };
 pub use texgen::TexgenRequest;
 pub use walk::{GpuTraversal, Traversal};
@@ -80,17 +81,13 @@ pub struct GpuVertex {
 }
 
 /// A device and a tracer resident on it: what a frame's vertices are traced on when the GPU
-/// traces them ([`crate::hybrid::paths::PathOracle::with_gpu`]).
+/// traces them ([`crate::hybrid::frame::GpuReadBack`], [`crate::hybrid::frame::GpuResident`]).
 #[derive(Clone, Copy)]
 pub struct GpuPaths<'a> {
     /// The device `tracer` was made on.
     pub gpu: &'a Gpu,
     /// The scene's resident geometry and passes.
     pub tracer: &'a GpuTracer,
-    /// Whether a frame's lens objects are drawn where the GPU tessellation left them (no
-    /// per-vertex data read back; the counts read once the frame is done), or read back to the
-    /// host (the mesh, its depths for the wireframe, the counts at once).
-    pub resident: bool,
 }
 
 /// The resident geometry and the tracer's pipelines on one device.

@@ -419,6 +419,19 @@ pub struct GpuTessellationRequest<'a> {
     pub continue_budget: bool,
 }
 
+/// What a tessellation left on the device for a frame adds to one read back.
+#[derive(Clone, Copy, Debug)]
+pub struct DeviceExtras<'a> {
+    /// Texture coordinates too, for these layers.
+    pub texgen: Option<TexgenRequest<'a>>,
+    /// Per input triangle whether it lies on the convex hull of the lens geometry (`None`: no
+    /// convex-hull split).
+    pub hull: Option<&'a [bool]>,
+    /// Whether the vertex budget continues from the frame's previous tessellation, which the
+    /// host never counted ([`GpuTessellationRequest::continue_budget`]).
+    pub continue_budget: bool,
+}
+
 /// A tessellation left on the device: its work for a frame to record, or its submission, not
 /// waited for (unless timed).
 pub struct DeviceTessellation {

@@ -41,7 +41,7 @@ impl App {
         let o = &e.options;
         let hybrid = self.hybrid();
         let layers = hybrid
-            .lenses
+            .lenses()
             .iter()
             .map(|l| l.shells.len())
             .max()
@@ -95,7 +95,7 @@ impl App {
             .iter()
             .map(|(i, w)| format!("{i} ×{w:.2}"))
             .collect();
-        let shared = hybrid.lenses.iter().all(|l| l.maps.len() == 1);
+        let shared = hybrid.lenses().iter().all(|l| l.maps.len() == 1);
         let viewpoints = if shared {
             "viewpoints: projected EMs are the same at every sample".to_owned()
         } else {
@@ -180,7 +180,7 @@ impl App {
     /// The last frame's tessellation as window-pixel edges with their subdivision depth (each
     /// edge once; edges with an end behind the eye left out).
     pub(super) fn wireframe_edges(&self, notes: &mut Vec<String>) -> Vec<([Pos2; 2], u8)> {
-        let Some(wireframe) = self.hybrid().last_wireframe() else {
+        let Some(wireframe) = self.runner.last_wireframe() else {
             return Vec::new();
         };
         let view_proj = self.camera.view_proj(0.05, 1000.0);

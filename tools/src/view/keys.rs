@@ -1,7 +1,10 @@
 //! The viewer's keys: one table ([`KEYS`]) that `--help`, the `H` overlay, the window's key
 //! events and scripts all read, and the experiment state they change.
 
+use std::{collections::HashMap, sync::Arc};
+
 use lensmap::{
+    cubemap::CubeMap,
     hybrid::{VertexTracer, tessellate::TessellationOptions},
     render::{BlendScheme, Compositing, TargetFormat},
     runner::FrameOptions,
@@ -272,6 +275,28 @@ impl Experiment {
     pub fn layer_on(&self, i: usize) -> bool {
         !self.layers_off.get(i).copied().unwrap_or(false)
     }
+}
+
+/// `maps[viewpoint sample][layer]` with each layer `off` marks replaced by a transparent map
+/// of its size (one a size, made once and kept in `transparent`): the layers switched off.
+pub fn with_layers_off(
+    maps: &[Vec<Arc<CubeMap>>],
+    off: &[bool],
+    transparent: &mut HashMap<u32, Arc<CubeMap>>,
+) -> Vec<Vec<Arc<CubeMap>>> {
+    maps.iter()
+        .map(|layers| {
+            let mut one = |(i, map): (usize, &Arc<CubeMap>)| {
+                if off.get(i).copied().unwrap_or(false) {
+                    let uniform = || Arc::new(CubeMap::uniform(map.size, [0.0; 4]));
+                    Arc::clone(transparent.entry(map.size).or_insert_with(uniform))
+                } else {
+                    Arc::clone(map)
+                }
+            };
+            layers.iter().enumerate().map(&mut one).collect()
+        })
+        .collect()
 }
 
 #[cfg(test)]

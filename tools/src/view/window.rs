@@ -704,24 +704,7 @@ impl App {
             return;
         };
         for (lens, original) in LensIndex::all(originals.len()).zip(originals) {
-            let maps = original
-                .iter()
-                .map(|layers| {
-                    layers
-                        .iter()
-                        .enumerate()
-                        .map(|(i, map)| {
-                            if off.get(i).copied().unwrap_or(false) {
-                                Arc::clone(self.transparent.entry(map.size).or_insert_with(|| {
-                                    Arc::new(CubeMap::uniform(map.size, [0.0; 4]))
-                                }))
-                            } else {
-                                Arc::clone(map)
-                            }
-                        })
-                        .collect()
-                })
-                .collect();
+            let maps = super::keys::with_layers_off(original, &off, &mut self.transparent);
             hybrid.set_lens_maps(lens, maps);
         }
         self.applied_layers = off;

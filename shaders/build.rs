@@ -17,9 +17,15 @@
 //!   its viewpoint samples (`const MAX_VIEWPOINTS`, checked against the cube-map arrays the file
 //!   binds);
 //! - every push-constant (`var<immediate>`) struct as a `#[repr(C)]` Rust struct with naga's
-//!   offsets, explicit padding, and compile-time assertions of its size and every field's offset.
+//!   offsets, explicit padding, and compile-time assertions of its size and every field's offset;
+//! - per file, a module `lensmap_shaders::<file>` of its contracts (`build/contracts.rs`): an enum
+//!   of its entry points, its resources' binding numbers and kinds, its module-scope constants
+//!   (one name in two files must have one value) and its structs' sizes.
 
 use std::{collections::BTreeMap, env, fmt::Write as _, fs, path::Path};
+
+#[path = "build/contracts.rs"]
+mod contracts;
 
 /// The WGSL `const` in `lens.wgsl` that bounds the single pass's layer count.
 const MAX_LAYERS_CONSTANT: &str = "MAX_LAYERS";
@@ -121,6 +127,8 @@ struct Compiled {
     push_constants: Vec<(String, String)>,
     /// The file's single-pass limits, if it declares them.
     single_pass: Option<SinglePassBounds>,
+    /// What Rust must agree on with it ([`contracts::contracts`]).
+    contracts: contracts::Contracts,
 }
 
 fn main() {
@@ -142,6 +150,10 @@ fn main() {
     let mut push_constants = String::new();
     let mut emitted: BTreeMap<String, String> = BTreeMap::new();
     let mut single_pass = None;
+    let mut contract_modules = String::new();
+    // Every module-scope constant with the file that first declared it: a name two files declare
+    // must have one value (the control words of the tessellation's passes, say).
+    let mut constants: BTreeMap<String, (String, contracts::Constant)> = BTreeMap::new();
     let mut failed = false;
     for path in &entries {
         println!("cargo:rerun-if-changed={}", path.display());
@@ -149,7 +161,7 @@ fn main() {
         let shown = format!("shaders/wgsl/{stem}.wgsl");
         let source = fs::read_to_string(path).expect("shader source is readable");
         let compiled = expand_includes(&source, &source_dir.join(INCLUDE_DIR), &shown)
-            .and_then(|source| compile(&source, &shown));
+            .and_then(|source| compile(&source, &stem, &shown));
         match compiled {
             Ok(compiled) => {
                 for (entry, overrides, words) in compiled.blobs {
@@ -190,6 +202,22 @@ fn main() {
                         Some(_) => {
                             eprintln!(
                                 "error: {shown}: push constants `{name}` differ from another file's struct of that name: rename one"
+                            );
+                            failed = true;
+                        }
+                    }
+                }
+                contract_modules.push_str(&compiled.contracts.module);
+                for (name, constant) in compiled.contracts.constants {
+                    match constants.get(&name) {
+                        None => {
+                            constants.insert(name, (shown.clone(), constant));
+                        }
+                        Some((_, first)) if *first == constant => {}
+                        Some((other, first)) => {
+                            eprintln!(
+                                "error: {shown}: `const {name}` is {} but {other} declares it {}: one name, one value (share it through an include)",
+                                constant.value, first.value
                             );
                             failed = true;
                         }
@@ -243,12 +271,13 @@ fn main() {
     generated.push('\n');
     generated.push_str(&specialized);
     generated.push_str(&push_constants);
+    generated.push_str(&contract_modules);
     fs::write(Path::new(&out_dir).join("modules.rs"), generated).expect("OUT_DIR is writable");
 }
 
 /// Parses and validates one file; writes one SPIR-V module per entry point (and per
 /// specialization); reads its single-pass limits and push-constant structs.
-fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
+fn compile(source: &str, stem: &str, shown: &str) -> Result<Compiled, String> {
     let module = naga::front::wgsl::parse_str(source)
         .map_err(|e| e.emit_to_string_with_path(source, shown))?;
     let mut validator = naga::valid::Validator::new(
@@ -313,10 +342,12 @@ fn compile(source: &str, shown: &str) -> Result<Compiled, String> {
             blobs.push((ep.name.clone(), combination, words));
         }
     }
+    let blob = |entry: &str| format!("{stem}.{entry}.spv");
     Ok(Compiled {
         blobs,
         push_constants: push_constant_structs(&module, shown)?,
         single_pass,
+        contracts: contracts::contracts(&module, &info, stem, shown, &blob)?,
     })
 }
 

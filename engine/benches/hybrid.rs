@@ -8,6 +8,7 @@
 
 use criterion::{BatchSize, Criterion, criterion_main};
 use glam::{Vec2, Vec3};
+use lensmap::hybrid::gpu::TracerWalk;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{
@@ -205,8 +206,16 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
         .into_iter()
         .filter(|&(.., offered)| offered)
         .map(|(walk, precision, _)| {
-            GpuTracer::new(&gpu, setup.hybrid.trace(), None, (walk, precision))
-                .expect("the tracer uploads")
+            GpuTracer::new(
+                &gpu,
+                setup.hybrid.trace(),
+                None,
+                TracerWalk {
+                    traversal: walk,
+                    precision,
+                },
+            )
+            .expect("the tracer uploads")
         })
         .collect();
     let settings = PathSettings {

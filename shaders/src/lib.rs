@@ -5,8 +5,12 @@
 //!
 //! What Rust must agree on with the shaders is generated from them by `build.rs`: the push-constant
 //! structs ([`LensConstants`], [`EnvironmentConstants`]) with compile-time checks of their layout,
-//! the single pass's limits [`MAX_LAYERS`] and [`MAX_VIEWPOINTS`], and the table of specialized
-//! entry points keyed by [`Overrides`].
+//! the single pass's limits [`MAX_LAYERS`] and [`MAX_VIEWPOINTS`], the table of specialized
+//! entry points keyed by [`Overrides`], and per shader file a module of its contracts
+//! (`lensmap_shaders::tessellate`, …): its entry points as an enum implementing [`EntryPoint`]
+//! (so that one that does not exist cannot be named), its resources' binding numbers
+//! (`tessellate::binding::CONTROL`) and sets ([`Binding`]), its module-scope constants
+//! (`tessellate::CONTROL_VERTICES`) and its structs' sizes (`tracer::VERTEX_RECORD_BYTES`).
 
 include!(concat!(env!("OUT_DIR"), "/modules.rs"));
 
@@ -21,6 +25,83 @@ pub struct Overrides {
     pub term_mask: u32,
     /// `VIEWPOINTS`: viewpoint samples blended, 1 ..= [`MAX_VIEWPOINTS`].
     pub viewpoints: u32,
+}
+
+/// An entry point of one shader file (each file's `Entry`, generated).
+pub trait EntryPoint: Copy + 'static {
+    /// Every entry point of the file, in its order: `ALL[e.index()] == e`.
+    const ALL: &'static [Self];
+    /// Its name, the SPIR-V entry point.
+    fn name(self) -> &'static str;
+    /// Its compiled SPIR-V.
+    fn shader(self) -> Shader;
+    /// `@workgroup_size` (compute; `[0, 0, 0]` for other stages).
+    fn workgroup_size(self) -> [u32; 3];
+    /// The resources it reads or writes (from naga's analysis of the entry point), in binding
+    /// order.
+    fn uses(self) -> &'static [Use];
+    /// Its index in [`EntryPoint::ALL`].
+    fn index(self) -> usize;
+}
+
+/// How an entry point uses a resource.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    /// It only reads it.
+    Read,
+    /// It only writes it.
+    Write,
+    /// It reads and writes it (atomics included).
+    ReadWrite,
+}
+
+/// A resource an entry point uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Use {
+    /// Its group.
+    pub group: u32,
+    /// Its binding number.
+    pub binding: u32,
+    /// How.
+    pub access: Access,
+}
+
+/// [`Binding::stages`]: the vertex stage.
+pub const STAGE_VERTEX: u32 = 1;
+/// [`Binding::stages`]: the fragment stage.
+pub const STAGE_FRAGMENT: u32 = 2;
+/// [`Binding::stages`]: the compute stage.
+pub const STAGE_COMPUTE: u32 = 4;
+
+/// What a shader binds at one binding number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BindingKind {
+    /// A storage buffer the shader only reads.
+    StorageRead,
+    /// A storage buffer the shader writes.
+    StorageReadWrite,
+    /// A uniform buffer.
+    Uniform,
+    /// A sampled texture (2D, array or cube).
+    SampledImage,
+    /// A sampler.
+    Sampler,
+    /// A top-level acceleration structure (ray queries).
+    AccelerationStructure,
+}
+
+/// One resource of a shader's set.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Binding {
+    /// Its binding number.
+    pub binding: u32,
+    /// The WGSL variable.
+    pub name: &'static str,
+    /// What it is.
+    pub kind: BindingKind,
+    /// The stages whose entry points use it ([`STAGE_VERTEX`], [`STAGE_FRAGMENT`],
+    /// [`STAGE_COMPUTE`] or'd).
+    pub stages: u32,
 }
 
 /// A compiled entry point.
@@ -46,14 +127,9 @@ impl Shader {
     }
 }
 
-/// The compiled entry point `entry` of `file` (one without overrides), or `None` if there is none.
-pub fn shader(file: &str, entry: &str) -> Option<Shader> {
-    all().find(|s| s.file == file && s.entry == entry && s.overrides.is_none())
-}
-
-/// The entry point `entry` of `file` compiled with `overrides` (entry points named
-/// `*_specialized` only), or `None` if `build.rs` did not compile that combination.
-pub fn specialized(file: &str, entry: &str, overrides: Overrides) -> Option<Shader> {
+/// The entry point `entry` of `file` compiled with `overrides`, or `None` if `build.rs` did not
+/// compile that combination: what each file's generated `Specialized::shader` looks up.
+fn specialized(file: &str, entry: &str, overrides: Overrides) -> Option<Shader> {
     all().find(|s| s.file == file && s.entry == entry && s.overrides == Some(overrides))
 }
 
@@ -106,7 +182,9 @@ mod tests {
                         viewpoints,
                     };
                     assert!(
-                        specialized("lens", "fs_single_pass_specialized", overrides).is_some(),
+                        lens::Specialized::FsSinglePassSpecialized
+                            .shader(overrides)
+                            .is_some(),
                         "{overrides:?}"
                     );
                 }
@@ -124,6 +202,66 @@ mod tests {
             let words = shader.words();
             assert_eq!(words[0], 0x0723_0203, "{}: SPIR-V magic", shader.entry);
         }
+    }
+
+    /// Every file's entry enum lists its plain entry points, each naming its own blob, and its
+    /// index is its place in the list.
+    #[test]
+    fn each_files_entries_are_its_blobs() {
+        fn check<E: EntryPoint + std::fmt::Debug>(file: &str) {
+            let plain: Vec<&str> = MODULES
+                .iter()
+                .filter(|(f, _, _)| *f == file)
+                .map(|(_, entry, _)| *entry)
+                .collect();
+            let named: Vec<&str> = E::ALL.iter().map(|e| e.name()).collect();
+            assert_eq!(named, plain, "{file}");
+            for (i, entry) in E::ALL.iter().enumerate() {
+                assert_eq!(entry.index(), i, "{entry:?}");
+                let shader = entry.shader();
+                assert_eq!((shader.file, shader.entry), (file, entry.name()));
+                assert_eq!(shader.words()[0], 0x0723_0203, "{entry:?}: SPIR-V magic");
+            }
+        }
+        check::<tessellate::Entry>("tessellate");
+        check::<texgen::Entry>("texgen");
+        check::<drawlist::Entry>("drawlist");
+        check::<tracer::Entry>("tracer");
+        check::<tracer_rq_f64::Entry>("tracer_rq_f64");
+        check::<lens::Entry>("lens");
+        assert_eq!(tessellate::Entry::CsBegin.workgroup_size(), [64, 1, 1]);
+    }
+
+    /// A set's bindings are numbered 0, 1, 2, … by the generated table, with the kinds the
+    /// WGSL declares.
+    #[test]
+    fn sets_list_the_bindings_in_order() {
+        assert_eq!(tessellate::SETS.len(), 1);
+        assert_eq!(tessellate::SETS[0].len(), 13);
+        assert_eq!(
+            tessellate::SETS[0][tessellate::binding::CONTROL as usize].name,
+            "control"
+        );
+        assert_eq!(
+            tracer_rq::SETS[0][0].kind,
+            BindingKind::AccelerationStructure
+        );
+        assert_eq!(tracer::SETS[0][0].kind, BindingKind::StorageRead);
+        assert_eq!(lens::SETS.len(), 2, "the programmable scheme reads set 1");
+        assert_eq!(lens::SETS[0][0].stages, STAGE_VERTEX, "the lens data");
+        assert_eq!(lens::SETS[0][1].stages, STAGE_FRAGMENT, "layers_a");
+        // cs_scan_top reads and writes the block sums, and nothing of the input mesh.
+        let uses = tessellate::Entry::CsScanTop.uses();
+        let block_sums = tessellate::binding::BLOCK_SUMS;
+        assert!(
+            uses.iter()
+                .any(|u| u.binding == block_sums && u.access == Access::ReadWrite)
+        );
+        assert!(
+            !uses
+                .iter()
+                .any(|u| u.binding == tessellate::binding::INPUT_VERTICES)
+        );
     }
 
     #[test]

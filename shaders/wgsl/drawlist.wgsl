@@ -31,12 +31,7 @@ var<immediate> constants: DrawConstants;
 // first instance): every triangle, the non-hull ones, the hull's.
 @group(0) @binding(8) var<storage, read_write> args: array<u32>;
 
-const CONTROL_SCAN_N: u32 = 9u;
-const CONTROL_OUTPUT: u32 = 11u;
-const CONTROL_DISPATCH_ELEMENTS: u32 = 15u;
-const CONTROL_DISPATCH_BLOCKS: u32 = 18u;
-const WORKGROUP: u32 = 64u;
-const SCAN_BLOCK: u32 = 256u;
+// #include "control.wgsl"
 
 fn load(word: u32) -> u32 {
     return atomicLoad(&control[word]);

@@ -30,7 +30,7 @@ var<immediate> constants: TexgenConstants;
 // The tessellation's control words: the vertex count is word CONTROL_VERTICES.
 @group(0) @binding(5) var<storage, read> control: array<u32>;
 
-const CONTROL_VERTICES: u32 = 5u;
+// #include "control.wgsl"
 
 // Shell kinds (engine/src/hybrid/gpu/texgen.rs writes them) and their parameters a, b:
 const SHELL_SPHERE: u32 = 0u; // a.w: radius

@@ -3,5 +3,6 @@
 // acceleration structures instead, the *_f64 files trace in f64.
 
 // #include "real_f32.wgsl"
+// #include "control.wgsl"
 // #include "vertex_paths.wgsl"
 // #include "walk_bvh.wgsl"

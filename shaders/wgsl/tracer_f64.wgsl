@@ -2,5 +2,6 @@
 // (include/walk_bvh.wgsl): devices with shaderFloat64.
 
 // #include "real_f64.wgsl"
+// #include "control.wgsl"
 // #include "vertex_paths.wgsl"
 // #include "walk_bvh.wgsl"

@@ -4,5 +4,6 @@ enable wgpu_ray_query;
 // acceleration structures (include/walk_rq.wgsl): devices with ray queries.
 
 // #include "real_f32.wgsl"
+// #include "control.wgsl"
 // #include "vertex_paths.wgsl"
 // #include "walk_rq.wgsl"

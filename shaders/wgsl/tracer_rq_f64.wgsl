@@ -4,5 +4,6 @@ enable wgpu_ray_query;
 // acceleration structures (include/walk_rq.wgsl): devices with ray queries and shaderFloat64.
 
 // #include "real_f64.wgsl"
+// #include "control.wgsl"
 // #include "vertex_paths.wgsl"
 // #include "walk_rq.wgsl"

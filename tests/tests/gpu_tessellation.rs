@@ -13,6 +13,7 @@
 
 use glam::{DVec2, DVec3, Vec2, Vec3};
 use lensmap::gpu::Gpu;
+use lensmap::hybrid::gpu::TracerWalk;
 use lensmap::hybrid::gpu::{
     GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, GpuTraversal, PathSettings, TexgenRequest,
 };
@@ -64,8 +65,16 @@ fn welded(mesh: &TriangleMesh) -> TriangleMesh {
 fn on_gpu(gpu: &Gpu, name: &str) -> (Scene, TraceScene, GpuTracer, ScreenCamera) {
     let scene = built_in_scene(name, 160, 120, 2);
     let trace = TraceScene::new(&scene).expect("the scene traces");
-    let tracer = GpuTracer::new(gpu, &trace, None, (GpuTraversal::Bvh, VertexPrecision::F32))
-        .expect("the tracer uploads");
+    let tracer = GpuTracer::new(
+        gpu,
+        &trace,
+        None,
+        TracerWalk {
+            traversal: GpuTraversal::Bvh,
+            precision: VertexPrecision::F32,
+        },
+    )
+    .expect("the tracer uploads");
     let camera = &scene.camera;
     let screen = ScreenCamera {
         eye: camera.position.as_dvec3(),
@@ -132,7 +141,7 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
                     };
                     let run = || {
                         tracer
-                            .tessellate(&gpu, (object, mesh), &request)
+                            .tessellate(&gpu, object, mesh, &request)
                             .expect("the GPU tessellates")
                     };
                     let first = run();
@@ -165,7 +174,7 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
                             tessellate(&closed, &oracle, &options).expect("the CPU tessellates");
                         check_surface(&format!("{case}, welded (CPU)"), &closed, &cpu);
                         let on_gpu = tracer
-                            .tessellate(&gpu, (usize::MAX, &closed), &request)
+                            .tessellate(&gpu, usize::MAX, &closed, &request)
                             .expect("the GPU tessellates")
                             .tessellation;
                         check_surface(&format!("{case}, welded"), &closed, &on_gpu);
@@ -221,7 +230,7 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
         continue_budget: false,
     };
     let capped = tracer
-        .tessellate(&gpu, (object, mesh), &request)
+        .tessellate(&gpu, object, mesh, &request)
         .expect("the GPU tessellates")
         .tessellation;
     let stats = &capped.stats;
@@ -247,7 +256,8 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
     let unsplit = tracer
         .tessellate(
             &gpu,
-            (object, mesh),
+            object,
+            mesh,
             &GpuTessellationRequest {
                 options: &spent,
                 ..request
@@ -262,7 +272,8 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
     assert!(matches!(
         tracer.tessellate(
             &gpu,
-            (object, mesh),
+            object,
+            mesh,
             &GpuTessellationRequest {
                 options: &zero_t,
                 ..request
@@ -277,7 +288,8 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
     };
     let refused = tracer.tessellate(
         &gpu,
-        (object, mesh),
+        object,
+        mesh,
         &GpuTessellationRequest {
             options: &deep,
             ..request
@@ -359,7 +371,8 @@ fn gpu_texgen_matches_every_shell_kind_in_f64() {
         let made = tracer
             .tessellate(
                 &gpu,
-                (object, mesh),
+                object,
+                mesh,
                 &GpuTessellationRequest {
                     camera: &screen,
                     settings: &settings,

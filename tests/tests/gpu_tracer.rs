@@ -15,6 +15,7 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use lensmap::hybrid::FrameBuilder;
+use lensmap::hybrid::gpu::TracerWalk;
 use lensmap::hybrid::gpu::{GpuTracer, GpuTraversal, PathSettings, Traversal};
 use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths, VertexPrecision};
 use lensmap::hybrid::tessellate::TessellationError;
@@ -102,7 +103,10 @@ fn agreement(name: &str) -> Agreement {
         &gpu,
         &trace,
         None,
-        (GpuTraversal::Bvh, VertexPrecision::F32),
+        TracerWalk {
+            traversal: GpuTraversal::Bvh,
+            precision: VertexPrecision::F32,
+        },
     )
     .expect("the tracer uploads");
     // Where the device has ray queries, the driver's walk must find what the BVH walk finds.
@@ -111,7 +115,10 @@ fn agreement(name: &str) -> Agreement {
             &gpu,
             &trace,
             None,
-            (GpuTraversal::Driver, VertexPrecision::F32),
+            TracerWalk {
+                traversal: GpuTraversal::Driver,
+                precision: VertexPrecision::F32,
+            },
         )
         .expect("the driver's walk builds")
     });
@@ -120,7 +127,10 @@ fn agreement(name: &str) -> Agreement {
             &gpu,
             &trace,
             None,
-            (GpuTraversal::Bvh, VertexPrecision::F64),
+            TracerWalk {
+                traversal: GpuTraversal::Bvh,
+                precision: VertexPrecision::F64,
+            },
         )
         .expect("the f64 tracer uploads")
     });

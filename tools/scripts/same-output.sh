@@ -145,6 +145,10 @@ case_add render-tr-multipass-rgba8 json render "${TR[@]}" --variant multipass --
 case_add render-tr-rgba32f json render "${TR[@]}" --format rgba32f --out @DIR@/render-tr-rgba32f.png
 case_add render-gs json render --scene glass-sphere --projected --view 0 --width 96 --height 72 --supersampling 1 --compare --json --out @DIR@/render-gs.png
 case_add render-mt json render --scene mirror-teapot --projected --width 96 --height 72 --supersampling 1 --json --out @DIR@/render-mt.png
+# The GPU's vertex stages: drawn where the device leaves the meshes (the default of `--tracer
+# gpu`), and read back (a frame of the viewer's recording, which reads them back for its counts).
+case_add render-tr-gpu json render "${TR[@]}" --tracer gpu --out @DIR@/render-tr-gpu.png
+case_add render-mt-gpu-multipass json render --scene mirror-teapot --projected --width 96 --height 72 --supersampling 1 --tracer gpu --variant multipass --json --out @DIR@/render-mt-gpu-multipass.png
 # The human-readable report of `render` too (same settings as render-gs).
 case_add render-gs-text text render --scene glass-sphere --projected --view 0 --width 96 --height 72 --supersampling 1 --compare --out @DIR@/render-gs-text.png
 
@@ -174,6 +178,8 @@ for config in \
     case_add "$name" exact passes "$@"
     case_add "$name-json" json passes "$@" --json
 done
+# The GPU frame's plan: two lens objects' parts tessellated on the device.
+case_add passes-gpu-parts exact passes --layers 2 --viewpoints 2 --terms 2 --gpu-parts 2
 
 # The bake and the figures judged over lens pixels: a small bake of a scene with two lens objects
 # (its EXRs and manifest compared as files, its judge's PSNR in its JSON), bench bake on it, and

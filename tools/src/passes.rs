@@ -2,6 +2,7 @@
 //! built from a frame's shape alone (no data, no GPU).
 
 use clap::Args;
+use lensmap::hybrid::gpu::{Texgen, planned_part};
 use lensmap::options::Worded;
 use lensmap::render::{
     BlendScheme, Compositing, FrameShape, Output, PassCategory, PlanOptions, SinglePassLimits,
@@ -37,9 +38,10 @@ pub struct PassesArgs {
     /// Framebuffer format.
     #[arg(long, value_enum, default_value = "rgba8")]
     format: FormatArg,
-    /// The lens object is tessellated on the GPU (`--tracer gpu`) from this many scene objects:
-    /// the frame opens with its compute pass, which the lens passes wait for; 0 for a lens
-    /// object traced on the CPU.
+    /// The lens object is tessellated on the GPU (`--tracer gpu`) from this many scene objects,
+    /// at the default depth cap: the frame opens with every dispatch and barrier of their
+    /// tessellations, texgen and draw lists, which the lens passes wait for; 0 for a lens object
+    /// traced on the CPU.
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=16))]
     gpu_parts: u8,
     /// Glossy objects drawn by reflection-space IBR (the glossy pass after the environment,
@@ -64,8 +66,14 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         .into());
     }
     let mut shape = FrameShape::synthetic(640, 480, args.layers, args.viewpoints as usize, terms);
+    let levels = lensmap::hybrid::tessellate::DEFAULT_MAX_DEPTH + 1;
     for lens in &mut shape.lenses {
-        lens.compute = usize::from(args.gpu_parts);
+        lens.parts = (0..usize::from(args.gpu_parts))
+            .map(|object| {
+                let name = format!("object{object} output0");
+                planned_part(&name, object, levels, Texgen::On)
+            })
+            .collect();
     }
     shape.glossy = (0..args.glossy).map(|g| format!("glossy{g}")).collect();
     let format = TargetFormat::from(args.format);

@@ -69,20 +69,27 @@ fn passes_prints_the_papers_counts() {
             (Some(1), Some(0))
         );
     }
-    // A lens object tessellated on the GPU: its compute pass first, then every lens pass as
-    // before, waiting for it once.
+    // A lens object tessellated on the GPU: every pass of its parts' tessellations first (per
+    // part: three transfers, the begin and classify passes, eight a level over the default 13
+    // levels, five for the leaves, texgen, six for the draw list, three copies of the counts and
+    // the host's read), then every lens pass as before, waiting for each part's data, indices
+    // and draws once.
     let gpu = passes_counts(&["--layers", "2", "--gpu-parts", "2"]);
     let cpu = passes_counts(&["--layers", "2"]);
+    let per_part = 3 + 2 + 8 * 13 + 5 + 1 + 6 + 3 + 1;
     assert_eq!(
         (gpu["tessellation"].as_u64(), cpu["tessellation"].as_u64()),
-        (Some(1), Some(0))
+        (Some(2 * per_part), Some(0))
     );
     assert_eq!(gpu["layer"], cpu["layer"]);
-    assert_eq!(
-        gpu["barriers"].as_u64(),
-        cpu["barriers"].as_u64().map(|b| b + 2),
-        "one buffer barrier per part"
-    );
+    let plan = lensmap(&["passes", "--layers", "2", "--gpu-parts", "2"]);
+    let plan = String::from_utf8_lossy(&plan.stdout);
+    for part in ["object0 output0", "object1 output0"] {
+        for buffer in ["data", "indices", "draws"] {
+            let waits = format!("{part} {buffer}: compute->vertex");
+            assert_eq!(plan.matches(&waits).count(), 1, "{waits}:\n{plan}");
+        }
+    }
     let table = lensmap(&["passes", "--layers", "2"]);
     let text = String::from_utf8_lossy(&table.stdout);
     assert!(

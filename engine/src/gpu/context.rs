@@ -673,6 +673,25 @@ impl Gpu {
         &self.properties
     }
 
+    /// Valid bits of the timestamps of the queue (0: no timestamps).
+    pub fn queue_timestamp_bits(&self) -> u32 {
+        let vulkan = self.vulkan();
+        // SAFETY: the physical device belongs to the instance.
+        let families = unsafe {
+            vulkan
+                .instance
+                .get_physical_device_queue_family_properties(vulkan.physical_device)
+        };
+        families
+            .get(vulkan.queue_family as usize)
+            .map_or(0, |family| family.timestamp_valid_bits)
+    }
+
+    /// The queue's timestamp period, nanoseconds a tick.
+    pub fn timestamp_period(&self) -> f32 {
+        self.properties.limits.timestamp_period
+    }
+
     /// Whether the device is a CPU implementation (lavapipe), not a hardware GPU.
     pub fn is_cpu_device(&self) -> bool {
         self.properties.device_type == vk::PhysicalDeviceType::CPU

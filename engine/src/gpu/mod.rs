@@ -1,20 +1,25 @@
 //! The Vulkan backend on ash: instance and device selection, memory through gpu-allocator,
 //! buffers, 2D images and cube-map arrays with full mip chains, uploads and readback, pipelines,
-//! debug-utils labels and the validation messenger. Nothing above this room calls ash directly
-//! except `render/`, which records command buffers.
+//! descriptor sets, query pools and command rings as owned values, debug-utils labels and the
+//! validation messenger. Nothing above this room calls ash directly except `render/`, which
+//! records command buffers.
 
 pub mod acceleration;
+pub mod compute;
 pub(crate) mod context;
+pub(crate) mod descriptors;
 mod pipeline;
 pub(crate) mod resources;
 mod startup;
 mod timeline;
 
 pub use ash::vk;
+pub use compute::{CommandRing, ComputePipelines, Kernels, Pipeline, QueryPool, QueryPoolRef};
 pub use context::{
     DeviceChoice, DeviceId, DeviceMemory, Gpu, GpuOptions, HostDevice, HostFeatures,
     ValidationReport, VulkanHandles,
 };
+pub use descriptors::DescriptorSet;
 pub use pipeline::{GraphicsPipelineDesc, VertexInput};
 pub use resources::{Buffer, BufferUsage, Image, ImageDesc, format_bytes};
 pub use timeline::Timeline;

@@ -4,8 +4,8 @@
 use std::{collections::HashSet, fmt};
 
 use super::{
-    Access, BufferId, BufferInfo, DepthAttachment, Graph, GraphError, ImageId, ImageInfo, Layout,
-    LoadOp, Origin, Pass, PassKind, StoreOp,
+    Access, BufferId, BufferInfo, BufferOrigin, DepthAttachment, Graph, GraphError, ImageId,
+    ImageInfo, Layout, LoadOp, Origin, Pass, PassKind, StoreOp,
 };
 
 /// Why a declared pass is not in the plan.
@@ -41,8 +41,8 @@ pub struct Barrier {
     pub dst: Access,
 }
 
-/// A memory dependency on one buffer before a step: a compute pass wrote it, and the step's draws
-/// read it.
+/// A memory dependency on one buffer before a step: an earlier use (`src`) must finish, and its
+/// writes be visible, before the step's use (`dst`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BufferBarrier {
     /// The buffer.
@@ -71,8 +71,8 @@ pub struct Step<D, P, C> {
     pub pass: Pass<D, P, C>,
     /// Barriers recorded before it (only on the first step of a rendering instance, or a readback).
     pub barriers: Vec<Barrier>,
-    /// Buffer barriers recorded before it (on the first step of a rendering instance whose draws
-    /// read what a compute pass wrote).
+    /// Buffer barriers recorded before it (on a compute step, a host read, or the first step of a
+    /// rendering instance whose draws read what a compute pass wrote).
     pub buffer_barriers: Vec<BufferBarrier>,
     /// `Some` on the first step of a rendering instance: begin rendering before this step.
     pub begin: Option<RenderingInstance>,
@@ -150,17 +150,37 @@ fn reads_and_writes<D, P, C>(pass: &Pass<D, P, C>) -> (Vec<ImageId>, Vec<ImageId
             (reads, writes)
         }
         PassKind::Readback { image, .. } | PassKind::Export { image } => (vec![*image], Vec::new()),
-        PassKind::Compute { .. } => (Vec::new(), Vec::new()),
+        PassKind::Compute { .. } | PassKind::HostRead { .. } => (Vec::new(), Vec::new()),
     }
 }
 
-/// The buffers a pass reads (a draw's `storage`) and writes (a compute pass's).
-fn buffer_reads_and_writes<D, P, C>(pass: &Pass<D, P, C>) -> (&[BufferId], &[BufferId]) {
+/// The buffers a pass uses and how, in its order.
+fn buffer_uses<D, P, C>(pass: &Pass<D, P, C>) -> Vec<(BufferId, Access)> {
     match &pass.kind {
-        PassKind::Draw { storage, .. } => (storage, &[]),
-        PassKind::Compute { writes, .. } => (&[], writes),
-        PassKind::Readback { .. } | PassKind::Export { .. } => (&[], &[]),
+        PassKind::Draw { storage, .. } => storage
+            .iter()
+            .map(|&b| (b, Access::VertexStorageRead))
+            .collect(),
+        PassKind::Compute { buffers, .. } => buffers.clone(),
+        PassKind::HostRead { buffers } => buffers.iter().map(|&b| (b, Access::HostRead)).collect(),
+        PassKind::Readback { .. } | PassKind::Export { .. } => Vec::new(),
     }
+}
+
+/// The buffers a pass reads and writes.
+fn buffer_reads_and_writes<D, P, C>(pass: &Pass<D, P, C>) -> (Vec<BufferId>, Vec<BufferId>) {
+    let uses = buffer_uses(pass);
+    let reads = uses
+        .iter()
+        .filter(|(_, a)| !matches!(a, Access::TransferWrite))
+        .map(|(b, _)| *b)
+        .collect();
+    let writes = uses
+        .iter()
+        .filter(|(_, a)| a.writes())
+        .map(|(b, _)| *b)
+        .collect();
+    (reads, writes)
 }
 
 /// Whether the pass fully redefines `image` (so earlier writers are not needed by it).
@@ -170,7 +190,10 @@ fn redefines<D, P, C>(pass: &Pass<D, P, C>, image: ImageId) -> bool {
             (colour.image == image && colour.load != LoadOp::Load)
                 || depth.is_some_and(|d| d.image == image && d.load != LoadOp::Load)
         }
-        PassKind::Readback { .. } | PassKind::Export { .. } | PassKind::Compute { .. } => false,
+        PassKind::Readback { .. }
+        | PassKind::Export { .. }
+        | PassKind::Compute { .. }
+        | PassKind::HostRead { .. } => false,
     }
 }
 
@@ -180,6 +203,53 @@ type Culling = Vec<Option<CullReason>>;
 /// Where an image stands while the plan is scheduled: its layout, the last access and whether
 /// that access wrote.
 type ImageState = (Layout, Access, bool);
+
+/// Where a buffer stands while the plan is scheduled: its last writer and its readers since.
+#[derive(Clone, Debug, Default)]
+struct BufferState {
+    writer: Option<Access>,
+    readers: Vec<Access>,
+}
+
+impl BufferState {
+    /// The state of a buffer of `origin` before the frame.
+    fn of(origin: BufferOrigin) -> BufferState {
+        BufferState {
+            writer: (origin == BufferOrigin::Kept).then_some(Access::Earlier),
+            readers: Vec::new(),
+        }
+    }
+
+    /// Uses the buffer by `access`, adding the barriers that use must wait behind: a read after
+    /// a write (once per kind of reader), a write after reads (an execution dependency on each)
+    /// or after a write.
+    fn use_by(&mut self, buffer: BufferId, access: Access, barriers: &mut Vec<BufferBarrier>) {
+        let mut wait = |src: Access| {
+            let barrier = BufferBarrier {
+                buffer,
+                src,
+                dst: access,
+            };
+            if !barriers.contains(&barrier) {
+                barriers.push(barrier);
+            }
+        };
+        if access.writes() {
+            match (self.readers.is_empty(), self.writer) {
+                (false, _) => self.readers.iter().for_each(|&r| wait(r)),
+                (true, Some(writer)) => wait(writer),
+                (true, None) => {}
+            }
+            self.writer = Some(access);
+            self.readers.clear();
+        } else if !self.readers.contains(&access) {
+            if let Some(writer) = self.writer {
+                wait(writer);
+            }
+            self.readers.push(access);
+        }
+    }
+}
 
 impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
     /// Validates the declaration and compiles it into a plan, in four phases: empty draw lists
@@ -248,7 +318,7 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
             let live = pass.side_effect
                 || matches!(
                     pass.kind,
-                    PassKind::Readback { .. } | PassKind::Export { .. }
+                    PassKind::Readback { .. } | PassKind::Export { .. } | PassKind::HostRead { .. }
                 )
                 || writes.iter().any(|w| needed.contains(w))
                 || buffer_writes.iter().any(|w| needed_buffers.contains(w));
@@ -302,9 +372,19 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                 Origin::External => (Layout::External, Access::External, true),
             })
             .collect();
+        let mut buffers: Vec<BufferState> = self
+            .buffers
+            .iter()
+            .map(|b| BufferState::of(b.origin))
+            .collect();
+        let mut use_buffers = |pass: &Pass<D, P, C>, barriers: &mut Vec<BufferBarrier>| {
+            for (buffer, access) in buffer_uses(pass) {
+                if let Some(state) = buffers.get_mut(buffer.0 as usize) {
+                    state.use_by(buffer, access, barriers);
+                }
+            }
+        };
         let mut steps: Vec<Step<D, P, C>> = Vec::with_capacity(live.len());
-        // Buffers written by a compute step that no draw has waited for yet.
-        let mut written: HashSet<BufferId> = HashSet::new();
         let mut index = 0;
         while index < live.len() {
             let pass = live[index];
@@ -335,14 +415,15 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                     });
                     index += 1;
                 }
-                // Compute work: a step of its own, outside rendering; what it writes is waited
-                // for by the first instance that reads it.
-                PassKind::Compute { writes, .. } => {
-                    written.extend(writes.iter().copied());
+                // Compute or transfer work, and the host's reads: a step of its own, outside
+                // rendering, behind the barriers its buffers need.
+                PassKind::Compute { .. } | PassKind::HostRead { .. } => {
+                    let mut buffer_barriers = Vec::new();
+                    use_buffers(pass, &mut buffer_barriers);
                     steps.push(Step {
                         pass: pass.clone(),
                         barriers: Vec::new(),
-                        buffer_barriers: Vec::new(),
+                        buffer_barriers,
                         begin: None,
                         end: false,
                     });
@@ -352,22 +433,14 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                     let last = instance_end(live, index);
                     let group = &live[index..=last];
                     let mut instance = rendering_instance(group, &mut state);
-                    let mut read: Vec<BufferId> = group
-                        .iter()
-                        .flat_map(|p| buffer_reads_and_writes(p).0.iter().copied())
-                        .filter(|b| written.remove(b))
-                        .collect();
-                    read.sort();
-                    read.dedup();
+                    // Every buffer the instance's draws read waits, once, on its first step.
+                    let mut buffer_barriers = Vec::new();
+                    for pass in group {
+                        use_buffers(pass, &mut buffer_barriers);
+                    }
+                    buffer_barriers.sort_by_key(|b| b.buffer);
                     if let Some(first) = instance.first_mut() {
-                        first.buffer_barriers = read
-                            .into_iter()
-                            .map(|buffer| BufferBarrier {
-                                buffer,
-                                src: Access::ComputeWrite,
-                                dst: Access::VertexStorageRead,
-                            })
-                            .collect();
+                        first.buffer_barriers = buffer_barriers;
                     }
                     steps.extend(instance);
                     index = last + 1;
@@ -431,8 +504,12 @@ impl<D: Clone, P: Clone, C: Clone> Graph<D, P, C> {
                         });
                     }
                 }
-                PassKind::Compute { writes, .. } => {
-                    if let Some(b) = writes.iter().find(|b| b.0 as usize >= self.buffers.len()) {
+                PassKind::Compute { .. } | PassKind::HostRead { .. } => {
+                    let uses = buffer_uses(pass);
+                    if let Some((b, _)) = uses
+                        .iter()
+                        .find(|(b, _)| b.0 as usize >= self.buffers.len())
+                    {
                         return Err(GraphError::UnknownResource {
                             pass: pass.name.clone(),
                             kind: "buffer",
@@ -651,7 +728,14 @@ impl<D, P, C> fmt::Display for Plan<D, P, C> {
                 ),
                 PassKind::Readback { .. } => ("copy".into(), "-".into(), "-".into()),
                 PassKind::Export { .. } => ("hand back".into(), "-".into(), "-".into()),
-                PassKind::Compute { .. } => ("compute".into(), "-".into(), "-".into()),
+                PassKind::Compute { buffers, .. } => {
+                    let transfer = buffers
+                        .iter()
+                        .all(|(_, a)| matches!(a, Access::TransferRead | Access::TransferWrite));
+                    let kind = if transfer { "transfer" } else { "compute" };
+                    (kind.into(), "-".into(), "-".into())
+                }
+                PassKind::HostRead { .. } => ("host read".into(), "-".into(), "-".into()),
             };
             let rendering = match (&step.begin, step.end) {
                 (Some(instance), true) => format!("begin {}+end", load_name(instance.colour.1)),
@@ -673,7 +757,7 @@ impl<D, P, C> fmt::Display for Plan<D, P, C> {
                         .buffers
                         .get(b.buffer.0 as usize)
                         .map_or("?", |i| &i.name);
-                    format!("{name}: compute->vertex")
+                    format!("{name}: {}->{}", b.src.name(), b.dst.name())
                 }))
                 .collect();
             writeln!(

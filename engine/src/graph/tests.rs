@@ -353,7 +353,7 @@ fn a_compute_pass_runs_first_and_the_draws_that_read_its_buffers_wait_for_it() {
         side_effect,
         kind: PassKind::Compute {
             dispatches: vec![7],
-            writes,
+            buffers: writes.iter().map(|&b| (b, Access::ComputeWrite)).collect(),
         },
     };
     g.add_pass(compute("make", vec![part], false));
@@ -407,4 +407,99 @@ fn a_compute_pass_runs_first_and_the_draws_that_read_its_buffers_wait_for_it() {
     let plan = g.compile().expect("compiles");
     assert_eq!(plan.steps[0].pass.name, "counted");
     assert!(plan.steps.iter().all(|s| s.buffer_barriers.is_empty()));
+}
+
+/// A chain of compute and transfer passes over shared buffers: the graph places a barrier before
+/// each use that must wait (a read after a write, a write after reads or a write), none before a
+/// second read, one from the work submitted before on a kept buffer's first use, and the host's
+/// read after the last copy.
+#[test]
+fn compute_passes_wait_for_what_they_read_and_what_they_overwrite() {
+    let mut g: Graph<u32, &str, &str> = Graph::new();
+    let control = g.kept_buffer("control", 16);
+    let data = g.buffer("data", 64);
+    let host = g.kept_buffer("host", 16);
+    let pass = |name: &str, buffers: Vec<(BufferId, Access)>| TestPass {
+        name: name.into(),
+        category: "compute",
+        side_effect: true,
+        kind: PassKind::Compute {
+            dispatches: vec![0],
+            buffers,
+        },
+    };
+    g.add_pass(pass("update", vec![(control, Access::TransferWrite)]));
+    g.add_pass(pass(
+        "write",
+        vec![(control, Access::ComputeRead), (data, Access::ComputeWrite)],
+    ));
+    g.add_pass(pass(
+        "read",
+        vec![(data, Access::ComputeRead), (control, Access::IndirectRead)],
+    ));
+    g.add_pass(pass("read again", vec![(data, Access::ComputeRead)]));
+    g.add_pass(pass(
+        "rewrite",
+        vec![
+            (data, Access::ComputeWrite),
+            (control, Access::ComputeWrite),
+        ],
+    ));
+    g.add_pass(pass(
+        "copy",
+        vec![
+            (control, Access::TransferRead),
+            (host, Access::TransferWrite),
+        ],
+    ));
+    g.add_pass(TestPass {
+        name: "host".into(),
+        category: "host",
+        side_effect: false,
+        kind: PassKind::HostRead {
+            buffers: vec![host],
+        },
+    });
+    let plan = g.compile().expect("compiles");
+    let barriers: Vec<Vec<(BufferId, Access, Access)>> = plan
+        .steps
+        .iter()
+        .map(|s| {
+            s.buffer_barriers
+                .iter()
+                .map(|b| (b.buffer, b.src, b.dst))
+                .collect()
+        })
+        .collect();
+    use Access::*;
+    assert_eq!(
+        barriers,
+        vec![
+            // The kept control buffer waits for the work before.
+            vec![(control, Earlier, TransferWrite)],
+            // The frame's data buffer waits for nothing.
+            vec![(control, TransferWrite, ComputeRead)],
+            vec![
+                (data, ComputeWrite, ComputeRead),
+                (control, TransferWrite, IndirectRead)
+            ],
+            // A second read of the same kind: no barrier.
+            vec![],
+            // Writes wait for every kind of read since the last write.
+            vec![
+                (data, ComputeRead, ComputeWrite),
+                (control, ComputeRead, ComputeWrite),
+                (control, IndirectRead, ComputeWrite),
+            ],
+            vec![
+                (control, ComputeWrite, TransferRead),
+                (host, Earlier, TransferWrite)
+            ],
+            vec![(host, TransferWrite, HostRead)],
+        ]
+    );
+    let table = plan.to_string();
+    assert!(table.contains("host: transfer->host"), "{table}");
+    assert!(table.contains("transfer"), "{table}");
+    assert!(table.contains("host read"), "{table}");
 }

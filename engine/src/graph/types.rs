@@ -83,6 +83,19 @@ pub struct BufferInfo {
     pub name: String,
     /// Size in bytes.
     pub size: u64,
+    /// Where its contents come from.
+    pub origin: BufferOrigin,
+}
+
+/// Where a buffer of a graph comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BufferOrigin {
+    /// Made for the frame, or its contents before the frame do not matter: its first use waits
+    /// for nothing.
+    Frame,
+    /// Kept across submissions (a tessellation's shared buffers, a part's outputs): its first
+    /// use in the frame waits for the work submitted before ([`Access::Earlier`]).
+    Kept,
 }
 
 /// Image layouts, in the graph's words (render maps them to Vulkan's).
@@ -129,14 +142,56 @@ pub enum Access {
     FragmentSample,
     /// Read by the vertex stage: a storage buffer, indices or indirect draw arguments.
     VertexStorageRead,
-    /// Written by a compute shader (storage buffer).
+    /// Read by a compute shader (storage buffer).
+    ComputeRead,
+    /// Written (and perhaps read, atomics included) by a compute shader (storage buffer).
     ComputeWrite,
+    /// Read as a dispatch's indirect arguments.
+    IndirectRead,
+    /// Read by the host once the submission completed.
+    HostRead,
+    /// Whatever the work submitted before this submission did to a kept buffer.
+    Earlier,
     /// Copy source.
     TransferRead,
     /// Copy destination.
     TransferWrite,
     /// Any use by the owner of an [`Origin::External`] image, before or after the frame.
     External,
+}
+
+impl Access {
+    /// Whether the access writes (a read-write counts as a write).
+    pub fn writes(self) -> bool {
+        matches!(
+            self,
+            Access::ColourAttachment
+                | Access::DepthAttachment
+                | Access::ComputeWrite
+                | Access::TransferWrite
+                | Access::External
+                | Access::Earlier
+        )
+    }
+
+    /// Its name in a plan's barriers.
+    pub fn name(self) -> &'static str {
+        match self {
+            Access::None => "none",
+            Access::ColourAttachment => "colour",
+            Access::DepthAttachment => "depth",
+            Access::FragmentSample => "sampled",
+            Access::VertexStorageRead => "vertex",
+            Access::ComputeRead => "compute-read",
+            Access::ComputeWrite => "compute",
+            Access::IndirectRead => "indirect",
+            Access::TransferRead => "transfer-read",
+            Access::TransferWrite => "transfer",
+            Access::HostRead => "host",
+            Access::External => "external",
+            Access::Earlier => "earlier",
+        }
+    }
 }
 
 /// What happens to an attachment when a pass begins.
@@ -297,14 +352,24 @@ pub enum PassKind<D, P> {
         /// The draws, as payloads `render/` understands.
         draws: Vec<D>,
     },
-    /// Run `dispatches` (compute work, as payloads `render/` understands), outside any
-    /// rendering instance, writing the buffers `writes`: a later draw pass that reads one (its
-    /// `storage`) waits for it, and keeps it alive.
+    /// Run `dispatches` (compute or transfer work, as payloads `render/` understands), outside
+    /// any rendering instance, using `buffers` as each says: the graph places a barrier before
+    /// a use that must wait for an earlier one (a read after a write, a write after a read or a
+    /// write), and a later draw pass that reads a buffer it writes (its `storage`) waits for it
+    /// and keeps it alive.
     Compute {
         /// The dispatches.
         dispatches: Vec<D>,
-        /// Buffers they write.
-        writes: Vec<BufferId>,
+        /// The buffers they use and how: [`Access::ComputeRead`], [`Access::ComputeWrite`],
+        /// [`Access::IndirectRead`], [`Access::TransferRead`] or [`Access::TransferWrite`].
+        buffers: Vec<(BufferId, Access)>,
+    },
+    /// The host reads `buffers` once the submission completed (a side effect: it keeps the
+    /// passes that wrote them alive). Records no command, only the barrier that makes the
+    /// writes visible to the host.
+    HostRead {
+        /// The buffers read.
+        buffers: Vec<BufferId>,
     },
     /// Copy an image into a host-readable buffer (a side effect: it keeps what it reads alive).
     Readback {
@@ -365,7 +430,10 @@ impl<D, P, C> Pass<D, P, C> {
                 depth_write: depth.is_some_and(|d| d.write),
                 cull: *cull,
             }),
-            PassKind::Compute { .. } | PassKind::Readback { .. } | PassKind::Export { .. } => None,
+            PassKind::Compute { .. }
+            | PassKind::HostRead { .. }
+            | PassKind::Readback { .. }
+            | PassKind::Export { .. } => None,
         }
     }
 
@@ -374,7 +442,7 @@ impl<D, P, C> Pass<D, P, C> {
         match &self.kind {
             PassKind::Draw { draws, .. } => draws.len(),
             PassKind::Compute { dispatches, .. } => dispatches.len(),
-            PassKind::Readback { .. } | PassKind::Export { .. } => 0,
+            PassKind::HostRead { .. } | PassKind::Readback { .. } | PassKind::Export { .. } => 0,
         }
     }
 }
@@ -441,13 +509,31 @@ impl<D, P, C> Graph<D, P, C> {
         ImageId(self.images.len() as u32 - 1)
     }
 
-    /// Declares a buffer (vertex data, storage or readback).
+    /// Declares a buffer the frame makes (vertex data, storage or readback).
     pub fn buffer(&mut self, name: &str, size: u64) -> BufferId {
+        self.push_buffer(name, size, BufferOrigin::Frame)
+    }
+
+    /// Declares a buffer kept across submissions: its first use waits for earlier work.
+    pub fn kept_buffer(&mut self, name: &str, size: u64) -> BufferId {
+        self.push_buffer(name, size, BufferOrigin::Kept)
+    }
+
+    fn push_buffer(&mut self, name: &str, size: u64, origin: BufferOrigin) -> BufferId {
         self.buffers.push(BufferInfo {
             name: name.into(),
             size,
+            origin,
         });
         BufferId(self.buffers.len() as u32 - 1)
+    }
+
+    /// The buffer named `name`, if one is declared.
+    pub fn find_buffer(&self, name: &str) -> Option<BufferId> {
+        self.buffers
+            .iter()
+            .position(|b| b.name == name)
+            .map(|i| BufferId(i as u32))
     }
 
     /// Adds a pass after the others.

@@ -12,7 +12,6 @@ use std::sync::Mutex;
 use glam::{DVec2, DVec3, Mat4, Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::gpu::{GpuPaths, PathSettings};
 use super::tessellate::{
     SurfaceVertex, TessellationError, VertexEvaluation, VertexOracle, faces_eye,
 };
@@ -106,6 +105,32 @@ impl ScreenCamera {
 /// ray happens to meet the vertex's own surface (which rounding decides there).
 pub(crate) const GRAZING: f64 = 0.02;
 
+/// Where a traced vertex's paths start and stop (the CPU oracle's options), for the GPU's passes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathSettings {
+    /// The lens object (TraceScene order).
+    pub lens: usize,
+    /// Scene object of the vertices.
+    pub object: usize,
+    /// Where the paths stop.
+    pub bounces: Bounces,
+    /// Most interfaces a path may meet.
+    pub max_interfaces: u32,
+}
+
+/// What a device's passes need of a [`PathOracle`] to trace and tessellate by its rules.
+#[derive(Clone, Copy, Debug)]
+pub struct OracleSettings {
+    /// Where the paths start and stop.
+    pub paths: PathSettings,
+    /// The frame's camera.
+    pub camera: ScreenCamera,
+    /// cos of the angle threshold.
+    pub cos_threshold: f32,
+    /// Whether back-facing triangles are evaluated (an open mesh).
+    pub back_faces: bool,
+}
+
 /// Ray traces the vertices of one scene object of one lens object.
 pub struct PathOracle<'a> {
     trace: &'a TraceScene,
@@ -181,84 +206,33 @@ impl<'a> PathOracle<'a> {
         self.counters.lock().map(|c| c.0).unwrap_or_default()
     }
 
-    /// Tessellates `mesh` (this oracle's scene object) on `gpu` by this oracle's camera, paths
-    /// and criterion, every vertex traced there, with the texture coordinates of `texgen`'s
-    /// layers when asked, and adds the rays and the submission's time to its counters.
-    pub(crate) fn tessellate_on_gpu(
-        &self,
-        gpu: GpuPaths<'_>,
-        mesh: &crate::scene::TriangleMesh,
-        options: &crate::hybrid::tessellate::TessellationOptions,
-        texgen: Option<super::gpu::TexgenRequest<'_>>,
-    ) -> Result<super::gpu::GpuTessellation, TessellationError> {
-        self.check_holds(gpu)?;
-        let settings = self.settings();
-        let request = self.gpu_request(&settings, options, texgen);
-        let made = gpu
-            .tracer
-            .tessellate(gpu.gpu, (self.object, mesh), &request)?;
-        self.add_gpu_time(made.stage_ms, made.submission_ms, made.counters);
-        Ok(made)
-    }
-
-    /// Tessellates `mesh` as [`Self::tessellate_on_gpu`] does, left on the device for a frame to
-    /// draw ([`GpuTracer::tessellate_on_device`](super::gpu::GpuTracer::tessellate_on_device)),
-    /// with what `extras` adds (texgen, the convex-hull split, the budget continued from the
-    /// frame's previous tessellation). Its rays are counted on the device, read once the frame
-    /// is done.
-    pub(crate) fn tessellate_on_device(
-        &self,
-        gpu: GpuPaths<'_>,
-        mesh: &crate::scene::TriangleMesh,
-        options: &crate::hybrid::tessellate::TessellationOptions,
-        extras: super::gpu::DeviceExtras<'_>,
-    ) -> Result<super::gpu::DeviceTessellation, TessellationError> {
-        self.check_holds(gpu)?;
-        let settings = self.settings();
-        let request = super::gpu::GpuTessellationRequest {
-            hull: extras.hull,
-            continue_budget: extras.continue_budget,
-            ..self.gpu_request(&settings, options, extras.texgen)
-        };
-        let made = gpu
-            .tracer
-            .tessellate_on_device(gpu.gpu, (self.object, mesh), &request)?;
-        self.add_gpu_time(made.stage_ms, made.submission_ms, TraceCounters::default());
-        Ok(made)
-    }
-
-    /// The GPU tessellation's request for this oracle's camera, paths and criterion.
-    fn gpu_request<'r>(
-        &'r self,
-        settings: &'r super::gpu::PathSettings,
-        options: &'r crate::hybrid::tessellate::TessellationOptions,
-        texgen: Option<super::gpu::TexgenRequest<'r>>,
-    ) -> super::gpu::GpuTessellationRequest<'r> {
-        super::gpu::GpuTessellationRequest {
-            camera: &self.camera,
-            settings,
+    /// What the GPU's passes need of this oracle: where its paths start and stop, its camera
+    /// and its criterion.
+    pub fn gpu_settings(&self) -> OracleSettings {
+        OracleSettings {
+            paths: PathSettings {
+                lens: self.lens,
+                object: self.object,
+                bounces: self.greedy.bounces,
+                max_interfaces: self.greedy.max_interfaces,
+            },
+            camera: self.camera,
             cos_threshold: self.cos_threshold as f32,
             back_faces: self.evaluates_back_faces(),
-            options,
-            texgen,
-            hull: None,
-            continue_budget: false,
         }
     }
 
-    /// Adds a GPU tessellation's tracing time and rays to the counters: the trace passes' device
-    /// time when timed, else the submission's wall time (every pass, the split passes too; no
-    /// read-back or rebuilding of the mesh on the CPU).
-    fn add_gpu_time(
-        &self,
-        stage_ms: Option<super::gpu::GpuStageMs>,
-        submission_ms: f64,
-        counters: TraceCounters,
-    ) {
+    /// Adds `ms` of tracing time and `counters` to the oracle's: work it asked of a device.
+    pub fn add_traced(&self, ms: f64, counters: TraceCounters) {
         if let Ok(mut guard) = self.counters.lock() {
-            guard.1 += stage_ms.map_or(submission_ms, |stages| stages.trace);
+            guard.1 += ms;
             guard.0 += counters;
         }
+    }
+
+    /// The scene it traces.
+    pub fn trace_scene(&self) -> &TraceScene {
+        self.trace
     }
 
     /// Wall time spent in vertex batches so far, ms.
@@ -376,28 +350,6 @@ impl PathOracle<'_> {
             total += *counters;
         }
         (results.into_iter().map(|(e, _)| e).collect(), total)
-    }
-
-    /// Refuses a GPU tracer made from another scene.
-    fn check_holds(&self, gpu: GpuPaths<'_>) -> Result<(), TessellationError> {
-        if !gpu.tracer.holds(self.trace) {
-            return Err(crate::gpu::GpuError::BadUpload {
-                what: "the GPU tracer".into(),
-                problem: "it holds another scene's geometry than the one traced".into(),
-            }
-            .into());
-        }
-        Ok(())
-    }
-
-    /// Where this oracle's paths start and stop, for the GPU's passes.
-    fn settings(&self) -> PathSettings {
-        PathSettings {
-            lens: self.lens,
-            object: self.object,
-            bounces: self.greedy.bounces,
-            max_interfaces: self.greedy.max_interfaces,
-        }
     }
 }
 

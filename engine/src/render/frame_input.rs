@@ -95,26 +95,11 @@ impl LensObject {
 pub struct ResidentLens {
     /// The parts, each a scene object's tessellation, drawn in order.
     pub parts: Vec<Arc<DeviceLensPart>>,
-    /// The compute work that makes the parts, recorded by the frame before its lens passes (a
-    /// compute pass of its graph; only the first time the frame is drawn): one per part, or
-    /// none where the parts were made already.
-    pub works: Vec<Arc<dyn DeviceWork>>,
-}
-
-/// Compute work a frame records before its lens passes: the GPU tessellation of a resident lens
-/// part, writing the part's buffers. Its handles stay valid until the frame's submission
-/// completes (its maker's promise).
-pub trait DeviceWork: Send + Sync {
-    /// Records the work into `cb` (outside any rendering instance). The frame's graph waits for
-    /// its writes before the lens passes read them.
-    fn record(&self, cb: ash::vk::CommandBuffer);
-
-    /// Whether it was not submitted yet (it runs once: a frame drawn again, or handed to another
-    /// upload, draws what it made).
-    fn pending(&self) -> bool;
-
-    /// Marks it submitted: the submission that recorded it went to the queue.
-    fn submitted(&self);
+    /// The compute work that makes the parts, whose passes the frame's graph declares before
+    /// its lens passes (only the first time the frame is drawn): one per part, or none where the
+    /// parts were made already. Its handles stay valid until the frame's submission completes
+    /// (its maker's promise).
+    pub works: Vec<Arc<super::compute::ComputeWork>>,
 }
 
 impl PartialEq for ResidentLens {
@@ -140,6 +125,8 @@ impl std::fmt::Debug for ResidentLens {
 
 /// One scene object's tessellation on the device, as the lens passes draw it.
 pub struct DeviceLensPart {
+    /// Its name in plans: its buffers are [`DeviceLensPart::buffer_names`] of it.
+    pub name: String,
     /// The lens pass's data (positions, then per term F·G and each layer's directions), arrays
     /// `stride` vec4s apart, in the order of the lens object's terms.
     pub data: Buffer,
@@ -153,6 +140,18 @@ pub struct DeviceLensPart {
     /// The host copy of the tessellation's counts, written by the GPU with the part and read
     /// once the frame that drew it is done (off the frame's critical path).
     pub counts: Buffer,
+}
+
+impl DeviceLensPart {
+    /// The names in plans of the buffers of part `name` that the lens passes read (its data,
+    /// indices and draw arguments), and that the work making it writes.
+    pub fn buffer_names(name: &str) -> [String; 3] {
+        [
+            format!("{name} data"),
+            format!("{name} indices"),
+            format!("{name} draws"),
+        ]
+    }
 }
 
 /// Byte offsets of the indirect draws in [`DeviceLensPart::args`].

@@ -258,26 +258,37 @@ pub(super) struct GpuGlossy {
     pub(super) set: vk::DescriptorSet,
 }
 
+/// The layout and sampler a glossy draw's set is made with.
+pub(super) struct GlossySampling<'a> {
+    /// Set 0 of the glossy program.
+    pub(super) layout: &'a crate::gpu::descriptors::SetLayout,
+    /// The maps' sampler.
+    pub(super) sampler: vk::Sampler,
+}
+
 impl GpuGlossy {
-    /// The draw's set, pointing at `data` (its `GlossyData`), `maps` and `sampler`.
+    /// The draw's set of `sampling`'s layout, pointing at `data` (its `GlossyData`), `maps`
+    /// and the sampler.
     pub(super) fn new(
         gpu: &Gpu,
-        (layout, sampler): (vk::DescriptorSetLayout, vk::Sampler),
+        sampling: GlossySampling<'_>,
         mesh: Arc<GpuGlossyMesh>,
         maps: Arc<Image>,
         data: &[u8],
     ) -> Result<GpuGlossy, GpuError> {
         let data = Buffer::with_data(gpu, "glossy data", data, BufferUsage::Storage)?;
         let pool = DescriptorPool::new(gpu, GLOSSY_SET, 1)?;
-        let set = pool.allocate_one(
-            gpu,
-            (layout, GLOSSY_SET),
-            &[
-                Resource::Buffer(data.handle),
-                Resource::Image(maps.view),
-                Resource::Sampler(sampler),
-            ],
-        )?;
+        let set = pool
+            .allocate_one(
+                gpu,
+                sampling.layout,
+                &[
+                    Resource::Buffer(data.handle),
+                    Resource::Image(maps.view),
+                    Resource::Sampler(sampling.sampler),
+                ],
+            )?
+            .0;
         Ok(GpuGlossy {
             mesh,
             _maps: maps,

@@ -5,6 +5,7 @@
 //! image, and the CPU f64 model of the same arithmetic ([`model`]) that tests compare against.
 
 mod budget;
+pub mod compute;
 pub(crate) mod descriptors;
 mod frame_input;
 mod glossy;
@@ -34,8 +35,8 @@ pub use host_image::HostImage;
 pub use image::RenderedImage;
 pub use lens_pixels::frame_lens_pixels;
 pub use plan::{
-    BlendScheme, Compositing, CompositingError, FramePlan, FrameShape, Output, PassCategory,
-    PlanOptions, TargetFormat, Variant,
+    BlendScheme, Compositing, CompositingError, FramePlan, FrameShape, LensShape, Output,
+    PartShape, PassCategory, PlanOptions, TargetFormat, Variant,
 };
 pub use program::{LimitSource, ProgramError, ShaderProgram, SinglePassLimits, SinglePassProgram};
 pub use renderer::{FRAMES_IN_FLIGHT, FrameTimings, RenderOptions, Renderer, Submission};

@@ -11,12 +11,14 @@ use lensmap_shaders::{EnvironmentConstants, GroupSumConstants, LensConstants, Re
 
 use super::{
     ShaderProgram,
-    descriptors::{ENVIRONMENT_SET, LENS_SET, SAMPLED_IMAGE_SET, create_set_layout},
+    descriptors::{ENVIRONMENT_SET, LENS_SET, SAMPLED_IMAGE_SET},
     glossy::GLOSSY_SET,
     vulkan::{blend_state, vk_compare, vk_format},
 };
 use crate::{
-    gpu::{Gpu, GpuError, GraphicsPipelineDesc, VkContext, context::Shared},
+    gpu::{
+        Gpu, GpuError, GraphicsPipelineDesc, VkContext, context::Shared, descriptors::SetLayout,
+    },
     graph::{Cull, PipelineKey},
 };
 
@@ -24,21 +26,21 @@ use crate::{
 pub(super) struct Pipelines {
     shared: Arc<Shared>,
     /// Set 0 of the lens programs ([`LENS_SET`]).
-    pub(super) lens_set_layout: vk::DescriptorSetLayout,
+    pub(super) lens_set_layout: SetLayout,
     /// The lens programs' layout: set 0 and [`LensConstants`].
     pub(super) lens_layout: vk::PipelineLayout,
     /// Set 0 of the environment program ([`ENVIRONMENT_SET`]).
-    pub(super) environment_set_layout: vk::DescriptorSetLayout,
+    pub(super) environment_set_layout: SetLayout,
     /// The environment program's layout: set 0 and [`EnvironmentConstants`].
     pub(super) environment_layout: vk::PipelineLayout,
     /// Set 0 of the glossy program ([`GLOSSY_SET`]).
-    pub(super) glossy_set_layout: vk::DescriptorSetLayout,
+    pub(super) glossy_set_layout: SetLayout,
     /// The glossy program's layout: set 0 alone (its data is in the set's storage buffer).
     pub(super) glossy_layout: vk::PipelineLayout,
     /// One sampled image ([`SAMPLED_IMAGE_SET`]): set 0 of the box filter (the colour target)
     /// and of the group sum (the scratch images' array view), set 1 of the programmable layer
     /// (one scratch image).
-    pub(super) sampled_image_set_layout: vk::DescriptorSetLayout,
+    pub(super) sampled_image_set_layout: SetLayout,
     /// The box filter's layout: the sampled image and [`ResolveConstants`].
     pub(super) box_filter_layout: vk::PipelineLayout,
     /// The group sum's layout: the sampled image and [`GroupSumConstants`].
@@ -73,14 +75,6 @@ impl Drop for Pipelines {
                 self.programmable_layout,
             ] {
                 device.destroy_pipeline_layout(layout, None);
-            }
-            for layout in [
-                self.lens_set_layout,
-                self.environment_set_layout,
-                self.glossy_set_layout,
-                self.sampled_image_set_layout,
-            ] {
-                device.destroy_descriptor_set_layout(layout, None);
             }
             device.destroy_sampler(self.sampler, None);
             device.destroy_sampler(self.light_map_sampler, None);
@@ -140,16 +134,17 @@ fn create_sampler(
 impl Pipelines {
     /// Creates the layouts and the samplers; pipelines are created on first use.
     pub(super) fn new(gpu: &Gpu) -> Result<Pipelines, GpuError> {
-        // Every handle starts null, so that Drop after a failure destroys what was created.
+        // The set layouts own themselves; every other handle starts null, so that Drop after a
+        // failure destroys what was created.
         let mut pipelines = Pipelines {
             shared: gpu.shared.clone(),
-            lens_set_layout: vk::DescriptorSetLayout::null(),
+            lens_set_layout: SetLayout::new(gpu, LENS_SET.to_vec())?,
             lens_layout: vk::PipelineLayout::null(),
-            environment_set_layout: vk::DescriptorSetLayout::null(),
+            environment_set_layout: SetLayout::new(gpu, ENVIRONMENT_SET.to_vec())?,
             environment_layout: vk::PipelineLayout::null(),
-            glossy_set_layout: vk::DescriptorSetLayout::null(),
+            glossy_set_layout: SetLayout::new(gpu, GLOSSY_SET.to_vec())?,
             glossy_layout: vk::PipelineLayout::null(),
-            sampled_image_set_layout: vk::DescriptorSetLayout::null(),
+            sampled_image_set_layout: SetLayout::new(gpu, SAMPLED_IMAGE_SET.to_vec())?,
             box_filter_layout: vk::PipelineLayout::null(),
             group_sum_layout: vk::PipelineLayout::null(),
             programmable_layout: vk::PipelineLayout::null(),
@@ -158,32 +153,28 @@ impl Pipelines {
             pipelines: HashMap::new(),
         };
         let p = &mut pipelines;
-        p.lens_set_layout = create_set_layout(gpu, LENS_SET)?;
-        p.environment_set_layout = create_set_layout(gpu, ENVIRONMENT_SET)?;
-        p.sampled_image_set_layout = create_set_layout(gpu, SAMPLED_IMAGE_SET)?;
-        p.glossy_set_layout = create_set_layout(gpu, GLOSSY_SET)?;
         let (vertex, fragment) = (vk::ShaderStageFlags::VERTEX, vk::ShaderStageFlags::FRAGMENT);
         let lens_push = push_constants::<LensConstants>(vertex | fragment);
-        p.lens_layout = create_layout(gpu, &[p.lens_set_layout], lens_push)?;
+        p.lens_layout = create_layout(gpu, &[p.lens_set_layout.handle], lens_push)?;
         p.environment_layout = create_layout(
             gpu,
-            &[p.environment_set_layout],
+            &[p.environment_set_layout.handle],
             push_constants::<EnvironmentConstants>(vertex),
         )?;
-        p.glossy_layout = create_layout(gpu, &[p.glossy_set_layout], None)?;
+        p.glossy_layout = create_layout(gpu, &[p.glossy_set_layout.handle], None)?;
         p.box_filter_layout = create_layout(
             gpu,
-            &[p.sampled_image_set_layout],
+            &[p.sampled_image_set_layout.handle],
             push_constants::<ResolveConstants>(fragment),
         )?;
         p.group_sum_layout = create_layout(
             gpu,
-            &[p.sampled_image_set_layout],
+            &[p.sampled_image_set_layout.handle],
             push_constants::<GroupSumConstants>(fragment),
         )?;
         p.programmable_layout = create_layout(
             gpu,
-            &[p.lens_set_layout, p.sampled_image_set_layout],
+            &[p.lens_set_layout.handle, p.sampled_image_set_layout.handle],
             lens_push,
         )?;
         p.sampler = create_sampler(gpu, vk::SamplerMipmapMode::LINEAR, vk::LOD_CLAMP_NONE)?;

@@ -283,33 +283,43 @@ pub enum ShaderProgram {
 }
 
 impl ShaderProgram {
-    /// The vertex and fragment shaders; `None` only if `shaders/build.rs` did not compile them,
-    /// which the unit test over every program rules out.
+    /// The vertex and fragment shaders; `None` only for a single pass whose combination
+    /// `shaders/build.rs` did not compile, which [`SinglePassProgram::new`] rules out.
     pub fn shaders(self) -> Option<(Shader, Shader)> {
-        let plain = |file, vertex, fragment| {
-            Some((
-                lensmap_shaders::shader(file, vertex)?,
-                lensmap_shaders::shader(file, fragment)?,
-            ))
-        };
+        use lensmap_shaders::{EntryPoint, composite, environment, glossy, lens, resolve};
+        let pair = |vertex: Shader, fragment: Shader| Some((vertex, fragment));
         match self {
-            ShaderProgram::Environment => plain("environment", "vs_environment", "fs_environment"),
-            ShaderProgram::Glossy => plain("glossy", "vs_glossy", "fs_glossy"),
-            ShaderProgram::LensZero => plain("lens", "vs_position", "fs_zero"),
-            ShaderProgram::LensLayer => plain("lens", "vs_layer", "fs_layer"),
-            ShaderProgram::BoxFilter => plain("resolve", "vs_full_screen", "fs_box_filter"),
-            ShaderProgram::LensLayerProgrammable => {
-                plain("lens", "vs_layer", "fs_layer_programmable")
+            ShaderProgram::Environment => pair(
+                environment::Entry::VsEnvironment.shader(),
+                environment::Entry::FsEnvironment.shader(),
+            ),
+            ShaderProgram::Glossy => pair(
+                glossy::Entry::VsGlossy.shader(),
+                glossy::Entry::FsGlossy.shader(),
+            ),
+            ShaderProgram::LensZero => pair(
+                lens::Entry::VsPosition.shader(),
+                lens::Entry::FsZero.shader(),
+            ),
+            ShaderProgram::LensLayer => {
+                pair(lens::Entry::VsLayer.shader(), lens::Entry::FsLayer.shader())
             }
-            ShaderProgram::GroupSum => plain("composite", "vs_full_screen", "fs_group_sum"),
-            ShaderProgram::LensSinglePass(program) => Some((
-                lensmap_shaders::shader("lens", "vs_single_pass")?,
-                lensmap_shaders::specialized(
-                    "lens",
-                    "fs_single_pass_specialized",
-                    program.overrides,
-                )?,
-            )),
+            ShaderProgram::BoxFilter => pair(
+                resolve::Entry::VsFullScreen.shader(),
+                resolve::Entry::FsBoxFilter.shader(),
+            ),
+            ShaderProgram::LensLayerProgrammable => pair(
+                lens::Entry::VsLayer.shader(),
+                lens::Entry::FsLayerProgrammable.shader(),
+            ),
+            ShaderProgram::GroupSum => pair(
+                composite::Entry::VsFullScreen.shader(),
+                composite::Entry::FsGroupSum.shader(),
+            ),
+            ShaderProgram::LensSinglePass(program) => pair(
+                lens::Entry::VsSinglePass.shader(),
+                lens::Specialized::FsSinglePassSpecialized.shader(program.overrides)?,
+            ),
         }
     }
 

@@ -17,7 +17,7 @@ use super::{
 };
 use crate::{
     gpu::Gpu,
-    graph::{self, Access, Barrier, Layout, LoadOp, PassKind, RenderingInstance, StoreOp},
+    graph::{self, Barrier, Layout, LoadOp, PassKind, RenderingInstance, StoreOp},
     index::{LayerIndex, LensIndex},
     trace::Term,
 };
@@ -27,36 +27,6 @@ use crate::{
 enum DrawCounts<'a> {
     Direct(u32, u32),
     Indirect(&'a crate::gpu::Buffer),
-}
-
-/// One global memory barrier covering every `(src, dst)` access pair: the graph's buffer
-/// barriers before a step (a resident part's several buffers at once), or, for a frame whose
-/// parts an earlier submission made (a frame drawn again, a timed tessellation), their writes
-/// and the copy of their counts before the lens passes read them (that earlier submission is in
-/// the barrier's first scope, so the frame's completion means its own).
-fn memory_barrier(
-    gpu: &Gpu,
-    cb: vk::CommandBuffer,
-    accesses: impl IntoIterator<Item = (Access, Access)>,
-) {
-    let mut dependency = vk::MemoryBarrier2::default();
-    for (src, dst) in accesses {
-        let (src_stage, src_access) = vk_access(src);
-        let (dst_stage, dst_access) = vk_access(dst);
-        dependency = dependency
-            .src_stage_mask(dependency.src_stage_mask | src_stage)
-            .src_access_mask(dependency.src_access_mask | src_access)
-            .dst_stage_mask(dependency.dst_stage_mask | dst_stage)
-            .dst_access_mask(dependency.dst_access_mask | dst_access);
-    }
-    let barriers = [dependency];
-    // SAFETY: recording outside any rendering instance (a step's barriers come before it).
-    unsafe {
-        gpu.device().cmd_pipeline_barrier2(
-            cb,
-            &vk::DependencyInfo::default().memory_barriers(&barriers),
-        )
-    };
 }
 
 /// What recording one frame reads.
@@ -207,29 +177,10 @@ impl Recorder<'_> {
             targets,
             host: self.host.filter(|_| resources.external.is_some()),
         };
-        // Parts made by an earlier submission (a frame drawn again, or a tessellation timed in a
-        // submission of its own) need its writes made visible; parts made this frame get the
-        // graph's barrier after their compute pass.
-        let made_before = frame
-            .lenses
-            .iter()
-            .zip(&frame.shape.lenses)
-            .any(|(lens, shape)| {
-                shape.compute == 0
-                    && lens
-                        .parts
-                        .iter()
-                        .any(|part| matches!(part.buffers, PartBuffers::Device(_)))
-            });
-        if made_before {
-            memory_barrier(gpu, cb, [(Access::ComputeWrite, Access::VertexStorageRead)]);
-        }
         for (step, pipeline) in plan.steps.iter().zip(pipelines) {
             self.barriers(cb, &images, &step.barriers);
-            if !step.buffer_barriers.is_empty() {
-                let accesses = step.buffer_barriers.iter().map(|b| (b.src, b.dst));
-                memory_barrier(gpu, cb, accesses);
-            }
+            let accesses = step.buffer_barriers.iter().map(|b| (b.src, b.dst));
+            super::compute::memory_barriers(gpu, cb, accesses);
             if let Some(instance) = &step.begin {
                 self.begin_rendering(cb, &images, instance);
             }
@@ -257,8 +208,8 @@ impl Recorder<'_> {
                     }
                 }
                 PassKind::Readback { .. } => self.copy_to_readback(cb, targets),
-                // The hand-back is this step's barrier (to the host's final layout): no command.
-                PassKind::Export { .. } => {}
+                // The hand-back, and the host's read, are this step's barriers: no command.
+                PassKind::Export { .. } | PassKind::HostRead { .. } => {}
             }
             gpu.end_label(cb);
             if step.end {
@@ -407,9 +358,9 @@ impl Recorder<'_> {
         }
     }
 
-    /// Records the compute work `dispatch` (a resident lens part's tessellation).
+    /// Records one pass of a compute work (a resident lens part's tessellation).
     fn compute(&self, cb: vk::CommandBuffer, dispatch: Draw) {
-        let Draw::Tessellate { lens, part } = dispatch else {
+        let Draw::Compute { lens, part, pass } = dispatch else {
             debug_assert!(false, "not a compute dispatch: {dispatch:?}");
             return;
         };
@@ -419,7 +370,7 @@ impl Recorder<'_> {
             .get(lens.index())
             .and_then(|l| l.works.get(part))
         {
-            work.record(cb);
+            super::compute::record(self.gpu, cb, work, pass);
         }
     }
 
@@ -474,7 +425,7 @@ impl Recorder<'_> {
             | Draw::SinglePass { lens }
             | Draw::Layer { lens, .. }
             | Draw::ProgrammableLayer { lens, .. } => self.lens(cb, draw, lens, targets),
-            Draw::Tessellate { .. } => debug_assert!(false, "a compute dispatch in a draw pass"),
+            Draw::Compute { .. } => debug_assert!(false, "a compute dispatch in a draw pass"),
         }
     }
 
@@ -667,7 +618,7 @@ impl Recorder<'_> {
             | Draw::Glossy { .. }
             | Draw::GroupSum { .. }
             | Draw::BoxFilter { .. }
-            | Draw::Tessellate { .. } => {
+            | Draw::Compute { .. } => {
                 debug_assert!(false, "not a lens draw: {draw:?}");
                 return;
             }

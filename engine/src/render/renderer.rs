@@ -279,8 +279,8 @@ impl Renderer {
         frame.last_submission = Some((self.timeline.clone(), value));
         // The compute work that makes resident lens parts runs once: a frame drawn again draws
         // what it made.
-        for lens in &mut frame.shape.lenses {
-            lens.compute = 0;
+        for part in frame.shape.lenses.iter_mut().flat_map(|l| &mut l.parts) {
+            part.work = None;
         }
         for work in frame.lenses.iter().flat_map(|lens| &lens.works) {
             work.submitted();

@@ -97,14 +97,14 @@ impl Scratch {
                 unsafe { gpu.device().create_image_view(&info, None) }.vk("vkCreateImageView")?;
             scratch.prefix_views.push(view);
         }
-        let layout = (pipelines.sampled_image_set_layout, SAMPLED_IMAGE_SET);
+        let layout = &pipelines.sampled_image_set_layout;
         for k in 0..layers as usize {
             let view = Resource::Image(scratch.image.layer_views[k]);
             let set = scratch.pool.allocate_one(gpu, layout, &[view])?;
-            scratch.layer_sets.push(set);
+            scratch.layer_sets.push(set.0);
             let prefix = Resource::Image(scratch.prefix_views[k]);
             let set = scratch.pool.allocate_one(gpu, layout, &[prefix])?;
-            scratch.prefix_sets.push(set);
+            scratch.prefix_sets.push(set.0);
         }
         Ok(scratch)
     }
@@ -128,12 +128,12 @@ impl Targets {
         let pool = DescriptorPool::new(gpu, SAMPLED_IMAGE_SET, 1)?;
         let set = pool.allocate_one(
             gpu,
-            (pipelines.sampled_image_set_layout, SAMPLED_IMAGE_SET),
+            &pipelines.sampled_image_set_layout,
             &[Resource::Image(colour.view)],
         )?;
         Ok(Targets {
             colour,
-            box_filter_set: set,
+            box_filter_set: set.0,
             _box_filter_pool: pool,
             scratch: None,
             depth: Image::new(gpu, ImageDesc::depth_target("depth", width, height))?,

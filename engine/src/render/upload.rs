@@ -12,8 +12,8 @@ use std::{collections::HashMap, sync::Arc};
 use ash::vk;
 
 use super::{
-    DeviceLensPart, DeviceWork, EnvironmentMesh, FrameInput, FrameShape, LensObject,
-    MAX_VIEWPOINTS, MapBytes, RenderError, SinglePassLimits, TargetFormat,
+    DeviceLensPart, EnvironmentMesh, FrameInput, FrameShape, LensObject, MAX_VIEWPOINTS, MapBytes,
+    RenderError, SinglePassLimits, TargetFormat,
     descriptors::{DescriptorPool, ENVIRONMENT_SET, LENS_SET, Resource, write_set},
     pipelines::Pipelines,
     targets::Targets,
@@ -36,7 +36,7 @@ pub(super) struct GpuLens {
     pub(super) parts: Vec<LensPart>,
     /// The compute work that makes a resident object's parts, recorded by the frame's first
     /// submission (held until the frame is uploaded over or dropped, after its submissions).
-    pub(super) works: Vec<Arc<dyn DeviceWork>>,
+    pub(super) works: Vec<Arc<super::compute::ComputeWork>>,
 }
 
 /// Where a lens part's data and indices are and how many to draw.
@@ -447,7 +447,7 @@ impl UploadCache {
         let descriptor_pool = DescriptorPool::new(gpu, ENVIRONMENT_SET, 1)?;
         let set = descriptor_pool.allocate_one(
             gpu,
-            (pipelines.environment_set_layout, ENVIRONMENT_SET),
+            &pipelines.environment_set_layout,
             &[
                 Resource::Image(light_map.view),
                 Resource::Sampler(pipelines.light_map_sampler),
@@ -471,7 +471,7 @@ impl UploadCache {
             index_count: (mesh.triangles.len() * 3) as u32,
             _light_map: light_map,
             _descriptor_pool: descriptor_pool,
-            set,
+            set: set.0,
         });
         self.mesh_cache.insert(
             key,
@@ -510,7 +510,10 @@ impl UploadCache {
         let maps = self.layer_image(gpu, &format!("glossy{g}/maps"), &draw.flat_maps())?;
         super::glossy::GpuGlossy::new(
             gpu,
-            (pipelines.glossy_set_layout, pipelines.sampler),
+            super::glossy::GlossySampling {
+                layout: &pipelines.glossy_set_layout,
+                sampler: pipelines.sampler,
+            },
             mesh,
             maps,
             &draw.data(view_proj),
@@ -606,7 +609,7 @@ impl UploadCache {
         // The pool was sized for one set per (lens part, viewpoint) and one per lens part.
         let mut parts = Vec::with_capacity(buffers.len());
         for (buffers, stride) in buffers {
-            let mut sets = pool.allocate(pipelines.lens_set_layout, layers.len() + 1)?;
+            let mut sets = pool.allocate(pipelines.lens_set_layout.handle, layers.len() + 1)?;
             let single_pass_set = sets.pop().ok_or(GpuError::Vulkan {
                 call: "vkAllocateDescriptorSets",
                 result: vk::Result::ERROR_OUT_OF_POOL_MEMORY,

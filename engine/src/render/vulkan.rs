@@ -78,17 +78,33 @@ pub(super) fn vk_access(access: Access) -> (vk::PipelineStageFlags2, vk::AccessF
                 | vk::AccessFlags2::INDEX_READ
                 | vk::AccessFlags2::INDIRECT_COMMAND_READ,
         ),
-        // The compute work's storage writes, and its copies (a resident part's counts).
-        Access::ComputeWrite => (
-            vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
-            vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::TRANSFER_WRITE,
+        Access::ComputeRead => (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ,
         ),
+        // Written, and perhaps read (read-modify-write, atomics): both.
+        Access::ComputeWrite => (
+            vk::PipelineStageFlags2::COMPUTE_SHADER,
+            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        ),
+        Access::IndirectRead => (
+            vk::PipelineStageFlags2::DRAW_INDIRECT,
+            vk::AccessFlags2::INDIRECT_COMMAND_READ,
+        ),
+        Access::HostRead => (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+        // Every command submitted before (a kept buffer's last writer, in an earlier submission).
+        Access::Earlier => (
+            vk::PipelineStageFlags2::ALL_COMMANDS,
+            vk::AccessFlags2::MEMORY_WRITE,
+        ),
+        // Copies, fills and updates: every transfer stage (sync2 puts buffer fills and updates
+        // in CLEAR, copies in COPY).
         Access::TransferRead => (
-            vk::PipelineStageFlags2::COPY,
+            vk::PipelineStageFlags2::ALL_TRANSFER,
             vk::AccessFlags2::TRANSFER_READ,
         ),
         Access::TransferWrite => (
-            vk::PipelineStageFlags2::COPY,
+            vk::PipelineStageFlags2::ALL_TRANSFER,
             vk::AccessFlags2::TRANSFER_WRITE,
         ),
         // A host's work on its image, before the frame (it may have written it) or after it:

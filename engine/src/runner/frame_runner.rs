@@ -14,8 +14,7 @@ use crate::{
     hybrid::{
         BuiltFrame, CpuStage, FrameBuilder, FrameId, FresnelModel, GpuReadBack, GpuResident,
         HybridOptions, HybridScene, HybridStats, VertexStage, VertexTracer, Wireframe,
-        gpu::{GpuPaths, GpuTracer, GpuTraversal, read_counts},
-        paths::VertexPrecision,
+        gpu::{GpuPaths, GpuTracer, TracerWalk, read_counts},
     },
     index::LensIndex,
     options::OptionError,
@@ -104,7 +103,7 @@ pub struct FrameRunner {
 struct ResidentTracer {
     scene: u64,
     fresnel: FresnelModel,
-    walk: (GpuTraversal, VertexPrecision),
+    walk: TracerWalk,
     tracer: Result<GpuTracer, String>,
 }
 
@@ -506,7 +505,10 @@ impl FrameRunner {
             .traversal
             .resolve(&self.gpu)
             .map_err(|error| RunError::from(RenderError::from(error)))?;
-        let walk = (walk, options.gpu_precision);
+        let walk = TracerWalk {
+            traversal: walk,
+            precision: options.gpu_precision,
+        };
         let scene = hybrid.identity();
         let same = |t: &ResidentTracer| t.scene == scene && t.fresnel == fresnel;
         let matches =

@@ -50,20 +50,14 @@ var<immediate> constants: TracerConstants;
 @group(0) @binding(5) var<storage, read_write> vertices: array<vec4<f32>>;
 // Per vertex its record (VertexRecord below).
 @group(0) @binding(6) var<storage, read_write> records: array<VertexRecord>;
-// Counters, written with atomics: see COUNTER_* below.
+// Counters, written with atomics: see COUNTER_* (include/control.wgsl).
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
-// The tessellation's control words (tessellate.wgsl CONTROL_*): the range of vertices a level
+// The tessellation's control words (include/control.wgsl): the range of vertices a level
 // traces; and per input vertex whether it is traced (1) or not (0).
 @group(0) @binding(8) var<storage, read> control: array<u32>;
 @group(0) @binding(9) var<storage, read> wanted: array<u32>;
 
 const NO_PRIMITIVE: u32 = 0xffffffffu;
-const COUNTER_PRIMARY_RAYS: u32 = 0u;
-const COUNTER_SECONDARY_RAYS: u32 = 1u;
-const COUNTER_TRIANGLE_TESTS: u32 = 2u;
-const CONTROL_VERTEX_LO: u32 = 3u;
-const CONTROL_VERTEX_HI: u32 = 4u;
-const CONTROL_INPUT_VERTICES: u32 = 21u;
 
 // One term's greedy path: F·G (w: interfaces met), the outgoing ray's origin (w: the greedy
 // choices, bit i set for a reflection at interface i + 2) and direction (w: 1 when the term has

@@ -15,12 +15,18 @@ use super::{
     view::LensJob,
 };
 use crate::{
+    gpu::GpuError,
     hybrid::{
-        gpu::{DeviceExtras, GpuPaths, TexgenRequest},
-        tessellate::TessellationError,
+        gpu::{
+            DeviceExtras, GpuPaths, GpuStageMs, GpuTessellationRequest, PreparedObject,
+            TexgenRequest,
+        },
+        paths::{OracleSettings, PathOracle},
+        tessellate::{TessellationError, TessellationOptions},
         texgen::{self, LensMesh, texgen},
     },
-    render::{DeviceLensPart, DeviceWork, LensObject, ResidentLens, TermVertices},
+    render::{DeviceLensPart, LensObject, ResidentLens, TermVertices, compute::ComputeWork},
+    trace::stats::TraceCounters,
 };
 
 /// Vertices traced, tessellated and given texture coordinates on the GPU, and read back.
@@ -46,6 +52,52 @@ fn texgen_request<'a>(job: &LensJob<'a>) -> TexgenRequest<'a> {
         em_origins: &layers.em_origins,
         refraction: texgen::has_refraction(job.scene.trace(), job.lens.index()),
     }
+}
+
+/// The GPU tessellation's request of `oracle`'s settings (its camera, paths and criterion) with
+/// `options` and what `extras` adds.
+fn request<'a>(
+    settings: &'a OracleSettings,
+    options: &'a TessellationOptions,
+    extras: DeviceExtras<'a>,
+) -> GpuTessellationRequest<'a> {
+    GpuTessellationRequest {
+        camera: &settings.camera,
+        settings: &settings.paths,
+        cos_threshold: settings.cos_threshold,
+        back_faces: settings.back_faces,
+        options,
+        texgen: extras.texgen,
+        hull: extras.hull,
+        continue_budget: extras.continue_budget,
+    }
+}
+
+/// Refuses a GPU tracer made from another scene than `oracle`'s.
+fn check_holds(paths: GpuPaths<'_>, oracle: &PathOracle<'_>) -> Result<(), TessellationError> {
+    if !paths.tracer.holds(oracle.trace_scene()) {
+        return Err(GpuError::BadUpload {
+            what: "the GPU tracer".into(),
+            problem: "it holds another scene's geometry than the one traced".into(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// Adds a GPU tessellation's tracing time and rays to `oracle`'s: the trace passes' device time
+/// when timed, else the submission's wall time (every pass, the split passes too; no read-back
+/// or rebuilding of the mesh on the CPU).
+fn add_gpu_time(
+    oracle: &PathOracle<'_>,
+    stage_ms: Option<GpuStageMs>,
+    submission_ms: f64,
+    counters: TraceCounters,
+) {
+    oracle.add_traced(
+        stage_ms.map_or(submission_ms, |stages| stages.trace),
+        counters,
+    );
 }
 
 /// A lens object with no scene object inside the view: its (empty) mesh given texture
@@ -85,12 +137,21 @@ impl VertexStage for GpuReadBack<'_> {
             let start = Instant::now();
             // The whole tessellation runs on the device, every level's records kept there, and
             // texgen with it; `texgen_ms` is that pass's device time when it is timed.
-            let made = oracle.tessellate_on_gpu(
-                self.paths,
+            check_holds(self.paths, &oracle)?;
+            let settings = oracle.gpu_settings();
+            let options = budget.options_for(&job.tessellation, mesh);
+            let extras = DeviceExtras {
+                texgen: Some(request),
+                hull: None,
+                continue_budget: false,
+            };
+            let made = self.paths.tracer.tessellate(
+                self.paths.gpu,
+                object,
                 mesh,
-                &budget.options_for(&job.tessellation, mesh),
-                Some(request),
+                &self::request(&settings, &options, extras),
             )?;
+            add_gpu_time(&oracle, made.stage_ms, made.submission_ms, made.counters);
             let texgen_ms = made.stage_ms.map_or(0.0, |stages| stages.texgen);
             if let Some(stages) = made.stage_ms {
                 *stats.gpu_split_ms.get_or_insert(0.0) += stages.tessellation;
@@ -149,7 +210,11 @@ impl VertexStage for GpuResident<'_> {
             }
             .arrays();
             for &object in &lens.objects {
-                objects.push((object, &scene.scene().objects[object].mesh, arrays));
+                objects.push(PreparedObject {
+                    object,
+                    mesh: &scene.scene().objects[object].mesh,
+                    arrays,
+                });
             }
         }
         self.paths
@@ -173,12 +238,21 @@ impl VertexStage for GpuResident<'_> {
                 hull: job.hull_split.then(|| job.scene.hull_triangles(object)),
                 continue_budget: budget.on_device,
             };
-            let made = oracle.tessellate_on_device(
-                self.paths,
+            check_holds(self.paths, &oracle)?;
+            let settings = oracle.gpu_settings();
+            let options = budget.options_for(&job.tessellation, mesh);
+            let made = self.paths.tracer.tessellate_on_device(
+                self.paths.gpu,
+                object,
                 mesh,
-                &budget.options_for(&job.tessellation, mesh),
-                extras,
+                &self::request(&settings, &options, extras),
             )?;
+            add_gpu_time(
+                &oracle,
+                made.stage_ms,
+                made.submission_ms,
+                TraceCounters::default(),
+            );
             // The device counts the frame's budget from here on.
             budget.on_device = true;
             if let Some(stages) = made.stage_ms {
@@ -238,7 +312,7 @@ fn append_terms(all: &mut Option<Vec<TermVertices>>, part: Option<Vec<TermVertic
 
 /// A scene object's tessellation left on the device, and the work that makes it (`None`: made
 /// already).
-type ResidentPart = (Arc<DeviceLensPart>, Option<Arc<dyn DeviceWork>>);
+type ResidentPart = (Arc<DeviceLensPart>, Option<Arc<ComputeWork>>);
 
 /// A lens object drawn from its parts, each made by its work in the frame that draws it (or,
 /// where one was made already, a timed tessellation, by their own submissions).

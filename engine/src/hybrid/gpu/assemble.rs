@@ -1,11 +1,11 @@
 //! The CPU tessellator's result ([`Tessellation`]) rebuilt from the GPU tessellation's buffers
 //! as read back ([`super::tessellate`]).
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
+use lensmap_shaders::tessellate as t;
 
-use super::tessellate::control;
-use super::{RECORD_BYTES, decode};
-use crate::hybrid::paths::VertexPaths;
+use super::buffers::RECORD_BYTES;
+use crate::hybrid::paths::{TermPath, VertexPaths};
 use crate::hybrid::tessellate::{
     StopReason, Tessellation, TessellationStats, TriangleRecord, VertexEvaluation, VertexOrigin,
 };
@@ -23,15 +23,51 @@ pub(super) struct Readback<'a> {
 
 /// The stop reason of a state word (tessellate.wgsl `STOP_*`).
 fn stop_reason(state: u32) -> StopReason {
-    match state & 15 {
-        1 => StopReason::BackFacing,
-        2 => StopReason::Degenerate,
-        3 => StopReason::Occluded,
-        4 => StopReason::OffScreen,
-        6 => StopReason::Small,
-        7 => StopReason::MaxDepth,
-        8 => StopReason::Budget,
+    // The stop reason is the state word's low four bits.
+    match state & 0xf {
+        t::STOP_BACK_FACING => StopReason::BackFacing,
+        t::STOP_DEGENERATE => StopReason::Degenerate,
+        t::STOP_OCCLUDED => StopReason::Occluded,
+        t::STOP_OFF_SCREEN => StopReason::OffScreen,
+        t::STOP_SMALL => StopReason::Small,
+        t::STOP_MAX_DEPTH => StopReason::MaxDepth,
+        t::STOP_BUDGET => StopReason::Budget,
         _ => StopReason::Similar,
+    }
+}
+
+/// One vertex as the GPU traced it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GpuVertex {
+    /// Both terms' paths (f32 values widened).
+    pub paths: VertexPaths,
+    /// Whether the eye sees the vertex.
+    pub visible: bool,
+    /// Screen position in subpixels, when it has one.
+    pub screen: Option<Vec2>,
+}
+
+/// One vertex record's words (tracer.wgsl `VertexRecord`) as a [`GpuVertex`].
+pub(super) fn decode(w: &[u32]) -> GpuVertex {
+    let f = |i: usize| f32::from_bits(w[i]);
+    let v3 = |i: usize| DVec3::new(f64::from(f(i)), f64::from(f(i + 1)), f64::from(f(i + 2)));
+    let term = |base: usize| {
+        (f(base + 11) != 0.0).then(|| TermPath {
+            fg: v3(base),
+            outgoing: crate::trace::Ray {
+                origin: v3(base + 4),
+                direction: v3(base + 8),
+            },
+            topology: (w[base + 3], w[base + 7]),
+        })
+    };
+    let screen = (f(26) != 0.0).then(|| Vec2::new(f(24), f(25)));
+    GpuVertex {
+        paths: VertexPaths {
+            terms: [term(0), term(12)],
+        },
+        visible: f(27) != 0.0,
+        screen,
     }
 }
 
@@ -107,22 +143,23 @@ pub(super) fn assemble(
         .unzip();
     let stats = TessellationStats {
         input_triangles: mesh.triangles.len(),
-        front_facing_triangles: words[control::FRONT] as usize,
-        back_facing_triangles: words[control::BACK] as usize,
+        front_facing_triangles: words[t::STAT_FRONT as usize] as usize,
+        back_facing_triangles: words[t::STAT_BACK as usize] as usize,
         output_triangles: triangles.len(),
         output_vertices: vertex_count,
         vertices_evaluated: counters.primary_rays as usize,
-        midpoints_created: words[control::CREATED] as usize,
-        midpoints_reused: words[control::REQUESTS].saturating_sub(words[control::CREATED]) as usize,
-        splits_1_to_2: words[control::SPLITS] as usize,
-        splits_1_to_3: words[control::SPLITS + 1] as usize,
-        splits_1_to_4: words[control::SPLITS + 2] as usize,
-        max_depth_reached: words[control::MAX_DEPTH_REACHED],
-        stopped_at_max_depth: words[control::AT_MAX_DEPTH] as usize,
-        stopped_by_budget: words[control::BUDGET] as usize,
-        occluded_leaves: words[control::OCCLUDED] as usize,
-        t_junction_leaves: words[control::T_JUNCTION_LEAVES] as usize,
-        t_junction_vertices: words[control::T_JUNCTION_VERTICES] as usize,
+        midpoints_created: words[t::STAT_CREATED as usize] as usize,
+        midpoints_reused: words[t::STAT_REQUESTS as usize]
+            .saturating_sub(words[t::STAT_CREATED as usize]) as usize,
+        splits_1_to_2: words[t::STAT_SPLITS as usize] as usize,
+        splits_1_to_3: words[t::STAT_SPLITS as usize + 1] as usize,
+        splits_1_to_4: words[t::STAT_SPLITS as usize + 2] as usize,
+        max_depth_reached: words[t::STAT_MAX_DEPTH_REACHED as usize],
+        stopped_at_max_depth: words[t::STAT_AT_MAX_DEPTH as usize] as usize,
+        stopped_by_budget: words[t::STAT_BUDGET as usize] as usize,
+        occluded_leaves: words[t::STAT_OCCLUDED as usize] as usize,
+        t_junction_leaves: words[t::STAT_T_JUNCTION_LEAVES as usize] as usize,
+        t_junction_vertices: words[t::STAT_T_JUNCTION_VERTICES as usize] as usize,
     };
     Tessellation {
         mesh: TriangleMesh {

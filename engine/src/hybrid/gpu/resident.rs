@@ -1,164 +1,34 @@
-//! A GPU tessellation kept on the device and drawn from there: the draw list's passes
-//! (`shaders/wgsl/drawlist.wgsl`) turn the tessellation's output into an index buffer and
-//! indirect draw arguments, and each tessellation leaves a [`DeviceLensPart`] (the lens pass's
-//! data, the indices, the arguments and a host copy of its counts) that a frame draws with no
-//! per-vertex data read back. The frame records the tessellation itself, as a compute pass of its
-//! graph ([`super::recorder::TessellationWork`]); the counts are read once the frame is done
-//! ([`read_counts`]). Tessellations read back or timed are the tracer's own submissions.
+//! A GPU tessellation kept on the device and drawn from there: each tessellation leaves a
+//! [`DeviceLensPart`] (the lens pass's data, the indices and indirect draws its draw list wrote,
+//! and a host copy of its counts) that a frame draws with no per-vertex data read back. The frame
+//! declares the tessellation's passes in its own graph ([`super::work`]); the counts are read
+//! once the frame is done ([`read_counts`]). Tessellations read back or timed are the tracer's
+//! own submissions.
 //!
 //! Each scene object keeps its resident input mesh and its passes' descriptor sets over the
 //! tracer's shared buffers, and a few sets of outputs, one per frame that may still draw one: an
 //! output is reused once no frame holds its part (the `Arc` is the only reference left), so a
 //! tessellation never writes what a pending frame reads. Whatever a recorded work names is kept
-//! until the frames that recorded it are done ([`super::GpuTracer::used_until`]).
+//! until the frames that recorded it are done ([`super::tracer::GpuTracer::used_until`]).
 
 use std::sync::Arc;
 
-use ash::vk;
-use lensmap_shaders::DrawConstants;
-
-use super::recorder::ComputePasses;
-use super::tessellate::{InputMesh, Scratch, control};
-use super::{COUNTERS, STORAGE, storage};
-use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError, Timeline, VkContext};
+use super::buffers::{InputMesh, Scratch, storage};
+use super::work::{ARGS_BYTES, COUNT_WORDS, SetEntry};
+use crate::gpu::descriptors::{DescriptorPool, Resource, SetLayout};
+use crate::gpu::{Buffer, BufferUsage, DescriptorSet, Gpu, GpuError};
 use crate::render::DeviceLensPart;
-use crate::render::descriptors::{Binding, DescriptorPool, Resource};
 use crate::trace::stats::TraceCounters;
 
-/// Storage buffers bound at set 0 of the draw list's passes, in binding order (drawlist.wgsl).
-pub(super) const DRAW_SET: &[Binding] = &[STORAGE; 9];
-
-/// The draw list's passes, in the order they run (the scan's two between count and args).
-pub(super) const PASSES: &[&str] = &[
-    "cs_draw_begin",
-    "cs_draw_count",
-    "cs_scan_blocks",
-    "cs_scan_top",
-    "cs_draw_args",
-    "cs_draw_emit",
-];
-
-/// Words of a part's host copy of its counts: the tessellation's control words, the tracer's
-/// counters (padded to four), the three indirect draws.
-pub(super) const COUNT_WORDS: usize = control::WORDS + 4 + 15;
-
-/// Bytes of the three indirect draws.
-const ARGS_BYTES: u64 = 60;
-
-/// Submissions a tracer keeps in flight before it waits for the oldest.
-const IN_FLIGHT: usize = 4;
-
-/// The draw list's pipelines on one device.
-pub(super) fn draw_list_passes(gpu: &Gpu) -> Result<ComputePasses, GpuError> {
-    ComputePasses::new::<DrawConstants>(gpu, "drawlist", PASSES, DRAW_SET)
-}
-
-/// Command buffers the tessellations are recorded into, from a pool of their own, reused round
-/// robin once their last submission completed, and the timeline that says which did.
-pub(super) struct Submissions {
-    device: ash::Device,
-    pool: vk::CommandPool,
-    timeline: Timeline,
-    ring: Vec<(vk::CommandBuffer, u64)>,
-    /// The value the last submission signals.
-    submitted: u64,
-    /// Another timeline whose submissions recorded this tracer's work (a renderer's frames,
-    /// [`super::GpuTracer::used_until`]), and the last value of them.
-    external: Option<(Arc<Timeline>, u64)>,
-}
-
-impl Drop for Submissions {
-    fn drop(&mut self) {
-        let _ = self.wait_all();
-        // SAFETY: every submission of its command buffers completed (or the device is lost);
-        // they are freed with the pool.
-        unsafe { self.device.destroy_command_pool(self.pool, None) };
-    }
-}
-
-impl Submissions {
-    pub(super) fn new(gpu: &Gpu) -> Result<Submissions, GpuError> {
-        let info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(gpu.vulkan().queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let timeline = Timeline::new(gpu)?;
-        // SAFETY: a valid create info for the queue's family; destroyed in Drop.
-        let pool =
-            unsafe { gpu.device().create_command_pool(&info, None) }.vk("vkCreateCommandPool")?;
-        Ok(Submissions {
-            device: gpu.device().clone(),
-            pool,
-            timeline,
-            ring: Vec::new(),
-            submitted: 0,
-            external: None,
-        })
-    }
-
-    /// Records `record` and submits it without waiting; returns the value its completion
-    /// signals.
-    pub(super) fn submit(
-        &mut self,
-        gpu: &Gpu,
-        record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
-    ) -> Result<u64, GpuError> {
-        let slot = (self.submitted as usize) % IN_FLIGHT;
-        if self.ring.len() <= slot {
-            let info = vk::CommandBufferAllocateInfo::default()
-                .command_pool(self.pool)
-                .level(vk::CommandBufferLevel::PRIMARY)
-                .command_buffer_count(1);
-            // SAFETY: the pool belongs to this device and is used by this tracer alone (under
-            // its pass lock).
-            let made = unsafe { self.device.allocate_command_buffers(&info) }
-                .vk("vkAllocateCommandBuffers")?;
-            self.ring.push((made[0], 0));
-        }
-        let (cb, last) = self.ring[slot];
-        self.timeline.wait(last)?;
-        let value = self.submitted + 1;
-        gpu.record_submit(cb, record, (&self.timeline, value), &[], &[])?;
-        self.submitted = value;
-        self.ring[slot].1 = value;
-        Ok(value)
-    }
-
-    /// Blocks until submission `value` completed.
-    pub(super) fn wait(&self, value: u64) -> Result<(), GpuError> {
-        self.timeline.wait(value)
-    }
-
-    /// Blocks until every submission completed, the frames' that recorded this tracer's work
-    /// included.
-    pub(super) fn wait_all(&self) -> Result<(), GpuError> {
-        if let Some((timeline, value)) = &self.external {
-            timeline.wait(*value)?;
-        }
-        self.timeline.wait(self.submitted)
-    }
-
-    /// Notes that submission `value` of `timeline` recorded this tracer's work: what it names is
-    /// kept until that completed.
-    pub(super) fn used_until(&mut self, timeline: Arc<Timeline>, value: u64) {
-        match &mut self.external {
-            Some((held, last)) if Arc::ptr_eq(held, &timeline) => *last = (*last).max(value),
-            other => {
-                // Another timeline (a new renderer): the old one's work must be done first.
-                if let Some((held, last)) = other.take() {
-                    let _ = held.wait(last);
-                }
-                *other = Some((timeline, value));
-            }
-        }
-    }
-}
+/// Words of the control buffer, as a part's counts hold them first.
+const CONTROL_WORDS: usize = super::buffers::CONTROL_WORDS;
 
 /// One set of a scene object's outputs and the sets of the passes that write them.
 pub(super) struct Outputs {
     pub(super) part: Arc<DeviceLensPart>,
     /// The texgen pass's set (`None` when made without texgen), and the draw list's.
-    pub(super) texgen_set: Option<vk::DescriptorSet>,
-    pub(super) draw_set: vk::DescriptorSet,
+    pub(super) texgen_set: Option<DescriptorSet>,
+    pub(super) draw_set: DescriptorSet,
     /// Arrays of lens data `part.data` holds (0 without texgen).
     arrays: u64,
     _pools: (DescriptorPool, DescriptorPool),
@@ -169,14 +39,58 @@ pub(super) struct Outputs {
 pub(super) struct ObjectState {
     pub(super) input: InputMesh,
     /// Per input triangle 1 on the hull of the lens geometry (one zero word without a split).
-    hull: Buffer,
+    pub(super) hull: Buffer,
     hull_words: Vec<u32>,
     /// Texgen's layer shells as last written.
-    shells: Option<(Buffer, Vec<[f32; 4]>)>,
+    pub(super) shells: Option<(Buffer, Vec<[f32; 4]>)>,
     /// The level pass's set and the tessellation's, once made.
-    pub(super) sets: Option<(vk::DescriptorSet, vk::DescriptorSet)>,
+    pub(super) sets: Option<[DescriptorSet; 2]>,
     _pools: Option<(DescriptorPool, DescriptorPool)>,
     pub(super) outputs: Vec<Outputs>,
+    /// How many outputs were made, for their names.
+    made: usize,
+}
+
+/// The layouts the sets of an object's passes are made with.
+pub(super) struct Layouts<'a> {
+    pub(super) level_paths: &'a SetLayout,
+    pub(super) tessellation: &'a SetLayout,
+    pub(super) texgen: &'a SetLayout,
+    pub(super) draw_list: &'a SetLayout,
+}
+
+/// The resources of a set's `entries` in binding order: each entry's buffer, or at binding 0
+/// `first` where given (the level pass's walk, perhaps the driver's acceleration structure).
+pub(super) fn resources(
+    entries: &[SetEntry<'_>],
+    first: Option<Resource>,
+) -> Result<Vec<Resource>, GpuError> {
+    let mut sorted: Vec<&SetEntry<'_>> = entries.iter().collect();
+    sorted.sort_by_key(|e| e.binding);
+    sorted
+        .iter()
+        .map(|entry| match (entry.binding, first) {
+            (0, Some(walk)) => Ok(walk),
+            _ => entry
+                .buffer
+                .map(Resource::buffer)
+                .ok_or_else(|| GpuError::BadUpload {
+                    what: "the GPU tessellation".into(),
+                    problem: format!("{} was not made", entry.name),
+                }),
+        })
+        .collect()
+}
+
+/// A pool for one set of `layout`, and the set pointing at `resources`.
+fn one_set(
+    gpu: &Gpu,
+    layout: &SetLayout,
+    resources: &[Resource],
+) -> Result<(DescriptorPool, DescriptorSet), GpuError> {
+    let pool = DescriptorPool::new(gpu, &layout.bindings, 1)?;
+    let set = pool.allocate_one(gpu, layout, resources)?;
+    Ok((pool, set))
 }
 
 impl ObjectState {
@@ -189,6 +103,7 @@ impl ObjectState {
             sets: None,
             _pools: None,
             outputs: Vec::new(),
+            made: 0,
         })
     }
 
@@ -229,68 +144,49 @@ impl ObjectState {
         Ok(())
     }
 
-    /// Makes the level pass's and the tessellation's sets over `scratch` unless made.
+    /// Makes the level pass's and the tessellation's sets (pointing at `level_paths` and
+    /// `tessellation`, in binding order) unless made.
     pub(super) fn ensure_sets(
         &mut self,
         gpu: &Gpu,
-        (tracer, tessellation): (
-            (vk::DescriptorSetLayout, &'static [Binding], &[Resource]),
-            vk::DescriptorSetLayout,
-        ),
-        scratch: &Scratch,
-    ) -> Result<(), GpuError> {
-        if self.sets.is_some() {
-            return Ok(());
+        layouts: &Layouts<'_>,
+        level_paths: &[Resource],
+        tessellation: &[Resource],
+    ) -> Result<[DescriptorSet; 2], GpuError> {
+        if let Some(sets) = self.sets {
+            return Ok(sets);
         }
-        let tracer_pool = DescriptorPool::new(gpu, tracer.1, 1)?;
-        let tessellation_pool = DescriptorPool::new(gpu, super::tessellate::TESSELLATE_SET, 1)?;
-        let mut tracer_resources = tracer.2.to_vec();
-        tracer_resources.extend(scratch.tracer_resources());
-        let tracer_set = tracer_pool.allocate_one(gpu, (tracer.0, tracer.1), &tracer_resources)?;
-        let tessellation_set = tessellation_pool.allocate_one(
-            gpu,
-            (tessellation, super::tessellate::TESSELLATE_SET),
-            &scratch.tessellation_resources(&self.input),
-        )?;
-        self.sets = Some((tracer_set, tessellation_set));
-        self._pools = Some((tracer_pool, tessellation_pool));
-        Ok(())
+        let (level_pool, level_set) = one_set(gpu, layouts.level_paths, level_paths)?;
+        let (tessellation_pool, tessellation_set) =
+            one_set(gpu, layouts.tessellation, tessellation)?;
+        let sets = [level_set, tessellation_set];
+        self.sets = Some(sets);
+        self._pools = Some((level_pool, tessellation_pool));
+        Ok(sets)
     }
 
-    /// The index of an output no frame holds (made where none is free) for `scratch`, with lens data for
-    /// `arrays` arrays (0: no texgen).
+    /// The index of an output no frame holds (made where none is free) for `scratch`, with lens
+    /// data for `arrays` arrays (0: no texgen), named by `name` from its index; `sets` makes its
+    /// texgen and draw-list sets from the part.
     pub(super) fn free_outputs(
         &mut self,
         gpu: &Gpu,
-        (texgen, draw): (vk::DescriptorSetLayout, vk::DescriptorSetLayout),
         scratch: &Scratch,
         arrays: u64,
+        name: impl Fn(usize) -> String,
+        sets: impl FnOnce(&ObjectState, &DeviceLensPart) -> Result<OutputSets, GpuError>,
     ) -> Result<usize, GpuError> {
         let free = self
             .outputs
             .iter()
             .position(|o| Arc::strong_count(&o.part) == 1 && o.arrays == arrays);
-        let at = match free {
-            Some(at) => at,
-            None => {
-                let made = self.make_outputs(gpu, (texgen, draw), scratch, arrays)?;
-                self.outputs.push(made);
-                self.outputs.len() - 1
-            }
-        };
-        Ok(at)
-    }
-
-    fn make_outputs(
-        &self,
-        gpu: &Gpu,
-        (texgen, draw): (vk::DescriptorSetLayout, vk::DescriptorSetLayout),
-        scratch: &Scratch,
-        arrays: u64,
-    ) -> Result<Outputs, GpuError> {
-        let capacity = scratch.vertices_capacity();
-        let device = |name: &str, bytes: u64| Buffer::new(gpu, name, bytes, BufferUsage::Device);
+        if let Some(at) = free {
+            return Ok(at);
+        }
+        let capacity = scratch.vertices_capacity;
+        let device = |label: &str, bytes: u64| Buffer::new(gpu, label, bytes, BufferUsage::Device);
         let part = DeviceLensPart {
+            name: name(self.made),
             data: device("lens part data", (16 * capacity * arrays).max(16))?,
             indices: device("lens part indices", 12 * scratch.output_capacity())?,
             args: device("lens part draws", ARGS_BYTES)?,
@@ -302,27 +198,50 @@ impl ObjectState {
                 BufferUsage::Readback,
             )?,
         };
-        let texgen_pool = DescriptorPool::new(gpu, super::texgen::TEXGEN_SET, 1)?;
-        let draw_pool = DescriptorPool::new(gpu, DRAW_SET, 1)?;
-        let texgen_set = match &self.shells {
-            Some((shells, _)) if arrays > 0 => Some(texgen_pool.allocate_one(
-                gpu,
-                (texgen, super::texgen::TEXGEN_SET),
-                &scratch.texgen_resources(shells, &part.data),
-            )?),
-            _ => None,
-        };
-        let draw_set = draw_pool.allocate_one(
-            gpu,
-            (draw, DRAW_SET),
-            &scratch.draw_resources(&self.hull, (&part.indices, &part.args)),
-        )?;
-        Ok(Outputs {
+        let OutputSets {
+            texgen_set,
+            draw_set,
+            pools,
+        } = sets(self, &part)?;
+        self.made += 1;
+        self.outputs.push(Outputs {
             part: Arc::new(part),
             texgen_set,
             draw_set,
             arrays,
-            _pools: (texgen_pool, draw_pool),
+            _pools: pools,
+        });
+        Ok(self.outputs.len() - 1)
+    }
+}
+
+/// An output's texgen and draw-list sets, with their pools.
+pub(super) struct OutputSets {
+    pub(super) texgen_set: Option<DescriptorSet>,
+    pub(super) draw_set: DescriptorSet,
+    pub(super) pools: (DescriptorPool, DescriptorPool),
+}
+
+impl OutputSets {
+    /// The sets of `texgen` (the texgen pass's entries, `None` without texgen) and `draw_list`.
+    pub(super) fn new(
+        gpu: &Gpu,
+        layouts: &Layouts<'_>,
+        texgen: Option<&[SetEntry<'_>]>,
+        draw_list: &[SetEntry<'_>],
+    ) -> Result<OutputSets, GpuError> {
+        let (texgen_pool, texgen_set) = match texgen {
+            Some(entries) => {
+                let (pool, set) = one_set(gpu, layouts.texgen, &resources(entries, None)?)?;
+                (pool, Some(set))
+            }
+            None => (DescriptorPool::new(gpu, &layouts.texgen.bindings, 1)?, None),
+        };
+        let (draw_pool, draw_set) = one_set(gpu, layouts.draw_list, &resources(draw_list, None)?)?;
+        Ok(OutputSets {
+            texgen_set,
+            draw_set,
+            pools: (texgen_pool, draw_pool),
         })
     }
 }
@@ -348,7 +267,7 @@ pub struct DeviceCounts {
     /// Triangles whose splits the vertex budget or the buffers refused.
     pub stopped_by_budget: u32,
     /// Whether the buffers, not the budget, refused them: the next tessellation should have
-    /// larger ones ([`super::GpuTracer::grow`]).
+    /// larger ones ([`super::tracer::GpuTracer::grow`]).
     pub capped_by_buffers: bool,
     /// The rays and triangle tests of its vertex paths.
     pub counters: TraceCounters,
@@ -357,24 +276,23 @@ pub struct DeviceCounts {
 /// The counts `part`'s tessellation wrote. Its submission must have completed (the frame that
 /// drew the part is done, or the tracer waited for it).
 pub fn read_counts(part: &DeviceLensPart) -> DeviceCounts {
+    use lensmap_shaders::tessellate as t;
     let words = count_words(part);
-    let tracer = control::WORDS;
-    let args = control::WORDS + 4;
-    let stopped = words[control::BUDGET];
+    let tracer = CONTROL_WORDS;
+    let args = CONTROL_WORDS + 4;
+    let stopped = words[t::STAT_BUDGET as usize];
     DeviceCounts {
-        vertices: words[control::VERTICES],
+        vertices: words[t::CONTROL_VERTICES as usize],
         triangles: words[args] / 3,
         hull_triangles: words[args + 10] / 3,
         stopped_by_budget: stopped,
         capped_by_buffers: stopped > 0
-            && u64::from(part.stride) < u64::from(words[control::OBJECT_BUDGET]),
+            && u64::from(part.stride) < u64::from(words[t::CONTROL_OBJECT_BUDGET as usize]),
         counters: TraceCounters {
-            primary_rays: u64::from(words[tracer]),
-            secondary_rays: u64::from(words[tracer + 1]),
+            primary_rays: u64::from(words[tracer + t::COUNTER_PRIMARY_RAYS as usize]),
+            secondary_rays: u64::from(words[tracer + t::COUNTER_SECONDARY_RAYS as usize]),
             shadow_rays: 0,
-            triangle_tests: u64::from(words[tracer + 2]),
+            triangle_tests: u64::from(words[tracer + t::COUNTER_TRIANGLE_TESTS as usize]),
         },
     }
 }
-
-const _: () = assert!(COUNTERS <= 4);

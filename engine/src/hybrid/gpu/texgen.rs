@@ -8,16 +8,9 @@
 use glam::{DVec3, Vec3};
 use lensmap_shaders::TexgenConstants;
 
-use super::STORAGE;
-use super::recorder::ComputePasses;
-use crate::gpu::{Gpu, GpuError};
 use crate::layers::LayerShell;
 use crate::render::TermVertices;
-use crate::render::descriptors::Binding;
 use crate::trace::Term;
-
-/// Storage buffers bound at set 0 of the texgen pass, in binding order (texgen.wgsl).
-pub(super) const TEXGEN_SET: &[Binding] = &[STORAGE; 6];
 
 /// What texgen needs of a lens object: its layer shells, nearest first, each with its EM origin,
 /// and whether it has a refraction term (a glass object; the reflection term it always has).
@@ -68,12 +61,12 @@ impl TexgenRequest<'_> {
     }
 }
 
-/// Shell kinds (texgen.wgsl `SHELL_*`).
-const SPHERE: f32 = 0.0;
-const ELLIPSOID: f32 = 1.0;
-const BOX: f32 = 2.0;
-const CYLINDER: f32 = 3.0;
-const QUAD: f32 = 4.0;
+/// Shell kinds (texgen.wgsl `SHELL_*`), which the shader reads from a float word.
+const SPHERE: f32 = lensmap_shaders::texgen::SHELL_SPHERE as f32;
+const ELLIPSOID: f32 = lensmap_shaders::texgen::SHELL_ELLIPSOID as f32;
+const BOX: f32 = lensmap_shaders::texgen::SHELL_BOX as f32;
+const CYLINDER: f32 = lensmap_shaders::texgen::SHELL_CYLINDER as f32;
+const QUAD: f32 = lensmap_shaders::texgen::SHELL_QUAD as f32;
 
 /// One shell as four vec4: (centre, kind), (a, a_w), (b, b_w), (EM origin, 0).
 fn shell_words(shell: &LayerShell, em_origin: DVec3) -> [[f32; 4]; 4] {
@@ -118,11 +111,6 @@ fn shell_words(shell: &LayerShell, em_origin: DVec3) -> [[f32; 4]; 4] {
         b,
         v(em_origin, 0.0),
     ]
-}
-
-/// The texgen pass's pipeline on one device.
-pub(super) fn texgen_pass(gpu: &Gpu) -> Result<ComputePasses, GpuError> {
-    ComputePasses::new::<TexgenConstants>(gpu, "texgen", &["cs_texgen"], TEXGEN_SET)
 }
 
 /// The terms' vertex data from the lens data as read back: `arrays[i]` is array i's first

@@ -3,11 +3,12 @@
 //! (`shaders/wgsl/include/vertex_paths.wgsl`); they differ in what culls the triangles a ray
 //! cannot hit.
 
-use ash::vk;
+use lensmap_shaders::{EntryPoint, Shader, tracer, tracer_f64, tracer_rq, tracer_rq_f64};
 
-use super::{STORAGE, storage};
-use crate::gpu::{Gpu, GpuError, acceleration::BoxScene};
-use crate::render::descriptors::{Binding, Resource};
+use super::buffers::{check_range, storage};
+use crate::gpu::descriptors::Resource;
+use crate::gpu::{Buffer, Gpu, GpuError, acceleration::BoxScene};
+use crate::hybrid::paths::VertexPrecision;
 use crate::trace::bvh_gpu::{GpuGeometry, STACK_ENTRIES};
 
 /// The walk the GPU tracer uses, once chosen for a device
@@ -69,26 +70,6 @@ impl Traversal {
     }
 }
 
-/// Set 0 of the BVH walk's passes: ten storage buffers (tracer.wgsl).
-const BVH_SET: &[Binding] = &[STORAGE; 10];
-
-/// Set 0 of the driver's walk: binding 0 the top-level acceleration structure (tracer_rq.wgsl).
-const DRIVER_SET: &[Binding] = &[
-    Binding {
-        ty: vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
-        stage: vk::ShaderStageFlags::COMPUTE,
-    },
-    STORAGE,
-    STORAGE,
-    STORAGE,
-    STORAGE,
-    STORAGE,
-    STORAGE,
-    STORAGE,
-    STORAGE,
-    STORAGE,
-];
-
 /// What a walk reads, resident on the device.
 pub(super) enum Walk {
     /// The BVHs' nodes (binding 0) and each part's root node (binding 3).
@@ -121,7 +102,7 @@ impl Walk {
                         ),
                     });
                 }
-                super::check_range(gpu, "tracer nodes", geometry.nodes.len())?;
+                check_range(gpu, "tracer nodes", geometry.nodes.len())?;
                 Ok(Walk::Bvh {
                     nodes: storage(gpu, "tracer nodes", &geometry.nodes)?,
                     roots: storage(gpu, "tracer roots", &geometry.roots)?,
@@ -142,19 +123,45 @@ impl Walk {
         }
     }
 
-    /// The layout of set 0 of its passes.
-    pub(super) fn bindings(&self) -> &'static [Binding] {
+    /// Set 0 of its passes, as the shader declares it.
+    pub(super) fn set(&self) -> &'static [lensmap_shaders::Binding] {
         match self {
-            Walk::Bvh { .. } => BVH_SET,
-            Walk::Driver { .. } => DRIVER_SET,
+            Walk::Bvh { .. } => tracer::SETS[0],
+            Walk::Driver { .. } => tracer_rq::SETS[0],
         }
     }
 
-    /// The shader file of its passes.
-    pub(super) fn module(&self) -> &'static str {
+    /// Its passes' shaders in `precision`: the pass over given vertices, then the pass over a
+    /// tessellation level's new vertices.
+    pub(super) fn shaders(&self, precision: VertexPrecision) -> [Shader; 2] {
+        match (self.traversal(), precision) {
+            (GpuTraversal::Bvh, VertexPrecision::F32) => [
+                tracer::Entry::CsVertexPaths.shader(),
+                tracer::Entry::CsLevelPaths.shader(),
+            ],
+            (GpuTraversal::Bvh, VertexPrecision::F64) => [
+                tracer_f64::Entry::CsVertexPaths.shader(),
+                tracer_f64::Entry::CsLevelPaths.shader(),
+            ],
+            (GpuTraversal::Driver, VertexPrecision::F32) => [
+                tracer_rq::Entry::CsVertexPaths.shader(),
+                tracer_rq::Entry::CsLevelPaths.shader(),
+            ],
+            (GpuTraversal::Driver, VertexPrecision::F64) => [
+                tracer_rq_f64::Entry::CsVertexPaths.shader(),
+                tracer_rq_f64::Entry::CsLevelPaths.shader(),
+            ],
+        }
+    }
+
+    /// The buffers at bindings 0 and 3 with the names a plan gives them (the driver's binding 0
+    /// is its acceleration structure: no buffer).
+    pub(super) fn buffers(&self) -> [(Option<&Buffer>, &'static str); 2] {
         match self {
-            Walk::Bvh { .. } => "tracer",
-            Walk::Driver { .. } => "tracer_rq",
+            Walk::Bvh { nodes, roots } => {
+                [(Some(nodes), "tracer nodes"), (Some(roots), "tracer roots")]
+            }
+            Walk::Driver { ranges, .. } => [(None, ""), (Some(ranges), "tracer part ranges")],
         }
     }
 

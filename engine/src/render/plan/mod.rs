@@ -19,12 +19,13 @@ use crate::graph::{
     ImageId, LoadOp, Pass, PassKind, Plan, StoreOp,
 };
 
+use super::DeviceLensPart;
 use super::program::{ProgramError, ShaderProgram, SinglePassLimits};
 use crate::index::{LayerIndex, LensIndex};
 use crate::trace::Term;
 pub use compositing::{BlendScheme, Compositing, CompositingError, Variant};
 use lens::{Group, LensPasses};
-pub use shape::{FrameShape, LensShape};
+pub use shape::{FrameShape, LensShape, PartShape};
 
 /// Framebuffer colour format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -122,13 +123,15 @@ pub enum Draw {
         /// The lens object.
         lens: LensIndex,
     },
-    /// The compute work that makes part `part` of a lens object resident on the device (the GPU
-    /// tessellation, texgen and draw list).
-    Tessellate {
+    /// Pass `pass` of the compute work that makes part `part` of a lens object resident on the
+    /// device (the GPU tessellation, texgen and draw list).
+    Compute {
         /// The lens object.
         lens: LensIndex,
         /// The part.
         part: usize,
+        /// The work's pass.
+        pass: usize,
     },
     /// A full-screen triangle averaging `supersampling`² subpixels of the colour target into
     /// each pixel of an external image.
@@ -171,8 +174,8 @@ pub struct FrameResources {
     pub external: Option<ImageId>,
     /// The blending scheme's scratch images, in the order of their layers in the scratch array.
     pub scratch: Vec<ImageId>,
-    /// `parts[lens]`: the buffers of a resident lens object's parts that its compute pass
-    /// writes this frame (empty for the rest).
+    /// `parts[lens]`: the buffers of a resident lens object's parts that its lens passes read
+    /// (each part's data, indices and draws; empty for the rest).
     pub parts: Vec<Vec<BufferId>>,
 }
 
@@ -286,7 +289,7 @@ pub fn frame_graph(
     } = *options;
     let mut graph = Graph::new();
     let mut resources = declare_images(&mut graph, shape, compositing.blend(), format);
-    tessellation(&mut graph, shape, &resources);
+    tessellation(&mut graph, shape);
     environment(&mut graph, shape, &resources);
     glossy(&mut graph, shape, &resources);
     for (index, lens) in LensIndex::all(shape.lenses.len()).zip(&shape.lenses) {
@@ -367,13 +370,15 @@ fn declare_images(
                 .collect()
         })
         .collect();
+    // Kept across frames: made by this frame's work, or an earlier frame's.
     let parts = shape
         .lenses
         .iter()
-        .enumerate()
-        .map(|(i, lens)| {
-            (0..lens.compute)
-                .map(|k| graph.buffer(&format!("lens{i}/part{k}"), 0))
+        .map(|lens| {
+            lens.parts
+                .iter()
+                .flat_map(|part| DeviceLensPart::buffer_names(&part.name))
+                .map(|name| graph.kept_buffer(&name, 0))
                 .collect()
         })
         .collect();
@@ -387,26 +392,31 @@ fn declare_images(
     }
 }
 
-/// Per lens object resident on the device whose parts are made this frame, a compute pass
-/// writing them, before any draw. A side effect: the parts' counts are read after the frame even
-/// where no lens pass draws them.
-fn tessellation(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources) {
+/// Per part of a lens object resident on the device that is made this frame, the passes of the
+/// work that makes it, before any draw; the graph places their barriers. Side effects: the
+/// parts' counts are read after the frame even where no lens pass draws them.
+fn tessellation(graph: &mut FrameGraph, shape: &FrameShape) {
     for (index, lens) in LensIndex::all(shape.lenses.len()).zip(&shape.lenses) {
-        if lens.compute == 0 {
-            continue;
+        for (part, work) in lens.parts.iter().enumerate() {
+            let Some(work) = &work.work else { continue };
+            super::compute::declare(
+                graph,
+                work,
+                &format!("{}/{}/", lens.name, work_prefix(part)),
+                PassCategory::Tessellation,
+                |pass| Draw::Compute {
+                    lens: index,
+                    part,
+                    pass,
+                },
+            );
         }
-        graph.add_pass(Pass {
-            name: format!("{}/tessellate", lens.name),
-            category: PassCategory::Tessellation,
-            side_effect: true,
-            kind: PassKind::Compute {
-                dispatches: (0..lens.compute)
-                    .map(|part| Draw::Tessellate { lens: index, part })
-                    .collect(),
-                writes: resources.parts[index.index()].clone(),
-            },
-        });
     }
+}
+
+/// The name of part `part` of a lens object in its work's pass names.
+fn work_prefix(part: usize) -> String {
+    format!("part{part}")
 }
 
 /// The environment pass: colour cleared to zero and depth to 1, every mesh drawn opaque with

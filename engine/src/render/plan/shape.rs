@@ -22,10 +22,19 @@ pub struct LensShape {
     pub terms: Vec<Term>,
     /// `empty[viewpoint][layer]`: the layer's cube map is all zeros, so its pass changes nothing.
     pub empty: Vec<Vec<bool>>,
-    /// Parts of a lens object resident on the device whose compute work (the GPU tessellation
-    /// that makes them) runs in this frame before the lens passes; 0 for the rest, and once the
-    /// work ran (a frame drawn again).
-    pub compute: usize,
+    /// The parts of a lens object resident on the device (none for the rest), each with the
+    /// compute work that makes it (the GPU tessellation), run in this frame before the lens
+    /// passes; `None` once the work ran (a frame drawn again).
+    pub parts: Vec<PartShape>,
+}
+
+/// One part of a lens object resident on the device.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartShape {
+    /// Its name ([`crate::render::DeviceLensPart::buffer_names`] names its buffers).
+    pub name: String,
+    /// The work that makes it in this frame, or `None`.
+    pub work: Option<Arc<crate::render::compute::WorkShape>>,
 }
 
 impl LensShape {
@@ -86,11 +95,19 @@ impl FrameShape {
                             .resident
                             .as_ref()
                             .map_or(lens.triangles.len(), |r| r.parts.len()),
-                        compute: lens
-                            .resident
-                            .as_ref()
-                            .filter(|r| r.works.iter().all(|w| w.pending()))
-                            .map_or(0, |r| r.works.len()),
+                        parts: lens.resident.as_ref().map_or_else(Vec::new, |r| {
+                            // All or none: a frame records every work of its parts, or none.
+                            let pending = r.works.len() == r.parts.len()
+                                && r.works.iter().all(|w| w.pending());
+                            r.parts
+                                .iter()
+                                .zip(r.works.iter().map(Some).chain(std::iter::repeat(None)))
+                                .map(|(part, work)| PartShape {
+                                    name: part.name.clone(),
+                                    work: work.filter(|_| pending).map(|w| w.shape.clone()),
+                                })
+                                .collect()
+                        }),
                         faces: lens.faces,
                         terms,
                         empty: lens
@@ -143,7 +160,7 @@ impl FrameShape {
                 faces: LensFaces::Front,
                 terms: terms.to_vec(),
                 empty: vec![vec![false; layers]; viewpoints],
-                compute: 0,
+                parts: Vec::new(),
             }],
             viewpoint_weights: vec![1.0 / viewpoints as f32; viewpoints],
         }

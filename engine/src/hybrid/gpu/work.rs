@@ -1,0 +1,516 @@
+//! The GPU tessellation as compute work: every pass it runs, in order, with the buffers each
+//! reads and writes (from naga's analysis of its entry point), declared once for both uses: a
+//! plan with no device ([`planned_part`], what `lensmap passes --gpu-parts` prints) and a frame
+//! or a submission of the tracer's own ([`declare`] bound to the buffers, sets and constants).
+//!
+//! The passes: the control words written and the wanted flags and counters cleared; the
+//! classification of the input triangles; per level the level's new vertices traced (the
+//! tracer's level pass), the split decisions, their prefix sum and the new triangles; the leaves
+//! and the T-junction removal; texgen; the draw list (indices and indirect draws); the counts
+//! copied to the part's host buffer, which the host reads once the submission is done.
+
+use lensmap_shaders::{DrawConstants, TessellateConstants, TexgenConstants, TracerConstants};
+use lensmap_shaders::{drawlist, tessellate, texgen, tracer};
+
+use super::buffers::{CONTROL_WORDS, COUNTERS, InputMesh, Scratch};
+use crate::gpu::{Buffer, DescriptorSet, Kernels, Pipeline, QueryPoolRef};
+use crate::graph::Access;
+use crate::render::compute::{Command, Dispatch, DispatchSize, WorkBuilder, WorkPassKind};
+use crate::render::{DeviceLensPart, PartShape};
+
+/// Words of a part's host copy of its counts: the tessellation's control words, the tracer's
+/// counters (padded to four), the three indirect draws.
+pub(super) const COUNT_WORDS: usize = CONTROL_WORDS + 4 + 15;
+
+/// Bytes of the three indirect draws.
+pub(super) const ARGS_BYTES: u64 = 60;
+
+const _: () = assert!(COUNTERS <= 4);
+
+/// One binding of a pass's set: its number, the work's name for the buffer, and the buffer
+/// (bound works; `None` in a plan, and for a binding that is no buffer, such as the driver's
+/// acceleration structure).
+pub(super) struct SetEntry<'a> {
+    pub(super) binding: u32,
+    pub(super) name: String,
+    pub(super) buffer: Option<&'a Buffer>,
+}
+
+/// What a tessellation's sets point at, by the work's names: the shared buffers (`scratch`),
+/// scene object `object`'s input, hull flags and shells, and the part's outputs.
+pub(super) struct TessellationBuffers<'a> {
+    /// The shared buffers (`None` in a plan).
+    pub(super) scratch: Option<&'a Scratch>,
+    /// The object's input mesh.
+    pub(super) input: Option<&'a InputMesh>,
+    /// The object's hull flags and texgen shells.
+    pub(super) hull: Option<&'a Buffer>,
+    pub(super) shells: Option<&'a Buffer>,
+    /// The part's outputs: its data, indices, draws and host counts.
+    pub(super) part: Option<&'a DeviceLensPart>,
+    /// The tracer's own buffers at bindings 0 to 4 of the level pass (the walk's two, the
+    /// triangles, the materials, the Schlick table), with their names (`None` for the driver's
+    /// acceleration structure).
+    pub(super) geometry: [(Option<&'a Buffer>, &'static str); 5],
+    /// The scene object.
+    pub(super) object: usize,
+    /// The part's name.
+    pub(super) part_name: &'a str,
+}
+
+impl<'a> TessellationBuffers<'a> {
+    fn shared(&self, name: &str, pick: fn(&Scratch) -> &Buffer) -> (String, Option<&'a Buffer>) {
+        (format!("tessellation {name}"), self.scratch.map(pick))
+    }
+
+    fn object_buffer(
+        &self,
+        name: &str,
+        buffer: Option<&'a Buffer>,
+    ) -> (String, Option<&'a Buffer>) {
+        (format!("object{} {name}", self.object), buffer)
+    }
+
+    fn output(&self, index: usize) -> (String, Option<&'a Buffer>) {
+        let names = DeviceLensPart::buffer_names(self.part_name);
+        let buffer = self.part.map(|p| [&p.data, &p.indices, &p.args][index]);
+        (names[index].clone(), buffer)
+    }
+
+    /// The part's host copy of its counts.
+    fn counts(&self) -> (String, Option<&'a Buffer>) {
+        (
+            format!("{} counts", self.part_name),
+            self.part.map(|p| &p.counts),
+        )
+    }
+
+    fn entries(list: Vec<(u32, (String, Option<&'a Buffer>))>) -> Vec<SetEntry<'a>> {
+        list.into_iter()
+            .map(|(binding, (name, buffer))| SetEntry {
+                binding,
+                name,
+                buffer,
+            })
+            .collect()
+    }
+
+    /// The tessellation passes' set (tessellate.wgsl).
+    pub(super) fn tessellation(&self) -> Vec<SetEntry<'a>> {
+        use tessellate::binding as b;
+        Self::entries(vec![
+            (b::VERTICES, self.shared("vertices", |s| &s.vertices)),
+            (b::RECORDS, self.shared("records", |s| &s.records)),
+            (b::CONTROL, self.shared("control", |s| &s.control)),
+            (b::WANTED, self.shared("wanted", |s| &s.wanted)),
+            (b::TRIS, self.shared("triangles", |s| &s.triangles)),
+            (b::EDGE_ENDS, self.shared("edge ends", |s| &s.edge_ends)),
+            (b::EDGE_STATE, self.shared("edge state", |s| &s.edge_state)),
+            (b::COUNTS, self.shared("counts", |s| &s.counts)),
+            (b::BLOCK_SUMS, self.shared("block sums", |s| &s.block_sums)),
+            (b::OUTPUT, self.shared("output", |s| &s.output)),
+            (
+                b::INPUT_VERTICES,
+                self.object_buffer("input vertices", self.input.map(|i| &i.vertices)),
+            ),
+            (
+                b::INPUT_TRIANGLES,
+                self.object_buffer("input triangles", self.input.map(|i| &i.triangles)),
+            ),
+            (
+                b::BASE_EDGES,
+                self.object_buffer("base edges", self.input.map(|i| &i.edges)),
+            ),
+        ])
+    }
+
+    /// The tracer's level pass's set (vertex_paths.wgsl, after the walk's and the geometry's).
+    pub(super) fn level_paths(&self) -> Vec<SetEntry<'a>> {
+        use tracer::binding as b;
+        let mut list: Vec<(u32, (String, Option<&'a Buffer>))> = self
+            .geometry
+            .iter()
+            .enumerate()
+            .map(|(binding, &(buffer, name))| (binding as u32, (name.to_string(), buffer)))
+            .collect();
+        list.extend([
+            (b::VERTICES, self.shared("vertices", |s| &s.vertices)),
+            (b::RECORDS, self.shared("records", |s| &s.records)),
+            (b::COUNTERS, self.shared("tracer counters", |s| &s.counters)),
+            (b::CONTROL, self.shared("control", |s| &s.control)),
+            (b::WANTED, self.shared("wanted", |s| &s.wanted)),
+        ]);
+        Self::entries(list)
+    }
+
+    /// Texgen's set (texgen.wgsl), writing the part's data.
+    pub(super) fn texgen(&self) -> Vec<SetEntry<'a>> {
+        use texgen::binding as b;
+        Self::entries(vec![
+            (b::VERTICES, self.shared("vertices", |s| &s.vertices)),
+            (b::RECORDS, self.shared("records", |s| &s.records)),
+            (b::WANTED, self.shared("wanted", |s| &s.wanted)),
+            (b::SHELLS, self.object_buffer("shells", self.shells)),
+            (b::LENS_DATA, self.output(0)),
+            (b::CONTROL, self.shared("control", |s| &s.control)),
+        ])
+    }
+
+    /// The draw list's set (drawlist.wgsl), writing the part's indices and draws.
+    pub(super) fn draw_list(&self) -> Vec<SetEntry<'a>> {
+        use drawlist::binding as b;
+        Self::entries(vec![
+            (b::CONTROL, self.shared("control", |s| &s.control)),
+            (b::OUTPUT, self.shared("output", |s| &s.output)),
+            (b::TRIS, self.shared("triangles", |s| &s.triangles)),
+            (b::VERTICES, self.shared("vertices", |s| &s.vertices)),
+            (b::HULL, self.object_buffer("hull", self.hull)),
+            (b::COUNTS, self.shared("counts", |s| &s.counts)),
+            (b::BLOCK_SUMS, self.shared("block sums", |s| &s.block_sums)),
+            (b::INDICES, self.output(1)),
+            (b::ARGS, self.output(2)),
+        ])
+    }
+}
+
+/// What a bound tessellation's passes record with.
+pub(super) struct Bound<'a> {
+    pub(super) tessellation: &'a Kernels<tessellate::Entry>,
+    pub(super) texgen: &'a Kernels<texgen::Entry>,
+    pub(super) draw_list: &'a Kernels<drawlist::Entry>,
+    /// The tracer's level pass.
+    pub(super) level_paths: Pipeline,
+    /// The level pass's set, the tessellation's, texgen's (when it runs) and the draw list's.
+    pub(super) sets: [DescriptorSet; 4],
+    pub(super) tracer_constants: TracerConstants,
+    pub(super) constants: TessellateConstants,
+    pub(super) texgen_constants: Option<TexgenConstants>,
+    pub(super) draw_constants: DrawConstants,
+    /// The control words the tessellation starts from, the first `written` of them written.
+    pub(super) first: [u32; CONTROL_WORDS],
+    pub(super) written: usize,
+    /// Input vertices, triangles and base edges.
+    pub(super) input: [u32; 3],
+    /// The timestamps of a timed tessellation.
+    pub(super) timestamps: Option<QueryPoolRef>,
+}
+
+/// What a tessellation's passes are: its levels, whether texgen runs, and its buffers.
+pub(super) struct Tessellation<'a> {
+    /// Levels (the depth cap + 1).
+    pub(super) levels: u32,
+    /// Whether texgen runs (and writes the part's data).
+    pub(super) texgen: bool,
+    pub(super) buffers: TessellationBuffers<'a>,
+}
+
+/// The work's buffers for a set's entries: binding `b` → the work's buffer (`None` where the
+/// entry has no name of a buffer: the acceleration structure).
+fn slots(builder: &mut WorkBuilder, entries: &[SetEntry<'_>]) -> Vec<Option<usize>> {
+    let len = entries
+        .iter()
+        .map(|e| e.binding as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut slots = vec![None; len];
+    for entry in entries {
+        if !entry.name.is_empty() {
+            slots[entry.binding as usize] = Some(builder.buffer(&entry.name, entry.buffer));
+        }
+    }
+    slots
+}
+
+/// The size of a dispatch over the elements counted at control word `word` (indirect).
+fn indirect(control: usize, word: u32) -> DispatchSize {
+    DispatchSize::Indirect {
+        buffer: control,
+        offset: 4 * u64::from(word),
+    }
+}
+
+/// Declares a tessellation's passes into `builder`, recording with `bound` (a plan: `None`).
+pub(super) fn declare(
+    builder: &mut WorkBuilder,
+    work: &Tessellation<'_>,
+    bound: Option<&Bound<'_>>,
+) {
+    let buffers = &work.buffers;
+    let tessellation_set = buffers.tessellation();
+    let level_set = buffers.level_paths();
+    let tess = slots(builder, &tessellation_set);
+    let level = slots(builder, &level_set);
+    let control = tess[tessellate::binding::CONTROL as usize].unwrap_or_default();
+    let wanted = tess[tessellate::binding::WANTED as usize].unwrap_or_default();
+    let counters = level[tracer::binding::COUNTERS as usize].unwrap_or_default();
+    // The control words, the wanted flags and the tracer's counters, from the host.
+    let transfer = |slot: usize| vec![(slot, Access::TransferWrite)];
+    builder.pass("control", WorkPassKind::Transfer, transfer(control), || {
+        Command::Update {
+            buffer: control,
+            words: bound.map_or_else(Vec::new, |b| b.first[..b.written].to_vec()),
+        }
+    });
+    builder.pass("wanted", WorkPassKind::Transfer, transfer(wanted), || {
+        Command::Fill {
+            buffer: wanted,
+            bytes: bound.map(|b| 4 * u64::from(b.input[0]).max(1)),
+            value: 0,
+        }
+    });
+    builder.pass(
+        "tracer counters",
+        WorkPassKind::Transfer,
+        transfer(counters),
+        || Command::Fill {
+            buffer: counters,
+            bytes: None,
+            value: 0,
+        },
+    );
+    let stamp = |builder: &mut WorkBuilder, query: u32| {
+        if let Some(pool) = bound.and_then(|b| b.timestamps) {
+            builder.pass(
+                format!("timestamp {query}"),
+                WorkPassKind::Timestamp,
+                Vec::new(),
+                || Command::Timestamp { pool, query },
+            );
+        }
+    };
+    if let Some(pool) = bound.and_then(|b| b.timestamps) {
+        let count = 4 * work.levels + 4;
+        builder.pass("timestamps", WorkPassKind::Timestamp, Vec::new(), || {
+            Command::ResetTimestamps { pool, count }
+        });
+    }
+    let wg = u64::from(tessellate::WORKGROUP);
+    let groups = |n: u32| DispatchSize::Groups(n.div_ceil(wg as u32));
+    let pass = |builder: &mut WorkBuilder, name: String, entry: tessellate::Entry, size| {
+        builder.dispatch(Dispatch {
+            name,
+            entry,
+            buffers: &tess,
+            size,
+            bound: bound.map(|b| {
+                (
+                    b.tessellation.pipeline(entry),
+                    b.sets[1],
+                    bytemuck::bytes_of(&b.constants).to_vec(),
+                )
+            }),
+        })
+    };
+    let [vertices, triangles, edges] = bound.map_or([0; 3], |b| b.input);
+    use tessellate::Entry as E;
+    pass(
+        builder,
+        "cs_begin".into(),
+        E::CsBegin,
+        groups(vertices.max(edges)),
+    );
+    pass(
+        builder,
+        "cs_classify".into(),
+        E::CsClassify,
+        groups(triangles),
+    );
+    let elements = indirect(control, tessellate::CONTROL_DISPATCH_ELEMENTS);
+    let blocks = indirect(control, tessellate::CONTROL_DISPATCH_BLOCKS);
+    let single = DispatchSize::Groups(1);
+    for l in 0..work.levels {
+        stamp(builder, 4 * l);
+        builder.dispatch(Dispatch {
+            name: format!("level {l} trace"),
+            entry: tracer::Entry::CsLevelPaths,
+            buffers: &level,
+            size: indirect(control, tessellate::CONTROL_DISPATCH_TRACE),
+            bound: bound.map(|b| {
+                let constants = bytemuck::bytes_of(&b.tracer_constants).to_vec();
+                (b.level_paths, b.sets[0], constants)
+            }),
+        });
+        stamp(builder, 4 * l + 1);
+        stamp(builder, 4 * l + 2);
+        pass(
+            builder,
+            format!("level {l} cs_decide"),
+            E::CsDecide,
+            elements,
+        );
+        pass(builder, format!("level {l} cs_count"), E::CsCount, elements);
+        pass(
+            builder,
+            format!("level {l} cs_scan_blocks"),
+            E::CsScanBlocks,
+            blocks,
+        );
+        pass(
+            builder,
+            format!("level {l} cs_scan_top"),
+            E::CsScanTop,
+            single,
+        );
+        pass(builder, format!("level {l} cs_apply"), E::CsApply, elements);
+        pass(builder, format!("level {l} cs_emit"), E::CsEmit, elements);
+        pass(
+            builder,
+            format!("level {l} cs_advance"),
+            E::CsAdvance,
+            single,
+        );
+        stamp(builder, 4 * l + 3);
+    }
+    let last = 4 * work.levels;
+    stamp(builder, last);
+    pass(builder, "cs_leaves_begin".into(), E::CsLeavesBegin, single);
+    pass(builder, "cs_leaf_count".into(), E::CsLeafCount, elements);
+    pass(
+        builder,
+        "leaves cs_scan_blocks".into(),
+        E::CsScanBlocks,
+        blocks,
+    );
+    pass(builder, "leaves cs_scan_top".into(), E::CsScanTop, single);
+    pass(builder, "cs_leaf_emit".into(), E::CsLeafEmit, elements);
+    stamp(builder, last + 1);
+    stamp(builder, last + 2);
+    if work.texgen {
+        let texgen_set = buffers.texgen();
+        let texgen_slots = slots(builder, &texgen_set);
+        // Over every vertex: cs_leaves_begin set the trace arguments so.
+        builder.dispatch(Dispatch {
+            name: "cs_texgen".into(),
+            entry: texgen::Entry::CsTexgen,
+            buffers: &texgen_slots,
+            size: indirect(control, tessellate::CONTROL_DISPATCH_TRACE),
+            bound: bound.and_then(|b| {
+                let constants = bytemuck::bytes_of(&b.texgen_constants?).to_vec();
+                Some((
+                    b.texgen.pipeline(texgen::Entry::CsTexgen),
+                    b.sets[2],
+                    constants,
+                ))
+            }),
+        });
+    }
+    stamp(builder, last + 3);
+    declare_draw_list(builder, buffers, bound);
+    declare_counts(builder, buffers, control, counters);
+}
+
+/// The draw list's passes: the index buffer and the indirect draws of the part.
+fn declare_draw_list(
+    builder: &mut WorkBuilder,
+    buffers: &TessellationBuffers<'_>,
+    bound: Option<&Bound<'_>>,
+) {
+    let set = buffers.draw_list();
+    let draw = slots(builder, &set);
+    let control = draw[drawlist::binding::CONTROL as usize].unwrap_or_default();
+    use drawlist::Entry as E;
+    let elements = indirect(control, tessellate::CONTROL_DISPATCH_ELEMENTS);
+    let blocks = indirect(control, tessellate::CONTROL_DISPATCH_BLOCKS);
+    let single = DispatchSize::Groups(1);
+    for (name, entry, size) in [
+        ("cs_draw_begin", E::CsDrawBegin, single),
+        ("cs_draw_count", E::CsDrawCount, elements),
+        ("draw cs_scan_blocks", E::CsScanBlocks, blocks),
+        ("draw cs_scan_top", E::CsScanTop, single),
+        ("cs_draw_args", E::CsDrawArgs, single),
+        ("cs_draw_emit", E::CsDrawEmit, elements),
+    ] {
+        builder.dispatch(Dispatch {
+            name: name.into(),
+            entry,
+            buffers: &draw,
+            size,
+            bound: bound.map(|b| {
+                let constants = bytemuck::bytes_of(&b.draw_constants).to_vec();
+                (b.draw_list.pipeline(entry), b.sets[3], constants)
+            }),
+        });
+    }
+}
+
+/// The counts copied into the part's host buffer (the control words, the tracer's counters, the
+/// draws), which the host reads once the submission is done.
+fn declare_counts(
+    builder: &mut WorkBuilder,
+    buffers: &TessellationBuffers<'_>,
+    control: usize,
+    counters: usize,
+) {
+    let (name, buffer) = buffers.counts();
+    let counts = builder.buffer(&name, buffer);
+    let (draws_name, draws_buffer) = buffers.output(2);
+    let draws = builder.buffer(&draws_name, draws_buffer);
+    let words = 4 * CONTROL_WORDS as u64;
+    for (label, from, at, bytes) in [
+        ("counts: control", control, 0, words),
+        (
+            "counts: tracer counters",
+            counters,
+            words,
+            4 * COUNTERS as u64,
+        ),
+        ("counts: draws", draws, words + 16, ARGS_BYTES),
+    ] {
+        let uses = vec![
+            (from, Access::TransferRead),
+            (counts, Access::TransferWrite),
+        ];
+        builder.pass(label, WorkPassKind::Transfer, uses, || Command::Copy {
+            from,
+            to: counts,
+            regions: vec![(0, at, bytes)],
+        });
+    }
+    builder.pass(
+        "counts: host",
+        WorkPassKind::HostRead,
+        vec![(counts, Access::HostRead)],
+        || Command::HostRead,
+    );
+}
+
+/// Part `name` of scene object `object` as a plan with no device sees it: the passes of its
+/// tessellation of `levels` levels (texgen too when `texgen`), for `lensmap passes --gpu-parts`.
+pub fn planned_part(name: &str, object: usize, levels: u32, texgen: Texgen) -> PartShape {
+    let mut builder = WorkBuilder::planned();
+    let work = Tessellation {
+        levels,
+        texgen: texgen == Texgen::On,
+        buffers: TessellationBuffers {
+            scratch: None,
+            input: None,
+            hull: None,
+            shells: None,
+            part: None,
+            geometry: [
+                (None, "tracer nodes"),
+                (None, "tracer triangles"),
+                (None, "tracer materials"),
+                (None, "tracer roots"),
+                (None, "tracer schlick"),
+            ],
+            object,
+            part_name: name,
+        },
+    };
+    declare(&mut builder, &work, None);
+    PartShape {
+        name: name.into(),
+        work: Some(std::sync::Arc::new(builder.shape())),
+    }
+}
+
+/// Whether a tessellation gives its vertices texture coordinates (a frame drawn from the
+/// device's buffers does; one read back for the wireframe alone need not).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Texgen {
+    /// Texgen runs, writing the part's data.
+    On,
+    /// No texgen.
+    Off,
+}

@@ -1,0 +1,511 @@
+//! Compute work as passes of a pass graph. A [`ComputeWork`] is a list of passes (a dispatch, a
+//! fill, an update, a copy, a timestamp, the host's read), each naming the buffers it uses and
+//! how ([`WorkShape`]), with the commands that record it. The frame graph declares a work's
+//! passes among its own ([`declare`]), so the graph places every barrier between them and
+//! between them and the lens passes that draw what they made, and `lensmap passes` lists them; a
+//! work submitted on its own ([`submit`], the GPU tracer's read-back and timed tessellations)
+//! goes through a graph of its own. Nothing here knows what the work computes: the GPU
+//! tessellation declares its passes with a [`WorkBuilder`], the same way for a plan without a
+//! device (a shape alone) and for a frame (with the commands).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use ash::vk;
+use lensmap_shaders::EntryPoint;
+
+use super::vulkan::vk_access;
+use crate::{
+    gpu::{Buffer, CommandRing, DescriptorSet, Gpu, GpuError, Pipeline, QueryPoolRef},
+    graph::{Access, Graph, Pass, PassKind, Plan},
+};
+
+/// A buffer of a work, by name: two works (or two passes) that name one buffer use one buffer.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WorkBuffer {
+    /// Its name in the plan.
+    pub name: String,
+}
+
+/// What one pass of a work does, as the plan shows it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WorkPassKind {
+    /// A compute dispatch.
+    Dispatch,
+    /// A fill, an update or a copy.
+    Transfer,
+    /// A timestamp (or the reset of a query pool's timestamps): no buffer.
+    Timestamp,
+    /// The host reads buffers once the submission completed: no command, the barrier alone.
+    HostRead,
+}
+
+/// One pass of a work.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WorkPass {
+    /// Its name in the plan, unique within the work.
+    pub name: String,
+    /// What it does.
+    pub kind: WorkPassKind,
+    /// The buffers it uses (indices into [`WorkShape::buffers`]) and how.
+    pub uses: Vec<(usize, Access)>,
+}
+
+/// A work's passes and buffers: all a plan needs of it.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct WorkShape {
+    /// Its buffers.
+    pub buffers: Vec<WorkBuffer>,
+    /// Its passes, in the order they run.
+    pub passes: Vec<WorkPass>,
+}
+
+/// How many workgroups a dispatch runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DispatchSize {
+    /// A count known when recording.
+    Groups(u32),
+    /// The three words at byte `offset` of buffer `buffer` (of the work), which an earlier pass
+    /// wrote.
+    Indirect {
+        /// The work's buffer.
+        buffer: usize,
+        /// Byte offset of the arguments.
+        offset: u64,
+    },
+}
+
+/// A copy between two of a work's buffers: (source offset, destination offset, bytes).
+pub type CopyRegion = (u64, u64, u64);
+
+/// What records one pass of a work.
+#[derive(Clone, Debug)]
+pub enum Command {
+    /// A compute dispatch of `pipeline` with its set 0 and push constants.
+    Dispatch {
+        /// The pipeline and its layout.
+        pipeline: Pipeline,
+        /// Its set 0.
+        set: DescriptorSet,
+        /// Its push constants' bytes.
+        constants: Vec<u8>,
+        /// Its size.
+        size: DispatchSize,
+    },
+    /// Writes `words` at the start of the work's buffer `buffer`.
+    Update {
+        /// The work's buffer.
+        buffer: usize,
+        /// The words.
+        words: Vec<u32>,
+    },
+    /// Fills the first `bytes` of the work's buffer `buffer` (the whole buffer: `None`) with
+    /// `value`.
+    Fill {
+        /// The work's buffer.
+        buffer: usize,
+        /// Bytes filled (a multiple of 4).
+        bytes: Option<u64>,
+        /// The word written.
+        value: u32,
+    },
+    /// Copies `regions` from buffer `from` to buffer `to` (the work's).
+    Copy {
+        /// The source.
+        from: usize,
+        /// The destination.
+        to: usize,
+        /// The regions.
+        regions: Vec<CopyRegion>,
+    },
+    /// Resets queries 0 to `count` of `pool`.
+    ResetTimestamps {
+        /// The pool.
+        pool: QueryPoolRef,
+        /// Queries reset.
+        count: u32,
+    },
+    /// Writes timestamp `query` of `pool` once every command before it is done.
+    Timestamp {
+        /// The pool.
+        pool: QueryPoolRef,
+        /// The query.
+        query: u32,
+    },
+    /// The host's read: records nothing.
+    HostRead,
+}
+
+/// Compute work: its shape, its buffers' handles and the commands of its passes. It is
+/// recorded once: by the first frame that draws what it makes, or by [`submit`].
+#[derive(Debug)]
+pub struct ComputeWork {
+    /// Its passes and buffers.
+    pub shape: std::sync::Arc<WorkShape>,
+    /// Per buffer of the shape, its handle.
+    handles: Vec<vk::Buffer>,
+    /// Per pass of the shape, its command.
+    commands: Vec<Command>,
+    /// Whether a submission recorded it (it runs once).
+    recorded: AtomicBool,
+}
+
+impl ComputeWork {
+    /// Whether no submission recorded it yet.
+    pub fn pending(&self) -> bool {
+        !self.recorded.load(Ordering::Relaxed)
+    }
+
+    /// Notes that a submission recorded it.
+    pub(crate) fn submitted(&self) {
+        self.recorded.store(true, Ordering::Relaxed);
+    }
+
+    /// Its dispatches.
+    pub fn dispatches(&self) -> usize {
+        self.commands
+            .iter()
+            .filter(|c| matches!(c, Command::Dispatch { .. }))
+            .count()
+    }
+}
+
+/// Declares a work pass by pass, its buffers by name. Made with [`WorkBuilder::planned`], it
+/// keeps the shape alone (for a plan without a device); with [`WorkBuilder::bound`], each pass's
+/// command too (every buffer must then be given its handle).
+pub struct WorkBuilder {
+    shape: WorkShape,
+    handles: Vec<Option<vk::Buffer>>,
+    commands: Option<Vec<Command>>,
+}
+
+/// A dispatch being declared: its entry point, set 0 (binding `b` is the work's buffer
+/// `buffers[b]`, `None` for a binding that is no buffer), size and command.
+pub struct Dispatch<'a, E> {
+    /// The pass's name.
+    pub name: String,
+    /// The entry point.
+    pub entry: E,
+    /// Per binding of set 0, the work's buffer it points at.
+    pub buffers: &'a [Option<usize>],
+    /// Its size.
+    pub size: DispatchSize,
+    /// Its pipeline, set and push constants, for a bound work.
+    pub bound: Option<(Pipeline, DescriptorSet, Vec<u8>)>,
+}
+
+impl WorkBuilder {
+    /// A builder of a work's shape alone.
+    pub fn planned() -> WorkBuilder {
+        WorkBuilder {
+            shape: WorkShape::default(),
+            handles: Vec::new(),
+            commands: None,
+        }
+    }
+
+    /// A builder of a work to record.
+    pub fn bound() -> WorkBuilder {
+        WorkBuilder {
+            commands: Some(Vec::new()),
+            ..WorkBuilder::planned()
+        }
+    }
+
+    /// The work's buffer named `name` (declared at its first mention), bound to `buffer`.
+    pub fn buffer(&mut self, name: &str, buffer: Option<&Buffer>) -> usize {
+        if let Some(at) = self.shape.buffers.iter().position(|b| b.name == name) {
+            if self.handles[at].is_none() {
+                self.handles[at] = buffer.map(|b| b.handle);
+            }
+            return at;
+        }
+        self.shape.buffers.push(WorkBuffer { name: name.into() });
+        self.handles.push(buffer.map(|b| b.handle));
+        self.shape.buffers.len() - 1
+    }
+
+    /// Adds a pass of `kind` using `uses`, recorded by `command` (made only for a bound work).
+    pub fn pass(
+        &mut self,
+        name: impl Into<String>,
+        kind: WorkPassKind,
+        uses: Vec<(usize, Access)>,
+        command: impl FnOnce() -> Command,
+    ) {
+        self.shape.passes.push(WorkPass {
+            name: name.into(),
+            kind,
+            uses,
+        });
+        if let Some(commands) = &mut self.commands {
+            commands.push(command());
+        }
+    }
+
+    /// Adds a dispatch: the buffers it uses are those its entry point reads or writes (as
+    /// naga's analysis of the shader says), and an indirect one's arguments.
+    pub fn dispatch<E: EntryPoint>(&mut self, dispatch: Dispatch<'_, E>) {
+        let Dispatch {
+            name,
+            entry,
+            buffers,
+            size,
+            bound,
+        } = dispatch;
+        let mut uses: Vec<(usize, Access)> = entry
+            .uses()
+            .iter()
+            .filter(|u| u.group == 0)
+            .filter_map(|u| {
+                let buffer = (*buffers.get(u.binding as usize)?)?;
+                let access = match u.access {
+                    lensmap_shaders::Access::Read => Access::ComputeRead,
+                    lensmap_shaders::Access::Write | lensmap_shaders::Access::ReadWrite => {
+                        Access::ComputeWrite
+                    }
+                };
+                Some((buffer, access))
+            })
+            .collect();
+        if let DispatchSize::Indirect { buffer, .. } = size {
+            uses.push((buffer, Access::IndirectRead));
+        }
+        self.pass(name, WorkPassKind::Dispatch, uses, || {
+            let (pipeline, set, constants) = bound.unwrap_or_default();
+            Command::Dispatch {
+                pipeline,
+                set,
+                constants,
+                size,
+            }
+        });
+    }
+
+    /// The shape declared.
+    pub fn shape(self) -> WorkShape {
+        self.shape
+    }
+
+    /// The work declared; an error where it was not bound, or a buffer has no handle.
+    pub fn finish(self) -> Result<ComputeWork, GpuError> {
+        let unbound = |what: String| GpuError::BadUpload {
+            what: "compute work".into(),
+            problem: what,
+        };
+        let commands = self
+            .commands
+            .ok_or_else(|| unbound("declared as a plan alone; it has no commands".into()))?;
+        let handles = self
+            .handles
+            .iter()
+            .zip(&self.shape.buffers)
+            .map(|(handle, buffer)| {
+                handle.ok_or_else(|| unbound(format!("buffer {} has no handle", buffer.name)))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(ComputeWork {
+            shape: std::sync::Arc::new(self.shape),
+            handles,
+            commands,
+            recorded: AtomicBool::new(false),
+        })
+    }
+}
+
+/// Declares the passes of a work of shape `shape` in `graph`, each named `prefix` + its name and
+/// recorded by the payload `payload(pass)`, its buffers the graph's of the same name (declared
+/// kept, at their first mention). Every pass is a side effect: the work runs whether or not a
+/// pass of the graph reads what it writes.
+pub fn declare<D, P, C: Clone>(
+    graph: &mut Graph<D, P, C>,
+    shape: &WorkShape,
+    prefix: &str,
+    category: C,
+    payload: impl Fn(usize) -> D,
+) {
+    let ids: Vec<_> = shape
+        .buffers
+        .iter()
+        .map(|b| {
+            graph
+                .find_buffer(&b.name)
+                .unwrap_or_else(|| graph.kept_buffer(&b.name, 0))
+        })
+        .collect();
+    for (index, pass) in shape.passes.iter().enumerate() {
+        let buffers: Vec<_> = pass.uses.iter().map(|&(b, a)| (ids[b], a)).collect();
+        let kind = match pass.kind {
+            WorkPassKind::HostRead => PassKind::HostRead {
+                buffers: buffers.into_iter().map(|(b, _)| b).collect(),
+            },
+            _ => PassKind::Compute {
+                dispatches: vec![payload(index)],
+                buffers,
+            },
+        };
+        graph.add_pass(Pass {
+            name: format!("{prefix}{}", pass.name),
+            category: category.clone(),
+            side_effect: true,
+            kind,
+        });
+    }
+}
+
+/// Records pass `pass` of `work` into `cb` (its barriers are the plan's, recorded before).
+pub(crate) fn record(gpu: &Gpu, cb: vk::CommandBuffer, work: &ComputeWork, pass: usize) {
+    let Some(command) = work.commands.get(pass) else {
+        return;
+    };
+    let device = gpu.device();
+    let buffer = |b: usize| work.handles.get(b).copied().unwrap_or_default();
+    // SAFETY: `cb` is recording outside any rendering instance; every handle the work names is
+    // kept alive by its owner until the submissions that recorded it completed; the plan's
+    // barriers order this command after the ones it depends on.
+    unsafe {
+        match command {
+            Command::Dispatch {
+                pipeline,
+                set,
+                constants,
+                size,
+            } => {
+                device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, pipeline.pipeline);
+                device.cmd_bind_descriptor_sets(
+                    cb,
+                    vk::PipelineBindPoint::COMPUTE,
+                    pipeline.layout,
+                    0,
+                    &[set.0],
+                    &[],
+                );
+                if !constants.is_empty() {
+                    device.cmd_push_constants(
+                        cb,
+                        pipeline.layout,
+                        vk::ShaderStageFlags::COMPUTE,
+                        0,
+                        constants,
+                    );
+                }
+                match *size {
+                    DispatchSize::Groups(groups) => device.cmd_dispatch(cb, groups, 1, 1),
+                    DispatchSize::Indirect { buffer: b, offset } => {
+                        device.cmd_dispatch_indirect(cb, buffer(b), offset)
+                    }
+                }
+            }
+            Command::Update { buffer: b, words } => {
+                device.cmd_update_buffer(cb, buffer(*b), 0, bytemuck::cast_slice(words))
+            }
+            Command::Fill {
+                buffer: b,
+                bytes,
+                value,
+            } => device.cmd_fill_buffer(cb, buffer(*b), 0, bytes.unwrap_or(vk::WHOLE_SIZE), *value),
+            Command::Copy { from, to, regions } => {
+                let regions: Vec<vk::BufferCopy> = regions
+                    .iter()
+                    .filter(|(_, _, bytes)| *bytes > 0)
+                    .map(|&(src_offset, dst_offset, size)| vk::BufferCopy {
+                        src_offset,
+                        dst_offset,
+                        size,
+                    })
+                    .collect();
+                if !regions.is_empty() {
+                    device.cmd_copy_buffer(cb, buffer(*from), buffer(*to), &regions);
+                }
+            }
+            Command::ResetTimestamps { pool, count } => {
+                device.cmd_reset_query_pool(cb, pool.0, 0, *count)
+            }
+            Command::Timestamp { pool, query } => device.cmd_write_timestamp2(
+                cb,
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                pool.0,
+                *query,
+            ),
+            Command::HostRead => {}
+        }
+    }
+}
+
+/// Records a step's buffer barriers (`(src, dst)` accesses) as one pipeline barrier of global
+/// memory barriers, each pair once.
+pub(crate) fn memory_barriers(
+    gpu: &Gpu,
+    cb: vk::CommandBuffer,
+    accesses: impl IntoIterator<Item = (Access, Access)>,
+) {
+    let mut pairs: Vec<(Access, Access)> = Vec::new();
+    for pair in accesses {
+        if !pairs.contains(&pair) {
+            pairs.push(pair);
+        }
+    }
+    if pairs.is_empty() {
+        return;
+    }
+    let barriers: Vec<vk::MemoryBarrier2> = pairs
+        .iter()
+        .map(|&(src, dst)| {
+            let (src_stage, src_access) = vk_access(src);
+            let (dst_stage, dst_access) = vk_access(dst);
+            vk::MemoryBarrier2::default()
+                .src_stage_mask(src_stage)
+                .src_access_mask(src_access)
+                .dst_stage_mask(dst_stage)
+                .dst_access_mask(dst_access)
+        })
+        .collect();
+    // SAFETY: `cb` is recording; a global memory barrier names no resource.
+    unsafe {
+        gpu.device().cmd_pipeline_barrier2(
+            cb,
+            &vk::DependencyInfo::default().memory_barriers(&barriers),
+        )
+    };
+}
+
+/// The plan of `works` run on their own, one after another: their passes with the barriers
+/// between them.
+pub fn plan(
+    works: &[&ComputeWork],
+) -> Result<Plan<(usize, usize), (), ()>, crate::graph::GraphError> {
+    let mut graph: Graph<(usize, usize), (), ()> = Graph::new();
+    for (index, work) in works.iter().enumerate() {
+        declare(
+            &mut graph,
+            &work.shape,
+            &format!("work{index}/"),
+            (),
+            |pass| (index, pass),
+        );
+    }
+    graph.compile()
+}
+
+/// Records `works` into one command buffer of `ring` with the barriers their plan places, and
+/// submits it without waiting; returns the value its completion signals.
+pub fn submit(gpu: &Gpu, ring: &mut CommandRing, works: &[&ComputeWork]) -> Result<u64, GpuError> {
+    let plan = plan(works).map_err(|error| GpuError::BadUpload {
+        what: "compute work".into(),
+        problem: error.to_string(),
+    })?;
+    let value = ring.submit(gpu, |cb| {
+        for step in &plan.steps {
+            memory_barriers(gpu, cb, step.buffer_barriers.iter().map(|b| (b.src, b.dst)));
+            if let PassKind::Compute { dispatches, .. } = &step.pass.kind {
+                for &(work, pass) in dispatches {
+                    record(gpu, cb, works[work], pass);
+                }
+            }
+        }
+        Ok(())
+    })?;
+    for work in works {
+        work.submitted();
+    }
+    Ok(value)
+}

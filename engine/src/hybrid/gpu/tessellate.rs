@@ -401,17 +401,7 @@ impl GpuTracer {
     ) -> Result<DeviceTessellation, TessellationError> {
         self.check_device(gpu)?;
         let options = request.options;
-        if options.validate().is_err() {
-            return Err(TessellationError::InvalidThreshold(options.t));
-        }
-        if options.max_depth > GPU_MAX_DEPTH {
-            return Err(crate::options::OptionError::new(
-                crate::options::names::MAX_DEPTH,
-                options.max_depth,
-                "the GPU tessellation subdivides at most 30 levels deep; give 30 or less, or tessellate on the CPU",
-            )
-            .into());
-        }
+        check_options(options)?;
         self.keep_input(gpu, state, object, mesh)?;
         let arrays = request.texgen.as_ref().map_or(0, TexgenRequest::arrays);
         let need = Need {
@@ -475,16 +465,7 @@ impl GpuTracer {
             _ => None,
         };
         let input = &held.input;
-        let mut first = first_control(input);
-        // The budget word is the host's for the frame's first object (or where the host counts
-        // the budget), else what the object before left on the device.
-        let budget = t::CONTROL_FRAME_BUDGET as usize;
-        let written = if request.continue_budget {
-            budget
-        } else {
-            first[budget] = u32::try_from(options.max_vertices).unwrap_or(u32::MAX);
-            budget + 1
-        };
+        let (first, written) = first_words(input, request);
         let bound = Bound {
             tessellation: &self.tessellation,
             texgen: &self.texgen,
@@ -695,6 +676,39 @@ impl GpuTracer {
             terms,
         })
     }
+}
+
+/// Refuses options the GPU tessellation cannot take: an invalid `t`, a depth cap past
+/// [`GPU_MAX_DEPTH`].
+fn check_options(options: &TessellationOptions) -> Result<(), TessellationError> {
+    if options.validate().is_err() {
+        return Err(TessellationError::InvalidThreshold(options.t));
+    }
+    if options.max_depth > GPU_MAX_DEPTH {
+        return Err(crate::options::OptionError::new(
+            crate::options::names::MAX_DEPTH,
+            options.max_depth,
+            "the GPU tessellation subdivides at most 30 levels deep; give 30 or less, or tessellate on the CPU",
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// The control words a tessellation of `input` starts from, and how many of them it writes:
+/// the frame's budget word is the host's for the frame's first object (or where the host counts
+/// the budget), else what the object before left on the device.
+fn first_words(
+    input: &InputMesh,
+    request: &GpuTessellationRequest<'_>,
+) -> ([u32; CONTROL_WORDS], usize) {
+    let mut first = first_control(input);
+    let budget = t::CONTROL_FRAME_BUDGET as usize;
+    if request.continue_budget {
+        return (first, budget);
+    }
+    first[budget] = u32::try_from(request.options.max_vertices).unwrap_or(u32::MAX);
+    (first, budget + 1)
 }
 
 /// The tessellation passes' constants for `request` over `scratch` and `input`.

@@ -229,6 +229,162 @@ fn indirect(control: usize, word: u32) -> DispatchSize {
     }
 }
 
+/// What the passes of one tessellation are declared with: the builder, the bound recording
+/// (`None` in a plan), and the work's buffers behind the tessellation's and the level pass's
+/// sets.
+struct Passes<'w, 'b> {
+    builder: &'w mut WorkBuilder,
+    bound: Option<&'w Bound<'b>>,
+    tessellation: Vec<Option<usize>>,
+    level: Vec<Option<usize>>,
+    control: usize,
+}
+
+impl Passes<'_, '_> {
+    /// A tessellation pass of `entry` over `size`.
+    fn pass(&mut self, name: String, entry: tessellate::Entry, size: DispatchSize) {
+        let bound = self.bound.map(|b| {
+            let constants = bytemuck::bytes_of(&b.constants).to_vec();
+            (b.tessellation.pipeline(entry), b.sets[1], constants)
+        });
+        self.builder.dispatch(Dispatch {
+            name,
+            entry,
+            buffers: &self.tessellation,
+            size,
+            bound,
+        });
+    }
+
+    /// Timestamp `query`, where the tessellation is timed.
+    fn stamp(&mut self, query: u32) {
+        if let Some(pool) = self.bound.and_then(|b| b.timestamps) {
+            self.builder.pass(
+                format!("timestamp {query}"),
+                WorkPassKind::Timestamp,
+                Vec::new(),
+                || Command::Timestamp { pool, query },
+            );
+        }
+    }
+
+    /// The dispatch over the elements counted at control word `word`.
+    fn indirect(&self, word: u32) -> DispatchSize {
+        indirect(self.control, word)
+    }
+
+    /// The host's writes before the passes: the control words, the wanted flags, the tracer's
+    /// counters (and the timestamps' reset).
+    fn transfers(&mut self, counters: usize, levels: u32) {
+        let (control, bound) = (self.control, self.bound);
+        let wanted = self.tessellation[tessellate::binding::WANTED as usize].unwrap_or_default();
+        let transfer = |slot: usize| vec![(slot, Access::TransferWrite)];
+        self.builder
+            .pass("control", WorkPassKind::Transfer, transfer(control), || {
+                Command::Update {
+                    buffer: control,
+                    words: bound.map_or_else(Vec::new, |b| b.first[..b.written].to_vec()),
+                }
+            });
+        self.builder
+            .pass("wanted", WorkPassKind::Transfer, transfer(wanted), || {
+                Command::Fill {
+                    buffer: wanted,
+                    bytes: bound.map(|b| 4 * u64::from(b.input[0]).max(1)),
+                    value: 0,
+                }
+            });
+        self.builder.pass(
+            "tracer counters",
+            WorkPassKind::Transfer,
+            transfer(counters),
+            || Command::Fill {
+                buffer: counters,
+                bytes: None,
+                value: 0,
+            },
+        );
+        if let Some(pool) = bound.and_then(|b| b.timestamps) {
+            let count = 4 * levels + 4;
+            self.builder
+                .pass("timestamps", WorkPassKind::Timestamp, Vec::new(), || {
+                    Command::ResetTimestamps { pool, count }
+                });
+        }
+    }
+
+    /// Level `l`: its new vertices traced (the tracer's level pass), its decisions, their
+    /// prefix sum and the next level's triangles.
+    fn level(&mut self, l: u32) {
+        use tessellate::Entry as E;
+        self.stamp(4 * l);
+        let bound = self.bound.map(|b| {
+            let constants = bytemuck::bytes_of(&b.tracer_constants).to_vec();
+            (b.level_paths, b.sets[0], constants)
+        });
+        self.builder.dispatch(Dispatch {
+            name: format!("level {l} trace"),
+            entry: tracer::Entry::CsLevelPaths,
+            buffers: &self.level,
+            size: self.indirect(tessellate::CONTROL_DISPATCH_TRACE),
+            bound,
+        });
+        self.stamp(4 * l + 1);
+        self.stamp(4 * l + 2);
+        let elements = self.indirect(tessellate::CONTROL_DISPATCH_ELEMENTS);
+        let blocks = self.indirect(tessellate::CONTROL_DISPATCH_BLOCKS);
+        let single = DispatchSize::Groups(1);
+        for (name, entry, size) in [
+            ("cs_decide", E::CsDecide, elements),
+            ("cs_count", E::CsCount, elements),
+            ("cs_scan_blocks", E::CsScanBlocks, blocks),
+            ("cs_scan_top", E::CsScanTop, single),
+            ("cs_apply", E::CsApply, elements),
+            ("cs_emit", E::CsEmit, elements),
+            ("cs_advance", E::CsAdvance, single),
+        ] {
+            self.pass(format!("level {l} {name}"), entry, size);
+        }
+        self.stamp(4 * l + 3);
+    }
+
+    /// The leaves and the T-junction removal.
+    fn leaves(&mut self) {
+        use tessellate::Entry as E;
+        let elements = self.indirect(tessellate::CONTROL_DISPATCH_ELEMENTS);
+        let blocks = self.indirect(tessellate::CONTROL_DISPATCH_BLOCKS);
+        let single = DispatchSize::Groups(1);
+        for (name, entry, size) in [
+            ("cs_leaves_begin", E::CsLeavesBegin, single),
+            ("cs_leaf_count", E::CsLeafCount, elements),
+            ("leaves cs_scan_blocks", E::CsScanBlocks, blocks),
+            ("leaves cs_scan_top", E::CsScanTop, single),
+            ("cs_leaf_emit", E::CsLeafEmit, elements),
+        ] {
+            self.pass(name.into(), entry, size);
+        }
+    }
+
+    /// Texgen over every vertex (cs_leaves_begin set the trace arguments so), writing the
+    /// part's data.
+    fn texgen(&mut self, buffers: &TessellationBuffers<'_>) {
+        let set = buffers.texgen();
+        let slots = slots(self.builder, &set);
+        let bound = self.bound.and_then(|b| {
+            let constants = bytemuck::bytes_of(&b.texgen_constants?).to_vec();
+            let pipeline = b.texgen.pipeline(texgen::Entry::CsTexgen);
+            Some((pipeline, b.sets[2], constants))
+        });
+        self.builder.dispatch(Dispatch {
+            name: "cs_texgen".into(),
+            entry: texgen::Entry::CsTexgen,
+            buffers: &slots,
+            size: self.indirect(tessellate::CONTROL_DISPATCH_TRACE),
+            bound,
+        });
+    }
+}
+
 /// Declares a tessellation's passes into `builder`, recording with `bound` (a plan: `None`).
 pub(super) fn declare(
     builder: &mut WorkBuilder,
@@ -236,167 +392,43 @@ pub(super) fn declare(
     bound: Option<&Bound<'_>>,
 ) {
     let buffers = &work.buffers;
-    let tessellation_set = buffers.tessellation();
-    let level_set = buffers.level_paths();
-    let tess = slots(builder, &tessellation_set);
-    let level = slots(builder, &level_set);
-    let control = tess[tessellate::binding::CONTROL as usize].unwrap_or_default();
-    let wanted = tess[tessellate::binding::WANTED as usize].unwrap_or_default();
+    let tessellation = slots(builder, &buffers.tessellation());
+    let level = slots(builder, &buffers.level_paths());
+    let control = tessellation[tessellate::binding::CONTROL as usize].unwrap_or_default();
     let counters = level[tracer::binding::COUNTERS as usize].unwrap_or_default();
-    // The control words, the wanted flags and the tracer's counters, from the host.
-    let transfer = |slot: usize| vec![(slot, Access::TransferWrite)];
-    builder.pass("control", WorkPassKind::Transfer, transfer(control), || {
-        Command::Update {
-            buffer: control,
-            words: bound.map_or_else(Vec::new, |b| b.first[..b.written].to_vec()),
-        }
-    });
-    builder.pass("wanted", WorkPassKind::Transfer, transfer(wanted), || {
-        Command::Fill {
-            buffer: wanted,
-            bytes: bound.map(|b| 4 * u64::from(b.input[0]).max(1)),
-            value: 0,
-        }
-    });
-    builder.pass(
-        "tracer counters",
-        WorkPassKind::Transfer,
-        transfer(counters),
-        || Command::Fill {
-            buffer: counters,
-            bytes: None,
-            value: 0,
-        },
-    );
-    let stamp = |builder: &mut WorkBuilder, query: u32| {
-        if let Some(pool) = bound.and_then(|b| b.timestamps) {
-            builder.pass(
-                format!("timestamp {query}"),
-                WorkPassKind::Timestamp,
-                Vec::new(),
-                || Command::Timestamp { pool, query },
-            );
-        }
+    let mut passes = Passes {
+        builder,
+        bound,
+        tessellation,
+        level,
+        control,
     };
-    if let Some(pool) = bound.and_then(|b| b.timestamps) {
-        let count = 4 * work.levels + 4;
-        builder.pass("timestamps", WorkPassKind::Timestamp, Vec::new(), || {
-            Command::ResetTimestamps { pool, count }
-        });
-    }
-    let wg = u64::from(tessellate::WORKGROUP);
-    let groups = |n: u32| DispatchSize::Groups(n.div_ceil(wg as u32));
-    let pass = |builder: &mut WorkBuilder, name: String, entry: tessellate::Entry, size| {
-        builder.dispatch(Dispatch {
-            name,
-            entry,
-            buffers: &tess,
-            size,
-            bound: bound.map(|b| {
-                (
-                    b.tessellation.pipeline(entry),
-                    b.sets[1],
-                    bytemuck::bytes_of(&b.constants).to_vec(),
-                )
-            }),
-        })
-    };
+    passes.transfers(counters, work.levels);
+    let wg = tessellate::WORKGROUP;
+    let groups = |n: u32| DispatchSize::Groups(n.div_ceil(wg));
     let [vertices, triangles, edges] = bound.map_or([0; 3], |b| b.input);
-    use tessellate::Entry as E;
-    pass(
-        builder,
-        "cs_begin".into(),
-        E::CsBegin,
-        groups(vertices.max(edges)),
-    );
-    pass(
-        builder,
+    let begin = groups(vertices.max(edges));
+    passes.pass("cs_begin".into(), tessellate::Entry::CsBegin, begin);
+    let classify = groups(triangles);
+    passes.pass(
         "cs_classify".into(),
-        E::CsClassify,
-        groups(triangles),
+        tessellate::Entry::CsClassify,
+        classify,
     );
-    let elements = indirect(control, tessellate::CONTROL_DISPATCH_ELEMENTS);
-    let blocks = indirect(control, tessellate::CONTROL_DISPATCH_BLOCKS);
-    let single = DispatchSize::Groups(1);
     for l in 0..work.levels {
-        stamp(builder, 4 * l);
-        builder.dispatch(Dispatch {
-            name: format!("level {l} trace"),
-            entry: tracer::Entry::CsLevelPaths,
-            buffers: &level,
-            size: indirect(control, tessellate::CONTROL_DISPATCH_TRACE),
-            bound: bound.map(|b| {
-                let constants = bytemuck::bytes_of(&b.tracer_constants).to_vec();
-                (b.level_paths, b.sets[0], constants)
-            }),
-        });
-        stamp(builder, 4 * l + 1);
-        stamp(builder, 4 * l + 2);
-        pass(
-            builder,
-            format!("level {l} cs_decide"),
-            E::CsDecide,
-            elements,
-        );
-        pass(builder, format!("level {l} cs_count"), E::CsCount, elements);
-        pass(
-            builder,
-            format!("level {l} cs_scan_blocks"),
-            E::CsScanBlocks,
-            blocks,
-        );
-        pass(
-            builder,
-            format!("level {l} cs_scan_top"),
-            E::CsScanTop,
-            single,
-        );
-        pass(builder, format!("level {l} cs_apply"), E::CsApply, elements);
-        pass(builder, format!("level {l} cs_emit"), E::CsEmit, elements);
-        pass(
-            builder,
-            format!("level {l} cs_advance"),
-            E::CsAdvance,
-            single,
-        );
-        stamp(builder, 4 * l + 3);
+        passes.level(l);
     }
     let last = 4 * work.levels;
-    stamp(builder, last);
-    pass(builder, "cs_leaves_begin".into(), E::CsLeavesBegin, single);
-    pass(builder, "cs_leaf_count".into(), E::CsLeafCount, elements);
-    pass(
-        builder,
-        "leaves cs_scan_blocks".into(),
-        E::CsScanBlocks,
-        blocks,
-    );
-    pass(builder, "leaves cs_scan_top".into(), E::CsScanTop, single);
-    pass(builder, "cs_leaf_emit".into(), E::CsLeafEmit, elements);
-    stamp(builder, last + 1);
-    stamp(builder, last + 2);
+    passes.stamp(last);
+    passes.leaves();
+    passes.stamp(last + 1);
+    passes.stamp(last + 2);
     if work.texgen {
-        let texgen_set = buffers.texgen();
-        let texgen_slots = slots(builder, &texgen_set);
-        // Over every vertex: cs_leaves_begin set the trace arguments so.
-        builder.dispatch(Dispatch {
-            name: "cs_texgen".into(),
-            entry: texgen::Entry::CsTexgen,
-            buffers: &texgen_slots,
-            size: indirect(control, tessellate::CONTROL_DISPATCH_TRACE),
-            bound: bound.and_then(|b| {
-                let constants = bytemuck::bytes_of(&b.texgen_constants?).to_vec();
-                Some((
-                    b.texgen.pipeline(texgen::Entry::CsTexgen),
-                    b.sets[2],
-                    constants,
-                ))
-            }),
-        });
+        passes.texgen(buffers);
     }
-    stamp(builder, last + 3);
-    declare_draw_list(builder, buffers, bound);
-    declare_counts(builder, buffers, control, counters);
+    passes.stamp(last + 3);
+    declare_draw_list(passes.builder, buffers, bound);
+    declare_counts(passes.builder, buffers, control, counters);
 }
 
 /// The draw list's passes: the index buffer and the indirect draws of the part.

@@ -74,5 +74,5 @@ pub use plan::{PLAN_FILE, Plan, PlannedLens, make_plan, working_scene};
 pub use run::{BakeJob, BakeSummary, Progress, bake, report_file_name};
 pub use sample::{LensReport, SampleReport, StageSeconds, Step, bake_sample};
 pub use shared::{SHARED_FIT_SLACK, SharedLayer};
-pub use spec::{parse_samples, parse_shard, shard_samples};
+pub use spec::{Shard, parse_samples, parse_shard, shard_samples};
 pub use views::{placement_cameras, view_cameras};

@@ -22,7 +22,7 @@ use crate::{
         RenderingMatrix, TestRenderer, TexelLayout,
     },
     solve::{Equations, Smoothness, SolveError, SolveOptions, SolveReport, solve},
-    targets::{DEFAULT_CONFIDENCE_DEGREES, TargetError, bounce_targets, term_targets},
+    targets::{DEFAULT_CONFIDENCE_DEGREES, Display, TargetError, bounce_targets, term_targets},
 };
 
 /// The default largest EM face size the resolution search considers, texels.
@@ -417,14 +417,17 @@ pub fn prepare<'v>(
             .terms()
             .iter()
             .map(|&term| {
-                let size = (camera.width, camera.height);
-                let k = camera.supersampling.max(1);
+                let display = Display {
+                    width: camera.width,
+                    height: camera.height,
+                    k: camera.supersampling.max(1),
+                };
                 match layers.layering {
                     Layering::Distance => {
-                        term_targets(view.records, term, &layers.shells, size, k, options.theta_c)
+                        term_targets(view.records, term, &layers.shells, display, options.theta_c)
                     }
                     Layering::Bounce => {
-                        bounce_targets(view.records, term, size, k, options.theta_c)
+                        bounce_targets(view.records, term, display, options.theta_c)
                     }
                 }
             })

@@ -450,12 +450,13 @@ pub struct Crop {
 impl Crop {
     /// The crop around NDC box `bounds` (the whole frame when `None`), widened by a pixel and
     /// aligned to multiples of `k`.
-    fn around(bounds: Option<(glam::Vec2, glam::Vec2)>, full: (u32, u32), k: u32) -> Crop {
+    fn around(bounds: Option<(glam::Vec2, glam::Vec2)>, width: u32, height: u32, k: u32) -> Crop {
+        let full = (width, height);
         let whole = Crop {
             x: 0,
             y: 0,
-            width: full.0,
-            height: full.1,
+            width,
+            height,
             full,
         };
         let Some((lo, hi)) = bounds else {
@@ -580,7 +581,7 @@ impl LayerFrames {
                 frame.width, frame.height
             )));
         }
-        let crop = Crop::around(lens_box, (frame.width, frame.height), k);
+        let crop = Crop::around(lens_box, frame.width, frame.height, k);
         Ok(LayerFrames {
             template: FrameInput {
                 width: crop.width,
@@ -1074,7 +1075,9 @@ mod tests {
     fn check_crafted(
         device: &mut dyn TestRenderer,
         footprints: &[Vec<(usize, f32)>],
-        (width, height, k): (u32, u32, u32),
+        width: u32,
+        height: u32,
+        k: u32,
         options: &MeasureOptions,
         relative: f64,
     ) -> RenderingMatrix {
@@ -1129,7 +1132,9 @@ mod tests {
         let matrix = check_crafted(
             &mut device,
             &footprints,
-            (width, height, k),
+            width,
+            height,
+            k,
             &MeasureOptions::new(size, k),
             0.0,
         );
@@ -1139,7 +1144,9 @@ mod tests {
         let powers = check_crafted(
             &mut device,
             &footprints,
-            (width, height, k),
+            width,
+            height,
+            k,
             &MeasureOptions {
                 digits: Digits::Only(DigitEncoding::PowersOfTwo),
                 ..MeasureOptions::new(size, k)
@@ -1196,7 +1203,9 @@ mod tests {
         let matrix = check_crafted(
             &mut device,
             &footprints,
-            (width, height, k),
+            width,
+            height,
+            k,
             &MeasureOptions::new(size, k),
             3e-4,
         );
@@ -1210,7 +1219,9 @@ mod tests {
         let again = check_crafted(
             &mut device,
             &footprints,
-            (width, height, k),
+            width,
+            height,
+            k,
             &MeasureOptions {
                 digits: Digits::Starting(matrix.encoding),
                 ..MeasureOptions::new(size, k)
@@ -1224,7 +1235,9 @@ mod tests {
         let exact = check_crafted(
             &mut device,
             &footprints,
-            (width, height, k),
+            width,
+            height,
+            k,
             &MeasureOptions::new(size, k),
             0.0,
         );

@@ -57,15 +57,25 @@ pub struct TermTargets {
     pub pixels_with_records: usize,
 }
 
-/// Builds the targets of `term` for lens records `records` of a `width × height` image
-/// supersampled `k × k`, for layer shells `shells` (nearest first), with threshold `theta_c`
+/// The image lens records were traced for: `width × height` display pixels, each supersampled
+/// `k × k`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Display {
+    /// Display pixels across.
+    pub width: u32,
+    /// Display pixels down.
+    pub height: u32,
+    /// Supersamples per pixel along each axis.
+    pub k: u32,
+}
+
+/// Builds the targets of `term` for lens records `records` of image `display`, for layer shells `shells` (nearest first), with threshold `theta_c`
 /// (radians). Only records where the lens object is what the camera sees count.
 pub fn term_targets(
     records: &LensRecords,
     term: Term,
     shells: &[LayerShell],
-    (width, height): (u32, u32),
-    k: u32,
+    display: Display,
     theta_c: f64,
 ) -> Result<TermTargets, TargetError> {
     if shells.is_empty() {
@@ -74,7 +84,7 @@ pub fn term_targets(
         ));
     }
     let n = shells.len();
-    let mut sum = Accumulation::new(n, (width, height), k, theta_c)?;
+    let mut sum = Accumulation::new(n, display, theta_c)?;
     for record in records
         .records
         .iter()
@@ -116,11 +126,10 @@ pub fn term_targets(
 pub fn bounce_targets(
     records: &LensRecords,
     term: Term,
-    (width, height): (u32, u32),
-    k: u32,
+    display: Display,
     theta_c: f64,
 ) -> Result<TermTargets, TargetError> {
-    let mut sum = Accumulation::new(2, (width, height), k, theta_c)?;
+    let mut sum = Accumulation::new(2, display, theta_c)?;
     for record in records
         .records
         .iter()
@@ -151,8 +160,10 @@ struct Accumulation {
 }
 
 impl Accumulation {
-    /// Empty images of `n` layers at display size `size`, supersampled k×k; θc checked.
-    fn new(n: usize, size: (u32, u32), k: u32, theta_c: f64) -> Result<Self, TargetError> {
+    /// Empty images of `n` layers of `display`; θc checked.
+    fn new(n: usize, display: Display, theta_c: f64) -> Result<Self, TargetError> {
+        let Display { width, height, k } = display;
+        let size = (width, height);
         if !(theta_c.is_finite() && theta_c > 0.0) {
             return Err(TargetError::BadInput(format!(
                 "confidence angle {} degrees; give an angle > 0, e.g. 5",

@@ -30,11 +30,9 @@ use rand_pcg::Pcg64;
 /// EM face size of the tests: small, so a full decode is quick, with 5 MIP levels.
 const EM_SIZE: u32 = 16;
 
-fn frame_of(name: &str, camera_size: (u32, u32, u32)) -> (HybridScene, FrameInput, Camera) {
+fn frame_of(name: &str, width: u32, height: u32, k: u32) -> (HybridScene, FrameInput, Camera) {
     let scene = Scene::load_named(name).unwrap();
-    let camera = scene
-        .camera
-        .with_resolution(camera_size.0, camera_size.1, camera_size.2);
+    let camera = scene.camera.with_resolution(width, height, k);
     let (hybrid, _) = HybridScene::new(
         scene,
         LayeredEms::Projected(ProjectedOptions::with_size(EM_SIZE)).into(),
@@ -88,7 +86,7 @@ fn the_matrix_is_the_hardware() {
     let mut runner = FrameRunner::new(gpu()).unwrap();
     let mut rng = Pcg64::seed_from_u64(0x0a11_ce55);
     for name in ["glass-sphere", "teapot-room"] {
-        let (_, frame, _) = frame_of(name, (64, 48, 2));
+        let (_, frame, _) = frame_of(name, 64, 48, 2);
         let frames = LayerFrames::new(&frame, LensIndex::new(0), 2).unwrap();
         let n = frames.layer_count();
         for variant in [
@@ -151,7 +149,7 @@ fn the_matrix_is_the_hardware() {
 #[test]
 fn the_matrix_agrees_with_the_f64_model() {
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    let (_, frame, _) = frame_of("teapot-room", (96, 72, 1));
+    let (_, frame, _) = frame_of("teapot-room", 96, 72, 1);
     let frames = LayerFrames::new(&frame, LensIndex::new(0), 1).unwrap();
     let mut layer_frame = frames.layer(frames.terms()[0], LayerIndex::new(0)).unwrap();
     let mut device = DeviceRenderer::new(
@@ -242,7 +240,7 @@ fn the_solver_inverts_the_matrix() {
     // An EM small enough (8², 510 texels) for 128×96 pixels of two terms to determine the texels
     // they see; the re-render holds whatever the size.
     let size = 8;
-    let (_, frame, _) = frame_of("teapot-room", (128, 96, 2));
+    let (_, frame, _) = frame_of("teapot-room", 128, 96, 2);
     let frames = LayerFrames::new(&frame, LensIndex::new(0), 2).unwrap();
     let terms = frames.terms();
     let mut device = DeviceRenderer::new(&mut runner, Compositing::SinglePass);

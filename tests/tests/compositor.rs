@@ -434,19 +434,36 @@ fn zero_weight_viewpoint_renders_like_one_viewpoint() {
         let mut single = frame.clone();
         single.viewpoint_weights = vec![1.0];
         single.lenses[0].layers.remove(zero);
-        renders_like(&gpu, &mut renderer, (&frame, &single), (4, 1), zero);
+        renders_like(
+            &gpu,
+            &mut renderer,
+            &frame,
+            &single,
+            PlanCounts {
+                layer_passes: 4,
+                alpha_clears: 1,
+            },
+            zero,
+        );
     }
     assert_clean(&gpu);
 }
 
+/// A multipass plan's layer passes and alpha clears.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct PlanCounts {
+    layer_passes: usize,
+    alpha_clears: usize,
+}
+
 /// `frame`, whose viewpoint `zero` has weight 0, renders bit for bit like `without` (the same
-/// frame without that viewpoint) in both variants, and its multipass plan has `counts` (layer
-/// passes, alpha clears): the zero-weight viewpoint's groups are left out.
+/// frame without that viewpoint) in both variants, and its multipass plan has `counts`: the zero-weight viewpoint's groups are left out.
 fn renders_like(
     gpu: &Gpu,
     renderer: &mut Renderer,
-    (frame, without): (&FrameInput, &FrameInput),
-    counts: (usize, usize),
+    frame: &FrameInput,
+    without: &FrameInput,
+    counts: PlanCounts,
     zero: usize,
 ) {
     for variant in [Variant::Multipass, Variant::SinglePass] {
@@ -462,14 +479,11 @@ fn renders_like(
         )
         .unwrap();
         if variant == Variant::Multipass {
-            assert_eq!(
-                (
-                    plan.count(PassCategory::Layer),
-                    plan.count(PassCategory::AlphaClear)
-                ),
-                counts,
-                "{plan}"
-            );
+            let found = PlanCounts {
+                layer_passes: plan.count(PassCategory::Layer),
+                alpha_clears: plan.count(PassCategory::AlphaClear),
+            };
+            assert_eq!(found, counts, "{plan}");
         }
         let x = render_rgba32f(
             renderer,
@@ -503,7 +517,17 @@ fn a_zero_weight_among_three_viewpoints_renders_like_two() {
         let mut two = frame.clone();
         two.viewpoint_weights.remove(zero);
         two.lenses[0].layers.remove(zero);
-        renders_like(&gpu, &mut renderer, (&frame, &two), (8, 3), zero);
+        renders_like(
+            &gpu,
+            &mut renderer,
+            &frame,
+            &two,
+            PlanCounts {
+                layer_passes: 8,
+                alpha_clears: 3,
+            },
+            zero,
+        );
     }
     assert_clean(&gpu);
 }

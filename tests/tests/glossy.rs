@@ -75,17 +75,26 @@ fn options(samples: u32, seed: u64) -> TraceOptions {
 
 /// The estimate along `ray` and its standard error (mean over channels: the tests' materials and
 /// lights are grey).
-fn estimate(trace: &TraceScene, ray: &Ray, options: &TraceOptions) -> (f64, f64) {
+fn estimate(trace: &TraceScene, ray: &Ray, options: &TraceOptions) -> Estimate {
     let mut counters = TraceCounters::default();
     let sample = trace.trace_camera_ray(ray, options, &mut counters);
     assert!(sample.lens.is_none());
-    (
-        sample.radiance.element_sum() / 3.0,
-        sample.standard_error.element_sum() / 3.0,
-    )
+    Estimate {
+        value: sample.radiance.element_sum() / 3.0,
+        error: sample.standard_error.element_sum() / 3.0,
+    }
 }
 
-fn assert_within(what: &str, (value, error): (f64, f64), expected: f64, slack: f64) {
+/// A Monte Carlo estimate and its standard error.
+#[derive(Clone, Copy, Debug)]
+struct Estimate {
+    value: f64,
+    error: f64,
+}
+
+/// `found` is `expected` within four standard errors and `slack` of `expected`.
+fn assert_within(what: &str, found: Estimate, expected: f64, slack: f64) {
+    let Estimate { value, error } = found;
     eprintln!("{what}: {value:.6} ± {error:.2e} against {expected:.6}");
     assert!(
         (value - expected).abs() <= 4.0 * error + slack * expected.abs(),
@@ -217,7 +226,7 @@ fn a_coated_sphere_under_one_point_light_has_the_exact_direct_term() {
         let brdf = (1.0 - f) * (kd * FRAC_1_PI + ks * (m + 2.0) / (2.0 * PI) * cos_alpha.powf(m))
             + f * (c + 2.0) / (2.0 * PI) * cos_alpha.powf(c);
         let expected = brdf * intensity * n.dot(l).max(0.0) / d2;
-        let (value, error) = estimate(&trace, &ray, &options(16, 0));
+        let Estimate { value, error } = estimate(&trace, &ray, &options(16, 0));
         assert_eq!(error, 0.0, "a black environment adds no sampled light");
         // The scene holds the light's position and intensity in f32.
         assert!(

@@ -47,8 +47,23 @@ struct Comparison {
     within_1e4: usize,
 }
 
+/// A vertex's paths and whether the camera sees it.
+#[derive(Clone, Copy)]
+struct Seen<'a> {
+    paths: &'a VertexPaths,
+    visible: bool,
+}
+
+impl<'a> Seen<'a> {
+    fn new(paths: &'a VertexPaths, visible: bool) -> Self {
+        Seen { paths, visible }
+    }
+}
+
 impl Comparison {
-    fn add(&mut self, (a, a_visible): (&VertexPaths, bool), (b, b_visible): (&VertexPaths, bool)) {
+    fn add(&mut self, a: Seen<'_>, b: Seen<'_>) {
+        let (a_visible, b_visible) = (a.visible, b.visible);
+        let (a, b) = (a.paths, b.paths);
         self.vertices += 1;
         let same = a_visible == b_visible
             && a.terms.iter().zip(&b.terms).all(|pair| match pair {
@@ -194,19 +209,24 @@ fn agreement(name: &str) -> Agreement {
                 );
             }
             for ((c64, c32), g) in f64_paths.iter().zip(&f32_paths).zip(&traced) {
-                let g = (&g.paths, g.visible);
-                found.gpu_f64.add((&c64.sample, c64.visible), g);
-                found.gpu_f32.add((&c32.sample, c32.visible), g);
-                found
-                    .f32_f64
-                    .add((&c64.sample, c64.visible), (&c32.sample, c32.visible));
+                let g = Seen::new(&g.paths, g.visible);
+                let (c64, c32) = (
+                    Seen::new(&c64.sample, c64.visible),
+                    Seen::new(&c32.sample, c32.visible),
+                );
+                found.gpu_f64.add(c64, g);
+                found.gpu_f32.add(c32, g);
+                found.f32_f64.add(c64, c32);
             }
             if let (Some(tracer), Some(found)) = (&in_f64, &mut found.gpu64_f64) {
                 let (traced, _) = tracer
                     .trace_vertices(&gpu, &screen, &settings, &input)
                     .expect("the f64 pass runs");
                 for (c64, g) in f64_paths.iter().zip(&traced) {
-                    found.add((&c64.sample, c64.visible), (&g.paths, g.visible));
+                    found.add(
+                        Seen::new(&c64.sample, c64.visible),
+                        Seen::new(&g.paths, g.visible),
+                    );
                 }
             }
             for (v, g) in vertices.iter().zip(&traced) {

@@ -74,12 +74,15 @@ objects = ["ball"]
         );
     }
 
+    /// An edit of the base scene: `.0` replaced by `.1`.
+    struct Edit<'a>(&'a str, &'a str);
+
     /// The base scene with `from` replaced by `to`, loaded from `dir`: refused with one line
     /// naming the file and `field`, saying `what` and offering `fix` ([`assert_message`]). The
     /// error, for further checks.
     fn assert_refused(
         dir: &Path,
-        (from, to): (&str, &str),
+        Edit(from, to): Edit<'_>,
         field: &str,
         what: &str,
         fix: &str,
@@ -109,14 +112,14 @@ objects = ["ball"]
         let lens = "objects = [\"ball\"]";
         assert_refused(
             &dir,
-            (lens, "objects = [\"ball\"]\nlayering = \"sideways\""),
+            Edit(lens, "objects = [\"ball\"]\nlayering = \"sideways\""),
             "lenses[0].layering",
             "\"sideways\" is not a layering",
             "\"bounce\"",
         );
         assert_refused(
             &dir,
-            (lens, "objects = [\"ball\"]\nlayering = \"bounce\""),
+            Edit(lens, "objects = [\"ball\"]\nlayering = \"bounce\""),
             "lenses[0].layering",
             "object \"ball\" is glass",
             "leave layering out",
@@ -240,7 +243,7 @@ objects = ["ball"]
         let dir = temp_folder("missing-obj");
         let error = assert_refused(
             &dir,
-            (
+            Edit(
                 "plane = { size = [4, 4] }",
                 "obj = { path = \"meshes/floor.obj\" }",
             ),
@@ -265,7 +268,7 @@ objects = ["ball"]
         .expect("write the OBJ");
         let error = assert_refused(
             &dir,
-            ("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
+            Edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
             "objects[1].obj.path",
             "NaN or infinite",
             "finite numbers",
@@ -283,7 +286,7 @@ objects = ["ball"]
         .expect("write the OBJ");
         assert_refused(
             &dir,
-            ("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
+            Edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
             "objects[1].obj.path",
             "NaN or infinite",
             "finite numbers",
@@ -299,7 +302,7 @@ objects = ["ball"]
         std::fs::write(dir.join("flat.obj"), obj).expect("write the OBJ");
         assert_refused(
             &dir,
-            ("plane = { size = [4, 4] }", "obj = { path = \"flat.obj\" }"),
+            Edit("plane = { size = [4, 4] }", "obj = { path = \"flat.obj\" }"),
             "objects[1].obj.path",
             "2 degenerate (zero-area) triangle(s), the first is triangle 1",
             "drop_degenerate = true",
@@ -338,7 +341,7 @@ objects = ["ball"]
         write_exr(&dir.join("sky.exr"), f32::NAN);
         let error = assert_refused(
             &dir,
-            (
+            Edit(
                 "constant = [0.1, 0.1, 0.1]",
                 "latlong = { path = \"sky.exr\" }",
             ),
@@ -355,7 +358,7 @@ objects = ["ball"]
         write_exr(&dir.join("wood.exr"), f32::INFINITY);
         assert_refused(
             &dir,
-            (
+            Edit(
                 "diffuse = { colour = [0.5, 0.5, 0.5] }",
                 "diffuse = { image = \"wood.exr\" }",
             ),
@@ -395,7 +398,7 @@ objects = ["ball"]
         std::fs::write(dir.join("wood.png"), b"not a png").expect("write junk");
         assert_refused(
             &dir,
-            (
+            Edit(
                 "diffuse = { colour = [0.5, 0.5, 0.5] }",
                 "diffuse = { image = \"wood.png\" }",
             ),
@@ -411,7 +414,7 @@ objects = ["ball"]
         for bad in ["0", "-1.5", "nan"] {
             assert_refused(
                 &dir,
-                ("ior = 1.5", &format!("ior = {bad}")),
+                Edit("ior = 1.5", &format!("ior = {bad}")),
                 "materials[0].glass.ior",
                 "is not > 0",
                 "index of refraction, e.g. 1.5",
@@ -425,7 +428,7 @@ objects = ["ball"]
         for bad in ["[0.0, 0.9, 0.9]", "[0.9, 1.5, 0.9]", "[0.9, 0.9, -0.1]"] {
             assert_refused(
                 &dir,
-                (
+                Edit(
                     "absorption = [0.9, 0.9, 0.9]",
                     &format!("absorption = {bad}"),
                 ),
@@ -474,7 +477,7 @@ objects = ["ball"]
             ),
         ];
         for (bad, field, what, fix) in cases {
-            assert_refused(&dir, (grey, bad), field, what, fix);
+            assert_refused(&dir, Edit(grey, bad), field, what, fix);
         }
         // A coated Phong material loads.
         let good = edit(
@@ -494,21 +497,21 @@ objects = ["ball"]
         let constant = "constant = [0.1, 0.1, 0.1]";
         assert_refused(
             &dir,
-            (constant, "studio = { width = 4 }"),
+            Edit(constant, "studio = { width = 4 }"),
             "environment.studio.width",
             "4 texels is out of range",
             "[8, 8192]",
         );
         assert_refused(
             &dir,
-            (constant, "studio = { scale = -1.0 }"),
+            Edit(constant, "studio = { scale = -1.0 }"),
             "environment.studio.scale",
             "not a finite number ≥ 0",
             "multiplier",
         );
         assert_refused(
             &dir,
-            (constant, "studio = {}\nconstant = [0.1, 0.1, 0.1]"),
+            Edit(constant, "studio = {}\nconstant = [0.1, 0.1, 0.1]"),
             "environment",
             "names studio and another environment",
             "keep one of constant, latlong and studio",
@@ -533,7 +536,7 @@ objects = ["ball"]
         let dir = temp_folder("look-at");
         assert_refused(
             &dir,
-            ("look_at = [0, 1, 0]", "look_at = [0, 1, 5]"),
+            Edit("look_at = [0, 1, 0]", "look_at = [0, 1, 5]"),
             "camera.look_at",
             "equals look_at",
             "so that they differ",
@@ -545,7 +548,7 @@ objects = ["ball"]
         let dir = temp_folder("up");
         assert_refused(
             &dir,
-            ("vfov_degrees = 45", "vfov_degrees = 45\nup = [0, 0, -2]"),
+            Edit("vfov_degrees = 45", "vfov_degrees = 45\nup = [0, 0, -2]"),
             "camera.up",
             "parallel to the view direction",
             "not along look_at − position",
@@ -557,14 +560,14 @@ objects = ["ball"]
         let dir = temp_folder("resolution");
         assert_refused(
             &dir,
-            ("height = 12", "height = 0"),
+            Edit("height = 12", "height = 0"),
             "camera.height",
             "resolution is zero",
             "at least 1 pixel",
         );
         assert_refused(
             &dir,
-            ("supersampling = 1", "supersampling = 0"),
+            Edit("supersampling = 1", "supersampling = 0"),
             "camera.supersampling",
             "k = 0",
             "k ≥ 1",
@@ -576,7 +579,7 @@ objects = ["ball"]
         let dir = temp_folder("lens-missing");
         assert_refused(
             &dir,
-            ("objects = [\"ball\"]", "objects = [\"bal\"]"),
+            Edit("objects = [\"ball\"]", "objects = [\"bal\"]"),
             "lenses[0].objects[0]",
             "no object is named \"bal\"",
             "ball, floor",
@@ -588,7 +591,7 @@ objects = ["ball"]
         let dir = temp_folder("lens-diffuse");
         assert_refused(
             &dir,
-            ("objects = [\"ball\"]", "objects = [\"ball\", \"floor\"]"),
+            Edit("objects = [\"ball\"]", "objects = [\"ball\", \"floor\"]"),
             "lenses[0].objects[1]",
             "\"floor\" is diffuse",
             "glass or mirror material",
@@ -600,7 +603,7 @@ objects = ["ball"]
         let dir = temp_folder("view-count");
         assert_refused(
             &dir,
-            ("count = 4", "count = 0"),
+            Edit("count = 4", "count = 0"),
             "view_space.circle.count",
             "0 viewpoint samples",
             "count ≥ 1",
@@ -637,7 +640,7 @@ objects = ["ball"]
         ];
         for ((from, to), field, what, fix) in cases {
             let start = std::time::Instant::now();
-            assert_refused(&dir, (from, to), field, what, fix);
+            assert_refused(&dir, Edit(from, to), field, what, fix);
             assert!(
                 start.elapsed().as_secs_f64() < 5.0,
                 "{field}: {:?}",
@@ -824,14 +827,14 @@ objects = ["ball"]
         let dir = temp_folder("references");
         assert_refused(
             &dir,
-            ("material = \"grey\"", "material = \"gray\""),
+            Edit("material = \"grey\"", "material = \"gray\""),
             "objects[1].material",
             "no material is named \"gray\"",
             "glass, grey",
         );
         assert_refused(
             &dir,
-            (
+            Edit(
                 "plane = { size = [4, 4] }",
                 "plane = { size = [4, 4] }\nbox = { size = [1, 1, 1] }",
             ),
@@ -841,14 +844,14 @@ objects = ["ball"]
         );
         assert_refused(
             &dir,
-            ("radius = 1,", "radius = -1,"),
+            Edit("radius = 1,", "radius = -1,"),
             "objects[0].sphere.radius",
             "not a positive number",
             "> 0 (metres)",
         );
         assert_refused(
             &dir,
-            (
+            Edit(
                 "plane = { size = [4, 4] }",
                 "plane = { size = [4, 4] }\ntransform = { scale = [1, 0, 1] }",
             ),

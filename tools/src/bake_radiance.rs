@@ -91,7 +91,7 @@ pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
         let mut maps = Vec::with_capacity(objects.len());
         let (mut max_error, mut rms_error, mut rays) = (Vec::new(), Vec::new(), 0);
         for object in &objects {
-            let (lobes, counters) = sample_maps(&trace, object, (sample, view), &options);
+            let (lobes, counters) = sample_maps(&trace, object, sample, view, &options);
             rays += counters.all_rays();
             let (mut max, mut squares, mut count) = (0f32, 0f64, 0usize);
             for lobe in &lobes {

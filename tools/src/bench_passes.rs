@@ -90,9 +90,16 @@ fn parse_blend(text: &str) -> Result<BlendChoice, String> {
         })
 }
 
+/// A frame to time, with its layer count and its blended viewpoint samples.
+struct BenchFrame {
+    layers: usize,
+    viewpoints: usize,
+    input: FrameInput,
+}
+
 /// The frames to time, one per layer count and viewpoint count: the synthetic sphere with
 /// n = 1 … `max_layers`, or the scene's hybrid frame at its own layer count.
-fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, usize, FrameInput)>> {
+fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<BenchFrame>> {
     let Some(name) = &args.scene else {
         let viewpoints: Vec<usize> = match args.viewpoints.as_str() {
             "1" => vec![1],
@@ -104,14 +111,18 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, usize, FrameInpu
         return Ok((1..=args.max_layers)
             .flat_map(|layers| viewpoints.iter().map(move |&v| (layers, v)))
             .map(|(layers, viewpoints)| {
-                let frame = sphere_frame(&SyntheticOptions {
+                let input = sphere_frame(&SyntheticOptions {
                     width: args.width,
                     height: args.height,
                     layers,
                     viewpoints,
                     ..SyntheticOptions::default()
                 });
-                (layers, viewpoints, frame)
+                BenchFrame {
+                    layers,
+                    viewpoints,
+                    input,
+                }
             })
             .collect());
     };
@@ -143,7 +154,11 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<(usize, usize, FrameInpu
         .into());
     }
     let viewpoints = frame.viewpoint_weights.iter().filter(|w| **w > 0.0).count();
-    Ok(vec![(layers, viewpoints, frame)])
+    Ok(vec![BenchFrame {
+        layers,
+        viewpoints,
+        input: frame,
+    }])
 }
 
 /// Linear RGB error of `image` against `reference` over `mask` (an empty mask is an error).
@@ -204,15 +219,8 @@ pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
         frames.len() as u64 * compositings.len() as u64 * formats,
         "settings",
     );
-    for (layers, viewpoints, frame) in &frames {
-        rows.extend(frame_rows(
-            &mut runner,
-            &args,
-            (*layers, *viewpoints),
-            frame,
-            &compositings,
-            &bar,
-        )?);
+    for frame in &frames {
+        rows.extend(frame_rows(&mut runner, &args, frame, &compositings, &bar)?);
     }
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "width": args.width, "height": args.height,
@@ -249,11 +257,15 @@ fn check(args: &BenchPassesArgs) -> Result<(), BadUsage> {
 fn frame_rows(
     runner: &mut FrameRunner,
     args: &BenchPassesArgs,
-    (layers, viewpoints): (usize, usize),
-    frame: &FrameInput,
+    bench_frame: &BenchFrame,
     compositings: &[(Variant, BlendScheme)],
     bar: &ProgressBar,
 ) -> anyhow::Result<Vec<serde_json::Value>> {
+    let BenchFrame {
+        layers,
+        viewpoints,
+        input: ref frame,
+    } = *bench_frame;
     // The lens pixels, from the frame's geometry (the engine's rule): an empty set has no error
     // to report, so the benchmark stops rather than print a figure that measures nothing.
     let mask = Mask::lens(&frame_lens_pixels(frame), LensSelection::All);

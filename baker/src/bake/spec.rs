@@ -61,8 +61,17 @@ pub fn parse_samples(spec: &str, count: usize, scene: &str) -> Result<Vec<usize>
     Ok(samples)
 }
 
+/// One shard of a bake split `count` ways: the `index`-th (1-based).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// 1 ≤ index ≤ count.
+    pub index: usize,
+    /// The shards in all.
+    pub count: usize,
+}
+
 /// `I/N`: shard I (1-based) of N. A spec that is not is an [`OptionError`] for option `shard`.
-pub fn parse_shard(spec: &str) -> Result<(usize, usize), BakeFailure> {
+pub fn parse_shard(spec: &str) -> Result<Shard, BakeFailure> {
     let bad = || {
         BakeFailure::from(OptionError::new(
             names::SHARD,
@@ -78,15 +87,15 @@ pub fn parse_shard(spec: &str) -> Result<(usize, usize), BakeFailure> {
     if n == 0 || i == 0 || i > n {
         return Err(bad());
     }
-    Ok((i, n))
+    Ok(Shard { index: i, count: n })
 }
 
-/// The samples shard `i` of `n` bakes: every n-th of `samples`, starting at the i-th.
-pub fn shard_samples(samples: &[usize], (i, n): (usize, usize)) -> Vec<usize> {
+/// The samples `shard` bakes: every count-th of `samples`, starting at the index-th.
+pub fn shard_samples(samples: &[usize], shard: Shard) -> Vec<usize> {
     samples
         .iter()
         .enumerate()
-        .filter(|(position, _)| position % n == i - 1)
+        .filter(|(position, _)| position % shard.count == shard.index - 1)
         .map(|(_, &s)| s)
         .collect()
 }
@@ -109,7 +118,7 @@ mod tests {
             assert!(e.starts_with(&format!("`BakeJob.samples` = {bad}:")), "{e}");
             assert!(e.contains("0..4"), "{e}");
         }
-        assert_eq!(parse_shard("2/3").unwrap(), (2, 3));
+        assert_eq!(parse_shard("2/3").unwrap(), Shard { index: 2, count: 3 });
         for bad in ["3/2", "0/0", "0/2", "1", "a/b"] {
             let BakeFailure::Option(e) = parse_shard(bad).unwrap_err() else {
                 panic!("{bad}: not an option error");
@@ -117,7 +126,9 @@ mod tests {
             assert_eq!((e.option, e.value.as_str()), (names::SHARD, bad));
         }
         let all: Vec<usize> = (0..7).collect();
-        let shards: Vec<Vec<usize>> = (1..=3).map(|i| shard_samples(&all, (i, 3))).collect();
+        let shards: Vec<Vec<usize>> = (1..=3)
+            .map(|i| shard_samples(&all, Shard { index: i, count: 3 }))
+            .collect();
         assert_eq!(shards, vec![vec![0, 3, 6], vec![1, 4], vec![2, 5]]);
     }
 }

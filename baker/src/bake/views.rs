@@ -3,7 +3,7 @@
 
 use glam::{DQuat, DVec3, Vec3};
 use lensmap::{
-    hybrid::{sphere::SphereTriangulation, viewpoints::angle},
+    hybrid::sphere::{SphereTriangulation, angle},
     scene::{Camera, Scene},
 };
 

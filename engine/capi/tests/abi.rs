@@ -1493,7 +1493,7 @@ fn tiny_radiance_bake(dir: &std::path::Path) {
         let maps: Vec<Vec<std::sync::Arc<lensmap::cubemap::CubeMap>>> = objects
             .iter()
             .map(|o| {
-                let (maps, _) = sample_maps(&trace, o, (sample, view), &options);
+                let (maps, _) = sample_maps(&trace, o, sample, view, &options);
                 maps.into_iter()
                     .map(|m| std::sync::Arc::new(m.map))
                     .collect()

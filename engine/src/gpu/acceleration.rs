@@ -174,7 +174,7 @@ impl BoxScene {
         let (top_structure, top_scratch) = create(gpu, fns, &top)?;
         gpu.submit_and_wait(|cb| {
             for (build, scratch, handle, _) in &builds {
-                record_build(fns, cb, build, *handle, scratch);
+                record_build(fns, cb, build, *handle, scratch.1);
             }
             // The bottom levels are built before the top level reads them.
             after_builds(
@@ -182,7 +182,7 @@ impl BoxScene {
                 cb,
                 vk::PipelineStageFlags2::ACCELERATION_STRUCTURE_BUILD_KHR,
             );
-            record_build(fns, cb, &top, top_structure.handle, &top_scratch);
+            record_build(fns, cb, &top, top_structure.handle, top_scratch.1);
             // The top level is built before any later submission's shaders read it (a barrier
             // orders commands across submissions to one queue).
             after_builds(gpu, cb, vk::PipelineStageFlags2::COMPUTE_SHADER);
@@ -314,12 +314,12 @@ fn record_build(
     cb: vk::CommandBuffer,
     build: &Build<'_>,
     destination: vk::AccelerationStructureKHR,
-    (_, scratch): &(Buffer, vk::DeviceAddress),
+    scratch: vk::DeviceAddress,
 ) {
     let info = build_info(build)
         .dst_acceleration_structure(destination)
         .scratch_data(vk::DeviceOrHostAddressKHR {
-            device_address: *scratch,
+            device_address: scratch,
         });
     let ranges =
         [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(build.primitives)];

@@ -11,7 +11,7 @@ use ash::vk;
 use lensmap_shaders::{EntryPoint, Shader};
 
 use super::{
-    Gpu, GpuError, Timeline, VkContext,
+    Gpu, GpuError, Semaphores, Timeline, VkContext,
     context::Shared,
     descriptors::{Binding, SetLayout},
 };
@@ -265,7 +265,16 @@ impl CommandRing {
         let (cb, last) = self.ring[slot];
         self.timeline.wait(last)?;
         let value = self.submitted + 1;
-        gpu.record_submit(cb, record, (&self.timeline, value), &[], &[])?;
+        gpu.record_submit(
+            cb,
+            record,
+            Semaphores {
+                timeline: &self.timeline,
+                value,
+                waits: &[],
+                signals: &[],
+            },
+        )?;
         self.submitted = value;
         self.ring[slot].1 = value;
         Ok(value)

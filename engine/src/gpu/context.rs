@@ -317,6 +317,20 @@ pub struct HostDevice {
     pub enabled: HostFeatures,
 }
 
+/// The semaphores of one submission ([`Gpu::record_submit`]).
+#[derive(Clone, Copy)]
+pub struct Semaphores<'a> {
+    /// Signalled with `value` when the submission completes.
+    pub timeline: &'a Timeline,
+    /// Greater than any value signalled on `timeline` before.
+    pub value: u64,
+    /// Waited for before any colour attachment output (semaphore, value: the value matters for
+    /// timeline semaphores only).
+    pub waits: &'a [(vk::Semaphore, u64)],
+    /// Signalled with the timeline: a host's semaphores around a frame rendered into its image.
+    pub signals: &'a [(vk::Semaphore, u64)],
+}
+
 impl Gpu {
     /// A GPU on a host's own instance, device and queue (an engine embedding lensmap): lensmap
     /// records and submits on `host.queue` and makes its own allocator, command pool and
@@ -818,19 +832,20 @@ impl Gpu {
         result
     }
 
-    /// Records into an existing command buffer (reset first) and submits it, signalling
-    /// `timeline` with `value` when it completes; does not wait (see [`Timeline::wait`]). The
-    /// submission also waits for `waits` (semaphore, value: the value matters for timeline
-    /// semaphores only) before any colour attachment output, and signals `signals` with the
-    /// timeline: a host's semaphores around a frame rendered into its image.
+    /// Records into an existing command buffer (reset first) and submits it with the
+    /// semaphores of `sync`; does not wait (see [`Timeline::wait`]).
     pub fn record_submit(
         &self,
         command_buffer: vk::CommandBuffer,
         record: impl FnOnce(vk::CommandBuffer) -> Result<(), GpuError>,
-        (timeline, value): (&Timeline, u64),
-        waits: &[(vk::Semaphore, u64)],
-        signals: &[(vk::Semaphore, u64)],
+        sync: Semaphores<'_>,
     ) -> Result<(), GpuError> {
+        let Semaphores {
+            timeline,
+            value,
+            waits,
+            signals,
+        } = sync;
         self.record_into(command_buffer, record)?;
         let buffers = [vk::CommandBufferSubmitInfo::default().command_buffer(command_buffer)];
         let waits: Vec<vk::SemaphoreSubmitInfo> = waits

@@ -16,7 +16,7 @@ mod timeline;
 pub use ash::vk;
 pub use compute::{CommandRing, ComputePipelines, Kernels, Pipeline, QueryPool, QueryPoolRef};
 pub use context::{
-    DeviceChoice, DeviceId, DeviceMemory, Gpu, GpuOptions, HostDevice, HostFeatures,
+    DeviceChoice, DeviceId, DeviceMemory, Gpu, GpuOptions, HostDevice, HostFeatures, Semaphores,
     ValidationReport, VulkanHandles,
 };
 pub use descriptors::DescriptorSet;

@@ -473,12 +473,12 @@ impl<D, P, C> Graph<D, P, C> {
 
     /// Declares an image the frame creates (transient or an output).
     pub fn image(&mut self, name: &str, format: Format, width: u32, height: u32) -> ImageId {
-        self.push_image(name, format, (width, height), Origin::Frame)
+        self.push_image(name, format, width, height, Origin::Frame)
     }
 
     /// Declares an image that exists before the frame, already in [`Layout::ShaderRead`].
     pub fn import_image(&mut self, name: &str, format: Format, width: u32, height: u32) -> ImageId {
-        self.push_image(name, format, (width, height), Origin::Imported)
+        self.push_image(name, format, width, height, Origin::Imported)
     }
 
     /// Declares an image the graph's user owns (a host's `VkImage`): in [`Layout::External`]
@@ -490,20 +490,21 @@ impl<D, P, C> Graph<D, P, C> {
         width: u32,
         height: u32,
     ) -> ImageId {
-        self.push_image(name, format, (width, height), Origin::External)
+        self.push_image(name, format, width, height, Origin::External)
     }
 
     fn push_image(
         &mut self,
         name: &str,
         format: Format,
-        extent: (u32, u32),
+        width: u32,
+        height: u32,
         origin: Origin,
     ) -> ImageId {
         self.images.push(ImageInfo {
             name: name.into(),
             format,
-            extent,
+            extent: (width, height),
             origin,
         });
         ImageId(self.images.len() as u32 - 1)

@@ -23,8 +23,12 @@ use glam::DVec3;
 use robust::{Coord3D, orient3d};
 use rustc_hash::FxHashMap;
 
-use super::viewpoints::angle;
 use crate::scene::Scene;
+
+/// Angle between two directions, robust near 0 and π (atan2 of the cross and dot products).
+pub fn angle(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
+}
 
 /// Triangles smaller than this (steradians) are left out: three samples on one great circle up
 /// to rounding (the samples of a patch's meridian), a face that spans no region.

@@ -8,7 +8,21 @@
 
 use glam::DVec3;
 
-use super::sphere::SphereTriangulation;
+use super::sphere::{SphereTriangulation, angle};
+
+/// Which viewpoint samples a frame blends.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ViewpointBlending {
+    /// The view space's rule: the two nearest samples along a 1D view space, the three of the
+    /// triangle holding the camera in a 2D one ([`ViewSpaceBlender::blend`]).
+    #[default]
+    ViewSpace,
+    /// The two samples nearest in angle, weighted by relative angle ([`blend`]),
+    /// in any view space.
+    TwoNearest,
+    /// The nearest sample alone.
+    Nearest,
+}
 
 /// Angles below this (radians) mean the camera sits on a sample: one viewpoint, weight 1.
 pub const ON_SAMPLE_RADIANS: f64 = 1e-6;
@@ -19,11 +33,6 @@ pub const ON_SAMPLE_RADIANS: f64 = 1e-6;
 pub struct ViewpointBlend {
     /// `(sample index, weight)`, one to three entries.
     pub samples: Vec<(usize, f64)>,
-}
-
-/// Angle between two directions, robust near 0 and π (atan2 of the cross and dot products).
-pub fn angle(a: DVec3, b: DVec3) -> f64 {
-    a.cross(b).length().atan2(a.dot(b))
 }
 
 /// Picks the two samples nearest to `camera` (by angle about `look_at`) and weights them by

@@ -326,7 +326,7 @@ impl LayerShell {
                 direction,
             ));
         }
-        let (near, far) = self.closed_interval(origin, direction)?;
+        let Span { near, far } = self.closed_interval(origin, direction)?;
         if far < R::ZERO {
             return None;
         }
@@ -377,11 +377,7 @@ impl LayerShell {
 
     /// The parameter interval `[near, far]` over which the line `origin + t·direction` lies in the
     /// closed solid (±∞ where it never leaves), or `None` when it misses. Not for quads.
-    fn closed_interval<V: Vector3>(
-        &self,
-        origin: V,
-        direction: V,
-    ) -> Option<(V::Scalar, V::Scalar)> {
+    fn closed_interval<V: Vector3>(&self, origin: V, direction: V) -> Option<Span<V::Scalar>> {
         let (vector, scalar) = (V::of, <V::Scalar as Real>::of);
         match *self {
             LayerShell::Sphere { centre, radius } => {
@@ -406,7 +402,7 @@ impl LayerShell {
                 let x = slab_interval(offset[0], direction[0], half[0])?;
                 let y = slab_interval(offset[1], direction[1], half[1])?;
                 let z = slab_interval(offset[2], direction[2], half[2])?;
-                overlap(overlap(x, y)?, z)
+                x.overlap(y)?.overlap(z)
             }
             LayerShell::Cylinder {
                 centre,
@@ -425,7 +421,7 @@ impl LayerShell {
                 )?;
                 match half_height {
                     None => Some(radial),
-                    Some(h) => overlap(radial, slab_interval(along, direction_along, scalar(h))?),
+                    Some(h) => radial.overlap(slab_interval(along, direction_along, scalar(h))?),
                 }
             }
             LayerShell::Quad { .. } => None,
@@ -442,15 +438,12 @@ fn sphere_interval<V: Vector3>(
     offset: V,
     direction: V,
     radius_sq: V::Scalar,
-) -> Option<(V::Scalar, V::Scalar)> {
+) -> Option<Span<V::Scalar>> {
     let zero = <V::Scalar as Real>::ZERO;
     let a = direction.length_squared();
     if a == zero {
         // Parallel to the axis of a cylinder: inside for ever or never.
-        return (offset.length_squared() <= radius_sq).then_some((
-            <V::Scalar as Real>::NEG_INFINITY,
-            <V::Scalar as Real>::INFINITY,
-        ));
+        return (offset.length_squared() <= radius_sq).then_some(Span::EVERYWHERE);
     }
     let b = offset.dot(direction);
     let closest = offset - direction * (b / a);
@@ -462,27 +455,53 @@ fn sphere_interval<V: Vector3>(
     let q = -(b + b.signum() * discriminant.sqrt());
     if q == zero {
         // b = 0 and a tangent touch: the double root −b/a = 0.
-        return Some((zero, zero));
+        return Some(Span {
+            near: zero,
+            far: zero,
+        });
     }
     let (t0, t1) = (q / a, c / q);
-    Some((t0.min(t1), t0.max(t1)))
+    Some(Span::between(t0, t1))
 }
 
 /// The interval of `t` where `|offset + t·direction| ≤ half` along one axis.
-fn slab_interval<R: Real>(offset: R, direction: R, half: R) -> Option<(R, R)> {
+fn slab_interval<R: Real>(offset: R, direction: R, half: R) -> Option<Span<R>> {
     if direction == R::ZERO {
-        return (offset.abs() <= half).then_some((R::NEG_INFINITY, R::INFINITY));
+        return (offset.abs() <= half).then_some(Span::EVERYWHERE);
     }
     let t0 = (-half - offset) / direction;
     let t1 = (half - offset) / direction;
-    Some((t0.min(t1), t0.max(t1)))
+    Some(Span::between(t0, t1))
 }
 
-/// The intersection of two parameter intervals, `None` when empty.
-fn overlap<R: Real>(a: (R, R), b: (R, R)) -> Option<(R, R)> {
-    let near = a.0.max(b.0);
-    let far = a.1.min(b.1);
-    (near <= far).then_some((near, far))
+/// A closed interval `[near, far]` of the line parameter `t`.
+#[derive(Clone, Copy, Debug)]
+struct Span<R> {
+    near: R,
+    far: R,
+}
+
+impl<R: Real> Span<R> {
+    /// The whole line.
+    const EVERYWHERE: Span<R> = Span {
+        near: R::NEG_INFINITY,
+        far: R::INFINITY,
+    };
+
+    /// The interval between `a` and `b`, in either order.
+    fn between(a: R, b: R) -> Span<R> {
+        Span {
+            near: a.min(b),
+            far: a.max(b),
+        }
+    }
+
+    /// The intersection with `other`, `None` when empty.
+    fn overlap(self, other: Span<R>) -> Option<Span<R>> {
+        let near = self.near.max(other.near);
+        let far = self.far.min(other.far);
+        (near <= far).then_some(Span { near, far })
+    }
 }
 
 /// The quad's plane hit, or the §4.2 forced point at distance `far` from the centre.

@@ -294,7 +294,8 @@ pub fn check_framebuffer(
 /// (a blending scheme's, [`Scratch`]), checked before they are made.
 pub(super) fn check_scratch_budget(
     gpu: &Gpu,
-    (width, height): (u32, u32),
+    width: u32,
+    height: u32,
     format: TargetFormat,
     scratch: usize,
 ) -> Result<(), RenderError> {

@@ -213,7 +213,9 @@ impl SinglePassProgram {
     /// terms and `viewpoints` blended viewpoint samples, within `limits`.
     pub fn new(
         lens: &str,
-        (layers, terms, viewpoints): (usize, &[Term], usize),
+        layers: usize,
+        terms: &[Term],
+        viewpoints: usize,
         limits: &SinglePassLimits,
     ) -> Result<SinglePassProgram, ProgramError> {
         if layers > limits.max_layers {
@@ -362,7 +364,7 @@ mod tests {
             for terms in term_sets {
                 for viewpoints in 1..=limits.max_viewpoints {
                     let program =
-                        SinglePassProgram::new("lens", (layers, terms, viewpoints), &limits)
+                        SinglePassProgram::new("lens", layers, terms, viewpoints, &limits)
                             .expect("a supported combination");
                     programs.push(ShaderProgram::LensSinglePass(program));
                 }
@@ -381,7 +383,9 @@ mod tests {
         let limits = SinglePassLimits::COMPILED;
         let too_many = SinglePassProgram::new(
             "teapot",
-            (SinglePassProgram::MAX_LAYERS + 1, &both, 2),
+            SinglePassProgram::MAX_LAYERS + 1,
+            &both,
+            2,
             &limits,
         )
         .expect_err("over the limit");
@@ -398,7 +402,7 @@ mod tests {
             "{too_many}"
         );
         assert!(too_many.to_string().contains("multipass"), "{too_many}");
-        let four = SinglePassProgram::new("teapot", (2, &both, 4), &limits).expect_err("4 > 3");
+        let four = SinglePassProgram::new("teapot", 2, &both, 4, &limits).expect_err("4 > 3");
         assert_eq!(
             four.to_string(),
             "lens \"teapot\" blends 4 viewpoint samples; the single-pass variant samples at most 3 as its shader is compiled: use the multipass variant"
@@ -406,7 +410,7 @@ mod tests {
         for (layers, terms, viewpoints) in [(0, &both[..], 1), (2, &[][..], 1), (2, &both[..], 0)] {
             assert!(
                 matches!(
-                    SinglePassProgram::new("lens", (layers, terms, viewpoints), &limits),
+                    SinglePassProgram::new("lens", layers, terms, viewpoints, &limits),
                     Err(ProgramError::Unsupported { .. })
                 ),
                 "{layers} {terms:?} {viewpoints}"
@@ -440,18 +444,18 @@ mod tests {
         let limits = SinglePassLimits::of_device(&narrow);
         assert_eq!((limits.max_layers, limits.max_viewpoints), (5, 2));
         let both = [Term::Refraction, Term::Reflection];
-        let error = SinglePassProgram::new("glass", (6, &both, 1), &limits).unwrap_err();
+        let error = SinglePassProgram::new("glass", 6, &both, 1, &limits).unwrap_err();
         assert_eq!(
             error.to_string(),
             "lens \"glass\" has 6 layers; the single-pass variant supports at most 5 on this device (maxFragmentInputComponents = 48): use the multipass variant"
         );
-        let error = SinglePassProgram::new("glass", (5, &both, 3), &limits).unwrap_err();
+        let error = SinglePassProgram::new("glass", 5, &both, 3, &limits).unwrap_err();
         assert!(
             error
                 .to_string()
                 .contains("at most 2 on this device (maxPerStageResources = 3)"),
             "{error}"
         );
-        assert!(SinglePassProgram::new("glass", (5, &both, 2), &limits).is_ok());
+        assert!(SinglePassProgram::new("glass", 5, &both, 2, &limits).is_ok());
     }
 }

@@ -165,7 +165,8 @@ impl Recorder<'_> {
     pub(super) fn record(
         &self,
         cb: vk::CommandBuffer,
-        (plan, resources): (&FramePlan, &FrameResources),
+        plan: &FramePlan,
+        resources: &FrameResources,
         format: TargetFormat,
         pipelines: &[Option<vk::Pipeline>],
     ) {
@@ -442,7 +443,8 @@ impl Recorder<'_> {
             cb,
             layout,
             &[set],
-            (vk::ShaderStageFlags::FRAGMENT, constants),
+            vk::ShaderStageFlags::FRAGMENT,
+            constants,
         );
         // SAFETY: recording inside a rendering instance with the matching pipeline bound.
         unsafe { self.gpu.device().cmd_draw(cb, 3, 1, 0, 0) };
@@ -454,7 +456,8 @@ impl Recorder<'_> {
         cb: vk::CommandBuffer,
         layout: vk::PipelineLayout,
         sets: &[vk::DescriptorSet],
-        (stages, constants): (vk::ShaderStageFlags, &[u8]),
+        stages: vk::ShaderStageFlags,
+        constants: &[u8],
     ) {
         let device = self.gpu.device();
         // SAFETY: recording with a pipeline of `layout` bound; the sets live as long as the
@@ -483,7 +486,8 @@ impl Recorder<'_> {
             cb,
             self.pipelines.environment_layout,
             &[mesh.set],
-            (vk::ShaderStageFlags::VERTEX, bytemuck::bytes_of(&constants)),
+            vk::ShaderStageFlags::VERTEX,
+            bytemuck::bytes_of(&constants),
         );
         // SAFETY: recording inside a rendering instance with the environment pipeline bound;
         // the buffers live as long as `frame`.
@@ -531,7 +535,7 @@ impl Recorder<'_> {
     fn lens(&self, cb: vk::CommandBuffer, draw: Draw, lens: LensIndex, targets: &Targets) {
         let gpu_lens = &self.frame.lenses[lens.index()];
         for part in &gpu_lens.parts {
-            self.lens_part(cb, draw, (gpu_lens, part), targets);
+            self.lens_part(cb, draw, gpu_lens, part, targets);
         }
     }
 
@@ -540,7 +544,8 @@ impl Recorder<'_> {
         &self,
         cb: vk::CommandBuffer,
         draw: Draw,
-        (gpu_lens, part): (&GpuLens, &LensPart),
+        gpu_lens: &GpuLens,
+        part: &LensPart,
         targets: &Targets,
     ) {
         let mut constants = self.lens_constants(gpu_lens, part.stride);
@@ -627,10 +632,8 @@ impl Recorder<'_> {
             cb,
             layout,
             &sets[..set_count],
-            (
-                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                bytemuck::bytes_of(&constants),
-            ),
+            vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+            bytemuck::bytes_of(&constants),
         );
         let device = self.gpu.device();
         let (indices, counts) = match &part.buffers {

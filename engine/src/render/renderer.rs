@@ -17,7 +17,7 @@ use super::{
     targets::Targets,
     upload::{UploadCache, UploadedFrame},
 };
-use crate::gpu::{Gpu, GpuError, Timeline};
+use crate::gpu::{Gpu, GpuError, Semaphores, Timeline};
 use crate::index::LensIndex;
 
 /// Frames that may be recorded and executing at once: the CPU prepares frame N + 1 while the GPU
@@ -247,7 +247,7 @@ impl Renderer {
         if let Some(targets) = frame.targets.get_mut(&format) {
             let needed = resources.scratch.len();
             if needed > 0 {
-                super::budget::check_scratch_budget(gpu, (width, height), format, needed)?;
+                super::budget::check_scratch_budget(gpu, width, height, format, needed)?;
             }
             targets.ensure_scratch(gpu, &self.pipelines, needed)?;
         }
@@ -266,13 +266,16 @@ impl Renderer {
         gpu.record_submit(
             command_buffer,
             |cb| {
-                recorder.record(cb, (&plan, &resources), format, &pipelines);
+                recorder.record(cb, &plan, &resources, format, &pipelines);
                 record_ms = start.elapsed().as_secs_f64() * 1e3;
                 Ok(())
             },
-            (&self.timeline, value),
-            waits,
-            signals,
+            Semaphores {
+                timeline: &self.timeline,
+                value,
+                waits,
+                signals,
+            },
         )?;
         self.submitted = value;
         self.command_buffers[slot].1 = value;

@@ -66,7 +66,8 @@ impl Scratch {
         gpu: &Gpu,
         pipelines: &Pipelines,
         format: vk::Format,
-        (width, height): (u32, u32),
+        width: u32,
+        height: u32,
         layers: u32,
     ) -> Result<Scratch, GpuError> {
         let layers = Self::layers_for(layers as usize);
@@ -166,7 +167,8 @@ impl Targets {
                 gpu,
                 pipelines,
                 self.colour.desc.format,
-                (extent.width, extent.height),
+                extent.width,
+                extent.height,
                 layers as u32,
             )?);
         }

@@ -258,7 +258,7 @@ impl UploadCache {
             .glossy
             .iter()
             .enumerate()
-            .map(|(g, draw)| self.glossy_draw(gpu, pipelines, (g, draw), &frame.view_proj))
+            .map(|(g, draw)| self.glossy_draw(gpu, pipelines, g, draw, &frame.view_proj))
             .collect::<Result<Vec<_>, GpuError>>()?;
 
         // Per lens part a set per viewpoint and the single pass's.
@@ -304,7 +304,17 @@ impl UploadCache {
         for (index, (lens, lens_shape)) in frame.lenses.iter().zip(&shape.lenses).enumerate() {
             let old = reusable.get_mut(index).and_then(Option::take);
             let active = shape.active_viewpoints(lens_shape);
-            lenses.push(self.upload_lens(gpu, pipelines, &pool, (index, lens, &active), old)?);
+            lenses.push(self.upload_lens(
+                gpu,
+                pipelines,
+                &pool,
+                LensToUpload {
+                    index,
+                    lens,
+                    active: &active,
+                },
+                old,
+            )?);
         }
         let uploaded = UploadedFrame {
             shape,
@@ -389,7 +399,7 @@ impl UploadCache {
         let generation = self.generation;
         self.layer_cache
             .retain(|_, cached| cached.last_used + 1 >= generation);
-        write_lens_sets(gpu, pipelines, &*gpu_lens, (&images, &active));
+        write_lens_sets(gpu, pipelines, &*gpu_lens, &images, &active);
         gpu_lens.layers = images;
         frame.shape.lenses[lens.index()].empty = FrameShape::empty_layers(layers);
         Ok(())
@@ -490,7 +500,8 @@ impl UploadCache {
         &mut self,
         gpu: &Gpu,
         pipelines: &Pipelines,
-        (g, draw): (usize, &super::GlossyDraw),
+        g: usize,
+        draw: &super::GlossyDraw,
         view_proj: &glam::Mat4,
     ) -> Result<super::glossy::GpuGlossy, GpuError> {
         let key = Arc::as_ptr(&draw.mesh) as usize;
@@ -588,7 +599,11 @@ impl UploadCache {
         gpu: &Gpu,
         pipelines: &Pipelines,
         pool: &DescriptorPool,
-        (index, lens, active): (usize, &LensObject, &[usize]),
+        LensToUpload {
+            index,
+            lens,
+            active,
+        }: LensToUpload<'_>,
         old: Option<GpuLens>,
     ) -> Result<GpuLens, GpuError> {
         let buffers = match &lens.resident {
@@ -631,7 +646,7 @@ impl UploadCache {
             layers,
             parts,
         };
-        write_lens_sets(gpu, pipelines, &gpu_lens, (&gpu_lens.layers, active));
+        write_lens_sets(gpu, pipelines, &gpu_lens, &gpu_lens.layers, active);
         Ok(gpu_lens)
     }
 }
@@ -706,6 +721,14 @@ fn reuse_or_new(
     Ok(buffer)
 }
 
+/// A lens object to upload: its index in the frame, its data, and the viewpoints its single pass
+/// blends.
+struct LensToUpload<'a> {
+    index: usize,
+    lens: &'a LensObject,
+    active: &'a [usize],
+}
+
 /// Points the descriptor sets of every part of `lens` at its data buffer, cube-map arrays
 /// `layers` (one per viewpoint) and the sampler: each viewpoint's set at that viewpoint's array in
 /// every binding, the single pass's at the `active` viewpoints' arrays in order (the last one
@@ -715,7 +738,8 @@ fn write_lens_sets(
     gpu: &Gpu,
     pipelines: &Pipelines,
     lens: &GpuLens,
-    (layers, active): (&[Arc<Image>], &[usize]),
+    layers: &[Arc<Image>],
+    active: &[usize],
 ) {
     for part in &lens.parts {
         let write = |set: vk::DescriptorSet, viewpoint_in_binding: &dyn Fn(usize) -> usize| {

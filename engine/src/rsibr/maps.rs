@@ -191,7 +191,8 @@ pub struct GlossyMaps {
 pub fn sample_maps(
     trace: &TraceScene,
     object: &GlossyObject,
-    (sample, view): (usize, DVec3),
+    sample: usize,
+    view: DVec3,
     options: &RadianceMapOptions,
 ) -> (Vec<RadianceMap>, TraceCounters) {
     let trace_options = TraceOptions::default();
@@ -245,7 +246,7 @@ pub fn all_maps(
         .iter()
         .enumerate()
         .map(|(sample, &view)| {
-            let (maps, c) = sample_maps(trace, object, (sample, view), options);
+            let (maps, c) = sample_maps(trace, object, sample, view, options);
             counters += c;
             maps.into_iter().map(|m| Arc::new(m.map)).collect()
         })

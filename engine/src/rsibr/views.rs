@@ -7,7 +7,7 @@
 use glam::{DMat3, DVec3};
 
 use crate::hybrid::sphere::SphereTriangulation;
-use crate::hybrid::viewpoints::angle;
+use crate::hybrid::sphere::angle;
 
 /// View samples of the default view space: the icosahedron's vertices.
 pub const DEFAULT_VIEW_COUNT: usize = 12;

@@ -211,10 +211,20 @@ struct Input {
     fly: HashSet<char>,
 }
 
+/// What a hybrid frame compared with the reference depends on.
+#[derive(Clone, Debug, PartialEq)]
+struct ComparedKey {
+    camera: Camera,
+    options: FrameOptions,
+    /// Inferred EMs (else projected).
+    inferred: bool,
+    layers_off: Vec<bool>,
+}
+
 /// The lens PSNR and the images of the reference shown against the frame it was compared with.
 struct Compared {
     /// The camera and experiment the hybrid frame had.
-    key: (Camera, FrameOptions, bool, Vec<bool>),
+    key: ComparedKey,
     reference: Arc<ReferenceImage>,
     psnr: Result<f64, String>,
     reference_texture: egui::TextureHandle,
@@ -820,18 +830,18 @@ impl App {
             }
             return Ok(());
         }
-        let key = (
-            self.camera,
-            self.experiment.options,
-            self.experiment.inferred,
-            self.experiment.layers_off.clone(),
-        );
+        let key = ComparedKey {
+            camera: self.camera,
+            options: self.experiment.options,
+            inferred: self.experiment.inferred,
+            layers_off: self.experiment.layers_off.clone(),
+        };
         if self.compared.as_ref().is_some_and(|c| c.key == key) {
             return Ok(());
         }
         // The same camera with other options: the reference stands, the comparison is redone.
         if let Some(compared) = self.compared.take()
-            && compared.key.0 == self.camera
+            && compared.key.camera == self.camera
         {
             return self.compare(key, compared.reference);
         }
@@ -853,11 +863,7 @@ impl App {
     }
 
     /// The frame of `key` read back and compared with the reference over the lens pixels.
-    fn compare(
-        &mut self,
-        key: (Camera, FrameOptions, bool, Vec<bool>),
-        reference: Arc<ReferenceImage>,
-    ) -> anyhow::Result<()> {
+    fn compare(&mut self, key: ComparedKey, reference: Arc<ReferenceImage>) -> anyhow::Result<()> {
         let frame = self.read_back()?;
         let psnr = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)
             .map(|e| e.psnr_db)

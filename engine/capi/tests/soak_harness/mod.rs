@@ -388,16 +388,18 @@ pub fn frame_options(base: &LensmapFrameOptions, step: u32) -> LensmapFrameOptio
     }
 }
 
+/// The frames or cycles a growth is measured over.
+struct Span {
+    /// "frame" or "cycle".
+    unit: &'static str,
+    from: u32,
+    to: u32,
+}
+
 /// The failure line when `what` grew from `then` to `now` bytes by more than `bound` over
-/// `span` (the unit, "frame" or "cycle", and its first and last).
-fn grew_past(
-    what: &str,
-    now: u64,
-    then: u64,
-    bound: u64,
-    span: (&str, u32, u32),
-) -> Option<String> {
-    let (unit, from, to) = span;
+/// `span`.
+fn grew_past(what: &str, now: u64, then: u64, bound: u64, span: Span) -> Option<String> {
+    let Span { unit, from, to } = span;
     (now > then + bound).then(|| {
         format!(
             "{what} grew {:.2} MiB from {unit} {from} to {unit} {to} (bound {:.2} MiB)",
@@ -638,7 +640,11 @@ impl FramesReport {
             ];
             for (what, now, then, growth, blocks) in measures {
                 let bound = self.bound(growth, s.frame - warm.frame) + blocks;
-                let span = ("frame", warm.frame, s.frame);
+                let span = Span {
+                    unit: "frame",
+                    from: warm.frame,
+                    to: s.frame,
+                };
                 failures.extend(grew_past(what, now, then, bound, span));
             }
             let last = self.samples.last().is_some_and(|l| l.frame == s.frame);
@@ -861,7 +867,11 @@ impl CyclesReport {
                 ("the heap", s.heap, warm.heap, bounds.cycles_heap_growth),
             ];
             for (what, now, then, bound) in measures {
-                let span = ("cycle", warm.cycle, s.cycle);
+                let span = Span {
+                    unit: "cycle",
+                    from: warm.cycle,
+                    to: s.cycle,
+                };
                 failures.extend(grew_past(what, now, then, bound, span));
             }
         }

@@ -3,6 +3,7 @@
 //! and where the lens vertices are traced.
 
 pub use crate::hybrid::paths::VertexPrecision;
+pub use crate::hybrid::viewpoints::ViewpointBlending;
 pub use crate::trace::schlick_table::FresnelModel;
 use crate::{hybrid::tessellate::TessellationOptions, options::OptionError};
 
@@ -81,20 +82,6 @@ impl VertexTracer {
             VertexTracer::Auto => !gpu.is_cpu_device(),
         }
     }
-}
-
-/// Which viewpoint samples a frame blends.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum ViewpointBlending {
-    /// The view space's rule: the two nearest samples along a 1D view space, the three of the
-    /// triangle holding the camera in a 2D one ([`ViewSpaceBlender::blend`](crate::hybrid::ViewSpaceBlender::blend)).
-    #[default]
-    ViewSpace,
-    /// The two samples nearest in angle, weighted by relative angle ([`crate::hybrid::viewpoints::blend`]),
-    /// in any view space.
-    TwoNearest,
-    /// The nearest sample alone.
-    Nearest,
 }
 
 impl Default for HybridOptions {

@@ -176,7 +176,8 @@ fn part_place(
     path: &Path,
     name: &str,
     size: u32,
-    (width, height): (usize, usize),
+    width: usize,
+    height: usize,
 ) -> Result<(usize, usize, usize), BakeError> {
     let levels = CubeMap::full_chain_levels(size) as usize;
     let Some((level, face)) = parse_part_name(name).filter(|(level, _)| *level < levels) else {
@@ -218,12 +219,7 @@ fn check_headers(path: &Path, size: u32) -> Result<(), BakeError> {
             .layer_name
             .as_ref()
             .map_or_else(String::new, |name| name.to_string());
-        part_place(
-            path,
-            &name,
-            size,
-            (header.layer_size.0, header.layer_size.1),
-        )?;
+        part_place(path, &name, size, header.layer_size.0, header.layer_size.1)?;
         if header.channels.list.len() != 4 {
             return Err(BakeError::BadPart {
                 path: path.to_owned(),
@@ -270,7 +266,7 @@ pub fn read_cube_map_exr(path: &Path, size: u32) -> Result<CubeMap, BakeError> {
             part: name.clone(),
             problem,
         };
-        let (level, face, edge) = part_place(path, &name, size, (part.size.0, part.size.1))?;
+        let (level, face, edge) = part_place(path, &name, size, part.size.0, part.size.1)?;
         if found[level][face].is_some() {
             return Err(bad("appears twice".to_owned()));
         }

@@ -147,7 +147,8 @@ impl Bounded {
     pub(super) fn layer_source(
         group_weight: f64,
         fg: [f64; 3],
-        (texel, texel_bounds): ([f64; 4], [Interval; 4]),
+        texel: [f64; 4],
+        texel_bounds: [Interval; 4],
     ) -> Bounded {
         Bounded {
             value: layer_source(group_weight, fg, texel),

@@ -85,8 +85,8 @@ pub(super) struct FrameSetup<'a> {
     pub(super) triangles: Vec<ScreenTriangle>,
     /// Pixels touched by a clipped triangle.
     pub(super) clipped: Vec<bool>,
-    /// Per lens object, its groups as (viewpoint, term index into `object.terms`) in pass order.
-    pub(super) groups: Vec<Vec<(usize, usize)>>,
+    /// Per lens object, its groups in pass order.
+    pub(super) groups: Vec<Vec<PassGroup>>,
 }
 
 impl<'a> FrameSetup<'a> {
@@ -307,9 +307,17 @@ impl<'a> FrameSetup<'a> {
     }
 }
 
+/// One group of a lens object's layer passes: a viewpoint sample and a term (an index into the
+/// object's `terms`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PassGroup {
+    pub(super) viewpoint: usize,
+    pub(super) term: usize,
+}
+
 /// The groups a lens object's layer passes run, in pass order: viewpoints with a non-zero
 /// weight, and within each, the object's terms with refraction before reflection.
-fn lens_groups(frame: &FrameInput, object: &LensObject) -> Vec<(usize, usize)> {
+fn lens_groups(frame: &FrameInput, object: &LensObject) -> Vec<PassGroup> {
     let mut terms: Vec<(Term, usize)> = object
         .terms
         .iter()
@@ -323,7 +331,7 @@ fn lens_groups(frame: &FrameInput, object: &LensObject) -> Vec<(usize, usize)> {
             continue;
         }
         for &(_, term) in &terms {
-            groups.push((viewpoint, term));
+            groups.push(PassGroup { viewpoint, term });
         }
     }
     groups

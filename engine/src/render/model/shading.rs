@@ -6,7 +6,7 @@
 use glam::{DVec2, DVec3};
 
 use super::bounds::{Bounded, Interval, interval_product, light_map_bounds, point_bounds};
-use super::raster::{Fragment, FrameSetup, ScreenTriangle, Source};
+use super::raster::{Fragment, FrameSetup, PassGroup, ScreenTriangle, Source};
 use super::{AlphaClearScope, DerivativeMode, Exclusion, LodMode};
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::{competing_faces, major_face};
@@ -35,6 +35,13 @@ struct PixelState {
     visible: Option<usize>,
     /// Exclusion bits raised so far.
     flags: u8,
+}
+
+/// A pixel's column and row.
+#[derive(Clone, Copy, Debug)]
+struct Pixel {
+    x: usize,
+    y: usize,
 }
 
 impl FrameSetup<'_> {
@@ -69,10 +76,11 @@ impl FrameSetup<'_> {
         if self.clipped[y * self.frame.width as usize + x] {
             pixel.flags |= Exclusion::ClippedTriangle.bit();
         }
-        self.environment_pass(&mut pixel, (x, y), fragments);
-        self.glossy_pass(&mut pixel, (x, y), fragments);
+        let at = Pixel { x, y };
+        self.environment_pass(&mut pixel, at, fragments);
+        self.glossy_pass(&mut pixel, at, fragments);
         for object in 0..self.frame.lenses.len() {
-            self.lens_passes(&mut pixel, object, (x, y), fragments);
+            self.lens_passes(&mut pixel, object, at, fragments);
         }
         pixel.flags |= self.geometry_flags(fragments, pixel.depth);
         let lens = pixel
@@ -92,7 +100,7 @@ impl FrameSetup<'_> {
     fn environment_pass(
         &self,
         pixel: &mut PixelState,
-        (x, y): (usize, usize),
+        Pixel { x, y }: Pixel,
         fragments: &[Fragment],
     ) {
         let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
@@ -111,7 +119,7 @@ impl FrameSetup<'_> {
 
     /// The glossy pass: LESS, write, (radiance, 1), the radiance [`crate::rsibr::shade`]'s at the
     /// interpolated position and normal (no precision bounds: the value alone).
-    fn glossy_pass(&self, pixel: &mut PixelState, (x, y): (usize, usize), fragments: &[Fragment]) {
+    fn glossy_pass(&self, pixel: &mut PixelState, Pixel { x, y }: Pixel, fragments: &[Fragment]) {
         let centre = DVec2::new(x as f64 + 0.5, y as f64 + 0.5);
         for fragment in fragments {
             let triangle = &self.triangles[fragment.triangle];
@@ -176,7 +184,7 @@ impl FrameSetup<'_> {
         &self,
         pixel: &mut PixelState,
         object_index: usize,
-        (x, y): (usize, usize),
+        Pixel { x, y }: Pixel,
         fragments: &[Fragment],
     ) {
         let object = &self.frame.lenses[object_index];
@@ -275,7 +283,7 @@ impl FrameSetup<'_> {
         &self,
         flags: &mut u8,
         object: &LensObject,
-        (viewpoint, term): (usize, usize),
+        PassGroup { viewpoint, term }: PassGroup,
         passing: &[LensFragment],
         mut target: Bounded,
     ) -> Bounded {
@@ -297,7 +305,7 @@ impl FrameSetup<'_> {
                 let sample = self.sample(cube, &lens_fragment.directions[term][layer]);
                 *flags |= sample.flags;
                 let fg = lens_fragment.fg[term].to_array();
-                let source = Bounded::layer_source(weight, fg, (sample.rgba, sample.bounds));
+                let source = Bounded::layer_source(weight, fg, sample.rgba, sample.bounds);
                 target = if back_to_front {
                     target.blend_back_to_front(source)
                 } else {

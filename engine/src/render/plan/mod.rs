@@ -334,7 +334,8 @@ pub fn frame_graph(
             shape,
             resources.colour,
             format,
-            (image_format, supersampling),
+            image_format,
+            supersampling,
         )),
     };
     Ok((graph, resources))
@@ -428,8 +429,9 @@ fn environment(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameReso
     opaque_pass(
         graph,
         resources,
-        (PassCategory::Environment, ShaderProgram::Environment),
-        true,
+        PassCategory::Environment,
+        ShaderProgram::Environment,
+        Start::Cleared,
         draws,
     );
 }
@@ -447,27 +449,35 @@ fn glossy(graph: &mut FrameGraph, shape: &FrameShape, resources: &FrameResources
     opaque_pass(
         graph,
         resources,
-        (PassCategory::Glossy, ShaderProgram::Glossy),
-        false,
+        PassCategory::Glossy,
+        ShaderProgram::Glossy,
+        Start::Loaded,
         draws,
     );
 }
 
+/// How an opaque pass finds the colour and depth targets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Start {
+    /// Cleared: colour to zero, depth to 1 (the frame's first pass).
+    Cleared,
+    /// Loaded with what earlier passes left.
+    Loaded,
+}
+
 /// A pass of opaque draws named after its category, with depth test LESS and write: colour and
-/// depth cleared (to zero and 1) when `clear`, else loaded.
+/// depth as `start` says.
 fn opaque_pass(
     graph: &mut FrameGraph,
     resources: &FrameResources,
-    (category, program): (PassCategory, ShaderProgram),
-    clear: bool,
+    category: PassCategory,
+    program: ShaderProgram,
+    start: Start,
     draws: Vec<Draw>,
 ) {
-    let load = |value: [f32; 4]| {
-        if clear {
-            LoadOp::Clear(value)
-        } else {
-            LoadOp::Load
-        }
+    let load = |value: [f32; 4]| match start {
+        Start::Cleared => LoadOp::Clear(value),
+        Start::Loaded => LoadOp::Load,
     };
     graph.add_pass(Pass {
         name: category.name().into(),
@@ -522,7 +532,8 @@ fn box_filter(
     shape: &FrameShape,
     colour: ImageId,
     format: TargetFormat,
-    (image_format, supersampling): (Format, u32),
+    image_format: Format,
+    supersampling: u32,
 ) -> ImageId {
     let k = supersampling.max(1);
     let image = graph.external_image(

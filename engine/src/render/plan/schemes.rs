@@ -99,7 +99,9 @@ pub(super) fn single_pass(
     let lens = passes.lens();
     let program = SinglePassProgram::new(
         &lens.name,
-        (lens.layer_count(), &lens.terms, viewpoints),
+        lens.layer_count(),
+        &lens.terms,
+        viewpoints,
         limits,
     )?;
     passes.single_pass(program);

@@ -233,7 +233,7 @@ impl App {
             return (None, None);
         }
         if let Some(compared) = &self.compared
-            && compared.key.0 == self.camera
+            && compared.key.camera == self.camera
         {
             let line = match &compared.psnr {
                 Ok(db) => format!("reference ready: lens PSNR {db:.2} dB"),

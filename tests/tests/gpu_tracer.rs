@@ -528,3 +528,60 @@ fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
     }
     assert_clean(runner.gpu());
 }
+
+/// A frame drawn from the device's buffers records every compute command of its lens parts'
+/// tessellations, and only those the plan `lensmap passes --gpu-parts N` prints declares
+/// ([`planned_part`], golden-tested in `render/plan/tests.rs`): per part, the same dispatches,
+/// transfers and timestamps. A dispatch the frame records outside its plan, or one the plan
+/// leaves out, changes the counts. The same frame drawn again records none: its parts are made.
+#[test]
+fn a_gpu_frame_records_the_compute_commands_its_printed_plan_declares() {
+    use lensmap::hybrid::gpu::{Texgen, planned_part};
+    use lensmap::render::compute::ComputeCommands;
+    let mut runner = FrameRunner::new(gpu()).expect("a runner");
+    let scene = built_in_scene("teapot-room", 64, 48, 1);
+    let camera = scene.camera;
+    let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 32);
+    let options = FrameOptions {
+        hybrid: HybridOptions {
+            tracer: VertexTracer::Gpu,
+            ..HybridOptions::default()
+        },
+        compositing: Compositing::SinglePass,
+        format: TargetFormat::Rgba32f,
+    };
+    let objects: Vec<usize> = hybrid
+        .trace()
+        .lenses
+        .iter()
+        .flat_map(|lens| lens.objects.iter().copied())
+        .collect();
+    assert!(!objects.is_empty(), "teapot-room has a lens object");
+    let levels = options.hybrid.tessellation.max_depth + 1;
+    let mut declared = ComputeCommands::default();
+    for &object in &objects {
+        let part = planned_part("part", object, levels, Texgen::On);
+        declared += ComputeCommands::declared(part.work.as_deref().expect("a planned work"));
+    }
+    assert!(declared.dispatches >= objects.len() * (14 + 8 * levels as usize));
+    let first = runner
+        .frame(&hybrid, &camera, &options)
+        .expect("a GPU frame");
+    assert!(
+        first.stats.counted_on_device,
+        "drawn from the device's buffers"
+    );
+    assert_eq!(first.render.compute, declared, "recorded against declared");
+    // The same frame again, built anew: its parts are tessellated again, the same commands.
+    runner.forget_frame();
+    let again = runner
+        .frame(&hybrid, &camera, &options)
+        .expect("a GPU frame");
+    assert_eq!(again.render.compute, declared);
+    let still = runner
+        .frame(&hybrid, &camera, &options)
+        .expect("a GPU frame");
+    assert!(still.stats.reused);
+    assert_eq!(still.render.compute, ComputeCommands::default());
+    assert_clean(runner.gpu());
+}

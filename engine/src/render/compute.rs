@@ -50,6 +50,46 @@ pub struct WorkPass {
     pub uses: Vec<(usize, Access)>,
 }
 
+/// Compute commands by kind: those a work declares ([`ComputeCommands::declared`]), or those a
+/// frame recorded ([`super::FrameTimings::compute`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ComputeCommands {
+    /// Dispatches.
+    pub dispatches: usize,
+    /// Fills, updates and copies.
+    pub transfers: usize,
+    /// Timestamps and their resets.
+    pub timestamps: usize,
+}
+
+impl ComputeCommands {
+    /// The commands `shape`'s passes record (a host's read records none).
+    pub fn declared(shape: &WorkShape) -> ComputeCommands {
+        let mut counts = ComputeCommands::default();
+        for pass in &shape.passes {
+            counts.add(pass.kind);
+        }
+        counts
+    }
+
+    fn add(&mut self, kind: WorkPassKind) {
+        match kind {
+            WorkPassKind::Dispatch => self.dispatches += 1,
+            WorkPassKind::Transfer => self.transfers += 1,
+            WorkPassKind::Timestamp => self.timestamps += 1,
+            WorkPassKind::HostRead => {}
+        }
+    }
+}
+
+impl std::ops::AddAssign for ComputeCommands {
+    fn add_assign(&mut self, other: ComputeCommands) {
+        self.dispatches += other.dispatches;
+        self.transfers += other.transfers;
+        self.timestamps += other.timestamps;
+    }
+}
+
 /// A work's passes and buffers: all a plan needs of it.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct WorkShape {
@@ -353,10 +393,25 @@ pub fn declare<D, P, C: Clone>(
 }
 
 /// Records pass `pass` of `work` into `cb` (its barriers are the plan's, recorded before).
-pub(crate) fn record(gpu: &Gpu, cb: vk::CommandBuffer, work: &ComputeWork, pass: usize) {
+/// `recorded` counts the command.
+pub(crate) fn record(
+    gpu: &Gpu,
+    cb: vk::CommandBuffer,
+    work: &ComputeWork,
+    pass: usize,
+    recorded: &mut ComputeCommands,
+) {
     let Some(command) = work.commands.get(pass) else {
         return;
     };
+    recorded.add(match command {
+        Command::Dispatch { .. } => WorkPassKind::Dispatch,
+        Command::Update { .. } | Command::Fill { .. } | Command::Copy { .. } => {
+            WorkPassKind::Transfer
+        }
+        Command::ResetTimestamps { .. } | Command::Timestamp { .. } => WorkPassKind::Timestamp,
+        Command::HostRead => WorkPassKind::HostRead,
+    });
     let device = gpu.device();
     let buffer = |b: usize| work.handles.get(b).copied().unwrap_or_default();
     // SAFETY: `cb` is recording outside any rendering instance; every handle the work names is
@@ -493,12 +548,14 @@ pub fn submit(gpu: &Gpu, ring: &mut CommandRing, works: &[&ComputeWork]) -> Resu
         what: "compute work".into(),
         problem: error.to_string(),
     })?;
+    // A submission of its own: what it records is its plan's, counted by no frame.
+    let mut recorded = ComputeCommands::default();
     let value = ring.submit(gpu, |cb| {
         for step in &plan.steps {
             memory_barriers(gpu, cb, step.buffer_barriers.iter().map(|b| (b.src, b.dst)));
             if let PassKind::Compute { dispatches, .. } = &step.pass.kind {
                 for &(work, pass) in dispatches {
-                    record(gpu, cb, works[work], pass);
+                    record(gpu, cb, works[work], pass, &mut recorded);
                 }
             }
         }

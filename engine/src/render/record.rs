@@ -7,6 +7,7 @@ use ash::vk;
 use bytemuck::Zeroable;
 use lensmap_shaders::{EnvironmentConstants, GroupSumConstants, LensConstants, ResolveConstants};
 
+use super::compute::ComputeCommands;
 use super::{
     HostImage, INDIRECT_ALL, INDIRECT_HULL, INDIRECT_REST, TargetFormat,
     pipelines::Pipelines,
@@ -161,7 +162,7 @@ impl FrameImages<'_> {
 impl Recorder<'_> {
     /// Records `plan` into `cb`: per step its barriers, the rendering instance it begins, a debug
     /// label, its draws or its copy, the end of its instance. `pipelines` holds each step's
-    /// pipeline (`None` for a readback).
+    /// pipeline (`None` for a readback). Returns the compute commands it recorded.
     pub(super) fn record(
         &self,
         cb: vk::CommandBuffer,
@@ -169,7 +170,8 @@ impl Recorder<'_> {
         resources: &FrameResources,
         format: TargetFormat,
         pipelines: &[Option<vk::Pipeline>],
-    ) {
+    ) -> ComputeCommands {
+        let mut recorded = ComputeCommands::default();
         let (gpu, frame) = (self.gpu, self.frame);
         let targets = &frame.targets[&format];
         let images = FrameImages {
@@ -205,7 +207,7 @@ impl Recorder<'_> {
                 }
                 PassKind::Compute { dispatches, .. } => {
                     for dispatch in dispatches {
-                        self.compute(cb, *dispatch);
+                        self.compute(cb, *dispatch, &mut recorded);
                     }
                 }
                 PassKind::Readback { .. } => self.copy_to_readback(cb, targets),
@@ -218,6 +220,7 @@ impl Recorder<'_> {
                 unsafe { gpu.device().cmd_end_rendering(cb) };
             }
         }
+        recorded
     }
 
     /// Records a step's barriers (nothing for none).
@@ -360,7 +363,7 @@ impl Recorder<'_> {
     }
 
     /// Records one pass of a compute work (a resident lens part's tessellation).
-    fn compute(&self, cb: vk::CommandBuffer, dispatch: Draw) {
+    fn compute(&self, cb: vk::CommandBuffer, dispatch: Draw, recorded: &mut ComputeCommands) {
         let Draw::Compute { lens, part, pass } = dispatch else {
             debug_assert!(false, "not a compute dispatch: {dispatch:?}");
             return;
@@ -371,7 +374,7 @@ impl Recorder<'_> {
             .get(lens.index())
             .and_then(|l| l.works.get(part))
         {
-            super::compute::record(self.gpu, cb, work, pass);
+            super::compute::record(self.gpu, cb, work, pass, recorded);
         }
     }
 

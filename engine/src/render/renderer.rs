@@ -8,6 +8,7 @@ use std::{sync::Arc, time::Instant};
 
 use ash::vk;
 
+use super::compute::ComputeCommands;
 use super::{
     FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat,
     image::decode,
@@ -36,6 +37,9 @@ pub struct FrameTimings {
     /// Passes the frame recorded (the plan's steps: environment, prime, layer passes, alpha
     /// clears or single passes, the readback).
     pub passes: usize,
+    /// Compute commands the frame recorded: the tessellations of its resident lens parts, each
+    /// a pass of its plan.
+    pub compute: ComputeCommands,
     /// Channel values of an RGBA16F framebuffer that overflowed (±Inf) and were clamped to
     /// ±65504 on readback (0 for other formats, and for frames into a host's image, whose box
     /// filter clamps them on the GPU).
@@ -90,6 +94,7 @@ pub struct Submission {
     readback: bool,
     format: TargetFormat,
     passes: usize,
+    compute: ComputeCommands,
     record_ms: f64,
     submitted_at: Instant,
 }
@@ -262,11 +267,12 @@ impl Renderer {
             host,
         };
         let mut record_ms = 0.0;
+        let mut compute = ComputeCommands::default();
         let (waits, signals) = host.map_or((&[][..], &[][..]), |h| (&h.wait[..], &h.signal[..]));
         gpu.record_submit(
             command_buffer,
             |cb| {
-                recorder.record(cb, &plan, &resources, format, &pipelines);
+                compute = recorder.record(cb, &plan, &resources, format, &pipelines);
                 record_ms = start.elapsed().as_secs_f64() * 1e3;
                 Ok(())
             },
@@ -293,6 +299,7 @@ impl Renderer {
             readback: host.is_none(),
             format,
             passes: plan.steps.len(),
+            compute,
             record_ms,
             submitted_at: Instant::now(),
         })
@@ -326,6 +333,7 @@ impl Renderer {
                     execute_ms,
                     readback_ms: 0.0,
                     passes: submission.passes,
+                    compute: submission.compute,
                     saturated: 0,
                 },
             ));
@@ -354,6 +362,7 @@ impl Renderer {
                 execute_ms,
                 readback_ms,
                 passes: submission.passes,
+                compute: submission.compute,
                 saturated,
             },
         ))

@@ -241,6 +241,7 @@ impl FrameRunner {
         camera: &Camera,
         options: &FrameOptions,
     ) -> Result<HybridFrame, RunError> {
+        let mut discarded = 0;
         loop {
             self.grew = false;
             let (frames, _) =
@@ -249,12 +250,15 @@ impl FrameRunner {
             // larger ones (they grow fourfold each time, up to what the device holds).
             if self.grew {
                 self.builder.forget();
+                discarded += 1;
                 continue;
             }
-            return frames
+            let mut frame = frames
                 .into_iter()
                 .next()
-                .ok_or_else(|| RenderError::BadInput("no frame was rendered".into()).into());
+                .ok_or_else(|| RenderError::BadInput("no frame was rendered".into()))?;
+            frame.stats.builds_discarded = discarded;
+            return Ok(frame);
         }
     }
 

@@ -199,6 +199,7 @@ mod tests {
                 readback_ms: 0.5,
                 passes: 3,
                 saturated: 0,
+                ..FrameTimings::default()
             },
             downsample_ms: 0.25,
             total_ms: 10.0,

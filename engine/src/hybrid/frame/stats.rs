@@ -63,4 +63,9 @@ pub struct HybridStats {
     /// Whether the frame was reused whole from the previous one (same camera, options and
     /// layered EMs): no vertex traced, tessellated or given texture coordinates.
     pub reused: bool,
+    /// Builds of this frame that [`crate::runner::FrameRunner::frame`] made and threw away
+    /// before it: each time, the GPU tessellation's buffers stopped splits before the vertex
+    /// budget, grew fourfold, and the whole frame (CPU stages, tessellation, render) was built
+    /// again. 0 for a frame whose buffers sufficed.
+    pub builds_discarded: usize,
 }

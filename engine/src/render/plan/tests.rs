@@ -349,14 +349,7 @@ fn programmable_resets_alpha_at_group_boundaries() {
 /// committing.
 #[test]
 fn plans_match_the_golden_text() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/render/golden");
-    let bless = std::env::var("LENSMAP_BLESS").is_ok_and(|v| v == "1");
-    let trimmed = |text: &str| -> String {
-        text.lines()
-            .map(|l| format!("{}\n", l.trim_end()))
-            .collect()
-    };
-    let mut mismatches = Vec::new();
+    let mut golden = Golden::new();
     let compositings = [
         (Variant::Multipass, BlendScheme::FrontToBack),
         (Variant::SinglePass, BlendScheme::FrontToBack),
@@ -382,23 +375,101 @@ fn plans_match_the_golden_text() {
                     "{}{scheme}-{viewpoints}-viewpoint-{material}.txt",
                     variant.name()
                 );
-                let path = dir.join(&name);
-                if bless {
-                    std::fs::create_dir_all(&dir).unwrap();
-                    std::fs::write(&path, trimmed(&text)).unwrap();
-                }
-                let golden = std::fs::read_to_string(&path).unwrap_or_default();
-                if trimmed(&golden) != trimmed(&text) {
-                    mismatches.push(format!("{name}:\n{text}"));
-                }
+                golden.check(&name, &text);
             }
         }
     }
-    assert!(
-        mismatches.is_empty(),
-        "plans differ from their golden text (LENSMAP_BLESS=1 rewrites them):\n{}",
-        mismatches.join("\n")
-    );
+    golden.assert_matched();
+}
+
+/// The plans `lensmap passes --gpu-parts N` prints (640×480, RGBA8, three layers, two
+/// viewpoints, glass): a lens object made of N parts tessellated on the GPU at the default depth
+/// cap, whose every dispatch, transfer and barrier opens the frame, against the golden files
+/// `gpu-parts-*.txt` (what a GPU frame records is checked against the same plan by
+/// `tests/tests/gpu_tracer.rs`).
+#[test]
+fn gpu_frame_plans_match_the_golden_text() {
+    use crate::hybrid::gpu::{Texgen, planned_part};
+    let levels = crate::hybrid::tessellate::DEFAULT_MAX_DEPTH + 1;
+    let mut golden = Golden::new();
+    for (parts, variant) in [(1, Variant::Multipass), (2, Variant::SinglePass)] {
+        let mut shape = FrameShape::synthetic(640, 480, 3, 2, &BOTH);
+        shape.lenses[0].parts = (0..parts)
+            .map(|object| {
+                planned_part(
+                    &format!("object{object} output0"),
+                    object,
+                    levels,
+                    Texgen::On,
+                )
+            })
+            .collect();
+        let plan = compiled(
+            &shape,
+            &readback(variant, BlendScheme::FrontToBack, TargetFormat::Rgba8),
+        );
+        // Every pass of each part's work is a step of the plan, in the work's order.
+        for (index, part) in shape.lenses[0].parts.iter().enumerate() {
+            let work = part.work.as_ref().expect("a planned work");
+            let prefix = format!("lens/part{index}/");
+            let steps: Vec<&str> = plan
+                .steps
+                .iter()
+                .filter_map(|s| s.pass.name.strip_prefix(&prefix))
+                .collect();
+            let passes: Vec<&str> = work.passes.iter().map(|p| p.name.as_str()).collect();
+            assert_eq!(steps, passes, "{plan}");
+        }
+        golden.check(
+            &format!("gpu-parts-{parts}-{}-glass.txt", variant.name()),
+            &plan.to_string(),
+        );
+    }
+    golden.assert_matched();
+}
+
+/// Plans against their golden text in `render/golden/`. Trailing spaces are not compared;
+/// `LENSMAP_BLESS=1` rewrites the files.
+struct Golden {
+    dir: std::path::PathBuf,
+    bless: bool,
+    mismatches: Vec<String>,
+}
+
+impl Golden {
+    fn new() -> Golden {
+        Golden {
+            dir: std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src/render/golden"),
+            bless: std::env::var("LENSMAP_BLESS").is_ok_and(|v| v == "1"),
+            mismatches: Vec::new(),
+        }
+    }
+
+    fn trimmed(text: &str) -> String {
+        text.lines()
+            .map(|l| format!("{}\n", l.trim_end()))
+            .collect()
+    }
+
+    fn check(&mut self, name: &str, text: &str) {
+        let path = self.dir.join(name);
+        if self.bless {
+            std::fs::create_dir_all(&self.dir).unwrap();
+            std::fs::write(&path, Self::trimmed(text)).unwrap();
+        }
+        let golden = std::fs::read_to_string(&path).unwrap_or_default();
+        if Self::trimmed(&golden) != Self::trimmed(text) {
+            self.mismatches.push(format!("{name}:\n{text}"));
+        }
+    }
+
+    fn assert_matched(&self) {
+        assert!(
+            self.mismatches.is_empty(),
+            "plans differ from their golden text (LENSMAP_BLESS=1 rewrites them):\n{}",
+            self.mismatches.join("\n")
+        );
+    }
 }
 
 /// A device that interpolates fewer varyings than the shader is compiled for lowers the single

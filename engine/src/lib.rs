@@ -11,10 +11,12 @@
 //! image errors); [`render`] (the compositor and its CPU f64 model); [`layers`] (shells, projected
 //! EMs, the bake format); [`rsibr`] (glossy objects by reflection-space IBR: view samples, radiance
 //! maps, their bake); [`hybrid`] (per-frame vertex tracing, tessellation, texgen); and on top
-//! [`runner`], the frame runner the command line, the tests and hosts call.
+//! [`runner`], the frame runner the command line, the tests and hosts call. [`error`] classifies
+//! every library error into the one [`error::ErrorKind`] that front ends map to their codes.
 
 pub mod atomic;
 pub mod cubemap;
+pub mod error;
 pub mod gpu;
 pub mod graph;
 pub mod hybrid;

@@ -5,6 +5,7 @@
 pub mod c_abi;
 pub mod fixtures;
 pub mod mesh_checks;
+pub mod source;
 
 use std::sync::OnceLock;
 

@@ -8,7 +8,7 @@
 
 use lensmap::render::Compositing;
 use lensmap::{
-    gpu::{Buffer, BufferUsage, Gpu, Image, ImageDesc, vk},
+    gpu::{Buffer, BufferUsage, Gpu, Image, ImageDesc, copies, vk},
     hybrid::{HybridOptions, VertexTracer},
     render::{HostImage, TargetFormat},
     runner::{FrameOptions, FrameRunner, RunError},
@@ -69,37 +69,18 @@ fn read_back(gpu: &Gpu, image: &Image) -> Vec<u8> {
         * u64::from(lensmap::gpu::format_bytes(image.desc.format));
     let buffer = Buffer::new(gpu, "host readback", bytes, BufferUsage::Readback).unwrap();
     gpu.submit_and_wait(|cb| {
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: extent.width,
-                height: extent.height,
-                depth: 1,
-            });
-        let to_host = [vk::MemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::COPY)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
         // SAFETY: recording; the frame left the image in TRANSFER_SRC_OPTIMAL, and its hand-back
         // barrier makes its writes available to every later command on the queue.
         unsafe {
-            gpu.device().cmd_copy_image_to_buffer(
+            copies::copy_image_to_buffer(
+                gpu.device(),
                 cb,
                 image.handle,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 buffer.handle,
-                &[region],
+                extent.width,
+                extent.height,
             );
-            gpu.device().cmd_pipeline_barrier2(
-                cb,
-                &vk::DependencyInfo::default().memory_barriers(&to_host),
-            );
+            copies::host_reads_transfers(gpu.device(), cb);
         }
         Ok(())
     })

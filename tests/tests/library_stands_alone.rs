@@ -7,32 +7,9 @@
 //! (`include_str!`, `include_bytes!`, a path from `CARGO_MANIFEST_DIR`, a dependency), so the
 //! library builds with `tools/` absent.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("tests/ has a parent")
-        .to_path_buf()
-}
-
-/// Every `.rs` file under `dir`.
-fn rust_files(dir: &Path) -> Vec<PathBuf> {
-    let mut files = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).expect("readable source folder") {
-            let path = entry.expect("readable entry").path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                files.push(path);
-            }
-        }
-    }
-    files.sort();
-    files
-}
+use lensmap_tests::source::{rust_files, workspace};
 
 /// The source without its `#[cfg(test)]` items: the text up to the first `#[cfg(test)]` line
 /// that opens a test module (test modules sit at the end of a file in this codebase), and whole

@@ -18,7 +18,6 @@ use lensmap::{
     hybrid::{HybridOptions, HybridScene, ViewpointBlending, sphere::SphereTriangulation},
     layers::{Bake, projected::ProjectedOptions},
     metrics::{self, Channels, Encoding, Mask},
-    render::{Compositing, TargetFormat},
     runner::{
         EmSource, FrameOptions, FrameRunner, camera_between, lens_error, load_hybrid_scene,
         non_lens_error,
@@ -29,11 +28,16 @@ use lensmap::{
 use serde_json::json;
 
 use crate::common::{BadUsage, JudgeArgs, report};
+use crate::frame_args::FrameArgs;
 
 #[derive(Args)]
-#[command(after_help = "Example:
+#[command(
+    mut_arg("format", |a| a.default_value("rgba32f")),
+    mut_arg("tracer", |a| a.default_value("cpu")),
+    after_help = "Example:
   lensmap bake --scene teapot-room --samples 0,1 --out out/bake
-  lensmap bench bake --scene teapot-room --bake out/bake --sample 0")]
+  lensmap bench bake --scene teapot-room --bake out/bake --sample 0"
+)]
 pub struct BenchBakeArgs {
     /// Built-in scene name or path.
     #[arg(long, default_value = "teapot-room")]
@@ -47,14 +51,12 @@ pub struct BenchBakeArgs {
     sample: usize,
     #[command(flatten)]
     judge: JudgeArgs,
-    /// Tessellation threshold t, subpixels.
-    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
-    t: f32,
+    /// How the judged frames are made (RGBA32F and the CPU tracer unless asked otherwise).
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Projected EMs' face size (the baseline).
     #[arg(long, default_value_t = 128)]
     em_size: u32,
-    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
-    hull_split: crate::common::OnOff,
     /// Also write the JSON results to this file (--json prints them on stdout).
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -181,20 +183,13 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         &[(ViewpointBlending::ViewSpace, "")]
     };
     step.finish_and_clear();
-    let options = FrameOptions {
-        hybrid: HybridOptions {
-            hull_split: args.hull_split.is_on(),
-            ..HybridOptions::with_t(args.t)
-        },
-        compositing: Compositing::SinglePass,
-        format: TargetFormat::Rgba32f,
-    };
+    let options = args.frame.options()?;
     say!(
         "{}: {}×{} at {k}×{k}, t = {}, reference {r}×{r}, device {device}; lens | non-lens PSNR, dB (sRGB)",
         scene.name,
         args.judge.width,
         args.judge.height,
-        args.t,
+        args.frame.t,
         k = args.judge.supersampling,
         r = args.judge.reference_supersampling
     );
@@ -282,7 +277,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         &json!({
             "scene": scene.name, "device": device.device, "driver": device.driver_description(), "width": args.judge.width, "height": args.judge.height,
             "supersampling": args.judge.supersampling, "reference_supersampling": args.judge.reference_supersampling,
-            "t": args.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
+            "t": args.frame.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
         }),
         args.report.as_deref(),
     )?;

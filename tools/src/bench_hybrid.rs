@@ -11,7 +11,7 @@ use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{
         FresnelModel, HybridOptions, HybridScene, VertexTracer, gpu::Traversal,
-        paths::VertexPrecision, tessellate::DEFAULT_T,
+        paths::VertexPrecision,
     },
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{BlendScheme, Compositing, TargetFormat, Variant},
@@ -23,7 +23,8 @@ use lensmap::{
 };
 use serde_json::json;
 
-use crate::common::{BadUsage, FormatArg, Steps, TracerArg, flag_error, report};
+use crate::common::{BadUsage, Steps, flag_error, report};
+use crate::frame_args::FrameArgs;
 
 #[derive(Args)]
 #[command(
@@ -42,31 +43,13 @@ pub struct BenchHybridArgs {
     /// Supersampling k×k of the framebuffer.
     #[arg(long, default_value_t = 1)]
     supersampling: u32,
-    /// Tessellation threshold in subpixels.
-    #[arg(long, default_value_t = DEFAULT_T, allow_negative_numbers = true)]
-    t: f32,
-    /// Footprint coarsening below this many subpixels (0: off, the default, so that frames are
-    /// the exact ones).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    footprint: f32,
-    /// Framebuffer format.
-    #[arg(long, value_enum, default_value = "rgba16f")]
-    format: FormatArg,
+    /// How the frames are made (`--tracer`: where the per-stage table and the camera runs trace
+    /// the lens vertices; a last part times the CPU and the GPU alternately whatever it says).
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Projected EMs: cube-map face size.
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     em_size: u32,
-    #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
-    fresnel: FresnelModel,
-    /// Where the lens vertices are traced in the per-stage table and the camera runs (a last
-    /// part times the CPU and the GPU alternately whatever this says).
-    #[arg(long, value_enum, default_value = "auto")]
-    tracer: TracerArg,
-    /// How the GPU tracer finds a ray's hits.
-    #[arg(long, value_enum, default_value = "auto")]
-    traversal: crate::common::TraversalArg,
-    /// What the GPU tracer computes in.
-    #[arg(long, value_enum, default_value = "f32")]
-    gpu_precision: crate::common::GpuPrecisionArg,
     /// Timed frames per variant (after two warm-up frames).
     #[arg(long, default_value_t = 9)]
     frames: usize,
@@ -76,12 +59,13 @@ pub struct BenchHybridArgs {
 }
 
 pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
-    let (hybrid_options, projected, scene, camera) = checked(&args)?;
+    let (frame_options, projected, scene, camera) = checked(&args)?;
+    let hybrid_options = frame_options.hybrid;
     // The device and the framebuffer's fit first: refused before the scene's preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
-    let format = TargetFormat::from(args.format);
+    let format = frame_options.format;
     runner.check_framebuffer(&camera, format)?;
-    let with_table = args.fresnel != FresnelModel::Exact;
+    let with_table = args.frame.fresnel != FresnelModel::Exact;
     let mut steps = Steps::new(if with_table { 8 } else { 7 });
     let step = steps.step("projected layered EMs and light maps");
     let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
@@ -94,7 +78,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         args.height,
         camera.supersampling,
         camera.supersampling,
-        args.t,
+        args.frame.t,
         format.name(),
         crate::common::gpu_walk(runner.gpu(), &hybrid_options)
             .map_or_else(|| "CPU".to_owned(), |walk| format!("GPU ({walk} walk)")),
@@ -109,12 +93,9 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     };
     let step = steps.step("per-stage medians, single pass and multipass");
     let rows = bench.stages(&mut runner, hybrid_options, format)?;
-    // The rest is single pass, the runtime's default.
-    let options = FrameOptions {
-        hybrid: hybrid_options,
-        compositing: Compositing::SinglePass,
-        format,
-    };
+    // The rest composites as the flags say: the single pass, the runtime's default, unless
+    // --variant asks otherwise.
+    let options = frame_options;
     step.finish_and_clear();
     let still = bench.still_camera(&mut runner, &options, &mut steps)?;
     let moving = bench.moving_camera(&mut runner, &options, &mut steps)?;
@@ -127,7 +108,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
             },
             ..options
         };
-        let what = format!("Fresnel exact vs {}", args.fresnel.name());
+        let what = format!("Fresnel exact vs {}", args.frame.fresnel.name());
         let settings = [("exact", &exact), ("table", &options)];
         Some(bench.alternating(&mut runner, &what, settings, &mut steps)?)
     } else {
@@ -184,11 +165,11 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene().name, "width": args.width, "height": args.height,
-        "supersampling": camera.supersampling, "t": args.t, "format": format.name(),
+        "supersampling": camera.supersampling, "t": args.frame.t, "format": format.name(),
         "threads": threads, "frames": args.frames, "rows": rows,
         "still_camera": still, "moving_camera": moving, "thread_scaling": scaling,
-        "fresnel": args.fresnel.name(), "fresnel_against_exact": fresnel,
-        "tracer": args.tracer.name(), "traced_on_gpu": hybrid_options.tracer.on_gpu(runner.gpu()),
+        "fresnel": args.frame.fresnel.name(), "fresnel_against_exact": fresnel,
+        "tracer": args.frame.tracer.name(), "traced_on_gpu": hybrid_options.tracer.on_gpu(runner.gpu()),
         "walk": crate::common::gpu_walk(runner.gpu(), &hybrid_options),
         "cpu_against_gpu_tracer": tracers, "gpu_stages": gpu_stages, "bvh_against_driver_walk": walks,
         "f32_against_f64": precisions,
@@ -201,16 +182,8 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
 /// viewpoint at `--width` × `--height` and `--supersampling`).
 fn checked(
     args: &BenchHybridArgs,
-) -> anyhow::Result<(HybridOptions, ProjectedOptions, Scene, Camera)> {
-    let hybrid_options = HybridOptions {
-        footprint_subpixels: args.footprint,
-        fresnel: args.fresnel,
-        tracer: args.tracer.into(),
-        traversal: args.traversal.into(),
-        gpu_precision: args.gpu_precision.into(),
-        ..HybridOptions::with_t(args.t)
-    };
-    hybrid_options.validate().map_err(flag_error)?;
+) -> anyhow::Result<(FrameOptions, ProjectedOptions, Scene, Camera)> {
+    let options = args.frame.options()?;
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     if args.width == 0 || args.height == 0 {
@@ -234,7 +207,7 @@ fn checked(
     let camera = novel_camera(&scene);
     lensmap::trace::image::validate_camera(&camera)
         .map_err(|e| BadUsage(format!("--width/--height/--supersampling: {e}")))?;
-    Ok((hybrid_options, projected, scene, camera))
+    Ok((options, projected, scene, camera))
 }
 
 /// The frames every part of the benchmark renders: one scene, from one camera, `frames` timed

@@ -10,11 +10,10 @@ use std::{path::PathBuf, sync::Arc, time::Instant};
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::HybridScene,
     index::LensIndex,
     layers::projected::ProjectedOptions,
     metrics::Encoding,
-    render::{Compositing, TargetFormat},
     runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene, median},
     scene::{Camera, Scene},
     trace::{ReferenceImage, TraceOptions, compile_records, render_reference},
@@ -25,9 +24,12 @@ use lensmap_baker::infer::{
 use serde_json::json;
 
 use crate::common::{BadUsage, JudgeArgs, Steps, flag_error, report};
+use crate::frame_args::FrameArgs;
 
 #[derive(Args)]
 #[command(
+    mut_arg("format", |a| a.default_value("rgba32f")),
+    mut_arg("tracer", |a| a.default_value("cpu")),
     after_help = "Example:\n  lensmap bench infer --scene glass-sphere --width 320 --height 240"
 )]
 pub struct BenchInferArgs {
@@ -36,6 +38,9 @@ pub struct BenchInferArgs {
     scene: String,
     #[command(flatten)]
     judge: JudgeArgs,
+    /// How the judged frames are made (RGBA32F and the CPU tracer unless asked otherwise).
+    #[command(flatten)]
+    frame: FrameArgs,
     /// Largest EM face size the resolution search considers (power of two).
     #[arg(long, default_value_t = DEFAULT_MAX_EM_SIZE)]
     max_em_size: u32,
@@ -73,6 +78,7 @@ enum SolverArg {
 
 pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let projected = checked(&args)?;
+    let frame_options = args.frame.options()?;
     let scene = Scene::load_named(&args.scene)?;
     let camera = args.judge.frame_camera(&scene.camera);
     let reference_camera = args.judge.reference_camera(&camera);
@@ -105,6 +111,7 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let judge = Judge {
         camera: &camera,
         reference: &reference,
+        options: &frame_options,
     };
     let (projected_srgb, projected_linear) = judge.lens_psnr(&mut runner, &hybrid)?;
     let step = steps.step("intersection records");
@@ -215,21 +222,18 @@ fn infer_options(args: &BenchInferArgs) -> InferOptions {
 struct Judge<'a> {
     camera: &'a Camera,
     reference: &'a ReferenceImage,
+    options: &'a FrameOptions,
 }
 
 impl Judge<'_> {
-    /// Lens PSNR of `hybrid`'s single-pass RGBA32F frame in display sRGB and in linear, dB.
+    /// Lens PSNR of `hybrid`'s frame (by default single-pass RGBA32F) in display sRGB and in
+    /// linear, dB.
     fn lens_psnr(
         &self,
         runner: &mut FrameRunner,
         hybrid: &HybridScene,
     ) -> anyhow::Result<(f64, f64)> {
-        let frame_options = FrameOptions {
-            hybrid: HybridOptions::default(),
-            compositing: Compositing::SinglePass,
-            format: TargetFormat::Rgba32f,
-        };
-        let frame = runner.frame(hybrid, self.camera, &frame_options)?;
+        let frame = runner.frame(hybrid, self.camera, self.options)?;
         Ok((
             lens_error(&frame.image, self.reference, Encoding::DisplaySrgb)?.psnr_db,
             lens_error(&frame.image, self.reference, Encoding::Linear)?.psnr_db,

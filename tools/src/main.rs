@@ -15,6 +15,7 @@ mod bench_infer;
 mod bench_passes;
 mod bench_trace;
 mod demo;
+mod frame_args;
 mod interrupt;
 mod pareto;
 mod passes;
@@ -24,6 +25,8 @@ mod view;
 mod words;
 
 use std::process::ExitCode;
+
+use lensmap::error::ErrorKind;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
@@ -54,7 +57,8 @@ struct Cli {
 /// What every `--help` ends with: the exit codes and the environment variables.
 const HELP_FOOTER: &str = "Exit codes:
   0    success
-  1    the work failed (a disk error, a GPU failure, a result the work could not reach)
+  1    the work failed (a disk error, a GPU failure, a result the work could not reach), or
+       lensmap broke an invariant of its own (a second line asks for a bug report)
   2    bad usage or bad input (an option, a scene, an asset or a bake), said in one line
   130  bake: interrupted by SIGINT (Ctrl-C); finished samples kept, --resume finishes
   141  stdout was closed before the end (e.g. piped into head); the work and files finished
@@ -150,77 +154,29 @@ enum BenchCommand {
     Glossy(bench_glossy::BenchGlossyArgs),
 }
 
-/// Whether an error is the user's input (exit 2) rather than a failure of the work (exit 1).
-fn is_bad_input(error: &anyhow::Error) -> bool {
-    error.chain().any(is_bad_input_cause)
+/// The kind of failure `error` is: that of the first error in its chain the library or the
+/// baker classifies ([`lensmap::error::ErrorKind`]); the command line's own usage errors are
+/// input, and anything else is the work's failure.
+fn error_kind(error: &anyhow::Error) -> ErrorKind {
+    use lensmap::error::Classified;
+    for cause in error.chain() {
+        if cause.is::<common::BadUsage>() {
+            return ErrorKind::Input;
+        }
+        if let Some(failure) = cause.downcast_ref::<lensmap_baker::bake::BakeFailure>() {
+            return failure.kind();
+        }
+        if let Some(kind) = lensmap::error::kind_of(cause) {
+            return kind;
+        }
+    }
+    ErrorKind::Failed
 }
 
-/// A bake that cannot be read or written: the disk failing is the work's failure (exit 1),
-/// everything else (a directory that is not a bake, a damaged manifest…) the input's.
-fn bake_input(error: &lensmap::layers::BakeError) -> bool {
-    use lensmap::{atomic::lock::LockError, layers::BakeError};
-    // A lock that another writer holds is a usage conflict (exit 2); one the disk refused, the
-    // work's failure.
-    !matches!(
-        error,
-        BakeError::Io { .. } | BakeError::Lock(LockError::Io { .. })
-    )
-}
-
-/// One cause of an error chain: bad input, or a failure of the work? The runner's error forwards
-/// its inner error's message transparently, so it is looked into.
-fn is_bad_input_cause(cause: &(dyn std::error::Error + 'static)) -> bool {
-    use lensmap::{gpu::GpuError, render::RenderError, runner::RunError};
-    let gpu_input = |error: &GpuError| {
-        matches!(
-            error,
-            GpuError::NoDriver(_)
-                | GpuError::NoSuitableDevice(_)
-                | GpuError::ValidationLayerMissing
-        )
-    };
-    let render_input = |error: &RenderError| match error {
-        RenderError::BadInput(_)
-        | RenderError::Program(_)
-        | RenderError::Framebuffer(_)
-        | RenderError::Maps(_) => true,
-        RenderError::Gpu(error) => matches!(error, GpuError::NoDriver(_)),
-    };
-    let run_input = |run: &RunError| match run {
-        RunError::Bake(error) => bake_input(error),
-        RunError::Option(_) | RunError::Hybrid(_) => true,
-        RunError::Tessellation(_) => false,
-        RunError::Render(error) => render_input(error),
-    };
-    if let Some(run) = cause.downcast_ref::<RunError>() {
-        return run_input(run);
-    }
-    // The baker's error forwards its inner errors transparently too.
-    if let Some(failure) = cause.downcast_ref::<lensmap_baker::bake::BakeFailure>() {
-        use lensmap_baker::bake::BakeFailure;
-        return match failure {
-            BakeFailure::Bake(error) => bake_input(error),
-            BakeFailure::Option(_) | BakeFailure::Input(_) | BakeFailure::Merge(_) => true,
-            // A scene the ray tracer refuses, as everywhere else.
-            BakeFailure::Hybrid(_) | BakeFailure::Trace(_) => true,
-            // A glass or degenerate lens object given layers by bounce: the scene's or the
-            // option's to change.
-            BakeFailure::Bounce(_) => true,
-            BakeFailure::Run(run) => run_input(run),
-            BakeFailure::Infer(_) | BakeFailure::Placement(_) | BakeFailure::Metrics(_) => false,
-        };
-    }
-    cause.is::<lensmap::scene::SceneError>()
-        || cause.is::<common::BadUsage>()
-        || cause.is::<lensmap::options::OptionError>()
-        || cause
-            .downcast_ref::<lensmap::layers::BakeError>()
-            .is_some_and(bake_input)
-        || cause.is::<lensmap::hybrid::HybridError>()
-        || cause
-            .downcast_ref::<RenderError>()
-            .is_some_and(render_input)
-        || cause.downcast_ref::<GpuError>().is_some_and(gpu_input)
+/// The exit status of a failure of kind `kind`: 2 for the user's input, 1 for the work's
+/// failure and for lensmap's own.
+fn exit_code(kind: ErrorKind) -> u8 {
+    if kind.is_input() { 2 } else { 1 }
 }
 
 fn main() -> ExitCode {
@@ -251,7 +207,12 @@ fn main() -> ExitCode {
                 .map(str::trim)
                 .filter(|line| !line.is_empty() && !line.starts_with("For more information"))
                 .collect();
-            return fail(&format!("{} (see --help)", parts.join(" ")), 2, json_asked);
+            return fail(
+                &format!("{} (see --help)", parts.join(" ")),
+                2,
+                None,
+                json_asked,
+            );
         }
     };
     common::set_voice(common::Voice {
@@ -280,22 +241,69 @@ fn main() -> ExitCode {
         Err(error) => {
             // One line: the outermost context and its causes, each said once.
             let line = words::error_line(&error);
-            let code = if is_bad_input(&error) { 2 } else { 1 };
-            fail(&format!("error: {line}"), code, cli.json)
+            let kind = error_kind(&error);
+            let code = exit_code(kind);
+            let bug = (kind == ErrorKind::Internal).then_some(BUG_REPORT);
+            fail(&format!("error: {line}"), code, bug, cli.json)
         }
     }
 }
 
-/// Says a failure on stderr, one line (one JSON object under `--json`), and gives its exit code.
-fn fail(line: &str, code: u8, json: bool) -> ExitCode {
+/// The line after the error of a broken invariant.
+const BUG_REPORT: &str = "this is a bug in lensmap: please report it with the command line and the lines above (lensmap --version)";
+
+/// Says a failure on stderr, one line (one JSON object under `--json`), and `bug`'s request for
+/// a bug report on a line of its own (a field of the object), and gives its exit code.
+fn fail(line: &str, code: u8, bug: Option<&str>, json: bool) -> ExitCode {
     if json {
         let message = line.strip_prefix("error: ").unwrap_or(line);
-        common::tell(format_args!(
-            "{}",
-            serde_json::json!({ "error": message, "exit_code": code })
-        ));
+        let mut said = serde_json::json!({ "error": message, "exit_code": code });
+        if let Some(bug) = bug {
+            said["bug_report"] = bug.into();
+        }
+        common::tell(format_args!("{said}"));
     } else {
         common::tell(format_args!("{line}"));
+        if let Some(bug) = bug {
+            common::tell(format_args!("{bug}"));
+        }
     }
     ExitCode::from(code)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use lensmap::gpu::GpuError;
+    use lensmap::render::RenderError;
+    use lensmap::runner::RunError;
+
+    /// The exit status follows the library's kind through the runner's and the baker's
+    /// wrappers and anyhow's context; a broken invariant is exit 1, as is a failure of the work.
+    #[test]
+    fn exit_codes_come_from_the_librarys_kinds() {
+        let internal = anyhow::Error::from(RunError::from(RenderError::Internal("x".into())))
+            .context("rendering");
+        assert_eq!(error_kind(&internal), ErrorKind::Internal);
+        assert_eq!(exit_code(ErrorKind::Internal), 1);
+        let input = anyhow::Error::from(RunError::from(RenderError::BadInput("x".into())));
+        assert_eq!(exit_code(error_kind(&input)), 2);
+        let no_driver = anyhow::Error::from(RenderError::from(GpuError::NoDriver("x".into())));
+        assert_eq!(
+            (error_kind(&no_driver), exit_code(ErrorKind::NoDriver)),
+            (ErrorKind::NoDriver, 2)
+        );
+        let lost = anyhow::Error::from(GpuError::Vulkan {
+            call: "vkQueueSubmit2",
+            result: lensmap::gpu::vk::Result::ERROR_DEVICE_LOST,
+        });
+        assert_eq!(exit_code(error_kind(&lost)), 1);
+        let usage = anyhow::Error::from(common::BadUsage("--width 0".into()));
+        assert_eq!(exit_code(error_kind(&usage)), 2);
+        assert_eq!(exit_code(error_kind(&anyhow::anyhow!("anything else"))), 1);
+        let bake = anyhow::Error::from(lensmap_baker::bake::BakeFailure::Run(RunError::from(
+            RenderError::Internal("x".into()),
+        )));
+        assert_eq!(error_kind(&bake), ErrorKind::Internal);
+    }
 }

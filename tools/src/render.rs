@@ -9,29 +9,25 @@ use std::time::Instant;
 use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{
-        DEFAULT_ANGLE_DEGREES, HybridOptions, HybridScene, ViewpointBlending,
-        tessellate::{DEFAULT_T, TessellationOptions},
-    },
+    hybrid::{HybridScene, ViewpointBlending},
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     lightmap::{
         DEFAULT_MAX_TEXELS, DEFAULT_MAX_TEXELS_PER_METRE, DEFAULT_MIN_TEXELS_PER_METRE,
         DEFAULT_PIXELS_PER_TEXEL, LightMapOptions,
     },
     metrics::{Channels, Encoding, Mask, MetricsError, compare},
-    render::{BlendScheme, Compositing, TargetFormat, Variant},
+    render::{BlendScheme, TargetFormat, Variant},
     runner::{
-        EmSource, FrameOptions, FrameRunner, HybridFrame, LoadOptions, Repetitions, lens_error,
+        EmSource, FrameRunner, HybridFrame, LoadOptions, Repetitions, lens_error,
         load_hybrid_scene, non_lens_error,
     },
     scene::{Camera, Scene},
     trace::{ReferenceImage, TraceOptions, render_reference},
 };
-use serde_json::json;
+use serde::Serialize;
 
-use crate::common::{
-    BlendArg, CameraArgs, FormatArg, ImageOut, Steps, VariantArg, choose_camera, flag_error,
-};
+use crate::common::{CameraArgs, ImageOut, Steps, choose_camera, flag_error};
+use crate::frame_args::FrameArgs;
 
 #[derive(Args)]
 #[command(
@@ -51,44 +47,9 @@ pub struct RenderArgs {
     /// The camera.
     #[command(flatten)]
     pub camera: CameraArgs,
-    /// Tessellation threshold: triangles stop splitting when their edges are shorter than t
-    /// subpixels.
-    #[arg(long, default_value_t = DEFAULT_T, allow_negative_numbers = true)]
-    pub t: f32,
-    /// Outgoing rays further apart than this many degrees split a triangle.
-    #[arg(long, default_value_t = DEFAULT_ANGLE_DEGREES, allow_negative_numbers = true)]
-    pub angle_degrees: f64,
-    #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
-    pub fresnel: lensmap::hybrid::FresnelModel,
-    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
-    pub hull_split: crate::common::OnOff,
-    /// Where the lens vertices are ray traced.
-    #[arg(long, value_enum, default_value = "auto")]
-    pub tracer: crate::common::TracerArg,
-    /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
-    #[arg(long, value_enum, default_value = "auto")]
-    pub traversal: crate::common::TraversalArg,
-    /// What the GPU tracer computes in (with the GPU tracer only).
-    #[arg(long, value_enum, default_value = "f32")]
-    pub gpu_precision: crate::common::GpuPrecisionArg,
-    /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
-    /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub footprint: f32,
-    /// The frame's budget of lens vertices (each is ray traced): past it no triangle is split
-    /// further, and a warning says how many were left unsplit.
-    #[arg(long, default_value_t = lensmap::hybrid::tessellate::DEFAULT_MAX_VERTICES, allow_negative_numbers = true)]
-    pub max_vertices: usize,
-    /// Compositor variant.
-    #[arg(long, value_enum, default_value = "single-pass")]
-    pub variant: VariantArg,
-    /// How the multipass variant combines layers and (viewpoint, term) groups (the single pass
-    /// takes only front-to-back).
-    #[arg(long, value_enum, default_value = "front-to-back")]
-    pub blend: BlendArg,
-    /// Framebuffer format.
-    #[arg(long, value_enum, default_value = "rgba16f")]
-    pub format: FormatArg,
+    /// How the frame is made.
+    #[command(flatten)]
+    pub frame: FrameArgs,
     /// Projected EMs: cube-map face size in texels.
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
@@ -153,32 +114,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let out = ImageOut::parse(&args.out, "hybrid")?;
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
-    let options = FrameOptions {
-        hybrid: HybridOptions {
-            tessellation: TessellationOptions {
-                t: args.t,
-                max_vertices: args.max_vertices,
-                ..TessellationOptions::default()
-            },
-            angle_radians: args.angle_degrees.to_radians(),
-            footprint_subpixels: args.footprint,
-            fresnel: args.fresnel,
-            hull_split: args.hull_split.is_on(),
-            tracer: args.tracer.into(),
-            traversal: args.traversal.into(),
-            gpu_precision: args.gpu_precision.into(),
-            ..HybridOptions::default()
-        },
-        compositing: Compositing::new(Variant::from(args.variant), BlendScheme::from(args.blend))
-            .map_err(|error| {
-            crate::common::BadUsage(lensmap::options::Worded::worded(
-                &error,
-                &crate::words::Flags,
-            ))
-        })?,
-        format: TargetFormat::from(args.format),
-    };
-    options.validate().map_err(flag_error)?;
+    let options = args.frame.options()?;
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     let ems = match &args.bake {
@@ -274,8 +210,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             written: &out,
         },
     )?;
-    crate::common::report(&report, None)?;
-    print_table(&report);
+    // As a value: the document's keys in the order it has always had (sorted).
+    crate::common::report(&serde_json::to_value(&report)?, None)?;
+    report.print_table();
     Ok(())
 }
 
@@ -287,6 +224,115 @@ struct Run<'a> {
     written: &'a ImageOut,
 }
 
+/// What `lensmap render` reports: serialized as its JSON document, displayed as its table.
+#[derive(Serialize)]
+struct RenderReport {
+    scene: String,
+    device: String,
+    driver: String,
+    width: u32,
+    height: u32,
+    supersampling: u32,
+    t: f32,
+    fresnel: String,
+    hull_split: bool,
+    tracer: &'static str,
+    variant: &'static str,
+    blend: &'static str,
+    format: &'static str,
+    layered_ems: &'static str,
+    prepare_seconds: f64,
+    light_maps: LightMapReport,
+    hybrid: FrameReport,
+    out: PathBuf,
+    out_exr: PathBuf,
+    #[serde(flatten)]
+    reference: Option<ReferenceReport>,
+}
+
+/// The light maps: what was asked, what was made.
+#[derive(Serialize)]
+struct LightMapReport {
+    min_texels_per_metre_asked: f64,
+    max_texels_per_metre_asked: f64,
+    pixels_per_texel: f64,
+    max_texels: u64,
+    min_texels_per_metre: f64,
+    max_texels_per_metre: f64,
+    ms: f64,
+    gpu_bytes: u64,
+    texels: u64,
+    shaded_texels: u64,
+    supersampled_texels: u64,
+    samples: u64,
+    shadow_rays: u64,
+    charts: usize,
+}
+
+/// The hybrid frame's stages and counts.
+#[derive(Serialize)]
+struct FrameReport {
+    ray_tracing_at_vertices_ms: f64,
+    texture_coordinates_ms: f64,
+    tessellation_ms: f64,
+    other_ms: f64,
+    gpu_ms: f64,
+    total_ms: f64,
+    saturated_channels: usize,
+    rays: u64,
+    triangle_tests: u64,
+    lens_triangles_in: usize,
+    lens_triangles_out: usize,
+    hull_triangles: usize,
+    vertices_traced: usize,
+    leaves_stopped_by_vertex_budget: usize,
+    outside_view_space: bool,
+    glossy_maps_read: usize,
+    viewpoints: Vec<ViewpointWeight>,
+}
+
+#[derive(Serialize)]
+struct ViewpointWeight {
+    viewpoint: usize,
+    weight: f64,
+}
+
+/// With `--compare`: the reference, the reduction factors and the PSNRs (each absent where its
+/// mask has no pixel).
+#[derive(Serialize)]
+struct ReferenceReport {
+    reference: ReferenceCost,
+    reduction: Reduction,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lens_psnr_db: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lens_psnr_linear_db: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lens_pixels: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    glossy_psnr_db: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    glossy_pixels: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_lens_psnr_db: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    non_lens_pixels: Option<usize>,
+}
+
+#[derive(Serialize)]
+struct ReferenceCost {
+    ms: f64,
+    rays: u64,
+    triangle_tests: u64,
+}
+
+#[derive(Serialize)]
+struct Reduction {
+    time: f64,
+    rays: f64,
+    triangle_tests: f64,
+}
+
 fn report(
     hybrid: &HybridScene,
     camera: &Camera,
@@ -294,240 +340,266 @@ fn report(
     frame: &HybridFrame,
     reference: Option<&ReferenceImage>,
     run: Run,
-) -> anyhow::Result<serde_json::Value> {
+) -> anyhow::Result<RenderReport> {
     let Run {
         prepare_s,
         device,
         written,
     } = run;
     let c = frame.stats.counters;
-    let mut out = json!({
-        "scene": hybrid.scene().name, "device": device.device, "driver": device.driver_description(),
-        "width": camera.width, "height": camera.height, "supersampling": camera.supersampling,
-        "t": args.t, "fresnel": args.fresnel.name(), "hull_split": args.hull_split.is_on(), "tracer": if frame.stats.traced_on_gpu { "gpu" } else { "cpu" }, "variant": Variant::from(args.variant).name(), "blend": BlendScheme::from(args.blend).name(), "format": TargetFormat::from(args.format).name(),
-        "layered_ems": if args.bake.is_some() { "bake" } else { "projected" },
-        "prepare_seconds": prepare_s,
-        "light_maps": {
-            "min_texels_per_metre_asked": args.light_map_density,
-            "max_texels_per_metre_asked": args.light_map_max_density,
-            "pixels_per_texel": args.light_map_pixels_per_texel,
-            "max_texels": args.light_map_max_texels,
-            "min_texels_per_metre": hybrid.light_maps().min_texels_per_metre,
-            "max_texels_per_metre": hybrid.light_maps().max_texels_per_metre,
-            "ms": hybrid.light_maps().ms,
-            "gpu_bytes": hybrid.light_maps().gpu_bytes,
-            "texels": hybrid.light_maps().texels,
-            "shaded_texels": hybrid.light_maps().shaded_texels,
-            "supersampled_texels": hybrid.light_maps().supersampled_texels,
-            "samples": hybrid.light_maps().samples,
-            "shadow_rays": hybrid.light_maps().shadow_rays,
-            "charts": hybrid.light_maps().charts,
+    let maps = hybrid.light_maps();
+    Ok(RenderReport {
+        scene: hybrid.scene().name.clone(),
+        device: device.device.clone(),
+        driver: device.driver_description(),
+        width: camera.width,
+        height: camera.height,
+        supersampling: camera.supersampling,
+        t: args.frame.t,
+        fresnel: args.frame.fresnel.name(),
+        hull_split: args.frame.hull_split.is_on(),
+        tracer: if frame.stats.traced_on_gpu {
+            "gpu"
+        } else {
+            "cpu"
         },
-        "hybrid": {
-            "ray_tracing_at_vertices_ms": frame.stats.trace_ms,
-            "texture_coordinates_ms": frame.stats.texgen_ms,
-            "tessellation_ms": frame.stats.tessellation_ms,
-            "other_ms": frame.other_ms(),
-            "gpu_ms": frame.gpu_ms,
-            "total_ms": frame.total_ms,
-            "saturated_channels": frame.render.saturated,
-            "rays": c.all_rays(),
-            "triangle_tests": c.triangle_tests,
-            "lens_triangles_in": frame.stats.triangles_in,
-            "lens_triangles_out": frame.stats.triangles_out,
-            "hull_triangles": frame.stats.hull_triangles,
-            "vertices_traced": frame.stats.vertices_traced,
-            "leaves_stopped_by_vertex_budget": frame.stats.stopped_by_budget,
-            "outside_view_space": frame.stats.outside_view_space,
-            "glossy_maps_read": frame.stats.glossy_maps,
-            "viewpoints": hybrid
+        variant: Variant::from(args.frame.variant).name(),
+        blend: BlendScheme::from(args.frame.blend).name(),
+        format: TargetFormat::from(args.frame.format).name(),
+        layered_ems: if args.bake.is_some() {
+            "bake"
+        } else {
+            "projected"
+        },
+        prepare_seconds: prepare_s,
+        light_maps: LightMapReport {
+            min_texels_per_metre_asked: args.light_map_density,
+            max_texels_per_metre_asked: args.light_map_max_density,
+            pixels_per_texel: args.light_map_pixels_per_texel,
+            max_texels: args.light_map_max_texels,
+            min_texels_per_metre: maps.min_texels_per_metre,
+            max_texels_per_metre: maps.max_texels_per_metre,
+            ms: maps.ms,
+            gpu_bytes: maps.gpu_bytes,
+            texels: maps.texels,
+            shaded_texels: maps.shaded_texels,
+            supersampled_texels: maps.supersampled_texels,
+            samples: maps.samples,
+            shadow_rays: maps.shadow_rays,
+            charts: maps.charts,
+        },
+        hybrid: FrameReport {
+            ray_tracing_at_vertices_ms: frame.stats.trace_ms,
+            texture_coordinates_ms: frame.stats.texgen_ms,
+            tessellation_ms: frame.stats.tessellation_ms,
+            other_ms: frame.other_ms(),
+            gpu_ms: frame.gpu_ms,
+            total_ms: frame.total_ms,
+            saturated_channels: frame.render.saturated,
+            rays: c.all_rays(),
+            triangle_tests: c.triangle_tests,
+            lens_triangles_in: frame.stats.triangles_in,
+            lens_triangles_out: frame.stats.triangles_out,
+            hull_triangles: frame.stats.hull_triangles,
+            vertices_traced: frame.stats.vertices_traced,
+            leaves_stopped_by_vertex_budget: frame.stats.stopped_by_budget,
+            outside_view_space: frame.stats.outside_view_space,
+            glossy_maps_read: frame.stats.glossy_maps,
+            viewpoints: hybrid
                 .viewpoint_blend(camera, ViewpointBlending::ViewSpace)
                 .samples
                 .iter()
-                .map(|(i, w)| json!({"viewpoint": i, "weight": w}))
-                .collect::<Vec<_>>(),
+                .map(|&(viewpoint, weight)| ViewpointWeight { viewpoint, weight })
+                .collect(),
         },
-        "out": written.png,
-        "out_exr": written.exr,
-    });
-    if let Some(reference) = reference {
-        let rc = reference.stats.counters;
-        let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
-        out["reference"] = json!({
-            "ms": reference.stats.seconds * 1e3,
-            "rays": rc.all_rays(),
-            "triangle_tests": rc.triangle_tests,
-        });
-        out["reduction"] = json!({
-            "time": ratio(reference.stats.seconds * 1e3, frame.total_ms),
-            "rays": ratio(rc.all_rays() as f64, c.all_rays() as f64),
-            "triangle_tests": ratio(rc.triangle_tests as f64, c.triangle_tests as f64),
-        });
-        // The headline figure in display sRGB (clamped, what a viewer sees), and beside it the
-        // linear one that also counts errors in highlights above 1. No lens pixel: no figure.
-        match (
-            lens_error(&frame.image, reference, Encoding::DisplaySrgb),
-            lens_error(&frame.image, reference, Encoding::Linear),
-        ) {
-            (Ok(display), Ok(linear)) => {
-                out["lens_psnr_db"] = json!(display.psnr_db);
-                out["lens_psnr_linear_db"] = json!(linear.psnr_db);
-                out["lens_pixels"] = json!(display.pixels);
-            }
-            (Err(MetricsError::EmptyMask), _) | (_, Err(MetricsError::EmptyMask)) => {}
-            (Err(error), _) | (_, Err(error)) => return Err(error.into()),
+        out: written.png.clone(),
+        out_exr: written.exr.clone(),
+        reference: reference
+            .map(|reference| compared(frame, reference))
+            .transpose()?,
+    })
+}
+
+/// The reference's cost, the reduction factors and the PSNRs of `frame` against `reference`.
+fn compared(frame: &HybridFrame, reference: &ReferenceImage) -> anyhow::Result<ReferenceReport> {
+    let (c, rc) = (frame.stats.counters, reference.stats.counters);
+    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
+    let mut out = ReferenceReport {
+        reference: ReferenceCost {
+            ms: reference.stats.seconds * 1e3,
+            rays: rc.all_rays(),
+            triangle_tests: rc.triangle_tests,
+        },
+        reduction: Reduction {
+            time: ratio(reference.stats.seconds * 1e3, frame.total_ms),
+            rays: ratio(rc.all_rays() as f64, c.all_rays() as f64),
+            triangle_tests: ratio(rc.triangle_tests as f64, c.triangle_tests as f64),
+        },
+        lens_psnr_db: None,
+        lens_psnr_linear_db: None,
+        lens_pixels: None,
+        glossy_psnr_db: None,
+        glossy_pixels: None,
+        non_lens_psnr_db: None,
+        non_lens_pixels: None,
+    };
+    // The headline figure in display sRGB (clamped, what a viewer sees), and beside it the
+    // linear one that also counts errors in highlights above 1. No lens pixel: no figure.
+    match (
+        lens_error(&frame.image, reference, Encoding::DisplaySrgb),
+        lens_error(&frame.image, reference, Encoding::Linear),
+    ) {
+        (Ok(display), Ok(linear)) => {
+            out.lens_psnr_db = Some(display.psnr_db);
+            out.lens_psnr_linear_db = Some(linear.psnr_db);
+            out.lens_pixels = Some(display.pixels);
         }
-        // The glossy objects: pixels whose every subsample meets a glossy surface first.
-        let glossy = Mask::from_flags(reference.glossy_mask.iter().map(|&m| m >= 1.0).collect());
-        match compare(
-            &frame.image.pixels,
-            &reference.radiance,
-            &glossy,
-            Encoding::DisplaySrgb,
-            Channels::Rgb,
-        ) {
-            Ok(display) => {
-                out["glossy_psnr_db"] = json!(display.psnr_db);
-                out["glossy_pixels"] = json!(display.pixels);
-            }
-            Err(MetricsError::EmptyMask) => {}
-            Err(error) => return Err(error.into()),
+        (Err(MetricsError::EmptyMask), _) | (_, Err(MetricsError::EmptyMask)) => {}
+        (Err(error), _) | (_, Err(error)) => return Err(error.into()),
+    }
+    // The glossy objects: pixels whose every subsample meets a glossy surface first.
+    let glossy = Mask::from_flags(reference.glossy_mask.iter().map(|&m| m >= 1.0).collect());
+    match compare(
+        &frame.image.pixels,
+        &reference.radiance,
+        &glossy,
+        Encoding::DisplaySrgb,
+        Channels::Rgb,
+    ) {
+        Ok(display) => {
+            out.glossy_psnr_db = Some(display.psnr_db);
+            out.glossy_pixels = Some(display.pixels);
         }
-        // The opaque environment (light-mapped) and the background: pixels no lens covers.
-        match non_lens_error(&frame.image, reference, Encoding::DisplaySrgb) {
-            Ok(display) => {
-                out["non_lens_psnr_db"] = json!(display.psnr_db);
-                out["non_lens_pixels"] = json!(display.pixels);
-            }
-            Err(MetricsError::EmptyMask) => {}
-            Err(error) => return Err(error.into()),
+        Err(MetricsError::EmptyMask) => {}
+        Err(error) => return Err(error.into()),
+    }
+    // The opaque environment (light-mapped) and the background: pixels no lens covers.
+    match non_lens_error(&frame.image, reference, Encoding::DisplaySrgb) {
+        Ok(display) => {
+            out.non_lens_psnr_db = Some(display.psnr_db);
+            out.non_lens_pixels = Some(display.pixels);
         }
+        Err(MetricsError::EmptyMask) => {}
+        Err(error) => return Err(error.into()),
     }
     Ok(out)
 }
 
-fn print_table(r: &serde_json::Value) {
-    let h = &r["hybrid"];
-    let ms = |v: &serde_json::Value| v.as_f64().unwrap_or(0.0);
-    say!(
-        "{} {}×{} ({}×{} supersampling), t = {}, {} {} on {} (driver {}), {} layered EMs",
-        r["scene"].as_str().unwrap_or(""),
-        r["width"],
-        r["height"],
-        r["supersampling"],
-        r["supersampling"],
-        r["t"],
-        r["variant"].as_str().unwrap_or(""),
-        r["format"].as_str().unwrap_or(""),
-        r["device"].as_str().unwrap_or(""),
-        r["driver"].as_str().unwrap_or(""),
-        r["layered_ems"].as_str().unwrap_or("")
-    );
-    let l = &r["light_maps"];
-    say!(
-        "  light maps (once per scene): {:.0} ms, {:.1} MiB RGBA16F, {} charts at {:.1}–{:.1} texels/m, {} of {} texels shaded, {} supersampled",
-        ms(&l["ms"]),
-        ms(&l["gpu_bytes"]) / 1048576.0,
-        l["charts"],
-        ms(&l["min_texels_per_metre"]),
-        ms(&l["max_texels_per_metre"]),
-        l["shaded_texels"],
-        l["texels"],
-        l["supersampled_texels"]
-    );
-    say!(
-        "  ray tracing at vertices ({}) {:>8.1} ms",
-        r["tracer"].as_str().unwrap_or(""),
-        ms(&h["ray_tracing_at_vertices_ms"])
-    );
-    say!(
-        "  texture coordinate gen.     {:>10.1} ms",
-        ms(&h["texture_coordinates_ms"])
-    );
-    say!(
-        "  tessellation                {:>10.1} ms",
-        ms(&h["tessellation_ms"])
-    );
-    say!(
-        "  other (incl. rendering)     {:>10.1} ms   (GPU upload, render, readback {:.1} ms)",
-        ms(&h["other_ms"]),
-        ms(&h["gpu_ms"])
-    );
-    say!(
-        "  total frame time            {:>10.1} ms",
-        ms(&h["total_ms"])
-    );
-    say!("  ray count                   {:>10}", h["rays"]);
-    say!("  triangle intersection tests {:>10}", h["triangle_tests"]);
-    say!(
-        "  lens triangles {} → {} after tessellation, {} vertices traced",
-        h["lens_triangles_in"],
-        h["lens_triangles_out"],
-        h["vertices_traced"]
-    );
-    if h["hull_triangles"].as_u64().unwrap_or(0) > 0 {
+impl RenderReport {
+    /// The table `lensmap render` prints (the same figures as the JSON).
+    fn print_table(&self) {
+        let h = &self.hybrid;
+        // The threshold as JSON writes it (`3.0`), as the table always has.
+        let t = serde_json::Value::from(self.t);
         say!(
-            "  convex-hull split           {:>10} lens triangles drawn with the distant layer only",
-            h["hull_triangles"]
+            "{} {}×{} ({}×{} supersampling), t = {t}, {} {} on {} (driver {}), {} layered EMs",
+            self.scene,
+            self.width,
+            self.height,
+            self.supersampling,
+            self.supersampling,
+            self.variant,
+            self.format,
+            self.device,
+            self.driver,
+            self.layered_ems
+        );
+        let l = &self.light_maps;
+        say!(
+            "  light maps (once per scene): {:.0} ms, {:.1} MiB RGBA16F, {} charts at {:.1}–{:.1} texels/m, {} of {} texels shaded, {} supersampled",
+            l.ms,
+            l.gpu_bytes as f64 / 1048576.0,
+            l.charts,
+            l.min_texels_per_metre,
+            l.max_texels_per_metre,
+            l.shaded_texels,
+            l.texels,
+            l.supersampled_texels
+        );
+        say!(
+            "  ray tracing at vertices ({}) {:>8.1} ms",
+            self.tracer,
+            h.ray_tracing_at_vertices_ms
+        );
+        say!(
+            "  texture coordinate gen.     {:>10.1} ms",
+            h.texture_coordinates_ms
+        );
+        say!(
+            "  tessellation                {:>10.1} ms",
+            h.tessellation_ms
+        );
+        say!(
+            "  other (incl. rendering)     {:>10.1} ms   (GPU upload, render, readback {:.1} ms)",
+            h.other_ms,
+            h.gpu_ms
+        );
+        say!("  total frame time            {:>10.1} ms", h.total_ms);
+        say!("  ray count                   {:>10}", h.rays);
+        say!("  triangle intersection tests {:>10}", h.triangle_tests);
+        say!(
+            "  lens triangles {} → {} after tessellation, {} vertices traced",
+            h.lens_triangles_in,
+            h.lens_triangles_out,
+            h.vertices_traced
+        );
+        if h.hull_triangles > 0 {
+            say!(
+                "  convex-hull split           {:>10} lens triangles drawn with the distant layer only",
+                h.hull_triangles
+            );
+        }
+        if h.leaves_stopped_by_vertex_budget > 0 {
+            warn!(
+                "the frame's vertex budget was spent: {} triangles were left unsplit (coarser than t asks); raise --max-vertices or t",
+                h.leaves_stopped_by_vertex_budget
+            );
+        }
+        if let Some(r) = &self.reference {
+            self.print_comparison(r);
+        }
+        say!(
+            "  wrote {} and {}",
+            self.out.display(),
+            self.out_exr.display()
         );
     }
-    if h["leaves_stopped_by_vertex_budget"].as_u64().unwrap_or(0) > 0 {
-        warn!(
-            "the frame's vertex budget was spent: {} triangles were left unsplit (coarser than t asks); raise --max-vertices or t",
-            h["leaves_stopped_by_vertex_budget"]
-        );
-    }
-    if r.get("reference").is_some() {
-        let f = &r["reference"];
-        let red = &r["reduction"];
+
+    fn print_comparison(&self, r: &ReferenceReport) {
+        let (f, red) = (&r.reference, &r.reduction);
         say!(
             "  reference ray tracer: {:.1} ms, {} rays, {} triangle tests",
-            ms(&f["ms"]),
-            f["rays"],
-            f["triangle_tests"]
+            f.ms,
+            f.rays,
+            f.triangle_tests
         );
         say!(
             "  reduction: time {:.1}×, rays {:.1}×, triangle tests {:.1}×",
-            ms(&red["time"]),
-            ms(&red["rays"]),
-            ms(&red["triangle_tests"])
+            red.time,
+            red.rays,
+            red.triangle_tests
         );
-        match (
-            r["lens_psnr_db"].as_f64(),
-            r["lens_psnr_linear_db"].as_f64(),
-        ) {
-            (Some(display), Some(linear)) => say!(
-                "  PSNR over {} lens pixels: {:.2} dB (display sRGB, clamped to [0, 1]), {:.2} dB (linear HDR)",
-                r["lens_pixels"],
-                display,
-                linear
+        match (r.lens_psnr_db, r.lens_psnr_linear_db, r.lens_pixels) {
+            (Some(display), Some(linear), Some(pixels)) => say!(
+                "  PSNR over {pixels} lens pixels: {display:.2} dB (display sRGB, clamped to [0, 1]), {linear:.2} dB (linear HDR)"
             ),
             _ => say!("  no pixel is entirely lens in the reference: no lens PSNR"),
         }
-        if let Some(display) = r["glossy_psnr_db"].as_f64() {
+        if let (Some(display), Some(pixels)) = (r.glossy_psnr_db, r.glossy_pixels) {
+            let maps = self.hybrid.glossy_maps_read;
             say!(
-                "  PSNR over {} glossy pixels: {:.2} dB (display sRGB; {} radiance maps read{})",
-                r["glossy_pixels"],
-                display,
-                h["glossy_maps_read"],
-                if h["glossy_maps_read"].as_u64() == Some(0) {
+                "  PSNR over {pixels} glossy pixels: {display:.2} dB (display sRGB; {maps} radiance maps read{})",
+                if maps == 0 {
                     ": light-mapped, diffuse only; give --radiance DIR"
                 } else {
                     ""
                 }
             );
         }
-        if let Some(display) = r["non_lens_psnr_db"].as_f64() {
+        if let (Some(display), Some(pixels)) = (r.non_lens_psnr_db, r.non_lens_pixels) {
             say!(
-                "  PSNR over {} non-lens pixels: {:.2} dB (display sRGB, clamped to [0, 1])",
-                r["non_lens_pixels"],
-                display
+                "  PSNR over {pixels} non-lens pixels: {display:.2} dB (display sRGB, clamped to [0, 1])"
             );
         }
     }
-    say!(
-        "  wrote {} and {}",
-        r["out"].as_str().unwrap_or(""),
-        r["out_exr"].as_str().unwrap_or("")
-    );
 }

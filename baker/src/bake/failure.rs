@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use lensmap::{
+    error::{Classified, ErrorKind, kind_in_chain},
     hybrid::HybridError,
     identity::IDENTITY_VERSION,
     layers::bake::BakeError,
@@ -70,6 +71,26 @@ impl Worded for BakeFailure {
             | BakeFailure::Bounce(_)
             | BakeFailure::Trace(_)
             | BakeFailure::Metrics(_) => self.to_string(),
+        }
+    }
+}
+
+impl Classified for BakeFailure {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            BakeFailure::Option(_) | BakeFailure::Input(_) | BakeFailure::Bounce(_) => {
+                ErrorKind::Input
+            }
+            BakeFailure::Merge(_) => ErrorKind::Bake,
+            BakeFailure::Bake(error) => error.kind(),
+            BakeFailure::Trace(error) => error.kind(),
+            BakeFailure::Hybrid(error) => error.kind(),
+            BakeFailure::Run(error) => error.kind(),
+            // The baker's own stages fail as work does, unless a library error inside says
+            // otherwise (a device lost in a frame they render).
+            BakeFailure::Infer(error) => kind_in_chain(error).unwrap_or(ErrorKind::Failed),
+            BakeFailure::Placement(error) => kind_in_chain(error).unwrap_or(ErrorKind::Failed),
+            BakeFailure::Metrics(error) => kind_in_chain(error).unwrap_or(ErrorKind::Failed),
         }
     }
 }

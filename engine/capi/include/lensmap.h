@@ -111,6 +111,9 @@ enum LensmapResult
   LENSMAP_RESULT_RENDER = 12,
   // A bug in lensmap, caught at the ABI boundary: please report the message.
   LENSMAP_RESULT_PANIC = 13,
+  // A bug in lensmap: it broke an invariant of its own (the message says which); please
+  // report the message.
+  LENSMAP_RESULT_INTERNAL = 14,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L

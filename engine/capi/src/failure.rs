@@ -6,8 +6,8 @@ use std::cell::RefCell;
 use std::ffi::CString;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
+use lensmap::error::{Classified, ErrorKind};
 use lensmap::gpu::GpuError;
-use lensmap::hybrid::HybridError;
 use lensmap::options::{OptionName, OptionWords, Worded};
 use lensmap::render::RenderError;
 use lensmap::runner::RunError;
@@ -56,56 +56,50 @@ pub(crate) fn null(name: &str) -> Failure {
     Failure::new(LensmapResult::NullArgument, format!("{name} is NULL"))
 }
 
+/// The result code of a failure of kind `kind`: the one mapping of the library's
+/// classification ([`lensmap::error::ErrorKind`]) to the ABI's codes.
+fn code(kind: ErrorKind) -> LensmapResult {
+    match kind {
+        ErrorKind::NoDriver => LensmapResult::NoDriver,
+        ErrorKind::Device => LensmapResult::Device,
+        ErrorKind::Input => LensmapResult::InvalidArgument,
+        ErrorKind::Scene => LensmapResult::Scene,
+        // The ABI reads and writes no file but a bake's: a disk that fails, fails the bake.
+        ErrorKind::Bake | ErrorKind::Io => LensmapResult::Bake,
+        ErrorKind::Failed => LensmapResult::Render,
+        ErrorKind::Internal => LensmapResult::Internal,
+    }
+}
+
+impl Failure {
+    /// The failure of a library error: its kind's code, its message worded with the C struct
+    /// fields.
+    fn classified(error: &(impl Classified + Worded)) -> Failure {
+        Failure::new(code(error.kind()), error.worded(&StructFields))
+    }
+}
+
 impl From<GpuError> for Failure {
     fn from(error: GpuError) -> Failure {
-        let code = match error {
-            GpuError::NoDriver(_) => LensmapResult::NoDriver,
-            GpuError::NoSuitableDevice(_) | GpuError::ValidationLayerMissing => {
-                LensmapResult::Device
-            }
-            _ => LensmapResult::Render,
-        };
-        Failure::new(code, error.to_string())
+        Failure::new(code(error.kind()), error.to_string())
     }
 }
 
 impl From<RenderError> for Failure {
     fn from(error: RenderError) -> Failure {
-        match error {
-            RenderError::Gpu(error) => error.into(),
-            RenderError::BadInput(_)
-            | RenderError::Program(_)
-            | RenderError::Framebuffer(_)
-            | RenderError::Maps(_) => {
-                Failure::new(LensmapResult::InvalidArgument, error.worded(&StructFields))
-            }
-        }
+        Failure::classified(&error)
     }
 }
 
 impl From<RunError> for Failure {
     fn from(error: RunError) -> Failure {
-        let code = match &error {
-            RunError::Render(_) => {
-                return match error {
-                    RunError::Render(render) => render.into(),
-                    other => Failure::new(LensmapResult::Render, other.to_string()),
-                };
-            }
-            RunError::Hybrid(HybridError::Identity(_)) => LensmapResult::Bake,
-            RunError::Option(_) => LensmapResult::InvalidArgument,
-            RunError::Bake(_) => LensmapResult::Bake,
-            RunError::Hybrid(HybridError::BakeMismatch(_)) => LensmapResult::Bake,
-            RunError::Hybrid(_) => LensmapResult::Scene,
-            RunError::Tessellation(_) => LensmapResult::Render,
-        };
-        Failure::new(code, error.worded(&StructFields))
+        Failure::classified(&error)
     }
 }
 
 impl From<SceneError> for Failure {
     fn from(error: SceneError) -> Failure {
-        Failure::new(LensmapResult::Scene, error.to_string())
+        Failure::new(code(error.kind()), error.to_string())
     }
 }
 
@@ -172,5 +166,27 @@ mod tests {
             "{}",
             failure.message
         );
+    }
+
+    /// The codes come from the library's kinds: a broken invariant is `Internal`, wherever the
+    /// runner wraps it; the device's failures `Render`; a missing driver `NoDriver`.
+    #[test]
+    fn codes_come_from_the_librarys_kinds() {
+        let internal = Failure::from(RunError::from(RenderError::Internal(
+            "a lost upload".into(),
+        )));
+        assert_eq!(internal.code, LensmapResult::Internal);
+        assert!(
+            internal.message.contains("a bug in lensmap"),
+            "{}",
+            internal.message
+        );
+        let lost = Failure::from(RunError::from(RenderError::from(GpuError::Vulkan {
+            call: "vkQueueSubmit2",
+            result: lensmap::gpu::vk::Result::ERROR_DEVICE_LOST,
+        })));
+        assert_eq!(lost.code, LensmapResult::Render);
+        let driver = Failure::from(RenderError::from(GpuError::NoDriver("none".into())));
+        assert_eq!(driver.code, LensmapResult::NoDriver);
     }
 }

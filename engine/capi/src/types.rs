@@ -92,6 +92,9 @@ pub enum LensmapResult {
     Render = 12,
     /// A bug in lensmap, caught at the ABI boundary: please report the message.
     Panic = 13,
+    /// A bug in lensmap: it broke an invariant of its own (the message says which); please
+    /// report the message.
+    Internal = 14,
 }
 
 /// A Vulkan instance (`VkInstance` from vulkan/vulkan.h; a dispatchable handle).

@@ -7,6 +7,7 @@
 pub mod acceleration;
 pub mod compute;
 pub(crate) mod context;
+pub mod copies;
 pub(crate) mod descriptors;
 mod pipeline;
 pub(crate) mod resources;
@@ -56,7 +57,8 @@ pub enum GpuError {
         /// The allocator's error.
         source: gpu_allocator::AllocationError,
     },
-    /// Data handed to an upload does not fit the resource.
+    /// Data handed to an upload does not fit the resource, or the resource does not fit the
+    /// device.
     #[error("upload to {what}: {problem}")]
     BadUpload {
         /// The resource's debug name.
@@ -64,6 +66,9 @@ pub enum GpuError {
         /// What does not fit.
         problem: String,
     },
+    /// lensmap broke an invariant of its own GPU work (a bug: the message says which).
+    #[error("internal error: {0}; this is a bug in lensmap")]
+    Internal(String),
 }
 
 /// Attaches the failing entry point's name to a `vk::Result`.

@@ -606,9 +606,10 @@ fn allocate(
     location: MemoryLocation,
     linear: bool,
 ) -> Result<Allocation, GpuError> {
-    let mut allocator = shared.allocator.lock().map_err(|_| GpuError::BadUpload {
-        what: name.into(),
-        problem: "allocator lock poisoned by an earlier panic".into(),
+    let mut allocator = shared.allocator.lock().map_err(|_| {
+        GpuError::Internal(format!(
+            "{name}: allocator lock poisoned by an earlier panic"
+        ))
     })?;
     allocator
         .allocate(&AllocationCreateDesc {

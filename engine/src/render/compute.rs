@@ -328,10 +328,7 @@ impl WorkBuilder {
 
     /// The work declared; an error where it was not bound, or a buffer has no handle.
     pub fn finish(self) -> Result<ComputeWork, GpuError> {
-        let unbound = |what: String| GpuError::BadUpload {
-            what: "compute work".into(),
-            problem: what,
-        };
+        let unbound = |what: String| GpuError::Internal(format!("compute work: {what}"));
         let commands = self
             .commands
             .ok_or_else(|| unbound("declared as a plan alone; it has no commands".into()))?;
@@ -544,10 +541,7 @@ pub fn plan(
 /// Records `works` into one command buffer of `ring` with the barriers their plan places, and
 /// submits it without waiting; returns the value its completion signals.
 pub fn submit(gpu: &Gpu, ring: &mut CommandRing, works: &[&ComputeWork]) -> Result<u64, GpuError> {
-    let plan = plan(works).map_err(|error| GpuError::BadUpload {
-        what: "compute work".into(),
-        problem: error.to_string(),
-    })?;
+    let plan = plan(works).map_err(|error| GpuError::Internal(format!("compute work: {error}")))?;
     // A submission of its own: what it records is its plan's, counted by no frame.
     let mut recorded = ComputeCommands::default();
     let value = ring.submit(gpu, |cb| {

@@ -63,6 +63,9 @@ pub enum RenderError {
     /// The GPU failed.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
+    /// lensmap broke an invariant of its own (a bug: the message says which).
+    #[error("internal error: {0}; this is a bug in lensmap")]
+    Internal(String),
 }
 
 // By hand rather than `#[from]`: a `#[from]` field is also the error's source, and a front end
@@ -90,9 +93,10 @@ impl Worded for RenderError {
         match self {
             RenderError::Framebuffer(error) => format!("frame input: {}", error.worded(words)),
             RenderError::Maps(error) => format!("frame input: {}", error.worded(words)),
-            RenderError::BadInput(_) | RenderError::Program(_) | RenderError::Gpu(_) => {
-                self.to_string()
-            }
+            RenderError::BadInput(_)
+            | RenderError::Program(_)
+            | RenderError::Gpu(_)
+            | RenderError::Internal(_) => self.to_string(),
         }
     }
 }

@@ -16,6 +16,7 @@ use super::{
     upload::{GpuLens, LensPart, PartBuffers, UploadedFrame},
     vulkan::{vk_access, vk_layout},
 };
+use crate::gpu::copies;
 use crate::{
     gpu::Gpu,
     graph::{self, Barrier, Layout, LoadOp, PassKind, RenderingInstance, StoreOp},
@@ -328,37 +329,19 @@ impl Recorder<'_> {
     /// The copy of the colour target into the readback buffer, made visible to the host.
     fn copy_to_readback(&self, cb: vk::CommandBuffer, targets: &Targets) {
         let shape = &self.frame.shape;
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: shape.width,
-                height: shape.height,
-                depth: 1,
-            });
-        let to_host = [vk::MemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::COPY)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
         let device = self.gpu.device();
-        // SAFETY: the colour target is TRANSFER_SRC after this step's barrier.
+        // SAFETY: the colour target is TRANSFER_SRC after this step's barrier; the readback
+        // buffer holds a frame of its format; both live as long as the frame.
         unsafe {
-            device.cmd_copy_image_to_buffer(
+            copies::copy_image_to_buffer(
+                device,
                 cb,
                 targets.colour.handle,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 targets.readback.handle,
-                &[region],
+                shape.width,
+                shape.height,
             );
-            device.cmd_pipeline_barrier2(
-                cb,
-                &vk::DependencyInfo::default().memory_barriers(&to_host),
-            );
+            copies::host_reads_transfers(device, cb);
         }
     }
 

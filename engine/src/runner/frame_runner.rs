@@ -104,7 +104,7 @@ struct ResidentTracer {
     scene: u64,
     fresnel: FresnelModel,
     walk: TracerWalk,
-    tracer: Result<GpuTracer, String>,
+    tracer: Result<GpuTracer, Arc<GpuError>>,
 }
 
 /// One reusable upload and the identity of the hybrid frame it holds.
@@ -256,7 +256,7 @@ impl FrameRunner {
             let mut frame = frames
                 .into_iter()
                 .next()
-                .ok_or_else(|| RenderError::BadInput("no frame was rendered".into()))?;
+                .ok_or_else(|| RenderError::Internal("no frame was rendered".into()))?;
             frame.stats.builds_discarded = discarded;
             return Ok(frame);
         }
@@ -531,7 +531,7 @@ impl FrameRunner {
                 Err(_) if self.spare.take().is_some() => make(),
                 made => made,
             }
-            .map_err(|error| error.to_string());
+            .map_err(Arc::new);
             self.tracer = Some(ResidentTracer {
                 scene,
                 fresnel,
@@ -543,11 +543,7 @@ impl FrameRunner {
             tracer.time_stages(self.time_gpu_stages);
         }
         match self.tracer.as_ref().map(|t| &t.tracer) {
-            Some(Err(problem)) => Err(RenderError::from(GpuError::BadUpload {
-                what: "the GPU tracer's geometry".into(),
-                problem: problem.clone(),
-            })
-            .into()),
+            Some(Err(error)) => Err(RunError::Tracer(Arc::clone(error))),
             _ => Ok(()),
         }
     }
@@ -562,7 +558,7 @@ impl FrameRunner {
     ) -> Result<Submission, RunError> {
         let Some(uploaded) = self.slots[slot].uploaded.as_mut() else {
             // A held identity is only ever that of an uploaded slot.
-            return Err(RenderError::BadInput("a still frame has no upload".into()).into());
+            return Err(RenderError::Internal("a still frame has no upload".into()).into());
         };
         let compositing = RenderOptions {
             host,
@@ -584,7 +580,7 @@ impl FrameRunner {
     /// Waits for a submitted frame, reads it back and box-filters it to pixels.
     fn finish(&mut self, pending: Pending) -> Result<HybridFrame, RunError> {
         let Some(uploaded) = self.slots[pending.slot].uploaded.as_ref() else {
-            return Err(RenderError::BadInput("a pending frame lost its upload".into()).into());
+            return Err(RenderError::Internal("a pending frame lost its upload".into()).into());
         };
         let (image, render) = self.renderer.finish(uploaded, pending.submission)?;
         let mut stats = pending.stats;

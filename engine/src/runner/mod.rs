@@ -73,6 +73,10 @@ pub enum RunError {
     /// Uploading or rendering failed.
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// The device could not take the scene's geometry for the GPU tracer (kept, and raised
+    /// again by every frame that asks for the GPU tracer).
+    #[error("upload to the GPU tracer's geometry: {0}")]
+    Tracer(std::sync::Arc<crate::gpu::GpuError>),
 }
 
 impl Worded for RunError {
@@ -81,7 +85,7 @@ impl Worded for RunError {
             RunError::Option(error) => error.worded(words),
             RunError::Hybrid(error) => error.worded(words),
             RunError::Render(error) => error.worded(words),
-            RunError::Bake(_) | RunError::Tessellation(_) => self.to_string(),
+            RunError::Bake(_) | RunError::Tessellation(_) | RunError::Tracer(_) => self.to_string(),
         }
     }
 }

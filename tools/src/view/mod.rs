@@ -15,15 +15,15 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use lensmap::{
-    hybrid::{HybridOptions, HybridScene, tessellate::DEFAULT_T, tessellate::TessellationOptions},
+    hybrid::HybridScene,
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     lightmap::LightMapOptions,
-    render::{BlendScheme, Compositing, TargetFormat, Variant},
-    runner::{EmSource, FrameOptions, LoadOptions, load_hybrid_scene},
+    runner::{EmSource, LoadOptions, load_hybrid_scene},
     scene::{Camera, Scene},
 };
 
-use crate::common::{BlendArg, CameraArgs, FormatArg, VariantArg, choose_camera, flag_error};
+use crate::common::{CameraArgs, choose_camera, flag_error};
+use crate::frame_args::FrameArgs;
 
 #[derive(Args)]
 #[command(after_help = after_help())]
@@ -74,35 +74,10 @@ pub struct ViewArgs {
     /// size).
     #[command(flatten)]
     pub camera: CameraArgs,
-    /// Tessellation threshold in subpixels (keys `]` and `[` step it).
-    #[arg(long, default_value_t = DEFAULT_T, allow_negative_numbers = true)]
-    pub t: f32,
-    /// The angle threshold in degrees: outgoing rays further apart split a triangle (keys `.`
-    /// and `,`).
-    #[arg(long, default_value_t = lensmap::hybrid::DEFAULT_ANGLE_DEGREES, allow_negative_numbers = true)]
-    pub angle_degrees: f64,
-    #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = crate::common::parse_fresnel, help = crate::common::FRESNEL_HELP)]
-    pub fresnel: lensmap::hybrid::FresnelModel,
-    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
-    pub hull_split: crate::common::OnOff,
-    /// Where the lens vertices are ray traced.
-    #[arg(long, value_enum, default_value = "auto")]
-    pub tracer: crate::common::TracerArg,
-    /// How the GPU tracer finds a ray's hits (with the GPU tracer only).
-    #[arg(long, value_enum, default_value = "auto")]
-    pub traversal: crate::common::TraversalArg,
-    /// What the GPU tracer computes in (with the GPU tracer only).
-    #[arg(long, value_enum, default_value = "f32")]
-    pub gpu_precision: crate::common::GpuPrecisionArg,
-    /// Compositor variant (key `v`).
-    #[arg(long, value_enum, default_value = "single-pass")]
-    pub variant: VariantArg,
-    /// Blending scheme of the multipass variant (key `b`).
-    #[arg(long, value_enum, default_value = "front-to-back")]
-    pub blend: BlendArg,
-    /// Framebuffer format (key `f`).
-    #[arg(long, value_enum, default_value = "rgba16f")]
-    pub format: FormatArg,
+    /// How the frames are made (the keys change them as the viewer runs: `]` `[` t, `.` `,`
+    /// the angle, `v` the variant, `b` the blending scheme, `f` the format).
+    #[command(flatten)]
+    pub frame: FrameArgs,
     /// Projected EM face size, texels.
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
@@ -216,39 +191,10 @@ impl EmChoice {
     }
 }
 
-/// The frame options the flags ask for, checked.
-fn frame_options(args: &ViewArgs) -> anyhow::Result<FrameOptions> {
-    let options = FrameOptions {
-        hybrid: HybridOptions {
-            tessellation: TessellationOptions {
-                t: args.t,
-                ..TessellationOptions::default()
-            },
-            angle_radians: args.angle_degrees.to_radians(),
-            fresnel: args.fresnel,
-            hull_split: args.hull_split.is_on(),
-            tracer: args.tracer.into(),
-            traversal: args.traversal.into(),
-            gpu_precision: args.gpu_precision.into(),
-            ..HybridOptions::default()
-        },
-        compositing: Compositing::new(Variant::from(args.variant), BlendScheme::from(args.blend))
-            .map_err(|error| {
-            crate::common::BadUsage(lensmap::options::Worded::worded(
-                &error,
-                &crate::words::Flags,
-            ))
-        })?,
-        format: TargetFormat::from(args.format),
-    };
-    options.validate().map_err(flag_error)?;
-    Ok(options)
-}
-
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     let scene = Scene::load_named(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
-    let options = frame_options(&args)?;
+    let options = args.frame.options()?;
     let script = match &args.script {
         Some(file) => Some(script::Script::load(file)?),
         None => None,

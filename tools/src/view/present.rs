@@ -488,26 +488,15 @@ impl Presenter {
             layout,
             vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
         );
-        let region = vk::BufferImageCopy::default()
-            .image_subresource(vk::ImageSubresourceLayers {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
-            .image_extent(vk::Extent3D {
-                width: self.extent.width,
-                height: self.extent.height,
-                depth: 1,
-            });
-        // SAFETY: the caller's promise.
+        // SAFETY: the caller's promise; the image is in TRANSFER_SRC now.
         unsafe {
-            self.device.cmd_copy_image_to_buffer(
+            lensmap::gpu::copies::copy_image_to_buffer(
+                &self.device,
                 cb,
                 image,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
                 buffer.handle,
-                &[region],
+                self.extent.width,
+                self.extent.height,
             )
         };
     }

@@ -76,10 +76,9 @@ fn request<'a>(
 /// Refuses a GPU tracer made from another scene than `oracle`'s.
 fn check_holds(paths: GpuPaths<'_>, oracle: &PathOracle<'_>) -> Result<(), TessellationError> {
     if !paths.tracer.holds(oracle.trace_scene()) {
-        return Err(GpuError::BadUpload {
-            what: "the GPU tracer".into(),
-            problem: "it holds another scene's geometry than the one traced".into(),
-        }
+        return Err(GpuError::Internal(
+            "the GPU tracer: it holds another scene's geometry than the one traced".into(),
+        )
         .into());
     }
     Ok(())

@@ -71,13 +71,9 @@ pub(super) fn resources(
         .iter()
         .map(|entry| match (entry.binding, first) {
             (0, Some(walk)) => Ok(walk),
-            _ => entry
-                .buffer
-                .map(Resource::buffer)
-                .ok_or_else(|| GpuError::BadUpload {
-                    what: "the GPU tessellation".into(),
-                    problem: format!("{} was not made", entry.name),
-                }),
+            _ => entry.buffer.map(Resource::buffer).ok_or_else(|| {
+                GpuError::Internal(format!("the GPU tessellation: {} was not made", entry.name))
+            }),
         })
         .collect()
 }

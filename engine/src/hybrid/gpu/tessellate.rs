@@ -350,10 +350,7 @@ impl GpuTracer {
         if need.continue_budget {
             // The frame's earlier objects' work, not recorded yet, names these buffers, and
             // the budget word they carry: the frame must be prepared first (prepare_frame).
-            return Err(GpuError::BadUpload {
-                what: "the GPU tessellation".into(),
-                problem: "its buffers would be made again between two objects of one frame; the frame was not prepared for all its objects".into(),
-            }
+            return Err(GpuError::Internal("the GPU tessellation: its buffers would be made again between two objects of one frame; the frame was not prepared for all its objects".into())
             .into());
         }
         // Nothing submitted may still use the old buffers, nor the sets that point at them.
@@ -416,9 +413,8 @@ impl GpuTracer {
             .map(|flags| flags.iter().map(|&f| u32::from(f)).collect())
             .unwrap_or_default();
         let shells = request.texgen.as_ref().map(TexgenRequest::shell_words);
-        let unkept = |what: &str| GpuError::BadUpload {
-            what: "the GPU tessellation".into(),
-            problem: format!("its {what} was not kept"),
+        let unkept = |what: &str| {
+            GpuError::Internal(format!("the GPU tessellation: its {what} was not kept"))
         };
         let PassState {
             tessellation: scratch,
@@ -552,10 +548,9 @@ impl GpuTracer {
             ..
         } = state;
         let (Some(scratch), Some(held)) = (tessellation.as_mut(), objects.get(&object)) else {
-            return Err(GpuError::BadUpload {
-                what: "the GPU tessellation".into(),
-                problem: "its buffers were not kept".into(),
-            }
+            return Err(GpuError::Internal(
+                "the GPU tessellation: its buffers were not kept".into(),
+            )
             .into());
         };
         let input = &held.input;
@@ -564,13 +559,9 @@ impl GpuTracer {
         let output_count = u64::from(words[t::CONTROL_OUTPUT as usize]);
         let output_capacity = scratch.output_capacity();
         if output_count > output_capacity || vertex_count > scratch.vertices_capacity {
-            return Err(GpuError::BadUpload {
-                what: "the GPU tessellation".into(),
-                problem: format!(
-                    "it made {output_count} triangles and {vertex_count} vertices, past its buffers' {output_capacity} and {}",
+            return Err(GpuError::Internal(format!("the GPU tessellation: it made {output_count} triangles and {vertex_count} vertices, past its buffers' {output_capacity} and {}",
                     scratch.vertices_capacity
-                ),
-            }
+                ))
             .into());
         }
         let n_in = u64::from(input.vertex_count);
@@ -593,10 +584,9 @@ impl GpuTracer {
         }
         scratch.readback(gpu, total.max(16))?;
         let Some(readback) = scratch.readback.as_ref() else {
-            return Err(GpuError::BadUpload {
-                what: "the GPU tessellation".into(),
-                problem: "its readback buffer was not made".into(),
-            }
+            return Err(GpuError::Internal(
+                "the GPU tessellation: its readback buffer was not made".into(),
+            )
             .into());
         };
         let data = DeviceLensPart::buffer_names(&part.name)[0].clone();

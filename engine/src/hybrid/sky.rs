@@ -44,12 +44,6 @@ pub struct SkyDome {
 }
 
 impl SkyDome {
-    /// An identity of this dome's content for caches: the address of its radiance, which a
-    /// replaced dome does not share while this one is alive.
-    pub fn identity(&self) -> usize {
-        self.colours.as_ptr() as usize
-    }
-
     /// The dome of `trace`'s environment at infinity, or `None` when that environment is black
     /// in every direction of the dome (the cleared framebuffer already shows it).
     pub fn new(trace: &TraceScene) -> Option<SkyDome> {

@@ -19,6 +19,11 @@ use crate::{
     graph::{Access, Graph, Pass, PassKind, Plan},
 };
 
+/// The bytes of push constants `constants`, to share among the dispatches that push them.
+pub fn push_constants<T: bytemuck::Pod>(constants: &T) -> std::sync::Arc<[u8]> {
+    bytemuck::bytes_of(constants).into()
+}
+
 /// A buffer of a work, by name: two works (or two passes) that name one buffer use one buffer.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct WorkBuffer {
@@ -126,8 +131,8 @@ pub enum Command {
         pipeline: Pipeline,
         /// Its set 0.
         set: DescriptorSet,
-        /// Its push constants' bytes.
-        constants: Vec<u8>,
+        /// Its push constants' bytes (shared by the dispatches that push the same).
+        constants: std::sync::Arc<[u8]>,
         /// Its size.
         size: DispatchSize,
     },
@@ -211,9 +216,15 @@ impl ComputeWork {
 
 /// Declares a work pass by pass, its buffers by name. Made with [`WorkBuilder::planned`], it
 /// keeps the shape alone (for a plan without a device); with [`WorkBuilder::bound`], each pass's
-/// command too (every buffer must then be given its handle).
+/// command too (every buffer must then be given its handle); with [`WorkBuilder::bound_to`], the
+/// commands of a work whose shape an earlier declaration made (its names and uses are not made
+/// again: a frame's tessellation declares the same ~100 passes every frame).
 pub struct WorkBuilder {
     shape: WorkShape,
+    /// The shape declared before, which the passes must match.
+    known: Option<std::sync::Arc<WorkShape>>,
+    /// A pass or buffer that did not match `known`.
+    mismatch: Option<String>,
     handles: Vec<Option<vk::Buffer>>,
     commands: Option<Vec<Command>>,
 }
@@ -221,8 +232,8 @@ pub struct WorkBuilder {
 /// A dispatch being declared: its entry point, set 0 (binding `b` is the work's buffer
 /// `buffers[b]`, `None` for a binding that is no buffer), size and command.
 pub struct Dispatch<'a, E> {
-    /// The pass's name.
-    pub name: String,
+    /// The pass's name (made only where the shape is).
+    pub name: &'a dyn std::fmt::Display,
     /// The entry point.
     pub entry: E,
     /// Per binding of set 0, the work's buffer it points at.
@@ -230,7 +241,7 @@ pub struct Dispatch<'a, E> {
     /// Its size.
     pub size: DispatchSize,
     /// Its pipeline, set and push constants, for a bound work.
-    pub bound: Option<(Pipeline, DescriptorSet, Vec<u8>)>,
+    pub bound: Option<(Pipeline, DescriptorSet, std::sync::Arc<[u8]>)>,
 }
 
 impl WorkBuilder {
@@ -238,6 +249,8 @@ impl WorkBuilder {
     pub fn planned() -> WorkBuilder {
         WorkBuilder {
             shape: WorkShape::default(),
+            known: None,
+            mismatch: None,
             handles: Vec::new(),
             commands: None,
         }
@@ -251,32 +264,63 @@ impl WorkBuilder {
         }
     }
 
+    /// A builder of a work to record whose shape is `shape` (made by an earlier declaration of
+    /// the same passes): [`WorkBuilder::finish`] fails where the passes declared differ from it.
+    pub fn bound_to(shape: std::sync::Arc<WorkShape>) -> WorkBuilder {
+        WorkBuilder {
+            handles: vec![None; shape.buffers.len()],
+            commands: Some(Vec::with_capacity(shape.passes.len())),
+            known: Some(shape),
+            ..WorkBuilder::planned()
+        }
+    }
+
     /// The work's buffer named `name` (declared at its first mention), bound to `buffer`.
     pub fn buffer(&mut self, name: &str, buffer: Option<&Buffer>) -> usize {
-        if let Some(at) = self.shape.buffers.iter().position(|b| b.name == name) {
+        let buffers = match &self.known {
+            Some(known) => &known.buffers,
+            None => &self.shape.buffers,
+        };
+        if let Some(at) = buffers.iter().position(|b| b.name == name) {
             if self.handles[at].is_none() {
                 self.handles[at] = buffer.map(|b| b.handle);
             }
             return at;
+        }
+        if self.known.is_some() {
+            self.mismatch
+                .get_or_insert_with(|| format!("buffer {name} is not in the known shape"));
+            return 0;
         }
         self.shape.buffers.push(WorkBuffer { name: name.into() });
         self.handles.push(buffer.map(|b| b.handle));
         self.shape.buffers.len() - 1
     }
 
-    /// Adds a pass of `kind` using `uses`, recorded by `command` (made only for a bound work).
+    /// Adds a pass of `kind` using `uses`, recorded by `command` (made only for a bound work;
+    /// the name and the uses only where the shape is made).
     pub fn pass(
         &mut self,
-        name: impl Into<String>,
+        name: impl std::fmt::Display,
         kind: WorkPassKind,
-        uses: Vec<(usize, Access)>,
+        uses: impl FnOnce() -> Vec<(usize, Access)>,
         command: impl FnOnce() -> Command,
     ) {
-        self.shape.passes.push(WorkPass {
-            name: name.into(),
-            kind,
-            uses,
-        });
+        match &self.known {
+            Some(known) => {
+                let at = self.commands.as_ref().map_or(0, Vec::len);
+                if known.passes.get(at).map(|p| p.kind) != Some(kind) {
+                    self.mismatch.get_or_insert_with(|| {
+                        format!("pass {at} ({name}) differs from the known shape")
+                    });
+                }
+            }
+            None => self.shape.passes.push(WorkPass {
+                name: name.to_string(),
+                kind,
+                uses: uses(),
+            }),
+        }
         if let Some(commands) = &mut self.commands {
             commands.push(command());
         }
@@ -292,24 +336,27 @@ impl WorkBuilder {
             size,
             bound,
         } = dispatch;
-        let mut uses: Vec<(usize, Access)> = entry
-            .uses()
-            .iter()
-            .filter(|u| u.group == 0)
-            .filter_map(|u| {
-                let buffer = (*buffers.get(u.binding as usize)?)?;
-                let access = match u.access {
-                    lensmap_shaders::Access::Read => Access::ComputeRead,
-                    lensmap_shaders::Access::Write | lensmap_shaders::Access::ReadWrite => {
-                        Access::ComputeWrite
-                    }
-                };
-                Some((buffer, access))
-            })
-            .collect();
-        if let DispatchSize::Indirect { buffer, .. } = size {
-            uses.push((buffer, Access::IndirectRead));
-        }
+        let uses = || {
+            let mut uses: Vec<(usize, Access)> = entry
+                .uses()
+                .iter()
+                .filter(|u| u.group == 0)
+                .filter_map(|u| {
+                    let buffer = (*buffers.get(u.binding as usize)?)?;
+                    let access = match u.access {
+                        lensmap_shaders::Access::Read => Access::ComputeRead,
+                        lensmap_shaders::Access::Write | lensmap_shaders::Access::ReadWrite => {
+                            Access::ComputeWrite
+                        }
+                    };
+                    Some((buffer, access))
+                })
+                .collect();
+            if let DispatchSize::Indirect { buffer, .. } = size {
+                uses.push((buffer, Access::IndirectRead));
+            }
+            uses
+        };
         self.pass(name, WorkPassKind::Dispatch, uses, || {
             let (pipeline, set, constants) = bound.unwrap_or_default();
             Command::Dispatch {
@@ -329,19 +376,33 @@ impl WorkBuilder {
     /// The work declared; an error where it was not bound, or a buffer has no handle.
     pub fn finish(self) -> Result<ComputeWork, GpuError> {
         let unbound = |what: String| GpuError::Internal(format!("compute work: {what}"));
+        if let Some(mismatch) = self.mismatch {
+            return Err(unbound(mismatch));
+        }
         let commands = self
             .commands
             .ok_or_else(|| unbound("declared as a plan alone; it has no commands".into()))?;
+        let shape = match self.known {
+            Some(known) if known.passes.len() == commands.len() => known,
+            Some(known) => {
+                return Err(unbound(format!(
+                    "{} passes declared against a known shape of {}",
+                    commands.len(),
+                    known.passes.len()
+                )));
+            }
+            None => std::sync::Arc::new(self.shape),
+        };
         let handles = self
             .handles
             .iter()
-            .zip(&self.shape.buffers)
+            .zip(&shape.buffers)
             .map(|(handle, buffer)| {
                 handle.ok_or_else(|| unbound(format!("buffer {} has no handle", buffer.name)))
             })
             .collect::<Result<_, _>>()?;
         Ok(ComputeWork {
-            shape: std::sync::Arc::new(self.shape),
+            shape,
             handles,
             commands,
             recorded: AtomicBool::new(false),
@@ -559,4 +620,42 @@ pub fn submit(gpu: &Gpu, ring: &mut CommandRing, works: &[&ComputeWork]) -> Resu
         work.submitted();
     }
     Ok(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Declares buffer `b` and one pass of each of `kinds` using it.
+    fn declare(builder: &mut WorkBuilder, buffer: &str, kinds: &[WorkPassKind]) {
+        let b = builder.buffer(buffer, None);
+        for (i, &kind) in kinds.iter().enumerate() {
+            builder.pass(
+                format_args!("pass {i}"),
+                kind,
+                || vec![(b, Access::TransferWrite)],
+                || Command::HostRead,
+            );
+        }
+    }
+
+    #[test]
+    fn a_work_declared_against_a_known_shape_must_declare_that_shape() {
+        use WorkPassKind::{Dispatch, Transfer};
+        let mut planned = WorkBuilder::planned();
+        declare(&mut planned, "b", &[Transfer, Dispatch]);
+        let shape = std::sync::Arc::new(planned.shape());
+        assert_eq!(shape.passes.len(), 2);
+        assert_eq!(shape.passes[1].name, "pass 1");
+        let finish = |buffer: &str, kinds: &[WorkPassKind]| {
+            let mut builder = WorkBuilder::bound_to(shape.clone());
+            declare(&mut builder, buffer, kinds);
+            builder.finish().unwrap_err().to_string()
+        };
+        // The same passes: only the buffer's missing handle (no device here) is wrong.
+        assert!(finish("b", &[Transfer, Dispatch]).contains("buffer b has no handle"));
+        assert!(finish("b", &[Transfer, Transfer]).contains("pass 1 (pass 1) differs"));
+        assert!(finish("b", &[Transfer]).contains("1 passes declared against a known shape of 2"));
+        assert!(finish("c", &[Transfer, Dispatch]).contains("buffer c is not in the known shape"));
+    }
 }

@@ -13,7 +13,7 @@ use super::{
     FrameInput, FramePlan, HostImage, RenderError, RenderedImage, TargetFormat,
     image::decode,
     pipelines::Pipelines,
-    plan::{Compositing, FrameResources, Output, PlanOptions, frame_graph},
+    plan::{Compositing, FrameResources, FrameShape, Output, PlanOptions, frame_graph},
     record::Recorder,
     targets::Targets,
     upload::{UploadCache, UploadedFrame},
@@ -82,6 +82,59 @@ pub struct Renderer {
     timeline: Arc<Timeline>,
     /// The value the last submission signals.
     submitted: u64,
+    /// The last frames' plans: a stream of frames of one shape compiles its plan once.
+    plans: Plans,
+}
+
+/// Compiled plans by what they depend on (a frame's shape and its plan's options), the most
+/// recent first: a few, so that frames alternating between two options (a benchmark's, a
+/// viewer's toggle) keep both.
+#[derive(Default)]
+struct Plans {
+    recent: std::collections::VecDeque<(FrameShape, PlanOptions, Arc<CompiledPlan>)>,
+}
+
+/// A frame's plan and the graph's handles of its images.
+struct CompiledPlan {
+    plan: FramePlan,
+    resources: FrameResources,
+}
+
+impl Plans {
+    /// Plans kept.
+    const KEPT: usize = 4;
+
+    /// The plan of `shape` with `options`, compiled where no recent frame had it.
+    fn get(
+        &mut self,
+        shape: &FrameShape,
+        options: &PlanOptions,
+    ) -> Result<Arc<CompiledPlan>, RenderError> {
+        if let Some(at) = self
+            .recent
+            .iter()
+            .position(|(s, o, _)| o == options && s.plans_alike(shape))
+        {
+            let entry = self.recent.remove(at).unwrap_or_else(|| unreachable!());
+            let plan = entry.2.clone();
+            self.recent.push_front(entry);
+            return Ok(plan);
+        }
+        let plan = Arc::new(compile(shape, options)?);
+        self.recent.truncate(Self::KEPT - 1);
+        self.recent
+            .push_front((shape.clone(), *options, plan.clone()));
+        Ok(plan)
+    }
+}
+
+/// Compiles the plan of `shape` with `options`.
+fn compile(shape: &FrameShape, options: &PlanOptions) -> Result<CompiledPlan, RenderError> {
+    let (graph, resources) = frame_graph(shape, options)?;
+    // The frame graph is well-formed by construction (lens names are unique, checked by
+    // FrameInput::validate); a failure here is a bug in plan/.
+    let plan = graph.compile().expect("frame graphs always compile");
+    Ok(CompiledPlan { plan, resources })
 }
 
 /// A frame submitted by [`Renderer::submit`] and not yet waited for: hand it to
@@ -128,6 +181,7 @@ impl Renderer {
             command_buffers,
             timeline: Arc::new(Timeline::new(gpu)?),
             submitted: 0,
+            plans: Plans::default(),
         })
     }
 
@@ -165,32 +219,25 @@ impl Renderer {
     /// The plan [`Renderer::submit`] records for `frame` with `options`; an error where a lens
     /// object needs a program that does not exist (more layers than the single pass supports).
     pub fn plan(frame: &UploadedFrame, options: &RenderOptions) -> Result<FramePlan, RenderError> {
-        Ok(Self::plan_with_resources(frame, options)?.0)
+        Ok(compile(frame.shape(), &Self::plan_options(frame, options)?)?.plan)
     }
 
-    /// The plan and the graph's handles of the frame's images.
-    fn plan_with_resources(
+    /// The options of `frame`'s plan with `options`.
+    fn plan_options(
         frame: &UploadedFrame,
         options: &RenderOptions,
-    ) -> Result<(FramePlan, FrameResources), RenderError> {
+    ) -> Result<PlanOptions, RenderError> {
         let (width, height) = (frame.shape().width, frame.shape().height);
         let output = match options.host {
             Some(image) => image.output(width, height)?,
             None => Output::Readback,
         };
-        let (graph, resources) = frame_graph(
-            frame.shape(),
-            &PlanOptions {
-                compositing: options.compositing,
-                format: options.format,
-                output,
-                single_pass: frame.single_pass,
-            },
-        )?;
-        // The frame graph is well-formed by construction (lens names are unique, checked by
-        // FrameInput::validate); a failure here is a bug in plan/.
-        let plan = graph.compile().expect("frame graphs always compile");
-        Ok((plan, resources))
+        Ok(PlanOptions {
+            compositing: options.compositing,
+            format: options.format,
+            output,
+            single_pass: frame.single_pass,
+        })
     }
 
     /// Renders the frame and reads it back: [`Renderer::submit`], then [`Renderer::finish`].
@@ -231,7 +278,10 @@ impl Renderer {
         let start = Instant::now();
         let RenderOptions { format, host, .. } = *options;
         let (width, height) = (frame.shape().width, frame.shape().height);
-        let (plan, resources) = Self::plan_with_resources(frame, options)?;
+        let compiled = self
+            .plans
+            .get(frame.shape(), &Self::plan_options(frame, options)?)?;
+        let CompiledPlan { plan, resources } = &*compiled;
         if let std::collections::hash_map::Entry::Vacant(slot) = frame.targets.entry(format) {
             slot.insert(Targets::new(gpu, &self.pipelines, format, width, height)?);
         }
@@ -272,7 +322,7 @@ impl Renderer {
         gpu.record_submit(
             command_buffer,
             |cb| {
-                compute = recorder.record(cb, &plan, &resources, format, &pipelines);
+                compute = recorder.record(cb, plan, resources, format, &pipelines);
                 record_ms = start.elapsed().as_secs_f64() * 1e3;
                 Ok(())
             },

@@ -36,7 +36,9 @@ use crate::gpu::{Gpu, GpuError, QueryPool};
 use crate::graph::Access;
 use crate::hybrid::paths::{PathSettings, ScreenCamera, VertexPaths};
 use crate::hybrid::tessellate::{Tessellation, TessellationError, TessellationOptions};
-use crate::render::compute::{Command, ComputeWork, WorkBuilder, WorkPassKind, submit};
+use crate::render::compute::{
+    Command, ComputeWork, WorkBuilder, WorkPassKind, push_constants, submit,
+};
 use crate::render::{DeviceLensPart, TermVertices};
 use crate::scene::TriangleMesh;
 use crate::trace::stats::TraceCounters;
@@ -420,6 +422,7 @@ impl GpuTracer {
             tessellation: scratch,
             objects,
             submissions,
+            shapes,
             ..
         } = state;
         let held = objects.get_mut(&object).ok_or_else(|| unkept("mesh"))?;
@@ -473,16 +476,18 @@ impl GpuTracer {
                 outputs.texgen_set.unwrap_or_default(),
                 outputs.draw_set,
             ],
-            tracer_constants: self.constants(request.camera, request.settings),
-            constants: tessellate_constants(request, scratch, input),
+            tracer_constants: push_constants(&self.constants(request.camera, request.settings)),
+            constants: push_constants(&tessellate_constants(request, scratch, input)),
             texgen_constants: match (&request.texgen, outputs.texgen_set) {
-                (Some(texgen), Some(_)) => Some(texgen.constants(input.vertex_count, part.stride)),
+                (Some(texgen), Some(_)) => Some(push_constants(
+                    &texgen.constants(input.vertex_count, part.stride),
+                )),
                 _ => None,
             },
-            draw_constants: DrawConstants {
+            draw_constants: push_constants(&DrawConstants {
                 eye: request.camera.eye.as_vec3().to_array(),
                 hull_split: u32::from(request.hull.is_some()),
-            },
+            }),
             first,
             written,
             input: [input.vertex_count, input.triangle_count, input.edge_count],
@@ -493,9 +498,14 @@ impl GpuTracer {
             texgen: outputs.texgen_set.is_some(),
             buffers: self.buffers(scratch, held, object, Some(&part)),
         };
-        let mut builder = WorkBuilder::bound();
+        let key = declared.shape_key(&bound);
+        let mut builder = match shapes.get(&key) {
+            Some(shape) => WorkBuilder::bound_to(shape.clone()),
+            None => WorkBuilder::bound(),
+        };
         work::declare(&mut builder, &declared, Some(&bound));
         let work = builder.finish()?;
+        shapes.entry(key).or_insert_with(|| work.shape.clone());
         if placement == Placement::OnDevice && timestamps.is_none() {
             // Run by the frame that draws the part, as passes of its graph.
             return Ok(DeviceTessellation {
@@ -614,9 +624,9 @@ impl GpuTracer {
             parts.iter().zip(&offsets).enumerate()
         {
             let source = builder.buffer(name, Some(buffer));
-            let uses = vec![(source, Access::TransferRead), (to, Access::TransferWrite)];
+            let uses = || vec![(source, Access::TransferRead), (to, Access::TransferWrite)];
             builder.pass(
-                format!("read {index}"),
+                format_args!("read {index}"),
                 WorkPassKind::Transfer,
                 uses,
                 || Command::Copy {
@@ -629,7 +639,7 @@ impl GpuTracer {
         builder.pass(
             "read: host",
             WorkPassKind::HostRead,
-            vec![(to, Access::HostRead)],
+            || vec![(to, Access::HostRead)],
             || Command::HostRead,
         );
         let work = builder.finish()?;

@@ -22,7 +22,9 @@ use crate::gpu::{
 };
 use crate::graph::Access;
 use crate::hybrid::paths::{PathSettings, ScreenCamera, VertexPrecision};
-use crate::render::compute::{Command, Dispatch, DispatchSize, WorkBuilder, WorkPassKind, submit};
+use crate::render::compute::{
+    Command, Dispatch, DispatchSize, WorkBuilder, WorkPassKind, WorkShape, push_constants, submit,
+};
 use crate::trace::{
     Bounces, bvh_gpu::GpuGeometry, schlick_table::SchlickTable, stats::TraceCounters,
     world::TraceScene,
@@ -93,6 +95,9 @@ pub(super) struct PassState {
     pub(super) objects: rustc_hash::FxHashMap<usize, ObjectState>,
     /// The tracer's own submissions, not waited for, and the frames' that recorded its work.
     pub(super) submissions: CommandRing,
+    /// The shapes of the tessellations' works declared so far: a frame declares the same passes
+    /// again, and only their commands are made anew.
+    pub(super) shapes: rustc_hash::FxHashMap<super::work::ShapeKey, Arc<WorkShape>>,
 }
 
 /// A pass's buffers for up to `capacity` vertices: their inputs, records, the counters, and the
@@ -223,6 +228,7 @@ impl GpuTracer {
                 extent: Extent::default(),
                 objects: rustc_hash::FxHashMap::default(),
                 submissions: CommandRing::new(gpu, IN_FLIGHT)?,
+                shapes: rustc_hash::FxHashMap::default(),
             }),
         })
     }
@@ -429,7 +435,7 @@ impl GpuTracer {
         work.pass(
             "counters",
             WorkPassKind::Transfer,
-            vec![(counters, Access::TransferWrite)],
+            || vec![(counters, Access::TransferWrite)],
             || Command::Fill {
                 buffer: counters,
                 bytes: None,
@@ -439,15 +445,11 @@ impl GpuTracer {
         let wg = lensmap_shaders::tracer::Entry::CsVertexPaths;
         let groups = (count as u32).div_ceil(lensmap_shaders::EntryPoint::workgroup_size(wg)[0]);
         work.dispatch(Dispatch {
-            name: "cs_vertex_paths".into(),
+            name: &"cs_vertex_paths",
             entry: wg,
             buffers: &slots,
             size: DispatchSize::Groups(groups),
-            bound: Some((
-                self.tracer.pipeline(0),
-                set,
-                bytemuck::bytes_of(&constants).to_vec(),
-            )),
+            bound: Some((self.tracer.pipeline(0), set, push_constants(&constants))),
         });
         for (name, from, region) in [
             ("readback: counters", counters, (0, 0, 4 * COUNTERS as u64)),
@@ -457,10 +459,12 @@ impl GpuTracer {
                 (0, READBACK_RECORDS, count * RECORD_BYTES),
             ),
         ] {
-            let uses = vec![
-                (from, Access::TransferRead),
-                (readback, Access::TransferWrite),
-            ];
+            let uses = || {
+                vec![
+                    (from, Access::TransferRead),
+                    (readback, Access::TransferWrite),
+                ]
+            };
             work.pass(name, WorkPassKind::Transfer, uses, || Command::Copy {
                 from,
                 to: readback,
@@ -470,7 +474,7 @@ impl GpuTracer {
         work.pass(
             "readback: host",
             WorkPassKind::HostRead,
-            vec![(readback, Access::HostRead)],
+            || vec![(readback, Access::HostRead)],
             || Command::HostRead,
         );
         let work = work.finish()?;

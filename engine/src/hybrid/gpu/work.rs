@@ -9,7 +9,8 @@
 //! and the T-junction removal; texgen; the draw list (indices and indirect draws); the counts
 //! copied to the part's host buffer, which the host reads once the submission is done.
 
-use lensmap_shaders::{DrawConstants, TessellateConstants, TexgenConstants, TracerConstants};
+use std::sync::Arc;
+
 use lensmap_shaders::{drawlist, tessellate, texgen, tracer};
 
 use super::buffers::{CONTROL_WORDS, COUNTERS, InputMesh, Scratch};
@@ -182,10 +183,13 @@ pub(super) struct Bound<'a> {
     pub(super) level_paths: Pipeline,
     /// The level pass's set, the tessellation's, texgen's (when it runs) and the draw list's.
     pub(super) sets: [DescriptorSet; 4],
-    pub(super) tracer_constants: TracerConstants,
-    pub(super) constants: TessellateConstants,
-    pub(super) texgen_constants: Option<TexgenConstants>,
-    pub(super) draw_constants: DrawConstants,
+    /// The push constants' bytes ([`crate::render::compute::push_constants`]): the level
+    /// pass's `TracerConstants`, the tessellation's `TessellateConstants`, texgen's
+    /// `TexgenConstants` (when it runs) and the draw list's `DrawConstants`.
+    pub(super) tracer_constants: Arc<[u8]>,
+    pub(super) constants: Arc<[u8]>,
+    pub(super) texgen_constants: Option<Arc<[u8]>>,
+    pub(super) draw_constants: Arc<[u8]>,
     /// The control words the tessellation starts from, the first `written` of them written.
     pub(super) first: [u32; CONTROL_WORDS],
     pub(super) written: usize,
@@ -202,6 +206,30 @@ pub(super) struct Tessellation<'a> {
     /// Whether texgen runs (and writes the part's data).
     pub(super) texgen: bool,
     pub(super) buffers: TessellationBuffers<'a>,
+}
+
+/// What a tessellation's work's shape depends on: its buffers' names (the scene object's and
+/// the part's), its levels, whether texgen runs and whether it is timed.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub(super) struct ShapeKey {
+    object: usize,
+    part: String,
+    levels: u32,
+    texgen: bool,
+    timed: bool,
+}
+
+impl Tessellation<'_> {
+    /// The key of the shape its declaration makes, recorded with `bound`.
+    pub(super) fn shape_key(&self, bound: &Bound<'_>) -> ShapeKey {
+        ShapeKey {
+            object: self.buffers.object,
+            part: self.buffers.part_name.to_string(),
+            levels: self.levels,
+            texgen: self.texgen,
+            timed: bound.timestamps.is_some(),
+        }
+    }
 }
 
 /// The work's buffers for a set's entries: binding `b` → the work's buffer (`None` where the
@@ -242,10 +270,13 @@ struct Passes<'w, 'b> {
 
 impl Passes<'_, '_> {
     /// A tessellation pass of `entry` over `size`.
-    fn pass(&mut self, name: String, entry: tessellate::Entry, size: DispatchSize) {
+    fn pass(&mut self, name: &dyn std::fmt::Display, entry: tessellate::Entry, size: DispatchSize) {
         let bound = self.bound.map(|b| {
-            let constants = bytemuck::bytes_of(&b.constants).to_vec();
-            (b.tessellation.pipeline(entry), b.sets[1], constants)
+            (
+                b.tessellation.pipeline(entry),
+                b.sets[1],
+                b.constants.clone(),
+            )
         });
         self.builder.dispatch(Dispatch {
             name,
@@ -260,9 +291,9 @@ impl Passes<'_, '_> {
     fn stamp(&mut self, query: u32) {
         if let Some(pool) = self.bound.and_then(|b| b.timestamps) {
             self.builder.pass(
-                format!("timestamp {query}"),
+                format_args!("timestamp {query}"),
                 WorkPassKind::Timestamp,
-                Vec::new(),
+                Vec::new,
                 || Command::Timestamp { pool, query },
             );
         }
@@ -278,7 +309,7 @@ impl Passes<'_, '_> {
     fn transfers(&mut self, counters: usize, levels: u32) {
         let (control, bound) = (self.control, self.bound);
         let wanted = self.tessellation[tessellate::binding::WANTED as usize].unwrap_or_default();
-        let transfer = |slot: usize| vec![(slot, Access::TransferWrite)];
+        let transfer = |slot: usize| move || vec![(slot, Access::TransferWrite)];
         self.builder
             .pass("control", WorkPassKind::Transfer, transfer(control), || {
                 Command::Update {
@@ -307,7 +338,7 @@ impl Passes<'_, '_> {
         if let Some(pool) = bound.and_then(|b| b.timestamps) {
             let count = 4 * levels + 4;
             self.builder
-                .pass("timestamps", WorkPassKind::Timestamp, Vec::new(), || {
+                .pass("timestamps", WorkPassKind::Timestamp, Vec::new, || {
                     Command::ResetTimestamps { pool, count }
                 });
         }
@@ -318,12 +349,11 @@ impl Passes<'_, '_> {
     fn level(&mut self, l: u32) {
         use tessellate::Entry as E;
         self.stamp(4 * l);
-        let bound = self.bound.map(|b| {
-            let constants = bytemuck::bytes_of(&b.tracer_constants).to_vec();
-            (b.level_paths, b.sets[0], constants)
-        });
+        let bound = self
+            .bound
+            .map(|b| (b.level_paths, b.sets[0], b.tracer_constants.clone()));
         self.builder.dispatch(Dispatch {
-            name: format!("level {l} trace"),
+            name: &format_args!("level {l} trace"),
             entry: tracer::Entry::CsLevelPaths,
             buffers: &self.level,
             size: self.indirect(tessellate::CONTROL_DISPATCH_TRACE),
@@ -343,7 +373,7 @@ impl Passes<'_, '_> {
             ("cs_emit", E::CsEmit, elements),
             ("cs_advance", E::CsAdvance, single),
         ] {
-            self.pass(format!("level {l} {name}"), entry, size);
+            self.pass(&format_args!("level {l} {name}"), entry, size);
         }
         self.stamp(4 * l + 3);
     }
@@ -361,7 +391,7 @@ impl Passes<'_, '_> {
             ("leaves cs_scan_top", E::CsScanTop, single),
             ("cs_leaf_emit", E::CsLeafEmit, elements),
         ] {
-            self.pass(name.into(), entry, size);
+            self.pass(&name, entry, size);
         }
     }
 
@@ -371,12 +401,12 @@ impl Passes<'_, '_> {
         let set = buffers.texgen();
         let slots = slots(self.builder, &set);
         let bound = self.bound.and_then(|b| {
-            let constants = bytemuck::bytes_of(&b.texgen_constants?).to_vec();
+            let constants = b.texgen_constants.clone()?;
             let pipeline = b.texgen.pipeline(texgen::Entry::CsTexgen);
             Some((pipeline, b.sets[2], constants))
         });
         self.builder.dispatch(Dispatch {
-            name: "cs_texgen".into(),
+            name: &"cs_texgen",
             entry: texgen::Entry::CsTexgen,
             buffers: &slots,
             size: self.indirect(tessellate::CONTROL_DISPATCH_TRACE),
@@ -408,13 +438,9 @@ pub(super) fn declare(
     let groups = |n: u32| DispatchSize::Groups(n.div_ceil(wg));
     let [vertices, triangles, edges] = bound.map_or([0; 3], |b| b.input);
     let begin = groups(vertices.max(edges));
-    passes.pass("cs_begin".into(), tessellate::Entry::CsBegin, begin);
+    passes.pass(&"cs_begin", tessellate::Entry::CsBegin, begin);
     let classify = groups(triangles);
-    passes.pass(
-        "cs_classify".into(),
-        tessellate::Entry::CsClassify,
-        classify,
-    );
+    passes.pass(&"cs_classify", tessellate::Entry::CsClassify, classify);
     for l in 0..work.levels {
         passes.level(l);
     }
@@ -453,13 +479,16 @@ fn declare_draw_list(
         ("cs_draw_emit", E::CsDrawEmit, elements),
     ] {
         builder.dispatch(Dispatch {
-            name: name.into(),
+            name: &name,
             entry,
             buffers: &draw,
             size,
             bound: bound.map(|b| {
-                let constants = bytemuck::bytes_of(&b.draw_constants).to_vec();
-                (b.draw_list.pipeline(entry), b.sets[3], constants)
+                (
+                    b.draw_list.pipeline(entry),
+                    b.sets[3],
+                    b.draw_constants.clone(),
+                )
             }),
         });
     }
@@ -488,10 +517,12 @@ fn declare_counts(
         ),
         ("counts: draws", draws, words + 16, ARGS_BYTES),
     ] {
-        let uses = vec![
-            (from, Access::TransferRead),
-            (counts, Access::TransferWrite),
-        ];
+        let uses = || {
+            vec![
+                (from, Access::TransferRead),
+                (counts, Access::TransferWrite),
+            ]
+        };
         builder.pass(label, WorkPassKind::Transfer, uses, || Command::Copy {
             from,
             to: counts,
@@ -501,7 +532,7 @@ fn declare_counts(
     builder.pass(
         "counts: host",
         WorkPassKind::HostRead,
-        vec![(counts, Access::HostRead)],
+        || vec![(counts, Access::HostRead)],
         || Command::HostRead,
     );
 }

@@ -122,6 +122,26 @@ impl FrameShape {
         }
     }
 
+    /// Whether `self` and `other` have one plan: equal but for the viewpoints' weights, of
+    /// which a plan sees only which are above zero ([`FrameShape::active_viewpoints`]).
+    pub fn plans_alike(&self, other: &FrameShape) -> bool {
+        let FrameShape {
+            width,
+            height,
+            environment_meshes,
+            glossy,
+            lenses,
+            viewpoint_weights,
+        } = self;
+        let active = |weights: &[f32]| weights.iter().map(|w| *w > 0.0).collect::<Vec<_>>();
+        *width == other.width
+            && *height == other.height
+            && *environment_meshes == other.environment_meshes
+            && *glossy == other.glossy
+            && *lenses == other.lenses
+            && active(viewpoint_weights) == active(&other.viewpoint_weights)
+    }
+
     /// The viewpoint samples whose passes a lens object's plan holds: those with a weight above
     /// zero that the lens has a layered EM for, in order.
     pub fn active_viewpoints(&self, lens: &LensShape) -> Vec<usize> {

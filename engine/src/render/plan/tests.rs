@@ -501,3 +501,31 @@ fn the_single_pass_plan_follows_the_devices_limits() {
     let two_layers = FrameShape::synthetic(64, 64, 2, 3, &BOTH);
     assert!(frame_graph(&two_layers, &options(Variant::SinglePass)).is_ok());
 }
+
+#[test]
+fn shapes_alike_but_for_their_positive_weights_have_one_plan() {
+    // The renderer keeps compiled plans by `plans_alike`: it must hold exactly when the plans
+    // are equal, for every variant and blending scheme.
+    let mut a = FrameShape::synthetic(64, 64, 2, 3, &BOTH);
+    a.viewpoint_weights = vec![0.5, 0.25, 0.25];
+    let mut b = a.clone();
+    b.viewpoint_weights = vec![0.2, 0.7, 0.1];
+    let mut c = a.clone();
+    c.viewpoint_weights = vec![0.5, 0.0, 0.5];
+    let mut d = a.clone();
+    d.lenses[0].empty[1][0] = true;
+    assert!(a.plans_alike(&b) && b.plans_alike(&a));
+    assert!(!a.plans_alike(&c) && !a.plans_alike(&d));
+    for (variant, blend) in [
+        (Variant::SinglePass, BlendScheme::FrontToBack),
+        (Variant::Multipass, BlendScheme::FrontToBack),
+        (Variant::Multipass, BlendScheme::BackToFront),
+    ] {
+        let options = readback(variant, blend, TargetFormat::Rgba16f);
+        assert_eq!(compiled(&a, &options), compiled(&b, &options));
+        if variant == Variant::Multipass {
+            assert_ne!(compiled(&a, &options), compiled(&c, &options));
+            assert_ne!(compiled(&a, &options), compiled(&d, &options));
+        }
+    }
+}

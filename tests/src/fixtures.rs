@@ -9,6 +9,8 @@ use std::path::{Path, PathBuf};
 use glam::{DVec2, DVec3, Vec2, Vec3};
 use lensmap::gpu::Gpu;
 use lensmap::hybrid::HybridScene;
+use lensmap::hybrid::gpu::{GpuTracer, GpuTraversal, TracerWalk};
+use lensmap::hybrid::paths::VertexPrecision;
 use lensmap::layers::projected::ProjectedOptions;
 use lensmap::render::Renderer;
 use lensmap::runner::{EmSource, load_hybrid_scene};
@@ -17,7 +19,7 @@ use lensmap::scene::{
 };
 use lensmap::trace::bvh::SurfaceHit;
 use lensmap::trace::path::{Interface, LensGeometry};
-use lensmap::trace::{Ray, TraceCounters};
+use lensmap::trace::{Ray, TraceCounters, TraceScene};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 
@@ -235,4 +237,25 @@ impl LensGeometry for AnalyticSphere {
             absorption: self.absorption,
         }
     }
+}
+
+/// A GPU tracer of `trace` on `gpu` (no Schlick table) walking `traversal` in `precision`; the
+/// panic says `what` failed.
+pub fn gpu_tracer(
+    gpu: &Gpu,
+    trace: &TraceScene,
+    traversal: GpuTraversal,
+    precision: VertexPrecision,
+    what: &str,
+) -> GpuTracer {
+    GpuTracer::new(
+        gpu,
+        trace,
+        None,
+        TracerWalk {
+            traversal,
+            precision,
+        },
+    )
+    .unwrap_or_else(|e| panic!("{what}: {e}"))
 }

@@ -13,7 +13,6 @@
 
 use glam::{DVec2, DVec3, Vec2, Vec3};
 use lensmap::gpu::Gpu;
-use lensmap::hybrid::gpu::TracerWalk;
 use lensmap::hybrid::gpu::{
     GPU_MAX_DEPTH, GpuTessellationRequest, GpuTracer, GpuTraversal, PathSettings, TexgenRequest,
 };
@@ -25,7 +24,7 @@ use lensmap::layers::LayerShell;
 use lensmap::render::LensFaces;
 use lensmap::scene::{BUILTIN_SCENES, Scene, TriangleMesh};
 use lensmap::trace::{Bounces, GreedyOptions, Interface, Term, TraceScene};
-use lensmap_tests::fixtures::built_in_scene;
+use lensmap_tests::fixtures::{built_in_scene, gpu_tracer};
 use lensmap_tests::mesh_checks::{check_surface, check_topology};
 use lensmap_tests::{assert_clean, gpu};
 use std::collections::HashMap;
@@ -65,16 +64,13 @@ fn welded(mesh: &TriangleMesh) -> TriangleMesh {
 fn on_gpu(gpu: &Gpu, name: &str) -> (Scene, TraceScene, GpuTracer, ScreenCamera) {
     let scene = built_in_scene(name, 160, 120, 2);
     let trace = TraceScene::new(&scene).expect("the scene traces");
-    let tracer = GpuTracer::new(
+    let tracer = gpu_tracer(
         gpu,
         &trace,
-        None,
-        TracerWalk {
-            traversal: GpuTraversal::Bvh,
-            precision: VertexPrecision::F32,
-        },
-    )
-    .expect("the tracer uploads");
+        GpuTraversal::Bvh,
+        VertexPrecision::F32,
+        "the tracer uploads",
+    );
     let camera = &scene.camera;
     let screen = ScreenCamera {
         eye: camera.position.as_dvec3(),

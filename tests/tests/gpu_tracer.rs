@@ -15,8 +15,7 @@
 
 use glam::{DVec3, Vec2, Vec3};
 use lensmap::hybrid::FrameBuilder;
-use lensmap::hybrid::gpu::TracerWalk;
-use lensmap::hybrid::gpu::{GpuTracer, GpuTraversal, PathSettings, Traversal};
+use lensmap::hybrid::gpu::{GpuTraversal, PathSettings, Traversal};
 use lensmap::hybrid::paths::{PathOracle, ScreenCamera, VertexPaths, VertexPrecision};
 use lensmap::hybrid::tessellate::TessellationError;
 use lensmap::hybrid::tessellate::{SurfaceVertex, VertexOracle, faces_eye};
@@ -29,7 +28,7 @@ use lensmap::runner::{FrameOptions, FrameRunner, lens_error};
 use lensmap::scene::{BUILTIN_SCENES, TriangleMesh};
 use lensmap::trace::{Bounces, GreedyOptions, TraceScene};
 use lensmap::trace::{TraceOptions, render_reference};
-use lensmap_tests::fixtures::built_in_scene;
+use lensmap_tests::fixtures::{built_in_scene, gpu_tracer};
 use lensmap_tests::{assert_clean, gpu};
 
 /// How two tracers' vertices compare.
@@ -114,40 +113,31 @@ fn agreement(name: &str) -> Agreement {
     let scene = built_in_scene(name, 320, 240, 1);
     let trace = TraceScene::new(&scene).expect("the scene traces");
     let gpu = gpu();
-    let tracer = GpuTracer::new(
+    let tracer = gpu_tracer(
         &gpu,
         &trace,
-        None,
-        TracerWalk {
-            traversal: GpuTraversal::Bvh,
-            precision: VertexPrecision::F32,
-        },
-    )
-    .expect("the tracer uploads");
+        GpuTraversal::Bvh,
+        VertexPrecision::F32,
+        "the tracer uploads",
+    );
     // Where the device has ray queries, the driver's walk must find what the BVH walk finds.
     let driver = gpu.ray_queries().then(|| {
-        GpuTracer::new(
+        gpu_tracer(
             &gpu,
             &trace,
-            None,
-            TracerWalk {
-                traversal: GpuTraversal::Driver,
-                precision: VertexPrecision::F32,
-            },
+            GpuTraversal::Driver,
+            VertexPrecision::F32,
+            "the driver's walk builds",
         )
-        .expect("the driver's walk builds")
     });
     let in_f64 = gpu.shader_float64().then(|| {
-        GpuTracer::new(
+        gpu_tracer(
             &gpu,
             &trace,
-            None,
-            TracerWalk {
-                traversal: GpuTraversal::Bvh,
-                precision: VertexPrecision::F64,
-            },
+            GpuTraversal::Bvh,
+            VertexPrecision::F64,
+            "the f64 tracer uploads",
         )
-        .expect("the f64 tracer uploads")
     });
     let camera = &scene.camera;
     let screen = ScreenCamera {

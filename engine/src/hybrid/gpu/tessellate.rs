@@ -454,7 +454,7 @@ impl GpuTracer {
                 OutputSets::new(gpu, &layouts, texgen.as_deref(), &names.draw_list())
             },
         )?;
-        let held = &*held;
+        let held = objects.get(&object).ok_or_else(|| unkept("mesh"))?;
         let outputs = &held.outputs[at];
         let part = outputs.part.clone();
         let levels = options.max_depth + 1;
@@ -498,14 +498,12 @@ impl GpuTracer {
             texgen: outputs.texgen_set.is_some(),
             buffers: self.buffers(scratch, held, object, Some(&part)),
         };
-        let key = declared.shape_key(&bound);
-        let mut builder = match shapes.get(&key) {
-            Some(shape) => WorkBuilder::bound_to(shape.clone()),
-            None => WorkBuilder::bound(),
+        let held_part = |object: usize, part: &str| {
+            objects
+                .get(&object)
+                .is_some_and(|o| o.outputs.iter().any(|out| out.part.name == part))
         };
-        work::declare(&mut builder, &declared, Some(&bound));
-        let work = builder.finish()?;
-        shapes.entry(key).or_insert_with(|| work.shape.clone());
+        let work = work::declare_bound(shapes, &declared, &bound, held_part)?;
         if placement == Placement::OnDevice && timestamps.is_none() {
             // Run by the frame that draws the part, as passes of its graph.
             return Ok(DeviceTessellation {

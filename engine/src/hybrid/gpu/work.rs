@@ -14,9 +14,11 @@ use std::sync::Arc;
 use lensmap_shaders::{drawlist, tessellate, texgen, tracer};
 
 use super::buffers::{CONTROL_WORDS, COUNTERS, InputMesh, Scratch};
-use crate::gpu::{Buffer, DescriptorSet, Kernels, Pipeline, QueryPoolRef};
+use crate::gpu::{Buffer, DescriptorSet, GpuError, Kernels, Pipeline, QueryPoolRef};
 use crate::graph::Access;
-use crate::render::compute::{Command, Dispatch, DispatchSize, WorkBuilder, WorkPassKind};
+use crate::render::compute::{
+    Command, ComputeWork, Dispatch, DispatchSize, WorkBuilder, WorkPassKind, WorkShape,
+};
 use crate::render::{DeviceLensPart, PartShape};
 
 /// Words of a part's host copy of its counts: the tessellation's control words, the tracer's
@@ -455,6 +457,34 @@ pub(super) fn declare(
     passes.stamp(last + 3);
     declare_draw_list(passes.builder, buffers, bound);
     declare_counts(passes.builder, buffers, control, counters);
+}
+
+/// The work of a tessellation's passes recorded with `bound`, its shape taken from `shapes`
+/// where an earlier declaration made it (only the commands are made), kept there otherwise. A
+/// kept shape the declaration does not match (a key that misses what the shape depends on: a
+/// bug) is made again and replaced. A new shape drops those of parts no longer `held` (outputs
+/// made anew once the buffers grew or the shells changed), so that the shapes stay as many as
+/// the parts.
+pub(super) fn declare_bound(
+    shapes: &mut rustc_hash::FxHashMap<ShapeKey, Arc<WorkShape>>,
+    work: &Tessellation<'_>,
+    bound: &Bound<'_>,
+    held: impl Fn(usize, &str) -> bool,
+) -> Result<ComputeWork, GpuError> {
+    let key = work.shape_key(bound);
+    if let Some(shape) = shapes.get(&key) {
+        let mut builder = WorkBuilder::bound_to(shape.clone());
+        declare(&mut builder, work, Some(bound));
+        if let Ok(made) = builder.finish() {
+            return Ok(made);
+        }
+    }
+    let mut builder = WorkBuilder::bound();
+    declare(&mut builder, work, Some(bound));
+    let made = builder.finish()?;
+    shapes.retain(|kept, _| held(kept.object, &kept.part));
+    shapes.insert(key, made.shape.clone());
+    Ok(made)
 }
 
 /// The draw list's passes: the index buffer and the indirect draws of the part.

@@ -575,3 +575,51 @@ fn a_gpu_frame_records_the_compute_commands_its_printed_plan_declares() {
     assert_eq!(still.render.compute, ComputeCommands::default());
     assert_clean(runner.gpu());
 }
+
+/// A frame that outgrows the GPU tessellation's first buffers (teapot-room at 800×600, t = 1:
+/// some 198,000 vertices against 131,072) is built again with the grown ones, and says so; the
+/// build it keeps is the one a runner with the grown buffers makes at once (the same counts and
+/// pixels), and that one is not built twice.
+#[test]
+fn a_frame_that_outgrows_the_buffers_is_built_again_and_counted() {
+    let mut runner = FrameRunner::new(gpu()).expect("a runner");
+    let scene = built_in_scene("teapot-room", 800, 600, 1);
+    let camera = scene.camera;
+    let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 16);
+    let mut options = FrameOptions {
+        hybrid: HybridOptions {
+            tracer: VertexTracer::Gpu,
+            ..HybridOptions::default()
+        },
+        compositing: Compositing::SinglePass,
+        format: TargetFormat::Rgba32f,
+    };
+    options.hybrid.tessellation.t = 1.0;
+    let grown = runner
+        .frame(&hybrid, &camera, &options)
+        .expect("a GPU frame");
+    runner.forget_frame();
+    let again = runner
+        .frame(&hybrid, &camera, &options)
+        .expect("a GPU frame");
+    eprintln!(
+        "vertices {} / {}, builds discarded {} / {}",
+        grown.stats.vertices_traced,
+        again.stats.vertices_traced,
+        grown.stats.builds_discarded,
+        again.stats.builds_discarded
+    );
+    assert!(
+        grown.stats.vertices_traced > 1 << 17,
+        "it outgrows the first buffers"
+    );
+    assert_eq!(grown.stats.builds_discarded, 1);
+    assert_eq!(again.stats.builds_discarded, 0);
+    assert_eq!(grown.stats.stopped_by_budget, 0);
+    assert_eq!(
+        (grown.stats.vertices_traced, grown.stats.triangles_out),
+        (again.stats.vertices_traced, again.stats.triangles_out)
+    );
+    assert!(grown.image.pixels == again.image.pixels);
+    assert_clean(runner.gpu());
+}

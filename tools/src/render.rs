@@ -286,6 +286,9 @@ struct FrameReport {
     hull_triangles: usize,
     vertices_traced: usize,
     leaves_stopped_by_vertex_budget: usize,
+    /// Builds of the frame thrown away because the GPU tessellation's buffers grew (the times
+    /// above are the last build's).
+    builds_discarded: usize,
     outside_view_space: bool,
     glossy_maps_read: usize,
     viewpoints: Vec<ViewpointWeight>,
@@ -403,6 +406,7 @@ fn report(
             hull_triangles: frame.stats.hull_triangles,
             vertices_traced: frame.stats.vertices_traced,
             leaves_stopped_by_vertex_budget: frame.stats.stopped_by_budget,
+            builds_discarded: frame.stats.builds_discarded,
             outside_view_space: frame.stats.outside_view_space,
             glossy_maps_read: frame.stats.glossy_maps,
             viewpoints: hybrid
@@ -547,6 +551,12 @@ impl RenderReport {
             say!(
                 "  convex-hull split           {:>10} lens triangles drawn with the distant layer only",
                 h.hull_triangles
+            );
+        }
+        if h.builds_discarded > 0 {
+            say!(
+                "  built again                 {:>10} time(s): the GPU tessellation's buffers grew (the times above are the last build's)",
+                h.builds_discarded
             );
         }
         if h.leaves_stopped_by_vertex_budget > 0 {

@@ -140,25 +140,22 @@ impl ObjectState {
         Ok(())
     }
 
-    /// Makes the level pass's and the tessellation's sets (pointing at `level_paths` and
-    /// `tessellation`, in binding order) unless made.
-    pub(super) fn ensure_sets(
+    /// Makes the level pass's and the tessellation's sets, pointing at `level_paths` and
+    /// `tessellation` in binding order (the caller makes them where `sets` is `None`: when the
+    /// object or the shared buffers were made again).
+    pub(super) fn make_sets(
         &mut self,
         gpu: &Gpu,
         layouts: &Layouts<'_>,
         level_paths: &[Resource],
         tessellation: &[Resource],
-    ) -> Result<[DescriptorSet; 2], GpuError> {
-        if let Some(sets) = self.sets {
-            return Ok(sets);
-        }
+    ) -> Result<(), GpuError> {
         let (level_pool, level_set) = one_set(gpu, layouts.level_paths, level_paths)?;
         let (tessellation_pool, tessellation_set) =
             one_set(gpu, layouts.tessellation, tessellation)?;
-        let sets = [level_set, tessellation_set];
-        self.sets = Some(sets);
+        self.sets = Some([level_set, tessellation_set]);
         self._pools = Some((level_pool, tessellation_pool));
-        Ok(sets)
+        Ok(())
     }
 
     /// The index of an output no frame holds (made where none is free) for `scratch`, with lens

@@ -432,16 +432,15 @@ impl GpuTracer {
         }
         let scratch = scratch.as_ref().ok_or_else(|| unkept("buffers"))?;
         let layouts = self.layouts();
-        // The sets name the shared buffers and the object's input alone.
-        let (level, tessellation) = {
+        // The sets name the shared buffers and the object's input alone (made once, until
+        // either is made again).
+        if held.sets.is_none() {
             let names = self.buffers(scratch, held, object, None);
-            (
-                resident::resources(&names.level_paths(), Some(self.walk_resource()))?,
-                resident::resources(&names.tessellation(), None)?,
-            )
-        };
-        let [level_set, tessellation_set] =
-            held.ensure_sets(gpu, &layouts, &level, &tessellation)?;
+            let level = resident::resources(&names.level_paths(), Some(self.walk_resource()))?;
+            let tessellation = resident::resources(&names.tessellation(), None)?;
+            held.make_sets(gpu, &layouts, &level, &tessellation)?;
+        }
+        let [level_set, tessellation_set] = held.sets.ok_or_else(|| unkept("sets"))?;
         let texgen_on = arrays > 0 && held.shells.is_some();
         let at = held.free_outputs(
             gpu,

@@ -469,6 +469,18 @@ fn frames_traced_on_the_gpu_match_the_cpu_path_against_the_reference() {
 /// The frame's vertex budget is shared by its lens objects in order. A frame drawn from the
 /// device's buffers counts it on the device, with no vertex count read back between the objects;
 /// it must spend it exactly as the frame read back to the host, whose budget the host counts.
+/// A frame traced on the GPU (drawn from the device's buffers), single pass, into RGBA32F.
+fn gpu_frame_options() -> FrameOptions {
+    FrameOptions {
+        hybrid: HybridOptions {
+            tracer: VertexTracer::Gpu,
+            ..HybridOptions::default()
+        },
+        compositing: Compositing::SinglePass,
+        format: TargetFormat::Rgba32f,
+    }
+}
+
 #[test]
 fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
     let mut runner = FrameRunner::new(gpu()).expect("a runner");
@@ -482,14 +494,7 @@ fn a_resident_frame_spends_the_vertex_budget_as_the_host_counts_it() {
         .flat_map(|lens| &lens.objects)
         .map(|&o| hybrid.scene().objects[o].mesh.positions.len())
         .sum();
-    let mut options = FrameOptions {
-        hybrid: HybridOptions {
-            tracer: VertexTracer::Gpu,
-            ..HybridOptions::default()
-        },
-        compositing: Compositing::SinglePass,
-        format: TargetFormat::Rgba32f,
-    };
+    let mut options = gpu_frame_options();
     // Enough for the first objects' splits, not for all of them; then fewer vertices than any
     // object has, so that the buffers are first sized below a later object's input (they must
     // hold every object of the frame before its first one is tessellated).
@@ -532,14 +537,7 @@ fn a_gpu_frame_records_the_compute_commands_its_printed_plan_declares() {
     let scene = built_in_scene("teapot-room", 64, 48, 1);
     let camera = scene.camera;
     let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 32);
-    let options = FrameOptions {
-        hybrid: HybridOptions {
-            tracer: VertexTracer::Gpu,
-            ..HybridOptions::default()
-        },
-        compositing: Compositing::SinglePass,
-        format: TargetFormat::Rgba32f,
-    };
+    let options = gpu_frame_options();
     let objects: Vec<usize> = hybrid
         .trace()
         .lenses
@@ -586,14 +584,7 @@ fn a_frame_that_outgrows_the_buffers_is_built_again_and_counted() {
     let scene = built_in_scene("teapot-room", 800, 600, 1);
     let camera = scene.camera;
     let hybrid = lensmap_tests::fixtures::with_projected_ems(scene, 16);
-    let mut options = FrameOptions {
-        hybrid: HybridOptions {
-            tracer: VertexTracer::Gpu,
-            ..HybridOptions::default()
-        },
-        compositing: Compositing::SinglePass,
-        format: TargetFormat::Rgba32f,
-    };
+    let mut options = gpu_frame_options();
     options.hybrid.tessellation.t = 1.0;
     let grown = runner
         .frame(&hybrid, &camera, &options)

@@ -110,12 +110,11 @@ impl Plans {
         shape: &FrameShape,
         options: &PlanOptions,
     ) -> Result<Arc<CompiledPlan>, RenderError> {
-        if let Some(at) = self
+        let at = self
             .recent
             .iter()
-            .position(|(s, o, _)| o == options && s.plans_alike(shape))
-        {
-            let entry = self.recent.remove(at).unwrap_or_else(|| unreachable!());
+            .position(|(s, o, _)| o == options && s.plans_alike(shape));
+        if let Some(entry) = at.and_then(|at| self.recent.remove(at)) {
             let plan = entry.2.clone();
             self.recent.push_front(entry);
             return Ok(plan);

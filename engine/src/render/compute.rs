@@ -204,14 +204,6 @@ impl ComputeWork {
     pub(crate) fn submitted(&self) {
         self.recorded.store(true, Ordering::Relaxed);
     }
-
-    /// Its dispatches.
-    pub fn dispatches(&self) -> usize {
-        self.commands
-            .iter()
-            .filter(|c| matches!(c, Command::Dispatch { .. }))
-            .count()
-    }
 }
 
 /// Declares a work pass by pass, its buffers by name. Made with [`WorkBuilder::planned`], it

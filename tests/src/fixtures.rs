@@ -127,6 +127,7 @@ pub fn lens_alone(
         }],
         camera,
         view_space: ViewSpace::List(Vec::new()),
+        warnings: Vec::new(),
     }
 }
 

@@ -28,6 +28,9 @@ pub fn gpu_with_heap_limit(heap_limit_bytes: Option<u64>) -> Gpu {
     let mut options = GpuOptions::from_env();
     options.validation = std::env::var("LENSMAP_TEST_NO_VALIDATION").map_or(true, |v| v != "1");
     options.heap_limit_bytes = heap_limit_bytes;
+    if options.validation {
+        one_validated_test_at_a_time();
+    }
     match Gpu::new(&options) {
         Ok(gpu) => {
             name_the_driver_on_failure(gpu.device_id());
@@ -35,6 +38,37 @@ pub fn gpu_with_heap_limit(heap_limit_bytes: Option<u64>) -> Gpu {
         }
         Err(e) => panic!("no GPU for tests: {e}"),
     }
+}
+
+/// Held by the test thread whose validated devices are alive ([`one_validated_test_at_a_time`]).
+static VALIDATED: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+thread_local! {
+    /// This thread's hold on [`VALIDATED`], released when the thread (a test) ends.
+    static HOLDS: std::cell::RefCell<Option<std::sync::MutexGuard<'static, ()>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Waits until no other test thread of this process has a device with the validation layer,
+/// and keeps other threads from making one until this thread (its test) ends; a thread already
+/// holding it goes on (a test may make several devices). Debian 12's validation layer (1.3.239)
+/// is not safe with validated devices used on several threads at once: four threads making,
+/// using and dropping contexts crashed inside it (SIGSEGV in vkCreatePipelineLayout, in
+/// vkCreateInstance against a vkDestroyDevice: 2 runs in 25 of 4 × 150 contexts), the same
+/// without validation never (40 runs), and CI's blending tests once. Tests that make validated
+/// devices call this first; [`gpu`] does.
+pub fn one_validated_test_at_a_time() {
+    HOLDS.with(|holds| {
+        let mut holds = holds.borrow_mut();
+        if holds.is_none() {
+            // A test that failed holding it leaves nothing the lock guards half done.
+            *holds = Some(
+                VALIDATED
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner),
+            );
+        }
+    });
 }
 
 /// The device a failure is reported against, once known.

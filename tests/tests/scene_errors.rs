@@ -92,6 +92,34 @@ objects = ["ball"]
         error
     }
 
+    /// An object of the wrong kind in a lens is refused naming its material's kind: diffuse or
+    /// glossy (a glossy object was once called diffuse).
+    #[test]
+    fn a_lens_member_that_is_neither_glass_nor_mirror_is_named_by_its_kind() {
+        let dir = temp_folder("lens-member-kind");
+        let lens = "objects = [\"ball\"]";
+        assert_refused(
+            &dir,
+            Edit(lens, "objects = [\"floor\"]"),
+            "lenses[0].objects[0]",
+            "object \"floor\" is diffuse, but a lens is made of glass or mirror objects",
+            "give the object a glass or mirror material",
+        );
+        let glossy = edit_scene(
+            &edit(lens, "objects = [\"floor\"]"),
+            "diffuse = { colour = [0.5, 0.5, 0.5] }",
+            "glossy = { diffuse = [0.5, 0.5, 0.5], specular = [0.5, 0.5, 0.5], exponent = 100 }",
+        );
+        let (file, error) = load_error(&dir, &glossy);
+        assert_message(
+            &error,
+            &file,
+            "lenses[0].objects[0]",
+            "object \"floor\" is glossy, but a lens is made of glass or mirror objects",
+            "give the object a glass or mirror material",
+        );
+    }
+
     /// A valid scene that loads; guards against the tests failing for the wrong reason.
     #[test]
     fn the_base_scene_loads() {

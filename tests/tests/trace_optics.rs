@@ -266,6 +266,7 @@ fn mirror_scene(reflectance: Vec3) -> Scene {
             supersampling: 1,
         },
         view_space: ViewSpace::List(Vec::new()),
+        warnings: Vec::new(),
     }
 }
 

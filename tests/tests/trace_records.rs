@@ -74,6 +74,7 @@ fn scene(objects: Vec<SceneObject>, lenses: Vec<LensObject>, camera: Camera) -> 
         lenses,
         camera,
         view_space: ViewSpace::List(Vec::new()),
+        warnings: Vec::new(),
     }
 }
 

@@ -9,7 +9,6 @@ use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::HybridOptions,
-    scene::Scene,
 };
 use lensmap_baker::{
     bake::{
@@ -158,7 +157,7 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         );
     };
     let options = options(&args)?;
-    let scene = Scene::load_named(scene_name)?;
+    let scene = crate::common::load_scene(scene_name)?;
     let mut samples = parse_samples(&args.samples, scene.view_space.len(), &scene.name)?;
     if let Some(spec) = &args.shard {
         samples = shard_samples(&samples, parse_shard(spec)?);

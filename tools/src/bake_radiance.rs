@@ -8,7 +8,6 @@ use std::time::Instant;
 use lensmap::rsibr::bake::{RadianceManifest, RadianceStaging, SampleRecord, merge};
 use lensmap::rsibr::maps::sample_maps;
 use lensmap::rsibr::{GlossyViews, RadianceMapOptions, glossy_objects};
-use lensmap::scene::Scene;
 use lensmap::trace::TraceScene;
 use lensmap_baker::bake::{parse_samples, parse_shard, shard_samples};
 use serde_json::json;
@@ -57,7 +56,7 @@ pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
         return Err(BadUsage("--scene: name the scene, e.g. --scene glossy-studio".into()).into());
     };
     let options = options(args)?;
-    let scene = Scene::load_named(scene_name)?;
+    let scene = crate::common::load_scene(scene_name)?;
     let objects = glossy_objects(&scene);
     if objects.is_empty() {
         return Err(BadUsage(format!(

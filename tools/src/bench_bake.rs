@@ -147,7 +147,7 @@ fn contenders(scene: &Scene, args: &BenchBakeArgs) -> anyhow::Result<Vec<(String
 
 pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     args.judge.validate()?;
-    let scene = Scene::load_named(&args.scene)?;
+    let scene = crate::common::load_scene(&args.scene)?;
     let surface = SphereTriangulation::of_scene(&scene).is_some();
     if surface && args.sample >= scene.view_space.len() {
         return Err(BadUsage(format!(

@@ -518,7 +518,7 @@ fn checked_scene(args: &BenchErrorArgs) -> anyhow::Result<Scene> {
         ))
         .into());
     }
-    let scene = Scene::load_named(&args.scene)?;
+    let scene = crate::common::load_scene(&args.scene)?;
     if args.sample + 1 >= scene.view_space.len() {
         return Err(BadUsage(format!(
             "--sample {}: the cameras need samples A and A+1; scene \"{}\" has samples 0..{}",

@@ -81,7 +81,7 @@ pub fn run(args: BenchFresnelArgs) -> anyhow::Result<()> {
     }
     let mut materials = Vec::new();
     for name in &args.scene {
-        materials.extend(lens_interfaces(&Scene::load_named(name)?));
+        materials.extend(lens_interfaces(&crate::common::load_scene(name)?));
     }
     say!(
         "{:>6} {:>10} {:>10} {:>10}   largest error over 0–90° of (1 − cos θ)⁵ through the table",

@@ -202,7 +202,7 @@ pub fn run(args: BenchGlossyArgs) -> anyhow::Result<()> {
     let mut results = Vec::new();
     let mut timings = Vec::new();
     for scene_name in &args.scenes {
-        let base = Scene::load_named(scene_name)?;
+        let base = crate::common::load_scene(scene_name)?;
         if args.frames > 0 {
             timings.push(frame_time(&args, &base)?);
         }

@@ -200,7 +200,7 @@ fn checked(
         ))
         .into());
     }
-    let mut scene = Scene::load_named(&args.scene)?;
+    let mut scene = crate::common::load_scene(&args.scene)?;
     scene.camera.width = args.width;
     scene.camera.height = args.height;
     scene.camera.supersampling = args.supersampling;

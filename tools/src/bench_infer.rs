@@ -15,7 +15,7 @@ use lensmap::{
     layers::projected::ProjectedOptions,
     metrics::Encoding,
     runner::{EmSource, FrameOptions, FrameRunner, lens_error, load_hybrid_scene, median},
-    scene::{Camera, Scene},
+    scene::Camera,
     trace::{ReferenceImage, TraceOptions, compile_records, render_reference},
 };
 use lensmap_baker::infer::{
@@ -79,7 +79,7 @@ enum SolverArg {
 pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let projected = checked(&args)?;
     let frame_options = args.frame.options()?;
-    let scene = Scene::load_named(&args.scene)?;
+    let scene = crate::common::load_scene(&args.scene)?;
     let camera = args.judge.frame_camera(&scene.camera);
     let reference_camera = args.judge.reference_camera(&camera);
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;

@@ -23,7 +23,6 @@ use lensmap::{
         synthetic::{SyntheticOptions, sphere_frame},
     },
     runner::{EmSource, FrameRunner, load_hybrid_scene},
-    scene::Scene,
     trace::LensSelection,
 };
 use serde_json::json;
@@ -126,7 +125,7 @@ fn frames(args: &BenchPassesArgs) -> anyhow::Result<Vec<BenchFrame>> {
             })
             .collect());
     };
-    let scene = Scene::load_named(name)?;
+    let scene = crate::common::load_scene(name)?;
     let mut camera = scene.camera;
     (camera.width, camera.height, camera.supersampling) = (args.width, args.height, 1);
     camera.position = args.camera_position.unwrap_or(camera.position);

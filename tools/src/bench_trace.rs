@@ -9,7 +9,7 @@ use indicatif::ProgressBar;
 
 use lensmap::metrics::{self, Channels, Encoding, Mask, MetricsError};
 use lensmap::runner::median;
-use lensmap::scene::{Camera, Scene};
+use lensmap::scene::Camera;
 use lensmap::trace::{
     self, LensSelection, PathModel, RayTreeOptions, ReferenceImage, TraceCounters, TraceOptions,
     TraceScene,
@@ -114,7 +114,7 @@ pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
     let bar =
         crate::common::Steps::new(1).counted("reference images", 4 * u64::from(runs) + 4, "images");
     for scene_name in ["teapot-room", "glass-sphere"] {
-        let scene = Scene::load_named(scene_name)?;
+        let scene = crate::common::load_scene(scene_name)?;
         let bench = SceneBench {
             name: scene_name,
             world: TraceScene::new(&scene).context("preparing the scene for ray tracing")?,

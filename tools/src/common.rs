@@ -651,6 +651,16 @@ pub fn warn_of_file_size_limit() {
     }
 }
 
+/// The scene `name` (a built-in name or a TOML file), its loading's warnings said once each (an
+/// OBJ's empty `usemtl`): every command loads its scenes here.
+pub fn load_scene(name: &str) -> Result<lensmap::scene::Scene, lensmap::scene::SceneError> {
+    let scene = lensmap::scene::Scene::load_named(name)?;
+    for warning in &scene.warnings {
+        warn!("{warning}");
+    }
+    Ok(scene)
+}
+
 /// How the glossy pass reconstructs a view's radiance map (`--glossy-reconstruction`).
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
 pub enum ReconstructionArg {

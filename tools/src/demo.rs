@@ -167,7 +167,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
 /// The options checked: teapot-room with the camera at its novel viewpoint (`--width`,
 /// `--height`, `--supersampling` applied), and the projected EMs' options.
 fn checked(args: &DemoArgs) -> anyhow::Result<(Scene, Camera, ProjectedOptions)> {
-    let mut scene = Scene::load_named("teapot-room")?;
+    let mut scene = crate::common::load_scene("teapot-room")?;
     if let Some(w) = args.width {
         scene.camera.width = w;
     }

@@ -6,7 +6,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use lensmap::metrics::Mask;
-use lensmap::scene::Scene;
 use lensmap::trace::{
     self, LensSelection, PathModel, ReferenceImage, RenderStats, TraceOptions, TraceScene,
 };
@@ -116,7 +115,7 @@ impl Glossiness {
 /// Runs `lensmap reference`.
 pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     let mut steps = Steps::new(3);
-    let scene = Scene::load_named(&args.scene)?;
+    let scene = crate::common::load_scene(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let step = steps.step("preparing the scene for ray tracing");
     let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;

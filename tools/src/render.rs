@@ -21,7 +21,7 @@ use lensmap::{
         EmSource, FrameRunner, HybridFrame, LoadOptions, Repetitions, lens_error,
         load_hybrid_scene, non_lens_error,
     },
-    scene::{Camera, Scene},
+    scene::Camera,
     trace::{ReferenceImage, TraceOptions, render_reference},
 };
 use serde::Serialize;
@@ -112,7 +112,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .into());
     }
     let out = ImageOut::parse(&args.out, "hybrid")?;
-    let scene = Scene::load_named(&args.scene)?;
+    let scene = crate::common::load_scene(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = args.frame.options()?;
     let projected = ProjectedOptions::with_size(args.em_size);

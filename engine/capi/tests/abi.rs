@@ -34,6 +34,7 @@ fn assert_failure(code: LensmapResult, expected: LensmapResult, what: &str) {
 }
 
 fn context_options(device: Option<&CString>) -> LensmapContextOptions {
+    lensmap_tests::one_validated_test_at_a_time();
     LensmapContextOptions {
         struct_size: size_of::<LensmapContextOptions>() as u32,
         validation: 1,
@@ -157,6 +158,7 @@ fn assert_no_validation_messages(context: *mut LensmapContext) {
 /// The Rust API's frame for the same scene, camera and options.
 /// lensmap's Rust API on its own device, validation on: what ABI frames are compared with.
 fn validated_runner() -> FrameRunner {
+    lensmap_tests::one_validated_test_at_a_time();
     let gpu = Gpu::new(&GpuOptions {
         validation: true,
         ..GpuOptions::default()

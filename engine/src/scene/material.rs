@@ -60,6 +60,17 @@ pub struct Coat {
 }
 
 impl Material {
+    /// The material's kind as a scene file names it (`glass`, `mirror`, `diffuse`, `glossy`),
+    /// for messages.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Material::Glass { .. } => "glass",
+            Material::Mirror { .. } => "mirror",
+            Material::Diffuse { .. } => "diffuse",
+            Material::Glossy(_) => "glossy",
+        }
+    }
+
     /// Whether this material makes a lens object (glass or mirror), i.e. is ray traced rather
     /// than approximated by environment maps.
     pub fn is_lens(&self) -> bool {

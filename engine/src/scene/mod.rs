@@ -1,4 +1,4 @@
-//! The scene model: scene files (TOML), meshes (OBJ through tobj, built-in shapes, the Newell
+//! The scene model: scene files (TOML), meshes (OBJ read by lensmap, built-in shapes, the Newell
 //! teapot), materials, lights, the environment at infinity, lens objects, the camera and the view
 //! space. [`Scene::load`] parses and checks a file and builds every mesh in world space; anything
 //! wrong is one [`SceneError`] line, `<file>: <field>: <what is wrong>; <fix>`.
@@ -95,6 +95,9 @@ pub struct Scene {
     pub camera: Camera,
     /// The viewpoint samples for baking.
     pub view_space: ViewSpace,
+    /// What loading accepted with a fallback, one line each naming the file and line (an OBJ's
+    /// empty `usemtl`): a front end says them once.
+    pub warnings: Vec<String>,
 }
 
 /// One object: a world-space mesh and its material.

@@ -192,7 +192,7 @@ impl EmChoice {
 }
 
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
-    let scene = Scene::load_named(&args.scene)?;
+    let scene = crate::common::load_scene(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = args.frame.options()?;
     let script = match &args.script {

@@ -49,8 +49,9 @@ impl Loader<'_> {
                         ),
                     ));
                 };
-                if !materials[objects[object].material].is_lens() {
-                    return Err(self.error(member_field, format!("object \"{name}\" is diffuse, but a lens is made of glass or mirror objects"), "give the object a glass or mirror material, or leave it out of the lens"));
+                let material = &materials[objects[object].material];
+                if !material.is_lens() {
+                    return Err(self.error(member_field, format!("object \"{name}\" is {}, but a lens is made of glass or mirror objects", material.kind()), "give the object a glass or mirror material, or leave it out of the lens"));
                 }
                 if let Some(other) = owner[object] {
                     return Err(self.error(

@@ -46,6 +46,8 @@ const CAMERA_EPSILON: f32 = 1e-6;
 struct Loader<'a> {
     file: &'a Path,
     base: PathBuf,
+    /// The scene's warnings so far ([`Scene::warnings`]).
+    warnings: std::cell::RefCell<Vec<String>>,
 }
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -56,7 +58,11 @@ pub(crate) fn scene_from_toml(text: &str, origin: &Path) -> Result<Scene> {
     let parsed: SceneFile =
         toml::from_str(text).map_err(|e| SceneError::from_toml(origin, text, &e))?;
     let base = origin.parent().map_or_else(PathBuf::new, Path::to_path_buf);
-    let loader = Loader { file: origin, base };
+    let loader = Loader {
+        file: origin,
+        base,
+        warnings: Default::default(),
+    };
     let parsed = match parsed.extends.clone() {
         Some(name) => loader.extended(&name, parsed, text)?,
         None => parsed,
@@ -200,6 +206,7 @@ impl Loader<'_> {
             lenses,
             camera,
             view_space,
+            warnings: self.warnings.take(),
         })
     }
 }

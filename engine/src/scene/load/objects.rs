@@ -226,13 +226,31 @@ impl Loader<'_> {
                 ),
             ));
         }
-        let mut mesh = obj::load_obj(&resolved, smooth_normals).map_err(|e| {
+        let obj = obj::load_obj(&resolved, smooth_normals).map_err(|e| {
             self.error(
                 &path_field,
                 format!("{}: not a readable OBJ ({e})", resolved.display()),
                 "export the mesh as a Wavefront OBJ with v/vn/vt/f records",
             )
         })?;
+        self.warnings
+            .borrow_mut()
+            .extend(obj.warnings.iter().map(|w| {
+                format!(
+                    "{}: {path_field}: {}: {w}",
+                    self.file.display(),
+                    resolved.display()
+                )
+            }));
+        let mut mesh = obj.mesh;
+        // A problem with a triangle names the OBJ line of its face.
+        let line_of = |problem: &MeshProblem| match problem {
+            MeshProblem::Degenerate { first, .. } => obj
+                .lines
+                .get(*first)
+                .map_or_else(String::new, |line| format!(" (a face on line {line})")),
+            _ => String::new(),
+        };
         // Before the check: a huge triangle's area overflows and would be called degenerate.
         self.mesh_within_scene(&path_field, &mesh, &format!("{}:", resolved.display()))?;
         let fix = "remove those triangles from the OBJ, or set drop_degenerate = true to have them dropped";
@@ -251,7 +269,7 @@ impl Loader<'_> {
             Err(problem @ MeshProblem::Degenerate { .. }) => {
                 return Err(self.error(
                     &path_field,
-                    format!("{}: {problem}", resolved.display()),
+                    format!("{}: {problem}{}", resolved.display(), line_of(&problem)),
                     fix,
                 ));
             }

@@ -298,10 +298,10 @@ objects = ["ball"]
             &dir,
             Edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
             "objects[1].obj.path",
-            "NaN or infinite",
-            "finite numbers",
+            "line 3 (`v nan 1 0`): `nan` is not a finite number",
+            "Wavefront OBJ",
         );
-        assert!(error.to_string().contains("vertex 2"), "{error}");
+        assert!(error.to_string().contains("bad.obj"), "{error}");
     }
 
     #[test]
@@ -316,8 +316,8 @@ objects = ["ball"]
             &dir,
             Edit("plane = { size = [4, 4] }", "obj = { path = \"bad.obj\" }"),
             "objects[1].obj.path",
-            "NaN or infinite",
-            "finite numbers",
+            "line 2 (`v inf 0 0`): `inf` is not a finite number",
+            "Wavefront OBJ",
         );
     }
 
@@ -332,7 +332,7 @@ objects = ["ball"]
             &dir,
             Edit("plane = { size = [4, 4] }", "obj = { path = \"flat.obj\" }"),
             "objects[1].obj.path",
-            "2 degenerate (zero-area) triangle(s), the first is triangle 1",
+            "2 degenerate (zero-area) triangle(s), the first is triangle 1 (0-based) (a face on line 7)",
             "drop_degenerate = true",
         );
 

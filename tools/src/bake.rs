@@ -21,6 +21,9 @@ use serde_json::json;
 
 use crate::common::{BadUsage, OnOff, progress_shown, report};
 
+/// The modes that do not bake layered EMs, and so take none of the layered bake's options.
+const LAYERED_ONLY: [&str; 3] = ["compress", "merge", "radiance_maps"];
+
 #[derive(Args)]
 #[command(after_help = "Examples:
   lensmap bake --scene teapot-room --samples 0,1 --out out/bake
@@ -43,45 +46,45 @@ pub struct BakeArgs {
     /// Layers per lens object, placed by clustering with fitted shells: auto (as many as the
     /// scene names, else as many as help) or a count; or scene (the scene's named shells as
     /// they are); or bounce (reflectors: a local ellipsoid over a distant box, the PEM paper's).
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value = "auto", conflicts_with_all = LAYERED_ONLY)]
     layers: String,
     /// EM face size: auto (the finest level read at sample 0, up to 128) or a power of two.
-    #[arg(long, default_value = "auto")]
+    #[arg(long, default_value = "auto", conflicts_with_all = LAYERED_ONLY)]
     em_size: String,
     /// Views per sample, spread over its share of the view space (1: the sample alone).
-    #[arg(long, default_value_t = lensmap_baker::bake::DEFAULT_MULTI_VIEW)]
+    #[arg(long, default_value_t = lensmap_baker::bake::DEFAULT_MULTI_VIEW, conflicts_with_all = LAYERED_ONLY)]
     multi_view: usize,
     /// One more view per sample, raised this many degrees above it, for cameras that leave the
     /// view space's circle (0: none).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     view_elevation_degrees: f64,
     /// Target views' width in pixels.
-    #[arg(long, default_value_t = 640)]
+    #[arg(long, default_value_t = 640, conflicts_with_all = LAYERED_ONLY)]
     width: u32,
     /// Target views' height in pixels.
-    #[arg(long, default_value_t = 480)]
+    #[arg(long, default_value_t = 480, conflicts_with_all = LAYERED_ONLY)]
     height: u32,
     /// Target views' k×k supersampling.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, conflicts_with_all = LAYERED_ONLY)]
     supersampling: u32,
     /// Tessellation threshold t of the frames the EMs are fitted through, subpixels.
-    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     t: f32,
     /// Confidence threshold θc, degrees.
-    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     confidence_degrees: f64,
     /// The solver stops at this relative residual of the normal equations.
-    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     tolerance: f64,
     /// Share the farthest layer between lens objects that see the same scene objects there:
     /// one map on one shell, solved on every sharing lens object's equations (fewer maps to
     /// store; measured less accurate on teapot-room, so off by default).
-    #[arg(long, value_enum, default_value = "off")]
+    #[arg(long, value_enum, default_value = "off", conflicts_with_all = LAYERED_ONLY)]
     share_layers: OnOff,
     /// Direct images from the EM origin for the texels no lens view constrains.
-    #[arg(long, value_enum, default_value = "off")]
+    #[arg(long, value_enum, default_value = "off", conflicts_with_all = LAYERED_ONLY)]
     direct_images: OnOff,
-    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP)]
+    #[arg(long, value_enum, default_value = "on", help = crate::common::HULL_SPLIT_HELP, conflicts_with_all = LAYERED_ONLY)]
     hull_split: OnOff,
     /// Bake only shard I of N: every N-th requested sample, starting at the I-th.
     #[arg(long, value_name = "I/N")]
@@ -93,7 +96,7 @@ pub struct BakeArgs {
     pub(crate) resume: bool,
     /// Skip measuring each sample's lens PSNR against a reference (saves a reference trace per
     /// sample; the maps are the same).
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = LAYERED_ONLY)]
     no_judge: bool,
     /// Bake the glossy objects' radiance environment maps (reflection-space IBR) instead of
     /// layered EMs: one map per lobe per view sample of --views; --samples, --shard, --resume
@@ -123,14 +126,12 @@ pub struct BakeArgs {
     /// With --compress: a keyframe every this many samples of a layer (1: no coding across
     /// samples); one sample decodes from at most this many files.
     #[arg(long, default_value_t = lensmap::layers::bake::compress::DEFAULT_KEYFRAME_INTERVAL,
-          value_parser = clap::value_parser!(u32).range(1..=i64::from(lensmap::layers::bake::compress::MAX_KEYFRAME_INTERVAL)),
-          requires = "compress")]
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(lensmap::layers::bake::compress::MAX_KEYFRAME_INTERVAL)))]
     keyframe_interval: u32,
     /// With --compress: round away this many of the 23 low mantissa bits of every value
     /// first (lossy; relative error at most 2^(bits − 24)); 0 is lossless.
     #[arg(long, default_value_t = 0,
-          value_parser = clap::value_parser!(u32).range(0..=i64::from(lensmap::layers::bake::compress::codec::MAX_DROPPED_MANTISSA_BITS)),
-          requires = "compress")]
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(lensmap::layers::bake::compress::codec::MAX_DROPPED_MANTISSA_BITS)))]
     drop_mantissa_bits: u32,
 }
 
@@ -163,6 +164,9 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
         samples = shard_samples(&samples, parse_shard(spec)?);
     }
     options.validate()?;
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let mut runner = lensmap::runner::FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     // The baker's test renderings and judged frames are RGBA32F at the targets' size.
     runner.check_framebuffer(
@@ -265,6 +269,9 @@ pub fn run(args: BakeArgs) -> anyhow::Result<()> {
 
 /// `lensmap bake --merge DIR… --out OUT`: joins shards into `out` and reports the samples.
 fn run_merge(args: &BakeArgs, out: &std::path::Path) -> anyhow::Result<()> {
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let manifest = merge(&args.merge, out)?;
     let samples = manifest
         .provenance
@@ -319,6 +326,9 @@ fn run_compress(args: &BakeArgs, source: &std::path::Path) -> anyhow::Result<()>
         keyframe_interval: args.keyframe_interval,
         dropped_mantissa_bits: args.drop_mantissa_bits,
     };
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let summary = lensmap::layers::bake::compress(source, out, &options)?;
     let mut decode = summary.decode_seconds.clone();
     decode.sort_by(f64::total_cmp);

@@ -15,6 +15,9 @@ use serde_json::json;
 use crate::bake::BakeArgs;
 use crate::common::{BadUsage, report};
 
+/// The largest face size of a radiance map (`--map-size`): 6 × 1024² texels, 24 MB per lobe.
+pub const MAX_MAP_SIZE: u32 = 1024;
+
 /// The map options the arguments ask for.
 fn options(args: &BakeArgs) -> anyhow::Result<RadianceMapOptions> {
     if GlossyViews::geodesic(args.views).is_none() {
@@ -25,7 +28,7 @@ fn options(args: &BakeArgs) -> anyhow::Result<RadianceMapOptions> {
         ))
         .into());
     }
-    if !(1..=1024).contains(&args.map_size) || args.map_samples < 2 {
+    if !(1..=MAX_MAP_SIZE).contains(&args.map_size) || args.map_samples < 2 {
         return Err(BadUsage(format!(
             "--map-size {} --map-samples {}: give a face size in [1, 1024] and at least 2 samples per texel",
             args.map_size, args.map_samples
@@ -43,6 +46,9 @@ fn options(args: &BakeArgs) -> anyhow::Result<RadianceMapOptions> {
 /// Runs `lensmap bake --radiance-maps`.
 pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
     if !args.merge.is_empty() {
+        if crate::common::validate_only() {
+            return Ok(());
+        }
         let manifest = merge(&args.merge, out)?;
         let samples: Vec<usize> = manifest.samples.iter().map(|r| r.sample).collect();
         report(
@@ -69,6 +75,9 @@ pub fn run(args: &BakeArgs, out: &Path) -> anyhow::Result<()> {
     let mut samples = parse_samples(&args.samples, views.directions().len(), &scene.name)?;
     if let Some(spec) = &args.shard {
         samples = shard_samples(&samples, parse_shard(spec)?);
+    }
+    if crate::common::validate_only() {
+        return Ok(());
     }
     let template = RadianceManifest::template(&scene, &options);
     let staging = RadianceStaging::open(out, template.identity.clone(), args.resume)?;

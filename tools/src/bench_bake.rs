@@ -167,6 +167,9 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_id().clone();
     let mut steps = crate::common::Steps::new(4);

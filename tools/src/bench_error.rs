@@ -464,6 +464,9 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     }
     let scene = checked_scene(&args)?;
     let sweep = Sweep::new(&scene, &args);
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let device = runner.gpu().device_id().clone();
     let base = scene.camera.with_resolution(args.width, args.height, 1);

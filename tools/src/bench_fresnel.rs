@@ -83,6 +83,9 @@ pub fn run(args: BenchFresnelArgs) -> anyhow::Result<()> {
     for name in &args.scene {
         materials.extend(lens_interfaces(&crate::common::load_scene(name)?));
     }
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     say!(
         "{:>6} {:>10} {:>10} {:>10}   largest error over 0–90° of (1 − cos θ)⁵ through the table",
         "texels",

@@ -35,11 +35,13 @@ pub struct BenchGlossyArgs {
     /// View-sample counts compared (geodesic: 12, 42, 162).
     #[arg(long, value_delimiter = ',', default_values_t = [12, 42, 162])]
     views: Vec<usize>,
-    /// Radiance maps' face size.
-    #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SIZE)]
+    /// Radiance maps' face size, 1 to 1024 texels (as `bake --radiance-maps` takes).
+    #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SIZE,
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::bake_radiance::MAX_MAP_SIZE)))]
     map_size: u32,
-    /// Directions sampled per map texel.
-    #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SAMPLES)]
+    /// Directions sampled per map texel, at least 2.
+    #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SAMPLES,
+          value_parser = clap::value_parser!(u32).range(2..))]
     map_samples: u32,
     /// Directions sampled per pixel by the reference.
     #[arg(long, default_value_t = 2048)]
@@ -198,6 +200,12 @@ pub fn run(args: BenchGlossyArgs) -> anyhow::Result<()> {
             ))
             .into());
         }
+    }
+    if crate::common::validate_only() {
+        for scene_name in &args.scenes {
+            crate::common::load_scene(scene_name)?;
+        }
+        return Ok(());
     }
     let mut results = Vec::new();
     let mut timings = Vec::new();

@@ -60,6 +60,9 @@ pub struct BenchHybridArgs {
 
 pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let (frame_options, projected, scene, camera) = checked(&args)?;
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let hybrid_options = frame_options.hybrid;
     // The device and the framebuffer's fit first: refused before the scene's preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;

@@ -82,6 +82,9 @@ pub fn run(args: BenchInferArgs) -> anyhow::Result<()> {
     let scene = crate::common::load_scene(&args.scene)?;
     let camera = args.judge.frame_camera(&scene.camera);
     let reference_camera = args.judge.reference_camera(&camera);
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let mut steps = Steps::new(4);
     let step = steps.step("projected layered EMs and light maps");

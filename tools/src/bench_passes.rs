@@ -177,6 +177,9 @@ fn error(
 
 pub fn run(args: BenchPassesArgs) -> anyhow::Result<()> {
     check(&args)?;
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     let frames = frames(&args)?;
     say!(

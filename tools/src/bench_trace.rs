@@ -88,6 +88,9 @@ struct BenchReport {
 /// Runs `lensmap bench trace`.
 pub fn run(args: BenchTraceArgs) -> anyhow::Result<()> {
     let runs = args.runs.max(1);
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let mut speed = Vec::new();
     let mut comparisons = Vec::new();
     say!(

@@ -56,6 +56,8 @@ pub struct Voice {
     /// `--quiet`: no progress and no human-readable report (errors, warnings and the `--json`
     /// document still print).
     pub quiet: bool,
+    /// `--validate-only`: every check, then exit 0 before any work ([`validate_only`]).
+    pub validate_only: bool,
 }
 
 static VOICE: OnceLock<Voice> = OnceLock::new();
@@ -68,6 +70,13 @@ pub fn set_voice(voice: Voice) {
 /// How the commands talk (the default before [`set_voice`]: human, not quiet).
 pub fn voice() -> Voice {
     VOICE.get().copied().unwrap_or_default()
+}
+
+/// Whether the command stops here, its checks done (`--validate-only`): each command asks once,
+/// after its last check of the command line and the files it names and before it makes a device
+/// or allocates for the work.
+pub fn validate_only() -> bool {
+    voice().validate_only
 }
 
 /// The exit status after stdout was closed: 128 + SIGPIPE, what a shell reports for a program
@@ -88,7 +97,7 @@ pub fn say_line(line: std::fmt::Arguments) {
 
 /// Writes one line to stdout; remembers a closed stdout and prints nothing more. Other write
 /// errors are ignored (a full disk behind a redirect does not stop the work).
-fn write_stdout(line: std::fmt::Arguments) {
+pub fn write_stdout(line: std::fmt::Arguments) {
     use std::io::Write as _;
     if STDOUT_CLOSED.load(Ordering::Relaxed) {
         return;

@@ -87,6 +87,9 @@ pub fn run(args: DemoArgs) -> anyhow::Result<()> {
     }
     let started = Instant::now();
     let (scene, camera, projected) = checked(&args)?;
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     // The GPU first: without a driver the demo stops here with exit code 2.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     runner.check_framebuffer(&camera, TargetFormat::Rgba16f)?;
@@ -456,6 +459,9 @@ fn synthetic_demo(args: &DemoArgs) -> anyhow::Result<()> {
             args.frames
         ))
         .into());
+    }
+    if crate::common::validate_only() {
+        return Ok(());
     }
     let started = Instant::now();
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;

@@ -17,6 +17,7 @@ mod bench_trace;
 mod demo;
 mod frame_args;
 mod interrupt;
+mod modes;
 mod pareto;
 mod passes;
 mod reference;
@@ -52,6 +53,10 @@ struct Cli {
     /// No progress and no human-readable report (errors, warnings and --json still print).
     #[arg(long, short, global = true)]
     quiet: bool,
+    /// Check the command line, the scene and the files it names as the command would, then exit
+    /// 0 before any work: no device, no large allocation, nothing written.
+    #[arg(long, global = true)]
+    validate_only: bool,
 }
 
 /// What every `--help` ends with: the exit codes and the environment variables.
@@ -112,6 +117,10 @@ enum Command {
     /// Benchmarks (medians of repeated runs, ratios measured in the same run).
     #[command(subcommand)]
     Bench(BenchCommand),
+    /// Every option of every command as JSON lines (command, option, value type, help), for
+    /// the tests that walk them.
+    #[command(hide = true)]
+    OptionTree,
 }
 
 #[derive(Subcommand)]
@@ -184,9 +193,12 @@ fn main() -> ExitCode {
     let json_asked = std::env::args_os().any(|a| a == "--json");
     // Usage errors in one line (clap's own message, without the usage block), exit code 2;
     // --help and --version print as clap prints them.
-    let parsed = command_with_footer(Cli::command())
-        .try_get_matches()
-        .and_then(|matches| Cli::from_arg_matches(&matches));
+    // An option given in a mode that ignores it is a usage error too (modes::check).
+    let command = command_with_footer(Cli::command());
+    let parsed = command.clone().try_get_matches().and_then(|matches| {
+        modes::check(&command, &matches)?;
+        Cli::from_arg_matches(&matches)
+    });
     let cli = match parsed {
         Ok(cli) => cli,
         // --help, --version, and a bare `lensmap` or `lensmap bench` (help on stderr, exit 2).
@@ -218,6 +230,7 @@ fn main() -> ExitCode {
     common::set_voice(common::Voice {
         json: cli.json,
         quiet: cli.quiet,
+        validate_only: cli.validate_only,
     });
     common::warn_of_file_size_limit();
     let result = match cli.command {
@@ -235,6 +248,10 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Error(args)) => bench_error::run(args),
         Command::Bench(BenchCommand::Fresnel(args)) => bench_fresnel::run(args),
         Command::Bench(BenchCommand::Glossy(args)) => bench_glossy::run(args),
+        Command::OptionTree => {
+            modes::print_tree(&Cli::command());
+            Ok(())
+        }
     };
     match result {
         Ok(()) => common::exit_status(),

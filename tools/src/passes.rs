@@ -87,6 +87,9 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
     };
     let (graph, _) = frame_graph(&shape, &options)
         .map_err(|error| BadUsage(format!("--layers {}: {error}", args.layers)))?;
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let plan = graph.compile()?;
     let counts = json!({
         "tessellation": plan.count(PassCategory::Tessellation),

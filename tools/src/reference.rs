@@ -117,6 +117,9 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     let mut steps = Steps::new(3);
     let scene = crate::common::load_scene(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let step = steps.step("preparing the scene for ray tracing");
     let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;
     step.finish_and_clear();

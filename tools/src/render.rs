@@ -122,6 +122,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Some(dir) => EmSource::Bake(dir.clone()),
         None => EmSource::Projected(projected),
     };
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     // The GPU first: without a driver, fail before the expensive preparation.
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     runner.check_framebuffer(&camera, options.format)?;

@@ -258,6 +258,13 @@ impl Reader {
             .iter()
             .map(|w| self.corner(w))
             .collect::<Result<Vec<Corner>, String>>()?;
+        if let [a, b, c] = corners[..] {
+            // A triangle as written, a repeated corner too: the mesh check calls it degenerate,
+            // naming its line (and `drop_degenerate` drops it).
+            let [a, b, c] = [a, b, c].map(|corner| self.vertex(corner));
+            self.triangles.push([a, b, c]);
+            return Ok(());
+        }
         // A corner repeated at once (an exporter's zero-length edge) is one corner. A position
         // may recur (a polygon with a hole, bridged to it by an edge walked there and back, as
         // LightWave writes one), but an edge walked twice the same way means the polygon winds
@@ -283,8 +290,8 @@ impl Reader {
             ));
         }
         let vertices: Vec<u32> = corners.iter().map(|c| self.vertex(*c)).collect();
-        if vertices.len() == 3 {
-            self.triangles.push([vertices[0], vertices[1], vertices[2]]);
+        if let [a, b, c] = vertices[..] {
+            self.triangles.push([a, b, c]);
             return Ok(());
         }
         let points: Vec<DVec3> = corners
@@ -491,6 +498,10 @@ mod tests {
                 "from position 1 to 2 twice",
             ),
             ("v 0 0 0\nv 1 0 0\nf 1 2 2 1\n", "2 distinct corner(s)"),
+            (
+                "v 0 0 0\nv 1 0 0\nf 1 2 1 2\n",
+                "from position 1 to 2 twice",
+            ),
         ];
         for (text, wanted) in cases {
             let error = parse(text).unwrap_err();

@@ -47,14 +47,14 @@ pub struct ViewArgs {
     /// frame-NNNN.png and .exr per frame and stats.csv.
     #[arg(long, value_name = "DIR", conflicts_with = "script")]
     pub record: Option<PathBuf>,
-    /// The camera path of --record: `orbit` (a full turn around the camera's look-at point in
-    /// --frames frames, starting at the camera) or a path file (TOML `[[poses]]` with position
-    /// and look_at; docs/viewer.md).
+    /// With --record: the camera path, `orbit` (a full turn around the camera's look-at point
+    /// in --frames frames, starting at the camera) or a path file (TOML `[[poses]]` with
+    /// position and look_at; docs/viewer.md).
     #[arg(long, default_value = "orbit", value_name = "orbit|FILE")]
     pub path: String,
-    /// Frames of an orbit.
-    #[arg(long, default_value_t = 60)]
-    pub frames: usize,
+    /// With --record: frames of an orbit (a path file gives its own), 1 to 100000 [default: 60].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ORBIT_FRAMES)))]
+    pub frames: Option<u32>,
     /// Replay a script in the window: timed camera moves, key presses, resizes and screenshots,
     /// one step per frame number (docs/viewer.md#scripts); the viewer closes after its last step.
     #[arg(long, value_name = "FILE")]
@@ -191,6 +191,9 @@ impl EmChoice {
     }
 }
 
+/// The most frames an orbit of `--record` may have (at 60 frames a second, 28 minutes).
+pub const MAX_ORBIT_FRAMES: u32 = 100_000;
+
 pub fn run(args: ViewArgs) -> anyhow::Result<()> {
     let scene = crate::common::load_scene(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
@@ -200,6 +203,9 @@ pub fn run(args: ViewArgs) -> anyhow::Result<()> {
         None => None,
     };
     let ems = EmChoice::choose(&args, &scene, &camera)?;
+    if args.record.is_none() && crate::common::validate_only() {
+        return Ok(());
+    }
     match &args.record {
         Some(dir) => record::run(&args, dir, scene, camera, &options, &ems),
         None => window::run(

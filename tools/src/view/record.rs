@@ -30,15 +30,22 @@ pub(super) fn run(
     ems: &EmChoice,
 ) -> anyhow::Result<()> {
     let path = if args.path == "orbit" {
-        if args.frames == 0 {
-            return Err(BadUsage("--frames 0: an orbit needs at least 1 frame".into()).into());
-        }
         let mut centred = scene.clone();
         centred.camera = base;
-        CameraPath::orbit(&centred, args.frames)
+        // Bounded by clap (1 to MAX_ORBIT_FRAMES): the poses are made up front.
+        CameraPath::orbit(&centred, args.frames.unwrap_or(60) as usize)
+    } else if let Some(frames) = args.frames {
+        return Err(BadUsage(format!(
+            "--frames {frames}: it counts the frames of --path orbit, and the path file {} gives its own poses; remove --frames",
+            args.path
+        ))
+        .into());
     } else {
         CameraPath::load(Path::new(&args.path), &base)?
     };
+    if crate::common::validate_only() {
+        return Ok(());
+    }
     let mut runner = FrameRunner::new(Gpu::new(&GpuOptions::from_env())?)?;
     runner.check_framebuffer(&base, options.format)?;
     let hybrid = ems.load(&scene, ems.inferred_first)?;

@@ -522,7 +522,7 @@ fn checked_scene(args: &BenchErrorArgs) -> anyhow::Result<Scene> {
         .into());
     }
     let scene = crate::common::load_scene(&args.scene)?;
-    if args.sample + 1 >= scene.view_space.len() {
+    if args.sample >= scene.view_space.len().saturating_sub(1) {
         return Err(BadUsage(format!(
             "--sample {}: the cameras need samples A and A+1; scene \"{}\" has samples 0..{}",
             args.sample,

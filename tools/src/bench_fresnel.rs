@@ -15,7 +15,7 @@ use lensmap::trace::schlick_table::{
 };
 use serde_json::json;
 
-use crate::common::{flag_error, report};
+use crate::common::{BadUsage, report};
 
 /// Arguments of `lensmap bench fresnel`.
 #[derive(clap::Args, Debug, Clone)]
@@ -75,7 +75,12 @@ pub fn run(args: BenchFresnelArgs) -> anyhow::Result<()> {
     for &texels in &args.texels {
         let table = FresnelModel::Table { texels }
             .table()
-            .map_err(flag_error)?
+            .map_err(|_| {
+                use lensmap::trace::schlick_table::{MAX_TEXELS, MIN_TEXELS};
+                BadUsage(format!(
+                    "--texels {texels}: give table sizes of {MIN_TEXELS} to {MAX_TEXELS} texels"
+                ))
+            })?
             .ok_or_else(|| anyhow::anyhow!("a table model has a table"))?;
         tables.push(table);
     }

@@ -62,13 +62,13 @@ pub struct BenchPassesArgs {
     #[arg(long)]
     scene: Option<String>,
     /// With --scene: the camera position "x,y,z" (default: the scene camera's).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true, requires = "scene")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     camera_position: Option<Vec3>,
     /// With --scene: the point the camera looks at, "x,y,z" (default: the scene camera's).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true, requires = "scene")]
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     look_at: Option<Vec3>,
     /// With --scene: the projected EMs' cube-map face size.
-    #[arg(long, default_value_t = DEFAULT_EM_SIZE, requires = "scene")]
+    #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     em_size: u32,
 }
 

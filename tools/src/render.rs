@@ -91,10 +91,10 @@ pub struct RenderArgs {
     pub compare: bool,
     /// With --compare: also write the frame, the reference and their difference (×4, over the
     /// lens and glossy pixels; black elsewhere) side by side into this PNG (with its EXR).
-    #[arg(long, value_name = "FILE", requires = "compare")]
+    #[arg(long, value_name = "FILE")]
     pub side_by_side: Option<PathBuf>,
     /// With --compare: directions the reference samples per camera ray at a glossy surface.
-    #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES, requires = "compare")]
+    #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES)]
     pub reference_glossy_samples: u32,
     /// Output image: a .png (sRGB) with a linear .exr written beside it (or the .exr, with the
     /// .png beside it), or a folder that gets hybrid.png and hybrid.exr.

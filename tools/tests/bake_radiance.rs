@@ -142,6 +142,22 @@ fn render_draws_from_the_maps_and_refuses_an_incomplete_bake() {
         .expect("a count");
     assert!((5..=15).contains(&read), "{read} maps read");
 
+    // A map removed: a bad bake (exit 2, as a layered bake's missing map), naming the file and
+    // where radiance.json lists it.
+    let removed = maps(&full).into_keys().next().expect("a map");
+    let kept = std::fs::read(full.join(&removed)).expect("the map");
+    std::fs::remove_file(full.join(&removed)).expect("removed");
+    let output = render(&full);
+    assert_eq!(output.status.code(), Some(2), "{output:?}");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains(&removed)
+            && stderr.contains("not found (listed in radiance.json at samples[")
+            && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+    std::fs::write(full.join(&removed), kept).expect("restored");
+
     // A manifest whose stated options were edited is refused, not read as other maps.
     let manifest = full.join("radiance.json");
     let text = std::fs::read_to_string(&manifest).expect("a manifest");

@@ -599,61 +599,64 @@ fn hostile_obj_assets_are_refused_naming_the_object() {
         (
             "index-out-of-range",
             format!("{triangle}f 1 2 7\n").into(),
-            &["out of bounds"],
+            &[
+                "line 4 (`f 1 2 7`)",
+                "position (v) index 7 is not one of the 3",
+            ],
         ),
         // A face naming vertex 4294967295.
         (
             "index-u32-max",
             format!("{triangle}f 1 2 4294967295\n").into(),
-            &["out of bounds"],
+            &["line 4", "index 4294967295 is not one of the 3"],
         ),
         // A face index past every integer type.
         (
             "index-overflow",
             format!("{triangle}f 1 2 99999999999999999999\n").into(),
-            &["face parse error"],
+            &["line 4", "index 99999999999999999999 is not one of the 3"],
         ),
         // Index 0 (OBJ indices start at 1).
         (
             "index-zero",
             format!("{triangle}f 1 2 0\n").into(),
-            &["out of bounds"],
+            &["line 4", "index 0 is not one of the 3"],
         ),
         // A relative index reaching before the first vertex.
         (
             "negative-index",
             format!("{triangle}f 1 2 -9\n").into(),
-            &["out of bounds"],
+            &["line 4", "index -9 is not one of the 3"],
         ),
         // Bytes that are not UTF-8 inside a vertex record.
         (
             "not-utf8",
             b"v 0 0 0\nv 1 0 \xff\xfe 0\nv 0 0 1\nf 1 2 3\n".to_vec(),
-            &["UTF-8"],
+            &["line 2", "is not a number"],
         ),
         // A coordinate that is not a number.
         (
             "word-coordinate",
             b"v 0 0 0\nv abc 0 0\nv 0 0 1\nf 1 2 3\n".to_vec(),
-            &["position parse error"],
+            &["line 2 (`v abc 0 0`)", "`abc` is not a number"],
         ),
         // A NaN normal.
         (
             "nan-normal",
             format!("{triangle}vn nan 1 0\nf 1//1 2//1 3//1\n").into(),
-            &["normal or texture coordinate is NaN or infinite"],
+            &["line 4 (`vn nan 1 0`)", "`nan` is not a finite number"],
         ),
         // A NaN texture coordinate.
         (
             "nan-uv",
             format!("{triangle}vt nan 0\nf 1/1 2/1 3/1\n").into(),
-            &["normal or texture coordinate is NaN or infinite"],
+            &["line 4 (`vt nan 0`)", "`nan` is not a finite number"],
         ),
         // A coordinate that overflows f32 to infinity.
         (
             "overflowing-vertex",
             b"v 0 0 0\nv 1e39 0 0\nv 0 0 1\nf 1 2 3\n".to_vec(),
-            &["NaN or infinite", "vertex 1"],
+            &["line 2 (`v 1e39 0 0`)", "beyond f32"],
         ),
         // Finite but enormous coordinates (refused for their distance, not as "1 degenerate
         // (zero-area) triangle").

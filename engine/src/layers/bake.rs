@@ -313,6 +313,7 @@ impl Bake {
                     if !path.is_file() {
                         return Err(BakeError::MissingMap {
                             path,
+                            manifest: MANIFEST_FILE_NAME,
                             field: format!(
                                 "lenses[{index}].layers[{layer_index}].maps[{viewpoint}]"
                             ),

@@ -529,6 +529,15 @@ fn read_maps_once(
             let mut lobes = Vec::with_capacity(object.lobes.len());
             for &lobe in &object.lobes {
                 let file = dir.join(map_file_name(&object, sample, lobe));
+                // A missing map is a bad bake, as a layered bake's is (exit 2), not a failed
+                // read of the work's.
+                if !file.is_file() {
+                    return Err(BakeError::MissingMap {
+                        path: file,
+                        manifest: RADIANCE_MANIFEST,
+                        field: format!("samples[{sample}]"),
+                    });
+                }
                 lobes.push(Arc::new(read_cube_map_exr(&file, manifest.size)?));
             }
             maps.push(lobes);

@@ -119,10 +119,12 @@ pub enum BakeError {
         dir: PathBuf,
     },
     /// A cube-map file listed in the manifest is missing.
-    #[error("{}: not found (listed in manifest.json at {field}); restore the file or write the bake again", path.display())]
+    #[error("{}: not found (listed in {manifest} at {field}); restore the file or write the bake again", path.display())]
     MissingMap {
         /// The file.
         path: PathBuf,
+        /// The manifest that lists it (`manifest.json`, `radiance.json`).
+        manifest: &'static str,
         /// Where the manifest lists it.
         field: String,
     },

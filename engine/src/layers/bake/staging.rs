@@ -126,6 +126,7 @@ impl Staging {
                     if !self.contains(file) {
                         return Err(BakeError::MissingMap {
                             path: self.path.join(file),
+                            manifest: super::MANIFEST_FILE_NAME,
                             field: format!(
                                 "lenses[{index}].layers[{layer_index}].maps[{viewpoint}]"
                             ),

@@ -148,8 +148,9 @@ impl Loader<'_> {
             return Err(self.error(
                 field,
                 format!(
-                    "layers by bounce are for reflectors, but object \"{}\" is glass",
-                    objects[glass].name
+                    "layers by bounce are for reflectors, but object \"{}\" is {}",
+                    objects[glass].name,
+                    materials[objects[glass].material].kind()
                 ),
                 "leave layering out (by distance) for a lens with glass",
             ));

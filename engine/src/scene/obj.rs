@@ -90,16 +90,16 @@ fn decode(bytes: &[u8]) -> Result<String, String> {
     match bytes {
         [0xFE, 0xFF, ..] => utf16(true),
         [0xFF, 0xFE, ..] => utf16(false),
-        [0xEF, 0xBB, 0xBF, rest @ ..] => text_of(rest),
-        _ => text_of(bytes),
+        [0xEF, 0xBB, 0xBF, rest @ ..] => Ok(text_of(rest)),
+        _ => Ok(text_of(bytes)),
     }
 }
 
 /// UTF-8 text; bytes that are not (a Latin-1 group or material name, as old exporters write)
 /// become U+FFFD. Records are ASCII: such bytes can stand only in names and comments, which carry
 /// nothing lensmap reads, or in a number, which is then refused naming its line.
-fn text_of(bytes: &[u8]) -> Result<String, String> {
-    Ok(String::from_utf8_lossy(bytes).into_owned())
+fn text_of(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
 }
 
 /// One face corner: its position, texture coordinate and normal indices (0-based).

@@ -52,28 +52,36 @@ pub struct BakeArgs {
     #[arg(long, default_value = "auto", conflicts_with_all = LAYERED_ONLY)]
     em_size: String,
     /// Views per sample, spread over its share of the view space (1: the sample alone).
+    /// Range: [1, 9].
     #[arg(long, default_value_t = lensmap_baker::bake::DEFAULT_MULTI_VIEW, conflicts_with_all = LAYERED_ONLY)]
     multi_view: usize,
     /// One more view per sample, raised this many degrees above it, for cameras that leave the
     /// view space's circle (0: none).
+    /// Range: [0, 90).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     view_elevation_degrees: f64,
     /// Target views' width in pixels.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 640, conflicts_with_all = LAYERED_ONLY)]
     width: u32,
     /// Target views' height in pixels.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 480, conflicts_with_all = LAYERED_ONLY)]
     height: u32,
     /// Target views' k×k supersampling.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 3, conflicts_with_all = LAYERED_ONLY)]
     supersampling: u32,
     /// Tessellation threshold t of the frames the EMs are fitted through, subpixels.
+    /// Range: (0, ∞).
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     t: f32,
     /// Confidence threshold θc, degrees.
+    /// Range: (0, 180).
     #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     confidence_degrees: f64,
     /// The solver stops at this relative residual of the normal equations.
+    /// Range: (0, 1).
     #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     tolerance: f64,
     /// Share the farthest layer between lens objects that see the same scene objects there:
@@ -104,15 +112,19 @@ pub struct BakeArgs {
     #[arg(long, conflicts_with = "compress")]
     pub(crate) radiance_maps: bool,
     /// With --radiance-maps: view samples, an icosahedron (12) or its subdivisions (42, 162).
+    /// Range: one of 12, 42, 162.
     #[arg(long, default_value_t = lensmap::rsibr::views::DEFAULT_VIEW_COUNT)]
     pub(crate) views: usize,
     /// With --radiance-maps: face size of the maps, texels (rounded up to a power of two).
+    /// Range: [1, 1024].
     #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SIZE)]
     pub(crate) map_size: u32,
-    /// With --radiance-maps: directions sampled per texel (≥ 2).
+    /// With --radiance-maps: directions sampled per texel.
+    /// Range: [2, 65536].
     #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SAMPLES)]
     pub(crate) map_samples: u32,
     /// With --radiance-maps: seed of the samples.
+    /// Range: any.
     #[arg(long, default_value_t = 0)]
     pub(crate) map_seed: u64,
     /// Join these shard directories into --out instead of baking.
@@ -125,11 +137,13 @@ pub struct BakeArgs {
     compress: Option<PathBuf>,
     /// With --compress: a keyframe every this many samples of a layer (1: no coding across
     /// samples); one sample decodes from at most this many files.
+    /// Range: [1, 1024].
     #[arg(long, default_value_t = lensmap::layers::bake::compress::DEFAULT_KEYFRAME_INTERVAL,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(lensmap::layers::bake::compress::MAX_KEYFRAME_INTERVAL)))]
     keyframe_interval: u32,
     /// With --compress: round away this many of the 23 low mantissa bits of every value
     /// first (lossy; relative error at most 2^(bits − 24)); 0 is lossless.
+    /// Range: [0, 20].
     #[arg(long, default_value_t = 0,
           value_parser = clap::value_parser!(u32).range(0..=i64::from(lensmap::layers::bake::compress::codec::MAX_DROPPED_MANTISSA_BITS)))]
     drop_mantissa_bits: u32,

@@ -47,6 +47,7 @@ pub struct BenchBakeArgs {
     #[arg(long, num_args = 1.., required = true)]
     bake: Vec<PathBuf>,
     /// Viewpoint sample A.
+    /// Range: [0, ∞) (A and A + 1 must be samples of the scene).
     #[arg(long, default_value_t = 0)]
     sample: usize,
     #[command(flatten)]
@@ -55,6 +56,7 @@ pub struct BenchBakeArgs {
     #[command(flatten)]
     frame: FrameArgs,
     /// Projected EMs' face size (the baseline).
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = 128)]
     em_size: u32,
     /// Also write the JSON results to this file (--json prints them on stdout).

@@ -50,18 +50,23 @@ pub struct BenchErrorArgs {
     #[arg(long, value_name = "DIR")]
     bake: Option<PathBuf>,
     /// Viewpoint sample A the three cameras are placed around.
+    /// Range: [0, ∞) (A and A + 1 must be samples of the scene).
     #[arg(long, default_value_t = 2)]
     sample: usize,
     /// Frame width.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 320)]
     width: u32,
     /// Frame height.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 240)]
     height: u32,
     /// Supersampling k×k of the reference the frames are judged against.
+    /// Range: [2, 16384].
     #[arg(long, default_value_t = 4)]
     reference_supersampling: u32,
     /// Timed frames per setting and camera (after one warm-up frame); the median counts.
+    /// Range: [1, 100000].
     #[arg(long, default_value_t = 3)]
     frames: usize,
     /// Only every setting whose label contains this text (the default and the baselines always

@@ -26,11 +26,13 @@ pub struct BenchFresnelArgs {
     /// Built-in scene name or path; repeat for several. Each distinct lens material is measured.
     #[arg(long, default_values_t = ["mirror-teapot".to_owned(), "glass-sphere".to_owned()])]
     pub scene: Vec<String>,
-    /// Table sizes, texels (2 to 4096), comma-separated.
+    /// Table sizes, texels, comma-separated.
+    /// Range: [2, 4096].
     #[arg(long, value_delimiter = ',', default_values_t = [16, 32, 64, 256])]
     pub texels: Vec<u32>,
     /// Incidence cosines sampled over 0–90°, uniform in the angle and as many again uniform in
     /// the cosine.
+    /// Range: [2, 16777216].
     #[arg(long, default_value_t = 1 << 18)]
     pub samples: u32,
     /// Also write the JSON results to this file (--json prints them on stdout).

@@ -33,32 +33,41 @@ pub struct BenchGlossyArgs {
     #[arg(long, value_delimiter = ',', default_values_t = lensmap::scene::GLOSSY_SCENES.map(String::from))]
     scenes: Vec<String>,
     /// View-sample counts compared (geodesic: 12, 42, 162).
+    /// Range: one of 12, 42, 162.
     #[arg(long, value_delimiter = ',', default_values_t = [12, 42, 162])]
     views: Vec<usize>,
-    /// Radiance maps' face size, 1 to 1024 texels (as `bake --radiance-maps` takes).
+    /// Radiance maps' face size, texels (as `bake --radiance-maps` takes).
+    /// Range: [1, 1024].
     #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SIZE,
           value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::bake_radiance::MAX_MAP_SIZE)))]
     map_size: u32,
-    /// Directions sampled per map texel, at least 2.
+    /// Directions sampled per map texel.
+    /// Range: [2, 65536].
     #[arg(long, default_value_t = lensmap::rsibr::maps::DEFAULT_MAP_SAMPLES,
           value_parser = clap::value_parser!(u32).range(2..))]
     map_samples: u32,
     /// Directions sampled per pixel by the reference.
+    /// Range: [2, 1048576].
     #[arg(long, default_value_t = 2048)]
     reference_samples: u32,
     /// Frame width, pixels.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 160)]
     width: u32,
     /// Frame height, pixels.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 120)]
     height: u32,
     /// Camera distance from the object's centre, metres.
+    /// Range: (0, 100000].
     #[arg(long, default_value_t = 2.0)]
     distance: f64,
     /// Frames rendered per variant for the glossy pass's time (0: no timing).
+    /// Range: [0, 100000].
     #[arg(long, default_value_t = 9)]
     frames: usize,
     /// Width of the timed frames, pixels (the height is 3/4 of it).
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 640)]
     frame_width: u32,
     /// Also write the JSON results to this file.

@@ -35,12 +35,15 @@ pub struct BenchHybridArgs {
     #[arg(long, default_value = "teapot-room")]
     scene: String,
     /// Frame width.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 640)]
     width: u32,
     /// Frame height.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 480)]
     height: u32,
     /// Supersampling k×k of the framebuffer.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 1)]
     supersampling: u32,
     /// How the frames are made (`--tracer`: where the per-stage table and the camera runs trace
@@ -48,12 +51,15 @@ pub struct BenchHybridArgs {
     #[command(flatten)]
     frame: FrameArgs,
     /// Projected EMs: cube-map face size.
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     em_size: u32,
     /// Timed frames per variant (after two warm-up frames).
+    /// Range: [1, 100000].
     #[arg(long, default_value_t = 9)]
     frames: usize,
     /// Also write the JSON results to this file (--json prints them on stdout).
+    /// Range: [1, 100000].
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
 }

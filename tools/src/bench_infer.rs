@@ -42,24 +42,30 @@ pub struct BenchInferArgs {
     #[command(flatten)]
     frame: FrameArgs,
     /// Largest EM face size the resolution search considers (power of two).
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = DEFAULT_MAX_EM_SIZE)]
     max_em_size: u32,
     /// Projected EMs' face size (the baseline).
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = 128)]
     em_size: u32,
     /// Confidence threshold θ_c in degrees (paper: 5).
+    /// Range: (0, 180).
     #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES, allow_negative_numbers = true)]
     confidence_degrees: f64,
     /// The solver's iterative method.
     #[arg(long, value_enum, default_value = "cg")]
     solver: SolverArg,
     /// Relative smoothness weight of the solve.
+    /// Range: [0, ∞).
     #[arg(long, default_value_t = lensmap_baker::solve::DEFAULT_SMOOTHNESS, allow_negative_numbers = true)]
     smoothness: f64,
     /// CG stops at this relative residual.
+    /// Range: (0, 1).
     #[arg(long, default_value_t = lensmap_baker::solve::SolveOptions::default().tolerance, allow_negative_numbers = true)]
     tolerance: f64,
     /// Inference runs; the median time is reported.
+    /// Range: [1, 100000].
     #[arg(long, default_value_t = 3)]
     runs: usize,
     /// Also write the JSON results to this file (--json prints them on stdout).

@@ -35,15 +35,19 @@ use crate::common::{BadUsage, BlendArg, flag_error, parse_vec3, report};
 )]
 pub struct BenchPassesArgs {
     /// Frame width.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 640)]
     width: u32,
     /// Frame height.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 480)]
     height: u32,
     /// Timed frames per configuration (after one warm-up frame).
+    /// Range: [1, 100000].
     #[arg(long, default_value_t = 9)]
     frames: usize,
     /// Largest layer count n (from 1) of the synthetic sphere; with --scene, the scene's own.
+    /// Range: [1, 6].
     #[arg(long, default_value_t = 4)]
     max_layers: usize,
     /// Blending schemes of the multipass rows: one scheme, or "all".
@@ -68,6 +72,7 @@ pub struct BenchPassesArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     look_at: Option<Vec3>,
     /// With --scene: the projected EMs' cube-map face size.
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     em_size: u32,
 }

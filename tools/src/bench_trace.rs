@@ -22,15 +22,19 @@ use lensmap::trace::{
 )]
 pub struct BenchTraceArgs {
     /// Image width in pixels.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 640)]
     pub width: u32,
     /// Image height in pixels.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 480)]
     pub height: u32,
     /// Supersamples per pixel along each axis (k for k×k).
+    /// Range: [1, 16384].
     #[arg(long, value_name = "K", default_value_t = 3)]
     pub supersampling: u32,
     /// Timed renders per configuration; the median is reported.
+    /// Range: [1, 100000].
     #[arg(long, default_value_t = 3)]
     pub runs: u32,
     /// Also write the JSON results to this file (--json prints them on stdout).

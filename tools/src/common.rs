@@ -239,15 +239,19 @@ pub fn reference_frame(reference: &ReferenceImage) -> RenderedImage {
 #[derive(clap::Args)]
 pub struct JudgeArgs {
     /// Image width.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 640)]
     pub width: u32,
     /// Image height.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 480)]
     pub height: u32,
     /// Supersampling k×k of the hybrid framebuffer (and of the targets, where there are any).
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 3)]
     pub supersampling: u32,
     /// Supersampling of the independent reference the frames are judged against.
+    /// Range: [1, 16384].
     #[arg(long, default_value_t = 6)]
     pub reference_supersampling: u32,
 }
@@ -284,6 +288,7 @@ impl JudgeArgs {
 pub struct CameraArgs {
     /// Render from viewpoint sample I of the scene's view space (0-based). Without --view or
     /// --camera-position the scene's camera is used.
+    /// Range: [0, ∞) (a sample of the scene's view space).
     #[arg(long, value_name = "I", conflicts_with = "camera_position")]
     pub view: Option<usize>,
     /// Camera position "x,y,z" in metres (looking at the scene camera's look-at point unless
@@ -294,12 +299,15 @@ pub struct CameraArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<Vec3>,
     /// Image width in pixels (default: the scene camera's).
+    /// Range: [1, 16384].
     #[arg(long)]
     pub width: Option<u32>,
     /// Image height in pixels (default: the scene camera's).
+    /// Range: [1, 16384].
     #[arg(long)]
     pub height: Option<u32>,
     /// Supersamples per pixel along each axis, k for k×k (default: the scene camera's).
+    /// Range: [1, 16384].
     #[arg(long, value_name = "K")]
     pub supersampling: Option<u32>,
 }

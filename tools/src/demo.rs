@@ -47,24 +47,30 @@ pub struct DemoArgs {
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
     /// Frame width (default: the scene camera's, 640).
+    /// Range: [1, 16384].
     #[arg(long)]
     pub width: Option<u32>,
     /// Frame height (default: the scene camera's, 480).
+    /// Range: [1, 16384].
     #[arg(long)]
     pub height: Option<u32>,
     /// Supersampling k×k (default: the scene camera's, 3). Not for --synthetic.
+    /// Range: [1, 16384].
     #[arg(long, conflicts_with = "synthetic")]
     pub supersampling: Option<u32>,
     /// Projected EMs: cube-map face size in texels. Not for --synthetic.
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = DEFAULT_EM_SIZE, conflicts_with = "synthetic")]
     pub em_size: u32,
     /// Run the compositor-only demo on the synthetic sphere scene instead.
     #[arg(long)]
     pub synthetic: bool,
     /// Synthetic demo: layers per viewpoint sample.
+    /// Range: [1, 256].
     #[arg(long, default_value_t = 3)]
     pub layers: usize,
     /// Synthetic demo: timed frames per variant.
+    /// Range: [1, 100000].
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
     /// Where the lens vertices of the hybrid frames are ray traced. Not for --synthetic.

@@ -24,9 +24,11 @@ use crate::words::Flags;
 pub struct FrameArgs {
     /// Tessellation threshold: triangles stop splitting when their edges are shorter than t
     /// subpixels.
+    /// Range: (0, ∞).
     #[arg(long, default_value_t = DEFAULT_T, allow_negative_numbers = true)]
     pub t: f32,
     /// Outgoing rays further apart than this many degrees split a triangle.
+    /// Range: (0, 180).
     #[arg(long, default_value_t = DEFAULT_ANGLE_DEGREES, allow_negative_numbers = true)]
     pub angle_degrees: f64,
     #[arg(long, value_name = "exact|table:N", default_value = "exact", value_parser = parse_fresnel, help = FRESNEL_HELP)]
@@ -44,10 +46,12 @@ pub struct FrameArgs {
     pub gpu_precision: GpuPrecisionArg,
     /// Footprint coarsening: a lens object spanning fewer subpixels than this on screen is
     /// tessellated with a proportionally larger t (up to 8×); 0 turns it off.
+    /// Range: [0, ∞).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub footprint: f32,
     /// The frame's budget of lens vertices (each is ray traced): past it no triangle is split
     /// further, and a warning says how many were left unsplit.
+    /// Range: [0, 2^32).
     #[arg(long, default_value_t = DEFAULT_MAX_VERTICES, allow_negative_numbers = true)]
     pub max_vertices: usize,
     /// Compositor variant.

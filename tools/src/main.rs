@@ -20,6 +20,7 @@ mod interrupt;
 mod modes;
 mod pareto;
 mod passes;
+mod ranges;
 mod reference;
 mod render;
 mod view;
@@ -193,10 +194,12 @@ fn main() -> ExitCode {
     let json_asked = std::env::args_os().any(|a| a == "--json");
     // Usage errors in one line (clap's own message, without the usage block), exit code 2;
     // --help and --version print as clap prints them.
-    // An option given in a mode that ignores it is a usage error too (modes::check).
+    // An option given in a mode that ignores it is a usage error too (modes::check), as is a
+    // number outside the range its help states (ranges::check).
     let command = command_with_footer(Cli::command());
     let parsed = command.clone().try_get_matches().and_then(|matches| {
         modes::check(&command, &matches)?;
+        ranges::check(&command, &matches)?;
         Cli::from_arg_matches(&matches)
     });
     let cli = match parsed {

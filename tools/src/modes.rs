@@ -70,7 +70,8 @@ pub fn check(command: &Command, matches: &ArgMatches) -> Result<(), clap::Error>
 
 /// Prints every option of `command` and its subcommands as JSON lines: the command's words,
 /// the option's long name, the kind of value it takes (`unsigned`, `signed`, `float`, `flag`
-/// or `text`), the options its help says it needs, and its help.
+/// or `text`), the options its help says it needs, its help, the range its help states
+/// ([`crate::ranges`]; null where none) and its default values.
 pub fn print_tree(command: &Command) {
     fn walk(command: &Command, path: &mut Vec<String>) {
         for arg in command.get_arguments() {
@@ -78,34 +79,10 @@ pub fn print_tree(command: &Command) {
             if matches!(long, "help" | "version") {
                 continue;
             }
-            use std::any::TypeId;
-            let parser = arg.get_value_parser();
-            let id = parser.type_id();
             let kind = if !arg.get_action().takes_values() {
                 "flag"
-            } else if [
-                TypeId::of::<u8>(),
-                TypeId::of::<u16>(),
-                TypeId::of::<u32>(),
-                TypeId::of::<u64>(),
-                TypeId::of::<usize>(),
-            ]
-            .iter()
-            .any(|t| id == *t)
-            {
-                "unsigned"
-            } else if [TypeId::of::<i32>(), TypeId::of::<i64>()]
-                .iter()
-                .any(|t| id == *t)
-            {
-                "signed"
-            } else if [TypeId::of::<f32>(), TypeId::of::<f64>()]
-                .iter()
-                .any(|t| id == *t)
-            {
-                "float"
             } else {
-                "text"
+                crate::ranges::numeric_kind(arg).unwrap_or("text")
             };
             let help = arg
                 .get_long_help()
@@ -119,6 +96,8 @@ pub fn print_tree(command: &Command) {
                 "required": arg.is_required_set(),
                 "needs": needed(&arg.get_help().map(ToString::to_string).unwrap_or_default()),
                 "help": help,
+                "range": crate::ranges::of(arg).map(|r| r.to_json()),
+                "default": arg.get_default_values().iter().map(|d| d.to_string_lossy()).collect::<Vec<_>>(),
             });
             crate::common::write_stdout(format_args!("{line}"));
         }

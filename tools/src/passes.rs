@@ -20,13 +20,16 @@ use crate::words::Flags;
 )]
 pub struct PassesArgs {
     /// Layers n per viewpoint sample.
+    /// Range: [1, 256].
     #[arg(long, default_value_t = 3)]
     layers: usize,
     /// Viewpoint samples blended: 1 when the camera sits on a sample, 2 between two (on a circle,
     /// or on an edge of a 2D view space's triangle), 3 inside a spherical triangle.
+    /// Range: [1, 3].
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
     viewpoints: u8,
     /// Shading terms: 2 (glass: refraction and reflection) or 1 (mirror: reflection only).
+    /// Range: [1, 2].
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
     terms: u8,
     /// Compositor variant.
@@ -42,10 +45,12 @@ pub struct PassesArgs {
     /// at the default depth cap: the frame opens with every dispatch and barrier of their
     /// tessellations, texgen and draw lists, which the lens passes wait for; 0 for a lens object
     /// traced on the CPU.
+    /// Range: [0, 16].
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=16))]
     gpu_parts: u8,
     /// Glossy objects drawn by reflection-space IBR (the glossy pass after the environment,
     /// one draw each).
+    /// Range: [0, 16].
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=16))]
     glossy: u8,
 }

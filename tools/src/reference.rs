@@ -32,9 +32,11 @@ pub struct ReferenceArgs {
     pub out: PathBuf,
     /// Directions sampled per camera ray that meets a glossy surface.
     /// At least 2, so that the estimate's error can be estimated too.
+    /// Range: [2, 1048576].
     #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES, value_parser = clap::value_parser!(u32).range(2..))]
     pub glossy_samples: u32,
     /// Seed of the glossy samples: two seeds give independent estimates.
+    /// Range: any.
     #[arg(long, default_value_t = 0)]
     pub glossy_seed: u64,
 }

@@ -51,6 +51,7 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub frame: FrameArgs,
     /// Projected EMs: cube-map face size in texels.
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
     /// Light maps of the opaque environment: the least texel density of any chart, texels per
@@ -58,17 +59,21 @@ pub struct RenderArgs {
     /// camera's resolution seen from its nearest viewpoint (view-space samples and the scene
     /// camera), within [this, --light-map-max-density]; all densities are lowered alike where
     /// an atlas would pass 4096² or all of them --light-map-max-texels.
+    /// Range: [1, 4096].
     #[arg(long, default_value_t = DEFAULT_MIN_TEXELS_PER_METRE, allow_negative_numbers = true)]
     pub light_map_density: f64,
     /// Light maps: the greatest texel density of any chart, texels per metre. Give the same
     /// value as --light-map-density for one uniform density.
+    /// Range: [1, 4096] (and at least --light-map-density).
     #[arg(long, default_value_t = DEFAULT_MAX_TEXELS_PER_METRE, allow_negative_numbers = true)]
     pub light_map_max_density: f64,
     /// Light maps: pixels per texel side at a chart's nearest viewpoint (P).
+    /// Range: [0.25, 64].
     #[arg(long, default_value_t = DEFAULT_PIXELS_PER_TEXEL, allow_negative_numbers = true)]
     pub light_map_pixels_per_texel: f64,
     /// Light maps: texels of all the atlases together (8 bytes each on the GPU); over it, every
     /// chart's density is lowered by one factor.
+    /// Range: [65536, 2^32].
     #[arg(long, default_value_t = DEFAULT_MAX_TEXELS)]
     pub light_map_max_texels: u64,
     /// Draw the glossy objects by reflection-space IBR from this radiance-map bake
@@ -94,6 +99,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     pub side_by_side: Option<PathBuf>,
     /// With --compare: directions the reference samples per camera ray at a glossy surface.
+    /// Range: [2, 1048576].
     #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES)]
     pub reference_glossy_samples: u32,
     /// Output image: a .png (sRGB) with a linear .exr written beside it (or the .exr, with the

@@ -672,6 +672,18 @@ fn compressed_shards_merge_and_a_compressed_bake_resumes_into_the_uncompressed_b
             names.keys().collect::<Vec<_>>()
         );
     }
+    // A compressed bake missing a map is a bad bake (exit 2, one line naming the file and where
+    // the manifest lists it), as a layered bake's and a radiance bake's are.
+    let damaged = root.join("damaged");
+    succeeded(&compress(&one, &damaged));
+    let gone = files(&damaged)
+        .into_keys()
+        .find(|name| name.ends_with(".lmz"))
+        .expect("a compressed map");
+    std::fs::remove_file(damaged.join(&gone)).unwrap();
+    let output = merge(&damaged, &two, &root.join("not-merged"));
+    fails_with_2(&output, "not found (listed in manifest.json at ");
+    assert!(String::from_utf8_lossy(&output.stderr).contains(&gone));
     // One shard compressed, one not; and both compressed.
     let (mixed, merged) = (root.join("mixed"), root.join("merged"));
     succeeded(&merge(&one_z, &two, &mixed));

@@ -74,7 +74,12 @@ fn sizes_beyond_the_limits_are_refused_before_any_work() {
     for (extra, what) in [
         (
             &["--width", "100000"][..],
-            "300000×1440 subpixels; the limit is 16384",
+            "--width 100000: outside its range [1, 16384]",
+        ),
+        // Within --width's own range, but not with the scene's 3×3 supersampling.
+        (
+            &["--width", "10000"][..],
+            "30000×1440 subpixels; the limit is 16384",
         ),
         (&["--supersampling", "1000"][..], "640000×480000 subpixels"),
         (&["--camera-position", "1e30,0,0"][..], "farther than 1e6 m"),

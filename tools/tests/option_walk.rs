@@ -1,7 +1,9 @@
-//! Every numeric option of every command (as `lensmap option-tree` lists clap's tree), tried
-//! with 0, 1, 2³², 2⁶⁴ − 1, −1, NaN and, where its help states a range, its maximum plus one,
-//! under `--validate-only` (every check, no work): each value is accepted (exit 0) or refused
-//! with exit 2 and one line naming the option; never a panic, an abort or a signal. And every
+//! Every numeric option of every command (as `lensmap option-tree` lists clap's tree) states
+//! its range in its help (`Range: [1, 16384].`, tools/src/ranges.rs), and is tried with 0, 1,
+//! 2³², 2⁶⁴ − 1, −1 and NaN, with values just outside each end of its range, and with its
+//! default, under `--validate-only` (every check, no work): each value is accepted (exit 0) or
+//! refused with exit 2 and one line naming the option, never a panic, an abort or a signal; a
+//! value outside the range is always refused, and the default always accepted. And every
 //! option whose help says `With --x:` is refused without `--x`, naming both. An option added
 //! later is in the tree, so in the walk.
 
@@ -16,7 +18,10 @@ struct TreeOption {
     option: String,
     kind: String,
     needs: Vec<String>,
-    help: String,
+    /// The range its help states (`lensmap option-tree`'s `range`; null where none).
+    range: Value,
+    /// Its default values.
+    defaults: Vec<String>,
 }
 
 fn tree() -> Vec<TreeOption> {
@@ -43,7 +48,8 @@ fn tree() -> Vec<TreeOption> {
                 option: v["option"].as_str().unwrap().to_owned(),
                 kind: v["kind"].as_str().unwrap().to_owned(),
                 needs: strings("needs"),
-                help: v["help"].as_str().unwrap().to_owned(),
+                range: v["range"].clone(),
+                defaults: strings("default"),
             }
         })
         .collect()
@@ -100,25 +106,50 @@ fn base(command: &[String], needs: &[String], work: &Path) -> Vec<String> {
     all
 }
 
-/// The largest value the help states: `… to B`, `[A, B]` or `A..=B`.
-fn stated_maximum(help: &str) -> Option<f64> {
-    let number = |s: &str| {
-        s.trim_matches(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
-            .replace(['_', ','], "")
-            .parse::<f64>()
-            .ok()
+/// Values just outside `range` (as `option-tree` prints it) for an option of `kind`: below
+/// and above each finite end (the end itself where it is open), and between two members of a
+/// set; plus ∞ and NaN for floats, which no range holds.
+fn outside(range: &Value, kind: &str) -> Vec<String> {
+    let float = kind == "float";
+    let mut values = Vec::new();
+    if float {
+        values.extend(["inf".to_owned(), "NaN".to_owned()]);
+    }
+    let step = |v: f64| if float { 1e-6 * v.abs().max(1.0) } else { 1.0 };
+    let push = |values: &mut Vec<String>, v: f64| {
+        if float || v >= 0.0 || kind == "signed" {
+            values.push(if float {
+                format!("{v:e}")
+            } else {
+                format!("{v}")
+            });
+        }
     };
-    let words: Vec<&str> = help.split_whitespace().collect();
-    for (i, w) in words.iter().enumerate() {
-        if *w == "to"
-            && i > 0
-            && number(words[i - 1]).is_some()
-            && let Some(b) = words.get(i + 1).and_then(|b| number(b))
-        {
-            return Some(b);
+    if let Some(members) = range["one_of"].as_array() {
+        let members: Vec<f64> = members.iter().filter_map(Value::as_f64).collect();
+        let (low, high) = (members[0], members[members.len() - 1]);
+        push(&mut values, low - step(low));
+        push(&mut values, high + step(high));
+        if members.len() > 1 && members[1] - members[0] > 1.0 {
+            push(&mut values, members[0] + 1.0);
+        }
+    } else if range.is_object() {
+        if let Some(low) = range["low"].as_f64() {
+            if range["low_inclusive"] == true {
+                push(&mut values, low - step(low));
+            } else {
+                push(&mut values, low);
+            }
+        }
+        if let Some(high) = range["high"].as_f64() {
+            if range["high_inclusive"] == true {
+                push(&mut values, high + step(high));
+            } else {
+                push(&mut values, high);
+            }
         }
     }
-    None
+    values
 }
 
 struct Outcome {
@@ -166,19 +197,37 @@ fn run_all(cases: Vec<Vec<String>>) -> Vec<Outcome> {
     })
 }
 
-/// Whether `outcome` was accepted, or refused in one line naming `option` with exit 2.
-fn judged(outcome: &Outcome, option: &str) -> Result<(), String> {
+/// What a value must get.
+#[derive(Clone, Copy, PartialEq)]
+enum Expect {
+    /// Accepted or refused (naming the option).
+    Either,
+    /// Refused: it lies outside the range the option's help states.
+    Refused,
+    /// Accepted: it is the option's default.
+    Accepted,
+}
+
+/// Whether `outcome` was accepted, or refused in one line naming `option` with exit 2, as
+/// `expect` allows.
+fn judged(outcome: &Outcome, option: &str, expect: Expect) -> Result<(), String> {
     let lines: Vec<&str> = outcome
         .stderr
         .lines()
         .filter(|l| !l.starts_with("warning:"))
         .collect();
-    match outcome.code {
-        Some(0) => Ok(()),
-        Some(2) if lines.len() == 1 && lines[0].contains(&format!("--{option}")) => Ok(()),
-        code => Err(format!(
-            "lensmap {} --validate-only: exit {code:?}, stderr {:?}",
+    let refused = lines.len() == 1 && lines[0].contains(&format!("--{option}"));
+    match (outcome.code, expect) {
+        (Some(0), Expect::Either | Expect::Accepted) => Ok(()),
+        (Some(2), Expect::Either | Expect::Refused) if refused => Ok(()),
+        (code, _) => Err(format!(
+            "lensmap {} --validate-only: exit {code:?}{}, stderr {:?}",
             outcome.args.join(" "),
+            match expect {
+                Expect::Refused => " (outside the stated range: must be exit 2)",
+                Expect::Accepted => " (the default: must be accepted)",
+                Expect::Either => "",
+            },
             outcome.stderr.trim()
         )),
     }
@@ -194,20 +243,30 @@ fn every_numeric_option_is_bounded_and_every_mode_option_needs_its_mode() {
         .collect();
     assert!(numeric.len() > 100, "{} numeric options", numeric.len());
     let values = ["0", "1", "4294967296", "18446744073709551615", "-1", "NaN"];
+    // (args, option, whether the value lies outside the option's stated range, or is its
+    // default and must be accepted)
     let mut cases = Vec::new();
-    let mut about = Vec::new();
+    let mut about: Vec<(String, Expect)> = Vec::new();
     let mut without_range = Vec::new();
     for o in &numeric {
-        let mut tried: Vec<String> = values.iter().map(|v| (*v).to_owned()).collect();
-        match stated_maximum(&o.help) {
-            Some(max) => tried.push(format!("{}", max + 1.0)),
-            None => without_range.push(format!("{} --{}", o.command.join(" "), o.option)),
+        let mut tried: Vec<(String, Expect)> = values
+            .iter()
+            .map(|v| ((*v).to_owned(), Expect::Either))
+            .collect();
+        if o.range.is_null() {
+            without_range.push(format!("{} --{}", o.command.join(" "), o.option));
         }
-        for value in tried {
+        tried.extend(
+            outside(&o.range, &o.kind)
+                .into_iter()
+                .map(|v| (v, Expect::Refused)),
+        );
+        tried.extend(o.defaults.iter().map(|d| (d.clone(), Expect::Accepted)));
+        for (value, expect) in tried {
             let mut args = base(&o.command, &o.needs, &work);
             args.push(format!("--{}={value}", o.option));
             cases.push(args);
-            about.push(o.option.clone());
+            about.push((o.option.clone(), expect));
         }
     }
     // Each option that needs a mode, given without it.
@@ -229,7 +288,7 @@ fn every_numeric_option_is_bounded_and_every_mode_option_needs_its_mode() {
     let mut failures: Vec<String> = outcomes
         .iter()
         .zip(&about)
-        .filter_map(|(outcome, option)| judged(outcome, option).err())
+        .filter_map(|(outcome, (option, expect))| judged(outcome, option, *expect).err())
         .collect();
     let mode_outcomes = run_all(mode_cases);
     for (outcome, o) in mode_outcomes.iter().zip(&moded) {
@@ -259,6 +318,11 @@ fn every_numeric_option_is_bounded_and_every_mode_option_needs_its_mode() {
         without_range.join(", ")
     );
     let _ = std::fs::remove_dir_all(&work);
+    failures.extend(
+        without_range
+            .iter()
+            .map(|o| format!("lensmap {o}: its help states no `Range:`")),
+    );
     assert!(
         failures.is_empty(),
         "{} failures:\n{}",

@@ -52,7 +52,8 @@ pub struct ViewArgs {
     /// position and look_at; docs/viewer.md).
     #[arg(long, default_value = "orbit", value_name = "orbit|FILE")]
     pub path: String,
-    /// With --record: frames of an orbit (a path file gives its own), 1 to 100000 [default: 60].
+    /// With --record: frames of an orbit (a path file gives its own) [default: 60].
+    /// Range: [1, 100000].
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ORBIT_FRAMES)))]
     pub frames: Option<u32>,
     /// Replay a script in the window: timed camera moves, key presses, resizes and screenshots,
@@ -79,6 +80,7 @@ pub struct ViewArgs {
     #[command(flatten)]
     pub frame: FrameArgs,
     /// Projected EM face size, texels.
+    /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = DEFAULT_EM_SIZE)]
     pub em_size: u32,
 }

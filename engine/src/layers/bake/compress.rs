@@ -379,6 +379,15 @@ impl<'a> MapReader<'a> {
             },
             keyframe: entry.reference.is_none(),
         };
+        // A listed file that is gone is a bad bake (exit 2), as a layered bake's missing map is;
+        // a file that is there but unreadable stays an I/O error.
+        if !path.is_file() {
+            return Err(BakeError::MissingMap {
+                path,
+                manifest: super::MANIFEST_FILE_NAME,
+                field: format!("compression.files[\"{name}\"]"),
+            });
+        }
         let bytes = fs::read(&path).map_err(io_error(&path, "read"))?;
         decode_bytes(&bytes, &path, &expected, reference)
     }
@@ -804,6 +813,20 @@ mod tests {
         }
         fs::write(packed.join(&file), &original).unwrap();
         Bake::read(&packed).unwrap();
+        // A delta whose keyframe is gone: a bad bake naming the keyframe and its entry.
+        let compression = manifest.compression.as_ref().unwrap();
+        let keyframe = compression.files[&file].reference.clone().expect("a delta");
+        let kept = fs::read(packed.join(&keyframe)).unwrap();
+        fs::remove_file(packed.join(&keyframe)).unwrap();
+        let error = MapReader::new(&packed, &manifest).read(&file).unwrap_err();
+        assert!(
+            matches!(error, BakeError::MissingMap { .. })
+                && error.to_string().contains(&format!(
+                    "not found (listed in manifest.json at compression.files[\"{keyframe}\"])"
+                )),
+            "{error}"
+        );
+        fs::write(packed.join(&keyframe), kept).unwrap();
         // A manifest whose file checksum was changed, or whose chain is longer than its
         // interval, is refused naming the manifest.
         let manifest_path = packed.join(MANIFEST_FILE_NAME);

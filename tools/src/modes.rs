@@ -71,7 +71,8 @@ pub fn check(command: &Command, matches: &ArgMatches) -> Result<(), clap::Error>
 /// Prints every option of `command` and its subcommands as JSON lines: the command's words,
 /// the option's long name, the kind of value it takes (`unsigned`, `signed`, `float`, `flag`
 /// or `text`), the options its help says it needs, its help, the range its help states
-/// ([`crate::ranges`]; null where none) and its default values.
+/// ([`crate::ranges`]; null where none), its default values and the options clap's
+/// `conflicts_with` refuses beside it.
 pub fn print_tree(command: &Command) {
     fn walk(command: &Command, path: &mut Vec<String>) {
         for arg in command.get_arguments() {
@@ -98,6 +99,11 @@ pub fn print_tree(command: &Command) {
                 "help": help,
                 "range": crate::ranges::of(arg).map(|r| r.to_json()),
                 "default": arg.get_default_values().iter().map(|d| d.to_string_lossy()).collect::<Vec<_>>(),
+                "conflicts": command
+                    .get_arg_conflicts_with(arg)
+                    .iter()
+                    .filter_map(|other| other.get_long())
+                    .collect::<Vec<_>>(),
             });
             crate::common::write_stdout(format_args!("{line}"));
         }

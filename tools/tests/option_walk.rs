@@ -22,6 +22,8 @@ struct TreeOption {
     range: Value,
     /// Its default values.
     defaults: Vec<String>,
+    /// The options clap refuses beside it (`conflicts_with`).
+    conflicts: Vec<String>,
 }
 
 fn tree() -> Vec<TreeOption> {
@@ -50,6 +52,7 @@ fn tree() -> Vec<TreeOption> {
                 needs: strings("needs"),
                 range: v["range"].clone(),
                 defaults: strings("default"),
+                conflicts: strings("conflicts"),
             }
         })
         .collect()
@@ -329,4 +332,72 @@ fn every_numeric_option_is_bounded_and_every_mode_option_needs_its_mode() {
         failures.len(),
         failures.join("\n")
     );
+}
+
+/// `--option` and a value it parses (its default, or one of its kind), as arguments.
+fn given(o: &TreeOption) -> Vec<String> {
+    let mut args = vec![format!("--{}", o.option)];
+    if o.kind != "flag" {
+        args.push(match (o.defaults.first(), o.kind.as_str()) {
+            (Some(default), _) => default.clone(),
+            (None, "text") => "1,1,1".into(),
+            (None, _) => "1".into(),
+        });
+    }
+    args
+}
+
+/// Every pair of options clap's `conflicts_with` declares (the options a mode cannot take, as
+/// docs/cli.md lists them) given together is refused with exit 2 in one line naming both.
+#[test]
+fn every_pair_that_does_not_go_together_is_refused_naming_both() {
+    let options = tree();
+    let find = |command: &[String], long: &str| {
+        options
+            .iter()
+            .find(|o| o.command == command && o.option == long)
+    };
+    let mut pairs: Vec<(&TreeOption, &TreeOption)> = Vec::new();
+    for o in &options {
+        for other in &o.conflicts {
+            let b = find(&o.command, other).expect("a conflict names an option of the command");
+            let seen = pairs.iter().any(|(x, y)| {
+                (x.option == b.option && y.option == o.option && x.command == o.command)
+                    || (x.option == o.option && y.option == b.option && x.command == o.command)
+            });
+            if !seen {
+                pairs.push((o, b));
+            }
+        }
+    }
+    assert!(pairs.len() >= 30, "{} pairs", pairs.len());
+    let cases: Vec<Vec<String>> = pairs
+        .iter()
+        .map(|(a, b)| {
+            let mut args = a.command.clone();
+            args.extend(given(a));
+            args.extend(given(b));
+            args
+        })
+        .collect();
+    let failures: Vec<String> = run_all(cases)
+        .iter()
+        .zip(&pairs)
+        .filter(|(outcome, (a, b))| {
+            outcome.code != Some(2)
+                || outcome.stderr.trim().lines().count() != 1
+                || !outcome.stderr.contains(&format!("--{}", a.option))
+                || !outcome.stderr.contains(&format!("--{}", b.option))
+        })
+        .map(|(outcome, _)| {
+            format!(
+                "lensmap {}: exit {:?}, stderr {:?}",
+                outcome.args.join(" "),
+                outcome.code,
+                outcome.stderr.trim()
+            )
+        })
+        .collect();
+    println!("{} pairs that clap refuses together tried", pairs.len());
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -24,9 +24,11 @@ pub struct ReferenceArgs {
     /// The camera.
     #[command(flatten)]
     pub camera: CameraArgs,
-    /// Ray-path model: the paper's two-term greedy paths, or the full ray tree.
-    #[arg(long, value_enum, default_value_t = Tree::Greedy)]
-    pub tree: Tree,
+    /// Ray-path model: `greedy` (the paper's two greedy terms), `full` (the full ray tree), or
+    /// path classes: a count N (the first N of R, TT, TRT, TRRT, … for glass; of R, RR, … for
+    /// mirrors) or a list such as `R,TT,TRT,TRRT` (docs/reference.md#path-classes).
+    #[arg(long, default_value = "greedy", value_name = "greedy|full|N|CLASSES", value_parser = parse_tree)]
+    pub tree: PathModel,
     /// Output directory (created if missing).
     #[arg(long)]
     pub out: PathBuf,
@@ -41,21 +43,14 @@ pub struct ReferenceArgs {
     pub glossy_seed: u64,
 }
 
-/// The ray-path model named on the command line.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Tree {
-    /// Two-term greedy ray paths (the paper's model).
-    Greedy,
-    /// Full binary ray tree (both children at every interface).
-    Full,
-}
-
-impl From<Tree> for PathModel {
-    fn from(tree: Tree) -> PathModel {
-        match tree {
-            Tree::Greedy => PathModel::Greedy,
-            Tree::Full => PathModel::Full,
-        }
+/// `--tree`'s value: `greedy`, `full`, or a class set ([`trace::ClassSet::parse`]).
+pub fn parse_tree(text: &str) -> Result<PathModel, String> {
+    match text {
+        "greedy" => Ok(PathModel::Greedy),
+        "full" => Ok(PathModel::Full),
+        _ => trace::ClassSet::parse(text)
+            .map(PathModel::Classes)
+            .map_err(|problem| format!("{problem}; or give greedy or full")),
     }
 }
 
@@ -80,6 +75,9 @@ struct Report<'a> {
     rays_per_pixel: f64,
     triangle_tests_per_ray: f64,
     lens_pixels: usize,
+    /// Under path classes: the share of the lens objects' throughput (Σ F·G over camera rays)
+    /// the classes drop; null under the other models.
+    class_dropped: Option<f64>,
     glossy: Glossiness,
     files: Vec<PathBuf>,
 }
@@ -126,7 +124,7 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
     let world = TraceScene::new(&scene).context("preparing the scene for ray tracing")?;
     step.finish_and_clear();
     let options = TraceOptions {
-        model: args.tree.into(),
+        model: args.tree,
         glossy_samples: args.glossy_samples,
         glossy_seed: args.glossy_seed,
         ..TraceOptions::default()
@@ -163,6 +161,10 @@ pub fn run(args: ReferenceArgs) -> anyhow::Result<()> {
         rays_per_pixel: image.stats.rays_per_pixel(),
         triangle_tests_per_ray: image.stats.counters.triangle_tests_per_ray(),
         lens_pixels: lens_pixel_count(&image),
+        class_dropped: match options.model {
+            PathModel::Classes(_) => image.stats.class_share.dropped(),
+            _ => None,
+        },
         glossy: Glossiness::of(&image, &options),
         files: Vec::new(),
     };
@@ -197,12 +199,19 @@ fn print_summary(
     image: &ReferenceImage,
 ) {
     say!(
-        "{scene}: {}×{} with {k}×{k} supersampling, {model:?} paths, {:.2} s",
+        "{scene}: {}×{} with {k}×{k} supersampling, {} paths, {:.2} s",
         stats.width,
         stats.height,
+        model.name(),
         stats.seconds,
         k = stats.supersampling,
     );
+    if let (PathModel::Classes(_), Some(dropped)) = (model, stats.class_share.dropped()) {
+        say!(
+            "  the classes drop {:.2} % of the lens objects' throughput (Σ F·G over camera rays)",
+            100.0 * dropped
+        );
+    }
     say!(
         "  rays: {} primary, {} secondary, {} shadow, {} in all ({:.1} per pixel, {:.2} Mrays/s)",
         stats.counters.primary_rays,

@@ -13,7 +13,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::lens_pixels::{LensPixels, PixelCover};
-use super::shade::TraceOptions;
+use super::shade::{ClassShare, TraceOptions};
 use super::stats::{RenderStats, TraceCounters};
 use super::world::TraceScene;
 use super::{Ray, TraceError};
@@ -59,6 +59,7 @@ struct Row {
     lens_mask: Vec<f32>,
     covers: Vec<PixelCover>,
     counters: TraceCounters,
+    class_share: ClassShare,
 }
 
 /// The largest side of a supersampled image, subpixels: 16384, what most Vulkan devices allow
@@ -215,6 +216,7 @@ pub fn render_reference_cancellable(
             supersampling: camera.supersampling,
             counters: TraceCounters::default(),
             seconds,
+            class_share: ClassShare::default(),
         },
     };
     for row in rows {
@@ -226,6 +228,7 @@ pub fn render_reference_cancellable(
         image.glossy_mask.extend(row.glossy_mask);
         image.lens_pixels.covers.extend(row.covers);
         image.stats.counters += row.counters;
+        image.stats.class_share += row.class_share;
     }
     Ok(Some(image))
 }
@@ -243,6 +246,7 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
         lens_mask: Vec::with_capacity(width),
         covers: Vec::with_capacity(width),
         counters: TraceCounters::default(),
+        class_share: ClassShare::default(),
     };
     let mut first_hits = Vec::with_capacity((k * k) as usize);
     for x in 0..camera.width {
@@ -263,6 +267,7 @@ fn render_row(scene: &TraceScene, camera: &Camera, options: &TraceOptions, y: u3
                 glossy_hits += u32::from(sample.glossy);
                 lens_hits += u32::from(sample.lens.is_some());
                 first_hits.push(sample.lens);
+                row.class_share += sample.class_share;
             }
         }
         row.covers.push(PixelCover::of(first_hits.drain(..)));

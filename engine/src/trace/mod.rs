@@ -5,7 +5,7 @@
 //! Laid out like pbrt: [`fresnel`] (interface physics), [`schlick_table`] (Schlick's fifth-order
 //! term through a 1D texture, and its error), [`bvh`] (acceleration and f64
 //! intersection), [`world`] (the scene flattened into lens objects and environment), [`path`]
-//! (ray-path models), [`shade`] (environment shading and the camera-ray integrator), [`image`]
+//! (ray-path models), [`classes`] (fixed path classes beyond the two greedy terms), [`shade`] (environment shading and the camera-ray integrator), [`image`]
 //! (film, render loop, EXR/PNG), [`records`] (the baker's intersection records) and [`stats`]
 //! (work counters). All geometry after the BVH traversal is f64.
 //!
@@ -21,6 +21,7 @@
 
 pub mod bvh;
 pub mod bvh_gpu;
+pub mod classes;
 pub mod fresnel;
 pub mod glossy;
 pub mod image;
@@ -37,13 +38,14 @@ use std::path::PathBuf;
 
 use glam::DVec3;
 
+pub use self::classes::{ClassSet, PathClass};
 pub use self::image::{ReferenceImage, render_reference};
 pub use self::lens_pixels::{LensPixels, LensSelection, PixelCover};
 pub use self::path::{Bounces, GreedyOptions, GreedyRayPath, Interface, RayTreeOptions, Term};
 pub use self::records::{
     EnvironmentHit, IntersectionRecord, LensRecords, LocalHit, RecordSet, compile_records,
 };
-pub use self::shade::{CameraSample, PathModel, TraceOptions};
+pub use self::shade::{CameraSample, ClassShare, PathModel, TraceOptions};
 pub use self::stats::{RenderStats, TraceCounters};
 pub use self::world::TraceScene;
 

@@ -9,13 +9,14 @@
 //! lens shadow would be a feature the hybrid image can never show.
 //!
 //! Along an outgoing ray that meets another lens object, that object is evaluated with the same
-//! two-term model, up to [`TraceOptions::max_lens_depth`] nested lens objects; deeper, the ray sees
+//! model (the two greedy terms, or the same path classes), up to [`TraceOptions::max_lens_depth`] nested lens objects; deeper, the ray sees
 //! the environment alone.
 
 use glam::DVec3;
 
 use super::Ray;
 use super::bvh::SurfaceHit;
+use super::classes::{self, ClassSet};
 use super::path::{self, GreedyOptions, Interface, RayTree, RayTreeOptions, Term, TwoTermPaths};
 use super::stats::TraceCounters;
 use super::world::{Part, SurfaceId, TraceScene, WorldHit, sanitize};
@@ -34,13 +35,57 @@ pub(crate) struct Receiver {
 }
 
 /// Which ray-path model evaluates lens objects.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PathModel {
     /// The paper's two-term greedy ray paths.
     Greedy,
     /// The full binary ray tree.
     Full,
+    /// Fixed path classes ([`super::classes`]): the sum of one term per class.
+    Classes(ClassSet),
+}
+
+impl PathModel {
+    /// Its name as the command line takes it: `greedy`, `full`, or the class set (`4`,
+    /// `R,TT,TRT`).
+    pub fn name(&self) -> String {
+        match self {
+            PathModel::Greedy => "greedy".into(),
+            PathModel::Full => "full".into(),
+            PathModel::Classes(set) => set.name(),
+        }
+    }
+}
+
+impl serde::Serialize for PathModel {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.name())
+    }
+}
+
+/// How much of a lens object's light a class set keeps, as throughput (`Σ F·G`, the mean of
+/// the channels) summed over camera rays: the classes' paths against every path of the
+/// object's local ray tree ([`super::classes::local_throughput`]). Zero under the other models.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ClassShare {
+    /// `Σ F·G` of the classes' paths.
+    pub kept: f64,
+    /// `Σ F·G` of every path that leaves the object.
+    pub throughput: f64,
+}
+
+impl ClassShare {
+    /// The share of the throughput the classes drop, in [0, 1]; `None` over no lens ray.
+    pub fn dropped(&self) -> Option<f64> {
+        (self.throughput > 0.0).then(|| (1.0 - self.kept / self.throughput).clamp(0.0, 1.0))
+    }
+}
+
+impl std::ops::AddAssign for ClassShare {
+    fn add_assign(&mut self, other: Self) {
+        self.kept += other.kept;
+        self.throughput += other.throughput;
+    }
 }
 
 /// Options of a reference render.
@@ -96,6 +141,9 @@ pub struct CameraSample {
     pub standard_error: DVec3,
     /// Whether the ray meets a glossy surface first (and it was sampled).
     pub glossy: bool,
+    /// Under [`PathModel::Classes`], how much of the first lens object's throughput the
+    /// classes keep along this ray; zero otherwise.
+    pub class_share: ClassShare,
 }
 
 impl TraceScene {
@@ -211,6 +259,7 @@ impl TraceScene {
                 lens: None,
                 standard_error: DVec3::ZERO,
                 glossy: false,
+                class_share: ClassShare::default(),
             };
         };
         let Part::Lens(lens) = world_hit.part else {
@@ -229,11 +278,16 @@ impl TraceScene {
                 lens: None,
                 standard_error,
                 glossy,
+                class_share: ClassShare::default(),
             };
         };
         let [refraction, reflection] = match options.model {
-            PathModel::Greedy => self.greedy_terms(lens, ray, &world_hit.hit, 1, options, counters),
             PathModel::Full => self.full_tree_terms(ray, &world_hit, options.tree, counters),
+            _ => self.lens_terms(lens, ray, &world_hit.hit, 1, options, counters),
+        };
+        let class_share = match options.model {
+            PathModel::Classes(set) => self.class_share(lens, ray, &world_hit.hit, set, options),
+            _ => ClassShare::default(),
         };
         CameraSample {
             radiance: refraction + reflection,
@@ -242,6 +296,7 @@ impl TraceScene {
             lens: Some(lens),
             standard_error: DVec3::ZERO,
             glossy: false,
+            class_share,
         }
     }
 
@@ -255,6 +310,92 @@ impl TraceScene {
         counters: &mut TraceCounters,
     ) -> TwoTermPaths {
         path::trace_greedy_paths(&self.lens(lens), ray, hit, options, counters)
+    }
+
+    /// `[T…, R…]` of lens object `lens` hit by `ray` at `hit` (the `depth`-th lens object along
+    /// the camera ray, 1 for the first) under `options.model`: the two greedy terms, or the sums
+    /// of the classes that start with a refraction and with a reflection. (The full tree is
+    /// evaluated from the camera ray only; where a glossy sample or a record meets a lens
+    /// object below it, the greedy terms stand in, as they always have.)
+    pub fn lens_terms(
+        &self,
+        lens: usize,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        depth: u32,
+        options: &TraceOptions,
+        counters: &mut TraceCounters,
+    ) -> [DVec3; 2] {
+        match options.model {
+            PathModel::Classes(set) => {
+                self.class_terms(lens, ray, hit, depth, set, options, counters)
+            }
+            PathModel::Greedy | PathModel::Full => {
+                self.greedy_terms(lens, ray, hit, depth, options, counters)
+            }
+        }
+    }
+
+    /// `[Σ T…, Σ R…]` of the classes of `set` on lens object `lens` hit by `ray` at `hit`.
+    #[allow(clippy::too_many_arguments)]
+    fn class_terms(
+        &self,
+        lens: usize,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        depth: u32,
+        set: ClassSet,
+        options: &TraceOptions,
+        counters: &mut TraceCounters,
+    ) -> [DVec3; 2] {
+        let geometry = self.lens(lens);
+        let Some(interface) = self.interface(hit.object) else {
+            return [DVec3::ZERO; 2];
+        };
+        let mut terms = [DVec3::ZERO; 2];
+        for class in set.classes(interface) {
+            let Some(path) = classes::trace_class(&geometry, ray, hit, class, counters) else {
+                continue;
+            };
+            let weight = path.weight();
+            if weight == DVec3::ZERO {
+                continue;
+            }
+            let radiance =
+                self.outgoing_radiance(&path.outgoing_ray, lens, depth, options, counters);
+            terms[usize::from(class.starts_reflected())] += sanitize(weight * radiance);
+        }
+        terms
+    }
+
+    /// What the classes of `set` keep of lens object `lens`'s throughput along `ray` (see
+    /// [`ClassShare`]); the local tree goes as deep as the full tree's options say.
+    fn class_share(
+        &self,
+        lens: usize,
+        ray: &Ray,
+        hit: &SurfaceHit,
+        set: ClassSet,
+        options: &TraceOptions,
+    ) -> ClassShare {
+        let geometry = self.lens(lens);
+        let Some(interface) = self.interface(hit.object) else {
+            return ClassShare::default();
+        };
+        // Counted apart: the share is a report, not part of the image's work.
+        let mut uncounted = TraceCounters::default();
+        let kept: DVec3 = set
+            .classes(interface)
+            .into_iter()
+            .filter_map(|class| classes::trace_class(&geometry, ray, hit, class, &mut uncounted))
+            .map(|path| path.weight())
+            .sum();
+        let throughput =
+            classes::local_throughput(&geometry, ray, hit, options.tree, &mut uncounted);
+        ClassShare {
+            kept: kept.element_sum() / 3.0,
+            throughput: throughput.element_sum() / 3.0,
+        }
     }
 
     /// `[T·F_T·G_T, R·F_R·G_R]` of lens object `lens` hit by `ray` at `hit`, the lens being the
@@ -313,7 +454,7 @@ impl TraceScene {
                 hit,
                 part: Part::Lens(lens),
             }) => {
-                let [t, r] = self.greedy_terms(lens, ray, &hit, depth + 1, options, counters);
+                let [t, r] = self.lens_terms(lens, ray, &hit, depth + 1, options, counters);
                 t + r
             }
         }

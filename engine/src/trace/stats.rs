@@ -65,6 +65,9 @@ pub struct RenderStats {
     pub counters: TraceCounters,
     /// Wall-clock time of the render in seconds (excluding scene loading and BVH builds).
     pub seconds: f64,
+    /// Under path classes, the throughput they keep of every camera ray's first lens object
+    /// (zero under the other models).
+    pub class_share: super::ClassShare,
 }
 
 impl RenderStats {

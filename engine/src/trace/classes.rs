@@ -1,0 +1,400 @@
+//! Ray-path classes: fixed event sequences through a lens object, beyond the papers' two greedy
+//! terms.
+//!
+//! A class is the complete sequence of events of a path through a lens object, from its first
+//! hit until its ray misses the object: `R` (reflected at the first hit and gone), `TT`
+//! (refracted in, refracted out), `TRT` (one internal reflection), `TRRT`, …; `R`, `RR`, … for
+//! mirrors. A path that leaves and meets the object again (a spout in front of a body) goes on
+//! with its sequence, as the greedy paths do. The classes partition the paths of the object's
+//! local ray tree: every path has exactly one sequence, so a set of classes counts no light
+//! twice, and what it leaves out is the light of the sequences not listed. Where an event is
+//! impossible (total internal reflection where the class says refract), or the ray leaves
+//! before the sequence ends or meets the object after it, that path has another sequence and
+//! carries nothing in this class.
+//!
+//! Fixed classes keep ray trees coherent from one vertex to the next (what adaptive
+//! tessellation needs, the reason the hybrid-rendering paper chose greedy paths) while
+//! recovering the light the greedy choice drops: the weaker child carries 10–25 % of the light
+//! near a glass ball's rim.
+
+use glam::DVec3;
+
+use super::Ray;
+use super::bvh::SurfaceHit;
+use super::path::{Interface, LensGeometry, RayTreeOptions, scatter, transmittance};
+use super::stats::TraceCounters;
+
+/// The longest class: 32 events (one bit each).
+pub const MAX_EVENTS: u32 = 32;
+
+/// The most classes one set holds.
+pub const MAX_CLASSES: usize = 16;
+
+/// What a path does at one interface.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Event {
+    /// Reflects (`R`).
+    Reflect,
+    /// Refracts through (`T`).
+    Refract,
+}
+
+/// A fixed event sequence through a lens object (see the module).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PathClass {
+    /// Events, 1 to [`MAX_EVENTS`].
+    len: u8,
+    /// Bit i set when event i (0-based) is a reflection.
+    reflections: u32,
+}
+
+impl PathClass {
+    /// The class of `events` (1 to [`MAX_EVENTS`] of them).
+    pub fn new(events: &[Event]) -> Option<PathClass> {
+        if events.is_empty() || events.len() > MAX_EVENTS as usize {
+            return None;
+        }
+        let reflections = events
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| **e == Event::Reflect)
+            .fold(0u32, |bits, (i, _)| bits | 1 << i);
+        Some(PathClass {
+            len: events.len() as u8,
+            reflections,
+        })
+    }
+
+    /// Reads a class written in `R` and `T` (`"TRRT"`); `None` for anything else.
+    pub fn parse(text: &str) -> Option<PathClass> {
+        let events: Option<Vec<Event>> = text
+            .chars()
+            .map(|c| match c {
+                'R' => Some(Event::Reflect),
+                'T' => Some(Event::Refract),
+                _ => None,
+            })
+            .collect();
+        PathClass::new(&events?)
+    }
+
+    /// Its events in order.
+    pub fn events(self) -> impl Iterator<Item = Event> {
+        (0..u32::from(self.len)).map(move |i| {
+            if self.reflections & (1 << i) != 0 {
+                Event::Reflect
+            } else {
+                Event::Refract
+            }
+        })
+    }
+
+    /// Number of interfaces the class's path meets.
+    pub fn events_len(self) -> u32 {
+        u32::from(self.len)
+    }
+
+    /// Whether the class starts with a reflection (the papers' `R` term's family).
+    pub fn starts_reflected(self) -> bool {
+        self.reflections & 1 != 0
+    }
+
+    /// Its name, `R`, `TT`, `TRRT`, ….
+    pub fn name(self) -> String {
+        self.events()
+            .map(|e| match e {
+                Event::Reflect => 'R',
+                Event::Refract => 'T',
+            })
+            .collect()
+    }
+
+    /// The `i`-th class of glass in the canonical order `R, TT, TRT, TR²T, …` (0-based).
+    pub fn glass(i: usize) -> Option<PathClass> {
+        match i {
+            0 => PathClass::new(&[Event::Reflect]),
+            _ => {
+                let mut events = vec![Event::Refract];
+                events.extend(std::iter::repeat_n(Event::Reflect, i - 1));
+                events.push(Event::Refract);
+                PathClass::new(&events)
+            }
+        }
+    }
+
+    /// The `i`-th class of a mirror in the canonical order `R, RR, RRR, …` (0-based).
+    pub fn mirror(i: usize) -> Option<PathClass> {
+        PathClass::new(&vec![Event::Reflect; i + 1])
+    }
+}
+
+/// Which classes a lens object's shading sums: the first N of the canonical order of its
+/// material, or a list.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ClassSet {
+    /// The first N (1 to [`MAX_CLASSES`]) classes: `R, TT, TRT, …` for glass, `R, RR, …` for
+    /// mirrors.
+    First(u8),
+    /// These classes (1 to [`MAX_CLASSES`], distinct), for every material; a class a mirror
+    /// cannot follow (one with a `T`) carries nothing there.
+    List {
+        /// The classes; the first `len` are used.
+        classes: [PathClass; MAX_CLASSES],
+        /// How many.
+        len: u8,
+    },
+}
+
+impl ClassSet {
+    /// Reads `N` (a count) or a comma-separated list such as `R,TT,TRT,TRRT`.
+    pub fn parse(text: &str) -> Result<ClassSet, String> {
+        let text = text.trim();
+        if let Ok(count) = text.parse::<usize>() {
+            return if (1..=MAX_CLASSES).contains(&count) {
+                Ok(ClassSet::First(count as u8))
+            } else {
+                Err(format!(
+                    "{count} classes: give 1 to {MAX_CLASSES} (the first N of R, TT, TRT, … for glass; of R, RR, … for mirrors)"
+                ))
+            };
+        }
+        let mut classes = [PathClass::new(&[Event::Reflect]).expect("R"); MAX_CLASSES];
+        let mut len = 0usize;
+        for word in text.split(',').map(str::trim) {
+            let class = PathClass::parse(word).ok_or_else(|| {
+                format!(
+                    "'{word}' is not a path class: write one in R and T, 1 to {MAX_EVENTS} events (R, TT, TRT, …)"
+                )
+            })?;
+            if classes[..len].contains(&class) {
+                return Err(format!(
+                    "'{word}' is listed twice: each path belongs to one class, so list each once"
+                ));
+            }
+            if len == MAX_CLASSES {
+                return Err(format!(
+                    "more than {MAX_CLASSES} classes: list at most {MAX_CLASSES}"
+                ));
+            }
+            classes[len] = class;
+            len += 1;
+        }
+        Ok(ClassSet::List {
+            classes,
+            len: len as u8,
+        })
+    }
+
+    /// The classes for a lens surface of `interface`.
+    pub fn classes(&self, interface: Interface) -> Vec<PathClass> {
+        match *self {
+            ClassSet::First(n) => (0..usize::from(n))
+                .filter_map(|i| match interface {
+                    Interface::Dielectric { .. } => PathClass::glass(i),
+                    Interface::Mirror { .. } => PathClass::mirror(i),
+                })
+                .collect(),
+            ClassSet::List { classes, len } => classes[..usize::from(len)].to_vec(),
+        }
+    }
+
+    /// Its name: the count, or the list (`R,TT,TRT`).
+    pub fn name(&self) -> String {
+        match *self {
+            ClassSet::First(n) => n.to_string(),
+            ClassSet::List { classes, len } => classes[..usize::from(len)]
+                .iter()
+                .map(|c| c.name())
+                .collect::<Vec<_>>()
+                .join(","),
+        }
+    }
+}
+
+/// One class's path through a lens object, from its first hit to where its ray leaves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClassPath {
+    /// The class.
+    pub class: PathClass,
+    /// `F`: the product of the Fresnel coefficients of its events, per channel.
+    pub fresnel: DVec3,
+    /// `G`: the product of `absorption^distance` over the glass traversed, per channel.
+    pub attenuation: DVec3,
+    /// The ray leaving the lens object (origin on its last interface, unit direction).
+    pub outgoing_ray: Ray,
+    /// Distance travelled inside glass, metres.
+    pub glass_distance: f64,
+}
+
+impl ClassPath {
+    /// `F·G` per channel: what the radiance along the outgoing ray is multiplied by.
+    pub fn weight(&self) -> DVec3 {
+        self.fresnel * self.attenuation
+    }
+}
+
+/// The path of `class` started by `incoming` at its first hit `first_hit` on `lens`, or `None`
+/// where the path has another sequence (an impossible event, or the ray leaving before the
+/// sequence ends or meeting the object after it). Counts one secondary ray per segment traced
+/// against the lens object.
+pub fn trace_class(
+    lens: &impl LensGeometry,
+    incoming: &Ray,
+    first_hit: &SurfaceHit,
+    class: PathClass,
+    counters: &mut TraceCounters,
+) -> Option<ClassPath> {
+    let mut path = ClassPath {
+        class,
+        fresnel: DVec3::ONE,
+        attenuation: DVec3::ONE,
+        outgoing_ray: *incoming,
+        glass_distance: 0.0,
+    };
+    let mut hit = *first_hit;
+    let events = class.events_len();
+    for (i, event) in class.events().enumerate() {
+        let scattering = scatter(
+            lens.interface(hit.object),
+            path.outgoing_ray.direction,
+            &hit,
+        );
+        let (ray, coefficient) = match event {
+            Event::Reflect => scattering.reflection,
+            Event::Refract => {
+                let (ray, transmittance) = scattering.refraction?;
+                (ray, DVec3::splat(transmittance))
+            }
+        };
+        path.fresnel *= coefficient;
+        path.outgoing_ray = ray;
+        counters.secondary_rays += 1;
+        let next = lens.closest_hit(&ray, Some(hit.primitive), counters);
+        if i as u32 + 1 == events {
+            // The sequence is complete only if the ray now leaves the object.
+            return next.is_none().then_some(path);
+        }
+        let next = next?;
+        if !next.is_front_facing(ray.direction)
+            && let Interface::Dielectric { absorption, .. } = lens.interface(next.object)
+        {
+            path.attenuation *= transmittance(absorption, next.distance);
+            path.glass_distance += next.distance;
+        }
+        hit = next;
+    }
+    None
+}
+
+/// The paths of `classes` started by `incoming` at `first_hit` on `lens` (`None` for a class
+/// the path does not follow).
+pub fn trace_classes(
+    lens: &impl LensGeometry,
+    incoming: &Ray,
+    first_hit: &SurfaceHit,
+    classes: &[PathClass],
+    counters: &mut TraceCounters,
+) -> Vec<Option<ClassPath>> {
+    classes
+        .iter()
+        .map(|&class| trace_class(lens, incoming, first_hit, class, counters))
+        .collect()
+}
+
+/// `Σ F·G` per channel over every path of the local ray tree of `lens` from `first_hit`: the
+/// share of the light arriving along `incoming` that leaves the object at all (1 for clear glass,
+/// less where glass absorbs or where branches end past `limits.max_depth` events or below
+/// `limits.cutoff`). The classes' share of it is what a class set keeps; the rest it drops.
+pub fn local_throughput(
+    lens: &impl LensGeometry,
+    incoming: &Ray,
+    first_hit: &SurfaceHit,
+    limits: RayTreeOptions,
+    counters: &mut TraceCounters,
+) -> DVec3 {
+    fn branch(
+        lens: &impl LensGeometry,
+        direction: DVec3,
+        hit: &SurfaceHit,
+        weight: DVec3,
+        events: u32,
+        limits: RayTreeOptions,
+        counters: &mut TraceCounters,
+    ) -> DVec3 {
+        let scattering = scatter(lens.interface(hit.object), direction, hit);
+        let mut children = vec![scattering.reflection];
+        if let Some((ray, t)) = scattering.refraction {
+            children.push((ray, DVec3::splat(t)));
+        }
+        let mut sum = DVec3::ZERO;
+        for (ray, coefficient) in children {
+            let mut w = weight * coefficient;
+            if w.max_element() < limits.cutoff {
+                continue;
+            }
+            counters.secondary_rays += 1;
+            let Some(next) = lens.closest_hit(&ray, Some(hit.primitive), counters) else {
+                sum += w;
+                continue;
+            };
+            if events + 1 >= limits.max_depth.max(1) {
+                continue;
+            }
+            if !next.is_front_facing(ray.direction)
+                && let Interface::Dielectric { absorption, .. } = lens.interface(next.object)
+            {
+                w *= transmittance(absorption, next.distance);
+            }
+            sum += branch(lens, ray.direction, &next, w, events + 1, limits, counters);
+        }
+        sum
+    }
+    branch(
+        lens,
+        incoming.direction,
+        first_hit,
+        DVec3::ONE,
+        0,
+        limits,
+        counters,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn classes_are_named_parsed_and_ordered_canonically() {
+        let glass: Vec<String> = (0..5)
+            .map(|i| PathClass::glass(i).unwrap().name())
+            .collect();
+        assert_eq!(glass, ["R", "TT", "TRT", "TRRT", "TRRRT"]);
+        let mirror: Vec<String> = (0..3)
+            .map(|i| PathClass::mirror(i).unwrap().name())
+            .collect();
+        assert_eq!(mirror, ["R", "RR", "RRR"]);
+        assert_eq!(
+            PathClass::parse("TRRT").unwrap(),
+            PathClass::glass(3).unwrap()
+        );
+        assert!(PathClass::parse("").is_none() && PathClass::parse("TXT").is_none());
+        assert!(PathClass::parse(&"R".repeat(33)).is_none());
+        assert!(!PathClass::glass(3).unwrap().starts_reflected());
+        let set = ClassSet::parse("R, TT,TRT").unwrap();
+        assert_eq!(set.name(), "R,TT,TRT");
+        assert_eq!(ClassSet::parse("4").unwrap(), ClassSet::First(4));
+        assert!(ClassSet::parse("0").is_err() && ClassSet::parse("17").is_err());
+        assert!(ClassSet::parse("R,R").unwrap_err().contains("twice"));
+        assert!(ClassSet::parse("R,Q").unwrap_err().contains("'Q'"));
+        let mirror = Interface::Mirror {
+            reflectance: DVec3::ONE,
+        };
+        let names: Vec<String> = ClassSet::First(2)
+            .classes(mirror)
+            .iter()
+            .map(|c| c.name())
+            .collect();
+        assert_eq!(names, ["R", "RR"]);
+    }
+}

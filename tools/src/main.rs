@@ -7,6 +7,7 @@ mod common;
 mod bake;
 mod bake_radiance;
 mod bench_bake;
+mod bench_classes;
 mod bench_error;
 mod bench_fresnel;
 mod bench_glossy;
@@ -162,6 +163,11 @@ enum BenchCommand {
     /// Glossy objects by reflection-space IBR against the reference: warped, nearest and
     /// blended maps on a sample, in a triangle and on an edge; 12, 42 and 162 view samples.
     Glossy(bench_glossy::BenchGlossyArgs),
+    /// Ray-path models against the full ray tree with no EM between: the greedy terms and the
+    /// first N path classes (R, TT, TRT, …), their lens PSNR, light kept per ring and rays.
+    ///
+    /// Example: lensmap bench classes --scenes glass-sphere --tree greedy --tree 4
+    Classes(bench_classes::BenchClassesArgs),
 }
 
 /// The kind of failure `error` is: that of the first error in its chain the library or the
@@ -251,6 +257,7 @@ fn main() -> ExitCode {
         Command::Bench(BenchCommand::Error(args)) => bench_error::run(args),
         Command::Bench(BenchCommand::Fresnel(args)) => bench_fresnel::run(args),
         Command::Bench(BenchCommand::Glossy(args)) => bench_glossy::run(args),
+        Command::Bench(BenchCommand::Classes(args)) => bench_classes::run(args),
         Command::OptionTree => {
             modes::print_tree(&Cli::command());
             Ok(())

@@ -585,3 +585,45 @@ fn bench_fresnel_reports_errors_within_the_bound_and_bad_forms_exit_2() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("give exact or table:N"), "{stderr}");
 }
+
+/// `bench classes` on a small glass-sphere: four path classes keep more of the full tree's lens
+/// light than the greedy terms (which miss the internal reflections), the full tree's
+/// convergence and the ranked classes are reported, and the scene's top four are judged too.
+#[test]
+fn bench_classes_judges_models_against_the_full_tree() {
+    let out = lensmap(&[
+        "bench",
+        "classes",
+        "--scenes",
+        "glass-sphere",
+        "--tree",
+        "greedy",
+        "--tree",
+        "4",
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--supersampling",
+        "1",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let rows = report["rows"].as_array().expect("rows");
+    assert_eq!(rows.len(), 3, "greedy, 4 and the top four: {report}");
+    let ratio = |tree: &str| {
+        rows.iter()
+            .find(|r| r["tree"] == tree)
+            .and_then(|r| r["radiance_ratio"].as_f64())
+            .unwrap_or_else(|| panic!("a {tree} row: {report}"))
+    };
+    assert!(ratio("greedy") < 0.9 && ratio("4") > 0.98, "{report}");
+    let reference = &report["references"][0];
+    assert!(reference["convergence_psnr_srgb_db"].as_f64().unwrap() > 0.0);
+    assert_eq!(reference["ranked_classes"][0][0], "TT", "{reference}");
+}

@@ -41,7 +41,7 @@ fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
 }
 
 /// Every command, as a user types it.
-const COMMANDS: [&[&str]; 11] = [
+const COMMANDS: [&[&str]; 12] = [
     &["demo"],
     &["passes"],
     &["reference"],
@@ -53,6 +53,7 @@ const COMMANDS: [&[&str]; 11] = [
     &["bench", "infer"],
     &["bench", "bake"],
     &["bench", "fresnel"],
+    &["bench", "classes"],
 ];
 
 #[test]

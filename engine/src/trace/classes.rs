@@ -312,52 +312,121 @@ pub fn local_throughput(
     limits: RayTreeOptions,
     counters: &mut TraceCounters,
 ) -> DVec3 {
+    let mut sum = DVec3::ZERO;
+    local_tree(
+        lens,
+        incoming,
+        first_hit,
+        limits,
+        counters,
+        &mut |_, weight| {
+            sum += weight;
+        },
+    );
+    sum
+}
+
+/// Calls `leaf(class, F·G)` for every path of the local ray tree of `lens` from `first_hit`
+/// that leaves the object within `limits` (both children at every interface; a branch below
+/// `limits.cutoff` or past `limits.max_depth` events is not followed): the classes that carry
+/// light there, for ranking them ([`rank_classes`]).
+pub fn local_tree(
+    lens: &impl LensGeometry,
+    incoming: &Ray,
+    first_hit: &SurfaceHit,
+    limits: RayTreeOptions,
+    counters: &mut TraceCounters,
+    leaf: &mut impl FnMut(PathClass, DVec3),
+) {
+    /// One interface of the walk: where it is, how the path got there, and its weight so far.
+    struct Node<'a> {
+        direction: DVec3,
+        hit: &'a SurfaceHit,
+        events: Vec<Event>,
+        weight: DVec3,
+    }
     fn branch(
         lens: &impl LensGeometry,
-        direction: DVec3,
-        hit: &SurfaceHit,
-        weight: DVec3,
-        events: u32,
+        node: Node<'_>,
         limits: RayTreeOptions,
         counters: &mut TraceCounters,
-    ) -> DVec3 {
-        let scattering = scatter(lens.interface(hit.object), direction, hit);
-        let mut children = vec![scattering.reflection];
+        leaf: &mut impl FnMut(PathClass, DVec3),
+    ) {
+        let scattering = scatter(lens.interface(node.hit.object), node.direction, node.hit);
+        let mut children = vec![(Event::Reflect, scattering.reflection)];
         if let Some((ray, t)) = scattering.refraction {
-            children.push((ray, DVec3::splat(t)));
+            children.push((Event::Refract, (ray, DVec3::splat(t))));
         }
-        let mut sum = DVec3::ZERO;
-        for (ray, coefficient) in children {
-            let mut w = weight * coefficient;
-            if w.max_element() < limits.cutoff {
+        for (event, (ray, coefficient)) in children {
+            let mut weight = node.weight * coefficient;
+            if weight.max_element() < limits.cutoff {
                 continue;
             }
+            let mut events = node.events.clone();
+            events.push(event);
             counters.secondary_rays += 1;
-            let Some(next) = lens.closest_hit(&ray, Some(hit.primitive), counters) else {
-                sum += w;
+            let Some(next) = lens.closest_hit(&ray, Some(node.hit.primitive), counters) else {
+                if let Some(class) = PathClass::new(&events) {
+                    leaf(class, weight);
+                }
                 continue;
             };
-            if events + 1 >= limits.max_depth.max(1) {
+            if events.len() as u32 >= limits.max_depth.clamp(1, MAX_EVENTS) {
                 continue;
             }
             if !next.is_front_facing(ray.direction)
                 && let Interface::Dielectric { absorption, .. } = lens.interface(next.object)
             {
-                w *= transmittance(absorption, next.distance);
+                weight *= transmittance(absorption, next.distance);
             }
-            sum += branch(lens, ray.direction, &next, w, events + 1, limits, counters);
+            let child = Node {
+                direction: ray.direction,
+                hit: &next,
+                events,
+                weight,
+            };
+            branch(lens, child, limits, counters, leaf);
         }
-        sum
     }
-    branch(
-        lens,
-        incoming.direction,
-        first_hit,
-        DVec3::ONE,
-        0,
-        limits,
-        counters,
-    )
+    let root = Node {
+        direction: incoming.direction,
+        hit: first_hit,
+        events: Vec::new(),
+        weight: DVec3::ONE,
+    };
+    branch(lens, root, limits, counters, leaf);
+}
+
+/// The classes that carry light, ranked by their share of the summed throughput (`Σ F·G`, the
+/// mean of the channels) over `rays`, each with that share: the data for choosing a class list
+/// for a lens object whose paths are not the canonical order's (an open mesh lets `TRRR` out;
+/// a mirror's concavities keep `RRR…`).
+pub fn rank_classes<'a>(
+    lens: &impl LensGeometry,
+    rays: impl IntoIterator<Item = (&'a Ray, &'a SurfaceHit)>,
+    limits: RayTreeOptions,
+) -> Vec<(PathClass, f64)> {
+    let mut shares: std::collections::HashMap<PathClass, f64> = Default::default();
+    let mut counters = TraceCounters::default();
+    for (ray, hit) in rays {
+        local_tree(
+            lens,
+            ray,
+            hit,
+            limits,
+            &mut counters,
+            &mut |class, weight| {
+                *shares.entry(class).or_default() += weight.element_sum() / 3.0;
+            },
+        );
+    }
+    let total: f64 = shares.values().sum();
+    let mut ranked: Vec<(PathClass, f64)> = shares
+        .into_iter()
+        .map(|(class, share)| (class, if total > 0.0 { share / total } else { 0.0 }))
+        .collect();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    ranked
 }
 
 #[cfg(test)]

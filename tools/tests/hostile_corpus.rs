@@ -1303,7 +1303,7 @@ fn hostile_options_are_refused_naming_the_option() {
         (
             "nan-angle",
             &["--angle-degrees", "nan"],
-            &["--angle-degrees NaN"],
+            &["--angle-degrees nan", "outside its range (0, 180)"],
             false,
         ),
         // An infinite t.
@@ -1319,7 +1319,7 @@ fn hostile_options_are_refused_naming_the_option() {
         (
             "nan-light-map-density",
             &["--light-map-density", "nan"],
-            &["--light-map-density NaN"],
+            &["--light-map-density nan", "outside its range [1, 4096]"],
             false,
         ),
         // Zero pixels per texel.
@@ -1380,21 +1380,21 @@ fn hostile_options_are_refused_naming_the_option() {
         (
             "zero-width",
             &["--width", "0", "--height", "12"],
-            &["camera", "0×12"],
+            &["--width 0", "outside its range [1, 16384]"],
             false,
         ),
-        // 70000×70000 pixels.
+        // 10000×10000 pixels: each side within its range, the two past 2²⁶ subpixels.
         (
             "pixels-past-the-budget",
             &[
                 "--width",
-                "70000",
+                "10000",
                 "--height",
-                "70000",
+                "10000",
                 "--supersampling",
                 "1",
             ],
-            &["camera", "70000×70000 subpixels", "the limit is 16384"],
+            &["camera", "10000×10000 subpixels", "67108864 in all"],
             true,
         ),
     ];

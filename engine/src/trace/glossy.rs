@@ -273,7 +273,7 @@ impl TraceScene {
             Some(seen) => match seen.part {
                 Part::Lens(lens) => {
                     let [refraction, reflection] =
-                        self.greedy_terms(lens, ray, &seen.hit, 1, options, counters);
+                        self.lens_terms(lens, ray, &seen.hit, 1, options, counters);
                     refraction + reflection
                 }
                 Part::Environment => self.shade_diffuse(ray, &seen.hit, counters),

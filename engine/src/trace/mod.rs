@@ -5,9 +5,10 @@
 //! Laid out like pbrt: [`fresnel`] (interface physics), [`schlick_table`] (Schlick's fifth-order
 //! term through a 1D texture, and its error), [`bvh`] (acceleration and f64
 //! intersection), [`world`] (the scene flattened into lens objects and environment), [`path`]
-//! (ray-path models), [`classes`] (fixed path classes beyond the two greedy terms), [`shade`] (environment shading and the camera-ray integrator), [`image`]
-//! (film, render loop, EXR/PNG), [`records`] (the baker's intersection records) and [`stats`]
-//! (work counters). All geometry after the BVH traversal is f64.
+//! (ray-path models), [`classes`] (fixed path classes beyond the two greedy terms), [`shade`]
+//! (environment shading and the camera-ray integrator), [`image`] (film, render loop, EXR/PNG),
+//! [`records`] (the baker's intersection records) and [`stats`] (work counters). All geometry
+//! after the BVH traversal is f64.
 //!
 //! ```no_run
 //! use lensmap::scene::Scene;

@@ -9,8 +9,9 @@
 //! lens shadow would be a feature the hybrid image can never show.
 //!
 //! Along an outgoing ray that meets another lens object, that object is evaluated with the same
-//! model (the two greedy terms, or the same path classes), up to [`TraceOptions::max_lens_depth`] nested lens objects; deeper, the ray sees
-//! the environment alone.
+//! model (the two greedy terms, or the same path classes), up to
+//! [`TraceOptions::max_lens_depth`] nested lens objects; deeper, the ray sees the environment
+//! alone.
 
 use glam::DVec3;
 
@@ -315,8 +316,8 @@ impl TraceScene {
     /// `[T…, R…]` of lens object `lens` hit by `ray` at `hit` (the `depth`-th lens object along
     /// the camera ray, 1 for the first) under `options.model`: the two greedy terms, or the sums
     /// of the classes that start with a refraction and with a reflection. (The full tree is
-    /// evaluated from the camera ray only; where a glossy sample or a record meets a lens
-    /// object below it, the greedy terms stand in, as they always have.)
+    /// evaluated from the camera ray only; where a glossy surface's sample meets a lens object
+    /// below it, the greedy terms stand in, as they always have.)
     pub fn lens_terms(
         &self,
         lens: usize,

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 use lensmap::scene::Scene;
-use lensmap::trace::classes::{ClassSet, PathClass, local_throughput, trace_class};
+use lensmap::trace::classes::{ClassSet, PathClass, local_throughput, trace_class, trace_term};
 use lensmap::trace::fresnel;
 use lensmap::trace::image::camera_ray;
 use lensmap::trace::path::{Interface, LensGeometry, scatter, transmittance};
@@ -222,6 +222,30 @@ fn every_class_is_the_leaf_of_its_sequence_in_an_enumerated_tree() {
                         }
                     }
                 }
+                // The tree expanded to 3 events, greedy below: each term's path is the leaf of
+                // its whole sequence, which starts with the term's prefix, and no two terms
+                // share a path.
+                let interface = geometry.interface(hit.hit.object);
+                let mut taken: Vec<String> = Vec::new();
+                for term in ClassSet::Expanded(3).terms(interface) {
+                    let Some(path) = trace_term(&geometry, &ray, &hit.hit, term, &mut counters)
+                    else {
+                        continue;
+                    };
+                    let sequence = path.class.name();
+                    assert!(sequence.starts_with(&term.class.name()), "{sequence}");
+                    assert!(!taken.contains(&sequence), "{name}: {sequence} twice");
+                    taken.push(sequence.clone());
+                    if let Some(leaf) = leaves.get(&sequence) {
+                        compared += 1;
+                        assert!(
+                            (path.weight() - leaf.weight).abs().max_element() < 1e-12,
+                            "{name} ({x}, {y}) {sequence} by its greedy tail"
+                        );
+                    } else {
+                        assert!(path.class.events_len() > depth, "{name}: {sequence}");
+                    }
+                }
                 let sum: DVec3 = leaves.values().map(|l| l.weight).sum();
                 let throughput = local_throughput(
                     &geometry,
@@ -297,4 +321,60 @@ fn classes_add_up_towards_the_full_tree_in_a_reference_render() {
         "6 classes: {} of the full tree",
         previous.0 / full
     );
+}
+
+/// The tree expanded to one event, greedy below, is the papers' two greedy terms: its images
+/// equal the greedy model's bit for bit; expanded to two and three it keeps more of the full
+/// tree's light on teapot-room, whose light the fixed classes miss.
+#[test]
+fn expanded_to_one_event_is_the_greedy_model_and_deeper_keeps_more() {
+    for name in ["teapot-room", "glass-sphere"] {
+        let mut scene = Scene::load_named(name).unwrap();
+        scene.camera.width = 48;
+        scene.camera.height = 36;
+        scene.camera.supersampling = 1;
+        let world = TraceScene::new(&scene).unwrap();
+        let render = |model| {
+            let options = TraceOptions {
+                model,
+                ..TraceOptions::default()
+            };
+            render_reference(&world, &scene.camera, &options, &|_| {}).unwrap()
+        };
+        let bits = |image: &lensmap::trace::ReferenceImage| -> Vec<u32> {
+            image
+                .radiance
+                .iter()
+                .chain(&image.refraction)
+                .chain(&image.reflection)
+                .flat_map(|v| v.to_array().map(f32::to_bits))
+                .collect()
+        };
+        let greedy = render(PathModel::Greedy);
+        let one = render(PathModel::Classes(ClassSet::Expanded(1)));
+        assert_eq!(bits(&greedy), bits(&one), "{name}");
+        let total = |image: &lensmap::trace::ReferenceImage| -> f64 {
+            image
+                .radiance
+                .iter()
+                .map(|r| f64::from(r.x + r.y + r.z))
+                .sum()
+        };
+        let two = render(PathModel::Classes(ClassSet::Expanded(2)));
+        let three = render(PathModel::Classes(ClassSet::Expanded(3)));
+        let dropped = |image: &lensmap::trace::ReferenceImage| {
+            image.stats.class_share.dropped().expect("lens rays")
+        };
+        assert!(
+            total(&two) > total(&one) && total(&three) >= total(&two),
+            "{name}: {} {} {}",
+            total(&one),
+            total(&two),
+            total(&three)
+        );
+        assert!(
+            dropped(&three) < dropped(&two) && dropped(&two) < dropped(&one),
+            "{name}"
+        );
+    }
 }

@@ -33,7 +33,7 @@ pub struct BenchClassesArgs {
     /// class count N, or a class list such as `R,TT,TRT,TRRT`. The four classes that carry
     /// most of each scene's lens light are judged too, as a list.
     #[arg(long = "tree", value_name = "greedy|N|CLASSES", value_parser = crate::reference::parse_tree,
-          default_values = ["greedy", "2", "3", "4", "6"])]
+          default_values = ["greedy", "2", "3", "4", "6", "greedy:2", "greedy:3"])]
     trees: Vec<PathModel>,
     /// Image width, pixels.
     /// Range: [1, 16384].

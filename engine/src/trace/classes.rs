@@ -143,12 +143,38 @@ pub enum ClassSet {
         /// How many.
         len: u8,
     },
+    /// The local tree expanded to D events (1 to [`MAX_EXPANDED_DEPTH`]), greedy below: one
+    /// term per sequence of D events, each followed by the greedy choice until it leaves, and
+    /// one per complete sequence shorter than D. Depth 1 is the papers' two greedy terms. The
+    /// terms have distinct first events, so no light is counted twice.
+    Expanded(u8),
+}
+
+/// The deepest expansion [`ClassSet::Expanded`] takes (2 + 4 + 8 = 14 terms for glass).
+pub const MAX_EXPANDED_DEPTH: u8 = 3;
+
+/// One term of a lens object's shading: a complete class, or a prefix whose path goes on by the
+/// greedy choice ([`ClassSet::Expanded`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ClassTerm {
+    /// The class, or the prefix.
+    pub class: PathClass,
+    /// Whether the path goes on greedily after `class`'s events.
+    pub greedy_tail: bool,
 }
 
 impl ClassSet {
     /// Reads `N` (a count) or a comma-separated list such as `R,TT,TRT,TRRT`.
     pub fn parse(text: &str) -> Result<ClassSet, String> {
         let text = text.trim();
+        if let Some(depth) = text.strip_prefix("greedy:") {
+            return match depth.parse::<u8>() {
+                Ok(d) if (1..=MAX_EXPANDED_DEPTH).contains(&d) => Ok(ClassSet::Expanded(d)),
+                _ => Err(format!(
+                    "'{text}': give greedy:D with D from 1 to {MAX_EXPANDED_DEPTH} (the tree expanded to D events, greedy below)"
+                )),
+            };
+        }
         if let Ok(count) = text.parse::<usize>() {
             return if (1..=MAX_CLASSES).contains(&count) {
                 Ok(ClassSet::First(count as u8))
@@ -185,16 +211,50 @@ impl ClassSet {
         })
     }
 
-    /// The classes for a lens surface of `interface`.
-    pub fn classes(&self, interface: Interface) -> Vec<PathClass> {
+    /// The terms for a lens surface of `interface`.
+    pub fn terms(&self, interface: Interface) -> Vec<ClassTerm> {
+        let complete = |class| ClassTerm {
+            class,
+            greedy_tail: false,
+        };
         match *self {
             ClassSet::First(n) => (0..usize::from(n))
                 .filter_map(|i| match interface {
                     Interface::Dielectric { .. } => PathClass::glass(i),
                     Interface::Mirror { .. } => PathClass::mirror(i),
                 })
+                .map(complete)
                 .collect(),
-            ClassSet::List { classes, len } => classes[..usize::from(len)].to_vec(),
+            ClassSet::List { classes, len } => classes[..usize::from(len)]
+                .iter()
+                .copied()
+                .map(complete)
+                .collect(),
+            ClassSet::Expanded(depth) => {
+                let events: &[Event] = match interface {
+                    Interface::Dielectric { .. } => &[Event::Reflect, Event::Refract],
+                    Interface::Mirror { .. } => &[Event::Reflect],
+                };
+                // Every sequence of 1 to `depth` events: the shorter ones complete, those of
+                // `depth` events with greedy tails.
+                let mut sequences: Vec<Vec<Event>> = vec![Vec::new()];
+                let mut terms = Vec::new();
+                for length in 1..=depth {
+                    sequences = sequences
+                        .iter()
+                        .flat_map(|s| events.iter().map(move |e| [s.as_slice(), &[*e]].concat()))
+                        .collect();
+                    for sequence in &sequences {
+                        if let Some(class) = PathClass::new(sequence) {
+                            terms.push(ClassTerm {
+                                class,
+                                greedy_tail: length == depth,
+                            });
+                        }
+                    }
+                }
+                terms
+            }
         }
     }
 
@@ -202,6 +262,7 @@ impl ClassSet {
     pub fn name(&self) -> String {
         match *self {
             ClassSet::First(n) => n.to_string(),
+            ClassSet::Expanded(depth) => format!("greedy:{depth}"),
             ClassSet::List { classes, len } => classes[..usize::from(len)]
                 .iter()
                 .map(|c| c.name())
@@ -214,7 +275,7 @@ impl ClassSet {
 /// One class's path through a lens object, from its first hit to where its ray leaves.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClassPath {
-    /// The class.
+    /// The path's whole sequence: the class, or a prefix and its greedy tail.
     pub class: PathClass,
     /// `F`: the product of the Fresnel coefficients of its events, per channel.
     pub fresnel: DVec3,
@@ -284,6 +345,73 @@ pub fn trace_class(
         hit = next;
     }
     None
+}
+
+/// Most interfaces a greedy tail meets in all, as the greedy paths' default
+/// ([`super::path::GreedyOptions`]); a path that reaches it carries nothing.
+const MAX_TAIL_INTERFACES: u32 = 16;
+
+/// The path of `term` started by `incoming` at `first_hit` on `lens`: [`trace_class`] for a
+/// complete class; for a prefix, its events and then the greedy choice (the child with the
+/// larger Fresnel coefficient) until the ray leaves, or `None` where the prefix cannot be
+/// followed or the path leaves before it ends.
+pub fn trace_term(
+    lens: &impl LensGeometry,
+    incoming: &Ray,
+    first_hit: &SurfaceHit,
+    term: ClassTerm,
+    counters: &mut TraceCounters,
+) -> Option<ClassPath> {
+    if !term.greedy_tail {
+        return trace_class(lens, incoming, first_hit, term.class, counters);
+    }
+    let mut path = ClassPath {
+        class: term.class,
+        fresnel: DVec3::ONE,
+        attenuation: DVec3::ONE,
+        outgoing_ray: *incoming,
+        glass_distance: 0.0,
+    };
+    let mut events: Vec<Event> = Vec::new();
+    let mut hit = *first_hit;
+    let prefix: Vec<Event> = term.class.events().collect();
+    loop {
+        let scattering = scatter(
+            lens.interface(hit.object),
+            path.outgoing_ray.direction,
+            &hit,
+        );
+        let (event, (ray, coefficient)) = match prefix.get(events.len()) {
+            Some(Event::Reflect) => (Event::Reflect, scattering.reflection),
+            Some(Event::Refract) => {
+                let (ray, t) = scattering.refraction?;
+                (Event::Refract, (ray, DVec3::splat(t)))
+            }
+            None if scattering.greedy_reflects() => (Event::Reflect, scattering.reflection),
+            None => (Event::Refract, scattering.greedy_child()),
+        };
+        events.push(event);
+        path.fresnel *= coefficient;
+        path.outgoing_ray = ray;
+        counters.secondary_rays += 1;
+        let Some(next) = lens.closest_hit(&ray, Some(hit.primitive), counters) else {
+            // Left: a whole prefix at least, or the path belongs to a shorter class.
+            return (events.len() >= prefix.len()).then(|| ClassPath {
+                class: PathClass::new(&events).unwrap_or(term.class),
+                ..path
+            });
+        };
+        if events.len() as u32 >= MAX_TAIL_INTERFACES {
+            return None;
+        }
+        if !next.is_front_facing(ray.direction)
+            && let Interface::Dielectric { absorption, .. } = lens.interface(next.object)
+        {
+            path.attenuation *= transmittance(absorption, next.distance);
+            path.glass_distance += next.distance;
+        }
+        hit = next;
+    }
 }
 
 /// The paths of `classes` started by `incoming` at `first_hit` on `lens` (`None` for a class
@@ -459,11 +587,27 @@ mod tests {
         let mirror = Interface::Mirror {
             reflectance: DVec3::ONE,
         };
-        let names: Vec<String> = ClassSet::First(2)
-            .classes(mirror)
-            .iter()
-            .map(|c| c.name())
-            .collect();
-        assert_eq!(names, ["R", "RR"]);
+        let names = |set: ClassSet, interface| -> Vec<String> {
+            set.terms(interface)
+                .iter()
+                .map(|t| format!("{}{}", t.class.name(), if t.greedy_tail { "*" } else { "" }))
+                .collect()
+        };
+        assert_eq!(names(ClassSet::First(2), mirror), ["R", "RR"]);
+        let glass = Interface::Dielectric {
+            ior: 1.5,
+            absorption: DVec3::ONE,
+        };
+        assert_eq!(
+            names(ClassSet::parse("greedy:1").unwrap(), glass),
+            ["R*", "T*"]
+        );
+        assert_eq!(
+            names(ClassSet::Expanded(2), glass),
+            ["R", "T", "RR*", "RT*", "TR*", "TT*"]
+        );
+        assert_eq!(names(ClassSet::Expanded(3), mirror), ["R", "RR", "RRR*"]);
+        assert_eq!(ClassSet::Expanded(3).terms(glass).len(), 14);
+        assert!(ClassSet::parse("greedy:4").is_err() && ClassSet::parse("greedy:0").is_err());
     }
 }

@@ -354,8 +354,8 @@ impl TraceScene {
             return [DVec3::ZERO; 2];
         };
         let mut terms = [DVec3::ZERO; 2];
-        for class in set.classes(interface) {
-            let Some(path) = classes::trace_class(&geometry, ray, hit, class, counters) else {
+        for term in set.terms(interface) {
+            let Some(path) = classes::trace_term(&geometry, ray, hit, term, counters) else {
                 continue;
             };
             let weight = path.weight();
@@ -364,7 +364,7 @@ impl TraceScene {
             }
             let radiance =
                 self.outgoing_radiance(&path.outgoing_ray, lens, depth, options, counters);
-            terms[usize::from(class.starts_reflected())] += sanitize(weight * radiance);
+            terms[usize::from(term.class.starts_reflected())] += sanitize(weight * radiance);
         }
         terms
     }
@@ -386,9 +386,9 @@ impl TraceScene {
         // Counted apart: the share is a report, not part of the image's work.
         let mut uncounted = TraceCounters::default();
         let kept: DVec3 = set
-            .classes(interface)
+            .terms(interface)
             .into_iter()
-            .filter_map(|class| classes::trace_class(&geometry, ray, hit, class, &mut uncounted))
+            .filter_map(|term| classes::trace_term(&geometry, ray, hit, term, &mut uncounted))
             .map(|path| path.weight())
             .sum();
         let throughput =

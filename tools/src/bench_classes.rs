@@ -11,7 +11,7 @@ use clap::Args;
 use lensmap::metrics::{self, Channels, Encoding, Mask};
 use lensmap::scene::Camera;
 use lensmap::trace::bvh::SurfaceHit;
-use lensmap::trace::classes::rank_classes;
+use lensmap::trace::classes::{rank_classes, trace_term};
 use lensmap::trace::image::camera_ray;
 use lensmap::trace::world::Part;
 use lensmap::trace::{
@@ -68,9 +68,8 @@ const RINGS: [(f64, f64); 5] = [
 const RANKED: usize = 8;
 const RANKED_ROW: usize = 4;
 
-/// The classes carrying light through `world`'s lens objects at `camera`'s pixel centres, by
-/// share of the throughput, to 16 events.
-fn ranked(world: &TraceScene, camera: &Camera) -> Vec<(PathClass, f64)> {
+/// The first lens hits of `camera`'s pixel-centre rays, per lens object of `world`.
+fn lens_hits(world: &TraceScene, camera: &Camera) -> Vec<Vec<(Ray, SurfaceHit)>> {
     let mut counters = TraceCounters::default();
     let mut hits: Vec<Vec<(Ray, SurfaceHit)>> = vec![Vec::new(); world.lenses.len()];
     for y in 0..camera.height {
@@ -83,6 +82,12 @@ fn ranked(world: &TraceScene, camera: &Camera) -> Vec<(PathClass, f64)> {
             }
         }
     }
+    hits
+}
+
+/// The classes carrying light through `world`'s lens objects at the rays of `hits`, by share
+/// of the throughput, to 16 events.
+fn ranked(world: &TraceScene, hits: &[Vec<(Ray, SurfaceHit)>]) -> Vec<(PathClass, f64)> {
     let limits = RayTreeOptions {
         max_depth: 16,
         cutoff: 1e-4,
@@ -98,6 +103,43 @@ fn ranked(world: &TraceScene, camera: &Camera) -> Vec<(PathClass, f64)> {
     let mut ranked: Vec<(PathClass, f64)> = shares.into_iter().collect();
     ranked.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
     ranked
+}
+
+/// How many of `model`'s terms carry light through some lens object at the rays of `hits`
+/// (the most over the lens objects): what a frame's layer passes scale with. Greedy counts
+/// as the tree expanded to one event, which it is.
+fn terms_carrying_light(
+    world: &TraceScene,
+    hits: &[Vec<(Ray, SurfaceHit)>],
+    model: PathModel,
+) -> usize {
+    let set = match model {
+        PathModel::Classes(set) => set,
+        PathModel::Greedy | PathModel::Full => ClassSet::Expanded(1),
+    };
+    let mut counters = TraceCounters::default();
+    hits.iter()
+        .enumerate()
+        .map(|(lens, hits)| {
+            let geometry = world.lens(lens);
+            let Some((_, first)) = hits.first() else {
+                return 0;
+            };
+            let Some(interface) = world.interface(first.object) else {
+                return 0;
+            };
+            set.terms(interface)
+                .into_iter()
+                .filter(|&term| {
+                    hits.iter().any(|(ray, hit)| {
+                        trace_term(&geometry, ray, hit, term, &mut counters)
+                            .is_some_and(|path| path.weight().max_element() > 0.0)
+                    })
+                })
+                .count()
+        })
+        .max()
+        .unwrap_or(0)
 }
 
 /// One model on one scene against the full tree.
@@ -117,6 +159,9 @@ struct Row {
     class_dropped: Option<f64>,
     /// Secondary rays of the model / of the full tree.
     secondary_ray_ratio: f64,
+    /// How many of the model's terms carry light through a lens object at the pixel centres
+    /// (the most over the lens objects; what a frame's layer passes scale with).
+    terms: usize,
     seconds: f64,
 }
 
@@ -237,7 +282,8 @@ pub fn run(args: BenchClassesArgs) -> anyhow::Result<()> {
             Channels::Rgb,
         )
         .with_context(|| format!("{name}: the lens pixels"))?;
-        let ranked = ranked(&world, &camera);
+        let hits = lens_hits(&world, &camera);
+        let ranked = ranked(&world, &hits);
         let top = ranked
             .iter()
             .take(RANKED_ROW)
@@ -282,6 +328,7 @@ pub fn run(args: BenchClassesArgs) -> anyhow::Result<()> {
                 secondary_ray_ratio: image.stats.counters.secondary_rays as f64
                     / full.stats.counters.secondary_rays.max(1) as f64,
                 seconds: image.stats.seconds,
+                terms: terms_carrying_light(&world, &hits, model),
             });
         }
     }
@@ -319,9 +366,10 @@ fn say_tables(references: &[Reference], rows: &[Row]) {
     say!();
     say!("models against the full ray tree (lens pixels; radiance ratios model / full tree):");
     say!(
-        "{:<14} {:<22} {:>9} {:>9} {:>7} {:>7} {:>7} {:>9} {:>9}",
+        "{:<14} {:<22} {:>6} {:>9} {:>9} {:>7} {:>7} {:>7} {:>9} {:>9}",
         "scene",
         "tree",
+        "terms",
         "sRGB dB",
         "lin dB",
         "ratio",
@@ -333,9 +381,10 @@ fn say_tables(references: &[Reference], rows: &[Row]) {
     let cell = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |v| format!("{v:.3}"));
     for r in rows {
         say!(
-            "{:<14} {:<22} {:>9.2} {:>9.2} {:>7.3} {:>7} {:>7} {:>9} {:>9.2}",
+            "{:<14} {:<22} {:>6} {:>9.2} {:>9.2} {:>7.3} {:>7} {:>7} {:>9} {:>9.2}",
             r.scene,
             r.tree.name(),
+            r.terms,
             r.lens_psnr_srgb_db,
             r.lens_psnr_linear_db,
             r.radiance_ratio,

@@ -20,6 +20,8 @@ use lensmap::trace::{
 };
 use serde::Serialize;
 
+use crate::common::BadUsage;
+
 /// Arguments of `lensmap bench classes`.
 #[derive(Args)]
 #[command(
@@ -44,7 +46,8 @@ pub struct BenchClassesArgs {
     #[arg(long, default_value_t = 240)]
     height: u32,
     /// Supersampling k×k of every render; the full tree is rendered at 2k too, for its own
-    /// convergence.
+    /// convergence, so 2k × the width and the height must keep within 16384 subpixels a side
+    /// and 2²⁶ in all.
     /// Range: [1, 64].
     #[arg(long, value_name = "K", default_value_t = 2)]
     supersampling: u32,
@@ -233,6 +236,23 @@ pub fn run(args: BenchClassesArgs) -> anyhow::Result<()> {
         .iter()
         .map(|name| crate::common::load_scene(name).map(|scene| (name.clone(), scene)))
         .collect::<Result<_, _>>()?;
+    // Every render's camera, the full tree's at 2k×2k too, before any work.
+    for (name, scene) in &scenes {
+        for k in [args.supersampling, args.supersampling * 2] {
+            let camera = Camera {
+                width: args.width,
+                height: args.height,
+                supersampling: k,
+                ..scene.camera
+            };
+            lensmap::trace::image::validate_camera(&camera).map_err(|error| {
+                BadUsage(format!(
+                    "--width {} --height {} --supersampling {}: {name}'s render at {k}×{k} (the full tree's convergence renders at twice --supersampling): {error}",
+                    args.width, args.height, args.supersampling
+                ))
+            })?;
+        }
+    }
     if crate::common::validate_only() {
         return Ok(());
     }

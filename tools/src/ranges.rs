@@ -160,6 +160,11 @@ pub fn numeric_kind(arg: &Arg) -> Option<&'static str> {
     }
 }
 
+/// Whether `arg` takes an f32.
+fn is_f32(arg: &Arg) -> bool {
+    arg.get_value_parser().type_id() == std::any::TypeId::of::<f32>()
+}
+
 /// The range `arg`'s help states, for a numeric option.
 pub fn of(arg: &Arg) -> Option<Range> {
     let help = arg.get_long_help().or(arg.get_help())?.to_string();
@@ -199,8 +204,13 @@ pub fn check(command: &Command, matches: &ArgMatches) -> Result<(), clap::Error>
         for raw in values {
             let text = raw.to_string_lossy();
             // clap parsed it as the option's type, so it reads as a number (an unsigned one of
-            // 2^64 − 1 rounds to 2^64, which no finite stated bound admits anyway).
-            let value = text.trim().parse::<f64>().unwrap_or(f64::NAN);
+            // 2^64 − 1 rounds to 2^64, which no finite stated bound admits anyway). An f32
+            // option is judged by the f32 it becomes: 1e39 is ∞ there, 1e-50 is 0.
+            let value = if is_f32(arg) {
+                text.trim().parse::<f32>().map_or(f64::NAN, f64::from)
+            } else {
+                text.trim().parse::<f64>().unwrap_or(f64::NAN)
+            };
             if !range.contains(value) {
                 return Err(clap::Error::raw(
                     clap::error::ErrorKind::ValueValidation,

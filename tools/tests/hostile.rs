@@ -70,6 +70,16 @@ fn sizes_beyond_the_limits_are_refused_before_any_work() {
         "--max-layers",
     );
     assert_bad_usage(&["bench", "hybrid", "--frames", "0"], "--frames");
+    assert_bad_usage(
+        &[
+            "bench",
+            "classes",
+            "--supersampling",
+            "15",
+            "--validate-only",
+        ],
+        "the full tree's convergence renders at twice --supersampling",
+    );
     let render = ["render", "--scene", "glass-sphere", "--projected"];
     for (extra, what) in [
         (
@@ -84,6 +94,13 @@ fn sizes_beyond_the_limits_are_refused_before_any_work() {
         (&["--supersampling", "1000"][..], "640000×480000 subpixels"),
         (&["--camera-position", "1e30,0,0"][..], "farther than 1e6 m"),
         (&["--t", "-1"][..], "--t -1"),
+        // f32 options judged as the f32 they become: ∞ and 0.
+        (&["--t", "1e39"][..], "--t 1e39: outside its range"),
+        (&["--t", "1e-50"][..], "--t 1e-50: outside its range"),
+        (
+            &["--footprint", "1e39"][..],
+            "--footprint 1e39: outside its range",
+        ),
         (&["--max-vertices", "-5"][..], "--max-vertices"),
     ] {
         let mut args = render.to_vec();

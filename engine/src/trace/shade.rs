@@ -287,7 +287,7 @@ impl TraceScene {
             _ => self.lens_terms(lens, ray, &world_hit.hit, 1, options, counters),
         };
         let class_share = match options.model {
-            PathModel::Classes(set) => self.class_share(lens, ray, &world_hit.hit, set, options),
+            PathModel::Classes(set) => self.class_share(lens, ray, &world_hit.hit, set),
             _ => ClassShare::default(),
         };
         CameraSample {
@@ -370,15 +370,9 @@ impl TraceScene {
     }
 
     /// What the classes of `set` keep of lens object `lens`'s throughput along `ray` (see
-    /// [`ClassShare`]); the local tree goes as deep as the full tree's options say.
-    fn class_share(
-        &self,
-        lens: usize,
-        ray: &Ray,
-        hit: &SurfaceHit,
-        set: ClassSet,
-        options: &TraceOptions,
-    ) -> ClassShare {
+    /// [`ClassShare`]). Its rays are not counted: the share is a report, not the image's work
+    /// (its time is in the render's, though).
+    fn class_share(&self, lens: usize, ray: &Ray, hit: &SurfaceHit, set: ClassSet) -> ClassShare {
         let geometry = self.lens(lens);
         let Some(interface) = self.interface(hit.object) else {
             return ClassShare::default();
@@ -391,8 +385,13 @@ impl TraceScene {
             .filter_map(|term| classes::trace_term(&geometry, ray, hit, term, &mut uncounted))
             .map(|path| path.weight())
             .sum();
-        let throughput =
-            classes::local_throughput(&geometry, ray, hit, options.tree, &mut uncounted);
+        // As deep as any term goes (32 events) and to a cutoff far below any term's weight, so
+        // that no kept path is missing from the total.
+        let limits = RayTreeOptions {
+            max_depth: classes::MAX_EVENTS,
+            cutoff: 1e-9,
+        };
+        let throughput = classes::local_throughput(&geometry, ray, hit, limits, &mut uncounted);
         ClassShare {
             kept: kept.element_sum() / 3.0,
             throughput: throughput.element_sum() / 3.0,

@@ -380,15 +380,17 @@ impl<'a> MapReader<'a> {
             keyframe: entry.reference.is_none(),
         };
         // A listed file that is gone is a bad bake (exit 2), as a layered bake's missing map is;
-        // a file that is there but unreadable stays an I/O error.
-        if !path.is_file() {
-            return Err(BakeError::MissingMap {
-                path,
-                manifest: super::MANIFEST_FILE_NAME,
-                field: format!("compression.files[\"{name}\"]"),
-            });
-        }
-        let bytes = fs::read(&path).map_err(io_error(&path, "read"))?;
+        // one that cannot be read for another reason stays an I/O error.
+        let bytes = match fs::read(&path) {
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => {
+                return Err(BakeError::MissingMap {
+                    path,
+                    manifest: super::MANIFEST_FILE_NAME,
+                    field: format!("compression.files[\"{name}\"]"),
+                });
+            }
+            read => read.map_err(io_error(&path, "read"))?,
+        };
         decode_bytes(&bytes, &path, &expected, reference)
     }
 }

@@ -13,7 +13,8 @@ use lensmap::trace::image::camera_ray;
 use lensmap::trace::path::{Interface, LensGeometry, scatter, transmittance};
 use lensmap::trace::world::Part;
 use lensmap::trace::{
-    PathModel, Ray, RayTreeOptions, TraceCounters, TraceOptions, TraceScene, render_reference,
+    PathModel, Ray, RayTreeOptions, ReferenceImage, TraceCounters, TraceOptions, TraceScene,
+    render_reference,
 };
 use lensmap_tests::fixtures::{AnalyticSphere, angle_between};
 
@@ -268,24 +269,30 @@ fn every_class_is_the_leaf_of_its_sequence_in_an_enumerated_tree() {
     assert!(compared > 500, "{compared} compared");
 }
 
-/// Reference renders of glass-sphere with 1, 2, 4 and 6 classes: each class adds non-negative
-/// light, so the lens radiance grows with the classes towards the full tree's and the share
-/// the classes drop falls; never above the full tree by more than its cutoff allows.
-#[test]
-fn classes_add_up_towards_the_full_tree_in_a_reference_render() {
-    let mut scene = Scene::load_named("glass-sphere").unwrap();
-    scene.camera.width = 64;
-    scene.camera.height = 48;
+/// Reference renders of built-in scene `name` at `width`×`height`, one sample a pixel, under
+/// the model given.
+fn renderer(name: &str, width: u32, height: u32) -> impl Fn(PathModel) -> ReferenceImage {
+    let mut scene = Scene::load_named(name).unwrap();
+    scene.camera.width = width;
+    scene.camera.height = height;
     scene.camera.supersampling = 1;
     let world = TraceScene::new(&scene).unwrap();
-    let render = |model| {
+    move |model| {
         let options = TraceOptions {
             model,
             ..TraceOptions::default()
         };
         render_reference(&world, &scene.camera, &options, &|_| {}).unwrap()
-    };
-    let lens_sum = |image: &lensmap::trace::ReferenceImage| -> f64 {
+    }
+}
+
+/// Reference renders of glass-sphere with 1, 2, 4 and 6 classes: each class adds non-negative
+/// light, so the lens radiance grows with the classes towards the full tree's and the share
+/// the classes drop falls; never above the full tree by more than its cutoff allows.
+#[test]
+fn classes_add_up_towards_the_full_tree_in_a_reference_render() {
+    let render = renderer("glass-sphere", 64, 48);
+    let lens_sum = |image: &ReferenceImage| -> f64 {
         image
             .radiance
             .iter()
@@ -329,19 +336,8 @@ fn classes_add_up_towards_the_full_tree_in_a_reference_render() {
 #[test]
 fn expanded_to_one_event_is_the_greedy_model_and_deeper_keeps_more() {
     for name in ["teapot-room", "glass-sphere"] {
-        let mut scene = Scene::load_named(name).unwrap();
-        scene.camera.width = 48;
-        scene.camera.height = 36;
-        scene.camera.supersampling = 1;
-        let world = TraceScene::new(&scene).unwrap();
-        let render = |model| {
-            let options = TraceOptions {
-                model,
-                ..TraceOptions::default()
-            };
-            render_reference(&world, &scene.camera, &options, &|_| {}).unwrap()
-        };
-        let bits = |image: &lensmap::trace::ReferenceImage| -> Vec<u32> {
+        let render = renderer(name, 48, 36);
+        let bits = |image: &ReferenceImage| -> Vec<u32> {
             image
                 .radiance
                 .iter()
@@ -353,7 +349,7 @@ fn expanded_to_one_event_is_the_greedy_model_and_deeper_keeps_more() {
         let greedy = render(PathModel::Greedy);
         let one = render(PathModel::Classes(ClassSet::Expanded(1)));
         assert_eq!(bits(&greedy), bits(&one), "{name}");
-        let total = |image: &lensmap::trace::ReferenceImage| -> f64 {
+        let total = |image: &ReferenceImage| -> f64 {
             image
                 .radiance
                 .iter()
@@ -362,9 +358,8 @@ fn expanded_to_one_event_is_the_greedy_model_and_deeper_keeps_more() {
         };
         let two = render(PathModel::Classes(ClassSet::Expanded(2)));
         let three = render(PathModel::Classes(ClassSet::Expanded(3)));
-        let dropped = |image: &lensmap::trace::ReferenceImage| {
-            image.stats.class_share.dropped().expect("lens rays")
-        };
+        let dropped =
+            |image: &ReferenceImage| image.stats.class_share.dropped().expect("lens rays");
         assert!(
             total(&two) > total(&one) && total(&three) >= total(&two),
             "{name}: {} {} {}",

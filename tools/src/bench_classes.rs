@@ -96,7 +96,7 @@ fn ranked(world: &TraceScene, hits: &[Vec<(Ray, SurfaceHit)>]) -> Vec<(PathClass
         cutoff: 1e-4,
     };
     let total: usize = hits.iter().map(Vec::len).sum();
-    let mut shares: std::collections::HashMap<PathClass, f64> = Default::default();
+    let mut shares: std::collections::BTreeMap<PathClass, f64> = Default::default();
     for (lens, hits) in hits.iter().enumerate() {
         let geometry = world.lens(lens);
         for (class, share) in rank_classes(&geometry, hits.iter().map(|(r, h)| (r, h)), limits) {

@@ -65,6 +65,29 @@ impl PathClass {
         })
     }
 
+    /// `prefix` (none for the empty sequence) followed by `event`; `None` past [`MAX_EVENTS`].
+    pub fn then(prefix: Option<PathClass>, event: Event) -> Option<PathClass> {
+        let (len, reflections) = prefix.map_or((0, 0), |p| (p.len, p.reflections));
+        (u32::from(len) < MAX_EVENTS).then(|| PathClass {
+            len: len + 1,
+            reflections: match event {
+                Event::Reflect => reflections | 1 << len,
+                Event::Refract => reflections,
+            },
+        })
+    }
+
+    /// Its `i`-th event (0-based), if it has one.
+    fn event(self, i: u32) -> Option<Event> {
+        (i < u32::from(self.len)).then(|| {
+            if self.reflections & (1 << i) != 0 {
+                Event::Reflect
+            } else {
+                Event::Refract
+            }
+        })
+    }
+
     /// Reads a class written in `R` and `T` (`"TRRT"`); `None` for anything else.
     pub fn parse(text: &str) -> Option<PathClass> {
         let events: Option<Vec<Event>> = text
@@ -80,13 +103,7 @@ impl PathClass {
 
     /// Its events in order.
     pub fn events(self) -> impl Iterator<Item = Event> {
-        (0..u32::from(self.len)).map(move |i| {
-            if self.reflections & (1 << i) != 0 {
-                Event::Reflect
-            } else {
-                Event::Refract
-            }
-        })
+        (0..u32::from(self.len)).filter_map(move |i| self.event(i))
     }
 
     /// Number of interfaces the class's path meets.
@@ -305,46 +322,11 @@ pub fn trace_class(
     class: PathClass,
     counters: &mut TraceCounters,
 ) -> Option<ClassPath> {
-    let mut path = ClassPath {
+    let term = ClassTerm {
         class,
-        fresnel: DVec3::ONE,
-        attenuation: DVec3::ONE,
-        outgoing_ray: *incoming,
-        glass_distance: 0.0,
+        greedy_tail: false,
     };
-    let mut hit = *first_hit;
-    let events = class.events_len();
-    for (i, event) in class.events().enumerate() {
-        let scattering = scatter(
-            lens.interface(hit.object),
-            path.outgoing_ray.direction,
-            &hit,
-        );
-        let (ray, coefficient) = match event {
-            Event::Reflect => scattering.reflection,
-            Event::Refract => {
-                let (ray, transmittance) = scattering.refraction?;
-                (ray, DVec3::splat(transmittance))
-            }
-        };
-        path.fresnel *= coefficient;
-        path.outgoing_ray = ray;
-        counters.secondary_rays += 1;
-        let next = lens.closest_hit(&ray, Some(hit.primitive), counters);
-        if i as u32 + 1 == events {
-            // The sequence is complete only if the ray now leaves the object.
-            return next.is_none().then_some(path);
-        }
-        let next = next?;
-        if !next.is_front_facing(ray.direction)
-            && let Interface::Dielectric { absorption, .. } = lens.interface(next.object)
-        {
-            path.attenuation *= transmittance(absorption, next.distance);
-            path.glass_distance += next.distance;
-        }
-        hit = next;
-    }
-    None
+    trace_term(lens, incoming, first_hit, term, counters)
 }
 
 /// Most interfaces a greedy tail meets in all: the greedy paths' default
@@ -352,8 +334,8 @@ pub fn trace_class(
 /// reaches it carries nothing.
 const MAX_TAIL_INTERFACES: u32 = 16;
 
-/// The path of `term` started by `incoming` at `first_hit` on `lens`: [`trace_class`] for a
-/// complete class; for a prefix, its events and then the greedy choice (the child with the
+/// The path of `term` started by `incoming` at `first_hit` on `lens`: for a complete class,
+/// [`trace_class`]; for a prefix, its events and then the greedy choice (the child with the
 /// larger Fresnel coefficient) until the ray leaves, or `None` where the prefix cannot be
 /// followed or the path leaves before it ends.
 pub fn trace_term(
@@ -363,26 +345,24 @@ pub fn trace_term(
     term: ClassTerm,
     counters: &mut TraceCounters,
 ) -> Option<ClassPath> {
-    if !term.greedy_tail {
-        return trace_class(lens, incoming, first_hit, term.class, counters);
-    }
+    let prefix = term.class;
     let mut path = ClassPath {
-        class: term.class,
+        class: prefix,
         fresnel: DVec3::ONE,
         attenuation: DVec3::ONE,
         outgoing_ray: *incoming,
         glass_distance: 0.0,
     };
-    let mut events: Vec<Event> = Vec::new();
+    let mut taken: Option<PathClass> = None;
     let mut hit = *first_hit;
-    let prefix: Vec<Event> = term.class.events().collect();
     loop {
         let scattering = scatter(
             lens.interface(hit.object),
             path.outgoing_ray.direction,
             &hit,
         );
-        let (event, (ray, coefficient)) = match prefix.get(events.len()) {
+        let done = taken.map_or(0, PathClass::events_len);
+        let (event, (ray, coefficient)) = match prefix.event(done) {
             Some(Event::Reflect) => (Event::Reflect, scattering.reflection),
             Some(Event::Refract) => {
                 let (ray, t) = scattering.refraction?;
@@ -391,18 +371,28 @@ pub fn trace_term(
             None if scattering.greedy_reflects() => (Event::Reflect, scattering.reflection),
             None => (Event::Refract, scattering.greedy_child()),
         };
-        events.push(event);
+        let sequence = PathClass::then(taken, event)?;
+        taken = Some(sequence);
         path.fresnel *= coefficient;
         path.outgoing_ray = ray;
         counters.secondary_rays += 1;
-        let Some(next) = lens.closest_hit(&ray, Some(hit.primitive), counters) else {
-            // Left: a whole prefix at least, or the path belongs to a shorter class.
-            return (events.len() >= prefix.len()).then(|| ClassPath {
-                class: PathClass::new(&events).unwrap_or(term.class),
+        let next = lens.closest_hit(&ray, Some(hit.primitive), counters);
+        let whole_prefix = sequence.events_len() >= prefix.events_len();
+        let Some(next) = next else {
+            // Left: the path is the term's if it went through the whole prefix (a shorter
+            // sequence is another class).
+            return whole_prefix.then_some(ClassPath {
+                class: sequence,
                 ..path
             });
         };
-        if events.len() as u32 >= MAX_TAIL_INTERFACES {
+        // A complete class must leave after its last event; a tail stops at the cap.
+        let cap = if term.greedy_tail {
+            MAX_TAIL_INTERFACES
+        } else {
+            prefix.events_len()
+        };
+        if sequence.events_len() >= cap {
             return None;
         }
         if !next.is_front_facing(ray.direction)
@@ -413,21 +403,6 @@ pub fn trace_term(
         }
         hit = next;
     }
-}
-
-/// The paths of `classes` started by `incoming` at `first_hit` on `lens` (`None` for a class
-/// the path does not follow).
-pub fn trace_classes(
-    lens: &impl LensGeometry,
-    incoming: &Ray,
-    first_hit: &SurfaceHit,
-    classes: &[PathClass],
-    counters: &mut TraceCounters,
-) -> Vec<Option<ClassPath>> {
-    classes
-        .iter()
-        .map(|&class| trace_class(lens, incoming, first_hit, class, counters))
-        .collect()
 }
 
 /// `Σ F·G` per channel over every path of the local ray tree of `lens` from `first_hit`: the
@@ -467,11 +442,12 @@ pub fn local_tree(
     counters: &mut TraceCounters,
     leaf: &mut impl FnMut(PathClass, DVec3),
 ) {
-    /// One interface of the walk: where it is, how the path got there, and its weight so far.
+    /// One interface of the walk: where it is, how the path got there (none at the first
+    /// hit), and its weight so far.
     struct Node<'a> {
         direction: DVec3,
         hit: &'a SurfaceHit,
-        events: Vec<Event>,
+        events: Option<PathClass>,
         weight: DVec3,
     }
     fn branch(
@@ -482,25 +458,24 @@ pub fn local_tree(
         leaf: &mut impl FnMut(PathClass, DVec3),
     ) {
         let scattering = scatter(lens.interface(node.hit.object), node.direction, node.hit);
-        let mut children = vec![(Event::Reflect, scattering.reflection)];
-        if let Some((ray, t)) = scattering.refraction {
-            children.push((Event::Refract, (ray, DVec3::splat(t))));
-        }
-        for (event, (ray, coefficient)) in children {
+        let refraction = scattering
+            .refraction
+            .map(|(ray, t)| (Event::Refract, (ray, DVec3::splat(t))));
+        let children = [Some((Event::Reflect, scattering.reflection)), refraction];
+        for (event, (ray, coefficient)) in children.into_iter().flatten() {
             let mut weight = node.weight * coefficient;
             if weight.max_element() < limits.cutoff {
                 continue;
             }
-            let mut events = node.events.clone();
-            events.push(event);
-            counters.secondary_rays += 1;
-            let Some(next) = lens.closest_hit(&ray, Some(node.hit.primitive), counters) else {
-                if let Some(class) = PathClass::new(&events) {
-                    leaf(class, weight);
-                }
+            let Some(events) = PathClass::then(node.events, event) else {
                 continue;
             };
-            if events.len() as u32 >= limits.max_depth.clamp(1, MAX_EVENTS) {
+            counters.secondary_rays += 1;
+            let Some(next) = lens.closest_hit(&ray, Some(node.hit.primitive), counters) else {
+                leaf(events, weight);
+                continue;
+            };
+            if events.events_len() >= limits.max_depth.clamp(1, MAX_EVENTS) {
                 continue;
             }
             if !next.is_front_facing(ray.direction)
@@ -511,7 +486,7 @@ pub fn local_tree(
             let child = Node {
                 direction: ray.direction,
                 hit: &next,
-                events,
+                events: Some(events),
                 weight,
             };
             branch(lens, child, limits, counters, leaf);
@@ -520,22 +495,23 @@ pub fn local_tree(
     let root = Node {
         direction: incoming.direction,
         hit: first_hit,
-        events: Vec::new(),
+        events: None,
         weight: DVec3::ONE,
     };
     branch(lens, root, limits, counters, leaf);
 }
 
 /// The classes that carry light, ranked by their share of the summed throughput (`Σ F·G`, the
-/// mean of the channels) over `rays`, each with that share: the data for choosing a class list
-/// for a lens object whose paths are not the canonical order's (an open mesh lets `TRRR` out;
-/// a mirror's concavities keep `RRR…`).
+/// mean of the channels) over `rays`, each with that share (summed in a fixed order: the same
+/// rays give the same bits): the data for choosing a class list for a lens object whose paths
+/// are not the canonical order's (an open mesh lets `TRRR` out; a mirror's concavities keep
+/// `RRR…`).
 pub fn rank_classes<'a>(
     lens: &impl LensGeometry,
     rays: impl IntoIterator<Item = (&'a Ray, &'a SurfaceHit)>,
     limits: RayTreeOptions,
 ) -> Vec<(PathClass, f64)> {
-    let mut shares: std::collections::HashMap<PathClass, f64> = Default::default();
+    let mut shares: std::collections::BTreeMap<PathClass, f64> = Default::default();
     let mut counters = TraceCounters::default();
     for (ray, hit) in rays {
         local_tree(

@@ -282,13 +282,20 @@ impl TraceScene {
                 class_share: ClassShare::default(),
             };
         };
-        let [refraction, reflection] = match options.model {
-            PathModel::Full => self.full_tree_terms(ray, &world_hit, options.tree, counters),
-            _ => self.lens_terms(lens, ray, &world_hit.hit, 1, options, counters),
-        };
-        let class_share = match options.model {
-            PathModel::Classes(set) => self.class_share(lens, ray, &world_hit.hit, set),
-            _ => ClassShare::default(),
+        let hit = &world_hit.hit;
+        let ([refraction, reflection], class_share) = match options.model {
+            PathModel::Full => (
+                self.full_tree_terms(ray, &world_hit, options.tree, counters),
+                ClassShare::default(),
+            ),
+            PathModel::Greedy => (
+                self.greedy_terms(lens, ray, hit, 1, options, counters),
+                ClassShare::default(),
+            ),
+            PathModel::Classes(set) => {
+                let (terms, kept) = self.class_terms(lens, ray, hit, 1, set, options, counters);
+                (terms, self.class_share(lens, ray, hit, kept))
+            }
         };
         CameraSample {
             radiance: refraction + reflection,
@@ -330,6 +337,7 @@ impl TraceScene {
         match options.model {
             PathModel::Classes(set) => {
                 self.class_terms(lens, ray, hit, depth, set, options, counters)
+                    .0
             }
             PathModel::Greedy | PathModel::Full => {
                 self.greedy_terms(lens, ray, hit, depth, options, counters)
@@ -337,7 +345,8 @@ impl TraceScene {
         }
     }
 
-    /// `[Σ T…, Σ R…]` of the classes of `set` on lens object `lens` hit by `ray` at `hit`.
+    /// `[Σ T…, Σ R…]` of the classes of `set` on lens object `lens` hit by `ray` at `hit`, and
+    /// `Σ F·G` of their paths (what they keep of the object's throughput).
     #[allow(clippy::too_many_arguments)]
     fn class_terms(
         &self,
@@ -348,17 +357,19 @@ impl TraceScene {
         set: ClassSet,
         options: &TraceOptions,
         counters: &mut TraceCounters,
-    ) -> [DVec3; 2] {
+    ) -> ([DVec3; 2], DVec3) {
         let geometry = self.lens(lens);
         let Some(interface) = self.interface(hit.object) else {
-            return [DVec3::ZERO; 2];
+            return ([DVec3::ZERO; 2], DVec3::ZERO);
         };
         let mut terms = [DVec3::ZERO; 2];
+        let mut kept = DVec3::ZERO;
         for term in set.terms(interface) {
             let Some(path) = classes::trace_term(&geometry, ray, hit, term, counters) else {
                 continue;
             };
             let weight = path.weight();
+            kept += weight;
             if weight == DVec3::ZERO {
                 continue;
             }
@@ -366,32 +377,22 @@ impl TraceScene {
                 self.outgoing_radiance(&path.outgoing_ray, lens, depth, options, counters);
             terms[usize::from(term.class.starts_reflected())] += sanitize(weight * radiance);
         }
-        terms
+        (terms, kept)
     }
 
-    /// What the classes of `set` keep of lens object `lens`'s throughput along `ray` (see
-    /// [`ClassShare`]). Its rays are not counted: the share is a report, not the image's work
-    /// (its time is in the render's, though).
-    fn class_share(&self, lens: usize, ray: &Ray, hit: &SurfaceHit, set: ClassSet) -> ClassShare {
-        let geometry = self.lens(lens);
-        let Some(interface) = self.interface(hit.object) else {
-            return ClassShare::default();
-        };
-        // Counted apart: the share is a report, not part of the image's work.
-        let mut uncounted = TraceCounters::default();
-        let kept: DVec3 = set
-            .terms(interface)
-            .into_iter()
-            .filter_map(|term| classes::trace_term(&geometry, ray, hit, term, &mut uncounted))
-            .map(|path| path.weight())
-            .sum();
+    /// The share of lens object `lens`'s throughput along `ray` that paths of weight `kept`
+    /// hold (see [`ClassShare`]). The local tree's rays are not counted: the share is a report,
+    /// not the image's work (its time is in the render's, though).
+    fn class_share(&self, lens: usize, ray: &Ray, hit: &SurfaceHit, kept: DVec3) -> ClassShare {
         // As deep as any term goes (32 events) and to a cutoff far below any term's weight, so
         // that no kept path is missing from the total.
         let limits = RayTreeOptions {
             max_depth: classes::MAX_EVENTS,
             cutoff: 1e-9,
         };
-        let throughput = classes::local_throughput(&geometry, ray, hit, limits, &mut uncounted);
+        let mut uncounted = TraceCounters::default();
+        let throughput =
+            classes::local_throughput(&self.lens(lens), ray, hit, limits, &mut uncounted);
         ClassShare {
             kept: kept.element_sum() / 3.0,
             throughput: throughput.element_sum() / 3.0,

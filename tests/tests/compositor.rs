@@ -303,6 +303,84 @@ fn every_blending_scheme_matches_its_f64_model() {
     assert_clean(&gpu);
 }
 
+/// Path-class terms (R, TT, TRT and TRRT; 3 and 4 of them) make (viewpoint sample, class)
+/// groups: every blending scheme's RGBA32F frame against the f64 model of that scheme's
+/// passes, within the same bounds as the greedy terms', n = 1 and 3, one to three viewpoints.
+/// The single pass, which carries the greedy terms' two slots, refuses them with an error.
+#[test]
+fn path_class_terms_match_the_f64_model_in_every_scheme() {
+    use lensmap::trace::PathClass;
+    use lensmap::trace::classes::ClassTerm;
+    let (gpu, mut renderer, mut rng) = compositor(0x0c1a_55e5);
+    let tolerance = Tolerance::of(&gpu);
+    let classes = |count: usize| -> Vec<Term> {
+        (0..count)
+            .map(|i| {
+                Term::Class(ClassTerm {
+                    class: PathClass::glass(i).unwrap(),
+                    greedy_tail: false,
+                })
+            })
+            .collect()
+    };
+    let mut worst = [0f64; 4];
+    for count in [3, 4] {
+        for layers in [1, 3] {
+            for viewpoints in 1..=3 {
+                let frame = random_frame(&mut rng, layers, viewpoints, &classes(count));
+                let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
+                for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
+                    let (image, _) = renderer
+                        .render(
+                            &gpu,
+                            &mut uploaded,
+                            &RenderOptions {
+                                compositing: Compositing::Multipass(blend),
+                                format: TargetFormat::Rgba32f,
+                                host: None,
+                            },
+                        )
+                        .unwrap();
+                    let options = ModelOptions {
+                        blend,
+                        ..model_options(tolerance.precision)
+                    };
+                    let model = render_model(&frame, &options);
+                    let case = format!(
+                        "{}: n = {layers}, {viewpoints} viewpoint(s), {count} classes",
+                        blend.name()
+                    );
+                    worst[k] =
+                        worst[k].max(assert_matches_model(&case, &image, &model, &tolerance));
+                }
+                let error = renderer
+                    .render(
+                        &gpu,
+                        &mut uploaded,
+                        &RenderOptions {
+                            compositing: Compositing::SinglePass,
+                            format: TargetFormat::Rgba32f,
+                            host: None,
+                        },
+                    )
+                    .unwrap_err();
+                assert!(
+                    error.to_string().contains("use the multipass variant"),
+                    "{error}"
+                );
+            }
+        }
+    }
+    for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
+        println!(
+            "{}, path classes: largest |GPU − model| {:.3e}",
+            blend.name(),
+            worst[k]
+        );
+    }
+    assert_clean(&gpu);
+}
+
 /// `image` (one scheme's RGBA32F frame) against `model` (that scheme's): most lens pixels
 /// comparable, every comparable pixel inside the bounds plus [`F32_SLACK`] and, on lavapipe,
 /// within [`EXACT`]; returns the largest |GPU − model|.

@@ -96,7 +96,7 @@ enum Command {
     Demo(demo::DemoArgs),
     /// Print the compositor's pass plan for a pass-count or blending-mode experiment.
     ///
-    /// Example: lensmap passes --layers 3 --viewpoints 2 --terms 2 --variant multipass --format rgba8
+    /// Example: lensmap passes --layers 3 --viewpoints 2 --terms greedy --variant multipass --format rgba8
     Passes(passes::PassesArgs),
     /// Render reference images with the CPU ray tracer.
     ///

@@ -8,7 +8,8 @@ use lensmap::render::{
     BlendScheme, Compositing, FrameShape, Output, PassCategory, PlanOptions, SinglePassLimits,
     TargetFormat, Variant, plan::frame_graph,
 };
-use lensmap::trace::Term;
+use lensmap::trace::classes::ClassSet;
+use lensmap::trace::{Interface, Term};
 use serde_json::json;
 
 use crate::common::{BadUsage, BlendArg, FormatArg, VariantArg, report, voice};
@@ -16,7 +17,7 @@ use crate::words::Flags;
 
 #[derive(Args)]
 #[command(
-    after_help = "Example:\n  lensmap passes --layers 3 --viewpoints 2 --terms 2 --variant multipass --format rgba8\n  lensmap passes --variant single-pass --gpu-parts 2"
+    after_help = "Example:\n  lensmap passes --layers 3 --viewpoints 2 --terms greedy --variant multipass --format rgba8\n  lensmap passes --layers 2 --viewpoints 1 --terms R,TT,TRT,TRRT\n  lensmap passes --variant single-pass --gpu-parts 2"
 )]
 pub struct PassesArgs {
     /// Layers n per viewpoint sample.
@@ -28,10 +29,13 @@ pub struct PassesArgs {
     /// Range: [1, 3].
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
     viewpoints: u8,
-    /// Shading terms: 2 (glass: refraction and reflection) or 1 (mirror: reflection only).
-    /// Range: [1, 2].
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=2))]
-    terms: u8,
+    /// Shading terms per lens object: `greedy` (the papers' two terms, refraction and
+    /// reflection; a mirror's single term plans as `R`), a count N of path classes (the first N
+    /// of R, TT, TRT, TR²T, …), a list such as `R,TT,TRT,TRRT`, or `greedy:D` (the ray tree
+    /// expanded to D events, greedy below). Each term is a group of V·n layer passes; the single
+    /// pass takes the greedy terms only.
+    #[arg(long, default_value = "greedy", value_parser = parse_terms)]
+    terms: Terms,
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "multipass")]
     variant: VariantArg,
@@ -55,13 +59,32 @@ pub struct PassesArgs {
     glossy: u8,
 }
 
+/// A lens object's shading terms as `--terms` gives them.
+#[derive(Clone, Debug)]
+struct Terms {
+    terms: Vec<Term>,
+}
+
+/// Reads `--terms`: `greedy`, or a path-class set ([`ClassSet::parse`]), whose terms are glass's.
+fn parse_terms(text: &str) -> Result<Terms, String> {
+    if text.trim() == "greedy" {
+        return Ok(Terms {
+            terms: vec![Term::Refraction, Term::Reflection],
+        });
+    }
+    let set = ClassSet::parse(text).map_err(|problem| format!("{problem}; or give greedy"))?;
+    let glass = Interface::Dielectric {
+        ior: 1.5,
+        absorption: glam::DVec3::ONE,
+    };
+    let mut terms: Vec<Term> = set.terms(glass).into_iter().map(Term::Class).collect();
+    terms.sort();
+    Ok(Terms { terms })
+}
+
 /// Prints the plan of one lens object's frame.
 pub fn run(args: PassesArgs) -> anyhow::Result<()> {
-    let terms: &[Term] = if args.terms == 2 {
-        &[Term::Refraction, Term::Reflection]
-    } else {
-        &[Term::Reflection]
-    };
+    let terms = &args.terms.terms;
     if !(1..=FrameShape::MAX_EXPERIMENT_LAYERS).contains(&args.layers) {
         return Err(BadUsage(format!(
             "--layers {}: give 1 to {} layers per viewpoint sample",
@@ -125,7 +148,7 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
             })
             .collect();
         let out = json!({
-            "layers": args.layers, "viewpoints": args.viewpoints, "terms": args.terms,
+            "layers": args.layers, "viewpoints": args.viewpoints, "terms": args.terms.terms,
             "variant": compositing.variant().name(), "blend": compositing.blend().name(), "format": format.name(), "counts": counts, "steps": steps,
             "culled": plan.culled.iter().map(|(n, r)| json!({"pass": n, "reason": r.to_string()})).collect::<Vec<_>>(),
         });

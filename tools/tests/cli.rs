@@ -31,7 +31,14 @@ fn passes_counts(args: &[&str]) -> serde_json::Value {
 fn passes_prints_the_papers_counts() {
     for n in 1..=4u64 {
         let layers = n.to_string();
-        let c = passes_counts(&["--layers", &layers, "--viewpoints", "2", "--terms", "2"]);
+        let c = passes_counts(&[
+            "--layers",
+            &layers,
+            "--viewpoints",
+            "2",
+            "--terms",
+            "greedy",
+        ]);
         assert_eq!(
             (
                 c["prime"].as_u64(),
@@ -40,18 +47,32 @@ fn passes_prints_the_papers_counts() {
             ),
             (Some(1), Some(4 * n), Some(3))
         );
-        let c = passes_counts(&["--layers", &layers, "--viewpoints", "1", "--terms", "2"]);
+        let c = passes_counts(&[
+            "--layers",
+            &layers,
+            "--viewpoints",
+            "1",
+            "--terms",
+            "greedy",
+        ]);
         assert_eq!(
             (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
             (Some(2 * n), Some(1))
         );
         // Three viewpoints (inside a spherical triangle): 2·3·n layer passes, five clears.
-        let c = passes_counts(&["--layers", &layers, "--viewpoints", "3", "--terms", "2"]);
+        let c = passes_counts(&[
+            "--layers",
+            &layers,
+            "--viewpoints",
+            "3",
+            "--terms",
+            "greedy",
+        ]);
         assert_eq!(
             (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
             (Some(6 * n), Some(5))
         );
-        let c = passes_counts(&["--layers", &layers, "--viewpoints", "1", "--terms", "1"]);
+        let c = passes_counts(&["--layers", &layers, "--viewpoints", "1", "--terms", "R"]);
         assert_eq!(
             (c["layer"].as_u64(), c["alpha_clear"].as_u64()),
             (Some(n), Some(0))
@@ -250,7 +271,7 @@ fn passes_prints_the_golden_plans() {
         |text: &str| -> Vec<String> { text.lines().map(|l| l.trim_end().to_owned()).collect() };
     for variant in ["multipass", "single-pass"] {
         for viewpoints in ["1", "2", "3"] {
-            for (material, terms) in [("glass", "2"), ("mirror", "1")] {
+            for (material, terms) in [("glass", "greedy"), ("mirror", "R")] {
                 let golden = std::fs::read_to_string(
                     golden_dir.join(format!("{variant}-{viewpoints}-viewpoint-{material}.txt")),
                 )

@@ -70,9 +70,13 @@ pub struct VertexPaths {
 }
 
 impl VertexPaths {
-    /// The path of `term`.
+    /// The path of `term` (none for a path class: these are the greedy terms).
     pub fn get(&self, term: Term) -> Option<&TermPath> {
-        self.terms[term as usize].as_ref()
+        match term {
+            Term::Refraction => self.terms[0].as_ref(),
+            Term::Reflection => self.terms[1].as_ref(),
+            Term::Class(_) => None,
+        }
     }
 }
 

@@ -21,6 +21,11 @@ pub const MAX_VIEWPOINTS: usize = 3;
 
 const _: () = assert!(MAX_VIEWPOINTS == lensmap_shaders::MAX_VIEWPOINTS as usize);
 
+/// The most shading terms one lens object carries: the most classes a path-class set holds
+/// ([`crate::trace::classes::MAX_CLASSES`]). The multipass variant records V·n layer passes
+/// per term; the single pass takes the two greedy terms.
+pub const MAX_TERMS: usize = crate::trace::classes::MAX_CLASSES;
+
 /// Per-vertex data of one shading term of a lens object.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TermVertices {
@@ -353,18 +358,23 @@ impl LensObject {
                 self.layers.len(),
             ));
         }
-        if self.terms.is_empty() || self.terms.len() > 2 {
+        if self.terms.is_empty() || self.terms.len() > MAX_TERMS {
             return bad(format!(
-                "{at}.terms has {} entries; give refraction and/or reflection",
+                "{at}.terms has {} entries; give 1 to {MAX_TERMS} (refraction and/or reflection, or path classes)",
                 self.terms.len()
             ));
         }
-        if self.terms.len() == 2 && self.terms[0].term == self.terms[1].term {
-            return bad(format!("{at}.terms names {:?} twice", self.terms[0].term));
+        for (i, term) in self.terms.iter().enumerate() {
+            if self.terms[..i].iter().any(|t| t.term == term.term) {
+                return bad(format!(
+                    "{at}.terms names {} twice; give each term once",
+                    term.term.name()
+                ));
+            }
         }
         self.validate_layers(at, checked)?;
         for term in &self.terms {
-            let t = format!("{at}.terms[{:?}]", term.term);
+            let t = format!("{at}.terms[{}]", term.term.name());
             if term.fg.len() != self.positions.len() || term.fg.iter().any(|c| !c.is_finite()) {
                 return bad(format!(
                     "{t}.fg needs one finite rgb per vertex ({} given for {})",

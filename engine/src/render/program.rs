@@ -184,6 +184,17 @@ pub enum ProgramError {
         /// What bounds it.
         bound: LimitSource,
     },
+    /// The single pass's varyings and push constants carry the two greedy terms' slots; a
+    /// path-class model's terms are composited by the multipass variant.
+    #[error(
+        "lens \"{lens}\" sums {terms} path-class term(s); the single-pass variant composites the two greedy terms only: use the multipass variant"
+    )]
+    PathClasses {
+        /// The lens object.
+        lens: String,
+        /// Its terms.
+        terms: usize,
+    },
     /// A lens object with no layers, no terms, more than two terms or no viewpoint sample.
     #[error(
         "lens \"{lens}\": the single pass needs 1 to {max} layers, one or two terms and at least one viewpoint (got {layers}, {terms}, {viewpoints})"
@@ -234,11 +245,18 @@ impl SinglePassProgram {
                 bound: limits.viewpoints_bound,
             });
         }
+        if terms.iter().any(|t| matches!(t, Term::Class(_))) {
+            return Err(ProgramError::PathClasses {
+                lens: lens.to_owned(),
+                terms: terms.len(),
+            });
+        }
         let term_mask = terms
             .iter()
             .map(|t| match t {
                 Term::Refraction => 1,
                 Term::Reflection => 2,
+                Term::Class(_) => 0,
             })
             .fold(0u32, |mask, bit| mask | bit);
         if layers == 0 || term_mask == 0 || terms.len() > 2 || viewpoints == 0 {

@@ -13,6 +13,7 @@ use crate::cubemap::CubeMap;
 use crate::{
     scene::Camera,
     trace::Term,
+    trace::classes::{ClassTerm, Event},
     trace::fresnel::{dielectric, reflect, refract},
 };
 
@@ -139,9 +140,10 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
     let terms = options
         .terms
         .iter()
-        .map(|t| match t {
+        .map(|&t| match t {
             Term::Refraction => refraction.clone(),
             Term::Reflection => reflection.clone(),
+            Term::Class(class) => sphere_class(&positions, eye, options, absorption, class),
         })
         .collect();
     let viewpoints = options.viewpoints.clamp(1, super::MAX_VIEWPOINTS);
@@ -176,6 +178,94 @@ pub fn sphere_frame(options: &SyntheticOptions) -> FrameInput {
         }],
         viewpoint_weights: weights,
     }
+}
+
+/// The most events a synthetic class path follows (a greedy tail stops there, weightless).
+const MAX_SPHERE_EVENTS: usize = 16;
+
+/// One path class's term on the unit glass sphere at `positions`, seen from `eye`: per vertex
+/// the class's events in closed form (reflect, or refract by Snell's law, with exact dielectric
+/// Fresnel and absorption along each chord), then the greedy choice after a prefix with a
+/// greedy tail. A vertex whose path has another sequence (total internal reflection where the
+/// class refracts, a ray outside the ball before the class ends, or still inside after it)
+/// carries nothing in this class.
+fn sphere_class(
+    positions: &[Vec3],
+    eye: DVec3,
+    options: &SyntheticOptions,
+    absorption: DVec3,
+    class: ClassTerm,
+) -> TermVertices {
+    let events: Vec<Event> = class.class.events().collect();
+    let mut term = TermVertices {
+        term: Term::Class(class),
+        fg: Vec::with_capacity(positions.len()),
+        directions: vec![Vec::with_capacity(positions.len()); options.layers],
+    };
+    for p in positions {
+        let p = p.as_dvec3();
+        let view = (p - eye).normalize();
+        let (mut point, mut direction, mut inside) = (p, view, false);
+        let mut fg = DVec3::ONE;
+        let mut carried = true;
+        for i in 0..MAX_SPHERE_EVENTS {
+            let event = match events.get(i) {
+                Some(&event) => Some(event),
+                None if class.greedy_tail && inside => None,
+                None => break,
+            };
+            let outward = point.normalize();
+            let (normal, n1, n2) = if inside {
+                (-outward, options.ior, 1.0)
+            } else {
+                (outward, 1.0, options.ior)
+            };
+            let cos_in = -direction.dot(normal);
+            if cos_in <= 0.0 {
+                carried = false;
+                break;
+            }
+            let fresnel = dielectric(cos_in, n1, n2);
+            let reflects = match event {
+                Some(event) => event == Event::Reflect,
+                None => fresnel.reflectance >= fresnel.transmittance,
+            };
+            if reflects {
+                fg *= fresnel.reflectance;
+                direction = reflect(direction, normal);
+            } else if fresnel.total_internal_reflection {
+                carried = false;
+                break;
+            } else {
+                fg *= fresnel.transmittance;
+                direction = refract(direction, normal, n1 / n2, fresnel.cos_transmitted);
+                inside = !inside;
+            }
+            if !inside {
+                // Outside a convex ball the ray leaves: the class must end here.
+                carried = i + 1 >= events.len();
+                break;
+            }
+            let chord = exit_distance(point, direction, 1.0);
+            fg *= DVec3::new(
+                absorption.x.powf(chord),
+                absorption.y.powf(chord),
+                absorption.z.powf(chord),
+            );
+            point += chord * direction;
+        }
+        if inside || !carried {
+            // Another sequence: nothing in this class (the direction is the mirror one, finite).
+            (point, direction, fg) = (p, reflect(view, p.normalize()), DVec3::ZERO);
+        }
+        term.fg.push(fg.as_vec3());
+        for (layer, directions) in term.directions.iter_mut().enumerate() {
+            let radius = shell_radius(layer);
+            directions
+                .push((point + exit_distance(point, direction, radius) * direction).as_vec3());
+        }
+    }
+    term
 }
 
 /// Layer `layer` of `count` as seen from viewpoint sample `viewpoint`: inner layers are sparse

@@ -172,12 +172,24 @@ pub const MAX_EXPANDED_DEPTH: u8 = 3;
 
 /// One term of a lens object's shading: a complete class, or a prefix whose path goes on by the
 /// greedy choice ([`ClassSet::Expanded`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct ClassTerm {
     /// The class, or the prefix.
     pub class: PathClass,
     /// Whether the path goes on greedily after `class`'s events.
     pub greedy_tail: bool,
+}
+
+impl ClassTerm {
+    /// Its name: the class's events (`TRT`), with `+` after a prefix whose path goes on
+    /// greedily (`TR+`).
+    pub fn name(self) -> String {
+        let mut name = self.class.name();
+        if self.greedy_tail {
+            name.push('+');
+        }
+        name
+    }
 }
 
 impl ClassSet {

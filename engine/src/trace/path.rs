@@ -15,26 +15,44 @@ use glam::DVec3;
 
 use super::Ray;
 use super::bvh::SurfaceHit;
+use super::classes::ClassTerm;
 use super::fresnel::{self, Real, Vector3};
 use super::schlick_table::SchlickTable;
 use super::stats::TraceCounters;
 
-/// The two terms of the paper's shading model `T·F_T·G_T + R·F_R·G_R`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
+/// One term of a lens object's shading: the paper's two greedy terms `T·F_T·G_T + R·F_R·G_R`,
+/// or one term of a path-class model ([`super::classes`]). The compositor sums the terms of a
+/// lens object, each through its own F·G and outgoing directions, in this type's order
+/// (refraction before reflection, then the classes by length and events).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Term {
     /// The path that starts with a refraction at the first lens hit (`T·F_T·G_T`).
     Refraction,
     /// The path that starts with a reflection at the first lens hit (`R·F_R·G_R`).
     Reflection,
+    /// One class (or prefix with a greedy tail) of a path-class model.
+    Class(ClassTerm),
 }
 
 impl Term {
-    /// Short name used in pass names and tables (`T`, `R`).
-    pub fn name(self) -> &'static str {
+    /// Short name used in pass names and tables (`T`, `R`; a class's events, `TRT`, with `+`
+    /// after a prefix whose path goes on greedily).
+    pub fn name(self) -> String {
         match self {
-            Term::Refraction => "T",
-            Term::Reflection => "R",
+            Term::Refraction => "T".to_owned(),
+            Term::Reflection => "R".to_owned(),
+            Term::Class(class) => class.name(),
+        }
+    }
+}
+
+/// As in scene and JSON files: `refraction`, `reflection`, or the class's name.
+impl serde::Serialize for Term {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Term::Refraction => serializer.serialize_str("refraction"),
+            Term::Reflection => serializer.serialize_str("reflection"),
+            Term::Class(class) => serializer.serialize_str(&class.name()),
         }
     }
 }
@@ -166,11 +184,12 @@ pub struct TwoTermPaths {
 }
 
 impl TwoTermPaths {
-    /// The path of `term`, if present.
+    /// The path of `term`, if present (none for a path class: these are the greedy terms).
     pub fn get(&self, term: Term) -> Option<&GreedyRayPath> {
         match term {
             Term::Refraction => self.refraction.as_ref(),
             Term::Reflection => Some(&self.reflection),
+            Term::Class(_) => None,
         }
     }
 }

@@ -492,7 +492,9 @@ fn random_sphere_frame(
                             let view = (p - eye).normalize();
                             let outgoing = match term {
                                 Term::Reflection => view - 2.0 * view.dot(normal) * normal,
-                                Term::Refraction => (view - 0.3 * normal).normalize(),
+                                Term::Refraction | Term::Class(_) => {
+                                    (view - 0.3 * normal).normalize()
+                                }
                             };
                             p + (1.5 + layer as f32) * outgoing
                         })

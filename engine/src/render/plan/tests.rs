@@ -29,6 +29,18 @@ fn plan(layers: usize, viewpoints: usize, terms: &[Term], variant: Variant) -> F
 
 const BOTH: [Term; 2] = [Term::Refraction, Term::Reflection];
 
+/// The first `count` path classes of glass (R, TT, TRT, TRRT, …) as terms.
+fn classes(count: usize) -> Vec<Term> {
+    (0..count)
+        .map(|i| {
+            Term::Class(crate::trace::classes::ClassTerm {
+                class: crate::trace::PathClass::glass(i).expect("a class"),
+                greedy_tail: false,
+            })
+        })
+        .collect()
+}
+
 #[test]
 fn two_viewpoints_two_terms_is_the_papers_4n_passes_and_three_alpha_clears() {
     for n in 1..=4 {
@@ -220,7 +232,8 @@ fn plan_blended(layers: usize, viewpoints: usize, terms: &[Term], blend: BlendSc
 fn each_scheme_has_the_passes_it_is_described_with() {
     for n in 1..=4 {
         for viewpoints in 1..=3 {
-            for terms in [&BOTH[..], &[Term::Reflection][..]] {
+            let (three, four) = (classes(3), classes(4));
+            for terms in [&BOTH[..], &[Term::Reflection][..], &three[..], &four[..]] {
                 let g = viewpoints * terms.len();
                 let count = |p: &FramePlan| {
                     (
@@ -379,7 +392,52 @@ fn plans_match_the_golden_text() {
             }
         }
     }
+    // Path classes: 3 and 4 terms (R, TT, TRT and TRRT), each a group of V·n layer passes, at
+    // two viewpoint samples in every multipass scheme (`lensmap passes --terms 3`).
+    for blend in BlendScheme::ALL {
+        for count in [3, 4] {
+            let mut text = String::new();
+            for n in 1..=4 {
+                let shape = FrameShape::synthetic(640, 480, n, 2, &classes(count));
+                let plan = compiled(
+                    &shape,
+                    &readback(Variant::Multipass, blend, TargetFormat::Rgba8),
+                );
+                text.push_str(&format!("# n = {n}\n{plan}"));
+            }
+            golden.check(
+                &format!("multipass-{}-2-viewpoint-{count}-classes.txt", blend.name()),
+                &text,
+            );
+        }
+    }
     golden.assert_matched();
+}
+
+/// The single pass carries the greedy terms' two slots: a lens object of path classes is
+/// refused, naming the multipass variant, and the multipass plan of the same frame holds.
+#[test]
+fn the_single_pass_refuses_path_classes_and_names_the_multipass_variant() {
+    for count in [1, 2, 4] {
+        let shape = FrameShape::synthetic(64, 64, 2, 2, &classes(count));
+        let error = frame_graph(
+            &shape,
+            &readback(
+                Variant::SinglePass,
+                BlendScheme::FrontToBack,
+                TargetFormat::Rgba8,
+            ),
+        )
+        .unwrap_err();
+        assert!(
+            error.to_string().contains(&format!(
+                "sums {count} path-class term(s); the single-pass variant composites the two greedy terms only: use the multipass variant"
+            )),
+            "{error}"
+        );
+        let p = plan(2, 2, &classes(count), Variant::Multipass);
+        assert_eq!(p.count(PassCategory::Layer), 2 * 2 * count, "{p}");
+    }
 }
 
 /// The plans `lensmap passes --gpu-parts N` prints (640×480, RGBA8, three layers, two

@@ -30,10 +30,10 @@ pub struct PassesArgs {
     #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(1..=3))]
     viewpoints: u8,
     /// Shading terms per lens object: `greedy` (the papers' two terms, refraction and
-    /// reflection; a mirror's single term plans as `R`), a count N of path classes (the first N
+    /// reflection), `mirror` (a mirror's one greedy term, reflection), a count N of path classes (the first N
     /// of R, TT, TRT, TR²T, …), a list such as `R,TT,TRT,TRRT`, or `greedy:D` (the ray tree
     /// expanded to D events, greedy below). Each term is a group of V·n layer passes; the single
-    /// pass takes the greedy terms only.
+    /// pass takes the greedy terms (`greedy`, `mirror`) only.
     #[arg(long, default_value = "greedy", value_parser = parse_terms)]
     terms: Terms,
     /// Compositor variant.
@@ -65,14 +65,23 @@ struct Terms {
     terms: Vec<Term>,
 }
 
-/// Reads `--terms`: `greedy`, or a path-class set ([`ClassSet::parse`]), whose terms are glass's.
+/// Reads `--terms`: `greedy` (glass's two terms), `mirror` (a mirror's greedy reflection), or a path-class set ([`ClassSet::parse`]), whose terms are glass's.
 fn parse_terms(text: &str) -> Result<Terms, String> {
-    if text.trim() == "greedy" {
-        return Ok(Terms {
-            terms: vec![Term::Refraction, Term::Reflection],
-        });
+    match text.trim() {
+        "greedy" => {
+            return Ok(Terms {
+                terms: vec![Term::Refraction, Term::Reflection],
+            });
+        }
+        "mirror" => {
+            return Ok(Terms {
+                terms: vec![Term::Reflection],
+            });
+        }
+        _ => {}
     }
-    let set = ClassSet::parse(text).map_err(|problem| format!("{problem}; or give greedy"))?;
+    let set = ClassSet::parse(text)
+        .map_err(|problem| format!("{problem}; or give greedy (glass) or mirror"))?;
     let glass = Interface::Dielectric {
         ior: 1.5,
         absorption: glam::DVec3::ONE,
@@ -113,8 +122,14 @@ pub fn run(args: PassesArgs) -> anyhow::Result<()> {
         output: Output::Readback,
         single_pass: SinglePassLimits::COMPILED,
     };
-    let (graph, _) = frame_graph(&shape, &options)
-        .map_err(|error| BadUsage(format!("--layers {}: {error}", args.layers)))?;
+    let (graph, _) = frame_graph(&shape, &options).map_err(|error| {
+        let names: Vec<String> = terms.iter().map(|term| term.name()).collect();
+        BadUsage(format!(
+            "--layers {} --terms {}: {error}",
+            args.layers,
+            names.join(",")
+        ))
+    })?;
     if crate::common::validate_only() {
         return Ok(());
     }

@@ -20,7 +20,7 @@ use lensmap::index::LensIndex;
 use lensmap::metrics::Mask;
 use lensmap::render::{
     BlendScheme, FrameInput, PassCategory, RenderOptions, RenderedImage, Renderer,
-    SinglePassLimits, TargetFormat, Variant, frame_lens_pixels,
+    SinglePassLimits, TargetFormat, UploadedFrame, Variant, frame_lens_pixels,
     model::{FilterPrecision, ModelImage, ModelOptions, render_model},
 };
 use lensmap::trace::{LensSelection, Term};
@@ -248,6 +248,36 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
     assert_clean(&gpu);
 }
 
+/// Renders `frame` by the multipass variant in `blend` and checks it against the f64 model;
+/// the largest |GPU − model|.
+fn multipass_against_model(
+    case: &str,
+    gpu: &Gpu,
+    renderer: &mut Renderer,
+    uploaded: &mut UploadedFrame,
+    frame: &FrameInput,
+    blend: BlendScheme,
+    tolerance: &Tolerance,
+) -> f64 {
+    let (image, _) = renderer
+        .render(
+            gpu,
+            uploaded,
+            &RenderOptions {
+                compositing: Compositing::Multipass(blend),
+                format: TargetFormat::Rgba32f,
+                host: None,
+            },
+        )
+        .unwrap();
+    let options = ModelOptions {
+        blend,
+        ..model_options(tolerance.precision)
+    };
+    let model = render_model(frame, &options);
+    assert_matches_model(case, &image, &model, tolerance)
+}
+
 /// Every blending scheme's RGBA32F frame against the f64 model of that scheme's passes (its own
 /// arithmetic order): within 1e-5 on lavapipe and inside the device-derived bounds on any driver;
 /// glass and mirror, one, two and three viewpoints, n = 1 and 3.
@@ -264,27 +294,19 @@ fn every_blending_scheme_matches_its_f64_model() {
                 let frame = random_frame(&mut rng, layers, viewpoints, terms);
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
                 for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
-                    let (image, _) = renderer
-                        .render(
-                            &gpu,
-                            &mut uploaded,
-                            &RenderOptions {
-                                compositing: Compositing::Multipass(blend),
-                                format: TargetFormat::Rgba32f,
-                                host: None,
-                            },
-                        )
-                        .unwrap();
-                    let options = ModelOptions {
-                        blend,
-                        ..model_options(tolerance.precision)
-                    };
-                    let model = render_model(&frame, &options);
                     let case = format!(
                         "{}: n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}",
                         blend.name()
                     );
-                    let d = assert_matches_model(&case, &image, &model, &tolerance);
+                    let d = multipass_against_model(
+                        &case,
+                        &gpu,
+                        &mut renderer,
+                        &mut uploaded,
+                        &frame,
+                        blend,
+                        &tolerance,
+                    );
                     worst[viewpoints - 1][k] = worst[viewpoints - 1][k].max(d);
                 }
             }
@@ -330,28 +352,20 @@ fn path_class_terms_match_the_f64_model_in_every_scheme() {
                 let frame = random_frame(&mut rng, layers, viewpoints, &classes(count));
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
                 for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
-                    let (image, _) = renderer
-                        .render(
-                            &gpu,
-                            &mut uploaded,
-                            &RenderOptions {
-                                compositing: Compositing::Multipass(blend),
-                                format: TargetFormat::Rgba32f,
-                                host: None,
-                            },
-                        )
-                        .unwrap();
-                    let options = ModelOptions {
-                        blend,
-                        ..model_options(tolerance.precision)
-                    };
-                    let model = render_model(&frame, &options);
                     let case = format!(
                         "{}: n = {layers}, {viewpoints} viewpoint(s), {count} classes",
                         blend.name()
                     );
-                    worst[k] =
-                        worst[k].max(assert_matches_model(&case, &image, &model, &tolerance));
+                    let d = multipass_against_model(
+                        &case,
+                        &gpu,
+                        &mut renderer,
+                        &mut uploaded,
+                        &frame,
+                        blend,
+                        &tolerance,
+                    );
+                    worst[k] = worst[k].max(d);
                 }
                 let error = renderer
                     .render(

@@ -131,6 +131,10 @@ pub mod names {
             .c_field("tracer")
             .c_constants("LENSMAP_TRACER_"),
     );
+    /// `HybridOptions::classes`, the path classes a frame's lens objects sum (none: the two
+    /// greedy terms).
+    pub const TERMS: OptionName =
+        OptionName(&OptionInfo::field("HybridOptions", "classes").flag("terms"));
     /// The compositor variant, `Compositing::new`'s `variant`.
     pub const VARIANT: OptionName = OptionName(
         &OptionInfo::field("Compositing::new", "variant")
@@ -220,6 +224,7 @@ pub mod names {
         FOOTPRINT,
         FRESNEL,
         TRACER,
+        TERMS,
         VARIANT,
         BLEND,
         FORMAT,

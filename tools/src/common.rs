@@ -430,6 +430,22 @@ pub const HULL_SPLIT_HELP: &str = "The convex-hull split (PEM paper §4): a lens
 /// The help of `--fresnel`, the same on every command that takes it.
 pub const FRESNEL_HELP: &str = "How each lens vertex evaluates Fresnel: exact (Schlick for mirrors, exact dielectric Fresnel for glass), or table:N, Schlick with its (1 − cos θ)⁵ looked up in a 1D table of N texels (2 to 4096), linearly filtered like a texture (the PEM paper's 1D Fresnel texture)";
 
+/// A hybrid frame's shading terms as `--terms` gives them: `None` for the papers' two greedy
+/// terms, or a path-class set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClassesArg(pub Option<lensmap::trace::classes::ClassSet>);
+
+/// Parses a frame's `--terms`: `greedy`, or a path-class set
+/// ([`lensmap::trace::classes::ClassSet::parse`]: a count, a list or `greedy:D`).
+pub fn parse_classes(text: &str) -> Result<ClassesArg, String> {
+    if text.trim() == "greedy" {
+        return Ok(ClassesArg(None));
+    }
+    lensmap::trace::classes::ClassSet::parse(text)
+        .map(|set| ClassesArg(Some(set)))
+        .map_err(|problem| format!("{problem}; or give greedy (the papers' two terms)"))
+}
+
 /// Parses `--fresnel`: `exact` or `table:N` (the table's size is checked with the other frame
 /// options).
 pub fn parse_fresnel(text: &str) -> Result<FresnelModel, String> {

@@ -16,13 +16,13 @@ use lensmap::{
         DEFAULT_PIXELS_PER_TEXEL, LightMapOptions,
     },
     metrics::{Channels, Encoding, Mask, MetricsError, compare},
-    render::{BlendScheme, TargetFormat, Variant},
+    render::{Compositing, TargetFormat},
     runner::{
         EmSource, FrameRunner, HybridFrame, LoadOptions, Repetitions, lens_error,
         load_hybrid_scene, non_lens_error,
     },
     scene::Camera,
-    trace::{ReferenceImage, TraceOptions, render_reference},
+    trace::{LensSelection, PathModel, ReferenceImage, TraceOptions, render_reference},
 };
 use serde::Serialize;
 
@@ -98,6 +98,14 @@ pub struct RenderArgs {
     /// lens and glossy pixels; black elsewhere) side by side into this PNG (with its EXR).
     #[arg(long, value_name = "FILE")]
     pub side_by_side: Option<PathBuf>,
+    /// With --compare: the reference's ray-path model: `greedy`, `full` (the full ray tree,
+    /// the light itself), or a path-class set; by default the frame's own (its --terms).
+    #[arg(long, value_name = "greedy|full|N|CLASSES", value_parser = crate::reference::parse_tree, requires = "compare")]
+    pub reference_tree: Option<PathModel>,
+    /// With --compare: the reference's supersampling per pixel side; by default the frame's.
+    /// Range: [1, 16].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16), requires = "compare")]
+    pub reference_supersampling: Option<u32>,
     /// With --compare: directions the reference samples per camera ray at a glossy surface.
     /// Range: [2, 1048576].
     #[arg(long, default_value_t = lensmap::trace::shade::DEFAULT_GLOSSY_SAMPLES)]
@@ -184,10 +192,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let reference = if args.compare {
         let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
         let options = TraceOptions {
+            model: reference_model(&args),
             glossy_samples: args.reference_glossy_samples.max(2),
             ..TraceOptions::default()
         };
-        let image = render_reference(hybrid.trace(), &camera, &options, &|rows| {
+        let reference_camera = Camera {
+            supersampling: args.reference_supersampling.unwrap_or(camera.supersampling),
+            ..camera
+        };
+        let image = render_reference(hybrid.trace(), &reference_camera, &options, &|rows| {
             bar.set_position(u64::from(rows))
         })?;
         bar.finish_and_clear();
@@ -215,6 +228,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         reference.as_ref(),
         Run {
             prepare_s,
+            compositing: options.compositing,
             device: runner.gpu().device_id(),
             written: &out,
         },
@@ -225,10 +239,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The reference's ray-path model: `--reference-tree`, or the frame's own (`--terms`).
+fn reference_model(args: &RenderArgs) -> PathModel {
+    args.reference_tree.unwrap_or(
+        args.frame
+            .terms
+            .0
+            .map_or(PathModel::Greedy, PathModel::Classes),
+    )
+}
+
 /// What the report says about the run besides the frame: the scene preparation time, the device
 /// and the files written.
 struct Run<'a> {
     prepare_s: f64,
+    /// The compositing the frame ran with (the multipass variant for path classes).
+    compositing: Compositing,
     device: &'a lensmap::gpu::DeviceId,
     written: &'a ImageOut,
 }
@@ -246,6 +272,8 @@ struct RenderReport {
     fresnel: String,
     hull_split: bool,
     tracer: &'static str,
+    /// The frame's shading terms (`greedy`, or the path-class set).
+    terms: String,
     variant: &'static str,
     blend: &'static str,
     format: &'static str,
@@ -314,6 +342,14 @@ struct ViewpointWeight {
 #[derive(Serialize)]
 struct ReferenceReport {
     reference: ReferenceCost,
+    /// The reference's ray-path model (`greedy`, `full`, or a class set).
+    reference_tree: PathModel,
+    /// Its supersampling per pixel side.
+    reference_supersampling: u32,
+    /// The frame's mean lens radiance (linear, the channels' mean) over the reference's: how
+    /// much of the light it keeps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lens_radiance_ratio: Option<f64>,
     reduction: Reduction,
     #[serde(skip_serializing_if = "Option::is_none")]
     lens_psnr_db: Option<f64>,
@@ -355,6 +391,7 @@ fn report(
 ) -> anyhow::Result<RenderReport> {
     let Run {
         prepare_s,
+        compositing,
         device,
         written,
     } = run;
@@ -375,8 +412,9 @@ fn report(
         } else {
             "cpu"
         },
-        variant: Variant::from(args.frame.variant).name(),
-        blend: BlendScheme::from(args.frame.blend).name(),
+        terms: args.frame.terms.0.map_or("greedy".into(), |set| set.name()),
+        variant: compositing.variant().name(),
+        blend: compositing.blend().name(),
         format: TargetFormat::from(args.frame.format).name(),
         layered_ems: if args.bake.is_some() {
             "bake"
@@ -428,21 +466,30 @@ fn report(
         out: written.png.clone(),
         out_exr: written.exr.clone(),
         reference: reference
-            .map(|reference| compared(frame, reference))
+            .map(|reference| compared(frame, reference, args, camera))
             .transpose()?,
     })
 }
 
 /// The reference's cost, the reduction factors and the PSNRs of `frame` against `reference`.
-fn compared(frame: &HybridFrame, reference: &ReferenceImage) -> anyhow::Result<ReferenceReport> {
+fn compared(
+    frame: &HybridFrame,
+    reference: &ReferenceImage,
+    args: &RenderArgs,
+    camera: &Camera,
+) -> anyhow::Result<ReferenceReport> {
     let (c, rc) = (frame.stats.counters, reference.stats.counters);
     let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { 0.0 };
+    let lens = Mask::lens(&reference.lens_pixels, LensSelection::All);
     let mut out = ReferenceReport {
         reference: ReferenceCost {
             ms: reference.stats.seconds * 1e3,
             rays: rc.all_rays(),
             triangle_tests: rc.triangle_tests,
         },
+        reference_tree: reference_model(args),
+        reference_supersampling: args.reference_supersampling.unwrap_or(camera.supersampling),
+        lens_radiance_ratio: radiance_ratio(frame, reference, &lens),
         reduction: Reduction {
             time: ratio(reference.stats.seconds * 1e3, frame.total_ms),
             rays: ratio(rc.all_rays() as f64, c.all_rays() as f64),
@@ -496,6 +543,18 @@ fn compared(frame: &HybridFrame, reference: &ReferenceImage) -> anyhow::Result<R
         Err(error) => return Err(error.into()),
     }
     Ok(out)
+}
+
+/// The frame's mean radiance over `mask` (linear, the channels' mean) over the reference's;
+/// `None` over no pixel or a black reference.
+fn radiance_ratio(frame: &HybridFrame, reference: &ReferenceImage, mask: &Mask) -> Option<f64> {
+    let (mut ours, mut theirs) = (0.0f64, 0.0f64);
+    for i in (0..reference.radiance.len()).filter(|&i| mask.contains(i)) {
+        let p = frame.image.pixels[i];
+        ours += f64::from(p[0] + p[1] + p[2]);
+        theirs += f64::from(reference.radiance[i].element_sum());
+    }
+    (theirs > 0.0).then(|| ours / theirs)
 }
 
 impl RenderReport {
@@ -587,7 +646,10 @@ impl RenderReport {
     fn print_comparison(&self, r: &ReferenceReport) {
         let (f, red) = (&r.reference, &r.reduction);
         say!(
-            "  reference ray tracer: {:.1} ms, {} rays, {} triangle tests",
+            "  reference ray tracer ({} paths, {}×{} supersampling): {:.1} ms, {} rays, {} triangle tests",
+            r.reference_tree.name(),
+            r.reference_supersampling,
+            r.reference_supersampling,
             f.ms,
             f.rays,
             f.triangle_tests
@@ -603,6 +665,9 @@ impl RenderReport {
                 "  PSNR over {pixels} lens pixels: {display:.2} dB (display sRGB, clamped to [0, 1]), {linear:.2} dB (linear HDR)"
             ),
             _ => say!("  no pixel is entirely lens in the reference: no lens PSNR"),
+        }
+        if let Some(ratio) = r.lens_radiance_ratio {
+            say!("  mean lens radiance, frame / reference: {ratio:.3}");
         }
         if let (Some(display), Some(pixels)) = (r.glossy_psnr_db, r.glossy_pixels) {
             let maps = self.hybrid.glossy_maps_read;

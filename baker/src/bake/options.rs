@@ -175,6 +175,16 @@ impl BakeOptions {
             self.multi_view,
             "give a view count from 1 to 9 (1 turns multi-view off)",
         )?;
+        if let Some(classes) = self.infer.hybrid.classes {
+            // The inference's equations are the greedy terms' (the paper's Eq. 1); path-class
+            // equations, with per-class targets from the reference tracer, are not built yet.
+            return Err(OptionError::new(
+                lensmap::options::names::TERMS,
+                classes.name(),
+                "the baker infers EMs from the two greedy terms' equations only; give greedy (a frame of path classes renders with a greedy bake's EMs)",
+            )
+            .into());
+        }
         Ok(self.infer.hybrid.validate()?)
     }
 }
@@ -304,6 +314,8 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         tracer: _,
         traversal: _,
         gpu_precision: _,
+        // Refused by [`BakeOptions::validate`]: every bake is of the greedy terms.
+        classes: _,
     } = hybrid;
     let TessellationOptions {
         t,
@@ -353,6 +365,7 @@ mod tests {
                     tracer: lensmap::hybrid::VertexTracer::Cpu,
                     traversal: lensmap::hybrid::gpu::Traversal::Auto,
                     gpu_precision: VertexPrecision::F32,
+                    classes: None,
                 },
                 compositing: lensmap::render::Compositing::SinglePass,
                 em_size: EmSize::Fixed(64),

@@ -19,6 +19,7 @@ use crate::render::LensFaces;
 use crate::trace::{
     Bounces, GreedyOptions, GreedyRayPath, Ray, Term,
     bvh::SurfaceHit,
+    classes::{ClassTerm, Event, trace_term},
     fresnel::{Real, Vector3},
     path::{FresnelLookup, trace_greedy_paths_in},
     schlick_table::SchlickTable,
@@ -61,16 +62,20 @@ pub struct TermPath {
     pub topology: (u32, u32),
 }
 
-/// Both terms' paths at a vertex (`None`: no such path, e.g. no refraction for a mirror or under
-/// total internal reflection at the first interface).
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The terms' paths at a vertex: the two greedy terms, or one per path class (`None`: no such
+/// path, e.g. no refraction for a mirror or under total internal reflection at the first
+/// interface, or a path of another sequence than the class's).
+#[derive(Clone, Debug, PartialEq)]
 pub struct VertexPaths {
-    /// `[refraction, reflection]`.
+    /// `[refraction, reflection]`: the greedy terms (both `None` under path classes).
     pub terms: [Option<TermPath>; 2],
+    /// Under path classes, the path of each class term of the oracle's list, in its order;
+    /// empty for the greedy terms.
+    pub classes: Vec<Option<TermPath>>,
 }
 
 impl VertexPaths {
-    /// The path of `term` (none for a path class: these are the greedy terms).
+    /// The path of greedy term `term` (none for a path class: see [`VertexPaths::classes`]).
     pub fn get(&self, term: Term) -> Option<&TermPath> {
         match term {
             Term::Refraction => self.terms[0].as_ref(),
@@ -78,6 +83,36 @@ impl VertexPaths {
             Term::Class(_) => None,
         }
     }
+}
+
+/// Whether two vertices' class paths (parallel lists) differ enough to split the edge between
+/// them: each class's angle between its outgoing rays, weighted by its F·G (the larger of the
+/// two vertices', its largest channel), against the angle threshold. A path at one vertex and
+/// not the other, or of another topology, counts as the largest angle, π. A class that carries
+/// little light (along a total-internal-reflection boundary, where it appears and vanishes)
+/// thus splits only as far as the error it could make in the image, which its F·G bounds: a
+/// class of weight 1 is held to the threshold as the greedy terms are; one below
+/// threshold / π never splits.
+pub(crate) fn classes_differ(
+    a: &[Option<TermPath>],
+    b: &[Option<TermPath>],
+    threshold_radians: f64,
+) -> bool {
+    let weight = |p: &Option<TermPath>| p.map_or(0.0, |p| p.fg.max_element().max(0.0));
+    a.len() != b.len()
+        || a.iter().zip(b).any(|(p, q)| {
+            let angle = match (p, q) {
+                (Some(p), Some(q)) if p.topology == q.topology => p
+                    .outgoing
+                    .direction
+                    .dot(q.outgoing.direction)
+                    .clamp(-1.0, 1.0)
+                    .acos(),
+                (None, None) => 0.0,
+                _ => std::f64::consts::PI,
+            };
+            weight(p).max(weight(q)) * angle > threshold_radians
+        })
 }
 
 /// The camera as the tessellation sees it.
@@ -149,6 +184,8 @@ pub struct PathOracle<'a> {
     precision: VertexPrecision,
     /// The table Schlick's fifth-order term is looked up in; `None`: evaluated.
     fresnel: Option<&'a SchlickTable>,
+    /// The path-class terms traced per vertex instead of the greedy terms; empty: greedy.
+    classes: Vec<ClassTerm>,
     counters: Mutex<(TraceCounters, f64)>,
 }
 
@@ -174,8 +211,17 @@ impl<'a> PathOracle<'a> {
             greedy: GreedyOptions::default(),
             precision: VertexPrecision::F64,
             fresnel: None,
+            classes: Vec::new(),
             counters: Mutex::new((TraceCounters::default(), 0.0)),
         }
+    }
+
+    /// This oracle tracing one path per class term of `classes` at every vertex
+    /// ([`crate::trace::classes::trace_term`], f64, exact Fresnel) instead of the two greedy
+    /// terms (an empty list, the default). Its split test weights each class by its F·G
+    /// ([`classes_differ`]).
+    pub fn with_classes(self, classes: Vec<ClassTerm>) -> Self {
+        PathOracle { classes, ..self }
     }
 
     /// This oracle computing its paths in `precision` (f64 unless told).
@@ -314,6 +360,29 @@ impl<'a> PathOracle<'a> {
                 }
             }
         };
+        if !self.classes.is_empty() {
+            // Path classes are traced in f64 with exact Fresnel (the options are checked so).
+            let lens = self.trace.lens(self.lens);
+            let classes = self
+                .classes
+                .iter()
+                .map(|&term| {
+                    trace_term(&lens, &eye_ray, &hit, term, counters).map(|path| TermPath {
+                        fg: path.weight(),
+                        outgoing: path.outgoing_ray,
+                        topology: (
+                            path.class.events_len(),
+                            path.class.events().filter(|&e| e == Event::Reflect).count() as u32,
+                        ),
+                    })
+                })
+                .collect();
+            let paths = VertexPaths {
+                terms: [None, None],
+                classes,
+            };
+            return (paths, visible);
+        }
         let lens = self.trace.lens_in::<R>(self.lens);
         let fresnel = FresnelLookup::from(self.fresnel);
         let paths =
@@ -329,6 +398,7 @@ impl<'a> PathOracle<'a> {
                     paths.refraction.as_ref().map(term),
                     Some(term(&paths.reflection)),
                 ],
+                classes: Vec::new(),
             },
             visible,
         )
@@ -413,6 +483,9 @@ impl VertexOracle for PathOracle<'_> {
     }
 
     fn differ(&self, a: &VertexPaths, b: &VertexPaths) -> bool {
+        if !self.classes.is_empty() {
+            return classes_differ(&a.classes, &b.classes, self.cos_threshold.acos());
+        }
         a.terms.iter().zip(&b.terms).any(|pair| match pair {
             (None, None) => false,
             (Some(p), Some(q)) => {
@@ -453,4 +526,58 @@ pub(crate) fn outside_clip_volume(clip: &[glam::Vec4]) -> bool {
         |c| c.z < 0.0,
     ];
     planes.iter().any(|outside| clip.iter().all(outside))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A class path of weight `fg` (every channel) leaving along the direction `degrees` from
+    /// +z in the xz plane, of topology `topology`.
+    fn path(fg: f64, degrees: f64, topology: (u32, u32)) -> Option<TermPath> {
+        let a = degrees.to_radians();
+        Some(TermPath {
+            fg: DVec3::splat(fg),
+            outgoing: Ray::new(DVec3::ZERO, DVec3::new(a.sin(), 0.0, a.cos())),
+            topology,
+        })
+    }
+
+    /// The weighted split test against its closed form, weight × angle > threshold, at the
+    /// paper's 3°: a class of weight 1 is held to the threshold, one of weight ½ to twice it;
+    /// a path at one vertex only (or of another topology) is the angle π, so it splits above
+    /// weight 3/180 and not below; the larger of the two weights counts, and the largest
+    /// channel; any one class that differs splits the edge.
+    #[test]
+    fn a_class_splits_by_its_angle_weighted_by_its_fg() {
+        let threshold = 3f64.to_radians();
+        let tt = (2, 0);
+        let differ = |a: Option<TermPath>, b: Option<TermPath>| {
+            classes_differ(&[a], &[b], threshold)
+        };
+        assert!(!differ(path(1.0, 0.0, tt), path(1.0, 2.9, tt)));
+        assert!(differ(path(1.0, 0.0, tt), path(1.0, 3.1, tt)));
+        assert!(!differ(path(0.5, 0.0, tt), path(0.5, 5.9, tt)));
+        assert!(differ(path(0.5, 0.0, tt), path(0.5, 6.1, tt)));
+        // The larger weight of the two.
+        assert!(differ(path(0.01, 0.0, tt), path(0.5, 6.1, tt)));
+        // Present at one vertex only: π × weight against 3°, i.e. weight 1/60.
+        assert!(!differ(path(0.016, 0.0, tt), None));
+        assert!(differ(path(0.017, 0.0, tt), None));
+        assert!(!differ(None, None));
+        // Another topology (a greedy tail's) is the angle π too.
+        assert!(differ(path(0.5, 0.0, tt), path(0.5, 0.0, (4, 2))));
+        assert!(!differ(path(0.01, 0.0, tt), path(0.01, 0.0, (4, 2))));
+        // The largest channel.
+        let mut red = path(0.01, 0.0, tt);
+        if let Some(p) = red.as_mut() {
+            p.fg.x = 1.0;
+        }
+        assert!(differ(red, path(0.01, 3.1, tt)));
+        // One class of several.
+        let quiet = [path(1.0, 0.0, tt), path(0.9, 1.0, (3, 1))];
+        let moved = [path(1.0, 0.0, tt), path(0.9, 5.0, (3, 1))];
+        assert!(!classes_differ(&quiet, &quiet, threshold));
+        assert!(classes_differ(&quiet, &moved, threshold));
+    }
 }

@@ -6,14 +6,14 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::{
-    paths::{VertexPaths, VertexPrecision},
+    paths::{TermPath, VertexPaths, VertexPrecision},
     scene::LensLayers,
     tessellate::VertexEvaluation,
     viewpoints::ViewpointBlend,
 };
 use crate::{
     render::{LensFaces, LensObject, TermVertices},
-    trace::{Interface, Term, world::TraceScene},
+    trace::{Interface, Term, classes::ClassTerm, world::TraceScene},
 };
 
 /// A lens object's tessellated mesh and the faces its passes draw.
@@ -29,15 +29,20 @@ pub(super) struct LensMesh {
 }
 
 /// Texture coordinates: each vertex's outgoing ray per term against each layer shell gives the
-/// cube-map direction `hit − EM origin` (computed in `precision`); F·G per term. Vertices with no
-/// path (back-facing only, or no refraction at the first interface) get F·G = 0 and their
-/// reflection's direction.
+/// cube-map direction `hit − EM origin` (computed in `precision`); F·G per term. The terms are
+/// the two greedy ones, or one per class of `classes` (the oracle's list) where it is not empty.
+/// Vertices with no path of a term (back-facing only, no refraction at the first interface, a
+/// path of another class) get F·G = 0 and the direction of their reflection (of their first
+/// class that has a path, under classes), so that a triangle's lookups stay near its lit
+/// vertices'.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn texgen(
     trace: &TraceScene,
     lens: usize,
     layers: &LensLayers,
     mesh: LensMesh,
     samples: &[Option<VertexEvaluation<VertexPaths>>],
+    classes: &[ClassTerm],
     blend: &ViewpointBlend,
     precision: VertexPrecision,
 ) -> LensObject {
@@ -47,25 +52,36 @@ pub(super) fn texgen(
         faces,
         hull_triangles,
     } = mesh;
-    let mut terms = Vec::new();
-    if has_refraction(trace, lens) {
-        terms.push(Term::Refraction);
-    }
-    terms.push(Term::Reflection);
+    let terms: Vec<Term> = if !classes.is_empty() {
+        classes.iter().copied().map(Term::Class).collect()
+    } else if has_refraction(trace, lens) {
+        vec![Term::Refraction, Term::Reflection]
+    } else {
+        vec![Term::Reflection]
+    };
     let fallback_direction =
         |position: Vec3, em_origin: DVec3| (position.as_dvec3() - em_origin).normalize_or(DVec3::Z);
+    let unlit = |p: &TermPath| TermPath {
+        fg: DVec3::ZERO,
+        ..*p
+    };
     let term_vertices = terms
         .iter()
-        .map(|&term| {
+        .enumerate()
+        .map(|(k, &term)| {
             let path = |v: usize| {
-                samples[v].as_ref().map(|e| &e.sample).and_then(|s| {
-                    s.get(term)
-                        .copied()
-                        .or(s.get(Term::Reflection).copied().map(|mut p| {
-                            p.fg = DVec3::ZERO;
-                            p
-                        }))
-                })
+                samples[v]
+                    .as_ref()
+                    .map(|e| &e.sample)
+                    .and_then(|s| match term {
+                        Term::Class(_) => s
+                            .classes
+                            .get(k)
+                            .copied()
+                            .flatten()
+                            .or_else(|| s.classes.iter().flatten().next().map(unlit)),
+                        _ => s.get(term).copied().or(s.get(Term::Reflection).map(unlit)),
+                    })
             };
             let fg = (0..positions.len())
                 .map(|v| path(v).map_or(Vec3::ZERO, |p| p.fg.as_vec3()))

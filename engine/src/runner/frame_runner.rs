@@ -418,7 +418,9 @@ impl FrameRunner {
         let start = Instant::now();
         let held = self.slots[self.last_slot].identity;
         let tracer = options.hybrid.tracer;
-        let on_gpu = tracer.on_gpu(&self.gpu)
+        // Path classes are traced on the CPU (`auto` chooses it; `gpu` fails validation).
+        let on_gpu = options.hybrid.classes.is_none()
+            && tracer.on_gpu(&self.gpu)
             && match self.make_resident(hybrid, &options.hybrid) {
                 Ok(()) => true,
                 // `auto` traces on the CPU where the device cannot hold the scene's geometry.

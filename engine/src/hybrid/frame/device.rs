@@ -109,6 +109,7 @@ fn empty_lens(job: &LensJob<'_>, mesh: LensMesh) -> LensObject {
         &scene.lenses()[job.lens.index()],
         mesh,
         &[],
+        &[],
         job.blend,
         job.options.precision,
     )

@@ -37,7 +37,7 @@ pub fn vertex_exact_frame(
     let mut budget = VertexBudget::new(options.tessellation.max_vertices);
     let mut exact = Vec::new();
     for lens in LensIndex::all(scene.trace().lenses.len()) {
-        let job = LensJob::new(scene, lens, &view, options, &blend, &mut stats);
+        let job = LensJob::new(scene, lens, &view, options, &blend, &mut stats)?;
         let traced = tessellate_on_cpu(&job, &mut budget, &mut stats)?;
         exact.push(Arc::new(vertex_radiance_mesh(scene, lens, traced)));
     }
@@ -57,7 +57,10 @@ fn vertex_radiance_mesh(scene: &HybridScene, lens: LensIndex, traced: CpuLens) -
         .map(|sample| {
             let mut counters = TraceCounters::default();
             let mut radiance = DVec3::ZERO;
-            for path in sample.iter().flat_map(|s| s.sample.terms.iter().flatten()) {
+            let paths = sample
+                .iter()
+                .flat_map(|s| s.sample.terms.iter().chain(&s.sample.classes).flatten());
+            for path in paths {
                 if path.fg != DVec3::ZERO {
                     radiance += path.fg
                         * trace.outgoing_radiance(

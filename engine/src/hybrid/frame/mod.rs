@@ -227,6 +227,7 @@ fn build(
     stage: &dyn VertexStage,
 ) -> Result<Built, TessellationError> {
     let start = Instant::now();
+    options.validate()?;
     let (view, blend, mut stats) = begin_frame(scene, camera, options)?;
     stats.traced_on_gpu = stage.key().on_gpu();
     stage.begin(&FrameJob { scene, options })?;
@@ -234,7 +235,7 @@ fn build(
     let mut lenses = Vec::new();
     let mut depths = Vec::new();
     for lens in LensIndex::all(scene.trace().lenses.len()) {
-        let job = LensJob::new(scene, lens, &view, options, &blend, &mut stats);
+        let job = LensJob::new(scene, lens, &view, options, &blend, &mut stats)?;
         let built = stage.lens(&job, &mut budget, &mut stats)?;
         lenses.push(built.object);
         depths.push(built.depths);

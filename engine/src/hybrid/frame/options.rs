@@ -4,6 +4,7 @@
 
 pub use crate::hybrid::paths::VertexPrecision;
 pub use crate::hybrid::viewpoints::ViewpointBlending;
+use crate::trace::classes::ClassSet;
 pub use crate::trace::schlick_table::FresnelModel;
 use crate::{hybrid::tessellate::TessellationOptions, options::OptionError};
 
@@ -46,6 +47,10 @@ pub struct HybridOptions {
     /// What the GPU tracer computes in: f32 (the default, every device), or f64, the CPU
     /// oracle's precision (devices with `shaderFloat64`). `precision` is the CPU's.
     pub gpu_precision: VertexPrecision,
+    /// The path classes every lens object's shading sums, one term each
+    /// ([`crate::trace::classes`]); `None` (the default): the papers' two greedy terms. Traced
+    /// on the CPU in f64 and composited by the multipass variant.
+    pub classes: Option<ClassSet>,
 }
 
 /// Where a frame's lens vertices are ray traced (`--tracer`). The library's default is the CPU,
@@ -97,6 +102,7 @@ impl Default for HybridOptions {
             tracer: VertexTracer::Cpu,
             traversal: crate::hybrid::gpu::Traversal::Auto,
             gpu_precision: VertexPrecision::F32,
+            classes: None,
         }
     }
 }
@@ -117,10 +123,34 @@ impl HybridOptions {
     }
 
     /// Checks every option: `t` ([`TessellationOptions::validate`]), the footprint (finite,
-    /// ≥ 0), the angle in (0°, 180°) and the Fresnel table's size ([`FresnelModel::validate`]).
+    /// ≥ 0), the angle in (0°, 180°), the Fresnel table's size ([`FresnelModel::validate`]),
+    /// and path classes only where they are traced (the CPU tracer in f64).
     pub fn validate(&self) -> Result<(), OptionError> {
         self.tessellation.validate()?;
         self.fresnel.validate()?;
+        if let Some(classes) = self.classes {
+            OptionError::require(
+                self.tracer != VertexTracer::Gpu,
+                crate::options::names::TRACER,
+                self.tracer.name(),
+                format!(
+                    "the GPU tracer traces the two greedy terms only; give cpu or auto to trace the {} classes",
+                    classes.name()
+                ),
+            )?;
+            OptionError::require(
+                self.precision == VertexPrecision::F64,
+                crate::options::names::TERMS,
+                classes.name(),
+                "path classes are traced in f64 only; give greedy to measure the f32 vertex paths",
+            )?;
+            OptionError::require(
+                self.fresnel == FresnelModel::Exact,
+                crate::options::names::FRESNEL,
+                self.fresnel.name(),
+                "path classes evaluate Fresnel exactly; give exact, or greedy terms for the table",
+            )?;
+        }
         OptionError::require(
             self.footprint_subpixels.is_finite() && self.footprint_subpixels >= 0.0,
             crate::options::names::FOOTPRINT,

@@ -148,6 +148,7 @@ impl VertexStage for CpuStage {
             &scene.lenses()[job.lens.index()],
             mesh,
             &samples,
+            &job.classes,
             job.blend,
             job.options.precision,
         );

@@ -17,9 +17,14 @@ use crate::{
         viewpoints::ViewpointBlend,
     },
     index::LensIndex,
+    options::{OptionError, names},
     render::{EnvironmentMesh, LensFaces},
     scene::Camera,
-    trace::schlick_table::SchlickTable,
+    trace::{
+        Interface,
+        classes::{ClassSet, ClassTerm},
+        schlick_table::SchlickTable,
+    },
 };
 
 /// What the camera fixes for a frame before any lens object is traced.
@@ -99,12 +104,16 @@ pub struct LensJob<'a> {
     pub(super) hull_split: bool,
     /// The viewpoint samples the frame blends (which of its maps the frame draws).
     pub(super) blend: &'a ViewpointBlend,
+    /// The path-class terms its vertices trace ([`HybridOptions::classes`] for its material);
+    /// empty: the two greedy terms.
+    pub(super) classes: Vec<ClassTerm>,
 }
 
 impl<'a> LensJob<'a> {
     /// Lens object `lens` of `scene` in `view` with `options`, drawn from the samples of
     /// `blend`, counting in `stats` whether it lies outside the view and whether its `t` is
-    /// coarsened.
+    /// coarsened; an error for path classes on a lens object they cannot shade
+    /// ([`class_terms`]).
     pub(super) fn new(
         scene: &'a HybridScene,
         lens: LensIndex,
@@ -112,7 +121,8 @@ impl<'a> LensJob<'a> {
         options: &'a HybridOptions,
         blend: &'a ViewpointBlend,
         stats: &mut HybridStats,
-    ) -> LensJob<'a> {
+    ) -> Result<LensJob<'a>, OptionError> {
+        let classes = class_terms(scene, lens, options)?;
         let objects: Vec<usize> = scene.trace().lenses[lens.index()]
             .objects
             .iter()
@@ -133,7 +143,7 @@ impl<'a> LensJob<'a> {
         if tessellation.t != options.tessellation.t {
             stats.lenses_coarsened += 1;
         }
-        LensJob {
+        Ok(LensJob {
             scene,
             lens,
             view,
@@ -143,7 +153,8 @@ impl<'a> LensJob<'a> {
             hull_split: options.hull_split && !scene.lenses()[lens.index()].layering.is_distance(),
             objects,
             blend,
-        }
+            classes,
+        })
     }
 
     /// The vertex oracle of scene object `object` of this lens object: the frame's camera,
@@ -161,7 +172,47 @@ impl<'a> LensJob<'a> {
         .with_precision(self.options.precision)
         .with_bounces(layers.layering.bounces())
         .with_fresnel(self.view.fresnel.as_ref())
+        .with_classes(self.classes.clone())
     }
+}
+
+/// The path-class terms of lens object `lens` under `options` (none for the greedy terms):
+/// [`ClassSet::terms`] for the material of its surfaces (a count takes glass's order or a
+/// mirror's). An error where they cannot shade it: a lens object layered by bounce (its paths
+/// stop at the first bounce, and its layers hold what the later bounces see), or a count for a
+/// lens object of glass and mirrors together (whose order is whose?).
+fn class_terms(
+    scene: &HybridScene,
+    lens: LensIndex,
+    options: &HybridOptions,
+) -> Result<Vec<ClassTerm>, OptionError> {
+    let Some(set) = options.classes else {
+        return Ok(Vec::new());
+    };
+    let trace = scene.trace();
+    let name = &trace.lenses[lens.index()].name;
+    let refuse = |fix: String| Err(OptionError::new(names::TERMS, set.name(), fix));
+    if !scene.lenses()[lens.index()].layering.is_distance() {
+        return refuse(format!(
+            "lens object '{name}' is layered by bounce, whose paths stop at the first bounce; path classes need its layers by distance (`layering = \"distance\"`), or give greedy"
+        ));
+    }
+    let mut interfaces = trace.lenses[lens.index()]
+        .objects
+        .iter()
+        .filter_map(|&o| trace.interface(o));
+    let Some(first) = interfaces.next() else {
+        return Ok(set.terms(Interface::Mirror {
+            reflectance: glam::DVec3::ONE,
+        }));
+    };
+    let glass = |i: &Interface| matches!(i, Interface::Dielectric { .. });
+    if matches!(set, ClassSet::First(_)) && interfaces.any(|i| glass(&i) != glass(&first)) {
+        return refuse(format!(
+            "lens object '{name}' joins glass and mirrors, so a count has no one order; list the classes (e.g. R,TT,TRT,RR)"
+        ));
+    }
+    Ok(set.terms(first))
 }
 
 /// The tessellation options of a lens object made of `objects`: `t` scaled up by footprint

@@ -37,7 +37,7 @@ fn stop_reason(state: u32) -> StopReason {
 }
 
 /// One vertex as the GPU traced it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct GpuVertex {
     /// Both terms' paths (f32 values widened).
     pub paths: VertexPaths,
@@ -65,6 +65,7 @@ pub(super) fn decode(w: &[u32]) -> GpuVertex {
     GpuVertex {
         paths: VertexPaths {
             terms: [term(0), term(12)],
+            classes: Vec::new(),
         },
         visible: f(27) != 0.0,
         screen,

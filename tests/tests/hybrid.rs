@@ -335,3 +335,188 @@ fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
         "the teapot is open: back faces drawn, and only facing hull triangles split"
     );
 }
+
+/// The mean of the channels' sum over `mask` of `pixels` (RGBA) or of `radiance` (RGB).
+fn mean_over(mask: &Mask, values: impl Iterator<Item = f64>) -> f64 {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (i, v) in values.enumerate() {
+        if mask.contains(i) {
+            sum += v;
+            count += 1;
+        }
+    }
+    assert!(count > 0, "an empty mask has no mean");
+    sum / count as f64
+}
+
+/// Path classes in the hybrid frame, on a glass ball (absorbing, so every chord counts) under a
+/// smooth sky on one distant shell, whose projected EM is nearly what the tracer sees: the frame
+/// of 4 classes against the reference tracer's sum of the same 4 classes (a second algorithm:
+/// per pixel, not per vertex) as close as the greedy frame is to the greedy reference, and its
+/// mean lens radiance within 2 % of the full ray tree's (the issue's goal) where the greedy
+/// frame's is more than 5 % short (measured: 0.998 and 0.911; RMS 3.22e-3 and 3.17e-3 against
+/// their own references, on Mesa 22.3's lavapipe). The class frame has one term per class, composited by the
+/// multipass variant in every blending scheme alike, and the GPU tracer is refused for it.
+#[test]
+fn path_classes_bring_the_frame_to_the_full_ray_tree() {
+    use lensmap::trace::{PathModel, Term, classes::ClassSet};
+    let dir = temp_dir("classes");
+    fixtures::write_smooth_sky(&dir.join("sky.exr"));
+    let text = r#"
+name = "glass-ball-sky"
+[camera]
+position = [0.0, 0.6, 3.2]
+look_at = [0.0, 0.0, 0.0]
+vfov_degrees = 45.0
+width = 80
+height = 60
+supersampling = 2
+
+[environment]
+latlong = { path = "sky.exr" }
+
+[[materials]]
+name = "glass"
+glass = { ior = 1.5, absorption = [0.8, 0.9, 1.0] }
+
+[[objects]]
+name = "ball"
+material = "glass"
+sphere = { radius = 1.0, segments = 48, rings = 24 }
+
+[[lenses]]
+name = "ball"
+objects = ["ball"]
+layers = [{ sphere = 1000.0 }]
+"#;
+    let scene_path = dir.join("ball.toml");
+    std::fs::write(&scene_path, text).unwrap();
+    let scene = Scene::load(&scene_path).unwrap();
+    let camera = scene.camera;
+    let ems = EmSource::Projected(ProjectedOptions {
+        size: 64,
+        supersampling: 2,
+    });
+    let (hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
+    let reference = |model| {
+        let options = TraceOptions {
+            model,
+            ..TraceOptions::default()
+        };
+        render_reference(hybrid.trace(), &camera, &options, &|_| {}).unwrap()
+    };
+    let four = ClassSet::First(4);
+    let (greedy_ref, classes_ref, full_ref) = (
+        reference(PathModel::Greedy),
+        reference(PathModel::Classes(four)),
+        reference(PathModel::Full),
+    );
+    let mask = Mask::lens(&full_ref.lens_pixels, LensSelection::All);
+    let mean_ref = |r: &lensmap::trace::ReferenceImage| {
+        mean_over(&mask, r.radiance.iter().map(|v| f64::from(v.element_sum())))
+    };
+    let full_mean = mean_ref(&full_ref);
+
+    let mut runner = FrameRunner::new(gpu()).unwrap();
+    let mut frame_of = |classes, blend| {
+        let options = FrameOptions {
+            hybrid: HybridOptions {
+                classes,
+                ..HybridOptions::default()
+            },
+            compositing: Compositing::Multipass(blend),
+            format: TargetFormat::Rgba32f,
+        };
+        runner.frame(&hybrid, &camera, &options).unwrap()
+    };
+    let rms = |frame: &lensmap::runner::HybridFrame, r: &lensmap::trace::ReferenceImage| {
+        metrics::compare(
+            &frame.image.pixels,
+            &r.radiance,
+            &mask,
+            Encoding::Linear,
+            Channels::Rgb,
+        )
+        .unwrap()
+        .rmse
+    };
+    let mean = |frame: &lensmap::runner::HybridFrame| {
+        mean_over(
+            &mask,
+            frame
+                .image
+                .pixels
+                .iter()
+                .map(|p| f64::from(p[0] + p[1] + p[2])),
+        )
+    };
+    let greedy = frame_of(None, BlendScheme::FrontToBack);
+    let (greedy_rms, greedy_ratio) = (rms(&greedy, &greedy_ref), mean(&greedy) / full_mean);
+    let mut class_rms = Vec::new();
+    for blend in BlendScheme::ALL {
+        let frame = frame_of(Some(four), blend);
+        let ratio = mean(&frame) / full_mean;
+        let own = rms(&frame, &classes_ref);
+        println!(
+            "{}: 4 classes RMS {own:.2e} against their reference, mean lens radiance {ratio:.4} of the full tree's ({} vertices; greedy {} vertices, RMS {greedy_rms:.2e}, {greedy_ratio:.4})",
+            blend.name(),
+            if frame.stats.reused {
+                "the same".to_string()
+            } else {
+                frame.stats.vertices_traced.to_string()
+            },
+            greedy.stats.vertices_traced,
+        );
+        assert!(
+            (ratio - 1.0).abs() <= 0.02,
+            "{}: 4 classes keep {ratio} of the full tree's light",
+            blend.name()
+        );
+        assert!(
+            own <= 1.25 * greedy_rms,
+            "{}: 4 classes RMS {own} against their reference, greedy {greedy_rms}",
+            blend.name()
+        );
+        class_rms.push(own);
+    }
+    assert!(
+        greedy_ratio < 0.95,
+        "the greedy frame keeps {greedy_ratio} of the light: the scene does not tell classes from greedy"
+    );
+    println!(
+        "reference: 4 classes keep {:.4}, greedy {:.4} of the full tree's mean lens radiance",
+        mean_ref(&classes_ref) / full_mean,
+        mean_ref(&greedy_ref) / full_mean
+    );
+
+    // The frame's terms: one per class, in the set's order.
+    let mut builder = FrameBuilder::new();
+    let options = HybridOptions {
+        classes: Some(four),
+        ..HybridOptions::default()
+    };
+    let (input, _) = builder.frame(&hybrid, &camera, &options).unwrap();
+    let names: Vec<String> = input.lenses[0]
+        .terms
+        .iter()
+        .map(|t| t.term.name())
+        .collect();
+    assert_eq!(names, ["R", "TT", "TRT", "TRRT"]);
+    assert!(
+        input.lenses[0]
+            .terms
+            .iter()
+            .all(|t| matches!(t.term, Term::Class(_)))
+    );
+    // The GPU tracer traces the greedy terms only: one line naming the option.
+    let gpu_tracer = HybridOptions {
+        tracer: lensmap::hybrid::VertexTracer::Gpu,
+        ..options
+    };
+    let error = gpu_tracer.validate().unwrap_err().to_string();
+    assert!(
+        error.contains("tracer") && error.contains("greedy"),
+        "{error}"
+    );
+    assert_clean(runner.gpu());
+}

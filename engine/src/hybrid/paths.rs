@@ -552,9 +552,8 @@ mod tests {
     fn a_class_splits_by_its_angle_weighted_by_its_fg() {
         let threshold = 3f64.to_radians();
         let tt = (2, 0);
-        let differ = |a: Option<TermPath>, b: Option<TermPath>| {
-            classes_differ(&[a], &[b], threshold)
-        };
+        let differ =
+            |a: Option<TermPath>, b: Option<TermPath>| classes_differ(&[a], &[b], threshold);
         assert!(!differ(path(1.0, 0.0, tt), path(1.0, 2.9, tt)));
         assert!(differ(path(1.0, 0.0, tt), path(1.0, 3.1, tt)));
         assert!(!differ(path(0.5, 0.0, tt), path(0.5, 5.9, tt)));

@@ -109,6 +109,19 @@ pub struct InferOptions {
     pub solve: SolveOptions,
 }
 
+impl InferOptions {
+    /// The hybrid options of the bake's frames: [`InferOptions::hybrid`] with the greedy terms,
+    /// whatever a scene file's lens says. The inference's equations are the greedy terms' (the
+    /// paper's Eq. 1); per-class equations are not built, and a frame of path classes renders
+    /// with a greedy bake's EMs.
+    pub fn frame_options(&self) -> HybridOptions {
+        HybridOptions {
+            terms: lensmap::hybrid::ShadingTerms::Greedy,
+            ..self.hybrid
+        }
+    }
+}
+
 impl Default for InferOptions {
     fn default() -> Self {
         InferOptions {
@@ -398,7 +411,7 @@ pub fn prepare<'v>(
     let mut seen = Vec::new();
     for view in views {
         let (frame, _) = lensmap::hybrid::FrameBuilder::new()
-            .frame(hybrid, view.camera, &options.hybrid)
+            .frame(hybrid, view.camera, &options.frame_options())
             .map_err(|e| InferError::Frame(e.to_string()))?;
         let k = view.camera.supersampling.max(1);
         seen.push((*view, LayerFrames::new(&frame, lens, k)?));

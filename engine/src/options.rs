@@ -131,10 +131,10 @@ pub mod names {
             .c_field("tracer")
             .c_constants("LENSMAP_TRACER_"),
     );
-    /// `HybridOptions::classes`, the path classes a frame's lens objects sum (none: the two
-    /// greedy terms).
+    /// `HybridOptions::terms`, the shading terms of a frame's lens objects (the scene's, the
+    /// two greedy terms, or path classes).
     pub const TERMS: OptionName =
-        OptionName(&OptionInfo::field("HybridOptions", "classes").flag("terms"));
+        OptionName(&OptionInfo::field("HybridOptions", "terms").flag("terms"));
     /// The compositor variant, `Compositing::new`'s `variant`.
     pub const VARIANT: OptionName = OptionName(
         &OptionInfo::field("Compositing::new", "variant")

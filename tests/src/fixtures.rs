@@ -124,6 +124,7 @@ pub fn lens_alone(
             objects: vec![0],
             layers: Vec::new(),
             layering: lensmap::layers::Layering::Distance,
+            terms: None,
         }],
         camera,
         view_space: ViewSpace::List(Vec::new()),

@@ -336,6 +336,11 @@ fn the_hull_split_draws_triangles_that_cannot_reflect_the_object_last() {
     );
 }
 
+/// The first four glass classes as a list.
+fn four_listed() -> lensmap::trace::classes::ClassSet {
+    lensmap::trace::classes::ClassSet::parse("R,TT,TRT,TRRT").unwrap()
+}
+
 /// The mean of the channels' sum over `mask` of `pixels` (RGBA) or of `radiance` (RGB).
 fn mean_over(mask: &Mask, values: impl Iterator<Item = f64>) -> f64 {
     let (mut sum, mut count) = (0.0, 0usize);
@@ -359,6 +364,7 @@ fn mean_over(mask: &Mask, values: impl Iterator<Item = f64>) -> f64 {
 /// multipass variant in every blending scheme alike, and the GPU tracer is refused for it.
 #[test]
 fn path_classes_bring_the_frame_to_the_full_ray_tree() {
+    use lensmap::hybrid::ShadingTerms;
     use lensmap::trace::{PathModel, Term, classes::ClassSet};
     let dir = temp_dir("classes");
     fixtures::write_smooth_sky(&dir.join("sky.exr"));
@@ -397,7 +403,7 @@ layers = [{ sphere = 1000.0 }]
         size: 64,
         supersampling: 2,
     });
-    let (hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
+    let (hybrid, _) = load_hybrid_scene(scene, &ems.clone().into()).unwrap();
     let reference = |model| {
         let options = TraceOptions {
             model,
@@ -418,10 +424,10 @@ layers = [{ sphere = 1000.0 }]
     let full_mean = mean_ref(&full_ref);
 
     let mut runner = FrameRunner::new(gpu()).unwrap();
-    let mut frame_of = |classes, blend| {
+    let mut frame_of = |terms, blend| {
         let options = FrameOptions {
             hybrid: HybridOptions {
-                classes,
+                terms,
                 ..HybridOptions::default()
             },
             compositing: Compositing::Multipass(blend),
@@ -450,11 +456,11 @@ layers = [{ sphere = 1000.0 }]
                 .map(|p| f64::from(p[0] + p[1] + p[2])),
         )
     };
-    let greedy = frame_of(None, BlendScheme::FrontToBack);
+    let greedy = frame_of(ShadingTerms::Greedy, BlendScheme::FrontToBack);
     let (greedy_rms, greedy_ratio) = (rms(&greedy, &greedy_ref), mean(&greedy) / full_mean);
     let mut class_rms = Vec::new();
     for blend in BlendScheme::ALL {
-        let frame = frame_of(Some(four), blend);
+        let frame = frame_of(ShadingTerms::Classes(four), blend);
         let ratio = mean(&frame) / full_mean;
         let own = rms(&frame, &classes_ref);
         println!(
@@ -489,13 +495,14 @@ layers = [{ sphere = 1000.0 }]
         mean_ref(&greedy_ref) / full_mean
     );
 
-    // The frame's terms: one per class, in the set's order.
+    // The frame's terms: one per class, in the set's order; the single pass asked for them
+    // composites them by the multipass variant front-to-back, the same image.
     let mut builder = FrameBuilder::new();
     let options = HybridOptions {
-        classes: Some(four),
+        terms: ShadingTerms::Classes(four),
         ..HybridOptions::default()
     };
-    let (input, _) = builder.frame(&hybrid, &camera, &options).unwrap();
+    let (input, stats) = builder.frame(&hybrid, &camera, &options).unwrap();
     let names: Vec<String> = input.lenses[0]
         .terms
         .iter()
@@ -507,6 +514,59 @@ layers = [{ sphere = 1000.0 }]
             .terms
             .iter()
             .all(|t| matches!(t.term, Term::Class(_)))
+    );
+    assert_eq!(stats.class_terms, 4);
+    let single = FrameOptions {
+        hybrid: options,
+        compositing: Compositing::SinglePass,
+        format: TargetFormat::Rgba32f,
+    };
+    assert_eq!(
+        single.compositing_for(&stats),
+        Compositing::Multipass(BlendScheme::FrontToBack)
+    );
+    let by_multipass = frame_of(ShadingTerms::Classes(four), BlendScheme::FrontToBack);
+    let by_single = runner.frame(&hybrid, &camera, &single).unwrap();
+    assert_eq!(by_single.image.pixels, by_multipass.image.pixels);
+
+    // Set in the scene file, the classes shade the frame unless the options say greedy; a
+    // class the file misspells is one line naming the field.
+    let with_terms = text.replace(
+        "objects = [\"ball\"]\n",
+        "objects = [\"ball\"]\nterms = [\"R\", \"TT\", \"TRT\", \"TRRT\"]\n",
+    );
+    let scene = Scene::from_toml_str(&with_terms, &scene_path).unwrap();
+    assert_eq!(scene.lenses[0].terms, Some(four_listed()));
+    let (scene_hybrid, _) = load_hybrid_scene(scene, &ems.into()).unwrap();
+    let term_names = |options: &HybridOptions| -> Vec<String> {
+        let (input, _) = FrameBuilder::new()
+            .frame(&scene_hybrid, &camera, options)
+            .unwrap();
+        input.lenses[0]
+            .terms
+            .iter()
+            .map(|t| t.term.name())
+            .collect()
+    };
+    assert_eq!(
+        term_names(&HybridOptions::default()),
+        ["R", "TT", "TRT", "TRRT"]
+    );
+    let greedy_options = HybridOptions {
+        terms: ShadingTerms::Greedy,
+        ..HybridOptions::default()
+    };
+    assert_eq!(term_names(&greedy_options), ["T", "R"]);
+    let misspelt = text.replace(
+        "objects = [\"ball\"]\n",
+        "objects = [\"ball\"]\nterms = \"R,TX\"\n",
+    );
+    let error = Scene::from_toml_str(&misspelt, &scene_path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("lenses[0].terms") && error.contains("TX"),
+        "{error}"
     );
     // The GPU tracer traces the greedy terms only: one line naming the option.
     let gpu_tracer = HybridOptions {

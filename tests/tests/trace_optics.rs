@@ -255,6 +255,7 @@ fn mirror_scene(reflectance: Vec3) -> Scene {
             objects: vec![0],
             layers: Vec::new(),
             layering: lensmap::layers::Layering::Distance,
+            terms: None,
         }],
         camera: Camera {
             position: Vec3::new(0.0, 3.0, 8.0),

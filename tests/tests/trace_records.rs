@@ -95,6 +95,7 @@ fn outgoing_rays_record_every_front_facing_hit_nearest_first() {
         objects: vec![0],
         layers: Vec::new(),
         layering: lensmap::layers::Layering::Distance,
+        terms: None,
     }];
     let camera = Camera {
         position: Vec3::new(0.0, 2.0, 6.0),
@@ -203,12 +204,14 @@ fn incoming_rays_continue_through_a_lens_object_to_one_it_occludes() {
             objects: vec![0],
             layers: Vec::new(),
             layering: lensmap::layers::Layering::Distance,
+            terms: None,
         },
         LensObject {
             name: "back".to_owned(),
             objects: vec![1],
             layers: Vec::new(),
             layering: lensmap::layers::Layering::Distance,
+            terms: None,
         },
     ];
     let camera = Camera {
@@ -283,6 +286,7 @@ fn first_bounce_records_see_the_mirror_itself_where_the_corner_predicts() {
         objects: vec![0, 1],
         layers: Vec::new(),
         layering: lensmap::layers::Layering::Distance,
+        terms: None,
     }];
     let camera = Camera {
         position: Vec3::new(3.0, 0.3, 3.5),

@@ -23,7 +23,7 @@ use lensmap::{
         non_lens_error,
     },
     scene::{Camera, Scene},
-    trace::{LensSelection, ReferenceImage, TraceOptions, TraceScene, render_reference},
+    trace::{LensSelection, PathModel, ReferenceImage, TraceOptions, TraceScene, render_reference},
 };
 use serde_json::json;
 
@@ -55,6 +55,13 @@ pub struct BenchBakeArgs {
     /// How the judged frames are made (RGBA32F and the CPU tracer unless asked otherwise).
     #[command(flatten)]
     frame: FrameArgs,
+    /// The reference's ray-path model: `greedy` (the papers' two terms, what the bakes fit),
+    /// `full` (the full ray tree: the light), or a path-class set. Where it is not the frames'
+    /// own model (`--terms`), each frame is also judged against its own model's reference, so
+    /// that the EMs' error and the model's show apart; against `full`, the reference is also
+    /// traced at half its supersampling, to show it converged.
+    #[arg(long, default_value = "greedy", value_name = "greedy|full|N|CLASSES", value_parser = crate::reference::parse_tree)]
+    reference_tree: PathModel,
     /// Projected EMs' face size (the baseline).
     /// Range: [1, 2048] (a power of two).
     #[arg(long, default_value_t = 128)]
@@ -189,12 +196,21 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     };
     step.finish_and_clear();
     let options = args.frame.options()?;
+    let own_model = crate::common::frame_model(options.hybrid.terms, &scene)?;
     say!(
-        "{}: {}×{} at {k}×{k}, t = {}, reference {r}×{r}, device {device}; lens | non-lens PSNR, dB (sRGB)",
+        "{}: {}×{} at {k}×{k}, t = {}, terms {}, reference {} paths at {r}×{r}, device {device} (driver {}); lens | non-lens PSNR, dB (sRGB){}; ×: mean lens radiance over the reference's, rim: r/R > 0.95",
         scene.name,
         args.judge.width,
         args.judge.height,
         args.frame.t,
+        own_model.name(),
+        args.reference_tree.name(),
+        device.driver_description(),
+        if own_model != args.reference_tree {
+            ", own: against the frames' own model"
+        } else {
+            ""
+        },
         k = args.judge.supersampling,
         r = args.judge.reference_supersampling
     );
@@ -206,14 +222,51 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             u64::from(reference_camera.height),
             "rows",
         );
-        let reference = render_reference(
-            contenders[0].1.trace(),
-            &reference_camera,
-            &TraceOptions::default(),
-            &|rows| bar.set_position(u64::from(rows)),
-        )?;
+        let trace = |model, camera: &Camera| {
+            let options = TraceOptions {
+                model,
+                ..TraceOptions::default()
+            };
+            render_reference(contenders[0].1.trace(), camera, &options, &|rows| {
+                bar.set_position(u64::from(rows))
+            })
+        };
+        let reference = trace(args.reference_tree, &reference_camera)?;
+        // The frames' own model's reference, where the judge's is another.
+        let own = (own_model != args.reference_tree)
+            .then(|| trace(own_model, &reference_camera))
+            .transpose()?;
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
+        let lens_mask = Mask::lens(&reference.lens_pixels, LensSelection::All);
+        let rim = crate::bench_classes::rings(&reference, &lens_mask)
+            .pop()
+            .map(Mask::from_flags);
+        if args.reference_tree == PathModel::Full {
+            // Convergence: the full tree at half the supersampling against the judge's.
+            let half = Camera {
+                supersampling: (reference_camera.supersampling / 2).max(1),
+                ..reference_camera
+            };
+            let coarse = trace(PathModel::Full, &half)?;
+            let converged = metrics::compare(
+                &coarse.radiance,
+                &reference.radiance,
+                &lens_mask,
+                Encoding::DisplaySrgb,
+                Channels::Rgb,
+            )?
+            .psnr_db;
+            line.push_str(&format!(
+                "  [full tree {h}×{h} vs {r}×{r}: {converged:.2}]",
+                h = half.supersampling,
+                r = reference_camera.supersampling
+            ));
+            cells.push(json!({
+                "ems": "reference convergence", "lens_psnr_db": converged,
+                "supersampling": [half.supersampling, reference_camera.supersampling],
+            }));
+        }
         let per_lens = lens_object_masks(contenders[0].1.trace(), &reference);
         let drawn = contenders
             .iter()
@@ -237,6 +290,21 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             let lens = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
             let other = non_lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
             line.push_str(&format!("  {label}: {lens:.2} | {other:.2}"));
+            let own_psnr = own
+                .as_ref()
+                .map(|own| lens_error(&frame.image, own, Encoding::DisplaySrgb))
+                .transpose()?
+                .map(|e| e.psnr_db);
+            if let Some(own_psnr) = own_psnr {
+                line.push_str(&format!(" (own {own_psnr:.2})"));
+            }
+            let radiance = crate::common::mean_ratio(&frame.image, &reference, &lens_mask);
+            let rim_radiance = rim
+                .as_ref()
+                .and_then(|rim| crate::common::mean_ratio(&frame.image, &reference, rim));
+            if let (Some(all), Some(rim)) = (radiance, rim_radiance) {
+                line.push_str(&format!(" ×{all:.3} rim ×{rim:.3}"));
+            }
             // Per lens object, where there is more than one (null where it covers no pixel).
             let objects: Vec<_> = per_lens
                 .iter()
@@ -261,6 +329,8 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
                 .collect();
             cells.push(json!({
                 "ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other,
+                "own_model_lens_psnr_db": own_psnr,
+                "lens_radiance_ratio": radiance, "rim_radiance_ratio": rim_radiance,
                 "lens_objects": objects, "viewpoints": samples,
             }));
         }
@@ -283,6 +353,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             "scene": scene.name, "device": device.device, "driver": device.driver_description(), "width": args.judge.width, "height": args.judge.height,
             "supersampling": args.judge.supersampling, "reference_supersampling": args.judge.reference_supersampling,
             "t": args.frame.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
+            "terms": own_model, "reference_tree": args.reference_tree,
         }),
         args.report.as_deref(),
     )?;

@@ -58,7 +58,7 @@ pub struct BenchClassesArgs {
 
 /// The lens radiance in rings about the lens pixels' centroid, each as a model's over the full
 /// tree's (for a sphere the rings are r/R bands of its disc).
-const RINGS: [(f64, f64); 5] = [
+pub(crate) const RINGS: [(f64, f64); 5] = [
     (0.0, 0.5),
     (0.5, 0.8),
     (0.8, 0.9),
@@ -204,7 +204,7 @@ fn lens_sum(image: &ReferenceImage, mask: &[bool]) -> f64 {
 
 /// The lens pixels split into [`RINGS`] about their centroid, by the radius of a disc of their
 /// area.
-fn rings(image: &ReferenceImage, lens: &Mask) -> Vec<Vec<bool>> {
+pub(crate) fn rings(image: &ReferenceImage, lens: &Mask) -> Vec<Vec<bool>> {
     let width = image.width as usize;
     let pixels: Vec<(f64, f64)> = (0..lens.pixel_count())
         .filter(|&i| lens.contains(i))

@@ -2,6 +2,7 @@
 //! survive a closed pipe, status and progress on stderr), usage errors and the option enums,
 //! camera arguments and their validation, progress and JSON reports.
 
+use lensmap::{hybrid::ShadingTerms, trace::PathModel};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -430,20 +431,39 @@ pub const HULL_SPLIT_HELP: &str = "The convex-hull split (PEM paper §4): a lens
 /// The help of `--fresnel`, the same on every command that takes it.
 pub const FRESNEL_HELP: &str = "How each lens vertex evaluates Fresnel: exact (Schlick for mirrors, exact dielectric Fresnel for glass), or table:N, Schlick with its (1 − cos θ)⁵ looked up in a 1D table of N texels (2 to 4096), linearly filtered like a texture (the PEM paper's 1D Fresnel texture)";
 
-/// A hybrid frame's shading terms as `--terms` gives them: `None` for the papers' two greedy
-/// terms, or a path-class set.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ClassesArg(pub Option<lensmap::trace::classes::ClassSet>);
-
-/// Parses a frame's `--terms`: `greedy`, or a path-class set
+/// Parses a frame's `--terms`: `scene`, `greedy`, or a path-class set
 /// ([`lensmap::trace::classes::ClassSet::parse`]: a count, a list or `greedy:D`).
-pub fn parse_classes(text: &str) -> Result<ClassesArg, String> {
-    if text.trim() == "greedy" {
-        return Ok(ClassesArg(None));
+pub fn parse_terms(text: &str) -> Result<ShadingTerms, String> {
+    match text.trim() {
+        "scene" => Ok(ShadingTerms::Scene),
+        "greedy" => Ok(ShadingTerms::Greedy),
+        _ => lensmap::trace::classes::ClassSet::parse(text)
+            .map(ShadingTerms::Classes)
+            .map_err(|problem| {
+                format!(
+                    "{problem}; or give scene (the scene file's) or greedy (the papers' two terms)"
+                )
+            }),
     }
-    lensmap::trace::classes::ClassSet::parse(text)
-        .map(|set| ClassesArg(Some(set)))
-        .map_err(|problem| format!("{problem}; or give greedy (the papers' two terms)"))
+}
+
+/// The reference tracer's model of frames shaded with `terms` in `scene`: greedy or the path
+/// classes every lens object shares; an error naming the fix where the scene file gives its
+/// lens objects different ones (the reference takes one model).
+pub fn frame_model(
+    terms: ShadingTerms,
+    scene: &lensmap::scene::Scene,
+) -> anyhow::Result<PathModel> {
+    let mut models = scene.lenses.iter().map(|lens| terms.of(lens.terms));
+    let first = models.next().flatten();
+    if models.any(|m| m != first) {
+        return Err(BadUsage(format!(
+            "scene \"{}\" gives its lens objects different terms, and the reference takes one model: give --terms or --reference-tree",
+            scene.name
+        ))
+        .into());
+    }
+    Ok(first.map_or(PathModel::Greedy, PathModel::Classes))
 }
 
 /// Parses `--fresnel`: `exact` or `table:N` (the table's size is checked with the other frame
@@ -753,4 +773,20 @@ pub fn difference(a: &RenderedImage, b: &RenderedImage, gain: f32) -> RenderedIm
             })
             .collect(),
     }
+}
+
+/// `image`'s mean radiance over `mask` (linear, the channels' sum) over `reference`'s; `None`
+/// over no pixel or a black reference.
+pub fn mean_ratio(
+    image: &lensmap::render::RenderedImage,
+    reference: &lensmap::trace::ReferenceImage,
+    mask: &lensmap::metrics::Mask,
+) -> Option<f64> {
+    let (mut ours, mut theirs) = (0.0f64, 0.0f64);
+    for i in (0..reference.radiance.len()).filter(|&i| mask.contains(i)) {
+        let p = image.pixels[i];
+        ours += f64::from(p[0] + p[1] + p[2]);
+        theirs += f64::from(reference.radiance[i].element_sum());
+    }
+    (theirs > 0.0).then(|| ours / theirs)
 }

@@ -5,7 +5,7 @@
 use clap::Args;
 use lensmap::{
     hybrid::{
-        DEFAULT_ANGLE_DEGREES, FresnelModel, HybridOptions,
+        DEFAULT_ANGLE_DEGREES, FresnelModel, HybridOptions, ShadingTerms,
         tessellate::{DEFAULT_MAX_VERTICES, DEFAULT_T, TessellationOptions},
     },
     options::Worded,
@@ -14,8 +14,8 @@ use lensmap::{
 };
 
 use crate::common::{
-    BadUsage, BlendArg, ClassesArg, FRESNEL_HELP, FormatArg, GpuPrecisionArg, HULL_SPLIT_HELP,
-    OnOff, TracerArg, TraversalArg, VariantArg, flag_error, parse_classes, parse_fresnel,
+    BadUsage, BlendArg, FRESNEL_HELP, FormatArg, GpuPrecisionArg, HULL_SPLIT_HELP, OnOff,
+    TracerArg, TraversalArg, VariantArg, flag_error, parse_fresnel, parse_terms,
 };
 use crate::words::Flags;
 
@@ -54,14 +54,14 @@ pub struct FrameArgs {
     /// Range: [0, 2^32).
     #[arg(long, default_value_t = DEFAULT_MAX_VERTICES, allow_negative_numbers = true)]
     pub max_vertices: usize,
-    /// Shading terms per lens object: `greedy` (the papers' two terms), a count N of path
-    /// classes (the first N of R, TT, TRT, TRRT, … for glass; of R, RR, … for mirrors), a list
-    /// such as `R,TT,TRT,TRRT`, or `greedy:D` (the ray tree expanded to D events, greedy below).
-    /// Path classes are traced on the CPU (`--tracer auto` chooses it) and composited by the
-    /// multipass variant: asked of the single pass, the frame runs multipass front-to-back,
-    /// with a warning.
-    #[arg(long, default_value = "greedy", value_parser = parse_classes)]
-    pub terms: ClassesArg,
+    /// Shading terms per lens object: `scene` (each lens object's `terms` in the scene file,
+    /// greedy where it has none), `greedy` (the papers' two terms), a count N of path classes
+    /// (the first N of R, TT, TRT, TRRT, … for glass; of R, RR, … for mirrors), a list such as
+    /// `R,TT,TRT,TRRT`, or `greedy:D` (the ray tree expanded to D events, greedy below). Path
+    /// classes are traced on the CPU (`--tracer auto` chooses it) and composited by the
+    /// multipass variant: asked of the single pass, the frame runs multipass front-to-back.
+    #[arg(long, default_value = "scene", value_parser = parse_terms)]
+    pub terms: ShadingTerms,
     /// Compositor variant.
     #[arg(long, value_enum, default_value = "single-pass")]
     pub variant: VariantArg,
@@ -92,33 +92,17 @@ impl FrameArgs {
                 tracer: self.tracer.into(),
                 traversal: self.traversal.into(),
                 gpu_precision: self.gpu_precision.into(),
-                classes: self.terms.0,
+                terms: self.terms,
                 ..HybridOptions::default()
             },
-            compositing: self.compositing()?,
+            compositing: Compositing::new(
+                Variant::from(self.variant),
+                BlendScheme::from(self.blend),
+            )
+            .map_err(|error| BadUsage(error.worded(&Flags)))?,
             format: TargetFormat::from(self.format),
         };
         options.validate().map_err(flag_error)?;
         Ok(options)
-    }
-
-    /// The compositing `--variant` and `--blend` ask for; the single pass asked to composite
-    /// path classes, which it does not take, is the multipass variant front-to-back (the same
-    /// composite), with a warning.
-    fn compositing(&self) -> anyhow::Result<Compositing> {
-        let variant = Variant::from(self.variant);
-        let blend = BlendScheme::from(self.blend);
-        let compositing =
-            Compositing::new(variant, blend).map_err(|error| BadUsage(error.worded(&Flags)))?;
-        Ok(match (compositing, self.terms.0) {
-            (Compositing::SinglePass, Some(classes)) => {
-                warn!(
-                    "--terms {}: the single pass composites the two greedy terms only; the multipass variant (front-to-back, the same composite) renders the path classes",
-                    classes.name()
-                );
-                Compositing::Multipass(BlendScheme::FrontToBack)
-            }
-            (compositing, _) => compositing,
-        })
     }
 }

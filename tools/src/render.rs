@@ -129,6 +129,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene = crate::common::load_scene(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = args.frame.options()?;
+    // The frames' own model (one for all its lens objects, or `--reference-tree` must say).
+    let own_model = crate::common::frame_model(options.hybrid.terms, &scene);
+    let reference_model = match (args.reference_tree, args.compare) {
+        (Some(model), _) => model,
+        (None, true) => crate::common::frame_model(options.hybrid.terms, &scene)?,
+        (None, false) => PathModel::Greedy,
+    };
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     let ems = match &args.bake {
@@ -173,6 +180,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let frame = frames.last();
     frame.image.write_files(&out.png, &out.exr)?;
     step.finish_and_clear();
+    if options.compositing_for(&frame.stats) != options.compositing {
+        warn!(
+            "the single pass composites the two greedy terms only; the multipass variant (front-to-back, the same composite) rendered the {} path-class terms",
+            frame.stats.class_terms
+        );
+    }
     // Projected EMs are the same at every sample: only a bake's samples can be left.
     if frame.stats.outside_view_space && args.bake.is_some() {
         let how_far = hybrid
@@ -192,7 +205,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let reference = if args.compare {
         let bar = steps.counted("reference ray tracer", u64::from(camera.height), "rows");
         let options = TraceOptions {
-            model: reference_model(&args),
+            model: reference_model,
             glossy_samples: args.reference_glossy_samples.max(2),
             ..TraceOptions::default()
         };
@@ -228,7 +241,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         reference.as_ref(),
         Run {
             prepare_s,
-            compositing: options.compositing,
+            compositing: options.compositing_for(&frame.stats),
+            terms: own_model.map_or_else(|_| options.hybrid.terms.name(), |m| m.name()),
+            reference_model,
             device: runner.gpu().device_id(),
             written: &out,
         },
@@ -239,22 +254,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The reference's ray-path model: `--reference-tree`, or the frame's own (`--terms`).
-fn reference_model(args: &RenderArgs) -> PathModel {
-    args.reference_tree.unwrap_or(
-        args.frame
-            .terms
-            .0
-            .map_or(PathModel::Greedy, PathModel::Classes),
-    )
-}
-
 /// What the report says about the run besides the frame: the scene preparation time, the device
 /// and the files written.
 struct Run<'a> {
     prepare_s: f64,
     /// The compositing the frame ran with (the multipass variant for path classes).
     compositing: Compositing,
+    /// The frame's shading terms, by name.
+    terms: String,
+    /// The reference's ray-path model.
+    reference_model: PathModel,
     device: &'a lensmap::gpu::DeviceId,
     written: &'a ImageOut,
 }
@@ -392,6 +401,8 @@ fn report(
     let Run {
         prepare_s,
         compositing,
+        terms,
+        reference_model,
         device,
         written,
     } = run;
@@ -412,7 +423,7 @@ fn report(
         } else {
             "cpu"
         },
-        terms: args.frame.terms.0.map_or("greedy".into(), |set| set.name()),
+        terms,
         variant: compositing.variant().name(),
         blend: compositing.blend().name(),
         format: TargetFormat::from(args.frame.format).name(),
@@ -466,7 +477,7 @@ fn report(
         out: written.png.clone(),
         out_exr: written.exr.clone(),
         reference: reference
-            .map(|reference| compared(frame, reference, args, camera))
+            .map(|reference| compared(frame, reference, reference_model, args, camera))
             .transpose()?,
     })
 }
@@ -475,6 +486,7 @@ fn report(
 fn compared(
     frame: &HybridFrame,
     reference: &ReferenceImage,
+    reference_tree: PathModel,
     args: &RenderArgs,
     camera: &Camera,
 ) -> anyhow::Result<ReferenceReport> {
@@ -487,9 +499,9 @@ fn compared(
             rays: rc.all_rays(),
             triangle_tests: rc.triangle_tests,
         },
-        reference_tree: reference_model(args),
+        reference_tree,
         reference_supersampling: args.reference_supersampling.unwrap_or(camera.supersampling),
-        lens_radiance_ratio: radiance_ratio(frame, reference, &lens),
+        lens_radiance_ratio: crate::common::mean_ratio(&frame.image, reference, &lens),
         reduction: Reduction {
             time: ratio(reference.stats.seconds * 1e3, frame.total_ms),
             rays: ratio(rc.all_rays() as f64, c.all_rays() as f64),
@@ -543,18 +555,6 @@ fn compared(
         Err(error) => return Err(error.into()),
     }
     Ok(out)
-}
-
-/// The frame's mean radiance over `mask` (linear, the channels' mean) over the reference's;
-/// `None` over no pixel or a black reference.
-fn radiance_ratio(frame: &HybridFrame, reference: &ReferenceImage, mask: &Mask) -> Option<f64> {
-    let (mut ours, mut theirs) = (0.0f64, 0.0f64);
-    for i in (0..reference.radiance.len()).filter(|&i| mask.contains(i)) {
-        let p = frame.image.pixels[i];
-        ours += f64::from(p[0] + p[1] + p[2]);
-        theirs += f64::from(reference.radiance[i].element_sum());
-    }
-    (theirs > 0.0).then(|| ours / theirs)
 }
 
 impl RenderReport {

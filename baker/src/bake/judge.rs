@@ -32,7 +32,7 @@ pub(super) fn masked_psnr(
         hybrid,
         camera,
         &FrameOptions {
-            hybrid: options.infer.hybrid,
+            hybrid: options.infer.frame_options(),
             compositing: options.infer.compositing,
             format: TargetFormat::Rgba32f,
         },

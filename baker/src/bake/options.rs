@@ -3,7 +3,8 @@
 
 use lensmap::{
     hybrid::{
-        FresnelModel, HybridOptions, paths::VertexPrecision, tessellate::TessellationOptions,
+        FresnelModel, HybridOptions, ShadingTerms, paths::VertexPrecision,
+        tessellate::TessellationOptions,
     },
     identity::{Canonical, Encoder, identity},
     layers::projected::MAX_EM_SIZE,
@@ -175,7 +176,7 @@ impl BakeOptions {
             self.multi_view,
             "give a view count from 1 to 9 (1 turns multi-view off)",
         )?;
-        if let Some(classes) = self.infer.hybrid.classes {
+        if let ShadingTerms::Classes(classes) = self.infer.hybrid.terms {
             // The inference's equations are the greedy terms' (the paper's Eq. 1); path-class
             // equations, with per-class targets from the reference tracer, are not built yet.
             return Err(OptionError::new(
@@ -314,8 +315,9 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         tracer: _,
         traversal: _,
         gpu_precision: _,
-        // Refused by [`BakeOptions::validate`]: every bake is of the greedy terms.
-        classes: _,
+        // Every bake is of the greedy terms (`InferOptions::frame_options`; path classes are
+        // refused by [`BakeOptions::validate`]).
+        terms: _,
     } = hybrid;
     let TessellationOptions {
         t,
@@ -365,7 +367,7 @@ mod tests {
                     tracer: lensmap::hybrid::VertexTracer::Cpu,
                     traversal: lensmap::hybrid::gpu::Traversal::Auto,
                     gpu_precision: VertexPrecision::F32,
-                    classes: None,
+                    terms: ShadingTerms::Scene,
                 },
                 compositing: lensmap::render::Compositing::SinglePass,
                 em_size: EmSize::Fixed(64),

@@ -484,7 +484,7 @@ fn search_em_size(
     adopt_layering(hybrid, plan);
     let camera = sample_camera(scene, scene.view_space.samples()[0], options);
     let (frame, _) = FrameBuilder::new()
-        .frame(hybrid, &camera, &options.infer.hybrid)
+        .frame(hybrid, &camera, &options.infer.frame_options())
         .map_err(|e| InferError::Frame(e.to_string()))?;
     let mut renderer = DeviceRenderer::new(runner, options.infer.compositing);
     let mut finest: Option<usize> = None;

@@ -19,8 +19,9 @@ pub mod viewpoints;
 
 pub use frame::{
     BuiltFrame, CpuStage, DEFAULT_ANGLE_DEGREES, FrameBuilder, FrameId, FresnelModel, GpuReadBack,
-    GpuResident, HybridOptions, HybridStats, MAX_FOOTPRINT_COARSENING, VertexPrecision,
-    VertexStage, VertexTracer, ViewpointBlending, Wireframe, WireframeLens, vertex_exact_frame,
+    GpuResident, HybridOptions, HybridStats, MAX_FOOTPRINT_COARSENING, ShadingTerms,
+    VertexPrecision, VertexStage, VertexTracer, ViewpointBlending, Wireframe, WireframeLens,
+    vertex_exact_frame,
 };
 pub use scene::{
     BakeIdentityError, HybridError, HybridScene, HybridSceneOptions, LayeredEms, LensLayers,

@@ -47,6 +47,18 @@ impl FrameOptions {
         }
     }
 
+    /// The compositing a frame with `stats` runs with: these options' own, but the multipass
+    /// variant front-to-back (the same composite) in place of the single pass for a frame of
+    /// path classes, which the single pass does not take.
+    pub fn compositing_for(&self, stats: &HybridStats) -> Compositing {
+        match self.compositing {
+            Compositing::SinglePass if stats.class_terms > 0 => {
+                Compositing::Multipass(crate::render::BlendScheme::FrontToBack)
+            }
+            compositing => compositing,
+        }
+    }
+
     /// Checks the options a frame cannot use before any work (the hybrid options).
     pub fn validate(&self) -> Result<(), OptionError> {
         self.hybrid.validate()
@@ -287,7 +299,7 @@ impl FrameRunner {
                 }
                 Ok(())
             })?;
-            let submission = self.submit(staged.slot, options, None)?;
+            let submission = self.submit(staged.slot, options, &staged.stats, None)?;
             in_flight.push_back(Pending {
                 slot: staged.slot,
                 submission,
@@ -333,7 +345,7 @@ impl FrameRunner {
             camera.height.saturating_mul(k),
         )?;
         let staged = self.stage(hybrid, camera, options, |_, _| Ok(()))?;
-        let submission = self.submit(staged.slot, options, Some(host))?;
+        let submission = self.submit(staged.slot, options, &staged.stats, Some(host))?;
         // The counts of the frames before that are done by now (never waited for here); the
         // latest of them is reported. Frames complete in order, and no more than the slots are
         // ever pending.
@@ -418,8 +430,8 @@ impl FrameRunner {
         let start = Instant::now();
         let held = self.slots[self.last_slot].identity;
         let tracer = options.hybrid.tracer;
-        // Path classes are traced on the CPU (`auto` chooses it; `gpu` fails validation).
-        let on_gpu = options.hybrid.classes.is_none()
+        // Path classes are traced on the CPU (`auto` chooses it; `gpu` fails their check).
+        let on_gpu = !options.hybrid.terms.any_classes(hybrid.scene())
             && tracer.on_gpu(&self.gpu)
             && match self.make_resident(hybrid, &options.hybrid) {
                 Ok(()) => true,
@@ -550,12 +562,13 @@ impl FrameRunner {
         }
     }
 
-    /// Submits the frame that [`Self::stage`] put in `slot`: into `host`, or rendered for
-    /// readback.
+    /// Submits the frame that [`Self::stage`] put in `slot` (its stats `stats`): into `host`,
+    /// or rendered for readback, composited as [`FrameOptions::compositing_for`] says.
     fn submit(
         &mut self,
         slot: usize,
         options: &FrameOptions,
+        stats: &HybridStats,
         host: Option<&HostImage>,
     ) -> Result<Submission, RunError> {
         let Some(uploaded) = self.slots[slot].uploaded.as_mut() else {
@@ -564,6 +577,7 @@ impl FrameRunner {
         };
         let compositing = RenderOptions {
             host,
+            compositing: options.compositing_for(stats),
             ..options.compositing()
         };
         let submission = self.renderer.submit(&self.gpu, uploaded, &compositing)?;

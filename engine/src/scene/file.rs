@@ -518,6 +518,23 @@ pub(crate) struct LensSpec {
     /// paper's local and distant layers: for a lens of mirror objects without `layers`).
     #[serde(default)]
     pub layering: Option<String>,
+    /// `terms`: the path classes a hybrid frame shades it with: "greedy" (the default, the
+    /// papers' two terms), a count (`4`: the first four of R, TT, TRT, … for glass), a list
+    /// (`["R", "TT", "TRT"]` or "R,TT,TRT") or "greedy:D"; a frame's options may override it.
+    #[serde(default)]
+    pub terms: Option<TermsSpec>,
+}
+
+/// A lens entry's `terms`, as TOML writes it: a count, a string, or a list of classes.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+pub(crate) enum TermsSpec {
+    /// `terms = 4`.
+    Count(u32),
+    /// `terms = "greedy"`, `"4"`, `"R,TT,TRT"` or `"greedy:2"`.
+    Text(String),
+    /// `terms = ["R", "TT", "TRT"]`.
+    List(Vec<String>),
 }
 
 /// One layer shell of a lens object, centred on its EM origin, e.g. `{ sphere = 1.4 }`: exactly

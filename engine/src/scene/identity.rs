@@ -125,6 +125,8 @@ impl Canonical for LensObject {
             objects,
             layers,
             layering,
+            // How frames shade it, not what its maps hold: bakes are of the greedy terms.
+            terms: _,
         } = self;
         encoder.value(name).value(objects).value(layers);
         // Came after identity version 1: by distance, what every earlier scene meant, writes

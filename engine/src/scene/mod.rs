@@ -126,6 +126,10 @@ pub struct LensObject {
     /// distance (the default), or by bounce, the PEM paper's local and distant layers, whose
     /// shells the baker fits (a reflector's, so `layers` is then empty).
     pub layering: crate::layers::Layering,
+    /// The path classes a hybrid frame shades it with (`terms` in the scene file), unless the
+    /// frame's options say otherwise ([`crate::hybrid::ShadingTerms`]); `None`: the papers' two
+    /// greedy terms.
+    pub terms: Option<crate::trace::classes::ClassSet>,
 }
 
 /// A layer shell of a lens object's layered EM, centred on the EM origin (metres).
@@ -417,6 +421,7 @@ mod tests {
                 objects: vec![0],
                 layers: Vec::new(),
                 layering: crate::layers::Layering::Distance,
+                terms: None,
             }]
         );
         assert_eq!(scene.lens_of_object(0), Some(0));

@@ -21,8 +21,8 @@ use std::{num::NonZeroU64, sync::Arc, time::Instant};
 pub use device::{GpuReadBack, GpuResident};
 pub use exact::vertex_exact_frame;
 pub use options::{
-    DEFAULT_ANGLE_DEGREES, FresnelModel, HybridOptions, MAX_FOOTPRINT_COARSENING, VertexPrecision,
-    VertexTracer, ViewpointBlending,
+    DEFAULT_ANGLE_DEGREES, FresnelModel, HybridOptions, MAX_FOOTPRINT_COARSENING, ShadingTerms,
+    VertexPrecision, VertexTracer, ViewpointBlending,
 };
 pub use stage::{BuiltLens, CpuStage, FrameJob, StageKey, VertexBudget, VertexStage};
 pub use stats::HybridStats;
@@ -241,6 +241,16 @@ fn build(
         depths.push(built.depths);
     }
     stats.counted_on_device = lenses.iter().any(|l| l.resident.is_some());
+    stats.class_terms = lenses
+        .iter()
+        .map(|l| {
+            l.terms
+                .iter()
+                .filter(|t| matches!(t.term, crate::trace::Term::Class(_)))
+                .count()
+        })
+        .max()
+        .unwrap_or(0);
     let frame = assemble(scene, view, &blend, lenses, Vec::new(), &mut stats);
     stats.assemble_ms = assembled_ms(start, &stats);
     Ok(Built {

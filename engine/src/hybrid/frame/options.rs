@@ -47,10 +47,51 @@ pub struct HybridOptions {
     /// What the GPU tracer computes in: f32 (the default, every device), or f64, the CPU
     /// oracle's precision (devices with `shaderFloat64`). `precision` is the CPU's.
     pub gpu_precision: VertexPrecision,
-    /// The path classes every lens object's shading sums, one term each
-    /// ([`crate::trace::classes`]); `None` (the default): the papers' two greedy terms. Traced
-    /// on the CPU in f64 and composited by the multipass variant.
-    pub classes: Option<ClassSet>,
+    /// The shading terms of the lens objects: each one's scene-file setting (the default;
+    /// greedy where it has none), the papers' two greedy terms, or one term per path class
+    /// ([`crate::trace::classes`]) for every lens object. Classes are traced on the CPU in f64
+    /// and composited by the multipass variant.
+    pub terms: ShadingTerms,
+}
+
+/// Which shading terms a frame's lens objects sum (`--terms`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ShadingTerms {
+    /// Each lens object's `terms` in the scene file; the greedy terms where it has none.
+    #[default]
+    Scene,
+    /// The papers' two greedy terms for every lens object.
+    Greedy,
+    /// These path classes for every lens object.
+    Classes(ClassSet),
+}
+
+impl ShadingTerms {
+    /// Its name as the command line takes it: `scene`, `greedy`, or the class set.
+    pub fn name(&self) -> String {
+        match self {
+            ShadingTerms::Scene => "scene".into(),
+            ShadingTerms::Greedy => "greedy".into(),
+            ShadingTerms::Classes(set) => set.name(),
+        }
+    }
+
+    /// The path classes of a lens object whose scene file says `scene` (`None`: greedy).
+    pub fn of(&self, scene: Option<ClassSet>) -> Option<ClassSet> {
+        match *self {
+            ShadingTerms::Scene => scene,
+            ShadingTerms::Greedy => None,
+            ShadingTerms::Classes(set) => Some(set),
+        }
+    }
+
+    /// Whether some lens object of `scene` is shaded by path classes.
+    pub fn any_classes(&self, scene: &crate::scene::Scene) -> bool {
+        scene
+            .lenses
+            .iter()
+            .any(|lens| self.of(lens.terms).is_some())
+    }
 }
 
 /// Where a frame's lens vertices are ray traced (`--tracer`). The library's default is the CPU,
@@ -102,7 +143,7 @@ impl Default for HybridOptions {
             tracer: VertexTracer::Cpu,
             traversal: crate::hybrid::gpu::Traversal::Auto,
             gpu_precision: VertexPrecision::F32,
-            classes: None,
+            terms: ShadingTerms::Scene,
         }
     }
 }
@@ -111,6 +152,32 @@ impl Default for HybridOptions {
 pub const MAX_FOOTPRINT_COARSENING: f32 = 8.0;
 
 impl HybridOptions {
+    /// Checks that path classes `classes` can be traced under these options: by the CPU
+    /// tracer, in f64, with exact Fresnel.
+    pub fn validate_classes(&self, classes: ClassSet) -> Result<(), OptionError> {
+        OptionError::require(
+            self.tracer != VertexTracer::Gpu,
+            crate::options::names::TRACER,
+            self.tracer.name(),
+            format!(
+                "the GPU tracer traces the two greedy terms only; give cpu or auto to trace the path classes {}",
+                classes.name()
+            ),
+        )?;
+        OptionError::require(
+            self.precision == VertexPrecision::F64,
+            crate::options::names::TERMS,
+            classes.name(),
+            "path classes are traced in f64 only; give greedy to measure the f32 vertex paths",
+        )?;
+        OptionError::require(
+            self.fresnel == FresnelModel::Exact,
+            crate::options::names::FRESNEL,
+            self.fresnel.name(),
+            "path classes evaluate Fresnel exactly; give exact, or greedy terms for the table",
+        )
+    }
+
     /// The defaults with tessellation threshold `t` (subpixels).
     pub fn with_t(t: f32) -> HybridOptions {
         HybridOptions {
@@ -128,28 +195,8 @@ impl HybridOptions {
     pub fn validate(&self) -> Result<(), OptionError> {
         self.tessellation.validate()?;
         self.fresnel.validate()?;
-        if let Some(classes) = self.classes {
-            OptionError::require(
-                self.tracer != VertexTracer::Gpu,
-                crate::options::names::TRACER,
-                self.tracer.name(),
-                format!(
-                    "the GPU tracer traces the two greedy terms only; give cpu or auto to trace the {} classes",
-                    classes.name()
-                ),
-            )?;
-            OptionError::require(
-                self.precision == VertexPrecision::F64,
-                crate::options::names::TERMS,
-                classes.name(),
-                "path classes are traced in f64 only; give greedy to measure the f32 vertex paths",
-            )?;
-            OptionError::require(
-                self.fresnel == FresnelModel::Exact,
-                crate::options::names::FRESNEL,
-                self.fresnel.name(),
-                "path classes evaluate Fresnel exactly; give exact, or greedy terms for the table",
-            )?;
+        if let ShadingTerms::Classes(classes) = self.terms {
+            self.validate_classes(classes)?;
         }
         OptionError::require(
             self.footprint_subpixels.is_finite() && self.footprint_subpixels >= 0.0,

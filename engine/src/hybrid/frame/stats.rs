@@ -68,4 +68,8 @@ pub struct HybridStats {
     /// budget, grew fourfold, and the whole frame (CPU stages, tessellation, render) was built
     /// again. 0 for a frame whose buffers sufficed.
     pub builds_discarded: usize,
+    /// The most path-class terms of any lens object of the frame; 0 where every lens object
+    /// is shaded by the greedy terms. A frame of classes is composited by the multipass
+    /// variant ([`crate::runner::FrameOptions::compositing_for`]).
+    pub class_terms: usize,
 }

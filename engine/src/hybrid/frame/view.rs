@@ -104,7 +104,7 @@ pub struct LensJob<'a> {
     pub(super) hull_split: bool,
     /// The viewpoint samples the frame blends (which of its maps the frame draws).
     pub(super) blend: &'a ViewpointBlend,
-    /// The path-class terms its vertices trace ([`HybridOptions::classes`] for its material);
+    /// The path-class terms its vertices trace ([`HybridOptions::terms`] for its material);
     /// empty: the two greedy terms.
     pub(super) classes: Vec<ClassTerm>,
 }
@@ -176,7 +176,8 @@ impl<'a> LensJob<'a> {
     }
 }
 
-/// The path-class terms of lens object `lens` under `options` (none for the greedy terms):
+/// The path-class terms of lens object `lens` under `options` (none for the greedy terms),
+/// checked against the options ([`HybridOptions::validate_classes`]):
 /// [`ClassSet::terms`] for the material of its surfaces (a count takes glass's order or a
 /// mirror's). An error where they cannot shade it: a lens object layered by bounce (its paths
 /// stop at the first bounce, and its layers hold what the later bounces see), or a count for a
@@ -186,9 +187,14 @@ fn class_terms(
     lens: LensIndex,
     options: &HybridOptions,
 ) -> Result<Vec<ClassTerm>, OptionError> {
-    let Some(set) = options.classes else {
+    let Some(set) = options
+        .terms
+        .of(scene.scene().lenses.get(lens.index()).and_then(|l| l.terms))
+    else {
         return Ok(Vec::new());
     };
+    // Set in the scene file, they meet the options' checks here.
+    options.validate_classes(set)?;
     let trace = scene.trace();
     let name = &trace.lenses[lens.index()].name;
     let refuse = |fix: String| Err(OptionError::new(names::TERMS, set.name(), fix));

@@ -7,9 +7,10 @@ use glam::Vec3;
 
 use super::{Loader, Result, sorted_list};
 use crate::layers::Layering;
-use crate::scene::file::{LensSpec, SceneFile};
+use crate::scene::file::{LensSpec, SceneFile, TermsSpec};
 use crate::scene::material::Material;
 use crate::scene::{LayerSpec, LensObject, SceneObject};
+use crate::trace::classes::ClassSet;
 
 impl Loader<'_> {
     pub(super) fn lenses(
@@ -95,11 +96,13 @@ impl Loader<'_> {
                 layers.push(parsed);
             }
             let layering = self.layering(&field, spec, &members, objects, materials)?;
+            let terms = self.terms(&field, spec)?;
             lenses.push(LensObject {
                 name: spec.name.clone(),
                 objects: members,
                 layers,
                 layering,
+                terms,
             });
         }
         // Glass and mirror objects that no lens names become lenses of their own.
@@ -113,10 +116,30 @@ impl Loader<'_> {
                     objects: vec![i],
                     layers: Vec::new(),
                     layering: Layering::Distance,
+                    terms: None,
                 });
             }
         }
         Ok(lenses)
+    }
+
+    /// A lens entry's `terms`: "greedy" (the default), a count of path classes (`4` or "4"), a
+    /// list ("R,TT,TRT" or `["R", "TT", "TRT"]`) or "greedy:D" ([`ClassSet::parse`]).
+    fn terms(&self, field: &str, spec: &LensSpec) -> Result<Option<ClassSet>> {
+        let text = match &spec.terms {
+            None => return Ok(None),
+            Some(TermsSpec::Count(n)) => n.to_string(),
+            Some(TermsSpec::Text(text)) if text.trim() == "greedy" => return Ok(None),
+            Some(TermsSpec::Text(text)) => text.clone(),
+            Some(TermsSpec::List(list)) => list.join(","),
+        };
+        ClassSet::parse(&text).map(Some).map_err(|problem| {
+            self.error(
+                format!("{field}.terms"),
+                problem,
+                "write \"greedy\", a count such as 4, or a list such as [\"R\", \"TT\", \"TRT\", \"TRRT\"]",
+            )
+        })
     }
 
     /// A lens entry's `layering`: "distance" (the default) or "bounce", which is for reflectors

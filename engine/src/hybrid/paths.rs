@@ -534,13 +534,20 @@ mod tests {
 
     /// A class path of weight `fg` (every channel) leaving along the direction `degrees` from
     /// +z in the xz plane, of topology `topology`.
-    fn path(fg: f64, degrees: f64, topology: (u32, u32)) -> Option<TermPath> {
+    fn path(fg: f64, degrees: f64, topology: Topology) -> Option<TermPath> {
         let a = degrees.to_radians();
         Some(TermPath {
             fg: DVec3::splat(fg),
             outgoing: Ray::new(DVec3::ZERO, DVec3::new(a.sin(), 0.0, a.cos())),
-            topology,
+            topology: (topology.events, topology.reflections),
         })
+    }
+
+    /// A path's events and how many of them reflect.
+    #[derive(Clone, Copy)]
+    struct Topology {
+        events: u32,
+        reflections: u32,
     }
 
     /// The weighted split test against its closed form, weight × angle > threshold, at the
@@ -551,7 +558,18 @@ mod tests {
     #[test]
     fn a_class_splits_by_its_angle_weighted_by_its_fg() {
         let threshold = 3f64.to_radians();
-        let tt = (2, 0);
+        let tt = Topology {
+            events: 2,
+            reflections: 0,
+        };
+        let trt = Topology {
+            events: 3,
+            reflections: 1,
+        };
+        let tail = Topology {
+            events: 4,
+            reflections: 2,
+        };
         let differ =
             |a: Option<TermPath>, b: Option<TermPath>| classes_differ(&[a], &[b], threshold);
         assert!(!differ(path(1.0, 0.0, tt), path(1.0, 2.9, tt)));
@@ -565,8 +583,8 @@ mod tests {
         assert!(differ(path(0.017, 0.0, tt), None));
         assert!(!differ(None, None));
         // Another topology (a greedy tail's) is the angle π too.
-        assert!(differ(path(0.5, 0.0, tt), path(0.5, 0.0, (4, 2))));
-        assert!(!differ(path(0.01, 0.0, tt), path(0.01, 0.0, (4, 2))));
+        assert!(differ(path(0.5, 0.0, tt), path(0.5, 0.0, tail)));
+        assert!(!differ(path(0.01, 0.0, tt), path(0.01, 0.0, tail)));
         // The largest channel.
         let mut red = path(0.01, 0.0, tt);
         if let Some(p) = red.as_mut() {
@@ -574,8 +592,8 @@ mod tests {
         }
         assert!(differ(red, path(0.01, 3.1, tt)));
         // One class of several.
-        let quiet = [path(1.0, 0.0, tt), path(0.9, 1.0, (3, 1))];
-        let moved = [path(1.0, 0.0, tt), path(0.9, 5.0, (3, 1))];
+        let quiet = [path(1.0, 0.0, tt), path(0.9, 1.0, trt)];
+        let moved = [path(1.0, 0.0, tt), path(0.9, 5.0, trt)];
         assert!(!classes_differ(&quiet, &quiet, threshold));
         assert!(classes_differ(&quiet, &moved, threshold));
     }

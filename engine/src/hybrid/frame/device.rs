@@ -99,6 +99,20 @@ fn add_gpu_time(
     );
 }
 
+/// The GPU tracer traces the two greedy terms: a lens object of path classes is refused (the
+/// runner traces classes on the CPU).
+fn greedy_only(job: &LensJob<'_>) -> Result<(), TessellationError> {
+    if job.classes.is_empty() {
+        return Ok(());
+    }
+    Err(crate::options::OptionError::new(
+        crate::options::names::TRACER,
+        crate::hybrid::VertexTracer::Gpu.name(),
+        "the GPU tracer traces the two greedy terms only; give cpu or auto to trace path classes",
+    )
+    .into())
+}
+
 /// A lens object with no scene object inside the view: its (empty) mesh given texture
 /// coordinates on the CPU, as every stage draws it.
 fn empty_lens(job: &LensJob<'_>, mesh: LensMesh) -> LensObject {
@@ -128,6 +142,7 @@ impl VertexStage for GpuReadBack<'_> {
         budget: &mut VertexBudget,
         stats: &mut HybridStats,
     ) -> Result<BuiltLens, TessellationError> {
+        greedy_only(job)?;
         let request = texgen_request(job);
         let mut merged = MergedLens::default();
         let mut terms: Option<Vec<TermVertices>> = None;
@@ -228,6 +243,7 @@ impl VertexStage for GpuResident<'_> {
         budget: &mut VertexBudget,
         stats: &mut HybridStats,
     ) -> Result<BuiltLens, TessellationError> {
+        greedy_only(job)?;
         let request = texgen_request(job);
         let mut parts = Vec::new();
         for &object in &job.objects {

@@ -227,7 +227,6 @@ fn build(
     stage: &dyn VertexStage,
 ) -> Result<Built, TessellationError> {
     let start = Instant::now();
-    options.validate()?;
     let (view, blend, mut stats) = begin_frame(scene, camera, options)?;
     stats.traced_on_gpu = stage.key().on_gpu();
     stage.begin(&FrameJob { scene, options })?;

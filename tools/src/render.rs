@@ -98,13 +98,14 @@ pub struct RenderArgs {
     /// lens and glossy pixels; black elsewhere) side by side into this PNG (with its EXR).
     #[arg(long, value_name = "FILE")]
     pub side_by_side: Option<PathBuf>,
-    /// With --compare: the reference's ray-path model: `greedy`, `full` (the full ray tree,
-    /// the light itself), or a path-class set; by default the frame's own (its --terms).
-    #[arg(long, value_name = "greedy|full|N|CLASSES", value_parser = crate::reference::parse_tree, requires = "compare")]
-    pub reference_tree: Option<PathModel>,
+    /// With --compare: the reference's ray-path model: `greedy` (the papers' two terms),
+    /// `full` (the full ray tree, the light itself), or a path-class set (a frame of classes
+    /// against its own model).
+    #[arg(long, default_value = "greedy", value_name = "greedy|full|N|CLASSES", value_parser = crate::reference::parse_tree)]
+    pub reference_tree: PathModel,
     /// With --compare: the reference's supersampling per pixel side; by default the frame's.
     /// Range: [1, 16].
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16), requires = "compare")]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub reference_supersampling: Option<u32>,
     /// With --compare: directions the reference samples per camera ray at a glossy surface.
     /// Range: [2, 1048576].
@@ -129,13 +130,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene = crate::common::load_scene(&args.scene)?;
     let camera = choose_camera(&scene, &args.scene, &args.camera)?;
     let options = args.frame.options()?;
-    // The frames' own model (one for all its lens objects, or `--reference-tree` must say).
-    let own_model = crate::common::frame_model(options.hybrid.terms, &scene);
-    let reference_model = match (args.reference_tree, args.compare) {
-        (Some(model), _) => model,
-        (None, true) => crate::common::frame_model(options.hybrid.terms, &scene)?,
-        (None, false) => PathModel::Greedy,
-    };
+    // The frames' own model, by name (one for all its lens objects, or the scene's terms).
+    let own_model = crate::common::frame_model(options.hybrid.terms, &scene)
+        .map_or_else(|_| options.hybrid.terms.name(), |model| model.name());
+    let reference_model = args.reference_tree;
     let projected = ProjectedOptions::with_size(args.em_size);
     projected.validate().map_err(flag_error)?;
     let ems = match &args.bake {
@@ -242,7 +240,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         Run {
             prepare_s,
             compositing: options.compositing_for(&frame.stats),
-            terms: own_model.map_or_else(|_| options.hybrid.terms.name(), |m| m.name()),
+            terms: own_model,
             reference_model,
             device: runner.gpu().device_id(),
             written: &out,

@@ -279,10 +279,11 @@ fn every_numeric_option_is_bounded_and_every_mode_option_needs_its_mode() {
         let mut args = base(&o.command, &[], &work);
         args.push(format!("--{}", o.option));
         if o.kind != "flag" {
-            args.push(if o.kind == "text" {
-                "1,1,1".into()
-            } else {
-                "1".into()
+            // A value it takes, so that the mode is what is refused: its default, else a guess.
+            args.push(match o.defaults.first() {
+                Some(default) => default.clone(),
+                None if o.kind == "text" => "1,1,1".into(),
+                None => "1".into(),
             });
         }
         mode_cases.push(args);

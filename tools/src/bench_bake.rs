@@ -196,17 +196,18 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     };
     step.finish_and_clear();
     let options = args.frame.options()?;
-    let own_model = crate::common::frame_model(options.hybrid.terms, &scene)?;
+    // The frames' own model, where their lens objects share one (else no "own" column).
+    let own_model = crate::common::frame_model(options.hybrid.terms, &scene).ok();
     say!(
         "{}: {}×{} at {k}×{k}, t = {}, terms {}, reference {} paths at {r}×{r}, device {device} (driver {}); lens | non-lens PSNR, dB (sRGB){}; ×: mean lens radiance over the reference's, rim: r/R > 0.95",
         scene.name,
         args.judge.width,
         args.judge.height,
         args.frame.t,
-        own_model.name(),
+        own_model.map_or_else(|| options.hybrid.terms.name(), |m| m.name()),
         args.reference_tree.name(),
         device.driver_description(),
-        if own_model != args.reference_tree {
+        if own_model.is_some_and(|m| m != args.reference_tree) {
             ", own: against the frames' own model"
         } else {
             ""
@@ -233,8 +234,9 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         };
         let reference = trace(args.reference_tree, &reference_camera)?;
         // The frames' own model's reference, where the judge's is another.
-        let own = (own_model != args.reference_tree)
-            .then(|| trace(own_model, &reference_camera))
+        let own = own_model
+            .filter(|&model| model != args.reference_tree)
+            .map(|model| trace(model, &reference_camera))
             .transpose()?;
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
@@ -353,7 +355,8 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             "scene": scene.name, "device": device.device, "driver": device.driver_description(), "width": args.judge.width, "height": args.judge.height,
             "supersampling": args.judge.supersampling, "reference_supersampling": args.judge.reference_supersampling,
             "t": args.frame.t, "sample": args.sample, "bakes": args.bake, "rows": rows,
-            "terms": own_model, "reference_tree": args.reference_tree,
+            "terms": own_model.map_or_else(|| options.hybrid.terms.name(), |m| m.name()),
+            "reference_tree": args.reference_tree,
         }),
         args.report.as_deref(),
     )?;

@@ -85,12 +85,14 @@ impl ShadingTerms {
         }
     }
 
-    /// Whether some lens object of `scene` is shaded by path classes.
-    pub fn any_classes(&self, scene: &crate::scene::Scene) -> bool {
-        scene
-            .lenses
-            .iter()
-            .any(|lens| self.of(lens.terms).is_some())
+    /// Whether some lens object of `scene` is shaded by path classes (every lens object it
+    /// traces, those a scene built in code left out of its lens entries too).
+    pub fn any_classes(&self, scene: &crate::hybrid::HybridScene) -> bool {
+        let entries = &scene.scene().lenses;
+        (0..scene.trace().lenses.len()).any(|i| {
+            self.of(entries.get(i).and_then(|lens| lens.terms))
+                .is_some()
+        })
     }
 }
 

@@ -97,6 +97,13 @@ impl Loader<'_> {
             }
             let layering = self.layering(&field, spec, &members, objects, materials)?;
             let terms = self.terms(&field, spec)?;
+            if terms.is_some() && layering == Layering::Bounce {
+                return Err(self.error(
+                    format!("{field}.terms"),
+                    "path classes follow a path until it leaves, but a lens layered by bounce stops at the first bounce",
+                    "leave terms out (greedy), or layering out (by distance)",
+                ));
+            }
             lenses.push(LensObject {
                 name: spec.name.clone(),
                 objects: members,

@@ -154,6 +154,128 @@ fn contenders(scene: &Scene, args: &BenchBakeArgs) -> anyhow::Result<Vec<(String
     Ok(contenders)
 }
 
+/// One camera's references: the judge's (`--reference-tree`), the frames' own model's where it
+/// is another, their lens pixels and rim, and per lens object its pixels.
+struct References {
+    reference: ReferenceImage,
+    own: Option<ReferenceImage>,
+    lens: Mask,
+    rim: Option<Mask>,
+    per_lens: Vec<(String, Mask)>,
+    /// The full tree's convergence, (coarse supersampling, the judge's, lens PSNR): the full
+    /// tree at half the supersampling against the judge's; `None` for another model.
+    convergence: Option<(u32, u32, f64)>,
+}
+
+impl References {
+    /// The references of `camera` in `trace` under `model` (and `own`, the frames' model).
+    fn traced(
+        trace: &TraceScene,
+        camera: &Camera,
+        model: PathModel,
+        own: Option<PathModel>,
+        rows: &(dyn Fn(u32) + Sync),
+    ) -> anyhow::Result<References> {
+        let render = |model, camera: &Camera| {
+            let options = TraceOptions {
+                model,
+                ..TraceOptions::default()
+            };
+            render_reference(trace, camera, &options, rows)
+        };
+        let reference = render(model, camera)?;
+        let own = own
+            .filter(|&own| own != model)
+            .map(|own| render(own, camera))
+            .transpose()?;
+        let lens = Mask::lens(&reference.lens_pixels, LensSelection::All);
+        let rim = crate::bench_classes::rings(&reference, &lens)
+            .pop()
+            .map(Mask::from_flags);
+        let convergence = if model == PathModel::Full {
+            let half = Camera {
+                supersampling: (camera.supersampling / 2).max(1),
+                ..*camera
+            };
+            let coarse = render(PathModel::Full, &half)?;
+            let psnr = metrics::compare(
+                &coarse.radiance,
+                &reference.radiance,
+                &lens,
+                Encoding::DisplaySrgb,
+                Channels::Rgb,
+            )?
+            .psnr_db;
+            Some((half.supersampling, camera.supersampling, psnr))
+        } else {
+            None
+        };
+        Ok(References {
+            per_lens: lens_object_masks(trace, &reference),
+            reference,
+            own,
+            lens,
+            rim,
+            convergence,
+        })
+    }
+
+    /// `frame` (labelled `label`, blending `samples`) judged against these references: its
+    /// JSON cell, and its figures appended to `line`.
+    fn judge(
+        &self,
+        frame: &lensmap::runner::HybridFrame,
+        label: &str,
+        samples: Vec<serde_json::Value>,
+        line: &mut String,
+    ) -> anyhow::Result<serde_json::Value> {
+        let reference = &self.reference;
+        let lens = lens_error(&frame.image, reference, Encoding::DisplaySrgb)?.psnr_db;
+        let other = non_lens_error(&frame.image, reference, Encoding::DisplaySrgb)?.psnr_db;
+        line.push_str(&format!("  {label}: {lens:.2} | {other:.2}"));
+        let own_psnr = self
+            .own
+            .as_ref()
+            .map(|own| lens_error(&frame.image, own, Encoding::DisplaySrgb))
+            .transpose()?
+            .map(|e| e.psnr_db);
+        if let Some(own_psnr) = own_psnr {
+            line.push_str(&format!(" (own {own_psnr:.2})"));
+        }
+        let radiance = crate::common::mean_ratio(&frame.image, reference, &self.lens);
+        let rim_radiance = self
+            .rim
+            .as_ref()
+            .and_then(|rim| crate::common::mean_ratio(&frame.image, reference, rim));
+        if let (Some(all), Some(rim)) = (radiance, rim_radiance) {
+            line.push_str(&format!(" ×{all:.3} rim ×{rim:.3}"));
+        }
+        // Per lens object, where there is more than one (null where it covers no pixel).
+        let objects: Vec<_> = self
+            .per_lens
+            .iter()
+            .map(|(object, mask)| {
+                let psnr = metrics::compare(
+                    &frame.image.pixels,
+                    &reference.radiance,
+                    mask,
+                    Encoding::DisplaySrgb,
+                    Channels::Rgb,
+                )
+                .ok()
+                .map(|e| e.psnr_db);
+                json!({"lens": object, "lens_psnr_db": psnr})
+            })
+            .collect();
+        Ok(json!({
+            "ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other,
+            "own_model_lens_psnr_db": own_psnr,
+            "lens_radiance_ratio": radiance, "rim_radiance_ratio": rim_radiance,
+            "lens_objects": objects, "viewpoints": samples,
+        }))
+    }
+}
+
 pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
     args.judge.validate()?;
     let scene = crate::common::load_scene(&args.scene)?;
@@ -223,53 +345,24 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
             u64::from(reference_camera.height),
             "rows",
         );
-        let trace = |model, camera: &Camera| {
-            let options = TraceOptions {
-                model,
-                ..TraceOptions::default()
-            };
-            render_reference(contenders[0].1.trace(), camera, &options, &|rows| {
-                bar.set_position(u64::from(rows))
-            })
-        };
-        let reference = trace(args.reference_tree, &reference_camera)?;
-        // The frames' own model's reference, where the judge's is another.
-        let own = own_model
-            .filter(|&model| model != args.reference_tree)
-            .map(|model| trace(model, &reference_camera))
-            .transpose()?;
+        let refs = References::traced(
+            contenders[0].1.trace(),
+            &reference_camera,
+            args.reference_tree,
+            own_model,
+            &|rows| bar.set_position(u64::from(rows)),
+        )?;
         let mut cells = Vec::new();
         let mut line = format!("{name:<10}");
-        let lens_mask = Mask::lens(&reference.lens_pixels, LensSelection::All);
-        let rim = crate::bench_classes::rings(&reference, &lens_mask)
-            .pop()
-            .map(Mask::from_flags);
-        if args.reference_tree == PathModel::Full {
-            // Convergence: the full tree at half the supersampling against the judge's.
-            let half = Camera {
-                supersampling: (reference_camera.supersampling / 2).max(1),
-                ..reference_camera
-            };
-            let coarse = trace(PathModel::Full, &half)?;
-            let converged = metrics::compare(
-                &coarse.radiance,
-                &reference.radiance,
-                &lens_mask,
-                Encoding::DisplaySrgb,
-                Channels::Rgb,
-            )?
-            .psnr_db;
+        if let Some((coarse, fine, converged)) = refs.convergence {
             line.push_str(&format!(
-                "  [full tree {h}×{h} vs {r}×{r}: {converged:.2}]",
-                h = half.supersampling,
-                r = reference_camera.supersampling
+                "  [full tree {coarse}×{coarse} vs {fine}×{fine}: {converged:.2}]"
             ));
             cells.push(json!({
                 "ems": "reference convergence", "lens_psnr_db": converged,
-                "supersampling": [half.supersampling, reference_camera.supersampling],
+                "supersampling": [coarse, fine],
             }));
         }
-        let per_lens = lens_object_masks(contenders[0].1.trace(), &reference);
         let drawn = contenders
             .iter()
             .enumerate()
@@ -289,52 +382,13 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
                 ..options
             };
             let frame = runner.frame(hybrid, &camera, &options)?;
-            let lens = lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
-            let other = non_lens_error(&frame.image, &reference, Encoding::DisplaySrgb)?.psnr_db;
-            line.push_str(&format!("  {label}: {lens:.2} | {other:.2}"));
-            let own_psnr = own
-                .as_ref()
-                .map(|own| lens_error(&frame.image, own, Encoding::DisplaySrgb))
-                .transpose()?
-                .map(|e| e.psnr_db);
-            if let Some(own_psnr) = own_psnr {
-                line.push_str(&format!(" (own {own_psnr:.2})"));
-            }
-            let radiance = crate::common::mean_ratio(&frame.image, &reference, &lens_mask);
-            let rim_radiance = rim
-                .as_ref()
-                .and_then(|rim| crate::common::mean_ratio(&frame.image, &reference, rim));
-            if let (Some(all), Some(rim)) = (radiance, rim_radiance) {
-                line.push_str(&format!(" ×{all:.3} rim ×{rim:.3}"));
-            }
-            // Per lens object, where there is more than one (null where it covers no pixel).
-            let objects: Vec<_> = per_lens
-                .iter()
-                .map(|(object, mask)| {
-                    let psnr = metrics::compare(
-                        &frame.image.pixels,
-                        &reference.radiance,
-                        mask,
-                        Encoding::DisplaySrgb,
-                        Channels::Rgb,
-                    )
-                    .ok()
-                    .map(|e| e.psnr_db);
-                    json!({"lens": object, "lens_psnr_db": psnr})
-                })
-                .collect();
             let samples: Vec<_> = hybrid
                 .viewpoint_blend(&camera, blending)
                 .samples
                 .iter()
                 .map(|(i, w)| json!({"viewpoint": i, "weight": w}))
                 .collect();
-            cells.push(json!({
-                "ems": label, "lens_psnr_db": lens, "non_lens_psnr_db": other,
-                "own_model_lens_psnr_db": own_psnr,
-                "lens_radiance_ratio": radiance, "rim_radiance_ratio": rim_radiance,
-                "lens_objects": objects, "viewpoints": samples,
-            }));
+            cells.push(refs.judge(&frame, &label, samples, &mut line)?);
         }
         // The error budget's tessellation share: the same tessellation with the exact radiance
         // at every vertex, interpolated (no EM, no shell, no filtering).
@@ -343,7 +397,7 @@ pub fn run(args: BenchBakeArgs) -> anyhow::Result<()> {
         let exact = runner
             .render(&exact_frame, options.compositing, options.format)?
             .box_downsample(camera.supersampling);
-        let exact_lens = lens_error(&exact, &reference, Encoding::DisplaySrgb)?.psnr_db;
+        let exact_lens = lens_error(&exact, &refs.reference, Encoding::DisplaySrgb)?.psnr_db;
         line.push_str(&format!("  vertex-exact: {exact_lens:.2}"));
         cells.push(json!({"ems": "vertex-exact", "lens_psnr_db": exact_lens}));
         bar.finish_and_clear();

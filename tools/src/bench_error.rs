@@ -8,6 +8,12 @@
 //! reference ray tracer at one sample per pixel. The result is a table, JSON, CSV, and a Pareto
 //! plot of time against error with the frontier marked.
 //!
+//! The reference's ray-path model is `--reference-tree`: the papers' greedy two terms (what the
+//! frames' default model traces, so the error is the EMs' and the tessellation's alone) or the
+//! full ray tree (the light; its own convergence between two supersampling levels is reported
+//! beside it). The path-class settings (3, 4 and 6 classes, and 4 classes with t) put the class
+//! set on the sweep's axes, judged against the full tree.
+//!
 //! The per-vertex CPU stages run in f64; the "CPU precision" settings run them in f32
 //! ([`VertexPrecision::F32`]) at the default and at RGBA32F, and also report how far each f32
 //! frame lies from its f64 twin over the lens pixels (linear RMS and largest difference): the
@@ -22,7 +28,9 @@ use clap::Args;
 use glam::Vec3;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
-    hybrid::{HybridOptions, HybridScene, paths::VertexPrecision, tessellate::DEFAULT_T},
+    hybrid::{
+        HybridOptions, HybridScene, ShadingTerms, paths::VertexPrecision, tessellate::DEFAULT_T,
+    },
     layers::{
         Bake,
         projected::{DEFAULT_EM_SIZE, ProjectedOptions, em_origin},
@@ -32,7 +40,8 @@ use lensmap::{
     runner::{EmSource, FrameOptions, FrameRunner, Repetitions, lens_error, load_hybrid_scene},
     scene::{Camera, LayerSpec, Scene},
     trace::{
-        LensSelection, ReferenceImage, TraceOptions, TraceScene, image::srgb8, render_reference,
+        LensSelection, PathModel, ReferenceImage, TraceOptions, TraceScene, classes::ClassSet,
+        image::srgb8, render_reference,
     },
 };
 use serde_json::json;
@@ -65,6 +74,11 @@ pub struct BenchErrorArgs {
     /// Range: [2, 16384].
     #[arg(long, default_value_t = 4)]
     reference_supersampling: u32,
+    /// The reference's ray-path model: `greedy` (the papers' two terms, the frames' default
+    /// model), `full` (the full ray tree: the light, also traced at half the supersampling to
+    /// show it converged), or a path-class set. The 1-spp ray tracer baseline traces it too.
+    #[arg(long, default_value = "greedy", value_name = "greedy|full|N|CLASSES", value_parser = crate::reference::parse_tree)]
+    reference_tree: PathModel,
     /// Timed frames per setting and camera (after one warm-up frame); the median counts.
     /// Range: [1, 100000].
     #[arg(long, default_value_t = 3)]
@@ -125,7 +139,17 @@ fn replot(report: &Path, dir: &Path) -> anyhow::Result<()> {
         Some(driver) => format!("{}, driver {driver}", text("device")),
         None => text("device"),
     };
-    crate::pareto::write(dir, &points, &text("scene"), &device)
+    let title = plot_title(&text("scene"), json["reference_tree"].as_str());
+    crate::pareto::write(dir, &points, &title, &device)
+}
+
+/// The plot's title: the scene, and the reference's ray-path model where the report names it
+/// (reports written before the model was recorded were judged against the greedy model).
+fn plot_title(scene: &str, reference_tree: Option<&str>) -> String {
+    format!(
+        "{scene}, reference --tree {}",
+        reference_tree.unwrap_or("greedy")
+    )
 }
 
 /// Where a setting's layered EMs come from.
@@ -169,6 +193,8 @@ struct Setting {
     ems: Ems,
     /// The float type of the per-vertex CPU stages.
     precision: VertexPrecision,
+    /// The terms each lens vertex traces (the scene file's by default).
+    terms: ShadingTerms,
 }
 
 impl Setting {
@@ -186,18 +212,24 @@ impl Setting {
             supersampling: 1,
             ems: Ems::Projected,
             precision: VertexPrecision::F64,
+            terms: ShadingTerms::Scene,
         }
     }
 
     /// The label names the precision only where it is not the default f64, so `--only f64`
-    /// picks the f32 settings (compared with f64) rather than every setting.
+    /// picks the f32 settings (compared with f64) rather than every setting; and the terms only
+    /// where they are not the scene file's, so `--only terms` picks the path-class settings.
     fn label(&self) -> String {
         let precision = match self.precision {
             VertexPrecision::F64 => String::new(),
             other => format!(" CPU {} (vs f64)", other.name()),
         };
+        let terms = match self.terms {
+            ShadingTerms::Scene => String::new(),
+            other => format!(" terms={}", other.name()),
+        };
         format!(
-            "{} t={} angle={}° em={} layers={} {} {} ss={}{precision}",
+            "{} t={} angle={}° em={} layers={} {} {} ss={}{terms}{precision}",
             self.ems.name(),
             self.t,
             self.angle_degrees,
@@ -293,6 +325,21 @@ fn settings(layer_count: usize, inferred: bool) -> Vec<Setting> {
         for t in [1.0, 3.0, 8.0] {
             add("inferred EMs", &|s| (s.ems, s.t) = (Ems::Inferred, t));
         }
+    }
+    // The class set as an axis (composited by the multipass variant: the single pass does not
+    // draw classes): the first 3, 4 and 6 classes, and 4 classes with t moved.
+    let classes = |s: &mut Setting, count: u8| {
+        s.terms = ShadingTerms::Classes(ClassSet::First(count));
+        s.compositing = Compositing::Multipass(BlendScheme::FrontToBack);
+    };
+    for count in [3, 4, 6] {
+        add("path classes", &|s| classes(s, count));
+    }
+    for t in [1.0, 8.0] {
+        add("path classes × t", &|s| {
+            classes(s, 4);
+            s.t = t;
+        });
     }
     add("baseline: EM at infinity", &|s| s.ems = Ems::Infinity);
     add("baseline: box probe", &|s| s.ems = Ems::BoxProbe);
@@ -480,17 +527,32 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
     let mut steps = Steps::new(3);
     let scenes = hybrid_scenes(&scene, &sweep.settings, args.bake.as_deref(), &mut steps)?;
     say!(
-        "{}: {}×{}, cameras around sample {} (on it, halfway, 15° above), reference {r}×{r}, {} timed frames per setting and camera, device {device}",
+        "{}: {}×{}, cameras around sample {} (on it, halfway, 15° above), reference {r}×{r} (--tree {}), {} timed frames per setting and camera, device {device}",
         scene.name,
         args.width,
         args.height,
         args.sample,
+        args.reference_tree.name(),
         args.frames,
         r = args.reference_supersampling
     );
     let measured = measure(&mut runner, &args, &sweep, &scenes, &cameras, &mut steps)?;
     let results = Results::new(measured.points(&sweep.settings));
     results.print();
+    let half = (args.reference_supersampling / 2).max(1);
+    if !measured.convergence.is_empty() {
+        let per_camera: Vec<String> = measured
+            .convergence
+            .iter()
+            .map(|db| format!("{db:.2}"))
+            .collect();
+        say!(
+            "the full-tree reference's own convergence ({half}×{half} against {r}×{r}, lens PSNR per camera): {} dB",
+            per_camera.join(" / "),
+            r = args.reference_supersampling
+        );
+    }
+    let title = plot_title(&scene.name, Some(&args.reference_tree.name()));
     if let Some(path) = &args.csv {
         lensmap::atomic::write_atomically(path, results.csv().as_bytes())
             .with_context(|| format!("writing {}", path.display()))?;
@@ -499,7 +561,7 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         crate::pareto::write(
             dir,
             &points_for_plot(&results.points, &results.on_frontier),
-            &scene.name,
+            &title,
             &device.to_string(),
         )?;
     }
@@ -507,6 +569,11 @@ pub fn run(args: BenchErrorArgs) -> anyhow::Result<()> {
         &json!({
             "scene": scene.name, "device": device.device, "driver": device.driver_description(), "width": args.width, "height": args.height,
             "reference_supersampling": args.reference_supersampling, "frames": args.frames,
+            "reference_tree": args.reference_tree.name(),
+            "reference_convergence": (!measured.convergence.is_empty()).then(|| json!({
+                "supersampling": [half, args.reference_supersampling],
+                "lens_psnr_db_per_camera": measured.convergence,
+            })),
             "cameras": cameras.iter().map(|(name, c)| json!({"camera": name, "position": c.position})).collect::<Vec<_>>(),
             "encoding": "display sRGB, lens pixels of the reference; SSIM: image-compare's 8×8-window SSIM averaged over them",
             "default_gap_to_frontier_db": results.gap_db, "points": results.json_points(),
@@ -623,6 +690,9 @@ struct Measurements {
     per_setting: Vec<Vec<Measured>>,
     /// Per f32 setting, one per camera: its frame against its f64 twin's over the lens pixels.
     against_f64: Vec<Vec<ImageError>>,
+    /// Per camera, against the full tree: the reference at half its supersampling against it,
+    /// lens PSNR (display sRGB), dB.
+    convergence: Vec<f64>,
 }
 
 impl Measurements {
@@ -677,14 +747,30 @@ fn measure(
     let mut measured = Measurements {
         per_setting: vec![Vec::new(); count + 1],
         against_f64: vec![Vec::new(); count],
+        convergence: Vec::new(),
     };
+    let options = reference_options(args.reference_tree);
     for (_, camera) in cameras {
-        let reference = render_reference(
-            trace,
-            &camera.with_resolution(args.width, args.height, args.reference_supersampling),
-            &TraceOptions::default(),
-            &|_| {},
-        )?;
+        let judge = camera.with_resolution(args.width, args.height, args.reference_supersampling);
+        let reference = render_reference(trace, &judge, &options, &|_| {})?;
+        if args.reference_tree == PathModel::Full {
+            let half = camera.with_resolution(
+                args.width,
+                args.height,
+                (args.reference_supersampling / 2).max(1),
+            );
+            let coarse = render_reference(trace, &half, &options, &|_| {})?;
+            measured.convergence.push(
+                lensmap::metrics::compare(
+                    &coarse.radiance,
+                    &reference.radiance,
+                    &Mask::lens(&reference.lens_pixels, LensSelection::All),
+                    Encoding::DisplaySrgb,
+                    Channels::Rgb,
+                )?
+                .psnr_db,
+            );
+        }
         bar.inc(1);
         let mut images = Vec::with_capacity(count);
         for (i, setting) in sweep.settings.iter().enumerate() {
@@ -713,6 +799,14 @@ fn measure(
     Ok(measured)
 }
 
+/// The reference tracer's options for ray-path model `model`.
+fn reference_options(model: PathModel) -> TraceOptions {
+    TraceOptions {
+        model,
+        ..TraceOptions::default()
+    }
+}
+
 /// One setting at one camera: its median frame time over `--frames` timed frames (after one
 /// warm-up), and its last frame's lens PSNR and SSIM against `reference`; with that frame.
 fn measure_setting(
@@ -728,6 +822,7 @@ fn measure_setting(
         hybrid: HybridOptions {
             angle_radians: setting.angle_degrees.to_radians(),
             precision: setting.precision,
+            terms: setting.terms,
             ..HybridOptions::with_t(setting.t)
         },
         compositing: setting.compositing,
@@ -767,7 +862,7 @@ fn measure_ray_tracer(
         let one = render_reference(
             trace,
             &camera.with_resolution(args.width, args.height, 1),
-            &TraceOptions::default(),
+            &reference_options(args.reference_tree),
             &|_| {},
         )?;
         times.push(one.stats.seconds * 1e3);

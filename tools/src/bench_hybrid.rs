@@ -2,7 +2,10 @@
 //! frames, single pass vs multipass measured in the same run; then a still camera against a
 //! moving one, latency against throughput with two frames in flight, and the thread scaling of
 //! the CPU stages (1, 2 and all threads). With `--fresnel table:N`, also exact Fresnel against
-//! the table, frames alternating.
+//! the table, frames alternating. Then each stage for the papers' greedy terms and for 3, 4 and 6
+//! path classes (traced on the CPU, composited by the multipass variant), frames alternating,
+//! with what each stage is expected to scale by: the layer passes, the ray segments traced and
+//! the vertices.
 
 use std::path::PathBuf;
 
@@ -10,16 +13,17 @@ use clap::Args;
 use lensmap::{
     gpu::{Gpu, GpuOptions},
     hybrid::{
-        FresnelModel, HybridOptions, HybridScene, VertexTracer, gpu::Traversal,
+        FresnelModel, HybridOptions, HybridScene, ShadingTerms, VertexTracer, gpu::Traversal,
         paths::VertexPrecision,
     },
     layers::projected::{DEFAULT_EM_SIZE, ProjectedOptions},
     render::{BlendScheme, Compositing, TargetFormat, Variant},
     runner::{
-        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, TimedFrames,
-        load_hybrid_scene, median, novel_camera,
+        EmSource, FrameOptions, FrameRunner, HybridFrame, Repetitions, load_hybrid_scene, median,
+        novel_camera,
     },
     scene::{Camera, Scene},
+    trace::classes::ClassSet,
 };
 use serde_json::json;
 
@@ -75,7 +79,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
     let format = frame_options.format;
     runner.check_framebuffer(&camera, format)?;
     let with_table = args.frame.fresnel != FresnelModel::Exact;
-    let mut steps = Steps::new(if with_table { 8 } else { 7 });
+    let mut steps = Steps::new(if with_table { 9 } else { 8 });
     let step = steps.step("projected layered EMs and light maps");
     let (hybrid, _) = load_hybrid_scene(scene, &EmSource::Projected(projected).into())?;
     step.finish_and_clear();
@@ -171,6 +175,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         ("f32", "f64"),
         variant(Traversal::Bvh, VertexPrecision::F64),
     )?;
+    let classes = bench.classes(&mut runner, &options, &mut steps)?;
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene().name, "width": args.width, "height": args.height,
@@ -181,7 +186,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         "tracer": args.frame.tracer.name(), "traced_on_gpu": hybrid_options.tracer.on_gpu(runner.gpu()),
         "walk": crate::common::gpu_walk(runner.gpu(), &hybrid_options),
         "cpu_against_gpu_tracer": tracers, "gpu_stages": gpu_stages, "bvh_against_driver_walk": walks,
-        "f32_against_f64": precisions,
+        "f32_against_f64": precisions, "path_classes": classes,
     });
     report(&out, args.report.as_deref())?;
     Ok(())
@@ -264,7 +269,7 @@ impl Bench<'_> {
                 timed: self.frames,
             };
             let frames = runner.timed_frames(self.hybrid, &self.camera, &options, repetitions)?;
-            let row = StageMedians::of(&frames);
+            let row = StageMedians::of(frames.frames());
             say!(
                 "{:<12} {:>7.1} {:>7.1} {:>7.1} {:>8.1} {:>7.1} {:>7.1} {:>8.1} {:>8.1} {:>7.1} {:>7.1} {:>9.1}",
                 variant.name(),
@@ -412,6 +417,96 @@ impl Bench<'_> {
 type Part = fn(&(f64, f64)) -> f64;
 
 impl Bench<'_> {
+    /// Each stage for the papers' greedy terms and for the first 3, 4 and 6 path classes, on the
+    /// CPU tracer (the GPU tracer traces the greedy terms only) and the multipass variant (the
+    /// single pass does not draw classes), each frame built from scratch, the four alternating
+    /// (forwards, then backwards) after a warm-up of each: the stage medians, with the layer
+    /// passes, ray segments and vertices each stage is expected to scale by, each as a ratio to
+    /// greedy's; printed and as JSON.
+    fn classes(
+        &self,
+        runner: &mut FrameRunner,
+        options: &FrameOptions,
+        steps: &mut Steps,
+    ) -> anyhow::Result<serde_json::Value> {
+        let step = steps.step("path classes against greedy, alternating");
+        let setting = |terms| FrameOptions {
+            hybrid: HybridOptions {
+                terms,
+                tracer: VertexTracer::Cpu,
+                ..options.hybrid
+            },
+            compositing: Compositing::Multipass(BlendScheme::FrontToBack),
+            ..*options
+        };
+        let settings: Vec<(String, FrameOptions)> = std::iter::once(ShadingTerms::Greedy)
+            .chain([3, 4, 6].map(|n| ShadingTerms::Classes(ClassSet::First(n))))
+            .map(|terms| (terms.name(), setting(terms)))
+            .collect();
+        let mut frame = |options: &FrameOptions| {
+            runner.forget_frame();
+            runner.frame(self.hybrid, &self.camera, options)
+        };
+        for (_, options) in &settings {
+            frame(options)?;
+        }
+        let mut frames: Vec<Vec<HybridFrame>> = vec![Vec::new(); settings.len()];
+        for round in 0..self.frames {
+            let mut order: Vec<usize> = (0..settings.len()).collect();
+            if round % 2 == 1 {
+                order.reverse();
+            }
+            for which in order {
+                frames[which].push(frame(&settings[which].1)?);
+            }
+        }
+        step.finish_and_clear();
+        say!(
+            "path classes against greedy (CPU tracer, multipass, {} frames each, alternating; × greedy's):",
+            self.frames
+        );
+        say!(
+            "{:<8} {:>15} {:>15} {:>17} {:>16} {:>15} {:>15}",
+            "terms",
+            "layer passes",
+            "execute ms",
+            "rays",
+            "trace ms",
+            "vertices",
+            "tessel. ms"
+        );
+        let greedy = ClassRow::of(&frames[0]);
+        let mut rows = Vec::new();
+        for ((name, _), frames) in settings.iter().zip(&frames) {
+            let row = ClassRow::of(frames);
+            let ratio = |pick: fn(&ClassRow) -> f64| pick(&row) / pick(&greedy);
+            let cell =
+                |value: String, pick: fn(&ClassRow) -> f64| format!("{value} ×{:.2}", ratio(pick));
+            say!(
+                "{:<8} {:>15} {:>15} {:>17} {:>16} {:>15} {:>15}  frame {:.1} ms ×{:.2}",
+                name,
+                cell(row.passes.to_string(), |r| r.passes as f64),
+                cell(format!("{:.1}", row.stages.execute), |r| r.stages.execute),
+                cell(row.rays.to_string(), |r| r.rays as f64),
+                cell(format!("{:.1}", row.stages.trace), |r| r.stages.trace),
+                cell(row.vertices.to_string(), |r| r.vertices as f64),
+                cell(format!("{:.1}", row.stages.tessellation), |r| r
+                    .stages
+                    .tessellation),
+                row.stages.total,
+                ratio(|r| r.stages.total)
+            );
+            rows.push(json!({
+                "terms": name, "median_ms": row.stages.to_json(), "layer_passes": row.passes,
+                "rays": row.rays, "vertices_traced": row.vertices,
+                "total_against_greedy": ratio(|r| r.stages.total),
+            }));
+        }
+        Ok(
+            json!({ "tracer": "cpu", "variant": "multipass", "frames_each": self.frames, "rows": rows }),
+        )
+    }
+
     /// Frames traced on the GPU with their stages timed by the device's timestamps, each built
     /// from scratch after a warm-up: medians of the trace passes, the split passes, texgen, the
     /// rest of the tessellation (submission, read-back, the mesh rebuilt on the CPU) and the
@@ -522,6 +617,27 @@ impl Bench<'_> {
     }
 }
 
+/// One term set's frames: the stage medians and what the stages scale by (the last frame's
+/// counts, the same for every frame).
+struct ClassRow {
+    stages: StageMedians,
+    passes: usize,
+    rays: u64,
+    vertices: usize,
+}
+
+impl ClassRow {
+    fn of(frames: &[HybridFrame]) -> ClassRow {
+        let last = &frames[frames.len() - 1];
+        ClassRow {
+            stages: StageMedians::of(frames),
+            passes: last.render.passes,
+            rays: last.stats.counters.all_rays(),
+            vertices: last.stats.vertices_traced,
+        }
+    }
+}
+
 /// Median stage times of one setting, ms.
 struct StageMedians {
     trace: f64,
@@ -539,8 +655,9 @@ struct StageMedians {
 
 impl StageMedians {
     /// The medians over `frames`.
-    fn of(frames: &TimedFrames) -> StageMedians {
-        let stage = |f: &dyn Fn(&HybridFrame) -> f64| frames.median(f);
+    fn of(frames: &[HybridFrame]) -> StageMedians {
+        let stage =
+            |f: &dyn Fn(&HybridFrame) -> f64| median(&mut frames.iter().map(f).collect::<Vec<_>>());
         StageMedians {
             trace: stage(&|f| f.stats.trace_ms),
             texgen: stage(&|f| f.stats.texgen_ms),

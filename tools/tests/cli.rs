@@ -601,6 +601,52 @@ fn bench_error_against_the_full_tree_sweeps_path_classes() {
     );
 }
 
+/// `bench hybrid` times every stage for greedy and for 3, 4 and 6 path classes: the multipass
+/// frame's layer passes grow by the same count per class past the two greedy terms (each term
+/// draws its layers once per viewpoint sample), and 6 classes trace more ray segments than the
+/// two greedy paths.
+#[test]
+fn bench_hybrid_times_the_stages_of_path_classes() {
+    let out = common::lensmap_command(&[
+        "bench",
+        "hybrid",
+        "--json",
+        "--scene",
+        "glass-sphere",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--frames",
+        "1",
+    ])
+    .output()
+    .expect("the lensmap binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("validation"), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    let rows = report["path_classes"]["rows"]
+        .as_array()
+        .expect("the path-class rows");
+    let names: Vec<&str> = rows.iter().filter_map(|r| r["terms"].as_str()).collect();
+    assert_eq!(names, ["greedy", "3", "4", "6"]);
+    let count = |row: &serde_json::Value, key: &str| row[key].as_u64().expect("a count");
+    let passes: Vec<u64> = rows.iter().map(|r| count(r, "layer_passes")).collect();
+    let per_class = passes[1] - passes[0];
+    assert!(per_class > 0, "{passes:?}");
+    assert_eq!(passes[2] - passes[0], 2 * per_class, "{passes:?}");
+    assert_eq!(passes[3] - passes[0], 4 * per_class, "{passes:?}");
+    assert!(
+        count(&rows[3], "rays") > count(&rows[0], "rays"),
+        "{rows:?}"
+    );
+    for row in rows {
+        let total = row["median_ms"]["total"].as_f64().expect("a time");
+        assert!(total > 0.0, "{row}");
+    }
+}
+
 /// `bench fresnel` reports, per table size, an error within the derived bound 2.5/(N − 1)² and
 /// near it; per material of mirror-teapot and glass-sphere, the mirror's error against exact
 /// Schlick at most (1 − R₀) of that, and for glass both sides against exact Fresnel. A `--fresnel`

@@ -104,6 +104,17 @@ impl Loader<'_> {
                     "leave terms out (greedy), or layering out (by distance)",
                 ));
             }
+            let glass = |o: &usize| matches!(materials[objects[*o].material], Material::Glass { .. });
+            if matches!(terms, Some(ClassSet::First(_)))
+                && members.iter().any(glass)
+                && !members.iter().all(glass)
+            {
+                return Err(self.error(
+                    format!("{field}.terms"),
+                    "a count takes the first classes of glass (R, TT, TRT, …) or of a mirror (R, RR, …), but this lens joins glass and mirrors",
+                    "list the classes instead, e.g. [\"R\", \"TT\", \"TRT\", \"RR\"]",
+                ));
+            }
             lenses.push(LensObject {
                 name: spec.name.clone(),
                 objects: members,

@@ -120,6 +120,43 @@ objects = ["ball"]
         );
     }
 
+    /// `terms` as a count on a lens of glass and mirrors is refused naming the field (whose
+    /// first classes would they be?); a list there loads, and a count on glass alone does.
+    #[test]
+    fn a_count_of_path_classes_needs_a_lens_of_one_kind() {
+        let dir = temp_folder("terms-kind");
+        let with_mirror = edit_scene(
+            &base(),
+            "[[objects]]\nname = \"ball\"",
+            "[[materials]]\nname = \"chrome\"\nmirror = { reflectance = [0.9, 0.9, 0.9] }\n\n[[objects]]\nname = \"bead\"\nmaterial = \"chrome\"\nsphere = { radius = 0.2, segments = 8, rings = 4 }\ntransform = { translate = [2, 1, 0] }\n\n[[objects]]\nname = \"ball\"",
+        );
+        let lens = "objects = [\"ball\"]";
+        let mixed = |terms: &str| {
+            edit_scene(
+                &with_mirror,
+                lens,
+                &format!("objects = [\"ball\", \"bead\"]\nterms = {terms}"),
+            )
+        };
+        let (file, error) = load_error(&dir, &mixed("4"));
+        assert_message(
+            &error,
+            &file,
+            "lenses[0].terms",
+            "joins glass and mirrors",
+            "list the classes",
+        );
+        for loads in [
+            mixed("[\"R\", \"TT\", \"RR\"]"),
+            edit(lens, "objects = [\"ball\"]\nterms = 4"),
+        ] {
+            let path = dir.join("loads.toml");
+            std::fs::write(&path, &loads).expect("write the scene");
+            let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+            assert!(scene.lenses[0].terms.is_some());
+        }
+    }
+
     /// A valid scene that loads; guards against the tests failing for the wrong reason.
     #[test]
     fn the_base_scene_loads() {

@@ -104,7 +104,8 @@ impl Loader<'_> {
                     "leave terms out (greedy), or layering out (by distance)",
                 ));
             }
-            let glass = |o: &usize| matches!(materials[objects[*o].material], Material::Glass { .. });
+            let glass =
+                |o: &usize| matches!(materials[objects[*o].material], Material::Glass { .. });
             if matches!(terms, Some(ClassSet::First(_)))
                 && members.iter().any(glass)
                 && !members.iter().all(glass)

@@ -7,13 +7,13 @@ use std::{sync::Arc, time::Instant};
 
 use lensmap::{
     cubemap::{CubeMap, sampling::sample_cube_trilinear},
-    hybrid::{HybridOptions, HybridScene},
+    hybrid::{HybridOptions, HybridScene, ShadingTerms},
     index::{LayerIndex, LayerRef, LensIndex},
     layers::Layering,
     render::{Compositing, FrameInput, TargetFormat, UploadedFrame},
     runner::FrameRunner,
     scene::Camera,
-    trace::LensRecords,
+    trace::{LensRecords, PathModel},
 };
 
 use crate::{
@@ -110,14 +110,37 @@ pub struct InferOptions {
 }
 
 impl InferOptions {
-    /// The hybrid options of the bake's frames: [`InferOptions::hybrid`] with the greedy terms,
-    /// whatever a scene file's lens says. The inference's equations are the greedy terms' (the
-    /// paper's Eq. 1); per-class equations are not built, and a frame of path classes renders
-    /// with a greedy bake's EMs.
+    /// The hybrid options of the bake's frames: [`InferOptions::hybrid`] with the greedy terms
+    /// (the paper's Eq. 1), whatever a scene file's lens says, unless the options name path
+    /// classes: then one equation per class term and texel, every class's stacked in one solve
+    /// per layer as the paper stacks its two terms.
     pub fn frame_options(&self) -> HybridOptions {
         HybridOptions {
-            terms: lensmap::hybrid::ShadingTerms::Greedy,
+            terms: match self.hybrid.terms {
+                ShadingTerms::Classes(set) => ShadingTerms::Classes(set),
+                ShadingTerms::Scene | ShadingTerms::Greedy => ShadingTerms::Greedy,
+            },
             ..self.hybrid
+        }
+    }
+
+    /// The reference tracer's model of the bake's frames: the greedy terms, or the path classes
+    /// the options name (the records the targets come from, and the references it judges by).
+    pub fn model(&self) -> PathModel {
+        match self.frame_options().terms {
+            ShadingTerms::Classes(set) => PathModel::Classes(set),
+            ShadingTerms::Scene | ShadingTerms::Greedy => PathModel::Greedy,
+        }
+    }
+
+    /// How the test renderings are composited: as asked, but by the multipass variant
+    /// (front to back) where the single pass is asked of path classes, which it does not draw.
+    pub fn test_compositing(&self) -> Compositing {
+        match (self.model(), self.compositing) {
+            (PathModel::Classes(_), Compositing::SinglePass) => {
+                Compositing::Multipass(lensmap::render::BlendScheme::FrontToBack)
+            }
+            (_, compositing) => compositing,
         }
     }
 }
@@ -302,7 +325,7 @@ pub fn infer_lens(
 ) -> Result<Inference, InferError> {
     let start = Instant::now();
     let prepared = prepare(hybrid, lens, views, options)?;
-    let mut renderer = DeviceRenderer::new(runner, options.compositing);
+    let mut renderer = DeviceRenderer::new(runner, options.test_compositing());
     // The resolution: the finest level read by any (term, layer) frame of the first view at the
     // cap.
     let (size, finest_level_at_cap, search_renders) = match options.em_size {

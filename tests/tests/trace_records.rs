@@ -368,3 +368,60 @@ fn first_bounce_records_see_the_mirror_itself_where_the_corner_predicts() {
     let traced = compile_records(&world, &camera, &TraceOptions::default()).unwrap();
     assert!(traced.lenses[0].records.iter().all(|r| r.local.is_none()));
 }
+
+/// Under path classes the records are the baker's per-class targets: one record per class
+/// term a supersample's path has (every term one of the set's), and the records summed as the
+/// reference sums its classes (each record's F·G times the radiance of its ray's nearest hit,
+/// or the background) give the reference image of the same class set at every pixel whose
+/// supersamples all see the glass ball, to f32 rounding: the records and the reference are
+/// two codes over the same paths.
+#[test]
+fn class_records_sum_to_the_reference_of_their_classes() {
+    use lensmap::trace::{PathModel, classes::ClassSet, render_reference};
+    let scene = lensmap_tests::fixtures::built_in_scene("glass-sphere", 24, 18, 2);
+    let camera = scene.camera;
+    let world = TraceScene::new(&scene).unwrap();
+    let set = ClassSet::First(4);
+    let options = TraceOptions {
+        model: PathModel::Classes(set),
+        ..TraceOptions::default()
+    };
+    let records = compile_records(&world, &camera, &options).unwrap();
+    let reference = render_reference(&world, &camera, &options, &|_| {}).unwrap();
+    let lens = &records.lenses[0];
+    let glass = world.interface(world.lenses[0].objects[0]).unwrap();
+    let terms: Vec<Term> = set.terms(glass).into_iter().map(Term::Class).collect();
+    assert!(!lens.records.is_empty());
+    assert!(lens.records.iter().all(|r| terms.contains(&r.term)));
+    let width = camera.width as usize;
+    let k = camera.supersampling as usize;
+    let mut sum = vec![DVec3::ZERO; width * camera.height as usize];
+    let mut seen: Vec<Vec<Vec2>> = vec![Vec::new(); sum.len()];
+    for record in lens.records.iter().filter(|r| r.visible) {
+        let position = record.image_position;
+        let pixel = position.y.floor() as usize * width + position.x.floor() as usize;
+        let radiance = lens
+            .hits_of(record)
+            .first()
+            .map_or(record.background, |hit| hit.radiance);
+        sum[pixel] += record.fresnel * record.attenuation * radiance;
+        if !seen[pixel].contains(&position) {
+            seen[pixel].push(position);
+        }
+    }
+    let mut compared = 0;
+    for (pixel, positions) in seen.iter().enumerate() {
+        if positions.len() < k * k {
+            continue;
+        }
+        let from_records = sum[pixel] / (k * k) as f64;
+        let traced = reference.radiance[pixel].as_dvec3();
+        let gap = (from_records - traced).abs().max_element();
+        assert!(
+            gap <= 1e-4 * traced.max_element().max(1e-3),
+            "pixel {pixel}: records {from_records} against the reference {traced}"
+        );
+        compared += 1;
+    }
+    assert!(compared >= 20, "only {compared} pixels wholly on the ball");
+}

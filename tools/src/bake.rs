@@ -76,6 +76,13 @@ pub struct BakeArgs {
     /// Range: (0, ∞).
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
     t: f32,
+    /// The terms whose equations the EMs are solved over: `greedy` (the papers' two terms, Eq. 1),
+    /// a count N of path classes (the first N of R, TT, TRT, … for glass; of R, RR, … for
+    /// mirrors), a list such as `R,TT,TRT,TRRT`, or `greedy:D`. One EM per layer over every
+    /// class's equations, the targets traced per class; a scene file's `terms` do not apply
+    /// to bakes. In the bake's identity.
+    #[arg(long, default_value = "greedy", value_name = "greedy|N|CLASSES", value_parser = parse_bake_terms, conflicts_with_all = LAYERED_ONLY)]
+    terms: lensmap::hybrid::ShadingTerms,
     /// Confidence threshold θc, degrees.
     /// Range: (0, 180).
     #[arg(long, default_value_t = lensmap_baker::targets::DEFAULT_CONFIDENCE_DEGREES, allow_negative_numbers = true, conflicts_with_all = LAYERED_ONLY)]
@@ -482,6 +489,7 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
         infer: InferOptions {
             hybrid: HybridOptions {
                 hull_split: args.hull_split.is_on(),
+                terms: args.terms,
                 ..HybridOptions::with_t(args.t)
             },
             theta_c: args.confidence_degrees.to_radians(),
@@ -494,4 +502,15 @@ fn options(args: &BakeArgs) -> Result<BakeOptions, BadUsage> {
         },
         judge: !args.no_judge,
     })
+}
+
+/// Parses `bake --terms`: the frames' terms, but not `scene` (a bake's equations are of one set
+/// of terms, named on the command line).
+fn parse_bake_terms(text: &str) -> Result<lensmap::hybrid::ShadingTerms, String> {
+    match crate::common::parse_terms(text)? {
+        lensmap::hybrid::ShadingTerms::Scene => Err(
+            "a bake's terms are named on the command line; give greedy, a count such as 4, or a list such as R,TT,TRT".into(),
+        ),
+        terms => Ok(terms),
+    }
 }

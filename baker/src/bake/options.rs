@@ -177,14 +177,14 @@ impl BakeOptions {
             "give a view count from 1 to 9 (1 turns multi-view off)",
         )?;
         if let ShadingTerms::Classes(classes) = self.infer.hybrid.terms {
-            // The inference's equations are the greedy terms' (the paper's Eq. 1); path-class
-            // equations, with per-class targets from the reference tracer, are not built yet.
-            return Err(OptionError::new(
+            // Path classes are traced on the CPU in f64 with exact Fresnel, as in a frame.
+            self.infer.hybrid.validate_classes(classes)?;
+            OptionError::require(
+                self.layers != LayerCount::Bounce,
                 lensmap::options::names::TERMS,
                 classes.name(),
-                "the baker infers EMs from the two greedy terms' equations only; give greedy (a frame of path classes renders with a greedy bake's EMs)",
-            )
-            .into());
+                "path classes follow a path until it leaves, but layers by bounce stop at the first bounce; give another layer count, or greedy",
+            )?;
         }
         Ok(self.infer.hybrid.validate()?)
     }
@@ -261,6 +261,18 @@ impl Canonical for BakeOptions {
             .value(max_iterations);
         encode_fresnel(encoder, hybrid.fresnel);
         encode_hull_split(encoder, *layers, hybrid.hull_split);
+        encode_terms(encoder, infer);
+    }
+}
+
+/// The terms the bake's equations are of ([`InferOptions::frame_options`]). Path classes came
+/// after identity version 1: the greedy terms, what every earlier bake and every bake whose
+/// options leave the terms to the scene file solves, write nothing, so their identities stand;
+/// classes write tag 3 (distinct from [`encode_fresnel`]'s and [`encode_hull_split`]'s) and the
+/// set's name. Written last, it cannot be confused with another field.
+fn encode_terms(encoder: &mut Encoder, infer: &InferOptions) {
+    if let ShadingTerms::Classes(set) = infer.frame_options().terms {
+        encoder.tag(3).value(&set.name());
     }
 }
 
@@ -315,8 +327,7 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
         tracer: _,
         traversal: _,
         gpu_precision: _,
-        // Every bake is of the greedy terms (`InferOptions::frame_options`; path classes are
-        // refused by [`BakeOptions::validate`]).
+        // Written last of all the options ([`encode_terms`]).
         terms: _,
     } = hybrid;
     let TessellationOptions {
@@ -339,6 +350,7 @@ fn encode_hybrid(encoder: &mut Encoder, hybrid: &HybridOptions) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lensmap::trace::classes::ClassSet;
 
     /// Options with every field set (none left to a default that may move).
     fn fixed() -> BakeOptions {
@@ -438,6 +450,40 @@ mod tests {
         }
         let (table_64, table_65) = (&variants[variants.len() - 2], &variants[variants.len() - 1]);
         assert_ne!(table_64.hash(), table_65.hash());
+    }
+
+    /// The terms are in the identity where they are path classes, each set its own; the greedy
+    /// terms, asked for or left to the scene file, keep the pinned identity of every earlier
+    /// bake ([`encode_terms`]). Classes on layers by bounce, or traced in f32, are refused.
+    #[test]
+    fn path_classes_are_in_the_identity_and_greedy_bakes_keep_theirs() {
+        let with = |terms| {
+            let mut options = fixed();
+            options.infer.hybrid.terms = terms;
+            options
+        };
+        let class = |text: &str| ShadingTerms::Classes(ClassSet::parse(text).unwrap());
+        let pinned = fixed().hash();
+        assert_eq!(with(ShadingTerms::Greedy).hash(), pinned);
+        let hashes = [
+            pinned,
+            with(class("4")).hash(),
+            with(class("3")).hash(),
+            with(class("R,TT,TRT")).hash(),
+        ];
+        for i in 0..hashes.len() {
+            for j in 0..i {
+                assert_ne!(hashes[i], hashes[j], "{i} and {j}");
+            }
+        }
+        assert!(with(class("4")).validate().is_ok());
+        let mut bounce = with(class("4"));
+        bounce.layers = LayerCount::Bounce;
+        let error = bounce.validate().unwrap_err().to_string();
+        assert!(error.contains("bounce"), "{error}");
+        let mut single = with(class("4"));
+        single.infer.hybrid.precision = VertexPrecision::F32;
+        assert!(single.validate().is_err());
     }
 
     /// The convex-hull split is in the identity of a bake that may layer by bounce, apart from a

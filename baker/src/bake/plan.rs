@@ -243,6 +243,8 @@ struct Judge<'s> {
     scene: &'s Scene,
     trace: &'s TraceScene,
     camera: Camera,
+    /// The reference's options: the bake's ray-path model ([`super::InferOptions::model`]).
+    reference_options: TraceOptions,
     reference: Option<ReferenceImage>,
     hybrid: Option<HybridScene>,
 }
@@ -258,6 +260,10 @@ impl<'s> Judge<'s> {
             scene,
             trace,
             camera,
+            reference_options: TraceOptions {
+                model: options.infer.model(),
+                ..TraceOptions::default()
+            },
             reference: None,
             hybrid: None,
         }
@@ -274,7 +280,7 @@ impl<'s> Judge<'s> {
             None => {
                 progress("tracing the reference that judges layer counts");
                 let reference =
-                    render_reference(self.trace, &self.camera, &TraceOptions::default(), &|_| {})?;
+                    render_reference(self.trace, &self.camera, &self.reference_options, &|_| {})?;
                 self.reference.insert(reference)
             }
         };
@@ -486,7 +492,7 @@ fn search_em_size(
     let (frame, _) = FrameBuilder::new()
         .frame(hybrid, &camera, &options.infer.frame_options())
         .map_err(|e| InferError::Frame(e.to_string()))?;
-    let mut renderer = DeviceRenderer::new(runner, options.infer.compositing);
+    let mut renderer = DeviceRenderer::new(runner, options.infer.test_compositing());
     let mut finest: Option<usize> = None;
     for (lens, planned) in LensIndex::all(plan.lenses.len()).zip(&plan.lenses) {
         let frames = LayerFrames::new(&frame, lens, camera.supersampling.max(1))

@@ -142,7 +142,12 @@ pub fn bake_sample(
         .enumerate()
     {
         if hybrid.lenses().iter().any(|l| l.layering == layering) {
-            records[slot] = trace_views(hybrid, &cameras, layering, &mut seconds, progress)?;
+            let views = Views {
+                cameras: &cameras,
+                layering,
+                model: options.infer.model(),
+            };
+            records[slot] = trace_views(hybrid, &views, &mut seconds, progress)?;
         }
     }
     let infer = InferOptions {
@@ -183,28 +188,36 @@ pub fn bake_sample(
     ))
 }
 
-/// The intersection records of every view of `cameras` for lens objects layered by `layering`,
-/// timed into `seconds.tracing`.
+/// The views a record set is traced at: their cameras, the layering of the lens objects it is
+/// for and the frames' ray-path model (the greedy terms or path classes; a record set for
+/// lens objects layered by bounce is of greedy first bounces whatever it says).
+struct Views<'a> {
+    cameras: &'a [Camera],
+    layering: Layering,
+    model: lensmap::trace::PathModel,
+}
+
+/// The intersection records of every view of `views`, timed into `seconds.tracing`.
 fn trace_views(
     hybrid: &HybridScene,
-    cameras: &[Camera],
-    layering: Layering,
+    views: &Views<'_>,
     seconds: &mut StageSeconds,
     progress: &mut dyn FnMut(Step<'_>),
 ) -> Result<Vec<RecordSet>, BakeFailure> {
-    let mut records = Vec::with_capacity(cameras.len());
-    for (j, camera) in cameras.iter().enumerate() {
+    let mut records = Vec::with_capacity(views.cameras.len());
+    for (j, camera) in views.cameras.iter().enumerate() {
         progress(Step {
             stage: "tracing",
             position: j,
-            of: cameras.len(),
+            of: views.cameras.len(),
         });
         let t = Instant::now();
         let options = TraceOptions {
             greedy: GreedyOptions {
-                bounces: layering.bounces(),
+                bounces: views.layering.bounces(),
                 ..GreedyOptions::default()
             },
+            model: views.model,
             ..TraceOptions::default()
         };
         records.push(compile_records(hybrid.trace(), camera, &options)?);
@@ -278,7 +291,7 @@ fn solve_lenses(
             )
         })
         .collect();
-    let mut renderer = DeviceRenderer::new(runner, infer.compositing);
+    let mut renderer = DeviceRenderer::new(runner, infer.test_compositing());
     Ok(solve_layers(
         &mut renderer,
         hybrid,
@@ -375,7 +388,15 @@ fn judge_sample(
     options: &BakeOptions,
 ) -> Result<(Option<f64>, Option<f64>), BakeFailure> {
     let camera = sample_camera(scene, scene.view_space.samples()[sample], options);
-    let reference = render_reference(hybrid.trace(), &camera, &TraceOptions::default(), &|_| {})?;
+    let reference = render_reference(
+        hybrid.trace(),
+        &camera,
+        &TraceOptions {
+            model: options.infer.model(),
+            ..TraceOptions::default()
+        },
+        &|_| {},
+    )?;
     let mask = Mask::lens(&reference.lens_pixels, LensSelection::All);
     if mask.selected() == 0 {
         return Ok((None, None));

@@ -1,7 +1,8 @@
 //! Intersection records for the baker (paper §4.1, Figure 4).
 //!
 //! For every supersample of a viewpoint's image and every lens object the camera ray meets, the
-//! greedy paths of both terms are traced to where they leave the lens object. A record keeps the
+//! greedy paths of both terms are traced to where they leave the lens object (under
+//! [`PathModel::Classes`], one path per class term instead, each a record of its own term). A record keeps the
 //! image position, the term, `F·G`, the outgoing ray and **every** front-facing hit of that ray on
 //! the rest of the world, nearest first, not just the first (ray continuation, Figure 4c), each
 //! with the radiance leaving that surface towards the lens.
@@ -18,7 +19,7 @@ use rayon::prelude::*;
 use super::image::{camera_ray, subsample_position, validate_camera};
 use super::path::GreedyOptions;
 use super::path::{Bounces, GreedyRayPath, Term};
-use super::shade::TraceOptions;
+use super::shade::{PathModel, TraceOptions};
 use super::stats::TraceCounters;
 use super::world::{Part, SurfaceId, TraceScene};
 use super::{Ray, TraceError};
@@ -210,24 +211,77 @@ fn record_row(
                     let Some(hit) = hit else {
                         continue;
                     };
-                    let visible = first.is_some_and(|f| f.part == Part::Lens(lens));
-                    let paths = scene.greedy_paths(lens, &ray, &hit, options.greedy, &mut counters);
-                    for term in [Term::Refraction, Term::Reflection] {
-                        if let Some(path) = paths.get(term) {
-                            let start = RecordStart {
-                                lens,
-                                primitive: hit.primitive,
-                                image_position: Vec2::new(sx as f32, sy as f32),
-                                visible,
-                            };
-                            push_record(scene, options, &start, path, out, &mut counters);
-                        }
+                    let start = RecordStart {
+                        lens,
+                        primitive: hit.primitive,
+                        image_position: Vec2::new(sx as f32, sy as f32),
+                        visible: first.is_some_and(|f| f.part == Part::Lens(lens)),
+                    };
+                    for path in record_paths(scene, options, lens, &ray, &hit, &mut counters) {
+                        push_record(scene, options, &start, &path, out, &mut counters);
                     }
                 }
             }
         }
     }
     (lenses, counters)
+}
+
+/// What a record keeps of a path through a lens object: its term, `F`, `G`, the ray leaving and
+/// whether it stopped at the interface cap (its weight then 0).
+struct RecordPath {
+    term: Term,
+    fresnel: DVec3,
+    attenuation: DVec3,
+    outgoing_ray: Ray,
+    truncated: bool,
+}
+
+/// The paths lens object `lens` hit by `ray` at `hit` records under `options.model`: its two
+/// greedy paths, or under path classes one path per class term of its interface that has its
+/// sequence there (a first-bounce record set is the greedy paths' whatever the model says).
+fn record_paths(
+    scene: &TraceScene,
+    options: &TraceOptions,
+    lens: usize,
+    ray: &Ray,
+    hit: &super::bvh::SurfaceHit,
+    counters: &mut TraceCounters,
+) -> Vec<RecordPath> {
+    if let (PathModel::Classes(set), Bounces::UntilLeaving, Some(interface)) = (
+        options.model,
+        options.greedy.bounces,
+        scene.interface(hit.object),
+    ) {
+        let geometry = scene.lens(lens);
+        return set
+            .terms(interface)
+            .into_iter()
+            .filter_map(|term| {
+                super::classes::trace_term(&geometry, ray, hit, term, counters).map(|path| {
+                    RecordPath {
+                        term: Term::Class(term),
+                        fresnel: path.fresnel,
+                        attenuation: path.attenuation,
+                        outgoing_ray: path.outgoing_ray,
+                        truncated: false,
+                    }
+                })
+            })
+            .collect();
+    }
+    let paths = scene.greedy_paths(lens, ray, hit, options.greedy, counters);
+    [Term::Refraction, Term::Reflection]
+        .into_iter()
+        .filter_map(|term| paths.get(term))
+        .map(|path: &GreedyRayPath| RecordPath {
+            term: path.term,
+            fresnel: path.fresnel,
+            attenuation: path.attenuation,
+            outgoing_ray: path.outgoing_ray,
+            truncated: path.truncated,
+        })
+        .collect()
 }
 
 /// Where a record's path starts: its lens object, the triangle the camera ray hit, the
@@ -243,7 +297,7 @@ fn push_record(
     scene: &TraceScene,
     options: &TraceOptions,
     start: &RecordStart,
-    path: &GreedyRayPath,
+    path: &RecordPath,
     out: &mut LensRecords,
     counters: &mut TraceCounters,
 ) {
@@ -261,8 +315,9 @@ fn push_record(
     for hit in outgoing_hits(scene, &ray, &seen_lenses, counters) {
         let radiance = match hit.1 {
             Part::Environment => scene.shade_surface(&ray, &hit.0, options, counters),
+            // As the reference under the same model shades it: the greedy terms, or the classes.
             Part::Lens(other) => {
-                let [t, r] = scene.greedy_terms(other, &ray, &hit.0, 2, options, counters);
+                let [t, r] = scene.lens_terms(other, &ray, &hit.0, 2, options, counters);
                 t + r
             }
         };

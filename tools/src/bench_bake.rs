@@ -55,7 +55,7 @@ pub struct BenchBakeArgs {
     /// How the judged frames are made (RGBA32F and the CPU tracer unless asked otherwise).
     #[command(flatten)]
     frame: FrameArgs,
-    /// The reference's ray-path model: `greedy` (the papers' two terms, what the bakes fit),
+    /// The reference's ray-path model: `greedy` (the papers' two terms, what greedy bakes fit),
     /// `full` (the full ray tree: the light), or a path-class set. Where it is not the frames'
     /// own model (`--terms`), each frame is also judged against its own model's reference, so
     /// that the EMs' error and the model's show apart; against `full`, the reference is also

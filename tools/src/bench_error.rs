@@ -12,7 +12,10 @@
 //! frames' default model traces, so the error is the EMs' and the tessellation's alone) or the
 //! full ray tree (the light; its own convergence between two supersampling levels is reported
 //! beside it). The path-class settings (3, 4 and 6 classes, and 4 classes with t) put the class
-//! set on the sweep's axes, judged against the full tree.
+//! set on the sweep's axes: against the full tree they show what the classes recover, against
+//! the greedy reference how far they stand from the papers' model. A scene with a lens object
+//! classes cannot shade (layered by bounce, or of glass and mirrors together) leaves them out,
+//! saying so.
 //!
 //! The per-vertex CPU stages run in f64; the "CPU precision" settings run them in f32
 //! ([`VertexPrecision::F32`]) at the default and at RGBA32F, and also report how far each f32
@@ -606,6 +609,28 @@ fn checked_scene(args: &BenchErrorArgs) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
+/// Why a count of path classes cannot shade `scene`'s frames, if it cannot: a lens object
+/// layered by bounce (its paths stop at the first bounce), or one of glass and mirrors together
+/// (a count has no one order).
+fn classes_do_not_apply(scene: &Scene) -> Option<String> {
+    scene.lenses.iter().find_map(|lens| {
+        if lens.layering == lensmap::layers::Layering::Bounce {
+            return Some(format!(
+                "lens object \"{}\" is layered by bounce",
+                lens.name
+            ));
+        }
+        let glass = |&o: &usize| {
+            matches!(
+                scene.materials[scene.objects[o].material],
+                lensmap::scene::Material::Glass { .. }
+            )
+        };
+        (lens.objects.iter().any(glass) && !lens.objects.iter().all(glass))
+            .then(|| format!("lens object \"{}\" joins glass and mirrors", lens.name))
+    })
+}
+
 /// The settings a run measures.
 struct Sweep {
     /// The settings `--only` keeps, then the f64 twins of its f32 settings that it left out.
@@ -625,6 +650,10 @@ impl Sweep {
             .max()
             .unwrap_or(1);
         let mut all = settings(layer_count, args.bake.is_some());
+        if let Some(why) = classes_do_not_apply(scene) {
+            say!("the path-class settings are left out: {why}");
+            all.retain(|s| !matches!(s.terms, ShadingTerms::Classes(_)));
+        }
         if let Some(text) = &args.only {
             all.retain(|s| {
                 s.family == "default"

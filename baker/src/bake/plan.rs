@@ -374,6 +374,15 @@ fn plan_lens(
         LayerCount::Auto | LayerCount::Scene => scene.lenses[position].layering == Layering::Bounce,
         LayerCount::Count(_) => false,
     };
+    if let (true, lensmap::trace::PathModel::Classes(set)) = (by_bounce, options.infer.model()) {
+        // Refused before any work: the frames of classes cannot shade a lens by bounce.
+        return Err(lensmap::options::OptionError::new(
+            lensmap::options::names::TERMS,
+            set.name(),
+            format!("lens object \"{name}\" is layered by bounce (its scene entry's `layering`), whose paths stop at the first bounce; give --layers N (layers by distance), or greedy"),
+        )
+        .into());
+    }
     if by_bounce {
         progress(&format!("fitting layers by bounce for \"{name}\""));
         planned.shells = place_by_bounce(scene, trace, position, origin, placement_views)?.to_vec();

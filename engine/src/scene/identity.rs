@@ -125,7 +125,8 @@ impl Canonical for LensObject {
             objects,
             layers,
             layering,
-            // How frames shade it, not what its maps hold: bakes are of the greedy terms.
+            // How frames shade it, not what its maps hold: a bake's terms are its own option
+            // (`bake --terms`, in the bake's identity), which the scene file's do not set.
             terms: _,
         } = self;
         encoder.value(name).value(objects).value(layers);

@@ -183,7 +183,7 @@ impl BakeOptions {
                 self.layers != LayerCount::Bounce,
                 lensmap::options::names::TERMS,
                 classes.name(),
-                "path classes follow a path until it leaves, but layers by bounce stop at the first bounce; give --layers N or auto (layers by distance), or greedy",
+                "path classes follow a path until it leaves, but layers by bounce stop at the first bounce; give a layer count or auto (layers by distance), or greedy",
             )?;
         }
         Ok(self.infer.hybrid.validate()?)

@@ -379,7 +379,7 @@ fn plan_lens(
         return Err(lensmap::options::OptionError::new(
             lensmap::options::names::TERMS,
             set.name(),
-            format!("lens object \"{name}\" is layered by bounce (its scene entry's `layering`), whose paths stop at the first bounce; give --layers N (layers by distance), or greedy"),
+            format!("lens object \"{name}\" is layered by bounce (its scene entry's `layering`), whose paths stop at the first bounce; give a layer count (layers by distance), or greedy"),
         )
         .into());
     }

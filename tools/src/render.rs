@@ -184,6 +184,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             frame.stats.class_terms
         );
     }
+    // A bake's maps fit the terms they were solved over: say so when the frame's are others.
+    if let Some(dir) = &args.bake {
+        let baked = lensmap::layers::bake::Manifest::read(dir)
+            .ok()
+            .and_then(|m| m.provenance)
+            .and_then(|p| p.terms)
+            .unwrap_or_else(|| "greedy".into());
+        if baked != own_model {
+            warn!(
+                "the bake's maps were solved over the {baked} terms and the frame shades its lens objects with {own_model}; give --terms {baked} to draw them as they were fitted"
+            );
+        }
+    }
     // Projected EMs are the same at every sample: only a bake's samples can be left.
     if frame.stats.outside_view_space && args.bake.is_some() {
         let how_far = hybrid

@@ -707,7 +707,8 @@ fn compressed_shards_merge_and_a_compressed_bake_resumes_into_the_uncompressed_b
 /// `bake --terms 4` solves one EM per layer over the four path classes' equations (targets traced
 /// per class): the frame of 4 classes drawn from it comes closer to the full ray tree than the
 /// same frame drawn from a greedy bake, whose maps were fitted through the two greedy terms
-/// (measured at this size: 37.5 against 32.4 dB, and 1.005 against 1.060 of the light).
+/// (measured at this size: 37.5 against 32.4 dB, and 1.005 against 1.060 of the light). The
+/// bake's manifest names its classes, and a frame drawing a bake with other terms warns.
 #[test]
 fn a_bake_of_path_classes_brings_their_frame_closer_to_the_full_tree() {
     let dir = temp_dir("classes");
@@ -761,6 +762,20 @@ fn a_bake_of_path_classes_brings_their_frame_closer_to_the_full_tree() {
             image.to_str().unwrap(),
         ]);
         common::assert_success("lensmap render", &render);
+        // The manifest names a bake's classes (nothing for greedy's), and a frame of other terms
+        // than the bake's says so.
+        let manifest: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(out.join("manifest.json")).expect("the manifest"),
+        )
+        .expect("JSON");
+        let recorded = manifest["provenance"]["terms"].as_str();
+        assert_eq!(recorded, (terms != "greedy").then_some(terms));
+        let stderr = String::from_utf8_lossy(&render.stderr);
+        assert_eq!(
+            stderr.contains("give --terms greedy"),
+            terms == "greedy",
+            "{stderr}"
+        );
         let report: serde_json::Value =
             serde_json::from_slice(&render.stdout).expect("one JSON document");
         (

@@ -61,6 +61,9 @@ pub struct Plan {
     /// Distant layers shared between lens objects (one map each).
     #[serde(default)]
     pub shared: Vec<SharedLayer>,
+    /// The path classes the maps are solved over (`None`: the greedy terms), for the manifest.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terms: Option<String>,
 }
 
 impl Plan {
@@ -220,6 +223,10 @@ pub fn make_plan(
         scene: scene.name.clone(),
         scene_hash: scene.content_hash(),
         options_hash: options.hash(),
+        terms: match options.infer.model() {
+            lensmap::trace::PathModel::Classes(set) => Some(set.name()),
+            lensmap::trace::PathModel::Greedy | lensmap::trace::PathModel::Full => None,
+        },
         em_size: 0,
         lenses,
         shared,

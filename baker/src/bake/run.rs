@@ -385,11 +385,14 @@ fn plan_manifest(plan: &Plan, samples: &[usize], positions: &[Vec3]) -> Manifest
                     .collect(),
             })
             .collect(),
-        provenance: Some(Provenance::new(
-            plan.scene_hash.clone(),
-            plan.options_hash.clone(),
-            samples.to_vec(),
-        )),
+        provenance: Some(Provenance {
+            terms: plan.terms.clone(),
+            ..Provenance::new(
+                plan.scene_hash.clone(),
+                plan.options_hash.clone(),
+                samples.to_vec(),
+            )
+        }),
         compression: None,
     }
 }

@@ -78,6 +78,12 @@ pub struct Provenance {
     /// of one sample differ only by what their rasterization may differ by.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub baked_on: Vec<BakedOn>,
+    /// The path classes whose equations the maps were solved over
+    /// ([`crate::trace::classes::ClassSet::name`], e.g. `"4"`); absent for the papers' two
+    /// greedy terms, what every bake made before classes solved. In the options hash too; here
+    /// so that a frame drawing the bake can say when its own terms are others.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub terms: Option<String>,
 }
 
 /// Samples of a bake made on one device and driver.
@@ -132,6 +138,7 @@ impl Provenance {
             options_hash,
             samples,
             baked_on: Vec::new(),
+            terms: None,
         }
     }
 

@@ -227,6 +227,7 @@ mod tests {
             em_size: 16,
             lenses: lenses.clone(),
             shared: shared.clone(),
+            terms: None,
         };
         assert_eq!(plan.map_owner(at(1, 1)), at(0, 1));
         assert_eq!(plan.map_owner(at(1, 0)), at(1, 0));

@@ -132,17 +132,6 @@ impl InferOptions {
             ShadingTerms::Scene | ShadingTerms::Greedy => PathModel::Greedy,
         }
     }
-
-    /// How the test renderings are composited: as asked, but by the multipass variant
-    /// (front to back) where the single pass is asked of path classes, which it does not draw.
-    pub fn test_compositing(&self) -> Compositing {
-        match (self.model(), self.compositing) {
-            (PathModel::Classes(_), Compositing::SinglePass) => {
-                Compositing::Multipass(lensmap::render::BlendScheme::FrontToBack)
-            }
-            (_, compositing) => compositing,
-        }
-    }
 }
 
 impl Default for InferOptions {
@@ -325,7 +314,7 @@ pub fn infer_lens(
 ) -> Result<Inference, InferError> {
     let start = Instant::now();
     let prepared = prepare(hybrid, lens, views, options)?;
-    let mut renderer = DeviceRenderer::new(runner, options.test_compositing());
+    let mut renderer = DeviceRenderer::new(runner, options.compositing);
     // The resolution: the finest level read by any (term, layer) frame of the first view at the
     // cap.
     let (size, finest_level_at_cap, search_renders) = match options.em_size {

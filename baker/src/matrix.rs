@@ -623,12 +623,22 @@ impl LayerFrames {
             )));
         };
         let mut frame = self.template.clone();
+        // A layer frame draws one term's directions with F·G 1, which the compositor draws the
+        // same whichever term it is: a path class is drawn under the greedy term it starts
+        // like, so that the single pass (which draws only the greedy terms) measures it as it
+        // measures them. Under the multipass variant the frame would composite the overlapping
+        // surfaces of an open lens mesh by blending, which is not linear in the texels.
+        let drawn = match term {
+            Term::Class(class) if class.class.starts_reflected() => Term::Reflection,
+            Term::Class(_) => Term::Refraction,
+            greedy => greedy,
+        };
         frame.lenses.push(LensObject {
             name: self.lens.name.clone(),
             positions: self.lens.positions.clone(),
             triangles: self.lens.triangles.clone(),
             terms: vec![TermVertices {
-                term,
+                term: drawn,
                 fg: vec![glam::Vec3::ONE; self.lens.positions.len()],
                 directions: vec![directions.clone()],
             }],

@@ -508,7 +508,7 @@ fn search_em_size(
     let (frame, _) = FrameBuilder::new()
         .frame(hybrid, &camera, &options.infer.frame_options())
         .map_err(|e| InferError::Frame(e.to_string()))?;
-    let mut renderer = DeviceRenderer::new(runner, options.infer.test_compositing());
+    let mut renderer = DeviceRenderer::new(runner, options.infer.compositing);
     let mut finest: Option<usize> = None;
     for (lens, planned) in LensIndex::all(plan.lenses.len()).zip(&plan.lenses) {
         let frames = LayerFrames::new(&frame, lens, camera.supersampling.max(1))

@@ -291,7 +291,7 @@ fn solve_lenses(
             )
         })
         .collect();
-    let mut renderer = DeviceRenderer::new(runner, infer.test_compositing());
+    let mut renderer = DeviceRenderer::new(runner, infer.compositing);
     Ok(solve_layers(
         &mut renderer,
         hybrid,

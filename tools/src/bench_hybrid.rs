@@ -446,29 +446,17 @@ impl Bench<'_> {
             .chain([3, 4, 6].map(|n| ShadingTerms::Classes(ClassSet::First(n))))
             .map(|terms| (terms.name(), setting(terms)))
             .collect();
-        let mut frame = |options: &FrameOptions| {
-            runner.forget_frame();
-            runner.frame(self.hybrid, &self.camera, options)
-        };
-        // A scene whose lens objects classes cannot shade (layered by bounce, or glass and
-        // mirrors under a count) skips the part, saying why.
+        // The warm-ups: a scene whose lens objects classes cannot shade (layered by bounce, or
+        // glass and mirrors under a count) skips the part, saying why.
         for (name, options) in &settings {
-            if let Err(error) = frame(options) {
+            if let Err(error) = self.frame_from_scratch(runner, options) {
                 step.finish_and_clear();
                 say!("path classes against greedy: not run ({name}: {error})");
                 return Ok(json!({ "not_run": error.to_string() }));
             }
         }
-        let mut frames: Vec<Vec<HybridFrame>> = vec![Vec::new(); settings.len()];
-        for round in 0..self.frames {
-            let mut order: Vec<usize> = (0..settings.len()).collect();
-            if round % 2 == 1 {
-                order.reverse();
-            }
-            for which in order {
-                frames[which].push(frame(&settings[which].1)?);
-            }
-        }
+        let options: Vec<&FrameOptions> = settings.iter().map(|(_, options)| options).collect();
+        let frames = self.rounds(runner, &options, ClassSample::of)?;
         step.finish_and_clear();
         say!(
             "path classes against greedy (CPU tracer, multipass, {} frames each, alternating; × greedy's):",
@@ -569,6 +557,38 @@ impl Bench<'_> {
     /// so neither always runs first) after a warm-up of each: medians of the vertex tracing and
     /// of the whole frame per setting, and the medians of the paired differences (second −
     /// first); printed after `what` and as JSON.
+    /// One frame of `options` built from scratch (its tessellation and upload not reused).
+    fn frame_from_scratch(
+        &self,
+        runner: &mut FrameRunner,
+        options: &FrameOptions,
+    ) -> Result<HybridFrame, lensmap::runner::RunError> {
+        runner.forget_frame();
+        runner.frame(self.hybrid, &self.camera, options)
+    }
+
+    /// `--frames` rounds over `settings`, forwards in even rounds and backwards in odd ones (A B
+    /// B A … for two), so that none always runs first; each frame built from scratch, and
+    /// only what `keep` takes of it kept (not its image). Per setting, in order.
+    fn rounds<T>(
+        &self,
+        runner: &mut FrameRunner,
+        settings: &[&FrameOptions],
+        keep: impl Fn(&HybridFrame) -> T,
+    ) -> anyhow::Result<Vec<Vec<T>>> {
+        let mut kept: Vec<Vec<T>> = settings.iter().map(|_| Vec::new()).collect();
+        for round in 0..self.frames {
+            let mut order: Vec<usize> = (0..settings.len()).collect();
+            if round % 2 == 1 {
+                order.reverse();
+            }
+            for which in order {
+                kept[which].push(keep(&self.frame_from_scratch(runner, settings[which])?));
+            }
+        }
+        Ok(kept)
+    }
+
     fn alternating(
         &self,
         runner: &mut FrameRunner,
@@ -577,22 +597,12 @@ impl Bench<'_> {
         steps: &mut Steps,
     ) -> anyhow::Result<serde_json::Value> {
         let step = steps.step(&format!("{what}, alternating"));
-        let mut frame = |setting: &FrameOptions| {
-            runner.forget_frame();
-            runner
-                .frame(self.hybrid, &self.camera, setting)
-                .map(|f| (f.stats.trace_ms, f.total_ms))
-        };
         for (_, setting) in settings {
-            frame(setting)?;
+            self.frame_from_scratch(runner, setting)?;
         }
-        let mut times: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
-        for i in 0..self.frames {
-            let order = if i % 2 == 0 { [0, 1] } else { [1, 0] };
-            for which in order {
-                times[which].push(frame(settings[which].1)?);
-            }
-        }
+        let times = self.rounds(runner, &settings.map(|(_, setting)| setting), |f| {
+            (f.stats.trace_ms, f.total_ms)
+        })?;
         step.finish_and_clear();
         let median_of = |which: usize, part: Part| {
             median(&mut times[which].iter().map(part).collect::<Vec<_>>())
@@ -626,6 +636,25 @@ impl Bench<'_> {
     }
 }
 
+/// What a term set's frame adds to its row: its stage times and what the stages scale by.
+struct ClassSample {
+    stages: StageMedians,
+    passes: usize,
+    rays: u64,
+    vertices: usize,
+}
+
+impl ClassSample {
+    fn of(frame: &HybridFrame) -> ClassSample {
+        ClassSample {
+            stages: StageMedians::of_frame(frame),
+            passes: frame.render.passes,
+            rays: frame.stats.counters.all_rays(),
+            vertices: frame.stats.vertices_traced,
+        }
+    }
+}
+
 /// One term set's frames: the stage medians and what the stages scale by (the last frame's
 /// counts, the same for every frame).
 struct ClassRow {
@@ -636,18 +665,18 @@ struct ClassRow {
 }
 
 impl ClassRow {
-    fn of(frames: &[HybridFrame]) -> ClassRow {
-        let last = &frames[frames.len() - 1];
+    fn of(samples: &[ClassSample]) -> ClassRow {
+        let last = &samples[samples.len() - 1];
         ClassRow {
-            stages: StageMedians::of(frames),
-            passes: last.render.passes,
-            rays: last.stats.counters.all_rays(),
-            vertices: last.stats.vertices_traced,
+            stages: StageMedians::of_medians(samples.iter().map(|s| &s.stages)),
+            passes: last.passes,
+            rays: last.rays,
+            vertices: last.vertices,
         }
     }
 }
 
-/// Median stage times of one setting, ms.
+/// Median stage times of one setting (or one frame's times), ms.
 struct StageMedians {
     trace: f64,
     texgen: f64,
@@ -665,20 +694,43 @@ struct StageMedians {
 impl StageMedians {
     /// The medians over `frames`.
     fn of(frames: &[HybridFrame]) -> StageMedians {
-        let stage =
-            |f: &dyn Fn(&HybridFrame) -> f64| median(&mut frames.iter().map(f).collect::<Vec<_>>());
+        let each: Vec<StageMedians> = frames.iter().map(StageMedians::of_frame).collect();
+        StageMedians::of_medians(each.iter())
+    }
+
+    /// One frame's stage times.
+    fn of_frame(f: &HybridFrame) -> StageMedians {
         StageMedians {
-            trace: stage(&|f| f.stats.trace_ms),
-            texgen: stage(&|f| f.stats.texgen_ms),
-            tessellation: stage(&|f| f.stats.tessellation_ms),
-            assemble: stage(&|f| f.stats.assemble_ms),
-            upload: stage(&|f| f.upload_ms),
-            record: stage(&|f| f.render.record_ms),
-            execute: stage(&|f| f.render.execute_ms),
-            readback: stage(&|f| f.render.readback_ms),
-            downsample: stage(&|f| f.downsample_ms),
-            unaccounted: stage(&|f| f.unaccounted_ms()),
-            total: stage(&|f| f.total_ms),
+            trace: f.stats.trace_ms,
+            texgen: f.stats.texgen_ms,
+            tessellation: f.stats.tessellation_ms,
+            assemble: f.stats.assemble_ms,
+            upload: f.upload_ms,
+            record: f.render.record_ms,
+            execute: f.render.execute_ms,
+            readback: f.render.readback_ms,
+            downsample: f.downsample_ms,
+            unaccounted: f.unaccounted_ms(),
+            total: f.total_ms,
+        }
+    }
+
+    /// The medians of frames' times `each` (each one frame's, [`StageMedians::of_frame`]).
+    fn of_medians<'a>(each: impl Iterator<Item = &'a StageMedians> + Clone) -> StageMedians {
+        let stage =
+            |f: fn(&StageMedians) -> f64| median(&mut each.clone().map(f).collect::<Vec<_>>());
+        StageMedians {
+            trace: stage(|s| s.trace),
+            texgen: stage(|s| s.texgen),
+            tessellation: stage(|s| s.tessellation),
+            assemble: stage(|s| s.assemble),
+            upload: stage(|s| s.upload),
+            record: stage(|s| s.record),
+            execute: stage(|s| s.execute),
+            readback: stage(|s| s.readback),
+            downsample: stage(|s| s.downsample),
+            unaccounted: stage(|s| s.unaccounted),
+            total: stage(|s| s.total),
         }
     }
 

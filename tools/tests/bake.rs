@@ -704,6 +704,18 @@ fn compressed_shards_merge_and_a_compressed_bake_resumes_into_the_uncompressed_b
     let _ = std::fs::remove_dir_all(&root);
 }
 
+/// The glass ball at the class bake test's size: 64×48 at 2×2, for the bake and its frames.
+const BALL: [&str; 8] = [
+    "--scene",
+    "glass-sphere",
+    "--width",
+    "64",
+    "--height",
+    "48",
+    "--supersampling",
+    "2",
+];
+
 /// `bake --terms 4` solves one EM per layer over the four path classes' equations (targets traced
 /// per class): the frame of 4 classes drawn from it comes closer to the full ray tree than the
 /// same frame drawn from a greedy bake, whose maps were fitted through the two greedy terms
@@ -714,44 +726,15 @@ fn a_bake_of_path_classes_brings_their_frame_closer_to_the_full_tree() {
     let dir = temp_dir("classes");
     let frame_against_full_tree = |terms: &str| {
         let out = dir.join(format!("bake-{terms}"));
-        let args = [
-            "bake",
-            "--scene",
-            "glass-sphere",
-            "--samples",
-            "0",
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--supersampling",
-            "2",
-            "--no-judge",
-            "--json",
-            "--terms",
-            terms,
-            "--out",
-        ];
-        let mut command = args.to_vec();
-        command.push(out.to_str().expect("UTF-8 temp path"));
+        let out_text = out.to_str().expect("UTF-8 temp path");
+        let mut command = vec!["bake", "--samples", "0", "--no-judge", "--json"];
+        command.extend_from_slice(&BALL);
+        command.extend_from_slice(&["--terms", terms, "--out", out_text]);
         succeeded(&lensmap(&command));
         let image = dir.join(format!("frame-{terms}.png"));
-        let render = lensmap(&[
-            "render",
-            "--scene",
-            "glass-sphere",
-            "--bake",
-            out.to_str().unwrap(),
-            "--view",
-            "0",
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--supersampling",
-            "2",
-            "--terms",
-            "4",
+        let mut command = vec!["render", "--bake", out_text, "--view", "0", "--terms", "4"];
+        command.extend_from_slice(&BALL);
+        command.extend_from_slice(&[
             "--compare",
             "--reference-tree",
             "full",
@@ -761,6 +744,7 @@ fn a_bake_of_path_classes_brings_their_frame_closer_to_the_full_tree() {
             "--out",
             image.to_str().unwrap(),
         ]);
+        let render = lensmap(&command);
         common::assert_success("lensmap render", &render);
         // The manifest names a bake's classes (nothing for greedy's), and a frame of other terms
         // than the bake's says so.

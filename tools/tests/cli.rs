@@ -13,6 +13,18 @@ fn lensmap(args: &[&str]) -> std::process::Output {
         .expect("the lensmap binary runs")
 }
 
+/// `lensmap ARGS` (with `--json` among them) run to success with validation silent: its JSON
+/// report.
+fn json_report(args: &[&str]) -> serde_json::Value {
+    let out = common::lensmap_command(args)
+        .output()
+        .expect("the lensmap binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("validation"), "{stderr}");
+    serde_json::from_slice(&out.stdout).expect("one JSON document")
+}
+
 fn passes_counts(args: &[&str]) -> serde_json::Value {
     let mut all = vec!["passes", "--json"];
     all.extend_from_slice(args);
@@ -543,7 +555,7 @@ fn bench_error_measures_time_and_error_with_baselines_and_a_frontier() {
 /// default), which drop the light of the weaker child at every interface.
 #[test]
 fn bench_error_against_the_full_tree_sweeps_path_classes() {
-    let out = common::lensmap_command(&[
+    let report = json_report(&[
         "bench",
         "error",
         "--json",
@@ -563,13 +575,7 @@ fn bench_error_against_the_full_tree_sweeps_path_classes() {
         "full",
         "--only",
         "terms=4",
-    ])
-    .output()
-    .expect("the lensmap binary runs");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
-    assert!(!stderr.contains("validation"), "{stderr}");
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    ]);
     assert_eq!(report["reference_tree"], "full");
     let convergence = report["reference_convergence"]["lens_psnr_db_per_camera"]
         .as_array()
@@ -607,7 +613,7 @@ fn bench_error_against_the_full_tree_sweeps_path_classes() {
 /// two greedy paths.
 #[test]
 fn bench_hybrid_times_the_stages_of_path_classes() {
-    let out = common::lensmap_command(&[
+    let report = json_report(&[
         "bench",
         "hybrid",
         "--json",
@@ -619,13 +625,7 @@ fn bench_hybrid_times_the_stages_of_path_classes() {
         "24",
         "--frames",
         "1",
-    ])
-    .output()
-    .expect("the lensmap binary runs");
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
-    assert!(!stderr.contains("validation"), "{stderr}");
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON document");
+    ]);
     let rows = report["path_classes"]["rows"]
         .as_array()
         .expect("the path-class rows");

@@ -15,7 +15,8 @@
 //! - the single pass's limits: its layers (`const MAX_LAYERS` in `lens.wgsl`, next to the
 //!   varyings that set it; checked against the number of varyings `vs_single_pass` writes) and
 //!   its viewpoint samples (`const MAX_VIEWPOINTS`, checked against the cube-map arrays the file
-//!   binds);
+//!   binds); the varyings of its path-class form (`const SINGLE_PASS_SLOTS`, checked against the
+//!   varyings `vs_single_pass_classes` writes);
 //! - every push-constant (`var<immediate>`) struct as a `#[repr(C)]` Rust struct with naga's
 //!   offsets, explicit padding, and compile-time assertions of its size and every field's offset;
 //! - per file, a module `lensmap_shaders::<file>` of its contracts (`build/contracts.rs`): an enum
@@ -33,12 +34,19 @@ const MAX_LAYERS_CONSTANT: &str = "MAX_LAYERS";
 /// The WGSL `const` in `lens.wgsl` that bounds the viewpoint samples the single pass blends.
 const MAX_VIEWPOINTS_CONSTANT: &str = "MAX_VIEWPOINTS";
 
-/// What the single pass is compiled for: its file's `const MAX_LAYERS` and `const
-/// MAX_VIEWPOINTS`.
+/// The WGSL `const` in `lens.wgsl`: the varyings of the single pass of path classes.
+const SLOTS_CONSTANT: &str = "SINGLE_PASS_SLOTS";
+
+/// The specialized entry point of the single pass of path classes, compiled per class count.
+const CLASSES_ENTRY: &str = "fs_single_pass_classes_specialized";
+
+/// What the single pass is compiled for: its file's `const MAX_LAYERS`, `const MAX_VIEWPOINTS`
+/// and `const SINGLE_PASS_SLOTS`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct SinglePassBounds {
     max_layers: u32,
     max_viewpoints: u32,
+    slots: u32,
 }
 
 /// The folder, inside `wgsl/`, of the WGSL that files share: a line `// #include "NAME"` in a
@@ -78,15 +86,36 @@ fn expand_includes(source: &str, include_dir: &Path, shown: &str) -> Result<Stri
     Ok(expanded)
 }
 
-/// Override constants and the values each specialized entry point is compiled for: every layer
-/// count up to the shader's `MAX_LAYERS`, each non-empty term set (bit 0 refraction, bit 1
-/// reflection), every viewpoint count up to its `MAX_VIEWPOINTS`.
-fn specializations(bounds: SinglePassBounds) -> Vec<(&'static str, Vec<u32>)> {
-    vec![
-        ("LAYER_COUNT", (1..=bounds.max_layers).collect()),
-        ("TERM_MASK", vec![1, 2, 3]),
-        ("VIEWPOINTS", (1..=bounds.max_viewpoints).collect()),
-    ]
+/// Override constants and the values specialized entry point `entry` is compiled for: every
+/// layer count up to the shader's `MAX_LAYERS` and every viewpoint count up to its
+/// `MAX_VIEWPOINTS`; for the greedy terms' single pass each non-empty term set (bit 0
+/// refraction, bit 1 reflection) and no classes, for the single pass of path classes
+/// ([`CLASSES_ENTRY`]) every class count K that fits its varyings with n layers,
+/// K·(n + 1) ≤ `SINGLE_PASS_SLOTS`, and no term mask. Every combination sets every override,
+/// so that each names one `Overrides` value.
+fn specializations(entry: &str, bounds: SinglePassBounds) -> Vec<Combination> {
+    let layers = ("LAYER_COUNT", (1..=bounds.max_layers).collect());
+    let viewpoints = ("VIEWPOINTS", (1..=bounds.max_viewpoints).collect());
+    if entry != CLASSES_ENTRY {
+        return combinations(&[
+            layers,
+            ("TERM_MASK", vec![1, 2, 3]),
+            viewpoints,
+            ("CLASS_COUNT", vec![0]),
+        ]);
+    }
+    combinations(&[
+        layers,
+        ("TERM_MASK", vec![0]),
+        viewpoints,
+        ("CLASS_COUNT", (1..=bounds.slots).collect()),
+    ])
+    .into_iter()
+    .filter(|c| {
+        let value = |name: &str| c.iter().find(|(n, _)| *n == name).map_or(0, |(_, v)| *v);
+        value("CLASS_COUNT") * (value("LAYER_COUNT") + 1) <= bounds.slots
+    })
+    .collect()
 }
 
 /// Every combination of the specialization values, as (name, value) lists.
@@ -249,6 +278,7 @@ fn main() {
     let Some(SinglePassBounds {
         max_layers,
         max_viewpoints,
+        slots,
     }) = single_pass
     else {
         eprintln!("error: shaders/wgsl/lens.wgsl: `const {MAX_LAYERS_CONSTANT}: u32` is missing");
@@ -265,7 +295,10 @@ fn main() {
          pub const {MAX_LAYERS_CONSTANT}: u32 = {max_layers};\n\n\
          /// Most viewpoint samples the single-pass fragment shader blends (`const \
          {MAX_VIEWPOINTS_CONSTANT}` in `lens.wgsl`, which binds one cube-map array per sample).\n\
-         pub const {MAX_VIEWPOINTS_CONSTANT}: u32 = {max_viewpoints};\n"
+         pub const {MAX_VIEWPOINTS_CONSTANT}: u32 = {max_viewpoints};\n\n\
+         /// Varyings of the single pass of path classes (`const {SLOTS_CONSTANT}` in `lens.wgsl`): \
+         K classes of n layers take K·(n + 1).\n\
+         pub const {SLOTS_CONSTANT}: u32 = {slots};\n"
     );
     generated.push_str(&modules);
     generated.push('\n');
@@ -314,7 +347,7 @@ fn compile(source: &str, stem: &str, shown: &str) -> Result<Compiled, String> {
                     ep.name
                 ));
             };
-            combinations(&specializations(bounds))
+            specializations(&ep.name, bounds)
         } else {
             vec![Vec::new()]
         };
@@ -362,11 +395,29 @@ fn single_pass_bounds(module: &naga::Module) -> Result<Option<SinglePassBounds>,
             "`const {MAX_LAYERS_CONSTANT}` needs `const {MAX_VIEWPOINTS_CONSTANT}: u32` beside it"
         )
     })?;
-    check_single_pass_varyings(module, max_layers)?;
+    let slots = u32_constant(module, SLOTS_CONSTANT)?.ok_or_else(|| {
+        format!("`const {MAX_LAYERS_CONSTANT}` needs `const {SLOTS_CONSTANT}: u32` beside it")
+    })?;
+    let found = varyings(module, "vs_single_pass")?;
+    if found != 2 * max_layers as usize + 2 {
+        return Err(format!(
+            "`vs_single_pass` writes {found} varyings but `const {MAX_LAYERS_CONSTANT} = {max_layers}` \
+             needs {} (a direction per layer and term, and two F·G): change both together",
+            2 * max_layers + 2
+        ));
+    }
+    let found = varyings(module, "vs_single_pass_classes")?;
+    if found != slots as usize {
+        return Err(format!(
+            "`vs_single_pass_classes` writes {found} varyings but `const {SLOTS_CONSTANT} = {slots}` \
+             needs as many: change both together"
+        ));
+    }
     check_single_pass_layers(module, max_viewpoints)?;
     Ok(Some(SinglePassBounds {
         max_layers,
         max_viewpoints,
+        slots,
     }))
 }
 
@@ -398,19 +449,19 @@ fn check_single_pass_layers(module: &naga::Module, max_viewpoints: u32) -> Resul
     }
 }
 
-/// The single pass carries one interpolated direction per layer and term plus the two F·G: its
-/// vertex stage must write exactly `2·MAX_LAYERS + 2` location varyings, or raising `MAX_LAYERS`
-/// without adding varyings (and the fragment code that reads them) would compile a shader that
-/// silently composites fewer layers.
-fn check_single_pass_varyings(module: &naga::Module, max_layers: u32) -> Result<(), String> {
-    const ENTRY: &str = "vs_single_pass";
-    let entry = module
+/// The location varyings vertex entry point `entry` writes. A single pass's vertex stage must
+/// write exactly those its constant sets (`2·MAX_LAYERS + 2` for the greedy terms': a direction
+/// per layer and term, two F·G; `SINGLE_PASS_SLOTS` for the path classes'), or raising the
+/// constant without adding varyings (and the fragment code that reads them) would compile a
+/// shader that silently composites fewer layers.
+fn varyings(module: &naga::Module, entry: &str) -> Result<usize, String> {
+    let found = module
         .entry_points
         .iter()
-        .find(|ep| ep.name == ENTRY)
-        .ok_or_else(|| format!("`const {MAX_LAYERS_CONSTANT}` needs the entry point `{ENTRY}`"))?;
+        .find(|ep| ep.name == entry)
+        .ok_or_else(|| format!("`const {MAX_LAYERS_CONSTANT}` needs the entry point `{entry}`"))?;
     let locations =
-        entry
+        found
             .function
             .result
             .as_ref()
@@ -421,15 +472,7 @@ fn check_single_pass_varyings(module: &naga::Module, max_layers: u32) -> Result<
                     .count(),
                 _ => 0,
             });
-    let expected = 2 * max_layers as usize + 2;
-    if locations == expected {
-        Ok(())
-    } else {
-        Err(format!(
-            "`{ENTRY}` writes {locations} varyings but `const {MAX_LAYERS_CONSTANT} = {max_layers}` \
-             needs {expected} (a direction per layer and term, and two F·G): change both together"
-        ))
-    }
+    Ok(locations)
 }
 
 /// The value of the module's `const NAME: u32 = …;`, if it declares one.

@@ -21,10 +21,14 @@ include!(concat!(env!("OUT_DIR"), "/modules.rs"));
 pub struct Overrides {
     /// `LAYER_COUNT`: layers composited, 1 ..= [`MAX_LAYERS`].
     pub layer_count: u32,
-    /// `TERM_MASK`: bit 0 the refraction term, bit 1 the reflection term (1, 2 or 3).
+    /// `TERM_MASK`: bit 0 the refraction term, bit 1 the reflection term (1, 2 or 3); 0 for
+    /// the single pass of path classes.
     pub term_mask: u32,
     /// `VIEWPOINTS`: viewpoint samples blended, 1 ..= [`MAX_VIEWPOINTS`].
     pub viewpoints: u32,
+    /// `CLASS_COUNT`: the path-class terms K of the single pass of path classes, with
+    /// K·(`layer_count` + 1) ≤ [`SINGLE_PASS_SLOTS`]; 0 for the greedy terms' single pass.
+    pub class_count: u32,
 }
 
 /// An entry point of one shader file (each file's `Entry`, generated).
@@ -167,6 +171,7 @@ mod tests {
             ("lens", "vs_layer"),
             ("lens", "fs_layer"),
             ("lens", "vs_single_pass"),
+            ("lens", "vs_single_pass_classes"),
         ] {
             assert!(
                 names.contains(&expected),
@@ -180,6 +185,7 @@ mod tests {
                         layer_count,
                         term_mask,
                         viewpoints,
+                        class_count: 0,
                     };
                     assert!(
                         lens::Specialized::FsSinglePassSpecialized
@@ -190,9 +196,30 @@ mod tests {
                 }
             }
         }
+        // The classes' single pass: every K classes of n layers within the slots, and no more.
+        let mut class_programs = 0;
+        for layer_count in 1..=MAX_LAYERS {
+            for class_count in 1..=SINGLE_PASS_SLOTS + 1 {
+                for viewpoints in 1..=MAX_VIEWPOINTS {
+                    let overrides = Overrides {
+                        layer_count,
+                        term_mask: 0,
+                        viewpoints,
+                        class_count,
+                    };
+                    let fits = class_count * (layer_count + 1) <= SINGLE_PASS_SLOTS;
+                    let shader =
+                        lens::Specialized::FsSinglePassClassesSpecialized.shader(overrides);
+                    assert_eq!(shader.is_some(), fits, "{overrides:?}");
+                    class_programs += usize::from(fits);
+                }
+            }
+        }
+        // 16 slots: K ≤ 8, 5, 4, 3, 2, 2 at n = 1 … 6.
+        assert_eq!(class_programs, 24 * MAX_VIEWPOINTS as usize);
         assert_eq!(
             SPECIALIZED.len(),
-            MAX_LAYERS as usize * 3 * MAX_VIEWPOINTS as usize
+            MAX_LAYERS as usize * 3 * MAX_VIEWPOINTS as usize + class_programs
         );
         assert_eq!(
             MAX_VIEWPOINTS, 3,

@@ -26,11 +26,13 @@ struct LensConstants {
     weight_c: f32,
     // Multipass: unused. Single pass: number of layers n (≤ MAX_LAYERS).
     layer_count: u32,
-    // Single pass: bit 0 = refraction term present, bit 1 = reflection term present.
+    // Single pass: bit 0 = refraction term present, bit 1 = reflection term present. Single pass
+    // of path classes: the number of class terms.
     term_mask: u32,
     // Offsets in vec4 units into lens_data.
     position_offset: u32,
-    // Multipass: this pass's F·G. Single pass: refraction F·G.
+    // Multipass: this pass's F·G. Single pass: refraction F·G. Single pass of path classes: the
+    // first class's F·G (each class's F·G and n direction arrays follow, vertex_count apart).
     fg_offset_t: u32,
     // Single pass: reflection F·G.
     fg_offset_r: u32,
@@ -267,6 +269,120 @@ fn fs_single_pass_specialized(in: SinglePassVertex) -> @location(0) vec4<f32> {
     }
     if VIEWPOINTS > 2u {
         result = composite_viewpoint(result, in, layers_c, constants.weight_c);
+    }
+    return result;
+}
+
+// The single pass of path classes: K class terms of n layers each carry K·(n + 1) varyings, the
+// F·G and a direction per layer of each class in turn (slot k·(n + 1) is class k's F·G, the n
+// after it its directions). shaders/build.rs reads this constant: it compiles the pass for every
+// (n, K) with K·(n + 1) ≤ SINGLE_PASS_SLOTS, and Rust takes it as lensmap_shaders::SINGLE_PASS_SLOTS.
+// 16 is Vulkan's guaranteed minimum (maxVertexOutputComponents and maxFragmentInputComponents
+// of 64): four classes at n ≤ 3.
+const SINGLE_PASS_SLOTS: u32 = 16u;
+
+struct ClassesVertex {
+    @builtin(position) @invariant clip: vec4<f32>,
+    @location(0) s0: vec3<f32>,
+    @location(1) s1: vec3<f32>,
+    @location(2) s2: vec3<f32>,
+    @location(3) s3: vec3<f32>,
+    @location(4) s4: vec3<f32>,
+    @location(5) s5: vec3<f32>,
+    @location(6) s6: vec3<f32>,
+    @location(7) s7: vec3<f32>,
+    @location(8) s8: vec3<f32>,
+    @location(9) s9: vec3<f32>,
+    @location(10) s10: vec3<f32>,
+    @location(11) s11: vec3<f32>,
+    @location(12) s12: vec3<f32>,
+    @location(13) s13: vec3<f32>,
+    @location(14) s14: vec3<f32>,
+    @location(15) s15: vec3<f32>,
+}
+
+// Slot `slot` of vertex `vertex`: a class's F·G or one of its layers' directions, as above;
+// (0, 0, 1) past the last class (never read).
+fn class_slot(slot: u32, vertex: u32) -> vec3<f32> {
+    let per_class = constants.layer_count + 1u;
+    if slot >= per_class * constants.term_mask {
+        return vec3<f32>(0.0, 0.0, 1.0);
+    }
+    // The data holds each class's F·G array then its n direction arrays: slot order.
+    return lens_data[constants.fg_offset_t + slot * constants.vertex_count + vertex].xyz;
+}
+
+@vertex
+fn vs_single_pass_classes(@builtin(vertex_index) vertex: u32) -> ClassesVertex {
+    var out: ClassesVertex;
+    out.clip = clip_position(vertex);
+    out.s0 = class_slot(0u, vertex); out.s1 = class_slot(1u, vertex);
+    out.s2 = class_slot(2u, vertex); out.s3 = class_slot(3u, vertex);
+    out.s4 = class_slot(4u, vertex); out.s5 = class_slot(5u, vertex);
+    out.s6 = class_slot(6u, vertex); out.s7 = class_slot(7u, vertex);
+    out.s8 = class_slot(8u, vertex); out.s9 = class_slot(9u, vertex);
+    out.s10 = class_slot(10u, vertex); out.s11 = class_slot(11u, vertex);
+    out.s12 = class_slot(12u, vertex); out.s13 = class_slot(13u, vertex);
+    out.s14 = class_slot(14u, vertex); out.s15 = class_slot(15u, vertex);
+    return out;
+}
+
+// The interpolated slot `slot` (a constant once the loops below are unrolled).
+fn interpolated(in: ClassesVertex, slot: u32) -> vec3<f32> {
+    switch slot {
+        case 0u: { return in.s0; }
+        case 1u: { return in.s1; }
+        case 2u: { return in.s2; }
+        case 3u: { return in.s3; }
+        case 4u: { return in.s4; }
+        case 5u: { return in.s5; }
+        case 6u: { return in.s6; }
+        case 7u: { return in.s7; }
+        case 8u: { return in.s8; }
+        case 9u: { return in.s9; }
+        case 10u: { return in.s10; }
+        case 11u: { return in.s11; }
+        case 12u: { return in.s12; }
+        case 13u: { return in.s13; }
+        case 14u: { return in.s14; }
+        default: { return in.s15; }
+    }
+}
+
+// Specialization of the classes' single pass (see shaders/build.rs): the class terms K.
+// LAYER_COUNT and VIEWPOINTS are the ones above.
+override CLASS_COUNT: u32 = 1u;
+
+// One viewpoint sample's (viewpoint, class) groups, classes in order, onto the running colour:
+// per group α starts at 0 (the alpha clear) and its layers go front to back, as composite_group.
+fn composite_viewpoint_classes(
+    running: vec4<f32>,
+    in: ClassesVertex,
+    layers: texture_cube_array<f32>,
+    weight: f32,
+) -> vec4<f32> {
+    var result = running;
+    for (var k = 0u; k < CLASS_COUNT; k++) {
+        let base = k * (LAYER_COUNT + 1u);
+        let fg = interpolated(in, base);
+        result = over_layer(vec4<f32>(result.rgb, 0.0), layers, interpolated(in, base + 1u), 0u, fg, weight, local_keep());
+        for (var l = 1u; l < LAYER_COUNT; l++) {
+            result = over_layer(result, layers, interpolated(in, base + 1u + l), l, fg, weight, 1.0);
+        }
+    }
+    return result;
+}
+
+// The single pass of path classes: groups in the multipass order (viewpoint a, b, c; the classes
+// in order), so the arithmetic matches the multipass frame.
+@fragment
+fn fs_single_pass_classes_specialized(in: ClassesVertex) -> @location(0) vec4<f32> {
+    var result = composite_viewpoint_classes(vec4<f32>(0.0), in, layers_a, constants.weight_a);
+    if VIEWPOINTS > 1u {
+        result = composite_viewpoint_classes(result, in, layers_b, constants.weight_b);
+    }
+    if VIEWPOINTS > 2u {
+        result = composite_viewpoint_classes(result, in, layers_c, constants.weight_c);
     }
     return result;
 }

@@ -248,15 +248,15 @@ fn multipass_rgba32f_matches_the_f64_model_and_single_pass_matches_multipass() {
     assert_clean(&gpu);
 }
 
-/// Renders `frame` by the multipass variant in `blend` and checks it against the f64 model;
-/// the largest |GPU − model|.
-fn multipass_against_model(
+/// Renders `frame` composited by `compositing` and checks it against the f64 model of its
+/// arithmetic order (the single pass's is front-to-back's); the largest |GPU − model|.
+fn against_model(
     case: &str,
     gpu: &Gpu,
     renderer: &mut Renderer,
     uploaded: &mut UploadedFrame,
     frame: &FrameInput,
-    blend: BlendScheme,
+    compositing: Compositing,
     tolerance: &Tolerance,
 ) -> f64 {
     let (image, _) = renderer
@@ -264,14 +264,14 @@ fn multipass_against_model(
             gpu,
             uploaded,
             &RenderOptions {
-                compositing: Compositing::Multipass(blend),
+                compositing,
                 format: TargetFormat::Rgba32f,
                 host: None,
             },
         )
         .unwrap();
     let options = ModelOptions {
-        blend,
+        blend: compositing.blend(),
         ..model_options(tolerance.precision)
     };
     let model = render_model(frame, &options);
@@ -298,13 +298,13 @@ fn every_blending_scheme_matches_its_f64_model() {
                         "{}: n = {layers}, {viewpoints} viewpoint(s), terms {terms:?}",
                         blend.name()
                     );
-                    let d = multipass_against_model(
+                    let d = against_model(
                         &case,
                         &gpu,
                         &mut renderer,
                         &mut uploaded,
                         &frame,
-                        blend,
+                        Compositing::Multipass(blend),
                         &tolerance,
                     );
                     worst[viewpoints - 1][k] = worst[viewpoints - 1][k].max(d);
@@ -327,8 +327,10 @@ fn every_blending_scheme_matches_its_f64_model() {
 
 /// Path-class terms (R, TT, TRT and TRRT; 3 and 4 of them) make (viewpoint sample, class)
 /// groups: every blending scheme's RGBA32F frame against the f64 model of that scheme's
-/// passes, within the same bounds as the greedy terms', n = 1 and 3, one to three viewpoints.
-/// The single pass, which carries the greedy terms' two slots, refuses them with an error.
+/// passes, within the same bounds as the greedy terms', n = 1 and 3, one to three viewpoints;
+/// the single pass, whose K·(n + 1) varyings they fit, against the model of its front-to-back
+/// order. Six classes at n = 3 (24 varyings) the single pass refuses with an error naming the
+/// multipass variant.
 #[test]
 fn path_class_terms_match_the_f64_model_in_every_scheme() {
     use lensmap::trace::PathClass;
@@ -345,50 +347,63 @@ fn path_class_terms_match_the_f64_model_in_every_scheme() {
             })
             .collect()
     };
-    let mut worst = [0f64; 4];
+    let compositings: Vec<Compositing> = BlendScheme::ALL
+        .into_iter()
+        .map(Compositing::Multipass)
+        .chain([Compositing::SinglePass])
+        .collect();
+    let name = |c: Compositing| match c {
+        Compositing::SinglePass => "single pass",
+        Compositing::Multipass(blend) => blend.name(),
+    };
+    let mut worst = vec![0f64; compositings.len()];
     for count in [3, 4] {
         for layers in [1, 3] {
             for viewpoints in 1..=3 {
                 let frame = random_frame(&mut rng, layers, viewpoints, &classes(count));
                 let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
-                for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
+                for (k, &compositing) in compositings.iter().enumerate() {
                     let case = format!(
                         "{}: n = {layers}, {viewpoints} viewpoint(s), {count} classes",
-                        blend.name()
+                        name(compositing)
                     );
-                    let d = multipass_against_model(
+                    let d = against_model(
                         &case,
                         &gpu,
                         &mut renderer,
                         &mut uploaded,
                         &frame,
-                        blend,
+                        compositing,
                         &tolerance,
                     );
                     worst[k] = worst[k].max(d);
                 }
-                let error = renderer
-                    .render(
-                        &gpu,
-                        &mut uploaded,
-                        &RenderOptions {
-                            compositing: Compositing::SinglePass,
-                            format: TargetFormat::Rgba32f,
-                            host: None,
-                        },
-                    )
-                    .unwrap_err();
-                assert!(
-                    error.to_string().contains("use the multipass variant"),
-                    "{error}"
-                );
             }
         }
     }
-    for (k, blend) in BlendScheme::ALL.into_iter().enumerate() {
+    let frame = random_frame(&mut rng, 3, 2, &classes(6));
+    let mut uploaded = renderer.upload(&gpu, &frame).unwrap();
+    let error = renderer
+        .render(
+            &gpu,
+            &mut uploaded,
+            &RenderOptions {
+                compositing: Compositing::SinglePass,
+                format: TargetFormat::Rgba32f,
+                host: None,
+            },
+        )
+        .unwrap_err();
+    assert!(
+        error.to_string().contains(
+            "= 24 varyings for them, at most 16 as its shader is compiled: use the multipass variant"
+        ),
+        "{error}"
+    );
+    for (k, &compositing) in compositings.iter().enumerate() {
         println!(
             "{}, path classes: largest |GPU − model| {:.3e}",
-            blend.name(),
+            name(compositing),
             worst[k]
         );
     }

@@ -360,8 +360,9 @@ fn mean_over(mask: &Mask, values: impl Iterator<Item = f64>) -> f64 {
 /// per pixel, not per vertex) as close as the greedy frame is to the greedy reference, and its
 /// mean lens radiance within 2 % of the full ray tree's (the goal) where the greedy
 /// frame's is more than 5 % short (measured: 0.998 and 0.911; RMS 3.22e-3 and 3.17e-3 against
-/// their own references, on Mesa 22.3's lavapipe). The class frame has one term per class, composited by the
-/// multipass variant in every blending scheme alike, and the GPU tracer is refused for it.
+/// their own references, on Mesa 22.3's lavapipe). The class frame has one term per class,
+/// composited by the multipass variant in every blending scheme alike and by the single pass
+/// while its varyings suffice, and the GPU tracer is refused for it.
 #[test]
 fn path_classes_bring_the_frame_to_the_full_ray_tree() {
     use lensmap::hybrid::ShadingTerms;
@@ -424,6 +425,7 @@ layers = [{ sphere = 1000.0 }]
     let full_mean = mean_ref(&full_ref);
 
     let mut runner = FrameRunner::new(gpu()).unwrap();
+    let limits = runner.single_pass_limits();
     let mut frame_of = |terms, blend| {
         let options = FrameOptions {
             hybrid: HybridOptions {
@@ -516,17 +518,52 @@ layers = [{ sphere = 1000.0 }]
             .all(|t| matches!(t.term, Term::Class(_)))
     );
     assert_eq!(stats.class_terms, 4);
+    // Four classes of one layer carry 4·(1 + 1) varyings: the single pass composites them, the
+    // same light as the multipass frame (the compositor's tests hold both to the f64 model).
+    assert_eq!(stats.class_slots, 8);
     let single = FrameOptions {
         hybrid: options,
         compositing: Compositing::SinglePass,
         format: TargetFormat::Rgba32f,
     };
     assert_eq!(
-        single.compositing_for(&stats),
-        Compositing::Multipass(BlendScheme::FrontToBack)
+        single.compositing_for(&stats, &limits),
+        Compositing::SinglePass
     );
     let by_multipass = frame_of(ShadingTerms::Classes(four), BlendScheme::FrontToBack);
     let by_single = runner.frame(&hybrid, &camera, &single).unwrap();
+    let (single_mean, multipass_mean) = (mean(&by_single), mean(&by_multipass));
+    assert!(
+        (single_mean / multipass_mean - 1.0).abs() <= 1e-4,
+        "4 classes: single pass mean lens radiance {single_mean}, multipass {multipass_mean}"
+    );
+    let own = rms(&by_single, &classes_ref);
+    assert!(
+        own <= 1.25 * greedy_rms,
+        "single pass: 4 classes RMS {own} against their reference, greedy {greedy_rms}"
+    );
+    // Nine classes need 18 varyings, past the 16 every device has: the single pass asked for
+    // them composites them by the multipass variant front-to-back, the same image.
+    let nine = HybridOptions {
+        terms: ShadingTerms::Classes(ClassSet::First(9)),
+        ..options
+    };
+    let (_, stats) = builder.frame(&hybrid, &camera, &nine).unwrap();
+    assert_eq!(stats.class_slots, 18);
+    let single = FrameOptions {
+        hybrid: nine,
+        ..single
+    };
+    assert_eq!(
+        single.compositing_for(&stats, &limits),
+        Compositing::Multipass(BlendScheme::FrontToBack)
+    );
+    let by_single = runner.frame(&hybrid, &camera, &single).unwrap();
+    let multipass = FrameOptions {
+        compositing: Compositing::Multipass(BlendScheme::FrontToBack),
+        ..single
+    };
+    let by_multipass = runner.frame(&hybrid, &camera, &multipass).unwrap();
     assert_eq!(by_single.image.pixels, by_multipass.image.pixels);
 
     // Set in the scene file, the classes shade the frame unless the options say greedy; a

@@ -329,8 +329,9 @@ fn settings(layer_count: usize, inferred: bool) -> Vec<Setting> {
             add("inferred EMs", &|s| (s.ems, s.t) = (Ems::Inferred, t));
         }
     }
-    // The class set as an axis (composited by the multipass variant: the single pass does not
-    // draw classes): the first 3, 4 and 6 classes, and 4 classes with t moved.
+    // The class set as an axis (composited by the multipass variant, which takes any class set
+    // at any layer count, so every row is drawn alike: the single pass carries K·(n + 1) ≤ 16
+    // varyings): the first 3, 4 and 6 classes, and 4 classes with t moved.
     let classes = |s: &mut Setting, count: u8| {
         s.terms = ShadingTerms::Classes(ClassSet::First(count));
         s.compositing = Compositing::Multipass(BlendScheme::FrontToBack);

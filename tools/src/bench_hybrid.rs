@@ -418,11 +418,13 @@ type Part = fn(&(f64, f64)) -> f64;
 
 impl Bench<'_> {
     /// Each stage for the papers' greedy terms and for the first 3, 4 and 6 path classes, on the
-    /// CPU tracer (the GPU tracer traces the greedy terms only) and the multipass variant (the
-    /// single pass does not draw classes), each frame built from scratch, the four alternating
-    /// (forwards, then backwards) after a warm-up of each: the stage medians, with the layer
-    /// passes, ray segments and vertices each stage is expected to scale by, each as a ratio to
-    /// greedy's; printed and as JSON.
+    /// CPU tracer (the GPU tracer traces the greedy terms only), by the multipass variant
+    /// (front-to-back) and by the single pass (which falls back to the multipass variant for
+    /// classes whose varyings it cannot carry: each row names the variant that ran), each frame
+    /// built from scratch, the eight alternating (forwards, then backwards) after a warm-up of
+    /// each: the stage medians, with the layer passes, ray segments and vertices each stage is
+    /// expected to scale by, each as a ratio to greedy's by the same variant asked for; printed
+    /// and as JSON.
     fn classes(
         &self,
         runner: &mut FrameRunner,
@@ -431,7 +433,7 @@ impl Bench<'_> {
     ) -> anyhow::Result<serde_json::Value> {
         let step = steps.step("path classes against greedy, alternating");
         // Classes are traced on the CPU in f64 with exact Fresnel, whatever the flags say.
-        let setting = |terms| FrameOptions {
+        let setting = |terms, compositing| FrameOptions {
             hybrid: HybridOptions {
                 terms,
                 tracer: VertexTracer::Cpu,
@@ -439,12 +441,23 @@ impl Bench<'_> {
                 precision: VertexPrecision::F64,
                 ..options.hybrid
             },
-            compositing: Compositing::Multipass(BlendScheme::FrontToBack),
+            compositing,
             ..*options
         };
-        let settings: Vec<(String, FrameOptions)> = std::iter::once(ShadingTerms::Greedy)
+        let term_sets: Vec<ShadingTerms> = std::iter::once(ShadingTerms::Greedy)
             .chain([3, 4, 6].map(|n| ShadingTerms::Classes(ClassSet::First(n))))
-            .map(|terms| (terms.name(), setting(terms)))
+            .collect();
+        let variants = [
+            Compositing::Multipass(BlendScheme::FrontToBack),
+            Compositing::SinglePass,
+        ];
+        let settings: Vec<(String, FrameOptions)> = variants
+            .iter()
+            .flat_map(|&variant| {
+                term_sets
+                    .iter()
+                    .map(move |&terms| (terms.name(), setting(terms, variant)))
+            })
             .collect();
         // The warm-ups: a scene whose lens objects classes cannot shade (layered by bounce, or
         // glass and mirrors under a count) skips the part, saying why.
@@ -458,13 +471,15 @@ impl Bench<'_> {
         let options: Vec<&FrameOptions> = settings.iter().map(|(_, options)| options).collect();
         let frames = self.rounds(runner, &options, ClassSample::of)?;
         step.finish_and_clear();
+        let limits = runner.single_pass_limits();
         say!(
-            "path classes against greedy (CPU tracer, multipass, {} frames each, alternating; × greedy's):",
+            "path classes against greedy (CPU tracer, {} frames each, alternating; × greedy's by the variant asked for):",
             self.frames
         );
         say!(
-            "{:<8} {:>15} {:>15} {:>17} {:>16} {:>15} {:>15}",
+            "{:<8} {:<12} {:>15} {:>15} {:>17} {:>16} {:>15} {:>15}",
             "terms",
+            "variant",
             "layer passes",
             "execute ms",
             "rays",
@@ -472,16 +487,22 @@ impl Bench<'_> {
             "vertices",
             "tessel. ms"
         );
-        let greedy = ClassRow::of(&frames[0]);
+        let table: Vec<ClassRow> = frames.iter().map(|f| ClassRow::of(f)).collect();
         let mut rows = Vec::new();
-        for ((name, _), frames) in settings.iter().zip(&frames) {
-            let row = ClassRow::of(frames);
-            let ratio = |pick: fn(&ClassRow) -> f64| pick(&row) / pick(&greedy);
+        for (i, ((name, options), row)) in settings.iter().zip(&table).enumerate() {
+            // Greedy by the same variant asked for: the first setting of each variant's run.
+            let greedy = &table[i - i % term_sets.len()];
+            let variant = match options.compositing_for(&row.stats, &limits) {
+                Compositing::SinglePass => "single pass",
+                Compositing::Multipass(_) => "multipass",
+            };
+            let ratio = |pick: fn(&ClassRow) -> f64| pick(row) / pick(greedy);
             let cell =
                 |value: String, pick: fn(&ClassRow) -> f64| format!("{value} ×{:.2}", ratio(pick));
             say!(
-                "{:<8} {:>15} {:>15} {:>17} {:>16} {:>15} {:>15}  frame {:.1} ms ×{:.2}",
+                "{:<8} {:<12} {:>15} {:>15} {:>17} {:>16} {:>15} {:>15}  frame {:.1} ms ×{:.2}",
                 name,
+                variant,
                 cell(row.passes.to_string(), |r| r.passes as f64),
                 cell(format!("{:.1}", row.stages.execute), |r| r.stages.execute),
                 cell(row.rays.to_string(), |r| r.rays as f64),
@@ -494,14 +515,13 @@ impl Bench<'_> {
                 ratio(|r| r.stages.total)
             );
             rows.push(json!({
-                "terms": name, "median_ms": row.stages.to_json(), "layer_passes": row.passes,
-                "rays": row.rays, "vertices_traced": row.vertices,
+                "terms": name, "variant": variant, "varyings": row.stats.class_slots,
+                "median_ms": row.stages.to_json(),
+                "layer_passes": row.passes, "rays": row.rays, "vertices_traced": row.vertices,
                 "total_against_greedy": ratio(|r| r.stages.total),
             }));
         }
-        Ok(
-            json!({ "tracer": "cpu", "variant": "multipass", "frames_each": self.frames, "rows": rows }),
-        )
+        Ok(json!({ "tracer": "cpu", "frames_each": self.frames, "rows": rows }))
     }
 
     /// Frames traced on the GPU with their stages timed by the device's timestamps, each built
@@ -640,8 +660,7 @@ impl Bench<'_> {
 struct ClassSample {
     stages: StageMedians,
     passes: usize,
-    rays: u64,
-    vertices: usize,
+    stats: lensmap::hybrid::HybridStats,
 }
 
 impl ClassSample {
@@ -649,8 +668,7 @@ impl ClassSample {
         ClassSample {
             stages: StageMedians::of_frame(frame),
             passes: frame.render.passes,
-            rays: frame.stats.counters.all_rays(),
-            vertices: frame.stats.vertices_traced,
+            stats: frame.stats,
         }
     }
 }
@@ -662,6 +680,8 @@ struct ClassRow {
     passes: usize,
     rays: u64,
     vertices: usize,
+    /// The last frame's statistics (what decides the variant that ran).
+    stats: lensmap::hybrid::HybridStats,
 }
 
 impl ClassRow {
@@ -670,8 +690,9 @@ impl ClassRow {
         ClassRow {
             stages: StageMedians::of_medians(samples.iter().map(|s| &s.stages)),
             passes: last.passes,
-            rays: last.rays,
-            vertices: last.vertices,
+            rays: last.stats.counters.all_rays(),
+            vertices: last.stats.vertices_traced,
+            stats: last.stats,
         }
     }
 }

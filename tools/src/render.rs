@@ -178,10 +178,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let frame = frames.last();
     frame.image.write_files(&out.png, &out.exr)?;
     step.finish_and_clear();
-    if options.compositing_for(&frame.stats) != options.compositing {
+    let compositing = runner.compositing_for(&options, &frame.stats);
+    if compositing != options.compositing {
         warn!(
-            "the single pass composites the two greedy terms only; the multipass variant (front-to-back, the same composite) rendered the {} path-class terms",
-            frame.stats.class_terms
+            "the single pass carries {} varyings on this device and the {} path-class terms need {}; the multipass variant (front-to-back, the same composite) rendered them (give fewer --terms or layers for the single pass)",
+            runner.single_pass_limits().max_class_slots,
+            frame.stats.class_terms,
+            frame.stats.class_slots
         );
     }
     // A bake's maps fit the terms they were solved over: say so when the frame's are others.
@@ -252,7 +255,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         reference.as_ref(),
         Run {
             prepare_s,
-            compositing: options.compositing_for(&frame.stats),
+            compositing,
             terms: own_model,
             reference_model,
             device: runner.gpu().device_id(),
@@ -269,7 +272,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
 /// and the files written.
 struct Run<'a> {
     prepare_s: f64,
-    /// The compositing the frame ran with (the multipass variant for path classes).
+    /// The compositing the frame ran with (the multipass variant for path classes the single
+    /// pass cannot carry).
     compositing: Compositing,
     /// The frame's shading terms, by name.
     terms: String,

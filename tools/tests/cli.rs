@@ -607,10 +607,12 @@ fn bench_error_against_the_full_tree_sweeps_path_classes() {
     );
 }
 
-/// `bench hybrid` times every stage for greedy and for 3, 4 and 6 path classes: the multipass
-/// frame's layer passes grow by the same count per class past the two greedy terms (each term
-/// draws its layers once per viewpoint sample), and 6 classes trace more ray segments than the
-/// two greedy paths.
+/// `bench hybrid` times every stage for greedy and for 3, 4 and 6 path classes, by the multipass
+/// variant and by the single pass: the multipass frame's layer passes grow by the same count per
+/// class past the two greedy terms (each term draws its layers once per viewpoint sample), and 6
+/// classes trace more ray segments than the two greedy paths; the single pass draws each of them
+/// in one pass (glass-sphere's one layer per viewpoint sample: 6 classes take 6·2 = 12 of the 16
+/// varyings), and names itself in its rows.
 #[test]
 fn bench_hybrid_times_the_stages_of_path_classes() {
     let report = json_report(&[
@@ -629,14 +631,36 @@ fn bench_hybrid_times_the_stages_of_path_classes() {
     let rows = report["path_classes"]["rows"]
         .as_array()
         .expect("the path-class rows");
-    let names: Vec<&str> = rows.iter().filter_map(|r| r["terms"].as_str()).collect();
-    assert_eq!(names, ["greedy", "3", "4", "6"]);
+    let text = |key: &str| -> Vec<&str> { rows.iter().filter_map(|r| r[key].as_str()).collect() };
+    assert_eq!(
+        text("terms"),
+        ["greedy", "3", "4", "6", "greedy", "3", "4", "6"]
+    );
+    assert_eq!(
+        text("variant"),
+        [
+            "multipass",
+            "multipass",
+            "multipass",
+            "multipass",
+            "single pass",
+            "single pass",
+            "single pass",
+            "single pass"
+        ]
+    );
     let count = |row: &serde_json::Value, key: &str| row[key].as_u64().expect("a count");
     let passes: Vec<u64> = rows.iter().map(|r| count(r, "layer_passes")).collect();
-    assert!(passes.windows(2).all(|w| w[0] < w[1]), "{passes:?}");
+    assert!(passes[..4].windows(2).all(|w| w[0] < w[1]), "{passes:?}");
     let per_class = passes[1] - passes[0];
     assert_eq!(passes[2] - passes[0], 2 * per_class, "{passes:?}");
     assert_eq!(passes[3] - passes[0], 4 * per_class, "{passes:?}");
+    assert!(
+        passes[4..].iter().all(|&p| p == passes[4]) && passes[4] < passes[0],
+        "{passes:?}"
+    );
+    let varyings: Vec<u64> = rows.iter().map(|r| count(r, "varyings")).collect();
+    assert_eq!(varyings, [0, 6, 8, 12, 0, 6, 8, 12]);
     assert!(
         count(&rows[3], "rays") > count(&rows[0], "rays"),
         "{rows:?}"

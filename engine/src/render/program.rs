@@ -44,7 +44,9 @@ impl std::fmt::Display for LimitSource {
 /// - interpolated varyings: one `vec3` location per layer and term plus the two terms' F·G,
 ///   2n + 2 locations of 4 components, within `maxVertexOutputComponents` and
 ///   `maxFragmentInputComponents` (at least 64: 16 locations, so n ≤ 7). The viewpoints share
-///   the directions (`TermVertices::directions`), so V does not count here;
+///   the directions (`TermVertices::directions`), so V does not count here. The single pass of
+///   K path-class terms carries K·(n + 1) locations, a direction per layer and class and each
+///   class's F·G, within the same limits and the shader's 16 slots (four classes at n ≤ 3);
 /// - one cube-map array per viewpoint in the fragment stage: V sampled images within
 ///   `maxPerStageDescriptorSampledImages` (at least 16) and `maxDescriptorSetSampledImages` (at
 ///   least 96), and V + 1 resources with the colour attachment within `maxPerStageResources`
@@ -63,6 +65,11 @@ pub struct SinglePassLimits {
     pub max_viewpoints: usize,
     /// What bounds [`Self::max_viewpoints`].
     pub viewpoints_bound: LimitSource,
+    /// Most varyings (locations) of the single pass of path classes: K classes of n layers
+    /// take K·(n + 1).
+    pub max_class_slots: usize,
+    /// What bounds [`Self::max_class_slots`].
+    pub class_slots_bound: LimitSource,
 }
 
 /// The spec's minimum `maxPushConstantsSize`: the lens programs' push constants fit every device.
@@ -76,6 +83,8 @@ impl SinglePassLimits {
         layers_bound: LimitSource::Shader,
         max_viewpoints: lensmap_shaders::MAX_VIEWPOINTS as usize,
         viewpoints_bound: LimitSource::Shader,
+        max_class_slots: lensmap_shaders::SINGLE_PASS_SLOTS as usize,
+        class_slots_bound: LimitSource::Shader,
     };
 
     /// The limits on a device whose limits are `limits`: each the smaller of the compiled one
@@ -96,6 +105,22 @@ impl SinglePassLimits {
                     "maxFragmentInputComponents",
                     limits.max_fragment_input_components,
                     layers_for(limits.max_fragment_input_components),
+                ),
+            ],
+        );
+        // The classes' single pass: every location a slot.
+        let (max_class_slots, class_slots_bound) = smallest(
+            Self::COMPILED.max_class_slots,
+            &[
+                (
+                    "maxVertexOutputComponents",
+                    limits.max_vertex_output_components,
+                    (limits.max_vertex_output_components / 4) as usize,
+                ),
+                (
+                    "maxFragmentInputComponents",
+                    limits.max_fragment_input_components,
+                    (limits.max_fragment_input_components / 4) as usize,
                 ),
             ],
         );
@@ -126,6 +151,8 @@ impl SinglePassLimits {
             layers_bound,
             max_viewpoints,
             viewpoints_bound,
+            max_class_slots,
+            class_slots_bound,
         }
     }
 }
@@ -184,16 +211,24 @@ pub enum ProgramError {
         /// What bounds it.
         bound: LimitSource,
     },
-    /// The single pass's varyings and push constants carry the two greedy terms' slots; a
-    /// path-class model's terms are composited by the multipass variant.
+    /// The single pass of path classes carries K·(n + 1) varyings for K classes of n layers;
+    /// more than the shader has, or the device interpolates, need the multipass variant.
     #[error(
-        "lens \"{lens}\" sums {terms} path-class term(s); the single-pass variant composites the two greedy terms only: use the multipass variant"
+        "lens \"{lens}\" sums {terms} path-class terms over {layers} layers: the single-pass variant carries {terms}·({layers} + 1) = {slots} varyings for them, at most {max} {bound}: use the multipass variant"
     )]
-    PathClasses {
+    TooManyClassSlots {
         /// The lens object.
         lens: String,
-        /// Its terms.
+        /// Its class terms.
         terms: usize,
+        /// Its layers.
+        layers: usize,
+        /// The varyings they take.
+        slots: usize,
+        /// [`SinglePassLimits::max_class_slots`].
+        max: usize,
+        /// What bounds it.
+        bound: LimitSource,
     },
     /// A lens object with no layers, no terms, more than two terms or no viewpoint sample.
     #[error(
@@ -246,10 +281,7 @@ impl SinglePassProgram {
             });
         }
         if terms.iter().any(|t| matches!(t, Term::Class(_))) {
-            return Err(ProgramError::PathClasses {
-                lens: lens.to_owned(),
-                terms: terms.len(),
-            });
+            return SinglePassProgram::of_classes(lens, layers, terms, viewpoints, limits);
         }
         let term_mask = terms
             .iter()
@@ -273,8 +305,53 @@ impl SinglePassProgram {
                 layer_count: layers as u32,
                 term_mask,
                 viewpoints: viewpoints as u32,
+                class_count: 0,
             },
         })
+    }
+
+    /// [`Self::new`] for a lens object of path classes: every term a class (the single pass of
+    /// classes reads them from one slot run), K·(n + 1) varyings within the limits.
+    fn of_classes(
+        lens: &str,
+        layers: usize,
+        terms: &[Term],
+        viewpoints: usize,
+        limits: &SinglePassLimits,
+    ) -> Result<SinglePassProgram, ProgramError> {
+        let slots = terms.len() * (layers + 1);
+        if slots > limits.max_class_slots {
+            return Err(ProgramError::TooManyClassSlots {
+                lens: lens.to_owned(),
+                terms: terms.len(),
+                layers,
+                slots,
+                max: limits.max_class_slots,
+                bound: limits.class_slots_bound,
+            });
+        }
+        if layers == 0 || viewpoints == 0 || !terms.iter().all(|t| matches!(t, Term::Class(_))) {
+            return Err(ProgramError::Unsupported {
+                lens: lens.to_owned(),
+                layers,
+                terms: terms.len(),
+                viewpoints,
+                max: limits.max_layers,
+            });
+        }
+        Ok(SinglePassProgram {
+            overrides: Overrides {
+                layer_count: layers as u32,
+                term_mask: 0,
+                viewpoints: viewpoints as u32,
+                class_count: terms.len() as u32,
+            },
+        })
+    }
+
+    /// The path-class terms it composites; 0 for the greedy terms' single pass.
+    pub fn class_terms(&self) -> usize {
+        self.overrides.class_count as usize
     }
 }
 
@@ -335,6 +412,10 @@ impl ShaderProgram {
             ShaderProgram::GroupSum => pair(
                 composite::Entry::VsFullScreen.shader(),
                 composite::Entry::FsGroupSum.shader(),
+            ),
+            ShaderProgram::LensSinglePass(program) if program.class_terms() > 0 => pair(
+                lens::Entry::VsSinglePassClasses.shader(),
+                lens::Specialized::FsSinglePassClassesSpecialized.shader(program.overrides)?,
             ),
             ShaderProgram::LensSinglePass(program) => pair(
                 lens::Entry::VsSinglePass.shader(),

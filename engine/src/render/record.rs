@@ -682,18 +682,33 @@ impl Recorder<'_> {
 
     /// A lens part's push constants before a draw picks its group and layer: both terms'
     /// offsets in data arrays `stride` vec4s apart, the layer count and term mask, no weights.
+    /// For path classes (which the single pass reads as one run of slots from the first class's
+    /// F·G on), the first class's offsets and the class count in place of the term mask.
     fn lens_constants(&self, lens: &GpuLens, stride: u32) -> LensConstants {
         let offsets = |term| lens.offsets(term, stride).unwrap_or((0, 0));
-        let (fg_t, direction_t) = offsets(Term::Refraction);
+        let classes = lens
+            .terms
+            .iter()
+            .filter(|t| matches!(t, Term::Class(_)))
+            .count();
+        let (fg_t, direction_t) = match lens.terms.first() {
+            Some(&first) if classes > 0 => offsets(first),
+            _ => offsets(Term::Refraction),
+        };
         let (fg_r, direction_r) = offsets(Term::Reflection);
+        let term_mask = if classes > 0 {
+            classes as u32
+        } else {
+            u32::from(lens.terms.contains(&Term::Refraction))
+                | (u32::from(lens.terms.contains(&Term::Reflection)) << 1)
+        };
         LensConstants {
             view_proj: self.frame.view_proj,
             weight_a: 0.0,
             weight_b: 0.0,
             weight_c: 0.0,
             layer_count: lens.layer_count,
-            term_mask: u32::from(lens.terms.contains(&Term::Refraction))
-                | (u32::from(lens.terms.contains(&Term::Reflection)) << 1),
+            term_mask,
             position_offset: 0,
             fg_offset_t: fg_t,
             fg_offset_r: fg_r,

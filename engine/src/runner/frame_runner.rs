@@ -20,7 +20,8 @@ use crate::{
     options::OptionError,
     render::{
         Compositing, DeviceLensPart, FRAMES_IN_FLIGHT, FrameInput, HostImage, RenderError,
-        RenderOptions, RenderedImage, Renderer, Submission, TargetFormat, UploadedFrame,
+        RenderOptions, RenderedImage, Renderer, SinglePassLimits, Submission, TargetFormat,
+        UploadedFrame,
     },
     scene::Camera,
 };
@@ -47,12 +48,13 @@ impl FrameOptions {
         }
     }
 
-    /// The compositing a frame with `stats` runs with: these options' own, but the multipass
-    /// variant front-to-back (the same composite) in place of the single pass for a frame of
-    /// path classes, which the single pass does not take.
-    pub fn compositing_for(&self, stats: &HybridStats) -> Compositing {
+    /// The compositing a frame with `stats` runs with on a device of single-pass limits
+    /// `limits`: these options' own, but the multipass variant front-to-back (the same
+    /// composite) in place of the single pass for a frame of path classes whose varyings the
+    /// single pass cannot carry (K·(n + 1) past [`SinglePassLimits::max_class_slots`]).
+    pub fn compositing_for(&self, stats: &HybridStats, limits: &SinglePassLimits) -> Compositing {
         match self.compositing {
-            Compositing::SinglePass if stats.class_terms > 0 => {
+            Compositing::SinglePass if stats.class_slots > limits.max_class_slots => {
                 Compositing::Multipass(crate::render::BlendScheme::FrontToBack)
             }
             compositing => compositing,
@@ -175,6 +177,17 @@ impl FrameRunner {
     /// The device (its name, the validation report).
     pub fn gpu(&self) -> &Gpu {
         &self.gpu
+    }
+
+    /// What the single pass composites on this device.
+    pub fn single_pass_limits(&self) -> SinglePassLimits {
+        SinglePassLimits::of_device(&self.gpu.properties().limits)
+    }
+
+    /// The compositing a frame with `stats` runs with under `options` on this device
+    /// ([`FrameOptions::compositing_for`]).
+    pub fn compositing_for(&self, options: &FrameOptions, stats: &HybridStats) -> Compositing {
+        options.compositing_for(stats, &self.single_pass_limits())
     }
 
     /// Forgets the last frame, so that the next one is built from scratch even for the same
@@ -571,13 +584,14 @@ impl FrameRunner {
         stats: &HybridStats,
         host: Option<&HostImage>,
     ) -> Result<Submission, RunError> {
+        let compositing = self.compositing_for(options, stats);
         let Some(uploaded) = self.slots[slot].uploaded.as_mut() else {
             // A held identity is only ever that of an uploaded slot.
             return Err(RenderError::Internal("a still frame has no upload".into()).into());
         };
         let compositing = RenderOptions {
             host,
-            compositing: options.compositing_for(stats),
+            compositing,
             ..options.compositing()
         };
         let submission = self.renderer.submit(&self.gpu, uploaded, &compositing)?;

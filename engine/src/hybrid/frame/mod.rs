@@ -240,14 +240,16 @@ fn build(
         depths.push(built.depths);
     }
     stats.counted_on_device = lenses.iter().any(|l| l.resident.is_some());
-    stats.class_terms = lenses
+    let classes = |l: &LensObject| {
+        l.terms
+            .iter()
+            .filter(|t| matches!(t.term, crate::trace::Term::Class(_)))
+            .count()
+    };
+    stats.class_terms = lenses.iter().map(classes).max().unwrap_or(0);
+    stats.class_slots = lenses
         .iter()
-        .map(|l| {
-            l.terms
-                .iter()
-                .filter(|t| matches!(t.term, crate::trace::Term::Class(_)))
-                .count()
-        })
+        .map(|l| classes(l) * (l.layer_count() + 1))
         .max()
         .unwrap_or(0);
     let frame = assemble(scene, view, &blend, lenses, Vec::new(), &mut stats);

@@ -69,7 +69,11 @@ pub struct HybridStats {
     /// again. 0 for a frame whose buffers sufficed.
     pub builds_discarded: usize,
     /// The most path-class terms of any lens object of the frame; 0 where every lens object
-    /// is shaded by the greedy terms. A frame of classes is composited by the multipass
-    /// variant ([`crate::runner::FrameOptions::compositing_for`]).
+    /// is shaded by the greedy terms.
     pub class_terms: usize,
+    /// The most varyings the single pass of path classes needs for any lens object of the
+    /// frame, K·(n + 1) for K classes of n layers; 0 without classes. Past the device's
+    /// limit the frame is composited by the multipass variant
+    /// ([`crate::runner::FrameOptions::compositing_for`]).
+    pub class_slots: usize,
 }

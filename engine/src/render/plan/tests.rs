@@ -411,15 +411,48 @@ fn plans_match_the_golden_text() {
             );
         }
     }
+    // The single pass of 3 and 4 classes, for every n whose K·(n + 1) varyings fit its 16.
+    for count in [3, 4] {
+        let mut text = String::new();
+        for n in 1..=(16 / count - 1) {
+            let shape = FrameShape::synthetic(640, 480, n, 2, &classes(count));
+            let plan = compiled(
+                &shape,
+                &readback(
+                    Variant::SinglePass,
+                    BlendScheme::FrontToBack,
+                    TargetFormat::Rgba8,
+                ),
+            );
+            text.push_str(&format!("# n = {n}\n{plan}"));
+        }
+        golden.check(
+            &format!(
+                "{}-2-viewpoint-{count}-classes.txt",
+                Variant::SinglePass.name()
+            ),
+            &text,
+        );
+    }
     golden.assert_matched();
 }
 
-/// The single pass carries the greedy terms' two slots: a lens object of path classes is
-/// refused, naming the multipass variant, and the multipass plan of the same frame holds.
+/// The single pass of path classes carries K·(n + 1) varyings: within the shader's 16 it is one
+/// draw (1, 2 and 4 classes at n = 2; 4 at n = 3), past them (6 classes at n = 2, 4 at n = 4)
+/// it is refused naming the count and the multipass variant, whose plan of the same frame holds.
 #[test]
-fn the_single_pass_refuses_path_classes_and_names_the_multipass_variant() {
-    for count in [1, 2, 4] {
-        let shape = FrameShape::synthetic(64, 64, 2, 2, &classes(count));
+fn the_single_pass_takes_path_classes_within_its_varyings() {
+    for (count, layers) in [(1, 2), (2, 2), (4, 2), (4, 3)] {
+        let p = plan(layers, 2, &classes(count), Variant::SinglePass);
+        assert_eq!(p.count(PassCategory::Layer), 0, "{p}");
+        assert_eq!(
+            p.count(PassCategory::SinglePass),
+            1,
+            "{count} classes, n = {layers}: {p}"
+        );
+    }
+    for (count, layers) in [(6, 2), (4, 4)] {
+        let shape = FrameShape::synthetic(64, 64, layers, 2, &classes(count));
         let error = frame_graph(
             &shape,
             &readback(
@@ -429,14 +462,15 @@ fn the_single_pass_refuses_path_classes_and_names_the_multipass_variant() {
             ),
         )
         .unwrap_err();
+        let slots = count * (layers + 1);
         assert!(
             error.to_string().contains(&format!(
-                "sums {count} path-class term(s); the single-pass variant composites the two greedy terms only: use the multipass variant"
+                "sums {count} path-class terms over {layers} layers: the single-pass variant carries {count}·({layers} + 1) = {slots} varyings for them, at most 16 as its shader is compiled: use the multipass variant"
             )),
             "{error}"
         );
-        let p = plan(2, 2, &classes(count), Variant::Multipass);
-        assert_eq!(p.count(PassCategory::Layer), 2 * 2 * count, "{p}");
+        let p = plan(layers, 2, &classes(count), Variant::Multipass);
+        assert_eq!(p.count(PassCategory::Layer), layers * 2 * count, "{p}");
     }
 }
 

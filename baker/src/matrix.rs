@@ -633,13 +633,35 @@ impl LayerFrames {
             Term::Class(_) => Term::Refraction,
             greedy => greedy,
         };
+        // A path class covers only the vertices where its path exists (its F·G is zero at the
+        // others, whose directions texgen borrows from another class): its frame is drawn with
+        // F·G 1 there and 0 elsewhere, so that its equations cover what its targets cover (the
+        // records of that class alone). Drawn with 1 everywhere, a pixel the classes share
+        // would ask each class's texels, along the borrowed directions, for light only another
+        // class carries: on mirror-teapot, whose R, RR, … split the pixels between them, the
+        // bake of 4 classes fitted its own model 5.8 dB worse than a greedy bake. The greedy
+        // terms keep 1 everywhere, so their bakes are unchanged.
+        let fg = match term {
+            Term::Class(_) => vertices
+                .fg
+                .iter()
+                .map(|fg| {
+                    if fg.max_element() > 0.0 {
+                        glam::Vec3::ONE
+                    } else {
+                        glam::Vec3::ZERO
+                    }
+                })
+                .collect(),
+            _ => vec![glam::Vec3::ONE; self.lens.positions.len()],
+        };
         frame.lenses.push(LensObject {
             name: self.lens.name.clone(),
             positions: self.lens.positions.clone(),
             triangles: self.lens.triangles.clone(),
             terms: vec![TermVertices {
                 term: drawn,
-                fg: vec![glam::Vec3::ONE; self.lens.positions.len()],
+                fg,
                 directions: vec![directions.clone()],
             }],
             layers: vec![vec![Arc::new(CubeMap::uniform(1, [0.0; 4]))]],

@@ -280,8 +280,19 @@ impl SinglePassProgram {
                 bound: limits.viewpoints_bound,
             });
         }
-        if terms.iter().any(|t| matches!(t, Term::Class(_))) {
-            return SinglePassProgram::of_classes(lens, layers, terms, viewpoints, limits);
+        // Path classes take the classes' program: every term a class (it reads them from one
+        // run of slots), K·(n + 1) varyings within the limits.
+        let classes = terms.iter().filter(|t| matches!(t, Term::Class(_))).count();
+        let slots = SinglePassProgram::class_slots(classes, layers);
+        if slots > limits.max_class_slots {
+            return Err(ProgramError::TooManyClassSlots {
+                lens: lens.to_owned(),
+                terms: classes,
+                layers,
+                slots,
+                max: limits.max_class_slots,
+                bound: limits.class_slots_bound,
+            });
         }
         let term_mask = terms
             .iter()
@@ -291,7 +302,12 @@ impl SinglePassProgram {
                 Term::Class(_) => 0,
             })
             .fold(0u32, |mask, bit| mask | bit);
-        if layers == 0 || term_mask == 0 || terms.len() > 2 || viewpoints == 0 {
+        let terms_supported = if classes > 0 {
+            classes == terms.len()
+        } else {
+            term_mask != 0 && terms.len() <= 2
+        };
+        if layers == 0 || viewpoints == 0 || !terms_supported {
             return Err(ProgramError::Unsupported {
                 lens: lens.to_owned(),
                 layers,
@@ -305,48 +321,15 @@ impl SinglePassProgram {
                 layer_count: layers as u32,
                 term_mask,
                 viewpoints: viewpoints as u32,
-                class_count: 0,
+                class_count: classes as u32,
             },
         })
     }
 
-    /// [`Self::new`] for a lens object of path classes: every term a class (the single pass of
-    /// classes reads them from one slot run), K·(n + 1) varyings within the limits.
-    fn of_classes(
-        lens: &str,
-        layers: usize,
-        terms: &[Term],
-        viewpoints: usize,
-        limits: &SinglePassLimits,
-    ) -> Result<SinglePassProgram, ProgramError> {
-        let slots = terms.len() * (layers + 1);
-        if slots > limits.max_class_slots {
-            return Err(ProgramError::TooManyClassSlots {
-                lens: lens.to_owned(),
-                terms: terms.len(),
-                layers,
-                slots,
-                max: limits.max_class_slots,
-                bound: limits.class_slots_bound,
-            });
-        }
-        if layers == 0 || viewpoints == 0 || !terms.iter().all(|t| matches!(t, Term::Class(_))) {
-            return Err(ProgramError::Unsupported {
-                lens: lens.to_owned(),
-                layers,
-                terms: terms.len(),
-                viewpoints,
-                max: limits.max_layers,
-            });
-        }
-        Ok(SinglePassProgram {
-            overrides: Overrides {
-                layer_count: layers as u32,
-                term_mask: 0,
-                viewpoints: viewpoints as u32,
-                class_count: terms.len() as u32,
-            },
-        })
+    /// The varyings the single pass of `classes` path-class terms over `layers` layers carries:
+    /// each class's F·G and a direction per layer, K·(n + 1); 0 without classes.
+    pub fn class_slots(classes: usize, layers: usize) -> usize {
+        classes * (layers + 1)
     }
 
     /// The path-class terms it composites; 0 for the greedy terms' single pass.

@@ -249,7 +249,7 @@ fn build(
     stats.class_terms = lenses.iter().map(classes).max().unwrap_or(0);
     stats.class_slots = lenses
         .iter()
-        .map(|l| classes(l) * (l.layer_count() + 1))
+        .map(|l| crate::render::SinglePassProgram::class_slots(classes(l), l.layer_count()))
         .max()
         .unwrap_or(0);
     let frame = assemble(scene, view, &blend, lenses, Vec::new(), &mut stats);

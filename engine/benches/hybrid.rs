@@ -223,6 +223,7 @@ fn gpu_bench(c: &mut Criterion, setup: &Setup, vertices: &[SurfaceVertex]) {
         object: setup.object,
         bounces: Bounces::UntilLeaving,
         max_interfaces: GreedyOptions::default().max_interfaces,
+        classes: lensmap::trace::classes::ClassList::GREEDY,
     };
     let input: Vec<(Vec3, Vec3)> = vertices.iter().map(|v| (v.position, v.normal)).collect();
     let mut group = c.benchmark_group(format!("teapot-room t=3, {}", gpu.device_id()));

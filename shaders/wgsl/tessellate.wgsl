@@ -193,25 +193,72 @@ fn cs_classify(@builtin(global_invocation_id) id: vec3<u32>) {
 
 // ---- One level ------------------------------------------------------------------------------
 
-// A vertex's record: seven vec4 (refraction term, reflection term, screen).
+// A vertex's record: max(classes, 2) terms of three vec4 (the greedy refraction and reflection
+// terms, or one per path class), then the screen position (tracer.wgsl `write_term`).
+fn record_terms() -> u32 {
+    return max(load(CONTROL_CLASSES), 2u);
+}
+
 fn record(v: u32, k: u32) -> vec4<f32> {
-    return records[7u * v + k];
+    return records[(3u * record_terms() + 1u) * v + k];
+}
+
+fn screen(v: u32) -> vec4<f32> {
+    return record(v, 3u * record_terms());
+}
+
+// Whether vertex p has term `term`, and the term's topology (interfaces, reflections).
+fn has_term(p: u32, base: u32) -> bool {
+    return record(p, base + 2u).w != 0.0;
+}
+
+fn topology(p: u32, base: u32) -> vec2<u32> {
+    return vec2<u32>(bitcast<u32>(record(p, base).w), bitcast<u32>(record(p, base + 1u).w));
 }
 
 // Whether two vertices' paths differ (PathOracle::differ): a term one has and the other has not,
-// another topology, or outgoing directions more than the angle threshold apart.
+// another topology, or outgoing directions more than the angle threshold apart. Under path
+// classes (classes_differ), each class's angle weighted by its F·G (the larger of the two
+// vertices', its largest channel) against the threshold; a class at one vertex only, or of
+// another topology, counts as π.
 fn differ(p: u32, q: u32) -> bool {
+    let classes = load(CONTROL_CLASSES);
+    if classes > 0u {
+        let threshold = acos(clamp(constants.cos_threshold, -1.0, 1.0));
+        for (var k = 0u; k < classes; k++) {
+            let base = 3u * k;
+            let has_p = has_term(p, base);
+            let has_q = has_term(q, base);
+            var angle = 0.0;
+            if has_p && has_q && all(topology(p, base) == topology(q, base)) {
+                angle = acos(clamp(dot(record(p, base + 2u).xyz, record(q, base + 2u).xyz), -1.0, 1.0));
+            } else if has_p || has_q {
+                angle = 3.14159265358979;
+            }
+            var weight = 0.0;
+            if has_p {
+                let fg = record(p, base).xyz;
+                weight = max(max(max(fg.x, fg.y), fg.z), 0.0);
+            }
+            if has_q {
+                let fg = record(q, base).xyz;
+                weight = max(weight, max(max(fg.x, fg.y), fg.z));
+            }
+            if weight * angle > threshold {
+                return true;
+            }
+        }
+        return false;
+    }
     for (var term = 0u; term < 2u; term++) {
         let base = 3u * term;
-        let has_p = record(p, base + 2u).w != 0.0;
-        let has_q = record(q, base + 2u).w != 0.0;
+        let has_p = has_term(p, base);
+        let has_q = has_term(q, base);
         if has_p != has_q {
             return true;
         }
         if has_p {
-            let topology_p = vec2<u32>(bitcast<u32>(record(p, base).w), bitcast<u32>(record(p, base + 1u).w));
-            let topology_q = vec2<u32>(bitcast<u32>(record(q, base).w), bitcast<u32>(record(q, base + 1u).w));
-            if any(topology_p != topology_q) {
+            if any(topology(p, base) != topology(q, base)) {
                 return true;
             }
             if dot(record(p, base + 2u).xyz, record(q, base + 2u).xyz) < constants.cos_threshold {
@@ -224,8 +271,8 @@ fn differ(p: u32, q: u32) -> bool {
 
 // Whether the projected edge is at least t subpixels long; unprojectable edges are short.
 fn edge_is_long(p: u32, q: u32) -> bool {
-    let sp = record(p, 6u);
-    let sq = record(q, 6u);
+    let sp = screen(p);
+    let sq = screen(q);
     return sp.z != 0.0 && sq.z != 0.0 && distance(sp.xy, sq.xy) >= constants.t;
 }
 
@@ -243,8 +290,8 @@ fn outside_view(corners: vec3<u32>) -> bool {
 
 // The CPU's criteria in its order: occlusion, view, difference, size, depth cap.
 fn decide(corners: vec3<u32>, depth: u32) -> u32 {
-    let visible = record(corners.x, 6u).w != 0.0 || record(corners.y, 6u).w != 0.0
-        || record(corners.z, 6u).w != 0.0;
+    let visible = screen(corners.x).w != 0.0 || screen(corners.y).w != 0.0
+        || screen(corners.z).w != 0.0;
     if !visible {
         return STOP_OCCLUDED;
     }

@@ -13,6 +13,7 @@ struct TexgenConstants {
     stride: u32,
     layer_count: u32,
     // 1 when the lens object has a refraction term (written first); the reflection term always.
+    // Under path classes (control word CONTROL_CLASSES), one term per class instead.
     refraction: u32,
 }
 
@@ -20,14 +21,16 @@ var<immediate> constants: TexgenConstants;
 
 // The tessellation's vertices: (position, ·), (normal, ·).
 @group(0) @binding(0) var<storage, read> vertices: array<vec4<f32>>;
-// Per vertex the tracer's record, seven vec4 (tracer.wgsl VertexRecord).
+// Per vertex the tracer's record: max(classes, 2) terms of three vec4, then the screen position
+// (vertex_paths.wgsl `write_term`).
 @group(0) @binding(1) var<storage, read> records: array<vec4<f32>>;
 // Per input vertex 1 when it was traced.
 @group(0) @binding(2) var<storage, read> wanted: array<u32>;
 // Per layer four vec4: (centre, kind), (a, a_w), (b, b_w), (EM origin, 0); see Shell below.
 @group(0) @binding(3) var<storage, read> shells: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> lens_data: array<vec4<f32>>;
-// The tessellation's control words: the vertex count is word CONTROL_VERTICES.
+// The tessellation's control words: the vertex count is word CONTROL_VERTICES, the path
+// classes' count CONTROL_CLASSES.
 @group(0) @binding(5) var<storage, read> control: array<u32>;
 
 // #include "control.wgsl"
@@ -200,21 +203,37 @@ fn texture_direction(layer: u32, origin: vec3<f32>, direction: vec3<f32>) -> vec
 }
 
 fn record(v: u32, k: u32) -> vec4<f32> {
-    return records[7u * v + k];
+    return records[(3u * max(control[CONTROL_CLASSES], 2u) + 1u) * v + k];
 }
 
-// Writes vertex `v`'s term `term` (0: refraction, 1: reflection) into slot `slot` of the terms.
+fn has_term(v: u32, term: u32) -> bool {
+    return record(v, 3u * term + 2u).w != 0.0;
+}
+
+// Writes vertex `v`'s term `term` (greedy: 0 refraction, 1 reflection; else class `term`) into
+// slot `slot` of the terms.
 fn write_term(v: u32, term: u32, slot: u32, traced: bool) {
     let position = vertices[2u * v].xyz;
     let base = constants.stride * (1u + slot * (1u + constants.layer_count));
-    // The term's path, else the reflection's with F·G = 0, else none (CPU texgen's `path`).
+    // The term's path, else with F·G = 0 the reflection's (the first class's that has a path,
+    // under classes), else none (CPU texgen's `path`).
+    let classes = control[CONTROL_CLASSES];
     var k = 3u * term;
     var fg = record(v, k).xyz;
-    var has = traced && record(v, k + 2u).w != 0.0;
-    if traced && !has && record(v, 5u).w != 0.0 {
-        k = 3u;
+    var has = traced && has_term(v, term);
+    if traced && !has {
+        // Greedy: the reflection (slot 1); classes: the first that has a path, if any.
+        var stand_in = 1u;
+        for (var c = classes; c > 0u; c--) {
+            if has_term(v, c - 1u) {
+                stand_in = c - 1u;
+            }
+        }
+        if (classes == 0u || stand_in < classes) && has_term(v, stand_in) {
+            k = 3u * stand_in;
+            has = true;
+        }
         fg = vec3<f32>(0.0);
-        has = true;
     }
     if !has {
         fg = vec3<f32>(0.0);
@@ -244,6 +263,13 @@ fn cs_texgen(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     lens_data[v] = vec4<f32>(vertices[2u * v].xyz, 1.0);
     let traced = v >= constants.input_vertices || wanted[v] != 0u;
+    let classes = control[CONTROL_CLASSES];
+    if classes > 0u {
+        for (var k = 0u; k < classes; k++) {
+            write_term(v, k, k, traced);
+        }
+        return;
+    }
     var slot = 0u;
     if constants.refraction != 0u {
         write_term(v, 0u, 0u, traced);

@@ -261,3 +261,28 @@ pub fn gpu_tracer(
     )
     .unwrap_or_else(|e| panic!("{what}: {e}"))
 }
+
+/// The vertices of `mesh`'s triangles that face `eye`, with unit normals as the tessellation
+/// hands them to its oracle.
+pub fn front_facing_vertices(mesh: &TriangleMesh, eye: Vec3) -> Vec<lensmap::hybrid::tessellate::SurfaceVertex> {
+    let normals = if mesh.normals.len() == mesh.positions.len() {
+        mesh.normals.clone()
+    } else {
+        mesh.accumulated_face_normals()
+    };
+    let mut used = vec![false; mesh.positions.len()];
+    for t in &mesh.triangles {
+        if lensmap::hybrid::tessellate::faces_eye(t.map(|v| mesh.positions[v as usize]), eye) {
+            t.iter().for_each(|&v| used[v as usize] = true);
+        }
+    }
+    (0..mesh.positions.len())
+        .filter(|&v| used[v])
+        .map(|v| lensmap::hybrid::tessellate::SurfaceVertex {
+            index: v as u32,
+            position: mesh.positions[v],
+            normal: normals[v].normalize_or_zero(),
+            uv: None,
+        })
+        .collect()
+}

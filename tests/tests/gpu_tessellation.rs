@@ -109,6 +109,7 @@ fn gpu_tessellation_is_watertight_close_to_the_cpu_and_repeatable() {
                     object,
                     bounces: Bounces::UntilLeaving,
                     max_interfaces: GreedyOptions::default().max_interfaces,
+                    classes: lensmap::trace::classes::ClassList::GREEDY,
                 };
                 for t in [3.0, 5.0] {
                     let case = format!("{name}, object {object}, t = {t}");
@@ -208,6 +209,7 @@ fn the_gpu_tessellation_keeps_the_vertex_budget_and_refuses_a_deeper_cap() {
         object,
         bounces: Bounces::UntilLeaving,
         max_interfaces: GreedyOptions::default().max_interfaces,
+        classes: lensmap::trace::classes::ClassList::GREEDY,
     };
     let budget = mesh.positions.len() + 200;
     let options = TessellationOptions {
@@ -359,6 +361,7 @@ fn gpu_texgen_matches_every_shell_kind_in_f64() {
             object,
             bounces: Bounces::UntilLeaving,
             max_interfaces: GreedyOptions::default().max_interfaces,
+            classes: lensmap::trace::classes::ClassList::GREEDY,
         };
         let options = TessellationOptions {
             t: 3.0,
@@ -379,6 +382,7 @@ fn gpu_texgen_matches_every_shell_kind_in_f64() {
                         shells: &shells,
                         em_origins: &em_origins,
                         refraction,
+                        classes: &[],
                     }),
                     hull: None,
                     continue_budget: false,

@@ -19,7 +19,7 @@ use crate::render::LensFaces;
 use crate::trace::{
     Bounces, GreedyOptions, GreedyRayPath, Ray, Term,
     bvh::SurfaceHit,
-    classes::{ClassTerm, Event, trace_term},
+    classes::{ClassList, ClassTerm, Event, MAX_CLASSES, trace_term},
     fresnel::{Real, Vector3},
     path::{FresnelLookup, trace_greedy_paths_in},
     schlick_table::SchlickTable,
@@ -155,6 +155,8 @@ pub struct PathSettings {
     pub bounces: Bounces,
     /// Most interfaces a path may meet.
     pub max_interfaces: u32,
+    /// The path-class terms traced instead of the two greedy terms (none: greedy).
+    pub classes: ClassList,
 }
 
 /// What a device's passes need of a [`PathOracle`] to trace and tessellate by its rules.
@@ -258,18 +260,25 @@ impl<'a> PathOracle<'a> {
 
     /// What the GPU's passes need of this oracle: where its paths start and stop, its camera
     /// and its criterion.
-    pub fn gpu_settings(&self) -> OracleSettings {
-        OracleSettings {
+    pub fn gpu_settings(&self) -> Result<OracleSettings, crate::gpu::GpuError> {
+        let classes = ClassList::new(&self.classes).ok_or_else(|| {
+            crate::gpu::GpuError::Internal(format!(
+                "the GPU tracer: {} path classes, past the {MAX_CLASSES} a class set holds",
+                self.classes.len()
+            ))
+        })?;
+        Ok(OracleSettings {
             paths: PathSettings {
                 lens: self.lens,
                 object: self.object,
                 bounces: self.greedy.bounces,
                 max_interfaces: self.greedy.max_interfaces,
+                classes,
             },
             camera: self.camera,
             cos_threshold: self.cos_threshold as f32,
             back_faces: self.evaluates_back_faces(),
-        }
+        })
     }
 
     /// Adds `ms` of tracing time and `counters` to the oracle's: work it asked of a device.

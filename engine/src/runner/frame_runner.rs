@@ -443,9 +443,7 @@ impl FrameRunner {
         let start = Instant::now();
         let held = self.slots[self.last_slot].identity;
         let tracer = options.hybrid.tracer;
-        // Path classes are traced on the CPU (`auto` chooses it; `gpu` fails their check).
-        let on_gpu = !options.hybrid.terms.any_classes(hybrid)
-            && tracer.on_gpu(&self.gpu)
+        let on_gpu = tracer.on_gpu(&self.gpu)
             && match self.make_resident(hybrid, &options.hybrid) {
                 Ok(()) => true,
                 // `auto` traces on the CPU where the device cannot hold the scene's geometry.

@@ -192,6 +192,61 @@ impl ClassTerm {
     }
 }
 
+/// A lens object's class terms as a value that copies (at most [`MAX_CLASSES`]; none: the two
+/// greedy terms), as the GPU's passes take them: what their control words hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ClassList {
+    terms: [ClassTerm; MAX_CLASSES],
+    len: u8,
+}
+
+impl Default for ClassList {
+    fn default() -> Self {
+        ClassList::GREEDY
+    }
+}
+
+impl ClassList {
+    /// No classes: the two greedy terms.
+    pub const GREEDY: ClassList = ClassList {
+        terms: [ClassTerm {
+            class: PathClass {
+                len: 1,
+                reflections: 1,
+            },
+            greedy_tail: false,
+        }; MAX_CLASSES],
+        len: 0,
+    };
+
+    /// The list of `terms`; `None` past [`MAX_CLASSES`] (which no [`ClassSet`] gives).
+    pub fn new(terms: &[ClassTerm]) -> Option<ClassList> {
+        if terms.len() > MAX_CLASSES {
+            return None;
+        }
+        let mut list = ClassList::GREEDY;
+        list.terms[..terms.len()].copy_from_slice(terms);
+        list.len = terms.len() as u8;
+        Some(list)
+    }
+
+    /// Its terms, in order.
+    pub fn terms(&self) -> &[ClassTerm] {
+        &self.terms[..usize::from(self.len)]
+    }
+
+    /// Two words per term, as the GPU's control words hold them: its events (bits 0–7) and
+    /// whether its path goes on greedily (bit 8), then its reflections (bit i for event i).
+    pub fn words(&self) -> impl Iterator<Item = u32> + '_ {
+        self.terms().iter().flat_map(|t| {
+            [
+                u32::from(t.class.len) | u32::from(t.greedy_tail) << 8,
+                t.class.reflections,
+            ]
+        })
+    }
+}
+
 impl ClassSet {
     /// Reads `N` (a count) or a comma-separated list such as `R,TT,TRT,TRRT`.
     pub fn parse(text: &str) -> Result<ClassSet, String> {

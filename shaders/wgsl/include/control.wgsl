@@ -29,19 +29,26 @@ const STAT_BUDGET: u32 = 33u;
 const STAT_OCCLUDED: u32 = 34u;
 const STAT_T_JUNCTION_LEAVES: u32 = 35u;
 const STAT_T_JUNCTION_VERTICES: u32 = 36u;
+// The path classes the tracer follows per vertex (engine/src/trace/classes.rs), 0 for the two
+// greedy terms; then per class two words: its events (bits 0-7) and whether its path goes on
+// greedily after them (bit 8), and its reflections (bit i set when event i reflects). Written by
+// the host for every object: a vertex record holds max(classes, 2) terms (record_terms).
+const CONTROL_CLASSES: u32 = 37u;
+const CONTROL_CLASS_WORDS: u32 = 38u;
+const MAX_CLASSES: u32 = 16u;
 // The most vertices this tessellation may hold: the capacity, or the frame's vertex budget left
 // (at least the input's), whichever is smaller; set by cs_begin.
-const CONTROL_VERTEX_LIMIT: u32 = 37u;
+const CONTROL_VERTEX_LIMIT: u32 = 70u;
 // The frame's vertex budget left: written by the host for the frame's first lens object (and
 // where the host counts the budget itself), kept between the objects of a frame, and lowered by
 // each object's vertices in cs_leaves_begin, so that the frame's lens objects share one budget
 // in order with no count read back.
-const CONTROL_FRAME_BUDGET: u32 = 38u;
+const CONTROL_FRAME_BUDGET: u32 = 71u;
 // This object's share of it: the frame's budget left, or its input vertices if more; set by
 // cs_begin (the host compares it with the capacity to tell a budget stop from a full buffer).
-const CONTROL_OBJECT_BUDGET: u32 = 39u;
+const CONTROL_OBJECT_BUDGET: u32 = 72u;
 // Words in the control buffer.
-const CONTROL_WORDS: u32 = 40u;
+const CONTROL_WORDS: u32 = 73u;
 
 // The tracer's counters (a buffer of their own, added to with atomics).
 const COUNTER_PRIMARY_RAYS: u32 = 0u;

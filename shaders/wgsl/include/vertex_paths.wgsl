@@ -48,12 +48,14 @@ var<immediate> constants: TracerConstants;
 @group(0) @binding(4) var<storage, read> schlick: array<f32>;
 // The mesh's vertices, two vec4 each: (position, 1), (unit shading normal, 0).
 @group(0) @binding(5) var<storage, read_write> vertices: array<vec4<f32>>;
-// Per vertex its record (VertexRecord below).
-@group(0) @binding(6) var<storage, read_write> records: array<VertexRecord>;
+// Per vertex its record: record_terms() TermRecords (the greedy refraction and reflection
+// terms, or one per path class), then its screen position (record_screen below).
+@group(0) @binding(6) var<storage, read_write> records: array<vec4<f32>>;
 // Counters, written with atomics: see COUNTER_* (include/control.wgsl).
 @group(0) @binding(7) var<storage, read_write> counters: array<atomic<u32>>;
 // The tessellation's control words (include/control.wgsl): the range of vertices a level
-// traces; and per input vertex whether it is traced (1) or not (0).
+// traces, and the path classes it follows (CONTROL_CLASSES); and per input vertex whether it
+// is traced (1) or not (0).
 @group(0) @binding(8) var<storage, read> control: array<u32>;
 @group(0) @binding(9) var<storage, read> wanted: array<u32>;
 
@@ -68,12 +70,17 @@ struct TermRecord {
     direction: vec4<f32>,
 }
 
-struct VertexRecord {
-    refraction: TermRecord,
-    reflection: TermRecord,
-    // Screen position in subpixels, 1 when it has one (0: at or behind the eye's plane), 1 when
-    // the vertex is visible from the eye.
-    screen: vec4<f32>,
+// A vertex record: its terms (3 vec4 each) and then its screen position in subpixels, 1 when it
+// has one (0: at or behind the eye's plane), 1 when the vertex is visible from the eye.
+fn record_terms() -> u32 {
+    return max(control[CONTROL_CLASSES], 2u);
+}
+
+fn write_term(index: u32, slot: u32, term: TermRecord) {
+    let base = (3u * record_terms() + 1u) * index + 3u * slot;
+    records[base] = term.fg;
+    records[base + 1u] = term.origin;
+    records[base + 2u] = term.direction;
 }
 
 struct Ray {
@@ -383,6 +390,104 @@ fn start_path(ray: Ray, coefficient: vec3<real>, exclude: u32, rays: ptr<functio
     return path;
 }
 
+// A term with no path: no F·G, and `direction.w` 0.
+fn no_term() -> TermRecord {
+    return TermRecord(vec4<f32>(0.0), vec4<f32>(0.0), vec4<f32>(0.0));
+}
+
+// The lens object's next interface along `ray` from the surface of `start`, past hits closer than
+// CRACK (relative) that a seam vertex's rounding gives: a path class counts its events exactly
+// (the CPU's next_interface in engine/src/trace/classes.rs). The hit's t is from `ray`'s origin.
+const CRACK: real = 1.2e-6;
+
+fn next_interface(ray_in: Ray, start: u32, rays: ptr<function, u32>, tests: ptr<function, u32>) -> Hit {
+    let a = abs(ray_in.origin);
+    let crack = CRACK * max(max(max(a.x, a.y), a.z), 1.0);
+    var ray = ray_in;
+    var exclude = start;
+    var travelled: real = 0.0;
+    for (var i = 0u; i < 5u; i++) {
+        var next = closest_hit(constants.part, ray, 3.4e38, exclude, tests);
+        if next.primitive == NO_PRIMITIVE || i == 4u || travelled + next.t >= crack {
+            next.t += travelled;
+            return next;
+        }
+        travelled += next.t;
+        ray = Ray(surface_at(next).position, ray.direction);
+        exclude = next.primitive;
+        *rays += 1u;
+    }
+    return Hit(3.4e38, NO_PRIMITIVE, 0.0, 0.0);
+}
+
+// The most interfaces a class's greedy tail meets in all (the CPU's MAX_TAIL_INTERFACES).
+const MAX_TAIL_INTERFACES: u32 = 16u;
+
+// The path of class `k` of the control words from the first hit `first` of a ray along
+// `direction` (trace_term on the CPU): its events, then for a prefix the greedy choice, until
+// the ray leaves; no path where an event is impossible, the ray leaves before the events end or
+// meets the object after them. Topology: (events, reflections), as the CPU's class records.
+fn class_term(k: u32, direction_in: vec3<real>, first: Surface, rays: ptr<function, u32>, tests: ptr<function, u32>) -> TermRecord {
+    let word = control[CONTROL_CLASS_WORDS + 2u * k];
+    let events = word & 0xffu;
+    let greedy_tail = (word & 0x100u) != 0u;
+    let reflections = control[CONTROL_CLASS_WORDS + 2u * k + 1u];
+    var cap = events;
+    if greedy_tail {
+        cap = MAX_TAIL_INTERFACES;
+    }
+    var fresnel = vec3<real>(1.0);
+    var attenuation = vec3<real>(1.0);
+    var direction = direction_in;
+    var surface = first;
+    var taken = 0u;
+    var reflected = 0u;
+    loop {
+        let s = scatter(surface.object, direction, surface);
+        var reflects = greedy_reflects(s);
+        if taken < events {
+            reflects = (reflections & (1u << taken)) != 0u;
+        }
+        if (!reflects && s.transmittance < 0.0) || taken >= 32u {
+            return no_term();
+        }
+        var ray = s.refracted;
+        if reflects {
+            fresnel = fresnel * s.reflectance;
+            ray = s.reflected;
+            reflected += 1u;
+        } else {
+            fresnel = fresnel * s.transmittance;
+        }
+        taken += 1u;
+        *rays += 1u;
+        let hit = next_interface(ray, surface.primitive, rays, tests);
+        if hit.primitive == NO_PRIMITIVE {
+            if taken < events {
+                return no_term();
+            }
+            let fg = fresnel * attenuation;
+            return TermRecord(
+                vec4<f32>(vec3<f32>(fg), bitcast<f32>(taken)),
+                vec4<f32>(vec3<f32>(ray.origin), bitcast<f32>(reflected)),
+                vec4<f32>(vec3<f32>(ray.direction), 1.0),
+            );
+        }
+        if taken >= cap {
+            return no_term();
+        }
+        let next = surface_at(hit);
+        if dot(ray.direction, next.geometric_normal) >= 0.0 && materials[2u * next.object].x == 1.0 {
+            // Leaving the glass: the segment was inside it (in f32, as `propagate`).
+            let absorption = max(materials[2u * next.object + 1u].xyz, vec3<f32>(0.0));
+            attenuation = attenuation * vec3<real>(pow(absorption, vec3<f32>(f32(hit.t))));
+        }
+        direction = ray.direction;
+        surface = next;
+    }
+    return no_term();
+}
+
 // Screen position in subpixels (xy) and whether there is one (z), as ScreenCamera::project.
 fn project(position: vec3<real>) -> vec3<f32> {
     let clip = constants.view_proj * vec4<f32>(vec3<f32>(position), 1.0);
@@ -398,7 +503,7 @@ fn project(position: vec3<real>) -> vec3<f32> {
 }
 
 // Traces vertex `index`: the eye ray (the visibility query, and the first hit when the vertex is
-// visible), then both greedy paths; writes its record.
+// visible), then both greedy paths or one path per class; writes its record.
 fn trace_vertex(index: u32) {
     let position = vec3<real>(vertices[2u * index].xyz);
     let eye = vec3<real>(constants.eye);
@@ -452,22 +557,29 @@ fn trace_vertex(index: u32) {
         }
         surface = Surface(distance, position, normal, normal, constants.object, NO_PRIMITIVE);
     }
-    let s = scatter(surface.object, direction, surface);
-    let reflection = start_path(s.reflected, s.reflectance, surface.primitive, &rays, &tests);
-    var record: VertexRecord;
-    record.reflection = term_record(reflection);
-    if s.transmittance >= 0.0 {
-        let refraction = start_path(
-            s.refracted, vec3<real>(s.transmittance), surface.primitive, &rays, &tests,
-        );
-        record.refraction = term_record(refraction);
+    let classes = control[CONTROL_CLASSES];
+    if classes > 0u {
+        for (var k = 0u; k < classes; k++) {
+            write_term(index, k, class_term(k, direction, surface, &rays, &tests));
+        }
     } else {
-        record.refraction = record.reflection;
-        record.refraction.direction.w = 0.0;
+        let s = scatter(surface.object, direction, surface);
+        let reflection = term_record(
+            start_path(s.reflected, s.reflectance, surface.primitive, &rays, &tests),
+        );
+        var refraction = reflection;
+        refraction.direction.w = 0.0;
+        if s.transmittance >= 0.0 {
+            refraction = term_record(start_path(
+                s.refracted, vec3<real>(s.transmittance), surface.primitive, &rays, &tests,
+            ));
+        }
+        write_term(index, 0u, refraction);
+        write_term(index, 1u, reflection);
     }
     let screen = project(position);
-    record.screen = vec4<f32>(screen.xy, screen.z, select(0.0, 1.0, visible));
-    records[index] = record;
+    records[(3u * record_terms() + 1u) * (index + 1u) - 1u] =
+        vec4<f32>(screen.xy, screen.z, select(0.0, 1.0, visible));
     atomicAdd(&counters[COUNTER_PRIMARY_RAYS], 1u);
     atomicAdd(&counters[COUNTER_SECONDARY_RAYS], rays);
     atomicAdd(&counters[COUNTER_TRIANGLE_TESTS], tests);

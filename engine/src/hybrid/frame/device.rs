@@ -45,12 +45,13 @@ pub struct GpuResident<'a> {
 }
 
 /// What the GPU's texgen needs of lens object `job`.
-fn texgen_request<'a>(job: &LensJob<'a>) -> TexgenRequest<'a> {
+fn texgen_request<'a>(job: &'a LensJob<'_>) -> TexgenRequest<'a> {
     let layers = &job.scene.lenses()[job.lens.index()];
     TexgenRequest {
         shells: &layers.shells,
         em_origins: &layers.em_origins,
         refraction: texgen::has_refraction(job.scene.trace(), job.lens.index()),
+        classes: &job.classes,
     }
 }
 
@@ -99,20 +100,6 @@ fn add_gpu_time(
     );
 }
 
-/// The GPU tracer traces the two greedy terms: a lens object of path classes is refused (the
-/// runner traces classes on the CPU).
-fn greedy_only(job: &LensJob<'_>) -> Result<(), TessellationError> {
-    if job.classes.is_empty() {
-        return Ok(());
-    }
-    Err(crate::options::OptionError::new(
-        crate::options::names::TRACER,
-        crate::hybrid::VertexTracer::Gpu.name(),
-        "the GPU tracer traces the two greedy terms only; give cpu or auto to trace path classes",
-    )
-    .into())
-}
-
 /// A lens object with no scene object inside the view: its (empty) mesh given texture
 /// coordinates on the CPU, as every stage draws it.
 fn empty_lens(job: &LensJob<'_>, mesh: LensMesh) -> LensObject {
@@ -142,7 +129,6 @@ impl VertexStage for GpuReadBack<'_> {
         budget: &mut VertexBudget,
         stats: &mut HybridStats,
     ) -> Result<BuiltLens, TessellationError> {
-        greedy_only(job)?;
         let request = texgen_request(job);
         let mut merged = MergedLens::default();
         let mut terms: Option<Vec<TermVertices>> = None;
@@ -153,7 +139,7 @@ impl VertexStage for GpuReadBack<'_> {
             // The whole tessellation runs on the device, every level's records kept there, and
             // texgen with it; `texgen_ms` is that pass's device time when it is timed.
             check_holds(self.paths, &oracle)?;
-            let settings = oracle.gpu_settings();
+            let settings = oracle.gpu_settings()?;
             let options = budget.options_for(&job.tessellation, mesh);
             let extras = DeviceExtras {
                 texgen: Some(request),
@@ -218,10 +204,12 @@ impl VertexStage for GpuResident<'_> {
         let mut objects = Vec::new();
         for (lens_index, lens) in scene.trace().lenses.iter().enumerate() {
             let layers = &scene.lenses()[lens_index];
+            let classes = job.lenses.get(lens_index).map_or(&[][..], |l| &l.classes);
             let arrays = TexgenRequest {
                 shells: &layers.shells,
                 em_origins: &layers.em_origins,
                 refraction: texgen::has_refraction(scene.trace(), lens_index),
+                classes,
             }
             .arrays();
             for &object in &lens.objects {
@@ -229,6 +217,7 @@ impl VertexStage for GpuResident<'_> {
                     object,
                     mesh: &scene.scene().objects[object].mesh,
                     arrays,
+                    classes: classes.len(),
                 });
             }
         }
@@ -243,7 +232,6 @@ impl VertexStage for GpuResident<'_> {
         budget: &mut VertexBudget,
         stats: &mut HybridStats,
     ) -> Result<BuiltLens, TessellationError> {
-        greedy_only(job)?;
         let request = texgen_request(job);
         let mut parts = Vec::new();
         for &object in &job.objects {
@@ -255,7 +243,7 @@ impl VertexStage for GpuResident<'_> {
                 continue_budget: budget.on_device,
             };
             check_holds(self.paths, &oracle)?;
-            let settings = oracle.gpu_settings();
+            let settings = oracle.gpu_settings()?;
             let options = budget.options_for(&job.tessellation, mesh);
             let made = self.paths.tracer.tessellate_on_device(
                 self.paths.gpu,

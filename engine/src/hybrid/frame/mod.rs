@@ -229,13 +229,19 @@ fn build(
     let start = Instant::now();
     let (view, blend, mut stats) = begin_frame(scene, camera, options)?;
     stats.traced_on_gpu = stage.key().on_gpu();
-    stage.begin(&FrameJob { scene, options })?;
+    let jobs = LensIndex::all(scene.trace().lenses.len())
+        .map(|lens| LensJob::new(scene, lens, &view, options, &blend, &mut stats))
+        .collect::<Result<Vec<_>, _>>()?;
+    stage.begin(&FrameJob {
+        scene,
+        options,
+        lenses: &jobs,
+    })?;
     let mut budget = VertexBudget::new(options.tessellation.max_vertices);
     let mut lenses = Vec::new();
     let mut depths = Vec::new();
-    for lens in LensIndex::all(scene.trace().lenses.len()) {
-        let job = LensJob::new(scene, lens, &view, options, &blend, &mut stats)?;
-        let built = stage.lens(&job, &mut budget, &mut stats)?;
+    for job in &jobs {
+        let built = stage.lens(job, &mut budget, &mut stats)?;
         lenses.push(built.object);
         depths.push(built.depths);
     }

@@ -85,15 +85,6 @@ impl ShadingTerms {
         }
     }
 
-    /// Whether some lens object of `scene` is shaded by path classes (every lens object it
-    /// traces, those a scene built in code left out of its lens entries too).
-    pub fn any_classes(&self, scene: &crate::hybrid::HybridScene) -> bool {
-        let entries = &scene.scene().lenses;
-        (0..scene.trace().lenses.len()).any(|i| {
-            self.of(entries.get(i).and_then(|lens| lens.terms))
-                .is_some()
-        })
-    }
 }
 
 /// Where a frame's lens vertices are ray traced (`--tracer`). The library's default is the CPU,
@@ -154,23 +145,14 @@ impl Default for HybridOptions {
 pub const MAX_FOOTPRINT_COARSENING: f32 = 8.0;
 
 impl HybridOptions {
-    /// Checks that path classes `classes` can be traced under these options: by the CPU
-    /// tracer, in f64, with exact Fresnel.
+    /// Checks that path classes `classes` can be traced under these options: with exact
+    /// Fresnel, and on the CPU tracer in f64 (the GPU tracer traces them in its own precision).
     pub fn validate_classes(&self, classes: ClassSet) -> Result<(), OptionError> {
         OptionError::require(
-            self.tracer != VertexTracer::Gpu,
-            crate::options::names::TRACER,
-            self.tracer.name(),
-            format!(
-                "the GPU tracer traces the two greedy terms only; give cpu or auto to trace the path classes {}",
-                classes.name()
-            ),
-        )?;
-        OptionError::require(
-            self.precision == VertexPrecision::F64,
+            self.tracer == VertexTracer::Gpu || self.precision == VertexPrecision::F64,
             crate::options::names::TERMS,
             classes.name(),
-            "path classes are traced in f64 only; give greedy to measure the f32 vertex paths",
+            "the CPU tracer traces path classes in f64 only; give greedy to measure the f32 vertex paths, or the GPU tracer",
         )?;
         OptionError::require(
             self.fresnel == FresnelModel::Exact,
@@ -193,7 +175,7 @@ impl HybridOptions {
 
     /// Checks every option: `t` ([`TessellationOptions::validate`]), the footprint (finite,
     /// ≥ 0), the angle in (0°, 180°), the Fresnel table's size ([`FresnelModel::validate`]),
-    /// and path classes only where they are traced (the CPU tracer in f64).
+    /// and path classes only where they are traced ([`HybridOptions::validate_classes`]).
     pub fn validate(&self) -> Result<(), OptionError> {
         self.tessellation.validate()?;
         self.fresnel.validate()?;

@@ -46,13 +46,15 @@ pub trait VertexStage {
     ) -> Result<BuiltLens, TessellationError>;
 }
 
-/// What a frame is made of before its lens objects: the scene and the options (for
-/// [`VertexStage::begin`]).
+/// What a frame is made of before its lens objects are built: the scene, the options and the
+/// lens objects' jobs, in the scene's order (for [`VertexStage::begin`]).
 pub struct FrameJob<'a> {
     /// The scene.
     pub(super) scene: &'a crate::hybrid::HybridScene,
     /// The frame's options.
     pub(super) options: &'a super::HybridOptions,
+    /// Per lens object its job.
+    pub(super) lenses: &'a [LensJob<'a>],
 }
 
 /// Which vertex stage made a frame, and on which tracer.

@@ -4,7 +4,7 @@
 use glam::{DVec3, Vec2, Vec3};
 use lensmap_shaders::tessellate as t;
 
-use super::buffers::RECORD_BYTES;
+use super::buffers::record_bytes;
 use crate::hybrid::paths::{TermPath, VertexPaths};
 use crate::hybrid::tessellate::{
     StopReason, Tessellation, TessellationStats, TriangleRecord, VertexEvaluation, VertexOrigin,
@@ -19,6 +19,8 @@ pub(super) struct Readback<'a> {
     pub(super) wanted: &'a [u32],
     pub(super) triangles: &'a [u32],
     pub(super) output: &'a [u32],
+    /// Path-class terms each record holds (0: the two greedy terms).
+    pub(super) classes: usize,
 }
 
 /// The stop reason of a state word (tessellate.wgsl `STOP_*`).
@@ -39,7 +41,7 @@ fn stop_reason(state: u32) -> StopReason {
 /// One vertex as the GPU traced it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GpuVertex {
-    /// Both terms' paths (f32 values widened).
+    /// Both greedy terms' paths, or each path class's (f32 values widened).
     pub paths: VertexPaths,
     /// Whether the eye sees the vertex.
     pub visible: bool,
@@ -47,11 +49,13 @@ pub struct GpuVertex {
     pub screen: Option<Vec2>,
 }
 
-/// One vertex record's words (tracer.wgsl `VertexRecord`) as a [`GpuVertex`].
-pub(super) fn decode(w: &[u32]) -> GpuVertex {
+/// One vertex record's words (vertex_paths.wgsl `write_term`) of `classes` path-class terms (0:
+/// the two greedy terms) as a [`GpuVertex`].
+pub(super) fn decode(w: &[u32], classes: usize) -> GpuVertex {
     let f = |i: usize| f32::from_bits(w[i]);
     let v3 = |i: usize| DVec3::new(f64::from(f(i)), f64::from(f(i + 1)), f64::from(f(i + 2)));
-    let term = |base: usize| {
+    let term = |slot: usize| {
+        let base = 12 * slot;
         (f(base + 11) != 0.0).then(|| TermPath {
             fg: v3(base),
             outgoing: crate::trace::Ray {
@@ -61,13 +65,21 @@ pub(super) fn decode(w: &[u32]) -> GpuVertex {
             topology: (w[base + 3], w[base + 7]),
         })
     };
-    let screen = (f(26) != 0.0).then(|| Vec2::new(f(24), f(25)));
-    GpuVertex {
-        paths: VertexPaths {
-            terms: [term(0), term(12)],
+    let at = 12 * classes.max(2);
+    let screen = (f(at + 2) != 0.0).then(|| Vec2::new(f(at), f(at + 1)));
+    let paths = match classes {
+        0 => VertexPaths {
+            terms: [term(0), term(1)],
             classes: Vec::new(),
         },
-        visible: f(27) != 0.0,
+        _ => VertexPaths {
+            terms: [None, None],
+            classes: (0..classes).map(term).collect(),
+        },
+    };
+    GpuVertex {
+        paths,
+        visible: f(at + 3) != 0.0,
         screen,
     }
 }
@@ -110,7 +122,7 @@ pub(super) fn assemble(
             uvs.push(uv);
         }
     }
-    let record_words = (RECORD_BYTES / 4) as usize;
+    let record_words = (record_bytes(read.classes) / 4) as usize;
     let evaluations = read
         .records
         .chunks_exact(record_words)
@@ -118,7 +130,7 @@ pub(super) fn assemble(
         .map(|(i, record)| {
             let traced = i >= n_in || read.wanted.get(i).is_some_and(|&w| w != 0);
             traced.then(|| {
-                let vertex = decode(record);
+                let vertex = decode(record, read.classes);
                 VertexEvaluation {
                     sample: vertex.paths,
                     visible: vertex.visible,

@@ -12,8 +12,11 @@ use crate::scene::TriangleMesh;
 
 /// Bytes of one vertex of the tessellation (position, normal: two vec4).
 pub(super) const VERTEX_BYTES: u64 = 32;
-/// Bytes of one vertex record (tracer.wgsl `VertexRecord`).
-pub(super) const RECORD_BYTES: u64 = lensmap_shaders::tracer::VERTEX_RECORD_BYTES as u64;
+/// Bytes of one vertex record of `terms` terms (vertex_paths.wgsl `write_term`): its term
+/// records, at least two (the greedy terms; one per path class), then the screen position.
+pub(super) fn record_bytes(terms: usize) -> u64 {
+    lensmap_shaders::tracer::TERM_RECORD_BYTES as u64 * terms.max(2) as u64 + 16
+}
 /// Bytes of one triangle of a level (two vec4 of words).
 pub(super) const TRIANGLE_BYTES: u64 = 32;
 /// Bytes of an edge's ends, and of its split state (tessellate.wgsl `EdgeState`).
@@ -25,6 +28,14 @@ pub(super) const OUTPUT_BYTES: u64 = 16;
 /// Words of the control buffer, and the tracer's counters.
 pub(super) const CONTROL_WORDS: usize = tessellate::CONTROL_WORDS as usize;
 pub(super) const COUNTERS: usize = tessellate::COUNTERS as usize;
+
+// The control words hold every class term a set may have (two words each), before the frame's
+// budget word: a tessellation that continues the frame's budget writes the words before it.
+const _: () = assert!(tessellate::MAX_CLASSES as usize == crate::trace::classes::MAX_CLASSES);
+const _: () = assert!(
+    tessellate::CONTROL_CLASS_WORDS + 2 * tessellate::MAX_CLASSES
+        <= tessellate::CONTROL_FRAME_BUDGET
+);
 
 /// Triangles (of every level) and edges the buffers hold per vertex of capacity.
 const TRIANGLES_PER_VERTEX: u64 = 6;
@@ -126,21 +137,25 @@ impl InputMesh {
 }
 
 /// What the shared buffers must hold for the objects tessellated so far: the most input vertices
-/// (and room for a split), input triangles (edges at most three times as many) and texgen arrays.
+/// (and room for a split), input triangles (edges at most three times as many), texgen arrays
+/// and bytes of a vertex record.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(super) struct Extent {
     pub(super) least: u64,
     pub(super) reserve: u64,
     pub(super) arrays: u64,
+    pub(super) record_bytes: u64,
 }
 
 impl Extent {
-    /// What `input` with texgen arrays `arrays` needs.
-    pub(super) fn of(input: &InputMesh, arrays: u64) -> Extent {
+    /// What `input` with texgen arrays `arrays` and path-class terms `classes` (0: greedy)
+    /// needs.
+    pub(super) fn of(input: &InputMesh, arrays: u64, classes: usize) -> Extent {
         Extent {
             least: u64::from(input.vertex_count) + 4,
             reserve: u64::from(input.triangle_count).max(u64::from(input.edge_count).div_ceil(3)),
             arrays,
+            record_bytes: record_bytes(classes),
         }
     }
 
@@ -150,6 +165,7 @@ impl Extent {
             least: self.least.max(other.least),
             reserve: self.reserve.max(other.reserve),
             arrays: self.arrays.max(other.arrays),
+            record_bytes: self.record_bytes.max(other.record_bytes),
         }
     }
 }
@@ -160,6 +176,8 @@ pub(super) struct Scratch {
     pub(super) vertices_capacity: u64,
     pub(super) triangles_capacity: u64,
     pub(super) edges_capacity: u64,
+    /// Bytes of the largest vertex record the records hold `vertices_capacity` of.
+    pub(super) record_bytes: u64,
     pub(super) vertices: Buffer,
     pub(super) records: Buffer,
     pub(super) control: Buffer,
@@ -177,9 +195,14 @@ pub(super) struct Scratch {
 }
 
 impl Scratch {
-    /// Buffers for `vertices` vertices and an input of up to `reserve` triangles (its edges at
-    /// most three times as many).
-    pub(super) fn new(gpu: &Gpu, vertices: u64, reserve: u64) -> Result<Scratch, GpuError> {
+    /// Buffers for `vertices` vertices of records of up to `record_bytes` and an input of up to
+    /// `reserve` triangles (its edges at most three times as many).
+    pub(super) fn new(
+        gpu: &Gpu,
+        vertices: u64,
+        reserve: u64,
+        record_bytes: u64,
+    ) -> Result<Scratch, GpuError> {
         let triangles = TRIANGLES_PER_VERTEX * vertices + reserve;
         let edges = EDGES_PER_VERTEX * vertices + 3 * reserve;
         let outputs = 2 * vertices + 2 * reserve;
@@ -189,8 +212,9 @@ impl Scratch {
             vertices_capacity: vertices,
             triangles_capacity: triangles,
             edges_capacity: edges,
+            record_bytes,
             vertices: device("tessellation vertices", vertices * VERTEX_BYTES)?,
-            records: device("tessellation records", vertices * RECORD_BYTES)?,
+            records: device("tessellation records", vertices * record_bytes)?,
             control: device("tessellation control", 4 * CONTROL_WORDS as u64)?,
             wanted: device("tessellation wanted", 4 * vertices)?,
             triangles: device("tessellation triangles", triangles * TRIANGLE_BYTES)?,
@@ -211,6 +235,7 @@ impl Scratch {
     /// a split).
     pub(super) fn holds(&self, extent: &Extent) -> bool {
         self.vertices_capacity >= extent.least
+            && self.record_bytes >= extent.record_bytes
             && self.triangles_capacity
                 >= TRIANGLES_PER_VERTEX * self.vertices_capacity + extent.reserve
             && self.edges_capacity >= EDGES_PER_VERTEX * self.vertices_capacity + 3 * extent.reserve
@@ -243,11 +268,18 @@ impl Scratch {
     }
 }
 
-/// The largest capacity, in vertices, the device can dispatch and bind with room for an input of
-/// `reserve` triangles (and three times as many edges): every per-triangle pass within
-/// `maxComputeWorkGroupCount[0]` workgroups, every buffer (texgen's lens data of `arrays`
-/// arrays too; 0 without texgen) within `maxStorageBufferRange`, vertex indices below 2³¹.
-pub(super) fn device_capacity(gpu: &Gpu, reserve: u64, arrays: u64) -> u64 {
+/// The largest capacity, in vertices, the device can dispatch and bind for `extent`'s inputs:
+/// room for `reserve` triangles (and three times as many edges), every per-triangle pass within
+/// `maxComputeWorkGroupCount[0]` workgroups, every buffer (the records of `record_bytes`,
+/// texgen's lens data of `arrays` arrays too; 0 without texgen) within `maxStorageBufferRange`,
+/// vertex indices below 2³¹.
+pub(super) fn device_capacity(gpu: &Gpu, extent: &Extent) -> u64 {
+    let Extent {
+        reserve,
+        arrays,
+        record_bytes,
+        ..
+    } = *extent;
     let limits = gpu.properties().limits;
     let groups = u64::from(limits.max_compute_work_group_count[0]);
     let range = u64::from(limits.max_storage_buffer_range);
@@ -258,7 +290,7 @@ pub(super) fn device_capacity(gpu: &Gpu, reserve: u64, arrays: u64) -> u64 {
         .min(words);
     let by_triangles = triangles.saturating_sub(reserve) / TRIANGLES_PER_VERTEX;
     by_triangles
-        .min(range / RECORD_BYTES)
+        .min(range / record_bytes.max(1))
         .min(
             (range / EDGE_STATE_BYTES)
                 .min(words)

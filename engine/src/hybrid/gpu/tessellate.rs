@@ -25,8 +25,8 @@ use lensmap_shaders::{DrawConstants, TessellateConstants, tessellate as t};
 
 use super::assemble::{Readback, assemble};
 use super::buffers::{
-    CONTROL_WORDS, Extent, InputMesh, OUTPUT_BYTES, RECORD_BYTES, Scratch, TRIANGLE_BYTES,
-    VERTEX_BYTES, device_capacity,
+    CONTROL_WORDS, Extent, InputMesh, OUTPUT_BYTES, Scratch, TRIANGLE_BYTES,
+    VERTEX_BYTES, device_capacity, record_bytes,
 };
 use super::resident::{self, ObjectState, OutputSets};
 use super::texgen::{self, TexgenRequest};
@@ -141,6 +141,8 @@ pub struct PreparedObject<'a> {
     pub mesh: &'a TriangleMesh,
     /// Arrays of its lens data ([`TexgenRequest::arrays`]).
     pub arrays: u64,
+    /// Path-class terms its vertices trace (0: the two greedy terms).
+    pub classes: usize,
 }
 
 /// Where a tessellation's result goes.
@@ -152,11 +154,12 @@ enum Placement {
     OnDevice,
 }
 
-/// What the shared buffers must be sized for: a scene object, its texgen arrays, the budget and
-/// whether it continues a frame's earlier objects.
+/// What the shared buffers must be sized for: a scene object, its texgen arrays and path-class
+/// terms, the budget and whether it continues a frame's earlier objects.
 struct Need {
     object: usize,
     arrays: u64,
+    classes: usize,
     max_vertices: usize,
     continue_budget: bool,
 }
@@ -235,7 +238,8 @@ impl GpuTracer {
         let mut last = None;
         for prepared in objects {
             self.keep_input(gpu, state, prepared.object, prepared.mesh)?;
-            let extent = Extent::of(&state.objects[&prepared.object].input, prepared.arrays);
+            let input = &state.objects[&prepared.object].input;
+            let extent = Extent::of(input, prepared.arrays, prepared.classes);
             state.extent = state.extent.max(extent);
             last = Some(prepared);
         }
@@ -246,6 +250,7 @@ impl GpuTracer {
         let need = Need {
             object: last.object,
             arrays: last.arrays,
+            classes: last.classes,
             max_vertices: options.max_vertices,
             continue_budget: false,
         };
@@ -315,11 +320,11 @@ impl GpuTracer {
     ) -> Result<(), TessellationError> {
         let input = &state.objects[&need.object].input;
         let least = u64::from(input.vertex_count) + 4;
-        let mine = Extent::of(input, need.arrays);
+        let mine = Extent::of(input, need.arrays, need.classes);
         // What the buffers hold only grows: every object tessellated so far fits.
         state.extent = state.extent.max(mine);
         let extent = state.extent;
-        let device = device_capacity(gpu, extent.reserve, extent.arrays);
+        let device = device_capacity(gpu, &extent);
         if device < least {
             return Err(GpuError::BadUpload {
                 what: "the GPU tessellation".into(),
@@ -358,7 +363,12 @@ impl GpuTracer {
         // Nothing submitted may still use the old buffers, nor the sets that point at them.
         state.submissions.wait_all()?;
         state.tessellation = None;
-        state.tessellation = Some(Scratch::new(gpu, wanted, extent.reserve)?);
+        state.tessellation = Some(Scratch::new(
+            gpu,
+            wanted,
+            extent.reserve,
+            extent.record_bytes,
+        )?);
         state.capacity = wanted;
         for held in state.objects.values_mut() {
             held.forget_sets();
@@ -406,6 +416,7 @@ impl GpuTracer {
         let need = Need {
             object,
             arrays,
+            classes: request.settings.classes.terms().len(),
             max_vertices: options.max_vertices,
             continue_budget: request.continue_budget,
         };
@@ -575,7 +586,7 @@ impl GpuTracer {
         // (offset in the source, bytes): the mesh, then each array of the lens data.
         let mut spans = vec![
             (0, vertex_count * VERTEX_BYTES),
-            (0, vertex_count * RECORD_BYTES),
+            (0, vertex_count * record_bytes(request.settings.classes.terms().len())),
             (0, 4 * n_in),
             (0, triangle_count * TRIANGLE_BYTES),
             (0, output_count * OUTPUT_BYTES),
@@ -655,6 +666,7 @@ impl GpuTracer {
                 wanted: slice(2),
                 triangles: slice(3),
                 output: slice(4),
+                classes: request.settings.classes.terms().len(),
             },
             &words,
             &counters,
@@ -700,6 +712,11 @@ fn first_words(
     request: &GpuTessellationRequest<'_>,
 ) -> ([u32; CONTROL_WORDS], usize) {
     let mut first = first_control(input);
+    let classes = &request.settings.classes;
+    first[t::CONTROL_CLASSES as usize] = classes.terms().len() as u32;
+    for (at, word) in (t::CONTROL_CLASS_WORDS as usize..).zip(classes.words()) {
+        first[at] = word;
+    }
     let budget = t::CONTROL_FRAME_BUDGET as usize;
     if request.continue_budget {
         return (first, budget);

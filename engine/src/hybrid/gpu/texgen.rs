@@ -10,10 +10,11 @@ use lensmap_shaders::TexgenConstants;
 
 use crate::layers::LayerShell;
 use crate::render::TermVertices;
-use crate::trace::Term;
+use crate::trace::{Term, classes::ClassTerm};
 
 /// What texgen needs of a lens object: its layer shells, nearest first, each with its EM origin,
-/// and whether it has a refraction term (a glass object; the reflection term it always has).
+/// and its terms: whether it has a refraction term (a glass object; the reflection term it
+/// always has), or its path classes.
 #[derive(Clone, Copy, Debug)]
 pub struct TexgenRequest<'a> {
     /// The shells, nearest first.
@@ -22,11 +23,17 @@ pub struct TexgenRequest<'a> {
     pub em_origins: &'a [DVec3],
     /// Whether the refraction term is written (first).
     pub refraction: bool,
+    /// The path-class terms written instead of the greedy terms, one per class in this order
+    /// (empty: greedy); the tracer's records hold the same list.
+    pub classes: &'a [ClassTerm],
 }
 
 impl TexgenRequest<'_> {
     /// The terms written, in order.
     pub(crate) fn terms(&self) -> Vec<Term> {
+        if !self.classes.is_empty() {
+            return self.classes.iter().copied().map(Term::Class).collect();
+        }
         let mut terms = Vec::with_capacity(2);
         if self.refraction {
             terms.push(Term::Refraction);

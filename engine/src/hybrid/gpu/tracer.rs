@@ -13,7 +13,9 @@ use lensmap_shaders::{
 };
 
 use super::assemble::{GpuVertex, decode};
-use super::buffers::{COUNTERS, Extent, RECORD_BYTES, Scratch as TessellationScratch, storage};
+use super::buffers::{
+    CONTROL_WORDS, COUNTERS, Extent, Scratch as TessellationScratch, record_bytes, storage,
+};
 use super::resident::ObjectState;
 use super::walk::{GpuTraversal, Walk};
 use crate::gpu::descriptors::{Binding, DescriptorPool, Resource, SetLayout};
@@ -100,20 +102,24 @@ pub(super) struct PassState {
     pub(super) shapes: rustc_hash::FxHashMap<super::work::ShapeKey, Arc<WorkShape>>,
 }
 
-/// A pass's buffers for up to `capacity` vertices: their inputs, records, the counters, and the
-/// host copy of the counters (first, 16 bytes) and records (after).
+/// A pass's buffers for up to `capacity` vertices of records of up to `record_bytes`: their
+/// inputs, records, the counters, the control words (the path classes), and the host copy of
+/// the counters (first, 16 bytes) and records (after).
 struct Scratch {
     capacity: u64,
+    record_bytes: u64,
     vertices: Buffer,
     records: Buffer,
     counters: Buffer,
+    control: Buffer,
     readback: Buffer,
 }
 
 impl Scratch {
-    fn new(gpu: &Gpu, capacity: u64) -> Result<Scratch, GpuError> {
+    fn new(gpu: &Gpu, capacity: u64, record_bytes: u64) -> Result<Scratch, GpuError> {
         Ok(Scratch {
             capacity,
+            record_bytes,
             vertices: Buffer::new(
                 gpu,
                 "tracer vertices",
@@ -123,8 +129,14 @@ impl Scratch {
             records: Buffer::new(
                 gpu,
                 "tracer records",
-                capacity * RECORD_BYTES,
+                capacity * record_bytes,
                 BufferUsage::Device,
+            )?,
+            control: Buffer::new(
+                gpu,
+                "tracer control",
+                4 * CONTROL_WORDS as u64,
+                BufferUsage::Storage,
             )?,
             counters: Buffer::new(
                 gpu,
@@ -135,7 +147,7 @@ impl Scratch {
             readback: Buffer::new(
                 gpu,
                 "tracer readback",
-                READBACK_RECORDS + capacity * RECORD_BYTES,
+                READBACK_RECORDS + capacity * record_bytes,
                 BufferUsage::Readback,
             )?,
         })
@@ -301,10 +313,10 @@ impl GpuTracer {
         }
     }
 
-    /// Traces the vertices `(position, unit normal)` of `settings.object` from `camera` and reads
-    /// the records back, with the rays and triangle tests spent: one compute pass, or one per
-    /// chunk where a batch's records would pass the device's `maxStorageBufferRange` or
-    /// [`MAX_BATCH`] vertices.
+    /// Traces the vertices `(position, unit normal)` of `settings.object` from `camera` (the two
+    /// greedy terms, or `settings.classes`) and reads the records back, with the rays and
+    /// triangle tests spent: one compute pass, or one per chunk where a batch's records would
+    /// pass the device's `maxStorageBufferRange` or [`MAX_BATCH`] vertices.
     pub fn trace_vertices(
         &self,
         gpu: &Gpu,
@@ -314,7 +326,8 @@ impl GpuTracer {
     ) -> Result<(Vec<GpuVertex>, TraceCounters), GpuError> {
         self.check_device(gpu)?;
         let range = u64::from(gpu.properties().limits.max_storage_buffer_range);
-        let chunk = (range / RECORD_BYTES).clamp(1, MAX_BATCH) as usize;
+        let bytes = record_bytes(settings.classes.terms().len());
+        let chunk = (range / bytes).clamp(1, MAX_BATCH) as usize;
         let mut traced = Vec::with_capacity(vertices.len());
         let mut counters = TraceCounters::default();
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
@@ -386,17 +399,32 @@ impl GpuTracer {
             submissions,
             ..
         } = state;
-        if scratch.as_ref().is_some_and(|s| s.capacity < count) {
+        let classes = settings.classes.terms().len();
+        let bytes = record_bytes(classes);
+        if scratch
+            .as_ref()
+            .is_some_and(|s| s.capacity < count || s.record_bytes < bytes)
+        {
             // The old buffers first: they go before the larger ones are made.
             *scratch = None;
         }
         let scratch = match scratch {
             Some(kept) => kept,
-            None => scratch.insert(Scratch::new(gpu, count.max(1))?),
+            None => scratch.insert(Scratch::new(gpu, count.max(1), bytes)?),
         };
         scratch
             .vertices
             .write(0, bytemuck::cast_slice(&data), "tracer vertices")?;
+        // The control words this pass reads: the path classes.
+        use lensmap_shaders::tessellate as t;
+        let mut control = [0u32; CONTROL_WORDS];
+        control[t::CONTROL_CLASSES as usize] = classes as u32;
+        for (at, word) in (t::CONTROL_CLASS_WORDS as usize..).zip(settings.classes.words()) {
+            control[at] = word;
+        }
+        scratch
+            .control
+            .write(0, bytemuck::cast_slice(&control), "tracer control")?;
         pool.reset()?;
         let (walk, parts) = self.walk.resources();
         let resources = [
@@ -408,8 +436,8 @@ impl GpuTracer {
             Resource::buffer(&scratch.vertices),
             Resource::buffer(&scratch.records),
             Resource::buffer(&scratch.counters),
-            // Bindings 8 and 9 (the tessellation's control and wanted) are not read here.
-            Resource::buffer(&scratch.counters),
+            Resource::buffer(&scratch.control),
+            // Binding 9 (the tessellation's wanted flags) is not read here.
             Resource::buffer(&scratch.counters),
         ];
         let set = pool.allocate_one(gpu, self.tracer_set_layout(), &resources)?;
@@ -425,11 +453,12 @@ impl GpuTracer {
         let records = work.buffer("tracer records", Some(&scratch.records));
         let counters = work.buffer("tracer counters", Some(&scratch.counters));
         let readback = work.buffer("tracer readback", Some(&scratch.readback));
+        let control_slot = work.buffer("tracer control", Some(&scratch.control));
         slots.extend([
             Some(vertices_slot),
             Some(records),
             Some(counters),
-            None,
+            Some(control_slot),
             None,
         ]);
         work.pass(
@@ -456,7 +485,7 @@ impl GpuTracer {
             (
                 "readback: records",
                 records,
-                (0, READBACK_RECORDS, count * RECORD_BYTES),
+                (0, READBACK_RECORDS, count * bytes),
             ),
         ] {
             let uses = || {
@@ -480,14 +509,16 @@ impl GpuTracer {
         let work = work.finish()?;
         let value = submit(gpu, submissions, &[&work])?;
         submissions.wait(value)?;
-        let bytes = scratch.readback.read();
-        let words: &[u32] = bytemuck::cast_slice(&bytes[..scratch.readback.size as usize]);
-        let record_words = (RECORD_BYTES / 4) as usize;
+        let read = scratch.readback.read();
+        let words: &[u32] = bytemuck::cast_slice(&read[..scratch.readback.size as usize]);
+        let record_words = (bytes / 4) as usize;
         let first = (READBACK_RECORDS / 4) as usize;
         let out = (0..count as usize)
-            .map(|i| decode(&words[first + i * record_words..first + (i + 1) * record_words]))
+            .map(|i| {
+                let at = first + i * record_words;
+                decode(&words[at..at + record_words], classes)
+            })
             .collect();
-        use lensmap_shaders::tessellate as t;
         let counters = TraceCounters {
             primary_rays: u64::from(words[t::COUNTER_PRIMARY_RAYS as usize]),
             secondary_rays: u64::from(words[t::COUNTER_SECONDARY_RAYS as usize]),

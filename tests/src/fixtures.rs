@@ -264,7 +264,10 @@ pub fn gpu_tracer(
 
 /// The vertices of `mesh`'s triangles that face `eye`, with unit normals as the tessellation
 /// hands them to its oracle.
-pub fn front_facing_vertices(mesh: &TriangleMesh, eye: Vec3) -> Vec<lensmap::hybrid::tessellate::SurfaceVertex> {
+pub fn front_facing_vertices(
+    mesh: &TriangleMesh,
+    eye: Vec3,
+) -> Vec<lensmap::hybrid::tessellate::SurfaceVertex> {
     let normals = if mesh.normals.len() == mesh.positions.len() {
         mesh.normals.clone()
     } else {

@@ -329,7 +329,9 @@ fn class_agreement(name: &str) -> ClassAgreement {
         secondary_rays: (0, in_f64.as_ref().map(|_| 0), 0),
     };
     for (lens, lens_bvh) in trace.lenses.iter().enumerate() {
-        let interface = trace.interface(lens_bvh.objects[0]).expect("a lens material");
+        let interface = trace
+            .interface(lens_bvh.objects[0])
+            .expect("a lens material");
         let terms = ClassSet::First(4).terms(interface);
         let classes = ClassList::new(&terms).expect("four classes");
         for &object in &lens_bvh.objects {

@@ -84,7 +84,6 @@ impl ShadingTerms {
             ShadingTerms::Classes(set) => Some(set),
         }
     }
-
 }
 
 /// Where a frame's lens vertices are ray traced (`--tracer`). The library's default is the CPU,

@@ -25,8 +25,8 @@ use lensmap_shaders::{DrawConstants, TessellateConstants, tessellate as t};
 
 use super::assemble::{Readback, assemble};
 use super::buffers::{
-    CONTROL_WORDS, Extent, InputMesh, OUTPUT_BYTES, Scratch, TRIANGLE_BYTES,
-    VERTEX_BYTES, device_capacity, record_bytes,
+    CONTROL_WORDS, Extent, InputMesh, OUTPUT_BYTES, Scratch, TRIANGLE_BYTES, VERTEX_BYTES,
+    device_capacity, record_bytes,
 };
 use super::resident::{self, ObjectState, OutputSets};
 use super::texgen::{self, TexgenRequest};
@@ -586,7 +586,10 @@ impl GpuTracer {
         // (offset in the source, bytes): the mesh, then each array of the lens data.
         let mut spans = vec![
             (0, vertex_count * VERTEX_BYTES),
-            (0, vertex_count * record_bytes(request.settings.classes.terms().len())),
+            (
+                0,
+                vertex_count * record_bytes(request.settings.classes.terms().len()),
+            ),
             (0, 4 * n_in),
             (0, triangle_count * TRIANGLE_BYTES),
             (0, output_count * OUTPUT_BYTES),

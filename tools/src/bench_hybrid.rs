@@ -3,7 +3,8 @@
 //! moving one, latency against throughput with two frames in flight, and the thread scaling of
 //! the CPU stages (1, 2 and all threads). With `--fresnel table:N`, also exact Fresnel against
 //! the table, frames alternating. Then each stage for the papers' greedy terms and for 3, 4 and 6
-//! path classes (traced on the CPU, composited by the multipass variant), frames alternating,
+//! path classes (traced by the CPU tracer, then by the GPU tracer; composited by the multipass
+//! variant and by the single pass), frames alternating,
 //! with what each stage is expected to scale by: the layer passes, the ray segments traced and
 //! the vertices.
 
@@ -175,7 +176,8 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         ("f32", "f64"),
         variant(Traversal::Bvh, VertexPrecision::F64),
     )?;
-    let classes = bench.classes(&mut runner, &options, &mut steps)?;
+    let classes = bench.classes(&mut runner, &options, VertexTracer::Cpu, &mut steps)?;
+    let gpu_classes = bench.classes(&mut runner, &options, VertexTracer::Gpu, &mut steps)?;
 
     let out = json!({
         "device": runner.gpu().device_name(), "driver": runner.gpu().device_id().driver_description(), "scene": hybrid.scene().name, "width": args.width, "height": args.height,
@@ -187,6 +189,7 @@ pub fn run(args: BenchHybridArgs) -> anyhow::Result<()> {
         "walk": crate::common::gpu_walk(runner.gpu(), &hybrid_options),
         "cpu_against_gpu_tracer": tracers, "gpu_stages": gpu_stages, "bvh_against_driver_walk": walks,
         "f32_against_f64": precisions, "path_classes": classes,
+        "path_classes_gpu_tracer": gpu_classes,
     });
     report(&out, args.report.as_deref())?;
     Ok(())
@@ -417,8 +420,8 @@ impl Bench<'_> {
 type Part = fn(&(f64, f64)) -> f64;
 
 impl Bench<'_> {
-    /// Each stage for the papers' greedy terms and for the first 3, 4 and 6 path classes, on the
-    /// CPU tracer (the GPU tracer traces the greedy terms only), by the multipass variant
+    /// Each stage for the papers' greedy terms and for the first 3, 4 and 6 path classes, on
+    /// `tracer` (the CPU's in f64, or the GPU's in the options' precision), by the multipass variant
     /// (front-to-back) and by the single pass (which falls back to the multipass variant for
     /// classes whose varyings it cannot carry: each row names the variant that ran), each frame
     /// built from scratch, the eight alternating (forwards, then backwards) after a warm-up of
@@ -429,14 +432,18 @@ impl Bench<'_> {
         &self,
         runner: &mut FrameRunner,
         options: &FrameOptions,
+        tracer: VertexTracer,
         steps: &mut Steps,
     ) -> anyhow::Result<serde_json::Value> {
-        let step = steps.step("path classes against greedy, alternating");
-        // Classes are traced on the CPU in f64 with exact Fresnel, whatever the flags say.
+        let step = steps.step(&format!(
+            "path classes against greedy, {} tracer, alternating",
+            tracer.name()
+        ));
+        // Classes are traced with exact Fresnel (on the CPU in f64), whatever the flags say.
         let setting = |terms, compositing| FrameOptions {
             hybrid: HybridOptions {
                 terms,
-                tracer: VertexTracer::Cpu,
+                tracer,
                 fresnel: FresnelModel::Exact,
                 precision: VertexPrecision::F64,
                 ..options.hybrid
@@ -464,7 +471,10 @@ impl Bench<'_> {
         for (name, options) in &settings {
             if let Err(error) = self.frame_from_scratch(runner, options) {
                 step.finish_and_clear();
-                say!("path classes against greedy: not run ({name}: {error})");
+                say!(
+                    "path classes against greedy, {} tracer: not run ({name}: {error})",
+                    tracer.name()
+                );
                 return Ok(json!({ "not_run": error.to_string() }));
             }
         }
@@ -473,7 +483,8 @@ impl Bench<'_> {
         step.finish_and_clear();
         let limits = runner.single_pass_limits();
         say!(
-            "path classes against greedy (CPU tracer, {} frames each, alternating; × greedy's by the variant asked for):",
+            "path classes against greedy ({} tracer, {} frames each, alternating; × greedy's by the variant asked for):",
+            tracer.name(),
             self.frames
         );
         say!(
@@ -521,7 +532,7 @@ impl Bench<'_> {
                 "total_against_greedy": ratio(|r| r.stages.total),
             }));
         }
-        Ok(json!({ "tracer": "cpu", "frames_each": self.frames, "rows": rows }))
+        Ok(json!({ "tracer": tracer.name(), "frames_each": self.frames, "rows": rows }))
     }
 
     /// Frames traced on the GPU with their stages timed by the device's timestamps, each built

@@ -612,7 +612,7 @@ fn bench_error_against_the_full_tree_sweeps_path_classes() {
 /// class past the two greedy terms (each term draws its layers once per viewpoint sample), and 6
 /// classes trace more ray segments than the two greedy paths; the single pass draws each of them
 /// in one pass (glass-sphere's one layer per viewpoint sample: 6 classes take 6·2 = 12 of the 16
-/// varyings), and names itself in its rows.
+/// varyings), and names itself in its rows. The CPU tracer's rows, then the GPU tracer's alike.
 #[test]
 fn bench_hybrid_times_the_stages_of_path_classes() {
     let report = json_report(&[
@@ -628,9 +628,15 @@ fn bench_hybrid_times_the_stages_of_path_classes() {
         "--frames",
         "1",
     ]);
-    let rows = report["path_classes"]["rows"]
-        .as_array()
-        .expect("the path-class rows");
+    for (key, tracer) in [("path_classes", "cpu"), ("path_classes_gpu_tracer", "gpu")] {
+        assert_eq!(report[key]["tracer"], tracer, "{key}");
+        path_class_rows(&report[key]);
+    }
+}
+
+/// The checks of [`bench_hybrid_times_the_stages_of_path_classes`] on one tracer's rows.
+fn path_class_rows(part: &serde_json::Value) {
+    let rows = part["rows"].as_array().expect("the path-class rows");
     let text = |key: &str| -> Vec<&str> { rows.iter().filter_map(|r| r[key].as_str()).collect() };
     assert_eq!(
         text("terms"),

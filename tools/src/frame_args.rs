@@ -58,8 +58,9 @@ pub struct FrameArgs {
     /// greedy where it has none), `greedy` (the papers' two terms), a count N of path classes
     /// (the first N of R, TT, TRT, TRRT, … for glass; of R, RR, … for mirrors), a list such as
     /// `R,TT,TRT,TRRT`, or `greedy:D` (the ray tree expanded to D events, greedy below). Path
-    /// classes are traced on the CPU (`--tracer auto` chooses it) and composited by the
-    /// multipass variant: asked of the single pass, the frame runs multipass front-to-back.
+    /// classes are traced by either tracer (the CPU's in f64 only) with exact Fresnel, and
+    /// composited by the single pass while its 16 varyings carry them (K classes of n layers
+    /// take K·(n + 1)); past them the frame runs multipass front-to-back.
     #[arg(long, default_value = "scene", value_parser = parse_terms)]
     pub terms: ShadingTerms,
     /// Compositor variant.

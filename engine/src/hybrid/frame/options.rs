@@ -49,8 +49,9 @@ pub struct HybridOptions {
     pub gpu_precision: VertexPrecision,
     /// The shading terms of the lens objects: each one's scene-file setting (the default;
     /// greedy where it has none), the papers' two greedy terms, or one term per path class
-    /// ([`crate::trace::classes`]) for every lens object. Classes are traced on the CPU in f64
-    /// and composited by the multipass variant.
+    /// ([`crate::trace::classes`]) for every lens object. Classes are traced by either tracer
+    /// (the CPU's in f64) and composited by the single pass while its varyings carry them, else
+    /// by the multipass variant.
     pub terms: ShadingTerms,
 }
 

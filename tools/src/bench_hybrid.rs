@@ -508,8 +508,12 @@ impl Bench<'_> {
                 Compositing::Multipass(_) => "multipass",
             };
             let ratio = |pick: fn(&ClassRow) -> f64| pick(row) / pick(greedy);
-            let cell =
-                |value: String, pick: fn(&ClassRow) -> f64| format!("{value} ×{:.2}", ratio(pick));
+            // A stage greedy's frame spends no time in (the GPU tracer's resident frame traces
+            // and tessellates in the frame's execution) has no ratio.
+            let cell = |value: String, pick: fn(&ClassRow) -> f64| match pick(greedy) > 0.0 {
+                true => format!("{value} ×{:.2}", ratio(pick)),
+                false => format!("{value} ×–"),
+            };
             say!(
                 "{:<8} {:<12} {:>15} {:>15} {:>17} {:>16} {:>15} {:>15}  frame {:.1} ms ×{:.2}",
                 name,
@@ -532,7 +536,21 @@ impl Bench<'_> {
                 "total_against_greedy": ratio(|r| r.stages.total),
             }));
         }
-        Ok(json!({ "tracer": tracer.name(), "frames_each": self.frames, "rows": rows }))
+        // On the GPU tracer the trace, split and texgen passes run inside the frame's execution:
+        // their device times by timestamps, greedy's and 4 classes' by the multipass variant.
+        let mut split = serde_json::Map::new();
+        if tracer == VertexTracer::Gpu {
+            for (name, options) in settings.iter().filter(|(name, options)| {
+                matches!(options.compositing, Compositing::Multipass(_))
+                    && (name == "greedy" || name == "4")
+            }) {
+                say!("{name}:");
+                split.insert(name.clone(), self.gpu_stages(runner, options, steps)?);
+            }
+        }
+        Ok(json!({
+            "tracer": tracer.name(), "frames_each": self.frames, "rows": rows, "gpu_stages": split,
+        }))
     }
 
     /// Frames traced on the GPU with their stages timed by the device's timestamps, each built

@@ -632,6 +632,14 @@ fn bench_hybrid_times_the_stages_of_path_classes() {
         assert_eq!(report[key]["tracer"], tracer, "{key}");
         path_class_rows(&report[key]);
     }
+    // The same lens passes on either tracer (the GPU's compute passes are not counted).
+    let passes = |key: &str| -> Vec<u64> {
+        let rows = report[key]["rows"].as_array().expect("rows");
+        rows.iter()
+            .filter_map(|r| r["layer_passes"].as_u64())
+            .collect()
+    };
+    assert_eq!(passes("path_classes"), passes("path_classes_gpu_tracer"));
 }
 
 /// The checks of [`bench_hybrid_times_the_stages_of_path_classes`] on one tracer's rows.

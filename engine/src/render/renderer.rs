@@ -35,7 +35,7 @@ pub struct FrameTimings {
     /// Converting the read-back bytes to f32.
     pub readback_ms: f64,
     /// Passes the frame recorded (the plan's steps: environment, prime, layer passes, alpha
-    /// clears or single passes, the readback).
+    /// clears or single passes, the readback; not its GPU tessellations' passes).
     pub passes: usize,
     /// Compute commands the frame recorded: the tessellations of its resident lens parts, each
     /// a pass of its plan.
@@ -347,7 +347,18 @@ impl Renderer {
             value,
             readback: host.is_none(),
             format,
-            passes: plan.steps.len(),
+            // The GPU tessellations' passes are counted as their commands (`compute`).
+            passes: plan
+                .steps
+                .iter()
+                .filter(|s| {
+                    !matches!(
+                        s.pass.kind,
+                        crate::graph::PassKind::Compute { .. }
+                            | crate::graph::PassKind::HostRead { .. }
+                    )
+                })
+                .count(),
             compute,
             record_ms,
             submitted_at: Instant::now(),

@@ -9,6 +9,7 @@ use rustc_hash::FxHashMap;
 use crate::gpu::{Buffer, BufferUsage, Gpu, GpuError};
 use crate::hybrid::tessellate::TessellationError;
 use crate::scene::TriangleMesh;
+use crate::trace::classes::ClassList;
 
 /// Bytes of one vertex of the tessellation (position, normal: two vec4).
 pub(super) const VERTEX_BYTES: u64 = 32;
@@ -36,6 +37,15 @@ const _: () = assert!(
     tessellate::CONTROL_CLASS_WORDS + 2 * tessellate::MAX_CLASSES
         <= tessellate::CONTROL_FRAME_BUDGET
 );
+
+/// Writes path classes `classes` into control words `words` (their count, then two words each;
+/// none: the two greedy terms).
+pub(super) fn write_classes(words: &mut [u32; CONTROL_WORDS], classes: &ClassList) {
+    words[tessellate::CONTROL_CLASSES as usize] = classes.terms().len() as u32;
+    for (at, word) in (tessellate::CONTROL_CLASS_WORDS as usize..).zip(classes.words()) {
+        words[at] = word;
+    }
+}
 
 /// Triangles (of every level) and edges the buffers hold per vertex of capacity.
 const TRIANGLES_PER_VERTEX: u64 = 6;

@@ -715,11 +715,7 @@ fn first_words(
     request: &GpuTessellationRequest<'_>,
 ) -> ([u32; CONTROL_WORDS], usize) {
     let mut first = first_control(input);
-    let classes = &request.settings.classes;
-    first[t::CONTROL_CLASSES as usize] = classes.terms().len() as u32;
-    for (at, word) in (t::CONTROL_CLASS_WORDS as usize..).zip(classes.words()) {
-        first[at] = word;
-    }
+    super::buffers::write_classes(&mut first, &request.settings.classes);
     let budget = t::CONTROL_FRAME_BUDGET as usize;
     if request.continue_budget {
         return (first, budget);

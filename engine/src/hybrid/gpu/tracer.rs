@@ -416,12 +416,8 @@ impl GpuTracer {
             .vertices
             .write(0, bytemuck::cast_slice(&data), "tracer vertices")?;
         // The control words this pass reads: the path classes.
-        use lensmap_shaders::tessellate as t;
         let mut control = [0u32; CONTROL_WORDS];
-        control[t::CONTROL_CLASSES as usize] = classes as u32;
-        for (at, word) in (t::CONTROL_CLASS_WORDS as usize..).zip(settings.classes.words()) {
-            control[at] = word;
-        }
+        super::buffers::write_classes(&mut control, &settings.classes);
         scratch
             .control
             .write(0, bytemuck::cast_slice(&control), "tracer control")?;
@@ -519,6 +515,7 @@ impl GpuTracer {
                 decode(&words[at..at + record_words], classes)
             })
             .collect();
+        use lensmap_shaders::tessellate as t;
         let counters = TraceCounters {
             primary_rays: u64::from(words[t::COUNTER_PRIMARY_RAYS as usize]),
             secondary_rays: u64::from(words[t::COUNTER_SECONDARY_RAYS as usize]),

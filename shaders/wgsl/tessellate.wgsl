@@ -194,17 +194,18 @@ fn cs_classify(@builtin(global_invocation_id) id: vec3<u32>) {
 // ---- One level ------------------------------------------------------------------------------
 
 // A vertex's record: max(classes, 2) terms of three vec4 (the greedy refraction and reflection
-// terms, or one per path class), then the screen position (tracer.wgsl `write_term`).
-fn record_terms() -> u32 {
-    return max(load(CONTROL_CLASSES), 2u);
-}
+// terms, or one per path class), then the screen position (tracer.wgsl `write_term`). The
+// path classes' count and the record's vec4s, read from the control words once per invocation
+// by `decide` (the only reader of records).
+var<private> class_count: u32;
+var<private> record_stride: u32;
 
 fn record(v: u32, k: u32) -> vec4<f32> {
-    return records[(3u * record_terms() + 1u) * v + k];
+    return records[record_stride * v + k];
 }
 
 fn screen(v: u32) -> vec4<f32> {
-    return record(v, 3u * record_terms());
+    return record(v, record_stride - 1u);
 }
 
 // Whether vertex p has term `term`, and the term's topology (interfaces, reflections).
@@ -222,7 +223,7 @@ fn topology(p: u32, base: u32) -> vec2<u32> {
 // vertices', its largest channel) against the threshold; a class at one vertex only, or of
 // another topology, counts as π.
 fn differ(p: u32, q: u32) -> bool {
-    let classes = load(CONTROL_CLASSES);
+    let classes = class_count;
     if classes > 0u {
         let threshold = acos(clamp(constants.cos_threshold, -1.0, 1.0));
         for (var k = 0u; k < classes; k++) {
@@ -290,6 +291,8 @@ fn outside_view(corners: vec3<u32>) -> bool {
 
 // The CPU's criteria in its order: occlusion, view, difference, size, depth cap.
 fn decide(corners: vec3<u32>, depth: u32) -> u32 {
+    class_count = load(CONTROL_CLASSES);
+    record_stride = 3u * max(class_count, 2u) + 1u;
     let visible = screen(corners.x).w != 0.0 || screen(corners.y).w != 0.0
         || screen(corners.z).w != 0.0;
     if !visible {

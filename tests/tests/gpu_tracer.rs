@@ -113,6 +113,15 @@ struct Agreement {
     gpu64_f64: Option<Comparison>,
 }
 
+/// The tessellation's view of `camera`: its eye, clip space and subpixels.
+fn screen_camera(camera: &lensmap::scene::Camera) -> ScreenCamera {
+    ScreenCamera {
+        eye: camera.position.as_dvec3(),
+        view_proj: camera.view_proj(0.05, 1000.0),
+        subpixels: Vec2::new(camera.width as f32, camera.height as f32),
+    }
+}
+
 fn agreement(name: &str) -> Agreement {
     let scene = built_in_scene(name, 320, 240, 1);
     let trace = TraceScene::new(&scene).expect("the scene traces");
@@ -144,11 +153,7 @@ fn agreement(name: &str) -> Agreement {
         )
     });
     let camera = &scene.camera;
-    let screen = ScreenCamera {
-        eye: camera.position.as_dvec3(),
-        view_proj: camera.view_proj(0.05, 1000.0),
-        subpixels: Vec2::new(camera.width as f32, camera.height as f32),
-    };
+    let screen = screen_camera(camera);
     let mut found = Agreement {
         gpu_f64: Comparison::default(),
         gpu_f32: Comparison::default(),
@@ -317,11 +322,7 @@ fn class_agreement(name: &str) -> ClassAgreement {
     let in_f32 = tracer(VertexPrecision::F32);
     let in_f64 = gpu.shader_float64().then(|| tracer(VertexPrecision::F64));
     let camera = &scene.camera;
-    let screen = ScreenCamera {
-        eye: camera.position.as_dvec3(),
-        view_proj: camera.view_proj(0.05, 1000.0),
-        subpixels: Vec2::new(camera.width as f32, camera.height as f32),
-    };
+    let screen = screen_camera(camera);
     let mut found = ClassAgreement {
         classes_f32: Comparison::default(),
         greedy_f32: Comparison::default(),
